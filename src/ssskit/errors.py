@@ -1,0 +1,23 @@
+"""Exceptions raised by ssskit.
+
+Every error a user can cause derives from :class:`SsskitError` (itself a ``ValueError``), so
+callers may catch either; the CLI turns them into one line on stderr and exit status 2.
+"""
+
+from __future__ import annotations
+
+
+class SsskitError(ValueError):
+    """Base class for errors caused by user input (parameters, names, files)."""
+
+
+class MaterialError(SsskitError):
+    """Invalid material coefficients, an unknown preset name or a malformed material file."""
+
+
+class ProfileError(SsskitError):
+    """Invalid profile parameters or an unknown profile model."""
+
+
+class SamplingError(SsskitError):
+    """Invalid distribution parameters or sample inputs."""

@@ -1,0 +1,364 @@
+"""Materials: per-RGB-channel scattering coefficients and the papers' presets.
+
+Lengths are in millimetres and coefficients in mm^-1 throughout ssskit.
+
+Sources
+-------
+* The 11 measured materials: separable-SSS supplement, section G (Tables G.1-G.11), whose
+  coefficients the supplement takes from Jensen et al. 2001 [JMLH01]. All have g = 0 and a
+  semi-infinite thickness (10^7 cm); eta = 1.3 except Marble (1.5).
+* The artist-friendly two-Gaussian presets: separable-SSS paper, Table 2 (model of Eq. 6).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .errors import MaterialError
+from .registry import Registry
+
+CHANNELS: tuple[str, str, str] = ("R", "G", "B")
+
+Triple = tuple[float, float, float]
+
+#: mm per cm, for converting coefficients given in cm^-1 (as MCML expects) to mm^-1.
+MM_PER_CM = 10.0
+
+
+def per_mm_from_per_cm(value: float) -> float:
+    """Convert a coefficient from cm^-1 to mm^-1 (1 cm^-1 = 0.1 mm^-1)."""
+    return value / MM_PER_CM
+
+
+def per_cm_from_per_mm(value: float) -> float:
+    """Convert a coefficient from mm^-1 to cm^-1 (1 mm^-1 = 10 cm^-1)."""
+    return value * MM_PER_CM
+
+
+def _triple(name: str, value: Any) -> Triple:
+    """Accept a scalar (same for R, G, B) or a length-3 sequence of finite floats."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        values = [value] * 3
+    elif isinstance(value, Sequence) and not isinstance(value, (str, bytes)):
+        values = list(value)
+        if len(values) != 3:
+            raise MaterialError(f"{name} needs 3 values (R, G, B), got {len(values)}")
+    else:
+        try:  # numpy arrays and scalars
+            values = [float(v) for v in value]  # type: ignore[union-attr]
+        except TypeError:
+            raise MaterialError(f"{name} must be a number or 3 numbers, got {value!r}") from None
+        if len(values) != 3:
+            raise MaterialError(f"{name} needs 3 values (R, G, B), got {len(values)}")
+    out = []
+    for v in values:
+        try:
+            f = float(v)
+        except (TypeError, ValueError):
+            raise MaterialError(f"{name} must hold numbers, got {v!r}") from None
+        if not math.isfinite(f):
+            raise MaterialError(f"{name} must be finite, got {f}")
+        out.append(f)
+    return (out[0], out[1], out[2])
+
+
+@dataclass(frozen=True)
+class Material:
+    """A homogeneous scattering medium with per-channel (R, G, B) coefficients.
+
+    Attributes
+    ----------
+    name: display name.
+    sigma_a, sigma_s: absorption and scattering coefficients in mm^-1, one per channel.
+    g: Henyey-Greenstein anisotropy, one per channel (|g| < 1).
+    eta: refractive index of the medium (>= 1), relative to ``eta_ambient``.
+    thickness_mm: slab thickness; ``math.inf`` for a semi-infinite medium.
+    eta_ambient: refractive index above the surface (1 for air).
+    """
+
+    name: str
+    sigma_a: Triple
+    sigma_s: Triple
+    g: Triple = (0.0, 0.0, 0.0)
+    eta: float = 1.3
+    thickness_mm: float = math.inf
+    eta_ambient: float = 1.0
+    source: str = field(default="user", compare=False)
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "sigma_a", _triple("sigma_a", self.sigma_a))
+        set_(self, "sigma_s", _triple("sigma_s", self.sigma_s))
+        set_(self, "g", _triple("g", self.g))
+        for c, (a, s) in enumerate(zip(self.sigma_a, self.sigma_s)):
+            if a < 0:
+                raise MaterialError(f"sigma_a must be >= 0, got {a} in channel {CHANNELS[c]}")
+            if s < 0:
+                raise MaterialError(f"sigma_s must be >= 0, got {s} in channel {CHANNELS[c]}")
+            if a + s <= 0:
+                raise MaterialError(f"sigma_a + sigma_s must be > 0 in channel {CHANNELS[c]}")
+        for c, gc in enumerate(self.g):
+            if not -1.0 < gc < 1.0:
+                raise MaterialError(f"g must satisfy |g| < 1, got {gc} in channel {CHANNELS[c]}")
+        for attr in ("eta", "eta_ambient", "thickness_mm"):
+            try:
+                value = float(getattr(self, attr))
+            except (TypeError, ValueError):
+                raise MaterialError(f"{attr} must be a number, got {getattr(self, attr)!r}") from None
+            set_(self, attr, value)
+        if not (math.isfinite(self.eta) and self.eta >= 1.0):
+            raise MaterialError(f"eta must be a finite number >= 1, got {self.eta}")
+        if not (math.isfinite(self.eta_ambient) and self.eta_ambient >= 1.0):
+            raise MaterialError(f"eta_ambient must be a finite number >= 1, got {self.eta_ambient}")
+        if not self.thickness_mm > 0 or math.isnan(self.thickness_mm):
+            raise MaterialError(f"thickness_mm must be > 0 (inf for semi-infinite), got {self.thickness_mm}")
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise MaterialError("a material needs a non-empty name")
+
+    # ---- derived quantities (per channel) -------------------------------------------------
+    @property
+    def sigma_t(self) -> Triple:
+        """Extinction coefficient sigma_t = sigma_a + sigma_s (mm^-1)."""
+        return _map2(lambda a, s: a + s, self.sigma_a, self.sigma_s)
+
+    @property
+    def albedo(self) -> Triple:
+        """Single-scattering albedo alpha = sigma_s / sigma_t."""
+        return _map2(lambda s, t: s / t, self.sigma_s, self.sigma_t)
+
+    @property
+    def mfp_mm(self) -> Triple:
+        """Volume mean free path 1 / sigma_t (mm); supplement F's MFP for g = 0."""
+        return tuple(1.0 / t for t in self.sigma_t)  # type: ignore[return-value]
+
+    @property
+    def sigma_s_reduced(self) -> Triple:
+        """Reduced scattering coefficient sigma_s' = sigma_s (1 - g) (mm^-1) [JMLH01]."""
+        return _map2(lambda s, g: s * (1.0 - g), self.sigma_s, self.g)
+
+    @property
+    def sigma_t_reduced(self) -> Triple:
+        """Reduced extinction sigma_t' = sigma_a + sigma_s' (mm^-1) [JMLH01]."""
+        return _map2(lambda a, s: a + s, self.sigma_a, self.sigma_s_reduced)
+
+    @property
+    def albedo_reduced(self) -> Triple:
+        """Reduced albedo alpha' = sigma_s' / sigma_t' [JMLH01]."""
+        return _map2(lambda s, t: s / t, self.sigma_s_reduced, self.sigma_t_reduced)
+
+    @property
+    def mfp_reduced_mm(self) -> Triple:
+        """Transport mean free path 1 / sigma_t' (mm); supplement F's MFP definition."""
+        return tuple(1.0 / t for t in self.sigma_t_reduced)  # type: ignore[return-value]
+
+    @property
+    def sigma_tr(self) -> Triple:
+        """Effective transport coefficient sigma_tr = sqrt(3 sigma_a sigma_t') (mm^-1) [JMLH01]."""
+        return _map2(lambda a, t: math.sqrt(3.0 * a * t), self.sigma_a, self.sigma_t_reduced)
+
+    @property
+    def is_semi_infinite(self) -> bool:
+        return math.isinf(self.thickness_mm)
+
+    def channel(self, c: int | str) -> dict[str, float]:
+        """Scalar coefficients of one channel (index 0-2 or 'R'/'G'/'B')."""
+        i = _channel_index(c)
+        return {
+            "sigma_a": self.sigma_a[i],
+            "sigma_s": self.sigma_s[i],
+            "g": self.g[i],
+            "eta": self.eta,
+        }
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form (mm^-1), loadable again by :func:`material_from_dict`."""
+        return {
+            "name": self.name,
+            "sigma_a": list(self.sigma_a),
+            "sigma_s": list(self.sigma_s),
+            "g": list(self.g),
+            "eta": self.eta,
+            "thickness_mm": None if self.is_semi_infinite else self.thickness_mm,
+            "eta_ambient": self.eta_ambient,
+        }
+
+    def summary(self) -> dict[str, Any]:
+        """Coefficients plus derived quantities, for reports and ``ssskit materials --json``."""
+        d = self.to_dict()
+        d.update(
+            source=self.source,
+            sigma_t=list(self.sigma_t),
+            albedo=list(self.albedo),
+            mfp_mm=list(self.mfp_mm),
+            sigma_s_reduced=list(self.sigma_s_reduced),
+            albedo_reduced=list(self.albedo_reduced),
+            sigma_tr=list(self.sigma_tr),
+        )
+        return d
+
+
+def _map2(fn, a: Triple, b: Triple) -> Triple:
+    return (fn(a[0], b[0]), fn(a[1], b[1]), fn(a[2], b[2]))
+
+
+def _channel_index(c: int | str) -> int:
+    if isinstance(c, str):
+        key = c.strip().upper()
+        if key not in CHANNELS:
+            raise MaterialError(f"unknown channel {c!r} (use R, G or B)")
+        return CHANNELS.index(key)
+    if c not in (0, 1, 2):
+        raise MaterialError(f"channel index must be 0, 1 or 2, got {c!r}")
+    return int(c)
+
+
+# ---- presets ---------------------------------------------------------------------------------
+
+MATERIALS: Registry[Material] = Registry("material", MaterialError)
+
+_SUPPLEMENT_G = "separable-SSS supplement, section G (from [JMLH01])"
+
+# name: (sigma_a [RGB] mm^-1, sigma_s [RGB] mm^-1, eta) -- supplement G.1-G.11, g = 0, 10^7 cm thick.
+_MEASURED: dict[str, tuple[Triple, Triple, float]] = {
+    "Apple": ((0.0030, 0.0034, 0.0460), (2.2900, 2.3900, 1.9700), 1.3),
+    "Chicken1": ((0.0150, 0.0770, 0.1900), (0.1500, 0.2100, 0.3800), 1.3),
+    "Chicken2": ((0.0180, 0.0880, 0.2000), (0.1900, 0.2500, 0.3200), 1.3),
+    "Cream": ((0.0002, 0.0028, 0.0163), (7.3800, 5.4700, 3.1500), 1.3),
+    "Ketchup": ((0.0610, 0.9700, 1.4500), (0.1800, 0.0700, 0.0300), 1.3),
+    "Marble": ((0.0021, 0.0041, 0.0071), (2.1900, 2.6200, 3.0000), 1.5),
+    "Potato": ((0.0024, 0.0090, 0.1200), (0.6800, 0.7000, 0.5500), 1.3),
+    "Skimmilk": ((0.0014, 0.0025, 0.0142), (0.7000, 1.2200, 1.9000), 1.3),
+    "Skin1": ((0.0320, 0.1700, 0.4800), (0.7400, 0.8800, 1.0100), 1.3),
+    "Skin2": ((0.0130, 0.0700, 0.1450), (1.0900, 1.5900, 1.7900), 1.3),
+    "Wholemilk": ((0.0011, 0.0024, 0.0140), (2.5500, 3.2100, 3.7700), 1.3),
+}
+
+for _name, (_sa, _ss, _eta) in _MEASURED.items():
+    MATERIALS.register(
+        _name,
+        Material(_name, _sa, _ss, (0.0, 0.0, 0.0), _eta, math.inf, 1.0, source=_SUPPLEMENT_G),
+    )
+
+
+@dataclass(frozen=True)
+class ArtistPreset:
+    """Parameters of the artist-friendly two-Gaussian separable model (paper Eq. 6).
+
+    a_m(x) = w G(x, sigma_n) + (1 - w) G(x, sigma_f), per channel. The paper does not state the
+    unit of the standard deviations; ssskit treats them as mm, like every other length.
+    """
+
+    name: str
+    sigma_near: Triple
+    sigma_far: Triple
+    weight: float
+    source: str = "separable-SSS paper, Table 2"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "sigma_near", _triple("sigma_near", self.sigma_near))
+        object.__setattr__(self, "sigma_far", _triple("sigma_far", self.sigma_far))
+        if any(s <= 0 for s in self.sigma_near + self.sigma_far):
+            raise MaterialError("two-Gaussian standard deviations must be > 0")
+        if not 0.0 <= float(self.weight) <= 1.0:
+            raise MaterialError(f"two-Gaussian weight w must be in [0, 1], got {self.weight}")
+
+
+ARTIST_PRESETS: Registry[ArtistPreset] = Registry("artist preset", MaterialError)
+ARTIST_PRESETS.register(
+    "close fit", ArtistPreset("close fit", (0.034, 0.029, 0.016), (1.0, 0.48, 0.2), 0.37)
+)
+ARTIST_PRESETS.register(
+    "production", ArtistPreset("production", (0.25, 0.08, 0.02), (1.0, 0.3, 0.05), 0.6)
+)
+
+
+# ---- loading ---------------------------------------------------------------------------------
+
+_FILE_KEYS = {"name", "sigma_a", "sigma_s", "g", "eta", "thickness_mm", "eta_ambient", "unit", "units"}
+
+
+def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user material") -> Material:
+    """Build a :class:`Material` from plain data (a parsed TOML/JSON file).
+
+    Keys: ``sigma_a`` and ``sigma_s`` (required; a number or [R, G, B]), ``g`` (default 0),
+    ``eta`` (default 1.3), ``thickness_mm`` (default semi-infinite), ``eta_ambient`` (default 1),
+    ``name``, and ``unit`` = ``"mm"`` (default) or ``"cm"`` for coefficients in cm^-1 and a
+    thickness in cm, as MCML input files use.
+    """
+    if not isinstance(data, Mapping):
+        raise MaterialError("a material file must hold a table/object at the top level")
+    unknown = sorted(set(data) - _FILE_KEYS)
+    if unknown:
+        raise MaterialError(f"unknown material key(s): {', '.join(unknown)}")
+    for key in ("sigma_a", "sigma_s"):
+        if key not in data:
+            raise MaterialError(f"material is missing required key {key!r}")
+    unit = str(data.get("unit", data.get("units", "mm"))).strip().lower()
+    if unit not in ("mm", "cm"):
+        raise MaterialError(f"unit must be 'mm' or 'cm', got {unit!r}")
+    scale = 1.0 / MM_PER_CM if unit == "cm" else 1.0
+    sigma_a = tuple(v * scale for v in _triple("sigma_a", data["sigma_a"]))
+    sigma_s = tuple(v * scale for v in _triple("sigma_s", data["sigma_s"]))
+    thickness = data.get("thickness_mm")
+    if thickness is None:
+        thickness = math.inf
+    elif unit == "cm":
+        thickness = float(thickness) * MM_PER_CM
+    return Material(
+        name=str(data.get("name", default_name)),
+        sigma_a=sigma_a,  # type: ignore[arg-type]
+        sigma_s=sigma_s,  # type: ignore[arg-type]
+        g=data.get("g", 0.0),
+        eta=data.get("eta", 1.3),
+        thickness_mm=thickness,
+        eta_ambient=data.get("eta_ambient", 1.0),
+        source="user",
+    )
+
+
+def load_material(path: str | Path) -> Material:
+    """Load a material from a ``.toml`` or ``.json`` file (see :func:`material_from_dict`)."""
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise MaterialError(f"cannot read material file {str(p)!r}: {exc.strerror}") from None
+    suffix = p.suffix.lower()
+    try:
+        if suffix == ".toml":
+            import tomllib
+
+            data = tomllib.loads(raw.decode("utf-8"))
+        elif suffix == ".json":
+            data = json.loads(raw.decode("utf-8"))
+        else:
+            raise MaterialError(f"material file {str(p)!r} must end in .toml or .json")
+    except (UnicodeDecodeError, ValueError) as exc:
+        if isinstance(exc, MaterialError):
+            raise
+        raise MaterialError(f"malformed material file {str(p)!r}: {exc}") from None
+    try:
+        return material_from_dict(data, default_name=p.stem)
+    except MaterialError as exc:
+        raise MaterialError(f"{str(p)!r}: {exc}") from None
+
+
+def get_material(name_or_path: str | Path | Material) -> Material:
+    """A preset by (case-insensitive) name, or a material file path (.toml / .json)."""
+    if isinstance(name_or_path, Material):
+        return name_or_path
+    text = str(name_or_path)
+    if text in MATERIALS:
+        return MATERIALS.get(text)
+    if text.lower().endswith((".toml", ".json")) or Path(text).exists():
+        return load_material(text)
+    return MATERIALS.get(text)  # raises with the list of known names
+
+
+def preset_names() -> list[str]:
+    return MATERIALS.names()

@@ -1,0 +1,127 @@
+"""Radial diffuse reflectance profiles R(r) and a registry of profile models.
+
+``profile_for_material(material, model)`` gives an :class:`RGBProfile` for a material; the models
+are ``dipole`` ([JMLH01]), ``burley`` (Xie 2020 Eq. 4-5), ``gaussians`` (Eq. S.1 fitted to the
+material's dipole) and ``deon2007`` (the six-Gaussian skin preset of [dLE07], material-independent).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from ..errors import ProfileError
+from ..materials import Material, get_material
+from ..registry import Registry
+from .base import RadialProfile, RGBProfile
+from .burley import (
+    BURLEY_CONFIGURATIONS,
+    BurleyProfile,
+    burley_cdf,
+    burley_d,
+    burley_d_diffuse_transmission,
+    burley_d_dmfp,
+    burley_d_searchlight,
+    burley_inverse_cdf,
+)
+from .dipole import DipoleProfile, fresnel_diffuse_reflectance
+from .discretize import cell_integrals, grid_coordinates
+from .gaussians import (
+    DEON2007_SKIN_VARIANCES,
+    DEON2007_SKIN_WEIGHTS,
+    GaussianSumProfile,
+    fit_gaussian_sum,
+)
+
+ProfileFactory = Callable[..., RGBProfile]
+MODELS: Registry[ProfileFactory] = Registry("profile model", ProfileError)
+
+
+@MODELS.decorator("dipole")
+def dipole_profile(material: Material) -> RGBProfile:
+    """The [JMLH01] dipole for each channel of ``material``."""
+    chans = tuple(
+        DipoleProfile(material.sigma_a[i], material.sigma_s[i], material.g[i], material.eta / material.eta_ambient)
+        for i in range(3)
+    )
+    return RGBProfile(chans, "dipole", material.name, {"material": material.to_dict()})  # type: ignore[arg-type]
+
+
+@MODELS.decorator("burley")
+def burley_profile(
+    material: Material,
+    configuration: str = "searchlight",
+    albedo: tuple[float, float, float] | None = None,
+) -> RGBProfile:
+    """Burley's normalized diffusion (Xie 2020 Eq. 4) matched to ``material``.
+
+    A defaults to the material's total diffuse reflectance from the [JMLH01] dipole closed form;
+    ell is the transport mean free path 1 / sigma_t' (the volume mean free path for g = 0, as in
+    all presets), turned into d by the chosen Eq. 5 configuration (default: searchlight, the
+    normal-incidence set-up of the supplement's simulations).
+    """
+    if albedo is None:
+        albedo = tuple(float(v) for v in dipole_profile(material).total_rd())  # type: ignore[assignment]
+    ds = burley_d(albedo, material.mfp_reduced_mm, configuration)
+    chans = tuple(BurleyProfile(albedo[i], float(ds[i])) for i in range(3))  # type: ignore[index]
+    prov = {"material": material.to_dict(), "configuration": configuration, "albedo_source": "dipole"}
+    return RGBProfile(chans, "burley", material.name, prov)  # type: ignore[arg-type]
+
+
+@MODELS.decorator("gaussians")
+def gaussians_profile(material: Material, n: int = 6) -> RGBProfile:
+    """A sum of ``n`` Gaussians (Eq. S.1) fitted to the material's dipole, L1-constrained."""
+    base = dipole_profile(material)
+    chans = tuple(fit_gaussian_sum(c, n) for c in base.channels)
+    return RGBProfile(chans, "gaussians", material.name, {"material": material.to_dict(), "fit_to": "dipole"})  # type: ignore[arg-type]
+
+
+@MODELS.decorator("deon2007")
+def deon2007_profile(material: Material | None = None) -> RGBProfile:
+    """The six-Gaussian skin profile of [dLE07]; needs no material (it is a fixed preset)."""
+    chans = tuple(
+        GaussianSumProfile([w[i] for w in DEON2007_SKIN_WEIGHTS], DEON2007_SKIN_VARIANCES) for i in range(3)
+    )
+    return RGBProfile(chans, "deon2007", "d'Eon 2007 skin", {"source": "[dLE07] six-Gaussian skin fit"})  # type: ignore[arg-type]
+
+
+#: Models that need no material.
+MATERIAL_FREE_MODELS = frozenset({"deon2007"})
+
+
+def profile_for_material(material: Material | str | None, model: str = "dipole", **options: Any) -> RGBProfile:
+    """An :class:`RGBProfile` of ``model`` for a material (preset name, file path or Material)."""
+    factory = MODELS.get(model)
+    if material is None:
+        if model.strip().lower() not in MATERIAL_FREE_MODELS:
+            raise ProfileError(f"profile model {model!r} needs a material")
+        return factory(None, **options)
+    return factory(get_material(material), **options)
+
+
+__all__ = [
+    "BURLEY_CONFIGURATIONS",
+    "BurleyProfile",
+    "DEON2007_SKIN_VARIANCES",
+    "DEON2007_SKIN_WEIGHTS",
+    "DipoleProfile",
+    "GaussianSumProfile",
+    "MODELS",
+    "RGBProfile",
+    "RadialProfile",
+    "burley_cdf",
+    "burley_d",
+    "burley_d_diffuse_transmission",
+    "burley_d_dmfp",
+    "burley_d_searchlight",
+    "burley_inverse_cdf",
+    "burley_profile",
+    "cell_integrals",
+    "deon2007_profile",
+    "dipole_profile",
+    "fit_gaussian_sum",
+    "fresnel_diffuse_reflectance",
+    "gaussians_profile",
+    "grid_coordinates",
+    "profile_for_material",
+]

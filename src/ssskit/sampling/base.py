@@ -1,0 +1,48 @@
+"""The interface every 1D distribution in ssskit exposes (DESIGN: eval / pdf / sample / cdf / invert).
+
+* ``eval(x)``: the unnormalised target function in the distribution's measure;
+* ``pdf(x)``: the normalised density in that measure (stated by ``measure``);
+* ``sample(u)``: maps uniform u in [0, 1) to a sample (inverse-CDF, so it is deterministic in u);
+* ``cdf(x)`` and ``invert(x)``: P(X <= x), and the inverse of ``sample`` (u with sample(u) = x).
+  For inverse-CDF samplers the two coincide; for approximate samplers (Xie 2020 Eq. 21) ``invert``
+  inverts the approximation while ``cdf`` is the CDF of the samples it produces.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from ..errors import SamplingError
+
+
+class Distribution(ABC):
+    """A continuous 1D distribution on ``support`` with the measure named in ``measure``."""
+
+    measure: str = "per unit length"
+    support: tuple[float, float] = (0.0, np.inf)
+
+    @abstractmethod
+    def eval(self, x): ...
+
+    @abstractmethod
+    def pdf(self, x): ...
+
+    @abstractmethod
+    def sample(self, u): ...
+
+    @abstractmethod
+    def cdf(self, x): ...
+
+    def invert(self, x):
+        """u with sample(u) = x; for exact inverse-CDF samplers this is the CDF."""
+        return self.cdf(x)
+
+
+def check_uniform(u) -> np.ndarray:
+    """Validate uniform variates: finite, in [0, 1]."""
+    u = np.asarray(u, dtype=float)
+    if np.any(~(u >= 0)) or np.any(u > 1):
+        raise SamplingError("uniform variates must lie in [0, 1]")
+    return u

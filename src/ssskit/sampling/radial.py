@@ -1,0 +1,38 @@
+"""Radius sampling for any :class:`~ssskit.profiles.RadialProfile` by exact numerical inversion.
+
+p(r) = 2 pi r R(r) / total_rd per unit radius; cdf(r) = E(r) / total_rd (the profile's energy
+within r). ``sample`` inverts the CDF with the profile's bisection on S(r), to 1e-14 relative.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Distribution, check_uniform
+
+
+class ProfileRadial(Distribution):
+    """Radius distribution of a radial profile (dipole, sum of Gaussians, Burley, ...)."""
+
+    measure = "per unit radius (mm^-1); divide by 2 pi r for the per-area density"
+
+    def __init__(self, profile) -> None:
+        self.profile = profile
+        self._total = float(profile.total_rd())
+
+    def eval(self, r):
+        r = np.asarray(r, dtype=float)
+        return 2.0 * np.pi * r * self.profile.eval(r)
+
+    def pdf(self, r):
+        return self.profile.radial_pdf(r)
+
+    def cdf(self, r):
+        return self.profile.energy_within(r) / self._total
+
+    def sample(self, u):
+        u = check_uniform(u)
+        out = np.full(u.shape, np.inf)
+        ok = u < 1
+        out[ok] = self.profile.radius_at_fraction(u[ok])
+        return out
