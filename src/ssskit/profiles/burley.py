@@ -108,7 +108,7 @@ def burley_inverse_cdf(xi, d):
     r = np.where(xi < 1e-3, 2.0 * d * xi, r)
     upper = xi > 0.5
     finite = np.isfinite(r) & (xi > 0)
-    r_work = np.where(finite, r, 1.0)
+    r_work = np.where(finite, r, d)
     for _ in range(3):
         resid = np.where(upper, eta - burley_survival(r_work, d), burley_cdf(r_work, d) - xi)
         r_work = r_work - resid / burley_radial_pdf(r_work, d)

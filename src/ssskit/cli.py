@@ -1,0 +1,182 @@
+"""The ``ssskit`` command line: a thin click layer over the Python API.
+
+stdout carries only the result (``--json`` prints exactly one JSON object); progress and errors go
+to stderr. Errors a user can cause print one line ``ssskit: error: ...`` and exit with status 2.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from .errors import SsskitError
+
+EXIT_USAGE = 2
+
+
+def _echo_json(data) -> None:
+    click.echo(json.dumps(data))
+
+
+def _progress(msg: str) -> None:
+    click.echo(f"  {msg}", err=True)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="ssskit")
+def cli() -> None:
+    """ssskit: diffusion profiles, separable kernels and screen-space subsurface scattering."""
+
+
+@cli.command()
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+def materials(as_json: bool) -> None:
+    """List the preset materials with their coefficients (mm^-1)."""
+    from .materials import ARTIST_PRESETS, MATERIALS
+
+    if as_json:
+        _echo_json(
+            {
+                "materials": {name: m.summary() for name, m in MATERIALS.items()},
+                "artist_presets": {
+                    name: {"sigma_near": p.sigma_near, "sigma_far": p.sigma_far, "weight": p.weight, "source": p.source}
+                    for name, p in ARTIST_PRESETS.items()
+                },
+            }
+        )
+        return
+    click.echo(f"{'material':<10} {'sigma_a [R G B] (mm^-1)':<26} {'sigma_s [R G B] (mm^-1)':<26} {'eta':>4}  mfp [R G B] (mm)")
+    for name, m in MATERIALS.items():
+        sa = " ".join(f"{v:.4f}" for v in m.sigma_a)
+        ss = " ".join(f"{v:.4f}" for v in m.sigma_s)
+        mfp = " ".join(f"{v:.3f}" for v in m.mfp_mm)
+        click.echo(f"{name:<10} {sa:<26} {ss:<26} {m.eta:>4.2f}  {mfp}")
+    click.echo("\nartist-friendly two-Gaussian presets (paper Table 2): " + ", ".join(ARTIST_PRESETS.names()))
+
+
+@cli.command()
+@click.option("--material", "material", metavar="NAME|FILE", help="Preset name or .toml/.json material file.")
+@click.option(
+    "--model",
+    type=click.Choice(["dipole", "burley", "gaussians", "deon2007"], case_sensitive=False),
+    default="dipole",
+    show_default=True,
+    help="Profile model (deon2007 is a fixed skin preset and needs no material).",
+)
+@click.option("--configuration", default="searchlight", show_default=True, help="Burley d from Xie 2020 Eq. 5: searchlight, diffuse-transmission or dmfp.")
+@click.option("--gaussians", "n_gaussians", type=click.IntRange(1, 16), default=6, show_default=True, help="Number of Gaussians for --model gaussians.")
+@click.option("--points", type=click.IntRange(2, 1_000_000), default=256, show_default=True, help="Number of radii (bin centres).")
+@click.option("--r-max", "r_max", type=float, default=None, help="Largest radius in mm [default: where every channel holds 99.9% of its energy].")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object: r_mm and channels R/G/B with Rd (mm^-2) and total_Rd.")
+@click.option("--out", type=click.Path(dir_okay=False), default=None, help="Write the table to FILE.csv or FILE.npz.")
+@click.option("--plot", type=click.Path(dir_okay=False), default=None, help="Write a plot to FILE.png (or .pdf/.svg).")
+def profile(material, model, configuration, n_gaussians, points, r_max, as_json, out, plot) -> None:
+    """Diffuse reflectance profile R(r) of a material, per RGB channel."""
+    from .io import check_suffix, save_profile_table
+    from .profiles import MATERIAL_FREE_MODELS, profile_for_material
+
+    if out:
+        check_suffix(out, (".csv", ".npz"), "--out")
+    if plot:
+        check_suffix(plot, (".png", ".pdf", ".svg"), "--plot")
+    if material is None and model.lower() not in MATERIAL_FREE_MODELS:
+        raise SsskitError(f"--material is required for --model {model}")
+    options = {}
+    if model.lower() == "burley":
+        options["configuration"] = configuration
+    elif model.lower() == "gaussians":
+        options["n"] = n_gaussians
+    prof = profile_for_material(material, model, **options)
+    if r_max is None:
+        r_max = float(max(prof.radius_at_fraction(0.999)))
+    elif not (r_max > 0 and r_max < float("inf")):
+        raise SsskitError(f"--r-max must be a positive number of mm, got {r_max}")
+    # bin centres: (i + 1/2) r_max / points, so 1/r profiles stay finite
+    import numpy as np
+
+    r = (np.arange(points) + 0.5) * (r_max / points)
+    data = prof.to_dict(r)
+    data["material"] = material
+    if out:
+        save_profile_table(out, r, prof.eval(r), {k: v for k, v in data.items() if k not in ("r_mm", "channels")}
+                           | {"total_Rd": [c["total_Rd"] for c in data["channels"].values()]})
+    if plot:
+        from .plots import plot_profiles
+
+        plot_profiles([prof], f"{prof.name} ({prof.model})", plot)
+    if as_json:
+        _echo_json(data)
+        return
+    click.echo(f"# {prof.model} profile of {prof.name}; r in mm, Rd in mm^-2")
+    click.echo("# total Rd (R, G, B): " + ", ".join(f"{v:.6f}" for v in prof.total_rd()))
+    if not out:
+        click.echo("r_mm,Rd_R,Rd_G,Rd_B")
+        for ri, row in zip(r, prof.eval(r)):
+            click.echo(f"{ri:.6g}," + ",".join(f"{v:.6e}" for v in row))
+    else:
+        click.echo(f"# wrote {out}")
+
+
+@cli.command("xie-c")
+@click.option("--points", type=click.IntRange(100, 10_000_000), default=100_000, show_default=True, help="Number of xi samples.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+def xie_c(points: int, as_json: bool) -> None:
+    """Refit c of Xie 2020 Eq. 21 (least squares and minimax) and report the CDF errors."""
+    import numpy as np
+
+    from .sampling import XIE_C, fit_xie_c, xie_cdf_error
+
+    c_lsq, e_lsq = fit_xie_c("lsq", points)
+    c_mm, e_mm = fit_xie_c("minimax", points)
+    xi = (np.arange(points) + 0.5) / points
+    e_paper = float(np.max(np.abs(xie_cdf_error(XIE_C, xi))))
+    data = {
+        "paper": {"c": XIE_C, "max_cdf_error": e_paper},
+        "least_squares": {"c": c_lsq, "max_cdf_error": e_lsq},
+        "minimax": {"c": c_mm, "max_cdf_error": e_mm},
+    }
+    if as_json:
+        _echo_json(data)
+        return
+    for name, d in data.items():
+        click.echo(f"{name:<14} c = {d['c']:.6f}   max |cdf(g(xi)) - xi| = {d['max_cdf_error']:.6f}")
+
+
+@cli.command()
+@click.option("--out", type=click.Path(file_okay=False), default="ssskit-out/demo", show_default=True, help="Output folder.")
+def demo(out: str) -> None:
+    """The main job: build the report (figures + index.html) on built-in defaults."""
+    from .report import build_report
+
+    click.echo(f"ssskit demo: writing the report to {out}/", err=True)
+    index = build_report(Path(out), progress=_progress)
+    click.echo(str(index))
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point: runs the CLI, turning user errors into one line on stderr and exit status 2."""
+    try:
+        cli.main(args=argv, prog_name="ssskit", standalone_mode=False)
+    except click.exceptions.Exit as exc:
+        return exc.exit_code
+    except click.exceptions.Abort:
+        click.echo("ssskit: aborted", err=True)
+        return 130
+    except click.ClickException as exc:
+        message = exc.format_message().replace("\n", " ")
+        click.echo(f"ssskit: error: {message}", err=True)
+        return EXIT_USAGE
+    except SsskitError as exc:
+        click.echo(f"ssskit: error: {exc}", err=True)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        click.echo("ssskit: interrupted", err=True)
+        return 130
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

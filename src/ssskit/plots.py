@@ -1,0 +1,105 @@
+"""Matplotlib figures for profiles and samplers (imported lazily; uses the Agg backend)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .io import atomic_output
+from .materials import CHANNELS
+
+CHANNEL_COLORS = ("#d62728", "#2ca02c", "#1f77b4")
+_STYLES = ("-", "--", ":", "-.")
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save_figure(fig, path: str | Path, dpi: int = 110) -> None:
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format=Path(path).suffix.lstrip(".") or "png")
+    _pyplot().close(fig)
+
+
+def plot_profiles(profiles, title: str, path: str | Path, n: int = 400) -> None:
+    """Three panels: R(r) linear, R(r) log, and 2 pi r R(r) (the supplement's weighted view).
+
+    ``profiles`` is a list of RGBProfile sharing one r axis (to the largest 99.9%-energy radius).
+    """
+    plt = _pyplot()
+    r_max = max(float(np.max(p.radius_at_fraction(0.999))) for p in profiles)
+    r = (np.arange(n) + 0.5) * (r_max / n)
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    for k, prof in enumerate(profiles):
+        values = prof.eval(r)
+        for c in range(3):
+            kw = dict(color=CHANNEL_COLORS[c], ls=_STYLES[k % len(_STYLES)], lw=1.4)
+            label = f"{prof.model} {CHANNELS[c]}"
+            axes[0].plot(r, values[:, c], label=label, **kw)
+            axes[1].semilogy(r, values[:, c], **kw)
+            axes[2].plot(r, 2 * np.pi * r * values[:, c], **kw)
+    # 1/r profiles (Burley) diverge at the origin: scale the linear panel from r >= r_max / 50.
+    axes[0].set_ylim(0, 1.2 * max(float(p.eval(r[n // 50 :]).max()) for p in profiles))
+    top = max(float(p.eval(r[:1]).max()) for p in profiles)
+    axes[1].set_ylim(top * 1e-10, top * 3)
+    axes[0].set_title("R(r)  [mm$^{-2}$]")
+    axes[1].set_title("R(r), log scale")
+    axes[2].set_title(r"$2\pi r\,R(r)$  [mm$^{-1}$]")
+    for ax in axes:
+        ax.set_xlabel("r [mm]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=len(profiles))
+    fig.suptitle(title)
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
+def plot_xie_c(path: str | Path, cs=(2.0, 2.5715, 3.0), c_minimax: float | None = None) -> None:
+    """Xie 2020 Fig. 5 analogue: percentage error of Eq. 21 against the exact inverse of Eq. 20,
+    and the CDF error cdf(g(xi)) - xi, for several c."""
+    from .profiles.burley import burley_inverse_cdf
+    from .sampling.burley import xie_cdf_error, xie_g
+
+    plt = _pyplot()
+    xi = np.linspace(1e-4, 1 - 1e-4, 2000)
+    exact = burley_inverse_cdf(xi, 1.0)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    values = list(cs) + ([c_minimax] if c_minimax is not None else [])
+    for c in values:
+        axes[0].plot(xi, 100 * (xie_g(xi, 1.0, c) / exact - 1), label=f"c = {c:.4f}")
+        axes[1].plot(xi, xie_cdf_error(c, xi), label=f"c = {c:.4f}")
+    axes[0].set_title("Eq. 21 vs exact inverse of Eq. 20  [% error in r]")
+    axes[1].set_title("cdf(g(ξ)) − ξ")
+    for ax in axes:
+        ax.set_xlabel("ξ")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
+def plot_kernel_2d(cells: np.ndarray, cell_mm: float, title: str, path: str | Path) -> None:
+    """The discretised 2D profile (cell integrals per mm^2), log scale, one panel per channel."""
+    plt = _pyplot()
+    n = cells.shape[0]
+    ext = n * cell_mm / 2
+    fig, axes = plt.subplots(1, 3, figsize=(12, 4))
+    density = cells / cell_mm**2
+    vmax = float(np.log10(density.max()))
+    for c in range(3):
+        im = axes[c].imshow(
+            np.log10(np.maximum(density[..., c], 1e-12)), extent=(-ext, ext, -ext, ext),
+            cmap="magma", vmin=vmax - 6, vmax=vmax, origin="lower",
+        )
+        axes[c].set_title(f"{CHANNELS[c]}: log10 Rd(x, y) [mm$^{{-2}}$]")
+        axes[c].set_xlabel("x [mm]")
+    fig.colorbar(im, ax=axes, shrink=0.8)
+    fig.suptitle(title)
+    save_figure(fig, path)

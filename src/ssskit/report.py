@@ -1,0 +1,145 @@
+"""The ``ssskit demo`` report: an output folder with figures and an ``index.html`` that shows them.
+
+The report is a list of sections; each capability of ssskit adds its own section builder to
+``SECTIONS``. A builder gets the output folder and a progress callback and returns HTML.
+"""
+
+from __future__ import annotations
+
+import html
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from .io import write_text
+from .materials import CHANNELS, MATERIALS, Material
+
+Progress = Callable[[str], None]
+Section = Callable[[Path, Progress], str]
+
+_CSS = """
+body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1400px; color: #222; }
+table { border-collapse: collapse; font-size: 0.85em; margin: 1em 0; }
+th, td { border: 1px solid #ccc; padding: 3px 7px; text-align: right; }
+th { background: #f3f3f3; } td.name { text-align: left; font-weight: 600; }
+img { max-width: 100%; border: 1px solid #eee; margin: 0.5em 0; }
+h2 { border-bottom: 2px solid #ddd; padding-bottom: 0.2em; margin-top: 2em; }
+.note { color: #555; font-size: 0.9em; }
+"""
+
+
+def _fmt(values, digits: int = 4) -> str:
+    return ", ".join(f"{v:.{digits}g}" for v in values)
+
+
+def _materials_section(out: Path, progress: Progress) -> str:
+    from .profiles import burley_profile, dipole_profile
+
+    rows = []
+    for name, m in MATERIALS.items():
+        dip = dipole_profile(m)
+        bur = burley_profile(m)
+        rows.append(
+            f"<tr><td class=name><a href='#{name}'>{html.escape(name)}</a></td>"
+            f"<td>{_fmt(m.sigma_a)}</td><td>{_fmt(m.sigma_s)}</td><td>{m.eta:g}</td>"
+            f"<td>{_fmt(m.albedo)}</td><td>{_fmt(m.mfp_mm)}</td><td>{_fmt(m.sigma_tr)}</td>"
+            f"<td>{_fmt(dip.total_rd())}</td><td>{_fmt([c.d for c in bur.channels])}</td></tr>"
+        )
+    return (
+        "<h2>Materials</h2><p class=note>The 11 measured materials of the separable-SSS supplement, "
+        "section G (g = 0, semi-infinite). Coefficients in mm<sup>-1</sup>, lengths in mm, values R, G, B.</p>"
+        "<table><tr><th>material</th><th>σ<sub>a</sub></th><th>σ<sub>s</sub></th><th>η</th>"
+        "<th>albedo α</th><th>mean free path</th><th>σ<sub>tr</sub></th><th>dipole total R<sub>d</sub></th>"
+        "<th>Burley d (searchlight)</th></tr>" + "".join(rows) + "</table>"
+    )
+
+
+def _profiles_section(out: Path, progress: Progress) -> str:
+    from .plots import plot_kernel_2d, plot_profiles
+    from .profiles import profile_for_material
+
+    parts = [
+        "<h2>Diffusion profiles</h2><p class=note>Per material: the [JMLH01] dipole (solid), Burley's "
+        "normalized diffusion with A = dipole total R<sub>d</sub> and d from the searchlight configuration "
+        "(Xie 2020 Eq. 5; dashed), and six Gaussians fitted to the dipole under the L1 constraint (Eq. S.1; "
+        "dotted). Left to right: R(r), R(r) on a log scale, and 2πr R(r) as in the supplement's plots. "
+        "Below: the dipole's 2D kernel R<sub>d</sub>(x, y) as exact cell integrals.</p>"
+    ]
+    for name, m in MATERIALS.items():
+        progress(f"profiles: {name}")
+        profs = [profile_for_material(m, model) for model in ("dipole", "burley", "gaussians")]
+        fig = f"profile_{name.lower()}.png"
+        plot_profiles(profs, f"{name}: σa = [{_fmt(m.sigma_a)}], σs = [{_fmt(m.sigma_s)}] mm⁻¹, η = {m.eta:g}", out / fig)
+        parts.append(f"<h3 id='{name}'>{html.escape(name)}</h3>{_totals_table(m, profs)}<img src='{fig}'>")
+        fig2 = f"kernel2d_{name.lower()}.png"
+        r99 = float(np.max(profs[0].radius_at_fraction(0.99)))
+        n = 201
+        cells = profs[0].discretize_2d(2 * r99 / n, n)
+        plot_kernel_2d(cells, 2 * r99 / n, f"{name}: dipole Rd(x, y), {n}×{n} cells of {2 * r99 / n:.3g} mm", out / fig2)
+        parts.append(f"<img src='{fig2}'>")
+    return "".join(parts)
+
+
+def _totals_table(m: Material, profs) -> str:
+    head = "".join(f"<th>{c}</th>" for c in CHANNELS)
+    rows = "".join(
+        f"<tr><td class=name>{p.model}</td>"
+        + "".join(f"<td>{v:.5f}</td>" for v in p.total_rd())
+        + "".join(f"<td>{v:.4g}</td>" for v in p.radius_at_fraction(0.99))
+        + "</tr>"
+        for p in profs
+    )
+    return (
+        f"<table><tr><th>model</th>{head.replace('<th>', '<th>total R<sub>d</sub> ')}"
+        f"{head.replace('<th>', '<th>r<sub>99%</sub> [mm] ')}</tr>{rows}</table>"
+    )
+
+
+def _sampling_section(out: Path, progress: Progress) -> str:
+    from .plots import plot_xie_c
+    from .sampling import XIE_C, fit_xie_c, xie_cdf_error
+
+    progress("Burley sampling: refitting c")
+    c_lsq, err_lsq = fit_xie_c("lsq")
+    c_mm, err_mm = fit_xie_c("minimax")
+    err_paper = float(np.max(np.abs(xie_cdf_error(XIE_C))))
+    plot_xie_c(out / "xie_c.png", c_minimax=c_mm)
+    return (
+        "<h2>Burley sampling (Xie 2020 Sec. 4.2)</h2><p class=note>Approximate inverse CDF "
+        "g(ξ) = d((2−c)ξ−2) log(1−ξ) (Eq. 21) against the exact inverse of Eq. 20.</p>"
+        "<table><tr><th>c</th><th>criterion</th><th>max |cdf(g(ξ)) − ξ|</th></tr>"
+        f"<tr><td>{XIE_C}</td><td class=name>paper</td><td>{err_paper:.5f}</td></tr>"
+        f"<tr><td>{c_lsq:.5f}</td><td class=name>least squares (refit)</td><td>{err_lsq:.5f}</td></tr>"
+        f"<tr><td>{c_mm:.5f}</td><td class=name>minimax</td><td>{err_mm:.5f}</td></tr></table>"
+        "<img src='xie_c.png'>"
+    )
+
+
+SECTIONS: list[tuple[str, Section]] = [
+    ("materials", _materials_section),
+    ("profiles", _profiles_section),
+    ("sampling", _sampling_section),
+]
+
+
+def build_report(out_dir: str | Path, progress: Progress | None = None) -> Path:
+    """Run every section into ``out_dir`` and write ``index.html`` last; returns its path."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    progress = progress or (lambda msg: None)
+    t0 = time.perf_counter()
+    body = [section(out, progress) for _, section in SECTIONS]
+    from . import __version__
+
+    page = (
+        "<!doctype html><html><head><meta charset='utf-8'><title>ssskit demo</title>"
+        f"<style>{_CSS}</style></head><body><h1>ssskit demo report</h1>"
+        f"<p class=note>ssskit {__version__}; built in {time.perf_counter() - t0:.1f} s.</p>"
+        + "".join(body)
+        + "</body></html>\n"
+    )
+    index = out / "index.html"
+    write_text(index, page)
+    return index

@@ -1,0 +1,152 @@
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from conftest import MATERIAL_CHANNELS
+from ssskit.errors import ProfileError
+from ssskit.materials import MATERIALS
+from ssskit.profiles import (
+    BurleyProfile,
+    DipoleProfile,
+    burley_d,
+    burley_d_diffuse_transmission,
+    burley_d_dmfp,
+    burley_d_searchlight,
+    deon2007_profile,
+    dipole_profile,
+    fit_gaussian_sum,
+    fresnel_diffuse_reflectance,
+    profile_for_material,
+)
+
+
+def radial_integral(prof, r_lo=0.0, r_hi=np.inf):
+    """Independent numerical 2 pi Int R(r) r dr with scipy's adaptive quadrature of eval()."""
+    f = lambda r: 2 * np.pi * r * float(prof.eval(r))
+    scale = prof.length_scale_mm()
+    pts = [p for p in (scale * 0.1, scale, 10 * scale, 100 * scale) if r_lo < p < r_hi]
+    edges = [r_lo, *pts, r_hi]
+    return sum(quad(f, a, b, limit=400, epsabs=0, epsrel=1e-12)[0] for a, b in zip(edges[:-1], edges[1:]))
+
+
+@pytest.mark.parametrize("name, c", MATERIAL_CHANNELS)
+def test_dipole_closed_form_total_equals_radial_integral(name, c):
+    """All 33 material-channels: closed-form total Rd [JMLH01] = 2 pi Int R(r) r dr to 1e-6."""
+    chan = dipole_profile(MATERIALS.get(name)).channels[c]
+    assert radial_integral(chan) == pytest.approx(chan.total_rd(), rel=1e-6)
+    # and the energy-outside closed form agrees with the same integral from any radius
+    rho = chan.radius_at_fraction(0.5)
+    assert radial_integral(chan, float(rho)) == pytest.approx(float(chan.energy_outside(rho)), rel=1e-6)
+
+
+def test_fresnel_diffuse_reflectance_fit():
+    # F_dr at eta = 1 is ~0 for the rational fit (-1.44 + 0.71 + 0.668 + 0.0636 = 0.0016)
+    assert fresnel_diffuse_reflectance(1.0) == pytest.approx(0.0016)
+    assert fresnel_diffuse_reflectance(1.3) == pytest.approx(-1.44 / 1.69 + 0.71 / 1.3 + 0.668 + 0.0636 * 1.3)
+
+
+def test_dipole_limits():
+    # no absorption: all light comes back (alpha' = 1 -> total Rd = 1)
+    assert DipoleProfile(0.0, 1.0).total_rd() == pytest.approx(1.0)
+    # increasing absorption lowers total reflectance
+    totals = [DipoleProfile(a, 1.0).total_rd() for a in (0.001, 0.01, 0.1, 1.0)]
+    assert all(b < a for a, b in zip(totals, totals[1:]))
+
+
+@pytest.mark.parametrize("model", ["dipole", "burley", "gaussians"])
+@pytest.mark.parametrize("name", ["Skin1", "Marble", "Ketchup"])
+def test_profiles_nonnegative_and_decreasing(model, name):
+    prof = profile_for_material(name, model)
+    r = np.linspace(1e-3, float(prof.radius_at_fraction(0.9999).max()), 2000)
+    v = prof.eval(r)
+    assert np.all(v >= 0)
+    assert np.all(np.diff(v, axis=0) <= 1e-15 * v[:-1])
+
+
+@pytest.mark.parametrize("A, d", [(0.9, 1.0), (0.2, 0.05), (1.0, 7.0), (0.55, 0.37)])
+def test_burley_total_is_albedo(A, d):
+    prof = BurleyProfile(A, d)
+    assert radial_integral(prof) == pytest.approx(A, rel=1e-6)
+
+
+@pytest.mark.parametrize("d", [0.1, 1.0, 3.3])
+def test_burley_radius_at_0997_is_16_56_d(d):
+    assert float(BurleyProfile(0.8, d).radius_at_fraction(0.997)) / d == pytest.approx(16.56, abs=0.005)
+
+
+def test_burley_eq5_configurations():
+    A, ell = 0.6, 2.0
+    assert burley_d_searchlight(A, ell) == pytest.approx(ell / (1.85 - 0.6 + 7 * 0.2**3))
+    assert burley_d_diffuse_transmission(A, ell) == pytest.approx(ell / (1.9 - 0.6 + 3.5 * 0.04))
+    assert burley_d_dmfp(A, ell) == pytest.approx(ell / (3.5 + 100 * 0.27**4))
+    assert burley_d(A, ell, "DMFP") == burley_d_dmfp(A, ell)
+    with pytest.raises(ProfileError, match="unknown Burley configuration"):
+        burley_d(A, ell, "sideways")
+    with pytest.raises(ProfileError, match="albedo"):
+        burley_d(1.2, ell)
+    with pytest.raises(ProfileError, match="mean free path"):
+        burley_d(0.5, -1.0)
+
+
+def test_burley_for_material_uses_dipole_albedo_and_searchlight_d():
+    m = MATERIALS.get("skin1")
+    bur = profile_for_material(m, "burley")
+    dip = dipole_profile(m)
+    for c in range(3):
+        assert bur.channels[c].albedo == pytest.approx(dip.channels[c].total_rd())
+        assert bur.channels[c].d == pytest.approx(float(burley_d_searchlight(dip.channels[c].total_rd(), 1 / m.sigma_t[c])))
+
+
+def test_radius_at_fraction_inverts_energy():
+    for prof in (DipoleProfile(0.03, 0.7), deon2007_profile().channels[1]):
+        for f in (0.01, 0.5, 0.99, 0.999999):
+            r = prof.radius_at_fraction(f)
+            assert float(prof.energy_within(r)) / prof.total_rd() == pytest.approx(f, rel=1e-10)
+    with pytest.raises(ProfileError):
+        DipoleProfile(0.03, 0.7).radius_at_fraction(1.0)
+
+
+def test_deon2007_skin_weights_sum_to_one():
+    prof = deon2007_profile()
+    np.testing.assert_allclose(prof.total_rd(), [1.0, 1.0, 1.0], atol=1e-12)
+    assert profile_for_material(None, "deon2007").total_rd()[0] == pytest.approx(1.0)
+    with pytest.raises(ProfileError, match="needs a material"):
+        profile_for_material(None, "dipole")
+
+
+@pytest.mark.parametrize("name", ["Skin1", "Marble"])
+def test_gaussian_fit_keeps_l1_and_fits_energy(name):
+    dip = dipole_profile(MATERIALS.get(name))
+    for chan in dip.channels:
+        fit = fit_gaussian_sum(chan, 6)
+        assert fit.total_rd() == pytest.approx(chan.total_rd(), rel=1e-12)  # L1 constraint of Eq. S.1
+        assert np.all(fit.weights >= 0)
+        # the fitted 2 pi r R(r) tracks the dipole's: energy-weighted relative L1 error below 10%
+        r = np.linspace(1e-4, float(chan.radius_at_fraction(0.999)), 4000)
+        err = np.trapezoid(2 * np.pi * r * np.abs(fit.eval(r) - chan.eval(r)), r) / chan.total_rd()
+        assert err < 0.10
+
+
+def test_unknown_model():
+    with pytest.raises(ProfileError, match="unknown profile model 'multipole'"):
+        profile_for_material("skin1", "multipole")
+
+
+def test_bad_profile_parameters():
+    with pytest.raises(ProfileError):
+        BurleyProfile(0.5, 0.0)
+    with pytest.raises(ProfileError):
+        DipoleProfile(-1.0, 1.0)
+    with pytest.raises(ProfileError):
+        DipoleProfile(0.1, 1.0, eta=0.8)
+
+
+def test_rgb_to_dict_shape():
+    prof = profile_for_material("ketchup", "burley")
+    data = prof.to_dict(np.array([0.0, 0.5, 1.0]))
+    assert set(data["channels"]) == {"R", "G", "B"}
+    assert data["channels"]["G"]["total_Rd"] == pytest.approx(prof.total_rd()[1])
+    assert data["channels"]["R"]["Rd"][0] is None  # R(0) = inf for Burley: JSON null
+    assert math.isfinite(data["channels"]["R"]["Rd"][1])
