@@ -1,0 +1,131 @@
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from ssskit.cli import main
+
+
+def run(capsys, *args):
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_materials_json(capsys):
+    code, out, err = run(capsys, "materials", "--json")
+    assert code == 0
+    data = json.loads(out)  # exactly one JSON object
+    assert len(data["materials"]) == 11
+    assert data["materials"]["Skin1"]["sigma_a"] == [0.032, 0.17, 0.48]
+    assert data["artist_presets"]["production"]["weight"] == 0.6
+
+
+def test_profile_json_shape(capsys):
+    code, out, _ = run(capsys, "profile", "--material", "SKIN1", "--model", "dipole", "--json", "--points", "50")
+    assert code == 0
+    data = json.loads(out)
+    assert len(data["r_mm"]) == 50
+    for ch in "RGB":
+        assert len(data["channels"][ch]["Rd"]) == 50
+        assert data["channels"][ch]["total_Rd"] > 0
+    assert data["channels"]["R"]["total_Rd"] == pytest.approx(0.4359563596, rel=1e-9)
+
+
+def test_profile_from_material_file(capsys, tmp_path):
+    f = tmp_path / "jelly.toml"
+    f.write_text("sigma_a = 0.01\nsigma_s = 1.0\neta = 1.33\n")
+    code, out, _ = run(capsys, "profile", "--material", str(f), "--model", "burley", "--json")
+    assert code == 0
+    assert json.loads(out)["name"] == "jelly"
+
+
+def test_profile_outputs(capsys, tmp_path):
+    csv, npz, png = tmp_path / "p.csv", tmp_path / "p.npz", tmp_path / "p.png"
+    assert run(capsys, "profile", "--material", "marble", "--out", str(csv), "--plot", str(png))[0] == 0
+    table = np.loadtxt(csv, delimiter=",")
+    assert table.shape == (256, 4)
+    assert png.stat().st_size > 10_000
+    assert run(capsys, "profile", "--material", "marble", "--model", "gaussians", "--out", str(npz))[0] == 0
+    with np.load(npz) as z:
+        assert z["Rd"].shape == (256, 3)
+        assert json.loads(str(z["meta"]))["model"] == "gaussians"
+    assert not list(tmp_path.glob(".*tmp*"))  # no temporary files left behind
+
+
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["profile", "--material", "jade"], "unknown material 'jade'"),
+        (["profile", "--material", "skin1", "--model", "multipole"], "Invalid value for '--model'"),
+        (["profile", "--model", "dipole"], "--material is required"),
+        (["profile", "--material", "skin1", "--out", "x.txt"], "must end in .csv or .npz"),
+        (["profile", "--material", "skin1", "--plot", "x.bmp"], "must end in .png"),
+        (["profile", "--material", "skin1", "--r-max", "-3"], "--r-max"),
+        (["profile", "--material", "skin1", "--model", "burley", "--configuration", "x"], "unknown Burley configuration"),
+        (["materials", "--bogus"], "No such option"),
+        (["nonsense"], "No such command"),
+    ],
+)
+def test_bad_input_one_line_exit_2(capsys, tmp_path, monkeypatch, args, fragment):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run(capsys, *args)
+    assert code == 2
+    assert out == ""
+    assert err.count("\n") == 1 and err.startswith("ssskit: error: ") and fragment in err
+    assert list(tmp_path.iterdir()) == []  # nothing written
+
+
+@pytest.mark.parametrize(
+    "content, fragment",
+    [
+        ('{"sigma_a": -1, "sigma_s": 1}', "sigma_a must be >= 0"),
+        ('{"sigma_a": 1, "sigma_s": 1, "g": 1.5}', "|g| < 1"),
+        ('{"sigma_a": 1, "sigma_s": 1, "eta": 0.7}', "eta must be"),
+        ("{not json", "malformed material file"),
+    ],
+)
+def test_bad_material_file(capsys, tmp_path, content, fragment):
+    f = tmp_path / "bad.json"
+    f.write_text(content)
+    out_csv = tmp_path / "out.csv"
+    code, out, err = run(capsys, "profile", "--material", str(f), "--out", str(out_csv))
+    assert code == 2 and fragment in err and err.count("\n") == 1
+    assert not out_csv.exists()
+
+
+def test_xie_c_json(capsys):
+    code, out, _ = run(capsys, "xie-c", "--json", "--points", "20000")
+    data = json.loads(out)
+    assert data["least_squares"]["c"] == pytest.approx(2.5715, abs=2e-4)
+    assert data["minimax"]["max_cdf_error"] < data["least_squares"]["max_cdf_error"]
+
+
+def test_console_script_error_has_no_traceback():
+    proc = subprocess.run(
+        [sys.executable, "-c", "import sys; from ssskit.cli import main; sys.exit(main())", "profile", "--material", "nope"],
+        capture_output=True, text=True,
+    )
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr and proc.stderr.startswith("ssskit: error:")
+
+
+def test_import_is_light():
+    """import ssskit loads no heavy dependency (scipy, matplotlib, numba) and compiles nothing."""
+    code = "import sys, ssskit; print(sorted(m for m in ('scipy', 'matplotlib', 'numba', 'click') if m in sys.modules))"
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert proc.stdout.strip() == "[]"
+
+
+def test_demo_writes_report(capsys, tmp_path):
+    code, out, err = run(capsys, "demo", "--out", str(tmp_path / "demo"))
+    assert code == 0
+    index = tmp_path / "demo" / "index.html"
+    assert out.strip() == str(index)
+    page = index.read_text()
+    for name in ("Apple", "Skin1", "Wholemilk"):
+        assert f"profile_{name.lower()}.png" in page
+        assert (tmp_path / "demo" / f"profile_{name.lower()}.png").stat().st_size > 10_000
+    assert "2.5715" in page and "minimax" in page
