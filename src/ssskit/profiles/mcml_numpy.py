@@ -1,0 +1,133 @@
+"""The MCML algorithm of :mod:`ssskit.profiles.mcml_kernel`, written as plain vectorised numpy.
+
+It advances every live photon one step per iteration (same launch, step, boundary, Fresnel,
+implicit capture, Henyey-Greenstein and roulette rules as MCML; Wang, Jacques, Zheng 1995). It is
+the comparison the benchmark times against the numba engine, and an independent statistical
+check in the tests (its random numbers come from numpy's PCG64, not the numba streams).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .mcml_kernel import COS_90D, COS_ZERO, ROULETTE_CHANCE, WEIGHT_THRESHOLD
+from .montecarlo import MCConfig, _kernel_arrays
+
+
+def _fresnel(n1, n2, ca1):
+    """Vectorised MCML RFresnel: reflectance and transmitted cosine (MCML Sec. 3.5)."""
+    ca1 = np.asarray(ca1, dtype=float)
+    r = np.ones_like(ca1)
+    ca2 = np.zeros_like(ca1)
+    same = n1 == n2
+    r[same], ca2[same] = 0.0, ca1[same]
+    normal = ~same & (ca1 > COS_ZERO)
+    r[normal] = ((n2[normal] - n1[normal]) / (n2[normal] + n1[normal])) ** 2
+    ca2[normal] = ca1[normal]
+    gen = ~same & ~normal & (ca1 >= COS_90D)
+    a1, m1, m2 = ca1[gen], n1[gen], n2[gen]
+    sa1 = np.sqrt(1.0 - a1 * a1)
+    sa2 = m1 * sa1 / m2
+    ok = sa2 < 1.0
+    a2 = np.sqrt(np.maximum(1.0 - sa2 * sa2, 0.0))
+    cap, cam = a1 * a2 - sa1 * sa2, a1 * a2 + sa1 * sa2
+    sap, sam = sa1 * a2 + a1 * sa2, sa1 * a2 - a1 * sa2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rg = 0.5 * sam * sam * (cam * cam + cap * cap) / (sap * sap * cam * cam)
+    r[gen] = np.where(ok, rg, 1.0)
+    ca2[gen] = np.where(ok, a2, 0.0)
+    return r, ca2
+
+
+def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Run ``cfg.photons`` photons at once; returns (weight per radial bin, [Rd, Tt, A] sums)."""
+    rng = np.random.default_rng(cfg.seed if seed is None else seed)
+    a = _kernel_arrays(cfg)
+    n_layers = len(cfg.layers)
+    n = cfg.photons
+    x, y, z = np.zeros(n), np.zeros(n), np.zeros(n)
+    ux, uy, uz = np.zeros(n), np.zeros(n), np.ones(n)
+    w = np.full(n, 1.0 - cfg.specular_reflectance())
+    layer = np.ones(n, dtype=np.int64)
+    sleft = np.zeros(n)
+    idx = np.arange(n)
+    bins = np.zeros(cfg.nr)
+    totals = np.zeros(3)
+    while idx.size:
+        lay = layer[idx]
+        mut = a["mua"][lay] + a["mus"][lay]
+        fresh = sleft[idx] == 0.0
+        s = np.where(fresh, -np.log1p(-rng.random(idx.size)) / mut, sleft[idx] / mut)
+        sleft[idx] = 0.0
+        uzi = uz[idx]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            db = np.where(uzi > 0, (a["z_bot"][lay] - z[idx]) / uzi,
+                          np.where(uzi < 0, (a["z_top"][lay] - z[idx]) / uzi, np.inf))
+        hit = s > db
+        # --- photons reaching a boundary
+        h = idx[hit]
+        if h.size:
+            dbh = db[hit]
+            sleft[h] = (s[hit] - dbh) * mut[hit]
+            x[h] += dbh * ux[h]
+            y[h] += dbh * uy[h]
+            lh = layer[h]
+            up = uz[h] < 0
+            z[h] = np.where(up, a["z_top"][lh], a["z_bot"][lh])
+            ni = a["n_idx"][lh]
+            nt = np.where(up, a["n_idx"][lh - 1], a["n_idx"][lh + 1])
+            crit = np.where(up, a["cos_crit_up"][lh], a["cos_crit_down"][lh])
+            ca1 = np.abs(uz[h])
+            r, ca2 = _fresnel(ni, nt, ca1)
+            r = np.where(ca1 <= crit, 1.0, r)
+            trans = rng.random(h.size) > r
+            escape_top = trans & up & (lh == 1)
+            escape_bot = trans & ~up & (lh == n_layers)
+            move = trans & ~escape_top & ~escape_bot
+            e = h[escape_top]
+            ir = np.minimum((np.sqrt(x[e] ** 2 + y[e] ** 2) / cfg.dr_mm).astype(np.int64), cfg.nr - 1)
+            np.add.at(bins, ir, w[e])
+            totals[0] += w[e].sum()
+            totals[1] += w[h[escape_bot]].sum()
+            w[h[escape_top | escape_bot]] = 0.0
+            mv = h[move]
+            ratio = (ni / nt)[move]
+            ux[mv] *= ratio
+            uy[mv] *= ratio
+            uz[mv] = np.where(up[move], -ca2[move], ca2[move])
+            layer[mv] += np.where(up[move], -1, 1)
+            refl = h[~trans]
+            uz[refl] = -uz[refl]
+        # --- photons interacting inside a layer
+        m = idx[~hit]
+        if m.size:
+            sm = s[~hit]
+            x[m] += sm * ux[m]
+            y[m] += sm * uy[m]
+            z[m] += sm * uz[m]
+            lm = layer[m]
+            dwa = w[m] * a["mua"][lm] / (a["mua"][lm] + a["mus"][lm])
+            w[m] -= dwa
+            totals[2] += dwa.sum()
+            g = a["g"][lm]
+            xi = rng.random(m.size)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                temp = (1.0 - g * g) / (1.0 - g + 2.0 * g * xi)
+                cost = np.where(g == 0.0, 2.0 * xi - 1.0, np.clip((1.0 + g * g - temp * temp) / (2.0 * g), -1.0, 1.0))
+            sint = np.sqrt(1.0 - cost * cost)
+            psi = 2.0 * np.pi * rng.random(m.size)
+            cosp, sinp = np.cos(psi), np.sin(psi)
+            ox, oy, oz = ux[m], uy[m], uz[m]
+            vertical = np.abs(oz) > COS_ZERO
+            tmp = np.sqrt(np.maximum(1.0 - oz * oz, 1e-300))
+            ux[m] = np.where(vertical, sint * cosp, sint * (ox * oz * cosp - oy * sinp) / tmp + ox * cost)
+            uy[m] = np.where(vertical, sint * sinp, sint * (oy * oz * cosp + ox * sinp) / tmp + oy * cost)
+            uz[m] = np.where(vertical, cost * np.sign(oz + (oz == 0)), -sint * cosp * tmp + oz * cost)
+        # --- roulette and removal of the dead
+        live = idx[w[idx] > 0.0]
+        low = live[w[live] < WEIGHT_THRESHOLD]
+        survive = rng.random(low.size) < ROULETTE_CHANCE
+        w[low[survive]] /= ROULETTE_CHANCE
+        w[low[~survive]] = 0.0
+        idx = idx[w[idx] > 0.0]
+    return bins, totals

@@ -1,0 +1,401 @@
+"""Monte Carlo diffuse reflectance profiles: an MCML engine (Wang, Jacques, Zheng 1995) with the
+separable-SSS supplement's settings (section F).
+
+Supplement F: 10^7 photons per channel; grid spacing dr = min(MFP_rgb) / 20; nr = ceil(32
+max(MFP_rgb) / dr) radial bins; semi-infinite medium (10^7 cm); MFP = 1 / (sigma_a + sigma_s').
+
+The transport itself is :mod:`ssskit.profiles.mcml_kernel` (numba, parallel over batches of
+photons). This module sets it up, runs batches in chunks with a progress bar, keeps the work done
+when interrupted (Ctrl-C) so ``resume=True`` continues it, caches finished results on disk keyed
+by every input, and turns the tallies into a :class:`MonteCarloProfile`.
+
+Normalisation (MCML Sec. 4): Rd(r_i) = W_i / (2 pi r_i dr N) with r_i = (i + 1/2) dr the bin
+centre and W_i the weight escaping in annulus i (the last bin also collects everything beyond it);
+totals are weight sums / N. Standard errors use the batch method: the spread of per-batch means.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import math
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ProfileError
+from ..materials import CHANNELS, Material
+from .base import RadialProfile
+
+#: bump when the transport or the tallies change: it is part of every cache key
+ENGINE_VERSION = 1
+DEFAULT_PHOTONS = 10_000_000  # supplement F
+DEFAULT_BATCH = 10_000
+
+
+class SimulationInterrupted(ProfileError):
+    """Raised when a simulation is stopped (Ctrl-C); the finished batches are kept for resume."""
+
+
+@dataclass(frozen=True)
+class MCLayer:
+    """One layer of one channel: coefficients in mm^-1, thickness in mm (inf: semi-infinite)."""
+
+    sigma_a: float
+    sigma_s: float
+    g: float = 0.0
+    eta: float = 1.3
+    thickness_mm: float = math.inf
+
+    def __post_init__(self) -> None:
+        if not (self.sigma_a >= 0 and self.sigma_s >= 0 and self.sigma_a + self.sigma_s > 0):
+            raise ProfileError(f"layer needs sigma_a, sigma_s >= 0 with a positive sum, got {self.sigma_a}, {self.sigma_s}")
+        if not -1 < self.g < 1:
+            raise ProfileError(f"layer needs |g| < 1, got {self.g}")
+        if not (math.isfinite(self.eta) and self.eta >= 1):
+            raise ProfileError(f"layer needs eta >= 1, got {self.eta}")
+        if not self.thickness_mm > 0:
+            raise ProfileError(f"layer thickness must be > 0 mm, got {self.thickness_mm}")
+
+
+@dataclass(frozen=True)
+class MCConfig:
+    """Everything that determines a simulation's result (and its cache key)."""
+
+    layers: tuple[MCLayer, ...]
+    dr_mm: float
+    nr: int
+    photons: int = DEFAULT_PHOTONS
+    seed: int = 1
+    eta_above: float = 1.0
+    eta_below: float = 1.0
+    batch_size: int = DEFAULT_BATCH
+
+    def __post_init__(self) -> None:
+        if not self.layers:
+            raise ProfileError("a simulation needs at least one layer")
+        if any(math.isinf(l.thickness_mm) for l in self.layers[:-1]):
+            raise ProfileError("only the last layer may be semi-infinite")
+        if not (self.dr_mm > 0 and math.isfinite(self.dr_mm)):
+            raise ProfileError(f"grid spacing dr must be > 0 mm, got {self.dr_mm}")
+        if not (isinstance(self.nr, (int, np.integer)) and self.nr >= 1):
+            raise ProfileError(f"number of radial bins must be >= 1, got {self.nr}")
+        if not (isinstance(self.photons, (int, np.integer)) and self.photons >= 1):
+            raise ProfileError(f"photon count must be a positive integer, got {self.photons!r}")
+        if not (isinstance(self.seed, (int, np.integer)) and 0 <= self.seed < 2**63):
+            raise ProfileError(f"seed must be an integer in [0, 2^63), got {self.seed!r}")
+        if not (isinstance(self.batch_size, (int, np.integer)) and self.batch_size >= 1):
+            raise ProfileError(f"batch size must be a positive integer, got {self.batch_size!r}")
+        for name in ("eta_above", "eta_below"):
+            if not getattr(self, name) >= 1:
+                raise ProfileError(f"{name} must be >= 1")
+
+    @property
+    def n_batches(self) -> int:
+        return -(-self.photons // self.batch_size)
+
+    def batch_sizes(self) -> np.ndarray:
+        sizes = np.full(self.n_batches, self.batch_size, dtype=np.int64)
+        sizes[-1] = self.photons - self.batch_size * (self.n_batches - 1)
+        return sizes
+
+    def key(self) -> str:
+        """Hash of every input and the engine version."""
+        data = asdict(self)
+        data["engine"] = ENGINE_VERSION
+        text = json.dumps(data, sort_keys=True, default=repr)
+        return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+    def specular_reflectance(self) -> float:
+        """Rsp = ((n0 - n1) / (n0 + n1))^2 at normal incidence (MCML Sec. 3.1, no glass layer)."""
+        n0, n1 = self.eta_above, self.layers[0].eta
+        return ((n0 - n1) / (n0 + n1)) ** 2
+
+
+def supplement_grid(material: Material) -> tuple[float, int]:
+    """Supplement F's grid: dr = min(MFP_rgb) / 20, nr = ceil(32 max(MFP_rgb) / dr), MFP = 1/sigma_t'."""
+    mfp = material.mfp_reduced_mm
+    dr = min(mfp) / 20.0
+    return dr, int(math.ceil(32.0 * max(mfp) / dr - 1e-9))
+
+
+def config_for_material(material: Material, channel: int | str, photons: int = DEFAULT_PHOTONS,
+                        seed: int = 1, batch_size: int = DEFAULT_BATCH) -> MCConfig:
+    """The supplement's simulation of one channel of a (single-layer) material."""
+    c = CHANNELS.index(channel.upper()) if isinstance(channel, str) else int(channel)
+    dr, nr = supplement_grid(material)
+    layer = MCLayer(material.sigma_a[c], material.sigma_s[c], material.g[c], material.eta, material.thickness_mm)
+    return MCConfig((layer,), dr, nr, photons, seed, material.eta_ambient, material.eta_ambient, batch_size)
+
+
+@dataclass
+class MCResult:
+    """Tallies of one simulation (one channel). Lengths mm, Rd mm^-2."""
+
+    config: MCConfig
+    r_mm: np.ndarray
+    rd: np.ndarray
+    rd_se: np.ndarray
+    total_rd: float
+    total_rd_se: float
+    tt: float
+    tt_se: float
+    absorbed: float
+    absorbed_se: float
+    rsp: float
+    seconds: float
+    photons: int
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def photons_per_second(self) -> float:
+        return self.photons / self.seconds if self.seconds > 0 else float("inf")
+
+    def profile(self) -> MonteCarloProfile:
+        return MonteCarloProfile(self)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "Rd": self.rd.tolist(),
+            "Rd_se": self.rd_se.tolist(),
+            "total_Rd": self.total_rd,
+            "total_Rd_se": self.total_rd_se,
+            "Tt": self.tt,
+            "Tt_se": self.tt_se,
+            "absorbed": self.absorbed,
+            "absorbed_se": self.absorbed_se,
+            "Rsp": self.rsp,
+        }
+
+
+class MonteCarloProfile(RadialProfile):
+    """A simulated profile as a RadialProfile: R(r) constant on each annulus (MCML's bins), so the
+    energy within rho is linear in rho^2 inside a bin; the overflow bin is treated as the last annulus."""
+
+    model = "montecarlo"
+
+    def __init__(self, result: MCResult) -> None:
+        self.result = result
+        dr = result.config.dr_mm
+        self.dr = dr
+        nr = result.rd.shape[0]
+        self.edges = np.arange(nr + 1) * dr
+        # energy per bin, exactly W_i / N (inverting the 2 pi r_i dr normalisation)
+        energy = result.rd * 2.0 * np.pi * result.r_mm * dr
+        self._total = float(energy.sum())
+        # S at the bin edges: energy outside edge k
+        self._outside = np.concatenate([np.cumsum(energy[::-1])[::-1], [0.0]])
+        self._energy = energy
+
+    def eval(self, r):
+        r = np.asarray(r, dtype=float)
+        i = np.floor(r / self.dr).astype(np.int64)
+        inside = (i >= 0) & (i < self.result.rd.shape[0])
+        return np.where(inside, self.result.rd[np.clip(i, 0, self.result.rd.shape[0] - 1)], 0.0)
+
+    def total_rd(self) -> float:
+        return self._total
+
+    def energy_outside(self, rho):
+        rho = np.asarray(rho, dtype=float)
+        nr = self.result.rd.shape[0]
+        i = np.clip(np.floor(rho / self.dr).astype(np.int64), 0, nr - 1)
+        lo = self.edges[i]
+        frac = np.clip((rho**2 - lo**2) / (self.edges[i + 1] ** 2 - lo**2), 0.0, 1.0)
+        out = self._outside[i] - frac * self._energy[i]
+        return np.where(rho >= self.edges[-1], 0.0, np.maximum(out, 0.0))
+
+    def length_scale_mm(self) -> float:
+        return self.edges[-1] / 32.0
+
+    def params(self) -> dict[str, Any]:
+        cfg = self.result.config
+        return {"photons": cfg.photons, "seed": cfg.seed, "dr_mm": cfg.dr_mm, "nr": cfg.nr,
+                "layers": [asdict(l) for l in cfg.layers]}
+
+
+# ---- running ---------------------------------------------------------------------------------
+
+
+def cache_dir() -> Path:
+    """$SSSKIT_CACHE_DIR, else ~/.cache/ssskit (XDG_CACHE_HOME respected)."""
+    env = os.environ.get("SSSKIT_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "ssskit"
+
+
+def _kernel_arrays(cfg: MCConfig) -> dict[str, Any]:
+    layers = cfg.layers
+    n_l = len(layers)
+    mua = np.zeros(n_l + 2)
+    mus = np.zeros(n_l + 2)
+    g = np.zeros(n_l + 2)
+    z_top = np.zeros(n_l + 2)
+    z_bot = np.zeros(n_l + 2)
+    n_idx = np.zeros(n_l + 2)
+    n_idx[0], n_idx[-1] = cfg.eta_above, cfg.eta_below
+    z = 0.0
+    for i, layer in enumerate(layers, start=1):
+        mua[i], mus[i], g[i], n_idx[i] = layer.sigma_a, layer.sigma_s, layer.g, layer.eta
+        z_top[i] = z
+        z = z + layer.thickness_mm
+        z_bot[i] = z
+    # cosines of the critical angles (MCML Sec. 3.5): 0 where no TIR is possible
+    up = np.zeros(n_l + 2)
+    down = np.zeros(n_l + 2)
+    for i in range(1, n_l + 1):
+        n1 = n_idx[i]
+        up[i] = math.sqrt(1.0 - (n_idx[i - 1] / n1) ** 2) if n1 > n_idx[i - 1] else 0.0
+        down[i] = math.sqrt(1.0 - (n_idx[i + 1] / n1) ** 2) if n1 > n_idx[i + 1] else 0.0
+    return dict(mua=mua, mus=mus, g=g, z_top=z_top, z_bot=z_bot, n_idx=n_idx, cos_crit_up=up, cos_crit_down=down)
+
+
+@contextlib.contextmanager
+def _numba_threads(threads: int | None):
+    import numba
+
+    if threads is None:
+        yield numba.get_num_threads()
+        return
+    if not (isinstance(threads, int) and 1 <= threads <= numba.config.NUMBA_NUM_THREADS):
+        raise ProfileError(f"threads must be in 1..{numba.config.NUMBA_NUM_THREADS}, got {threads!r}")
+    old = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        yield threads
+    finally:
+        numba.set_num_threads(old)
+
+
+def _save_npz(path: Path, **arrays) -> None:
+    from ..io import atomic_output
+
+    with atomic_output(path) as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+
+
+def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = False, resume: bool = False,
+             use_cache: bool = True, label: str = "") -> MCResult:
+    """Run (or load from the cache) one MCML simulation.
+
+    ``resume=True`` continues from the batches an interrupted run kept; otherwise they are
+    discarded. The result is bit-identical for any ``threads`` and for resumed runs.
+    """
+    key = cfg.key()
+    cdir = cache_dir() / "mcml"
+    final_path = cdir / f"{key}.npz"
+    partial_path = cdir / f"{key}.partial.npz"
+    if use_cache and final_path.exists():
+        with contextlib.suppress(Exception):
+            return _load_result(cfg, final_path)
+
+    sizes = cfg.batch_sizes()
+    n_b = sizes.shape[0]
+    bins = np.zeros((n_b, cfg.nr))
+    totals = np.zeros((n_b, 3))
+    done = np.zeros(n_b, dtype=bool)
+    elapsed = 0.0
+    if resume and partial_path.exists():
+        with np.load(partial_path) as z:
+            if z["bins"].shape == bins.shape:
+                bins, totals, done = z["bins"].copy(), z["totals"].copy(), z["done"].copy()
+                elapsed = float(z["seconds"])
+    elif partial_path.exists():
+        partial_path.unlink()
+
+    from .mcml_kernel import run_batches
+
+    arrays = _kernel_arrays(cfg)
+    rsp = cfg.specular_reflectance()
+    todo = np.flatnonzero(~done)
+    bar = _progress_bar(cfg.photons, int(sizes[done].sum()), label) if progress else None
+    t0 = time.perf_counter()
+    try:
+        with _numba_threads(threads) as nthreads:
+            chunk = max(2 * nthreads, 1)
+            for start in range(0, todo.shape[0], chunk):
+                ids = todo[start : start + chunk]
+                b_rows = np.zeros((ids.shape[0], cfg.nr))
+                t_rows = np.zeros((ids.shape[0], 3))
+                run_batches(np.uint64(cfg.seed), ids.astype(np.int64), sizes[ids], arrays["mua"], arrays["mus"],
+                            arrays["g"], arrays["z_top"], arrays["z_bot"], arrays["n_idx"], arrays["cos_crit_up"],
+                            arrays["cos_crit_down"], rsp, cfg.dr_mm, b_rows, t_rows)
+                bins[ids], totals[ids], done[ids] = b_rows, t_rows, True
+                if bar is not None:
+                    bar.update(int(sizes[ids].sum()))
+    except KeyboardInterrupt:
+        if use_cache:
+            _save_npz(partial_path, bins=bins, totals=totals, done=done,
+                      seconds=np.array(elapsed + time.perf_counter() - t0))
+        n_done = int(sizes[done].sum())
+        raise SimulationInterrupted(
+            f"simulation interrupted after {n_done} of {cfg.photons} photons; "
+            + ("run again with resume to continue" if use_cache else "nothing was kept (cache disabled)")
+        ) from None
+    finally:
+        if bar is not None:
+            bar.close()
+    seconds = elapsed + time.perf_counter() - t0
+    result = _assemble(cfg, bins, totals, sizes, rsp, seconds)
+    if use_cache:
+        _save_npz(final_path, bins_sum=bins.sum(axis=0), r_mm=result.r_mm, rd=result.rd, rd_se=result.rd_se,
+                  scalars=np.array([result.total_rd, result.total_rd_se, result.tt, result.tt_se,
+                                    result.absorbed, result.absorbed_se, result.rsp, result.seconds]))
+        with contextlib.suppress(OSError):
+            partial_path.unlink()
+    return result
+
+
+def _batch_stats(values: np.ndarray, sizes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean per photon and its standard error from per-batch weight sums (batch method).
+
+    values: (B, ...) weight sums per batch; sizes: (B,) photons per batch.
+    """
+    n = sizes.sum()
+    mean = values.sum(axis=0) / n
+    b = sizes.shape[0]
+    if b < 2:
+        return mean, np.full_like(mean, np.nan)
+    shape = (-1,) + (1,) * (values.ndim - 1)
+    per = values / sizes.reshape(shape)
+    wts = (sizes / n).reshape(shape)
+    var = np.sum(wts**2 * (per - mean) ** 2, axis=0) * b / (b - 1)
+    return mean, np.sqrt(var)
+
+
+def _assemble(cfg: MCConfig, bins, totals, sizes, rsp: float, seconds: float) -> MCResult:
+    r_mm = (np.arange(cfg.nr) + 0.5) * cfg.dr_mm
+    area = 2.0 * np.pi * r_mm * cfg.dr_mm
+    mean_bins, se_bins = _batch_stats(bins, sizes)
+    mean_tot, se_tot = _batch_stats(totals, sizes)
+    return MCResult(
+        config=cfg, r_mm=r_mm, rd=mean_bins / area, rd_se=se_bins / area,
+        total_rd=float(mean_tot[0]), total_rd_se=float(se_tot[0]), tt=float(mean_tot[1]), tt_se=float(se_tot[1]),
+        absorbed=float(mean_tot[2]), absorbed_se=float(se_tot[2]), rsp=rsp, seconds=seconds, photons=cfg.photons,
+    )
+
+
+def _load_result(cfg: MCConfig, path: Path) -> MCResult:
+    with np.load(path) as z:
+        s = z["scalars"]
+        return MCResult(
+            config=cfg, r_mm=z["r_mm"].copy(), rd=z["rd"].copy(), rd_se=z["rd_se"].copy(),
+            total_rd=float(s[0]), total_rd_se=float(s[1]), tt=float(s[2]), tt_se=float(s[3]),
+            absorbed=float(s[4]), absorbed_se=float(s[5]), rsp=float(s[6]), seconds=float(s[7]),
+            photons=cfg.photons, extra={"cached": True},
+        )
+
+
+def _progress_bar(total: int, initial: int, label: str):
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=initial, unit="photon", unit_scale=True, desc=label or "MCML",
+                smoothing=0.1, dynamic_ncols=True, leave=False)

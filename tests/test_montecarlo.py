@@ -1,0 +1,165 @@
+"""MCML engine: published validation values, an independent adding-doubling solver, physical
+properties, reproducibility across threads, caching, interruption and resume."""
+
+import math
+
+import numpy as np
+import pytest
+
+from ssskit.errors import ProfileError
+from ssskit.materials import MATERIALS, get_material
+from ssskit.profiles.montecarlo import (
+    MCConfig,
+    MCLayer,
+    SimulationInterrupted,
+    config_for_material,
+    simulate,
+    supplement_grid,
+)
+
+
+@pytest.fixture(autouse=True)
+def _cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+
+
+def within_3_se(value, se, ref, ref_err=0.0):
+    return abs(value - ref) <= 3.0 * math.hypot(se, ref_err)
+
+
+def test_van_de_hulst_slab():
+    """mu_a = 10, mu_s = 90 cm^-1, g = 0.75, n = 1, d = 0.02 cm: Rd = 0.09739, Tt = 0.66096."""
+    cfg = MCConfig((MCLayer(1.0, 9.0, 0.75, 1.0, 0.2),), dr_mm=0.01, nr=50, photons=400_000, seed=11)
+    r = simulate(cfg)
+    assert within_3_se(r.total_rd, r.total_rd_se, 0.09739)
+    assert within_3_se(r.tt, r.tt_se, 0.66096)
+    # energy balance: what enters is reflected, transmitted or absorbed (roulette is unbiased)
+    assert r.total_rd + r.tt + r.absorbed == pytest.approx(1.0 - r.rsp, abs=5 * r.total_rd_se)
+
+
+def test_semi_infinite_albedo_09_h_function():
+    """n = 1, g = 0, albedo 0.9, semi-infinite: Rd = 0.414947 (exact, H-function)."""
+    cfg = MCConfig((MCLayer(0.1, 0.9, 0.0, 1.0),), dr_mm=0.05, nr=100, photons=400_000, seed=12)
+    r = simulate(cfg)
+    assert r.rsp == 0.0 and r.tt == 0.0
+    assert within_3_se(r.total_rd, r.total_rd_se, 0.414947)
+
+
+def test_giovanelli_matched_index_1_5():
+    """mu_a = 10, mu_s = 90 cm^-1, g = 0, n = 1.5, semi-infinite: Rd + Rsp = 0.2600."""
+    cfg = MCConfig((MCLayer(1.0, 9.0, 0.0, 1.5),), dr_mm=0.01, nr=100, photons=400_000, seed=13)
+    r = simulate(cfg)
+    assert r.rsp == pytest.approx(0.04)
+    assert within_3_se(r.total_rd + r.rsp, r.total_rd_se, 0.2600, 0.00005)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", MATERIALS.names())
+def test_all_materials_against_adding_doubling(name):
+    """Total Rd of 11 materials x RGB vs Prahl's adding-doubling (iadpython), within 3 SE.
+
+    The adding-doubling value's own discretisation error is taken as the change from 16 to 32
+    quadrature points and combined with the Monte Carlo standard error.
+    """
+    iad = pytest.importorskip("iadpython")
+    m = MATERIALS.get(name)
+    rsp = ((m.eta - 1) / (m.eta + 1)) ** 2
+    for c in range(3):
+        ref = [iad.Sample(a=m.albedo[c], b=1e4, g=0.0, n=m.eta, n_above=1.0, n_below=1.0, quad_pts=q).rt()[0] - rsp
+               for q in (16, 32)]
+        r = simulate(config_for_material(m, c, photons=100_000, seed=21, batch_size=2_500))
+        assert within_3_se(r.total_rd, r.total_rd_se, ref[1], abs(ref[1] - ref[0])), (c, r.total_rd, r.total_rd_se, ref)
+
+
+def test_profile_properties_skin1():
+    m = get_material("skin1")
+    r = simulate(config_for_material(m, "R", photons=100_000, seed=3))
+    prof = r.profile()
+    # the radial bins integrate to the total (all escaping weight is binned)
+    assert np.sum(r.rd * 2 * np.pi * r.r_mm * r.config.dr_mm) == pytest.approx(r.total_rd, rel=1e-12)
+    assert prof.total_rd() == pytest.approx(r.total_rd, rel=1e-12)
+    assert np.all(r.rd >= 0) and np.all(r.rd_se >= 0)
+    # decreasing where the bins are well resolved (first 4 mean free paths)
+    k = int(4 * m.mfp_mm[0] / r.config.dr_mm)
+    assert np.all(np.diff(r.rd[:k]) < 3 * (r.rd_se[:k - 1] + r.rd_se[1:k]))
+    # 2D discretisation of the simulated profile conserves its energy in the square
+    from scipy.integrate import quad
+
+    n = 2 * (r.config.nr // 4) - 1
+    cells = prof.discretize_2d(4 * r.config.dr_mm, n)
+    half = n * 2 * r.config.dr_mm
+    square = 8 * quad(lambda t: float(prof.energy_within(half / np.cos(t))), 0, np.pi / 4, limit=500)[0] / (2 * np.pi)
+    assert cells.sum() == pytest.approx(square, rel=1e-6)
+    assert cells.sum() <= prof.total_rd() * (1 + 1e-12)
+
+
+def test_supplement_grid_rules():
+    m = get_material("skin1")
+    dr, nr = supplement_grid(m)
+    mfp = [1 / (a + s) for a, s in zip(m.sigma_a, m.sigma_s)]
+    assert dr == pytest.approx(min(mfp) / 20)
+    assert nr == math.ceil(32 * max(mfp) / dr)
+
+
+def test_same_seed_bit_identical_for_any_thread_count():
+    import numba
+
+    cfg = config_for_material(get_material("ketchup"), 0, photons=40_000, seed=5, batch_size=1_000)
+    one = simulate(cfg, threads=1, use_cache=False)
+    many = simulate(cfg, threads=min(2, numba.config.NUMBA_NUM_THREADS), use_cache=False)
+    assert np.array_equal(one.rd, many.rd) and one.total_rd == many.total_rd and one.absorbed == many.absorbed
+    other = simulate(MCConfig(cfg.layers, cfg.dr_mm, cfg.nr, cfg.photons, seed=6, batch_size=1_000), use_cache=False)
+    assert other.total_rd != one.total_rd
+
+
+def test_cache_and_resume_after_interrupt(monkeypatch, tmp_path):
+    from ssskit.profiles import mcml_kernel
+
+    cfg = config_for_material(get_material("skin1"), 2, photons=20_000, seed=9, batch_size=1_000)
+    reference = simulate(cfg, use_cache=False)
+    calls = {"n": 0}
+    real = mcml_kernel.run_batches
+
+    def flaky(*args):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        return real(*args)
+
+    monkeypatch.setattr(mcml_kernel, "run_batches", flaky)
+    with pytest.raises(SimulationInterrupted, match="interrupted after"):
+        simulate(cfg, threads=1)
+    monkeypatch.setattr(mcml_kernel, "run_batches", real)
+    resumed = simulate(cfg, threads=1, resume=True)
+    assert np.array_equal(resumed.rd, reference.rd) and resumed.total_rd == reference.total_rd
+    cached = simulate(cfg)
+    assert cached.extra.get("cached") and np.array_equal(cached.rd, reference.rd)
+
+
+def test_numpy_implementation_agrees_statistically():
+    from ssskit.profiles.mcml_numpy import simulate_numpy
+
+    cfg = MCConfig((MCLayer(1.0, 9.0, 0.75, 1.0, 0.2),), dr_mm=0.01, nr=50, photons=200_000, seed=4)
+    r = simulate(cfg, use_cache=False)
+    bins, totals = simulate_numpy(cfg)
+    se = r.total_rd_se * math.sqrt(2)  # two independent estimates of similar variance
+    assert abs(totals[0] / cfg.photons - r.total_rd) < 4 * se
+    assert abs(totals[1] / cfg.photons - r.tt) < 4 * r.tt_se * math.sqrt(2)
+
+
+@pytest.mark.parametrize(
+    "kwargs, fragment",
+    [
+        (dict(photons=0), "photon count"),
+        (dict(seed=-1), "seed"),
+        (dict(dr_mm=0.0), "grid spacing"),
+        (dict(nr=0), "radial bins"),
+    ],
+)
+def test_config_validation(kwargs, fragment):
+    base = dict(layers=(MCLayer(0.1, 1.0),), dr_mm=0.1, nr=10)
+    base.update(kwargs)
+    with pytest.raises(ProfileError, match=fragment):
+        MCConfig(**base)
+    with pytest.raises(ProfileError, match="semi-infinite"):
+        MCConfig((MCLayer(0.1, 1.0), MCLayer(0.1, 1.0)), 0.1, 10)
