@@ -119,8 +119,9 @@ def test_import_is_light():
     assert proc.stdout.strip() == "[]"
 
 
-def test_demo_writes_report(capsys, tmp_path):
-    code, out, err = run(capsys, "demo", "--out", str(tmp_path / "demo"))
+def test_demo_writes_report(capsys, tmp_path, monkeypatch):
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    code, out, err = run(capsys, "demo", "--out", str(tmp_path / "demo"), "--photons", "5000")
     assert code == 0
     index = tmp_path / "demo" / "index.html"
     assert out.strip() == str(index)
@@ -129,3 +130,44 @@ def test_demo_writes_report(capsys, tmp_path):
         assert f"profile_{name.lower()}.png" in page
         assert (tmp_path / "demo" / f"profile_{name.lower()}.png").stat().st_size > 10_000
     assert "2.5715" in page and "minimax" in page
+    assert "MCML" in page and "montecarlo" in page
+
+
+def test_simulate_json_and_sweep_identity(capsys, tmp_path, monkeypatch):
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    code, out, _ = run(capsys, "simulate", "--material", "ketchup", "--photons", "20000", "--json", "--no-cache")
+    assert code == 0
+    single = json.loads(out)
+    for key in ("r_mm", "channels", "photons", "seconds", "photons_per_second"):
+        assert key in single
+    for ch in "RGB":
+        c = single["channels"][ch]
+        assert len(c["Rd"]) == len(single["r_mm"]) == len(c["Rd_se"])
+        assert c["Rsp"] == pytest.approx(((1.3 - 1) / 2.3) ** 2)
+        assert c["total_Rd_se"] > 0
+    # a two-process sweep gives the same numbers as the single-process run
+    code, out, _ = run(capsys, "simulate", "--material", "ketchup,skin1", "--photons", "20000", "--jobs", "2", "--json")
+    assert code == 0
+    sweep = json.loads(out)["materials"]
+    assert sweep["Ketchup"]["channels"]["G"]["Rd"] == single["channels"]["G"]["Rd"]
+    npz = tmp_path / "k.npz"
+    assert run(capsys, "simulate", "--material", "ketchup", "--photons", "20000", "--out", str(npz))[0] == 0
+    with np.load(npz) as z:
+        assert z["Rd"].shape == (len(single["r_mm"]), 3)
+        assert z["total_Rd"][1] == pytest.approx(single["channels"]["G"]["total_Rd"])
+
+
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["simulate", "--material", "skin1", "--photons", "0"], "--photons"),
+        (["simulate", "--material", "skin1", "--channel", "X"], "--channel"),
+        (["simulate", "--material", "skin1", "--out", "x.csv"], "must end in .npz"),
+        (["simulate", "--material", "nope"], "unknown material"),
+        (["simulate", "--material", "skin1,apple", "--out", "x.npz"], "single material"),
+    ],
+)
+def test_simulate_bad_input(capsys, tmp_path, monkeypatch, args, fragment):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run(capsys, *args)
+    assert code == 2 and out == "" and fragment in err and err.count("\n") == 1

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import click
 
-from .errors import SsskitError
+from .errors import SimulationInterrupted, SsskitError
 
 EXIT_USAGE = 2
 
@@ -61,19 +61,20 @@ def materials(as_json: bool) -> None:
 @click.option("--material", "material", metavar="NAME|FILE", help="Preset name or .toml/.json material file.")
 @click.option(
     "--model",
-    type=click.Choice(["dipole", "burley", "gaussians", "deon2007"], case_sensitive=False),
+    type=click.Choice(["dipole", "burley", "gaussians", "deon2007", "montecarlo"], case_sensitive=False),
     default="dipole",
     show_default=True,
     help="Profile model (deon2007 is a fixed skin preset and needs no material).",
 )
 @click.option("--configuration", default="searchlight", show_default=True, help="Burley d from Xie 2020 Eq. 5: searchlight, diffuse-transmission or dmfp.")
 @click.option("--gaussians", "n_gaussians", type=click.IntRange(1, 16), default=6, show_default=True, help="Number of Gaussians for --model gaussians.")
+@click.option("--photons", type=click.IntRange(1, 10**12), default=200_000, show_default=True, help="Photons per channel for --model montecarlo (cached).")
 @click.option("--points", type=click.IntRange(2, 1_000_000), default=256, show_default=True, help="Number of radii (bin centres).")
 @click.option("--r-max", "r_max", type=float, default=None, help="Largest radius in mm [default: where every channel holds 99.9% of its energy].")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object: r_mm and channels R/G/B with Rd (mm^-2) and total_Rd.")
 @click.option("--out", type=click.Path(dir_okay=False), default=None, help="Write the table to FILE.csv or FILE.npz.")
 @click.option("--plot", type=click.Path(dir_okay=False), default=None, help="Write a plot to FILE.png (or .pdf/.svg).")
-def profile(material, model, configuration, n_gaussians, points, r_max, as_json, out, plot) -> None:
+def profile(material, model, configuration, n_gaussians, photons, points, r_max, as_json, out, plot) -> None:
     """Diffuse reflectance profile R(r) of a material, per RGB channel."""
     from .io import check_suffix, save_profile_table
     from .profiles import MATERIAL_FREE_MODELS, profile_for_material
@@ -89,6 +90,8 @@ def profile(material, model, configuration, n_gaussians, points, r_max, as_json,
         options["configuration"] = configuration
     elif model.lower() == "gaussians":
         options["n"] = n_gaussians
+    elif model.lower() == "montecarlo":
+        options["photons"] = photons
     prof = profile_for_material(material, model, **options)
     if r_max is None:
         r_max = float(max(prof.radius_at_fraction(0.999)))
@@ -120,6 +123,82 @@ def profile(material, model, configuration, n_gaussians, points, r_max, as_json,
         click.echo(f"# wrote {out}")
 
 
+@cli.command()
+@click.option("--material", "materials_", metavar="NAME|FILE", multiple=True, required=True,
+              help="Preset name or material file; repeat or comma-separate for a sweep.")
+@click.option("--channel", type=click.Choice(["R", "G", "B", "all"], case_sensitive=False), default="all", show_default=True)
+@click.option("--photons", type=click.IntRange(1, 10**12), default=10_000_000, show_default=True, help="Photons per channel (supplement F: 10^7).")
+@click.option("--seed", type=click.IntRange(0, 2**63 - 1), default=1, show_default=True)
+@click.option("--threads", type=click.IntRange(1, 1024), default=None, help="numba threads [default: all cores].")
+@click.option("--jobs", type=click.IntRange(1, 1024), default=1, show_default=True, help="Local processes for a sweep of several materials.")
+@click.option("--batch-size", type=click.IntRange(1, 10**9), default=10_000, show_default=True, help="Photons per random stream / standard-error batch.")
+@click.option("--resume", is_flag=True, help="Continue an interrupted run with the same inputs.")
+@click.option("--no-cache", is_flag=True, help="Neither read nor write the on-disk cache.")
+@click.option("--out", type=click.Path(dir_okay=False), default=None, help="Write FILE.npz (one material) with r_mm, Rd, Rd_se per channel.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+def simulate(materials_, channel, photons, seed, threads, jobs, batch_size, resume, no_cache, out, as_json) -> None:
+    """Monte Carlo (MCML) diffuse reflectance profiles with the supplement's settings."""
+    import numpy as np
+
+    from .io import check_suffix, save_arrays
+    from .materials import get_material
+    from .profiles.montecarlo import simulate_many, simulate_material
+
+    names = [n.strip() for item in materials_ for n in item.split(",") if n.strip()]
+    mats = [get_material(n) for n in names]
+    if out:
+        check_suffix(out, (".npz",), "--out")
+        if len(mats) > 1:
+            raise SsskitError("--out takes a single material; use --json for a sweep")
+    if threads is not None:
+        import numba
+
+        if threads > numba.config.NUMBA_NUM_THREADS:
+            raise SsskitError(f"--threads must be at most {numba.config.NUMBA_NUM_THREADS} on this machine")
+    if len(mats) == 1:
+        runs = {mats[0].name: simulate_material(mats[0], channel, photons=photons, seed=seed, threads=threads,
+                                                progress=True, resume=resume, use_cache=not no_cache,
+                                                batch_size=batch_size)}
+    else:
+        if resume or no_cache:
+            raise SsskitError("--resume and --no-cache apply to a single material")
+        runs = simulate_many(mats, channel, photons=photons, seed=seed, jobs=jobs, batch_size=batch_size, progress=True)
+
+    def one(results):
+        first = next(iter(results.values()))
+        seconds = sum(r.seconds for r in results.values())
+        total = sum(r.photons for r in results.values())
+        return {
+            "r_mm": first.r_mm.tolist(),
+            "channels": {ch: r.to_dict() for ch, r in results.items()},
+            "photons": first.photons,
+            "seconds": seconds,
+            "photons_per_second": total / seconds if seconds > 0 else None,
+            "cached": all(r.extra.get("cached", False) for r in results.values()),
+        }
+
+    data = {name: one(res) | {"material": name} for name, res in runs.items()}
+    if out:
+        res = runs[mats[0].name]
+        save_arrays(out, r_mm=next(iter(res.values())).r_mm, channels=np.array(list(res)),
+                    Rd=np.stack([r.rd for r in res.values()], axis=-1),
+                    Rd_se=np.stack([r.rd_se for r in res.values()], axis=-1),
+                    total_Rd=np.array([r.total_rd for r in res.values()]),
+                    total_Rd_se=np.array([r.total_rd_se for r in res.values()]),
+                    Rsp=np.array([r.rsp for r in res.values()]))
+    if as_json:
+        _echo_json(data[mats[0].name] if len(mats) == 1 else {"materials": data})
+        return
+    for name, d in data.items():
+        for ch, c in d["channels"].items():
+            click.echo(f"{name:<10} {ch}  total Rd = {c['total_Rd']:.5f} ± {c['total_Rd_se']:.5f}   Rsp = {c['Rsp']:.4f}")
+        rate = d["photons_per_second"]
+        click.echo(f"{name:<10}    {d['photons']} photons/channel, {d['seconds']:.1f} s"
+                   + (f", {rate:,.0f} photons/s" if rate else "") + (" (cached)" if d["cached"] else ""))
+    if out:
+        click.echo(f"wrote {out}")
+
+
 @cli.command("xie-c")
 @click.option("--points", type=click.IntRange(100, 10_000_000), default=100_000, show_default=True, help="Number of xi samples.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
@@ -147,12 +226,17 @@ def xie_c(points: int, as_json: bool) -> None:
 
 @cli.command()
 @click.option("--out", type=click.Path(file_okay=False), default="ssskit-out/demo", show_default=True, help="Output folder.")
-def demo(out: str) -> None:
+@click.option("--photons", type=click.IntRange(1000, 10**10), default=None, help="Monte Carlo photons per channel [default: 200,000].")
+@click.option("--full", is_flag=True, help="Monte Carlo with the supplement's 10^7 photons per channel (slow the first time, then cached).")
+def demo(out: str, photons: int | None, full: bool) -> None:
     """The main job: build the report (figures + index.html) on built-in defaults."""
-    from .report import build_report
+    from .report import DEMO_PHOTONS, build_report
 
+    if full and photons is not None:
+        raise SsskitError("give either --full or --photons, not both")
+    n = 10_000_000 if full else (photons or DEMO_PHOTONS)
     click.echo(f"ssskit demo: writing the report to {out}/", err=True)
-    index = build_report(Path(out), progress=_progress)
+    index = build_report(Path(out), progress=_progress, photons=n, progress_bars=True)
     click.echo(str(index))
 
 
@@ -162,6 +246,9 @@ def main(argv: list[str] | None = None) -> int:
         cli.main(args=argv, prog_name="ssskit", standalone_mode=False)
     except click.exceptions.Exit as exc:
         return exc.exit_code
+    except SimulationInterrupted as exc:
+        click.echo(f"ssskit: {exc} (--resume)", err=True)
+        return 130
     except click.exceptions.Abort:
         click.echo("ssskit: aborted", err=True)
         return 130

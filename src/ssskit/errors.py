@@ -21,3 +21,7 @@ class ProfileError(SsskitError):
 
 class SamplingError(SsskitError):
     """Invalid distribution parameters or sample inputs."""
+
+
+class SimulationInterrupted(ProfileError):
+    """A Monte Carlo simulation was stopped (Ctrl-C); its finished batches are kept for resume."""

@@ -62,6 +62,13 @@ def check_suffix(path: str | Path, allowed: tuple[str, ...], what: str) -> str:
     return suffix
 
 
+def save_arrays(path: str | Path, **arrays) -> None:
+    """Write an ``.npz`` of named arrays atomically."""
+    with atomic_output(path) as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+
+
 def save_profile_table(path: str | Path, r_mm: np.ndarray, rd: np.ndarray, meta: dict[str, Any]) -> None:
     """Write R(r) per channel: ``.csv`` (r_mm, Rd_R, Rd_G, Rd_B; mm and mm^-2) or ``.npz``.
 
@@ -71,11 +78,10 @@ def save_profile_table(path: str | Path, r_mm: np.ndarray, rd: np.ndarray, meta:
     suffix = check_suffix(path, (".csv", ".npz"), "profile output")
     r_mm = np.asarray(r_mm, dtype=float)
     rd = np.asarray(rd, dtype=float)
-    with atomic_output(path) as tmp:
-        if suffix == ".csv":
+    if suffix == ".csv":
+        with atomic_output(path) as tmp:
             header = "\n".join(f"{k}: {json.dumps(v)}" for k, v in meta.items())
             header += "\nr_mm,Rd_R,Rd_G,Rd_B  (Rd in mm^-2)"
             np.savetxt(tmp, np.column_stack([r_mm, rd]), delimiter=",", header=header, fmt="%.10e")
-        else:
-            with open(tmp, "wb") as fh:
-                np.savez(fh, r_mm=r_mm, Rd=rd, meta=np.array(json.dumps(meta)))
+    if suffix == ".npz":
+        save_arrays(path, r_mm=r_mm, Rd=rd, meta=np.array(json.dumps(meta)))

@@ -34,7 +34,9 @@ def plot_profiles(profiles, title: str, path: str | Path, n: int = 400) -> None:
     ``profiles`` is a list of RGBProfile sharing one r axis (to the largest 99.9%-energy radius).
     """
     plt = _pyplot()
-    r_max = max(float(np.max(p.radius_at_fraction(0.999))) for p in profiles)
+    # simulated profiles extend to 32 mean free paths: scale the axis by the analytic ones if any
+    analytic = [p for p in profiles if p.model != "montecarlo"] or profiles
+    r_max = max(float(np.max(p.radius_at_fraction(0.999))) for p in analytic)
     r = (np.arange(n) + 0.5) * (r_max / n)
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
     for k, prof in enumerate(profiles):

@@ -17,7 +17,10 @@ from .io import write_text
 from .materials import CHANNELS, MATERIALS, Material
 
 Progress = Callable[[str], None]
-Section = Callable[[Path, Progress], str]
+Section = Callable[[Path, Progress, dict], str]
+
+#: photons per channel for the demo's Monte Carlo profiles (cached); ``--full`` uses supplement F's 10^7
+DEMO_PHOTONS = 200_000
 
 _CSS = """
 body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1400px; color: #222; }
@@ -34,7 +37,7 @@ def _fmt(values, digits: int = 4) -> str:
     return ", ".join(f"{v:.{digits}g}" for v in values)
 
 
-def _materials_section(out: Path, progress: Progress) -> str:
+def _materials_section(out: Path, progress: Progress, ctx: dict) -> str:
     from .profiles import burley_profile, dipole_profile
 
     rows = []
@@ -56,20 +59,26 @@ def _materials_section(out: Path, progress: Progress) -> str:
     )
 
 
-def _profiles_section(out: Path, progress: Progress) -> str:
+def _profiles_section(out: Path, progress: Progress, ctx: dict) -> str:
     from .plots import plot_kernel_2d, plot_profiles
     from .profiles import profile_for_material
+    from .profiles.montecarlo import montecarlo_rgb
+
+    photons = ctx.get("photons", DEMO_PHOTONS)
 
     parts = [
         "<h2>Diffusion profiles</h2><p class=note>Per material: the [JMLH01] dipole (solid), Burley's "
         "normalized diffusion with A = dipole total R<sub>d</sub> and d from the searchlight configuration "
         "(Xie 2020 Eq. 5; dashed), and six Gaussians fitted to the dipole under the L1 constraint (Eq. S.1; "
-        "dotted). Left to right: R(r), R(r) on a log scale, and 2πr R(r) as in the supplement's plots. "
+        f"dotted), and the MCML simulation with supplement F's grid, {photons:,} photons per channel "
+        "(dash-dot; cached on disk). Left to right: R(r), R(r) on a log scale, and 2πr R(r) as in the supplement's plots. "
         "Below: the dipole's 2D kernel R<sub>d</sub>(x, y) as exact cell integrals.</p>"
     ]
     for name, m in MATERIALS.items():
         progress(f"profiles: {name}")
         profs = [profile_for_material(m, model) for model in ("dipole", "burley", "gaussians")]
+        progress(f"Monte Carlo: {name} ({photons:,} photons per channel)")
+        profs.append(montecarlo_rgb(m, photons=photons, progress=ctx.get("progress_bars", False)))
         fig = f"profile_{name.lower()}.png"
         plot_profiles(profs, f"{name}: σa = [{_fmt(m.sigma_a)}], σs = [{_fmt(m.sigma_s)}] mm⁻¹, η = {m.eta:g}", out / fig)
         parts.append(f"<h3 id='{name}'>{html.escape(name)}</h3>{_totals_table(m, profs)}<img src='{fig}'>")
@@ -97,7 +106,7 @@ def _totals_table(m: Material, profs) -> str:
     )
 
 
-def _sampling_section(out: Path, progress: Progress) -> str:
+def _sampling_section(out: Path, progress: Progress, ctx: dict) -> str:
     from .plots import plot_xie_c
     from .sampling import XIE_C, fit_xie_c, xie_cdf_error
 
@@ -124,13 +133,15 @@ SECTIONS: list[tuple[str, Section]] = [
 ]
 
 
-def build_report(out_dir: str | Path, progress: Progress | None = None) -> Path:
+def build_report(out_dir: str | Path, progress: Progress | None = None, photons: int = DEMO_PHOTONS,
+                 progress_bars: bool = False) -> Path:
     """Run every section into ``out_dir`` and write ``index.html`` last; returns its path."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     progress = progress or (lambda msg: None)
     t0 = time.perf_counter()
-    body = [section(out, progress) for _, section in SECTIONS]
+    ctx = {"photons": photons, "progress_bars": progress_bars}
+    body = [section(out, progress, ctx) for _, section in SECTIONS]
     from . import __version__
 
     page = (

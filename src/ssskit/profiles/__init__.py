@@ -85,6 +85,14 @@ def deon2007_profile(material: Material | None = None) -> RGBProfile:
     return RGBProfile(chans, "deon2007", "d'Eon 2007 skin", {"source": "[dLE07] six-Gaussian skin fit"})  # type: ignore[arg-type]
 
 
+@MODELS.decorator("montecarlo")
+def montecarlo_profile(material: Material, photons: int = 200_000, seed: int = 1) -> RGBProfile:
+    """MCML-simulated profiles (supplement F grid; cached on disk). Needs numba."""
+    from .montecarlo import montecarlo_rgb
+
+    return montecarlo_rgb(material, photons=photons, seed=seed)
+
+
 #: Models that need no material.
 MATERIAL_FREE_MODELS = frozenset({"deon2007"})
 

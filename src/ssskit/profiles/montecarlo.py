@@ -28,18 +28,15 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ProfileError
+from ..errors import ProfileError, SimulationInterrupted
 from ..materials import CHANNELS, Material
+from ..io import save_arrays
 from .base import RadialProfile
 
 #: bump when the transport or the tallies change: it is part of every cache key
 ENGINE_VERSION = 1
 DEFAULT_PHOTONS = 10_000_000  # supplement F
 DEFAULT_BATCH = 10_000
-
-
-class SimulationInterrupted(ProfileError):
-    """Raised when a simulation is stopped (Ctrl-C); the finished batches are kept for resume."""
 
 
 @dataclass(frozen=True)
@@ -174,8 +171,13 @@ class MCResult:
 
 
 class MonteCarloProfile(RadialProfile):
-    """A simulated profile as a RadialProfile: R(r) constant on each annulus (MCML's bins), so the
-    energy within rho is linear in rho^2 inside a bin; the overflow bin is treated as the last annulus."""
+    """A simulated profile as a RadialProfile over the regular bins: R(r) constant on each annulus
+    (MCML's bins), so the energy within rho is linear in rho^2 inside a bin.
+
+    MCML's last bin collects every photon escaping beyond the grid; it is not a density, so it is
+    left out: eval() is 0 from its inner edge on, total_rd() is the energy of the regular bins,
+    and ``overflow`` (= result.total_rd - total_rd()) says how much escaped beyond the grid.
+    """
 
     model = "montecarlo"
 
@@ -183,28 +185,31 @@ class MonteCarloProfile(RadialProfile):
         self.result = result
         dr = result.config.dr_mm
         self.dr = dr
-        nr = result.rd.shape[0]
-        self.edges = np.arange(nr + 1) * dr
+        rd = result.rd[:-1] if result.rd.shape[0] > 1 else result.rd
+        self.rd = rd
+        self.edges = np.arange(rd.shape[0] + 1) * dr
         # energy per bin, exactly W_i / N (inverting the 2 pi r_i dr normalisation)
-        energy = result.rd * 2.0 * np.pi * result.r_mm * dr
+        energy = rd * 2.0 * np.pi * result.r_mm[: rd.shape[0]] * dr
         self._total = float(energy.sum())
-        # S at the bin edges: energy outside edge k
+        self.overflow = float(result.total_rd - self._total)
+        # S at the bin edges: energy outside edge k (within the grid)
         self._outside = np.concatenate([np.cumsum(energy[::-1])[::-1], [0.0]])
         self._energy = energy
 
     def eval(self, r):
         r = np.asarray(r, dtype=float)
+        n = self.rd.shape[0]
         i = np.floor(r / self.dr).astype(np.int64)
-        inside = (i >= 0) & (i < self.result.rd.shape[0])
-        return np.where(inside, self.result.rd[np.clip(i, 0, self.result.rd.shape[0] - 1)], 0.0)
+        inside = (i >= 0) & (i < n)
+        return np.where(inside, self.rd[np.clip(i, 0, n - 1)], 0.0)
 
     def total_rd(self) -> float:
         return self._total
 
     def energy_outside(self, rho):
         rho = np.asarray(rho, dtype=float)
-        nr = self.result.rd.shape[0]
-        i = np.clip(np.floor(rho / self.dr).astype(np.int64), 0, nr - 1)
+        n = self.rd.shape[0]
+        i = np.clip(np.floor(rho / self.dr).astype(np.int64), 0, n - 1)
         lo = self.edges[i]
         frac = np.clip((rho**2 - lo**2) / (self.edges[i + 1] ** 2 - lo**2), 0.0, 1.0)
         out = self._outside[i] - frac * self._energy[i]
@@ -216,7 +221,7 @@ class MonteCarloProfile(RadialProfile):
     def params(self) -> dict[str, Any]:
         cfg = self.result.config
         return {"photons": cfg.photons, "seed": cfg.seed, "dr_mm": cfg.dr_mm, "nr": cfg.nr,
-                "layers": [asdict(l) for l in cfg.layers]}
+                "overflow": self.overflow, "layers": [asdict(l) for l in cfg.layers]}
 
 
 # ---- running ---------------------------------------------------------------------------------
@@ -274,14 +279,6 @@ def _numba_threads(threads: int | None):
         numba.set_num_threads(old)
 
 
-def _save_npz(path: Path, **arrays) -> None:
-    from ..io import atomic_output
-
-    with atomic_output(path) as tmp:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
-
-
 def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = False, resume: bool = False,
              use_cache: bool = True, label: str = "") -> MCResult:
     """Run (or load from the cache) one MCML simulation.
@@ -333,7 +330,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
                     bar.update(int(sizes[ids].sum()))
     except KeyboardInterrupt:
         if use_cache:
-            _save_npz(partial_path, bins=bins, totals=totals, done=done,
+            save_arrays(partial_path, bins=bins, totals=totals, done=done,
                       seconds=np.array(elapsed + time.perf_counter() - t0))
         n_done = int(sizes[done].sum())
         raise SimulationInterrupted(
@@ -346,7 +343,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
     seconds = elapsed + time.perf_counter() - t0
     result = _assemble(cfg, bins, totals, sizes, rsp, seconds)
     if use_cache:
-        _save_npz(final_path, bins_sum=bins.sum(axis=0), r_mm=result.r_mm, rd=result.rd, rd_se=result.rd_se,
+        save_arrays(final_path, bins_sum=bins.sum(axis=0), r_mm=result.r_mm, rd=result.rd, rd_se=result.rd_se,
                   scalars=np.array([result.total_rd, result.total_rd_se, result.tt, result.tt_se,
                                     result.absorbed, result.absorbed_se, result.rsp, result.seconds]))
         with contextlib.suppress(OSError):
@@ -398,4 +395,73 @@ def _progress_bar(total: int, initial: int, label: str):
     from tqdm import tqdm
 
     return tqdm(total=total, initial=initial, unit="photon", unit_scale=True, desc=label or "MCML",
-                smoothing=0.1, dynamic_ncols=True, leave=False)
+                smoothing=0.1, dynamic_ncols=True, leave=False, disable=None)
+
+
+# ---- materials, many at once ----------------------------------------------------------------
+
+
+def simulate_material(material: Material, channels: str = "all", *, photons: int = DEFAULT_PHOTONS, seed: int = 1,
+                      threads: int | None = None, progress: bool = False, resume: bool = False,
+                      use_cache: bool = True, batch_size: int = DEFAULT_BATCH) -> dict[str, MCResult]:
+    """Simulate the requested channels ('R', 'G', 'B' or 'all') of a material: {channel: MCResult}.
+
+    Each channel uses its own seed stream derived from ``seed`` and the channel index, on the
+    supplement's grid shared by all three channels.
+    """
+    wanted = list(CHANNELS) if channels.strip().lower() == "all" else [channels.strip().upper()]
+    for ch in wanted:
+        if ch not in CHANNELS:
+            raise ProfileError(f"channel must be R, G, B or all, got {channels!r}")
+    out = {}
+    for ch in wanted:
+        c = CHANNELS.index(ch)
+        cfg = config_for_material(material, c, photons, _channel_seed(seed, c), batch_size)
+        out[ch] = simulate(cfg, threads=threads, progress=progress, resume=resume, use_cache=use_cache,
+                           label=f"{material.name} {ch}")
+    return out
+
+
+def _channel_seed(seed: int, c: int) -> int:
+    """Distinct, reproducible seeds per channel (the streams are further split per batch)."""
+    return (int(seed) * 3 + c) % (2**63)
+
+
+def montecarlo_rgb(material: Material, photons: int = 200_000, seed: int = 1, **kwargs):
+    """An RGBProfile of simulated profiles (cached), usable wherever a profile is."""
+    from .base import RGBProfile
+
+    results = simulate_material(material, "all", photons=photons, seed=seed, **kwargs)
+    chans = tuple(results[ch].profile() for ch in CHANNELS)
+    return RGBProfile(chans, "montecarlo", material.name,  # type: ignore[arg-type]
+                      {"material": material.to_dict(), "photons": photons, "seed": seed})
+
+
+def _sweep_job(args):
+    material, channels, photons, seed, batch_size = args
+    return material.name, simulate_material(material, channels, photons=photons, seed=seed, threads=1,
+                                            batch_size=batch_size)
+
+
+def simulate_many(materials: list[Material], channels: str = "all", *, photons: int = DEFAULT_PHOTONS, seed: int = 1,
+                  jobs: int = 1, batch_size: int = DEFAULT_BATCH, progress: bool = False) -> dict[str, dict[str, MCResult]]:
+    """Simulate several materials across ``jobs`` local processes (one numba thread each).
+
+    Results depend only on each simulation's inputs and seed, so they are identical to a
+    single-process run; finished simulations land in the shared cache.
+    """
+    if not (isinstance(jobs, int) and jobs >= 1):
+        raise ProfileError(f"jobs must be a positive integer, got {jobs!r}")
+    names = [m.name for m in materials]
+    if len(set(names)) != len(names):
+        raise ProfileError("material names in a sweep must be distinct")
+    tasks = [(m, channels, photons, seed, batch_size) for m in materials]
+    if jobs == 1 or len(tasks) == 1:
+        return {m.name: simulate_material(m, channels, photons=photons, seed=seed, progress=progress,
+                                          batch_size=batch_size) for m in materials}
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    ctx = mp.get_context("spawn")  # numba's threading layers are not fork-safe
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
+        return dict(pool.map(_sweep_job, tasks))
