@@ -280,6 +280,54 @@ ARTIST_PRESETS.register(
 # ---- loading ---------------------------------------------------------------------------------
 
 _FILE_KEYS = {"name", "sigma_a", "sigma_s", "g", "eta", "thickness_mm", "eta_ambient", "unit", "units"}
+_LAYERED_KEYS = {"name", "layers", "eta_above", "eta_below", "unit", "units"}
+
+
+@dataclass(frozen=True)
+class LayeredMaterial:
+    """A stack of layers (top first) for the Monte Carlo engine; each layer is a :class:`Material`
+    with its ``thickness_mm`` (only the last may be semi-infinite). Ambient indices above / below."""
+
+    name: str
+    layers: tuple[Material, ...]
+    eta_above: float = 1.0
+    eta_below: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not self.layers:
+            raise MaterialError("a layered material needs at least one layer")
+        if any(layer.is_semi_infinite for layer in self.layers[:-1]):
+            raise MaterialError("only the last layer may be semi-infinite (omit its thickness_mm)")
+        for attr in ("eta_above", "eta_below"):
+            if not (math.isfinite(getattr(self, attr)) and getattr(self, attr) >= 1.0):
+                raise MaterialError(f"{attr} must be a finite number >= 1, got {getattr(self, attr)}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "layers": [layer.to_dict() for layer in self.layers],
+                "eta_above": self.eta_above, "eta_below": self.eta_below}
+
+
+def _layered_from_dict(data: Mapping[str, Any], default_name: str) -> LayeredMaterial:
+    unknown = sorted(set(data) - _LAYERED_KEYS)
+    if unknown:
+        raise MaterialError(f"unknown key(s) in a layered material: {', '.join(unknown)}")
+    raw = data["layers"]
+    if not isinstance(raw, Sequence) or isinstance(raw, (str, bytes)) or not raw:
+        raise MaterialError("'layers' must be a non-empty list of tables/objects")
+    unit = data.get("unit", data.get("units"))
+    layers = []
+    for i, entry in enumerate(raw):
+        if not isinstance(entry, Mapping):
+            raise MaterialError(f"layer {i + 1} must be a table/object")
+        entry = dict(entry)
+        if unit is not None:
+            entry.setdefault("unit", unit)
+        try:
+            layers.append(material_from_dict(entry, default_name=f"layer {i + 1}"))
+        except MaterialError as exc:
+            raise MaterialError(f"layer {i + 1}: {exc}") from None
+    return LayeredMaterial(str(data.get("name", default_name)), tuple(layers),
+                           float(data.get("eta_above", 1.0)), float(data.get("eta_below", 1.0)))
 
 
 def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user material") -> Material:
@@ -288,10 +336,14 @@ def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user mat
     Keys: ``sigma_a`` and ``sigma_s`` (required; a number or [R, G, B]), ``g`` (default 0),
     ``eta`` (default 1.3), ``thickness_mm`` (default semi-infinite), ``eta_ambient`` (default 1),
     ``name``, and ``unit`` = ``"mm"`` (default) or ``"cm"`` for coefficients in cm^-1 and a
-    thickness in cm, as MCML input files use.
+    thickness in cm, as MCML input files use. A ``layers`` list of such tables (top first, each
+    with ``thickness_mm``; the last may omit it for a semi-infinite layer) plus optional
+    ``eta_above`` / ``eta_below`` gives a :class:`LayeredMaterial` (for the Monte Carlo engine).
     """
     if not isinstance(data, Mapping):
         raise MaterialError("a material file must hold a table/object at the top level")
+    if "layers" in data:
+        return _layered_from_dict(data, default_name)  # type: ignore[return-value]
     unknown = sorted(set(data) - _FILE_KEYS)
     if unknown:
         raise MaterialError(f"unknown material key(s): {', '.join(unknown)}")

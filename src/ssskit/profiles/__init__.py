@@ -100,6 +100,12 @@ MATERIAL_FREE_MODELS = frozenset({"deon2007"})
 def profile_for_material(material: Material | str | None, model: str = "dipole", **options: Any) -> RGBProfile:
     """An :class:`RGBProfile` of ``model`` for a material (preset name, file path or Material)."""
     factory = MODELS.get(model)
+    if material is not None and not isinstance(material, Material):
+        material = get_material(material)
+    if material is not None and not isinstance(material, Material):
+        if model.strip().lower() != "montecarlo":
+            raise ProfileError(f"layered material {material.name!r} is only supported by the montecarlo model")
+        return factory(material, **options)
     if material is None:
         if model.strip().lower() not in MATERIAL_FREE_MODELS:
             raise ProfileError(f"profile model {model!r} needs a material")

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ProfileError, SimulationInterrupted
-from ..materials import CHANNELS, Material
+from ..materials import CHANNELS, LayeredMaterial, Material
 from ..io import save_arrays
 from .base import RadialProfile
 
@@ -114,20 +114,29 @@ class MCConfig:
         return ((n0 - n1) / (n0 + n1)) ** 2
 
 
-def supplement_grid(material: Material) -> tuple[float, int]:
-    """Supplement F's grid: dr = min(MFP_rgb) / 20, nr = ceil(32 max(MFP_rgb) / dr), MFP = 1/sigma_t'."""
-    mfp = material.mfp_reduced_mm
+def _layers_of(material) -> tuple[Material, ...]:
+    return tuple(material.layers) if isinstance(material, LayeredMaterial) else (material,)
+
+
+def supplement_grid(material: Material | LayeredMaterial) -> tuple[float, int]:
+    """Supplement F's grid: dr = min(MFP_rgb) / 20, nr = ceil(32 max(MFP_rgb) / dr), MFP = 1/sigma_t'
+    (over every layer of a layered material)."""
+    mfp = [v for layer in _layers_of(material) for v in layer.mfp_reduced_mm]
     dr = min(mfp) / 20.0
     return dr, int(math.ceil(32.0 * max(mfp) / dr - 1e-9))
 
 
-def config_for_material(material: Material, channel: int | str, photons: int = DEFAULT_PHOTONS,
+def config_for_material(material: Material | LayeredMaterial, channel: int | str, photons: int = DEFAULT_PHOTONS,
                         seed: int = 1, batch_size: int = DEFAULT_BATCH) -> MCConfig:
     """The supplement's simulation of one channel of a (single-layer) material."""
     c = CHANNELS.index(channel.upper()) if isinstance(channel, str) else int(channel)
     dr, nr = supplement_grid(material)
-    layer = MCLayer(material.sigma_a[c], material.sigma_s[c], material.g[c], material.eta, material.thickness_mm)
-    return MCConfig((layer,), dr, nr, photons, seed, material.eta_ambient, material.eta_ambient, batch_size)
+    layers = tuple(MCLayer(m.sigma_a[c], m.sigma_s[c], m.g[c], m.eta, m.thickness_mm) for m in _layers_of(material))
+    if isinstance(material, LayeredMaterial):
+        above, below = material.eta_above, material.eta_below
+    else:
+        above = below = material.eta_ambient
+    return MCConfig(layers, dr, nr, photons, seed, above, below, batch_size)
 
 
 @dataclass
