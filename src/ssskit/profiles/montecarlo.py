@@ -352,7 +352,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
     seconds = elapsed + time.perf_counter() - t0
     result = _assemble(cfg, bins, totals, sizes, rsp, seconds)
     if use_cache:
-        save_arrays(final_path, bins_sum=bins.sum(axis=0), r_mm=result.r_mm, rd=result.rd, rd_se=result.rd_se,
+        save_arrays(final_path, r_mm=result.r_mm, rd=result.rd, rd_se=result.rd_se,
                   scalars=np.array([result.total_rd, result.total_rd_se, result.tt, result.tt_se,
                                     result.absorbed, result.absorbed_se, result.rsp, result.seconds]))
         with contextlib.suppress(OSError):
