@@ -193,3 +193,26 @@ def test_layered_material_errors(tmp_path):
     f.write_text('{"layers": [{"sigma_a": 1, "sigma_s": 1}]}')
     with pytest.raises(ProfileError, match="only supported by the montecarlo model"):
         profile_for_material(str(f), "dipole")
+
+
+def test_dask_cluster_sweep_matches_single_process():
+    """A sweep on a dask.distributed cluster (a local one here) equals the single-process run."""
+    distributed = pytest.importorskip("distributed")
+    from ssskit.profiles.montecarlo import simulate_many, simulate_material
+
+    mats = [get_material("ketchup"), get_material("skin1")]
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        swept = simulate_many(mats, "G", photons=10_000, seed=3, batch_size=1_000, scheduler=cluster.scheduler_address)
+    for m in mats:
+        alone = simulate_material(m, "G", photons=10_000, seed=3, batch_size=1_000, use_cache=False)
+        assert np.array_equal(swept[m.name]["G"].rd, alone["G"].rd)
+        assert swept[m.name]["G"].total_rd == alone["G"].total_rd
+
+
+def test_unreachable_scheduler_is_a_clear_error():
+    pytest.importorskip("distributed")
+    from ssskit.profiles.montecarlo import simulate_many
+
+    with pytest.raises(ProfileError, match="cannot reach the dask scheduler"):
+        simulate_many([get_material("ketchup"), get_material("skin1")], "G", photons=100,
+                      scheduler="tcp://127.0.0.1:1", connect_timeout_s=2)

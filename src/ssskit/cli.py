@@ -131,12 +131,13 @@ def profile(material, model, configuration, n_gaussians, photons, points, r_max,
 @click.option("--seed", type=click.IntRange(0, 2**63 - 1), default=1, show_default=True)
 @click.option("--threads", type=click.IntRange(1, 1024), default=None, help="numba threads [default: all cores].")
 @click.option("--jobs", type=click.IntRange(1, 1024), default=1, show_default=True, help="Local processes for a sweep of several materials.")
+@click.option("--scheduler", default=None, metavar="ADDRESS", help="Run a sweep on a dask.distributed cluster (extra: ssskit[cluster]).")
 @click.option("--batch-size", type=click.IntRange(1, 10**9), default=10_000, show_default=True, help="Photons per random stream / standard-error batch.")
 @click.option("--resume", is_flag=True, help="Continue an interrupted run with the same inputs.")
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the on-disk cache.")
 @click.option("--out", type=click.Path(dir_okay=False), default=None, help="Write FILE.npz (one material) with r_mm, Rd, Rd_se per channel.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def simulate(materials_, channel, photons, seed, threads, jobs, batch_size, resume, no_cache, out, as_json) -> None:
+def simulate(materials_, channel, photons, seed, threads, jobs, scheduler, batch_size, resume, no_cache, out, as_json) -> None:
     """Monte Carlo (MCML) diffuse reflectance profiles with the supplement's settings."""
     import numpy as np
 
@@ -155,14 +156,15 @@ def simulate(materials_, channel, photons, seed, threads, jobs, batch_size, resu
 
         if threads > numba.config.NUMBA_NUM_THREADS:
             raise SsskitError(f"--threads must be at most {numba.config.NUMBA_NUM_THREADS} on this machine")
-    if len(mats) == 1:
+    if len(mats) == 1 and scheduler is None:
         runs = {mats[0].name: simulate_material(mats[0], channel, photons=photons, seed=seed, threads=threads,
                                                 progress=True, resume=resume, use_cache=not no_cache,
                                                 batch_size=batch_size)}
     else:
         if resume or no_cache:
             raise SsskitError("--resume and --no-cache apply to a single material")
-        runs = simulate_many(mats, channel, photons=photons, seed=seed, jobs=jobs, batch_size=batch_size, progress=True)
+        runs = simulate_many(mats, channel, photons=photons, seed=seed, jobs=jobs, batch_size=batch_size, progress=True,
+                             scheduler=scheduler)
 
     def one(results):
         first = next(iter(results.values()))

@@ -453,11 +453,14 @@ def _sweep_job(args):
 
 
 def simulate_many(materials: list[Material], channels: str = "all", *, photons: int = DEFAULT_PHOTONS, seed: int = 1,
-                  jobs: int = 1, batch_size: int = DEFAULT_BATCH, progress: bool = False) -> dict[str, dict[str, MCResult]]:
-    """Simulate several materials across ``jobs`` local processes (one numba thread each).
+                  jobs: int = 1, batch_size: int = DEFAULT_BATCH, progress: bool = False,
+                  scheduler: str | None = None, connect_timeout_s: float = 20.0) -> dict[str, dict[str, MCResult]]:
+    """Simulate several materials across ``jobs`` local processes (one numba thread each), or
+    across a dask.distributed cluster when ``scheduler`` (an address such as 'tcp://host:8786')
+    is given (optional extra ``ssskit[cluster]``).
 
     Results depend only on each simulation's inputs and seed, so they are identical to a
-    single-process run; finished simulations land in the shared cache.
+    single-process run; on one machine finished simulations land in the shared cache.
     """
     if not (isinstance(jobs, int) and jobs >= 1):
         raise ProfileError(f"jobs must be a positive integer, got {jobs!r}")
@@ -465,6 +468,20 @@ def simulate_many(materials: list[Material], channels: str = "all", *, photons: 
     if len(set(names)) != len(names):
         raise ProfileError("material names in a sweep must be distinct")
     tasks = [(m, channels, photons, seed, batch_size) for m in materials]
+    if scheduler is not None:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise ProfileError("a scheduler address needs dask.distributed: pip install 'ssskit[cluster]'") from None
+        try:
+            client = Client(scheduler, timeout=f"{connect_timeout_s}s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ProfileError(f"cannot reach the dask scheduler at {scheduler!r}: {exc}") from None
+        try:
+            futures = client.map(_sweep_job, tasks, pure=False)
+            return dict(client.gather(futures))
+        finally:
+            client.close()
     if jobs == 1 or len(tasks) == 1:
         return {m.name: simulate_material(m, channels, photons=photons, seed=seed, progress=progress,
                                           batch_size=batch_size) for m in materials}
