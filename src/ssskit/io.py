@@ -50,10 +50,6 @@ def write_text(path: str | Path, text: str) -> None:
         tmp.write_text(text, encoding="utf-8")
 
 
-def write_json(path: str | Path, data: Any) -> None:
-    write_text(path, json.dumps(data, indent=1) + "\n")
-
-
 def check_suffix(path: str | Path, allowed: tuple[str, ...], what: str) -> str:
     """The lower-case suffix of ``path`` if it is one of ``allowed``; else a precise error."""
     suffix = Path(path).suffix.lower()

@@ -165,16 +165,6 @@ class Material:
     def is_semi_infinite(self) -> bool:
         return math.isinf(self.thickness_mm)
 
-    def channel(self, c: int | str) -> dict[str, float]:
-        """Scalar coefficients of one channel (index 0-2 or 'R'/'G'/'B')."""
-        i = _channel_index(c)
-        return {
-            "sigma_a": self.sigma_a[i],
-            "sigma_s": self.sigma_s[i],
-            "g": self.g[i],
-            "eta": self.eta,
-        }
-
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (mm^-1), loadable again by :func:`material_from_dict`."""
         return {
@@ -204,17 +194,6 @@ class Material:
 
 def _map2(fn, a: Triple, b: Triple) -> Triple:
     return (fn(a[0], b[0]), fn(a[1], b[1]), fn(a[2], b[2]))
-
-
-def _channel_index(c: int | str) -> int:
-    if isinstance(c, str):
-        key = c.strip().upper()
-        if key not in CHANNELS:
-            raise MaterialError(f"unknown channel {c!r} (use R, G or B)")
-        return CHANNELS.index(key)
-    if c not in (0, 1, 2):
-        raise MaterialError(f"channel index must be 0, 1 or 2, got {c!r}")
-    return int(c)
 
 
 # ---- presets ---------------------------------------------------------------------------------
@@ -411,6 +390,3 @@ def get_material(name_or_path: str | Path | Material) -> Material:
         return load_material(text)
     return MATERIALS.get(text)  # raises with the list of known names
 
-
-def preset_names() -> list[str]:
-    return MATERIALS.names()

@@ -132,11 +132,6 @@ class RGBProfile:
         """Cell integrals of each channel over an n x n grid centred on the origin: (n, n, 3)."""
         return np.stack([c.discretize_2d(cell_mm, n) for c in self.channels], axis=-1)
 
-    def default_r_grid(self, n: int = 512, fraction: float = 0.999) -> np.ndarray:
-        """An r grid (mm) from 0 to the largest channel radius holding ``fraction`` of its energy."""
-        r_max = float(np.max(self.radius_at_fraction(fraction)))
-        return np.linspace(0.0, r_max, n)
-
     def to_dict(self, r_mm: np.ndarray) -> dict[str, Any]:
         """The JSON shape of ``ssskit profile --json``: r_mm and per channel Rd and total_Rd."""
         r_mm = np.asarray(r_mm, dtype=float)
