@@ -165,6 +165,8 @@ def test_simulate_json_and_sweep_identity(capsys, tmp_path, monkeypatch):
         (["simulate", "--material", "skin1", "--out", "x.csv"], "must end in .npz"),
         (["simulate", "--material", "nope"], "unknown material"),
         (["simulate", "--material", "skin1,apple", "--out", "x.npz"], "single material"),
+        (["simulate", "--material", "skin1,apple", "--threads", "1"], "apply to a single material"),
+        (["simulate", "--material", "skin1", "--threads", "999"], "threads must be in"),
     ],
 )
 def test_simulate_bad_input(capsys, tmp_path, monkeypatch, args, fragment):

@@ -151,18 +151,13 @@ def simulate(materials_, channel, photons, seed, threads, jobs, scheduler, batch
         check_suffix(out, (".npz",), "--out")
         if len(mats) > 1:
             raise SsskitError("--out takes a single material; use --json for a sweep")
-    if threads is not None:
-        import numba
-
-        if threads > numba.config.NUMBA_NUM_THREADS:
-            raise SsskitError(f"--threads must be at most {numba.config.NUMBA_NUM_THREADS} on this machine")
     if len(mats) == 1 and scheduler is None:
         runs = {mats[0].name: simulate_material(mats[0], channel, photons=photons, seed=seed, threads=threads,
                                                 progress=True, resume=resume, use_cache=not no_cache,
                                                 batch_size=batch_size)}
     else:
-        if resume or no_cache:
-            raise SsskitError("--resume and --no-cache apply to a single material")
+        if resume or no_cache or threads is not None:
+            raise SsskitError("--resume, --no-cache and --threads apply to a single material (a sweep runs one thread per job)")
         runs = simulate_many(mats, channel, photons=photons, seed=seed, jobs=jobs, batch_size=batch_size, progress=True,
                              scheduler=scheduler)
 

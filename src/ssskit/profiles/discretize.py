@@ -9,7 +9,8 @@ spanned by the origin and a segment [a, b] is (1/2 pi) Int_{theta_a}^{theta_b} E
 with E(rho) = 2 pi Int_0^rho R(r) r dr the energy within radius rho and rho(theta) the distance
 from the origin to the segment's line along direction theta. Summing the signed triangles over a
 cell's edges gives the cell's integral. Writing E = T - S (S = energy outside rho) keeps
-precision in the tail: cell = T * winding / (2 pi) * 2 pi - (1/2 pi) sum_edges Int S dtheta.
+precision in the tail: cell = T * (sum_edges dtheta) / (2 pi) - (1/2 pi) sum_edges Int S dtheta,
+where the first term is T for the cell holding the origin and 0 for every other cell.
 Along an edge x = x_k the angle is psi = atan(y / |x_k|) and rho = |x_k| / cos psi, which is
 smooth on every edge because the origin sits at a cell centre (n odd, so |x_k| >= h / 2); the
 theta integral uses Gauss-Legendre quadrature. Horizontal edges follow from vertical ones by

@@ -1,18 +1,19 @@
 """The MCML photon transport in numba (Wang, Jacques, Zheng 1995, "MCML -- Monte Carlo modeling of
-light transport in multi-layered tissues"; section numbers below refer to that paper/manual).
+light transport in multi-layered tissues"; names in parentheses are the MCML 1.2.2 routines each
+rule follows).
 
 This module compiles on first use (cached on disk by numba); import it only when simulating.
 
 Per photon (MCML 1.2.2 semantics):
-* launch at the origin along +z with weight 1 - Rsp (Sec. 3.2; Rsp is reported separately);
-* step s = -ln(xi) / mu_t, or the optical depth left over from a boundary hit (Sec. 3.3-3.4);
+* launch at the origin along +z with weight 1 - Rsp (MCML's LaunchPhoton / Rspecular; Rsp is reported separately);
+* step s = -ln(xi) / mu_t, or the optical depth left over from a boundary hit (StepSizeInTissue, HitBoundary);
 * a step that crosses a boundary stops on it, keeps the unused optical depth, and the photon is
   reflected (total internal reflection, or with probability R(theta_i), the unpolarised Fresnel
-  reflectance) or transmitted, all-or-none (Sec. 3.5); an escaping photon scores its whole weight
+  reflectance) or transmitted, all-or-none (CrossUpOrNot / CrossDnOrNot, RFresnel); an escaping photon scores its whole weight
   at its exit radius;
-* otherwise implicit capture: deposit w mu_a / mu_t, keep the rest (Sec. 3.6); Henyey-Greenstein
-  scattering, the isotropic case exact (Sec. 3.7);
-* Russian roulette below weight 1e-4 with survival chance 0.1 (Sec. 3.8).
+* otherwise implicit capture: deposit w mu_a / mu_t, keep the rest (Drop); Henyey-Greenstein
+  scattering, the isotropic case exact (SpinTheta, Spin);
+* Russian roulette below weight 1e-4 with survival chance 0.1 (Roulette).
 
 Randomness: each batch of photons owns an xoroshiro128+ stream seeded by splitmix64 from
 (seed, batch index), so a batch's result depends on nothing but those two numbers: the same
@@ -76,7 +77,7 @@ def _uniform_open0(state):
 
 @njit(inline="always")
 def _fresnel(n1, n2, ca1):
-    """Unpolarised Fresnel reflectance and transmitted cosine, MCML's RFresnel (Sec. 3.5)."""
+    """Unpolarised Fresnel reflectance and transmitted cosine, MCML's RFresnel."""
     if n1 == n2:
         return 0.0, ca1
     if ca1 > COS_ZERO:
@@ -99,7 +100,7 @@ def _fresnel(n1, n2, ca1):
 
 @njit(inline="always")
 def _spin(g, ux, uy, uz, state):
-    """New direction after Henyey-Greenstein scattering (MCML Sec. 3.7, Eqs. 3.20-3.24)."""
+    """New direction after Henyey-Greenstein scattering (MCML's SpinTheta and Spin)."""
     if g == 0.0:
         cost = 2.0 * _uniform(state) - 1.0
     else:
@@ -166,7 +167,7 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
             else:
                 db = math.inf
             if s > db:
-                # move to the boundary, keep the unused optical depth (MCML Sec. 3.4)
+                # move to the boundary, keep the unused optical depth (MCML's HitBoundary / Photon.sleft)
                 sleft = (s - db) * mut
                 x += db * ux
                 y += db * uy
@@ -219,14 +220,14 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
                 x += s * ux
                 y += s * uy
                 z += s * uz
-                dwa = w * mua[layer] / mut  # implicit capture (MCML Sec. 3.6)
+                dwa = w * mua[layer] / mut  # implicit capture (MCML's Drop)
                 w -= dwa
                 abs_sum += dwa
                 ux, uy, uz = _spin(g[layer], ux, uy, uz, state)
             if alive and w < WEIGHT_THRESHOLD:
                 if w == 0.0:
                     alive = False
-                elif _uniform(state) < ROULETTE_CHANCE:  # Russian roulette (MCML Sec. 3.8)
+                elif _uniform(state) < ROULETTE_CHANCE:  # Russian roulette (MCML's Roulette)
                     w /= ROULETTE_CHANCE
                 else:
                     alive = False

@@ -15,7 +15,7 @@ from .montecarlo import MCConfig, _kernel_arrays
 
 
 def _fresnel(n1, n2, ca1):
-    """Vectorised MCML RFresnel: reflectance and transmitted cosine (MCML Sec. 3.5)."""
+    """Vectorised MCML RFresnel: reflectance and transmitted cosine (MCML's RFresnel)."""
     ca1 = np.asarray(ca1, dtype=float)
     r = np.ones_like(ca1)
     ca2 = np.zeros_like(ca1)

@@ -9,7 +9,7 @@ photons). This module sets it up, runs batches in chunks with a progress bar, ke
 when interrupted (Ctrl-C) so ``resume=True`` continues it, caches finished results on disk keyed
 by every input, and turns the tallies into a :class:`MonteCarloProfile`.
 
-Normalisation (MCML Sec. 4): Rd(r_i) = W_i / (2 pi r_i dr N) with r_i = (i + 1/2) dr the bin
+Normalisation (as MCML's SumScaleResult): Rd(r_i) = W_i / (2 pi r_i dr N) with r_i = (i + 1/2) dr the bin
 centre and W_i the weight escaping in annulus i (the last bin also collects everything beyond it);
 totals are weight sums / N. Standard errors use the batch method: the spread of per-batch means.
 """
@@ -109,7 +109,7 @@ class MCConfig:
         return hashlib.sha256(text.encode()).hexdigest()[:24]
 
     def specular_reflectance(self) -> float:
-        """Rsp = ((n0 - n1) / (n0 + n1))^2 at normal incidence (MCML Sec. 3.1, no glass layer)."""
+        """Rsp = ((n0 - n1) / (n0 + n1))^2 at normal incidence (MCML's Rspecular, no glass layer)."""
         n0, n1 = self.eta_above, self.layers[0].eta
         return ((n0 - n1) / (n0 + n1)) ** 2
 
@@ -261,7 +261,7 @@ def _kernel_arrays(cfg: MCConfig) -> dict[str, Any]:
         z_top[i] = z
         z = z + layer.thickness_mm
         z_bot[i] = z
-    # cosines of the critical angles (MCML Sec. 3.5): 0 where no TIR is possible
+    # cosines of the critical angles (as MCML's CriticalAngle): 0 where no TIR is possible
     up = np.zeros(n_l + 2)
     down = np.zeros(n_l + 2)
     for i in range(1, n_l + 1):
