@@ -25,3 +25,11 @@ class SamplingError(SsskitError):
 
 class SimulationInterrupted(ProfileError):
     """A Monte Carlo simulation was stopped (Ctrl-C); its finished batches are kept for resume."""
+
+
+class KernelError(SsskitError):
+    """Invalid kernel parameters, grids or kernel files."""
+
+
+class SignalError(SsskitError):
+    """Invalid test-signal or image parameters (sizes, angles, shapes)."""

@@ -1,0 +1,161 @@
+"""Separable kernel approximations of 2D diffusion profiles, reachable by name from one registry.
+
+    >>> from ssskit.kernels import build_kernel
+    >>> k = build_kernel("svd", profile, rank=3)          # doctest: +SKIP
+
+Method specs on the command line are ``name`` or ``name:value`` where value is the method's
+primary parameter (``svd:3``, ``gaussians:6``, ``guided:0``, ``artist:production``,
+``jimenez2012:25``, ``burley_fit:ratio``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from ..errors import KernelError
+from ..registry import Registry
+from .base import AnyKernel, Kernel, TapKernel, default_grid, load_kernel, save_kernel
+
+
+@dataclass(frozen=True)
+class KernelMethod:
+    """A registered method: builder(profile, cell_mm, n, **params), its primary parameter and its type."""
+
+    name: str
+    builder: Callable[..., AnyKernel]
+    primary: str | None
+    parse: Callable[[str], Any]
+    description: str
+    unit_energy: bool = False  # kernel normalised to 1 by construction (energy matched in evaluations)
+    needs_profile: bool = True
+
+
+def _svd(profile, cell_mm, n, rank=1, renormalise=False):
+    from .methods import kernel_svd
+
+    return kernel_svd(profile, cell_mm, n, rank=rank, renormalise=renormalise)
+
+
+def _svd_l1(profile, cell_mm, n, rank=1):
+    return _svd(profile, cell_mm, n, rank=rank, renormalise=True)
+
+
+def _gaussians(profile, cell_mm, n, count=6):
+    from .methods import kernel_gaussians
+
+    return kernel_gaussians(profile, cell_mm, n, count=count)
+
+
+def _preintegrated(profile, cell_mm, n):
+    from .methods import kernel_preintegrated
+
+    return kernel_preintegrated(profile, cell_mm, n)
+
+
+def _preintegrated_svd(profile, cell_mm, n, rank=1):
+    from .methods import kernel_preintegrated_svd
+
+    return kernel_preintegrated_svd(profile, cell_mm, n, rank=rank)
+
+
+def _artist(profile, cell_mm, n, preset="close fit", **kw):
+    from .methods import kernel_artist
+
+    return kernel_artist(profile, cell_mm, n, preset=preset, **kw)
+
+
+def _guided(profile, cell_mm, n, k=2.0, b=50.0):
+    from .guided import kernel_guided
+
+    return kernel_guided(profile, cell_mm, n, k=k, b=b)
+
+
+def _jimenez(profile, cell_mm, n, taps=11, strength=None, falloff=None):
+    from .jimenez2012 import JIMENEZ2012_FALLOFF, JIMENEZ2012_STRENGTH, kernel_jimenez2012
+
+    src = {"model": profile.model, "name": profile.name} if profile is not None else None
+    return kernel_jimenez2012(taps, JIMENEZ2012_STRENGTH if strength is None else strength,
+                              JIMENEZ2012_FALLOFF if falloff is None else falloff, source=src)
+
+
+def _burley_fit(profile, cell_mm, n, error="difference", model="jimenez2012"):
+    from .burley_fit import kernel_burley_fit
+
+    return kernel_burley_fit(profile, cell_mm, n, model=model, error=error)
+
+
+def _int(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise KernelError(f"expected an integer, got {text!r}") from None
+
+
+def _float(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise KernelError(f"expected a number, got {text!r}") from None
+
+
+METHODS: Registry[KernelMethod] = Registry("kernel method", KernelError)
+for _m in (
+    KernelMethod("svd", _svd, "rank", _int, "rank-N truncated SVD of Rd (supplement Eqs. S.2-S.4)"),
+    KernelMethod("svd_l1", _svd_l1, "rank", _int, "SVD rank-N with the L1 energy renormalisation (supplement B)"),
+    KernelMethod("gaussians", _gaussians, "count", _int, "sum of N Gaussians with the L1 constraint (Eq. S.1)"),
+    KernelMethod("preintegrated", _preintegrated, None, str, "pre-integrated rank-1 kernel (paper Eqs. 4-5)"),
+    KernelMethod("preintegrated_svd", _preintegrated_svd, "rank", _int,
+                 "pre-integrated kernel + rank-N SVD of the residual (paper Sec. 8, future work)"),
+    KernelMethod("artist", _artist, "preset", str, "artist-friendly two-Gaussian model (paper Eq. 6, Table 2; 'fit')",
+                 unit_energy=False, needs_profile=False),
+    KernelMethod("guided", _guided, "k", _float, "guided rank-1 optimisation (paper Eqs. 7-8, supplement S.7-S.9)"),
+    KernelMethod("jimenez2012", _jimenez, "taps", _int, "the engines' separable-SSS tap kernel (Jimenez 2012)",
+                 unit_energy=True, needs_profile=False),
+    KernelMethod("burley_fit", _burley_fit, "error", str, "engine profile fitted to Burley (Xie 2020 A.1, Eqs. 25-27)"),
+):
+    METHODS.register(_m.name, _m)
+
+
+def parse_method_spec(spec: str) -> tuple[KernelMethod, dict[str, Any], str]:
+    """``"svd:3"`` -> (the svd method, {"rank": 3}, "svd:3"); a bare name uses the method's defaults."""
+    text = str(spec).strip()
+    name, _, value = text.partition(":")
+    method = METHODS.get(name)
+    params: dict[str, Any] = {}
+    if value:
+        if method.primary is None:
+            raise KernelError(f"kernel method {method.name!r} takes no parameter, got {text!r}")
+        params[method.primary] = method.parse(value)
+    label = method.name + (f":{value}" if value else "")
+    return method, params, label
+
+
+def build_kernel(method: str, profile=None, cell_mm: float | None = None, n: int | None = None, **params) -> AnyKernel:
+    """Build a kernel by method name for ``profile`` on the grid (cell_mm, n) (default: :func:`default_grid`)."""
+    m = METHODS.get(method)
+    if profile is None and m.needs_profile:
+        raise KernelError(f"kernel method {m.name!r} needs a profile")
+    if cell_mm is None or n is None:
+        if profile is None:
+            cell_mm, n = (cell_mm or 0.05), (n or 201)
+        else:
+            dc, dn = default_grid(profile, n or 201)
+            cell_mm, n = (cell_mm or dc), (n or dn)
+    return m.builder(profile, float(cell_mm), int(n), **params)
+
+
+__all__ = [
+    "AnyKernel",
+    "Kernel",
+    "KernelMethod",
+    "METHODS",
+    "TapKernel",
+    "build_kernel",
+    "default_grid",
+    "load_kernel",
+    "parse_method_spec",
+    "save_kernel",
+]

@@ -1,0 +1,385 @@
+"""One kernel type for every separable approximation, plus the engines' tap kernels.
+
+A :class:`Kernel` is a signed rank-N sum of separable terms per RGB channel,
+
+    A_c(x, y) = sum_i s_ci a_ci(x) a_ci(y)          (separable-SSS paper, Eq. 2)
+
+with each 1D function a_ci tabulated on a uniform grid of cell centres x_mm (odd length, the
+origin at the centre cell). The tabulated values are **cell averages** in mm^-1, so a_ci * h is
+the energy weight of a cell of width h and the 2D cell weights are sum_i s_i (a_i h)(a_i h)^T,
+directly comparable with :meth:`RGBProfile.discretize_2d` on the same grid. Signs s_ci = +-1
+let SVD / eigen terms with negative eigenvalues and residual corrections be represented exactly.
+
+A :class:`TapKernel` is what engines ship: a list of 1D tap offsets (mm) and RGB weights, centre
+tap first; :meth:`TapKernel.to_kernel` deposits it onto a grid (linear interpolation, as the GPU's
+bilinear fetches do) so it can be compared and convolved like every other kernel.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import KernelError
+from ..io import atomic_output, check_suffix
+from ..profiles.discretize import grid_coordinates
+
+CHANNELS = ("R", "G", "B")
+
+
+def _check_grid(cell_mm: float, n: int) -> None:
+    if not (isinstance(n, (int, np.integer)) and n >= 3 and n % 2 == 1):
+        raise KernelError(f"kernel grid size must be an odd integer >= 3 (origin at a cell centre), got {n!r}")
+    if not (np.isfinite(cell_mm) and cell_mm > 0):
+        raise KernelError(f"kernel cell size must be a positive number of mm, got {cell_mm!r}")
+
+
+def default_grid(profile, n: int = 201, fraction: float = 0.999) -> tuple[float, int]:
+    """(cell_mm, n): an n-cell grid whose half-width is the largest channel radius holding ``fraction``.
+
+    For a profile with a finite domain (binned Monte Carlo), the radius is capped by the domain.
+    """
+    _check_grid(1.0, n)
+    radius = float(np.max(profile.radius_at_fraction(fraction)))
+    if not (np.isfinite(radius) and radius > 0):
+        raise KernelError(f"cannot size a kernel grid: radius holding {fraction} of the energy is {radius!r}")
+    return 2.0 * radius / n, int(n)
+
+
+def _cumulative_edges(values: np.ndarray, cell_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """Cell-edge coordinates and the running integral of piecewise-constant cell averages."""
+    n = values.shape[-1]
+    edges = (np.arange(n + 1) - n / 2.0) * cell_mm
+    cum = np.concatenate([np.zeros(values.shape[:-1] + (1,)), np.cumsum(values * cell_mm, axis=-1)], axis=-1)
+    return edges, cum
+
+
+@dataclass(frozen=True, eq=False)
+class Kernel:
+    """A signed rank-N separable kernel per channel (see the module docstring).
+
+    ``components``: (3, N, n) cell averages of a_ci in mm^-1; ``signs``: (3, N) of +-1;
+    ``cell_mm``: grid spacing; ``method``/``params``: how it was made; ``source``: the profile
+    it approximates (model, name, provenance).
+    """
+
+    cell_mm: float
+    components: np.ndarray
+    signs: np.ndarray
+    method: str
+    params: dict[str, Any] = field(default_factory=dict)
+    source: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        comps = np.asarray(self.components, dtype=float)
+        if comps.ndim != 3 or comps.shape[0] != 3 or comps.shape[1] < 1:
+            raise KernelError(f"kernel components must have shape (3, N, n) with N >= 1, got {comps.shape}")
+        _check_grid(float(self.cell_mm), comps.shape[2])
+        if not np.all(np.isfinite(comps)):
+            raise KernelError("kernel components contain NaN or infinity")
+        signs = np.asarray(self.signs, dtype=float)
+        if signs.shape != comps.shape[:2] or not np.all(np.abs(signs) == 1.0):
+            raise KernelError(f"kernel signs must be +-1 with shape {comps.shape[:2]}, got {signs.shape}")
+        object.__setattr__(self, "components", comps)
+        object.__setattr__(self, "signs", signs)
+        object.__setattr__(self, "cell_mm", float(self.cell_mm))
+
+    # ---- shape -------------------------------------------------------------------------------
+    @property
+    def n(self) -> int:
+        return int(self.components.shape[2])
+
+    @property
+    def rank(self) -> int:
+        """Number of separable terms N (per channel; channels run in parallel in one pass)."""
+        return int(self.components.shape[1])
+
+    @property
+    def convolutions_1d(self) -> int:
+        """1D convolutions per image (RGB together): 2N (paper Eq. 2)."""
+        return 2 * self.rank
+
+    @property
+    def x_mm(self) -> np.ndarray:
+        return grid_coordinates(self.cell_mm, self.n)
+
+    @property
+    def radius_mm(self) -> float:
+        return self.cell_mm * self.n / 2.0
+
+    # ---- values ------------------------------------------------------------------------------
+    def cell_weights(self) -> np.ndarray:
+        """Energy weights of the 1D cells, (3, N, n): a_ci * h."""
+        return self.components * self.cell_mm
+
+    def to_2d(self) -> np.ndarray:
+        """2D cell weights A[y, x, c] = sum_i s_ci w_ci[y] w_ci[x] (paper Eq. 2), shape (n, n, 3)."""
+        w = self.cell_weights()
+        return np.einsum("ci,ciy,cix->yxc", self.signs, w, w)
+
+    def total(self) -> np.ndarray:
+        """Total energy per channel, sum of A over the plane: sum_i s_i (sum a_i h)^2; shape (3,)."""
+        sums = self.cell_weights().sum(axis=2)
+        return np.sum(self.signs * sums**2, axis=1)
+
+    def l1_norm(self) -> np.ndarray:
+        """||A||_1 per channel (sum of |A| over the cells), shape (3,)."""
+        return np.abs(self.to_2d()).sum(axis=(0, 1))
+
+    def axis_slice(self) -> np.ndarray:
+        """A(x, 0) in mm^-2 at x_mm, shape (n, 3) (paper Fig. 5, axis slices)."""
+        c = self.n // 2
+        return np.einsum("ci,cix,ci->xc", self.signs, self.components, self.components[:, :, c])
+
+    def diagonal_slice(self) -> np.ndarray:
+        """A(x, x) in mm^-2 at the radii sqrt(2) |x_mm|, shape (n, 3) (paper Fig. 5, diagonal slices)."""
+        return np.einsum("ci,cix->xc", self.signs, self.components**2)
+
+    def width_mm(self) -> np.ndarray:
+        """Standard deviation of the 1D kernel's energy along an axis, per channel, shape (3,).
+
+        The axis marginal m(x) = sum_y A(x, y); sqrt(sum x^2 m / sum m). Used to compare how
+        sharp or wide approximations are (guided k = 0 vs 4).
+        """
+        marg = self.to_2d().sum(axis=0)  # (n, 3): sum over y
+        x2 = self.x_mm[:, None] ** 2
+        return np.sqrt((x2 * marg).sum(axis=0) / marg.sum(axis=0))
+
+    # ---- transforms --------------------------------------------------------------------------
+    def scaled(self, factors) -> "Kernel":
+        """The kernel with each channel's A multiplied by ``factors`` (3,) (must be > 0)."""
+        f = np.broadcast_to(np.asarray(factors, dtype=float), (3,))
+        if not np.all(np.isfinite(f)) or np.any(f <= 0):
+            raise KernelError(f"kernel scale factors must be positive and finite, got {f.tolist()}")
+        return self._replace(components=self.components * np.sqrt(f)[:, None, None])
+
+    def normalised(self, total=1.0) -> "Kernel":
+        """Each channel scaled so that its total (sum of A) equals ``total`` (scalar or (3,))."""
+        t = self.total()
+        if np.any(t <= 0):
+            raise KernelError(f"cannot normalise a kernel whose total is not positive: {t.tolist()}")
+        return self.scaled(np.broadcast_to(np.asarray(total, dtype=float), (3,)) / t)
+
+    def resample(self, cell_mm: float, n: int | None = None) -> "Kernel":
+        """The kernel on a new grid, conserving each component's integral over every new cell.
+
+        Components are treated as piecewise constant over their cells; the new cell averages are
+        exact integrals of that function (so totals are preserved wherever the grids overlap).
+        """
+        if n is None:
+            n = int(np.ceil(self.n * self.cell_mm / cell_mm))
+            n += 1 - n % 2
+        _check_grid(cell_mm, n)
+        edges, cum = _cumulative_edges(self.components, self.cell_mm)
+        new_edges = (np.arange(n + 1) - n / 2.0) * cell_mm
+        flat = cum.reshape(-1, cum.shape[-1])
+        c_new = np.stack([np.interp(new_edges, edges, row, left=0.0, right=row[-1]) for row in flat])
+        comps = np.diff(c_new, axis=-1).reshape(3, self.rank, n) / cell_mm
+        return self._replace(cell_mm=cell_mm, components=comps)
+
+    def truncated(self, rank: int) -> "Kernel":
+        """The first ``rank`` terms."""
+        if not (1 <= rank <= self.rank):
+            raise KernelError(f"rank must be in 1..{self.rank}, got {rank}")
+        return self._replace(components=self.components[:, :rank], signs=self.signs[:, :rank])
+
+    def _replace(self, **changes) -> "Kernel":
+        kw = dict(cell_mm=self.cell_mm, components=self.components, signs=self.signs, method=self.method,
+                  params=self.params, source=self.source)
+        kw.update(changes)
+        return Kernel(**kw)
+
+    # ---- comparison --------------------------------------------------------------------------
+    def compare(self, profile) -> dict[str, Any]:
+        """Errors of A against the profile's exact cell integrals on the kernel's own grid.
+
+        ``frobenius``: ||Rd - A||_F per channel; ``relative_frobenius``: divided by ||Rd||_F;
+        ``relative_l1``: ||Rd - A||_1 / ||Rd||_1; ``total_ratio``: sum A / sum Rd.
+        """
+        rd = profile.discretize_2d(self.cell_mm, self.n)
+        diff = rd - self.to_2d()
+        fro = np.sqrt((diff**2).sum(axis=(0, 1)))
+        return {
+            "frobenius": fro.tolist(),
+            "relative_frobenius": (fro / np.sqrt((rd**2).sum(axis=(0, 1)))).tolist(),
+            "relative_l1": (np.abs(diff).sum(axis=(0, 1)) / np.abs(rd).sum(axis=(0, 1))).tolist(),
+            "total_ratio": (self.total() / rd.sum(axis=(0, 1))).tolist(),
+        }
+
+    # ---- serialisation -----------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON shape of ``ssskit kernel --json`` for tabulated kernels."""
+        return {
+            "type": "tabulated",
+            "method": self.method,
+            "params": _jsonable(self.params),
+            "source": _jsonable(self.source),
+            "rank": self.rank,
+            "convolutions_1d": self.convolutions_1d,
+            "cell_mm": self.cell_mm,
+            "x_mm": self.x_mm.tolist(),
+            "units": "components are cell averages of a_i(x) in mm^-1; A(x,y) = sum_i sign_i a_i(x) a_i(y)",
+            "total": self.total().tolist(),
+            "channels": {
+                ch: {"signs": self.signs[i].tolist(), "components": self.components[i].tolist()}
+                for i, ch in enumerate(CHANNELS)
+            },
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "Kernel":
+        try:
+            comps = np.array([d["channels"][ch]["components"] for ch in CHANNELS], dtype=float)
+            signs = np.array([d["channels"][ch]["signs"] for ch in CHANNELS], dtype=float)
+            return cls(float(d["cell_mm"]), comps, signs, str(d["method"]), dict(d.get("params", {})),
+                       dict(d.get("source", {})))
+        except (KeyError, TypeError, ValueError) as exc:
+            if isinstance(exc, KernelError):
+                raise
+            raise KernelError(f"not a tabulated ssskit kernel: {exc}") from None
+
+
+@dataclass(frozen=True, eq=False)
+class TapKernel:
+    """A 1D tap kernel as engines ship it: offsets (mm) and RGB weights, centre tap first.
+
+    Applied as a horizontal then a vertical pass with the same taps, i.e. a rank-1 separable
+    kernel A(x, y) = k(x) k(y) with k = sum_i w_i delta(x - o_i).
+    """
+
+    offsets_mm: np.ndarray
+    weights: np.ndarray
+    method: str
+    params: dict[str, Any] = field(default_factory=dict)
+    source: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        o = np.asarray(self.offsets_mm, dtype=float)
+        w = np.asarray(self.weights, dtype=float)
+        if o.ndim != 1 or w.shape != (o.size, 3) or o.size < 1:
+            raise KernelError(f"tap kernel needs offsets (N,) and weights (N, 3), got {o.shape} and {w.shape}")
+        if not (np.all(np.isfinite(o)) and np.all(np.isfinite(w))):
+            raise KernelError("tap offsets and weights must be finite")
+        object.__setattr__(self, "offsets_mm", o)
+        object.__setattr__(self, "weights", w)
+
+    @property
+    def taps(self) -> int:
+        return int(self.offsets_mm.size)
+
+    rank = 1
+    convolutions_1d = 2
+
+    def total(self) -> np.ndarray:
+        return self.weights.sum(axis=0) ** 2
+
+    def scaled(self, factors) -> "TapKernel":
+        f = np.broadcast_to(np.asarray(factors, dtype=float), (3,))
+        if not np.all(np.isfinite(f)) or np.any(f <= 0):
+            raise KernelError(f"kernel scale factors must be positive and finite, got {f.tolist()}")
+        return TapKernel(self.offsets_mm, self.weights * np.sqrt(f), self.method, self.params, self.source)
+
+    def to_kernel(self, cell_mm: float, n: int | None = None) -> Kernel:
+        """Deposit the taps onto a grid of cell size ``cell_mm`` by linear interpolation between
+        the two nearest cell centres (what a bilinear texture fetch at that offset returns)."""
+        if n is None:
+            n = 2 * int(np.ceil(np.max(np.abs(self.offsets_mm)) / cell_mm)) + 3
+        _check_grid(cell_mm, n)
+        pos = self.offsets_mm / cell_mm + (n - 1) / 2.0
+        if np.any(pos < 0) or np.any(pos > n - 1):
+            raise KernelError(f"taps reach {np.max(np.abs(self.offsets_mm)):.4g} mm, beyond a {n}-cell grid")
+        lo = np.floor(pos).astype(int)
+        frac = pos - lo
+        hi = np.minimum(lo + 1, n - 1)
+        comp = np.zeros((3, 1, n))
+        for c in range(3):
+            np.add.at(comp[c, 0], lo, self.weights[:, c] * (1.0 - frac))
+            np.add.at(comp[c, 0], hi, self.weights[:, c] * frac)
+        return Kernel(cell_mm, comp / cell_mm, np.ones((3, 1)), self.method, self.params, self.source)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON shape of ``ssskit kernel --json`` for tap kernels (engine order, centre first)."""
+        return {
+            "type": "taps",
+            "method": self.method,
+            "params": _jsonable(self.params),
+            "source": _jsonable(self.source),
+            "taps": self.taps,
+            "convolutions_1d": self.convolutions_1d,
+            "units": "offsets in mm; weights per tap as [r, g, b]",
+            "offsets": self.offsets_mm.tolist(),
+            "weights": self.weights.tolist(),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "TapKernel":
+        try:
+            return cls(np.array(d["offsets"], dtype=float), np.array(d["weights"], dtype=float), str(d["method"]),
+                       dict(d.get("params", {})), dict(d.get("source", {})))
+        except (KeyError, TypeError, ValueError) as exc:
+            if isinstance(exc, KernelError):
+                raise
+            raise KernelError(f"not an ssskit tap kernel: {exc}") from None
+
+
+AnyKernel = Kernel | TapKernel
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+def save_kernel(kernel: AnyKernel, path: str | Path) -> None:
+    """Write a kernel as ``.json`` (the ``--json`` object) or ``.npz`` (arrays + a JSON ``meta``)."""
+    suffix = check_suffix(path, (".json", ".npz"), "kernel output")
+    d = kernel.to_dict()
+    with atomic_output(path) as tmp:
+        if suffix == ".json":
+            tmp.write_text(json.dumps(d, indent=1), encoding="utf-8")
+            return
+        if isinstance(kernel, TapKernel):
+            arrays = {"offsets_mm": kernel.offsets_mm, "weights": kernel.weights}
+        else:
+            arrays = {"x_mm": kernel.x_mm, "components": kernel.components, "signs": kernel.signs}
+        meta = {k: v for k, v in d.items() if k not in ("channels", "offsets", "weights", "x_mm")}
+        with open(tmp, "wb") as fh:
+            np.savez(fh, meta=json.dumps(meta), **arrays)
+
+
+def load_kernel(path: str | Path) -> AnyKernel:
+    """Read a kernel written by :func:`save_kernel`."""
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix not in (".json", ".npz"):
+        raise KernelError(f"kernel file {str(p)!r} must end in .json or .npz")
+    if not p.is_file():
+        raise KernelError(f"kernel file {str(p)!r} does not exist")
+    try:
+        if suffix == ".json":
+            d = json.loads(p.read_text(encoding="utf-8"))
+        else:
+            with np.load(p, allow_pickle=False) as z:
+                d = json.loads(str(z["meta"]))
+                if d.get("type") == "taps":
+                    d["offsets"], d["weights"] = z["offsets_mm"].tolist(), z["weights"].tolist()
+                else:
+                    comps, signs = z["components"], z["signs"]
+                    d["channels"] = {ch: {"components": comps[i].tolist(), "signs": signs[i].tolist()}
+                                     for i, ch in enumerate(CHANNELS)}
+    except (OSError, ValueError, KeyError) as exc:
+        raise KernelError(f"cannot read kernel file {str(p)!r}: {exc}") from None
+    if not isinstance(d, dict):
+        raise KernelError(f"kernel file {str(p)!r} does not hold a JSON object")
+    return TapKernel.from_dict(d) if d.get("type") == "taps" else Kernel.from_dict(d)
