@@ -221,6 +221,130 @@ def xie_c(points: int, as_json: bool) -> None:
         click.echo(f"{name:<14} c = {d['c']:.6f}   max |cdf(g(xi)) - xi| = {d['max_cdf_error']:.6f}")
 
 
+_PROFILE_MODELS = click.Choice(["montecarlo", "dipole", "burley", "gaussians"], case_sensitive=False)
+
+
+def _kernel_profile(material: str, model: str, photons: int):
+    from .profiles import profile_for_material
+
+    options = {"photons": photons} if model.lower() == "montecarlo" else {}
+    return profile_for_material(material, model, **options)
+
+
+@cli.command()
+@click.option("--material", metavar="NAME|FILE", default=None, help="Preset name or material file (not needed for jimenez2012 / artist presets).")
+@click.option("--method", required=True, metavar="METHOD", help="Kernel method: svd, svd_l1, gaussians, preintegrated, preintegrated_svd, artist, guided, jimenez2012, burley_fit.")
+@click.option("--model", type=_PROFILE_MODELS, default="montecarlo", show_default=True, help="Profile the kernel approximates.")
+@click.option("--photons", type=click.IntRange(1000, 10**12), default=200_000, show_default=True, help="Monte Carlo photons per channel (cached).")
+@click.option("--rank", type=click.IntRange(1, 64), default=None, help="Rank N (svd, svd_l1, preintegrated_svd) or number of Gaussians (gaussians).")
+@click.option("--k", "k_guide", type=click.FloatRange(0, 8), default=None, help="Guide exponent k for guided (paper: 0..4) [default: 2].")
+@click.option("--taps", type=click.IntRange(3, 255), default=None, help="Odd number of taps for jimenez2012 [default: 11; presets 11, 17, 25].")
+@click.option("--preset", default=None, help="Artist preset: 'close fit', 'production' or 'fit' [default: close fit].")
+@click.option("--error", "error_fn", type=click.Choice(["difference", "ratio", "derivative"]), default=None, help="burley_fit error function (Xie 2020 Eqs. 25-27) [default: difference].")
+@click.option("--size", "grid_n", type=click.IntRange(3, 2001), default=201, show_default=True, help="Cells across the kernel grid (odd).")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@click.option("--out", type=click.Path(dir_okay=False), default=None, help="Write FILE.npz or FILE.json.")
+def kernel(material, method, model, photons, rank, k_guide, taps, preset, error_fn, grid_n, as_json, out) -> None:
+    """A separable kernel approximation of a material's profile."""
+    from .io import check_suffix
+    from .kernels import METHODS, build_kernel, save_kernel
+
+    if out:
+        check_suffix(out, (".npz", ".json"), "--out")
+    m = METHODS.get(method)
+    params: dict = {}
+    given = {"--rank": rank, "--k": k_guide, "--taps": taps, "--preset": preset, "--error": error_fn}
+    allowed = {"svd": {"--rank": "rank"}, "svd_l1": {"--rank": "rank"}, "preintegrated_svd": {"--rank": "rank"},
+               "gaussians": {"--rank": "count"}, "guided": {"--k": "k"}, "jimenez2012": {"--taps": "taps"},
+               "artist": {"--preset": "preset"}, "burley_fit": {"--error": "error"}}.get(m.name, {})
+    for opt, value in given.items():
+        if value is None:
+            continue
+        if opt not in allowed:
+            raise SsskitError(f"{opt} does not apply to --method {m.name}")
+        params[allowed[opt]] = value
+    if grid_n % 2 == 0:
+        raise SsskitError(f"--size must be odd (the origin sits at a cell centre), got {grid_n}")
+    prof = None
+    if material is not None:
+        prof = _kernel_profile(material, model, photons)
+    elif m.needs_profile or (m.name == "artist" and str(params.get("preset", "")).lower() == "fit"):
+        raise SsskitError(f"--material is required for --method {m.name}")
+    k = build_kernel(m.name, prof, n=grid_n, **params)
+    if out:
+        save_kernel(k, out)
+    if as_json:
+        d = k.to_dict()
+        d["material"] = material
+        _echo_json(d)
+        return
+    click.echo(f"# {m.name} kernel ({m.description})" + (f" of {prof.name} ({prof.model})" if prof else ""))
+    click.echo(f"# rank {k.rank}, {k.convolutions_1d} 1D convolutions; total per channel: "
+               + ", ".join(f"{v:.6f}" for v in k.total()))
+    if hasattr(k, "offsets_mm"):
+        click.echo("offset_mm,w_R,w_G,w_B")
+        for o, w in zip(k.offsets_mm, k.weights):
+            click.echo(f"{o:.6f}," + ",".join(f"{v:.6f}" for v in w))
+    elif prof is not None:
+        cmp = k.compare(prof)
+        click.echo("# relative Frobenius error vs the discrete Rd: " + ", ".join(f"{v:.4g}" for v in cmp["relative_frobenius"]))
+    if out:
+        click.echo(f"# wrote {out}")
+
+
+@cli.command()
+@click.option("--material", required=True, metavar="NAME|FILE", help="Preset name or material file.")
+@click.option("--signal", default="edge", show_default=True, help="edge, edge-rotated, disk, line or texture.")
+@click.option("--methods", default="svd:1,svd:3,gaussians:1,gaussians:6,preintegrated,guided:2,artist:close fit,jimenez2012",
+              show_default=True, help="Comma-separated method specs name[:value] (svd:3, guided:0, artist:production...).")
+@click.option("--model", type=_PROFILE_MODELS, default="montecarlo", show_default=True, help="Profile giving the ground truth.")
+@click.option("--photons", type=click.IntRange(1000, 10**12), default=200_000, show_default=True, help="Monte Carlo photons per channel (cached).")
+@click.option("--size", type=click.IntRange(32, 4096), default=256, show_default=True, help="Image size in pixels.")
+@click.option("--no-perceptual", is_flag=True, help="Skip SSIM and FLIP.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object: method -> metrics.")
+def evaluate(material, signal, methods, model, photons, size, no_perceptual, as_json) -> None:
+    """Each method's error against the exact 2D convolution on a test signal."""
+    from .evaluate import evaluate as run
+    from .scenes import SIGNALS
+
+    SIGNALS.get(signal)
+    specs = [s for s in (x.strip() for x in methods.split(",")) if s]
+    from .kernels import parse_method_spec
+
+    for s in specs:
+        parse_method_spec(s)
+    prof = _kernel_profile(material, model, photons)
+    ev = run(prof, signal, specs, size=size, perceptual=not no_perceptual,
+             progress=None if as_json else (lambda m: _progress(f"method {m}")))
+    if as_json:
+        _echo_json(ev.to_json())
+        return
+    click.echo(f"# {prof.name} ({prof.model}), signal {signal}, {size}x{size} px at {ev.pixel_mm:.4g} mm/px")
+    cols = ["relative_rmse", "psnr"] + ([] if no_perceptual else ["ssim", "flip"])
+    click.echo(f"{'method':24s} conv1d " + " ".join(f"{c:>13s}" for c in cols))
+    for label, r in ev.results.items():
+        click.echo(f"{label:24s} {r['convolutions_1d']:6d} " + " ".join(f"{r[c]:13.5g}" for c in cols))
+
+
+@cli.command()
+@click.argument("names", nargs=-1)
+@click.option("--material", default="skin1", show_default=True, metavar="NAME|FILE", help="Material of the figures.")
+@click.option("--model", type=_PROFILE_MODELS, default="montecarlo", show_default=True)
+@click.option("--photons", type=click.IntRange(1000, 10**12), default=200_000, show_default=True, help="Monte Carlo photons per channel (cached).")
+@click.option("--out", type=click.Path(file_okay=False), default="ssskit-out/figures", show_default=True)
+def figures(names, material, model, photons, out) -> None:
+    """Regenerate the papers' figures (fig2 fig4 fig5 fig7 figS5; all by default)."""
+    from .figures import FIGURES, make_figures
+
+    for n in names:
+        FIGURES.get(n)
+    prof = _kernel_profile(material, model, photons)
+    written = make_figures(list(names), out, prof, progress=_progress)
+    for paths in written.values():
+        for p in paths:
+            click.echo(str(p))
+
+
 @cli.command()
 @click.option("--out", type=click.Path(file_okay=False), default="ssskit-out/demo", show_default=True, help="Output folder.")
 @click.option("--photons", type=click.IntRange(1000, 10**10), default=None, help="Monte Carlo photons per channel [default: 200,000].")
