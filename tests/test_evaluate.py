@@ -1,0 +1,131 @@
+"""Signals, metrics, evaluation of methods against the exact 2D convolution, and the kernel CLI."""
+
+import json
+
+import numpy as np
+import pytest
+
+from ssskit.cli import main
+from ssskit.errors import SignalError
+from ssskit.evaluate import evaluate
+from ssskit.metrics import flip, psnr, relative_rmse, rmse, ssim
+from ssskit.profiles import profile_for_material
+from ssskit.scenes import make_signal
+
+
+def run(capsys, *args):
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def skin():
+    return profile_for_material("skin1", "dipole")
+
+
+# ---- signals ------------------------------------------------------------------------------------
+
+def test_signals_shapes_and_coverage():
+    for name in ("edge", "edge-rotated", "disk", "line", "texture"):
+        img = make_signal(name, 64)
+        assert img.shape == (64, 64, 3) and img.min() >= 0 and img.max() <= 1
+    # a straight edge through the centre lights half the image; a disk of radius r covers pi r^2 pixels
+    assert make_signal("edge-rotated", 64).mean() == pytest.approx(0.5, abs=1e-3)
+    assert make_signal("disk", 128, radius_px=10).sum() / 3 == pytest.approx(np.pi * 100, rel=2e-3)
+    np.testing.assert_array_equal(make_signal("texture", 32), make_signal("texture", 32))
+    with pytest.raises(SignalError, match="size"):
+        make_signal("edge", 3)
+    with pytest.raises(SignalError, match="signal"):
+        make_signal("checkerboard", 32)
+
+
+# ---- metrics ------------------------------------------------------------------------------------
+
+def test_metrics_against_definitions():
+    a = np.random.default_rng(1).random((32, 32, 3))
+    b = a + 0.01
+    assert rmse(a, b) == pytest.approx(0.01)
+    assert psnr(a, b, peak=1.0) == pytest.approx(40.0, abs=1e-9)
+    assert relative_rmse(a, b) == pytest.approx(0.01 / np.sqrt(np.mean(a**2)))
+    assert ssim(a, a) == pytest.approx(1.0) and ssim(a, b) < 1.0
+    assert flip(a, a) == 0.0 and flip(a, np.zeros_like(a)) > 0.1
+    with pytest.raises(SignalError, match="shape"):
+        rmse(a, a[:10])
+
+
+# ---- the paper's qualitative claims, checked on skin ----------------------------------------------
+
+def test_paper_claims_on_skin(skin):
+    methods = ["svd:1", "svd:2", "svd:3", "svd:6", "gaussians:1", "preintegrated", "jimenez2012"]
+    edge = evaluate(skin, "edge", methods, size=128, perceptual=False).results
+    disk = evaluate(skin, "disk", methods, size=128, perceptual=False).results
+    # pre-integrated is exact on the axis-aligned edge (paper Sec. 4)
+    assert edge["preintegrated"]["relative_rmse"] < 1e-6
+    for res in (edge, disk):
+        # rank-1 SVD is worse than pre-integrated at the same cost (paper Sec. 3)
+        assert res["svd:1"]["relative_rmse"] > res["preintegrated"]["relative_rmse"]
+        # pre-integrated beats one Gaussian at the same number of convolutions (Fig. S.4)
+        assert res["gaussians:1"]["relative_rmse"] > res["preintegrated"]["relative_rmse"]
+        assert res["preintegrated"]["convolutions_1d"] == res["gaussians:1"]["convolutions_1d"] == 2
+        # SVD converges quickly with rank (Fig. 4)
+        errs = [res[f"svd:{r}"]["relative_rmse"] for r in (1, 2, 3, 6)]
+        assert all(a > 3 * b for a, b in zip(errs, errs[1:]))
+    assert edge["jimenez2012"]["energy_matched"] is True
+
+
+# ---- CLI ----------------------------------------------------------------------------------------
+
+def test_cli_kernel_jimenez_json(capsys):
+    code, out, _ = run(capsys, "kernel", "--method", "jimenez2012", "--json")
+    assert code == 0
+    data = json.loads(out)
+    assert data["offsets"][0] == 0.0 and len(data["weights"]) == 11
+    assert data["weights"][0] == pytest.approx([0.560479, 0.669086, 0.784728], abs=5e-7)
+
+
+def test_cli_kernel_tabulated_out(capsys, tmp_path):
+    out_file = tmp_path / "k.npz"
+    code, out, _ = run(capsys, "kernel", "--material", "skin1", "--model", "dipole", "--method", "svd", "--rank", "2",
+                       "--size", "51", "--json", "--out", str(out_file))
+    assert code == 0
+    data = json.loads(out)
+    assert len(data["x_mm"]) == 51 and len(data["channels"]["R"]["components"]) == 2
+    from ssskit.kernels import load_kernel
+
+    assert load_kernel(out_file).rank == 2
+
+
+def test_cli_evaluate_json(capsys):
+    code, out, _ = run(capsys, "evaluate", "--material", "skin1", "--model", "dipole", "--signal", "edge",
+                       "--methods", "preintegrated,svd:1", "--size", "64", "--json")
+    assert code == 0
+    data = json.loads(out)
+    assert set(data) == {"preintegrated", "svd:1"}
+    for r in data.values():
+        assert {"rmse", "relative_rmse", "psnr", "convolutions_1d", "ssim", "flip"} <= set(r)
+    assert data["preintegrated"]["psnr"] is None or data["preintegrated"]["psnr"] > 200
+
+
+def test_cli_figures(capsys, tmp_path):
+    code, out, _ = run(capsys, "figures", "fig2", "fig5", "--model", "dipole", "--out", str(tmp_path))
+    assert code == 0
+    assert (tmp_path / "fig2_singular_values.png").stat().st_size > 1000
+    assert (tmp_path / "fig5_slices.png").exists()
+
+
+@pytest.mark.parametrize("args,msg", [
+    (["kernel", "--method", "svd"], "--material is required"),
+    (["kernel", "--method", "nosuch", "--material", "skin1"], "kernel method"),
+    (["kernel", "--method", "svd", "--material", "skin1", "--taps", "7"], "--taps does not apply"),
+    (["kernel", "--method", "svd", "--material", "skin1", "--size", "50"], "odd"),
+    (["kernel", "--method", "jimenez2012", "--taps", "10"], "odd"),
+    (["kernel", "--method", "jimenez2012", "--out", "k.txt"], ".npz or .json"),
+    (["evaluate", "--material", "skin1", "--signal", "plaid"], "signal"),
+    (["evaluate", "--material", "skin1", "--methods", "svd:x"], "integer"),
+    (["figures", "fig99"], "figure"),
+])
+def test_cli_errors(capsys, args, msg):
+    code, out, err = run(capsys, *args)
+    assert code == 2 and out == ""
+    assert msg in err and err.count("\n") == 1
