@@ -10,7 +10,8 @@ import importlib
 
 __version__ = "0.1.0"
 
-_SUBMODULES = ("materials", "profiles", "sampling", "errors", "registry", "io", "report", "cli")
+_SUBMODULES = ("materials", "profiles", "kernels", "sampling", "scenes", "truth", "metrics", "evaluate", "figures", "errors",
+               "registry", "io", "report", "cli")
 
 
 def __getattr__(name: str):
