@@ -33,7 +33,7 @@ NOTES = """## Where the numbers disagree with the paper, and why
 - **Guided k = 2 is not the closest to the pre-integrated kernel here; k = 0 is.** The paper reports
   k ~ 2 reproducing A_p (Appendix A). Eq. 7 as written is degenerate on the axes: Gamma (Eq. 8)
   vanishes on x = 0 and y = 0, so mass placed in the centre cell of a costs almost nothing, and the
-  L1 constraint's slack collects there. The centre cell's share grows with k (table above) and
+  L1 constraint's slack collects there. The centre cell's share mostly grows with k (table above; up to k = 3 in every channel) and
   depends on the grid resolution. ssskit keeps the formulation as published (b = 50, Gamma averaged
   over cells, SLSQP coarse to fine) and reports the distance; the width statistic (standard deviation
   of the axis marginal) is not monotone in k for every channel, so the paper's "k = 0 sharper,
