@@ -13,7 +13,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable
 
-
 from ..errors import KernelError
 from ..registry import Registry
 from .base import AnyKernel, Kernel, TapKernel, default_grid, load_kernel, save_kernel
