@@ -38,6 +38,14 @@ def _check_grid(cell_mm: float, n: int) -> None:
         raise KernelError(f"kernel cell size must be a positive number of mm, got {cell_mm!r}")
 
 
+def _scale_factors(factors) -> np.ndarray:
+    """Per-channel scale factors (3,), each positive and finite, or a precise error."""
+    f = np.broadcast_to(np.asarray(factors, dtype=float), (3,))
+    if not np.all(np.isfinite(f)) or np.any(f <= 0):
+        raise KernelError(f"kernel scale factors must be positive and finite, got {f.tolist()}")
+    return f
+
+
 def default_grid(profile, n: int = 201, fraction: float = 0.999) -> tuple[float, int]:
     """(cell_mm, n): an n-cell grid whose half-width is the largest channel radius holding ``fraction``.
 
@@ -152,9 +160,7 @@ class Kernel:
     # ---- transforms --------------------------------------------------------------------------
     def scaled(self, factors) -> "Kernel":
         """The kernel with each channel's A multiplied by ``factors`` (3,) (must be > 0)."""
-        f = np.broadcast_to(np.asarray(factors, dtype=float), (3,))
-        if not np.all(np.isfinite(f)) or np.any(f <= 0):
-            raise KernelError(f"kernel scale factors must be positive and finite, got {f.tolist()}")
+        f = _scale_factors(factors)
         return self._replace(components=self.components * np.sqrt(f)[:, None, None])
 
     def normalised(self, total=1.0) -> "Kernel":
@@ -278,9 +284,7 @@ class TapKernel:
         return self.weights.sum(axis=0) ** 2
 
     def scaled(self, factors) -> "TapKernel":
-        f = np.broadcast_to(np.asarray(factors, dtype=float), (3,))
-        if not np.all(np.isfinite(f)) or np.any(f <= 0):
-            raise KernelError(f"kernel scale factors must be positive and finite, got {f.tolist()}")
+        f = _scale_factors(factors)
         return TapKernel(self.offsets_mm, self.weights * np.sqrt(f), self.method, self.params, self.source)
 
     def to_kernel(self, cell_mm: float, n: int | None = None) -> Kernel:
