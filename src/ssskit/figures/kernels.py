@@ -36,6 +36,14 @@ def fig2_singular_values(out: Path, profile, progress=None) -> list[Path]:
     return [path]
 
 
+def _finish(fig, title: str, path: Path, fontsize: float = 12) -> list[Path]:
+    """Title, lay out and write a figure; returns [path]."""
+    fig.suptitle(title, fontsize=fontsize)
+    fig.tight_layout()
+    save_figure(fig, path)
+    return [path]
+
+
 def _kernel_rgb(cells: np.ndarray, ref: np.ndarray) -> np.ndarray:
     """A 2D kernel as an RGB image: each channel over the true kernel's peak, log-compressed over 4 decades."""
     x = np.maximum(cells / ref.max(axis=(0, 1)), 1e-4)
@@ -58,11 +66,8 @@ def fig4_svd_ranks(out: Path, profile, progress=None) -> list[Path]:
         ax.imshow(_kernel_rgb(cells, rd).clip(0, 1), extent=(-ext, ext, -ext, ext), origin="lower")
         ax.set_title(title, fontsize=9)
         ax.set_xlabel("x [mm]")
-    fig.suptitle(f"Rank-N SVD approximations, {profile.name} (log10 of each channel over 4 decades)")
-    fig.tight_layout()
-    path = out / "fig4_svd_ranks.png"
-    save_figure(fig, path)
-    return [path]
+    return _finish(fig, f"Rank-N SVD approximations, {profile.name} (log10 of each channel over 4 decades)",
+                   out / "fig4_svd_ranks.png")
 
 
 def fig5_slices(out: Path, profile, progress=None) -> list[Path]:
@@ -87,11 +92,7 @@ def fig5_slices(out: Path, profile, progress=None) -> list[Path]:
             ax.legend(fontsize=7)
     for ax in axes[1]:
         ax.set_xlabel("mm")
-    fig.suptitle(f"Pre-integrated kernel vs ground truth, {profile.name} (paper Fig. 5)")
-    fig.tight_layout()
-    path = out / "fig5_slices.png"
-    save_figure(fig, path)
-    return [path]
+    return _finish(fig, f"Pre-integrated kernel vs ground truth, {profile.name} (paper Fig. 5)", out / "fig5_slices.png")
 
 
 def _comparison(out: Path, profile, signal: str, filename: str, title: str, progress, crop) -> list[Path]:
@@ -114,11 +115,7 @@ def _comparison(out: Path, profile, signal: str, filename: str, title: str, prog
         text = label if res is None else (f"{label}  [{res['convolutions_1d']} conv]  rel.RMSE {res['relative_rmse']:.2e}"
                                           f"  PSNR {res['psnr']:.1f}  FLIP {res['flip']:.3f}")
         ax.set_title(text, fontsize=7, loc="left")
-    fig.suptitle(f"{title}: {profile.name} ({profile.model}), {ev.pixel_mm:.3f} mm/pixel", fontsize=9)
-    fig.tight_layout()
-    path = out / filename
-    save_figure(fig, path)
-    return [path]
+    return _finish(fig, f"{title}: {profile.name} ({profile.model}), {ev.pixel_mm:.3f} mm/pixel", out / filename, 9)
 
 
 def fig7_step(out: Path, profile, progress=None) -> list[Path]:
