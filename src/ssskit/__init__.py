@@ -10,7 +10,7 @@ import importlib
 
 __version__ = "0.1.0"
 
-_SUBMODULES = ("materials", "profiles", "kernels", "sampling", "scenes", "truth", "metrics", "evaluate", "figures", "errors",
+_SUBMODULES = ("materials", "profiles", "kernels", "sampling", "screenspace", "scenes", "truth", "metrics", "evaluate", "figures", "errors",
                "registry", "io", "report", "cli")
 
 

@@ -1,0 +1,232 @@
+"""1D taps for the screen-space separable pass: importance-sampled, uniform, and the engine's quadratic.
+
+A :class:`SeparableTaps` is what the pass runs: for each separable term r of a kernel (rank R),
+N tap offsets o_rk in mm along the filtering axis (shared by R, G and B), RGB weights w_rkc and a
+sign s_rc, so that the 2D kernel applied is
+
+    A_c(x, y) = sum_r s_rc k_rc(x) k_rc(y),   k_rc = sum_k w_rkc delta(x - o_rk)   (paper Eq. 2)
+
+Weights are normalised so that every channel's 2D kernel sums to 1 (the pass conserves energy; the
+material's total diffuse reflectance belongs to the albedo layer). Taps are stored centre first,
+sorted by |offset|, so the taps inside a jitter radius are a prefix.
+
+Placement (``method``):
+
+* ``importance`` (separable-SSS paper section 6): the N cells are equal-probability quantiles
+  [F^-1(k/N), F^-1((k+1)/N)] of the dominant channel's 1D function |a| (the widest channel, the
+  one with the largest axis standard deviation), so all channels sample the same positions; each
+  tap sits at its cell's centroid under |a|; each channel's weight is its a integrated over the
+  cell (exact for the tabulated cell averages).
+* ``uniform``: N equally spaced offsets over the same span (-o_max, o_max) as the importance taps;
+  each cell is the set of points nearest to its tap, the outer cells reaching the kernel's edge.
+* ``quadratic``: the engines' spacing o_i = sign(t_i) t_i^2 / R (Jimenez 2012 demo) rescaled to
+  the same span, weights integrated over the cells between tap midpoints.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import KernelError, SamplingError
+
+TAP_METHODS = ("importance", "uniform", "quadratic")
+_SUBDIV = 64  # sub-cells per kernel cell when integrating centroids
+
+
+@dataclass(frozen=True, eq=False)
+class SeparableTaps:
+    """Taps of a rank-R separable kernel (module docstring): offsets (R, N) mm, weights (R, N, 3), signs (R, 3)."""
+
+    offsets_mm: np.ndarray
+    weights: np.ndarray
+    signs: np.ndarray
+    method: str
+    extent_mm: float
+    tau_max_mm2: float | None = None
+    width_mm: float = 1.0
+    source: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        o = np.atleast_2d(np.asarray(self.offsets_mm, dtype=float))
+        w = np.asarray(self.weights, dtype=float)
+        if w.ndim == 2:
+            w = w[None]
+        s = np.atleast_2d(np.asarray(self.signs, dtype=float))
+        if w.shape != o.shape + (3,) or s.shape != (o.shape[0], 3):
+            raise SamplingError(f"taps need offsets (R, N), weights (R, N, 3), signs (R, 3); got "
+                                f"{o.shape}, {w.shape}, {s.shape}")
+        if not (np.all(np.isfinite(o)) and np.all(np.isfinite(w))):
+            raise SamplingError("tap offsets and weights must be finite")
+        if not np.all(np.abs(s) == 1):
+            raise SamplingError("tap signs must be +-1")
+        order = np.argsort(np.abs(o), axis=1, kind="stable")
+        o = np.take_along_axis(o, order, axis=1)
+        w = np.take_along_axis(w, order[..., None], axis=1)
+        for name, val in (("offsets_mm", o), ("weights", w), ("signs", s)):
+            object.__setattr__(self, name, np.ascontiguousarray(val))
+        if not (np.isfinite(self.extent_mm) and self.extent_mm > 0):
+            raise SamplingError(f"tap extent must be positive, got {self.extent_mm!r}")
+
+    @property
+    def rank(self) -> int:
+        return int(self.offsets_mm.shape[0])
+
+    @property
+    def taps(self) -> int:
+        return int(self.offsets_mm.shape[1])
+
+    @property
+    def passes(self) -> int:
+        """1D passes per frame: 2R (paper Eq. 2)."""
+        return 2 * self.rank
+
+    def total(self) -> np.ndarray:
+        """Sum of the 2D kernel per channel: sum_r s_r (sum_k w_rk)^2, shape (3,)."""
+        return np.sum(self.signs * self.weights.sum(axis=1) ** 2, axis=0)
+
+    def normalised(self) -> "SeparableTaps":
+        t = self.total()
+        if np.any(t <= 0):
+            raise SamplingError(f"cannot normalise taps whose kernel total is not positive: {t.tolist()}")
+        return self._replace(weights=self.weights / np.sqrt(t))
+
+    def jitter_count(self, jitter: float) -> int:
+        """How many taps (a prefix) lie within the jitter radius of the centre (paper section 6).
+
+        The radius is ``jitter`` times the kernel size, the full span 2 * extent_mm of the taps
+        (the paper: "closer than 10% of the kernel size").
+        """
+        if not (0.0 <= jitter <= 1.0):
+            raise SamplingError(f"jitter radius must be a fraction of the kernel size in [0, 1], got {jitter!r}")
+        if jitter == 0:
+            return 0
+        return int(np.max(np.sum(np.abs(self.offsets_mm) <= jitter * 2.0 * self.extent_mm + 1e-12, axis=1)))
+
+    def to_kernel(self, cell_mm: float, n: int | None = None):
+        """The taps deposited on a grid by linear interpolation (bilinear fetches), as a :class:`Kernel`."""
+        from ..kernels.base import Kernel, TapKernel
+
+        if n is None:
+            n = 2 * int(np.ceil(np.max(np.abs(self.offsets_mm)) / cell_mm)) + 3
+        comps = [TapKernel(self.offsets_mm[r], self.weights[r], self.method).to_kernel(cell_mm, n).components[:, 0]
+                 for r in range(self.rank)]
+        return Kernel(cell_mm, np.stack(comps, axis=1), self.signs.T, f"taps:{self.method}", {"taps": self.taps},
+                      self.source)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"type": "separable_taps", "method": self.method, "taps": self.taps, "rank": self.rank,
+                "extent_mm": self.extent_mm, "tau_max_mm2": self.tau_max_mm2, "width_mm": self.width_mm,
+                "offsets_mm": self.offsets_mm.tolist(), "weights": self.weights.tolist(),
+                "signs": self.signs.tolist(), "source": self.source}
+
+    def _replace(self, **kw) -> "SeparableTaps":
+        d = dict(offsets_mm=self.offsets_mm, weights=self.weights, signs=self.signs, method=self.method,
+                 extent_mm=self.extent_mm, tau_max_mm2=self.tau_max_mm2, width_mm=self.width_mm, source=self.source)
+        d.update(kw)
+        return SeparableTaps(**d)
+
+
+def _check_count(n: int) -> int:
+    if not (isinstance(n, (int, np.integer)) and n >= 1 and n % 2 == 1):
+        raise SamplingError(f"tap count must be an odd positive integer (a centre tap), got {n!r}")
+    return int(n)
+
+
+def _fine(kernel, r: int):
+    """Fine sub-cell edges and cumulative integrals of every channel's a_r and of the dominant |a_r|."""
+    comps = kernel.components[:, r]  # (3, n)
+    comps = 0.5 * (comps + comps[:, ::-1])  # kernels are even; remove rounding asymmetry
+    h = kernel.cell_mm / _SUBDIV
+    fine = np.repeat(comps, _SUBDIV, axis=1)  # (3, n*SUB) piecewise constant
+    edges = (np.arange(fine.shape[1] + 1) - fine.shape[1] / 2.0) * h
+    x = 0.5 * (edges[1:] + edges[:-1])
+    widths = np.sqrt((np.abs(fine) * x**2).sum(axis=1) / np.maximum(np.abs(fine).sum(axis=1), 1e-300))
+    dom = int(np.argmax(widths))
+    p = np.abs(fine[dom])
+    if p.sum() <= 0:
+        raise SamplingError(f"kernel term {r} is zero in every channel; nothing to sample")
+    cum = np.concatenate([np.zeros((3, 1)), np.cumsum(fine * h, axis=1)], axis=1)
+    pcum = np.concatenate([[0.0], np.cumsum(p * h)])
+    mcum = np.concatenate([[0.0], np.cumsum(p * x * h)])
+    return edges, cum, pcum, mcum, float(widths[dom])
+
+
+def _cell_weights(edges, cum, bounds) -> np.ndarray:
+    """(N, 3): each channel's integral over the cells between consecutive ``bounds``."""
+    at = np.stack([np.interp(bounds, edges, cum[c]) for c in range(3)], axis=1)
+    return np.diff(at, axis=0)
+
+
+def _term_taps(kernel, r: int, n: int, method: str):
+    edges, cum, pcum, mcum, width = _fine(kernel, r)
+    lo, hi = edges[0], edges[-1]
+    # importance cells: equal-probability quantiles of the dominant |a| (paper section 6)
+    q = np.linspace(0.0, pcum[-1], n + 1)
+    # invert the increasing cumulative; flat stretches (zero density) resolve to their left end
+    bounds = np.interp(q, pcum, edges)
+    bounds[0], bounds[-1] = lo, hi
+    mass = np.diff(np.interp(bounds, edges, pcum))
+    first = np.diff(np.interp(bounds, edges, mcum))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centroid = np.where(mass > 0, first / mass, 0.5 * (bounds[1:] + bounds[:-1]))
+    centroid = 0.5 * (centroid - centroid[::-1])  # exact symmetry, centre tap at 0
+    span = float(np.max(np.abs(centroid)))
+    if method == "importance":
+        offsets = centroid
+    elif span == 0.0:
+        offsets = np.zeros(n)
+    elif method == "uniform":
+        offsets = np.linspace(-span, span, n)
+    elif method == "quadratic":
+        rng = 3.0 if n > 20 else 2.0
+        t = np.linspace(-rng, rng, n)
+        offsets = np.sign(t) * t**2 / rng * (span / rng)
+    else:
+        raise SamplingError(f"unknown tap placement {method!r}; choose from {', '.join(TAP_METHODS)}")
+    if method != "importance":
+        mid = 0.5 * (offsets[1:] + offsets[:-1])
+        bounds = np.concatenate([[lo], mid, [hi]])
+    return offsets, _cell_weights(edges, cum, bounds), width
+
+
+def make_taps(kernel, n: int = 7, method: str = "importance") -> SeparableTaps:
+    """Taps for any :class:`Kernel` or engine :class:`TapKernel` (module docstring), normalised.
+
+    A TapKernel is used as shipped (its own offsets and weights) whatever ``method`` says.
+    For the two-Gaussian (artist) model, tau_max = max(sigma_near, sigma_far)^2 over channels is
+    kept for the depth correction of supplement E.
+    """
+    from ..kernels.base import Kernel, TapKernel
+
+    if isinstance(kernel, TapKernel):
+        o = kernel.offsets_mm
+        return SeparableTaps(o[None], kernel.weights[None], np.ones((1, 3)), kernel.method,
+                             float(np.max(np.abs(o))) or 1.0, None, _tap_width(o, kernel.weights),
+                             {"kernel": kernel.method, **kernel.source}).normalised()
+    if not isinstance(kernel, Kernel):
+        raise KernelError(f"taps need a Kernel or TapKernel, got {type(kernel).__name__}")
+    n = _check_count(n)
+    if method not in TAP_METHODS:
+        raise SamplingError(f"unknown tap placement {method!r}; choose from {', '.join(TAP_METHODS)}")
+    offs, wts, widths = [], [], []
+    for r in range(kernel.rank):
+        o, w, width = _term_taps(kernel, r, n, method)
+        offs.append(o)
+        wts.append(w)
+        widths.append(width)
+    offsets = np.stack(offs)
+    extent = float(np.max(np.abs(offsets))) or kernel.cell_mm
+    tau = None
+    if kernel.method == "artist" and "sigma_far_mm" in kernel.params:
+        tau = float(max(np.max(kernel.params["sigma_near_mm"]), np.max(kernel.params["sigma_far_mm"]))) ** 2
+    taps = SeparableTaps(offsets, np.stack(wts), kernel.signs.T, method, extent, tau, float(widths[0]),
+                         {"kernel": kernel.method, "params": kernel.params, **kernel.source})
+    return taps.normalised()
+
+
+def _tap_width(offsets: np.ndarray, weights: np.ndarray) -> float:
+    w = np.abs(weights).max(axis=1)
+    return float(np.sqrt(np.sum(w * offsets**2) / np.sum(w))) or 1.0
