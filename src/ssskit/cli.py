@@ -346,6 +346,83 @@ def figures(names, material, model, photons, out) -> None:
 
 
 @cli.command()
+@click.option("--scene", required=True, metavar="NAME|GBUFFER.exr", help="Built-in scene (sphere, slab, ear, bumpy) or a G-buffer EXR.")
+@click.option("--material", default="skin1", show_default=True, metavar="NAME|FILE", help="Preset name or material file.")
+@click.option("--kernel", "kernel_spec", default="preintegrated", show_default=True, metavar="METHOD", help="Kernel method spec name[:value] (preintegrated, svd:2, artist:production, jimenez2012...).")
+@click.option("--taps", type=click.IntRange(1, 255), default=7, show_default=True, help="Taps per 1D pass (odd).")
+@click.option("--tap-method", type=click.Choice(["importance", "uniform", "quadratic"]), default="importance", show_default=True, help="Tap placement.")
+@click.option("--jitter", type=click.FloatRange(0, 1), default=0.1, show_default=True, help="Jitter radius as a fraction of the kernel size (paper: 0.1, 0.3 for close-ups).")
+@click.option("--depth-mode", type=click.Choice(["gaussian", "follow", "none"]), default=None, help="Depth test [default: gaussian for artist kernels, follow otherwise].")
+@click.option("--size", default="256x192", show_default=True, metavar="WxH", help="Image size of a built-in scene.")
+@click.option("--spp", type=click.IntRange(1, 4096), default=32, show_default=True, help="Samples per pixel of the G-buffer render.")
+@click.option("--frame", type=click.IntRange(0, 100000), default=0, show_default=True, help="Frame along the scene's camera orbit (and jitter seed).")
+@click.option("--seed", type=click.IntRange(0, 2**31 - 1), default=0, show_default=True, help="Random seed (renders and jitter).")
+@click.option("--model", type=_PROFILE_MODELS, default="dipole", show_default=True, help="Profile the kernel approximates.")
+@click.option("--reference", is_flag=True, help="Also path-trace the scene (Mitsuba volpathmis; cached) and compare.")
+@click.option("--reference-spp", type=click.IntRange(1, 1 << 20), default=64, show_default=True, help="Samples per pixel of the path-traced reference.")
+@click.option("--save-gbuffer", type=click.Path(dir_okay=False), default=None, help="Also write the G-buffer as a multi-layer EXR.")
+@click.option("--out", type=click.Path(dir_okay=False), default=None, help="Write the image: FILE.exr (linear, with sss/exact/reference layers) or FILE.png (tone-mapped).")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object with settings and error metrics.")
+def render(scene, material, kernel_spec, taps, tap_method, jitter, depth_mode, size, spp, frame, seed, model, reference,
+           reference_spp, save_gbuffer, out, as_json) -> None:
+    """Screen-space separable SSS of a scene, with errors against the exact 2D convolution."""
+    from .io import check_suffix
+    from .kernels import parse_method_spec
+    from .render import render as run
+    from .render import save_image
+
+    if out:
+        check_suffix(out, (".exr", ".png"), "--out")
+    if save_gbuffer:
+        check_suffix(save_gbuffer, (".exr",), "--save-gbuffer")
+    if taps % 2 == 0:
+        raise SsskitError(f"--taps must be odd (a centre tap), got {taps}")
+    try:
+        width, height = (int(v) for v in size.lower().split("x"))
+    except ValueError:
+        raise SsskitError(f"--size must look like 256x192, got {size!r}") from None
+    parse_method_spec(kernel_spec)
+    if str(scene).lower().endswith(".exr") and not Path(scene).is_file():
+        raise SsskitError(f"G-buffer file {scene!r} does not exist")
+    res = run(scene, material=material, kernel=kernel_spec, taps=taps, tap_method=tap_method, jitter=jitter,
+              width=width, height=height, spp=spp, seed=seed, frame=frame, model=model, depth_mode=depth_mode,
+              reference=reference, reference_spp=reference_spp, progress=None if as_json else _progress)
+    if save_gbuffer:
+        res.gbuffer.save(save_gbuffer)
+    if out:
+        layers = {"sss": res.sss, "diffuse": res.gbuffer.diffuse}
+        if res.exact is not None:
+            layers["exact"] = res.gbuffer.composite(res.exact)
+        if res.reference is not None:
+            layers["reference"] = res.reference
+        save_image(out, res.image, layers)
+    if as_json:
+        _echo_json({"settings": res.settings, "metrics": _jsonable_metrics(res.metrics),
+                    "taps": res.taps.to_dict()})
+        return
+    s = res.settings
+    click.echo(f"# {s['scene']}: {s['material']} ({s['model']}), {s['kernel']} with {s['taps']} {s['tap_method']} taps, "
+               f"jitter {s['jitter']:g}, {s['size'][0]}x{s['size'][1]}")
+    for against, m in res.metrics.items():
+        click.echo(f"vs {against:12s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
+    if out:
+        click.echo(f"# wrote {out}")
+
+
+def _jsonable_metrics(metrics: dict) -> dict:
+    import math
+
+    def fix(v):
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        if isinstance(v, dict):
+            return {k: fix(x) for k, x in v.items()}
+        return v
+
+    return fix(metrics)
+
+
+@cli.command()
 @click.option("--out", type=click.Path(file_okay=False), default="ssskit-out/demo", show_default=True, help="Output folder.")
 @click.option("--photons", type=click.IntRange(1000, 10**10), default=None, help="Monte Carlo photons per channel [default: 200,000].")
 @click.option("--full", is_flag=True, help="Monte Carlo with the supplement's 10^7 photons per channel (slow the first time, then cached).")

@@ -17,10 +17,12 @@ Placement (``method``):
   one with the largest axis standard deviation), so all channels sample the same positions; each
   tap sits at its cell's centroid under |a|; each channel's weight is its a integrated over the
   cell (exact for the tabulated cell averages).
-* ``uniform``: N equally spaced offsets over the same span (-o_max, o_max) as the importance taps;
-  each cell is the set of points nearest to its tap, the outer cells reaching the kernel's edge.
-* ``quadratic``: the engines' spacing o_i = sign(t_i) t_i^2 / R (Jimenez 2012 demo) rescaled to
-  the same span, weights integrated over the cells between tap midpoints.
+* ``uniform``: N equally spaced offsets over the kernel's support, the central interval holding
+  ``SUPPORT_FRACTION`` (99%) of the dominant channel's |a| (the paper's Fig. 11 discretises the 1D
+  function uniformly over its domain); each cell is the set of points nearest to its tap, the outer
+  cells reaching the kernel's edge.
+* ``quadratic``: the engines' spacing o_i = sign(t_i) t_i^2 / R (Jimenez 2012 demo) over the same
+  support, weights integrated over the cells between tap midpoints.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from ..errors import KernelError, SamplingError
 
 TAP_METHODS = ("importance", "uniform", "quadratic")
 _SUBDIV = 64  # sub-cells per kernel cell when integrating centroids
+SUPPORT_FRACTION = 0.99  # of the dominant |a|: the span of uniform and quadratic taps
 
 
 @dataclass(frozen=True, eq=False)
@@ -173,7 +176,9 @@ def _term_taps(kernel, r: int, n: int, method: str):
     with np.errstate(invalid="ignore", divide="ignore"):
         centroid = np.where(mass > 0, first / mass, 0.5 * (bounds[1:] + bounds[:-1]))
     centroid = 0.5 * (centroid - centroid[::-1])  # exact symmetry, centre tap at 0
-    span = float(np.max(np.abs(centroid)))
+    tail = 0.5 * (1.0 - SUPPORT_FRACTION) * pcum[-1]
+    support = np.interp([tail, pcum[-1] - tail], pcum, edges)
+    span = float(0.5 * (support[1] - support[0])) if n > 1 else 0.0
     if method == "importance":
         offsets = centroid
     elif span == 0.0:
