@@ -50,84 +50,100 @@ def kernels(mode: int):
         return h ^ (h >> np.uint64(16))
 
     @njit(fastmath=_FASTMATH, inline="always")
+    def texel_row(buf, i, b, z0, p, w):
+        """Weighted texel i of a (W, 4) RGBZ row buffer: (g, g*RGB), g = b * depth factor; 0 off the image."""
+        if i < 0 or i >= w:
+            return np.float32(0.0), np.float32(0.0), np.float32(0.0), np.float32(0.0)
+        iu = np.uintp(i)
+        g = b * factor(buf[iu, 3] - z0, p)
+        return g, g * buf[iu, 0], g * buf[iu, 1], g * buf[iu, 2]
+
+    @njit(fastmath=_FASTMATH, inline="always")
+    def texel_col(arr, j, x, b, z0, p, h):
+        """The same for row j of column x of an (H, W, 4) RGBZ array."""
+        if j < 0 or j >= h:
+            return np.float32(0.0), np.float32(0.0), np.float32(0.0), np.float32(0.0)
+        ju = np.uintp(j)
+        g = b * factor(arr[ju, x, 3] - z0, p)
+        return g, g * arr[ju, x, 0], g * arr[ju, x, 1], g * arr[ju, x, 2]
+
+    @njit(fastmath=_FASTMATH, inline="always")
     def side_row(buf, i, u, t, z0, p):
-        """Bilinear sample between texels i, i+1 (unsigned, inside) of a (W, 4) RGBZ row buffer:
-        (f, f*RGB) with f the depth factor of the larger depth difference of the two texels."""
-        dz = max(abs(buf[i, 3] - z0), abs(buf[i + 1, 3] - z0))
-        f = factor(dz, p)
-        fu = f * u
-        ft = f * t
-        return f, fu * buf[i, 0] + ft * buf[i + 1, 0], fu * buf[i, 1] + ft * buf[i + 1, 1], \
-            fu * buf[i, 2] + ft * buf[i + 1, 2]
+        """Bilinear sample between texels i, i+1 (unsigned, inside the image) of a row buffer, each
+        texel weighted by its own depth factor: (g, g*RGB) summed over the two texels."""
+        ga = u * factor(buf[i, 3] - z0, p)
+        gb = t * factor(buf[i + 1, 3] - z0, p)
+        return ga + gb, ga * buf[i, 0] + gb * buf[i + 1, 0], ga * buf[i, 1] + gb * buf[i + 1, 1], \
+            ga * buf[i, 2] + gb * buf[i + 1, 2]
 
     @njit(fastmath=_FASTMATH, inline="always")
     def side_col(arr, j, x, u, t, z0, p):
         """The same between rows j, j+1 of column x of an (H, W, 4) RGBZ array."""
-        dz = max(abs(arr[j, x, 3] - z0), abs(arr[j + 1, x, 3] - z0))
-        f = factor(dz, p)
-        fu = f * u
-        ft = f * t
-        return f, fu * arr[j, x, 0] + ft * arr[j + 1, x, 0], fu * arr[j, x, 1] + ft * arr[j + 1, x, 1], \
-            fu * arr[j, x, 2] + ft * arr[j + 1, x, 2]
+        ga = u * factor(arr[j, x, 3] - z0, p)
+        gb = t * factor(arr[j + 1, x, 3] - z0, p)
+        return ga + gb, ga * arr[j, x, 0] + gb * arr[j + 1, x, 0], ga * arr[j, x, 1] + gb * arr[j + 1, x, 1], \
+            ga * arr[j, x, 2] + gb * arr[j + 1, x, 2]
 
     @njit(fastmath=_FASTMATH, inline="always")
     def pair_row(buf, x, m, t, z0, p, interior, w):
-        """Samples at x + (m + t) and x - (m + t) of a symmetric pair, summed: (f, f*RGB)."""
+        """Samples at x + (m + t) and x - (m + t) of a symmetric pair, summed: (g, g*RGB)."""
         u = np.float32(1.0) - t
-        g0 = a0 = b0 = c0 = g1 = a1 = b1 = c1 = np.float32(0.0)
-        if interior or (x + m + 1 < w):
+        if interior:
             g0, a0, b0, c0 = side_row(buf, np.uintp(x + m), u, t, z0, p)
-        if interior or (x - m - 1 >= 0):
             g1, a1, b1, c1 = side_row(buf, np.uintp(x - m - 1), t, u, z0, p)
-        return g0 + g1, a0 + a1, b0 + b1, c0 + c1
+            return g0 + g1, a0 + a1, b0 + b1, c0 + c1
+        g0, a0, b0, c0 = texel_row(buf, x + m, u, z0, p, w)
+        g1, a1, b1, c1 = texel_row(buf, x + m + 1, t, z0, p, w)
+        g2, a2, b2, c2 = texel_row(buf, x - m, u, z0, p, w)
+        g3, a3, b3, c3 = texel_row(buf, x - m - 1, t, z0, p, w)
+        return g0 + g1 + g2 + g3, a0 + a1 + a2 + a3, b0 + b1 + b2 + b3, c0 + c1 + c2 + c3
 
     @njit(fastmath=_FASTMATH, inline="always")
     def pair_col(arr, x, y, m, t, z0, p, interior, h):
         u = np.float32(1.0) - t
         xu = np.uintp(x)
-        g0 = a0 = b0 = c0 = g1 = a1 = b1 = c1 = np.float32(0.0)
-        if interior or (y + m + 1 < h):
+        if interior:
             g0, a0, b0, c0 = side_col(arr, np.uintp(y + m), xu, u, t, z0, p)
-        if interior or (y - m - 1 >= 0):
             g1, a1, b1, c1 = side_col(arr, np.uintp(y - m - 1), xu, t, u, z0, p)
-        return g0 + g1, a0 + a1, b0 + b1, c0 + c1
+            return g0 + g1, a0 + a1, b0 + b1, c0 + c1
+        g0, a0, b0, c0 = texel_col(arr, y + m, xu, u, z0, p, h)
+        g1, a1, b1, c1 = texel_col(arr, y + m + 1, xu, t, z0, p, h)
+        g2, a2, b2, c2 = texel_col(arr, y - m, xu, u, z0, p, h)
+        g3, a3, b3, c3 = texel_col(arr, y - m - 1, xu, t, z0, p, h)
+        return g0 + g1 + g2 + g3, a0 + a1 + a2 + a3, b0 + b1 + b2 + b3, c0 + c1 + c2 + c3
 
     @njit(fastmath=_FASTMATH)
     def bilinear_2d(rgb, zk, arr, rgbz, px, py, z0, p):
-        """A jittered 2D bilinear sample at (px, py): (f, f*RGB), f from the largest depth
-        difference of its 4 texels, 0 if any texel is outside the image. Reads the (H, W, 4) RGBZ
-        array ``arr`` if ``rgbz`` else the (H, W, 3) colour ``rgb`` and (H, W) depth ``zk``."""
+        """A jittered 2D bilinear sample at (px, py): (g, g*RGB) summed over its 4 texels, each with
+        its own depth factor, texels off the image dropped. Reads the (H, W, 4) RGBZ array ``arr``
+        if ``rgbz`` else the (H, W, 3) colour ``rgb`` and (H, W) depth ``zk``."""
         h = arr.shape[0] if rgbz else zk.shape[0]
         w = arr.shape[1] if rgbz else zk.shape[1]
         fx = np.floor(px)
         fy = np.floor(py)
         i0 = int(fx)
         j0 = int(fy)
-        if i0 < 0 or j0 < 0 or i0 + 1 >= w or j0 + 1 >= h:
-            return np.float32(0.0), np.float32(0.0), np.float32(0.0), np.float32(0.0)
         tx = np.float32(px - fx)
         ty = np.float32(py - fy)
-        dz = np.float32(0.0)
+        gs = s0 = s1 = s2 = np.float32(0.0)
         for c in range(4):
             jj = j0 + (c >> 1)
             ii = i0 + (c & 1)
+            if ii < 0 or ii >= w or jj < 0 or jj >= h:
+                continue
+            b = (tx if c & 1 else np.float32(1.0) - tx) * (ty if c >> 1 else np.float32(1.0) - ty)
             zc = arr[jj, ii, 3] if rgbz else zk[jj, ii]
-            dz = max(dz, abs(zc - z0))
-        f = factor(dz, p)
-        s0 = s1 = s2 = np.float32(0.0)
-        for c in range(4):
-            jj = j0 + (c >> 1)
-            ii = i0 + (c & 1)
-            b = f * (tx if c & 1 else np.float32(1.0) - tx) * (ty if c >> 1 else np.float32(1.0) - ty)
+            g = b * factor(zc - z0, p)
+            gs += g
             if rgbz:
-                s0 += b * arr[jj, ii, 0]
-                s1 += b * arr[jj, ii, 1]
-                s2 += b * arr[jj, ii, 2]
+                s0 += g * arr[jj, ii, 0]
+                s1 += g * arr[jj, ii, 1]
+                s2 += g * arr[jj, ii, 2]
             else:
-                s0 += b * rgb[jj, ii, 0]
-                s1 += b * rgb[jj, ii, 1]
-                s2 += b * rgb[jj, ii, 2]
-        return f, s0, s1, s2
+                s0 += g * rgb[jj, ii, 0]
+                s1 += g * rgb[jj, ii, 1]
+                s2 += g * rgb[jj, ii, 2]
+        return gs, s0, s1, s2
 
     @njit(parallel=True, fastmath=_FASTMATH)
     def hpass(src, zk, dst, f_axis, offs, kinds, wts, wsum, n_jit, n_pair, p, base):
@@ -194,9 +210,12 @@ def kernels(mode: int):
                     fl = np.floor(pos)
                     t = pos - fl
                     i0 = np.intp(fl)
-                    gs = S0 = S1 = S2 = np.float32(0.0)
-                    if i0 >= 0 and i0 + 1 < w:
-                        gs, S0, S1, S2 = side_row(buf, np.uintp(i0), np.float32(1.0) - t, t, z0, p)
+                    gs, S0, S1, S2 = texel_row(buf, i0, np.float32(1.0) - t, z0, p, w)
+                    g, a0, a1, a2 = texel_row(buf, i0 + 1, t, z0, p, w)
+                    gs += g
+                    S0 += a0
+                    S1 += a1
+                    S2 += a2
                     A0 += wts[k, 0] * S0
                     A1 += wts[k, 1] * S1
                     A2 += wts[k, 2] * S2
@@ -267,9 +286,12 @@ def kernels(mode: int):
                     fl = np.floor(pos)
                     t = pos - fl
                     j0 = np.intp(fl)
-                    gs = S0 = S1 = S2 = np.float32(0.0)
-                    if j0 >= 0 and j0 + 1 < h:
-                        gs, S0, S1, S2 = side_col(src4, np.uintp(j0), xu, np.float32(1.0) - t, t, z0, p)
+                    gs, S0, S1, S2 = texel_col(src4, j0, xu, np.float32(1.0) - t, z0, p, h)
+                    g, a0, a1, a2 = texel_col(src4, j0 + 1, xu, t, z0, p, h)
+                    gs += g
+                    S0 += a0
+                    S1 += a1
+                    S2 += a2
                     A0 += wts[k, 0] * S0
                     A1 += wts[k, 1] * S1
                     A2 += wts[k, 2] * S2

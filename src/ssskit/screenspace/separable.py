@@ -98,7 +98,6 @@ def _check_jitter(jitter: float) -> float:
 
 def _factor_np(dz: np.ndarray, mode: int, param: float) -> np.ndarray:
     with np.errstate(invalid="ignore", over="ignore"):
-        dz = np.where(np.isnan(dz), np.inf, dz)
         if mode == 0:
             f = np.exp(-dz * dz * param)
         elif mode == 1:
@@ -112,8 +111,9 @@ def pass_numpy(src, zk, f_axis, horizontal, offsets, weights, n_jit, mode, param
     """One 1D pass, vectorised over pixels (module docstring); float64 (H, W, 3).
 
     A sample at a fractional position is the bilinear blend of its texels (2 along the pass axis,
-    4 for a jittered tap), used with the depth factor of the largest |d_z| among them, and only
-    if all of them lie inside the image (else it takes the centre value).
+    4 for a jittered tap); each texel carries its own depth factor, and texels off the image or off
+    the region get factor 0 (their share stays with the centre pixel). Per-texel rejection keeps the
+    gather symmetric, so energy in the region is conserved exactly on a fronto-parallel surface.
     """
     src = np.asarray(src, dtype=np.float64)
     zk = np.asarray(zk, dtype=np.float64)
@@ -142,20 +142,15 @@ def pass_numpy(src, zk, f_axis, horizontal, offsets, weights, n_jit, mode, param
             texels = [(0, 0), (1, 0), (0, 1), (1, 1)]
         else:
             texels = [(0, 0), (1, 0)] if horizontal else [(0, 0), (0, 1)]
-        valid = inside.copy()
-        dz = np.zeros((h, w))
-        value = np.zeros((h, w, 3))
         for di, dj in texels:
-            ii, jj = i0 + di, j0 + dj
-            valid &= (ii >= 0) & (ii < w) & (jj >= 0) & (jj < h)
-            ic, jc = np.clip(ii, 0, w - 1), np.clip(jj, 0, h - 1)
-            with np.errstate(invalid="ignore"):
-                dz = np.maximum(dz, np.abs(zk[jc, ic] - zk))
             bx = tx if di else (1.0 - tx if (jittered or horizontal) else 1.0)
             by = ty if dj else (1.0 - ty if (jittered or not horizontal) else 1.0)
-            value += (bx * by)[..., None] * src[jc, ic]
-        f = np.where(valid, _factor_np(dz, mode, param), 0.0)
-        out += f[..., None] * weights[k] * (value - src)
+            ii, jj = i0 + di, j0 + dj
+            valid = inside & (ii >= 0) & (ii < w) & (jj >= 0) & (jj < h)
+            ic, jc = np.clip(ii, 0, w - 1), np.clip(jj, 0, h - 1)
+            with np.errstate(invalid="ignore"):
+                f = np.where(valid, _factor_np(zk[jc, ic] - zk, mode, param), 0.0)
+            out += (bx * by * f)[..., None] * weights[k] * (src[jc, ic] - src)
     out[~inside] = src[~inside]
     return out
 
@@ -182,6 +177,9 @@ def filter_arrays(diffuse: np.ndarray, depth_mm: np.ndarray, fx: float, fy: floa
     if backend not in BACKENDS:
         raise PassError(f"unknown backend {backend!r}; choose from {', '.join(BACKENDS)}")
     jitter = _check_jitter(jitter)
+    if np.ndim(depth_mm) != 2 or np.shape(diffuse) != tuple(np.shape(depth_mm)) + (3,):
+        raise PassError(f"diffuse must be (H, W, 3) and depth (H, W) of the same size, got {np.shape(diffuse)} "
+                        f"and {np.shape(depth_mm)}")
     mode = default_depth_mode(taps) if depth_mode is None else depth_mode
     param = depth_parameter(taps, mode)
     n_jit = taps.jitter_count(jitter)
