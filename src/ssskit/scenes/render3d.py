@@ -154,13 +154,13 @@ def _register() -> None:
     SCENES.register("slab", SceneSpec(
         "slab", "a flat slab seen head-on with a straight hard shadow edge (the paper's Fig. 7 set-up)",
         (0.0, 0.0, 600.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 7.0,
-        # the occluder (x from 30 to 300 mm at height 150) is outside the view; the point light at
-        # (200, 0, 1000) puts its straight shadow edge on the line x = 0 of the slab's top face
+        # the occluder (x from 60 to 330 mm at height 150) is outside the view; the point light at
+        # (400, 0, 1000) puts its straight shadow edge on the line x = 0 of the slab's top face
         lambda: {"slab": {"type": "cube", "to_world": _T()().translate([0, 0, -10]) @ _T()().scale([60, 60, 10])},
                  "occluder": {"type": "rectangle",
-                              "to_world": _T()().translate([165, 0, 150]) @ _T()().scale([135, 120, 1])}},
+                              "to_world": _T()().translate([195, 0, 150]) @ _T()().scale([135, 120, 1])}},
         ("slab",),
-        lambda: {"key": {"type": "point", "position": [200, 0, 1000], "intensity": {"type": "rgb", "value": 3.0e6}}},
+        lambda: {"key": {"type": "point", "position": [400, 0, 1000], "intensity": {"type": "rgb", "value": 3.0e6}}},
         orbit_deg_per_frame=1.0))
     SCENES.register("ear", SceneSpec(
         "ear", "a thin ear-like flattened ellipsoid (4 mm thick) lit from the side and behind",
