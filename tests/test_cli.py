@@ -131,6 +131,7 @@ def test_demo_writes_report(capsys, tmp_path, monkeypatch):
         assert (tmp_path / "demo" / f"profile_{name.lower()}.png").stat().st_size > 10_000
     assert "2.5715" in page and "minimax" in page
     assert "MCML" in page and "montecarlo" in page
+    assert "figures/screenspace.png" in page and (tmp_path / "demo" / "figures" / "screenspace.png").is_file()
 
 
 def test_simulate_json_and_sweep_identity(capsys, tmp_path, monkeypatch):
