@@ -5,7 +5,7 @@ import pytest
 
 from ssskit.kernels import build_kernel, default_grid
 from ssskit.profiles import profile_for_material
-from ssskit.sampling.taps import SeparableTaps, make_taps
+from ssskit.sampling.taps import make_taps
 from ssskit.errors import SamplingError
 from ssskit.screenspace import Camera, GBuffer, GBufferError, filter_arrays, load_gbuffer, motion_vectors
 from ssskit.screenspace.separable import PassError

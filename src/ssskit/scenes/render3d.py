@@ -140,7 +140,9 @@ def _ellipsoid_mesh(radii=(18.0, 2.0, 28.0), center=(0.0, 0.0, 32.0), n: int = 9
     verts = unit * r + np.asarray(center)
     normals = unit / r
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    return _ply("ellipsoid", verts, _grid_faces(n, 2 * n), normals)
+    # (theta, phi) grid faces wind inward; reversed, their geometric normals point out of the medium,
+    # which is what Mitsuba's interior/exterior media test uses
+    return _ply("ellipsoid", verts, _grid_faces(n, 2 * n)[:, ::-1], normals)
 
 
 def _register() -> None:
@@ -326,7 +328,9 @@ def render_reference(scene: str, material, width: int = 128, height: int = 96, s
         raise SceneError(f"samples per pixel must be a positive integer, got {spp!r}")
     key = json.dumps({"scene": scene, "sa": list(material.sigma_a), "ss": list(material.sigma_s), "g": list(material.g),
                       "eta": material.eta, "w": width, "h": height, "spp": spp, "d": max_depth, "seed": seed,
-                      "frame": frame, "v": 1}, sort_keys=True)
+                      "frame": frame, "v": 2,
+                      "geometry": json.dumps([spec.shapes(), spec.lights(), spec.origin, spec.fov_x_deg], default=str)},
+                     sort_keys=True)
     path = reference_cache_dir() / f"{scene}-{hashlib.sha1(key.encode()).hexdigest()[:16]}.npy"
     if use_cache and path.is_file():
         return np.load(path)

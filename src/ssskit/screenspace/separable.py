@@ -21,7 +21,8 @@ Depth factor f (``depth_mode``):
   rejecting samples more than one kernel width (the axis standard deviation, mm) off the surface;
 * ``none``     f = 1 inside the region (depth-unaware).
 
-Jitter (paper section 6): taps closer to the centre than ``jitter`` x the kernel size are taken
+Jitter (paper section 6): taps closer to the centre than ``jitter`` x the kernel size (the taps'
+full span, see :meth:`SeparableTaps.jitter_count`) are taken
 along axes rotated by a per-pixel random angle theta(x, y, frame, seed) (a counter-based hash, so
 the same seed gives the same image on any thread count), with 2D bilinear fetches.
 
@@ -62,9 +63,7 @@ def _mix32_np(h: np.ndarray) -> np.ndarray:
 
 def jitter_angles(height: int, width: int, frame: int = 0, seed: int = 0) -> np.ndarray:
     """theta(x, y, frame, seed) in [0, 2 pi), shape (H, W): hash(x ^ hash(y ^ hash(frame ^ hash(seed))))."""
-    base = _mix32_np(np.uint64((int(seed) ^ 0x9E3779B9) & _MASK32))
-    base = _mix32_np(base ^ np.uint64(int(frame) & _MASK32))
-    hy = _mix32_np(base ^ np.arange(height, dtype=np.uint64))
+    hy = _mix32_np(_frame_base(frame, seed) ^ np.arange(height, dtype=np.uint64))
     h = _mix32_np(hy[:, None] ^ np.arange(width, dtype=np.uint64)[None, :])
     return h.astype(np.float64) * (2.0 * math.pi / 4294967296.0)
 
