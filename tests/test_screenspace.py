@@ -260,3 +260,11 @@ def test_bad_pass_settings(taps7):
         filter_arrays(e, d, 1.0, 1.0, "taps")
     with pytest.raises(PassError, match="same size"):
         filter_arrays(e[..., :1], d, 1.0, 1.0, taps7)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_footprint_larger_than_the_image(taps7, backend, rng):
+    """An extreme close-up: every tap but the centre lands off the image, so each pixel keeps its value."""
+    e = rng.random((8, 10, 3)).astype(np.float32)
+    out = filter_arrays(e, np.full((8, 10), 1.0, np.float32), 1e5, 1e5, taps7, jitter=0.0, backend=backend)
+    np.testing.assert_allclose(out, e, rtol=1e-6)

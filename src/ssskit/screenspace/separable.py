@@ -193,7 +193,7 @@ def filter_arrays(diffuse: np.ndarray, depth_mm: np.ndarray, fx: float, fy: floa
             out += taps.signs[r] * pass_numpy(tmp, depth_mm, fy, False, taps.offsets_mm[r], taps.weights[r],
                                               n_jit, _MODE_CODE[mode], param, angles)
         return np.where(np.isfinite(depth_mm)[..., None], out, src) if taps.rank > 1 else out
-    from ._fastpass import kernels, tap_table
+    from ._fastpass import kernels, planar_buffer, tap_table, vector_kernels
 
     hpass, vpass = kernels(_MODE_CODE[mode])
     src = np.ascontiguousarray(diffuse, dtype=np.float32)
@@ -210,13 +210,32 @@ def filter_arrays(diffuse: np.ndarray, depth_mm: np.ndarray, fx: float, fy: floa
     for r in range(taps.rank):
         offs, kinds, wts, n_j, n_p = tap_table(taps.offsets_mm[r], taps.weights[r], n_jit)
         wsum = taps.weights[r].sum(axis=0).astype(np.float32)
-        hpass(src, zk, tmp, float(fx), offs, kinds, wts, wsum, n_j, n_p, p, base)
-        vpass(tmp, out, float(fy), offs, kinds, wts, wsum, n_j, n_p, p, base)
+        if n_j == 0 and n_p == offs.size:  # symmetric pairs, no jitter: the vectorised kernels
+            vh, vv = vector_kernels(_MODE_CODE[mode])
+            pad = _pad(offs, fx, fy, zk)
+            key = (h, w, pad)
+            if scratch.get("planar_key") != key:
+                scratch["planar"], scratch["planar_key"] = planar_buffer(h, w, pad), key
+            vh(src, zk, scratch["planar"], pad, float(fx), offs, wts, wsum, p)
+            vv(scratch["planar"], out, pad, float(fy), offs, wts, wsum, p)
+        else:
+            hpass(src, zk, tmp, float(fx), offs, kinds, wts, wsum, n_j, n_p, p, base)
+            vpass(tmp, out, float(fy), offs, kinds, wts, wsum, n_j, n_p, p, base)
         if taps.rank == 1 and np.all(taps.signs == 1):
             return out
         acc = np.zeros_like(src) if acc is None else acc
         acc += taps.signs[r].astype(np.float32) * out
     return np.where(np.isfinite(zk)[..., None], acc, src)
+
+
+def _pad(offs: np.ndarray, fx: float, fy: float, zk: np.ndarray) -> int:
+    """Pad (pixels) of the vectorised kernels' buffers: the largest footprint, capped by the image."""
+    finite = zk[np.isfinite(zk)]
+    h, w = zk.shape
+    if finite.size == 0 or offs.size == 0:
+        return 3
+    reach = float(np.max(np.abs(offs))) * max(fx, fy) / float(finite.min())
+    return int(min(np.ceil(reach) + 3, max(h, w) + 3))
 
 
 def region_depth_mm(gbuffer: GBuffer, profile_id: int) -> np.ndarray:
