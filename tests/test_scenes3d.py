@@ -100,6 +100,24 @@ def test_jitter_removes_cross_on_a_small_bright_dot(slab_result):
     assert errs[0.3][1] < errs[0.0][1]
 
 
+def test_light_path_moves_the_shadow():
+    from ssskit.scenes.render3d import scene_lights
+
+    spec = SCENES.get("sphere")
+    c0 = np.array(scene_lights(spec, 0)["key"]["center"])
+    c5 = np.array(scene_lights(spec, 5)["key"]["center"])
+    target = np.array(spec.target)
+    # orbit about the vertical axis through the target: same height, same distance, 30 degrees apart
+    assert c5[2] == pytest.approx(c0[2])
+    r0, r5 = c0[:2] - target[:2], c5[:2] - target[:2]
+    assert np.linalg.norm(r5) == pytest.approx(np.linalg.norm(r0))
+    assert math.degrees(math.acos(r0 @ r5 / (r0 @ r0))) == pytest.approx(30.0)
+    a = render_gbuffer("sphere", ALBEDO, width=48, height=36, spp=2, frame=0)
+    b = render_gbuffer("sphere", ALBEDO, width=48, height=36, spp=2, frame=5)
+    assert a.camera.to_dict() != b.camera.to_dict()
+    assert not np.allclose(a.diffuse, b.diffuse)
+
+
 def test_path_traced_reference_is_cached(tmp_path, monkeypatch):
     from ssskit.materials import get_material
 

@@ -17,8 +17,10 @@ separable-SSS paper splits the frame the same way):
 * ``depth``, ``normal``, ``profile_id``: one sample per pixel from Mitsuba's AOV integrator
   (positions converted to linear camera depth with the camera built from the same look-at).
 
-Camera paths (``frame``): the camera orbits the target by ``orbit_deg_per_frame``; every G-buffer
-carries its camera, so :func:`ssskit.screenspace.motion_vectors` gives the reprojection.
+Camera and light paths (``frame``): the camera orbits the target by ``orbit_deg_per_frame`` and the
+lights by ``light_orbit_deg_per_frame`` (the sphere's light moves, so its shadow sweeps the floor);
+every G-buffer carries its camera, so :func:`ssskit.screenspace.motion_vectors` gives the
+reprojection.
 """
 
 from __future__ import annotations
@@ -59,6 +61,7 @@ class SceneSpec:
     sss_shapes: tuple[str, ...]
     lights: Callable[[], dict[str, dict]]
     orbit_deg_per_frame: float = 2.0
+    light_orbit_deg_per_frame: float = 0.0  # lights orbit the target about the up axis
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -152,7 +155,7 @@ def _register() -> None:
         lambda: {"sphere": {"type": "sphere", "center": [0, 0, 30], "radius": 30},
                  "floor": _floor()},
         ("sphere",),
-        lambda: {"key": _area_sphere((90, -70, 160), 10, 60.0)}))
+        lambda: {"key": _area_sphere((90, -70, 160), 10, 60.0)}, light_orbit_deg_per_frame=6.0))
     SCENES.register("slab", SceneSpec(
         "slab", "a flat slab seen head-on with a straight hard shadow edge (the paper's Fig. 7 set-up)",
         (0.0, 0.0, 600.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 7.0,
@@ -185,16 +188,34 @@ def scene_names() -> list[str]:
     return SCENES.names()
 
 
-def _camera_pose(spec: SceneSpec, frame: int):
-    """Origin of the camera orbiting the target about the up axis by frame * orbit_deg_per_frame."""
-    origin = np.array(spec.origin, float)
+def _orbit(point, spec: SceneSpec, degrees: float) -> np.ndarray:
+    """``point`` rotated about the axis through the target along ``up`` (Rodrigues' formula)."""
     target = np.array(spec.target, float)
     up = np.array(spec.up, float) / np.linalg.norm(spec.up)
-    ang = math.radians(spec.orbit_deg_per_frame * frame)
-    v = origin - target
-    # Rodrigues rotation of v about up
+    ang = math.radians(degrees)
+    v = np.asarray(point, float) - target
     v = v * math.cos(ang) + np.cross(up, v) * math.sin(ang) + up * (up @ v) * (1 - math.cos(ang))
-    return target + v, target, up
+    return target + v
+
+
+def _camera_pose(spec: SceneSpec, frame: int):
+    """Origin of the camera orbiting the target about the up axis by frame * orbit_deg_per_frame."""
+    up = np.array(spec.up, float) / np.linalg.norm(spec.up)
+    return _orbit(spec.origin, spec, spec.orbit_deg_per_frame * frame), np.array(spec.target, float), up
+
+
+def scene_lights(spec: SceneSpec, frame: int = 0) -> dict[str, dict]:
+    """The scene's lights at ``frame``: point positions and sphere centres orbit the target by
+    frame * light_orbit_deg_per_frame."""
+    lights = spec.lights()
+    deg = spec.light_orbit_deg_per_frame * frame
+    if deg == 0:
+        return lights
+    for light in lights.values():
+        for key in ("position", "center"):
+            if key in light:
+                light[key] = _orbit(light[key], spec, deg).tolist()
+    return lights
 
 
 def scene_camera(spec: SceneSpec, width: int, height: int, frame: int = 0):
@@ -232,7 +253,7 @@ def _scene_dict(spec, width, height, spp, seed, frame, integrator, bsdf_for) -> 
         if props:
             entry["bsdf"] = props
         d[sid] = entry
-    d.update(spec.lights())
+    d.update(scene_lights(spec, frame))
     return d
 
 
