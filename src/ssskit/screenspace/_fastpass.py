@@ -31,11 +31,11 @@ _FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 _CACHE: dict[int, tuple] = {}
 
 
-def kernels(mode: int):
-    """(hpass, vpass) compiled for depth mode 0 (gaussian), 1 (follow) or 2 (none)."""
-    if mode in _CACHE:
-        return _CACHE[mode]
-    from numba import njit, prange
+def _factor(mode: int):
+    """The depth factor f(d_z) of mode 0 (gaussian: exp(-d_z^2 p), p = 1 / (2 tau_max); supplement E),
+    1 (follow: max(0, 1 - |d_z| p), p = 1 / width) or 2 (none: 1 unless d_z is infinite), compiled
+    with the mode as a constant."""
+    from numba import njit
 
     @njit(fastmath=_FASTMATH, inline="always")
     def factor(dz, p):
@@ -44,6 +44,17 @@ def kernels(mode: int):
         if mode == 1:
             return max(np.float32(0.0), np.float32(1.0) - abs(dz) * p)
         return np.float32(1.0) if abs(dz) < np.float32(np.inf) else np.float32(0.0)
+
+    return factor
+
+
+def kernels(mode: int):
+    """(hpass, vpass) compiled for depth mode 0 (gaussian), 1 (follow) or 2 (none)."""
+    if mode in _CACHE:
+        return _CACHE[mode]
+    from numba import njit, prange
+
+    factor = _factor(mode)
 
     @njit(fastmath=_FASTMATH, inline="always")
     def mix32(h):
@@ -371,13 +382,7 @@ def vector_kernels(mode: int):
 
     L = LANES
 
-    @njit(fastmath=_FASTMATH, inline="always")
-    def factor(dz, p):
-        if mode == 0:
-            return np.float32(math.exp(-dz * dz * p))
-        if mode == 1:
-            return max(np.float32(0.0), np.float32(1.0) - abs(dz) * p)
-        return np.float32(1.0) if abs(dz) < np.float32(np.inf) else np.float32(0.0)
+    factor = _factor(mode)
 
     @njit(fastmath=_FASTMATH)
     def block(buf, zoff, soff, coff, stride, centre, nl, dk, wk0, wk1, wk2, p, acc, cap, svec):
