@@ -268,3 +268,18 @@ def test_footprint_larger_than_the_image(taps7, backend, rng):
     e = rng.random((8, 10, 3)).astype(np.float32)
     out = filter_arrays(e, np.full((8, 10), 1.0, np.float32), 1e5, 1e5, taps7, jitter=0.0, backend=backend)
     np.testing.assert_allclose(out, e, rtol=1e-6)
+
+
+@pytest.mark.parametrize("jitter", [0.0, 0.5])
+def test_unpaired_taps_match_numpy(jitter, rng):
+    """Asymmetric taps (a user's tap file) take the scalar kernel's single-tap branch."""
+    from ssskit.sampling.taps import SeparableTaps
+
+    taps = SeparableTaps([[0.0, 0.7, -1.3, 2.2]], [[[0.4] * 3, [0.3, 0.2, 0.1], [0.2] * 3, [0.1, 0.3, 0.2]]],
+                         [[1.0, 1.0, 1.0]], "custom", 2.2).normalised()
+    e = rng.random((30, 40, 3)).astype(np.float32)
+    depth = (300 + 3 * np.arange(40)[None, :] + 0 * np.arange(30)[:, None]).astype(np.float32)
+    depth[5:9, 5:15] = np.inf
+    a = filter_arrays(e, depth, 350.0, 420.0, taps, jitter=jitter, frame=1)
+    b = filter_arrays(e, depth, 350.0, 420.0, taps, jitter=jitter, frame=1, backend="numpy")
+    np.testing.assert_allclose(a, b, atol=PARITY_ATOL[np.float32])

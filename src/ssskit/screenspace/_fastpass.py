@@ -4,17 +4,15 @@ Two formulations compute the same result. :func:`vector_kernels` (symmetric tap 
 the common case and the benchmark's) is written so that LLVM vectorises it (see the comment above
 it). :func:`kernels` handles everything (jittered taps, unpaired taps) in scalar code.
 
-Layout and order of the scalar kernels, chosen for speed on CPUs (benchmarks/bench_separable.py):
+Both share:
 
-* the horizontal pass copies its row into a small (W, 4) RGBZ buffer (cache resident) and writes
-  an RGBZ intermediate, so the vertical pass fetches colour and depth of a sample from one cache
-  line; the vertical pass walks output rows, so its taps stream along a dozen nearby rows;
-* taps come in symmetric pairs +-d: one floor gives the four bilinear corners x+n, x+n+1, x-n,
-  x-n-1 with weights (1-t, t, 1-t, t); the centre tap costs nothing (its weight multiplies E(p));
+* RGBZ data, so a texel's colour and depth come from one cache line (the scalar pass works on
+  (H, W, 4) arrays; the vectorised one on planar buffers);
+* taps in symmetric pairs +-d: one floor gives the four bilinear texels x+n, x+n+1, x-n, x-n-1
+  with weights (1-t, t, 1-t, t); the centre tap costs nothing (its weight multiplies E(p));
 * out = (W - G) E(p) + A with A = sum w g E_j and G = sum w g, g = bilinear weight x depth factor;
-* indices are unsigned after the bounds test, so numba emits no negative-index wraparound code,
-  and pixels whose whole footprint is inside the image skip the per-corner bounds tests;
-* the depth mode is a compile-time constant (one specialisation per mode);
+* unsigned indices after the bounds test, so numba emits no negative-index wraparound code;
+* the depth mode as a compile-time constant (one specialisation per mode);
 * fastmath without 'nnan'/'ninf': +inf marks pixels outside the region and must compare as such.
 
 Tap table rows: (offset, kind) with kind 0 = symmetric pair at +-offset, 1 = single tap at the
@@ -28,7 +26,7 @@ import math
 import numpy as np
 
 _FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
-_CACHE: dict[int, tuple] = {}
+_CACHE: dict[int, object] = {}
 
 
 def _factor(mode: int):
@@ -49,7 +47,9 @@ def _factor(mode: int):
 
 
 def kernels(mode: int):
-    """(hpass, vpass) compiled for depth mode 0 (gaussian), 1 (follow) or 2 (none)."""
+    """The scalar pass for depth mode ``mode``: ``spass(src4, dst4, f_axis, horizontal, ...)`` on
+    (H, W, 4) RGBZ arrays (colour and depth of a texel in one cache line). Handles every tap table:
+    jittered taps (rotated axes, 2D bilinear), symmetric pairs and single taps."""
     if mode in _CACHE:
         return _CACHE[mode]
     from numba import njit, prange
@@ -65,75 +65,19 @@ def kernels(mode: int):
         return h ^ (h >> np.uint64(16))
 
     @njit(fastmath=_FASTMATH, inline="always")
-    def texel_row(buf, i, b, z0, p, w):
-        """Weighted texel i of a (W, 4) RGBZ row buffer: (g, g*RGB), g = b * depth factor; 0 off the image."""
-        if i < 0 or i >= w:
-            return np.float32(0.0), np.float32(0.0), np.float32(0.0), np.float32(0.0)
-        iu = np.uintp(i)
-        g = b * factor(buf[iu, 3] - z0, p)
-        return g, g * buf[iu, 0], g * buf[iu, 1], g * buf[iu, 2]
-
-    @njit(fastmath=_FASTMATH, inline="always")
-    def texel_col(arr, j, x, b, z0, p, h):
-        """The same for row j of column x of an (H, W, 4) RGBZ array."""
-        if j < 0 or j >= h:
+    def texel(arr, j, i, b, z0, p):
+        """Weighted texel (j, i): (g, g*R, g*G, g*B), g = b * depth factor; zero off the image."""
+        h, w, _ = arr.shape
+        if b <= 0 or i < 0 or i >= w or j < 0 or j >= h:
             return np.float32(0.0), np.float32(0.0), np.float32(0.0), np.float32(0.0)
         ju = np.uintp(j)
-        g = b * factor(arr[ju, x, 3] - z0, p)
-        return g, g * arr[ju, x, 0], g * arr[ju, x, 1], g * arr[ju, x, 2]
-
-    @njit(fastmath=_FASTMATH, inline="always")
-    def side_row(buf, i, u, t, z0, p):
-        """Bilinear sample between texels i, i+1 (unsigned, inside the image) of a row buffer, each
-        texel weighted by its own depth factor: (g, g*RGB) summed over the two texels."""
-        ga = u * factor(buf[i, 3] - z0, p)
-        gb = t * factor(buf[i + 1, 3] - z0, p)
-        return ga + gb, ga * buf[i, 0] + gb * buf[i + 1, 0], ga * buf[i, 1] + gb * buf[i + 1, 1], \
-            ga * buf[i, 2] + gb * buf[i + 1, 2]
-
-    @njit(fastmath=_FASTMATH, inline="always")
-    def side_col(arr, j, x, u, t, z0, p):
-        """The same between rows j, j+1 of column x of an (H, W, 4) RGBZ array."""
-        ga = u * factor(arr[j, x, 3] - z0, p)
-        gb = t * factor(arr[j + 1, x, 3] - z0, p)
-        return ga + gb, ga * arr[j, x, 0] + gb * arr[j + 1, x, 0], ga * arr[j, x, 1] + gb * arr[j + 1, x, 1], \
-            ga * arr[j, x, 2] + gb * arr[j + 1, x, 2]
-
-    @njit(fastmath=_FASTMATH, inline="always")
-    def pair_row(buf, x, m, t, z0, p, interior, w):
-        """Samples at x + (m + t) and x - (m + t) of a symmetric pair, summed: (g, g*RGB)."""
-        u = np.float32(1.0) - t
-        if interior:
-            g0, a0, b0, c0 = side_row(buf, np.uintp(x + m), u, t, z0, p)
-            g1, a1, b1, c1 = side_row(buf, np.uintp(x - m - 1), t, u, z0, p)
-            return g0 + g1, a0 + a1, b0 + b1, c0 + c1
-        g0, a0, b0, c0 = texel_row(buf, x + m, u, z0, p, w)
-        g1, a1, b1, c1 = texel_row(buf, x + m + 1, t, z0, p, w)
-        g2, a2, b2, c2 = texel_row(buf, x - m, u, z0, p, w)
-        g3, a3, b3, c3 = texel_row(buf, x - m - 1, t, z0, p, w)
-        return g0 + g1 + g2 + g3, a0 + a1 + a2 + a3, b0 + b1 + b2 + b3, c0 + c1 + c2 + c3
-
-    @njit(fastmath=_FASTMATH, inline="always")
-    def pair_col(arr, x, y, m, t, z0, p, interior, h):
-        u = np.float32(1.0) - t
-        xu = np.uintp(x)
-        if interior:
-            g0, a0, b0, c0 = side_col(arr, np.uintp(y + m), xu, u, t, z0, p)
-            g1, a1, b1, c1 = side_col(arr, np.uintp(y - m - 1), xu, t, u, z0, p)
-            return g0 + g1, a0 + a1, b0 + b1, c0 + c1
-        g0, a0, b0, c0 = texel_col(arr, y + m, xu, u, z0, p, h)
-        g1, a1, b1, c1 = texel_col(arr, y + m + 1, xu, t, z0, p, h)
-        g2, a2, b2, c2 = texel_col(arr, y - m, xu, u, z0, p, h)
-        g3, a3, b3, c3 = texel_col(arr, y - m - 1, xu, t, z0, p, h)
-        return g0 + g1 + g2 + g3, a0 + a1 + a2 + a3, b0 + b1 + b2 + b3, c0 + c1 + c2 + c3
+        iu = np.uintp(i)
+        g = b * factor(arr[ju, iu, 3] - z0, p)
+        return g, g * arr[ju, iu, 0], g * arr[ju, iu, 1], g * arr[ju, iu, 2]
 
     @njit(fastmath=_FASTMATH)
-    def bilinear_2d(rgb, zk, arr, rgbz, px, py, z0, p):
-        """A jittered 2D bilinear sample at (px, py): (g, g*RGB) summed over its 4 texels, each with
-        its own depth factor, texels off the image dropped. Reads the (H, W, 4) RGBZ array ``arr``
-        if ``rgbz`` else the (H, W, 3) colour ``rgb`` and (H, W) depth ``zk``."""
-        h = arr.shape[0] if rgbz else zk.shape[0]
-        w = arr.shape[1] if rgbz else zk.shape[1]
+    def bilinear(arr, px, py, z0, p):
+        """A 2D bilinear sample at (px, py), each of its 4 texels with its own depth factor."""
         fx = np.floor(px)
         fy = np.floor(py)
         i0 = int(fx)
@@ -142,115 +86,21 @@ def kernels(mode: int):
         ty = np.float32(py - fy)
         gs = s0 = s1 = s2 = np.float32(0.0)
         for c in range(4):
-            jj = j0 + (c >> 1)
-            ii = i0 + (c & 1)
-            if ii < 0 or ii >= w or jj < 0 or jj >= h:
-                continue
             b = (tx if c & 1 else np.float32(1.0) - tx) * (ty if c >> 1 else np.float32(1.0) - ty)
-            zc = arr[jj, ii, 3] if rgbz else zk[jj, ii]
-            g = b * factor(zc - z0, p)
+            g, a0, a1, a2 = texel(arr, j0 + (c >> 1), i0 + (c & 1), b, z0, p)
             gs += g
-            if rgbz:
-                s0 += g * arr[jj, ii, 0]
-                s1 += g * arr[jj, ii, 1]
-                s2 += g * arr[jj, ii, 2]
-            else:
-                s0 += g * rgb[jj, ii, 0]
-                s1 += g * rgb[jj, ii, 1]
-                s2 += g * rgb[jj, ii, 2]
+            s0 += a0
+            s1 += a1
+            s2 += a2
         return gs, s0, s1, s2
 
     @njit(parallel=True, fastmath=_FASTMATH)
-    def hpass(src, zk, dst, f_axis, offs, kinds, wts, wsum, n_jit, n_pair, p, base):
-        h, w = zk.shape
-        n = offs.size
-        fa = np.float32(f_axis)
-        reach = np.float32(0.0)
-        for k in range(n):
-            reach = max(reach, abs(offs[k]))
-        dummy4 = np.zeros((1, 1, 4), np.float32)
-        for y in prange(h):
-            buf = np.empty((w, 4), np.float32)
-            for x in range(w):
-                buf[x, 0] = src[y, x, 0]
-                buf[x, 1] = src[y, x, 1]
-                buf[x, 2] = src[y, x, 2]
-                buf[x, 3] = zk[y, x]
-            hy = mix32(base ^ np.uint64(y))
-            for x in range(w):
-                z0 = buf[x, 3]
-                e0 = buf[x, 0]
-                e1 = buf[x, 1]
-                e2 = buf[x, 2]
-                dst[y, x, 3] = z0
-                if not (z0 < np.float32(np.inf)):  # stencil: no SSS here
-                    dst[y, x, 0] = e0
-                    dst[y, x, 1] = e1
-                    dst[y, x, 2] = e2
-                    continue
-                s = fa / z0
-                A0 = A1 = A2 = G0 = G1 = G2 = np.float32(0.0)
-                if n_jit > 0:  # rotated axes, 2D bilinear fetches (paper section 6)
-                    theta = float(mix32(hy ^ np.uint64(x))) * (2.0 * math.pi / 4294967296.0)
-                    cth = math.cos(theta)
-                    sth = math.sin(theta)
-                    for k in range(n_jit):
-                        d = offs[k] * s
-                        gs, S0, S1, S2 = bilinear_2d(src, zk, dummy4, False, x + d * cth, y + d * sth, z0, p)
-                        if kinds[k] == 0:
-                            g, a0, a1, a2 = bilinear_2d(src, zk, dummy4, False, x - d * cth, y - d * sth, z0, p)
-                            gs += g
-                            S0 += a0
-                            S1 += a1
-                            S2 += a2
-                        A0 += wts[k, 0] * S0
-                        A1 += wts[k, 1] * S1
-                        A2 += wts[k, 2] * S2
-                        G0 += wts[k, 0] * gs
-                        G1 += wts[k, 1] * gs
-                        G2 += wts[k, 2] * gs
-                interior = (x - reach * s - 2.0 >= 0.0) and (x + reach * s + 2.0 < w)
-                for k in range(n_jit, n_jit + n_pair):
-                    dd = offs[k] * s
-                    fl = np.floor(dd)  # float32 floor: math.floor would widen to int64 and float64
-                    gs, S0, S1, S2 = pair_row(buf, x, np.intp(fl), dd - fl, z0, p, interior, w)
-                    A0 += wts[k, 0] * S0
-                    A1 += wts[k, 1] * S1
-                    A2 += wts[k, 2] * S2
-                    G0 += wts[k, 0] * gs
-                    G1 += wts[k, 1] * gs
-                    G2 += wts[k, 2] * gs
-                for k in range(n_jit + n_pair, n):
-                    pos = np.float32(x) + offs[k] * s
-                    fl = np.floor(pos)
-                    t = pos - fl
-                    i0 = np.intp(fl)
-                    gs, S0, S1, S2 = texel_row(buf, i0, np.float32(1.0) - t, z0, p, w)
-                    g, a0, a1, a2 = texel_row(buf, i0 + 1, t, z0, p, w)
-                    gs += g
-                    S0 += a0
-                    S1 += a1
-                    S2 += a2
-                    A0 += wts[k, 0] * S0
-                    A1 += wts[k, 1] * S1
-                    A2 += wts[k, 2] * S2
-                    G0 += wts[k, 0] * gs
-                    G1 += wts[k, 1] * gs
-                    G2 += wts[k, 2] * gs
-                dst[y, x, 0] = (wsum[0] - G0) * e0 + A0
-                dst[y, x, 1] = (wsum[1] - G1) * e1 + A1
-                dst[y, x, 2] = (wsum[2] - G2) * e2 + A2
-
-    @njit(parallel=True, fastmath=_FASTMATH)
-    def vpass(src4, dst, f_axis, offs, kinds, wts, wsum, n_jit, n_pair, p, base):
+    def spass(src4, dst4, f_axis, horizontal, offs, kinds, wts, wsum, n_jit, n_pair, p, base):
         h, w, _ = src4.shape
         n = offs.size
         fa = np.float32(f_axis)
-        reach = np.float32(0.0)
-        for k in range(n):
-            reach = max(reach, abs(offs[k]))
-        dummy3 = np.zeros((1, 1, 3), np.float32)
-        dummyz = np.zeros((1, 1), np.float32)
+        ax = 1 if horizontal else 0  # texel step along the pass axis
+        ay = 1 - ax
         for y in prange(h):
             hy = mix32(base ^ np.uint64(y))
             for x in range(w):
@@ -258,67 +108,66 @@ def kernels(mode: int):
                 e0 = src4[y, x, 0]
                 e1 = src4[y, x, 1]
                 e2 = src4[y, x, 2]
-                if not (z0 < np.float32(np.inf)):
-                    dst[y, x, 0] = e0
-                    dst[y, x, 1] = e1
-                    dst[y, x, 2] = e2
+                dst4[y, x, 3] = z0
+                if not (z0 < np.float32(np.inf)):  # stencil: no SSS here
+                    dst4[y, x, 0] = e0
+                    dst4[y, x, 1] = e1
+                    dst4[y, x, 2] = e2
                     continue
                 s = fa / z0
                 A0 = A1 = A2 = G0 = G1 = G2 = np.float32(0.0)
-                if n_jit > 0:
+                cth = 1.0
+                sth = 0.0
+                if n_jit > 0:  # rotated axes (paper section 6): (cos, sin) horizontally, (-sin, cos) vertically
                     theta = float(mix32(hy ^ np.uint64(x))) * (2.0 * math.pi / 4294967296.0)
                     cth = math.cos(theta)
                     sth = math.sin(theta)
-                    for k in range(n_jit):
-                        d = offs[k] * s
-                        gs, S0, S1, S2 = bilinear_2d(dummy3, dummyz, src4, True, x - d * sth, y + d * cth, z0, p)
+                dxj = cth if horizontal else -sth
+                dyj = sth if horizontal else cth
+                for k in range(n):
+                    o = offs[k] * s
+                    if k < n_jit:
+                        gs, S0, S1, S2 = bilinear(src4, x + o * dxj, y + o * dyj, z0, p)
                         if kinds[k] == 0:
-                            g, a0, a1, a2 = bilinear_2d(dummy3, dummyz, src4, True, x + d * sth, y - d * cth, z0, p)
+                            g, a0, a1, a2 = bilinear(src4, x - o * dxj, y - o * dyj, z0, p)
                             gs += g
                             S0 += a0
                             S1 += a1
                             S2 += a2
-                        A0 += wts[k, 0] * S0
-                        A1 += wts[k, 1] * S1
-                        A2 += wts[k, 2] * S2
-                        G0 += wts[k, 0] * gs
-                        G1 += wts[k, 1] * gs
-                        G2 += wts[k, 2] * gs
-                interior = (y - reach * s - 2.0 >= 0.0) and (y + reach * s + 2.0 < h)
-                for k in range(n_jit, n_jit + n_pair):
-                    dd = offs[k] * s
-                    fl = np.floor(dd)  # float32 floor: math.floor would widen to int64 and float64
-                    gs, S0, S1, S2 = pair_col(src4, x, y, np.intp(fl), dd - fl, z0, p, interior, h)
+                    else:
+                        fl = np.floor(o)  # float32 floor: math.floor would widen to int64 and float64
+                        t = o - fl
+                        u = np.float32(1.0) - t
+                        m = np.intp(fl)
+                        gs, S0, S1, S2 = texel(src4, y + ay * m, x + ax * m, u, z0, p)
+                        g, a0, a1, a2 = texel(src4, y + ay * (m + 1), x + ax * (m + 1), t, z0, p)
+                        gs += g
+                        S0 += a0
+                        S1 += a1
+                        S2 += a2
+                        if kinds[k] == 0:  # the mirrored tap at -o: texels -m (weight u) and -m-1 (t)
+                            g, a0, a1, a2 = texel(src4, y - ay * m, x - ax * m, u, z0, p)
+                            gs += g
+                            S0 += a0
+                            S1 += a1
+                            S2 += a2
+                            g, a0, a1, a2 = texel(src4, y - ay * (m + 1), x - ax * (m + 1), t, z0, p)
+                            gs += g
+                            S0 += a0
+                            S1 += a1
+                            S2 += a2
                     A0 += wts[k, 0] * S0
                     A1 += wts[k, 1] * S1
                     A2 += wts[k, 2] * S2
                     G0 += wts[k, 0] * gs
                     G1 += wts[k, 1] * gs
                     G2 += wts[k, 2] * gs
-                xu = np.uintp(x)
-                for k in range(n_jit + n_pair, n):
-                    pos = np.float32(y) + offs[k] * s
-                    fl = np.floor(pos)
-                    t = pos - fl
-                    j0 = np.intp(fl)
-                    gs, S0, S1, S2 = texel_col(src4, j0, xu, np.float32(1.0) - t, z0, p, h)
-                    g, a0, a1, a2 = texel_col(src4, j0 + 1, xu, t, z0, p, h)
-                    gs += g
-                    S0 += a0
-                    S1 += a1
-                    S2 += a2
-                    A0 += wts[k, 0] * S0
-                    A1 += wts[k, 1] * S1
-                    A2 += wts[k, 2] * S2
-                    G0 += wts[k, 0] * gs
-                    G1 += wts[k, 1] * gs
-                    G2 += wts[k, 2] * gs
-                dst[y, x, 0] = (wsum[0] - G0) * e0 + A0
-                dst[y, x, 1] = (wsum[1] - G1) * e1 + A1
-                dst[y, x, 2] = (wsum[2] - G2) * e2 + A2
+                dst4[y, x, 0] = (wsum[0] - G0) * e0 + A0
+                dst4[y, x, 1] = (wsum[1] - G1) * e1 + A1
+                dst4[y, x, 2] = (wsum[2] - G2) * e2 + A2
 
-    _CACHE[mode] = (hpass, vpass)
-    return _CACHE[mode]
+    _CACHE[mode] = spass
+    return spass
 
 
 def tap_table(offsets: np.ndarray, weights: np.ndarray, n_jit: int):

@@ -169,7 +169,7 @@ def filter_arrays(diffuse: np.ndarray, depth_mm: np.ndarray, fx: float, fy: floa
     ``depth_mm`` (H, W): linear depth in mm where the region has SSS and +inf elsewhere (stencil);
     ``fx``/``fy``: focal lengths in pixels. Returns (H, W, 3): float32 (numba) or float64 (numpy);
     pixels outside the region are copied. 2R passes for a rank-R kernel, horizontal then vertical.
-    ``scratch`` may hold preallocated float32 buffers (keys 'tmp', 'out') reused across frames.
+    ``scratch``: a dict in which buffers are kept and reused across frames (pass the same one).
     """
     if not isinstance(taps, SeparableTaps):
         raise PassError(f"the pass needs SeparableTaps (ssskit.sampling.make_taps), got {type(taps).__name__}")
@@ -195,15 +195,12 @@ def filter_arrays(diffuse: np.ndarray, depth_mm: np.ndarray, fx: float, fy: floa
         return np.where(np.isfinite(depth_mm)[..., None], out, src) if taps.rank > 1 else out
     from ._fastpass import kernels, planar_buffer, tap_table, vector_kernels
 
-    hpass, vpass = kernels(_MODE_CODE[mode])
     src = np.ascontiguousarray(diffuse, dtype=np.float32)
     zk = np.ascontiguousarray(depth_mm, dtype=np.float32)
     scratch = {} if scratch is None else scratch
-    if scratch.get("tmp") is None or scratch["tmp"].shape != (h, w, 4):
-        scratch["tmp"] = np.empty((h, w, 4), np.float32)
-    if scratch.get("out") is None or scratch["out"].shape != src.shape:
-        scratch["out"] = np.empty_like(src)
-    tmp, out = scratch["tmp"], scratch["out"]
+    out = scratch.get("out")
+    if out is None or out.shape != src.shape:
+        out = scratch["out"] = np.empty_like(src)
     base = _frame_base(frame, seed)
     p = np.float32(param)
     acc = None
@@ -213,14 +210,17 @@ def filter_arrays(diffuse: np.ndarray, depth_mm: np.ndarray, fx: float, fy: floa
         if n_j == 0 and n_p == offs.size:  # symmetric pairs, no jitter: the vectorised kernels
             vh, vv = vector_kernels(_MODE_CODE[mode])
             pad = _pad(offs, fx, fy, zk)
-            key = (h, w, pad)
-            if scratch.get("planar_key") != key:
-                scratch["planar"], scratch["planar_key"] = planar_buffer(h, w, pad), key
+            if scratch.get("planar_key") != (h, w, pad):
+                scratch["planar"], scratch["planar_key"] = planar_buffer(h, w, pad), (h, w, pad)
             vh(src, zk, scratch["planar"], pad, float(fx), offs, wts, wsum, p)
             vv(scratch["planar"], out, pad, float(fy), offs, wts, wsum, p)
-        else:
-            hpass(src, zk, tmp, float(fx), offs, kinds, wts, wsum, n_j, n_p, p, base)
-            vpass(tmp, out, float(fy), offs, kinds, wts, wsum, n_j, n_p, p, base)
+        else:  # the scalar kernel on RGBZ arrays
+            spass = kernels(_MODE_CODE[mode])
+            src4 = np.concatenate([src, zk[..., None]], axis=-1)
+            tmp4 = np.empty_like(src4)
+            spass(src4, tmp4, float(fx), True, offs, kinds, wts, wsum, n_j, n_p, p, base)
+            spass(tmp4, src4, float(fy), False, offs, kinds, wts, wsum, n_j, n_p, p, base)
+            out[...] = src4[..., :3]
         if taps.rank == 1 and np.all(taps.signs == 1):
             return out
         acc = np.zeros_like(src) if acc is None else acc
