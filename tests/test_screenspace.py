@@ -145,8 +145,7 @@ def test_single_lit_pixel_returns_the_kernel(taps7, backend):
     n = 61
     e = np.zeros((n, n, 3), np.float32)
     e[n // 2, n // 2] = 1.0
-    z, f = 400.0, 30.0  # 0.075 px per mm... pixel = z / f mm
-    pixel_mm = z / f * 0.25
+    z, pixel_mm = 400.0, 1.0 / 3.0  # a pixel covers pixel_mm at depth z: f = z / pixel_mm
     f = z / pixel_mm
     out = filter_arrays(e, np.full((n, n), z, np.float32), f, f, taps7, jitter=0.0, depth_mode="none", backend=backend)
     k2d = taps7.to_kernel(pixel_mm, n).to_2d()

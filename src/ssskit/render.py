@@ -74,12 +74,9 @@ def region_metrics(reference: np.ndarray, test: np.ndarray, mask: np.ndarray, pe
     image, FLIP of the tone-mapped images."""
     from . import metrics
 
-    r = np.asarray(reference, dtype=np.float64)[mask]
-    t = np.asarray(test, dtype=np.float64)[mask]
-    rmse = float(np.sqrt(np.mean((r - t) ** 2)))
-    peak = float(r.max()) if r.size else 1.0
-    out = {"rmse": rmse, "relative_rmse": rmse / (float(np.sqrt(np.mean(r**2))) or 1.0),
-           "psnr": float("inf") if rmse == 0 else float(20 * np.log10(peak / rmse))}
+    r = np.asarray(reference)[mask][None]  # the masked pixels as a (1, N, 3) image
+    t = np.asarray(test)[mask][None]
+    out = {"rmse": metrics.rmse(r, t), "relative_rmse": metrics.relative_rmse(r, t), "psnr": metrics.psnr(r, t)}
     if perceptual:
         out["flip"] = metrics.flip(reference, test)
     return out
@@ -90,21 +87,28 @@ def render(scene: str | Path = "slab", material: str = "skin1", kernel: str = "p
            seed: int = 0, frame: int = 0, model: str = "dipole", photons: int = 200_000, depth_mode: str | None = None,
            exact: bool = True, reference: bool = False, reference_spp: int = 64, backend: str = "numba",
            perceptual: bool = True, progress: Callable[[str], None] | None = None) -> RenderResult:
-    """Render ``scene`` (a built-in scene name or a G-buffer ``.exr``) with separable SSS (module docstring)."""
+    """Render ``scene`` with separable SSS (module docstring).
+
+    ``scene``: a built-in scene name, a G-buffer ``.exr`` path, or a :class:`GBuffer` already in memory
+    (to run several kernels on one render; ``reference`` is then refused).
+    """
     from .kernels import build_kernel, default_grid, parse_method_spec
     from .materials import get_material
     from .profiles import profile_for_material
     from .sampling.taps import make_taps
     from .scenes.render3d import SCENES, render_gbuffer, render_reference
-    from .screenspace import load_gbuffer, separable_sss
+    from .screenspace import GBuffer, load_gbuffer, separable_sss
 
     say = progress or (lambda msg: None)
     mat = get_material(material)
     opts = {"photons": photons} if model == "montecarlo" else {}
     profile = profile_for_material(mat, model, **opts)
     albedo = np.clip(profile.total_rd(), 0.0, 1.0)
-    path = Path(str(scene))
-    if path.suffix.lower() == ".exr":
+    path = Path(str(scene)) if not isinstance(scene, GBuffer) else None
+    if path is None:
+        gb = scene
+        scene_name = str(gb.meta.get("scene", "G-buffer"))
+    elif path.suffix.lower() == ".exr":
         gb = load_gbuffer(path)
         scene_name = path.name
     else:
@@ -129,8 +133,8 @@ def render(scene: str | Path = "slab", material: str = "skin1", kernel: str = "p
         if res.exact is not None:
             res.metrics["exact_2d"] = region_metrics(gb.composite(res.exact), res.image, mask, perceptual)
     if reference:
-        if path.suffix.lower() == ".exr":
-            raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
+        if path is None or path.suffix.lower() == ".exr":
+            raise SsskitError("--reference needs a built-in scene (a G-buffer has no scene to path-trace)")
         res.reference = render_reference(str(scene), mat, width=width, height=height, spp=reference_spp, seed=seed,
                                          frame=frame, progress=progress is not None)
         hit = np.isfinite(gb.depth)

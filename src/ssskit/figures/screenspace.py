@@ -32,12 +32,14 @@ def screen_space_comparison(out: Path, material: str = "skin1", scenes=None, wid
     scenes = list(scenes or SCENES.names())
     rows, grid = [], []
     for scene in scenes:
-        line = []
-        for i, (label, spec, taps, placement) in enumerate(SCREEN_SPACE_METHODS):
+        line, base = [], None
+        for label, spec, taps, placement in SCREEN_SPACE_METHODS:
             say(f"screen space: {scene}, {label}")
-            r = render(scene, material, spec, taps=taps, tap_method=placement, jitter=0.1, width=width, height=height,
-                       spp=spp, reference=(i == 0), reference_spp=reference_spp, progress=None)
-            if i == 0:
+            # the first method renders the scene (G-buffer, exact 2D, path trace); the others reuse it
+            r = render(scene if base is None else base.gbuffer, material, spec, taps=taps, tap_method=placement,
+                       jitter=0.1, width=width, height=height, spp=spp, exact=base is None, reference=base is None,
+                       reference_spp=reference_spp, progress=None)
+            if base is None:
                 base = r
                 line.append(("no SSS", r.gbuffer.composite()))
             row = {"scene": scene, "method": label}

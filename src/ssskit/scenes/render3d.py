@@ -28,9 +28,9 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
 
@@ -62,7 +62,6 @@ class SceneSpec:
     lights: Callable[[], dict[str, dict]]
     orbit_deg_per_frame: float = 2.0
     light_orbit_deg_per_frame: float = 0.0  # lights orbit the target about the up axis
-    extra: dict[str, Any] = field(default_factory=dict)
 
 
 SCENES: Registry[SceneSpec] = Registry("scene", SceneError)
@@ -182,10 +181,6 @@ def _register() -> None:
 
 
 _register()
-
-
-def scene_names() -> list[str]:
-    return SCENES.names()
 
 
 def _orbit(point, spec: SceneSpec, degrees: float) -> np.ndarray:

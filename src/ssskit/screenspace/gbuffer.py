@@ -32,9 +32,6 @@ import numpy as np
 from ..errors import SsskitError
 from ..io import atomic_output, check_suffix
 
-RGB_LAYERS = ("diffuse", "specular", "albedo", "normal")
-SCALAR_LAYERS = ("depth",)
-ID_LAYERS = ("profile_id",)
 LAYERS = ("diffuse", "specular", "albedo", "depth", "normal", "profile_id")
 
 
