@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-import sampler_suite as suite
+from . import sampler_suite as suite
 from ssskit.errors import SamplingError
 from ssskit.profiles import burley_cdf
 from ssskit.sampling import XIE_C, BurleyRadial, BurleyRadialApprox, fit_xie_c, xie_cdf_error, xie_g

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from conftest import MATERIAL_CHANNELS
+from tests.conftest import MATERIAL_CHANNELS
 from ssskit.errors import ProfileError
 from ssskit.materials import MATERIALS
 from ssskit.profiles import (
