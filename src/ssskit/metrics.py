@@ -1,4 +1,5 @@
-"""Image error metrics against a reference: RMSE, relative RMSE, PSNR, SSIM and FLIP.
+"""Image error metrics against a reference: RMSE, relative RMSE, PSNR, SSIM and FLIP, over whole
+images or inside a region (:func:`region_metrics`).
 
 RMSE / PSNR work on linear values. SSIM (scikit-image) and FLIP (NVIDIA's flip-evaluator, LDR
 mode) expect display-referred images: both images are divided by the reference's peak, clipped
@@ -10,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import SignalError
+from .io import tonemap  # the display encoding images are written with
 
 
 def _pair(reference, test) -> tuple[np.ndarray, np.ndarray]:
@@ -44,12 +46,6 @@ def psnr(reference, test, peak: float | None = None) -> float:
     return float("inf") if err == 0 else float(20.0 * np.log10(peak / err))
 
 
-def tonemap(image, peak: float) -> np.ndarray:
-    """Linear -> display: divide by ``peak``, clip to [0, 1], sRGB transfer function."""
-    x = np.clip(np.asarray(image, dtype=np.float64) / peak, 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
-
-
 def ssim(reference, test) -> float:
     """Mean SSIM (scikit-image, Gaussian-weighted as in Wang et al.) of the tone-mapped images."""
     from skimage.metrics import structural_similarity
@@ -80,4 +76,23 @@ def all_metrics(reference, test, perceptual: bool = True) -> dict[str, float]:
     if perceptual:
         out["ssim"] = ssim(reference, test)
         out["flip"] = flip(reference, test)
+    return out
+
+
+def region_metrics(reference, test, mask, perceptual: bool = True) -> dict[str, float]:
+    """Errors of ``test`` against ``reference`` (both (H, W, 3), linear) inside ``mask`` (H, W) bool:
+    ``rmse``, ``relative_rmse`` and ``psnr`` (peak = the reference's maximum inside the mask) over the
+    masked pixels, and with ``perceptual`` ``flip`` over the whole image (FLIP needs the image
+    context). An empty mask gives NaN errors (and the FLIP of the whole image)."""
+    ref, tst = _pair(reference, test)
+    m = np.asarray(mask, dtype=bool)
+    if m.shape != ref.shape[:2]:
+        raise SignalError(f"mask has shape {m.shape}, the images {ref.shape[:2]}")
+    if m.any():
+        r, t = ref[m][None], tst[m][None]  # the masked pixels as a (1, N, 3) image
+        out = {"rmse": rmse(r, t), "relative_rmse": relative_rmse(r, t), "psnr": psnr(r, t)}
+    else:
+        out = {"rmse": float("nan"), "relative_rmse": float("nan"), "psnr": float("nan")}
+    if perceptual:
+        out["flip"] = flip(ref, tst)
     return out

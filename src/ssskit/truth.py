@@ -5,6 +5,9 @@ The exact result is the 2D convolution of the paper's Eq. 1, M_e = E * Rd, with 
 into exact cell integrals on the pixel grid (:meth:`RGBProfile.discretize_2d`), computed by FFT.
 A separable kernel runs as 2N 1D convolutions (Eq. 2). Both extend the image by repeating its
 border pixels, so on the same grid they agree exactly wherever the kernel is exact.
+
+On a G-buffer, :func:`exact_screen_space` is the screen-space pass's ground truth: the same 2D
+convolution on each SSS region, with the pass's own boundary rule.
 """
 
 from __future__ import annotations
@@ -72,3 +75,46 @@ def apply_separable(image: np.ndarray, kernel, pixel_mm: float) -> np.ndarray:
             tmp = convolve1d(img[..., c], w[c, i], axis=1, mode="nearest")
             out[..., c] += k.signs[c, i] * convolve1d(tmp, w[c, i], axis=0, mode="nearest")
     return out
+
+
+def exact_screen_space(gbuffer, profile, fraction: float = 0.999) -> np.ndarray | None:
+    """The exact 2D convolution (paper Eq. 1) of a G-buffer's diffuse layer on each SSS region,
+    (H, W, 3) float32; None if the pixels are not square (the profile's cells are square).
+
+    ``profile``: one :class:`RGBProfile` for every region, or a mapping profile id -> profile. Per
+    region m (the pixels with one profile id) the pass's boundary rule is kept: samples off the region
+    or off the image take the centre value, so
+
+        M = (m E) * K + E (1 - m * K)
+
+    with K the profile's exact cell integrals normalised to 1 (the albedo layer carries the total
+    reflectance), on the pixel grid at the region's median depth: pixel size 1 / pixels_per_mm
+    (:meth:`Camera.pixels_per_mm`), kernel radius the largest channel's ``fraction`` radius. Exact for a
+    fronto-parallel surface (the slab scene); on curved surfaces it ignores the footprint's change with
+    depth, which the pass does not. Pixels without SSS keep their diffuse value.
+    """
+    from collections.abc import Mapping
+
+    from scipy.signal import fftconvolve
+
+    cam = gbuffer.camera
+    if abs(cam.fx - cam.fy) > 1e-6 * cam.fx:
+        return None
+    e = gbuffer.diffuse.astype(np.float64)
+    out = e.copy()
+    ids = [int(i) for i in np.unique(gbuffer.profile_id[gbuffer.profile_id > 0])]
+    for pid in ids:
+        prof = profile.get(pid) if isinstance(profile, Mapping) else profile
+        if prof is None:
+            raise SignalError(f"no profile given for profile id {pid}")
+        m = (gbuffer.profile_id == pid).astype(np.float64)
+        z = float(np.median(gbuffer.depth[m > 0]))  # world units, as pixels_per_mm takes it
+        pixel_mm = 1.0 / float(cam.pixels_per_mm(z)[0])
+        radius = float(np.max(prof.radius_at_fraction(fraction)))
+        half = int(min(np.ceil(radius / pixel_mm), max(gbuffer.shape)))
+        cells = prof.discretize_2d(pixel_mm, 2 * half + 1)
+        cells = cells / cells.sum(axis=(0, 1))
+        spread = fftconvolve(np.broadcast_to(m[..., None], e.shape), cells, mode="same", axes=(0, 1))
+        res = fftconvolve(m[..., None] * e, cells, mode="same", axes=(0, 1)) + e * (1.0 - spread)
+        out[m > 0] = res[m > 0]
+    return out.astype(np.float32)
