@@ -1,5 +1,35 @@
-"""Procedural test signals (and, later, 3D scenes) that produce irradiance images."""
+"""Inputs of the passes: procedural test signals (irradiance images) and built-in 3D scenes rendered by
+Mitsuba 3 into G-buffers, with camera/light paths over frames and path-traced references.
 
+* :mod:`.signals`: ``make_signal(name, size)`` for the kernel evaluations (:data:`SIGNALS`);
+* :mod:`.scenes`: the scene registry :data:`SCENES` (:class:`SceneSpec`: geometry, lights, camera),
+  ``scene_camera``, ``scene_lights`` and the Mitsuba scene dictionaries;
+* :mod:`.gbuffers`: ``render_gbuffer`` (one frame) and ``render_sequence`` (consecutive frames);
+* :mod:`.reference`: ``render_reference``, a volumetric path trace of the same scene, cached.
+
+Mitsuba is imported when a scene is first rendered, not here.
+"""
+
+from ..errors import SceneError
+from .gbuffers import render_gbuffer, render_sequence
+from .reference import reference_cache_dir, reference_phase_g, render_reference
+from .scenes import COAT_ROUGHNESS, FLOOR_ALBEDO, SCENES, SceneSpec, camera_pose, scene_camera, scene_lights
 from .signals import SIGNALS, make_signal
 
-__all__ = ["SIGNALS", "make_signal"]
+__all__ = [
+    "COAT_ROUGHNESS",
+    "FLOOR_ALBEDO",
+    "SCENES",
+    "SIGNALS",
+    "SceneError",
+    "SceneSpec",
+    "camera_pose",
+    "make_signal",
+    "reference_cache_dir",
+    "reference_phase_g",
+    "render_gbuffer",
+    "render_reference",
+    "render_sequence",
+    "scene_camera",
+    "scene_lights",
+]

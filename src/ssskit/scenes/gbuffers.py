@@ -1,0 +1,81 @@
+"""G-buffers of the built-in scenes (:mod:`ssskit.scenes.scenes`), rendered by Mitsuba 3
+(``scalar_rgb``, CPU), pixel-aligned, one frame or a sequence along the camera and light paths.
+
+Layers (section 6 of the separable-SSS paper splits the frame the same way):
+
+* ``diffuse``: direct lighting of white Lambertian surfaces (radiance E / pi), shadows included;
+* ``specular``: the reflection of the SSS objects' rough dielectric boundary (Mitsuba
+  ``roughplastic`` with no diffuse part, Beckmann alpha = :data:`COAT_ROUGHNESS`, interior index =
+  the material's eta), black elsewhere;
+* ``albedo``: the profile's total diffuse reflectance per channel on SSS objects,
+  :data:`FLOOR_ALBEDO` elsewhere, 0 where no surface;
+* ``depth``, ``normal``, ``profile_id``: one sample per pixel from Mitsuba's AOV integrator
+  (positions converted to linear camera depth with the camera built from the same look-at).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SceneError
+from ..screenspace.gbuffer import GBuffer
+from .scenes import COAT_ROUGHNESS, FLOOR_ALBEDO, SCENES, check_size, check_spp, render_dict, scene_camera, scene_dict
+
+
+def render_gbuffer(scene: str, albedo, eta: float = 1.4, width: int = 256, height: int = 192, spp: int = 32,
+                   seed: int = 0, frame: int = 0, material: str = "material") -> GBuffer:
+    """Render the named scene's G-buffer (module docstring) at ``frame`` with Mitsuba ``scalar_rgb``.
+
+    ``albedo``: (3,) diffuse albedo of the SSS objects (the profile's total reflectance);
+    ``eta``: their refractive index (specular layer). Returns a :class:`GBuffer` with profile id 1
+    on the SSS objects, ``materials = (material,)`` and meta (scene, frame, spp, seed, eta).
+    """
+    spec = SCENES.get(scene)
+    check_size(width, height)
+    check_spp(spp)
+    alb = np.broadcast_to(np.asarray(albedo, dtype=float), (3,))
+    if not np.all(np.isfinite(alb)) or np.any(alb < 0) or np.any(alb > 1):
+        raise SceneError(f"albedo must lie in [0, 1], got {alb.tolist()}")
+    if not (isinstance(eta, (int, float, np.floating)) and np.isfinite(eta) and eta > 0):
+        raise SceneError(f"eta must be a positive refractive index, got {eta!r}")
+    white = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 1.0}}
+    black = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.0}}
+    coat = {"type": "roughplastic", "diffuse_reflectance": {"type": "rgb", "value": 0.0}, "int_ior": float(eta),
+            "distribution": "beckmann", "alpha": COAT_ROUGHNESS}
+    direct = {"type": "direct", "emitter_samples": 1, "bsdf_samples": 1}
+
+    diffuse = render_dict(scene_dict(spec, width, height, spp, seed, frame, direct, lambda sid: white))
+    specular = render_dict(scene_dict(spec, width, height, spp, seed + 1, frame, direct,
+                                      lambda sid: coat if sid in spec.sss_shapes else black))
+    # Mitsuba merges meshes that share a material, so shapes are told apart by an albedo tag in the
+    # AOV pass (1 on SSS objects, 0.25 elsewhere, 0 where no surface) rather than by shape index.
+    tagged = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.25}}
+    aov_int = {"type": "aov", "aovs": "pos:position,nn:sh_normal,alb:albedo"}
+    aov = render_dict(scene_dict(spec, width, height, 1, seed + 2, frame, aov_int,
+                                 lambda sid: white if sid in spec.sss_shapes else tagged))
+    pos, normal, tag = aov[..., 0:3], aov[..., 3:6], aov[..., 6]
+    hit = tag > 0.1
+    sss = tag > 0.6
+    cam = scene_camera(spec, width, height, frame)
+    cam_pos = pos @ cam.world_to_camera[:3, :3].T + cam.world_to_camera[:3, 3]
+    depth = np.where(hit, cam_pos[..., 2], np.inf).astype(np.float32)
+    albedo_layer = np.where(sss[..., None], alb.astype(np.float32), np.float32(FLOOR_ALBEDO))
+    albedo_layer[~hit] = 0.0
+    meta = {"scene": spec.name, "frame": int(frame), "spp": int(spp), "seed": int(seed),
+            "renderer": "mitsuba3 scalar_rgb", "eta": float(eta)}
+    return GBuffer(diffuse=np.maximum(diffuse[..., :3], 0), albedo=albedo_layer, depth=depth,
+                   profile_id=sss.astype(np.uint32), camera=cam, specular=np.maximum(specular[..., :3], 0),
+                   normal=np.where(hit[..., None], normal, 0).astype(np.float32), materials=(material,), meta=meta)
+
+
+def render_sequence(scene: str, albedo, frames: int, first: int = 0, **kw) -> list[GBuffer]:
+    """G-buffers of ``frames`` consecutive frames ``first, first + 1, ...`` along the scene's camera and
+    light paths (each with its camera and its frame index in ``meta["frame"]``); ``kw`` as for
+    :func:`render_gbuffer` (except ``frame``)."""
+    if isinstance(frames, bool) or not (isinstance(frames, (int, np.integer)) and frames >= 1):
+        raise SceneError(f"frames must be a positive integer, got {frames!r}")
+    if isinstance(first, bool) or not (isinstance(first, (int, np.integer)) and first >= 0):
+        raise SceneError(f"first frame must be a non-negative integer, got {first!r}")
+    if "frame" in kw:
+        raise SceneError("render_sequence takes first= and frames=, not frame=")
+    return [render_gbuffer(scene, albedo, frame=int(first) + f, **kw) for f in range(int(frames))]

@@ -1,0 +1,296 @@
+"""The built-in 3D scenes: a registry of :class:`SceneSpec` (geometry, lights, camera look-at), their
+camera and light paths over frames, and the Mitsuba 3 scene dictionaries the renderers load.
+
+One world unit is one mm (``world_units_per_mm`` = 1). Camera and light paths (``frame``): the
+camera orbits the target about the up axis by ``orbit_deg_per_frame`` and the lights by
+``light_orbit_deg_per_frame`` (the sphere's light moves, so its shadow sweeps the floor); every
+G-buffer carries its camera, so :func:`ssskit.screenspace.motion_vectors` gives the reprojection.
+
+The SSS objects' boundary is a rough dielectric everywhere it appears (the G-buffer's specular
+layer and the path-traced reference alike): Beckmann microfacets with roughness alpha =
+:data:`COAT_ROUGHNESS` (Mitsuba ``roughplastic`` with no diffuse part for the specular layer,
+``roughdielectric`` around the medium for the reference), interior index = the material's eta.
+
+Why Mitsuba 3 and not moderngl: it installs from PyPI with no GPU, display or EGL, its
+``scalar_rgb`` variant runs on any CPU, it renders shadows from point and area lights correctly
+(ray-traced, not shadow maps), and the same scene description gives the volumetric path-traced
+reference (``volpathmis``).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ..cache import cache_dir
+from ..errors import SceneError
+from ..io import atomic_output
+from ..registry import Registry
+from ..screenspace.camera import Camera
+
+#: diffuse albedo of everything that is not an SSS object (floors, occluders)
+FLOOR_ALBEDO = 0.5
+#: Beckmann roughness alpha of the SSS objects' rough dielectric boundary (specular layer and
+#: reference alike; Mitsuba's rough BSDFs default to Beckmann); a smooth boundary would show no
+#: highlight of a point light.
+COAT_ROUGHNESS = 0.15
+#: image sizes the renderers accept (pixels per side)
+SIZE_RANGE = (8, 8192)
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """A built-in scene: camera look-at, field of view, lights and shapes (Mitsuba dicts)."""
+
+    name: str
+    description: str
+    origin: tuple[float, float, float]
+    target: tuple[float, float, float]
+    up: tuple[float, float, float]
+    fov_x_deg: float
+    shapes: Callable[[], dict[str, dict]]  # id -> Mitsuba shape dict without bsdf
+    sss_shapes: tuple[str, ...]
+    lights: Callable[[], dict[str, dict]]
+    orbit_deg_per_frame: float = 2.0
+    light_orbit_deg_per_frame: float = 0.0  # lights orbit the target about the up axis
+
+
+SCENES: Registry[SceneSpec] = Registry("scene", SceneError)
+
+
+def mitsuba():
+    """The ``mitsuba`` module with the ``scalar_rgb`` variant set, or a SceneError saying how to get it."""
+    try:
+        import mitsuba as mi
+    except ImportError:  # pragma: no cover - mitsuba is a core dependency
+        raise SceneError("the 3D scenes need Mitsuba 3: pip install mitsuba") from None
+    if mi.variant() != "scalar_rgb":
+        mi.set_variant("scalar_rgb")
+    return mi
+
+
+def _T():
+    return mitsuba().ScalarTransform4f
+
+
+# ---- geometry ----------------------------------------------------------------------------------------
+
+def _area_sphere(center, radius, radiance):
+    return {"type": "sphere", "center": list(center), "radius": radius,
+            "emitter": {"type": "area", "radiance": {"type": "rgb", "value": radiance}}}
+
+
+def _floor(size=400.0, z=0.0):
+    return {"type": "rectangle", "to_world": _T()().translate([0, 0, z]) @ _T()().scale([size, size, 1])}
+
+
+def _ply(name: str, verts: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None) -> dict:
+    """A Mitsuba ``ply`` shape for a triangle mesh, written once to the ``meshes`` cache (binary PLY)."""
+    verts = np.ascontiguousarray(verts, dtype="<f4")
+    faces = np.ascontiguousarray(faces, dtype="<u4")
+    cols = [verts] if normals is None else [verts, np.ascontiguousarray(normals, dtype="<f4")]
+    vdata = np.concatenate(cols, axis=1).astype("<f4")
+    digest = hashlib.sha1(vdata.tobytes() + faces.tobytes()).hexdigest()[:16]
+    path = cache_dir("meshes") / f"{name}-{digest}.ply"
+    if not path.is_file():
+        props = "property float x\nproperty float y\nproperty float z\n"
+        if normals is not None:
+            props += "property float nx\nproperty float ny\nproperty float nz\n"
+        header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(verts)}\n{props}"
+                  f"element face {len(faces)}\nproperty list uchar uint vertex_indices\nend_header\n")
+        fdata = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<u4", (3,))])
+        fdata["n"] = 3
+        fdata["i"] = faces
+        with atomic_output(path) as tmp:
+            tmp.write_bytes(header.encode() + vdata.tobytes() + fdata.tobytes())
+    return {"type": "ply", "filename": str(path), "face_normals": normals is None}
+
+
+def _grid_faces(rows: int, cols: int) -> np.ndarray:
+    idx = np.arange(rows * cols).reshape(rows, cols)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    return np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)])
+
+
+@functools.lru_cache(maxsize=None)
+def _bumpy_geometry(n: int = 200, size: float = 40.0, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and faces of a heightfield tile (mm) with a gentle swell and pore-scale pits (~0.15 mm
+    deep, ~0.3 mm wide); computed once per process (every scene dict and cache key needs it)."""
+    rng = np.random.default_rng(seed)
+    u = np.linspace(-size / 2, size / 2, n)
+    X, Y = np.meshgrid(u, u)
+    Z = 1.5 * np.sin(X / 6.0) * np.cos(Y / 7.0)
+    for cx, cy in rng.uniform(-size / 2, size / 2, (900, 2)):
+        Z -= 0.15 * np.exp(-((X - cx) ** 2 + (Y - cy) ** 2) / (2 * 0.15**2))
+    verts = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
+    return _frozen(verts), _frozen(_grid_faces(n, n))
+
+
+def _bumpy_mesh() -> dict:
+    return _ply("bumpy", *_bumpy_geometry())
+
+
+@functools.lru_cache(maxsize=None)
+def _ellipsoid_geometry(radii=(18.0, 2.0, 28.0), center=(0.0, 0.0, 32.0), n: int = 96):
+    """Vertices, faces and smooth normals of a UV-sphere mesh scaled to an ellipsoid (an ear-like thin
+    shape); computed once per process."""
+    th = np.linspace(0, np.pi, n)
+    ph = np.linspace(0, 2 * np.pi, 2 * n)
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    unit = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], axis=-1).reshape(-1, 3)
+    r = np.asarray(radii)
+    verts = unit * r + np.asarray(center)
+    normals = unit / r
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    # (theta, phi) grid faces wind inward; reversed, their geometric normals point out of the medium,
+    # which is what Mitsuba's interior/exterior media test uses
+    return _frozen(verts), _frozen(_grid_faces(n, 2 * n)[:, ::-1]), _frozen(normals)
+
+
+def _ellipsoid_mesh() -> dict:
+    return _ply("ellipsoid", *_ellipsoid_geometry())
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.ascontiguousarray(a)
+    a.setflags(write=False)
+    return a
+
+
+def _register() -> None:
+    SCENES.register("sphere", SceneSpec(
+        "sphere", "a 30 mm sphere on a plane, soft shadow from a spherical area light",
+        (0.0, -160.0, 90.0), (0.0, 0.0, 22.0), (0.0, 0.0, 1.0), 32.0,
+        lambda: {"sphere": {"type": "sphere", "center": [0, 0, 30], "radius": 30},
+                 "floor": _floor()},
+        ("sphere",),
+        lambda: {"key": _area_sphere((90, -70, 160), 10, 60.0)}, light_orbit_deg_per_frame=6.0))
+    SCENES.register("slab", SceneSpec(
+        "slab", "a flat slab seen head-on with a straight hard shadow edge (the paper's Fig. 7 set-up)",
+        (0.0, 0.0, 600.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 7.0,
+        # the occluder (x from 60 to 330 mm at height 150) is outside the view; the point light at
+        # (400, 0, 1000) puts its straight shadow edge on the line x = 0 of the slab's top face
+        lambda: {"slab": {"type": "cube", "to_world": _T()().translate([0, 0, -10]) @ _T()().scale([60, 60, 10])},
+                 "occluder": {"type": "rectangle",
+                              "to_world": _T()().translate([195, 0, 150]) @ _T()().scale([135, 120, 1])}},
+        ("slab",),
+        lambda: {"key": {"type": "point", "position": [400, 0, 1000], "intensity": {"type": "rgb", "value": 3.0e6}}},
+        orbit_deg_per_frame=1.0))
+    SCENES.register("ear", SceneSpec(
+        "ear", "a thin ear-like flattened ellipsoid (4 mm thick) lit from the side and behind",
+        (0.0, -120.0, 40.0), (0.0, 0.0, 30.0), (0.0, 0.0, 1.0), 30.0,
+        lambda: {"ear": _ellipsoid_mesh(), "floor": _floor()},
+        ("ear",),
+        lambda: {"key": _area_sphere((70, 90, 80), 8, 80.0), "fill": _area_sphere((-90, -60, 60), 6, 15.0)}))
+    SCENES.register("bumpy", SceneSpec(
+        "bumpy", "a 40 mm skin-like tile with pore-scale pits, grazing light",
+        (0.0, -45.0, 45.0), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 40.0,
+        lambda: {"bumpy": _bumpy_mesh(), "floor": _floor(z=-3.0)},
+        ("bumpy",),
+        lambda: {"key": {"type": "point", "position": [80, 20, 25], "intensity": {"type": "rgb", "value": 8.0e3}}}))
+
+
+_register()
+
+
+# ---- camera and light paths ----------------------------------------------------------------------------
+
+def _orbit(point, spec: SceneSpec, degrees: float) -> np.ndarray:
+    """``point`` rotated about the axis through the target along ``up`` (Rodrigues' formula)."""
+    target = np.array(spec.target, float)
+    up = np.array(spec.up, float) / np.linalg.norm(spec.up)
+    ang = math.radians(degrees)
+    v = np.asarray(point, float) - target
+    v = v * math.cos(ang) + np.cross(up, v) * math.sin(ang) + up * (up @ v) * (1 - math.cos(ang))
+    return target + v
+
+
+def camera_pose(spec: SceneSpec, frame: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(origin, target, up) of the camera orbiting the target about the up axis by
+    frame * orbit_deg_per_frame."""
+    up = np.array(spec.up, float) / np.linalg.norm(spec.up)
+    return _orbit(spec.origin, spec, spec.orbit_deg_per_frame * frame), np.array(spec.target, float), up
+
+
+def scene_lights(spec: SceneSpec, frame: int = 0) -> dict[str, dict]:
+    """The scene's lights at ``frame``: point positions and sphere centres orbit the target by
+    frame * light_orbit_deg_per_frame."""
+    lights = spec.lights()
+    deg = spec.light_orbit_deg_per_frame * frame
+    if deg == 0:
+        return lights
+    for light in lights.values():
+        for key in ("position", "center"):
+            if key in light:
+                light[key] = _orbit(light[key], spec, deg).tolist()
+    return lights
+
+
+def scene_camera(spec: SceneSpec, width: int, height: int, frame: int = 0) -> Camera:
+    """The :class:`Camera` (x right, y down, z forward) matching Mitsuba's look-at sensor at ``frame``."""
+    origin, target, up = camera_pose(spec, frame)
+    f = target - origin
+    f /= np.linalg.norm(f)
+    r = np.cross(f, up)
+    r /= np.linalg.norm(r)
+    d = np.cross(f, r)
+    m = np.eye(4)
+    m[:3, :3] = np.stack([r, d, f])
+    m[:3, 3] = -m[:3, :3] @ origin
+    return Camera.from_fov(width, height, spec.fov_x_deg, world_to_camera=m, world_units_per_mm=1.0)
+
+
+# ---- Mitsuba scene dictionaries --------------------------------------------------------------------------
+
+def check_size(width: int, height: int) -> None:
+    """A SceneError unless width and height are integers in :data:`SIZE_RANGE`."""
+    lo, hi = SIZE_RANGE
+    for v, name in ((width, "width"), (height, "height")):
+        if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and lo <= v <= hi):
+            raise SceneError(f"image {name} must be an integer in [{lo}, {hi}], got {v!r}")
+
+
+def check_spp(spp: int) -> None:
+    if not (isinstance(spp, (int, np.integer)) and not isinstance(spp, bool) and spp >= 1):
+        raise SceneError(f"samples per pixel must be a positive integer, got {spp!r}")
+
+
+def _sensor(spec: SceneSpec, width: int, height: int, spp: int, seed: int, frame: int) -> dict:
+    origin, target, up = camera_pose(spec, frame)
+    return {"type": "perspective", "fov": spec.fov_x_deg, "fov_axis": "x",
+            "to_world": _T()().look_at(origin=origin.tolist(), target=target.tolist(), up=up.tolist()),
+            "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
+                     "pixel_format": "rgb"},
+            "sampler": {"type": "independent", "sample_count": spp, "seed": seed}}
+
+
+def scene_dict(spec: SceneSpec, width: int, height: int, spp: int, seed: int, frame: int, integrator: dict,
+               bsdf_for: Callable[[str], dict]) -> dict:
+    """The Mitsuba scene dict of ``spec`` at ``frame``: ``bsdf_for(shape id)`` gives each shape's BSDF
+    (a ``__medium`` entry becomes the shape's interior medium)."""
+    d = {"type": "scene", "integrator": integrator, "sensor": _sensor(spec, width, height, spp, seed, frame)}
+    for sid, shape in spec.shapes().items():
+        entry = dict(shape)
+        props = dict(bsdf_for(sid))
+        if "__medium" in props:
+            entry["interior"] = props.pop("__medium")
+        if props:
+            entry["bsdf"] = props
+        d[sid] = entry
+    d.update(scene_lights(spec, frame))
+    return d
+
+
+def render_dict(scene: dict) -> np.ndarray:
+    """Load and render a Mitsuba scene dict; (H, W, C) float32."""
+    mi = mitsuba()
+    try:
+        loaded = mi.load_dict(scene)
+    except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
+        raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
+    return np.array(mi.render(loaded), dtype=np.float32)
