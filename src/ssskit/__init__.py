@@ -1,7 +1,11 @@
 """ssskit: real-time subsurface scattering -- profiles, separable kernels, screen-space passes.
 
 Importing ssskit is cheap: submodules (and scipy / matplotlib / numba behind them) load on first
-use, e.g. ``ssskit.materials`` or ``from ssskit.profiles import profile_for_material``.
+use, e.g. ``ssskit.materials`` or ``from ssskit.profiles import profile_for_material``. The
+pipeline's entry points are reachable from the top, also lazily::
+
+    >>> import ssskit
+    >>> r = ssskit.render("slab", ssskit.RenderSettings(kernel="svd:2"))   # doctest: +SKIP
 """
 
 from __future__ import annotations
@@ -10,15 +14,21 @@ import importlib
 
 __version__ = "0.1.0"
 
-_SUBMODULES = ("materials", "profiles", "kernels", "sampling", "screenspace", "scenes", "truth", "metrics", "evaluate", "figures", "errors",
-               "registry", "io", "report", "cli")
+#: every module and subpackage of ssskit, in layer order (each imports only those before it)
+_SUBMODULES = ("errors", "registry", "cache", "settings", "io", "materials", "profiles", "kernels", "sampling",
+               "backends", "screenspace", "scenes", "truth", "metrics", "pipeline", "evaluate", "figures", "report",
+               "cli")
+#: names re-exported from a submodule: name -> submodule
+_API = {"render": "pipeline", "RenderSettings": "pipeline", "RenderResult": "pipeline"}
 
 
 def __getattr__(name: str):
     if name in _SUBMODULES:
         return importlib.import_module(f"{__name__}.{name}")
+    if name in _API:
+        return getattr(importlib.import_module(f"{__name__}.{_API[name]}"), name)
     raise AttributeError(f"module 'ssskit' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted(list(globals()) + list(_SUBMODULES))
+    return sorted(list(globals()) + list(_SUBMODULES) + list(_API))

@@ -60,7 +60,7 @@ def _materials_section(out: Path, progress: Progress, ctx: dict) -> str:
 
 
 def _profiles_section(out: Path, progress: Progress, ctx: dict) -> str:
-    from .plots import plot_kernel_2d, plot_profiles
+    from .figures.plots import plot_kernel_2d, plot_profiles
     from .profiles import profile_for_material
     from .profiles.montecarlo import montecarlo_rgb
 
@@ -107,7 +107,7 @@ def _totals_table(m: Material, profs) -> str:
 
 
 def _sampling_section(out: Path, progress: Progress, ctx: dict) -> str:
-    from .plots import plot_xie_c
+    from .figures.plots import plot_xie_c
     from .sampling import XIE_C, fit_xie_c, xie_cdf_error
 
     progress("Burley sampling: refitting c")
@@ -127,7 +127,7 @@ def _sampling_section(out: Path, progress: Progress, ctx: dict) -> str:
 
 
 def _kernels_section(out: Path, progress: Progress, ctx: dict) -> str:
-    from .evaluate import evaluate
+    from .pipeline.evaluate import evaluate
     from .figures import make_figures
     from .profiles import profile_for_material
 

@@ -7,7 +7,7 @@ import pytest
 
 from ssskit.cli import main
 from ssskit.errors import SignalError
-from ssskit.evaluate import evaluate
+from ssskit.pipeline import evaluate
 from ssskit.metrics import flip, psnr, relative_rmse, rmse, ssim
 from ssskit.profiles import profile_for_material
 from ssskit.scenes import make_signal

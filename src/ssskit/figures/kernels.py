@@ -11,7 +11,7 @@ from ..kernels.base import default_grid
 from ..kernels.methods import singular_values
 from ..materials import CHANNELS
 from ..metrics import tonemap
-from ..plots import CHANNEL_COLORS, _pyplot, save_figure
+from .plots import CHANNEL_COLORS, pyplot, save_figure
 
 #: grid of the kernel figures (the evaluation grids are tied to the image instead)
 FIG_N = 201
@@ -19,7 +19,7 @@ FIG_N = 201
 
 def fig2_singular_values(out: Path, profile, progress=None) -> list[Path]:
     """Paper Fig. 2: singular values of the discrete Rd per channel (sigma_i / sigma_1, log scale)."""
-    plt = _pyplot()
+    plt = pyplot()
     h, n = default_grid(profile, FIG_N)
     sv = singular_values(profile, h, n)
     fig, ax = plt.subplots(figsize=(6, 4))
@@ -52,7 +52,7 @@ def _kernel_rgb(cells: np.ndarray, ref: np.ndarray) -> np.ndarray:
 
 def fig4_svd_ranks(out: Path, profile, progress=None) -> list[Path]:
     """Paper Fig. 4: SVD rank 1, 3, 6 approximations of the 2D kernel next to the true kernel."""
-    plt = _pyplot()
+    plt = pyplot()
     h, n = default_grid(profile, FIG_N)
     rd = profile.discretize_2d(h, n)
     ext = n * h / 2
@@ -72,7 +72,7 @@ def fig4_svd_ranks(out: Path, profile, progress=None) -> list[Path]:
 
 def fig5_slices(out: Path, profile, progress=None) -> list[Path]:
     """Paper Fig. 5: axis and diagonal slices of the pre-integrated kernel vs the true kernel."""
-    plt = _pyplot()
+    plt = pyplot()
     h, n = default_grid(profile, FIG_N)
     k = build_kernel("preintegrated", profile, h, n)
     x = k.x_mm
@@ -96,9 +96,9 @@ def fig5_slices(out: Path, profile, progress=None) -> list[Path]:
 
 
 def _comparison(out: Path, profile, signal: str, filename: str, title: str, progress, crop) -> list[Path]:
-    from ..evaluate import FIG7_METHODS, evaluate
+    from ..pipeline.evaluate import FIG7_METHODS, evaluate
 
-    plt = _pyplot()
+    plt = pyplot()
     ev = evaluate(profile, signal, FIG7_METHODS, size=256, perceptual=True, keep_images=True, progress=progress)
     peak = float(ev.truth.max())
     rows = [(m, ev.images[m], ev.results[m]) for m in FIG7_METHODS] + [("true kernel", ev.truth, None)]

@@ -8,6 +8,12 @@ from typing import Callable
 
 import numpy as np
 
+from ..metrics import region_metrics, tonemap
+from ..pipeline import RenderSettings, render
+from ..scenes import SCENES
+from ..screenspace import PassSettings
+from .plots import pyplot, save_figure
+
 #: (label, kernel spec, taps, tap placement) shown per scene
 SCREEN_SPACE_METHODS = (
     ("pre-integrated, 7 IS taps", "preintegrated", 7, "importance"),
@@ -18,34 +24,36 @@ SCREEN_SPACE_METHODS = (
 
 
 def screen_space_comparison(out: Path, material: str = "skin1", scenes=None, width: int = 160, height: int = 120,
-                            spp: int = 16, reference_spp: int = 32, progress: Callable[[str], None] | None = None):
+                            spp: int = 16, reference_spp: int = 32, progress: Callable[[str], None] | None = None,
+                            sss: PassSettings | None = None):
     """Render every scene with :data:`SCREEN_SPACE_METHODS`; write ``screenspace.png``.
 
-    Returns (png path, rows) with rows = [{scene, method, vs exact {psnr, flip}, vs path-traced {...}}].
+    Each scene's G-buffer, exact 2D convolution and path trace are made once (with the first method)
+    and shared by the others. ``sss``: the pass settings (default: 10% jitter).
+    Returns (png path, rows) with rows = [{scene, method, exact_2d {psnr, flip...}, path_traced {...}}].
     """
-    from ..plots import _pyplot, save_figure
-    from ..metrics import tonemap
-    from ..render import region_metrics, render
-    from ..scenes.render3d import SCENES
-
     say = progress or (lambda msg: None)
+    sss = PassSettings(jitter=0.1) if sss is None else sss
     scenes = list(scenes or SCENES.names())
     rows, grid = [], []
     for scene in scenes:
         line, base = [], None
         for label, spec, taps, placement in SCREEN_SPACE_METHODS:
             say(f"screen space: {scene}, {label}")
-            # the first method renders the scene (G-buffer, exact 2D, path trace); the others reuse it
-            r = render(scene if base is None else base.gbuffer, material, spec, taps=taps, tap_method=placement,
-                       jitter=0.1, width=width, height=height, spp=spp, exact=base is None, reference=base is None,
-                       reference_spp=reference_spp, progress=None)
-            if base is None:
+            first = base is None
+            settings = RenderSettings(material=material, kernel=spec, taps=taps, tap_method=placement,
+                                      width=width, height=height, spp=spp, exact=first, reference=first,
+                                      reference_spp=reference_spp, sss=sss)
+            r = render(scene if first else base.gbuffer, settings)
+            if first:
                 base = r
                 line.append(("no SSS", r.gbuffer.composite()))
+            mask = r.gbuffer.mask
             row = {"scene": scene, "method": label}
             if base.exact is not None:
-                row["exact_2d"] = region_metrics(r.gbuffer.composite(base.exact), r.image, r.gbuffer.mask)
-            row["path_traced"] = region_metrics(base.reference, r.image, r.gbuffer.mask)
+                row["exact_2d"] = r.metrics["exact_2d"] if first else region_metrics(
+                    r.gbuffer.composite(base.exact), r.image, mask)
+            row["path_traced"] = r.metrics["path_traced"] if first else region_metrics(base.reference, r.image, mask)
             rows.append(row)
             line.append((label, r.image))
         if base.exact is not None:
@@ -54,7 +62,7 @@ def screen_space_comparison(out: Path, material: str = "skin1", scenes=None, wid
             line.append(("exact 2D (non-square pixels)", np.zeros_like(base.image)))
         line.append(("path traced (volpathmis)", base.reference))
         grid.append((scene, line))
-    plt = _pyplot()
+    plt = pyplot()
     ncol = max(len(line) for _, line in grid)
     fig, axes = plt.subplots(len(grid), ncol, figsize=(2.6 * ncol, 2.1 * len(grid)), squeeze=False)
     for r, (scene, line) in enumerate(grid):

@@ -1,4 +1,7 @@
-"""Matplotlib figures for profiles and samplers (imported lazily; uses the Agg backend)."""
+"""Matplotlib plots shared by the figures and the report: profiles, the Burley sampler's c, 2D kernels.
+
+pyplot is imported on first use, with the Agg backend (no display needed).
+"""
 
 from __future__ import annotations
 
@@ -6,14 +9,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .io import atomic_output
-from .materials import CHANNELS
+from ..io import atomic_output
+from ..materials import CHANNELS
 
 CHANNEL_COLORS = ("#d62728", "#2ca02c", "#1f77b4")
 _STYLES = ("-", "--", ":", "-.")
 
 
-def _pyplot():
+def pyplot():
+    """matplotlib.pyplot with the Agg backend."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -23,9 +27,10 @@ def _pyplot():
 
 
 def save_figure(fig, path: str | Path, dpi: int = 110) -> None:
+    """Write ``fig`` atomically (format from the suffix) and close it."""
     with atomic_output(path) as tmp:
         fig.savefig(tmp, dpi=dpi, format=Path(path).suffix.lstrip(".") or "png")
-    _pyplot().close(fig)
+    pyplot().close(fig)
 
 
 def plot_profiles(profiles, title: str, path: str | Path, n: int = 400) -> None:
@@ -33,7 +38,7 @@ def plot_profiles(profiles, title: str, path: str | Path, n: int = 400) -> None:
 
     ``profiles`` is a list of RGBProfile sharing one r axis (to the largest 99.9%-energy radius).
     """
-    plt = _pyplot()
+    plt = pyplot()
     # simulated profiles extend to 32 mean free paths: scale the axis by the analytic ones if any
     analytic = [p for p in profiles if p.model != "montecarlo"] or profiles
     r_max = max(float(np.max(p.radius_at_fraction(0.999))) for p in analytic)
@@ -66,10 +71,10 @@ def plot_profiles(profiles, title: str, path: str | Path, n: int = 400) -> None:
 def plot_xie_c(path: str | Path, cs=(2.0, 2.5715, 3.0), c_minimax: float | None = None) -> None:
     """Xie 2020 Fig. 5 analogue: percentage error of Eq. 21 against the exact inverse of Eq. 20,
     and the CDF error cdf(g(xi)) - xi, for several c."""
-    from .profiles.burley import burley_inverse_cdf
-    from .sampling.burley import xie_cdf_error, xie_g
+    from ..profiles.burley import burley_inverse_cdf
+    from ..sampling.burley import xie_cdf_error, xie_g
 
-    plt = _pyplot()
+    plt = pyplot()
     xi = np.linspace(1e-4, 1 - 1e-4, 2000)
     exact = burley_inverse_cdf(xi, 1.0)
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
@@ -89,7 +94,7 @@ def plot_xie_c(path: str | Path, cs=(2.0, 2.5715, 3.0), c_minimax: float | None 
 
 def plot_kernel_2d(cells: np.ndarray, cell_mm: float, title: str, path: str | Path) -> None:
     """The discretised 2D profile (cell integrals per mm^2), log scale, one panel per channel."""
-    plt = _pyplot()
+    plt = pyplot()
     n = cells.shape[0]
     ext = n * cell_mm / 2
     fig, axes = plt.subplots(1, 3, figsize=(12, 4))
