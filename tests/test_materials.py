@@ -120,3 +120,81 @@ def test_malformed_files(tmp_path, text, suffix, fragment):
 def test_missing_file():
     with pytest.raises(MaterialError, match="cannot read"):
         load_material("/nonexistent/file.toml")
+
+
+# ---- bad values in material files: one clear line naming the key ---------------------------------
+
+_BAD_VALUES = [  # TOML literals, and how the message describes them
+    ('"abc"', "the string 'abc'"),
+    ('"0.1"', "the string '0.1' (write numbers without quotes)"),
+    ('"123"', "the string '123'"),  # once silently read as [1, 2, 3]
+    ("{r = 1}", "a table/object"),
+    ("true", "the boolean true"),
+    ('["0.1", 0.2, 0.3]', ""),  # strings inside a list are refused too
+    ("[0.1, true, 0.3]", ""),
+]
+_GOOD = {"sigma_a": "0.1", "sigma_s": "1.0", "g": "0.0", "eta": "1.3", "thickness_mm": "2.0", "eta_ambient": "1.0"}
+
+
+def _toml(values):
+    return "".join(f"{k} = {v}\n" for k, v in values.items())
+
+
+@pytest.mark.parametrize("key", list(_GOOD))
+@pytest.mark.parametrize("literal, described", _BAD_VALUES)
+def test_file_values_must_be_numbers(tmp_path, key, literal, described):
+    p = tmp_path / "bad.toml"
+    p.write_text(_toml({**_GOOD, key: literal}))
+    with pytest.raises(MaterialError) as info:
+        get_material(str(p))
+    msg = str(info.value)
+    assert "\n" not in msg and msg.startswith(f"{str(p)!r}: {key} must ")
+    assert described in msg
+
+
+@pytest.mark.parametrize("key", ["eta_above", "eta_below"])
+@pytest.mark.parametrize("literal, described", _BAD_VALUES)
+def test_layered_file_ambient_indices_must_be_numbers(tmp_path, key, literal, described):
+    p = tmp_path / "layered.toml"
+    p.write_text(f"{key} = {literal}\n[[layers]]\nsigma_a = 0.1\nsigma_s = 1.0\n")
+    with pytest.raises(MaterialError) as info:
+        get_material(str(p))
+    msg = str(info.value)
+    assert "\n" not in msg and msg.startswith(f"{str(p)!r}: {key} must be a number, got ") and described in msg
+
+
+def test_layer_values_must_be_numbers(tmp_path):
+    p = tmp_path / "layered.toml"
+    p.write_text('[[layers]]\nsigma_a = 0.1\nsigma_s = 1.0\nthickness_mm = 1\n[[layers]]\nsigma_a = "0.1"\nsigma_s = 1\n')
+    with pytest.raises(MaterialError, match=r"layer 2: sigma_a must be a number or a list of 3 numbers"):
+        get_material(str(p))
+
+
+def test_thickness_in_cm_must_be_a_number(tmp_path):
+    p = tmp_path / "cm.json"
+    p.write_text(json.dumps({"sigma_a": 1, "sigma_s": 10, "unit": "cm", "thickness_mm": "0.2"}))
+    with pytest.raises(MaterialError, match="thickness_mm must be a number, got the string '0.2'"):
+        get_material(str(p))
+
+
+def test_numbers_from_code_still_accepted():
+    import numpy as np
+
+    m = Material("np", np.array([0.1, 0.2, 0.3]), np.float32(1.0), eta=np.float64(1.4), thickness_mm=np.int64(2))
+    assert m.sigma_a == (0.1, 0.2, 0.3) and m.sigma_s == (1.0, 1.0, 1.0) and m.thickness_mm == 2.0
+    with pytest.raises(MaterialError, match="sigma_a must be a number or a list of 3 numbers"):
+        Material("str", "0.1", 1.0)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("name", ["", "   "])
+def test_empty_material_name(name):
+    with pytest.raises(MaterialError, match="^the material name is empty; give a preset name"):
+        get_material(name)
+
+
+def test_directory_as_material_file(tmp_path):
+    d = tmp_path / "mats.toml"
+    d.mkdir()
+    for arg in (str(tmp_path), str(d)):
+        with pytest.raises(MaterialError, match=r"is a directory, not a \.toml or \.json file"):
+            get_material(arg)

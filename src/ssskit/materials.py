@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,37 +31,61 @@ Triple = tuple[float, float, float]
 MM_PER_CM = 10.0
 
 
-def per_mm_from_per_cm(value: float) -> float:
-    """Convert a coefficient from cm^-1 to mm^-1 (1 cm^-1 = 0.1 mm^-1)."""
-    return value / MM_PER_CM
-
-
 def per_cm_from_per_mm(value: float) -> float:
     """Convert a coefficient from mm^-1 to cm^-1 (1 mm^-1 = 10 cm^-1)."""
     return value * MM_PER_CM
 
 
+def _is_number(value: Any) -> bool:
+    """A real number (Python or numpy), not a boolean and not a string."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def _describe(value: Any) -> str:
+    """How a refused value reads in a message (in the terms of a TOML/JSON file)."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return f"the boolean {str(value).lower()}"
+    if isinstance(value, str):
+        try:
+            float(value)
+        except ValueError:
+            return f"the string {value!r}"
+        return f"the string {value!r} (write numbers without quotes)"
+    if isinstance(value, Mapping):
+        return "a table/object"
+    return repr(value)
+
+
+def _number(name: str, value: Any) -> float:
+    """A real number as float; strings, booleans, tables and lists are refused, naming ``name``."""
+    if not _is_number(value):
+        raise MaterialError(f"{name} must be a number, got {_describe(value)}")
+    return float(value)
+
+
 def _triple(name: str, value: Any) -> Triple:
-    """Accept a scalar (same for R, G, B) or a length-3 sequence of finite floats."""
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
+    """Accept a number (same for R, G, B) or 3 numbers (a list, tuple or numpy array), all finite.
+
+    Strings (even "0.1" or "123"), booleans and tables are refused, alone or inside the list.
+    """
+    if _is_number(value):
         values = [value] * 3
-    elif isinstance(value, Sequence) and not isinstance(value, (str, bytes)):
-        values = list(value)
-        if len(values) != 3:
-            raise MaterialError(f"{name} needs 3 values (R, G, B), got {len(values)}")
+    elif isinstance(value, (str, bytes, Mapping)) or not hasattr(value, "__iter__"):
+        raise MaterialError(f"{name} must be a number or a list of 3 numbers (R, G, B), got {_describe(value)}")
     else:
-        try:  # numpy arrays and scalars
-            values = [float(v) for v in value]  # type: ignore[union-attr]
-        except TypeError:
-            raise MaterialError(f"{name} must be a number or 3 numbers, got {value!r}") from None
+        try:
+            values = list(value)
+        except TypeError:  # a 0-d numpy array
+            raise MaterialError(f"{name} must be a number or a list of 3 numbers (R, G, B), got {value!r}") from None
         if len(values) != 3:
             raise MaterialError(f"{name} needs 3 values (R, G, B), got {len(values)}")
     out = []
     for v in values:
-        try:
-            f = float(v)
-        except (TypeError, ValueError):
-            raise MaterialError(f"{name} must hold numbers, got {v!r}") from None
+        if not _is_number(v):
+            raise MaterialError(f"{name} must hold numbers, got {_describe(v)}")
+        f = float(v)
         if not math.isfinite(f):
             raise MaterialError(f"{name} must be finite, got {f}")
         out.append(f)
@@ -106,11 +131,7 @@ class Material:
             if not -1.0 < gc < 1.0:
                 raise MaterialError(f"g must satisfy |g| < 1, got {gc} in channel {CHANNELS[c]}")
         for attr in ("eta", "eta_ambient", "thickness_mm"):
-            try:
-                value = float(getattr(self, attr))
-            except (TypeError, ValueError):
-                raise MaterialError(f"{attr} must be a number, got {getattr(self, attr)!r}") from None
-            set_(self, attr, value)
+            set_(self, attr, _number(attr, getattr(self, attr)))
         if not (math.isfinite(self.eta) and self.eta >= 1.0):
             raise MaterialError(f"eta must be a finite number >= 1, got {self.eta}")
         if not (math.isfinite(self.eta_ambient) and self.eta_ambient >= 1.0):
@@ -278,8 +299,10 @@ class LayeredMaterial:
         if any(layer.is_semi_infinite for layer in self.layers[:-1]):
             raise MaterialError("only the last layer may be semi-infinite (omit its thickness_mm)")
         for attr in ("eta_above", "eta_below"):
-            if not (math.isfinite(getattr(self, attr)) and getattr(self, attr) >= 1.0):
-                raise MaterialError(f"{attr} must be a finite number >= 1, got {getattr(self, attr)}")
+            value = _number(attr, getattr(self, attr))
+            if not (math.isfinite(value) and value >= 1.0):
+                raise MaterialError(f"{attr} must be a finite number >= 1, got {value}")
+            object.__setattr__(self, attr, value)
 
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "layers": [layer.to_dict() for layer in self.layers],
@@ -302,15 +325,25 @@ def _layered_from_dict(data: Mapping[str, Any], default_name: str) -> LayeredMat
         if unit is not None:
             entry.setdefault("unit", unit)
         try:
-            layers.append(material_from_dict(entry, default_name=f"layer {i + 1}"))
+            layer = material_from_dict(entry, default_name=f"layer {i + 1}")
         except MaterialError as exc:
             raise MaterialError(f"layer {i + 1}: {exc}") from None
-    return LayeredMaterial(str(data.get("name", default_name)), tuple(layers),
-                           float(data.get("eta_above", 1.0)), float(data.get("eta_below", 1.0)))
+        if not isinstance(layer, Material):
+            raise MaterialError(f"layer {i + 1}: a layer cannot itself have layers")
+        layers.append(layer)
+    return LayeredMaterial(_name(data, default_name), tuple(layers),
+                           data.get("eta_above", 1.0), data.get("eta_below", 1.0))
 
 
-def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user material") -> Material:
-    """Build a :class:`Material` from plain data (a parsed TOML/JSON file).
+def _name(data: Mapping[str, Any], default_name: str) -> str:
+    name = data.get("name", default_name)
+    if not isinstance(name, str):
+        raise MaterialError(f"name must be a string, got {_describe(name)}")
+    return name
+
+
+def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user material") -> Material | LayeredMaterial:
+    """Build a :class:`Material` (or a :class:`LayeredMaterial`) from plain data (a parsed TOML/JSON file).
 
     Keys: ``sigma_a`` and ``sigma_s`` (required; a number or [R, G, B]), ``g`` (default 0),
     ``eta`` (default 1.3), ``thickness_mm`` (default semi-infinite), ``eta_ambient`` (default 1),
@@ -318,11 +351,13 @@ def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user mat
     thickness in cm, as MCML input files use. A ``layers`` list of such tables (top first, each
     with ``thickness_mm``; the last may omit it for a semi-infinite layer) plus optional
     ``eta_above`` / ``eta_below`` gives a :class:`LayeredMaterial` (for the Monte Carlo engine).
+    Every value must be a number (or a list of numbers): strings, booleans and tables are refused
+    with a :class:`MaterialError` naming the key.
     """
     if not isinstance(data, Mapping):
         raise MaterialError("a material file must hold a table/object at the top level")
     if "layers" in data:
-        return _layered_from_dict(data, default_name)  # type: ignore[return-value]
+        return _layered_from_dict(data, default_name)
     unknown = sorted(set(data) - _FILE_KEYS)
     if unknown:
         raise MaterialError(f"unknown material key(s): {', '.join(unknown)}")
@@ -339,9 +374,9 @@ def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user mat
     if thickness is None:
         thickness = math.inf
     elif unit == "cm":
-        thickness = float(thickness) * MM_PER_CM
+        thickness = _number("thickness_mm", thickness) * MM_PER_CM
     return Material(
-        name=str(data.get("name", default_name)),
+        name=_name(data, default_name),
         sigma_a=sigma_a,  # type: ignore[arg-type]
         sigma_s=sigma_s,  # type: ignore[arg-type]
         g=data.get("g", 0.0),
@@ -352,9 +387,12 @@ def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user mat
     )
 
 
-def load_material(path: str | Path) -> Material:
-    """Load a material from a ``.toml`` or ``.json`` file (see :func:`material_from_dict`)."""
+def load_material(path: str | Path) -> Material | LayeredMaterial:
+    """Load a material from a ``.toml`` or ``.json`` file (see :func:`material_from_dict`); a file
+    with a ``layers`` list gives a :class:`LayeredMaterial`."""
     p = Path(path)
+    if p.is_dir():
+        raise MaterialError(f"material file {str(p)!r} is a directory, not a .toml or .json file")
     try:
         raw = p.read_bytes()
     except OSError as exc:
@@ -379,11 +417,15 @@ def load_material(path: str | Path) -> Material:
         raise MaterialError(f"{str(p)!r}: {exc}") from None
 
 
-def get_material(name_or_path: str | Path | Material) -> Material:
-    """A preset by (case-insensitive) name, or a material file path (.toml / .json)."""
-    if isinstance(name_or_path, Material):
+def get_material(name_or_path: str | Path | Material | LayeredMaterial) -> Material | LayeredMaterial:
+    """A preset by (case-insensitive) name, or a material file path (.toml / .json); a file with
+    a ``layers`` list gives a :class:`LayeredMaterial`. A material passed in is returned as is."""
+    if isinstance(name_or_path, (Material, LayeredMaterial)):
         return name_or_path
     text = str(name_or_path)
+    if not text.strip():
+        raise MaterialError(f"the material name is empty; give a preset name ({', '.join(MATERIALS.names())}) "
+                            "or a .toml/.json material file")
     if text in MATERIALS:
         return MATERIALS.get(text)
     if text.lower().endswith((".toml", ".json")) or Path(text).exists():

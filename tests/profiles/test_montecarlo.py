@@ -113,39 +113,104 @@ def test_same_seed_bit_identical_for_any_thread_count():
     assert other.total_rd != one.total_rd
 
 
-def test_cache_and_resume_after_interrupt(monkeypatch, tmp_path):
-    from ssskit.profiles import mcml_kernel
+def _interrupt_on_call(monkeypatch, n):
+    """Make the numba engine raise KeyboardInterrupt (as Ctrl-C) on its n-th call; returns a
+    function that restores the engine."""
+    from ssskit.profiles.montecarlo import engine_numba
 
-    cfg = config_for_material(get_material("skin1"), 2, photons=20_000, seed=9, batch_size=1_000)
-    reference = simulate(cfg, use_cache=False)
     calls = {"n": 0}
-    real = mcml_kernel.run_batches
+    real = engine_numba.run_batches
 
     def flaky(*args):
         calls["n"] += 1
-        if calls["n"] == 3:
+        if calls["n"] == n:
             raise KeyboardInterrupt
         return real(*args)
 
-    monkeypatch.setattr(mcml_kernel, "run_batches", flaky)
-    with pytest.raises(SimulationInterrupted, match="interrupted after"):
+    monkeypatch.setattr(engine_numba, "run_batches", flaky)
+    return lambda: monkeypatch.setattr(engine_numba, "run_batches", real)
+
+
+def _partial_files():
+    from ssskit.cache import cache_dir
+
+    return sorted(cache_dir("mcml").glob("*.partial.npz"))
+
+
+def test_cache_and_resume_after_interrupt(monkeypatch):
+    cfg = config_for_material(get_material("skin1"), 2, photons=20_000, seed=9, batch_size=1_000)
+    reference = simulate(cfg, use_cache=False)
+    restore = _interrupt_on_call(monkeypatch, 3)  # one thread: 2 batches per call, so 4 batches done
+    with pytest.raises(SimulationInterrupted, match="interrupted after 4000 of 20000 photons.*--resume.*--restart"):
         simulate(cfg, threads=1)
-    monkeypatch.setattr(mcml_kernel, "run_batches", real)
+    restore()
+    assert len(_partial_files()) == 1
+    # the partial result is never dropped silently: running again without resume or restart is an error
+    with pytest.raises(ProfileError, match=r"^a partial result of an interrupted run exists \(4000 of 20000 "
+                       r"photons\); pass resume \(CLI --resume\) to continue it or restart \(CLI --restart\)"):
+        simulate(cfg, threads=1)
+    with pytest.raises(ProfileError, match="resume and restart exclude each other"):
+        simulate(cfg, resume=True, restart=True)
+    with pytest.raises(ProfileError, match="cannot be combined with use_cache=False"):
+        simulate(cfg, resume=True, use_cache=False)
+    assert np.array_equal(simulate(cfg, use_cache=False).rd, reference.rd)  # no cache: the partial is untouched
+    assert len(_partial_files()) == 1
     resumed = simulate(cfg, threads=1, resume=True)
     assert np.array_equal(resumed.rd, reference.rd) and resumed.total_rd == reference.total_rd
+    assert _partial_files() == []
     cached = simulate(cfg)
     assert cached.extra.get("cached") and np.array_equal(cached.rd, reference.rd)
 
 
+def test_restart_discards_partial_result(monkeypatch):
+    from ssskit.profiles.montecarlo import simulate_material
+
+    m = get_material("ketchup")
+    run = dict(photons=8_000, seed=4, batch_size=1_000, threads=1)
+    reference = simulate_material(m, "R", use_cache=False, **run)["R"]
+    restore = _interrupt_on_call(monkeypatch, 2)
+    with pytest.raises(SimulationInterrupted, match="^Ketchup R: simulation interrupted after 2000 of 8000"):
+        simulate_material(m, "R", **run)
+    restore()
+    with pytest.raises(ProfileError, match=r"^Ketchup R: a partial result of an interrupted run exists \(2000 of"):
+        simulate_material(m, "R", **run)
+    with pytest.raises(ProfileError, match="resume and restart exclude each other"):
+        simulate_material(m, "R", resume=True, restart=True, **run)
+    fresh = simulate_material(m, "R", restart=True, **run)["R"]
+    assert _partial_files() == [] and np.array_equal(fresh.rd, reference.rd)
+
+
+def test_unreadable_partial_result_needs_restart():
+    from ssskit.cache import cache_dir
+
+    cfg = config_for_material(get_material("skin1"), 0, photons=3_000, seed=2, batch_size=1_000)
+    path = cache_dir("mcml") / f"{cfg.key()}.partial.npz"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(b"not an npz file")
+    with pytest.raises(ProfileError, match="unknown number of photons"):
+        simulate(cfg)
+    with pytest.raises(ProfileError, match="cannot be read; pass restart"):
+        simulate(cfg, resume=True)
+    assert simulate(cfg, restart=True).photons == 3_000 and not path.exists()
+
+
 def test_numpy_implementation_agrees_statistically():
-    from ssskit.profiles.mcml_numpy import simulate_numpy
+    """The numpy twin (PCG64 streams) and the numba engine estimate the same Rd, Tt, A and R(r);
+    the twin also matches van de Hulst's slab (Rd = 0.09739, Tt = 0.66096) within 3 SE."""
+    from ssskit.profiles.montecarlo import MCResult, simulate_numpy
 
     cfg = MCConfig((MCLayer(1.0, 9.0, 0.75, 1.0, 0.2),), dr_mm=0.01, nr=50, photons=200_000, seed=4)
     r = simulate(cfg, use_cache=False)
-    bins, totals = simulate_numpy(cfg)
-    se = r.total_rd_se * math.sqrt(2)  # two independent estimates of similar variance
-    assert abs(totals[0] / cfg.photons - r.total_rd) < 4 * se
-    assert abs(totals[1] / cfg.photons - r.tt) < 4 * r.tt_se * math.sqrt(2)
+    t = simulate_numpy(cfg)
+    assert isinstance(t, MCResult) and t.extra["engine"] == "numpy" and t.rd.shape == r.rd.shape
+    assert within_3_se(t.total_rd, t.total_rd_se, 0.09739) and within_3_se(t.tt, t.tt_se, 0.66096)
+    for name in ("total_rd", "tt", "absorbed"):
+        diff = getattr(t, name) - getattr(r, name)
+        assert abs(diff) < 4 * math.hypot(getattr(t, name + "_se"), getattr(r, name + "_se")), name
+    se = np.hypot(t.rd_se, r.rd_se)
+    assert np.all(se > 0)
+    assert np.mean(np.abs(t.rd - r.rd) < 3 * se) > 0.95  # bin by bin, as two independent estimates should
+    assert t.total_rd + t.tt + t.absorbed == pytest.approx(1.0 - t.rsp, abs=5 * t.total_rd_se)
 
 
 @pytest.mark.parametrize(

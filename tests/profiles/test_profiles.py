@@ -41,10 +41,25 @@ def test_dipole_closed_form_total_equals_radial_integral(name, c):
     assert radial_integral(chan, float(rho)) == pytest.approx(float(chan.energy_outside(rho)), rel=1e-6)
 
 
-def test_fresnel_diffuse_reflectance_fit():
-    # F_dr at eta = 1 is ~0 for the rational fit (-1.44 + 0.71 + 0.668 + 0.0636 = 0.0016)
-    assert fresnel_diffuse_reflectance(1.0) == pytest.approx(0.0016)
-    assert fresnel_diffuse_reflectance(1.3) == pytest.approx(-1.44 / 1.69 + 0.71 / 1.3 + 0.668 + 0.0636 * 1.3)
+def _fresnel(cos_i, n1, n2):
+    """Unpolarised Fresnel reflectance from medium n1 into n2 (1 beyond the critical angle)."""
+    sin_t = n1 / n2 * math.sqrt(max(0.0, 1.0 - cos_i * cos_i))
+    if sin_t >= 1.0:
+        return 1.0
+    cos_t = math.sqrt(1.0 - sin_t * sin_t)
+    rs = ((n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t)) ** 2
+    rp = ((n1 * cos_t - n2 * cos_i) / (n1 * cos_t + n2 * cos_i)) ** 2
+    return 0.5 * (rs + rp)
+
+
+@pytest.mark.parametrize("eta", [1.0, 1.1, 1.3, 1.5, 2.0])
+def test_fresnel_diffuse_reflectance_fit(eta):
+    """The rational fit of [JMLH01] against the diffuse Fresnel reflectance it approximates, found
+    by integrating the Fresnel equations over a cosine-weighted hemisphere inside the medium:
+    F_dr = Int_0^1 R(mu) 2 mu dmu (critical angle as a breakpoint)."""
+    crit = [math.sqrt(1.0 - 1.0 / eta**2)] if eta > 1 else None
+    exact = quad(lambda mu: 2 * mu * _fresnel(mu, eta, 1.0), 0, 1, points=crit, limit=200, epsabs=1e-12)[0]
+    assert fresnel_diffuse_reflectance(eta) == pytest.approx(exact, abs=2e-3)
 
 
 def test_dipole_limits():
@@ -72,8 +87,16 @@ def test_burley_total_is_albedo(A, d):
 
 
 @pytest.mark.parametrize("d", [0.1, 1.0, 3.3])
-def test_burley_radius_at_0997_is_16_56_d(d):
-    assert float(BurleyProfile(0.8, d).radius_at_fraction(0.997)) / d == pytest.approx(16.56, abs=0.005)
+def test_burley_radius_at_0997_matches_numerical_integration(d):
+    """The radius holding 99.7% of the energy (about 16.56 d) against a root of the numerically
+    integrated energy 2 pi Int_0^rho R(r) r dr, not of the closed-form CDF."""
+    from scipy.optimize import brentq
+
+    prof = BurleyProfile(0.8, d)
+    f = lambda rho: radial_integral(prof, 0.0, rho) / 0.8 - 0.997
+    expected = brentq(f, 10 * d, 25 * d, xtol=1e-12 * d)
+    assert float(prof.radius_at_fraction(0.997)) == pytest.approx(expected, rel=1e-6)
+    assert expected / d == pytest.approx(16.56, abs=0.01)
 
 
 def test_burley_eq5_configurations():
@@ -114,6 +137,15 @@ def test_deon2007_skin_weights_sum_to_one():
     assert profile_for_material(None, "deon2007").total_rd()[0] == pytest.approx(1.0)
     with pytest.raises(ProfileError, match="needs a material"):
         profile_for_material(None, "dipole")
+
+
+@pytest.mark.parametrize("material", ["skin1", MATERIALS.get("marble"), "no-such-material"])
+def test_deon2007_refuses_a_material(material):
+    with pytest.raises(ProfileError, match="^the deon2007 model is a fixed skin preset and takes no material$"):
+        profile_for_material(material, "deon2007")
+    if not isinstance(material, str):
+        with pytest.raises(ProfileError, match="takes no material"):
+            deon2007_profile(material)
 
 
 @pytest.mark.parametrize("name", ["Skin1", "Marble"])

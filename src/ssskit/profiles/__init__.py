@@ -11,7 +11,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..errors import ProfileError
-from ..materials import Material, get_material
+from ..materials import LayeredMaterial, Material, get_material
 from ..registry import Registry
 from .base import RadialProfile, RGBProfile
 from .burley import (
@@ -77,40 +77,56 @@ def gaussians_profile(material: Material, n: int = 6) -> RGBProfile:
 
 
 @MODELS.decorator("deon2007")
-def deon2007_profile(material: Material | None = None) -> RGBProfile:
-    """The six-Gaussian skin profile of [dLE07]; needs no material (it is a fixed preset)."""
+def deon2007_profile(material: None = None) -> RGBProfile:
+    """The six-Gaussian skin profile of [dLE07]: a fixed preset, so it takes no material."""
+    if material is not None:
+        raise ProfileError(_DEON2007_NO_MATERIAL)
     chans = tuple(
         GaussianSumProfile([w[i] for w in DEON2007_SKIN_WEIGHTS], DEON2007_SKIN_VARIANCES) for i in range(3)
     )
     return RGBProfile(chans, "deon2007", "d'Eon 2007 skin", {"source": "[dLE07] six-Gaussian skin fit"})  # type: ignore[arg-type]
 
 
+_DEON2007_NO_MATERIAL = "the deon2007 model is a fixed skin preset and takes no material"
+
+
 @MODELS.decorator("montecarlo")
-def montecarlo_profile(material: Material, photons: int = 200_000, seed: int = 1) -> RGBProfile:
-    """MCML-simulated profiles (supplement F grid; cached on disk). Needs numba."""
+def montecarlo_profile(material: Material | LayeredMaterial, photons: int = 200_000, seed: int = 1,
+                       **options: Any) -> RGBProfile:
+    """MCML-simulated profiles (supplement F grid; cached on disk). Needs numba.
+
+    ``options`` go to :func:`ssskit.profiles.montecarlo.simulate_material` (threads, progress,
+    resume, restart, use_cache, batch_size).
+    """
     from .montecarlo import montecarlo_rgb
 
-    return montecarlo_rgb(material, photons=photons, seed=seed)
+    return montecarlo_rgb(material, photons=photons, seed=seed, **options)
 
 
-#: Models that need no material.
+#: Models that take no material (fixed presets).
 MATERIAL_FREE_MODELS = frozenset({"deon2007"})
 
 
-def profile_for_material(material: Material | str | None, model: str = "dipole", **options: Any) -> RGBProfile:
-    """An :class:`RGBProfile` of ``model`` for a material (preset name, file path or Material)."""
+def profile_for_material(material: Material | LayeredMaterial | str | None, model: str = "dipole",
+                         **options: Any) -> RGBProfile:
+    """An :class:`RGBProfile` of ``model`` for a material (preset name, file path or Material).
+
+    Models in :data:`MATERIAL_FREE_MODELS` take no material (``None``); the others need one.
+    A layered material works with the montecarlo model only.
+    """
     factory = MODELS.get(model)
-    if material is not None and not isinstance(material, Material):
-        material = get_material(material)
-    if material is not None and not isinstance(material, Material):
-        if model.strip().lower() != "montecarlo":
-            raise ProfileError(f"layered material {material.name!r} is only supported by the montecarlo model")
-        return factory(material, **options)
-    if material is None:
-        if model.strip().lower() not in MATERIAL_FREE_MODELS:
-            raise ProfileError(f"profile model {model!r} needs a material")
+    key = model.strip().lower()
+    if key in MATERIAL_FREE_MODELS:
+        if material is not None:
+            raise ProfileError(_DEON2007_NO_MATERIAL if key == "deon2007"
+                               else f"the {key} model is a fixed preset and takes no material")
         return factory(None, **options)
-    return factory(get_material(material), **options)
+    if material is None:
+        raise ProfileError(f"profile model {model!r} needs a material")
+    material = get_material(material)
+    if isinstance(material, LayeredMaterial) and key != "montecarlo":
+        raise ProfileError(f"layered material {material.name!r} is only supported by the montecarlo model")
+    return factory(material, **options)
 
 
 __all__ = [
@@ -120,6 +136,7 @@ __all__ = [
     "DEON2007_SKIN_WEIGHTS",
     "DipoleProfile",
     "GaussianSumProfile",
+    "MATERIAL_FREE_MODELS",
     "MODELS",
     "RGBProfile",
     "RadialProfile",
@@ -137,5 +154,6 @@ __all__ = [
     "fresnel_diffuse_reflectance",
     "gaussians_profile",
     "grid_coordinates",
+    "montecarlo_profile",
     "profile_for_material",
 ]

@@ -2,7 +2,10 @@
 light transport in multi-layered tissues"; names in parentheses are the MCML 1.2.2 routines each
 rule follows).
 
-This module compiles on first use (cached on disk by numba); import it only when simulating.
+This module compiles on first use (cached on disk by numba, ``cache=True``); import it only when
+simulating. :func:`ssskit.profiles.montecarlo.simulate` drives it; its inputs are the arrays of
+:func:`ssskit.profiles.montecarlo.config.layer_arrays`. The numpy twin
+(:mod:`ssskit.profiles.montecarlo.engine_numpy`) follows the same rules and shares the constants below.
 
 Per photon (MCML 1.2.2 semantics):
 * launch at the origin along +z with weight 1 - Rsp (MCML's LaunchPhoton / Rspecular; Rsp is reported separately);

@@ -1,17 +1,22 @@
-"""The MCML algorithm of :mod:`ssskit.profiles.mcml_kernel`, written as plain vectorised numpy.
+"""The MCML algorithm of :mod:`ssskit.profiles.montecarlo.engine_numba`, written as plain
+vectorised numpy (Wang, Jacques, Zheng 1995).
 
 It advances every live photon one step per iteration (same launch, step, boundary, Fresnel,
-implicit capture, Henyey-Greenstein and roulette rules as MCML; Wang, Jacques, Zheng 1995). It is
+implicit capture, Henyey-Greenstein and roulette rules and constants as the numba engine). It is
 the comparison the benchmark times against the numba engine, and an independent statistical
-check in the tests (its random numbers come from numpy's PCG64, not the numba streams).
+check in the tests: its random numbers come from numpy's PCG64, not the numba streams. Photon k
+belongs to batch k // cfg.batch_size, so the result has the same per-batch standard errors.
 """
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
-from .mcml_kernel import COS_90D, COS_ZERO, ROULETTE_CHANCE, WEIGHT_THRESHOLD
-from .montecarlo import MCConfig, _kernel_arrays
+from .config import MCConfig, layer_arrays
+from .engine_numba import COS_90D, COS_ZERO, ROULETTE_CHANCE, WEIGHT_THRESHOLD
+from .result import MCResult, assemble_result
 
 
 def _fresnel(n1, n2, ca1):
@@ -39,20 +44,24 @@ def _fresnel(n1, n2, ca1):
     return r, ca2
 
 
-def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Run ``cfg.photons`` photons at once; returns (weight per radial bin, [Rd, Tt, A] sums)."""
+def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> MCResult:
+    """Run all ``cfg.photons`` photons at once with numpy's PCG64 seeded by ``seed`` (default
+    ``cfg.seed``); nothing is cached. The twin of :func:`~ssskit.profiles.montecarlo.simulate`."""
+    t0 = time.perf_counter()
     rng = np.random.default_rng(cfg.seed if seed is None else seed)
-    a = _kernel_arrays(cfg)
+    a = layer_arrays(cfg)
     n_layers = len(cfg.layers)
     n = cfg.photons
+    n_b = cfg.n_batches
+    batch = np.arange(n) // cfg.batch_size
     x, y, z = np.zeros(n), np.zeros(n), np.zeros(n)
     ux, uy, uz = np.zeros(n), np.zeros(n), np.ones(n)
     w = np.full(n, 1.0 - cfg.specular_reflectance())
     layer = np.ones(n, dtype=np.int64)
     sleft = np.zeros(n)
     idx = np.arange(n)
-    bins = np.zeros(cfg.nr)
-    totals = np.zeros(3)
+    bins = np.zeros((n_b, cfg.nr))
+    totals = np.zeros((n_b, 3))  # per batch: [reflected, transmitted, absorbed] weight sums
     while idx.size:
         lay = layer[idx]
         mut = a["mua"][lay] + a["mus"][lay]
@@ -86,9 +95,10 @@ def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> tuple[np.ndarray, 
             move = trans & ~escape_top & ~escape_bot
             e = h[escape_top]
             ir = np.minimum((np.sqrt(x[e] ** 2 + y[e] ** 2) / cfg.dr_mm).astype(np.int64), cfg.nr - 1)
-            np.add.at(bins, ir, w[e])
-            totals[0] += w[e].sum()
-            totals[1] += w[h[escape_bot]].sum()
+            np.add.at(bins, (batch[e], ir), w[e])
+            totals[:, 0] += np.bincount(batch[e], weights=w[e], minlength=n_b)
+            eb = h[escape_bot]
+            totals[:, 1] += np.bincount(batch[eb], weights=w[eb], minlength=n_b)
             w[h[escape_top | escape_bot]] = 0.0
             mv = h[move]
             ratio = (ni / nt)[move]
@@ -108,7 +118,7 @@ def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> tuple[np.ndarray, 
             lm = layer[m]
             dwa = w[m] * a["mua"][lm] / (a["mua"][lm] + a["mus"][lm])
             w[m] -= dwa
-            totals[2] += dwa.sum()
+            totals[:, 2] += np.bincount(batch[m], weights=dwa, minlength=n_b)
             g = a["g"][lm]
             xi = rng.random(m.size)
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -130,4 +140,4 @@ def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> tuple[np.ndarray, 
         w[low[survive]] /= ROULETTE_CHANCE
         w[low[~survive]] = 0.0
         idx = idx[w[idx] > 0.0]
-    return bins, totals
+    return assemble_result(cfg, bins, totals, time.perf_counter() - t0, {"engine": "numpy"})

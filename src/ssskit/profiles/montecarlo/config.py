@@ -1,0 +1,176 @@
+"""What determines one MCML simulation: its layers, radial grid, photon count, seed and batches,
+and the supplement's settings for a material (separable-SSS supplement, section F).
+
+Supplement F: 10^7 photons per channel; grid spacing dr = min(MFP_rgb) / 20; nr = ceil(32
+max(MFP_rgb) / dr) radial bins; semi-infinite medium (10^7 cm); MFP = 1 / (sigma_a + sigma_s').
+
+Everything here is plain data: no engine is imported. :func:`layer_arrays` lays a configuration
+out as the arrays both engines (:mod:`.engine_numba`, :mod:`.engine_numpy`) take.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from ...errors import ProfileError
+from ...materials import CHANNELS, LayeredMaterial, Material
+
+#: bump when the transport or the tallies change: it is part of every cache key
+ENGINE_VERSION = 1
+DEFAULT_PHOTONS = 10_000_000  # supplement F
+DEFAULT_BATCH = 10_000
+
+
+@dataclass(frozen=True)
+class MCLayer:
+    """One layer of one channel: coefficients in mm^-1, thickness in mm (inf: semi-infinite)."""
+
+    sigma_a: float
+    sigma_s: float
+    g: float = 0.0
+    eta: float = 1.3
+    thickness_mm: float = math.inf
+
+    def __post_init__(self) -> None:
+        if not (self.sigma_a >= 0 and self.sigma_s >= 0 and self.sigma_a + self.sigma_s > 0):
+            raise ProfileError(f"layer needs sigma_a, sigma_s >= 0 with a positive sum, got {self.sigma_a}, {self.sigma_s}")
+        if not -1 < self.g < 1:
+            raise ProfileError(f"layer needs |g| < 1, got {self.g}")
+        if not (math.isfinite(self.eta) and self.eta >= 1):
+            raise ProfileError(f"layer needs eta >= 1, got {self.eta}")
+        if not self.thickness_mm > 0:
+            raise ProfileError(f"layer thickness must be > 0 mm, got {self.thickness_mm}")
+
+
+@dataclass(frozen=True)
+class MCConfig:
+    """Everything that determines a simulation's result (and its cache key).
+
+    ``layers`` top first (only the last may be semi-infinite); radial grid of ``nr`` bins of
+    ``dr_mm``; ``photons`` split into batches of ``batch_size`` (the last one shorter), each batch
+    its own random stream derived from ``seed``; ambient indices ``eta_above`` / ``eta_below``.
+    """
+
+    layers: tuple[MCLayer, ...]
+    dr_mm: float
+    nr: int
+    photons: int = DEFAULT_PHOTONS
+    seed: int = 1
+    eta_above: float = 1.0
+    eta_below: float = 1.0
+    batch_size: int = DEFAULT_BATCH
+
+    def __post_init__(self) -> None:
+        if not self.layers:
+            raise ProfileError("a simulation needs at least one layer")
+        if any(math.isinf(l.thickness_mm) for l in self.layers[:-1]):
+            raise ProfileError("only the last layer may be semi-infinite")
+        if not (self.dr_mm > 0 and math.isfinite(self.dr_mm)):
+            raise ProfileError(f"grid spacing dr must be > 0 mm, got {self.dr_mm}")
+        if not (isinstance(self.nr, (int, np.integer)) and self.nr >= 1):
+            raise ProfileError(f"number of radial bins must be >= 1, got {self.nr}")
+        if not (isinstance(self.photons, (int, np.integer)) and self.photons >= 1):
+            raise ProfileError(f"photon count must be a positive integer, got {self.photons!r}")
+        if not (isinstance(self.seed, (int, np.integer)) and 0 <= self.seed < 2**63):
+            raise ProfileError(f"seed must be an integer in [0, 2^63), got {self.seed!r}")
+        if not (isinstance(self.batch_size, (int, np.integer)) and self.batch_size >= 1):
+            raise ProfileError(f"batch size must be a positive integer, got {self.batch_size!r}")
+        for name in ("eta_above", "eta_below"):
+            if not getattr(self, name) >= 1:
+                raise ProfileError(f"{name} must be >= 1")
+
+    @property
+    def n_batches(self) -> int:
+        return -(-self.photons // self.batch_size)
+
+    def batch_sizes(self) -> np.ndarray:
+        """Photons per batch, shape (n_batches,): ``batch_size`` each, the last one the rest."""
+        sizes = np.full(self.n_batches, self.batch_size, dtype=np.int64)
+        sizes[-1] = self.photons - self.batch_size * (self.n_batches - 1)
+        return sizes
+
+    def key(self) -> str:
+        """Hash of every input and the engine version."""
+        data = asdict(self)
+        data["engine"] = ENGINE_VERSION
+        text = json.dumps(data, sort_keys=True, default=repr)
+        return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+    def specular_reflectance(self) -> float:
+        """Rsp = ((n0 - n1) / (n0 + n1))^2 at normal incidence (MCML's Rspecular, no glass layer)."""
+        n0, n1 = self.eta_above, self.layers[0].eta
+        return ((n0 - n1) / (n0 + n1)) ** 2
+
+
+def layer_arrays(cfg: MCConfig) -> dict[str, np.ndarray]:
+    """The layers of ``cfg`` as the arrays both engines take, each of shape (L + 2,).
+
+    Layers are 1..L (top first): ``mua``, ``mus`` (mm^-1), ``g``, ``z_top``, ``z_bot`` (mm,
+    z pointing into the medium); index 0 is the ambient medium above and L + 1 the one below, so
+    ``n_idx`` holds ``eta_above``, the layers' indices, ``eta_below``. ``cos_crit_up`` /
+    ``cos_crit_down`` are the cosines of the critical angles at each layer's top / bottom
+    boundary, 0 where no total internal reflection is possible (MCML's CriticalAngle).
+    """
+    layers = cfg.layers
+    n_l = len(layers)
+    mua = np.zeros(n_l + 2)
+    mus = np.zeros(n_l + 2)
+    g = np.zeros(n_l + 2)
+    z_top = np.zeros(n_l + 2)
+    z_bot = np.zeros(n_l + 2)
+    n_idx = np.zeros(n_l + 2)
+    n_idx[0], n_idx[-1] = cfg.eta_above, cfg.eta_below
+    z = 0.0
+    for i, layer in enumerate(layers, start=1):
+        mua[i], mus[i], g[i], n_idx[i] = layer.sigma_a, layer.sigma_s, layer.g, layer.eta
+        z_top[i] = z
+        z = z + layer.thickness_mm
+        z_bot[i] = z
+    up = np.zeros(n_l + 2)
+    down = np.zeros(n_l + 2)
+    for i in range(1, n_l + 1):
+        n1 = n_idx[i]
+        up[i] = math.sqrt(1.0 - (n_idx[i - 1] / n1) ** 2) if n1 > n_idx[i - 1] else 0.0
+        down[i] = math.sqrt(1.0 - (n_idx[i + 1] / n1) ** 2) if n1 > n_idx[i + 1] else 0.0
+    return dict(mua=mua, mus=mus, g=g, z_top=z_top, z_bot=z_bot, n_idx=n_idx, cos_crit_up=up, cos_crit_down=down)
+
+
+def _layers_of(material: Material | LayeredMaterial) -> tuple[Material, ...]:
+    return tuple(material.layers) if isinstance(material, LayeredMaterial) else (material,)
+
+
+def supplement_grid(material: Material | LayeredMaterial) -> tuple[float, int]:
+    """Supplement F's grid: dr = min(MFP_rgb) / 20, nr = ceil(32 max(MFP_rgb) / dr), MFP = 1/sigma_t'
+    (over every layer of a layered material). Returns (dr in mm, nr)."""
+    mfp = [v for layer in _layers_of(material) for v in layer.mfp_reduced_mm]
+    dr = min(mfp) / 20.0
+    return dr, int(math.ceil(32.0 * max(mfp) / dr - 1e-9))
+
+
+def config_for_material(material: Material | LayeredMaterial, channel: int | str, photons: int = DEFAULT_PHOTONS,
+                        seed: int = 1, batch_size: int = DEFAULT_BATCH) -> MCConfig:
+    """The supplement's simulation of one channel (index 0-2 or 'R', 'G', 'B') of a material."""
+    if isinstance(channel, str):
+        if channel.strip().upper() not in CHANNELS:
+            raise ProfileError(f"channel must be R, G or B, got {channel!r}")
+        c = CHANNELS.index(channel.strip().upper())
+    else:
+        c = int(channel)
+        if not 0 <= c < 3:
+            raise ProfileError(f"channel index must be 0, 1 or 2, got {channel!r}")
+    dr, nr = supplement_grid(material)
+    layers = tuple(MCLayer(m.sigma_a[c], m.sigma_s[c], m.g[c], m.eta, m.thickness_mm) for m in _layers_of(material))
+    if isinstance(material, LayeredMaterial):
+        above, below = material.eta_above, material.eta_below
+    else:
+        above = below = material.eta_ambient
+    return MCConfig(layers, dr, nr, photons, seed, above, below, batch_size)
+
+
+__all__ = ["DEFAULT_BATCH", "DEFAULT_PHOTONS", "ENGINE_VERSION", "MCConfig", "MCLayer", "config_for_material",
+           "layer_arrays", "supplement_grid"]

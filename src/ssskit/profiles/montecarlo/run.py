@@ -1,0 +1,163 @@
+"""Running one MCML simulation: batches in chunks on the numba engine, a progress bar, a partial
+result kept when interrupted (Ctrl-C) to resume later, and an on-disk cache of finished results.
+
+The cache lives in ``ssskit.cache.cache_dir("mcml")``: ``<key>.npz`` for a finished result and
+``<key>.partial.npz`` for the batches an interrupted run finished, keyed by every input
+(:meth:`MCConfig.key`). A partial result is never discarded silently: running the same
+simulation again needs ``resume=True`` (continue it) or ``restart=True`` (discard it).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ...cache import cache_dir
+from ...errors import ProfileError, SimulationInterrupted
+from ...io import save_arrays
+from .config import MCConfig, layer_arrays
+from .result import MCResult, assemble_result
+
+
+def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = False, resume: bool = False,
+             restart: bool = False, use_cache: bool = True, label: str = "") -> MCResult:
+    """Run (or load from the cache) one MCML simulation on the numba engine.
+
+    If an interrupted run of the same inputs left a partial result, ``resume=True`` continues it
+    and ``restart=True`` discards it and starts over; with neither, a :class:`ProfileError` says
+    so (the partial result is kept). Both need the cache (``use_cache=True``); without the cache
+    nothing is read or written, a partial result included. The result is bit-identical for any
+    ``threads`` and for resumed runs. ``label`` names the run in the progress bar and messages.
+    """
+    if resume and restart:
+        raise ProfileError("resume and restart exclude each other: resume continues an interrupted run, "
+                           "restart discards it")
+    if (resume or restart) and not use_cache:
+        raise ProfileError(f"{'resume' if resume else 'restart'} acts on the on-disk cache; it cannot be "
+                           "combined with use_cache=False (CLI --no-cache)")
+    key = cfg.key()
+    cdir = cache_dir("mcml")
+    final_path = cdir / f"{key}.npz"
+    partial_path = cdir / f"{key}.partial.npz"
+    if use_cache and final_path.exists():
+        with contextlib.suppress(Exception):
+            return _load_result(cfg, final_path)
+
+    sizes = cfg.batch_sizes()
+    n_b = sizes.shape[0]
+    bins = np.zeros((n_b, cfg.nr))
+    totals = np.zeros((n_b, 3))
+    done = np.zeros(n_b, dtype=bool)
+    elapsed = 0.0
+    prefix = f"{label}: " if label else ""
+    if use_cache and partial_path.exists():
+        if restart:
+            partial_path.unlink(missing_ok=True)
+        else:
+            partial = _load_partial(cfg, partial_path)
+            if not resume:
+                held = "an unknown number of" if partial is None else f"{int(sizes[partial[2]].sum())} of {cfg.photons}"
+                raise ProfileError(f"{prefix}a partial result of an interrupted run exists ({held} photons); pass "
+                                   "resume (CLI --resume) to continue it or restart (CLI --restart) to discard it")
+            if partial is None:
+                raise ProfileError(f"{prefix}the partial result of an interrupted run ({partial_path}) cannot be "
+                                   "read; pass restart (CLI --restart) to discard it")
+            bins, totals, done, elapsed = partial
+
+    from . import engine_numba
+
+    arrays = layer_arrays(cfg)
+    rsp = cfg.specular_reflectance()
+    todo = np.flatnonzero(~done)
+    bar = _progress_bar(cfg.photons, int(sizes[done].sum()), label) if progress else None
+    t0 = time.perf_counter()
+    try:
+        with _numba_threads(threads) as nthreads:
+            chunk = max(2 * nthreads, 1)
+            for start in range(0, todo.shape[0], chunk):
+                ids = todo[start : start + chunk]
+                b_rows = np.zeros((ids.shape[0], cfg.nr))
+                t_rows = np.zeros((ids.shape[0], 3))
+                engine_numba.run_batches(
+                    np.uint64(cfg.seed), ids.astype(np.int64), sizes[ids], arrays["mua"], arrays["mus"],
+                    arrays["g"], arrays["z_top"], arrays["z_bot"], arrays["n_idx"], arrays["cos_crit_up"],
+                    arrays["cos_crit_down"], rsp, cfg.dr_mm, b_rows, t_rows)
+                bins[ids], totals[ids], done[ids] = b_rows, t_rows, True
+                if bar is not None:
+                    bar.update(int(sizes[ids].sum()))
+    except KeyboardInterrupt:
+        if use_cache:
+            save_arrays(partial_path, bins=bins, totals=totals, done=done,
+                        seconds=np.array(elapsed + time.perf_counter() - t0))
+        n_done = int(sizes[done].sum())
+        raise SimulationInterrupted(
+            f"{prefix}simulation interrupted after {n_done} of {cfg.photons} photons; "
+            + ("run again with resume (CLI --resume) to continue, or restart (CLI --restart) to discard them"
+               if use_cache else "nothing was kept (cache disabled)")
+        ) from None
+    finally:
+        if bar is not None:
+            bar.close()
+    result = assemble_result(cfg, bins, totals, elapsed + time.perf_counter() - t0)
+    if use_cache:
+        save_arrays(final_path, r_mm=result.r_mm, rd=result.rd, rd_se=result.rd_se,
+                    scalars=np.array([result.total_rd, result.total_rd_se, result.tt, result.tt_se,
+                                      result.absorbed, result.absorbed_se, result.rsp, result.seconds]))
+        with contextlib.suppress(OSError):
+            partial_path.unlink()
+    return result
+
+
+def _load_partial(cfg: MCConfig, path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, float] | None:
+    """(bins, totals, done, seconds) of an interrupted run, or None if the file cannot be used."""
+    n_b = cfg.n_batches
+    try:
+        with np.load(path) as z:
+            bins, totals, done = z["bins"].copy(), z["totals"].copy(), z["done"].copy()
+            seconds = float(z["seconds"])
+    except Exception:  # a truncated or foreign file: the caller reports it
+        return None
+    if bins.shape != (n_b, cfg.nr) or totals.shape != (n_b, 3) or done.shape != (n_b,) or done.dtype != bool:
+        return None
+    return bins, totals, done, seconds
+
+
+def _load_result(cfg: MCConfig, path: Path) -> MCResult:
+    with np.load(path) as z:
+        s = z["scalars"]
+        return MCResult(
+            config=cfg, r_mm=z["r_mm"].copy(), rd=z["rd"].copy(), rd_se=z["rd_se"].copy(),
+            total_rd=float(s[0]), total_rd_se=float(s[1]), tt=float(s[2]), tt_se=float(s[3]),
+            absorbed=float(s[4]), absorbed_se=float(s[5]), rsp=float(s[6]), seconds=float(s[7]),
+            photons=cfg.photons, extra={"cached": True},
+        )
+
+
+@contextlib.contextmanager
+def _numba_threads(threads: int | None):
+    import numba
+
+    if threads is None:
+        yield numba.get_num_threads()
+        return
+    if not (isinstance(threads, int) and 1 <= threads <= numba.config.NUMBA_NUM_THREADS):
+        raise ProfileError(f"threads must be in 1..{numba.config.NUMBA_NUM_THREADS}, got {threads!r}")
+    old = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        yield threads
+    finally:
+        numba.set_num_threads(old)
+
+
+def _progress_bar(total: int, initial: int, label: str):
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=initial, unit="photon", unit_scale=True, desc=label or "MCML",
+                smoothing=0.1, dynamic_ncols=True, leave=False, disable=None)
+
+
+__all__ = ["simulate"]

@@ -1,0 +1,94 @@
+"""Simulating materials: the three channels of one material (:func:`simulate_material`) and many
+materials across local processes or a dask.distributed cluster (:func:`simulate_many`)."""
+
+from __future__ import annotations
+
+from ...errors import ProfileError
+from ...materials import CHANNELS, LayeredMaterial, Material
+from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, config_for_material
+from .result import MCResult
+from .run import simulate
+
+
+def simulate_material(material: Material | LayeredMaterial, channels: str = "all", *, photons: int = DEFAULT_PHOTONS,
+                      seed: int = 1, threads: int | None = None, progress: bool = False, resume: bool = False,
+                      restart: bool = False, use_cache: bool = True,
+                      batch_size: int = DEFAULT_BATCH) -> dict[str, MCResult]:
+    """Simulate the requested channels ('R', 'G', 'B' or 'all') of a material: {channel: MCResult}.
+
+    Each channel uses its own seed stream derived from ``seed`` and the channel index, on the
+    supplement's grid shared by all three channels. ``resume`` / ``restart`` continue / discard
+    the partial results of an interrupted run (see :func:`~ssskit.profiles.montecarlo.simulate`).
+    """
+    wanted = list(CHANNELS) if channels.strip().lower() == "all" else [channels.strip().upper()]
+    for ch in wanted:
+        if ch not in CHANNELS:
+            raise ProfileError(f"channel must be R, G, B or all, got {channels!r}")
+    out = {}
+    for ch in wanted:
+        c = CHANNELS.index(ch)
+        cfg = config_for_material(material, c, photons, _channel_seed(seed, c), batch_size)
+        out[ch] = simulate(cfg, threads=threads, progress=progress, resume=resume, restart=restart,
+                           use_cache=use_cache, label=f"{material.name} {ch}")
+    return out
+
+
+def _channel_seed(seed: int, c: int) -> int:
+    """Distinct, reproducible seeds per channel (the streams are further split per batch)."""
+    return (int(seed) * 3 + c) % (2**63)
+
+
+def _sweep_job(args):
+    material, channels, photons, seed, batch_size, resume, restart = args
+    return material.name, simulate_material(material, channels, photons=photons, seed=seed, threads=1,
+                                            batch_size=batch_size, resume=resume, restart=restart)
+
+
+def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "all", *,
+                  photons: int = DEFAULT_PHOTONS, seed: int = 1, jobs: int = 1, batch_size: int = DEFAULT_BATCH,
+                  progress: bool = False, resume: bool = False, restart: bool = False, scheduler: str | None = None,
+                  connect_timeout_s: float = 20.0) -> dict[str, dict[str, MCResult]]:
+    """Simulate several materials across ``jobs`` local processes (one numba thread each), or
+    across a dask.distributed cluster when ``scheduler`` (an address such as 'tcp://host:8786')
+    is given (optional extra ``ssskit[cluster]``).
+
+    Results depend only on each simulation's inputs and seed, so they are identical to a
+    single-process run; on one machine finished simulations land in the shared cache, and so do
+    the partial results of an interrupted sweep, which ``resume`` / ``restart`` continue / discard.
+    """
+    if not (isinstance(jobs, int) and jobs >= 1):
+        raise ProfileError(f"jobs must be a positive integer, got {jobs!r}")
+    if resume and restart:
+        raise ProfileError("resume and restart exclude each other: resume continues an interrupted run, "
+                           "restart discards it")
+    names = [m.name for m in materials]
+    if len(set(names)) != len(names):
+        raise ProfileError("material names in a sweep must be distinct")
+    tasks = [(m, channels, photons, seed, batch_size, resume, restart) for m in materials]
+    if scheduler is not None:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise ProfileError("a scheduler address needs dask.distributed: pip install 'ssskit[cluster]'") from None
+        try:
+            client = Client(scheduler, timeout=f"{connect_timeout_s}s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ProfileError(f"cannot reach the dask scheduler at {scheduler!r}: {exc}") from None
+        try:
+            futures = client.map(_sweep_job, tasks, pure=False)
+            return dict(client.gather(futures))
+        finally:
+            client.close()
+    if jobs == 1 or len(tasks) == 1:
+        return {m.name: simulate_material(m, channels, photons=photons, seed=seed, progress=progress,
+                                          resume=resume, restart=restart, batch_size=batch_size)
+                for m in materials}
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    ctx = mp.get_context("spawn")  # numba's threading layers are not fork-safe
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
+        return dict(pool.map(_sweep_job, tasks))
+
+
+__all__ = ["simulate_many", "simulate_material"]
