@@ -33,3 +33,27 @@ class KernelError(SsskitError):
 
 class SignalError(SsskitError):
     """Invalid test-signal or image parameters (sizes, angles, shapes)."""
+
+
+class OutputError(SsskitError):
+    """An output path that cannot be written (bad extension, missing permissions, same as an input...)."""
+
+
+class GBufferError(SsskitError):
+    """A G-buffer or G-buffer file that cannot be used (the message names the layer)."""
+
+
+class PassError(SsskitError):
+    """Bad settings for a screen-space pass."""
+
+
+class BackendError(SsskitError):
+    """An unknown backend, or one that is not available on this machine (the message says why)."""
+
+
+class SceneError(SsskitError):
+    """Bad scene parameters, or a scene Mitsuba cannot build."""
+
+
+class SettingsError(SsskitError):
+    """Invalid render or pass settings, or a malformed settings file."""

@@ -7,8 +7,8 @@ from ssskit.kernels import build_kernel, default_grid
 from ssskit.profiles import profile_for_material
 from ssskit.sampling.taps import make_taps
 from ssskit.errors import SamplingError
-from ssskit.screenspace import Camera, GBuffer, GBufferError, filter_arrays, load_gbuffer, motion_vectors
-from ssskit.screenspace.separable import PassError
+from ssskit.errors import GBufferError, PassError, SettingsError
+from ssskit.screenspace import Camera, GBuffer, filter_arrays, load_gbuffer, motion_vectors
 
 #: max |numba - numpy| per image dtype (numba computes in float32, numpy in float64)
 PARITY_ATOL = {np.float32: 2e-5}
@@ -249,11 +249,13 @@ def test_jitter_seeded_and_thread_count_independent(taps7, rng):
 def test_bad_pass_settings(taps7):
     e = np.zeros((4, 4, 3), np.float32)
     d = np.full((4, 4), 1.0, np.float32)
-    with pytest.raises(PassError, match="jitter"):
+    with pytest.raises(SettingsError, match="jitter"):
         filter_arrays(e, d, 1.0, 1.0, taps7, jitter=2.0)
-    with pytest.raises(PassError, match="depth mode"):
+    with pytest.raises(SettingsError, match="jitter"):
+        filter_arrays(e, d, 1.0, 1.0, taps7, jitter=float("nan"))
+    with pytest.raises(SettingsError, match="depth_mode"):
         filter_arrays(e, d, 1.0, 1.0, taps7, depth_mode="nope")
-    with pytest.raises(PassError, match="backend"):
+    with pytest.raises(SettingsError, match="backend"):
         filter_arrays(e, d, 1.0, 1.0, taps7, backend="cuda")
     with pytest.raises(PassError, match="SeparableTaps"):
         filter_arrays(e, d, 1.0, 1.0, "taps")

@@ -117,8 +117,58 @@ for _m in (
     METHODS.register(_m.name, _m)
 
 
+def _in_range(lo, hi, what):
+    def check(v):
+        if not lo <= v <= hi:
+            raise KernelError(f"{what} must lie in {lo}..{hi}, got {v}")
+    return check
+
+
+def _odd_taps(v):
+    if not (3 <= v <= 255 and v % 2 == 1):
+        raise KernelError(f"the number of taps must be odd in 3..255, got {v}")
+
+
+def _preset(v):
+    from ..materials import ARTIST_PRESETS
+
+    if str(v).strip().lower() != "fit" and v not in ARTIST_PRESETS:
+        raise KernelError(f"unknown artist preset {v!r} (known: {', '.join(ARTIST_PRESETS.names())}, fit)")
+
+
+def _error_fn(v):
+    from .burley_fit import ERROR_FUNCTIONS
+
+    if v not in ERROR_FUNCTIONS:
+        raise KernelError(f"unknown error function {v!r}; choose from {', '.join(ERROR_FUNCTIONS)}")
+
+
+#: range checks of each method's primary parameter, applied when a spec is parsed (before any work)
+PARAM_CHECKS: dict[tuple[str, str], Callable[[Any], None]] = {
+    ("svd", "rank"): _in_range(1, 64, "SVD rank"),
+    ("svd_l1", "rank"): _in_range(1, 64, "SVD rank"),
+    ("preintegrated_svd", "rank"): _in_range(1, 64, "residual rank"),
+    ("gaussians", "count"): _in_range(1, 12, "number of Gaussians"),
+    ("guided", "k"): _in_range(0.0, 8.0, "guide exponent k (paper: 0..4)"),
+    ("jimenez2012", "taps"): _odd_taps,
+    ("artist", "preset"): _preset,
+    ("burley_fit", "error"): _error_fn,
+}
+
+
+def check_params(method: KernelMethod, params: dict[str, Any]) -> None:
+    """Range-check a method's parameters (see :data:`PARAM_CHECKS`), or a KernelError naming them."""
+    for key, value in params.items():
+        check = PARAM_CHECKS.get((method.name, key))
+        if check is not None:
+            check(value)
+
+
 def parse_method_spec(spec: str) -> tuple[KernelMethod, dict[str, Any], str]:
-    """``"svd:3"`` -> (the svd method, {"rank": 3}, "svd:3"); a bare name uses the method's defaults."""
+    """``"svd:3"`` -> (the svd method, {"rank": 3}, "svd:3"); a bare name uses the method's defaults.
+
+    The parameter is range-checked here, so a bad spec fails before any profile is computed.
+    """
     text = str(spec).strip()
     name, _, value = text.partition(":")
     method = METHODS.get(name)
@@ -127,6 +177,7 @@ def parse_method_spec(spec: str) -> tuple[KernelMethod, dict[str, Any], str]:
         if method.primary is None:
             raise KernelError(f"kernel method {method.name!r} takes no parameter, got {text!r}")
         params[method.primary] = method.parse(value)
+        check_params(method, params)
     label = method.name + (f":{value}" if value else "")
     return method, params, label
 
@@ -152,6 +203,7 @@ __all__ = [
     "METHODS",
     "TapKernel",
     "build_kernel",
+    "check_params",
     "default_grid",
     "load_kernel",
     "parse_method_spec",

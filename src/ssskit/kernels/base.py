@@ -72,7 +72,10 @@ class Kernel:
 
     ``components``: (3, N, n) cell averages of a_ci in mm^-1; ``signs``: (3, N) of +-1;
     ``cell_mm``: grid spacing; ``method``/``params``: how it was made; ``source``: the profile
-    it approximates (model, name, provenance).
+    it approximates (model, name, provenance); ``depth_sigma_mm``: the width of the depth
+    correction exp(-d_z^2 / (2 depth_sigma_mm^2)) that the screen-space pass applies to this kernel
+    (separable-SSS supplement E, for the two-Gaussian model: max(sigma_near, sigma_far)), or None
+    for kernels without one.
     """
 
     cell_mm: float
@@ -81,6 +84,7 @@ class Kernel:
     method: str
     params: dict[str, Any] = field(default_factory=dict)
     source: dict[str, Any] = field(default_factory=dict)
+    depth_sigma_mm: float | None = None
 
     def __post_init__(self) -> None:
         comps = np.asarray(self.components, dtype=float)
@@ -195,7 +199,7 @@ class Kernel:
 
     def _replace(self, **changes) -> "Kernel":
         kw = dict(cell_mm=self.cell_mm, components=self.components, signs=self.signs, method=self.method,
-                  params=self.params, source=self.source)
+                  params=self.params, source=self.source, depth_sigma_mm=self.depth_sigma_mm)
         kw.update(changes)
         return Kernel(**kw)
 

@@ -27,8 +27,6 @@ from .base import TapKernel
 JIMENEZ2012_GAUSSIANS = ((0.100, 0.0484), (0.118, 0.187), (0.113, 0.567), (0.358, 1.99), (0.078, 7.41))
 JIMENEZ2012_STRENGTH = (0.48, 0.41, 0.28)
 JIMENEZ2012_FALLOFF = (1.0, 0.37, 0.3)
-#: Tap counts of the engines' presets (low, medium, high quality).
-JIMENEZ2012_PRESET_TAPS = (11, 17, 25)
 _PI_ENGINE = 3.14
 
 
@@ -54,8 +52,9 @@ def jimenez2012_offsets(taps: int) -> np.ndarray:
     if not (isinstance(taps, (int, np.integer)) and taps >= 3 and taps % 2 == 1):
         raise KernelError(f"jimenez2012 needs an odd number of taps >= 3, got {taps!r}")
     rng = 3.0 if taps > 20 else 2.0
-    t = -rng + np.arange(taps) * (2.0 * rng / (taps - 1))
-    return np.sign(t) * t**2 / rng
+    t = -rng + np.arange(taps // 2) * (2.0 * rng / (taps - 1))  # the negative half; mirrored exactly
+    neg = -(t**2) / rng
+    return np.concatenate([neg, [0.0], -neg[::-1]])
 
 
 def kernel_jimenez2012(taps: int = 11, strength=JIMENEZ2012_STRENGTH, falloff=JIMENEZ2012_FALLOFF,

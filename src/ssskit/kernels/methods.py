@@ -263,7 +263,8 @@ def kernel_artist(profile, cell_mm: float, n: int, preset: str = "close fit", si
               "sigma_far_mm": np.broadcast_to(np.asarray(sigma_far, float), (3,)).tolist(),
               "weight": np.broadcast_to(np.asarray(weight, float), (3,)).tolist()}
     src = _source(profile) if profile is not None else {}
-    k = Kernel(cell_mm, a[:, None, :], np.ones((3, 1)), "artist", params, src)
+    depth_sigma = float(max(np.max(params["sigma_near_mm"]), np.max(params["sigma_far_mm"])))  # supplement E
+    k = Kernel(cell_mm, a[:, None, :], np.ones((3, 1)), "artist", params, src, depth_sigma)
     if match_energy and profile is not None:
         k = k.normalised(profile.discretize_2d(cell_mm, n).sum(axis=(0, 1)))
         k.params["energy"] = "matched to the profile's ||Rd||_1"

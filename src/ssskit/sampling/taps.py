@@ -81,11 +81,6 @@ class SeparableTaps:
     def taps(self) -> int:
         return int(self.offsets_mm.shape[1])
 
-    @property
-    def passes(self) -> int:
-        """1D passes per frame: 2R (paper Eq. 2)."""
-        return 2 * self.rank
-
     def total(self) -> np.ndarray:
         """Sum of the 2D kernel per channel: sum_r s_r (sum_k w_rk)^2, shape (3,)."""
         return np.sum(self.signs * self.weights.sum(axis=1) ** 2, axis=0)
@@ -192,26 +187,33 @@ def _term_taps(kernel, r: int, n: int, method: str):
     if method != "importance":
         mid = 0.5 * (offsets[1:] + offsets[:-1])
         bounds = np.concatenate([[lo], mid, [hi]])
-    return offsets, _cell_weights(edges, cum, bounds), width
+    weights = _cell_weights(edges, cum, bounds)
+    # the kernel is even: make the taps exact mirror pairs (o, -o with equal weights), removing the
+    # rounding of the cell integrals, so the pass plan pairs them exactly
+    return 0.5 * (offsets - offsets[::-1]), 0.5 * (weights + weights[::-1]), width
 
 
-def make_taps(kernel, n: int = 7, method: str = "importance") -> SeparableTaps:
+def make_taps(kernel, n: int | None = None, method: str = "importance") -> SeparableTaps:
     """Taps for any :class:`Kernel` or engine :class:`TapKernel` (module docstring), normalised.
 
-    A TapKernel is used as shipped (its own offsets and weights) whatever ``method`` says.
-    For the two-Gaussian (artist) model, tau_max = max(sigma_near, sigma_far)^2 over channels is
-    kept for the depth correction of supplement E.
+    ``n``: taps per 1D pass (odd; default 7). A TapKernel is used as shipped (its own offsets and
+    weights; ``method`` does not apply), so ``n`` must be None or its own tap count. A kernel with a
+    depth-correction width (the two-Gaussian model's ``depth_sigma_mm`` = max(sigma_near,
+    sigma_far) over channels) keeps tau_max = depth_sigma_mm^2 for supplement E's depth test.
     """
     from ..kernels.base import Kernel, TapKernel
 
     if isinstance(kernel, TapKernel):
+        if n is not None and n != kernel.taps:
+            raise SamplingError(f"the {kernel.method} kernel ships {kernel.taps} taps, not {n} "
+                                f"(ask the kernel for {n} taps instead, e.g. {kernel.method}:{n})")
         o = kernel.offsets_mm
         return SeparableTaps(o[None], kernel.weights[None], np.ones((1, 3)), kernel.method,
                              float(np.max(np.abs(o))) or 1.0, None, _tap_width(o, kernel.weights),
                              {"kernel": kernel.method, **kernel.source}).normalised()
     if not isinstance(kernel, Kernel):
         raise KernelError(f"taps need a Kernel or TapKernel, got {type(kernel).__name__}")
-    n = _check_count(n)
+    n = _check_count(7 if n is None else n)
     if method not in TAP_METHODS:
         raise SamplingError(f"unknown tap placement {method!r}; choose from {', '.join(TAP_METHODS)}")
     offs, wts, widths = [], [], []
@@ -222,9 +224,7 @@ def make_taps(kernel, n: int = 7, method: str = "importance") -> SeparableTaps:
         widths.append(width)
     offsets = np.stack(offs)
     extent = float(np.max(np.abs(offsets))) or kernel.cell_mm
-    tau = None
-    if kernel.method == "artist" and "sigma_far_mm" in kernel.params:
-        tau = float(max(np.max(kernel.params["sigma_near_mm"]), np.max(kernel.params["sigma_far_mm"]))) ** 2
+    tau = None if kernel.depth_sigma_mm is None else float(kernel.depth_sigma_mm) ** 2
     taps = SeparableTaps(offsets, np.stack(wts), kernel.signs.T, method, extent, tau, float(widths[0]),
                          {"kernel": kernel.method, "params": kernel.params, **kernel.source})
     return taps.normalised()

@@ -1,29 +1,20 @@
-"""Screen-space SSS: G-buffers and the separable pass (separable-SSS paper section 6, supplement E)."""
+"""Screen-space SSS: cameras, G-buffers, pass settings and the separable pass (separable-SSS paper
+section 6, supplement E). Each pass builds a plan that any backend (:mod:`ssskit.backends`) executes."""
 
-from .gbuffer import Camera, GBuffer, GBufferError, load_gbuffer, motion_vectors
-from .separable import (
-    BACKENDS,
-    DEPTH_MODES,
-    PassError,
-    default_depth_mode,
-    filter_arrays,
-    jitter_angles,
-    region_depth_mm,
-    separable_sss,
-)
+from .camera import Camera, motion_vectors
+from .gbuffer import LAYERS, GBuffer, load_gbuffer
+from .separable import default_depth_mode, filter_arrays, plan_for, separable_sss
+from .settings import PassSettings
 
 __all__ = [
-    "BACKENDS",
     "Camera",
-    "DEPTH_MODES",
     "GBuffer",
-    "GBufferError",
-    "PassError",
+    "LAYERS",
+    "PassSettings",
     "default_depth_mode",
     "filter_arrays",
-    "jitter_angles",
     "load_gbuffer",
     "motion_vectors",
-    "region_depth_mm",
+    "plan_for",
     "separable_sss",
 ]

@@ -10,10 +10,7 @@ Layers (all pixel-aligned, shape (H, W[, 3])):
 * ``normal``    world-space unit normals (RGB; zero where no surface);
 * ``profile_id`` uint32: 0 = no SSS (stencil culled), k >= 1 = the k-th entry of ``materials``.
 
-A :class:`Camera` holds what the pass needs to turn a width in mm into pixels: focal lengths in
-pixels (fx, fy; fx != fy for non-square pixels), the principal point, the world-to-camera matrix
-(camera looks down +z, x right, y down, so pixel (u, v) = (fx x/z + cx, fy y/z + cy)), and
-``world_units_per_mm``.
+The camera (:class:`~ssskit.screenspace.camera.Camera`) travels with the layers.
 
 EXR files are written and read with the official OpenEXR Python bindings (imageio writes TIFF bytes
 into .exr files). The camera and material list travel as string attributes of the header.
@@ -22,140 +19,17 @@ into .exr files). The camera and material list travel as string attributes of th
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..errors import SsskitError
-from ..io import atomic_output, check_suffix
+from ..errors import GBufferError
+from ..io import check_suffix, read_exr, write_exr
+from .camera import Camera
 
 LAYERS = ("diffuse", "specular", "albedo", "depth", "normal", "profile_id")
-
-
-class GBufferError(SsskitError):
-    """A G-buffer or G-buffer file that cannot be used (the message names the layer)."""
-
-
-@dataclass(frozen=True)
-class Camera:
-    """Pinhole camera: intrinsics in pixels, world-to-camera matrix, and the scene's unit scale."""
-
-    width: int
-    height: int
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    world_to_camera: np.ndarray = field(default_factory=lambda: np.eye(4))
-    world_units_per_mm: float = 1.0
-
-    def __post_init__(self) -> None:
-        for name in ("width", "height"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, np.integer)) and v >= 1):
-                raise GBufferError(f"camera: {name} must be a positive integer, got {v!r}")
-        for name in ("fx", "fy", "world_units_per_mm"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and v > 0):
-                raise GBufferError(f"camera: {name} must be a positive finite number, got {v!r}")
-        m = np.asarray(self.world_to_camera, dtype=float)
-        if m.shape != (4, 4) or not np.all(np.isfinite(m)):
-            raise GBufferError(f"camera: world_to_camera must be a finite 4x4 matrix, got shape {m.shape}")
-        object.__setattr__(self, "world_to_camera", m)
-        for name in ("fx", "fy", "cx", "cy", "world_units_per_mm"):
-            object.__setattr__(self, name, float(getattr(self, name)))
-
-    @classmethod
-    def from_fov(cls, width: int, height: int, fov_x_deg: float, pixel_aspect: float = 1.0,
-                 world_to_camera=None, world_units_per_mm: float = 1.0) -> "Camera":
-        """A camera with horizontal field of view ``fov_x_deg``; ``pixel_aspect`` = pixel height / width.
-
-        fx = (W/2) / tan(fov_x/2); fy = fx / pixel_aspect (a pixel that is taller than wide covers
-        more of the scene vertically, so fewer pixels per unit length).
-        """
-        if not (0 < fov_x_deg < 180):
-            raise GBufferError(f"camera: field of view must lie in (0, 180) degrees, got {fov_x_deg!r}")
-        if not (pixel_aspect > 0 and math.isfinite(pixel_aspect)):
-            raise GBufferError(f"camera: pixel aspect must be positive, got {pixel_aspect!r}")
-        fx = 0.5 * width / math.tan(math.radians(fov_x_deg) / 2.0)
-        return cls(int(width), int(height), fx, fx / pixel_aspect, width / 2.0, height / 2.0,
-                   np.eye(4) if world_to_camera is None else world_to_camera, world_units_per_mm)
-
-    @property
-    def pixel_aspect(self) -> float:
-        """Pixel height / pixel width (1 for square pixels)."""
-        return self.fx / self.fy
-
-    @property
-    def aspect(self) -> float:
-        """Image aspect ratio of the viewed region, width / height in scene units."""
-        return (self.width / self.fx) / (self.height / self.fy)
-
-    def projection_matrix(self, near: float = 0.01, far: float = 1000.0) -> np.ndarray:
-        """OpenGL-style 4x4 projection (camera looking down -z, y up) equivalent to these intrinsics."""
-        p = np.zeros((4, 4))
-        p[0, 0] = 2.0 * self.fx / self.width
-        p[1, 1] = 2.0 * self.fy / self.height
-        p[0, 2] = 1.0 - 2.0 * self.cx / self.width
-        p[1, 2] = 2.0 * self.cy / self.height - 1.0
-        p[2, 2] = -(far + near) / (far - near)
-        p[2, 3] = -2.0 * far * near / (far - near)
-        p[3, 2] = -1.0
-        return p
-
-    def pixels_per_mm(self, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Horizontal and vertical pixels per mm of surface at linear depth ``depth`` (world units),
-        for a fronto-parallel surface: f * world_units_per_mm / z."""
-        z = np.asarray(depth, dtype=float)
-        return self.fx * self.world_units_per_mm / z, self.fy * self.world_units_per_mm / z
-
-    def project(self, points_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Pixel coordinates (..., 2) (u, v; pixel centres at integer + 0.5) and depth z of world points."""
-        p = np.asarray(points_world, dtype=float)
-        cam = p @ self.world_to_camera[:3, :3].T + self.world_to_camera[:3, 3]
-        z = cam[..., 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            uv = np.stack([self.fx * cam[..., 0] / z + self.cx, self.fy * cam[..., 1] / z + self.cy], axis=-1)
-        return uv, z
-
-    def unproject(self, depth: np.ndarray) -> np.ndarray:
-        """World positions (H, W, 3) of the pixel centres at linear depth ``depth`` (H, W)."""
-        z = np.asarray(depth, dtype=float)
-        v, u = np.mgrid[0:z.shape[0], 0:z.shape[1]] + 0.5
-        cam = np.stack([(u - self.cx) / self.fx * z, (v - self.cy) / self.fy * z, z], axis=-1)
-        inv = np.linalg.inv(self.world_to_camera)
-        return cam @ inv[:3, :3].T + inv[:3, 3]
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"width": self.width, "height": self.height, "fx": self.fx, "fy": self.fy, "cx": self.cx,
-                "cy": self.cy, "world_to_camera": self.world_to_camera.tolist(),
-                "world_units_per_mm": self.world_units_per_mm}
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "Camera":
-        try:
-            return cls(int(d["width"]), int(d["height"]), float(d["fx"]), float(d["fy"]), float(d["cx"]),
-                       float(d["cy"]), np.array(d["world_to_camera"], dtype=float), float(d["world_units_per_mm"]))
-        except (KeyError, TypeError, ValueError) as exc:
-            if isinstance(exc, GBufferError):
-                raise
-            raise GBufferError(f"camera: not an ssskit camera record ({exc})") from None
-
-
-def motion_vectors(depth: np.ndarray, camera: Camera, previous: Camera) -> np.ndarray:
-    """Screen-space motion (H, W, 2) in pixels, from this frame's pixel to where the same world point
-    was in ``previous`` (static scene): what temporal reprojection needs. Zero where depth is inf."""
-    z = np.asarray(depth, dtype=float)
-    finite = np.isfinite(z)
-    world = camera.unproject(np.where(finite, z, 1.0))
-    uv_prev, _ = previous.project(world)
-    v, u = np.mgrid[0:z.shape[0], 0:z.shape[1]] + 0.5
-    mv = uv_prev - np.stack([u, v], axis=-1)
-    mv[~finite] = 0.0
-    return mv
 
 
 @dataclass(frozen=True, eq=False)
@@ -210,6 +84,11 @@ class GBuffer:
         return tuple(self.depth.shape)
 
     @property
+    def depth_mm(self) -> np.ndarray:
+        """Linear camera depth in mm (H, W) float64: depth / world_units_per_mm (+inf where empty)."""
+        return self.depth.astype(np.float64) / self.camera.world_units_per_mm
+
+    @property
     def mask(self) -> np.ndarray:
         """Pixels that receive SSS (profile_id > 0), (H, W) bool."""
         return self.profile_id > 0
@@ -229,18 +108,13 @@ class GBuffer:
 
     # ---- EXR ---------------------------------------------------------------------------------
     def save(self, path: str | Path) -> None:
-        """Write a multi-layer EXR (float32 layers, uint32 ids, ZIP), atomically."""
+        """Write a multi-layer EXR (float32 layers, uint32 ids, ZIP), atomically (:func:`ssskit.io.write_exr`)."""
         check_suffix(path, (".exr",), "G-buffer file")
-        import OpenEXR
-
-        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
-                  "ssskit_camera": json.dumps(self.camera.to_dict()),
-                  "ssskit_materials": json.dumps(list(self.materials)),
-                  "ssskit_meta": json.dumps(self.meta, default=str)}
+        attributes = {"ssskit_camera": json.dumps(self.camera.to_dict()),
+                      "ssskit_materials": json.dumps(list(self.materials)),
+                      "ssskit_meta": json.dumps(self.meta, default=str)}
         channels = {name: np.ascontiguousarray(getattr(self, name)) for name in LAYERS}
-        with atomic_output(path) as tmp:
-            with OpenEXR.File(header, channels) as f:
-                f.write(str(tmp))
+        write_exr(path, channels, attributes, what="G-buffer file")
 
     @classmethod
     def load(cls, path: str | Path) -> "GBuffer":
@@ -253,22 +127,14 @@ class GBuffer:
 
 
 def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
-    """:meth:`GBuffer.load`, optionally supplying the camera for EXRs made by other tools."""
-    p = Path(path)
-    if not p.is_file():
-        raise GBufferError(f"G-buffer file {str(p)!r} does not exist")
-    import OpenEXR
+    """:meth:`GBuffer.load`, optionally supplying the camera for EXRs made by other tools.
 
-    try:
-        if not OpenEXR.isOpenExrFile(str(p)):
-            raise GBufferError(f"{str(p)!r} is not an OpenEXR file")
-        with OpenEXR.File(str(p)) as f:
-            header = dict(f.header())
-            channels = {name: ch.pixels for name, ch in f.channels().items()}
-    except GBufferError:
-        raise
-    except Exception as exc:  # the bindings raise RuntimeError / ValueError with C++ text
-        raise GBufferError(f"cannot read G-buffer {str(p)!r}: {exc}") from None
+    File errors (missing, a directory, not OpenEXR, truncated, a multi-part file whose layers are not
+    all in one part) are one :class:`GBufferError` line (:func:`ssskit.io.read_exr`); a multi-part
+    file is read from the part that holds the required layers.
+    """
+    p = Path(path)
+    header, channels = read_exr(p, "G-buffer file", required=("diffuse", "albedo", "depth", "profile_id"))
     for name in ("diffuse", "albedo", "depth", "profile_id"):
         if name not in channels:
             raise GBufferError(f"G-buffer {str(p)!r} has no layer {name!r} (found: {', '.join(sorted(channels))})")
@@ -279,14 +145,19 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
             camera = Camera.from_dict(json.loads(header["ssskit_camera"]))
         except json.JSONDecodeError:
             raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_camera' is not JSON") from None
+        except GBufferError as exc:
+            raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None
     try:
         materials = tuple(json.loads(header.get("ssskit_materials", "[]")))
         meta = json.loads(header.get("ssskit_meta", "{}"))
     except json.JSONDecodeError:
         raise GBufferError(f"G-buffer {str(p)!r}: material or meta header attribute is not JSON") from None
-    return GBuffer(diffuse=channels["diffuse"], albedo=channels["albedo"], depth=channels["depth"],
-                   profile_id=channels["profile_id"], camera=camera, specular=channels.get("specular"),
-                   normal=channels.get("normal"), materials=materials, meta=meta)
+    try:
+        return GBuffer(diffuse=channels["diffuse"], albedo=channels["albedo"], depth=channels["depth"],
+                       profile_id=channels["profile_id"], camera=camera, specular=channels.get("specular"),
+                       normal=channels.get("normal"), materials=materials, meta=meta)
+    except GBufferError as exc:  # name the file in the layer's message
+        raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None
 
 
 def _float_layer(name: str, value, rgb: bool, allow_inf: bool = False) -> np.ndarray:

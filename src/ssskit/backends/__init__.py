@@ -1,0 +1,89 @@
+"""Backends: who runs the screen-space passes, behind one small contract per pass.
+
+    >>> from ssskit.backends import BACKENDS, get_backend, backend_status
+    >>> sorted(BACKENDS.names())                            # doctest: +SKIP
+    ['numba', 'numpy']
+    >>> backend_status()["numpy"]                           # doctest: +SKIP
+    {'available': True, 'details': 'float64 reference (the oracle)'}
+
+* ``numpy``: float64, vectorised over pixels, written to be read: the oracle every other backend is
+  tested against;
+* ``numba``: float32 on the CPU, parallel over rows, vectorised (the default).
+
+A backend is registered by name with a factory; :func:`get_backend` builds it once and checks that
+it can run here (otherwise a :class:`~ssskit.errors.BackendError` saying why). How to add one:
+``docs/architecture.md``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from ..errors import BackendError
+from ..registry import Registry
+from .base import Backend, check_frame
+from .plan import DEPTH_MODES, SeparablePlan, TermTable, build_separable_plan, term_rows
+
+BACKENDS: Registry[Callable[[], Backend]] = Registry("backend", BackendError)
+_INSTANCES: dict[str, Backend] = {}
+
+
+def _numpy() -> Backend:
+    from .numpy_backend import NumpyBackend
+
+    return NumpyBackend()
+
+
+def _numba() -> Backend:
+    from .numba_backend import NumbaBackend
+
+    return NumbaBackend()
+
+
+BACKENDS.register("numba", _numba)
+BACKENDS.register("numpy", _numpy)
+
+#: the backend used when none is named
+DEFAULT_BACKEND = "numba"
+
+
+def _instance(name: str) -> Backend:
+    factory = BACKENDS.get(name)
+    key = factory.__name__
+    if key not in _INSTANCES:
+        _INSTANCES[key] = factory()
+    return _INSTANCES[key]
+
+
+def get_backend(name: str = DEFAULT_BACKEND) -> Backend:
+    """The named backend, ready to run, or a BackendError (unknown name, or why it cannot run here)."""
+    backend = _instance(name)
+    ok, why = backend.availability()
+    if not ok:
+        raise BackendError(f"backend {backend.name!r} is not available: {why}")
+    return backend
+
+
+def backend_status() -> dict[str, dict]:
+    """Every registered backend: {name: {"available": bool, "details": str, "description": str}}."""
+    out = {}
+    for name in BACKENDS.names():
+        b = _instance(name)
+        ok, details = b.availability()
+        out[name] = {"available": ok, "details": details, "description": b.description}
+    return out
+
+
+__all__ = [
+    "BACKENDS",
+    "Backend",
+    "DEFAULT_BACKEND",
+    "DEPTH_MODES",
+    "SeparablePlan",
+    "TermTable",
+    "backend_status",
+    "build_separable_plan",
+    "check_frame",
+    "get_backend",
+    "term_rows",
+]

@@ -1,0 +1,175 @@
+"""The separable pass's plan: what every backend executes, built once per frame from the taps.
+
+A plan holds, for every separable term r of the kernels (rank R = the largest rank among the
+profile ids) and every profile *slot* s (slot 0 = no SSS; slot s >= 1 = the s-th profile id of the
+G-buffer), a table of tap **rows**. A row is a distance o >= 0 (mm) with the weight of its tap at
++o and of its tap at -o along the pass axis:
+
+* a symmetric pair: w_plus == w_minus (the taps o and -o of an even kernel, paired exactly when the
+  taps are made, never guessed later);
+* a single tap at +o (w_minus = 0) or at -o (w_plus = 0), for asymmetric user taps.
+
+Rows [0, n_jit) of a slot are the jittered ones (closer to the centre than the jitter radius;
+separable-SSS paper section 6), rows [n_jit, n_rows) the plain ones. The centre tap needs no row:
+the pass computes, per pixel p in slot s and channel c,
+
+    out_c(p) = W_sc E_c(p) + sum_rows sum_(side +-) w_side,c sum_j b_j f(z_j - z_p) [slot_j = s] (E_c(j) - E_c(p))
+
+with W_sc the term's total weight (``centre``), j the bilinear texels of the tap's position
+p +- o s(p) u (u the pass axis, rotated by the pixel's jitter angle for jittered rows; s(p) = f_axis
+/ z_p pixels per mm), b_j the bilinear weights and f the depth factor of the plan's mode with the
+slot's parameter. Texels off the image, off the slot or off the SSS mask count 0 (their share stays
+at the centre), which makes the pass conserve energy on a fronto-parallel surface. The output of
+the two 1D passes of term r is multiplied by ``sign[s]`` and the terms are summed (paper Eq. 2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import PassError
+
+#: depth factor f(d_z) of the pass: exp(-d_z^2 p) with p = 1 / (2 tau_max) (supplement E),
+#: max(0, 1 - |d_z| p) with p = 1 / width (follow-surface test), or 1 (no depth test)
+DEPTH_MODES = ("gaussian", "follow", "none")
+
+
+@dataclass(frozen=True, eq=False)
+class TermTable:
+    """One separable term for every slot; arrays indexed [slot, row] (slot 0 has no rows)."""
+
+    offsets_mm: np.ndarray  # (S, K) float64, >= 0
+    w_plus: np.ndarray  # (S, K, 3)
+    w_minus: np.ndarray  # (S, K, 3)
+    n_jit: np.ndarray  # (S,) int64: rows [0, n_jit) are jittered
+    n_rows: np.ndarray  # (S,) int64
+    centre: np.ndarray  # (S, 3): the term's total weight W_sc
+    sign: np.ndarray  # (S, 3): +-1
+
+    @property
+    def max_rows(self) -> int:
+        return int(self.offsets_mm.shape[1])
+
+
+@dataclass(frozen=True, eq=False)
+class SeparablePlan:
+    """Everything a backend needs besides the frame's images (module docstring)."""
+
+    ids: tuple[int, ...]  # profile id of slot 1, 2, ...
+    terms: tuple[TermTable, ...]
+    depth_mode: str
+    depth_param: np.ndarray  # (S,) float64; slot 0 unused
+    fx: float
+    fy: float
+    frame: int
+    seed: int
+
+    @property
+    def slots(self) -> int:
+        return len(self.ids) + 1
+
+    @property
+    def jittered(self) -> bool:
+        return any(int(t.n_jit.max(initial=0)) > 0 for t in self.terms)
+
+    def max_reach_mm(self) -> float:
+        return max((float(t.offsets_mm.max(initial=0.0)) for t in self.terms), default=0.0)
+
+    def slot_map(self, profile_id: np.ndarray) -> np.ndarray:
+        """(H, W) int32 slots of a profile-id layer: 0 where the id has no SSS or no entry here."""
+        pid = np.asarray(profile_id)
+        out = np.zeros(pid.shape, np.int32)
+        for s, i in enumerate(self.ids, start=1):
+            out[pid == i] = s
+        return out
+
+
+def term_rows(offsets: np.ndarray, weights: np.ndarray, n_jit: int):
+    """Rows of one term of one slot: (offsets (K,), w_plus (K, 3), w_minus (K, 3), n_jit_rows).
+
+    ``offsets`` (N,) signed mm and ``weights`` (N, 3) as :class:`~ssskit.sampling.SeparableTaps`
+    stores them (sorted by |o|, the first ``n_jit`` jittered). Taps at exactly -o and +o with
+    exactly equal weights become one symmetric row (the taps are made exact mirror pairs); other
+    taps are single rows. Taps at o = 0 need no row.
+    """
+    used = np.zeros(offsets.size, bool)
+    rows = []  # (jittered, |o|, w_plus, w_minus)
+    zero = np.zeros(3)
+    for i in range(offsets.size):
+        if used[i]:
+            continue
+        used[i] = True
+        o = float(offsets[i])
+        if o == 0.0:
+            continue
+        jit = i < n_jit
+        partner = -1
+        for j in range(i + 1, offsets.size):
+            if not used[j] and offsets[j] == -o and (j < n_jit) == jit and np.array_equal(weights[j], weights[i]):
+                partner = j
+                break
+        if partner >= 0:
+            used[partner] = True
+            rows.append((jit, abs(o), weights[i], weights[i]))
+        else:
+            rows.append((jit, abs(o), weights[i] if o > 0 else zero, zero if o > 0 else weights[i]))
+    rows.sort(key=lambda r: not r[0])  # jittered rows first (stable: nearest first)
+    k = len(rows)
+    offs = np.array([r[1] for r in rows], float).reshape(k)
+    wp = np.array([r[2] for r in rows], float).reshape(k, 3)
+    wm = np.array([r[3] for r in rows], float).reshape(k, 3)
+    return offs, wp, wm, sum(1 for r in rows if r[0])
+
+
+def build_separable_plan(taps_by_id: dict, fx: float, fy: float, *, jitter: float, depth_mode: str,
+                         frame: int = 0, seed: int = 0) -> SeparablePlan:
+    """The plan for profile ids -> :class:`~ssskit.sampling.SeparableTaps` (module docstring).
+
+    ``depth_mode`` is one of :data:`DEPTH_MODES`; its parameter comes from each id's taps:
+    1 / (2 tau_max) for ``gaussian`` (tau_max = the kernel's depth-correction width squared, or the
+    axis width squared for kernels without one), 1 / width for ``follow``.
+    """
+    if depth_mode not in DEPTH_MODES:
+        raise PassError(f"unknown depth mode {depth_mode!r}; choose from {', '.join(DEPTH_MODES)}")
+    for name, f in (("fx", fx), ("fy", fy)):
+        if not (np.isfinite(f) and f > 0):
+            raise PassError(f"focal length {name} must be a positive number of pixels, got {f!r}")
+    ids = tuple(int(i) for i in sorted(taps_by_id))
+    if any(i <= 0 for i in ids):
+        raise PassError(f"profile ids with taps must be >= 1 (0 means no SSS), got {list(ids)}")
+    n_slots = len(ids) + 1
+    rank = max((taps_by_id[i].rank for i in ids), default=1)
+    per_slot = []  # per slot: list over terms of rows
+    params = np.zeros(n_slots)
+    for s, pid in enumerate(ids, start=1):
+        t = taps_by_id[pid]
+        nj = t.jitter_count(jitter)
+        per_slot.append([term_rows(t.offsets_mm[r], t.weights[r], nj) for r in range(t.rank)])
+        if depth_mode == "gaussian":
+            tau = t.tau_max_mm2 if t.tau_max_mm2 is not None else t.width_mm**2
+            params[s] = 1.0 / (2.0 * tau)
+        elif depth_mode == "follow":
+            params[s] = 1.0 / t.width_mm
+    terms = []
+    for r in range(rank):
+        k = max((len(rows[r][0]) for rows in per_slot if r < len(rows)), default=0)
+        offs = np.zeros((n_slots, k))
+        wp = np.zeros((n_slots, k, 3))
+        wm = np.zeros((n_slots, k, 3))
+        n_jit = np.zeros(n_slots, np.int64)
+        n_rows = np.zeros(n_slots, np.int64)
+        centre = np.zeros((n_slots, 3))
+        sign = np.ones((n_slots, 3))
+        for s, pid in enumerate(ids, start=1):
+            t = taps_by_id[pid]
+            if r >= t.rank:
+                continue  # a lower-rank kernel: this term contributes 0 on its pixels
+            o, p, m, nj = per_slot[s - 1][r]
+            offs[s, : o.size], wp[s, : o.size], wm[s, : o.size] = o, p, m
+            n_jit[s], n_rows[s] = nj, o.size
+            centre[s] = t.weights[r].sum(axis=0)
+            sign[s] = t.signs[r]
+        terms.append(TermTable(offs, wp, wm, n_jit, n_rows, centre, sign))
+    return SeparablePlan(ids, tuple(terms), depth_mode, params, float(fx), float(fy), int(frame), int(seed))

@@ -1,0 +1,31 @@
+"""One on-disk cache root for everything ssskit computes once and reuses.
+
+The root is ``$SSSKIT_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/ssskit`` (default
+``~/.cache/ssskit``). Each kind of result has its own sub-folder, named here so that no module
+borrows another's: ``mcml`` (Monte Carlo profiles), ``reference`` (path-traced images),
+``meshes`` (the built-in scenes' PLY meshes).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+#: sub-folders of the cache root, one per kind of cached result
+KINDS = ("mcml", "reference", "meshes")
+
+
+def cache_root() -> Path:
+    """$SSSKIT_CACHE_DIR, else $XDG_CACHE_HOME/ssskit (XDG default ~/.cache)."""
+    env = os.environ.get("SSSKIT_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "ssskit"
+
+
+def cache_dir(kind: str) -> Path:
+    """The folder of one kind of cached result (see :data:`KINDS`); not created here."""
+    if kind not in KINDS:
+        raise ValueError(f"unknown cache kind {kind!r}; known: {', '.join(KINDS)}")
+    return cache_root() / kind

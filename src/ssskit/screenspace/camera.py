@@ -1,0 +1,119 @@
+"""The pinhole camera of a G-buffer, and screen-space motion between two cameras.
+
+A :class:`Camera` holds what the passes need to turn a width in mm into pixels: focal lengths in
+pixels (fx, fy; fx != fy for non-square pixels), the principal point, the world-to-camera matrix
+(camera looks down +z, x right, y down, so pixel (u, v) = (fx x/z + cx, fy y/z + cy)), and
+``world_units_per_mm``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import GBufferError
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Pinhole camera: intrinsics in pixels, world-to-camera matrix, and the scene's unit scale."""
+
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    world_to_camera: np.ndarray = field(default_factory=lambda: np.eye(4))
+    world_units_per_mm: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("width", "height"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, np.integer)) and v >= 1):
+                raise GBufferError(f"camera: {name} must be a positive integer, got {v!r}")
+        for name in ("fx", "fy", "world_units_per_mm"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and v > 0):
+                raise GBufferError(f"camera: {name} must be a positive finite number, got {v!r}")
+        m = np.asarray(self.world_to_camera, dtype=float)
+        if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+            raise GBufferError(f"camera: world_to_camera must be a finite 4x4 matrix, got shape {m.shape}")
+        object.__setattr__(self, "world_to_camera", m)
+        for name in ("fx", "fy", "cx", "cy", "world_units_per_mm"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+
+    @classmethod
+    def from_fov(cls, width: int, height: int, fov_x_deg: float, pixel_aspect: float = 1.0,
+                 world_to_camera=None, world_units_per_mm: float = 1.0) -> "Camera":
+        """A camera with horizontal field of view ``fov_x_deg``; ``pixel_aspect`` = pixel height / width.
+
+        fx = (W/2) / tan(fov_x/2); fy = fx / pixel_aspect (a pixel that is taller than wide covers
+        more of the scene vertically, so fewer pixels per unit length).
+        """
+        if not (0 < fov_x_deg < 180):
+            raise GBufferError(f"camera: field of view must lie in (0, 180) degrees, got {fov_x_deg!r}")
+        if not (pixel_aspect > 0 and math.isfinite(pixel_aspect)):
+            raise GBufferError(f"camera: pixel aspect must be positive, got {pixel_aspect!r}")
+        fx = 0.5 * width / math.tan(math.radians(fov_x_deg) / 2.0)
+        return cls(int(width), int(height), fx, fx / pixel_aspect, width / 2.0, height / 2.0,
+                   np.eye(4) if world_to_camera is None else world_to_camera, world_units_per_mm)
+
+    @property
+    def pixel_aspect(self) -> float:
+        """Pixel height / pixel width (1 for square pixels)."""
+        return self.fx / self.fy
+
+    def pixels_per_mm(self, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Horizontal and vertical pixels per mm of surface at linear depth ``depth`` (world units),
+        for a fronto-parallel surface: f * world_units_per_mm / z."""
+        z = np.asarray(depth, dtype=float)
+        return self.fx * self.world_units_per_mm / z, self.fy * self.world_units_per_mm / z
+
+    def project(self, points_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pixel coordinates (..., 2) (u, v; pixel centres at integer + 0.5) and depth z of world points."""
+        p = np.asarray(points_world, dtype=float)
+        cam = p @ self.world_to_camera[:3, :3].T + self.world_to_camera[:3, 3]
+        z = cam[..., 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = np.stack([self.fx * cam[..., 0] / z + self.cx, self.fy * cam[..., 1] / z + self.cy], axis=-1)
+        return uv, z
+
+    def unproject(self, depth: np.ndarray) -> np.ndarray:
+        """World positions (H, W, 3) of the pixel centres at linear depth ``depth`` (H, W)."""
+        z = np.asarray(depth, dtype=float)
+        v, u = np.mgrid[0:z.shape[0], 0:z.shape[1]] + 0.5
+        cam = np.stack([(u - self.cx) / self.fx * z, (v - self.cy) / self.fy * z, z], axis=-1)
+        inv = np.linalg.inv(self.world_to_camera)
+        return cam @ inv[:3, :3].T + inv[:3, 3]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"width": self.width, "height": self.height, "fx": self.fx, "fy": self.fy, "cx": self.cx,
+                "cy": self.cy, "world_to_camera": self.world_to_camera.tolist(),
+                "world_units_per_mm": self.world_units_per_mm}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "Camera":
+        try:
+            return cls(int(d["width"]), int(d["height"]), float(d["fx"]), float(d["fy"]), float(d["cx"]),
+                       float(d["cy"]), np.array(d["world_to_camera"], dtype=float), float(d["world_units_per_mm"]))
+        except (KeyError, TypeError, ValueError) as exc:
+            if isinstance(exc, GBufferError):
+                raise
+            raise GBufferError(f"camera: not an ssskit camera record ({exc})") from None
+
+
+def motion_vectors(depth: np.ndarray, camera: Camera, previous: Camera) -> np.ndarray:
+    """Screen-space motion (H, W, 2) in pixels, from this frame's pixel to where the same world point
+    was in ``previous`` (static scene): what temporal reprojection needs. Zero where depth is inf."""
+    z = np.asarray(depth, dtype=float)
+    finite = np.isfinite(z)
+    world = camera.unproject(np.where(finite, z, 1.0))
+    uv_prev, _ = previous.project(world)
+    v, u = np.mgrid[0:z.shape[0], 0:z.shape[1]] + 0.5
+    mv = uv_prev - np.stack([u, v], axis=-1)
+    mv[~finite] = 0.0
+    return mv

@@ -1,0 +1,156 @@
+"""Frozen settings dataclasses that load from and save to TOML or JSON files.
+
+A settings class derives from :class:`Settings`, declares its fields with defaults and checks them
+in ``__post_init__`` (raising :class:`~ssskit.errors.SettingsError` naming the field), so every
+argument is validated when the settings are made, before any work starts. Nested settings
+(a field whose type is another Settings class) become TOML tables / JSON objects.
+
+    >>> from ssskit.screenspace import PassSettings
+    >>> s = PassSettings(taps=7, jitter=0.1)
+    >>> PassSettings.from_dict(s.to_dict()) == s
+    True
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import typing
+from pathlib import Path
+from typing import Any
+
+from .errors import SettingsError
+
+
+class Settings:
+    """Mixin for frozen dataclasses: ``to_dict``, ``from_dict``, ``replace``, ``load`` and ``save``."""
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(self):  # type: ignore[arg-type]
+            v = getattr(self, f.name)
+            out[f.name] = v.to_dict() if isinstance(v, Settings) else (list(v) if isinstance(v, tuple) else v)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], where: str = "") -> "Settings":
+        """Build from plain data; unknown keys and wrong types are errors naming the key."""
+        if not isinstance(data, dict):
+            raise SettingsError(f"{where or cls.__name__}: expected a table/object, got {type(data).__name__}")
+        names = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+        unknown = sorted(set(data) - set(names))
+        if unknown:
+            raise SettingsError(f"{where or cls.__name__}: unknown setting(s) {', '.join(unknown)} "
+                                f"(known: {', '.join(names)})")
+        hints = typing.get_type_hints(cls)
+        kwargs = {}
+        for key, value in data.items():
+            sub = _settings_class(hints.get(key))
+            if sub is not None:
+                kwargs[key] = sub.from_dict(value, where=f"{where + '.' if where else ''}{key}")
+            else:
+                kwargs[key] = tuple(value) if isinstance(value, list) else value
+        return cls(**kwargs)
+
+    def replace(self, **changes) -> "Settings":
+        """A copy with ``changes`` applied (validated again)."""
+        return dataclasses.replace(self, **changes)  # type: ignore[type-var]
+
+    @classmethod
+    def load(cls, path: str | Path) -> "Settings":
+        """Read a ``.toml`` or ``.json`` settings file."""
+        p = Path(path)
+        suffix = p.suffix.lower()
+        if suffix not in (".toml", ".json"):
+            raise SettingsError(f"settings file {str(p)!r} must end in .toml or .json")
+        try:
+            text = p.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise SettingsError(f"cannot read settings file {str(p)!r}: {getattr(exc, 'strerror', None) or exc}") from None
+        try:
+            if suffix == ".toml":
+                import tomllib
+
+                data = tomllib.loads(text)
+            else:
+                data = json.loads(text)
+        except ValueError as exc:
+            raise SettingsError(f"malformed settings file {str(p)!r}: {exc}") from None
+        try:
+            return cls.from_dict(data)
+        except SettingsError as exc:
+            raise SettingsError(f"{str(p)!r}: {exc}") from None
+
+    def save(self, path: str | Path) -> None:
+        """Write a ``.toml`` or ``.json`` settings file atomically (None values are left out)."""
+        from .io import check_suffix, write_text
+
+        suffix = check_suffix(path, (".toml", ".json"), "settings file")
+        data = _drop_none(self.to_dict())
+        write_text(path, json.dumps(data, indent=2) + "\n" if suffix == ".json" else _to_toml(data))
+
+
+def _settings_class(hint) -> type | None:
+    for t in (hint, *typing.get_args(hint)):
+        if isinstance(t, type) and issubclass(t, Settings):
+            return t
+    return None
+
+
+def _drop_none(d: dict) -> dict:
+    return {k: (_drop_none(v) if isinstance(v, dict) else v) for k, v in d.items() if v is not None}
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        if isinstance(v, float) and not math.isfinite(v):
+            return "inf" if v > 0 else ("-inf" if v < 0 else "nan")
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise SettingsError(f"cannot write {type(v).__name__} to TOML")
+
+
+def _to_toml(data: dict) -> str:
+    lines = [f"{k} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
+    for k, v in data.items():
+        if isinstance(v, dict):
+            lines += ["", f"[{k}]"] + [f"{kk} = {_toml_value(vv)}" for kk, vv in v.items()]
+    return "\n".join(lines) + "\n"
+
+
+def check_int(name: str, value, lo: int, hi: int) -> int:
+    """An int in [lo, hi] (bools refused), or a SettingsError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, int) and not (hasattr(value, "__index__")):
+        raise SettingsError(f"{name} must be an integer, got {value!r}")
+    v = int(value)
+    if not lo <= v <= hi:
+        raise SettingsError(f"{name} must lie in [{lo}, {hi}], got {v}")
+    return v
+
+
+def check_float(name: str, value, lo: float, hi: float) -> float:
+    """A finite float in [lo, hi], or a SettingsError naming ``name``."""
+    if isinstance(value, bool):
+        raise SettingsError(f"{name} must be a number, got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise SettingsError(f"{name} must be a number, got {value!r}") from None
+    if not (math.isfinite(v) and lo <= v <= hi):
+        raise SettingsError(f"{name} must be a finite number in [{lo:g}, {hi:g}], got {value!r}")
+    return v
+
+
+def check_choice(name: str, value, choices) -> str:
+    """``value`` (case-insensitive) if it is one of ``choices``, returned in its canonical spelling."""
+    if isinstance(value, str):
+        for c in choices:
+            if c.lower() == value.strip().lower():
+                return c
+    raise SettingsError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
