@@ -129,3 +129,17 @@ def test_cli_errors(capsys, args, msg):
     code, out, err = run(capsys, *args)
     assert code == 2 and out == ""
     assert msg in err and err.count("\n") == 1
+
+
+def test_repeated_evaluations_reuse_kernels_and_results(skin):
+    """Kernels and metrics are memoised per profile object: a second evaluation gives the same numbers
+    (as independent dicts), and keep_images still returns the images."""
+    from ssskit.pipeline.evaluate import _RESULTS
+
+    first = evaluate(skin, "disk", ["svd:2", "jimenez2012"], size=64, perceptual=False)
+    assert any(k[1] == "disk" and k[3] == "svd:2" for k in _RESULTS)
+    first.results["svd:2"]["rmse"] = -1.0  # callers may edit their copy
+    again = evaluate(skin, "disk", ["svd:2", "jimenez2012"], size=64, perceptual=False, keep_images=True)
+    assert again.results["svd:2"]["rmse"] > 0 and set(again.images) == {"svd:2", "jimenez2012"}
+    third = evaluate(skin, "disk", ["svd:2"], size=64, perceptual=False)
+    assert third.results["svd:2"] == again.results["svd:2"]

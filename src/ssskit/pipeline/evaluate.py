@@ -10,7 +10,8 @@ Kernels normalised to 1 by construction (``jimenez2012``) are scaled to the prof
 Kernels and discrete profiles depend only on (profile, method, grid), not on the signal: they are
 built once per profile object and reused by later evaluations in the process (a small memo), so
 the figures and tables of one profile on several signals do not rebuild them (the guided kernel
-takes seconds).
+takes seconds). Likewise the metrics of a method on a named test signal are computed once per
+profile object (the images are not kept: ``keep_images`` recomputes them).
 """
 
 from __future__ import annotations
@@ -79,6 +80,11 @@ class _Identity:
         return isinstance(other, _Identity) and other.obj is self.obj
 
 
+#: metrics of (profile, named signal, size, method, perceptual), oldest dropped first
+_RESULTS: dict[tuple, dict[str, Any]] = {}
+_RESULTS_MAX = 512
+
+
 @functools.lru_cache(maxsize=8)
 def _cells(profile: _Identity, pixel_mm: float, n: int) -> np.ndarray:
     return profile.obj.discretize_2d(pixel_mm, n)
@@ -107,6 +113,10 @@ def evaluate(profile, signal: str | np.ndarray, methods: Iterable[str], size: in
     for method, params, label in specs:
         if progress is not None:
             progress(label)
+        memo = (key, name, size, label, perceptual) if isinstance(signal, str) else None
+        if memo in _RESULTS and not keep_images:
+            ev.results[label] = dict(_RESULTS[memo])
+            continue
         kernel = _kernel(key, method.name, tuple(sorted(params.items())), pixel_mm, n)
         matched = False
         if method.unit_energy:
@@ -119,6 +129,10 @@ def evaluate(profile, signal: str | np.ndarray, methods: Iterable[str], size: in
         if isinstance(kernel, TapKernel):
             res["taps"] = kernel.taps
         ev.results[label] = res
+        if memo is not None:
+            _RESULTS[memo] = dict(res)
+            while len(_RESULTS) > _RESULTS_MAX:
+                _RESULTS.pop(next(iter(_RESULTS)))
         if keep_images:
             ev.images[label] = out
     return ev
