@@ -1,3 +1,9 @@
+"""``ssskit``: commands, help, JSON output and the one-line errors of the original commands.
+
+Bad input of every kind added since is in test_bad_input.py; the README's commands in test_readme.py
+(which also runs the demo, once for the whole suite).
+"""
+
 import json
 import subprocess
 import sys
@@ -5,13 +11,63 @@ import sys
 import numpy as np
 import pytest
 
-from ssskit.cli import main
+from ssskit.cli import cli, main
 
 
 def run(capsys, *args):
     code = main(list(args))
     out, err = capsys.readouterr()
     return code, out, err
+
+
+def test_help_lists_every_command(capsys):
+    code, out, _ = run(capsys, "--help")
+    assert code == 0
+    listed = out.split("Commands:")[1]
+    for name in cli.commands:
+        assert f"  {name} " in listed
+    assert {"materials", "backends", "profile", "simulate", "xie-c", "kernel", "evaluate", "render", "figures",
+            "demo"} <= set(cli.commands)
+
+
+@pytest.mark.parametrize("name", sorted(cli.commands))
+def test_every_command_help_has_an_example(capsys, name):
+    code, out, _ = run(capsys, name, "--help")
+    assert code == 0
+    examples = out.split("Examples:")[1].strip().splitlines()
+    assert examples and all(line.strip().startswith(f"ssskit {name}") for line in examples)
+
+
+def test_backends_lists_every_backend(capsys):
+    from ssskit.backends import BACKENDS
+
+    code, out, _ = run(capsys, "backends", "--json")
+    assert code == 0
+    data = json.loads(out)
+    assert set(data["backends"]) == set(BACKENDS.names()) and data["default"] in data["backends"]
+    for status in data["backends"].values():
+        assert isinstance(status["available"], bool) and isinstance(status["details"], str)
+        assert status["description"]
+    assert data["backends"]["numpy"]["available"]
+    code, out, _ = run(capsys, "backends")
+    assert code == 0
+    for name, status in data["backends"].items():
+        line = next(x for x in out.splitlines() if x.startswith(name))
+        assert ("not available" in line) == (not status["available"])
+
+
+def test_kernel_method_options_come_from_the_registry(capsys):
+    """Each method's primary parameter is an option of `ssskit kernel`, applying to that method only."""
+    from ssskit.kernels import METHODS
+
+    _, out, _ = run(capsys, "kernel", "--help")
+    for _, m in METHODS.items():
+        if m.primary:
+            assert f"--{m.primary.replace('_', '-')} " in out
+    code, out, _ = run(capsys, "kernel", "--method", "jimenez2012", "--taps", "17", "--json")
+    assert code == 0 and len(json.loads(out)["weights"]) == 17
+    code, inline, _ = run(capsys, "kernel", "--method", "jimenez2012:17", "--json")
+    assert code == 0 and inline == out
 
 
 def test_materials_json(capsys):
@@ -117,21 +173,6 @@ def test_import_is_light():
     code = "import sys, ssskit; print(sorted(m for m in ('scipy', 'matplotlib', 'numba', 'click') if m in sys.modules))"
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert proc.stdout.strip() == "[]"
-
-
-def test_demo_writes_report(capsys, tmp_path, monkeypatch):
-    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
-    code, out, err = run(capsys, "demo", "--out", str(tmp_path / "demo"), "--photons", "5000")
-    assert code == 0
-    index = tmp_path / "demo" / "index.html"
-    assert out.strip() == str(index)
-    page = index.read_text()
-    for name in ("Apple", "Skin1", "Wholemilk"):
-        assert f"profile_{name.lower()}.png" in page
-        assert (tmp_path / "demo" / f"profile_{name.lower()}.png").stat().st_size > 10_000
-    assert "2.5715" in page and "minimax" in page
-    assert "MCML" in page and "montecarlo" in page
-    assert "figures/screenspace.png" in page and (tmp_path / "demo" / "figures" / "screenspace.png").is_file()
 
 
 def test_simulate_json_and_sweep_identity(capsys, tmp_path, monkeypatch):

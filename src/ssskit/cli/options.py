@@ -1,0 +1,435 @@
+"""Shared option decorators and parameter types of the ``ssskit`` commands.
+
+Choices come from the registries (profile models, kernel methods, tap methods, depth modes,
+backends, figures, signals, scenes), looked up when a value is converted or help is shown, so a
+newly registered entry is accepted without editing the CLI. Ranges come from the settings modules
+(``PHOTONS_RANGE``, ``SIZE_RANGE``, ``TAP_RANGE``) or from the settings classes themselves, which
+validate when they are made. Every check here runs while the command line is parsed, before any
+work starts; a failure is one ``ssskit: error: ...`` line (see :func:`ssskit.cli.main`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import tempfile
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import click
+from click.core import ParameterSource
+
+from ..errors import OutputError, SsskitError
+from ..pipeline.settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE
+
+__all__ = [
+    "PHOTONS_RANGE",
+    "SIZE_RANGE",
+    "TAP_RANGE",
+    "KernelSpec",
+    "MaterialRef",
+    "OutputDir",
+    "OutputFile",
+    "RegistryName",
+    "SceneRef",
+    "Size",
+    "backend_option",
+    "check_distinct",
+    "check_writable",
+    "depth_mode_option",
+    "echo_json",
+    "examples",
+    "given",
+    "json_option",
+    "kernel_spec_option",
+    "material_option",
+    "model_option",
+    "out_dir_option",
+    "out_option",
+    "photons_option",
+    "progress",
+    "scene_option",
+    "signal_option",
+    "tap_method_option",
+]
+
+
+# ---------------------------------------------------------------------------------------------- helpers
+
+
+def echo_json(data) -> None:
+    """Print exactly one JSON object on stdout."""
+    click.echo(json.dumps(data))
+
+
+def progress(msg: str) -> None:
+    """A progress line on stderr (stdout carries only the result)."""
+    click.echo(f"  {msg}", err=True)
+
+
+def examples(*lines: str) -> str:
+    """A command's epilog: example command lines, printed verbatim under 'Examples:'."""
+    return "\b\nExamples:\n" + "\n".join(f"  {line}" for line in lines)
+
+
+def given(ctx: click.Context, name: str) -> bool:
+    """Whether the user gave parameter ``name`` (on the command line or in the environment)."""
+    return ctx.get_parameter_source(name) not in (None, ParameterSource.DEFAULT, ParameterSource.DEFAULT_MAP)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    if a.exists() and b.exists():
+        with contextlib.suppress(OSError):
+            return os.path.samefile(a, b)
+    return a.resolve() == b.resolve()
+
+
+def check_distinct(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None]) -> None:
+    """Refuse an output path that is an input file or another output (``{option: path}``; None skipped)."""
+    seen: list[tuple[str, Path]] = [(opt, Path(p)) for opt, p in inputs.items() if p is not None]
+    for opt, p in outputs.items():
+        if p is None:
+            continue
+        for other, q in seen:
+            if _same_file(Path(p), q):
+                raise OutputError(f"{opt} {str(p)!r} is the same file as {other}; choose another path")
+        seen.append((opt, Path(p)))
+
+
+def check_writable(target: str | Path, opt: str, folder: bool = False) -> None:
+    """Refuse an output ``target`` (a file, or a folder with ``folder=True``) that cannot be written:
+    a write test in its folder or, if that does not exist yet, in the nearest existing ancestor.
+
+    Nothing is left behind: no folder is created and the test file is removed.
+    """
+    t = Path(target)
+    if folder and t.exists() and not t.is_dir():
+        raise OutputError(f"{opt} {str(t)!r} is a file, not a folder")
+    if not folder and t.is_dir():
+        raise OutputError(f"{opt} {str(t)!r} is a directory")
+    probe = t if folder else t.parent
+    probe = probe if str(probe) else Path(".")
+    while not probe.exists() and probe.parent != probe:
+        probe = probe.parent
+    if not probe.is_dir():
+        raise OutputError(f"cannot write {opt} {str(t)!r}: {str(probe)!r} is not a folder")
+    try:
+        fd, name = tempfile.mkstemp(prefix=".ssskit-write-test-", dir=probe)
+    except OSError as exc:
+        raise OutputError(f"cannot write {opt} {str(t)!r}: {exc.strerror or exc} ({str(probe)!r})") from None
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(name)
+
+
+# ---------------------------------------------------------------------------------------------- types
+
+
+class RegistryName(click.ParamType):
+    """A name from a registry (or a sequence of names), matched like the registry matches it and
+    returned in its canonical spelling; the choices are listed in the help."""
+
+    name = "name"
+
+    def __init__(self, source: Callable[[], Any]) -> None:
+        self._source = source
+
+    def names(self) -> list[str]:
+        src = self._source()
+        return list(src.names()) if hasattr(src, "names") else [str(n) for n in src]
+
+    def get_metavar(self, param, ctx=None) -> str:  # click >= 8.2 passes ctx
+        return "[" + "|".join(self.names()) + "]"
+
+    def shell_complete(self, ctx, param, incomplete):
+        from click.shell_completion import CompletionItem
+
+        return [CompletionItem(n) for n in self.names() if n.lower().startswith(incomplete.lower())]
+
+    def convert(self, value, param, ctx):
+        src = self._source()
+        text = str(value)
+        if hasattr(src, "get"):
+            try:
+                entry = src.get(text)
+            except SsskitError as exc:
+                self.fail(str(exc), param, ctx)
+            return next((n for n in src.names() if src.get(n) is entry), text)
+        for n in src:
+            if n.lower() == text.strip().lower():
+                return n
+        self.fail(f"{text!r} is not one of {', '.join(map(str, src))}", param, ctx)
+
+
+class MaterialRef(click.ParamType):
+    """A preset material name or a .toml/.json material file, checked (loaded) while parsing.
+
+    Returns the text as given (stripped); with ``split=True`` a comma-separated list of them.
+    """
+
+    name = "material"
+
+    def __init__(self, split: bool = False) -> None:
+        self.split = split
+
+    def get_metavar(self, param, ctx=None) -> str:
+        return "NAME|FILE" + (",..." if self.split else "")
+
+    def convert(self, value, param, ctx):
+        from ..materials import get_material
+
+        if self.split and isinstance(value, list):
+            return value
+        text = str(value)
+        names = [n.strip() for n in text.split(",")] if self.split else [text.strip()]
+        if self.split:
+            names = [n for n in names if n]
+            if not names:
+                self.fail(f"no material given ({text!r} names none); give preset names or material files, "
+                          "comma-separated", param, ctx)
+        for n in names:
+            try:
+                get_material(n)
+            except SsskitError as exc:
+                self.fail(str(exc), param, ctx)
+        return names if self.split else names[0]
+
+
+class KernelSpec(click.ParamType):
+    """A kernel method spec ``name[:value]`` (``svd:3``, ``guided:0``, ``artist:production``), parsed and
+    range-checked by :func:`ssskit.kernels.parse_method_spec`; returns its canonical label.
+    With ``many=True`` a comma-separated list of specs."""
+
+    name = "method"
+
+    def __init__(self, many: bool = False) -> None:
+        self.many = many
+
+    def get_metavar(self, param, ctx=None) -> str:
+        return "METHOD[:VALUE]" + (",..." if self.many else "")
+
+    def convert(self, value, param, ctx):
+        from ..kernels import parse_method_spec
+
+        if self.many and isinstance(value, list):
+            return value
+        specs = [s.strip() for s in str(value).split(",")] if self.many else [str(value)]
+        specs = [s for s in specs if s] if self.many else specs
+        if not specs:
+            self.fail(f"no kernel method given ({str(value)!r})", param, ctx)
+        labels = []
+        for s in specs:
+            try:
+                labels.append(parse_method_spec(s)[2])
+            except SsskitError as exc:
+                self.fail(str(exc), param, ctx)
+        return labels if self.many else labels[0]
+
+
+class Size(click.ParamType):
+    """``WxH`` in pixels, each side in ``SIZE_RANGE``."""
+
+    name = "WxH"
+
+    def get_metavar(self, param, ctx=None) -> str:
+        return "WxH"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        try:
+            w, h = (int(v) for v in str(value).lower().split("x"))
+        except ValueError:
+            self.fail(f"must look like 256x192, got {value!r}", param, ctx)
+        lo, hi = SIZE_RANGE
+        for side, v in (("width", w), ("height", h)):
+            if not lo <= v <= hi:
+                self.fail(f"the {side} must lie in {lo}..{hi} pixels, got {value!r}", param, ctx)
+        return w, h
+
+
+class SceneRef(click.ParamType):
+    """A built-in scene name (the scenes registry) or a G-buffer ``.exr`` file that exists.
+
+    Returns the canonical scene name (str) or the file as a :class:`~pathlib.Path`."""
+
+    name = "scene"
+
+    def get_metavar(self, param, ctx=None) -> str:
+        return "[" + "|".join(_scenes().names()) + "|GBUFFER.exr]"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, Path):
+            return value
+        text = str(value)
+        scenes = _scenes()
+        if text in scenes:
+            return RegistryName(_scenes).convert(text, param, ctx)
+        p = Path(text)
+        if p.suffix.lower() == ".exr" or p.exists() or len(p.parts) > 1:
+            if p.is_dir():
+                self.fail(f"{text!r} is a directory, not a G-buffer file", param, ctx)
+            if not p.exists():
+                self.fail(f"G-buffer file {text!r} does not exist", param, ctx)
+            if p.suffix.lower() != ".exr":
+                self.fail(f"a G-buffer file must end in .exr, got {text!r}", param, ctx)
+            return p
+        return RegistryName(_scenes).convert(text, param, ctx)
+
+
+def _opt(param, fallback: str) -> str:
+    return param.opts[0] if param is not None and getattr(param, "opts", None) else fallback
+
+
+class OutputFile(click.ParamType):
+    """An output file path: its suffix one of ``suffixes``, not a directory, its folder writable
+    (tested without leaving anything behind). Errors are OutputErrors naming the option."""
+
+    name = "file"
+
+    def __init__(self, suffixes: Sequence[str]) -> None:
+        self.suffixes = tuple(s.lower() for s in suffixes)
+
+    def get_metavar(self, param, ctx=None) -> str:
+        return "FILE" + "|".join(self.suffixes)
+
+    def convert(self, value, param, ctx):
+        from ..io import check_suffix
+
+        opt = _opt(param, "output")
+        check_suffix(value, self.suffixes, opt)
+        check_writable(value, opt)
+        return str(value)
+
+
+class OutputDir(click.ParamType):
+    """An output folder: not a file, and writable (tested without creating anything)."""
+
+    name = "dir"
+
+    def get_metavar(self, param, ctx=None) -> str:
+        return "DIR"
+
+    def convert(self, value, param, ctx):
+        check_writable(value, _opt(param, "output folder"), folder=True)
+        return str(value)
+
+
+# ------------------------------------------------------------------------------------------ registries
+
+
+def _models():
+    from ..profiles import MODELS
+
+    return MODELS
+
+
+def _scenes():
+    from .. import scenes
+
+    if hasattr(scenes, "SCENES"):
+        return scenes.SCENES
+    from ..scenes.render3d import SCENES  # before the scenes package exported its registry
+
+    return SCENES
+
+
+def _signals():
+    from ..scenes import SIGNALS
+
+    return SIGNALS
+
+
+def _backends():
+    from ..backends import BACKENDS
+
+    return BACKENDS
+
+
+def _depth_modes():
+    from ..backends import DEPTH_MODES
+
+    return DEPTH_MODES
+
+
+def _tap_methods():
+    from ..sampling.taps import TAP_METHODS
+
+    return TAP_METHODS
+
+
+def _figures():
+    from ..figures import FIGURES
+
+    return FIGURES
+
+
+MODEL = RegistryName(_models)
+SIGNAL = RegistryName(_signals)
+BACKEND = RegistryName(_backends)
+DEPTH_MODE = RegistryName(_depth_modes)
+TAP_METHOD = RegistryName(_tap_methods)
+FIGURE = RegistryName(_figures)
+
+
+# ------------------------------------------------------------------------------------------ decorators
+
+
+def json_option(help: str = "Print one JSON object.") -> Callable:
+    return click.option("--json", "as_json", is_flag=True, help=help)
+
+
+def material_option(*, required: bool = False, default: str | None = None, split: bool = False,
+                    help: str = "Preset name or .toml/.json material file.") -> Callable:
+    return click.option("--material", type=MaterialRef(split=split), required=required, default=default,
+                        show_default=default is not None, multiple=split, help=help)
+
+
+def model_option(default: str, help: str = "Profile model.") -> Callable:
+    return click.option("--model", type=MODEL, default=default, show_default=True, help=help)
+
+
+def photons_option(default: int | None, help: str = "Monte Carlo photons per channel (cached).") -> Callable:
+    return click.option("--photons", type=click.IntRange(*PHOTONS_RANGE), default=default,
+                        show_default=default is not None, help=help)
+
+
+def out_option(suffixes: Iterable[str], help: str, name: str = "--out", dest: str | None = None) -> Callable:
+    decls = [name] if dest is None else [name, dest]
+    return click.option(*decls, type=OutputFile(tuple(suffixes)), default=None, help=help)
+
+
+def out_dir_option(default: str, help: str = "Output folder.") -> Callable:
+    return click.option("--out", type=OutputDir(), default=default, show_default=True, help=help)
+
+
+def kernel_spec_option(name: str = "--kernel", dest: str = "kernel_spec", default: str | None = None,
+                       many: bool = False, required: bool = False,
+                       help: str = "Kernel method spec name[:value].") -> Callable:
+    return click.option(name, dest, type=KernelSpec(many=many), default=default, show_default=default is not None,
+                        required=required, help=help)
+
+
+def signal_option(default: str = "edge") -> Callable:
+    return click.option("--signal", type=SIGNAL, default=default, show_default=True, help="Test signal.")
+
+
+def scene_option() -> Callable:
+    return click.option("--scene", type=SceneRef(), required=True,
+                        help="Built-in scene or a G-buffer EXR (see 'G-buffer EXR' in the README).")
+
+
+def backend_option(default: str | None) -> Callable:
+    return click.option("--backend", type=BACKEND, default=default, show_default=default is not None,
+                        help="Who runs the screen-space pass ('ssskit backends' lists them and whether they run here).")
+
+
+def depth_mode_option() -> Callable:
+    return click.option("--depth-mode", type=DEPTH_MODE, default=None,
+                        help="Depth test [default: gaussian for artist kernels, follow otherwise].")
+
+
+def tap_method_option(default: str) -> Callable:
+    return click.option("--tap-method", type=TAP_METHOD, default=default, show_default=True, help="Tap placement.")

@@ -1,0 +1,250 @@
+"""``ssskit profile``, ``ssskit simulate`` and ``ssskit xie-c``: diffusion profiles and their sampling."""
+
+from __future__ import annotations
+
+import inspect
+import math
+
+import click
+
+from ..errors import SsskitError
+from .options import (
+    RegistryName,
+    echo_json,
+    examples,
+    given,
+    json_option,
+    material_option,
+    model_option,
+    out_option,
+    photons_option,
+)
+
+def model_parameters(model: str) -> set[str]:
+    """The named keyword parameters of a profile model's factory (from the MODELS registry)."""
+    from ..profiles import MODELS
+
+    sig = inspect.signature(MODELS.get(model))
+    return {n for n, p in list(sig.parameters.items())[1:]
+            if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+
+
+def option_name(ctx: click.Context, name: str) -> str:
+    """How the user spells the option of click parameter ``name`` (``n_gaussians`` -> ``--gaussians``)."""
+    for p in ctx.command.params:
+        if p.name == name and p.opts:
+            return p.opts[0]
+    return name
+
+
+def check_material_for_model(ctx: click.Context, material, model: str, needed_by: str = "") -> None:
+    """--material is refused by a material-free model (deon2007) and required by every other one."""
+    from ..profiles import MATERIAL_FREE_MODELS
+
+    if model.lower() in MATERIAL_FREE_MODELS:
+        if material is not None and given(ctx, "material"):
+            raise SsskitError(f"--model {model} is a fixed preset and takes no --material (got {material!r})")
+    elif material is None:
+        raise SsskitError(f"--material is required for {needed_by or f'--model {model}'}")
+
+
+def resolve_profile(ctx: click.Context, material, model: str, options: dict[str, tuple[str, object]]):
+    """The profile of ``model`` for ``material``, passing each option the model takes.
+
+    ``options``: {click parameter name: (factory parameter, value)}. An option applies to the models
+    whose factory (the MODELS registry) takes its parameter; given for another model, it is refused.
+    Returns a function that computes the profile (all checks are done first).
+    """
+    from ..profiles import MATERIAL_FREE_MODELS, profile_for_material
+
+    params = model_parameters(model)
+    kwargs = {}
+    for name, (param, value) in options.items():
+        if param in params:
+            kwargs[param] = value
+        elif given(ctx, name):
+            raise SsskitError(f"{option_name(ctx, name)} does not apply to --model {model}")
+    free = model.lower() in MATERIAL_FREE_MODELS
+    return lambda: profile_for_material(None if free else material, model, **kwargs)
+
+
+@click.command(epilog=examples(
+    "ssskit profile --material skin1 --model dipole --json",
+    "ssskit profile --material my_material.toml --model burley --out skin.csv --plot skin.png",
+    "ssskit profile --model deon2007 --out deon.npz",
+    "ssskit profile --material marble --model montecarlo --photons 1000000 --plot m.png"))
+@material_option(help="Preset name or .toml/.json material file (not for fixed presets such as deon2007).")
+@model_option("dipole", help="Profile model (deon2007 is a fixed skin preset and takes no material).")
+@click.option("--configuration", default="searchlight", show_default=True,
+              help="--model burley: d from Xie 2020 Eq. 5: searchlight, diffuse-transmission or dmfp.")
+@click.option("--gaussians", "n_gaussians", type=click.IntRange(1, 16), default=6, show_default=True,
+              help="--model gaussians: number of Gaussians.")
+@photons_option(200_000, help="--model montecarlo: photons per channel (cached).")
+@click.option("--points", type=click.IntRange(2, 1_000_000), default=256, show_default=True, help="Number of radii (bin centres).")
+@click.option("--r-max", "r_max", type=float, default=None,
+              help="Largest radius in mm [default: where every channel holds 99.9% of its energy].")
+@json_option("Print one JSON object: r_mm and channels R/G/B with Rd (mm^-2) and total_Rd.")
+@out_option((".csv", ".npz"), "Write the table to FILE.csv or FILE.npz.")
+@out_option((".png", ".pdf", ".svg"), "Write a plot to FILE.png (or .pdf/.svg).", name="--plot")
+@click.pass_context
+def profile(ctx, material, model, configuration, n_gaussians, photons, points, r_max, as_json, out, plot) -> None:
+    """Diffuse reflectance profile R(r) of a material, per RGB channel."""
+    import numpy as np
+
+    from ..io import save_profile_table
+
+    check_material_for_model(ctx, material, model)
+    if r_max is not None and not (r_max > 0 and math.isfinite(r_max)):
+        raise SsskitError(f"--r-max must be a positive number of mm, got {r_max}")
+    make = resolve_profile(ctx, material, model, {"configuration": ("configuration", configuration),
+                                                  "n_gaussians": ("n", n_gaussians),
+                                                  "photons": ("photons", photons)})
+    prof = make()
+    if r_max is None:
+        r_max = float(max(prof.radius_at_fraction(0.999)))
+    # bin centres: (i + 1/2) r_max / points, so 1/r profiles stay finite
+    r = (np.arange(points) + 0.5) * (r_max / points)
+    data = prof.to_dict(r)
+    data["material"] = material
+    if out:
+        save_profile_table(out, r, prof.eval(r), {k: v for k, v in data.items() if k not in ("r_mm", "channels")}
+                           | {"total_Rd": [c["total_Rd"] for c in data["channels"].values()]})
+    if plot:
+        from ..figures.plots import plot_profiles
+
+        plot_profiles([prof], f"{prof.name} ({prof.model})", plot)
+    if as_json:
+        echo_json(data)
+        return
+    click.echo(f"# {prof.model} profile of {prof.name}; r in mm, Rd in mm^-2")
+    click.echo("# total Rd (R, G, B): " + ", ".join(f"{v:.6f}" for v in prof.total_rd()))
+    if not out:
+        click.echo("r_mm,Rd_R,Rd_G,Rd_B")
+        for ri, row in zip(r, prof.eval(r)):
+            click.echo(f"{ri:.6g}," + ",".join(f"{v:.6e}" for v in row))
+    else:
+        click.echo(f"# wrote {out}")
+
+
+def _channels():
+    from ..materials import CHANNELS
+
+    return (*CHANNELS, "all")
+
+
+@click.command(epilog=examples(
+    "ssskit simulate --material skin1 --photons 1000000 --json",
+    "ssskit simulate --material skin1,marble,ketchup --jobs 2",
+    "ssskit simulate --material skin1,marble --scheduler tcp://host:8786",
+    "ssskit simulate --material skin1 --resume      # continue a run stopped by Ctrl-C",
+    "ssskit simulate --material skin1 --restart     # discard it and start over"))
+@material_option(required=True, split=True, help="Preset name or material file; repeat or comma-separate for a sweep.")
+@click.option("--channel", type=RegistryName(_channels), default="all", show_default=True, help="Channel(s) to simulate.")
+@photons_option(10_000_000, help="Photons per channel (supplement F: 10^7).")
+@click.option("--seed", type=int, default=1, show_default=True, help="Random seed (0 <= seed < 2^63).")
+@click.option("--threads", type=click.IntRange(min=1), default=None, help="numba threads [default: all cores].")
+@click.option("--jobs", type=click.IntRange(1, 1024), default=1, show_default=True, help="Local processes for a sweep of several materials.")
+@click.option("--scheduler", default=None, metavar="ADDRESS", help="Run a sweep on a dask.distributed cluster (extra: ssskit[cluster]).")
+@click.option("--batch-size", type=click.IntRange(min=1), default=10_000, show_default=True,
+              help="Photons per random stream / standard-error batch.")
+@click.option("--resume", is_flag=True, help="Continue the partial result of an interrupted run with the same inputs.")
+@click.option("--restart", is_flag=True, help="Discard the partial result of an interrupted run and start over.")
+@click.option("--no-cache", is_flag=True, help="Neither read nor write the on-disk cache.")
+@out_option((".npz",), "Write FILE.npz (one material) with r_mm, Rd, Rd_se per channel.")
+@json_option()
+def simulate(material, channel, photons, seed, threads, jobs, scheduler, batch_size, resume, restart, no_cache, out,
+             as_json) -> None:
+    """Monte Carlo (MCML) diffuse reflectance profiles with the supplement's settings.
+
+    An interrupted run (Ctrl-C) keeps its finished batches: run it again with --resume to continue
+    them or --restart to discard them.
+    """
+    import numpy as np
+
+    from ..io import save_arrays
+    from ..materials import get_material
+    from ..profiles.montecarlo import config_for_material, simulate_many, simulate_material
+
+    names = [n for group in material for n in group]
+    if not names:
+        raise SsskitError("no material given: --material names none")
+    mats = [get_material(n) for n in names]
+    if resume and restart:
+        raise SsskitError("--resume and --restart exclude each other: --resume continues an interrupted run, "
+                          "--restart discards it")
+    if no_cache and (resume or restart):
+        raise SsskitError(f"{'--resume' if resume else '--restart'} acts on the on-disk cache; it cannot be "
+                          "combined with --no-cache")
+    single = len(mats) == 1 and scheduler is None
+    if out and len(mats) > 1:
+        raise SsskitError("--out takes a single material; use --json for a sweep")
+    if not single and (no_cache or threads is not None):
+        raise SsskitError("--no-cache and --threads apply to a single material (a sweep runs one thread per job)")
+    for m in mats:  # photons, seed and batch size checked by the engine's own configuration, before any work
+        config_for_material(m, 0, photons, seed, batch_size)
+    if single:
+        runs = {mats[0].name: simulate_material(mats[0], channel, photons=photons, seed=seed, threads=threads,
+                                                progress=True, resume=resume, restart=restart,
+                                                use_cache=not no_cache, batch_size=batch_size)}
+    else:
+        runs = simulate_many(mats, channel, photons=photons, seed=seed, jobs=jobs, batch_size=batch_size,
+                             progress=True, resume=resume, restart=restart, scheduler=scheduler)
+
+    def one(results):
+        first = next(iter(results.values()))
+        seconds = sum(r.seconds for r in results.values())
+        total = sum(r.photons for r in results.values())
+        return {
+            "r_mm": first.r_mm.tolist(),
+            "channels": {ch: r.to_dict() for ch, r in results.items()},
+            "photons": first.photons,
+            "seconds": seconds,
+            "photons_per_second": total / seconds if seconds > 0 else None,
+            "cached": all(r.extra.get("cached", False) for r in results.values()),
+        }
+
+    data = {name: one(res) | {"material": name} for name, res in runs.items()}
+    if out:
+        res = runs[mats[0].name]
+        save_arrays(out, r_mm=next(iter(res.values())).r_mm, channels=np.array(list(res)),
+                    Rd=np.stack([r.rd for r in res.values()], axis=-1),
+                    Rd_se=np.stack([r.rd_se for r in res.values()], axis=-1),
+                    total_Rd=np.array([r.total_rd for r in res.values()]),
+                    total_Rd_se=np.array([r.total_rd_se for r in res.values()]),
+                    Rsp=np.array([r.rsp for r in res.values()]))
+    if as_json:
+        echo_json(data[mats[0].name] if len(mats) == 1 else {"materials": data})
+        return
+    for name, d in data.items():
+        for ch, c in d["channels"].items():
+            click.echo(f"{name:<10} {ch}  total Rd = {c['total_Rd']:.5f} ± {c['total_Rd_se']:.5f}   Rsp = {c['Rsp']:.4f}")
+        rate = d["photons_per_second"]
+        click.echo(f"{name:<10}    {d['photons']} photons/channel, {d['seconds']:.1f} s"
+                   + (f", {rate:,.0f} photons/s" if rate else "") + (" (cached)" if d["cached"] else ""))
+    if out:
+        click.echo(f"wrote {out}")
+
+
+@click.command("xie-c", short_help="Refit c of Xie 2020 Eq. 21; report the CDF errors.", epilog=examples("ssskit xie-c", "ssskit xie-c --points 20000 --json"))
+@click.option("--points", type=click.IntRange(100, 10_000_000), default=100_000, show_default=True, help="Number of xi samples.")
+@json_option()
+def xie_c(points: int, as_json: bool) -> None:
+    """Refit c of Xie 2020 Eq. 21 (least squares and minimax) and report the CDF errors."""
+    import numpy as np
+
+    from ..sampling import XIE_C, fit_xie_c, xie_cdf_error
+
+    c_lsq, e_lsq = fit_xie_c("lsq", points)
+    c_mm, e_mm = fit_xie_c("minimax", points)
+    xi = (np.arange(points) + 0.5) / points
+    e_paper = float(np.max(np.abs(xie_cdf_error(XIE_C, xi))))
+    data = {
+        "paper": {"c": XIE_C, "max_cdf_error": e_paper},
+        "least_squares": {"c": c_lsq, "max_cdf_error": e_lsq},
+        "minimax": {"c": c_mm, "max_cdf_error": e_mm},
+    }
+    if as_json:
+        echo_json(data)
+        return
+    for name, d in data.items():
+        click.echo(f"{name:<14} c = {d['c']:.6f}   max |cdf(g(xi)) - xi| = {d['max_cdf_error']:.6f}")
