@@ -20,7 +20,7 @@ def backends(as_json: bool) -> None:
     width = max((len(n) for n in status), default=7)
     for name, s in status.items():
         state = "available" if s["available"] else "not available"
-        mark = " (default)" if name == DEFAULT_BACKEND else ""
-        click.echo(f"{name:<{width}}  {state:<13}  {s['description']}{mark}")
+        click.echo(f"{name:<{width}}  {state:<13}  {s['description']}")
         if s["details"]:
-            click.echo(f"{'':<{width}}  {'':<13}  {'why not: ' if not s['available'] else ''}{s['details']}")
+            click.echo(f"{'':<{width}}  {'':<13}  {'' if s['available'] else 'why not: '}{s['details']}")
+    click.echo(f"default: {DEFAULT_BACKEND}")

@@ -79,23 +79,23 @@ def given(ctx: click.Context, name: str) -> bool:
     return ctx.get_parameter_source(name) not in (None, ParameterSource.DEFAULT, ParameterSource.DEFAULT_MAP)
 
 
-def _same_file(a: Path, b: Path) -> bool:
-    if a.exists() and b.exists():
-        with contextlib.suppress(OSError):
-            return os.path.samefile(a, b)
-    return a.resolve() == b.resolve()
-
-
 def check_distinct(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None]) -> None:
-    """Refuse an output path that is an input file or another output (``{option: path}``; None skipped)."""
-    seen: list[tuple[str, Path]] = [(opt, Path(p)) for opt, p in inputs.items() if p is not None]
-    for opt, p in outputs.items():
-        if p is None:
+    """Refuse an output path that is one of the input files (:func:`ssskit.io.check_distinct`) or
+    another output; ``{option: path}``, None skipped."""
+    from ..io import check_distinct as distinct
+
+    files = [p for p in inputs.values() if p is not None]
+    done: list[tuple[str, str | Path]] = []
+    for opt, path in outputs.items():
+        if path is None:
             continue
-        for other, q in seen:
-            if _same_file(Path(p), q):
-                raise OutputError(f"{opt} {str(p)!r} is the same file as {other}; choose another path")
-        seen.append((opt, Path(p)))
+        distinct(path, *files, what=opt)
+        for other, earlier in done:
+            try:
+                distinct(path, earlier, what=opt)
+            except OutputError:
+                raise OutputError(f"{opt} {str(path)!r} is also the {other} file; choose another path") from None
+        done.append((opt, path))
 
 
 def check_writable(target: str | Path, opt: str, folder: bool = False) -> None:
