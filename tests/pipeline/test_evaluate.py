@@ -1,22 +1,14 @@
-"""Signals, metrics, evaluation of methods against the exact 2D convolution, and the kernel CLI."""
-
-import json
+"""Signals, metrics, evaluation of methods against the exact 2D convolution (the CLI's tests:
+tests/cli/)."""
 
 import numpy as np
 import pytest
 
-from ssskit.cli import main
 from ssskit.errors import SignalError
 from ssskit.pipeline import evaluate
 from ssskit.metrics import flip, psnr, relative_rmse, rmse, ssim
 from ssskit.profiles import profile_for_material
 from ssskit.scenes import make_signal
-
-
-def run(capsys, *args):
-    code = main(list(args))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")
@@ -72,63 +64,6 @@ def test_paper_claims_on_skin(skin):
         errs = [res[f"svd:{r}"]["relative_rmse"] for r in (1, 2, 3, 6)]
         assert all(a > 3 * b for a, b in zip(errs, errs[1:]))
     assert edge["jimenez2012"]["energy_matched"] is True
-
-
-# ---- CLI ----------------------------------------------------------------------------------------
-
-def test_cli_kernel_jimenez_json(capsys):
-    code, out, _ = run(capsys, "kernel", "--method", "jimenez2012", "--json")
-    assert code == 0
-    data = json.loads(out)
-    assert data["offsets"][0] == 0.0 and len(data["weights"]) == 11
-    assert data["weights"][0] == pytest.approx([0.560479, 0.669086, 0.784728], abs=5e-7)
-
-
-def test_cli_kernel_tabulated_out(capsys, tmp_path):
-    out_file = tmp_path / "k.npz"
-    code, out, _ = run(capsys, "kernel", "--material", "skin1", "--model", "dipole", "--method", "svd", "--rank", "2",
-                       "--size", "51", "--json", "--out", str(out_file))
-    assert code == 0
-    data = json.loads(out)
-    assert len(data["x_mm"]) == 51 and len(data["channels"]["R"]["components"]) == 2
-    from ssskit.kernels import load_kernel
-
-    assert load_kernel(out_file).rank == 2
-
-
-def test_cli_evaluate_json(capsys):
-    code, out, _ = run(capsys, "evaluate", "--material", "skin1", "--model", "dipole", "--signal", "edge",
-                       "--methods", "preintegrated,svd:1", "--size", "64", "--json")
-    assert code == 0
-    data = json.loads(out)
-    assert set(data) == {"preintegrated", "svd:1"}
-    for r in data.values():
-        assert {"rmse", "relative_rmse", "psnr", "convolutions_1d", "ssim", "flip"} <= set(r)
-    assert data["preintegrated"]["psnr"] is None or data["preintegrated"]["psnr"] > 200
-
-
-def test_cli_figures(capsys, tmp_path):
-    code, out, _ = run(capsys, "figures", "fig2", "fig5", "--model", "dipole", "--out", str(tmp_path))
-    assert code == 0
-    assert (tmp_path / "fig2_singular_values.png").stat().st_size > 1000
-    assert (tmp_path / "fig5_slices.png").exists()
-
-
-@pytest.mark.parametrize("args,msg", [
-    (["kernel", "--method", "svd"], "--material is required"),
-    (["kernel", "--method", "nosuch", "--material", "skin1"], "kernel method"),
-    (["kernel", "--method", "svd", "--material", "skin1", "--taps", "7"], "--taps does not apply"),
-    (["kernel", "--method", "svd", "--material", "skin1", "--size", "50"], "odd"),
-    (["kernel", "--method", "jimenez2012", "--taps", "10"], "odd"),
-    (["kernel", "--method", "jimenez2012", "--out", "k.txt"], ".npz or .json"),
-    (["evaluate", "--material", "skin1", "--signal", "plaid"], "signal"),
-    (["evaluate", "--material", "skin1", "--methods", "svd:x"], "integer"),
-    (["figures", "fig99"], "figure"),
-])
-def test_cli_errors(capsys, args, msg):
-    code, out, err = run(capsys, *args)
-    assert code == 2 and out == ""
-    assert msg in err and err.count("\n") == 1
 
 
 def test_repeated_evaluations_reuse_kernels_and_results(skin):
