@@ -58,8 +58,8 @@ def f_follow(dz, p):
 
 @njit(cache=True, inline="always", fastmath=_FM)
 def f_none(dz, p):
-    """No depth test (validity comes from the slot test alone)."""
-    return np.float32(1.0)
+    """No depth test: 1 unless the texel has no surface (infinite depth)."""
+    return np.float32(1.0) if abs(dz) < np.float32(np.inf) else np.float32(0.0)
 
 
 @njit(cache=True, inline="always")
@@ -87,37 +87,55 @@ def _unit(h):
     r = 0.7071067811865476
     cp = (c - s) * r  # cos(pi/4 + phi)
     sp = (s + c) * r  # sin(pi/4 + phi)
-    if q == 0:
-        return cp, sp
-    if q == 1:
-        return -sp, cp
-    if q == 2:
-        return -cp, -sp
-    return sp, -cp
+    odd = (q & np.uint64(1)) != np.uint64(0)  # rotate by q quarter turns, without branches
+    neg = 1.0 - 2.0 * float((q >> np.uint64(1)) & np.uint64(1))
+    return neg * (-sp if odd else cp), neg * (cp if odd else sp)
+
+
+# Layout of the frame buffer ``buf`` (planes of (H + 2 pad) x wps texels): input colour R, G, B; depth; slot;
+# the horizontal pass's colour R', G', B'. Per-row scratch ``sc``: the accumulators (6 x LANES: A_R, A_G,
+# A_B, G_R, G_G, G_B), the lane data (5 x LANES: depth, slot, pixels per mm, jitter axis x, y) and the
+# jitter window's hat weights (2 x (2 RMAX + 1) x LANES). Two arrays in every hot loop: LLVM vectorises.
+PLANES = 8
+Z_PLANE, S_PLANE, TMP_PLANE = 3, 4, 5
+_LN = 6 * _L  # lane data offset in sc
+_HX = 11 * _L  # hat weights offset in sc
+SCRATCH = 11 * _L + 2 * _W * _L
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _tex(factor, zs, plane, i, z0, s0, p):
-    """Depth factor x slot test of texel i (flat index) for a centre at depth z0 in slot s0."""
-    return factor(zs[i] - z0, p) * np.float32(zs[np.uintp(plane) + i] == s0)
+def _tex(factor, buf, zo, so, i, z0, s0, p, multi):
+    """Depth factor x slot test of texel i (flat index) for a centre at depth z0 in slot s0. With a
+    single slot (``multi`` False, a constant at every call site) the test is the depth's finiteness,
+    which every factor already applies."""
+    f = factor(buf[zo + i] - z0, p)
+    return f * np.float32(buf[so + i] == s0) if multi else f
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _accumulate(acc, l, w, gp, gm, sp0, sp1, sp2, sm0, sm1, sm2):
-    """acc (6 x LANES: A_R, A_G, A_B, G_R, G_G, G_B) += the + and - samples of one row; w = the row's
-    weights (w+_R, w+_G, w+_B, w-_R, w-_G, w-_B) as a tuple of scalars."""
+def _accumulate(sc, lu, w, gp, gm, sp0, sp1, sp2, sm0, sm1, sm2, sym):
+    """Accumulators += the + and - samples of one row; w = the row's weights (w+_R, w+_G, w+_B, w-_R,
+    w-_G, w-_B), scalars; ``sym`` (a constant at every call site): w+ == w- (a symmetric pair)."""
     U = np.uintp
-    lu = U(l)
-    acc[lu] += w[0] * sp0 + w[3] * sm0
-    acc[U(_L) + lu] += w[1] * sp1 + w[4] * sm1
-    acc[U(2 * _L) + lu] += w[2] * sp2 + w[5] * sm2
-    acc[U(3 * _L) + lu] += w[0] * gp + w[3] * gm
-    acc[U(4 * _L) + lu] += w[1] * gp + w[4] * gm
-    acc[U(5 * _L) + lu] += w[2] * gp + w[5] * gm
+    if sym:
+        gs = gp + gm
+        sc[lu] += w[0] * (sp0 + sm0)
+        sc[U(_L) + lu] += w[1] * (sp1 + sm1)
+        sc[U(2 * _L) + lu] += w[2] * (sp2 + sm2)
+        sc[U(3 * _L) + lu] += w[0] * gs
+        sc[U(4 * _L) + lu] += w[1] * gs
+        sc[U(5 * _L) + lu] += w[2] * gs
+        return
+    sc[lu] += w[0] * sp0 + w[3] * sm0
+    sc[U(_L) + lu] += w[1] * sp1 + w[4] * sm1
+    sc[U(2 * _L) + lu] += w[2] * sp2 + w[5] * sm2
+    sc[U(3 * _L) + lu] += w[0] * gp + w[3] * gm
+    sc[U(4 * _L) + lu] += w[1] * gp + w[4] * gm
+    sc[U(5 * _L) + lu] += w[2] * gp + w[5] * gm
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _bilinear(factor, col, zs, plane, wps, c, vx, vy, z0, s0, p):
+def _bilinear(factor, buf, co, zo, so, plane, wps, c, vx, vy, z0, s0, p, multi):
     """2D bilinear sample at (vx, vy) pixels from flat index c: (g, S_R, S_G, S_B), each texel with
     its own depth factor and slot test."""
     U = np.uintp
@@ -133,24 +151,24 @@ def _bilinear(factor, col, zs, plane, wps, c, vx, vy, z0, s0, p):
         dj = U(k >> 1)
         b = (tx if di else one - tx) * (ty if dj else one - ty)
         t = i + di + dj * U(wps)
-        gt = b * _tex(factor, zs, plane, t, z0, s0, p)
+        gt = b * _tex(factor, buf, zo, so, t, z0, s0, p, multi)
         g += gt
-        s0_ += gt * col[t]
-        s1 += gt * col[U(plane) + t]
-        s2 += gt * col[U(2 * plane) + t]
+        s0_ += gt * buf[co + t]
+        s1 += gt * buf[co + U(plane) + t]
+        s2 += gt * buf[co + U(2 * plane) + t]
     return g, s0_, s1, s2
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _lane_row(factor, col, zs, plane, wps, c, rho, ux, uy, z0, s0, p, w, acc, l):
-    """One row for one lane by 2D bilinear fetches at +-rho (ux, uy)."""
-    gp, a0, a1, a2 = _bilinear(factor, col, zs, plane, wps, c, rho * ux, rho * uy, z0, s0, p)
-    gm, b0, b1, b2 = _bilinear(factor, col, zs, plane, wps, c, -rho * ux, -rho * uy, z0, s0, p)
-    _accumulate(acc, l, w, gp, gm, a0, a1, a2, b0, b1, b2)
+def _lane_row(factor, buf, sc, co, zo, so, plane, wps, c, rho, ux, uy, z0, s0, p, w, l):
+    """One row for one lane by 2D bilinear fetches at +-rho (ux, uy) (slot test always on)."""
+    gp, a0, a1, a2 = _bilinear(factor, buf, co, zo, so, plane, wps, c, rho * ux, rho * uy, z0, s0, p, True)
+    gm, b0, b1, b2 = _bilinear(factor, buf, co, zo, so, plane, wps, c, -rho * ux, -rho * uy, z0, s0, p, True)
+    _accumulate(sc, np.uintp(l), w, gp, gm, a0, a1, a2, b0, b1, b2, False)
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _row_block(factor, col, zs, plane, c0, st, nl, d, mmin, w, p, cap, ln, acc):
+def _row_block(factor, buf, sc, co, zo, so, plane, c0, st, nl, d, mmin, w, p, cap, multi, sym):
     """A plain row for a block of lanes in one slot whose footprints' integer parts lie in
     [mmin, mmin + 1] (module docstring)."""
     U = np.uintp
@@ -161,116 +179,138 @@ def _row_block(factor, col, zs, plane, c0, st, nl, d, mmin, w, p, cap, ln, acc):
     bm = U(c0 - mi * st - 2 * st)  # - side: texels -m0 - 2, -m0 - 1, -m0
     s1 = U(st)
     s2 = U(2 * st)
-    p1 = U(plane)
-    p2 = U(2 * plane)
+    c1 = co + U(plane)
+    c2 = co + U(2 * plane)
     for l in range(nl):
         lu = U(l)
-        z0 = ln[lu]
-        q0 = ln[U(_L) + lu]
-        tp = min(d * ln[U(2 * _L) + lu], cap) - mmin
+        z0 = sc[U(_LN) + lu]
+        q0 = sc[U(_LN + _L) + lu]
+        tp = min(d * sc[U(_LN + 2 * _L) + lu], cap) - mmin
         h0 = max(zero, one - tp)
         h1 = max(zero, one - abs(tp - one))
         h2 = max(zero, tp - one)
         a = bp + lu
         b = bm + lu
-        g0 = h0 * _tex(factor, zs, plane, a, z0, q0, p)
-        g1 = h1 * _tex(factor, zs, plane, a + s1, z0, q0, p)
-        g2 = h2 * _tex(factor, zs, plane, a + s2, z0, q0, p)
-        n2 = h2 * _tex(factor, zs, plane, b, z0, q0, p)
-        n1 = h1 * _tex(factor, zs, plane, b + s1, z0, q0, p)
-        n0 = h0 * _tex(factor, zs, plane, b + s2, z0, q0, p)
-        _accumulate(acc, l, w, g0 + g1 + g2, n0 + n1 + n2,
-                    g0 * col[a] + g1 * col[a + s1] + g2 * col[a + s2],
-                    g0 * col[p1 + a] + g1 * col[p1 + a + s1] + g2 * col[p1 + a + s2],
-                    g0 * col[p2 + a] + g1 * col[p2 + a + s1] + g2 * col[p2 + a + s2],
-                    n2 * col[b] + n1 * col[b + s1] + n0 * col[b + s2],
-                    n2 * col[p1 + b] + n1 * col[p1 + b + s1] + n0 * col[p1 + b + s2],
-                    n2 * col[p2 + b] + n1 * col[p2 + b + s1] + n0 * col[p2 + b + s2])
+        g0 = h0 * _tex(factor, buf, zo, so, a, z0, q0, p, multi)
+        g1 = h1 * _tex(factor, buf, zo, so, a + s1, z0, q0, p, multi)
+        g2 = h2 * _tex(factor, buf, zo, so, a + s2, z0, q0, p, multi)
+        n2 = h2 * _tex(factor, buf, zo, so, b, z0, q0, p, multi)
+        n1 = h1 * _tex(factor, buf, zo, so, b + s1, z0, q0, p, multi)
+        n0 = h0 * _tex(factor, buf, zo, so, b + s2, z0, q0, p, multi)
+        _accumulate(sc, lu, w, g0 + g1 + g2, n0 + n1 + n2,
+                    g0 * buf[co + a] + g1 * buf[co + a + s1] + g2 * buf[co + a + s2],
+                    g0 * buf[c1 + a] + g1 * buf[c1 + a + s1] + g2 * buf[c1 + a + s2],
+                    g0 * buf[c2 + a] + g1 * buf[c2 + a + s1] + g2 * buf[c2 + a + s2],
+                    n2 * buf[co + b] + n1 * buf[co + b + s1] + n0 * buf[co + b + s2],
+                    n2 * buf[c1 + b] + n1 * buf[c1 + b + s1] + n0 * buf[c1 + b + s2],
+                    n2 * buf[c2 + b] + n1 * buf[c2 + b + s1] + n0 * buf[c2 + b + s2], sym)
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _row_window(factor, col, zs, plane, wps, c0, nl, R, d, w, p, cap, ln, hxy, acc):
+def _row_window(factor, buf, sc, co, zo, so, plane, wps, c0, nl, R, d, w, p, cap, multi, sym):
     """A jittered row for a block of lanes in one slot by the (2R+1)^2 texel window (module docstring)."""
     U = np.uintp
     one = np.float32(1.0)
     zero = np.float32(0.0)
     w2 = 2 * R + 1
-    hy0 = U(_W * _L)  # hxy holds hat(vx - i) for i = -R..R, then hat(vy - j)
+    hx0 = U(_HX)
+    hy0 = U(_HX + _W * _L)  # hat(vx - i) for i = -R..R, then hat(vy - j)
     for l in range(nl):
         lu = U(l)
-        rho = min(d * ln[U(2 * _L) + lu], cap)
-        vx = np.float32(rho * ln[U(3 * _L) + lu])
-        vy = np.float32(rho * ln[U(4 * _L) + lu])
+        rho = min(d * sc[U(_LN + 2 * _L) + lu], cap)
+        vx = np.float32(rho * sc[U(_LN + 3 * _L) + lu])
+        vy = np.float32(rho * sc[U(_LN + 4 * _L) + lu])
         for i in range(w2):
-            hxy[U(i * _L) + lu] = max(zero, one - abs(vx - np.float32(i - R)))
-            hxy[hy0 + U(i * _L) + lu] = max(zero, one - abs(vy - np.float32(i - R)))
-    p1 = U(plane)
-    p2 = U(2 * plane)
+            sc[hx0 + U(i * _L) + lu] = max(zero, one - abs(vx - np.float32(i - R)))
+            sc[hy0 + U(i * _L) + lu] = max(zero, one - abs(vy - np.float32(i - R)))
+    z0s = sc[_LN:_LN + _L]
+    q0s = sc[_LN + _L:_LN + 2 * _L]
+    acc = sc[:6 * _L]
     for j in range(w2):
-        jp = hy0 + U(j * _L)
-        jm = hy0 + U((w2 - 1 - j) * _L)
+        hyp = sc[hy0 + U(j * _L):]
+        hym = sc[hy0 + U((w2 - 1 - j) * _L):]
         for i in range(w2):
-            ip = U(i * _L)
-            im = U((w2 - 1 - i) * _L)
+            hxp = sc[hx0 + U(i * _L):]
+            hxm = sc[hx0 + U((w2 - 1 - i) * _L):]
             base = U(c0 + (j - R) * wps + (i - R))
+            # views starting at the window texel: the lane loop indexes them with l alone (simple for LLVM)
+            zt = buf[zo + base:]
+            st_ = buf[so + base:]
+            cr = buf[co + base:]
+            cg = buf[co + U(plane) + base:]
+            cb = buf[co + U(2 * plane) + base:]
             for l in range(nl):
                 lu = U(l)
-                t = base + lu
-                f = _tex(factor, zs, plane, t, ln[lu], ln[U(_L) + lu], p)
-                gp = hxy[ip + lu] * hxy[jp + lu] * f
-                gm = hxy[im + lu] * hxy[jm + lu] * f
-                c_r = col[t]
-                c_g = col[p1 + t]
-                c_b = col[p2 + t]
-                _accumulate(acc, l, w, gp, gm, gp * c_r, gp * c_g, gp * c_b, gm * c_r, gm * c_g, gm * c_b)
+                f = factor(zt[lu] - z0s[lu], p)
+                if multi:
+                    f *= np.float32(st_[lu] == q0s[lu])
+                c_r = cr[lu]
+                c_g = cg[lu]
+                c_b = cb[lu]
+                if sym:  # one weight for both samples: g = (hat+ + hat-) f
+                    g = (hxp[lu] * hyp[lu] + hxm[lu] * hym[lu]) * f
+                    _accumulate(acc, lu, w, g, zero, g * c_r, g * c_g, g * c_b, zero, zero, zero, True)
+                else:
+                    gp = hxp[lu] * hyp[lu] * f
+                    gm = hxm[lu] * hym[lu] * f
+                    _accumulate(acc, lu, w, gp, gm, gp * c_r, gp * c_g, gp * c_b, gm * c_r, gm * c_g, gm * c_b, False)
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _sep_body(factor, col, zs, out, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
-              n_rows, centre, param, base, cap):
-    """One 1D pass of one term over the whole image (module docstring). ``out`` is flat; pixel (x, y)
-    channel c goes to out[ob + c ocs + y oys + x oxs] (planar padded or interleaved (H, W, 3)).
+def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
+              centre, param, base, cap):
+    """One 1D pass of one term over the whole image (module docstring), reading colour planes at ``co``
+    of ``buf``. ``out`` is flat; pixel (x, y) channel c goes to out[ob + c ocs + y oys + x oxs] (the
+    horizontal pass writes buf's TMP planes, the vertical one the (H, W, 3) result).
     ``wts`` (S, K, 6): each row's w+ (R, G, B) and w- (R, G, B)."""
     U = np.uintp
     st = 1 if axis == 0 else wps
     fa = np.float32(f_axis)
     one = np.float32(1.0)
     zero = np.float32(0.0)
+    zo = U(Z_PLANE * plane)
+    so = U(S_PLANE * plane)
+    cu = U(co)
     kmax = offs.shape[1]
+    n_jits = 0
+    for i in range(n_jit.size):
+        n_jits += n_jit[i]
+    multi = n_jit.size > 2  # more than one profile slot: texels must pass the slot test
+    sym = np.empty(offs.shape, np.bool_)  # rows whose + and - weights are equal (symmetric pairs)
+    for i in range(offs.shape[0]):
+        for k in range(kmax):
+            sym[i, k] = (wts[i, k, 0] == wts[i, k, 3] and wts[i, k, 1] == wts[i, k, 4]
+                         and wts[i, k, 2] == wts[i, k, 5])
     for y in prange(h):
         hrow = _mix32(base ^ np.uint64(y))
-        acc = np.empty(6 * _L, np.float32)
-        ln = np.empty(5 * _L, np.float32)  # per lane: depth, slot, pixels per mm, jitter axis x, y
-        hxy = np.empty(2 * _W * _L, np.float32)
+        sc = np.empty(SCRATCH, np.float32)
         mlo = np.empty(kmax, np.float32)
         rwin = np.empty(kmax, np.int64)
         row0 = (y + pad) * wps + pad
         for x0 in range(0, w, _L):
             nl = min(_L, w - x0)
             c0 = row0 + x0
-            sb = 0
-            mixed = False
-            for l in range(nl):
-                z = zs[U(c0 + l)]
-                q = zs[U(plane + c0 + l)]
-                ln[l] = z
-                ln[_L + l] = q
-                ln[2 * _L + l] = fa / z if q > 0 else zero
-                ln[3 * _L + l] = zero
-                ln[4 * _L + l] = zero
-                qi = int(q)
-                if qi > 0:
-                    if sb == 0:
-                        sb = qi
-                    elif qi != sb:
-                        mixed = True
-                    if n_jit[qi] > 0:  # the jitter axis: (cos, sin) horizontally, (-sin, cos) vertically
-                        c, s = _unit(_mix32(hrow ^ np.uint64(x0 + l)))
-                        ln[3 * _L + l] = np.float32(c) if axis == 0 else np.float32(-s)
-                        ln[4 * _L + l] = np.float32(s) if axis == 0 else np.float32(c)
+            qlo = np.float32(1e30)
+            qhi = np.float32(0.0)
+            for l in range(_L):  # lane data (lanes past the image read pad texels: slot 0); slot range
+                lu = U(l)
+                z = buf[zo + U(c0) + lu]
+                q = buf[so + U(c0) + lu]
+                sc[U(_LN) + lu] = z
+                sc[U(_LN + _L) + lu] = q
+                sc[U(_LN + 2 * _L) + lu] = fa / z if q > zero else zero
+                qhi = max(qhi, q)
+                qlo = min(qlo, q if q > zero else np.float32(1e30))
+            sb = int(qhi)
+            mixed = qlo != qhi
+            if sb > 0 and n_jits > 0:
+                for l in range(_L):  # the jitter axis: (cos, sin) horizontally, (-sin, cos) vertically
+                    c, s = _unit(_mix32(hrow ^ np.uint64(x0 + l)))
+                    sc[_LN + 3 * _L + l] = np.float32(c) if axis == 0 else np.float32(-s)
+                    sc[_LN + 4 * _L + l] = np.float32(s) if axis == 0 else np.float32(c)
             if sb > 0:
                 for i in range(6 * _L):
-                    acc[i] = 0.0
+                    sc[i] = 0.0
                 fast = not mixed
                 if fast:  # can the block's rows all take the vectorised paths?
                     nj = n_jit[sb]
@@ -278,13 +318,12 @@ def _sep_body(factor, col, zs, out, ob, ocs, oys, oxs, h, w, pad, wps, plane, ax
                         d = offs[sb, k]
                         lo = np.float32(1e30)
                         hi = np.float32(-1e30)
-                        for l in range(nl):
-                            r = min(d * ln[2 * _L + l], cap)
+                        for l in range(_L):
+                            r = min(d * sc[_LN + 2 * _L + l], cap)
                             lo = min(lo, np.floor(r))
                             hi = max(hi, r)
                         if k < nj:
                             rwin[k] = int(math.ceil(hi))
-                            fast = fast and rwin[k] <= RMAX
                         else:
                             mlo[k] = lo
                             fast = fast and np.floor(hi) - lo <= 1.0
@@ -292,51 +331,82 @@ def _sep_body(factor, col, zs, out, ob, ocs, oys, oxs, h, w, pad, wps, plane, ax
                     p = param[sb]
                     for k in range(n_rows[sb]):
                         wk = (wts[sb, k, 0], wts[sb, k, 1], wts[sb, k, 2], wts[sb, k, 3], wts[sb, k, 4], wts[sb, k, 5])
-                        if k < n_jit[sb]:
-                            _row_window(factor, col, zs, plane, wps, c0, nl, rwin[k], offs[sb, k], wk, p, cap, ln,
-                                        hxy, acc)
+                        # constant lane counts and window radii (all LANES lanes are computed: the buffer's
+                        # right slack makes lanes past the image pad texels) let LLVM vectorise fully
+                        if k < n_jit[sb] and rwin[k] <= 1:
+                            if not multi and sym[sb, k]:
+                                _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, 1, offs[sb, k], wk, p, cap,
+                                            False, True)
+                            else:
+                                _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, 1, offs[sb, k], wk, p, cap,
+                                            True, False)
+                        elif k < n_jit[sb] and rwin[k] <= RMAX:
+                            if not multi and sym[sb, k]:
+                                _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, 2, offs[sb, k], wk, p, cap,
+                                            False, True)
+                            else:
+                                _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, 2, offs[sb, k], wk, p, cap,
+                                            True, False)
+                        elif k < n_jit[sb]:  # a wide jitter window: per-lane 2D bilinear fetches
+                            for l in range(nl):
+                                _lane_row(factor, buf, sc, cu, zo, so, plane, wps, c0 + l,
+                                          min(offs[sb, k] * sc[_LN + 2 * _L + l], cap), sc[_LN + 3 * _L + l],
+                                          sc[_LN + 4 * _L + l], sc[_LN + l], sc[_LN + _L + l], p, wk, l)
+                        elif not multi and sym[sb, k]:  # the common case: one profile, symmetric pairs
+                            _row_block(factor, buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap,
+                                       False, True)
                         else:
-                            _row_block(factor, col, zs, plane, c0, st, nl, offs[sb, k], mlo[k], wk, p, cap, ln, acc)
+                            _row_block(factor, buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap,
+                                       True, False)
                 else:  # several slots, large jitter windows or varying footprints: per-lane fetches
                     for l in range(nl):
-                        qi = int(ln[_L + l])
+                        qi = int(sc[_LN + _L + l])
                         if qi == 0:
                             continue
                         for k in range(n_rows[qi]):
                             jit = k < n_jit[qi]
-                            ax = ln[3 * _L + l] if jit else (one if axis == 0 else zero)
-                            ay = ln[4 * _L + l] if jit else (zero if axis == 0 else one)
+                            ax = sc[_LN + 3 * _L + l] if jit else (one if axis == 0 else zero)
+                            ay = sc[_LN + 4 * _L + l] if jit else (zero if axis == 0 else one)
                             wk = (wts[qi, k, 0], wts[qi, k, 1], wts[qi, k, 2], wts[qi, k, 3], wts[qi, k, 4],
                                   wts[qi, k, 5])
-                            _lane_row(factor, col, zs, plane, wps, c0 + l, min(offs[qi, k] * ln[2 * _L + l], cap),
-                                      ax, ay, ln[l], ln[_L + l], param[qi], wk, acc, l)
-            for l in range(nl):
-                qi = int(ln[_L + l])
-                o = ob + y * oys + (x0 + l) * oxs
-                for c in range(3):
-                    e = col[U(c * plane + c0 + l)]
-                    v = e if qi == 0 else (centre[qi, c] - acc[(3 + c) * _L + l]) * e + acc[c * _L + l]
-                    out[U(o + c * ocs)] = v
+                            _lane_row(factor, buf, sc, cu, zo, so, plane, wps, c0 + l,
+                                      min(offs[qi, k] * sc[_LN + 2 * _L + l], cap), ax, ay, sc[_LN + l],
+                                      sc[_LN + _L + l], param[qi], wk, l)
+            for c in range(3):
+                o = ob + y * oys + x0 * oxs + c * ocs
+                ci = cu + U(c * plane + c0)
+                if sb > 0 and not mixed:
+                    wc = centre[sb, c]
+                    for l in range(nl):
+                        lu = U(l)
+                        e = buf[ci + lu]
+                        v = (wc - sc[U((3 + c) * _L) + lu]) * e + sc[U(c * _L) + lu]
+                        out[U(o + l * oxs)] = v if sc[U(_LN + _L) + lu] > zero else e
+                else:
+                    for l in range(nl):
+                        e = buf[ci + U(l)]
+                        qi = int(sc[_LN + _L + l])
+                        out[U(o + l * oxs)] = e if qi == 0 else (centre[qi, c] - sc[(3 + c) * _L + l]) * e + sc[c * _L + l]
 
 
 @njit(cache=True, parallel=True, fastmath=_FM)
-def pass_gaussian(col, zs, out, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows, centre,
+def pass_gaussian(buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows, centre,
                   param, base, cap):
-    _sep_body(f_gaussian, col, zs, out, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
+    _sep_body(f_gaussian, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
               centre, param, base, cap)
 
 
 @njit(cache=True, parallel=True, fastmath=_FM)
-def pass_follow(col, zs, out, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows, centre,
+def pass_follow(buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows, centre,
                 param, base, cap):
-    _sep_body(f_follow, col, zs, out, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
+    _sep_body(f_follow, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
               centre, param, base, cap)
 
 
 @njit(cache=True, parallel=True, fastmath=_FM)
-def pass_none(col, zs, out, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows, centre,
+def pass_none(buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows, centre,
               param, base, cap):
-    _sep_body(f_none, col, zs, out, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
+    _sep_body(f_none, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
               centre, param, base, cap)
 
 
@@ -344,16 +414,16 @@ PASSES = {"gaussian": pass_gaussian, "follow": pass_follow, "none": pass_none}
 
 
 @njit(cache=True, parallel=True)
-def pack(diffuse, depth_mm, slots, col, zs, pad, wps, plane):
-    """Copy the frame into the planar padded buffers (pads were set once: colour 0, depth +inf, slot 0)."""
+def pack(diffuse, depth_mm, slots, buf, pad, wps, plane):
+    """Copy the frame into buf's input planes (pads were set once: colour 0, depth +inf, slot 0)."""
     h, w = slots.shape
     for y in prange(h):
         r = (y + pad) * wps + pad
         for x in range(w):
             i = r + x
-            col[i] = diffuse[y, x, 0]
-            col[plane + i] = diffuse[y, x, 1]
-            col[2 * plane + i] = diffuse[y, x, 2]
+            buf[i] = diffuse[y, x, 0]
+            buf[plane + i] = diffuse[y, x, 1]
+            buf[2 * plane + i] = diffuse[y, x, 2]
             q = slots[y, x]
-            zs[i] = depth_mm[y, x] if q > 0 else np.inf
-            zs[plane + i] = q
+            buf[Z_PLANE * plane + i] = depth_mm[y, x] if q > 0 else np.inf
+            buf[S_PLANE * plane + i] = q

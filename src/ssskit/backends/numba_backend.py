@@ -24,7 +24,7 @@ class NumbaBackend(Backend):
 
     def __init__(self) -> None:
         self._key: tuple | None = None
-        self._col = self._zs = self._tmp = None
+        self._buf: np.ndarray | None = None
 
     def availability(self) -> tuple[bool, str]:
         try:
@@ -33,22 +33,20 @@ class NumbaBackend(Backend):
             return False, f"numba cannot be imported ({exc})"
         return True, f"numba {numba.__version__}, {numba.get_num_threads()} threads"
 
-    def _buffers(self, h: int, w: int, pad: int):
-        from ._numba_separable import LANES
+    def _buffer(self, h: int, w: int, pad: int):
+        from ._numba_separable import LANES, PLANES, Z_PLANE
 
         wps = w + 2 * pad + LANES
         plane = (h + 2 * pad) * wps
         key = (h, w, pad)
         if self._key != key:
-            self._col = np.zeros(3 * plane, np.float32)
-            self._tmp = np.zeros(3 * plane, np.float32)
-            self._zs = np.zeros(2 * plane, np.float32)
-            self._zs[:plane] = np.inf
+            self._buf = np.zeros(PLANES * plane, np.float32)
+            self._buf[Z_PLANE * plane:(Z_PLANE + 1) * plane] = np.inf
             self._key = key
-        return self._col, self._zs, self._tmp, wps, plane
+        return self._buf, wps, plane
 
     def separable(self, plan: SeparablePlan, diffuse, depth_mm, slots):
-        from ._numba_separable import PASSES, pack
+        from ._numba_separable import PASSES, TMP_PLANE, pack
 
         check_frame(diffuse, depth_mm, slots, plan)
         h, w = slots.shape
@@ -59,19 +57,21 @@ class NumbaBackend(Backend):
         if not inside.any():
             return np.array(src, dtype=np.float32)
         pad = _pad(plan, float(depth[inside].min()), h, w)
-        col, zs, tmp, wps, plane = self._buffers(h, w, pad)
-        pack(src, depth, slots, col, zs, pad, wps, plane)
+        buf, wps, plane = self._buffer(h, w, pad)
+        pack(src, depth, slots, buf, pad, wps, plane)
         run = PASSES[plan.depth_mode]
         base = np.uint64(frame_base(plan.frame, plan.seed))
         cap = np.float32(pad - 3)
         param = plan.depth_param.astype(np.float32)
         out = np.empty((h, w, 3), np.float32)
         flat = out.reshape(-1)
+        tmp = TMP_PLANE * plane
         acc = None
         for term in plan.terms:
             t = _tables(term)
-            run(col, zs, tmp, pad * wps + pad, plane, wps, 1, h, w, pad, wps, plane, 0, plan.fx, *t, param, base, cap)
-            run(tmp, zs, flat, 0, 1, 3 * w, 3, h, w, pad, wps, plane, 1, plan.fy, *t, param, base, cap)
+            run(buf, buf, 0, tmp + pad * wps + pad, plane, wps, 1, h, w, pad, wps, plane, 0, plan.fx, *t, param, base,
+                cap)
+            run(buf, flat, tmp, 0, 1, 3 * w, 3, h, w, pad, wps, plane, 1, plan.fy, *t, param, base, cap)
             if len(plan.terms) == 1 and np.all(term.sign == 1):
                 return out
             contribution = term.sign[slots].astype(np.float32) * out
