@@ -106,7 +106,7 @@ for _m in (
     KernelMethod("gaussians", _gaussians, "count", _int, "sum of N Gaussians with the L1 constraint (Eq. S.1)"),
     KernelMethod("preintegrated", _preintegrated, None, str, "pre-integrated rank-1 kernel (paper Eqs. 4-5)"),
     KernelMethod("preintegrated_svd", _preintegrated_svd, "rank", _int,
-                 "pre-integrated kernel + rank-N SVD of the residual (paper Sec. 8, future work)"),
+                 "pre-integrated kernel + rank-N SVD of the residual (paper Sec. 7, 'Limitations and future work')"),
     KernelMethod("artist", _artist, "preset", str, "artist-friendly two-Gaussian model (paper Eq. 6, Table 2; 'fit')",
                  unit_energy=False, needs_profile=False),
     KernelMethod("guided", _guided, "k", _float, "guided rank-1 optimisation (paper Eqs. 7-8, supplement S.7-S.9)"),

@@ -161,7 +161,9 @@ def kernel_preintegrated(profile, cell_mm: float, n: int) -> Kernel:
 
 
 def kernel_preintegrated_svd(profile, cell_mm: float, n: int, rank: int = 1) -> Kernel:
-    """Pre-integrated kernel plus a rank-N SVD of the residual Rd - A_p (the paper's future work, Sec. 8).
+    """Pre-integrated kernel plus a rank-N SVD of the residual Rd - A_p (paper Sec. 7, Results, its
+    "Limitations and future work" paragraph: "a low-rank approximation can be found by approximating
+    the difference between the pre-integrated kernel and the actual diffusion profile").
 
     A = A_p + sum_{i<=N} s_i r_i r_i^T with the r_i the Eckart-Young terms of Rd - A_p (Eqs. S.2-S.4):
     rank N + 1, 2 (N + 1) 1D convolutions.
