@@ -38,3 +38,14 @@ def test_tonemap_is_the_file_encoding():
     assert metrics.tonemap is io.tonemap
     x = np.array([0.0, 0.0031308, 0.5, 1.0, 2.0])
     np.testing.assert_allclose(io.tonemap(x, 1.0), [0.0, 0.04044994, 0.7353570, 1.0, 1.0], atol=1e-6)
+
+
+def test_all_metrics_perceptual_names():
+    from ssskit.metrics import all_metrics
+
+    a = np.random.default_rng(4).random((16, 16, 3))
+    assert set(all_metrics(a, a * 0.9, perceptual=("flip",))) == {"rmse", "relative_rmse", "psnr", "flip"}
+    assert set(all_metrics(a, a * 0.9, perceptual=True)) == {"rmse", "relative_rmse", "psnr", "ssim", "flip"}
+    assert set(all_metrics(a, a * 0.9, perceptual=False)) == {"rmse", "relative_rmse", "psnr"}
+    with pytest.raises(SignalError, match="'lpips'"):
+        all_metrics(a, a, perceptual=("lpips",))

@@ -69,12 +69,23 @@ def flip(reference, test, ppd: float = 67.0) -> float:
     return float(mean)
 
 
-def all_metrics(reference, test, perceptual: bool = True) -> dict[str, float]:
-    """rmse, relative_rmse, psnr and (with ``perceptual``) ssim and flip."""
+#: the perceptual metrics, on tone-mapped images
+PERCEPTUAL = ("ssim", "flip")
+
+
+def all_metrics(reference, test, perceptual: bool | tuple[str, ...] = True) -> dict[str, float]:
+    """rmse, relative_rmse, psnr and the ``perceptual`` metrics: True for ssim and flip, False for
+    none, or a tuple of names from :data:`PERCEPTUAL` (e.g. ``("flip",)`` when SSIM is not shown)."""
+    names = PERCEPTUAL if perceptual is True else (() if perceptual is False else tuple(perceptual))
+    unknown = [n for n in names if n not in PERCEPTUAL]
+    if unknown:
+        raise SignalError(f"unknown perceptual metric(s) {', '.join(map(repr, unknown))}; choose from "
+                          f"{', '.join(PERCEPTUAL)}")
     out = {"rmse": rmse(reference, test), "relative_rmse": relative_rmse(reference, test),
            "psnr": psnr(reference, test)}
-    if perceptual:
+    if "ssim" in names:
         out["ssim"] = ssim(reference, test)
+    if "flip" in names:
         out["flip"] = flip(reference, test)
     return out
 

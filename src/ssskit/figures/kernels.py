@@ -99,7 +99,8 @@ def _comparison(out: Path, profile, signal: str, filename: str, title: str, prog
     from ..pipeline.evaluate import FIG7_METHODS, evaluate
 
     plt = pyplot()
-    ev = evaluate(profile, signal, FIG7_METHODS, size=256, perceptual=True, keep_images=True, progress=progress)
+    # the panels show relative RMSE, PSNR and FLIP (no SSIM)
+    ev = evaluate(profile, signal, FIG7_METHODS, size=256, perceptual=("flip",), keep_images=True, progress=progress)
     peak = float(ev.truth.max())
     rows = [(m, ev.images[m], ev.results[m]) for m in FIG7_METHODS] + [("true kernel", ev.truth, None)]
     ncol = 3 if crop == "full" else 1

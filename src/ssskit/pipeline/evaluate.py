@@ -95,9 +95,13 @@ def _kernel(profile: _Identity, method: str, params: tuple, pixel_mm: float, n: 
     return build_kernel(method, profile.obj, pixel_mm, n, **dict(params))
 
 
-def evaluate(profile, signal: str | np.ndarray, methods: Iterable[str], size: int = 256, perceptual: bool = True,
-             progress=None, keep_images: bool = False) -> Evaluation:
-    """Errors of each method spec (``"svd:3"``...) against E * Rd on ``signal`` (a name or an (H, W, 3) image)."""
+def evaluate(profile, signal: str | np.ndarray, methods: Iterable[str], size: int = 256,
+             perceptual: bool | tuple[str, ...] = True, progress=None, keep_images: bool = False) -> Evaluation:
+    """Errors of each method spec (``"svd:3"``...) against E * Rd on ``signal`` (a name or an (H, W, 3) image).
+
+    ``perceptual``: SSIM and FLIP too (True), neither (False), or the named ones (``("flip",)``;
+    :func:`ssskit.metrics.all_metrics`).
+    """
     specs = [parse_method_spec(m) for m in methods]
     if not specs:
         raise SignalError("no kernel methods given")
@@ -113,7 +117,8 @@ def evaluate(profile, signal: str | np.ndarray, methods: Iterable[str], size: in
     for method, params, label in specs:
         if progress is not None:
             progress(label)
-        memo = (key, name, size, label, perceptual) if isinstance(signal, str) else None
+        memo = (key, name, size, label, perceptual if isinstance(perceptual, bool) else tuple(perceptual)) \
+            if isinstance(signal, str) else None
         if memo in _RESULTS and not keep_images:
             ev.results[label] = dict(_RESULTS[memo])
             continue
