@@ -1,0 +1,89 @@
+"""The architecture of docs/architecture.md, enforced: the import-linter contracts of pyproject.toml
+(``[tool.importlinter]``: the layers, backends built on the contract and never on each other, a numpy
+oracle without numba) hold for the source tree, and they can fail.
+
+import-linter (the ``dev`` extra) runs in a subprocess on ``src/`` of this checkout, whatever copy of
+ssskit is installed; every import counts, lazy ones inside functions included. ``lint-imports``
+runs the same contracts by hand.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PYPROJECT = ROOT / "pyproject.toml"
+SRC = ROOT / "src"
+DOC = ROOT / "docs" / "architecture.md"
+
+_LINT = ("import sys; from importlinter.cli import lint_imports; "
+         "sys.exit(lint_imports(config_filename=sys.argv[1], no_cache=True, no_logo=True))")
+
+
+def _lint(src: Path) -> subprocess.CompletedProcess:
+    """import-linter's contracts from pyproject.toml on the ``ssskit`` package under ``src``."""
+    if importlib.util.find_spec("importlinter") is None:
+        pytest.fail("import-linter is not installed: pip install '.[dev]'")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(src), os.environ.get("PYTHONPATH")) if p),
+           "COLUMNS": "200", "NO_COLOR": "1"}
+    return subprocess.run([sys.executable, "-c", _LINT, str(PYPROJECT)], cwd=src, env=env, capture_output=True,
+                          text=True, timeout=600)
+
+
+def _contract(contract_id: str) -> dict:
+    config = tomllib.loads(PYPROJECT.read_text(encoding="utf-8"))["tool"]["importlinter"]
+    return next(c for c in config["contracts"] if c["id"] == contract_id)
+
+
+def test_import_contracts_hold():
+    proc = _lint(SRC)
+    assert proc.returncode == 0, f"import-linter contracts broken:\n{proc.stdout}\n{proc.stderr}"
+    assert "0 broken" in proc.stdout
+
+
+def _scratch(tmp_path: Path) -> Path:
+    """A copy of src/ssskit to break."""
+    dst = tmp_path / "src"
+    shutil.copytree(SRC / "ssskit", dst / "ssskit", ignore=shutil.ignore_patterns("__pycache__"))
+    return dst
+
+
+def test_an_upward_lazy_import_breaks_the_layers(tmp_path):
+    src = _scratch(tmp_path)
+    with open(src / "ssskit" / "materials.py", "a", encoding="utf-8") as f:
+        f.write("\n\ndef _upward():\n    from .pipeline import render\n\n    return render\n")
+    proc = _lint(src)
+    assert proc.returncode != 0
+    assert re.search(r"ssskit\.materials -> ssskit\.pipeline", proc.stdout), proc.stdout
+
+
+def test_a_module_outside_the_layers_breaks_the_contract(tmp_path):
+    src = _scratch(tmp_path)
+    (src / "ssskit" / "unplaced.py").write_text('"""A new module nobody placed in a layer."""\n', encoding="utf-8")
+    proc = _lint(src)
+    assert proc.returncode != 0 and "unplaced" in proc.stdout, proc.stdout
+
+
+def test_docs_list_the_contract_layers():
+    """docs/architecture.md's layer table names the layers of the contract, high to low."""
+    text = DOC.read_text(encoding="utf-8")
+    block = re.search(r"<!-- layers -->\s*```text\n(.*?)```", text, re.S)
+    assert block, "docs/architecture.md: no ```text block after <!-- layers -->"
+    doc_layers = [re.split(r"\s{2,}", line.strip())[0] for line in block.group(1).splitlines() if line.strip()]
+    assert doc_layers == _contract("layers")["layers"]
+
+
+def test_docs_name_files_that_exist():
+    paths = set(re.findall(r"`((?:src|tests|docs|benchmarks)/[\w./-]+?)`", DOC.read_text(encoding="utf-8")))
+    assert paths, "docs/architecture.md names no files"
+    missing = sorted(p for p in paths if not (ROOT / p).exists())
+    assert not missing, f"docs/architecture.md names files that do not exist: {missing}"
