@@ -1,14 +1,20 @@
-"""Benchmark: the screen-space separable SSS pass (numba) vs scipy.ndimage.convolve1d, same run.
+"""Benchmark: the screen-space separable SSS pass (numba backend) vs scipy.ndimage.convolve1d, same run.
 
 Both passes, 7 importance-sampled taps of the pre-integrated Skin1 kernel, depth-aware (the
 follow-surface test on every sample), float32 RGB, every pixel inside the SSS mask, on a tilted
 plane (depth varies across the image, so every pixel has its own footprint). The competitor is
 two plain 7-tap ``convolve1d`` passes (axis 1 then axis 0, mode 'nearest') over the same (H, W, 3)
 array with one weight vector: depth-unaware, mask-unaware, integer taps, the cheapest thing scipy
-can be asked to do. Timings are medians of interleaved repeats. Prints one JSON object.
+can be asked to do. Also timed: the paper's 10% jitter, and a G-buffer with three profile ids
+(three materials, each with its own taps, in one pass) against the same G-buffer with one id.
+Timings are medians of interleaved repeats. Prints one JSON object.
+
+``--before REV`` also times the same cases with the code of git revision REV (checked out into
+the git-ignored ``benchmarks/.before-<rev>/`` and run in a subprocess, in the same run), so a
+change is judged by its ratio to scipy before and after.
 
     NUMBA_THREADING_LAYER is set to 'workqueue' unless given.
-    python benchmarks/bench_separable.py [--sizes 1280x720 1920x1080 3840x2160] [--repeats 9]
+    python benchmarks/bench_separable.py [--sizes 1280x720 1920x1080 3840x2160] [--repeats 9] [--before 11c9ea3]
 """
 
 from __future__ import annotations
@@ -18,7 +24,10 @@ import json
 import os
 import platform
 import statistics
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
 
@@ -26,10 +35,7 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.ndimage import convolve1d  # noqa: E402
 
-from ssskit.kernels import build_kernel, default_grid  # noqa: E402
-from ssskit.profiles import profile_for_material  # noqa: E402
-from ssskit.sampling.taps import make_taps  # noqa: E402
-from ssskit.screenspace.separable import filter_arrays  # noqa: E402
+FOCAL_1080P = 1000.0  # pixels at 1080p; scaled with the width so the footprint in pixels is the same
 
 
 def scene(width: int, height: int):
@@ -41,73 +47,122 @@ def scene(width: int, height: int):
     return image, depth_mm
 
 
-def timed(fn, repeats: int) -> list[float]:
-    out = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
+def median_ms(fns: dict, repeats: int) -> dict:
+    """Interleaved repeats (every case sees the same machine state); medians in ms."""
+    for fn in fns.values():
         fn()
-        out.append(time.perf_counter() - t0)
-    return out
+    times = {k: [] for k in fns}
+    for _ in range(repeats):
+        for k, fn in fns.items():
+            t0 = time.perf_counter()
+            fn()
+            times[k].append(time.perf_counter() - t0)
+    return {k: 1e3 * statistics.median(v) for k, v in times.items()}
+
+
+def taps_for(material: str, spec: str = "preintegrated", n: int = 7):
+    from ssskit.kernels import build_kernel, default_grid
+    from ssskit.profiles import profile_for_material
+    from ssskit.sampling.taps import make_taps
+
+    profile = profile_for_material(material, "dipole")
+    cell, size = default_grid(profile)
+    return make_taps(build_kernel(spec, profile, cell, size), n, "importance")
+
+
+def time_sizes(sizes, repeats: int, numpy_max_pixels: int) -> list[dict]:
+    """The pass (this checkout's API or, via filter_arrays' keywords, an older one) vs scipy per size."""
+    from ssskit.screenspace.separable import filter_arrays
+
+    taps = taps_for("skin1")
+    plain = np.ascontiguousarray(taps.weights[0][:, 0], dtype=np.float32)  # any 7 weights
+    rows = []
+    for size in sizes:
+        width, height = (int(v) for v in size.lower().split("x"))
+        image, depth = scene(width, height)
+        f = FOCAL_1080P * width / 1920
+        m = median_ms({
+            "numba_ms": lambda: filter_arrays(image, depth, f, f, taps, jitter=0.0, depth_mode="follow"),
+            "scipy_two_plain_passes_ms": lambda: convolve1d(convolve1d(image, plain, axis=1, mode="nearest"), plain,
+                                                            axis=0, mode="nearest"),
+            "numba_jitter10_ms": lambda: filter_arrays(image, depth, f, f, taps, jitter=0.1, depth_mode="follow"),
+        }, repeats)
+        row = {"size": f"{width}x{height}", **m}
+        row["ratio_numba_over_scipy"] = m["numba_ms"] / m["scipy_two_plain_passes_ms"]
+        row["ratio_jitter10_over_plain"] = m["numba_jitter10_ms"] / m["numba_ms"]
+        row["numba_fps"] = 1e3 / m["numba_ms"]
+        if width * height <= numpy_max_pixels:
+            t0 = time.perf_counter()
+            filter_arrays(image, depth, f, f, taps, jitter=0.0, depth_mode="follow", backend="numpy")
+            row["numpy_reference_ms"] = 1e3 * (time.perf_counter() - t0)
+        rows.append(row)
+    return rows
+
+
+def time_profile_ids(repeats: int) -> dict:
+    """1080p, one pass: three profile ids (vertical bands: Skin1, Marble, Ketchup taps) vs one id."""
+    from ssskit.screenspace import Camera, GBuffer, separable_sss
+
+    width, height = 1920, 1080
+    image, depth = scene(width, height)
+    pid3 = np.ones((height, width), np.uint32)
+    pid3[:, width // 3:] = 2
+    pid3[:, 2 * width // 3:] = 3
+    cam = Camera(width, height, FOCAL_1080P, FOCAL_1080P, width / 2, height / 2)
+    albedo = np.ones_like(image)
+    gb1 = GBuffer(diffuse=image, albedo=albedo, depth=depth, profile_id=np.ones_like(pid3), camera=cam)
+    gb3 = gb1.with_layers(profile_id=pid3)
+    taps = {1: taps_for("skin1"), 2: taps_for("marble"), 3: taps_for("ketchup")}
+    m = median_ms({
+        "one_id_ms": lambda: separable_sss(gb1, taps[1], jitter=0.0, depth_mode="follow"),
+        "three_ids_ms": lambda: separable_sss(gb3, taps, jitter=0.0, depth_mode="follow"),
+        "three_ids_same_taps_ms": lambda: separable_sss(gb3, taps[1], jitter=0.0, depth_mode="follow"),
+    }, repeats)
+    m["ratio_three_over_one"] = m["three_ids_ms"] / m["one_id_ms"]
+    m["ratio_three_same_taps_over_one"] = m["three_ids_same_taps_ms"] / m["one_id_ms"]
+    return m
+
+
+def before(rev: str, sizes, repeats: int) -> dict:
+    """Run this script's size table with the code of git revision ``rev`` in a subprocess."""
+    root = Path(__file__).resolve().parent.parent
+    where = root / "benchmarks" / f".before-{rev}"
+    if not where.exists():
+        subprocess.run(["git", "-C", str(root), "worktree", "add", "--detach", str(where), rev], check=True,
+                       capture_output=True)
+    env = dict(os.environ, PYTHONPATH=str(where / "src"))
+    out = subprocess.run([sys.executable, __file__, "--only-sizes", "--repeats", str(repeats), "--sizes", *sizes],
+                         env=env, check=True, capture_output=True, text=True).stdout
+    return {"revision": rev, "results": json.loads(out)["results"]}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", nargs="+", default=["1280x720", "1920x1080", "3840x2160"])
     ap.add_argument("--repeats", type=int, default=9)
-    ap.add_argument("--numpy-max-pixels", type=int, default=2_100_000,
+    ap.add_argument("--numpy-max-pixels", type=int, default=1_000_000,
                     help="time the numpy reference only up to this many pixels (it is slow)")
+    ap.add_argument("--before", metavar="REV", help="also time git revision REV in the same run")
+    ap.add_argument("--only-sizes", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.only_sizes:  # the --before subprocess: this checkout's size table only
+        print(json.dumps({"results": time_sizes(args.sizes, args.repeats, 0)}))
+        return
+    import ssskit
 
-    profile = profile_for_material("skin1", "dipole")
-    cell, n = default_grid(profile)
-    taps = make_taps(build_kernel("preintegrated", profile, cell, n), 7, "importance")
-    plain = np.ascontiguousarray(taps.weights[0][:, 0], dtype=np.float32)  # any 7 weights
-    focal = 1000.0  # pixels at 1080p; scaled with the width so the footprint in pixels is the same
-
-    results = []
-    for size in args.sizes:
-        width, height = (int(v) for v in size.lower().split("x"))
-        image, depth = scene(width, height)
-        f = focal * width / 1920
-        scratch: dict = {}
-        run_numba = lambda jit=0.0: filter_arrays(image, depth, f, f, taps, jitter=jit, depth_mode="follow",  # noqa: E731
-                                                  scratch=scratch)
-
-        def run_scipy():
-            tmp = convolve1d(image, plain, axis=1, mode="nearest")
-            return convolve1d(tmp, plain, axis=0, mode="nearest")
-
-        run_numba()
-        run_numba(0.1)
-        run_scipy()
-        t_numba, t_scipy, t_jit = [], [], []
-        for _ in range(args.repeats):  # interleaved: both see the same machine state
-            t_numba += timed(run_numba, 1)
-            t_scipy += timed(run_scipy, 1)
-            t_jit += timed(lambda: run_numba(0.1), 1)
-        row = {
-            "size": f"{width}x{height}",
-            "numba_ms": 1e3 * statistics.median(t_numba),
-            "numba_jitter10_ms": 1e3 * statistics.median(t_jit),
-            "scipy_two_plain_passes_ms": 1e3 * statistics.median(t_scipy),
-        }
-        row["ratio_numba_over_scipy"] = row["numba_ms"] / row["scipy_two_plain_passes_ms"]
-        row["numba_fps"] = 1e3 / row["numba_ms"]
-        if width * height <= args.numpy_max_pixels:
-            t_np = timed(lambda: filter_arrays(image, depth, f, f, taps, jitter=0.0, depth_mode="follow",
-                                               backend="numpy"), 1)
-            row["numpy_reference_ms"] = 1e3 * t_np[0]
-        results.append(row)
-
-    print(json.dumps({
+    out = {
         "benchmark": "separable screen-space SSS pass, 7 taps, both passes, depth-aware, float32 RGB",
         "machine": {"cpus": os.cpu_count(), "python": platform.python_version(), "numba": numba.__version__,
                     "numpy": np.__version__, "threading_layer": os.environ["NUMBA_THREADING_LAYER"],
-                    "threads": numba.get_num_threads()},
-        "taps_mm": taps.offsets_mm[0].tolist(),
+                    "threads": numba.get_num_threads(), "ssskit": str(Path(ssskit.__file__).parent)},
+        "taps_mm": taps_for("skin1").offsets_mm[0].tolist(),
         "repeats": args.repeats,
-        "results": results,
-    }, indent=2))
+        "results": time_sizes(args.sizes, args.repeats, args.numpy_max_pixels),
+        "profile_ids_1080p": time_profile_ids(args.repeats),
+    }
+    if args.before:
+        out["before"] = before(args.before, args.sizes, args.repeats)
+    print(json.dumps(out, indent=2))
 
 
 if __name__ == "__main__":
