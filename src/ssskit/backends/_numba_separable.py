@@ -355,6 +355,9 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, ax
                         elif not multi and sym[sb, k]:  # the common case: one profile, symmetric pairs
                             _row_block(factor, buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap,
                                        False, True)
+                        elif sym[sb, k]:  # several profiles, symmetric pairs
+                            _row_block(factor, buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap,
+                                       True, True)
                         else:
                             _row_block(factor, buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap,
                                        True, False)
@@ -427,3 +430,21 @@ def pack(diffuse, depth_mm, slots, buf, pad, wps, plane):
             q = slots[y, x]
             buf[Z_PLANE * plane + i] = depth_mm[y, x] if q > 0 else np.inf
             buf[S_PLANE * plane + i] = q
+
+
+@njit(cache=True, parallel=True)
+def depth_range(depth_mm, slots):
+    """(nearest depth, number of bad depths) over the pixels with SSS, in one pass: a depth is bad if it
+    is not a positive finite number."""
+    h, w = slots.shape
+    zmin = np.full(h, np.inf)
+    bad = np.zeros(h, np.int64)
+    for y in prange(h):
+        for x in range(w):
+            if slots[y, x] > 0:
+                z = depth_mm[y, x]
+                if not (z > 0 and z < np.inf):
+                    bad[y] += 1
+                elif z < zmin[y]:
+                    zmin[y] = z
+    return zmin.min(), bad.sum()

@@ -40,8 +40,10 @@ class Backend(ABC):
         """The separable pass (see :mod:`ssskit.backends.plan`): a new (H, W, 3) array."""
 
 
-def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, plan: SeparablePlan) -> None:
-    """Shapes and slot range of the separable pass's inputs, or a precise error."""
+def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, plan: SeparablePlan,
+                values: bool = True) -> None:
+    """Shapes and slot range of the separable pass's inputs, or a precise error; with ``values`` also
+    that every pixel with SSS has a positive finite depth (a backend may check that in its own pass)."""
     from ..errors import PassError
 
     if np.ndim(depth_mm) != 2 or np.shape(diffuse) != tuple(np.shape(depth_mm)) + (3,):
@@ -51,6 +53,8 @@ def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, pl
         raise PassError(f"slots must be (H, W) like depth, got {np.shape(slots)}")
     if slots.size and (int(slots.min()) < 0 or int(slots.max()) >= plan.slots):
         raise PassError(f"slots must lie in [0, {plan.slots - 1}]")
+    if not values:
+        return
     inside = slots > 0
     if not np.all(np.isfinite(depth_mm[inside])) or np.any(depth_mm[inside] <= 0):
         raise PassError("depth must be positive and finite on every pixel with SSS")

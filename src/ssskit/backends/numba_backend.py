@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from ..errors import PassError
 from ..sampling.hashes import frame_base
 from .base import Backend, check_frame
 from .plan import SeparablePlan, TermTable
@@ -46,17 +47,19 @@ class NumbaBackend(Backend):
         return self._buf, wps, plane
 
     def separable(self, plan: SeparablePlan, diffuse, depth_mm, slots):
-        from ._numba_separable import PASSES, TMP_PLANE, pack
+        from ._numba_separable import PASSES, TMP_PLANE, depth_range, pack
 
-        check_frame(diffuse, depth_mm, slots, plan)
+        check_frame(diffuse, depth_mm, slots, plan, values=False)
         h, w = slots.shape
         slots = np.ascontiguousarray(slots, dtype=np.int32)
         depth = np.ascontiguousarray(depth_mm)
-        inside = slots > 0
         src = np.ascontiguousarray(diffuse)
-        if not inside.any():
+        z_min, bad = depth_range(depth, slots)
+        if bad:
+            raise PassError("depth must be positive and finite on every pixel with SSS")
+        if not np.isfinite(z_min):  # no pixel with SSS
             return np.array(src, dtype=np.float32)
-        pad = _pad(plan, float(depth[inside].min()), h, w)
+        pad = _pad(plan, float(z_min), h, w)
         buf, wps, plane = self._buffer(h, w, pad)
         pack(src, depth, slots, buf, pad, wps, plane)
         run = PASSES[plan.depth_mode]
@@ -76,7 +79,7 @@ class NumbaBackend(Backend):
                 return out
             contribution = term.sign[slots].astype(np.float32) * out
             acc = contribution if acc is None else acc + contribution
-        return np.where(inside[..., None], acc, src).astype(np.float32)
+        return np.where((slots > 0)[..., None], acc, src).astype(np.float32)
 
 
 def _tables(term: TermTable):

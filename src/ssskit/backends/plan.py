@@ -80,10 +80,24 @@ class SeparablePlan:
     def slot_map(self, profile_id: np.ndarray) -> np.ndarray:
         """(H, W) int32 slots of a profile-id layer: 0 where the id has no SSS or no entry here."""
         pid = np.asarray(profile_id)
+        top = max(self.ids, default=0)
+        if top < 1 << 16:  # small ids (the usual case): one table lookup per pixel
+            lut = np.zeros(top + 1, np.int32)
+            lut[list(self.ids)] = np.arange(1, len(self.ids) + 1, dtype=np.int32)
+            return lut[np.minimum(pid, top)] * (pid <= top)
         out = np.zeros(pid.shape, np.int32)
         for s, i in enumerate(self.ids, start=1):
             out[pid == i] = s
         return out
+
+
+def profile_ids(profile_id: np.ndarray) -> list[int]:
+    """The distinct ids > 0 of a profile-id layer, ascending (a histogram for small ids, else a sort)."""
+    pid = np.asarray(profile_id)
+    top = int(pid.max(initial=0))
+    if top < 1 << 16:
+        return [int(i) for i in np.flatnonzero(np.bincount(pid.ravel(), minlength=top + 1)[1:]) + 1]
+    return [int(i) for i in np.unique(pid[pid > 0])]
 
 
 def term_rows(offsets: np.ndarray, weights: np.ndarray, n_jit: int):

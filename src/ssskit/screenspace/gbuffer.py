@@ -85,8 +85,10 @@ class GBuffer:
 
     @property
     def depth_mm(self) -> np.ndarray:
-        """Linear camera depth in mm (H, W) float64: depth / world_units_per_mm (+inf where empty)."""
-        return self.depth.astype(np.float64) / self.camera.world_units_per_mm
+        """Linear camera depth in mm (H, W) float32 like the layer: depth / world_units_per_mm (+inf where
+        empty)."""
+        return self.depth if self.camera.world_units_per_mm == 1.0 else (
+            self.depth / np.float32(self.camera.world_units_per_mm))
 
     @property
     def mask(self) -> np.ndarray:

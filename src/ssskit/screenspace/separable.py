@@ -38,7 +38,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..backends import build_separable_plan, get_backend
-from ..backends.plan import SeparablePlan
+from ..backends.plan import SeparablePlan, profile_ids
 from ..errors import GBufferError, PassError
 from ..sampling.taps import SeparableTaps
 from .gbuffer import GBuffer
@@ -95,7 +95,7 @@ def separable_sss(gbuffer: GBuffer, taps, settings: PassSettings | None = None, 
         raise GBufferError(f"expected a GBuffer, got {type(gbuffer).__name__}")
     s = _settings(settings, overrides)
     backend = get_backend(s.backend)
-    ids = [int(i) for i in np.unique(gbuffer.profile_id[gbuffer.profile_id > 0])]
+    ids = profile_ids(gbuffer.profile_id)
     cam = gbuffer.camera
     plan = plan_for(taps, ids, cam.fx, cam.fy, s)
     out = backend.separable(plan, gbuffer.diffuse, gbuffer.depth_mm, plan.slot_map(gbuffer.profile_id))
