@@ -14,10 +14,9 @@ import importlib
 
 __version__ = "0.1.0"
 
-#: every module and subpackage of ssskit, in layer order (each imports only those before it)
-_SUBMODULES = ("errors", "registry", "cache", "settings", "io", "materials", "profiles", "kernels", "sampling",
-               "backends", "screenspace", "scenes", "truth", "metrics", "pipeline", "evaluate", "figures", "report",
-               "cli")
+#: every module and subpackage of ssskit, roughly bottom layer first (the layers: docs/architecture.md)
+_SUBMODULES = ("errors", "registry", "cache", "io", "settings", "metrics", "materials", "profiles", "kernels",
+               "sampling", "backends", "screenspace", "scenes", "truth", "pipeline", "figures", "report", "cli")
 #: names re-exported from a submodule: name -> submodule
 _API = {"render": "pipeline", "RenderSettings": "pipeline", "RenderResult": "pipeline"}
 

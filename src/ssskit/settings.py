@@ -6,7 +6,7 @@ argument is validated when the settings are made, before any work starts. Nested
 (a field whose type is another Settings class) become TOML tables / JSON objects.
 
     >>> from ssskit.screenspace import PassSettings
-    >>> s = PassSettings(taps=7, jitter=0.1)
+    >>> s = PassSettings(jitter=0.1, frame=3)
     >>> PassSettings.from_dict(s.to_dict()) == s
     True
 """

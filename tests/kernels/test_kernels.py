@@ -106,7 +106,7 @@ def test_preintegrated_exact_on_additively_separable_signals(model):
 
 
 def test_preintegrated_rotated_edge_within_stated_error(skin):
-    from ssskit.evaluate import evaluate
+    from ssskit.pipeline import evaluate
 
     res = evaluate(skin, "edge-rotated", ["preintegrated", "svd:1"], size=128, perceptual=False).results
     # rasterising a rotated edge breaks additive separability at the pixel scale: measured 7e-3
@@ -324,7 +324,7 @@ def test_burley_fit_difference_error_is_not_the_closest_when_rendered():
     edge and a disk. The difference fit matches the 1/r peak and is too narrow (Skin1 R falloff 0.59 vs
     1.40) and leaves too much energy near the centre; the kernel still holds Burley's total energy.
     """
-    from ssskit.evaluate import evaluate
+    from ssskit.pipeline import evaluate
 
     burley = profile_for_material("skin1", "burley")
     specs = ["burley_fit:difference", "burley_fit:ratio", "burley_fit:derivative"]

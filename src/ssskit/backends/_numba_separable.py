@@ -27,7 +27,9 @@ The jitter angle comes from the same counter-based hash as the other backends
 (error < 1e-11) instead of libm calls.
 
 Every kernel is compiled once per depth mode (the mode's factor function inlined) and cached on
-disk (``cache=True``), so a new process compiles nothing it compiled before.
+disk (``cache=True``), so a new process compiles nothing it compiled before. The passes release the
+GIL and run over ranges of rows; the backend runs the ranges on a thread pool (rows are independent,
+so the result does not depend on the number of threads).
 """
 
 from __future__ import annotations
@@ -257,8 +259,8 @@ def _row_window(factor, buf, sc, co, zo, so, plane, wps, c0, nl, R, d, w, p, cap
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
-              centre, param, base, cap):
+def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
+              n_rows, centre, param, base, cap):
     """One 1D pass of one term over the whole image (module docstring), reading colour planes at ``co``
     of ``buf``. ``out`` is flat; pixel (x, y) channel c goes to out[ob + c ocs + y oys + x oxs] (the
     horizontal pass writes buf's TMP planes, the vertical one the (H, W, 3) result).
@@ -281,7 +283,7 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, ax
         for k in range(kmax):
             sym[i, k] = (wts[i, k, 0] == wts[i, k, 3] and wts[i, k, 1] == wts[i, k, 4]
                          and wts[i, k, 2] == wts[i, k, 5])
-    for y in prange(h):
+    for y in range(y0, y1):
         hrow = _mix32(base ^ np.uint64(y))
         sc = np.empty(SCRATCH, np.float32)
         mlo = np.empty(kmax, np.float32)
@@ -311,8 +313,11 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, ax
             if sb > 0:
                 for i in range(6 * _L):
                     sc[i] = 0.0
+                # the vectorised paths take symmetric pairs whose footprints vary little across the block
+                # and jitter windows of radius <= RMAX, on one profile (several: plain rows only); anything
+                # else sends the whole block to per-lane fetches (one code path, small compiled code)
                 fast = not mixed
-                if fast:  # can the block's rows all take the vectorised paths?
+                if fast:
                     nj = n_jit[sb]
                     for k in range(n_rows[sb]):
                         d = offs[sb, k]
@@ -322,8 +327,10 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, ax
                             r = min(d * sc[_LN + 2 * _L + l], cap)
                             lo = min(lo, np.floor(r))
                             hi = max(hi, r)
+                        fast = fast and sym[sb, k]
                         if k < nj:
                             rwin[k] = int(math.ceil(hi))
+                            fast = fast and rwin[k] <= RMAX and not multi
                         else:
                             mlo[k] = lo
                             fast = fast and np.floor(hi) - lo <= 1.0
@@ -334,34 +341,18 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, ax
                         # constant lane counts and window radii (all LANES lanes are computed: the buffer's
                         # right slack makes lanes past the image pad texels) let LLVM vectorise fully
                         if k < n_jit[sb] and rwin[k] <= 1:
-                            if not multi and sym[sb, k]:
-                                _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, 1, offs[sb, k], wk, p, cap,
-                                            False, True)
-                            else:
-                                _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, 1, offs[sb, k], wk, p, cap,
-                                            True, False)
-                        elif k < n_jit[sb] and rwin[k] <= RMAX:
-                            if not multi and sym[sb, k]:
-                                _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, 2, offs[sb, k], wk, p, cap,
-                                            False, True)
-                            else:
-                                _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, 2, offs[sb, k], wk, p, cap,
-                                            True, False)
-                        elif k < n_jit[sb]:  # a wide jitter window: per-lane 2D bilinear fetches
-                            for l in range(nl):
-                                _lane_row(factor, buf, sc, cu, zo, so, plane, wps, c0 + l,
-                                          min(offs[sb, k] * sc[_LN + 2 * _L + l], cap), sc[_LN + 3 * _L + l],
-                                          sc[_LN + 4 * _L + l], sc[_LN + l], sc[_LN + _L + l], p, wk, l)
-                        elif not multi and sym[sb, k]:  # the common case: one profile, symmetric pairs
-                            _row_block(factor, buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap,
-                                       False, True)
-                        elif sym[sb, k]:  # several profiles, symmetric pairs
+                            _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, 1, offs[sb, k], wk, p, cap,
+                                        False, True)
+                        elif k < n_jit[sb]:
+                            _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, RMAX, offs[sb, k], wk, p, cap,
+                                        False, True)
+                        elif multi:
                             _row_block(factor, buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap,
                                        True, True)
-                        else:
+                        else:  # the common case: one profile, symmetric pairs
                             _row_block(factor, buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap,
-                                       True, False)
-                else:  # several slots, large jitter windows or varying footprints: per-lane fetches
+                                       False, True)
+                else:  # several slots, asymmetric taps, wide jitter windows or varying footprints
                     for l in range(nl):
                         qi = int(sc[_LN + _L + l])
                         if qi == 0:
@@ -392,25 +383,25 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, ax
                         out[U(o + l * oxs)] = e if qi == 0 else (centre[qi, c] - sc[(3 + c) * _L + l]) * e + sc[c * _L + l]
 
 
-@njit(cache=True, parallel=True, fastmath=_FM)
-def pass_gaussian(buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows, centre,
-                  param, base, cap):
-    _sep_body(f_gaussian, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
-              centre, param, base, cap)
+@njit(cache=True, nogil=True, fastmath=_FM)
+def pass_gaussian(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
+                  centre, param, base, cap):
+    _sep_body(f_gaussian, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
+              n_rows, centre, param, base, cap)
 
 
-@njit(cache=True, parallel=True, fastmath=_FM)
-def pass_follow(buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows, centre,
-                param, base, cap):
-    _sep_body(f_follow, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
-              centre, param, base, cap)
+@njit(cache=True, nogil=True, fastmath=_FM)
+def pass_follow(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
+                centre, param, base, cap):
+    _sep_body(f_follow, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
+              n_rows, centre, param, base, cap)
 
 
-@njit(cache=True, parallel=True, fastmath=_FM)
-def pass_none(buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows, centre,
-              param, base, cap):
-    _sep_body(f_none, buf, out, co, ob, ocs, oys, oxs, h, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
-              centre, param, base, cap)
+@njit(cache=True, nogil=True, fastmath=_FM)
+def pass_none(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
+              centre, param, base, cap):
+    _sep_body(f_none, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
+              n_rows, centre, param, base, cap)
 
 
 PASSES = {"gaussian": pass_gaussian, "follow": pass_follow, "none": pass_none}

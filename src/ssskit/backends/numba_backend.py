@@ -1,4 +1,4 @@
-"""The numba backend: float32 on the CPU, parallel over rows, vectorised (kernels in
+"""The numba backend: float32 on the CPU, vectorised, ranges of rows on a thread pool (kernels in
 :mod:`ssskit.backends._numba_separable`, compiled on first use and cached on disk).
 
 The backend owns its scratch: planar padded copies of the frame (colour, depth, slot) and of the
@@ -26,6 +26,7 @@ class NumbaBackend(Backend):
     def __init__(self) -> None:
         self._key: tuple | None = None
         self._buf: np.ndarray | None = None
+        self._pool = None
 
     def availability(self) -> tuple[bool, str]:
         try:
@@ -33,6 +34,23 @@ class NumbaBackend(Backend):
         except ImportError as exc:  # pragma: no cover - numba is a dependency
             return False, f"numba cannot be imported ({exc})"
         return True, f"numba {numba.__version__}, {numba.get_num_threads()} threads"
+
+    def _rows(self, h: int, fn) -> None:
+        """fn(y0, y1) over row ranges covering [0, h), on numba.get_num_threads() threads (the kernels
+        release the GIL; rows are independent, so any thread count gives the same result)."""
+        import numba
+
+        threads = numba.get_num_threads()
+        if threads == 1 or h < 64:
+            fn(0, h)
+            return
+        if self._pool is None or self._pool._max_workers < threads:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="ssskit-numba")
+        bounds = np.linspace(0, h, 4 * threads + 1).astype(int)
+        for f in [self._pool.submit(fn, int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]:
+            f.result()
 
     def _buffer(self, h: int, w: int, pad: int):
         from ._numba_separable import LANES, PLANES, Z_PLANE
@@ -72,9 +90,10 @@ class NumbaBackend(Backend):
         acc = None
         for term in plan.terms:
             t = _tables(term)
-            run(buf, buf, 0, tmp + pad * wps + pad, plane, wps, 1, h, w, pad, wps, plane, 0, plan.fx, *t, param, base,
-                cap)
-            run(buf, flat, tmp, 0, 1, 3 * w, 3, h, w, pad, wps, plane, 1, plan.fy, *t, param, base, cap)
+            self._rows(h, lambda y0, y1: run(buf, buf, 0, tmp + pad * wps + pad, plane, wps, 1, y0, y1, w, pad, wps,
+                                             plane, 0, plan.fx, *t, param, base, cap))
+            self._rows(h, lambda y0, y1: run(buf, flat, tmp, 0, 1, 3 * w, 3, y0, y1, w, pad, wps, plane, 1, plan.fy,
+                                             *t, param, base, cap))
             if len(plan.terms) == 1 and np.all(term.sign == 1):
                 return out
             contribution = term.sign[slots].astype(np.float32) * out

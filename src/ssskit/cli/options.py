@@ -327,11 +327,7 @@ def _models():
 
 
 def _scenes():
-    from .. import scenes
-
-    if hasattr(scenes, "SCENES"):
-        return scenes.SCENES
-    from ..scenes.render3d import SCENES  # before the scenes package exported its registry
+    from ..scenes import SCENES
 
     return SCENES
 
