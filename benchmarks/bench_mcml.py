@@ -50,12 +50,7 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ssskit.materials import get_material  # noqa: E402
-from ssskit.profiles.montecarlo import MCConfig, config_for_material, simulate  # noqa: E402
-
-try:  # the numpy twin moves into the montecarlo package
-    from ssskit.profiles.montecarlo import simulate_numpy  # noqa: E402
-except ImportError:  # pragma: no cover - older layout
-    from ssskit.profiles.mcml_numpy import simulate_numpy  # noqa: E402
+from ssskit.profiles.montecarlo import MCConfig, config_for_material, simulate, simulate_numpy  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_SRC = HERE / ".mcml-src"

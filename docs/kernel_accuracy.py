@@ -3,7 +3,7 @@
     python docs/kernel_accuracy.py [--photons 200000] [--out docs/kernel-accuracy.md]
 
 Monte Carlo profiles (MCML, supplement F grid; cached), 256 x 256 signals, errors against the
-exact 2D convolution (see ssskit.evaluate). Then the guided optimisation's claims (paper Appendix A)
+exact 2D convolution (see ssskit.pipeline.evaluate). Then the guided optimisation's claims (paper Appendix A)
 checked for k = 0..4: image errors, kernel errors against Rd's exact cell integrals and width
 statistics on the evaluation grid, kernel-space measures and timings on the finer default grid;
 and Xie's Burley fits rendered against Burley's exact 2D convolution.
@@ -23,7 +23,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np
 
-from ssskit.evaluate import evaluate, evaluation_grid
+from ssskit.pipeline import evaluate, evaluation_grid
 from ssskit.kernels import build_kernel
 from ssskit.kernels.base import default_grid
 from ssskit.kernels.burley_fit import ERROR_FUNCTIONS, compare_error_functions

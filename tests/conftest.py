@@ -12,6 +12,24 @@ def rng():
 MATERIAL_CHANNELS = [(name, c) for name in MATERIALS.names() for c in range(3)]
 
 
+@pytest.fixture(scope="session")
+def skin():
+    """Skin1's dipole profile."""
+    from ssskit.profiles import profile_for_material
+
+    return profile_for_material("skin1", "dipole")
+
+
+@pytest.fixture(scope="session")
+def taps7(skin):
+    """7 importance-sampled taps of Skin1's pre-integrated kernel (separable-SSS paper section 6)."""
+    from ssskit.kernels import build_kernel, default_grid
+    from ssskit.sampling.taps import make_taps
+
+    cell, n = default_grid(skin)
+    return make_taps(build_kernel("preintegrated", skin, cell, n), 7)
+
+
 # ---- backends ------------------------------------------------------------------------------------
 #
 # One fixture runs every pass test on every registered backend that is available here (the others

@@ -16,17 +16,6 @@ from ssskit.screenspace import Camera, GBuffer, filter_arrays, separable_sss
 from tests.conftest import tolerance
 
 
-@pytest.fixture(scope="module")
-def skin():
-    return profile_for_material("skin1", "dipole")
-
-
-@pytest.fixture(scope="module")
-def taps7(skin):
-    cell, n = default_grid(skin)
-    return make_taps(build_kernel("preintegrated", skin, cell, n), 7)
-
-
 def _taps(spec: str, material: str = "skin1", n: int = 7):
     prof = profile_for_material(material, "dipole")
     m, params, _ = parse_method_spec(spec)
@@ -270,3 +259,41 @@ def test_unknown_and_unavailable_backends():
             get_backend("missing-test")
     finally:
         BACKENDS._entries.pop("missing-test")
+
+
+@pytest.mark.parametrize("width", [1, 5, 15, 16, 17, 33])
+def test_narrow_images_unused_slots_and_empty_frames(width, backend, rng):
+    """Images narrower than a block of lanes, a plan slot with no pixels, a frame with no SSS at all."""
+    h = 12
+    e = rng.random((h, width, 3)).astype(np.float32)
+    depth = (300 + 2 * np.arange(width)[None, :] + 0 * np.arange(h)[:, None]).astype(np.float32)
+    taps = {1: _taps("preintegrated"), 2: _taps("artist"), 3: _taps("svd:2")}
+    plan = build_separable_plan(taps, 400.0, 400.0, jitter=0.3, depth_mode="follow", frame=1)
+    slots = np.ones((h, width), np.int32)
+    slots[:, width // 2:] = 3  # slot 2 has no pixels
+    out = get_backend(backend).separable(plan, e, depth, slots)
+    ref = get_backend("numpy").separable(plan, e, depth, slots)
+    np.testing.assert_allclose(out, ref, atol=tolerance(backend))
+    none = get_backend(backend).separable(plan, e, depth, np.zeros_like(slots))
+    np.testing.assert_array_equal(none, e)
+
+
+def test_backend_instances_are_keyed_by_name():
+    from ssskit.backends import BACKENDS, Backend
+
+    class A(Backend):
+        def separable(self, plan, diffuse, depth_mm, slots):
+            return "a"
+
+    class B(A):
+        def separable(self, plan, diffuse, depth_mm, slots):
+            return "b"
+
+    BACKENDS.register("test-a", lambda: A())
+    BACKENDS.register("test-b", lambda: B())  # same factory __name__ ('<lambda>')
+    try:
+        assert get_backend("test-a").separable(None, None, None, None) == "a"
+        assert get_backend("test-b").separable(None, None, None, None) == "b"
+    finally:
+        BACKENDS._entries.pop("test-a")
+        BACKENDS._entries.pop("test-b")

@@ -9,7 +9,7 @@ import pytest
 
 #: files each test finds in its (empty, current) folder: a regular file, a file named like a G-buffer
 #: (never read: every check below fails before the G-buffer is loaded) and a folder named x.exr
-SETUP = {"f.txt": "not a folder", "g.exr": "not read"}
+SETUP = {"f.txt": "not a folder", "g.exr": "not read", "m.json": '{"sigma_a": 0.01, "sigma_s": 1.0}'}
 
 
 @pytest.fixture
@@ -80,6 +80,8 @@ BAD = [
     (["render", "--scene", "g.exr", "--save-gbuffer", "g.exr"], "--save-gbuffer 'g.exr' would overwrite the input"),
     (["render", "--scene", "slab", "--out", "a.exr", "--save-gbuffer", "a.exr"], "--save-gbuffer 'a.exr' is also the --out file"),
     (["render", "--scene", "g.exr", "--reference"], "--reference needs a built-in scene"),
+    (["kernel", "--material", "m.json", "--model", "dipole", "--method", "artist", "--out", "m.json"],
+     "would overwrite the input 'm.json'"),
     (["render", "--scene", "x.exr"], "'x.exr' is a directory"),
     (["render", "--scene", "missing.exr"], "does not exist"),
     (["render", "--scene", "f.txt"], "must end in .exr"),

@@ -6,19 +6,7 @@ import pytest
 from ssskit.backends import term_rows
 from ssskit.errors import SamplingError
 from ssskit.kernels import build_kernel, default_grid
-from ssskit.profiles import profile_for_material
 from ssskit.sampling.taps import SeparableTaps, make_taps
-
-
-@pytest.fixture(scope="module")
-def skin():
-    return profile_for_material("skin1", "dipole")
-
-
-@pytest.fixture(scope="module")
-def taps7(skin):
-    cell, n = default_grid(skin)
-    return make_taps(build_kernel("preintegrated", skin, cell, n), 7)
 
 
 def test_importance_taps_equal_mass_of_dominant_channel(taps7):

@@ -6,20 +6,8 @@ import pytest
 
 from ssskit.errors import PassError, SettingsError
 from ssskit.kernels import build_kernel, default_grid
-from ssskit.profiles import profile_for_material
 from ssskit.sampling.taps import make_taps
 from ssskit.screenspace import Camera, GBuffer, PassSettings, default_depth_mode, filter_arrays, separable_sss
-
-
-@pytest.fixture(scope="module")
-def skin():
-    return profile_for_material("skin1", "dipole")
-
-
-@pytest.fixture(scope="module")
-def taps7(skin):
-    cell, n = default_grid(skin)
-    return make_taps(build_kernel("preintegrated", skin, cell, n), 7)
 
 
 def test_bad_pass_settings(taps7):

@@ -9,6 +9,7 @@ new arrays.
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
@@ -16,6 +17,10 @@ from ..errors import PassError
 from ..sampling.hashes import frame_base
 from .base import Backend, check_frame
 from .plan import SeparablePlan, TermTable
+
+
+#: the largest planar frame buffer the backend allocates (extreme close-ups need a wide pad)
+MAX_BUFFER_BYTES = 2 << 30
 
 
 class NumbaBackend(Backend):
@@ -27,6 +32,7 @@ class NumbaBackend(Backend):
         self._key: tuple | None = None
         self._buf: np.ndarray | None = None
         self._pool = None
+        self._lock = threading.Lock()
 
     def availability(self) -> tuple[bool, str]:
         try:
@@ -65,19 +71,28 @@ class NumbaBackend(Backend):
         return self._buf, wps, plane
 
     def separable(self, plan: SeparablePlan, diffuse, depth_mm, slots):
-        from ._numba_separable import PASSES, TMP_PLANE, depth_range, pack
-
         check_frame(diffuse, depth_mm, slots, plan, values=False)
+        with self._lock:  # one frame buffer per backend: one frame at a time
+            return self._separable(plan, diffuse, depth_mm, slots)
+
+    def _separable(self, plan: SeparablePlan, diffuse, depth_mm, slots):
+        from ._numba_separable import LANES, PASSES, PLANES, TMP_PLANE, depth_range, pack
+
         h, w = slots.shape
         slots = np.ascontiguousarray(slots, dtype=np.int32)
-        depth = np.ascontiguousarray(depth_mm)
-        src = np.ascontiguousarray(diffuse)
+        depth = np.ascontiguousarray(depth_mm, dtype=np.float32)
+        src = np.ascontiguousarray(diffuse, dtype=np.float32)
         z_min, bad = depth_range(depth, slots)
         if bad:
             raise PassError("depth must be positive and finite on every pixel with SSS")
         if not np.isfinite(z_min):  # no pixel with SSS
             return np.array(src, dtype=np.float32)
         pad = _pad(plan, float(z_min), h, w)
+        size = PLANES * (h + 2 * pad) * (w + 2 * pad + LANES) * 4
+        if size > MAX_BUFFER_BYTES:
+            raise PassError(f"the kernel reaches {pad - 3} px at the nearest depth ({z_min:.4g} mm): the numba "
+                            f"backend would need a {size / 2**30:.1f} GiB frame buffer (limit "
+                            f"{MAX_BUFFER_BYTES / 2**30:.0f} GiB); use --backend numpy or a smaller footprint")
         buf, wps, plane = self._buffer(h, w, pad)
         pack(src, depth, slots, buf, pad, wps, plane)
         run = PASSES[plan.depth_mode]

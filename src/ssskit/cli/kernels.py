@@ -112,9 +112,12 @@ def kernel(ctx, material, method_spec, model, photons, grid_n, as_json, out, **m
     """A separable kernel approximation of a material's profile."""
     from ..kernels import build_kernel, save_kernel
 
+    from ..io import check_distinct
+
     m, params = method_parameters(method_spec, method_values)
     if grid_n % 2 == 0:
         raise SsskitError(f"--size must be odd (the origin sits at a cell centre), got {grid_n}")
+    check_distinct(out, material, what="--out")
     from ..profiles import MATERIAL_FREE_MODELS
 
     prof = None
