@@ -317,8 +317,10 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
                 # and jitter windows of radius <= RMAX, on one profile (several: plain rows only); anything
                 # else sends the whole block to per-lane fetches (one code path, small compiled code)
                 fast = not mixed
+                alone = not multi  # no other profile within the block's reach: no slot test needed
                 if fast:
                     nj = n_jit[sb]
+                    reach = 0
                     for k in range(n_rows[sb]):
                         d = offs[sb, k]
                         lo = np.float32(1e30)
@@ -330,10 +332,24 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
                         fast = fast and sym[sb, k]
                         if k < nj:
                             rwin[k] = int(math.ceil(hi))
-                            fast = fast and rwin[k] <= RMAX and not multi
+                            fast = fast and rwin[k] <= RMAX
                         else:
                             mlo[k] = lo
                             fast = fast and np.floor(hi) - lo <= 1.0
+                            reach = max(reach, int(np.floor(hi)) + 2)
+                    if fast and multi:  # scan the texels the block can reach for another profile
+                        rj = RMAX + 1 if nj > 0 else 0
+                        rx = max(reach, rj) if axis == 0 else rj  # jitter windows reach rj along both axes
+                        ry = rj if axis == 0 else max(reach, rj)
+                        others = 0
+                        sbf = np.float32(sb)
+                        for j in range(-ry, ry + 1):
+                            b0 = so + U(c0 - rx + j * wps)
+                            for i in range(_L + 2 * rx):
+                                q = buf[b0 + U(i)]
+                                others += 1 if (q != zero and q != sbf) else 0
+                        alone = others == 0
+                        fast = alone or nj == 0  # jitter windows only where no other profile is near
                 if fast:
                     p = param[sb]
                     for k in range(n_rows[sb]):
@@ -346,7 +362,7 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
                         elif k < n_jit[sb]:
                             _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, RMAX, offs[sb, k], wk, p, cap,
                                         False, True)
-                        elif multi:
+                        elif not alone:
                             _row_block(factor, buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap,
                                        True, True)
                         else:  # the common case: one profile, symmetric pairs
