@@ -94,6 +94,8 @@ def _unit(h):
     return neg * (-sp if odd else cp), neg * (cp if odd else sp)
 
 
+# With several profile slots a block checks the block-slot map (``block_slots``) over the rows and blocks
+# its taps reach: where no other profile is there it skips the per-texel slot test.
 # Layout of the frame buffer ``buf`` (planes of (H + 2 pad) x wps texels): input colour R, G, B; depth; slot;
 # the horizontal pass's colour R', G', B'. Per-row scratch ``sc``: the accumulators (6 x LANES: A_R, A_G,
 # A_B, G_R, G_G, G_B), the lane data (5 x LANES: depth, slot, pixels per mm, jitter axis x, y) and the
@@ -260,7 +262,7 @@ def _row_window(factor, buf, sc, co, zo, so, plane, wps, c0, nl, R, d, w, p, cap
 
 @njit(cache=True, inline="always", fastmath=_FM)
 def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
-              n_rows, centre, param, base, cap):
+              n_rows, centre, param, base, cap, bmap):
     """One 1D pass of one term over the whole image (module docstring), reading colour planes at ``co``
     of ``buf``. ``out`` is flat; pixel (x, y) channel c goes to out[ob + c ocs + y oys + x oxs] (the
     horizontal pass writes buf's TMP planes, the vertical one the (H, W, 3) result).
@@ -274,6 +276,7 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
     so = U(S_PLANE * plane)
     cu = U(co)
     kmax = offs.shape[1]
+    h_img, nbx = bmap.shape
     n_jits = 0
     for i in range(n_jit.size):
         n_jits += n_jit[i]
@@ -341,13 +344,14 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
                         rj = RMAX + 1 if nj > 0 else 0
                         rx = max(reach, rj) if axis == 0 else rj  # jitter windows reach rj along both axes
                         ry = rj if axis == 0 else max(reach, rj)
+                        # in the block-slot map: one entry per row and 16-pixel block (module docstring)
                         others = 0
-                        sbf = np.float32(sb)
-                        for j in range(-ry, ry + 1):
-                            b0 = so + U(c0 - rx + j * wps)
-                            for i in range(_L + 2 * rx):
-                                q = buf[b0 + U(i)]
-                                others += 1 if (q != zero and q != sbf) else 0
+                        bx0 = max(0, (x0 - rx) // _L)
+                        bx1 = min(nbx - 1, (x0 + _L - 1 + rx) // _L)
+                        for j in range(max(0, y - ry), min(h_img, y + ry + 1)):
+                            for bx in range(bx0, bx1 + 1):
+                                q = bmap[j, bx]
+                                others += 1 if (q != 0 and q != sb) else 0
                         alone = others == 0
                         fast = alone or nj == 0  # jitter windows only where no other profile is near
                 if fast:
@@ -401,23 +405,23 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
 
 @njit(cache=True, nogil=True, fastmath=_FM)
 def pass_gaussian(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
-                  centre, param, base, cap):
+                  centre, param, base, cap, bmap):
     _sep_body(f_gaussian, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
-              n_rows, centre, param, base, cap)
+              n_rows, centre, param, base, cap, bmap)
 
 
 @njit(cache=True, nogil=True, fastmath=_FM)
 def pass_follow(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
-                centre, param, base, cap):
+                centre, param, base, cap, bmap):
     _sep_body(f_follow, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
-              n_rows, centre, param, base, cap)
+              n_rows, centre, param, base, cap, bmap)
 
 
 @njit(cache=True, nogil=True, fastmath=_FM)
 def pass_none(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
-              centre, param, base, cap):
+              centre, param, base, cap, bmap):
     _sep_body(f_none, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
-              n_rows, centre, param, base, cap)
+              n_rows, centre, param, base, cap, bmap)
 
 
 PASSES = {"gaussian": pass_gaussian, "follow": pass_follow, "none": pass_none}
@@ -455,3 +459,22 @@ def depth_range(depth_mm, slots):
                 elif z < zmin[y]:
                     zmin[y] = z
     return zmin.min(), bad.sum()
+
+
+@njit(cache=True, parallel=True)
+def block_slots(slots):
+    """The block-slot map (H, ceil(W / LANES)) int32: for each row and block of LANES pixels, the one
+    nonzero slot its pixels have (0 if none, -1 if several): with several profiles, a block of the pass
+    reads it to learn whether any other profile lies within its taps' reach."""
+    h, w = slots.shape
+    nbx = (w + _L - 1) // _L
+    out = np.zeros((h, nbx), np.int32)
+    for y in prange(h):
+        for bx in range(nbx):
+            v = 0
+            for x in range(bx * _L, min(w, bx * _L + _L)):
+                q = slots[y, x]
+                if q > 0:
+                    v = q if v == 0 or v == q else -1
+            out[y, bx] = v
+    return out

@@ -76,7 +76,7 @@ class NumbaBackend(Backend):
             return self._separable(plan, diffuse, depth_mm, slots)
 
     def _separable(self, plan: SeparablePlan, diffuse, depth_mm, slots):
-        from ._numba_separable import LANES, PASSES, PLANES, TMP_PLANE, depth_range, pack
+        from ._numba_separable import LANES, PASSES, PLANES, TMP_PLANE, block_slots, depth_range, pack
 
         h, w = slots.shape
         slots = np.ascontiguousarray(slots, dtype=np.int32)
@@ -103,12 +103,13 @@ class NumbaBackend(Backend):
         flat = out.reshape(-1)
         tmp = TMP_PLANE * plane
         acc = None
+        bmap = block_slots(slots) if plan.slots > 2 else np.zeros((h, 1), np.int32)
         for term in plan.terms:
             t = _tables(term)
             self._rows(h, lambda y0, y1: run(buf, buf, 0, tmp + pad * wps + pad, plane, wps, 1, y0, y1, w, pad, wps,
-                                             plane, 0, plan.fx, *t, param, base, cap))
+                                             plane, 0, plan.fx, *t, param, base, cap, bmap))
             self._rows(h, lambda y0, y1: run(buf, flat, tmp, 0, 1, 3 * w, 3, y0, y1, w, pad, wps, plane, 1, plan.fy,
-                                             *t, param, base, cap))
+                                             *t, param, base, cap, bmap))
             if len(plan.terms) == 1 and np.all(term.sign == 1):
                 return out
             contribution = term.sign[slots].astype(np.float32) * out
