@@ -429,3 +429,8 @@ def depth_mode_option() -> Callable:
 
 def tap_method_option(default: str) -> Callable:
     return click.option("--tap-method", type=TAP_METHOD, default=default, show_default=True, help="Tap placement.")
+
+
+def option_name(ctx: click.Context, name: str) -> str:
+    """How the user spells the option of click parameter ``name`` (``n_gaussians`` -> ``--gaussians``)."""
+    return next((p.opts[0] for p in ctx.command.params if p.name == name and p.opts), name)

@@ -16,6 +16,7 @@ from .options import (
     json_option,
     material_option,
     model_option,
+    option_name,
     out_option,
     photons_option,
 )
@@ -27,14 +28,6 @@ def model_parameters(model: str) -> set[str]:
     sig = inspect.signature(MODELS.get(model))
     return {n for n, p in list(sig.parameters.items())[1:]
             if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
-
-
-def option_name(ctx: click.Context, name: str) -> str:
-    """How the user spells the option of click parameter ``name`` (``n_gaussians`` -> ``--gaussians``)."""
-    for p in ctx.command.params:
-        if p.name == name and p.opts:
-            return p.opts[0]
-    return name
 
 
 def check_material_for_model(ctx: click.Context, material, model: str, needed_by: str = "") -> None:

@@ -25,6 +25,7 @@ from .options import (
     kernel_spec_option,
     material_option,
     model_option,
+    option_name,
     out_option,
     photons_option,
     progress,
@@ -59,10 +60,6 @@ FIELDS: dict[str, tuple[str, ...]] = {
 SCENE_ONLY = ("size", "spp")
 
 
-def _flag(ctx: click.Context, name: str) -> str:
-    return next((p.opts[0] for p in ctx.command.params if p.name == name and p.opts), name)
-
-
 def _apply(s: RenderSettings, flag: str, fields: tuple[str, ...], values: tuple) -> RenderSettings:
     top = {f: v for f, v in zip(fields, values) if not f.startswith("sss.")}
     sub = {f[4:]: v for f, v in zip(fields, values) if f.startswith("sss.")}
@@ -88,7 +85,7 @@ def build_settings(ctx: click.Context, settings_file: str | None, params: dict) 
             values = (not value,)
         else:
             values = (value,) * len(fields)
-        s = _apply(s, _flag(ctx, name), fields, values)
+        s = _apply(s, option_name(ctx, name), fields, values)
     # an engine tap kernel (a method whose parameter is its tap count, e.g. jimenez2012) is built with
     # --taps taps (ssskit.pipeline.render); --kernel NAME:N and an explicit --taps must agree
     from ..kernels import parse_method_spec
@@ -142,7 +139,7 @@ def render(ctx, scene, settings_file, save_gbuffer, out, as_json, **params) -> N
     if gbuffer_file:
         for name in SCENE_ONLY:
             if given(ctx, name):
-                raise SsskitError(f"{_flag(ctx, name)} applies to a built-in scene; the G-buffer file "
+                raise SsskitError(f"{option_name(ctx, name)} applies to a built-in scene; the G-buffer file "
                                   f"{str(scene)!r} has its own")
     s = build_settings(ctx, settings_file, params)
     if gbuffer_file and s.reference:

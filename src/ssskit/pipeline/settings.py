@@ -9,13 +9,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..errors import SettingsError
+from ..scenes.scenes import SIZE_RANGE  # image sizes of the built-in scenes (pixels per side)
 from ..screenspace.settings import PassSettings
 from ..settings import Settings, check_choice, check_int
 
 #: photons per channel of Monte Carlo profiles: one range for every command
 PHOTONS_RANGE = (1_000, 10_000_000_000)
-#: image sizes of the built-in scenes (pixels per side)
-SIZE_RANGE = (8, 8192)
 TAP_RANGE = (1, 255)
 
 

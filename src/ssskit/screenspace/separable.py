@@ -114,10 +114,7 @@ def filter_arrays(diffuse: np.ndarray, depth_mm: np.ndarray, fx: float, fy: floa
         raise PassError(f"the pass needs SeparableTaps (ssskit.sampling.make_taps), got {type(taps).__name__}")
     s = _settings(settings, overrides)
     backend = get_backend(s.backend)
-    depth_mm = np.asarray(depth_mm)
-    if np.ndim(depth_mm) != 2 or np.shape(diffuse) != depth_mm.shape + (3,):
-        raise PassError(f"diffuse must be (H, W, 3) and depth (H, W) of the same size, got {np.shape(diffuse)} "
-                        f"and {np.shape(depth_mm)}")
+    depth_mm = np.asarray(depth_mm)  # shapes are checked by the backend (backends.check_frame)
     plan = plan_for(taps, [1], fx, fy, s)
     slots = np.isfinite(depth_mm).astype(np.int32)
     return backend.separable(plan, diffuse, depth_mm, slots)
