@@ -35,6 +35,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import numpy as np  # noqa: E402
 from bench_separable import FOCAL_1080P, scene, taps_for  # noqa: E402
 
+COPY_BUFFER_SOURCE = """#version 430
+layout(local_size_x = 256) in;
+layout(std430, binding = 0) readonly buffer Src { vec4 src[]; };
+layout(std430, binding = 1) writeonly buffer Dst { vec4 dst[]; };
+uniform int u_n;
+void main() {
+    int i = int(gl_GlobalInvocationID.x);
+    if (i < u_n) dst[i] = src[i];
+}
+"""
+
 COPY_SOURCE = """#version 430
 layout(local_size_x = 16, local_size_y = 16) in;
 layout(binding = 0) uniform sampler2D u_src;
@@ -57,10 +68,25 @@ def _median(v):
     return statistics.median(v) if v else None
 
 
-def time_gl(width: int, height: int, jitter: float, frames: int, local_size) -> dict:
-    from ssskit.backends.gl.context import GpuTimer, context
+def parse_layout(text: str):
+    """``default``, ``gpu``, ``cpu`` or ``HxW:VxW:SSS``: work-group sizes of the horizontal and vertical
+    passes and the storage of the source, intermediate and output images (t = texture, b = buffer)."""
+    from ssskit.backends.gl.separable import CPU_LAYOUT, GPU_LAYOUT, default_layout
+
+    named = {"default": default_layout, "gpu": lambda: GPU_LAYOUT, "cpu": lambda: CPU_LAYOUT}
+    if text in named:
+        return named[text]()
+    from ssskit.backends.gl.separable import Layout
+
+    h, v, codes = text.split(":")
+    return Layout(_size(h), _size(v), tuple("buffer" if c == "b" else "texture" for c in codes))
+
+
+def time_gl(width: int, height: int, jitter: float, batches: int, batch: int, layout) -> dict:
+    from ssskit.backends.gl.context import context, is_software, time_gpu
     from ssskit.backends.gl.separable import SeparableFrame
     from ssskit.backends.plan import build_separable_plan
+    from ssskit.backends.numpy_backend import NumpyBackend
 
     image, depth = scene(width, height)
     f = FOCAL_1080P * width / 1920
@@ -69,27 +95,28 @@ def time_gl(width: int, height: int, jitter: float, frames: int, local_size) -> 
     slots = np.ones((height, width), np.int32)
     ctx = context()
     with ctx:
-        frame = SeparableFrame(plan, image, depth, slots, local_size=local_size)
-        for _ in range(5):
-            frame.run()
-        ctx.finish()
-        timer = GpuTimer()
-        for _ in range(frames):
-            frame.run(timer=timer)
-        passes = {k: _median(v) for k, v in timer.results().items()}
-        for _ in range(frames):
-            with timer("frame"):
-                frame.run()
-        per_frame = timer.results()["frame"]
+        frame = SeparableFrame(plan, image, depth, slots, layout=layout)
+        frame.run()
         out = frame.read()
-    return {"frame_ms": _median(per_frame), "frame_ms_min": min(per_frame), "passes_ms": passes,
-            "jittered_rows": int(plan.terms[0].n_jit[1]), "checksum": float(out.astype(np.float64).sum()),
-            "timing": "GL_TIME_ELAPSED" if timer.gpu else "wall time around glFinish"}
+        per_frame = time_gpu(frame.run, batches, batch)
+        passes = {name: statistics.median(time_gpu(lambda v=v: frame.dispatch(0, v), batches, batch))
+                  for name, v in (("horizontal", False), ("vertical", True))}
+    # parity on a crop (the numpy oracle is slow): the same frame's top-left 256 x 128 window
+    ch, cw = min(height, 128), min(width, 256)
+    ref = NumpyBackend().separable(plan, image[:ch, :cw], depth[:ch, :cw], slots[:ch, :cw])
+    with ctx:
+        small = SeparableFrame(plan, image[:ch, :cw], depth[:ch, :cw], slots[:ch, :cw], layout=layout)
+        small.run()
+        err = float(np.abs(small.read() - ref).max())
+    return {"frame_ms": statistics.median(per_frame), "frame_ms_min": min(per_frame), "passes_ms": passes,
+            "jittered_rows": int(plan.terms[0].n_jit[1]), "max_abs_vs_numpy_crop": err,
+            "checksum": float(out.astype(np.float64).sum()),
+            "timing": "wall time around glFinish" if is_software() else "GL_TIME_ELAPSED, batches of queued frames"}
 
 
-def time_copy_floor(width: int, height: int, frames: int) -> dict:
+def time_copy_floor(width: int, height: int, batches: int, batch: int) -> dict:
     """Two RGBA32F texture -> image copies: the bytes the two passes must move at least."""
-    from ssskit.backends.gl.context import GpuTimer, compile_compute, context
+    from ssskit.backends.gl.context import compile_compute, context, time_gpu
 
     ctx = context()
     with ctx:
@@ -107,18 +134,31 @@ def time_copy_floor(width: int, height: int, frames: int) -> dict:
                 prog.run(*groups, 1)
                 ctx.memory_barrier()
 
-        for _ in range(5):
-            run()
-        timer = GpuTimer()
-        for _ in range(frames):
-            with timer("copy"):
-                run()
-        times = timer.results()["copy"]
+        times = time_gpu(run, batches, batch)
         ok = np.array_equal(np.frombuffer(c.read(), np.float32).reshape(height, width, 4), data)
         for t in (a, b, c):
             t.release()
-    return {"frame_ms": _median(times), "frame_ms_min": min(times), "bytes": 4 * 16 * width * height,
-            "copy_exact": bool(ok)}
+        # the same bytes through storage buffers
+        a, b, c = (ctx.buffer(reserve=16 * width * height) for _ in range(3))
+        a.write(data.tobytes())
+        bprog = compile_compute(COPY_BUFFER_SOURCE, "copy")
+        bprog["u_n"] = width * height
+
+        def run_buffers():
+            for src, dst in ((a, b), (b, c)):
+                src.bind_to_storage_buffer(0)
+                dst.bind_to_storage_buffer(1)
+                bprog.run(-(-width * height // 256), 1, 1)
+                ctx.memory_barrier()
+
+        btimes = time_gpu(run_buffers, batches, batch)
+        ok = ok and np.array_equal(np.frombuffer(c.read(), np.float32).reshape(height, width, 4), data)
+        for t in (a, b, c):
+            t.release()
+    nbytes = 4 * 16 * width * height
+    ms = min(statistics.median(times), statistics.median(btimes))
+    return {"frame_ms": ms, "texture_copy_ms": statistics.median(times), "buffer_copy_ms": statistics.median(btimes),
+            "bytes": nbytes, "gb_per_s": nbytes / ms / 1e6, "copy_exact": bool(ok)}
 
 
 def time_numba(width: int, height: int, jitter: float, repeats: int) -> float:
@@ -140,9 +180,11 @@ def time_numba(width: int, height: int, jitter: float, repeats: int) -> float:
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", nargs="+", default=["1280x720", "1920x1080", "3840x2160"])
-    ap.add_argument("--frames", type=int, default=50, help="timed frames per case (medians)")
+    ap.add_argument("--batches", type=int, default=20, help="timed batches per case (medians)")
+    ap.add_argument("--batch", type=int, default=10, help="frames queued back to back per timed batch")
     ap.add_argument("--jitter", type=float, nargs="+", default=[0.0, 0.1])
-    ap.add_argument("--local-size", nargs="+", default=["16x16"], help="work-group sizes to compare, WxH")
+    ap.add_argument("--layout", nargs="+", default=["default"],
+                    help="layouts to compare: default (this device's), gpu, cpu, or HxW:VxW:SSS (t/b per image)")
     ap.add_argument("--cpu", action="store_true", help="also time the numba backend on the same frames")
     ap.add_argument("--cpu-repeats", type=int, default=5)
     args = ap.parse_args(argv)
@@ -152,11 +194,12 @@ def main(argv=None) -> dict:
               "taps": 7, "depth_mode": "follow", "cases": []}
     for text in args.sizes:
         w, h = _size(text)
-        floor = time_copy_floor(w, h, args.frames)
+        floor = time_copy_floor(w, h, args.batches, args.batch)
         for jitter in args.jitter:
-            for ls in args.local_size:
-                case = {"size": f"{w}x{h}", "jitter": jitter, "local_size": ls,
-                        "gl": time_gl(w, h, jitter, args.frames, _size(ls)), "copy_floor": floor}
+            for text in args.layout:
+                layout = parse_layout(text)
+                case = {"size": f"{w}x{h}", "jitter": jitter, "layout": text,
+                        "gl": time_gl(w, h, jitter, args.batches, args.batch, layout), "copy_floor": floor}
                 case["ratio_to_floor"] = case["gl"]["frame_ms"] / floor["frame_ms"]
                 if args.cpu:
                     case["numba_ms"] = time_numba(w, h, jitter, args.cpu_repeats)

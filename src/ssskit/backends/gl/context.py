@@ -119,6 +119,37 @@ class GpuTimer:
         return out
 
 
+def time_gpu(fn, batches: int = 20, batch: int = 10, warmup_ms: float = 50.0) -> list[float]:
+    """ms per call of ``fn`` (which only queues GL work): ``batches`` medians-ready samples, each one
+    GL_TIME_ELAPSED query around ``batch`` calls queued back to back (on llvmpipe: wall time around
+    glFinish), after ``warmup_ms`` of calls so the GPU is busy and clocked up. Queueing a batch keeps the
+    GPU fed: a query around one small call also counts the gaps while Python queues the next command.
+    """
+    ctx = context()
+    gpu = not is_software()
+    ctx.finish()
+    t0 = time.perf_counter()
+    while (time.perf_counter() - t0) * 1e3 < warmup_ms:
+        fn()
+        ctx.finish()
+    samples = []
+    for _ in range(batches):
+        if gpu:
+            q = ctx.query(time=True)
+            with q:
+                for _ in range(batch):
+                    fn()
+            samples.append(q)
+        else:
+            ctx.finish()
+            t = time.perf_counter()
+            for _ in range(batch):
+                fn()
+            ctx.finish()
+            samples.append((time.perf_counter() - t) * 1e3 / batch)
+    return [q.elapsed / 1e6 / batch for q in samples] if gpu else samples
+
+
 class _Interval:
     def __init__(self, timer: GpuTimer, name: str):
         self.timer, self.name = timer, name
