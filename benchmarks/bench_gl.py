@@ -83,7 +83,7 @@ def parse_layout(text: str):
 
 
 def time_gl(width: int, height: int, jitter: float, batches: int, batch: int, layout) -> dict:
-    from ssskit.backends.gl.context import context, is_software, time_gpu
+    from ssskit.backends.gl.context import is_software, time_gpu
     from ssskit.backends.gl.separable import SeparableFrame
     from ssskit.backends.plan import build_separable_plan
     from ssskit.backends.numpy_backend import NumpyBackend
@@ -93,21 +93,18 @@ def time_gl(width: int, height: int, jitter: float, batches: int, batch: int, la
     taps = taps_for("skin1")
     plan = build_separable_plan({1: taps}, f, f, jitter=jitter, depth_mode="follow")
     slots = np.ones((height, width), np.int32)
-    ctx = context()
-    with ctx:
-        frame = SeparableFrame(plan, image, depth, slots, layout=layout)
-        frame.run()
-        out = frame.read()
-        per_frame = time_gpu(frame.run, batches, batch)
-        passes = {name: statistics.median(time_gpu(lambda v=v: frame.dispatch(0, v), batches, batch))
-                  for name, v in (("horizontal", False), ("vertical", True))}
+    frame = SeparableFrame(plan, image, depth, slots, layout=layout)
+    frame.run()
+    out = frame.read()
+    per_frame = time_gpu(frame.run, batches, batch)
+    passes = {name: statistics.median(time_gpu(lambda v=v: frame.dispatch(0, v), batches, batch))
+              for name, v in (("horizontal", False), ("vertical", True))}
     # parity on a crop (the numpy oracle is slow): the same frame's top-left 256 x 128 window
     ch, cw = min(height, 128), min(width, 256)
     ref = NumpyBackend().separable(plan, image[:ch, :cw], depth[:ch, :cw], slots[:ch, :cw])
-    with ctx:
-        small = SeparableFrame(plan, image[:ch, :cw], depth[:ch, :cw], slots[:ch, :cw], layout=layout)
-        small.run()
-        err = float(np.abs(small.read() - ref).max())
+    small = SeparableFrame(plan, image[:ch, :cw], depth[:ch, :cw], slots[:ch, :cw], layout=layout)
+    small.run()
+    err = float(np.abs(small.read() - ref).max())
     return {"frame_ms": statistics.median(per_frame), "frame_ms_min": min(per_frame), "passes_ms": passes,
             "jittered_rows": int(plan.terms[0].n_jit[1]), "max_abs_vs_numpy_crop": err,
             "checksum": float(out.astype(np.float64).sum()),
@@ -119,42 +116,41 @@ def time_copy_floor(width: int, height: int, batches: int, batch: int) -> dict:
     from ssskit.backends.gl.context import compile_compute, context, time_gpu
 
     ctx = context()
-    with ctx:
-        data = np.random.default_rng(0).random((height, width, 4), dtype=np.float32)
-        a, b, c = (ctx.texture((width, height), 4, dtype="f4") for _ in range(3))
-        a.write(data.tobytes())
-        prog = compile_compute(COPY_SOURCE, "copy")
-        prog["u_size"] = (width, height)
-        groups = (-(-width // 16), -(-height // 16))
+    data = np.random.default_rng(0).random((height, width, 4), dtype=np.float32)
+    a, b, c = (ctx.texture((width, height), 4, dtype="f4") for _ in range(3))
+    a.write(data.tobytes())
+    prog = compile_compute(COPY_SOURCE, "copy")
+    prog["u_size"] = (width, height)
+    groups = (-(-width // 16), -(-height // 16))
 
-        def run():
-            for src, dst in ((a, b), (b, c)):
-                src.use(0)
-                dst.bind_to_image(0, read=False, write=True)
-                prog.run(*groups, 1)
-                ctx.memory_barrier()
+    def run():
+        for src, dst in ((a, b), (b, c)):
+            src.use(0)
+            dst.bind_to_image(0, read=False, write=True)
+            prog.run(*groups, 1)
+            ctx.memory_barrier()
 
-        times = time_gpu(run, batches, batch)
-        ok = np.array_equal(np.frombuffer(c.read(), np.float32).reshape(height, width, 4), data)
-        for t in (a, b, c):
-            t.release()
-        # the same bytes through storage buffers
-        a, b, c = (ctx.buffer(reserve=16 * width * height) for _ in range(3))
-        a.write(data.tobytes())
-        bprog = compile_compute(COPY_BUFFER_SOURCE, "copy")
-        bprog["u_n"] = width * height
+    times = time_gpu(run, batches, batch)
+    ok = np.array_equal(np.frombuffer(c.read(), np.float32).reshape(height, width, 4), data)
+    for t in (a, b, c):
+        t.release()
+    # the same bytes through storage buffers
+    a, b, c = (ctx.buffer(reserve=16 * width * height) for _ in range(3))
+    a.write(data.tobytes())
+    bprog = compile_compute(COPY_BUFFER_SOURCE, "copy")
+    bprog["u_n"] = width * height
 
-        def run_buffers():
-            for src, dst in ((a, b), (b, c)):
-                src.bind_to_storage_buffer(0)
-                dst.bind_to_storage_buffer(1)
-                bprog.run(-(-width * height // 256), 1, 1)
-                ctx.memory_barrier()
+    def run_buffers():
+        for src, dst in ((a, b), (b, c)):
+            src.bind_to_storage_buffer(0)
+            dst.bind_to_storage_buffer(1)
+            bprog.run(-(-width * height // 256), 1, 1)
+            ctx.memory_barrier()
 
-        btimes = time_gpu(run_buffers, batches, batch)
-        ok = ok and np.array_equal(np.frombuffer(c.read(), np.float32).reshape(height, width, 4), data)
-        for t in (a, b, c):
-            t.release()
+    btimes = time_gpu(run_buffers, batches, batch)
+    ok = ok and np.array_equal(np.frombuffer(c.read(), np.float32).reshape(height, width, 4), data)
+    for t in (a, b, c):
+        t.release()
     nbytes = 4 * 16 * width * height
     ms = min(statistics.median(times), statistics.median(btimes))
     return {"frame_ms": ms, "texture_copy_ms": statistics.median(times), "buffer_copy_ms": statistics.median(btimes),

@@ -45,10 +45,14 @@ class GLBackend(Backend):
         slots = np.asarray(slots)
         if slots.size == 0:
             return np.array(diffuse, dtype=np.float32, copy=True)
-        with self._lock, context():
-            frame = SeparableFrame(plan, np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
-            frame.run()
-            return frame.read()
+        with self._lock:
+            ctx = context()
+            try:
+                frame = SeparableFrame(plan, np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
+                frame.run()
+                return frame.read()
+            finally:
+                ctx.__exit__(None, None, None)  # release it, so another thread can make it current
 
 
 __all__ = ["GLBackend"]

@@ -47,7 +47,9 @@ def _create():
 
 
 def context():
-    """The process's GL context (made on first use), or a BackendError saying what is missing."""
+    """The process's GL context (made on first use), current in the calling thread, or a BackendError
+    saying what is missing. Every entry point of the backend calls it: ``with ctx:`` blocks make the
+    context current and, on leaving, make the previous one (possibly none) current again."""
     with _LOCK:
         if "ctx" not in _STATE and "error" not in _STATE:
             try:
@@ -56,7 +58,9 @@ def context():
                 _STATE["error"] = e
         if "error" in _STATE:
             raise _STATE["error"]
-        return _STATE["ctx"]
+        ctx = _STATE["ctx"]
+        ctx.__enter__()  # make it current here (it may have been released by a ``with`` block)
+        return ctx
 
 
 def renderer() -> str:

@@ -158,6 +158,9 @@ class SeparableFrame:
 
     def upload(self, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray) -> None:
         """New frame images (same size): E and depth in one RGBA32F texture, the slots in an R16UI one."""
+        from .context import context
+
+        context()
         h, w = slots.shape
         src = np.empty((h, w, 4), np.float32)
         src[..., :3] = diffuse
@@ -170,6 +173,9 @@ class SeparableFrame:
 
     def run(self) -> None:
         """All passes of the frame (horizontal then vertical per term, the terms summed in the output)."""
+        from .context import context
+
+        context()
         for r in range(len(self.programs)):
             self.dispatch(r, False)
             self.dispatch(r, True)
@@ -190,6 +196,9 @@ class SeparableFrame:
 
     def read(self) -> np.ndarray:
         """The filtered diffuse layer, (H, W, 3) float32 (a new array)."""
+        from .context import context
+
+        context()
         return self._textures.read_out()
 
 
