@@ -88,22 +88,23 @@ float depth_factor(float dz, float param) {
 #endif
 }
 
-// f(z_q - z) (E(q) - E(p)) for a texel q of the pixel's slot, else 0 (off the image, off the slot)
-vec3 texel(ivec2 q, vec4 c, uint slot, float param) {
+// (f E(q), f) with f = f(z_q - z) for a texel q of the pixel's slot, else 0 (off the image, off the
+// slot); a tap's sum S of these gives sum_j b_j f_j (E(j) - E(p)) = S.rgb - S.a E(p)
+vec4 texel(ivec2 q, vec4 c, uint slot, float param) {
 #if !(SRC_BUFFER && !MULTI_SLOT)
-    if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, u_size))) return vec3(0.0);
+    if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, u_size))) return vec4(0.0);
 #endif
     vec4 t = load_src(q);
 #if MULTI_SLOT
-    if (load_slot(q) != slot) return vec3(0.0);
+    if (load_slot(q) != slot) return vec4(0.0);
 #else
-    if (t.a < 0.0) return vec3(0.0);
+    if (t.a < 0.0) return vec4(0.0);
 #endif
-    return depth_factor(t.a - c.a, param) * (t.rgb - c.rgb);
+    return depth_factor(t.a - c.a, param) * vec4(t.rgb, 1.0);
 }
 
 // a tap d pixels along the pass axis: the two texels of a 1D linear fetch
-vec3 tap1d(ivec2 p, float d, vec4 c, uint slot, float param) {
+vec4 tap1d(ivec2 p, float d, vec4 c, uint slot, float param) {
     float fl = floor(d);
     float t = d - fl;
     ivec2 q = p + int(fl) * AXIS;
@@ -111,7 +112,7 @@ vec3 tap1d(ivec2 p, float d, vec4 c, uint slot, float param) {
 }
 
 // a tap at offset d (pixels, 2D): the four texels of a bilinear fetch
-vec3 tap2d(ivec2 p, vec2 d, vec4 c, uint slot, float param) {
+vec4 tap2d(ivec2 p, vec2 d, vec4 c, uint slot, float param) {
     vec2 fl = floor(d);
     vec2 t = d - fl;
     ivec2 q = p + ivec2(fl);
@@ -162,12 +163,19 @@ void main() {
         if (k >= nr) break;
         int i = t * KMAX + k;
         float reach = ROW_PLUS[i].w * scale;
+        vec4 sp, sm;
         if (k < nj) {
-            acc += ROW_PLUS[i].rgb * tap2d(p, reach * u, c, slot, param)
-                 + ROW_MINUS[i] * tap2d(p, -reach * u, c, slot, param);
+            sp = tap2d(p, reach * u, c, slot, param);
+            sm = tap2d(p, -reach * u, c, slot, param);
         } else {
-            acc += ROW_PLUS[i].rgb * tap1d(p, reach, c, slot, param)
-                 + ROW_MINUS[i] * tap1d(p, -reach, c, slot, param);
+            sp = tap1d(p, reach, c, slot, param);
+            sm = tap1d(p, -reach, c, slot, param);
+        }
+        if (ROW_SYMMETRIC[i]) {   // a mirror pair: one weight for both sides
+            sp += sm;
+            acc += ROW_PLUS[i].rgb * (sp.rgb - sp.a * c.rgb);
+        } else {
+            acc += ROW_PLUS[i].rgb * (sp.rgb - sp.a * c.rgb) + ROW_MINUS[i] * (sm.rgb - sm.a * c.rgb);
         }
     }
 #if VERTICAL

@@ -84,7 +84,7 @@ def plan_constants(plan: SeparablePlan) -> str:
         raise PassError(f"the gl backend holds at most {MAX_SLOTS - 1} profile ids in one frame, got {plan.slots - 1}")
     S = plan.slots
     kmax = max(1, max((t.max_rows for t in plan.terms), default=0))
-    rows_p, rows_m, n_jit, n_rows, centre, sign = [], [], [], [], [], []
+    rows_p, rows_m, sym, n_jit, n_rows, centre, sign = [], [], [], [], [], [], []
     for term in plan.terms:
         for s in range(S):
             n = int(term.n_rows[s]) if s else 0
@@ -96,9 +96,12 @@ def plan_constants(plan: SeparablePlan) -> str:
                 if k < n:
                     rows_p.append(_vec(list(term.w_plus[s, k]) + [term.offsets_mm[s, k]]))
                     rows_m.append(_vec(term.w_minus[s, k]))
+                    same = np.array_equal(np.float32(term.w_plus[s, k]), np.float32(term.w_minus[s, k]))
+                    sym.append("true" if same else "false")
                 else:
                     rows_p.append("vec4(0.0)")
                     rows_m.append("vec3(0.0)")
+                    sym.append("true")
     return "\n".join([
         f"#define NSLOTS {S}",
         f"#define KMAX {kmax}",
@@ -112,6 +115,8 @@ def plan_constants(plan: SeparablePlan) -> str:
         "// per (term, slot, row): rgb = weight of the tap at +o, a = o (mm); ROW_MINUS: weight at -o",
         _array("vec4", "ROW_PLUS", rows_p),
         _array("vec3", "ROW_MINUS", rows_m),
+        "// the rows whose two weights are equal (mirror pairs)",
+        _array("bool", "ROW_SYMMETRIC", sym),
     ])
 
 
