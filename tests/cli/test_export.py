@@ -8,7 +8,9 @@ import pytest
 from ssskit.export import load_bn, parse_shader_arrays, reimport
 
 from ..export.demo_tables import TABLES
-from .test_bad_input import one_error_line, workdir  # noqa: F401  (the fixture)
+from . import test_bad_input as bad
+
+workdir = bad.workdir  # the fixture: an empty current folder with a few files in it
 
 
 def test_jimenez2012_hlsl(run, tmp_path):
@@ -90,5 +92,5 @@ BAD = [
 
 
 @pytest.mark.parametrize("args, fragment", BAD, ids=[" ".join(a[1:]) for a, _ in BAD])
-def test_bad_input(run, workdir, args, fragment):  # noqa: F811
-    one_error_line(run, workdir, args, fragment)
+def test_bad_input(run, workdir, args, fragment):
+    bad.one_error_line(run, workdir, args, fragment)
