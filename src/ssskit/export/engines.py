@@ -75,6 +75,7 @@ LOST = {
         "the profile's shape beyond Burley's two exponentials (the fit error of the table)",
         "the albedo: HDRP's profile is normalised; the total reflectance is the material's base colour",
         "the tail beyond filterRadius (0.3% of the widest channel's energy)",
+        "scatteringDistance is the serialised (linear) colour; HDRP's inspector shows it gamma-encoded",
     ],
     "blender": [
         "the profile's shape beyond Burley's two exponentials (the fit error of the table)",
