@@ -11,6 +11,7 @@ One module per command or group of commands:
 * :mod:`.profiles` -- ``profile``, ``simulate``, ``xie-c``;
 * :mod:`.kernels` -- ``kernel``, ``evaluate``;
 * :mod:`.render` -- ``render``;
+* :mod:`.export` -- ``export``;
 * :mod:`.report` -- ``figures``, ``demo``.
 """
 
@@ -21,7 +22,7 @@ import sys
 import click
 
 from ..errors import SimulationInterrupted, SsskitError
-from . import backends, kernels, materials, profiles, render, report
+from . import backends, export, kernels, materials, profiles, render, report
 from .options import examples
 
 EXIT_USAGE = 2
@@ -49,6 +50,7 @@ for _command in (
     kernels.kernel,
     kernels.evaluate,
     render.render,
+    export.export,
     report.figures,
     report.demo,
 ):

@@ -1,0 +1,62 @@
+"""Exports engines load: tap kernels as shader arrays, the pre-integrated kernel as ``.bn``, engine
+material parameters (Unreal, Unity HDRP, Blender), and GLSL-to-HLSL translation.
+
+* :mod:`.arrays` -- HLSL / GLSL ``float4 kernel[N]`` in the 2012 separable-SSS demo layout, and back;
+* :mod:`.bn` -- the binary kernel files of the 2015 separable-SSS code, write and read;
+* :mod:`.engines` -- engine parameters from a profile, their re-import and the error of the round trip;
+* :mod:`.shaders` -- ``glsl_to_hlsl`` (glslangValidator, then spirv-cross).
+
+``FORMATS`` lists what ``ssskit export --format`` writes and the file suffixes each accepts;
+:func:`export_kernel` writes a kernel format.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import KernelError
+from .arrays import (
+    LANGUAGES,
+    ShaderArray,
+    arrays_to_tap_kernel,
+    format_shader_arrays,
+    kernel_arrays,
+    parse_shader_arrays,
+)
+from .bn import bn_bytes, load_bn, read_bn, save_bn
+from .engines import ENGINE_MODELS, ENGINES, engine_parameters, fit_burley, profile_error, reimport
+
+#: format -> (accepted output suffixes, whether it exports a kernel (True) or engine parameters (False))
+FORMATS: dict[str, tuple[tuple[str, ...], bool]] = {
+    "hlsl": ((".hlsl", ".hlsli", ".h", ".fx", ".fxh", ".usf", ".ush"), True),
+    "glsl": ((".glsl", ".h", ".comp", ".frag", ".inc"), True),
+    "bn": ((".bn",), True),
+    "json": ((".json",), True),
+    "unreal": ((".json",), False),
+    "unity": ((".json",), False),
+    "blender": ((".json",), False),
+}
+
+
+def export_kernel(kernel, fmt: str, path: str | Path, taps: int | None = None, tap_method: str = "importance",
+                  comment: str = "") -> None:
+    """Write ``kernel`` in a kernel format (``hlsl``, ``glsl``, ``bn``, ``json``) to ``path`` (atomic)."""
+    from ..io import check_suffix, write_text
+    from ..kernels.base import save_kernel
+
+    key = fmt.strip().lower()
+    if key not in FORMATS or not FORMATS[key][1]:
+        raise KernelError(f"{fmt!r} is not a kernel format; choose from "
+                          f"{', '.join(k for k, (_, kern) in FORMATS.items() if kern)}")
+    check_suffix(path, FORMATS[key][0], f"{key} output")
+    if key in LANGUAGES:
+        write_text(path, format_shader_arrays(kernel_arrays(kernel, taps, tap_method), key, comment))
+    elif key == "bn":
+        save_bn(kernel, path)
+    else:
+        save_kernel(kernel, path)
+
+
+__all__ = ["ENGINES", "ENGINE_MODELS", "FORMATS", "LANGUAGES", "ShaderArray", "arrays_to_tap_kernel", "bn_bytes",
+           "engine_parameters", "export_kernel", "fit_burley", "format_shader_arrays", "kernel_arrays", "load_bn",
+           "parse_shader_arrays", "profile_error", "read_bn", "reimport", "save_bn"]

@@ -1,0 +1,111 @@
+"""The pre-integrated kernel as a ``.bn`` file (the binary kernel files of the 2015 separable-SSS code).
+
+Layout (as the public loaders read it: the float count read as a float and floored, then that many
+floats, four per sample): float32 little-endian throughout,
+
+    [count]  then  count / 4 records (r, g, b, x)
+
+with x the sample position in mm on a uniform grid symmetric about 0, increasing; r, g, b the 1D
+kernel function there. Engines interpolate it linearly at their tap offsets, weight each tap by
+its spacing and normalise per channel, so only the shape matters; ssskit writes the kernel's 1D
+function a(x) (cell averages, mm^-1, separable-SSS paper Eq. 2 with rank 1) at the cell centres.
+
+Only a rank-1 tabulated kernel with a positive sign fits the format (the pre-integrated kernel,
+paper Eqs. 4-5, is one): a rank-N or signed kernel, or an engine tap kernel whose taps are not on a
+uniform grid, is refused with the reason.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import KernelError
+from ..io import atomic_output, check_suffix
+
+#: relative tolerance on the grid spacing and its symmetry about 0 when reading (float32 positions)
+GRID_RTOL = 1e-4
+
+
+def bn_bytes(x_mm, rgb) -> bytes:
+    """The file contents for samples at ``x_mm`` (n,) with values ``rgb`` (n, 3) (module docstring)."""
+    x = np.asarray(x_mm, dtype=float)
+    v = np.asarray(rgb, dtype=float)
+    if x.ndim != 1 or v.shape != (x.size, 3) or x.size < 2:
+        raise KernelError(f".bn needs positions (n,) and RGB values (n, 3), n >= 2; got {x.shape} and {v.shape}")
+    _check_grid(x, "kernel")
+    if not np.all(np.isfinite(v)):
+        raise KernelError(".bn values must be finite")
+    records = np.column_stack([v, x]).astype("<f4").ravel()
+    return np.array([records.size], dtype="<f4").tobytes() + records.tobytes()
+
+
+def _check_grid(x: np.ndarray, what: str) -> float:
+    if not np.all(np.isfinite(x)):
+        raise KernelError(f"{what}: sample positions must be finite")
+    steps = np.diff(x)
+    h = float(np.mean(steps))
+    if not (h > 0 and np.all(np.abs(steps - h) <= GRID_RTOL * h)):
+        raise KernelError(f"{what}: sample positions must increase on a uniform grid")
+    if abs(x[0] + x[-1]) > GRID_RTOL * h * max(1.0, x.size):
+        raise KernelError(f"{what}: the grid must be symmetric about 0 (from {x[0]:.6g} to {x[-1]:.6g} mm)")
+    return h
+
+
+def save_bn(kernel, path: str | Path) -> None:
+    """Write a rank-1 tabulated kernel (e.g. ``preintegrated``) as ``.bn`` (atomic)."""
+    from ..kernels.base import Kernel
+
+    check_suffix(path, (".bn",), "kernel output")
+    if not isinstance(kernel, Kernel):
+        raise KernelError(f"the .bn format holds a tabulated kernel on a uniform grid; the {kernel.method} kernel "
+                          "is a list of taps (export it as hlsl, glsl or json)")
+    if kernel.rank != 1 or np.any(kernel.signs != 1):
+        raise KernelError(f"the .bn format holds one positive separable term; the {kernel.method} kernel has "
+                          f"rank {kernel.rank} (use a rank-1 method such as preintegrated, or export hlsl/glsl)")
+    data = bn_bytes(kernel.x_mm, kernel.components[:, 0, :].T)
+    with atomic_output(path) as tmp:
+        tmp.write_bytes(data)
+
+
+def read_bn(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """(x_mm (n,), rgb (n, 3)) of a ``.bn`` file, checked: size, record count, uniform symmetric grid."""
+    p = Path(path)
+    if not p.is_file():
+        raise KernelError(f".bn file {str(p)!r} does not exist")
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise KernelError(f"cannot read .bn file {str(p)!r}: {exc.strerror}") from None
+    if len(raw) < 4 or len(raw) % 4:
+        raise KernelError(f"{str(p)!r} is not a .bn kernel: {len(raw)} bytes is not a float count and float32 records")
+    head = float(np.frombuffer(raw[:4], dtype="<f4")[0])
+    body = np.frombuffer(raw[4:], dtype="<f4")
+    if not np.isfinite(head) or int(np.floor(head)) != body.size or body.size % 4 or body.size < 8:
+        raise KernelError(f"{str(p)!r} is not a .bn kernel: it announces {head:.6g} floats and holds {body.size} "
+                          "(need a multiple of 4, at least two (r, g, b, x) records)")
+    rec = body.reshape(-1, 4).astype(float)
+    x, rgb = rec[:, 3], rec[:, :3]
+    _check_grid(x, str(p))
+    if not np.all(np.isfinite(rgb)):
+        raise KernelError(f"{str(p)!r}: kernel values must be finite")
+    return x, rgb
+
+
+def load_bn(path: str | Path):
+    """A ``.bn`` file as a rank-1 :class:`~ssskit.kernels.Kernel` (cell size: the grid spacing).
+
+    The grid needs a centre sample (an odd count), as every ssskit kernel grid has.
+    """
+    from ..kernels.base import Kernel
+
+    x, rgb = read_bn(path)
+    if x.size % 2 == 0:
+        raise KernelError(f"{str(path)!r}: {x.size} samples have no centre sample at 0 (ssskit kernels need an odd "
+                          "grid); read_bn gives the raw samples")
+    h = float((x[-1] - x[0]) / (x.size - 1))
+    return Kernel(h, rgb.T[:, None, :], np.ones((3, 1)), "bn", {"samples": int(x.size)}, {"file": str(path)})
+
+
+__all__ = ["bn_bytes", "load_bn", "read_bn", "save_bn"]

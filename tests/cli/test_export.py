@@ -1,0 +1,96 @@
+"""``ssskit export``: files engines load, written atomically; every bad input one line and exit 2."""
+
+import json
+
+import numpy as np
+import pytest
+
+from ssskit.export import load_bn, parse_shader_arrays, reimport
+
+from ..export.demo_tables import TABLES
+from . import test_bad_input as bad
+
+workdir = bad.workdir  # the fixture: an empty current folder with a few files in it
+
+
+def test_jimenez2012_hlsl(run, tmp_path):
+    out = tmp_path / "SeparableSSS_kernel.hlsl"
+    code, stdout, err = run("export", "--kernel", "jimenez2012", "--taps", "11", "--format", "hlsl", "--out", out,
+                            "--json")
+    assert code == 0, err
+    assert json.loads(stdout) == {"format": "hlsl", "out": str(out), "material": None, "model": None,
+                                  "kernel": "jimenez2012", "rank": 1, "taps": 11}
+    (arr,) = parse_shader_arrays(out.read_text())
+    np.testing.assert_allclose(arr.weights[0], TABLES[11][0][:3], atol=5e-7)
+    assert arr.offsets_mm.tolist() == pytest.approx([t[3] for t in TABLES[11]])
+
+
+def test_spec_and_taps_agree(run, tmp_path):
+    out = tmp_path / "k.glsl"
+    code, _, err = run("export", "--kernel", "jimenez2012:25", "--taps", "25", "--format", "glsl", "--out", out)
+    assert code == 0, err
+    assert len(parse_shader_arrays(out.read_text())[0].offsets_mm) == 25
+
+
+def test_tabulated_kernel_glsl_and_bn(run, tmp_path):
+    glsl, bn = tmp_path / "k.glsl", tmp_path / "k.bn"
+    code, _, err = run("export", "--material", "skin1", "--kernel", "preintegrated", "--taps", "9",
+                       "--tap-method", "uniform", "--format", "glsl", "--out", glsl)
+    assert code == 0, err
+    (arr,) = parse_shader_arrays(glsl.read_text())
+    assert arr.offsets_mm.size == 9 and "uniform taps" in glsl.read_text()
+    code, _, err = run("export", "--material", "skin1", "--kernel", "preintegrated", "--format", "bn", "--out", bn)
+    assert code == 0, err
+    k = load_bn(bn)
+    assert k.rank == 1 and k.n == 201
+
+
+@pytest.mark.parametrize("engine", ["unreal", "unity", "blender"])
+def test_engine_parameters(run, tmp_path, engine):
+    out = tmp_path / f"{engine}.json"
+    code, stdout, err = run("export", "--material", "marble", "--model", "burley", "--format", engine, "--out", out)
+    assert code == 0, err
+    assert stdout.startswith("# wrote")
+    params = json.loads(out.read_text())
+    assert params["engine"] == engine and params["source_profile"] == {"model": "burley", "name": "Marble"}
+    back = reimport(params, "burley")
+    assert back.model == "burley"
+
+
+BAD = [
+    (["export", "--format", "hlsl", "--out", "k.hlsl"], "--kernel is required for --format hlsl"),
+    (["export", "--format", "unity", "--out", "u.json", "--material", "skin1", "--kernel", "svd"],
+     "--kernel does not apply to --format unity"),
+    (["export", "--format", "unity", "--out", "u.json"], "--material is required for --format unity"),
+    (["export", "--format", "unreal", "--out", "u.json", "--material", "skin1", "--taps", "7"],
+     "--taps does not apply to --format unreal"),
+    (["export", "--format", "bn", "--out", "k.bn", "--kernel", "jimenez2012"], "is a list of taps"),
+    (["export", "--format", "bn", "--out", "k.bn", "--kernel", "svd:2", "--material", "skin1"], "has rank 2"),
+    (["export", "--format", "hlsl", "--out", "k.glsl", "--kernel", "jimenez2012"], "must end in"),
+    (["export", "--format", "bn", "--out", "k.json", "--kernel", "preintegrated", "--material", "skin1"],
+     "must end in .bn"),
+    (["export", "--format", "json", "--out", "k.json", "--kernel", "preintegrated", "--material", "skin1",
+      "--taps", "9"], "--taps does not apply to --format json"),
+    (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012:17", "--taps", "11"], "disagree"),
+    (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--taps", "10"], "must be odd"),
+    (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012:10"], "odd"),
+    (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "preintegrated"], "--material is required"),
+    (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--tap-method", "uniform"],
+     "ships its own taps"),
+    (["export", "--format", "bn", "--out", "k.bn", "--kernel", "preintegrated", "--material", "skin1",
+      "--tap-method", "uniform"], "--format bn writes no taps"),
+    (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--model", "burley"],
+     "need a --material"),
+    (["export", "--format", "hlsl", "--out", "f.txt/k.hlsl", "--kernel", "jimenez2012"], "'f.txt' is not a folder"),
+    (["export", "--format", "unity", "--out", "m.json", "--material", "m.json"], "would overwrite the input"),
+    (["export", "--format", "unity", "--out", "u.json", "--material", "nosuch"], "nosuch"),
+    (["export", "--format", "metal", "--out", "k.hlsl", "--kernel", "jimenez2012"], "--format"),
+    (["export", "--format", "unity", "--out", "u.json", "--material", "skin1", "--model", "dipole",
+      "--photons", "5000"], "--photons does not apply to --model dipole"),
+    (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "nosuch"], "nosuch"),
+]
+
+
+@pytest.mark.parametrize("args, fragment", BAD, ids=[" ".join(a[1:]) for a, _ in BAD])
+def test_bad_input(run, workdir, args, fragment):
+    bad.one_error_line(run, workdir, args, fragment)
