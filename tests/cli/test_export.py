@@ -88,7 +88,28 @@ BAD = [
     (["export", "--format", "unity", "--out", "u.json", "--material", "skin1", "--model", "dipole",
       "--photons", "5000"], "--photons does not apply to --model dipole"),
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "nosuch"], "nosuch"),
+    (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--jitter", "0.2"],
+     "--jitter applies to the whole shaders only"),
+    (["export", "--format", "bn", "--out", "k.bn", "--kernel", "preintegrated", "--material", "skin1",
+      "--depth-mode", "none"], "--depth-mode applies to the whole shaders only"),
+    (["export", "--format", "glsl-shader", "--out", "k.comp", "--kernel", "jimenez2012", "--jitter", "1.5"],
+     "--jitter"),
+    (["export", "--format", "glsl-shader", "--out", "k.hlsl", "--kernel", "jimenez2012"], "must end in"),
 ]
+
+
+def test_whole_shader_export(run, tmp_path):
+    """``--format glsl-shader``: the gl backend's shader with the taps baked in (one file, each pass
+    compiled with VERTICAL / TERM); the same taps as ``--format glsl`` exports as arrays."""
+    out = tmp_path / "sss.comp"
+    code, stdout, err = run("export", "--kernel", "jimenez2012", "--taps", "11", "--format", "glsl-shader",
+                            "--out", out, "--jitter", "0.2", "--depth-mode", "follow", "--json")
+    assert code == 0, err
+    summary = json.loads(stdout)
+    assert summary["taps"] == 11 and summary["jitter"] == 0.2 and summary["depth_mode"] == "follow"
+    text = out.read_text()
+    assert "#version 430" in text and "#ifndef VERTICAL" in text and "#define DEPTH_MODE 1  // follow" in text
+    assert "ROW_PLUS[10]" in text  # 11 taps: 5 mirror pairs per slot (slot 0, no SSS, and the one id)
 
 
 @pytest.mark.parametrize("args, fragment", BAD, ids=[" ".join(a[1:]) for a, _ in BAD])

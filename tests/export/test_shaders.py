@@ -68,3 +68,43 @@ def test_missing_tool_says_which_package(monkeypatch):
     with pytest.raises(ShaderToolError, match="glslang-tools"):
         glsl_to_hlsl(COPY)
     assert tools_available()[0] is False
+
+
+def _skin_taps(spec="preintegrated", material="skin1", n=7):
+    from ssskit.kernels import build_kernel, default_grid, parse_method_spec
+    from ssskit.profiles import profile_for_material
+    from ssskit.sampling.taps import make_taps
+
+    prof = profile_for_material(material, "dipole")
+    m, params, _ = parse_method_spec(spec)
+    cell, size = default_grid(prof)
+    return make_taps(build_kernel(m.name, prof, cell, size, **params), n)
+
+
+def test_whole_glsl_shader_is_the_gl_backends_source():
+    """The exported GLSL is the backend's shader for that plan (whose text runs against the oracle in
+    tests/backends/test_gl.py), with per-pass defines; every pass compiles with glslangValidator."""
+    from ssskit.backends import build_separable_plan
+    from ssskit.backends.gl.separable import export_source
+    from ssskit.export.shaders import separable_shader, with_defines
+
+    taps = _skin_taps("svd:2", "marble", 5)
+    text = separable_shader(taps, "glsl", jitter=0.2, depth_mode="follow")
+    plan = build_separable_plan({1: taps}, 1.0, 1.0, jitter=0.2, depth_mode="follow")
+    assert text == export_source(plan)
+    if OK:
+        for term in range(taps.rank):
+            for vertical in (0, 1):
+                assert glsl_to_spirv(with_defines(text, VERTICAL=vertical, TERM=term))[:4] == SPIRV_MAGIC
+
+
+@needs_tools
+def test_whole_hlsl_shader_has_every_pass_and_compiles_back():
+    from ssskit.export.shaders import separable_shader
+
+    taps = _skin_taps("svd:2", "marble", 5)
+    hlsl = separable_shader(taps, "hlsl")
+    assert hlsl.count("#if VERTICAL ==") == 2 * taps.rank and "[numthreads(16, 16, 1)]" in hlsl
+    for term in range(taps.rank):
+        for vertical in (0, 1):
+            assert check_hlsl(hlsl, defines={"VERTICAL": vertical, "TERM": term})[:4] == SPIRV_MAGIC

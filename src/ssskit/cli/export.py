@@ -15,6 +15,7 @@ from ..errors import SsskitError
 from .options import (
     TAP_RANGE,
     OutputFile,
+    depth_mode_option,
     echo_json,
     examples,
     given,
@@ -38,6 +39,9 @@ def _all_suffixes() -> tuple[str, ...]:
     return tuple(sorted({s for suffixes, _ in _formats().values() for s in suffixes}))
 
 
+SHADERS = ("glsl-shader", "hlsl-shader")
+
+
 def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
     """Every combination check, before any work: returns (method, params, tap count for make_taps)."""
     from ..export import FORMATS
@@ -46,6 +50,16 @@ def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
 
     suffixes, is_kernel = FORMATS[fmt]
     check_suffix(out, suffixes, f"--out for --format {fmt}")
+    if fmt not in SHADERS:
+        for name, flag in (("jitter", "--jitter"), ("depth_mode", "--depth-mode")):
+            if given(ctx, name):
+                raise SsskitError(f"{flag} applies to the whole shaders only (--format glsl-shader or hlsl-shader)")
+    if fmt == "hlsl-shader":
+        from ..export.shaders import tools_available
+
+        ok, why = tools_available()
+        if not ok:
+            raise SsskitError(f"--format hlsl-shader needs glslangValidator and spirv-cross: {why}")
     if not is_kernel:
         for name in ("kernel_spec", "taps", "tap_method"):
             if given(ctx, name):
@@ -88,10 +102,12 @@ def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
     "ssskit export --material skin1 --kernel preintegrated --taps 9 --format glsl --out kernel.glsl",
     "ssskit export --material skin1 --kernel preintegrated --format bn --out skin1.bn",
     "ssskit export --material marble --format unreal --out marble_unreal.json",
-    "ssskit export --material ketchup --model burley --format unity --out ketchup_hdrp.json"))
+    "ssskit export --material ketchup --model burley --format unity --out ketchup_hdrp.json",
+    "ssskit export --material skin1 --kernel preintegrated --taps 7 --format glsl-shader --out sss.comp"))
 @click.option("--format", "fmt", required=True, type=click.Choice(list(_formats()), case_sensitive=False),
               help="hlsl/glsl: shader arrays (demo layout); bn: pre-integrated kernel file; json: ssskit kernel; "
-                   "unreal/unity/blender: engine material parameters (JSON).")
+                   "unreal/unity/blender: engine material parameters (JSON); glsl-shader/hlsl-shader: the whole "
+                   "separable compute shader with the taps baked in (the gl backend's source).")
 @click.option("--out", required=True, type=OutputFile(_all_suffixes()), help="Output file (suffix by format).")
 @material_option(help="Preset name or material file (not needed by jimenez2012 or artist presets).")
 @kernel_spec_option(help="Kernel method name[:value] for hlsl/glsl/bn/json (e.g. jimenez2012, preintegrated, svd:2).")
@@ -99,11 +115,15 @@ def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
               help="Taps per 1D pass (odd): jimenez2012's tap count, or the taps placed on a tabulated kernel "
                    "for hlsl/glsl [default: 11 for jimenez2012, 7 otherwise].")
 @tap_method_option("importance")
+@click.option("--jitter", type=click.FloatRange(0.0, 1.0), default=0.1, show_default=True,
+              help="glsl-shader/hlsl-shader: taps within this fraction of the kernel size on rotated axes.")
+@depth_mode_option()
 @model_option("dipole", help="Profile model of the material (the source of the kernel or of the parameters).")
 @photons_option(200_000, help="--model montecarlo: photons per channel (cached).")
 @json_option("Print one JSON object describing what was written.")
 @click.pass_context
-def export(ctx, fmt, out, material, kernel_spec, taps, tap_method, model, photons, as_json) -> None:
+def export(ctx, fmt, out, material, kernel_spec, taps, tap_method, jitter, depth_mode, model, photons,
+           as_json) -> None:
     """Write a kernel or a material's parameters in a format an engine loads."""
     from ..export import engine_parameters, export_kernel
     from ..io import check_distinct, write_text
@@ -136,10 +156,12 @@ def export(ctx, fmt, out, material, kernel_spec, taps, tap_method, model, photon
         comment = (f"ssskit export: {kernel_spec} kernel" + (f" of {profile.name} ({profile.model})" if profile else "")
                    + ("" if isinstance(kernel, TapKernel) or fmt not in ("hlsl", "glsl")
                       else f", {tap_count or 7} {tap_method} taps"))
-        export_kernel(kernel, fmt, out, tap_count, tap_method, comment)
+        export_kernel(kernel, fmt, out, tap_count, tap_method, comment, jitter, depth_mode)
+        with_taps = fmt in ("hlsl", "glsl") + SHADERS
         summary.update(kernel=kernel_spec, rank=kernel.rank,
-                       taps=kernel.taps if isinstance(kernel, TapKernel) else (tap_count or 7) if fmt in ("hlsl", "glsl")
-                       else None)
+                       taps=kernel.taps if isinstance(kernel, TapKernel) else (tap_count or 7) if with_taps else None)
+        if fmt in SHADERS:
+            summary.update(jitter=jitter, depth_mode=depth_mode)
     if as_json:
         echo_json(summary)
     else:

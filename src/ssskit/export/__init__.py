@@ -4,7 +4,8 @@ material parameters (Unreal, Unity HDRP, Blender), and GLSL-to-HLSL translation.
 * :mod:`.arrays` -- HLSL / GLSL ``float4 kernel[N]`` in the 2012 separable-SSS demo layout, and back;
 * :mod:`.bn` -- the binary kernel files of the 2015 separable-SSS code, write and read;
 * :mod:`.engines` -- engine parameters from a profile, their re-import and the error of the round trip;
-* :mod:`.shaders` -- ``glsl_to_hlsl`` (glslangValidator, then spirv-cross).
+* :mod:`.shaders` -- the whole separable compute shader (``separable_shader``: the ``gl`` backend's
+  GLSL with the taps baked in, and its HLSL translation through glslangValidator and spirv-cross).
 
 ``FORMATS`` lists what ``ssskit export --format`` writes and the file suffixes each accepts;
 :func:`export_kernel` writes a kernel format.
@@ -35,12 +36,16 @@ FORMATS: dict[str, tuple[tuple[str, ...], bool]] = {
     "unreal": ((".json",), False),
     "unity": ((".json",), False),
     "blender": ((".json",), False),
+    # whole compute shaders of the separable pass, the taps baked in (the gl backend's source)
+    "glsl-shader": ((".comp", ".glsl"), True),
+    "hlsl-shader": ((".hlsl", ".fx", ".usf"), True),
 }
 
 
 def export_kernel(kernel, fmt: str, path: str | Path, taps: int | None = None, tap_method: str = "importance",
-                  comment: str = "") -> None:
-    """Write ``kernel`` in a kernel format (``hlsl``, ``glsl``, ``bn``, ``json``) to ``path`` (atomic)."""
+                  comment: str = "", jitter: float = 0.1, depth_mode: str | None = None) -> None:
+    """Write ``kernel`` in a kernel format (``hlsl``, ``glsl``, ``bn``, ``json``, ``glsl-shader``,
+    ``hlsl-shader``) to ``path`` (atomic). The shaders take ``jitter`` and ``depth_mode`` (the pass's)."""
     from ..io import check_suffix, write_text
     from ..kernels.base import save_kernel
 
@@ -49,7 +54,15 @@ def export_kernel(kernel, fmt: str, path: str | Path, taps: int | None = None, t
         raise KernelError(f"{fmt!r} is not a kernel format; choose from "
                           f"{', '.join(k for k, (_, kern) in FORMATS.items() if kern)}")
     check_suffix(path, FORMATS[key][0], f"{key} output")
-    if key in LANGUAGES:
+    if key in ("glsl-shader", "hlsl-shader"):
+        from ..kernels import TapKernel
+        from ..sampling.taps import make_taps
+        from .shaders import separable_shader
+
+        n = kernel.taps if isinstance(kernel, TapKernel) else (taps or 7)
+        text = separable_shader(make_taps(kernel, n, tap_method), key.split("-")[0], jitter, depth_mode)
+        write_text(path, (f"// {comment}\n" if comment else "") + text)
+    elif key in LANGUAGES:
         write_text(path, format_shader_arrays(kernel_arrays(kernel, taps, tap_method), key, comment))
     elif key == "bn":
         save_bn(kernel, path)
