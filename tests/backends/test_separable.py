@@ -167,6 +167,26 @@ def test_matches_the_numpy_oracle(mode, jitter, method, backend, rng):
     np.testing.assert_allclose(a, b, atol=tolerance(backend))
 
 
+@pytest.mark.parametrize("rho", [0.8, 1.2, 1.7, 2.1, 2.5, 2.9, 3.5])
+def test_every_jitter_window_matches_the_oracle(rho, backend, rng):
+    """The jittered taps' footprint rho (pixels) picks the numba backend's window (rings of 8, 20, 24, 36,
+    44, 48 texels up to rho = 1, sqrt 2, 2, sqrt 5, sqrt 8, 3; per-lane fetches past 3): each against the
+    oracle, on a surface with a depth slope, a depth step and a hole."""
+    t = _taps("preintegrated")
+    assert t.jitter_count(0.1) == 3  # the centre and the +-0.58 mm pair
+    h, w = 36, 52
+    yy, xx = np.mgrid[0:h, 0:w]
+    depth = (300 + 0.2 * xx + 2 * np.sin(yy / 4)).astype(np.float32)
+    depth[12:16, 20:30] += 5
+    depth[25:28, 5:12] = np.inf
+    f = rho * 300.0 / float(np.abs(t.offsets_mm[0][1]))
+    e = rng.random((h, w, 3)).astype(np.float32)
+    for mode in ("follow", "gaussian"):
+        a = filter_arrays(e, depth, f, 0.9 * f, t, jitter=0.1, depth_mode=mode, frame=4, seed=1, backend=backend)
+        b = filter_arrays(e, depth, f, 0.9 * f, t, jitter=0.1, depth_mode=mode, frame=4, seed=1, backend="numpy")
+        np.testing.assert_allclose(a, b, atol=tolerance(backend))
+
+
 @pytest.mark.parametrize("mode", ["follow", "none"])
 @pytest.mark.parametrize("jitter", [0.0, 0.3])
 def test_three_profile_ids_match_the_oracle(mode, jitter, backend):

@@ -16,15 +16,20 @@ select that blocks vectorisation):
   weighted by the hat function of o s - m0, give every lane's bilinear sample from contiguous loads;
   blocks where m spans more take a per-lane loop;
 * jittered rows (paper section 6: axes rotated by a per-pixel angle): every lane's two samples
-  p +- v lie in the (2R+1)^2 window of texels around it (R = ceil(max |v|) over the block); the
-  window is swept with contiguous loads and each texel weighted by the separable hat weights
-  hat(vx - i) hat(vy - j) of the + sample plus hat(vx + i) hat(vy + j) of the - sample, which is
-  exactly the two 2D bilinear fetches. Windows wider than R = RMAX use per-lane 2D bilinear fetches;
+  p +- v lie in a window of texels around it; each texel (i, j) is weighted by the separable hat
+  weights hat(vx - i) hat(vy - j) of the + sample plus hat(vx + i) hat(vy + j) of the - sample, which
+  is exactly the two 2D bilinear fetches, and is swept for all lanes with contiguous loads. The window
+  is the set of texels the block's largest footprint rho = max |v| can reach, swept ring by ring
+  (``RING_D2``: 8 texels for rho <= 1, 20 for rho <= sqrt 2, 24 for rho <= 2, up to 48 for rho <= 3;
+  a full (2R+1)^2 square would take 9, 25, 25, 49, the centre included, whose term is 0). Each ring's
+  kernel is unrolled over its texels (generated source, :func:`_ring_source`), so the lane loop is its
+  only loop and keeps its sums in registers. Windows wider than rho = RMAX use per-lane 2D bilinear
+  fetches;
 * blocks that straddle two profile slots take a per-lane loop with each lane's own tap table.
 
 The jitter angle comes from the same counter-based hash as the other backends
-(:mod:`ssskit.sampling.hashes`); its cosine and sine are evaluated by a vectorisable polynomial
-(error < 1e-11) instead of libm calls.
+(:mod:`ssskit.sampling.hashes`); its cosine and sine are evaluated by a vectorisable float32
+polynomial (error < 2e-7) instead of libm calls.
 
 Every kernel is compiled once per depth mode (the mode's factor function inlined) and cached on
 disk (``cache=True``), so a new process compiles nothing it compiled before. The passes release the
@@ -41,7 +46,7 @@ from numba import njit, prange
 
 _FM = {"nsz", "arcp", "contract", "afn", "reassoc"}  # no 'nnan'/'ninf': +inf marks empty texels
 LANES = 16
-RMAX = 2
+RMAX = 3  # the widest jitter window: footprints rho <= RMAX pixels
 _L = LANES
 _W = 2 * RMAX + 1
 
@@ -76,21 +81,25 @@ def _mix32(h):
 
 @njit(cache=True, inline="always", fastmath=_FM)
 def _unit(h):
-    """(cos theta, sin theta) for theta = 2 pi h / 2^32: quadrant q = h >> 30, then the angle
-    psi = pi/2 f in the quadrant (f the low 30 bits / 2^30) as pi/4 + phi with |phi| <= pi/4, whose
-    sine and cosine are Taylor polynomials to phi^11 / phi^12 (error < 1e-11)."""
-    q = h >> np.uint64(30)
-    f = float(h & np.uint64(0x3FFFFFFF)) * (1.0 / 1073741824.0)
-    phi = (f - 0.5) * (0.5 * math.pi)
+    """(cos theta, sin theta) in float32 for theta = 2 pi h / 2^32: quadrant q = h >> 30, then the angle
+    psi = pi/2 f in the quadrant (f the low 30 bits / 2^30, rounded to float32) as pi/4 + phi with
+    |phi| <= pi/4, whose sine and cosine are Taylor polynomials to phi^9 / phi^10 (truncation error
+    < 2e-9; with float32 rounding the error is < 2e-7, i.e. < 6e-7 px for a 3 px footprint). float32
+    arithmetic: 8 lanes per AVX2 vector, twice the float64 polynomial's throughput."""
+    q = np.int32(h >> np.uint64(30))
+    f = np.float32(np.int32(h & np.uint64(0x3FFFFFFF))) * np.float32(1.0 / 1073741824.0)
+    phi = (f - np.float32(0.5)) * np.float32(0.5 * math.pi)
     x2 = phi * phi
-    s = phi * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0 * (1.0 - x2 / 110.0)))))
-    c = 1.0 - x2 / 2.0 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0 * (
-        1.0 - x2 / 132.0)))))
-    r = 0.7071067811865476
+    one = np.float32(1.0)
+    s = phi * (one - x2 * np.float32(1 / 6) * (one - x2 * np.float32(1 / 20) * (one - x2 * np.float32(1 / 42) * (
+        one - x2 * np.float32(1 / 72)))))
+    c = one - x2 * np.float32(1 / 2) * (one - x2 * np.float32(1 / 12) * (one - x2 * np.float32(1 / 30) * (
+        one - x2 * np.float32(1 / 56) * (one - x2 * np.float32(1 / 90)))))
+    r = np.float32(0.7071067811865476)
     cp = (c - s) * r  # cos(pi/4 + phi)
     sp = (s + c) * r  # sin(pi/4 + phi)
-    odd = (q & np.uint64(1)) != np.uint64(0)  # rotate by q quarter turns, without branches
-    neg = 1.0 - 2.0 * float((q >> np.uint64(1)) & np.uint64(1))
+    odd = (q & np.int32(1)) != np.int32(0)  # rotate by q quarter turns, without branches
+    neg = one - np.float32(2.0) * np.float32(q >> np.int32(1))
     return neg * (-sp if odd else cp), neg * (cp if odd else sp)
 
 
@@ -98,13 +107,14 @@ def _unit(h):
 # its taps reach: where no other profile is there it skips the per-texel slot test.
 # Layout of the frame buffer ``buf`` (planes of (H + 2 pad) x wps texels): input colour R, G, B; depth; slot;
 # the horizontal pass's colour R', G', B'. Per-row scratch ``sc``: the accumulators (6 x LANES: A_R, A_G,
-# A_B, G_R, G_G, G_B), the lane data (5 x LANES: depth, slot, pixels per mm, jitter axis x, y) and the
-# jitter window's hat weights (2 x (2 RMAX + 1) x LANES). Two arrays in every hot loop: LLVM vectorises.
+# A_B, G_R, G_G, G_B), the lane data (7 x LANES: depth, slot, pixels per mm, jitter axis x, y, jitter offset
+# vx, vy) and the jitter window's hat weights (2 x (2 RMAX + 1) x LANES: hat(vx - i), then hat(vy - j), for
+# i, j = -RMAX..RMAX). Two arrays in every hot loop: LLVM vectorises.
 PLANES = 8
 Z_PLANE, S_PLANE, TMP_PLANE = 3, 4, 5
 _LN = 6 * _L  # lane data offset in sc
-_HX = 11 * _L  # hat weights offset in sc
-SCRATCH = 11 * _L + 2 * _W * _L
+_HX = 13 * _L  # hat weights offset in sc
+SCRATCH = 13 * _L + 2 * _W * _L
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
@@ -210,54 +220,100 @@ def _row_block(factor, buf, sc, co, zo, so, plane, c0, st, nl, d, mmin, w, p, ca
                     n2 * buf[c2 + b] + n1 * buf[c2 + b + s1] + n0 * buf[c2 + b + s2], sym)
 
 
+#: The jitter window's rings: texels (i, j) grouped by the squared distance d2 = max(0, |i| - 1)^2 +
+#: max(0, |j| - 1)^2 from the centre to the nearest point of their open square |x - i| < 1, |y - j| < 1 (where
+#: the texel's bilinear weight hat(x - i) hat(y - j) is nonzero). A sample at |v| <= rho weights a texel only
+#: if d2 < rho^2, so a block whose largest jittered footprint is rho sweeps the rings with d2 < rho^2. The
+#: centre texel (0, 0) is left out of ring 0: its term w g (E_p - E_p) of plan.py's sum is 0.
+RING_D2 = (0, 1, 2, 4, 5, 8)
+RING_R = (1, 2, 2, 3, 3, 3)  # window radius max(|i|, |j|) of each ring (and every ring before it)
+
+
+def ring_texels(n: int) -> list[tuple[int, int]]:
+    """Texels of ring n, one of each symmetric pair (i, j), (-i, -j): j > 0, or j = 0 and i > 0."""
+    d2 = RING_D2[n]
+    r = RING_R[n]
+    return [(i, j) for j in range(0, r + 1) for i in range(-r, r + 1)
+            if (j > 0 or i > 0) and max(0, abs(i) - 1) ** 2 + max(0, abs(j) - 1) ** 2 == d2]
+
+
+def _ring_source(name: str, n: int) -> str:
+    """Source of the kernel that sweeps ring n of a jittered row for a block: one lane loop (LLVM vectorises
+    it), unrolled over the ring's texels so that every lane keeps its sums in registers (one loop over a
+    whole window would not fit them; loops over i and j would keep the sums in memory: 4x the memory operations).
+
+    For lane l with sample offsets +-v, texel (i, j) gets hat(vx - i) hat(vy - j) + hat(vx + i) hat(vy + j),
+    the two bilinear weights (hat(t) = max(0, 1 - |t|)), which is also texel (-i, -j)'s weight: computed
+    once per pair. Ring 0 computes each lane's (vx, vy) and the hats of |i|, |j| <= 1 and stores them in the
+    scratch (hx[i + RMAX] = hat(vx - i), so hat(vx + i) = hx[RMAX - i]); :func:`_outer_hats` adds the wider
+    ones; the other rings read them. The sums go to the accumulators times the row's weights (symmetric
+    rows only: w+ = w-)."""
+    pairs = ring_texels(n)
+    hx, hy, c = _HX, _HX + _W * _L, RMAX
+    out = [f"def {name}(factor, buf, sc, co, zo, plane, wps, c0, w, p, d, cap):",
+           "    U = np.uintp", "    zero = np.float32(0.0)", "    one = np.float32(1.0)",
+           f"    b = U(c0 - {c} * wps - {c})",
+           "    zt = buf[zo + b:]", "    cr = buf[co + b:]", "    cg = buf[co + U(plane) + b:]",
+           "    cb = buf[co + U(2 * plane) + b:]"]
+    rows = sorted({j for _, j in pairs})
+    for j in rows:
+        out += [f"    oa{j} = U({c + j} * wps)", f"    ob{j} = U({c - j} * wps)"]
+    out += [f"    for l in range({_L}):", "        lu = U(l)", f"        z0 = sc[U({_LN}) + lu]",
+            "        g_ = s0 = s1 = s2 = zero"]
+    if n == 0:  # the first ring: each lane's offset (vx, vy) and the hats of |i| <= 1, kept for the next rings
+        out += [f"        rho = min(d * sc[U({_LN + 2 * _L}) + lu], cap)",
+                f"        vx = np.float32(rho * sc[U({_LN + 3 * _L}) + lu])",
+                f"        vy = np.float32(rho * sc[U({_LN + 4 * _L}) + lu])",
+                f"        sc[U({_LN + 5 * _L}) + lu] = vx", f"        sc[U({_LN + 6 * _L}) + lu] = vy"]
+        for k in (-1, 0, 1):
+            out += [f"        hx{k + c} = max(zero, one - abs(vx - np.float32({k})))",
+                    f"        hy{k + c} = max(zero, one - abs(vy - np.float32({k})))",
+                    f"        sc[U({hx + (c + k) * _L}) + lu] = hx{k + c}",
+                    f"        sc[U({hy + (c + k) * _L}) + lu] = hy{k + c}"]
+    for i, j in pairs:
+        if n == 0:
+            out.append(f"        wt = hx{c + i} * hy{c + j} + hx{c - i} * hy{c - j}")
+        else:
+            out.append(f"        wt = (sc[U({hx + (c + i) * _L}) + lu] * sc[U({hy + (c + j) * _L}) + lu]"
+                       f" + sc[U({hx + (c - i) * _L}) + lu] * sc[U({hy + (c - j) * _L}) + lu])")
+        for t in (f"oa{j} + U({c + i}) + lu", f"ob{j} + U({c - i}) + lu"):
+            out += [f"        t = {t}", "        g = wt * factor(zt[t] - z0, p)", "        g_ += g",
+                    "        s0 += g * cr[t]", "        s1 += g * cg[t]", "        s2 += g * cb[t]"]
+    out += ["        sc[lu] += w[0] * s0", f"        sc[U({_L}) + lu] += w[1] * s1",
+            f"        sc[U({2 * _L}) + lu] += w[2] * s2", f"        sc[U({3 * _L}) + lu] += w[0] * g_",
+            f"        sc[U({4 * _L}) + lu] += w[1] * g_", f"        sc[U({5 * _L}) + lu] += w[2] * g_"]
+    return "\n".join(out) + "\n"
+
+
+def _make_ring(n: int):
+    """Ring n's kernel: :func:`_ring_source` compiled here, njit-ed to be inlined into the cached passes (whose
+    cache entries depend on this module's source, the generator included)."""
+    name = f"_ring{n}"
+    ns = {"np": np}
+    exec(compile(_ring_source(name, n), f"<ssskit jitter window ring {n}>", "exec"), ns)
+    return njit(inline="always", fastmath=_FM)(ns[name])
+
+
+_RING0, _RING1, _RING2, _RING3, _RING4, _RING5 = (_make_ring(n) for n in range(len(RING_D2)))
+
+
 @njit(cache=True, inline="always", fastmath=_FM)
-def _row_window(factor, buf, sc, co, zo, so, plane, wps, c0, nl, R, d, w, p, cap, multi, sym):
-    """A jittered row for a block of lanes in one slot by the (2R+1)^2 texel window (module docstring)."""
+def _outer_hats(sc, r):
+    """The hats of 2 <= |i|, |j| <= r for the rings past the first (which stored each lane's (vx, vy) and the
+    hats of |i| <= 1): hx[i + RMAX] = hat(vx - i), hy[j + RMAX] = hat(vy - j)."""
     U = np.uintp
     one = np.float32(1.0)
     zero = np.float32(0.0)
-    w2 = 2 * R + 1
-    hx0 = U(_HX)
-    hy0 = U(_HX + _W * _L)  # hat(vx - i) for i = -R..R, then hat(vy - j)
-    for l in range(nl):
-        lu = U(l)
-        rho = min(d * sc[U(_LN + 2 * _L) + lu], cap)
-        vx = np.float32(rho * sc[U(_LN + 3 * _L) + lu])
-        vy = np.float32(rho * sc[U(_LN + 4 * _L) + lu])
-        for i in range(w2):
-            sc[hx0 + U(i * _L) + lu] = max(zero, one - abs(vx - np.float32(i - R)))
-            sc[hy0 + U(i * _L) + lu] = max(zero, one - abs(vy - np.float32(i - R)))
-    z0s = sc[_LN:_LN + _L]
-    q0s = sc[_LN + _L:_LN + 2 * _L]
-    acc = sc[:6 * _L]
-    for j in range(w2):
-        hyp = sc[hy0 + U(j * _L):]
-        hym = sc[hy0 + U((w2 - 1 - j) * _L):]
-        for i in range(w2):
-            hxp = sc[hx0 + U(i * _L):]
-            hxm = sc[hx0 + U((w2 - 1 - i) * _L):]
-            base = U(c0 + (j - R) * wps + (i - R))
-            # views starting at the window texel: the lane loop indexes them with l alone (simple for LLVM)
-            zt = buf[zo + base:]
-            st_ = buf[so + base:]
-            cr = buf[co + base:]
-            cg = buf[co + U(plane) + base:]
-            cb = buf[co + U(2 * plane) + base:]
-            for l in range(nl):
-                lu = U(l)
-                f = factor(zt[lu] - z0s[lu], p)
-                if multi:
-                    f *= np.float32(st_[lu] == q0s[lu])
-                c_r = cr[lu]
-                c_g = cg[lu]
-                c_b = cb[lu]
-                if sym:  # one weight for both samples: g = (hat+ + hat-) f
-                    g = (hxp[lu] * hyp[lu] + hxm[lu] * hym[lu]) * f
-                    _accumulate(acc, lu, w, g, zero, g * c_r, g * c_g, g * c_b, zero, zero, zero, True)
-                else:
-                    gp = hxp[lu] * hyp[lu] * f
-                    gm = hxm[lu] * hym[lu] * f
-                    _accumulate(acc, lu, w, gp, gm, gp * c_r, gp * c_g, gp * c_b, gm * c_r, gm * c_g, gm * c_b, False)
+    for k in range(RMAX - r, RMAX + r + 1):
+        if abs(k - RMAX) < 2:
+            continue
+        o = np.float32(k - RMAX)
+        hx = sc[U(_HX + k * _L):]
+        hy = sc[U(_HX + (_W + k) * _L):]
+        for l in range(_L):
+            lu = U(l)
+            hx[lu] = max(zero, one - abs(sc[U(_LN + 5 * _L) + lu] - o))
+            hy[lu] = max(zero, one - abs(sc[U(_LN + 6 * _L) + lu] - o))
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
@@ -324,6 +380,7 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
                 if fast:
                     nj = n_jit[sb]
                     reach = 0
+                    rjit = 0
                     for k in range(n_rows[sb]):
                         d = offs[sb, k]
                         lo = np.float32(1e30)
@@ -334,14 +391,20 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
                             hi = max(hi, r)
                         fast = fast and sym[sb, k]
                         if k < nj:
-                            rwin[k] = int(math.ceil(hi))
-                            fast = fast and rwin[k] <= RMAX
+                            h2 = float(hi) * float(hi)
+                            nr = 0  # rings to sweep: those with d2 < rho^2
+                            for ring in range(len(RING_D2)):
+                                nr += 1 if RING_D2[ring] < h2 else 0
+                            nr = max(nr, 1)
+                            rwin[k] = nr
+                            fast = fast and h2 <= (RMAX * RMAX)
+                            rjit = max(rjit, RING_R[nr - 1])
                         else:
                             mlo[k] = lo
                             fast = fast and np.floor(hi) - lo <= 1.0
                             reach = max(reach, int(np.floor(hi)) + 2)
                     if fast and multi:  # scan the texels the block can reach for another profile
-                        rj = RMAX + 1 if nj > 0 else 0
+                        rj = rjit + 1 if nj > 0 else 0
                         rx = max(reach, rj) if axis == 0 else rj  # jitter windows reach rj along both axes
                         ry = rj if axis == 0 else max(reach, rj)
                         # in the block-slot map: one entry per row and 16-pixel block (module docstring)
@@ -360,12 +423,20 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
                         wk = (wts[sb, k, 0], wts[sb, k, 1], wts[sb, k, 2], wts[sb, k, 3], wts[sb, k, 4], wts[sb, k, 5])
                         # constant lane counts and window radii (all LANES lanes are computed: the buffer's
                         # right slack makes lanes past the image pad texels) let LLVM vectorise fully
-                        if k < n_jit[sb] and rwin[k] <= 1:
-                            _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, 1, offs[sb, k], wk, p, cap,
-                                        False, True)
-                        elif k < n_jit[sb]:
-                            _row_window(factor, buf, sc, cu, zo, so, plane, wps, c0, _L, RMAX, offs[sb, k], wk, p, cap,
-                                        False, True)
+                        if k < n_jit[sb]:
+                            nr = rwin[k]
+                            _RING0(factor, buf, sc, cu, zo, plane, wps, c0, wk, p, offs[sb, k], cap)
+                            if nr > 1:
+                                _outer_hats(sc, RING_R[nr - 1])
+                                _RING1(factor, buf, sc, cu, zo, plane, wps, c0, wk, p, zero, zero)
+                            if nr > 2:
+                                _RING2(factor, buf, sc, cu, zo, plane, wps, c0, wk, p, zero, zero)
+                            if nr > 3:
+                                _RING3(factor, buf, sc, cu, zo, plane, wps, c0, wk, p, zero, zero)
+                            if nr > 4:
+                                _RING4(factor, buf, sc, cu, zo, plane, wps, c0, wk, p, zero, zero)
+                            if nr > 5:
+                                _RING5(factor, buf, sc, cu, zo, plane, wps, c0, wk, p, zero, zero)
                         elif not alone:
                             _row_block(factor, buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap,
                                        True, True)
