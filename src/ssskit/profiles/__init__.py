@@ -92,15 +92,16 @@ _DEON2007_NO_MATERIAL = "the deon2007 model is a fixed skin preset and takes no 
 
 @MODELS.decorator("montecarlo")
 def montecarlo_profile(material: Material | LayeredMaterial, photons: int = 200_000, seed: int = 1,
-                       **options: Any) -> RGBProfile:
+                       grid_fraction: float | None = None, **options: Any) -> RGBProfile:
     """MCML-simulated profiles (supplement F grid; cached on disk). Needs numba.
 
-    ``options`` go to :func:`ssskit.profiles.montecarlo.simulate_material` (threads, progress,
-    resume, restart, use_cache, batch_size).
+    ``grid_fraction`` (e.g. 0.999): lengthen the grid of a channel until it holds that fraction of
+    the reflected light. ``options`` go to :func:`ssskit.profiles.montecarlo.simulate_material`
+    (threads, progress, resume, restart, use_cache, batch_size).
     """
     from .montecarlo import montecarlo_rgb
 
-    return montecarlo_rgb(material, photons=photons, seed=seed, **options)
+    return montecarlo_rgb(material, photons=photons, seed=seed, grid_fraction=grid_fraction, **options)
 
 
 #: Models that take no material (fixed presets).

@@ -13,7 +13,9 @@ Per photon (MCML 1.2.2 semantics):
 * a step that crosses a boundary stops on it, keeps the unused optical depth, and the photon is
   reflected (total internal reflection, or with probability R(theta_i), the unpolarised Fresnel
   reflectance) or transmitted, all-or-none (CrossUpOrNot / CrossDnOrNot, RFresnel); an escaping photon scores its whole weight
-  at its exit radius;
+  at its exit radius (the last radial bin collects every radius beyond the grid) and in the bin of
+  its exit direction (:data:`N_EXIT_BINS` bins uniform in cos^2 of the angle to the normal
+  outside the medium, i.e. of equal projected solid angle; MCML's Rd_a with other bins);
 * otherwise implicit capture: deposit w mu_a / mu_t, keep the rest (Drop); Henyey-Greenstein
   scattering, the isotropic case exact (SpinTheta, Spin);
 * Russian roulette below weight 1e-4 with survival chance 0.1 (Roulette).
@@ -29,6 +31,8 @@ import math
 
 import numpy as np
 from numba import njit, prange
+
+from .config import N_EXIT_BINS
 
 WEIGHT_THRESHOLD = 1e-4  # MCML's Wth
 ROULETTE_CHANCE = 0.1  # MCML's CHANCE
@@ -133,7 +137,8 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
 
     Layers are 1..L in the arrays ``mua``, ``mus``, ``g``, ``z_top``, ``z_bot`` (index 0 and L + 1
     unused); ``n_idx[0]`` is the ambient index above, ``n_idx[L + 1]`` the one below.
-    totals: [diffuse reflectance, transmittance, absorbed] weight sums.
+    totals: [diffuse reflectance, transmittance, absorbed] weight sums, then the diffusely reflected
+    weight per exit-direction bin (:data:`N_EXIT_BINS` bins uniform in cos^2 theta outside).
     """
     n_layers = mua.shape[0] - 2
     nr = rd_bins.shape[0]
@@ -191,6 +196,10 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
                                 ir = nr - 1
                             rd_bins[ir] += w
                             rd_sum += w
+                            ia = int(ca2 * ca2 * N_EXIT_BINS)
+                            if ia > N_EXIT_BINS - 1:
+                                ia = N_EXIT_BINS - 1
+                            totals[3 + ia] += w
                             alive = False
                         else:
                             layer -= 1
