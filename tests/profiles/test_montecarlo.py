@@ -76,6 +76,30 @@ def test_semi_infinite_albedo_09_h_function():
     assert r.radiance_factor()[-1] == pytest.approx(n * expected[-1] / 0.414947, abs=4 * n * r.exit_rd_se[-1] / r.total_rd)
 
 
+def test_oblique_incidence_h_function():
+    """An oblique beam (60 degrees, n = 1, albedo 0.9, semi-infinite): Rd = 1 - H(mu0) sqrt(1 - a) with
+    mu0 = 0.5 (Chandrasekhar 1950, conservation of the reflection function's flux), and the light per
+    exit bin (a / 2) H(mu0) Int H(mu) mu / (mu + mu0) dmu (isotropic scattering: no azimuth
+    dependence); and the specular part of a beam on n = 1.5 at 60 degrees is Fresnel's 0.0892."""
+    cfg = MCConfig((MCLayer(0.1, 0.9, 0.0, 1.0),), dr_mm=0.05, nr=100, photons=200_000, seed=14, incidence_deg=60.0)
+    r = simulate(cfg)
+    hf = _chandrasekhar_h(0.9)
+    assert within_3_se(r.total_rd, r.total_rd_se, 1 - hf(0.5) * math.sqrt(0.1))
+    from scipy.integrate import quad
+
+    n = r.exit_rd.shape[0]
+    edges = np.sqrt(np.arange(n + 1) / n)
+    expected = np.array([0.45 * hf(0.5) * quad(lambda m: hf(m) * m / (m + 0.5), a, b)[0]
+                         for a, b in zip(edges[:-1], edges[1:])])
+    assert np.all(np.abs(r.exit_rd - expected) <= 4 * r.exit_rd_se), (r.exit_rd - expected) / r.exit_rd_se
+    glass = MCConfig((MCLayer(0.1, 0.9, 0.0, 1.5),), dr_mm=0.05, nr=10, incidence_deg=60.0)
+    ct = math.sqrt(1 - (math.sin(math.radians(60)) / 1.5) ** 2)
+    rs = ((0.5 - 1.5 * ct) / (0.5 + 1.5 * ct)) ** 2
+    rp = ((1.5 * 0.5 - ct) / (1.5 * 0.5 + ct)) ** 2
+    assert glass.specular_reflectance() == pytest.approx((rs + rp) / 2) == pytest.approx(0.0892, abs=5e-4)
+    assert glass.launch_direction() == pytest.approx((math.sin(math.radians(60)) / 1.5, ct))
+
+
 def test_giovanelli_matched_index_1_5():
     """mu_a = 10, mu_s = 90 cm^-1, g = 0, n = 1.5, semi-infinite: Rd + Rsp = 0.2600."""
     cfg = MCConfig((MCLayer(1.0, 9.0, 0.0, 1.5),), dr_mm=0.01, nr=100, photons=400_000, seed=13)

@@ -178,11 +178,13 @@ class ReferenceRenderer:
     ``roughdielectric``, Beckmann alpha = :data:`COAT_ROUGHNESS`, int_ior = eta, ext_ior =
     eta_ambient; ``index-matched``: Mitsuba ``null``); every other surface diffuse with reflectance
     ``surround_albedo`` (0: black); ``volpathmis`` with ``max_depth`` bounces (high-albedo media need
-    long random walks).
+    long random walks). ``crop`` = (x0, y0, w, h): render only that window of the width x height
+    image (every sample lands in it; a region's error falls faster).
     """
 
     def __init__(self, scene: str, material, width: int, height: int, max_depth: int = 1024, seed: int = 0,
-                 frame: int = 0, boundary: str = "rough-dielectric", surround_albedo: float = 0.0) -> None:
+                 frame: int = 0, boundary: str = "rough-dielectric", surround_albedo: float = 0.0,
+                 crop: tuple[int, int, int, int] | None = None) -> None:
         self.spec = SCENES.get(scene)
         check_size(width, height)
         _check_options(max_depth, seed, frame, boundary, surround_albedo)
@@ -214,6 +216,11 @@ class ReferenceRenderer:
         mi = mitsuba()
         # the sampler's own base seed stays 0: the per-call seed of mi.render makes each chunk's stream
         d = scene_dict(self.spec, width, height, 1, 0, frame, integrator, bsdf_for)
+        if crop is not None:
+            x0, y0, cw, ch = (int(v) for v in crop)
+            if not (0 <= x0 and 0 <= y0 and cw >= 1 and ch >= 1 and x0 + cw <= width and y0 + ch <= height):
+                raise SceneError(f"crop window {crop!r} does not lie inside the {width}x{height} image")
+            d["sensor"]["film"].update(crop_offset_x=x0, crop_offset_y=y0, crop_width=cw, crop_height=ch)
         try:
             self._scene = mi.load_dict(d)
         except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text

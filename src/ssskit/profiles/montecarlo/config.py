@@ -69,6 +69,7 @@ class MCConfig:
     eta_above: float = 1.0
     eta_below: float = 1.0
     batch_size: int = DEFAULT_BATCH
+    incidence_deg: float = 0.0
 
     def __post_init__(self) -> None:
         if not self.layers:
@@ -89,6 +90,8 @@ class MCConfig:
         for name in ("eta_above", "eta_below"):
             if not getattr(self, name) >= 1:
                 raise ProfileError(f"{name} must be >= 1")
+        if not (isinstance(self.incidence_deg, (int, float)) and 0 <= self.incidence_deg < 90):
+            raise ProfileError(f"incidence angle must lie in [0, 90) degrees, got {self.incidence_deg!r}")
 
     @property
     def n_batches(self) -> int:
@@ -108,9 +111,25 @@ class MCConfig:
         return hashlib.sha256(text.encode()).hexdigest()[:24]
 
     def specular_reflectance(self) -> float:
-        """Rsp = ((n0 - n1) / (n0 + n1))^2 at normal incidence (MCML's Rspecular, no glass layer)."""
+        """Rsp = ((n0 - n1) / (n0 + n1))^2 at normal incidence (MCML's Rspecular, no glass layer); at
+        ``incidence_deg`` the unpolarised Fresnel reflectance (Born & Wolf, Eq. 1.5.21/22, averaged)."""
         n0, n1 = self.eta_above, self.layers[0].eta
-        return ((n0 - n1) / (n0 + n1)) ** 2
+        if self.incidence_deg == 0:
+            return ((n0 - n1) / (n0 + n1)) ** 2
+        ci, ct = self._cosines()
+        rs = ((n0 * ci - n1 * ct) / (n0 * ci + n1 * ct)) ** 2
+        rp = ((n1 * ci - n0 * ct) / (n1 * ci + n0 * ct)) ** 2
+        return 0.5 * (rs + rp)
+
+    def _cosines(self) -> tuple[float, float]:
+        th = math.radians(self.incidence_deg)
+        st = self.eta_above * math.sin(th) / self.layers[0].eta  # Snell's law; eta_above <= eta: no TIR
+        return math.cos(th), math.sqrt(max(1.0 - st * st, 0.0))
+
+    def launch_direction(self) -> tuple[float, float]:
+        """(ux, uz) of the refracted beam inside the top layer (uy = 0): (0, 1) at normal incidence."""
+        ct = self._cosines()[1]
+        return math.sqrt(max(1.0 - ct * ct, 0.0)), ct
 
 
 def layer_arrays(cfg: MCConfig) -> dict[str, np.ndarray]:

@@ -8,7 +8,8 @@ simulating. :func:`ssskit.profiles.montecarlo.simulate` drives it; its inputs ar
 (:mod:`ssskit.profiles.montecarlo.engine_numpy`) follows the same rules and shares the constants below.
 
 Per photon (MCML 1.2.2 semantics):
-* launch at the origin along +z with weight 1 - Rsp (MCML's LaunchPhoton / Rspecular; Rsp is reported separately);
+* launch at the origin along +z (or, for an oblique beam, along the refracted direction (ux0, 0, uz0))
+  with weight 1 - Rsp (MCML's LaunchPhoton / Rspecular; Rsp is reported separately);
 * step s = -ln(xi) / mu_t, or the optical depth left over from a boundary hit (StepSizeInTissue, HitBoundary);
 * a step that crosses a boundary stops on it, keeps the unused optical depth, and the photon is
   reflected (total internal reflection, or with probability R(theta_i), the unpolarised Fresnel
@@ -132,7 +133,7 @@ def _spin(g, ux, uy, uz, state):
 
 @njit(cache=True)
 def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_crit_up, cos_crit_down,
-               rsp, dr, rd_bins, totals):
+               rsp, ux0, uz0, dr, rd_bins, totals):
     """Simulate ``n_photons`` photons of stream (seed, batch); add tallies into rd_bins / totals.
 
     Layers are 1..L in the arrays ``mua``, ``mus``, ``g``, ``z_top``, ``z_bot`` (index 0 and L + 1
@@ -154,9 +155,9 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
         x = 0.0
         y = 0.0
         z = 0.0
-        ux = 0.0
+        ux = ux0
         uy = 0.0
-        uz = 1.0
+        uz = uz0
         w = 1.0 - rsp
         layer = 1
         sleft = 0.0
@@ -250,8 +251,8 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
 
 @njit(parallel=True, cache=True)
 def run_batches(seed, batch_ids, batch_sizes, mua, mus, g, z_top, z_bot, n_idx, cos_crit_up,
-                cos_crit_down, rsp, dr, rd_bins, totals):
+                cos_crit_down, rsp, ux0, uz0, dr, rd_bins, totals):
     """Run the given batches in parallel; row k of rd_bins / totals receives batch batch_ids[k]."""
     for k in prange(batch_ids.shape[0]):
         _run_batch(seed, batch_ids[k], batch_sizes[k], mua, mus, g, z_top, z_bot, n_idx, cos_crit_up,
-                   cos_crit_down, rsp, dr, rd_bins[k], totals[k])
+                   cos_crit_down, rsp, ux0, uz0, dr, rd_bins[k], totals[k])

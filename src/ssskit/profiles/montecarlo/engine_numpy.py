@@ -55,7 +55,8 @@ def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> MCResult:
     n_b = cfg.n_batches
     batch = np.arange(n) // cfg.batch_size
     x, y, z = np.zeros(n), np.zeros(n), np.zeros(n)
-    ux, uy, uz = np.zeros(n), np.zeros(n), np.ones(n)
+    ux0, uz0 = cfg.launch_direction()
+    ux, uy, uz = np.full(n, ux0), np.zeros(n), np.full(n, uz0)
     w = np.full(n, 1.0 - cfg.specular_reflectance())
     layer = np.ones(n, dtype=np.int64)
     sleft = np.zeros(n)

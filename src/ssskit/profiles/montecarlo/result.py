@@ -71,6 +71,24 @@ class MCResult:
         within 12.9 degrees of the normal)."""
         return N_EXIT_BINS * self.exit_rd / self.total_rd
 
+    def radiance_factor_at(self, mu: float, bins: int = 4) -> tuple[float, float]:
+        """(factor, standard error): the radiance factor at exit cosine ``mu`` near the normal, from a
+        straight line in cos^2 fitted (weighted by the standard errors) through the last ``bins`` exit
+        bins at their centres. A single bin averages 12.9 degrees, over which the factor of a
+        strongly scattering medium changes by ~1%; a camera looking along the normal sits at its edge.
+        """
+        if not (0.0 < mu <= 1.0) or not (2 <= bins <= N_EXIT_BINS):
+            raise ValueError(f"need 0 < mu <= 1 and 2 <= bins <= {N_EXIT_BINS}, got {mu!r}, {bins!r}")
+        f = self.radiance_factor()[-bins:]
+        se = (N_EXIT_BINS * self.exit_rd_se / self.total_rd)[-bins:]
+        c = ((np.arange(N_EXIT_BINS) + 0.5) / N_EXIT_BINS)[-bins:]
+        w = 1.0 / np.maximum(se, 1e-300) ** 2
+        a = np.stack([np.ones(bins), c], axis=1)
+        cov = np.linalg.inv(a.T @ (a * w[:, None]))
+        coef = cov @ (a.T @ (w * f))
+        x = np.array([1.0, mu * mu])
+        return float(x @ coef), float(np.sqrt(x @ cov @ x))
+
     @property
     def photons_per_second(self) -> float:
         return self.photons / self.seconds if self.seconds > 0 else float("inf")

@@ -71,6 +71,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
 
     arrays = layer_arrays(cfg)
     rsp = cfg.specular_reflectance()
+    ux0, uz0 = cfg.launch_direction()
     todo = np.flatnonzero(~done)
     bar = _progress_bar(cfg.photons, int(sizes[done].sum()), label) if progress else None
     t0 = time.perf_counter()
@@ -84,7 +85,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
                 engine_numba.run_batches(
                     np.uint64(cfg.seed), ids.astype(np.int64), sizes[ids], arrays["mua"], arrays["mus"],
                     arrays["g"], arrays["z_top"], arrays["z_bot"], arrays["n_idx"], arrays["cos_crit_up"],
-                    arrays["cos_crit_down"], rsp, cfg.dr_mm, b_rows, t_rows)
+                    arrays["cos_crit_down"], rsp, ux0, uz0, cfg.dr_mm, b_rows, t_rows)
                 bins[ids], totals[ids], done[ids] = b_rows, t_rows, True
                 if bar is not None:
                     bar.update(int(sizes[ids].sum()))
