@@ -168,7 +168,12 @@ def render(ctx, scene, settings_file, save_gbuffer, out, as_json, **params) -> N
     click.echo(f"# {res.scene}: {res.material.name} ({s.model}), {s.kernel} with {res.taps.taps} taps, "
                f"jitter {s.sss.jitter:g}, {w}x{h}, {s.sss.backend} backend")
     for against, m in res.metrics.items():
-        click.echo(f"vs {against:12s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
+        if against != "regions":
+            click.echo(f"vs {against:12s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
+    from ..pipeline.regions import format_regions
+
+    for line in format_regions(res.metrics.get("regions")):
+        click.echo(line)
     if res.reference_info is not None:
         ref = res.reference_info
         click.echo(f"# reference: {ref.spp} spp, relative standard error of the SSS mask's mean "

@@ -261,4 +261,8 @@ def render(scene: str | Path | GBuffer = "slab", settings: RenderSettings | None
         m["pixels_with_surface"] = int(np.isfinite(gb.depth).sum())
         m["reference"] = ref.summary()
         res.metrics["path_traced"] = m
+    if (settings.reference or res.exact is not None) and mask.any():
+        from .regions import compare_regions
+
+        res.metrics["regions"] = compare_regions(gb, profile, sss, res.exact, res.reference_info)
     return res

@@ -41,7 +41,7 @@ import numpy as np
 
 from ..cache import cache_dir
 from ..errors import SceneError
-from ..io import atomic_output
+from ..io import atomic_output, progress_bar
 from .scenes import COAT_ROUGHNESS, SCENES, check_size, check_spp, mitsuba, scene_dict
 
 #: bumped when the reference renders change (invalidates the cache). 3: a unique seed per mi.render
@@ -320,12 +320,10 @@ def render_reference(scene: str, material, width: int = 128, height: int = 96, s
                                  surround_albedo)
     min_chunks = -(-int(spp) // chunk_spp)
     max_chunks = max(int(max_spp) // chunk_spp, min_chunks)
-    from tqdm import tqdm
-
     acc = np.zeros((height, width, 3))
     acc2 = np.zeros((height, width, 3))
     means = []
-    bar = tqdm(total=max_chunks, desc=f"path tracing {spec.name}", unit="chunk", disable=not progress, leave=False)
+    bar = progress_bar(max_chunks, f"path tracing {spec.name}", "chunks", enabled=progress, leave=False)
     converged = False
     try:
         for i in range(max_chunks):

@@ -17,7 +17,7 @@ import numpy as np
 
 from ...cache import cache_dir
 from ...errors import ProfileError, SimulationInterrupted
-from ...io import save_arrays
+from ...io import progress_bar, save_arrays
 from .config import N_EXIT_BINS, MCConfig, layer_arrays
 from .result import MCResult, assemble_result
 
@@ -158,10 +158,8 @@ def _numba_threads(threads: int | None):
 
 
 def _progress_bar(total: int, initial: int, label: str):
-    from tqdm import tqdm
-
-    return tqdm(total=total, initial=initial, unit="photon", unit_scale=True, desc=label or "MCML",
-                smoothing=0.1, dynamic_ncols=True, leave=False, disable=None)
+    return progress_bar(total, label or "MCML", "photons", initial=initial, unit_scale=True, smoothing=0.1,
+                        dynamic_ncols=True, leave=False)
 
 
 __all__ = ["simulate"]
