@@ -44,7 +44,7 @@ def _materials_section(out: Path, progress: Progress, ctx: dict) -> str:
     rows = []
     for name, m in MATERIALS.items():
         dip = dipole_profile(m)
-        bur = burley_profile(m)
+        bur = burley_profile(m, photons=ctx.get("photons", DEMO_PHOTONS))
         rows.append(
             f"<tr><td class=name><a href='#{name}'>{html.escape(name)}</a></td>"
             f"<td>{_fmt(m.sigma_a)}</td><td>{_fmt(m.sigma_s)}</td><td>{m.eta:g}</td>"
@@ -69,7 +69,7 @@ def _profiles_section(out: Path, progress: Progress, ctx: dict) -> str:
 
     parts = [
         "<h2>Diffusion profiles</h2><p class=note>Per material: the [JMLH01] dipole (solid), Burley's "
-        "normalized diffusion with A = dipole total R<sub>d</sub> and d from the searchlight configuration "
+        "normalized diffusion with A = the Monte Carlo total R<sub>d</sub> (the dipole's albedo error against MCML is the dipole's model error; compare the totals below) and d from the searchlight configuration "
         "(Xie 2020 Eq. 5; dashed), and six Gaussians fitted to the dipole under the L1 constraint (Eq. S.1; "
         f"dotted), and the MCML simulation with supplement F's grid, {photons:,} photons per channel "
         "(dash-dot; cached on disk). Left to right: R(r), R(r) on a log scale, and 2πr R(r) as in the supplement's plots. "
@@ -77,7 +77,8 @@ def _profiles_section(out: Path, progress: Progress, ctx: dict) -> str:
     ]
     for name, m in MATERIALS.items():
         progress(f"profiles: {name}")
-        profs = [profile_for_material(m, model) for model in ("dipole", "burley", "gaussians")]
+        profs = [profile_for_material(m, "dipole"), profile_for_material(m, "burley", photons=photons),
+                 profile_for_material(m, "gaussians")]
         progress(f"Monte Carlo: {name} ({photons:,} photons per channel)")
         profs.append(montecarlo_rgb(m, photons=photons, progress=ctx.get("progress_bars", False)))
         fig = f"profile_{name.lower()}.png"

@@ -70,9 +70,11 @@ def resolve_profile(ctx: click.Context, material, model: str, options: dict[str,
 @model_option("dipole", help="Profile model (deon2007 is a fixed skin preset and takes no material).")
 @click.option("--configuration", default="searchlight", show_default=True,
               help="--model burley: d from Xie 2020 Eq. 5: searchlight, diffuse-transmission or dmfp.")
+@click.option("--albedo-source", type=click.Choice(("montecarlo", "dipole")), default="montecarlo", show_default=True,
+              help="--model burley: A from MCML's total diffuse reflectance (--photons) or the dipole's.")
 @click.option("--gaussians", "n_gaussians", type=click.IntRange(1, 16), default=6, show_default=True,
               help="--model gaussians: number of Gaussians.")
-@photons_option(200_000, help="--model montecarlo: photons per channel (cached).")
+@photons_option(200_000, help="--model montecarlo (and burley's A): photons per channel (cached).")
 @click.option("--grid-fraction", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=None,
               help="--model montecarlo: lengthen the 32-MFP grid until it holds this fraction of the light (e.g. 0.999).")
 @click.option("--points", type=click.IntRange(2, 1_000_000), default=256, show_default=True, help="Number of radii (bin centres).")
@@ -82,8 +84,8 @@ def resolve_profile(ctx: click.Context, material, model: str, options: dict[str,
 @out_option((".csv", ".npz"), "Write the table to FILE.csv or FILE.npz.")
 @out_option((".png", ".pdf", ".svg"), "Write a plot to FILE.png (or .pdf/.svg).", name="--plot")
 @click.pass_context
-def profile(ctx, material, model, configuration, n_gaussians, photons, grid_fraction, points, r_max, as_json, out,
-            plot) -> None:
+def profile(ctx, material, model, configuration, albedo_source, n_gaussians, photons, grid_fraction, points, r_max,
+            as_json, out, plot) -> None:
     """Diffuse reflectance profile R(r) of a material, per RGB channel."""
     import numpy as np
 
@@ -93,6 +95,7 @@ def profile(ctx, material, model, configuration, n_gaussians, photons, grid_frac
     if r_max is not None and not (r_max > 0 and math.isfinite(r_max)):
         raise SsskitError(f"--r-max must be a positive number of mm, got {r_max}")
     make = resolve_profile(ctx, material, model, {"configuration": ("configuration", configuration),
+                                                  "albedo_source": ("albedo_source", albedo_source),
                                                   "n_gaussians": ("n", n_gaussians),
                                                   "photons": ("photons", photons),
                                                   "grid_fraction": ("grid_fraction", grid_fraction)})
