@@ -20,6 +20,7 @@ import os
 import re
 import sys
 import tempfile
+import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -294,3 +295,48 @@ def write_exr(path: str | Path, channels: dict[str, np.ndarray], attributes: dic
         if error is not None:
             detail = _library_message(out.getvalue(), tmp) or str(error).replace(str(tmp), str(path))
             raise OutputError(f"cannot write {what} {str(path)!r}: {detail}")
+
+
+class _LineProgress:
+    """A tqdm-like progress report for a stderr that is no terminal (a log file, CI): one plain line
+    at each tenth of the total and at the end, instead of carriage-return redraws."""
+
+    def __init__(self, total: int, desc: str, unit: str, initial: int = 0) -> None:
+        self.total, self.desc, self.unit, self.n = max(int(total), 1), desc, unit, int(initial)
+        self.postfix, self._next = "", self._step(self.n)
+        self._t0 = time.perf_counter()
+
+    def _step(self, n: int) -> int:
+        tenth = max(self.total // 10, 1)
+        return (n // tenth + 1) * tenth
+
+    def update(self, k: int = 1) -> None:
+        self.n += int(k)
+        if self.n >= self._next or self.n >= self.total:
+            self._next = self._step(self.n)
+            self._say()
+
+    def set_postfix_str(self, text: str) -> None:
+        self.postfix = text
+
+    def _say(self) -> None:
+        extra = f", {self.postfix}" if self.postfix else ""
+        print(f"  {self.desc}: {self.n:,}/{self.total:,} {self.unit}{extra} ({time.perf_counter() - self._t0:.0f} s)",
+              file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        pass
+
+
+def progress_bar(total: int, desc: str, unit: str = "it", enabled: bool = True, initial: int = 0, **tqdm_kw):
+    """A progress bar on stderr: tqdm when stderr is a terminal, plain lines at each tenth otherwise
+    (readable in logs), nothing when not ``enabled``. Supports update, set_postfix_str and close."""
+    if not enabled:
+        from tqdm import tqdm
+
+        return tqdm(total=total, disable=True)
+    if not sys.stderr.isatty():
+        return _LineProgress(total, desc, unit, initial)
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit=unit, initial=initial, **tqdm_kw)

@@ -69,6 +69,18 @@ def flip(reference, test, ppd: float = 67.0) -> float:
     return float(mean)
 
 
+#: PSNRs at or above this are equality to float64 rounding (an exact method reaches ~300 dB)
+EXACT_PSNR_DB = 150.0
+
+
+def psnr_text(value: float | None, digits: int = 1) -> str:
+    """A PSNR for people: "exact" for an infinite one or one at float64 rounding level
+    (>= :data:`EXACT_PSNR_DB`), else the dB value."""
+    if value is None or not np.isfinite(value) or value >= EXACT_PSNR_DB:
+        return "exact"
+    return f"{value:.{digits}f}"
+
+
 #: the perceptual metrics, on tone-mapped images
 PERCEPTUAL = ("ssim", "flip")
 
@@ -107,3 +119,133 @@ def region_metrics(reference, test, mask, perceptual: bool = True) -> dict[str, 
     if perceptual:
         out["flip"] = flip(ref, tst)
     return out
+
+
+# ---- region-wise comparison of diffuse parts -----------------------------------------------------------
+#
+# A screen-space pass conserves energy inside the SSS mask, so a mean over the whole mask sees only the
+# albedo level, the lighting and the noise: it is blind to the lateral transport SSS is about. The
+# comparison is therefore made per region, on diffuse parts (specular subtracted on both sides) divided
+# by the white diffuse layer E / pi, with the level (albedo, on the lit plateau) and the shape (across
+# the shadow edge, normalised by the plateau) compared apart.
+
+#: the regions of :func:`region_masks`, in table order
+REGIONS = ("plateau", "shadow_edge", "terminator", "silhouette")
+
+
+def _distance_to(region: np.ndarray) -> np.ndarray:
+    """Euclidean distance (pixels) of every pixel to the nearest pixel of ``region`` (inf if none)."""
+    from scipy import ndimage
+
+    if not region.any():
+        return np.full(region.shape, np.inf)
+    return ndimage.distance_transform_edt(~region)
+
+
+def region_masks(e_over_pi, mask, radius_px: float, sharp: float = 0.3) -> dict[str, np.ndarray]:
+    """The comparison regions inside ``mask`` (H, W) bool, from the white diffuse layer ``e_over_pi``
+    ((H, W) or (H, W, 3): irradiance / pi) and the profile's reach ``radius_px`` (pixels):
+
+    * ``silhouette``: mask pixels within radius_px of the mask's border (light from behind the
+      silhouette, missing neighbours);
+    * ``shadow_edge``: the rest within radius_px of a sharp edge of the light (a step between
+      neighbours of more than ``sharp`` x the lit level: cast shadows);
+    * ``terminator``: the rest where the light fades smoothly (between 0.5% and 25% of the lit level:
+      the surface turning away from the light);
+    * ``plateau``: the rest that is lit (more than half the lit level) and farther than radius_px from
+      every pixel that is not.
+
+    The lit level is the 98th percentile of the light inside the mask.
+    """
+    e = np.asarray(e_over_pi, dtype=np.float64)
+    e = e.mean(axis=2) if e.ndim == 3 else e
+    m = np.asarray(mask, dtype=bool)
+    if e.shape != m.shape:
+        raise SignalError(f"the light layer has shape {e.shape}, the mask {m.shape}")
+    if not (np.isfinite(radius_px) and radius_px > 0):
+        raise SignalError(f"radius_px must be a positive number of pixels, got {radius_px!r}")
+    empty = {name: np.zeros_like(m) for name in REGIONS}
+    if not m.any():
+        return empty
+    level = float(np.percentile(e[m], 98))
+    if not level > 0:
+        return empty
+    silhouette = m & (_distance_to(~m) <= radius_px)
+    step = np.zeros_like(m)
+    for axis in (0, 1):
+        d = np.abs(np.diff(np.where(m, e, np.nan), axis=axis)) > sharp * level
+        d = np.nan_to_num(d, nan=0).astype(bool)
+        if axis == 0:
+            step[1:] |= d
+            step[:-1] |= d
+        else:
+            step[:, 1:] |= d
+            step[:, :-1] |= d
+    shadow = m & ~silhouette & (_distance_to(step) <= radius_px)
+    rest = m & ~silhouette & ~shadow
+    terminator = rest & (e > 0.005 * level) & (e < 0.25 * level)
+    lit = e > 0.5 * level
+    plateau = rest & lit & (_distance_to(~lit) > radius_px)
+    return {"plateau": plateau, "shadow_edge": shadow, "terminator": terminator, "silhouette": silhouette}
+
+
+def region_level(diffuse_part, e_over_pi, region, pixel_se=None) -> dict[str, object]:
+    """The effective albedo of a region: mean(diffuse part) / mean(E / pi) per channel over ``region``,
+    with its standard error when ``pixel_se`` (the diffuse part's per-pixel standard errors from
+    independent pixels) is given: sqrt(sum se^2) / N / mean(E / pi). On the lit plateau of a flat
+    surface this is the total diffuse reflectance; near edges it measures the light carried across."""
+    d = np.asarray(diffuse_part, dtype=np.float64)
+    e = np.asarray(e_over_pi, dtype=np.float64)
+    r = np.asarray(region, dtype=bool)
+    n = int(r.sum())
+    if n == 0:
+        return {"pixels": 0, "level": [float("nan")] * 3, "se": None}
+    ebar = e[r].mean(axis=0)
+    ebar = np.broadcast_to(ebar, (3,)) if np.ndim(ebar) == 0 else ebar
+    level = d[r].mean(axis=0) / np.maximum(ebar, 1e-300)
+    se = None
+    if pixel_se is not None:
+        s = np.asarray(pixel_se, dtype=np.float64)
+        se = (np.sqrt(np.sum(s[r] ** 2, axis=0)) / n / np.maximum(ebar, 1e-300)).tolist()
+    return {"pixels": n, "level": level.tolist(), "se": se}
+
+
+def edge_profile(diffuse_part, region, plateau_level, pixel_se=None, axis: int = 0):
+    """The profile across a straight edge: the mean of the diffuse part over ``region``'s pixels along
+    ``axis`` (0: down the columns, for a vertical edge), divided by the plateau's level (so a profile
+    of the same shape but another albedo compares equal). Returns (profile (W, 3), standard error
+    (W, 3) or None); columns without region pixels are NaN."""
+    d = np.asarray(diffuse_part, dtype=np.float64)
+    r = np.asarray(region, dtype=bool)
+    cnt = r.sum(axis=axis).astype(float)
+    lev = np.asarray(plateau_level, dtype=np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        prof = np.where(r[..., None], d, 0.0).sum(axis=axis) / cnt[:, None] / lev
+        se = None
+        if pixel_se is not None:
+            s = np.asarray(pixel_se, dtype=np.float64)
+            se = np.sqrt(np.where(r[..., None], s**2, 0.0).sum(axis=axis)) / cnt[:, None] / lev
+    return prof, se
+
+
+def profile_rmse(test, reference, reference_se=None) -> dict[str, float]:
+    """RMSE between two normalised profiles (over the entries both hold), with the part of it that the
+    reference's own noise explains: ``noise`` = rms of its standard errors, ``rmse_se`` the standard
+    error of the RMSE (delta method: se(rmse^2) = 2 sqrt(sum d^2 se^2) / N), and ``resolved`` whether
+    the RMSE exceeds the noise by more than 3 standard errors."""
+    a = np.asarray(test, dtype=np.float64)
+    b = np.asarray(reference, dtype=np.float64)
+    ok = np.isfinite(a) & np.isfinite(b)
+    d = (a - b)[ok]
+    n = d.size
+    if n == 0:
+        return {"rmse": float("nan"), "noise": float("nan"), "rmse_se": float("nan"), "resolved": False}
+    rmse = float(np.sqrt(np.mean(d**2)))
+    if reference_se is None:
+        return {"rmse": rmse, "noise": 0.0, "rmse_se": 0.0, "resolved": True}
+    s = np.asarray(reference_se, dtype=np.float64)[ok]
+    noise = float(np.sqrt(np.mean(s**2)))
+    se2 = 2.0 * np.sqrt(np.sum(d**2 * s**2)) / n
+    rmse_se = float(se2 / (2.0 * rmse)) if rmse > 0 else noise
+    return {"rmse": rmse, "noise": noise, "rmse_se": rmse_se,
+            "resolved": bool(rmse**2 - noise**2 > 3.0 * se2)}

@@ -53,6 +53,12 @@ BAD = [
     (["figures", "--model", "deon2007", "--material", "marble"], "takes no --material"),
     (["profile", "--material", "skin1", "--photons", "5000"], "--photons does not apply to --model dipole"),
     (["profile", "--material", "skin1", "--model", "burley", "--gaussians", "3"], "--gaussians does not apply"),
+    (["profile", "--material", "skin1", "--model", "dipole", "--albedo-source", "dipole"], "--albedo-source does not apply"),
+    (["profile", "--material", "skin1", "--model", "dipole", "--grid-fraction", "0.999"], "--grid-fraction does not apply"),
+    (["render", "--scene", "slab", "--reference", "--reference-rel-se", "0"], "--reference-rel-se"),
+    (["render", "--scene", "slab", "--reference", "--reference-max-spp", "0"], "--reference-max-spp"),
+    (["simulate", "--material", "skin1,marble", "--grid-fraction", "0.999"], "single material"),
+    (["simulate", "--material", "skin1", "--grid-fraction", "1.5"], "--grid-fraction"),
     # simulate
     (["simulate", "--material", "skin1", "--resume", "--restart"], "exclude each other"),
     (["simulate", "--material", "skin1", "--restart", "--no-cache"], "cannot be combined with --no-cache"),

@@ -93,7 +93,7 @@ def test_profile_json_shape(capsys):
 def test_profile_from_material_file(capsys, tmp_path):
     f = tmp_path / "jelly.toml"
     f.write_text("sigma_a = 0.01\nsigma_s = 1.0\neta = 1.33\n")
-    code, out, _ = run(capsys, "profile", "--material", str(f), "--model", "burley", "--json")
+    code, out, _ = run(capsys, "profile", "--material", str(f), "--model", "burley", "--albedo-source", "dipole", "--json")
     assert code == 0
     assert json.loads(out)["name"] == "jelly"
 

@@ -77,7 +77,7 @@ def test_result_parts_and_summary(small):
     assert isinstance(r, RenderResult) and r.scene == "slab" and r.material.name == "Skin1"
     assert r.gbuffer.shape == (36, 48) and r.taps.taps == 7
     np.testing.assert_allclose(r.image, r.gbuffer.composite(r.sss))
-    assert set(r.metrics) == {"exact_2d"} and r.metrics["exact_2d"]["psnr"] > 30
+    assert set(r.metrics) == {"exact_2d", "regions"} and r.metrics["exact_2d"]["psnr"] > 30
     d = r.to_dict()
     json.dumps(d, allow_nan=False)
     assert d["size"] == [48, 36] and d["taps"] == 7 and d["settings"]["sss"]["backend"] == "numpy"

@@ -37,12 +37,67 @@ def test_van_de_hulst_slab():
     assert r.total_rd + r.tt + r.absorbed == pytest.approx(1.0 - r.rsp, abs=5 * r.total_rd_se)
 
 
+def _chandrasekhar_h(albedo: float, n: int = 200):
+    """H(mu) of isotropic scattering with single-scattering albedo ``albedo`` (Chandrasekhar, Radiative
+    Transfer, 1950, Eq. V.33 in the form 1/H = sqrt(1 - a) + a/2 Int_0^1 mu' H(mu') / (mu + mu') dmu'),
+    by fixed-point iteration on Gauss-Legendre nodes; returns (H as a function, nodes, weights)."""
+    x, wt = np.polynomial.legendre.leggauss(n)
+    mu, wt = (x + 1) / 2, wt / 2
+    h = np.ones_like(mu)
+    for _ in range(500):
+        h = 1 / (np.sqrt(1 - albedo) + albedo / 2 * (wt * mu * h / (mu[:, None] + mu)).sum(1))
+
+    def hf(m):
+        return 1 / (np.sqrt(1 - albedo) + albedo / 2 * (wt * mu * h / (np.asarray(m, float)[..., None] + mu)).sum(-1))
+
+    return hf
+
+
 def test_semi_infinite_albedo_09_h_function():
-    """n = 1, g = 0, albedo 0.9, semi-infinite: Rd = 0.414947 (exact, H-function)."""
+    """n = 1, g = 0, albedo 0.9, semi-infinite: Rd = 0.414947 (exact, H-function), and the light per
+    exit direction: for normal incidence the reflected intensity is (F a / 4) H(mu) H(1) / (mu + 1)
+    (Chandrasekhar 1950, Eq. IV.70 with mu0 = 1), so the fraction leaving with mu in [mu1, mu2] is
+    (a / 2) H(1) Int H(mu) mu / (mu + 1) dmu; each exit bin within 4 standard errors."""
     cfg = MCConfig((MCLayer(0.1, 0.9, 0.0, 1.0),), dr_mm=0.05, nr=100, photons=400_000, seed=12)
     r = simulate(cfg)
     assert r.rsp == 0.0 and r.tt == 0.0
     assert within_3_se(r.total_rd, r.total_rd_se, 0.414947)
+    assert r.exit_rd.sum() == pytest.approx(r.total_rd, rel=1e-12)
+    hf = _chandrasekhar_h(0.9)
+    from scipy.integrate import quad
+
+    n = r.exit_rd.shape[0]
+    edges = np.sqrt(np.arange(n + 1) / n)  # bins uniform in mu^2
+    expected = np.array([0.45 * hf(1.0) * quad(lambda m: hf(m) * m / (m + 1), a, b)[0]
+                         for a, b in zip(edges[:-1], edges[1:])])
+    assert expected.sum() == pytest.approx(0.414947, rel=1e-5)
+    assert np.all(np.abs(r.exit_rd - expected) <= 4 * r.exit_rd_se), (r.exit_rd - expected) / r.exit_rd_se
+    # the exit is not Lambertian: near the normal the radiance is ~8% below a Lambertian one of the same total
+    assert r.radiance_factor()[-1] == pytest.approx(n * expected[-1] / 0.414947, abs=4 * n * r.exit_rd_se[-1] / r.total_rd)
+
+
+def test_oblique_incidence_h_function():
+    """An oblique beam (60 degrees, n = 1, albedo 0.9, semi-infinite): Rd = 1 - H(mu0) sqrt(1 - a) with
+    mu0 = 0.5 (Chandrasekhar 1950, conservation of the reflection function's flux), and the light per
+    exit bin (a / 2) H(mu0) Int H(mu) mu / (mu + mu0) dmu (isotropic scattering: no azimuth
+    dependence); and the specular part of a beam on n = 1.5 at 60 degrees is Fresnel's 0.0892."""
+    cfg = MCConfig((MCLayer(0.1, 0.9, 0.0, 1.0),), dr_mm=0.05, nr=100, photons=200_000, seed=14, incidence_deg=60.0)
+    r = simulate(cfg)
+    hf = _chandrasekhar_h(0.9)
+    assert within_3_se(r.total_rd, r.total_rd_se, 1 - hf(0.5) * math.sqrt(0.1))
+    from scipy.integrate import quad
+
+    n = r.exit_rd.shape[0]
+    edges = np.sqrt(np.arange(n + 1) / n)
+    expected = np.array([0.45 * hf(0.5) * quad(lambda m: hf(m) * m / (m + 0.5), a, b)[0]
+                         for a, b in zip(edges[:-1], edges[1:])])
+    assert np.all(np.abs(r.exit_rd - expected) <= 4 * r.exit_rd_se), (r.exit_rd - expected) / r.exit_rd_se
+    glass = MCConfig((MCLayer(0.1, 0.9, 0.0, 1.5),), dr_mm=0.05, nr=10, incidence_deg=60.0)
+    ct = math.sqrt(1 - (math.sin(math.radians(60)) / 1.5) ** 2)
+    rs = ((0.5 - 1.5 * ct) / (0.5 + 1.5 * ct)) ** 2
+    rp = ((1.5 * 0.5 - ct) / (1.5 * 0.5 + ct)) ** 2
+    assert glass.specular_reflectance() == pytest.approx((rs + rp) / 2) == pytest.approx(0.0892, abs=5e-4)
+    assert glass.launch_direction() == pytest.approx((math.sin(math.radians(60)) / 1.5, ct))
 
 
 def test_giovanelli_matched_index_1_5():
@@ -75,10 +130,15 @@ def test_profile_properties_skin1():
     m = get_material("skin1")
     r = simulate(config_for_material(m, "R", photons=100_000, seed=3))
     prof = r.profile()
-    # the radial bins integrate to the total (all escaping weight is binned)
-    assert np.sum(r.rd * 2 * np.pi * r.r_mm * r.config.dr_mm) == pytest.approx(r.total_rd, rel=1e-12)
+    # the regular radial bins integrate to the total inside the grid; the overflow bin is no density
+    assert r.rd.shape == r.r_mm.shape == (r.config.nr - 1,)
+    assert np.sum(r.rd * 2 * np.pi * r.r_mm * r.config.dr_mm) == pytest.approx(r.total_rd_in_grid, rel=1e-12)
+    assert r.total_rd_in_grid + r.overflow == pytest.approx(r.total_rd, rel=1e-12)
+    assert prof.total_rd() == pytest.approx(r.total_rd_in_grid, rel=1e-12)
     assert prof.total_rd() + prof.overflow == pytest.approx(r.total_rd, rel=1e-12)
+    assert prof.total_rd_with_overflow() == r.total_rd
     assert 0 <= prof.overflow < 1e-3 * r.total_rd  # skin red: little light beyond 32 mean free paths
+    assert prof.eval(r.grid_mm + 0.5 * r.config.dr_mm) == 0.0
     assert np.all(r.rd >= 0) and np.all(r.rd_se >= 0)
     # decreasing where the bins are well resolved (first 4 mean free paths)
     k = int(4 * m.mfp_mm[0] / r.config.dr_mm)
@@ -92,6 +152,24 @@ def test_profile_properties_skin1():
     square = 8 * quad(lambda t: float(prof.energy_within(half / np.cos(t))), 0, np.pi / 4, limit=500)[0] / (2 * np.pi)
     assert cells.sum() == pytest.approx(square, rel=1e-6)
     assert cells.sum() <= prof.total_rd() * (1 + 1e-12)
+
+
+def test_grid_fraction_extends_a_truncating_grid():
+    """A nearly absorption-free medium sends ~3% of its light beyond 32 mean free paths; with
+    grid_fraction=0.999 the grid is lengthened (same photons, same total) until it holds 99.9%."""
+    from ssskit.materials import Material
+    from ssskit.profiles.montecarlo import montecarlo_rgb, simulate_material
+
+    m = Material("clear", (0.0005, 0.0005, 0.0005), (1.0, 1.0, 1.0), eta=1.3)
+    short = simulate_material(m, "R", photons=20_000, batch_size=1_000)["R"]
+    long = simulate_material(m, "R", photons=20_000, batch_size=1_000, grid_fraction=0.999)["R"]
+    assert short.overflow > 1e-3 * short.total_rd
+    assert long.overflow <= 1e-3 * long.total_rd and long.grid_mm > short.grid_mm
+    assert long.total_rd == short.total_rd  # the same photons, tallied on a longer grid
+    prof = montecarlo_rgb(m, photons=20_000, batch_size=1_000, grid_fraction=0.999).channels[0]
+    assert prof.total_rd() == pytest.approx(long.total_rd_in_grid, rel=1e-12)
+    with pytest.raises(ProfileError, match="grid fraction"):
+        simulate_material(m, "R", photons=20_000, grid_fraction=1.0)
 
 
 def test_supplement_grid_rules():
@@ -219,7 +297,7 @@ def test_numpy_implementation_agrees_statistically():
         (dict(photons=0), "photon count"),
         (dict(seed=-1), "seed"),
         (dict(dr_mm=0.0), "grid spacing"),
-        (dict(nr=0), "radial bins"),
+        (dict(nr=1), "radial bins"),
     ],
 )
 def test_config_validation(kwargs, fragment):

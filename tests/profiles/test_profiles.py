@@ -73,7 +73,7 @@ def test_dipole_limits():
 @pytest.mark.parametrize("model", ["dipole", "burley", "gaussians"])
 @pytest.mark.parametrize("name", ["Skin1", "Marble", "Ketchup"])
 def test_profiles_nonnegative_and_decreasing(model, name):
-    prof = profile_for_material(name, model)
+    prof = profile_for_material(name, model, **({"albedo_source": "dipole"} if model == "burley" else {}))
     r = np.linspace(1e-3, float(prof.radius_at_fraction(0.9999).max()), 2000)
     v = prof.eval(r)
     assert np.all(v >= 0)
@@ -115,11 +115,32 @@ def test_burley_eq5_configurations():
 
 def test_burley_for_material_uses_dipole_albedo_and_searchlight_d():
     m = MATERIALS.get("skin1")
-    bur = profile_for_material(m, "burley")
+    bur = profile_for_material(m, "burley", albedo_source="dipole")
     dip = dipole_profile(m)
     for c in range(3):
         assert bur.channels[c].albedo == pytest.approx(dip.channels[c].total_rd())
         assert bur.channels[c].d == pytest.approx(float(burley_d_searchlight(dip.channels[c].total_rd(), 1 / m.sigma_t[c])))
+    assert bur.provenance["albedo_source"] == "dipole"
+
+
+def test_burley_takes_its_albedo_from_monte_carlo_by_default(tmp_path, monkeypatch):
+    """A = MCML's total diffuse reflectance (all reflected light): the dipole's albedo error against
+    MCML (Skin1 green 0.2273 vs 0.2093, blue 0.1310 vs 0.1131) is not inherited."""
+    from ssskit.profiles.montecarlo import montecarlo_rgb
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path))
+    m = MATERIALS.get("skin1")
+    bur = profile_for_material(m, "burley", photons=20_000)
+    mc = montecarlo_rgb(m, photons=20_000)
+    for c in range(3):
+        assert bur.channels[c].albedo == mc.channels[c].total_rd_with_overflow()
+        assert bur.channels[c].total_rd() == pytest.approx(mc.channels[c].total_rd_with_overflow(), rel=1e-9)
+    assert bur.provenance["albedo_source"] == "montecarlo"
+    dip = dipole_profile(m).total_rd()
+    assert dip[1] == pytest.approx(0.2273, abs=5e-4) and dip[2] == pytest.approx(0.1310, abs=5e-4)
+    assert bur.total_rd()[1] == pytest.approx(0.2093, abs=0.004) and bur.total_rd()[2] == pytest.approx(0.1131, abs=0.004)
+    with pytest.raises(ProfileError, match="albedo source"):
+        profile_for_material(m, "burley", albedo_source="guess")
 
 
 def test_radius_at_fraction_inverts_energy():
@@ -176,7 +197,7 @@ def test_bad_profile_parameters():
 
 
 def test_rgb_to_dict_shape():
-    prof = profile_for_material("ketchup", "burley")
+    prof = profile_for_material("ketchup", "burley", albedo_source="dipole")
     data = prof.to_dict(np.array([0.0, 0.5, 1.0]))
     assert set(data["channels"]) == {"R", "G", "B"}
     assert data["channels"]["G"]["total_Rd"] == pytest.approx(prof.total_rd()[1])

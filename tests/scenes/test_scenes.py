@@ -120,13 +120,16 @@ def test_light_path_moves_the_shadow():
 def test_path_traced_reference_is_cached(tmp_path, monkeypatch):
     monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path))
     mat = get_material("skin1")
-    img = render_reference("slab", mat, width=24, height=18, spp=2, max_depth=64, chunk_spp=1, progress=False)
+    ref = render_reference("slab", mat, width=24, height=18, spp=2, max_depth=64, chunk_spp=1, progress=False)
+    img = ref.image
     assert img.shape == (18, 24, 3) and np.all(np.isfinite(img)) and np.all(img >= 0)
     assert img[:, :8].mean() > img[:, -8:].mean()  # the lit half is brighter than the shadowed half
-    files = list((tmp_path / "reference").glob("slab-*.npy"))
+    assert ref.spp == 2 and ref.chunks == 2 and ref.pixel_se.shape == img.shape
+    files = list((tmp_path / "reference").glob("slab-*.npz"))
     assert len(files) == 1
     again = render_reference("slab", mat, width=24, height=18, spp=2, max_depth=64, chunk_spp=1, progress=False)
-    np.testing.assert_array_equal(img, again)
+    np.testing.assert_array_equal(img, again.image)
+    np.testing.assert_array_equal(ref.region_se, again.region_se)
 
 
 def test_reference_takes_one_phase_g():

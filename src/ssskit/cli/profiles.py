@@ -70,9 +70,13 @@ def resolve_profile(ctx: click.Context, material, model: str, options: dict[str,
 @model_option("dipole", help="Profile model (deon2007 is a fixed skin preset and takes no material).")
 @click.option("--configuration", default="searchlight", show_default=True,
               help="--model burley: d from Xie 2020 Eq. 5: searchlight, diffuse-transmission or dmfp.")
+@click.option("--albedo-source", type=click.Choice(("montecarlo", "dipole")), default="montecarlo", show_default=True,
+              help="--model burley: A from MCML's total diffuse reflectance (--photons) or the dipole's.")
 @click.option("--gaussians", "n_gaussians", type=click.IntRange(1, 16), default=6, show_default=True,
               help="--model gaussians: number of Gaussians.")
-@photons_option(200_000, help="--model montecarlo: photons per channel (cached).")
+@photons_option(200_000, help="--model montecarlo (and burley's A): photons per channel (cached).")
+@click.option("--grid-fraction", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=None,
+              help="--model montecarlo: lengthen the 32-MFP grid until it holds this fraction of the light (e.g. 0.999).")
 @click.option("--points", type=click.IntRange(2, 1_000_000), default=256, show_default=True, help="Number of radii (bin centres).")
 @click.option("--r-max", "r_max", type=float, default=None,
               help="Largest radius in mm [default: where every channel holds 99.9% of its energy].")
@@ -80,7 +84,8 @@ def resolve_profile(ctx: click.Context, material, model: str, options: dict[str,
 @out_option((".csv", ".npz"), "Write the table to FILE.csv or FILE.npz.")
 @out_option((".png", ".pdf", ".svg"), "Write a plot to FILE.png (or .pdf/.svg).", name="--plot")
 @click.pass_context
-def profile(ctx, material, model, configuration, n_gaussians, photons, points, r_max, as_json, out, plot) -> None:
+def profile(ctx, material, model, configuration, albedo_source, n_gaussians, photons, grid_fraction, points, r_max,
+            as_json, out, plot) -> None:
     """Diffuse reflectance profile R(r) of a material, per RGB channel."""
     import numpy as np
 
@@ -90,8 +95,10 @@ def profile(ctx, material, model, configuration, n_gaussians, photons, points, r
     if r_max is not None and not (r_max > 0 and math.isfinite(r_max)):
         raise SsskitError(f"--r-max must be a positive number of mm, got {r_max}")
     make = resolve_profile(ctx, material, model, {"configuration": ("configuration", configuration),
+                                                  "albedo_source": ("albedo_source", albedo_source),
                                                   "n_gaussians": ("n", n_gaussians),
-                                                  "photons": ("photons", photons)})
+                                                  "photons": ("photons", photons),
+                                                  "grid_fraction": ("grid_fraction", grid_fraction)})
     prof = make()
     if r_max is None:
         r_max = float(max(prof.radius_at_fraction(0.999)))
@@ -111,6 +118,12 @@ def profile(ctx, material, model, configuration, n_gaussians, photons, points, r
         return
     click.echo(f"# {prof.model} profile of {prof.name}; r in mm, Rd in mm^-2")
     click.echo("# total Rd (R, G, B): " + ", ".join(f"{v:.6f}" for v in prof.total_rd()))
+    if all(hasattr(c, "total_rd_with_overflow") for c in prof.channels):
+        # a Monte Carlo profile: R(r) integrates to the light inside the grid; MCML's Rd adds the rest
+        click.echo("# total Rd in grid (R, G, B): " + ", ".join(f"{c.total_rd():.6f}" for c in prof.channels)
+                   + "   with overflow: " + ", ".join(f"{c.total_rd_with_overflow():.6f}" for c in prof.channels)
+                   + "   beyond the grid (" + ", ".join(f"{c.edges[-1]:.4g}" for c in prof.channels) + " mm): "
+                   + ", ".join(f"{c.overflow:.2e}" for c in prof.channels))
     if not out:
         click.echo("r_mm,Rd_R,Rd_G,Rd_B")
         for ri, row in zip(r, prof.eval(r)):
@@ -140,13 +153,15 @@ def _channels():
 @click.option("--scheduler", default=None, metavar="ADDRESS", help="Run a sweep on a dask.distributed cluster (extra: ssskit[cluster]).")
 @click.option("--batch-size", type=click.IntRange(min=1), default=10_000, show_default=True,
               help="Photons per random stream / standard-error batch.")
+@click.option("--grid-fraction", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=None,
+              help="Lengthen the 32-MFP grid until it holds this fraction of the reflected light (e.g. 0.999); single material.")
 @click.option("--resume", is_flag=True, help="Continue the partial result of an interrupted run with the same inputs.")
 @click.option("--restart", is_flag=True, help="Discard the partial result of an interrupted run and start over.")
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the on-disk cache.")
 @out_option((".npz",), "Write FILE.npz (one material) with r_mm, Rd, Rd_se per channel.")
 @json_option()
-def simulate(material, channel, photons, seed, threads, jobs, scheduler, batch_size, resume, restart, no_cache, out,
-             as_json) -> None:
+def simulate(material, channel, photons, seed, threads, jobs, scheduler, batch_size, grid_fraction, resume, restart,
+             no_cache, out, as_json) -> None:
     """Monte Carlo (MCML) diffuse reflectance profiles with the supplement's settings.
 
     An interrupted run (Ctrl-C) keeps its finished batches: run it again with --resume to continue
@@ -171,14 +186,16 @@ def simulate(material, channel, photons, seed, threads, jobs, scheduler, batch_s
     single = len(mats) == 1 and scheduler is None
     if out and len(mats) > 1:
         raise SsskitError("--out takes a single material; use --json for a sweep")
-    if not single and (no_cache or threads is not None):
-        raise SsskitError("--no-cache and --threads apply to a single material (a sweep runs one thread per job)")
+    if not single and (no_cache or threads is not None or grid_fraction is not None):
+        raise SsskitError("--no-cache, --threads and --grid-fraction apply to a single material (a sweep runs one "
+                          "thread per job)")
     for m in mats:  # photons, seed and batch size checked by the engine's own configuration, before any work
         config_for_material(m, 0, photons, seed, batch_size)
     if single:
         runs = {mats[0].name: simulate_material(mats[0], channel, photons=photons, seed=seed, threads=threads,
                                                 progress=True, resume=resume, restart=restart,
-                                                use_cache=not no_cache, batch_size=batch_size)}
+                                                use_cache=not no_cache, batch_size=batch_size,
+                                                grid_fraction=grid_fraction)}
     else:
         runs = simulate_many(mats, channel, photons=photons, seed=seed, jobs=jobs, batch_size=batch_size,
                              progress=True, resume=resume, restart=restart, scheduler=scheduler)
@@ -204,13 +221,17 @@ def simulate(material, channel, photons, seed, threads, jobs, scheduler, batch_s
                     Rd_se=np.stack([r.rd_se for r in res.values()], axis=-1),
                     total_Rd=np.array([r.total_rd for r in res.values()]),
                     total_Rd_se=np.array([r.total_rd_se for r in res.values()]),
+                    total_Rd_in_grid=np.array([r.total_rd_in_grid for r in res.values()]),
+                    overflow=np.array([r.overflow for r in res.values()]),
                     Rsp=np.array([r.rsp for r in res.values()]))
     if as_json:
         echo_json(data[mats[0].name] if len(mats) == 1 else {"materials": data})
         return
     for name, d in data.items():
         for ch, c in d["channels"].items():
-            click.echo(f"{name:<10} {ch}  total Rd = {c['total_Rd']:.5f} ± {c['total_Rd_se']:.5f}   Rsp = {c['Rsp']:.4f}")
+            click.echo(f"{name:<10} {ch}  total Rd with overflow = {c['total_Rd']:.5f} ± {c['total_Rd_se']:.5f}, "
+                       f"in grid = {c['total_Rd_in_grid']:.5f}, beyond {c['grid_mm']:.4g} mm = {c['overflow']:.2e}   "
+                       f"Rsp = {c['Rsp']:.4f}")
         rate = d["photons_per_second"]
         click.echo(f"{name:<10}    {d['photons']} photons/channel, {d['seconds']:.1f} s"
                    + (f", {rate:,.0f} photons/s" if rate else "") + (" (cached)" if d["cached"] else ""))

@@ -52,6 +52,8 @@ FIELDS: dict[str, tuple[str, ...]] = {
     "backend": ("sss.backend",),
     "reference": ("reference",),
     "reference_spp": ("reference_spp",),
+    "reference_max_spp": ("reference_max_spp",),
+    "reference_rel_se": ("reference_rel_se",),
     "no_exact": ("exact",),
     "no_perceptual": ("perceptual",),
 }
@@ -126,7 +128,11 @@ def build_settings(ctx: click.Context, settings_file: str | None, params: dict) 
 @click.option("--seed", type=int, default=_D.seed, show_default=True, help="Random seed (renders and jitter).")
 @click.option("--reference", is_flag=True, help="Also path-trace the built-in scene (Mitsuba volpathmis; cached) and compare.")
 @click.option("--reference-spp", type=int, default=_D.reference_spp, show_default=True,
-              help="Samples per pixel of the path-traced reference.")
+              help="Samples per pixel of the path-traced reference (at least).")
+@click.option("--reference-max-spp", type=int, default=_D.reference_max_spp, show_default=True,
+              help="Sample budget of the reference: it renders until --reference-rel-se is reached or this is spent.")
+@click.option("--reference-rel-se", type=float, default=_D.reference_rel_se, show_default=True,
+              help="Target relative standard error of the reference's mean over the SSS mask.")
 @click.option("--no-exact", is_flag=True, help="Skip the exact 2D convolution.")
 @click.option("--no-perceptual", is_flag=True, help="Skip FLIP in the metrics.")
 @out_option((".exr",), "Also write the G-buffer as a multi-layer EXR.", name="--save-gbuffer", dest="save_gbuffer")
@@ -162,7 +168,17 @@ def render(ctx, scene, settings_file, save_gbuffer, out, as_json, **params) -> N
     click.echo(f"# {res.scene}: {res.material.name} ({s.model}), {s.kernel} with {res.taps.taps} taps, "
                f"jitter {s.sss.jitter:g}, {w}x{h}, {s.sss.backend} backend")
     for against, m in res.metrics.items():
-        click.echo(f"vs {against:12s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
+        if against != "regions":
+            click.echo(f"vs {against:12s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
+    from ..pipeline.regions import format_regions
+
+    for line in format_regions(res.metrics.get("regions")):
+        click.echo(line)
+    if res.reference_info is not None:
+        ref = res.reference_info
+        click.echo(f"# reference: {ref.spp} spp, relative standard error of the SSS mask's mean "
+                   + ", ".join(f"{v:.2%}" for v in ref.rel_se) + f" (target {ref.target_rel_se:.1%}, budget "
+                   f"{ref.max_spp} spp: {'converged' if ref.converged else 'budget spent, not converged'})")
     if out:
         click.echo(f"# wrote {out}")
 

@@ -10,7 +10,7 @@ from ..kernels import build_kernel
 from ..kernels.base import default_grid
 from ..kernels.methods import singular_values
 from ..materials import CHANNELS
-from ..metrics import tonemap
+from ..metrics import psnr_text, tonemap
 from .plots import CHANNEL_COLORS, pyplot, save_figure
 
 #: grid of the kernel figures (the evaluation grids are tied to the image instead)
@@ -114,7 +114,7 @@ def _comparison(out: Path, profile, signal: str, filename: str, title: str, prog
         view = img[s // 2 - 12: s // 2 + 12] if crop == "strip" else img
         ax.imshow(tonemap(view, peak), interpolation="nearest", aspect="auto")
         text = label if res is None else (f"{label}  [{res['convolutions_1d']} conv]  rel.RMSE {res['relative_rmse']:.2e}"
-                                          f"  PSNR {res['psnr']:.1f}  FLIP {res['flip']:.3f}")
+                                          f"  PSNR {psnr_text(res['psnr'])}  FLIP {res['flip']:.3f}")
         ax.set_title(text, fontsize=7, loc="left")
     return _finish(fig, f"{title}: {profile.name} ({profile.model}), {ev.pixel_mm:.3f} mm/pixel", out / filename, 9)
 

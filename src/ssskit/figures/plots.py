@@ -29,12 +29,14 @@ def pyplot():
 def save_figure(fig, path: str | Path, dpi: int = 110) -> None:
     """Write ``fig`` atomically (format from the suffix) and close it."""
     with atomic_output(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format=Path(path).suffix.lstrip(".") or "png")
+        # "tight": titles, labels and a legend beside the axes are kept whole, never clipped
+        fig.savefig(tmp, dpi=dpi, format=Path(path).suffix.lstrip(".") or "png", bbox_inches="tight")
     pyplot().close(fig)
 
 
 def plot_profiles(profiles, title: str, path: str | Path, n: int = 400) -> None:
-    """Three panels: R(r) linear, R(r) log, and 2 pi r R(r) (the supplement's weighted view).
+    """Three panels: R(r) linear, R(r) on log-log axes (to the end of a Monte Carlo grid, marked), and
+    2 pi r R(r) (the supplement's weighted view); one legend beside the panels.
 
     ``profiles`` is a list of RGBProfile sharing one r axis (to the largest 99.9%-energy radius).
     """
@@ -43,28 +45,38 @@ def plot_profiles(profiles, title: str, path: str | Path, n: int = 400) -> None:
     analytic = [p for p in profiles if p.model != "montecarlo"] or profiles
     r_max = max(float(np.max(p.radius_at_fraction(0.999))) for p in analytic)
     r = (np.arange(n) + 0.5) * (r_max / n)
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    grid_ends = [float(c.edges[-1]) for p in profiles if p.model == "montecarlo" for c in p.channels
+                 if hasattr(c, "edges")]
+    r_log = np.geomspace(r_max / 2000, max([r_max] + grid_ends) * 1.15, n)
+    fig, axes = plt.subplots(1, 3, figsize=(16, 4.6))
     for k, prof in enumerate(profiles):
         values = prof.eval(r)
+        logv = prof.eval(r_log)
         for c in range(3):
             kw = dict(color=CHANNEL_COLORS[c], ls=_STYLES[k % len(_STYLES)], lw=1.4)
             label = f"{prof.model} {CHANNELS[c]}"
             axes[0].plot(r, values[:, c], label=label, **kw)
-            axes[1].semilogy(r, values[:, c], **kw)
+            axes[1].loglog(r_log, np.where(logv[:, c] > 0, logv[:, c], np.nan), **kw)
             axes[2].plot(r, 2 * np.pi * r * values[:, c], **kw)
+    for end in sorted(set(round(e, 6) for e in grid_ends)):
+        axes[1].axvline(end, color="0.4", lw=0.8, ls=":")
+    if grid_ends:
+        axes[1].text(max(grid_ends), axes[1].get_ylim()[1], " Monte Carlo grid ends", rotation=90, va="top",
+                     ha="right", fontsize=8, color="0.3")
     # 1/r profiles (Burley) diverge at the origin: scale the linear panel from r >= r_max / 50.
     axes[0].set_ylim(0, 1.2 * max(float(p.eval(r[n // 50 :]).max()) for p in profiles))
-    top = max(float(p.eval(r[:1]).max()) for p in profiles)
+    top = max(float(p.eval(r_log[:1]).max()) for p in profiles)
     axes[1].set_ylim(top * 1e-10, top * 3)
     axes[0].set_title("R(r)  [mm$^{-2}$]")
-    axes[1].set_title("R(r), log scale")
+    axes[1].set_title("R(r), log-log")
     axes[2].set_title(r"$2\pi r\,R(r)$  [mm$^{-1}$]")
     for ax in axes:
         ax.set_xlabel("r [mm]")
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=7, ncol=len(profiles))
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="center left", bbox_to_anchor=(0.995, 0.5), fontsize=8, frameon=False)
     fig.suptitle(title)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.05, right=0.98, wspace=0.22, top=0.86, bottom=0.13)
     save_figure(fig, path)
 
 

@@ -36,7 +36,11 @@ Two ground truths:
   region, with the pass's own boundary rule (:func:`ssskit.truth.exact_screen_space`); exact for a
   fronto-parallel surface (the slab scene);
 * ``reference``: a volumetric path-traced image of the same scene (Mitsuba ``volpathmis``;
-  :func:`ssskit.scenes.render_reference`), which also contains what no screen-space method has.
+  :func:`ssskit.scenes.render_reference`), which also contains what no screen-space method has;
+  every non-SSS surface is black in it, so it is lit by the lights alone, like the G-buffer's
+  diffuse layer; rendered until the SSS mask's mean has a relative standard error of at most
+  ``reference_rel_se`` or ``reference_max_spp`` is spent (``metrics["path_traced"]["reference"]``
+  says which, with the spp and the standard errors).
 
 Metrics (:func:`ssskit.metrics.region_metrics`) are taken inside the SSS mask on the composited
 images: ``metrics["exact_2d"]`` and ``metrics["path_traced"]`` (plus the ratio of mean values inside
@@ -91,6 +95,7 @@ class RenderResult:
     image: np.ndarray  # composite albedo * sss + specular (H, W, 3)
     exact: np.ndarray | None = None  # blurred diffuse layer by the exact 2D convolution
     reference: np.ndarray | None = None  # path-traced image
+    reference_info: Any = None  # the path trace's ssskit.scenes.Reference (standard errors, spp, convergence)
     metrics: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None  # the G-buffer file read, if any
 
@@ -242,13 +247,22 @@ def render(scene: str | Path | GBuffer = "slab", settings: RenderSettings | None
         if res.exact is not None:
             res.metrics["exact_2d"] = region_metrics(gb.composite(res.exact), res.image, mask, settings.perceptual)
     if settings.reference:
-        say(f"path tracing {plan.builtin} ({settings.reference_spp} spp, Mitsuba volpathmis; cached)")
-        res.reference = render_reference(plan.builtin, mat, width=gb.shape[1], height=gb.shape[0],
-                                         spp=settings.reference_spp, seed=settings.seed, frame=settings.sss.frame,
-                                         progress=progress is not None)
+        say(f"path tracing {plan.builtin} (Mitsuba volpathmis, {settings.reference_spp} to {settings.reference_max_spp} "
+            f"spp until the SSS mask's relative standard error is {settings.reference_rel_se:.1%}; cached)")
+        ref = render_reference(plan.builtin, mat, width=gb.shape[1], height=gb.shape[0], spp=settings.reference_spp,
+                               max_spp=settings.reference_max_spp, target_rel_se=settings.reference_rel_se,
+                               region=mask if mask.any() else None, seed=settings.seed, frame=settings.sss.frame,
+                               progress=progress is not None)
+        res.reference = ref.image
+        res.reference_info = ref
         m = region_metrics(res.reference, res.image, mask, settings.perceptual)
         m["mean_ratio_in_mask"] = ((res.image[mask].mean(axis=0) / np.maximum(res.reference[mask].mean(axis=0), 1e-12))
                                    .tolist() if mask.any() else None)
         m["pixels_with_surface"] = int(np.isfinite(gb.depth).sum())
+        m["reference"] = ref.summary()
         res.metrics["path_traced"] = m
+    if (settings.reference or res.exact is not None) and mask.any():
+        from .regions import compare_regions
+
+        res.metrics["regions"] = compare_regions(gb, profile, sss, res.exact, res.reference_info)
     return res

@@ -28,7 +28,9 @@ class RenderSettings(Settings):
     pass (odd; an engine tap kernel such as jimenez2012 is built with this many taps);
     ``tap_method``: importance, uniform or quadratic; ``width`` x ``height``, ``spp`` and ``seed``:
     the built-in scene's G-buffer render; ``exact``: also the exact 2D convolution; ``reference``:
-    also a volumetric path trace with ``reference_spp``; ``perceptual``: FLIP in the metrics;
+    also a volumetric path trace with at least ``reference_spp`` samples per pixel, continued until
+    the relative standard error of its mean over the SSS mask is at most ``reference_rel_se`` or
+    ``reference_max_spp`` is spent (:func:`ssskit.scenes.render_reference`); ``perceptual``: FLIP in the metrics;
     ``sss``: the pass itself (:class:`PassSettings`: jitter, depth mode, frame, seed, backend).
     """
 
@@ -45,6 +47,8 @@ class RenderSettings(Settings):
     exact: bool = True
     reference: bool = False
     reference_spp: int = 64
+    reference_max_spp: int = 1024
+    reference_rel_se: float = 0.01
     perceptual: bool = True
     sss: PassSettings = field(default_factory=PassSettings)
 
@@ -70,6 +74,13 @@ class RenderSettings(Settings):
         object.__setattr__(self, "spp", check_int("spp", self.spp, 1, 4096))
         object.__setattr__(self, "seed", check_int("seed", self.seed, 0, 2**31 - 1))
         object.__setattr__(self, "reference_spp", check_int("reference_spp", self.reference_spp, 1, 1 << 20))
+        object.__setattr__(self, "reference_max_spp", check_int("reference_max_spp", self.reference_max_spp, 1, 1 << 20))
+        if self.reference_max_spp < self.reference_spp:
+            object.__setattr__(self, "reference_max_spp", self.reference_spp)
+        rel = self.reference_rel_se
+        if isinstance(rel, bool) or not (isinstance(rel, (int, float)) and 0 < rel < 1):
+            raise SettingsError(f"reference_rel_se must be a number in (0, 1), got {rel!r}")
+        object.__setattr__(self, "reference_rel_se", float(rel))
         for name in ("exact", "reference", "perceptual"):
             if not isinstance(getattr(self, name), bool):
                 raise SettingsError(f"{name} must be true or false, got {getattr(self, name)!r}")

@@ -47,24 +47,45 @@ def dipole_profile(material: Material) -> RGBProfile:
     return RGBProfile(chans, "dipole", material.name, {"material": material.to_dict()})  # type: ignore[arg-type]
 
 
+#: where Burley's A comes from for a material: MCML's total diffuse reflectance (default) or the dipole's
+BURLEY_ALBEDO_SOURCES = ("montecarlo", "dipole")
+
+
 @MODELS.decorator("burley")
 def burley_profile(
     material: Material,
     configuration: str = "searchlight",
     albedo: tuple[float, float, float] | None = None,
+    albedo_source: str = "montecarlo",
+    photons: int = 200_000,
 ) -> RGBProfile:
     """Burley's normalized diffusion (Xie 2020 Eq. 4) matched to ``material``.
 
-    A defaults to the material's total diffuse reflectance from the [JMLH01] dipole closed form;
-    ell is the transport mean free path 1 / sigma_t' (the volume mean free path for g = 0, as in
-    all presets), turned into d by the chosen Eq. 5 configuration (default: searchlight, the
-    normal-incidence set-up of the supplement's simulations).
+    A defaults to the material's total diffuse reflectance from MCML (``albedo_source="montecarlo"``:
+    all reflected light, the grid's and beyond, ``photons`` per channel, cached), or from the [JMLH01]
+    dipole closed form (``"dipole"``; its albedo error against MCML is the dipole's, e.g. Skin1 green
+    0.2273 vs 0.2093); ``albedo`` given explicitly wins. ell is the transport mean free path
+    1 / sigma_t' (the volume mean free path for g = 0, as in all presets), turned into d by the chosen
+    Eq. 5 configuration (default: searchlight, the normal-incidence set-up of the supplement's
+    simulations).
     """
-    if albedo is None:
+    source = str(albedo_source).strip().lower()
+    if source not in BURLEY_ALBEDO_SOURCES:
+        raise ProfileError(f"albedo source must be one of {', '.join(BURLEY_ALBEDO_SOURCES)}, got {albedo_source!r}")
+    if albedo is not None:
+        source = "given"
+    elif source == "dipole":
         albedo = tuple(float(v) for v in dipole_profile(material).total_rd())  # type: ignore[assignment]
+    else:
+        from .montecarlo import montecarlo_rgb
+
+        mc = montecarlo_rgb(material, photons=photons)
+        albedo = tuple(float(c.total_rd_with_overflow()) for c in mc.channels)  # type: ignore[assignment]
     ds = burley_d(albedo, material.mfp_reduced_mm, configuration)
     chans = tuple(BurleyProfile(albedo[i], float(ds[i])) for i in range(3))  # type: ignore[index]
-    prov = {"material": material.to_dict(), "configuration": configuration, "albedo_source": "dipole"}
+    prov = {"material": material.to_dict(), "configuration": configuration, "albedo_source": source}
+    if source == "montecarlo":
+        prov["photons"] = photons
     return RGBProfile(chans, "burley", material.name, prov)  # type: ignore[arg-type]
 
 
@@ -92,15 +113,16 @@ _DEON2007_NO_MATERIAL = "the deon2007 model is a fixed skin preset and takes no 
 
 @MODELS.decorator("montecarlo")
 def montecarlo_profile(material: Material | LayeredMaterial, photons: int = 200_000, seed: int = 1,
-                       **options: Any) -> RGBProfile:
+                       grid_fraction: float | None = None, **options: Any) -> RGBProfile:
     """MCML-simulated profiles (supplement F grid; cached on disk). Needs numba.
 
-    ``options`` go to :func:`ssskit.profiles.montecarlo.simulate_material` (threads, progress,
-    resume, restart, use_cache, batch_size).
+    ``grid_fraction`` (e.g. 0.999): lengthen the grid of a channel until it holds that fraction of
+    the reflected light. ``options`` go to :func:`ssskit.profiles.montecarlo.simulate_material`
+    (threads, progress, resume, restart, use_cache, batch_size).
     """
     from .montecarlo import montecarlo_rgb
 
-    return montecarlo_rgb(material, photons=photons, seed=seed, **options)
+    return montecarlo_rgb(material, photons=photons, seed=seed, grid_fraction=grid_fraction, **options)
 
 
 #: Models that take no material (fixed presets).
@@ -130,6 +152,7 @@ def profile_for_material(material: Material | LayeredMaterial | str | None, mode
 
 
 __all__ = [
+    "BURLEY_ALBEDO_SOURCES",
     "BURLEY_CONFIGURATIONS",
     "BurleyProfile",
     "DEON2007_SKIN_VARIANCES",

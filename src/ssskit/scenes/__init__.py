@@ -5,20 +5,22 @@ Mitsuba 3 into G-buffers, with camera/light paths over frames and path-traced re
 * :mod:`.scenes`: the scene registry :data:`SCENES` (:class:`SceneSpec`: geometry, lights, camera),
   ``scene_camera``, ``scene_lights`` and the Mitsuba scene dictionaries;
 * :mod:`.gbuffers`: ``render_gbuffer`` (one frame) and ``render_sequence`` (consecutive frames);
-* :mod:`.reference`: ``render_reference``, a volumetric path trace of the same scene, cached.
+* :mod:`.reference`: ``render_reference``, a volumetric path trace of the same scene in independent
+  chunks until a region's standard error is small (:class:`Reference`), cached.
 
 Mitsuba is imported when a scene is first rendered, not here.
 """
 
 from ..errors import SceneError
 from .gbuffers import render_gbuffer, render_sequence
-from .reference import reference_cache_dir, reference_phase_g, render_reference
+from .reference import Reference, reference_cache_dir, reference_phase_g, render_reference, sss_region
 from .scenes import COAT_ROUGHNESS, FLOOR_ALBEDO, SCENES, SceneSpec, camera_pose, scene_camera, scene_lights
 from .signals import SIGNALS, make_signal
 
 __all__ = [
     "COAT_ROUGHNESS",
     "FLOOR_ALBEDO",
+    "Reference",
     "SCENES",
     "SIGNALS",
     "SceneError",
@@ -32,4 +34,5 @@ __all__ = [
     "render_sequence",
     "scene_camera",
     "scene_lights",
+    "sss_region",
 ]

@@ -1,25 +1,59 @@
 """Path-traced references of the built-in scenes: the SSS objects as a homogeneous medium inside their
-rough dielectric boundary, rendered by Mitsuba 3 ``volpathmis`` and cached on disk.
+boundary, rendered by Mitsuba 3 ``volpathmis`` in independent chunks until a region's standard error
+is small enough, and cached on disk.
 
 What the screen-space result is compared with: it also contains what no screen-space method has
 (light through thin parts, Fresnel at entry and exit, curvature, light from behind the silhouette).
+
+The boundary (everywhere the code and the docs name it): a **rough dielectric**, Mitsuba
+``roughdielectric`` with **Beckmann** microfacets of roughness alpha = :data:`COAT_ROUGHNESS`,
+interior index = the material's eta, exterior index = its ``eta_ambient`` -- the same interface as
+the G-buffer's specular layer. ``boundary="index-matched"`` replaces it with Mitsuba's ``null``
+BSDF (no refraction, no reflection: the medium's index equals the ambient one), the set-up of
+MCML at eta = 1 and the cheap units check of the reference.
+
+Lighting matched to the G-buffer: every surface that is not an SSS object is **black** in the
+reference (``surround_albedo = 0``, a diffuse BSDF of reflectance 0: it still casts shadows). The
+G-buffer's diffuse layer is E / pi of the scene's lights alone (direct light, no bounce), so with
+black surroundings both sides are lit by the same light: no floor bounce enters the reference that
+the screen-space pass could never have. What remains different is real transport: light that
+leaves an SSS object and re-enters it (concave parts), light through thin parts, Fresnel.
+
+Convergence: the image is the mean of ``chunks`` renders of ``chunk_spp`` samples per pixel, each
+a separate ``mi.render`` call with its own seed (:func:`chunk_seed`): Mitsuba seeds the sample
+stream of pixel p from the base seed and p, so calls that shared a seed would replay each other's
+samples shifted by a pixel. The chunks are independent batches: the per-pixel standard error is
+the spread of the chunk images (batch method), and the standard error of a region's mean is the
+spread of the chunks' region means. Rendering goes on until the relative standard error of the
+region's mean is at most ``target_rel_se`` in every channel or ``max_spp`` is spent; both are
+reported in the returned :class:`Reference`.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..cache import cache_dir
 from ..errors import SceneError
-from ..io import atomic_output
-from .scenes import COAT_ROUGHNESS, FLOOR_ALBEDO, SCENES, check_size, check_spp, render_dict, scene_dict
+from ..io import atomic_output, progress_bar
+from .scenes import COAT_ROUGHNESS, SCENES, check_size, check_spp, mitsuba, scene_dict
 
-#: bumped when the reference renders change (invalidates the cache)
-CACHE_VERSION = 2
+#: bumped when the reference renders change (invalidates the cache). 3: a unique seed per mi.render
+#: call (before, chunks replayed each other shifted by a pixel), black surroundings, chunk statistics
+CACHE_VERSION = 3
+
+#: the reference's boundaries: the rough dielectric of the scenes, or an index-matched null interface
+BOUNDARIES = ("rough-dielectric", "index-matched")
+
+#: defaults of the convergence rule: relative standard error of the region's mean, spp budget
+TARGET_REL_SE = 0.01
+MAX_SPP = 4096
 
 
 def reference_cache_dir() -> Path:
@@ -44,57 +78,295 @@ def reference_phase_g(material) -> float:
     return float(g.flat[0])
 
 
-def render_reference(scene: str, material, width: int = 128, height: int = 96, spp: int = 64, max_depth: int = 1024,
-                     seed: int = 0, frame: int = 0, chunk_spp: int = 8, use_cache: bool = True,
-                     progress: bool = True) -> np.ndarray:
-    """Volumetric path-traced image (H, W, 3) of the scene at ``frame``.
+def chunk_seed(seed: int, index: int) -> int:
+    """The seed of the ``index``-th ``mi.render`` call of a reference rendered with ``seed``.
 
-    The SSS objects are a homogeneous medium with the material's sigma_a, sigma_s (mm^-1 = per world
-    unit) and Henyey-Greenstein g (one value: :func:`reference_phase_g`), inside a rough dielectric of
-    index eta (Mitsuba ``roughdielectric``, Beckmann alpha = :data:`COAT_ROUGHNESS`, the same boundary
-    as the G-buffer's specular layer); Mitsuba ``volpathmis`` with a high ``max_depth`` (high-albedo
-    media need long random walks). Rendered in chunks of ``chunk_spp`` (a progress bar with
-    ``progress``) and cached in :func:`reference_cache_dir`, keyed by every input.
+    ``(h(seed) + index) mod 2^32`` with h a splitmix64 hash of the user seed: the chunks of one
+    reference get distinct consecutive seeds (Mitsuba hashes the call's seed with the pixel index,
+    and consecutive call seeds give independent streams: tests/scenes), and different user seeds
+    start at unrelated points of the 2^32 seed space.
+    """
+    z = (int(seed) * 0x9E3779B97F4A7C15 + 0xD1B54A32D192ED03) & 0xFFFFFFFFFFFFFFFF
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & 0xFFFFFFFFFFFFFFFF
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & 0xFFFFFFFFFFFFFFFF
+    z ^= z >> 31
+    return int(((z >> 32) + int(index)) & 0xFFFFFFFF)
+
+
+def batch_mean_se(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean over axis 0 of equal-sized batches and its standard error: std(ddof=1) / sqrt(K)
+    (the batch method; NaN for a single batch)."""
+    v = np.asarray(values, dtype=np.float64)
+    k = v.shape[0]
+    mean = v.mean(axis=0)
+    if k < 2:
+        return mean, np.full_like(mean, np.nan)
+    return mean, v.std(axis=0, ddof=1) / np.sqrt(k)
+
+
+@dataclass(frozen=True)
+class Reference:
+    """A converged (or budget-limited) path-traced image and its error bars.
+
+    ``image``: (H, W, 3) mean radiance; ``pixel_se``: (H, W, 3) per-pixel batch standard error;
+    ``region``: (H, W) bool, the pixels whose mean decided convergence; ``region_mean`` /
+    ``region_se``: (3,) that region's mean and its batch standard error (spread of the chunks'
+    region means); ``spp`` = ``chunks`` x ``chunk_spp``; ``converged``: the relative standard error
+    reached ``target_rel_se`` in every channel before ``max_spp`` was spent.
+    """
+
+    image: np.ndarray
+    pixel_se: np.ndarray
+    region: np.ndarray
+    region_mean: np.ndarray
+    region_se: np.ndarray
+    spp: int
+    chunks: int
+    chunk_spp: int
+    target_rel_se: float
+    max_spp: int
+    converged: bool
+    boundary: str
+    surround_albedo: float
+    seed: int
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return self.image.shape
+
+    def __array__(self, dtype=None, copy=None):
+        return self.image if dtype is None else self.image.astype(dtype)
+
+    @property
+    def rel_se(self) -> np.ndarray:
+        """Relative standard error of the region's mean per channel (3,)."""
+        return self.region_se / np.maximum(np.abs(self.region_mean), 1e-300)
+
+    def region_stats(self, mask) -> tuple[np.ndarray, np.ndarray]:
+        """(mean, standard error) per channel of the mean over ``mask`` (H, W) bool.
+
+        The standard error is sqrt(sum of the pixels' squared standard errors) / N: distinct pixels
+        draw from independent random streams, so their errors add in quadrature.
+        """
+        m = np.asarray(mask, dtype=bool)
+        if m.shape != self.image.shape[:2]:
+            raise SceneError(f"region has shape {m.shape}, the reference {self.image.shape[:2]}")
+        n = int(m.sum())
+        if n == 0:
+            return np.full(3, np.nan), np.full(3, np.nan)
+        mean = self.image[m].astype(np.float64).mean(axis=0)
+        se = np.sqrt(np.sum(self.pixel_se[m].astype(np.float64) ** 2, axis=0)) / n
+        return mean, se
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready: spp, chunks, the region's mean, standard error and relative standard error per
+        channel, the target, the budget and whether it converged, the boundary and surroundings."""
+        return {"spp": int(self.spp), "chunks": int(self.chunks), "chunk_spp": int(self.chunk_spp),
+                "region_pixels": int(self.region.sum()), "region_mean": self.region_mean.tolist(),
+                "region_se": self.region_se.tolist(), "rel_se": self.rel_se.tolist(),
+                "target_rel_se": float(self.target_rel_se), "max_spp": int(self.max_spp),
+                "converged": bool(self.converged), "boundary": self.boundary,
+                "surround_albedo": float(self.surround_albedo), "seed": int(self.seed)}
+
+
+class ReferenceRenderer:
+    """One scene loaded once in Mitsuba; :meth:`chunk` renders chunk ``i`` with its own seed.
+
+    The medium: the material's sigma_a, sigma_s (mm^-1 = per world unit) and one Henyey-Greenstein g
+    (:func:`reference_phase_g`) inside the boundary (``rough-dielectric``: Mitsuba
+    ``roughdielectric``, Beckmann alpha = :data:`COAT_ROUGHNESS`, int_ior = eta, ext_ior =
+    eta_ambient; ``index-matched``: Mitsuba ``null``); every other surface diffuse with reflectance
+    ``surround_albedo`` (0: black); ``volpathmis`` with ``max_depth`` bounces (high-albedo media need
+    long random walks). ``crop`` = (x0, y0, w, h): render only that window of the width x height
+    image (every sample lands in it; a region's error falls faster).
+    """
+
+    def __init__(self, scene: str, material, width: int, height: int, max_depth: int = 1024, seed: int = 0,
+                 frame: int = 0, boundary: str = "rough-dielectric", surround_albedo: float = 0.0,
+                 crop: tuple[int, int, int, int] | None = None) -> None:
+        self.spec = SCENES.get(scene)
+        check_size(width, height)
+        _check_options(max_depth, seed, frame, boundary, surround_albedo)
+        self.g = reference_phase_g(material)
+        sigma_t = np.asarray(material.sigma_a, float) + np.asarray(material.sigma_s, float)
+        scale = float(sigma_t.max())
+        if not scale > 0:
+            raise SceneError("the material has no extinction (sigma_a + sigma_s = 0)")
+        single = np.where(sigma_t > 0, np.asarray(material.sigma_s, float) / np.maximum(sigma_t, 1e-300), 0.0)
+        # RGB values of a Mitsuba medium must lie in [0, 1]: sigma_t is given relative to its maximum
+        medium = {"type": "homogeneous", "sigma_t": {"type": "rgb", "value": (sigma_t / scale).tolist()},
+                  "albedo": {"type": "rgb", "value": single.tolist()}, "phase": {"type": "hg", "g": self.g},
+                  "scale": scale}
+        if boundary == "rough-dielectric":
+            shell = {"type": "roughdielectric", "int_ior": float(material.eta),
+                     "ext_ior": float(getattr(material, "eta_ambient", 1.0)), "distribution": "beckmann",
+                     "alpha": COAT_ROUGHNESS}
+        else:
+            shell = {"type": "null"}
+        surround = {"type": "diffuse", "reflectance": {"type": "rgb", "value": float(surround_albedo)}}
+        sss = self.spec.sss_shapes
+
+        def bsdf_for(sid):
+            return {**shell, "__medium": medium} if sid in sss else surround
+
+        self.seed = int(seed)
+        self.width, self.height = int(width), int(height)
+        integrator = {"type": "volpathmis", "max_depth": int(max_depth)}
+        mi = mitsuba()
+        # the sampler's own base seed stays 0: the per-call seed of mi.render makes each chunk's stream
+        d = scene_dict(self.spec, width, height, 1, 0, frame, integrator, bsdf_for)
+        if crop is not None:
+            x0, y0, cw, ch = (int(v) for v in crop)
+            if not (0 <= x0 and 0 <= y0 and cw >= 1 and ch >= 1 and x0 + cw <= width and y0 + ch <= height):
+                raise SceneError(f"crop window {crop!r} does not lie inside the {width}x{height} image")
+            d["sensor"]["film"].update(crop_offset_x=x0, crop_offset_y=y0, crop_width=cw, crop_height=ch)
+        try:
+            self._scene = mi.load_dict(d)
+        except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
+            raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
+        self._mi = mi
+
+    def chunk(self, index: int, spp: int) -> np.ndarray:
+        """Chunk ``index`` with ``spp`` samples per pixel, seeded by :func:`chunk_seed`; (H, W, 3) float64."""
+        img = self._mi.render(self._scene, seed=chunk_seed(self.seed, index), spp=int(spp))
+        return np.array(img, dtype=np.float64)[..., :3]
+
+
+def _check_options(max_depth, seed, frame, boundary, surround_albedo) -> None:
+    if isinstance(max_depth, bool) or not (isinstance(max_depth, (int, np.integer)) and max_depth >= 1):
+        raise SceneError(f"max_depth must be a positive integer, got {max_depth!r}")
+    if isinstance(seed, bool) or not (isinstance(seed, (int, np.integer)) and seed >= 0):
+        raise SceneError(f"seed must be a non-negative integer, got {seed!r}")
+    if isinstance(frame, bool) or not (isinstance(frame, (int, np.integer)) and frame >= 0):
+        raise SceneError(f"frame must be a non-negative integer, got {frame!r}")
+    if boundary not in BOUNDARIES:
+        raise SceneError(f"boundary must be one of {', '.join(BOUNDARIES)}, got {boundary!r}")
+    if not (isinstance(surround_albedo, (int, float, np.floating)) and 0.0 <= surround_albedo <= 1.0):
+        raise SceneError(f"surround_albedo must lie in [0, 1], got {surround_albedo!r}")
+
+
+def sss_region(scene: str, width: int, height: int, frame: int = 0) -> np.ndarray:
+    """(H, W) bool: the pixels that see an SSS object of ``scene`` (one AOV sample per pixel)."""
+    spec = SCENES.get(scene)
+    check_size(width, height)
+    mi = mitsuba()
+    white = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 1.0}}
+    tagged = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.25}}
+    aov = {"type": "aov", "aovs": "alb:albedo"}
+    d = scene_dict(spec, width, height, 1, 0, frame, aov, lambda sid: white if sid in spec.sss_shapes else tagged)
+    try:
+        img = np.array(mi.render(mi.load_dict(d), seed=0))
+    except Exception as exc:  # noqa: BLE001
+        raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
+    return img[..., 0] > 0.6
+
+
+def render_reference(scene: str, material, width: int = 128, height: int = 96, spp: int = 64,
+                     max_spp: int | None = None, target_rel_se: float = TARGET_REL_SE, region=None,
+                     max_depth: int = 1024, seed: int = 0, frame: int = 0, chunk_spp: int = 8,
+                     boundary: str = "rough-dielectric", surround_albedo: float = 0.0, use_cache: bool = True,
+                     progress: bool = True) -> Reference:
+    """Volumetric path-traced image of the scene at ``frame`` with its standard errors (module docstring).
+
+    The SSS objects are a homogeneous medium with the material's sigma_a, sigma_s and one
+    Henyey-Greenstein g inside a rough dielectric (Mitsuba ``roughdielectric``, Beckmann alpha =
+    :data:`COAT_ROUGHNESS`, the G-buffer specular layer's boundary) or, with ``boundary=
+    "index-matched"``, a ``null`` interface; every other surface has diffuse reflectance
+    ``surround_albedo`` (0: black, so both the reference and the G-buffer see only the lights).
+
+    At least ``spp`` samples per pixel, in chunks of ``chunk_spp`` (one ``mi.render`` call and one
+    seed each); then more chunks until the relative standard error of the mean over ``region``
+    ((H, W) bool; default: the pixels of the SSS objects) is at most ``target_rel_se`` in every
+    channel, or until ``max_spp`` (default: ``spp``, i.e. a fixed budget) is spent. Cached in
+    :func:`reference_cache_dir`, keyed by every input.
     """
     spec = SCENES.get(scene)
     check_size(width, height)
     check_spp(spp)
+    check_spp(chunk_spp)
+    max_spp = int(spp) if max_spp is None else max_spp
+    check_spp(max_spp)
+    if max_spp < spp:
+        raise SceneError(f"the spp budget ({max_spp}) is below the minimum spp ({spp})")
+    if not (isinstance(target_rel_se, (int, float, np.floating)) and 0 < target_rel_se < 1):
+        raise SceneError(f"target relative standard error must lie in (0, 1), got {target_rel_se!r}")
+    _check_options(max_depth, seed, frame, boundary, surround_albedo)
     g = reference_phase_g(material)
+    if region is None:
+        region = sss_region(spec.name, width, height, frame)
+    region = np.asarray(region, dtype=bool)
+    if region.shape != (height, width):
+        raise SceneError(f"region has shape {region.shape}, the image {(height, width)}")
+    if not region.any():
+        raise SceneError("the convergence region holds no pixel")
     key = json.dumps({"scene": spec.name, "sa": list(material.sigma_a), "ss": list(material.sigma_s), "g": g,
-                      "eta": material.eta, "w": width, "h": height, "spp": spp, "d": max_depth, "seed": seed,
-                      "frame": frame, "v": CACHE_VERSION,
+                      "eta": material.eta, "eta_amb": float(getattr(material, "eta_ambient", 1.0)),
+                      "w": width, "h": height, "spp": spp, "max_spp": max_spp, "rel_se": float(target_rel_se),
+                      "chunk": chunk_spp, "d": max_depth, "seed": seed, "frame": frame, "v": CACHE_VERSION,
+                      "boundary": boundary, "surround": float(surround_albedo), "alpha": COAT_ROUGHNESS,
+                      "region": hashlib.sha1(np.packbits(region).tobytes()).hexdigest(),
                       "geometry": json.dumps([spec.shapes(), spec.lights(), spec.origin, spec.fov_x_deg], default=str)},
                      sort_keys=True)
-    path = reference_cache_dir() / f"{spec.name}-{hashlib.sha1(key.encode()).hexdigest()[:16]}.npy"
+    path = reference_cache_dir() / f"{spec.name}-{hashlib.sha1(key.encode()).hexdigest()[:16]}.npz"
+    opts = dict(target_rel_se=float(target_rel_se), max_spp=int(max_spp), boundary=boundary,
+                surround_albedo=float(surround_albedo), seed=int(seed), chunk_spp=int(chunk_spp))
     if use_cache and path.is_file():
-        return np.load(path)
-    sigma_t = np.asarray(material.sigma_a, float) + np.asarray(material.sigma_s, float)
-    scale = float(sigma_t.max())
-    if scale <= 0:
-        raise SceneError("the material has no extinction (sigma_a + sigma_s = 0)")
-    single = np.where(sigma_t > 0, np.asarray(material.sigma_s, float) / np.maximum(sigma_t, 1e-300), 0.0)
-    # RGB values of a Mitsuba medium must lie in [0, 1]: sigma_t is given relative to its maximum
-    medium = {"type": "homogeneous", "sigma_t": {"type": "rgb", "value": (sigma_t / scale).tolist()},
-              "albedo": {"type": "rgb", "value": single.tolist()}, "phase": {"type": "hg", "g": g}, "scale": scale}
-    boundary = {"type": "roughdielectric", "int_ior": float(material.eta), "ext_ior": float(material.eta_ambient),
-                "distribution": "beckmann", "alpha": COAT_ROUGHNESS}
-    grey = {"type": "diffuse", "reflectance": {"type": "rgb", "value": FLOOR_ALBEDO}}
-
-    def bsdf_for(sid):
-        return {**boundary, "__medium": medium} if sid in spec.sss_shapes else grey
-
-    integrator = {"type": "volpathmis", "max_depth": int(max_depth)}
-    chunks = [chunk_spp] * (spp // chunk_spp) + ([spp % chunk_spp] if spp % chunk_spp else [])
-    from tqdm import tqdm
-
+        try:
+            return _load(path, region, opts)
+        except Exception:  # noqa: BLE001 - a truncated or foreign file is rendered again
+            pass
+    renderer = ReferenceRenderer(spec.name, material, width, height, max_depth, seed, frame, boundary,
+                                 surround_albedo)
+    min_chunks = -(-int(spp) // chunk_spp)
+    max_chunks = max(int(max_spp) // chunk_spp, min_chunks)
     acc = np.zeros((height, width, 3))
-    for i, n in enumerate(tqdm(chunks, desc=f"path tracing {spec.name} ({spp} spp)", unit="chunk",
-                               disable=not progress)):
-        img = render_dict(scene_dict(spec, width, height, n, seed * 1000 + i, frame, integrator, bsdf_for))
-        acc += img[..., :3] * n
-    out = (acc / spp).astype(np.float32)
+    acc2 = np.zeros((height, width, 3))
+    means = []
+    bar = progress_bar(max_chunks, f"path tracing {spec.name}", "chunks", enabled=progress, leave=False)
+    converged = False
+    try:
+        for i in range(max_chunks):
+            img = renderer.chunk(i, chunk_spp)
+            acc += img
+            acc2 += img * img
+            means.append(img[region].mean(axis=0))
+            bar.update(1)
+            if i + 1 >= max(min_chunks, 2):
+                mean, se = batch_mean_se(np.array(means))
+                rel = se / np.maximum(np.abs(mean), 1e-300)
+                bar.set_postfix_str(f"{(i + 1) * chunk_spp} spp, rel. SE {rel.max():.2%}")
+                if np.all(rel <= target_rel_se):
+                    converged = True
+                    break
+    finally:
+        bar.close()
     if use_cache:
         with atomic_output(path) as tmp:
             with open(tmp, "wb") as fh:
-                np.save(fh, out)
-    return out
+                np.savez(fh, acc=acc, acc2=acc2, means=np.array(means), converged=np.array(converged))
+    return _assemble(acc, acc2, np.array(means), region, converged, opts)
+
+
+def _assemble(acc, acc2, means, region, converged, opts) -> Reference:
+    k = means.shape[0]
+    image = acc / k
+    if k > 1:
+        var = np.maximum(acc2 / k - image**2, 0.0) * k / (k - 1)
+        pixel_se = np.sqrt(var / k)
+    else:
+        pixel_se = np.full_like(image, np.nan)
+    mean, se = batch_mean_se(means)
+    return Reference(image=image.astype(np.float32), pixel_se=pixel_se.astype(np.float32), region=region,
+                     region_mean=mean, region_se=se, spp=k * opts["chunk_spp"], chunks=k, converged=bool(converged),
+                     **opts)
+
+
+def _load(path: Path, region, opts) -> Reference:
+    with np.load(path) as z:
+        return _assemble(z["acc"], z["acc2"], z["means"], region, bool(z["converged"]), opts)
+
+
+__all__ = ["BOUNDARIES", "CACHE_VERSION", "MAX_SPP", "TARGET_REL_SE", "Reference", "ReferenceRenderer",
+           "batch_mean_se", "chunk_seed", "reference_cache_dir", "reference_phase_g", "render_reference",
+           "sss_region"]

@@ -21,7 +21,12 @@ from ...errors import ProfileError
 from ...materials import CHANNELS, LayeredMaterial, Material
 
 #: bump when the transport or the tallies change: it is part of every cache key
-ENGINE_VERSION = 1
+#: (2: the exit-direction tally, totals of shape (batches, 3 + N_EXIT_BINS))
+ENGINE_VERSION = 2
+#: bins of the exit-direction tally, uniform in cos^2 of the exit angle outside the medium (each
+#: bin holds the same projected solid angle pi / N_EXIT_BINS); the last one is within 12.9 degrees of
+#: the normal
+N_EXIT_BINS = 20
 DEFAULT_PHOTONS = 10_000_000  # supplement F
 DEFAULT_BATCH = 10_000
 
@@ -64,6 +69,7 @@ class MCConfig:
     eta_above: float = 1.0
     eta_below: float = 1.0
     batch_size: int = DEFAULT_BATCH
+    incidence_deg: float = 0.0
 
     def __post_init__(self) -> None:
         if not self.layers:
@@ -72,8 +78,9 @@ class MCConfig:
             raise ProfileError("only the last layer may be semi-infinite")
         if not (self.dr_mm > 0 and math.isfinite(self.dr_mm)):
             raise ProfileError(f"grid spacing dr must be > 0 mm, got {self.dr_mm}")
-        if not (isinstance(self.nr, (int, np.integer)) and self.nr >= 1):
-            raise ProfileError(f"number of radial bins must be >= 1, got {self.nr}")
+        if not (isinstance(self.nr, (int, np.integer)) and self.nr >= 2):
+            raise ProfileError(f"number of radial bins must be >= 2 (the last one collects the light beyond the "
+                               f"grid), got {self.nr}")
         if not (isinstance(self.photons, (int, np.integer)) and self.photons >= 1):
             raise ProfileError(f"photon count must be a positive integer, got {self.photons!r}")
         if not (isinstance(self.seed, (int, np.integer)) and 0 <= self.seed < 2**63):
@@ -83,6 +90,8 @@ class MCConfig:
         for name in ("eta_above", "eta_below"):
             if not getattr(self, name) >= 1:
                 raise ProfileError(f"{name} must be >= 1")
+        if not (isinstance(self.incidence_deg, (int, float)) and 0 <= self.incidence_deg < 90):
+            raise ProfileError(f"incidence angle must lie in [0, 90) degrees, got {self.incidence_deg!r}")
 
     @property
     def n_batches(self) -> int:
@@ -102,9 +111,25 @@ class MCConfig:
         return hashlib.sha256(text.encode()).hexdigest()[:24]
 
     def specular_reflectance(self) -> float:
-        """Rsp = ((n0 - n1) / (n0 + n1))^2 at normal incidence (MCML's Rspecular, no glass layer)."""
+        """Rsp = ((n0 - n1) / (n0 + n1))^2 at normal incidence (MCML's Rspecular, no glass layer); at
+        ``incidence_deg`` the unpolarised Fresnel reflectance (Born & Wolf, Eq. 1.5.21/22, averaged)."""
         n0, n1 = self.eta_above, self.layers[0].eta
-        return ((n0 - n1) / (n0 + n1)) ** 2
+        if self.incidence_deg == 0:
+            return ((n0 - n1) / (n0 + n1)) ** 2
+        ci, ct = self._cosines()
+        rs = ((n0 * ci - n1 * ct) / (n0 * ci + n1 * ct)) ** 2
+        rp = ((n1 * ci - n0 * ct) / (n1 * ci + n0 * ct)) ** 2
+        return 0.5 * (rs + rp)
+
+    def _cosines(self) -> tuple[float, float]:
+        th = math.radians(self.incidence_deg)
+        st = self.eta_above * math.sin(th) / self.layers[0].eta  # Snell's law; eta_above <= eta: no TIR
+        return math.cos(th), math.sqrt(max(1.0 - st * st, 0.0))
+
+    def launch_direction(self) -> tuple[float, float]:
+        """(ux, uz) of the refracted beam inside the top layer (uy = 0): (0, 1) at normal incidence."""
+        ct = self._cosines()[1]
+        return math.sqrt(max(1.0 - ct * ct, 0.0)), ct
 
 
 def layer_arrays(cfg: MCConfig) -> dict[str, np.ndarray]:
@@ -144,17 +169,28 @@ def _layers_of(material: Material | LayeredMaterial) -> tuple[Material, ...]:
     return tuple(material.layers) if isinstance(material, LayeredMaterial) else (material,)
 
 
-def supplement_grid(material: Material | LayeredMaterial) -> tuple[float, int]:
+#: the supplement's grid reaches 32 reduced mean free paths (section F)
+SUPPLEMENT_GRID_MFP = 32.0
+
+
+def supplement_grid(material: Material | LayeredMaterial, extent_mfp: float = SUPPLEMENT_GRID_MFP) -> tuple[float, int]:
     """Supplement F's grid: dr = min(MFP_rgb) / 20, nr = ceil(32 max(MFP_rgb) / dr), MFP = 1/sigma_t'
-    (over every layer of a layered material). Returns (dr in mm, nr)."""
+    (over every layer of a layered material); ``extent_mfp`` replaces the 32 (a longer grid for
+    materials whose light travels farther, :func:`~ssskit.profiles.montecarlo.simulate_material`'s
+    ``grid_fraction``). Returns (dr in mm, nr), nr counting the regular bins and, as MCML's last bin,
+    the one that collects every photon beyond them."""
+    if not (isinstance(extent_mfp, (int, float)) and math.isfinite(extent_mfp) and extent_mfp > 0):
+        raise ProfileError(f"grid extent must be a positive number of mean free paths, got {extent_mfp!r}")
     mfp = [v for layer in _layers_of(material) for v in layer.mfp_reduced_mm]
     dr = min(mfp) / 20.0
-    return dr, int(math.ceil(32.0 * max(mfp) / dr - 1e-9))
+    return dr, max(int(math.ceil(extent_mfp * max(mfp) / dr - 1e-9)), 2)
 
 
 def config_for_material(material: Material | LayeredMaterial, channel: int | str, photons: int = DEFAULT_PHOTONS,
-                        seed: int = 1, batch_size: int = DEFAULT_BATCH) -> MCConfig:
-    """The supplement's simulation of one channel (index 0-2 or 'R', 'G', 'B') of a material."""
+                        seed: int = 1, batch_size: int = DEFAULT_BATCH,
+                        extent_mfp: float = SUPPLEMENT_GRID_MFP) -> MCConfig:
+    """The supplement's simulation of one channel (index 0-2 or 'R', 'G', 'B') of a material
+    (``extent_mfp``: the grid's reach, :func:`supplement_grid`)."""
     if isinstance(channel, str):
         if channel.strip().upper() not in CHANNELS:
             raise ProfileError(f"channel must be R, G or B, got {channel!r}")
@@ -163,7 +199,7 @@ def config_for_material(material: Material | LayeredMaterial, channel: int | str
         c = int(channel)
         if not 0 <= c < 3:
             raise ProfileError(f"channel index must be 0, 1 or 2, got {channel!r}")
-    dr, nr = supplement_grid(material)
+    dr, nr = supplement_grid(material, extent_mfp)
     layers = tuple(MCLayer(m.sigma_a[c], m.sigma_s[c], m.g[c], m.eta, m.thickness_mm) for m in _layers_of(material))
     if isinstance(material, LayeredMaterial):
         above, below = material.eta_above, material.eta_below
@@ -172,5 +208,5 @@ def config_for_material(material: Material | LayeredMaterial, channel: int | str
     return MCConfig(layers, dr, nr, photons, seed, above, below, batch_size)
 
 
-__all__ = ["DEFAULT_BATCH", "DEFAULT_PHOTONS", "ENGINE_VERSION", "MCConfig", "MCLayer", "config_for_material",
+__all__ = ["DEFAULT_BATCH", "DEFAULT_PHOTONS", "ENGINE_VERSION", "N_EXIT_BINS", "SUPPLEMENT_GRID_MFP", "MCConfig", "MCLayer", "config_for_material",
            "layer_arrays", "supplement_grid"]

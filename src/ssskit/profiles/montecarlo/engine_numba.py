@@ -8,12 +8,15 @@ simulating. :func:`ssskit.profiles.montecarlo.simulate` drives it; its inputs ar
 (:mod:`ssskit.profiles.montecarlo.engine_numpy`) follows the same rules and shares the constants below.
 
 Per photon (MCML 1.2.2 semantics):
-* launch at the origin along +z with weight 1 - Rsp (MCML's LaunchPhoton / Rspecular; Rsp is reported separately);
+* launch at the origin along +z (or, for an oblique beam, along the refracted direction (ux0, 0, uz0))
+  with weight 1 - Rsp (MCML's LaunchPhoton / Rspecular; Rsp is reported separately);
 * step s = -ln(xi) / mu_t, or the optical depth left over from a boundary hit (StepSizeInTissue, HitBoundary);
 * a step that crosses a boundary stops on it, keeps the unused optical depth, and the photon is
   reflected (total internal reflection, or with probability R(theta_i), the unpolarised Fresnel
   reflectance) or transmitted, all-or-none (CrossUpOrNot / CrossDnOrNot, RFresnel); an escaping photon scores its whole weight
-  at its exit radius;
+  at its exit radius (the last radial bin collects every radius beyond the grid) and in the bin of
+  its exit direction (:data:`N_EXIT_BINS` bins uniform in cos^2 of the angle to the normal
+  outside the medium, i.e. of equal projected solid angle; MCML's Rd_a with other bins);
 * otherwise implicit capture: deposit w mu_a / mu_t, keep the rest (Drop); Henyey-Greenstein
   scattering, the isotropic case exact (SpinTheta, Spin);
 * Russian roulette below weight 1e-4 with survival chance 0.1 (Roulette).
@@ -29,6 +32,8 @@ import math
 
 import numpy as np
 from numba import njit, prange
+
+from .config import N_EXIT_BINS
 
 WEIGHT_THRESHOLD = 1e-4  # MCML's Wth
 ROULETTE_CHANCE = 0.1  # MCML's CHANCE
@@ -128,12 +133,13 @@ def _spin(g, ux, uy, uz, state):
 
 @njit(cache=True)
 def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_crit_up, cos_crit_down,
-               rsp, dr, rd_bins, totals):
+               rsp, ux0, uz0, dr, rd_bins, totals):
     """Simulate ``n_photons`` photons of stream (seed, batch); add tallies into rd_bins / totals.
 
     Layers are 1..L in the arrays ``mua``, ``mus``, ``g``, ``z_top``, ``z_bot`` (index 0 and L + 1
     unused); ``n_idx[0]`` is the ambient index above, ``n_idx[L + 1]`` the one below.
-    totals: [diffuse reflectance, transmittance, absorbed] weight sums.
+    totals: [diffuse reflectance, transmittance, absorbed] weight sums, then the diffusely reflected
+    weight per exit-direction bin (:data:`N_EXIT_BINS` bins uniform in cos^2 theta outside).
     """
     n_layers = mua.shape[0] - 2
     nr = rd_bins.shape[0]
@@ -149,9 +155,9 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
         x = 0.0
         y = 0.0
         z = 0.0
-        ux = 0.0
+        ux = ux0
         uy = 0.0
-        uz = 1.0
+        uz = uz0
         w = 1.0 - rsp
         layer = 1
         sleft = 0.0
@@ -191,6 +197,10 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
                                 ir = nr - 1
                             rd_bins[ir] += w
                             rd_sum += w
+                            ia = int(ca2 * ca2 * N_EXIT_BINS)
+                            if ia > N_EXIT_BINS - 1:
+                                ia = N_EXIT_BINS - 1
+                            totals[3 + ia] += w
                             alive = False
                         else:
                             layer -= 1
@@ -241,8 +251,8 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
 
 @njit(parallel=True, cache=True)
 def run_batches(seed, batch_ids, batch_sizes, mua, mus, g, z_top, z_bot, n_idx, cos_crit_up,
-                cos_crit_down, rsp, dr, rd_bins, totals):
+                cos_crit_down, rsp, ux0, uz0, dr, rd_bins, totals):
     """Run the given batches in parallel; row k of rd_bins / totals receives batch batch_ids[k]."""
     for k in prange(batch_ids.shape[0]):
         _run_batch(seed, batch_ids[k], batch_sizes[k], mua, mus, g, z_top, z_bot, n_idx, cos_crit_up,
-                   cos_crit_down, rsp, dr, rd_bins[k], totals[k])
+                   cos_crit_down, rsp, ux0, uz0, dr, rd_bins[k], totals[k])

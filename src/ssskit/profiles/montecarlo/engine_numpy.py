@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from .config import MCConfig, layer_arrays
+from .config import N_EXIT_BINS, MCConfig, layer_arrays
 from .engine_numba import COS_90D, COS_ZERO, ROULETTE_CHANCE, WEIGHT_THRESHOLD
 from .result import MCResult, assemble_result
 
@@ -55,13 +55,15 @@ def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> MCResult:
     n_b = cfg.n_batches
     batch = np.arange(n) // cfg.batch_size
     x, y, z = np.zeros(n), np.zeros(n), np.zeros(n)
-    ux, uy, uz = np.zeros(n), np.zeros(n), np.ones(n)
+    ux0, uz0 = cfg.launch_direction()
+    ux, uy, uz = np.full(n, ux0), np.zeros(n), np.full(n, uz0)
     w = np.full(n, 1.0 - cfg.specular_reflectance())
     layer = np.ones(n, dtype=np.int64)
     sleft = np.zeros(n)
     idx = np.arange(n)
     bins = np.zeros((n_b, cfg.nr))
-    totals = np.zeros((n_b, 3))  # per batch: [reflected, transmitted, absorbed] weight sums
+    # per batch: [reflected, transmitted, absorbed] weight sums, then reflected weight per exit-direction bin
+    totals = np.zeros((n_b, 3 + N_EXIT_BINS))
     while idx.size:
         lay = layer[idx]
         mut = a["mua"][lay] + a["mus"][lay]
@@ -97,6 +99,8 @@ def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> MCResult:
             ir = np.minimum((np.sqrt(x[e] ** 2 + y[e] ** 2) / cfg.dr_mm).astype(np.int64), cfg.nr - 1)
             np.add.at(bins, (batch[e], ir), w[e])
             totals[:, 0] += np.bincount(batch[e], weights=w[e], minlength=n_b)
+            ia = np.minimum((ca2[escape_top] ** 2 * N_EXIT_BINS).astype(np.int64), N_EXIT_BINS - 1)
+            np.add.at(totals, (batch[e], 3 + ia), w[e])
             eb = h[escape_bot]
             totals[:, 1] += np.bincount(batch[eb], weights=w[eb], minlength=n_b)
             w[h[escape_top | escape_bot]] = 0.0

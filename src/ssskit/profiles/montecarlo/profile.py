@@ -18,9 +18,10 @@ class MonteCarloProfile(RadialProfile):
     """A simulated profile as a RadialProfile over the regular bins: R(r) constant on each annulus
     (MCML's bins), so the energy within rho is linear in rho^2 inside a bin.
 
-    MCML's last bin collects every photon escaping beyond the grid; it is not a density, so it is
-    left out: eval() is 0 from its inner edge on, total_rd() is the energy of the regular bins,
-    and ``overflow`` (= result.total_rd - total_rd()) says how much escaped beyond the grid.
+    MCML's last bin collects every photon escaping beyond the grid; it is no density, so the result
+    keeps it out of ``rd`` (:mod:`.result`): eval() is 0 beyond the grid, total_rd() is the energy of
+    the regular bins (``result.total_rd_in_grid``), and ``overflow`` (= result.total_rd -
+    total_rd()) says how much escaped beyond the grid; :meth:`total_rd_with_overflow` is MCML's Rd.
     """
 
     model = "montecarlo"
@@ -29,16 +30,20 @@ class MonteCarloProfile(RadialProfile):
         self.result = result
         dr = result.config.dr_mm
         self.dr = dr
-        rd = result.rd[:-1] if result.rd.shape[0] > 1 else result.rd
+        rd = result.rd
         self.rd = rd
         self.edges = np.arange(rd.shape[0] + 1) * dr
         # energy per bin, exactly W_i / N (inverting the 2 pi r_i dr normalisation)
-        energy = rd * 2.0 * np.pi * result.r_mm[: rd.shape[0]] * dr
+        energy = rd * 2.0 * np.pi * result.r_mm * dr
         self._total = float(energy.sum())
-        self.overflow = float(result.total_rd - self._total)
+        self.overflow = float(result.overflow)
         # S at the bin edges: energy outside edge k (within the grid)
         self._outside = np.concatenate([np.cumsum(energy[::-1])[::-1], [0.0]])
         self._energy = energy
+
+    def total_rd_with_overflow(self) -> float:
+        """All diffusely reflected light, the grid's and beyond it (MCML's Rd)."""
+        return float(self.result.total_rd)
 
     def eval(self, r):
         r = np.asarray(r, dtype=float)
@@ -65,7 +70,9 @@ class MonteCarloProfile(RadialProfile):
     def params(self) -> dict[str, Any]:
         cfg = self.result.config
         return {"photons": cfg.photons, "seed": cfg.seed, "dr_mm": cfg.dr_mm, "nr": cfg.nr,
-                "overflow": self.overflow, "layers": [asdict(l) for l in cfg.layers]}
+                "grid_mm": float(self.edges[-1]), "total_Rd_in_grid": self._total,
+                "total_Rd_with_overflow": self.total_rd_with_overflow(), "overflow": self.overflow,
+                "layers": [asdict(l) for l in cfg.layers]}
 
 
 def montecarlo_rgb(material: Material | LayeredMaterial, photons: int = 200_000, seed: int = 1,
@@ -73,12 +80,13 @@ def montecarlo_rgb(material: Material | LayeredMaterial, photons: int = 200_000,
     """An RGBProfile of simulated profiles (cached), usable wherever a profile is.
 
     ``kwargs`` go to :func:`~ssskit.profiles.montecarlo.simulate_material` (threads, progress,
-    resume, restart, use_cache, batch_size).
+    resume, restart, use_cache, batch_size, grid_fraction).
     """
     results = simulate_material(material, "all", photons=photons, seed=seed, **kwargs)
     chans = tuple(results[ch].profile() for ch in CHANNELS)
     return RGBProfile(chans, "montecarlo", material.name,  # type: ignore[arg-type]
-                      {"material": material.to_dict(), "photons": photons, "seed": seed})
+                      {"material": material.to_dict(), "photons": photons, "seed": seed,
+                       "grid_fraction": kwargs.get("grid_fraction")})
 
 
 __all__ = ["MonteCarloProfile", "montecarlo_rgb"]

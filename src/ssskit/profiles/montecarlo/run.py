@@ -17,8 +17,8 @@ import numpy as np
 
 from ...cache import cache_dir
 from ...errors import ProfileError, SimulationInterrupted
-from ...io import save_arrays
-from .config import MCConfig, layer_arrays
+from ...io import progress_bar, save_arrays
+from .config import N_EXIT_BINS, MCConfig, layer_arrays
 from .result import MCResult, assemble_result
 
 
@@ -49,7 +49,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
     sizes = cfg.batch_sizes()
     n_b = sizes.shape[0]
     bins = np.zeros((n_b, cfg.nr))
-    totals = np.zeros((n_b, 3))
+    totals = np.zeros((n_b, 3 + N_EXIT_BINS))
     done = np.zeros(n_b, dtype=bool)
     elapsed = 0.0
     prefix = f"{label}: " if label else ""
@@ -71,6 +71,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
 
     arrays = layer_arrays(cfg)
     rsp = cfg.specular_reflectance()
+    ux0, uz0 = cfg.launch_direction()
     todo = np.flatnonzero(~done)
     bar = _progress_bar(cfg.photons, int(sizes[done].sum()), label) if progress else None
     t0 = time.perf_counter()
@@ -80,11 +81,11 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
             for start in range(0, todo.shape[0], chunk):
                 ids = todo[start : start + chunk]
                 b_rows = np.zeros((ids.shape[0], cfg.nr))
-                t_rows = np.zeros((ids.shape[0], 3))
+                t_rows = np.zeros((ids.shape[0], 3 + N_EXIT_BINS))
                 engine_numba.run_batches(
                     np.uint64(cfg.seed), ids.astype(np.int64), sizes[ids], arrays["mua"], arrays["mus"],
                     arrays["g"], arrays["z_top"], arrays["z_bot"], arrays["n_idx"], arrays["cos_crit_up"],
-                    arrays["cos_crit_down"], rsp, cfg.dr_mm, b_rows, t_rows)
+                    arrays["cos_crit_down"], rsp, ux0, uz0, cfg.dr_mm, b_rows, t_rows)
                 bins[ids], totals[ids], done[ids] = b_rows, t_rows, True
                 if bar is not None:
                     bar.update(int(sizes[ids].sum()))
@@ -103,9 +104,11 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
             bar.close()
     result = assemble_result(cfg, bins, totals, elapsed + time.perf_counter() - t0)
     if use_cache:
-        save_arrays(final_path, r_mm=result.r_mm, rd=result.rd, rd_se=result.rd_se,
+        save_arrays(final_path, r_mm=result.r_mm, rd=result.rd, rd_se=result.rd_se, exit_rd=result.exit_rd,
+                    exit_rd_se=result.exit_rd_se,
                     scalars=np.array([result.total_rd, result.total_rd_se, result.tt, result.tt_se,
-                                      result.absorbed, result.absorbed_se, result.rsp, result.seconds]))
+                                      result.absorbed, result.absorbed_se, result.rsp, result.seconds,
+                                      result.overflow, result.overflow_se]))
         with contextlib.suppress(OSError):
             partial_path.unlink()
     return result
@@ -120,7 +123,7 @@ def _load_partial(cfg: MCConfig, path: Path) -> tuple[np.ndarray, np.ndarray, np
             seconds = float(z["seconds"])
     except Exception:  # a truncated or foreign file: the caller reports it
         return None
-    if bins.shape != (n_b, cfg.nr) or totals.shape != (n_b, 3) or done.shape != (n_b,) or done.dtype != bool:
+    if bins.shape != (n_b, cfg.nr) or totals.shape != (n_b, 3 + N_EXIT_BINS) or done.shape != (n_b,) or done.dtype != bool:
         return None
     return bins, totals, done, seconds
 
@@ -132,7 +135,8 @@ def _load_result(cfg: MCConfig, path: Path) -> MCResult:
             config=cfg, r_mm=z["r_mm"].copy(), rd=z["rd"].copy(), rd_se=z["rd_se"].copy(),
             total_rd=float(s[0]), total_rd_se=float(s[1]), tt=float(s[2]), tt_se=float(s[3]),
             absorbed=float(s[4]), absorbed_se=float(s[5]), rsp=float(s[6]), seconds=float(s[7]),
-            photons=cfg.photons, extra={"cached": True},
+            photons=cfg.photons, overflow=float(s[8]), overflow_se=float(s[9]), exit_rd=z["exit_rd"].copy(),
+            exit_rd_se=z["exit_rd_se"].copy(), extra={"cached": True},
         )
 
 
@@ -154,10 +158,8 @@ def _numba_threads(threads: int | None):
 
 
 def _progress_bar(total: int, initial: int, label: str):
-    from tqdm import tqdm
-
-    return tqdm(total=total, initial=initial, unit="photon", unit_scale=True, desc=label or "MCML",
-                smoothing=0.1, dynamic_ncols=True, leave=False, disable=None)
+    return progress_bar(total, label or "MCML", "photons", initial=initial, unit_scale=True, smoothing=0.1,
+                        dynamic_ncols=True, leave=False)
 
 
 __all__ = ["simulate"]

@@ -5,31 +5,44 @@ from __future__ import annotations
 
 from ...errors import ProfileError
 from ...materials import CHANNELS, LayeredMaterial, Material
-from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, config_for_material
+from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, SUPPLEMENT_GRID_MFP, config_for_material
 from .result import MCResult
 from .run import simulate
 
 
 def simulate_material(material: Material | LayeredMaterial, channels: str = "all", *, photons: int = DEFAULT_PHOTONS,
                       seed: int = 1, threads: int | None = None, progress: bool = False, resume: bool = False,
-                      restart: bool = False, use_cache: bool = True,
-                      batch_size: int = DEFAULT_BATCH) -> dict[str, MCResult]:
+                      restart: bool = False, use_cache: bool = True, batch_size: int = DEFAULT_BATCH,
+                      grid_fraction: float | None = None) -> dict[str, MCResult]:
     """Simulate the requested channels ('R', 'G', 'B' or 'all') of a material: {channel: MCResult}.
 
     Each channel uses its own seed stream derived from ``seed`` and the channel index, on the
     supplement's grid shared by all three channels. ``resume`` / ``restart`` continue / discard
     the partial results of an interrupted run (see :func:`~ssskit.profiles.montecarlo.simulate`).
+
+    ``grid_fraction`` (e.g. 0.999): a channel whose light beyond the supplement's 32-MFP grid is
+    more than 1 - grid_fraction of its total is simulated again on a grid twice as long (same seed,
+    so the same photons: only where they are tallied changes), until the grid holds that fraction
+    (Marble and Cream lose ~1% beyond 32 MFP).
     """
     wanted = list(CHANNELS) if channels.strip().lower() == "all" else [channels.strip().upper()]
     for ch in wanted:
         if ch not in CHANNELS:
             raise ProfileError(f"channel must be R, G, B or all, got {channels!r}")
+    if grid_fraction is not None and not (isinstance(grid_fraction, (int, float)) and 0 < grid_fraction < 1):
+        raise ProfileError(f"grid fraction must lie in (0, 1), got {grid_fraction!r}")
     out = {}
     for ch in wanted:
         c = CHANNELS.index(ch)
-        cfg = config_for_material(material, c, photons, _channel_seed(seed, c), batch_size)
-        out[ch] = simulate(cfg, threads=threads, progress=progress, resume=resume, restart=restart,
+        extent = SUPPLEMENT_GRID_MFP
+        while True:
+            cfg = config_for_material(material, c, photons, _channel_seed(seed, c), batch_size, extent)
+            res = simulate(cfg, threads=threads, progress=progress, resume=resume, restart=restart,
                            use_cache=use_cache, label=f"{material.name} {ch}")
+            if grid_fraction is None or res.overflow <= (1.0 - grid_fraction) * res.total_rd or extent >= 64 * 32:
+                break
+            extent *= 2.0
+        out[ch] = res
     return out
 
 

@@ -1,0 +1,32 @@
+"""``ssskit simulate`` and ``ssskit profile --model montecarlo`` report the same named totals: the
+light inside the grid (what R(r) integrates to) and with the overflow (MCML's Rd, incl. the light
+escaping beyond the grid), for the same run."""
+
+import json
+
+import pytest
+
+from ssskit.cli import main
+
+
+def test_simulate_and_profile_report_the_same_totals(capsys, tmp_path, monkeypatch):
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    assert main(["simulate", "--material", "marble", "--photons", "20000", "--json"]) == 0
+    sim = json.loads(capsys.readouterr().out)
+    assert main(["profile", "--material", "marble", "--model", "montecarlo", "--photons", "20000", "--json"]) == 0
+    prof = json.loads(capsys.readouterr().out)
+    for ch in "RGB":
+        s, p = sim["channels"][ch], prof["channels"][ch]
+        assert p["total_Rd"] == pytest.approx(s["total_Rd_in_grid"], rel=1e-12)
+        assert p["params"]["total_Rd_with_overflow"] == pytest.approx(s["total_Rd"], rel=1e-12)
+        assert s["total_Rd_in_grid"] + s["overflow"] == pytest.approx(s["total_Rd"], rel=1e-12)
+        assert len(s["Rd"]) == len(sim["r_mm"])
+        # the overflow bin is not in the density: Rd has no jump at the grid's end
+        assert s["Rd"][-1] < 10 * s["Rd"][-3] + 1e-12
+    # Marble's 32-MFP grid truncates: light escapes beyond it
+    assert sim["channels"]["R"]["overflow"] > 1e-3 * sim["channels"]["R"]["total_Rd"]
+    assert main(["profile", "--material", "marble", "--model", "montecarlo", "--photons", "20000"]) == 0
+    text = capsys.readouterr().out
+    assert "# total Rd in grid (R, G, B)" in text and "with overflow" in text
+    assert main(["simulate", "--material", "marble", "--photons", "20000"]) == 0
+    assert "total Rd with overflow" in capsys.readouterr().out
