@@ -1,0 +1,141 @@
+"""numba kernel of the Burley Monte Carlo pass (:mod:`ssskit.backends.burley_plan` for the maths).
+
+One function, :func:`burley_rows`, runs the plan's steps 1-8 for every pixel of rows [y0, y1): the
+pixel key, the count, the uniforms, the radius, the nearest-texel fetch, the indicator and the
+Eq. 24 weights. Positions, radii and weights are float64, as in the numpy oracle, so both backends
+fetch the same texel for every sample; the output is float32. The kernel releases the GIL
+(``nogil``) and the backend runs ranges of rows on a thread pool; pixels are independent and every
+random number is a pure function of (pixel, sample index, frame, seed), so the image does not depend
+on the number of threads. Compiled once and cached on disk (``cache=True``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+_M32 = np.uint64(0xFFFFFFFF)
+
+#: sampler and sequence codes of the kernel (index into burley_plan.SAMPLERS / SEQUENCES)
+EXACT, XIE, GOLUBEV = 0, 1, 2
+R2, RANDOM = 0, 1
+
+
+@njit(cache=True, inline="always")
+def _mix32(h):
+    """lowbias32 (ssskit.sampling.hashes.mix32) on a uint64 holding 32 bits."""
+    h = h ^ (h >> np.uint64(16))
+    h = (h * np.uint64(0x7FEB352D)) & np.uint64(0xFFFFFFFF)
+    h = h ^ (h >> np.uint64(15))
+    h = (h * np.uint64(0x846CA68B)) & np.uint64(0xFFFFFFFF)
+    return h ^ (h >> np.uint64(16))
+
+
+@njit(cache=True, inline="always")
+def _unit(u):
+    """xi = (float(U >> 8) + 0.5) 2^-24 (step 3)."""
+    return (np.float64(u >> np.uint64(8)) + 0.5) * (1.0 / 16777216.0)
+
+
+@njit(cache=True)
+def inverse_cdf_unit(xi):
+    """Exact inverse of Xie 2020 Eq. 20 for d = 1 (step 4; ssskit.profiles.burley.burley_inverse_cdf)."""
+    eta = 1.0 - xi
+    if xi < 1e-3:
+        r = 2.0 * xi
+    else:
+        u = 2.0 * math.sinh(math.asinh(2.0 * eta) / 3.0)
+        r = -3.0 * math.log(u)
+    for _ in range(3):
+        if xi > 0.5:
+            resid = eta - (0.25 * math.exp(-r) + 0.75 * math.exp(-r / 3.0))
+        else:
+            resid = (-0.25 * math.expm1(-r) - 0.75 * math.expm1(-r / 3.0)) - xi
+        r = r - resid / ((math.exp(-r) + math.exp(-r / 3.0)) / 4.0)
+    return r
+
+
+@njit(cache=True, nogil=True)
+def burley_rows(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, d_mm, chan, r997, sampler, sequence,
+                c, bleed, fx, fy, base, stable, key2, golden, a1, a2):
+    """Steps 1-8 of the plan for rows [y0, y1). src (H, W, 3) float32, z (H, W) float32 (mm),
+    zbits (H, W) uint32 (the bits of z, for a stable pattern), slots (H, W) int32, counts (H, W) int64
+    (used when use_counts), out (H, W, 3) float32."""
+    h, w = slots.shape
+    for y in range(y0, y1):
+        hy = _mix32(base ^ np.uint64(y))
+        for x in range(w):
+            s = slots[y, x]
+            if s == 0:
+                for ch in range(3):
+                    out[y, x, ch] = src[y, x, ch]
+                continue
+            zp = np.float64(z[y, x])
+            sx = fx / zp
+            sy = fy / zp
+            hk = _mix32(hy ^ np.uint64(x))  # step 1
+            if stable:
+                hk = _mix32(hk ^ np.uint64(zbits[y, x]))
+            h1 = hk
+            h2 = _mix32(hk ^ key2)
+            n = counts[y, x] if use_counts else spp  # step 2
+            k = chan[s]
+            d_s = d_mm[s, k]
+            if sampler == GOLUBEV and n > 0:
+                rr = r997[s]
+                cap = np.int64(math.floor(math.pi * rr * rr * sx * sy / 4.0))
+                n = max(1, min(n, cap))
+            d0 = d_mm[s, 0]
+            d1 = d_mm[s, 1]
+            d2 = d_mm[s, 2]
+            n0 = n1 = n2 = 0.0
+            e0 = e1 = e2 = 0.0
+            for j in range(n):
+                jj = np.uint64(j)
+                if sampler == GOLUBEV:  # step 3
+                    xi1 = (j + 0.5) / n
+                    xi2 = _unit((h2 + jj * golden) & _M32)
+                elif sequence == R2:
+                    xi1 = _unit((h1 + jj * a1) & _M32)
+                    xi2 = _unit((h2 + jj * a2) & _M32)
+                else:
+                    kk = (jj * golden) & _M32
+                    xi1 = _unit(_mix32(h1 ^ kk))
+                    xi2 = _unit(_mix32(h2 ^ kk))
+                if sampler == XIE:  # step 4
+                    r = d_s * ((2.0 - c) * xi1 - 2.0) * math.log1p(-xi1)
+                else:
+                    r = inverse_cdf_unit(xi1) * d_s
+                phi = 2.0 * math.pi * xi2
+                qx = math.floor(x + 0.5 + r * math.cos(phi) * sx)  # step 5
+                qy = math.floor(y + 0.5 + r * math.sin(phi) * sy)
+                if qx < 0 or qx >= w or qy < 0 or qy >= h:
+                    continue
+                ix = np.int64(qx)
+                iy = np.int64(qy)
+                qs = slots[iy, ix]
+                if qs == s:  # step 6
+                    ind = 1.0
+                elif qs > 0:
+                    ind = bleed
+                else:
+                    continue
+                if ind == 0.0:
+                    continue
+                dz = np.float64(z[iy, ix]) - zp
+                rp = math.sqrt(r * r + dz * dz)
+                pdf = math.exp(-r / d_s) + math.exp(-r / (3.0 * d_s))  # step 7
+                w0 = ind * (d_s / d0) * (math.exp(-rp / d0) + math.exp(-rp / (3.0 * d0))) / pdf
+                w1 = ind * (d_s / d1) * (math.exp(-rp / d1) + math.exp(-rp / (3.0 * d1))) / pdf
+                w2 = ind * (d_s / d2) * (math.exp(-rp / d2) + math.exp(-rp / (3.0 * d2))) / pdf
+                n0 += w0 * src[iy, ix, 0]
+                n1 += w1 * src[iy, ix, 1]
+                n2 += w2 * src[iy, ix, 2]
+                e0 += w0
+                e1 += w1
+                e2 += w2
+            out[y, x, 0] = n0 / e0 if e0 > 0.0 else src[y, x, 0]  # step 8
+            out[y, x, 1] = n1 / e1 if e1 > 0.0 else src[y, x, 1]
+            out[y, x, 2] = n2 / e2 if e2 > 0.0 else src[y, x, 2]
