@@ -192,3 +192,25 @@ def test_bad_frames_and_counts(burley_backend):
         b.burley(plan, gb.diffuse, bad, slots, 4)
     with pytest.raises(PassError, match="slots must"):
         b.burley(plan, gb.diffuse, gb.depth_mm, slots[:, :-1], 4)
+
+
+def test_numba_exact_inverse_is_the_oracles_root():
+    """The numba kernel's five-call inverse of Eq. 20 (plan step 4) against burley_inverse_cdf."""
+    pytest.importorskip("numba")
+    from numba import njit
+
+    from ssskit.backends._numba_burley import inverse_cdf_unit
+    from ssskit.profiles.burley import burley_cdf, burley_inverse_cdf
+
+    @njit
+    def many(xs):
+        out = np.empty_like(xs)
+        for i in range(xs.size):
+            out[i] = inverse_cdf_unit(xs[i])
+        return out
+
+    xs = np.concatenate([(np.arange(4096) + 0.5) / 4096, np.logspace(-8, -2.5, 500), 1 - np.logspace(-7.5, -2, 500),
+                         [2.0**-25, 1e-3, 0.5, 1 - 2.0**-25]])
+    r = many(xs)
+    np.testing.assert_allclose(r, burley_inverse_cdf(xs, 1.0), rtol=1e-13)
+    np.testing.assert_allclose(burley_cdf(r, 1.0), xs, rtol=1e-13)

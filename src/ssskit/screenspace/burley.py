@@ -23,6 +23,7 @@ stratified radii, golden-angle rotation, exact inverse, samples capped by the fo
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -71,7 +72,7 @@ class BurleySettings(Settings):
     def __post_init__(self) -> None:
         object.__setattr__(self, "sampler", check_choice("sampler", self.sampler, SAMPLERS))
         object.__setattr__(self, "spp", check_int("spp", self.spp, 1, MAX_SPP))
-        c = check_float("c", self.c, *C_RANGE)
+        c = check_float("c", self.c, -math.inf, math.inf)
         if not C_RANGE[0] < c < C_RANGE[1]:
             raise SettingsError(f"c must lie in the open interval ({C_RANGE[0]:g}, {C_RANGE[1]:g}), got {c!r}")
         object.__setattr__(self, "c", c)
