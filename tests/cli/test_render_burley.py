@@ -67,7 +67,8 @@ BAD = [
 
 @pytest.mark.parametrize("args,fragment", BAD)
 def test_bad_burley_input(run, workdir, args, fragment):  # noqa: F811
-    one_error_line(run, workdir, ["render", "--scene", "slab", "--method", "burley", "--size", "24x16", *args], fragment)
+    one_error_line(run, workdir, ["render", "--scene", "slab", "--method", "burley", "--size", "24x16", *args],
+                   fragment)
 
 
 @pytest.mark.parametrize("args,fragment", [(["--sampler", "xie"], "--sampler applies to --method burley"),

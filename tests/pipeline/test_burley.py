@@ -7,7 +7,8 @@ import pytest
 from ssskit.errors import SettingsError
 from ssskit.pipeline import RenderSettings
 from ssskit.pipeline.burley import burley_exact, render_burley
-from ssskit.screenspace import BurleyParams, BurleySettings, Camera, GBuffer
+from ssskit.screenspace import BurleySettings, Camera, GBuffer
+from ssskit.screenspace.burley import burley_params_for_material
 from tests.screenspace.test_burley_consistency import PARAMS, _disk_gbuffer, normalised_truth
 
 
@@ -41,4 +42,4 @@ def test_material_gives_the_burley_profile():
     res = render_burley(gb, RenderSettings(material="marble", perceptual=False), BurleySettings(spp=2))
     assert res.params.d_mm == tuple(c.d for c in burley_profile(get_material("marble")).channels)
     np.testing.assert_allclose(res.sss, 1.0, rtol=1e-6)
-    assert BurleyParams.from_material("marble").d_mm == res.params.d_mm
+    assert burley_params_for_material("marble").d_mm == res.params.d_mm

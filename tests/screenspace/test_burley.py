@@ -15,6 +15,7 @@ from ssskit.profiles.burley import burley_inverse_cdf
 from ssskit.sampling.burley import xie_g
 from ssskit.sampling.hashes import pixel_hashes
 from ssskit.screenspace import BurleyParams, BurleySettings, Camera, GBuffer, burley_sss
+from ssskit.screenspace.burley import burley_params_for_material
 
 
 def _gb(h=20, w=24):
@@ -34,7 +35,7 @@ def test_params_from_dmfp_are_eq5_configuration_3():
 
 
 def test_params_from_material_match_the_burley_profile():
-    p = BurleyParams.from_material("skin1")
+    p = burley_params_for_material("skin1")
     prof = burley_profile(__import__("ssskit.materials", fromlist=["get_material"]).get_material("skin1"))
     assert p.d_mm == tuple(c.d for c in prof.channels)
     assert p.albedo == tuple(c.albedo for c in prof.channels)

@@ -116,8 +116,8 @@ class BurleyParams:
 
     Build with :meth:`from_dmfp` (albedo + diffuse mean free path, Eq. 5 configuration 3 as Unreal
     and Xie use), :meth:`from_profile` (an existing Burley :class:`~ssskit.profiles.RGBProfile`) or
-    :meth:`from_material` (a preset or Material through :func:`ssskit.profiles.burley_profile`, any
-    Eq. 5 configuration).
+    :func:`ssskit.screenspace.burley.burley_params_for_material` (a preset or Material through
+    :func:`ssskit.profiles.burley_profile`, any Eq. 5 configuration).
     """
 
     albedo: tuple[float, float, float]
@@ -153,18 +153,10 @@ class BurleyParams:
                             f"{getattr(profile, 'model', type(profile).__name__)!r}")
         return cls(tuple(c.albedo for c in chans), tuple(c.d for c in chans))
 
-    @classmethod
-    def from_material(cls, material, configuration: str = "searchlight") -> "BurleyParams":
-        """From a Material or preset name through :func:`ssskit.profiles.burley_profile` (Eq. 5)."""
-        from ..materials import get_material
-        from ..profiles import burley_profile
-
-        mat = get_material(material) if isinstance(material, str) else material
-        return cls.from_profile(burley_profile(mat, configuration))
-
     def profile(self):
         """The RGBProfile of these parameters (for ground truth and figures)."""
-        from ..profiles import BurleyProfile, RGBProfile
+        from ..profiles.base import RGBProfile
+        from ..profiles.burley import BurleyProfile
 
         return RGBProfile(tuple(BurleyProfile(a, d) for a, d in zip(self.albedo, self.d_mm)), "burley", "burley",
                           {"albedo": list(self.albedo), "d_mm": list(self.d_mm)})

@@ -163,7 +163,8 @@ def _burley_inputs(ctx, params: dict):
     "ssskit render --scene slab --settings frame.toml --taps 11 --backend numpy"))
 @scene_option()
 @click.option("--method", type=click.Choice(["separable", "burley"], case_sensitive=False), default="separable",
-              show_default=True, help="The screen-space pass: separable (kernel taps) or burley (Monte Carlo, Xie 2020).")
+              show_default=True,
+              help="The screen-space pass: separable (kernel taps) or burley (Monte Carlo, Xie 2020).")
 @click.option("--sampler", type=click.Choice(["exact", "xie", "golubev"], case_sensitive=False), default="exact",
               show_default=True, help="--method burley: radius sampler (exact inverse CDF, Xie Eq. 21, Golubev 2018).")
 @click.option("--c", "c", type=float, default=2.5715, show_default=True,

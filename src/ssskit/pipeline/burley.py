@@ -128,7 +128,7 @@ def _finite(value):
 
 def plan_burley(scene, settings: RenderSettings, burley: BurleySettings, params: BurleyParams | None = None):
     """Check everything :func:`render_burley` needs, doing no work; returns (render plan, params)."""
-    from ..profiles import burley_profile
+    from ..screenspace.burley import burley_params_for_material
     from .render import plan_render
 
     if not isinstance(burley, BurleySettings):
@@ -142,7 +142,7 @@ def plan_burley(scene, settings: RenderSettings, burley: BurleySettings, params:
     if not hasattr(plan.material, "eta"):
         raise SettingsError(f"the Burley pass needs a homogeneous material (its profile comes from the "
                             f"coefficients); {plan.material.name!r} is a {type(plan.material).__name__}")
-    params = BurleyParams.from_profile(burley_profile(plan.material))
+    params = burley_params_for_material(plan.material)
     return plan, params
 
 

@@ -85,6 +85,16 @@ class BurleySettings(Settings):
         object.__setattr__(self, "backend", check_choice("backend", self.backend, BACKENDS.names()))
 
 
+def burley_params_for_material(material, configuration: str = "searchlight") -> BurleyParams:
+    """:class:`BurleyParams` of a Material or preset name through :func:`ssskit.profiles.burley_profile`
+    (A: the dipole's total diffuse reflectance; d: the Eq. 5 ``configuration``, Xie 2020)."""
+    from ..materials import get_material
+    from ..profiles import burley_profile
+
+    mat = get_material(material) if isinstance(material, str) else material
+    return BurleyParams.from_profile(burley_profile(mat, configuration))
+
+
 def _settings(settings: BurleySettings | None, overrides: dict) -> BurleySettings:
     base = BurleySettings() if settings is None else settings
     if not isinstance(base, BurleySettings):
@@ -147,4 +157,5 @@ def burley_sss(gbuffer: GBuffer, params_by_id, settings: BurleySettings | None =
     return np.asarray(out, dtype=np.float32)
 
 
-__all__ = ["BurleyParams", "BurleySettings", "burley_backend", "burley_plan_for", "burley_sss"]
+__all__ = ["BurleyParams", "BurleySettings", "burley_backend", "burley_params_for_material", "burley_plan_for",
+           "burley_sss"]
