@@ -8,7 +8,8 @@
 
 * ``numpy``: float64, vectorised over pixels, written to be read: the oracle every other backend is
   tested against;
-* ``numba``: float32 on the CPU, parallel over rows, vectorised (the default).
+* ``numba``: float32 on the CPU, parallel over rows, vectorised (the default);
+* ``gl``: float32 GLSL compute shaders through moderngl/EGL, on a GPU or on Mesa's llvmpipe.
 
 A backend is registered by name with a factory; :func:`get_backend` builds it once and checks that
 it can run here (otherwise a :class:`~ssskit.errors.BackendError` saying why). How to add one:
@@ -40,8 +41,15 @@ def _numba() -> Backend:
     return NumbaBackend()
 
 
+def _gl() -> Backend:
+    from .gl import GLBackend
+
+    return GLBackend()
+
+
 BACKENDS.register("numba", _numba)
 BACKENDS.register("numpy", _numpy)
+BACKENDS.register("gl", _gl)
 
 #: the backend used when none is named
 DEFAULT_BACKEND = "numba"

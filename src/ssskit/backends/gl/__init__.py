@@ -1,0 +1,58 @@
+"""The ``gl`` backend: the screen-space passes as GLSL 4.30 compute shaders through moderngl and EGL.
+
+It runs on any GPU with an EGL driver and OpenGL 4.3, and on Mesa's llvmpipe (the CPU) where there
+is none, so the tests run the very shader a GPU runs. Images are RGBA32F textures read with
+``texelFetch`` and written with ``imageStore``; the pass plan's tables are baked into each shader as
+constants (:func:`~ssskit.backends.gl.separable.separable_source`). Arithmetic is float32.
+
+Needs the Python package ``moderngl`` and, on Debian/Ubuntu, ``libegl1 libgl1-mesa-dri
+libegl-mesa0``; without them :meth:`GLBackend.availability` says what is missing and the CPU
+backends keep working.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+
+from ...errors import BackendError
+from ..base import Backend, check_frame
+
+
+class GLBackend(Backend):
+    name = "gl"
+    description = "GLSL compute shaders through moderngl/EGL, float32: a GPU, or Mesa's llvmpipe on the CPU"
+    dtype = np.float32
+
+    def __init__(self):
+        self._lock = threading.Lock()
+
+    def availability(self) -> tuple[bool, str]:
+        from .context import context, renderer
+
+        try:
+            context()
+        except BackendError as e:
+            return False, str(e)
+        return True, renderer()
+
+    def separable(self, plan, diffuse, depth_mm, slots):
+        from .context import context
+        from .separable import SeparableFrame
+
+        check_frame(diffuse, depth_mm, slots, plan)
+        slots = np.asarray(slots)
+        if slots.size == 0:
+            return np.array(diffuse, dtype=np.float32, copy=True)
+        with self._lock:
+            ctx = context()
+            try:
+                frame = SeparableFrame(plan, np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
+                frame.run()
+                return frame.read()
+            finally:
+                ctx.__exit__(None, None, None)  # release it, so another thread can make it current
+
+
+__all__ = ["GLBackend"]

@@ -1,0 +1,314 @@
+"""The separable pass as GLSL compute shaders: source generation from a plan, and a frame runner that keeps
+every image on the GPU between passes (and between frames) and reads back only when asked.
+
+:func:`separable_source` fills the fixed shader ``separable.comp`` (beside this module) with one pass's
+constants: the plan's tap rows, centre weights, signs and depth parameters of every slot, baked in as
+GLSL constants, so the driver unrolls the loops of a one-material plan. The same source runs here on
+any GPU or on llvmpipe, and is what ``ssskit export`` writes as a whole shader.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from importlib import resources
+
+import numpy as np
+
+from ...errors import PassError
+from ...sampling.hashes import frame_base
+from ..plan import DEPTH_MODES, SeparablePlan
+
+
+
+@dataclass(frozen=True)
+class Layout:
+    """How a pass maps onto the device: the work-group sizes of the horizontal and vertical passes and the
+    storage of the images. The result does not depend on it (the tests run every layout)."""
+
+    horizontal: tuple[int, int] = (16, 16)
+    vertical: tuple[int, int] = (16, 16)
+    #: the storage of the source, intermediate and output images: "texture" (RGBA32F, texelFetch /
+    #: imageStore) or "buffer" (std430 buffers of vec4, rows padded)
+    storage: tuple[str, str, str] = ("texture", "texture", "texture")
+
+    def __post_init__(self):
+        if len(self.storage) != 3 or any(k not in ("texture", "buffer") for k in self.storage):
+            raise PassError(f"gl storage must be three of texture/buffer (source, intermediate, output), got {self.storage}")
+
+    def local(self, vertical: bool) -> tuple[int, int]:
+        return self.vertical if vertical else self.horizontal
+
+
+#: measured fastest on an H100 (benchmarks/bench_gl.py, benchmarks/RESULTS.md): the frame and the
+#: intermediate image as storage buffers (loads through L1, not the texture units: 0.041 instead of
+#: 0.062 ms per 1080p pass), the output a texture; wide groups for the horizontal pass
+GPU_LAYOUT = Layout((64, 4), (32, 8), ("buffer", "buffer", "texture"))
+#: measured fastest on llvmpipe (Mesa's CPU driver): textures (half the time of buffers there)
+CPU_LAYOUT = Layout((16, 16), (16, 16), ("texture", "texture", "texture"))
+
+
+def default_layout() -> Layout:
+    """The layout for this context's device: :data:`CPU_LAYOUT` on llvmpipe, else :data:`GPU_LAYOUT`."""
+    from .context import is_software
+
+    return CPU_LAYOUT if is_software() else GPU_LAYOUT
+#: slots are stored as 16-bit unsigned integers
+MAX_SLOTS = 1 << 16
+
+
+def _template() -> str:
+    return resources.files(__package__).joinpath("separable.comp").read_text(encoding="utf-8")
+
+
+def _f(x: float) -> str:
+    """A float32 value as an exact GLSL literal."""
+    v = float(np.float32(x))
+    if not np.isfinite(v):
+        raise PassError(f"the pass plan holds a non-finite number ({v}); taps and depth parameters must be finite")
+    s = repr(v)
+    return s if ("." in s or "e" in s) else s + ".0"
+
+
+def _array(kind: str, name: str, values: list[str]) -> str:
+    body = ",\n    ".join(", ".join(values[i:i + 4]) for i in range(0, len(values), 4))
+    return f"const {kind} {name}[{len(values)}] = {kind}[](\n    {body});"
+
+
+def _vec(v) -> str:
+    return "vec" + str(len(v)) + "(" + ", ".join(_f(x) for x in v) + ")"
+
+
+def plan_constants(plan: SeparablePlan) -> str:
+    """The GLSL constants of a plan's tables (every term and slot): the generated block of the shader."""
+    if plan.slots > MAX_SLOTS:
+        raise PassError(f"the gl backend holds at most {MAX_SLOTS - 1} profile ids in one frame, got {plan.slots - 1}")
+    S = plan.slots
+    kmax = max(1, max((t.max_rows for t in plan.terms), default=0))
+    rows_p, rows_m, n_jit, n_rows, centre, sign = [], [], [], [], [], []
+    for term in plan.terms:
+        for s in range(S):
+            n = int(term.n_rows[s]) if s else 0
+            n_rows.append(str(n))
+            n_jit.append(str(int(term.n_jit[s]) if s else 0))
+            centre.append(_vec(term.centre[s]))
+            sign.append(_vec(term.sign[s]))
+            for k in range(kmax):
+                if k < n:
+                    rows_p.append(_vec(list(term.w_plus[s, k]) + [term.offsets_mm[s, k]]))
+                    rows_m.append(_vec(term.w_minus[s, k]))
+                else:
+                    rows_p.append("vec4(0.0)")
+                    rows_m.append("vec3(0.0)")
+    return "\n".join([
+        f"#define NSLOTS {S}",
+        f"#define KMAX {kmax}",
+        f"#define DEPTH_MODE {DEPTH_MODES.index(plan.depth_mode)}  // {plan.depth_mode}",
+        f"#define MULTI_SLOT {int(S > 2)}",
+        _array("float", "DEPTH_PARAM", [_f(plan.depth_param[s]) if s else "0.0" for s in range(S)]),
+        _array("int", "N_ROWS", n_rows),
+        _array("int", "N_JIT", n_jit),
+        _array("vec3", "CENTRE", centre),
+        _array("vec3", "SIGN", sign),
+        "// per (term, slot, row): rgb = weight of the tap at +o, a = o (mm); ROW_MINUS: weight at -o",
+        _array("vec4", "ROW_PLUS", rows_p),
+        _array("vec3", "ROW_MINUS", rows_m),
+    ])
+
+
+def separable_source(plan: SeparablePlan, term: int, vertical: bool, layout: Layout = GPU_LAYOUT) -> str:
+    """The complete GLSL source of one 1D pass (term ``term``, horizontal or vertical) of ``plan``."""
+    if not 0 <= term < len(plan.terms):
+        raise PassError(f"term {term} outside the plan's {len(plan.terms)} terms")
+    lx, ly = (int(v) for v in layout.local(vertical))
+    head = "\n".join([
+        "// ---- generated by ssskit.backends.gl.separable_source ----",
+        f"#define LOCAL_X {lx}",
+        f"#define LOCAL_Y {ly}",
+        f"#define SRC_BUFFER {int(layout.storage[int(bool(vertical))] == 'buffer')}",
+        f"#define DST_BUFFER {int(layout.storage[1 + int(bool(vertical))] == 'buffer')}",
+        f"#define VERTICAL {int(bool(vertical))}",
+        f"#define TERM {int(term)}",
+        plan_constants(plan),
+        "// ---- end of the generated block ----",
+    ])
+    return _template().replace("// @GENERATED@", head, 1)
+
+
+class SeparableFrame:
+    """A frame of the separable pass on the GPU: upload once, run the passes, read back when asked.
+
+    >>> f = SeparableFrame(plan, diffuse, depth_mm, slots)      # doctest: +SKIP
+    >>> f.run()                    # 2 passes per separable term, no readback
+    >>> out = f.read()             # (H, W, 3) float32, a new array
+    """
+
+    def __init__(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                 layout: Layout | None = None):
+        from .context import context
+
+        self.ctx = context()
+        self.plan = plan
+        self.layout = layout = default_layout() if layout is None else layout
+        h, w = slots.shape
+        self.size = (w, h)
+        self._textures = _Images.get(self.ctx, w, h, layout.storage)
+        self.upload(diffuse, depth_mm, slots)
+        self.programs = [(_program(plan, r, False, layout), _program(plan, r, True, layout))
+                         for r in range(len(plan.terms))]
+
+    def upload(self, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray) -> None:
+        """New frame images (same size): E and depth in one RGBA32F texture, the slots in an R16UI one."""
+        from .context import context
+
+        context()
+        h, w = slots.shape
+        src = np.empty((h, w, 4), np.float32)
+        src[..., :3] = diffuse
+        inside = slots > 0
+        src[..., 3] = np.where(inside, depth_mm, -1.0)
+        t = self._textures
+        t.write_src(src)
+        if self.plan.slots > 2:
+            t.slots.write(np.ascontiguousarray(slots, dtype=t.slot_dtype).tobytes())
+
+    def run(self) -> None:
+        """All passes of the frame (horizontal then vertical per term, the terms summed in the output)."""
+        from .context import context
+
+        context()
+        for r in range(len(self.programs)):
+            self.dispatch(r, False)
+            self.dispatch(r, True)
+
+    def dispatch(self, term: int, vertical: bool) -> None:
+        """One 1D pass: horizontal reads the frame and writes the intermediate image, vertical reads that
+        and writes (term 0) or adds to (later terms) the output image."""
+        t = self._textures
+        w, h = self.size
+        lx, ly = self.layout.local(vertical)
+        prog = self.programs[term][int(vertical)]
+        src, dst = (t.tmp, t.out) if vertical else (t.src, t.tmp)
+        _uniforms(prog, u_size=(w, h), u_pitch=t.pitch, u_f=self.plan.fy if vertical else self.plan.fx,
+                  u_base=frame_base(self.plan.frame, self.plan.seed), u_accumulate=int(term > 0))
+        t.bind(src, dst, self.plan.slots > 2)
+        prog.run(-(-w // lx), -(-h // ly), 1)
+        self.ctx.memory_barrier()
+
+    def read(self) -> np.ndarray:
+        """The filtered diffuse layer, (H, W, 3) float32 (a new array)."""
+        from .context import context
+
+        context()
+        return self._textures.read_out()
+
+
+def padded_pitch(width: int) -> int:
+    """Texels per row of a storage-buffer image (the width plus its two border texels): a multiple of 8
+    texels (128 bytes) whose count of 128-byte lines is odd, so rows do not all fall in the same cache
+    sets (power-of-two strides)."""
+    lines = -(-(width + 2) // 8)
+    return 8 * (lines + 1 - lines % 2)
+
+
+class _Images:
+    """The frame's images (source, intermediate, output, slots), kept per size and storage and reused
+    across frames: RGBA32F textures or storage buffers of vec4 with padded rows; slots in R16UI."""
+
+    _cache: dict = {}
+
+    @classmethod
+    def get(cls, ctx, w: int, h: int, storage) -> _Images:
+        key = (id(ctx), w, h, tuple(storage))
+        if key not in cls._cache:
+            for old in cls._cache.values():  # one set at a time: release the previous frame size's
+                old.release()
+            cls._cache.clear()
+            cls._cache[key] = cls(ctx, w, h, tuple(storage))
+        return cls._cache[key]
+
+    def __init__(self, ctx, w: int, h: int, storage):
+        import moderngl
+
+        self.size = (w, h)
+        self.pitch = padded_pitch(w)
+
+        def texture(components: int, dtype: str):
+            tex = ctx.texture((w, h), components, dtype=dtype)
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # integer textures are incomplete otherwise
+            return tex
+
+        def image(kind: str):
+            if kind == "texture":
+                return texture(4, "f4")
+            return ctx.buffer(self._bordered(np.zeros((h, w, 4), np.float32)).tobytes())  # border .a = -1
+
+        self.src, self.tmp, self.out = (image(k) for k in storage)
+        self.slots = texture(1, "u2")
+        self.slot_dtype = np.uint16
+        self._buffer = moderngl.Buffer
+        # results are read through a staging buffer: a buffer the driver sees read back by the CPU may be
+        # moved to host memory, where the passes writing it would run at PCIe speed
+        self._staging = ctx.buffer(reserve=16 * self.pitch * (h + 2)) if storage[2] == "buffer" else None
+        self.ctx = ctx
+
+    def _bordered(self, image: np.ndarray) -> np.ndarray:
+        """(H, W, 4) -> (H + 2, pitch, 4) with an invalid border (.a = -1) and padding."""
+        w, h = self.size
+        out = np.zeros((h + 2, self.pitch, 4), np.float32)
+        out[..., 3] = -1.0
+        out[1:h + 1, 1:w + 1] = image
+        return out
+
+    def _is_buffer(self, obj) -> bool:
+        return isinstance(obj, self._buffer)
+
+    def write_src(self, src: np.ndarray) -> None:
+        self.src.write((self._bordered(src) if self._is_buffer(self.src) else src).tobytes())
+
+    def read_out(self) -> np.ndarray:
+        w, h = self.size
+        if self._is_buffer(self.out):
+            self.ctx.copy_buffer(self._staging, self.out)
+            out = np.frombuffer(self._staging.read(), np.float32).reshape(h + 2, self.pitch, 4)[1:h + 1, 1:w + 1]
+        else:
+            out = np.frombuffer(self.out.read(), np.float32).reshape(h, w, 4)
+        return np.ascontiguousarray(out[..., :3])
+
+    def bind(self, src, dst, slots: bool) -> None:
+        if self._is_buffer(src):
+            src.bind_to_storage_buffer(0)
+        else:
+            src.use(0)
+        if slots:
+            self.slots.use(1)
+        if self._is_buffer(dst):
+            dst.bind_to_storage_buffer(1)
+        else:
+            dst.bind_to_image(0, read=True, write=True)
+
+    def release(self) -> None:
+        for obj in (self.src, self.tmp, self.out, self.slots, self._staging):
+            if obj is not None:
+                obj.release()
+
+
+_PROGRAMS: dict = {}
+
+
+def _uniforms(prog, **values) -> None:
+    """Set the uniforms the compiled program uses (the compiler drops unused ones)."""
+    for name, value in values.items():
+        if name in prog:
+            prog[name] = value
+
+
+def _program(plan: SeparablePlan, term: int, vertical: bool, layout: Layout):
+    from .context import compile_compute
+
+    source = separable_source(plan, term, vertical, layout)
+    prog = _PROGRAMS.get(source)
+    if prog is None:
+        if len(_PROGRAMS) > 64:
+            _PROGRAMS.clear()
+        prog = _PROGRAMS[source] = compile_compute(source, "separable")
+    return prog
