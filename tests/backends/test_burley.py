@@ -60,21 +60,23 @@ def test_a_backend_without_the_pass_says_so():
 
 # ---- physical properties ------------------------------------------------------------------------------
 
+@pytest.mark.parametrize("mips", [False, True])
 @pytest.mark.parametrize("sampler", SAMPLERS)
-def test_constant_irradiance_stays_constant(sampler, burley_backend):
+def test_constant_irradiance_stays_constant(sampler, mips, burley_backend):
     gb, params = _three_ids()
     const = gb.with_layers(diffuse=np.full(gb.diffuse.shape, 0.37, np.float32))
-    out = burley_sss(const, params, spp=16, sampler=sampler, bleed=0.5, backend=burley_backend)
+    out = burley_sss(const, params, spp=16, sampler=sampler, bleed=0.5, mips=mips, backend=burley_backend)
     np.testing.assert_allclose(out, 0.37, rtol=1e-6)
 
 
+@pytest.mark.parametrize("mips", [False, True])
 @pytest.mark.parametrize("sampler", SAMPLERS)
-def test_nothing_bleeds_across_the_mask_or_between_ids(sampler, burley_backend):
+def test_nothing_bleeds_across_the_mask_or_between_ids(sampler, mips, burley_backend):
     gb, params = _three_ids()
     pid = gb.profile_id
     for lit in (0, 1, 2, 3):  # light one region (or the background) brightly, the rest black
         e = np.repeat(np.where((pid == lit)[..., None], 100.0, 0.0), 3, axis=2).astype(np.float32)
-        out = burley_sss(gb.with_layers(diffuse=e), params, spp=32, sampler=sampler, backend=burley_backend)
+        out = burley_sss(gb.with_layers(diffuse=e), params, spp=32, sampler=sampler, mips=mips, backend=burley_backend)
         np.testing.assert_array_equal(out[pid != lit], 0.0)
         np.testing.assert_allclose(out[pid == lit], 100.0, rtol=1e-6)
 
@@ -98,7 +100,7 @@ def test_energy_spreads_like_the_profile(burley_backend):
     e[:, : w // 2] = 1.0
     gb = _gbuffer(e, pid, np.full((h, w), 500.0), fx=1000.0, fy=1000.0)  # 2 px per mm
     p = BurleyParams((0.8, 0.8, 0.8), (2.0, 1.0, 0.5))
-    out = burley_sss(gb, p, spp=256, sequence="random", backend=burley_backend)
+    out = burley_sss(gb, p, spp=256, sequence="random", mips=False, backend=burley_backend)
     # in the middle rows, the blurred edge is symmetric: out(x) + out(w - 1 - x) = 1 (statistically)
     mid = out[8:16]
     sym = mid[:, : w // 2] + mid[:, ::-1][:, : w // 2]
@@ -110,11 +112,12 @@ def test_energy_spreads_like_the_profile(burley_backend):
 
 # ---- determinism ------------------------------------------------------------------------------------
 
+@pytest.mark.parametrize("mips", [False, True])
 @pytest.mark.parametrize("sampler", SAMPLERS)
 @pytest.mark.parametrize("sequence", ["r2", "random"])
-def test_matches_the_numpy_oracle(sampler, sequence, burley_backend):
+def test_matches_the_numpy_oracle(sampler, sequence, mips, burley_backend):
     gb, params = _three_ids()
-    kw = dict(spp=24, sampler=sampler, sequence=sequence, frame=2, seed=7, c=2.6, bleed=0.3)
+    kw = dict(spp=24, sampler=sampler, sequence=sequence, frame=2, seed=7, c=2.6, bleed=0.3, mips=mips)
     a = burley_sss(gb, params, backend=burley_backend, **kw)
     b = burley_sss(gb, params, backend="numpy", **kw)
     np.testing.assert_allclose(a, b, atol=tolerance(burley_backend))

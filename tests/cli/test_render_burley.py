@@ -19,8 +19,9 @@ def test_burley_render_on_a_gbuffer_file(run, gbuffer_file, tmp_path):
     import OpenEXR
 
     exr = tmp_path / "b.exr"
-    data = render_json(run, "--scene", gbuffer_file, "--spp", "64", "--sampler", "exact", "--out", exr)
+    data = render_json(run, "--scene", gbuffer_file, "--spp", "64", "--sampler", "exact", "--out", exr, "--no-mips")
     assert data["method"] == "burley" and data["burley"]["spp"] == 64 and data["burley"]["sampler"] == "exact"
+    assert data["burley"]["mips"] is False
     assert data["size"] == [32, 24]
     assert data["metrics"]["exact_2d"]["psnr"] > 30
     with OpenEXR.File(str(exr)) as f:
@@ -35,17 +36,18 @@ def test_sampler_c_and_params_reach_the_pass(run, gbuffer_file):
 
     np.testing.assert_allclose(a["burley_params"]["d_mm"], BurleyParams.from_dmfp((0.8, 0.6, 0.4), (4, 2, 1)).d_mm)
     # more samples: closer to the exact convolution (the same G-buffer and parameters)
+    assert a["burley"]["mips"] is True  # on by default (Xie 2020)
     b = render_json(run, "--scene", gbuffer_file, "--spp", "512", "--albedo", "0.8,0.6,0.4", "--dmfp", "4,2,1",
-                    "--no-perceptual")
+                    "--no-perceptual", "--no-mips")
     c = render_json(run, "--scene", gbuffer_file, "--spp", "4", "--albedo", "0.8,0.6,0.4", "--dmfp", "4,2,1",
-                    "--no-perceptual")
+                    "--no-perceptual", "--no-mips")
     assert b["metrics"]["exact_2d"]["rmse"] < c["metrics"]["exact_2d"]["rmse"]
 
 
 def test_text_output(run, gbuffer_file):
     code, out, err = run("render", "--method", "burley", "--scene", gbuffer_file, "--spp", "4", "--no-perceptual")
     assert code == 0, err
-    assert "Burley d =" in out and "exact sampler, 4 spp" in out and "vs exact_2d" in out
+    assert "Burley d =" in out and "exact sampler, 4 spp, mips" in out and "vs exact_2d" in out
 
 
 BAD = [
@@ -72,7 +74,8 @@ def test_bad_burley_input(run, workdir, args, fragment):  # noqa: F811
 
 
 @pytest.mark.parametrize("args,fragment", [(["--sampler", "xie"], "--sampler applies to --method burley"),
-                                           (["--c", "2.6"], "--c applies to --method burley")])
+                                           (["--c", "2.6"], "--c applies to --method burley"),
+                                           (["--no-mips"], "--no-mips applies to --method burley")])
 def test_burley_options_refused_for_the_separable_pass(run, workdir, args, fragment):  # noqa: F811
     one_error_line(run, workdir, ["render", "--scene", "slab", *args], fragment)
 

@@ -64,7 +64,8 @@ def test_profile_that_is_not_burley_is_refused():
 @pytest.mark.parametrize("field,value,match", [
     ("spp", 0, "spp must lie"), ("spp", -3, "spp must lie"), ("sampler", "halton", "sampler must be one of"),
     ("c", 2.0, "c must"), ("c", 3.0, "c must"), ("c", 1.5, "c must"), ("sequence", "sobol", "sequence"),
-    ("bleed", 1.5, "bleed"), ("backend", "cuda", "backend"), ("stable", 1, "stable"),
+    ("bleed", 1.5, "bleed"), ("backend", "cuda", "backend"), ("stable", 1, "stable"), ("mips", "yes", "mips"),
+    ("mip_scale", 0.0, "mip_scale"),
 ])
 def test_bad_settings(field, value, match):
     with pytest.raises(SettingsError, match=match):
@@ -146,3 +147,48 @@ def test_step2_golubev_caps_the_count_by_the_footprint():
     n = burley_counts(plan, 64, np.zeros(3, int), np.zeros(3, int), sx, sx, np.ones(3, int))
     np.testing.assert_array_equal(n, [max(1, min(64, math.floor(math.pi * (r * s) ** 2 / 4))) for s in sx])
     assert n[0] >= 1 and n[-1] == 64
+
+
+# ---- prefiltered irradiance (step 5b, Xie 2020 Eqs. 22-23) ---------------------------------------------
+
+def test_mip_pyramid_is_the_masked_block_mean():
+    from ssskit.backends.burley_plan import mip_pyramid
+
+    rng = np.random.default_rng(2)
+    e = rng.random((13, 10, 3))
+    slots = (rng.random((13, 10)) < 0.6).astype(np.int32) + (rng.random((13, 10)) < 0.3)
+    pyr = mip_pyramid(e, slots, 3)
+    assert [lv.shape[1:3] for lv in pyr] == [(13, 10), (7, 5), (4, 3), (2, 2), (1, 1), (1, 1)]
+    for s in (1, 2):
+        m = slots == s
+        block = pyr[2][s, 1, 1]  # texels y 4..7, x 4..7
+        sub = m[4:8, 4:8]
+        assert block[3] == pytest.approx(sub.mean())
+        np.testing.assert_allclose(block[:3], (e[4:8, 4:8] * sub[..., None]).sum(axis=(0, 1)) / 16)
+        assert pyr[5][s, 0, 0, 3] == pytest.approx(m.sum() / 1024)  # the 32 x 32 block: zeros off the image
+
+
+def test_mip_level_is_eq22():
+    """m = 0.5 max(-log2(a n p_A t), 0), p_A = p(r) / (2 pi r) per mm^2, t = (z/fx)(z/fy) mm^2 (Eq. 23)."""
+    from ssskit.backends.numpy_backend import burley_mip_level
+
+    plan = build_burley_plan({1: BurleyParams.from_dmfp(0.5, 1.0)}, 800.0, 500.0, mips=True, mip_scale=1 / 16)
+    r = np.array([0.0, 0.05, 1.0, 5.0, 40.0])
+    d = np.full(5, 2.0)
+    m = burley_mip_level(plan, r, d, np.full(5, 16), np.full(5, 400.0))
+    p_area = (np.exp(-r[1:] / 2) + np.exp(-r[1:] / 6)) / 8.0 / (2 * np.pi * r[1:])
+    want = 0.5 * np.maximum(-np.log2(16 / 16 * p_area * 0.5 * 0.8), 0)
+    np.testing.assert_allclose(m[1:], np.minimum(want, 5.0))
+    assert m[0] == 0.0 and m[-1] == 5.0 and 0 < m[2] < 5
+
+
+def test_mips_blur_more_at_low_counts():
+    """Fewer samples per pixel: coarser levels, a smoother result on a checkerboard (same seed)."""
+    h, w = 32, 32
+    yy, xx = np.mgrid[0:h, 0:w]
+    e = np.repeat(((xx + yy) % 2)[..., None], 3, axis=2).astype(np.float32)
+    gb = _gb(h, w).with_layers(diffuse=e)
+    p = BurleyParams.from_dmfp(0.5, 20.0)
+    a = burley_sss(gb, p, spp=4, mips=True, seed=1, backend="numpy")
+    b = burley_sss(gb, p, spp=4, mips=False, seed=1, backend="numpy")
+    assert a[8:24, 8:24].std() < 0.5 * b[8:24, 8:24].std()

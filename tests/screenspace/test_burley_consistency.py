@@ -59,7 +59,7 @@ def _convergence(gb, params, truth, backend, sequence):
     inside = gb.mask
     rmse, bias = [], []
     for n in NS:
-        out = burley_sss(gb, params, spp=n, sampler="exact", sequence=sequence, seed=11, backend=backend)
+        out = burley_sss(gb, params, spp=n, sampler="exact", sequence=sequence, seed=11, mips=False, backend=backend)
         err = (out.astype(float) - truth)[inside]
         rmse.append(np.sqrt(np.mean(err**2)))
         bias.append(np.abs(err.mean(axis=0)) / (err.std(axis=0, ddof=1) / np.sqrt(err.shape[0])))

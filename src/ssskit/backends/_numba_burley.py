@@ -66,13 +66,46 @@ def inverse_cdf_unit(xi):
     return r - resid / ((e * e * e + e) * 0.25)
 
 
+@njit(cache=True, inline="always")
+def _bilinear(pyr, off, hh, ww, level, s, px, py, wl, acc):
+    """Add wl x the bilinear fetch of level ``level`` of slot s's pyramid at (px, py) (level-0 pixels) to
+    acc (4,): premultiplied RGB and coverage (plan step 5b)."""
+    scale = 1.0 / (1 << level)
+    u = px * scale - 0.5
+    v = py * scale - 0.5
+    fi = math.floor(u)
+    fj = math.floor(v)
+    tu = u - fi
+    tv = v - fj
+    i0 = np.int64(fi)
+    j0 = np.int64(fj)
+    h = hh[level]
+    w = ww[level]
+    base = off[level] + s * h * w * 4
+    for dj in range(2):
+        jj = j0 + dj
+        if jj < 0 or jj >= h:
+            continue
+        bj = tv if dj else 1.0 - tv
+        for di in range(2):
+            ii = i0 + di
+            if ii < 0 or ii >= w:
+                continue
+            b = wl * bj * (tu if di else 1.0 - tu)
+            k = base + (jj * w + ii) * 4
+            for c in range(4):
+                acc[c] += b * pyr[k + c]
+
+
 @njit(cache=True, nogil=True)
 def burley_rows(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, d_mm, chan, r997, sampler, sequence,
-                c, bleed, fx, fy, base, stable, key2, golden, a1, a2):
+                c, bleed, fx, fy, base, stable, key2, golden, a1, a2, mips, mip_scale, max_mip, pyr, off, hh, ww):
     """Steps 1-8 of the plan for rows [y0, y1). src (H, W, 3) float32, z (H, W) float32 (mm),
     zbits (H, W) uint32 (the bits of z, for a stable pattern), slots (H, W) int32, counts (H, W) int64
-    (used when use_counts), out (H, W, 3) float32."""
+    (used when use_counts), out (H, W, 3) float32; with ``mips`` the pyramid of step 5b flattened
+    into pyr (level L at off[L], (S, hh[L], ww[L], 4))."""
     h, w = slots.shape
+    acc = np.zeros(4)
     for y in range(y0, y1):
         hy = _mix32(base ^ np.uint64(y))
         for x in range(w):
@@ -122,8 +155,10 @@ def burley_rows(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, d_mm
                 else:
                     r = inverse_cdf_unit(xi1) * d_s
                 phi = 2.0 * math.pi * xi2
-                qx = math.floor(x + 0.5 + r * math.cos(phi) * sx)  # step 5
-                qy = math.floor(y + 0.5 + r * math.sin(phi) * sy)
+                px = x + 0.5 + r * math.cos(phi) * sx  # step 5
+                py = y + 0.5 + r * math.sin(phi) * sy
+                qx = math.floor(px)
+                qy = math.floor(py)
                 if qx < 0 or qx >= w or qy < 0 or qy >= h:
                     continue
                 ix = np.int64(qx)
@@ -147,9 +182,29 @@ def burley_rows(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, d_mm
                 w1 = f * q1 * (a * a * a + a)
                 a = math.exp(-rp * i2)
                 w2 = f * q2 * (a * a * a + a)
-                n0 += w0 * src[iy, ix, 0]
-                n1 += w1 * src[iy, ix, 1]
-                n2 += w2 * src[iy, ix, 2]
+                if mips:  # step 5b
+                    p_area = (b * b * b + b) / (4.0 * d_s) / (2.0 * math.pi * r) if r > 0.0 else math.inf
+                    arg = mip_scale * n * p_area * (zp / fx) * (zp / fy)
+                    m = 0.5 * max(-math.log2(arg), 0.0) if arg > 0.0 else np.float64(max_mip)
+                    m = min(m, np.float64(max_mip))
+                    lo = np.int64(math.floor(m))
+                    fr = m - lo
+                    for cc in range(4):
+                        acc[cc] = 0.0
+                    if 1.0 - fr > 0.0:
+                        _bilinear(pyr, off, hh, ww, lo, qs, px, py, 1.0 - fr, acc)
+                    if fr > 0.0:
+                        _bilinear(pyr, off, hh, ww, lo + 1, qs, px, py, fr, acc)
+                    v0 = acc[0] / acc[3]
+                    v1 = acc[1] / acc[3]
+                    v2 = acc[2] / acc[3]
+                else:
+                    v0 = src[iy, ix, 0]
+                    v1 = src[iy, ix, 1]
+                    v2 = src[iy, ix, 2]
+                n0 += w0 * v0
+                n1 += w1 * v1
+                n2 += w2 * v2
                 e0 += w0
                 e1 += w1
                 e2 += w2

@@ -62,8 +62,28 @@ position lies within float32 rounding of a texel edge, so its parity test counts
 5. **Position.** phi = 2 pi xi2; pixels per mm at the centre's depth z_p (mm): sx = fx / z_p,
    sy = fy / z_p; the sample lies at (x + 0.5 + r cos(phi) sx, y + 0.5 + r sin(phi) sy) in pixels,
    i.e. at distance r in the plane through p perpendicular to the view axis. Its texel is
-   (i, j) = (floor(.), floor(.)) (no mips: a nearest-texel fetch, so the estimator's expectation is
-   the convolution with R's exact cell integrals, the ground truth of :mod:`ssskit.truth`).
+   (i, j) = (floor(.), floor(.)). Without mips the sample's value is E(i, j) (a nearest-texel fetch,
+   so the estimator's expectation is the convolution with R's exact cell integrals: the ground truth
+   of :func:`ssskit.pipeline.burley.burley_exact`).
+
+5b. **Prefiltered irradiance** (``mips``; Xie 2020 Eqs. 22-23, after Krivanek and Colbert 2008).
+   Per slot s a pyramid of the diffuse layer restricted to the slot (:func:`mip_pyramid`): level 0
+   holds (E [slots = s], [slots = s]) per texel (premultiplied colour and coverage), level k the
+   mean of the 2 x 2 children of level k-1 (children off the image count 0; level k is
+   ceil(H / 2^k) x ceil(W / 2^k)), k = 0 .. MAX_MIP = 5. The sample's level is
+
+       m = min(MAX_MIP, 0.5 max(-log2(a n p_A t), 0))                         (Eq. 22)
+
+   with a = ``mip_scale`` (Xie: 1/16), n the pixel's count, p_A = p(r) / (2 pi r) the sample's
+   density per unit area (mm^-2; p(r) the radius density of step 7's denominator, with d = d_s) and
+   t = (z_p / fx) (z_p / fy) the area (mm^2) a texel covers at the centre's depth (Eq. 23:
+   (w/D)^2 x aspect ratio), so 1 / (n p_A t) is the number of texels per sample around q. The
+   value is the trilinear, coverage-normalised fetch of slot s' = slots[j, i]'s pyramid: at level
+   L = floor(m) and L + 1 with f = m - L, bilinear weights at (u, v) = (qx / 2^L - 1/2, qy / 2^L - 1/2)
+   (qx, qy the continuous position of step 5; texels off the level are 0), C = sum of weight x
+   premultiplied colour, K = sum of weight x coverage, and value = ((1-f) C_L + f C_(L+1)) /
+   ((1-f) K_L + f K_(L+1)). Constant irradiance stays constant and nothing crosses slots, but the
+   estimator is no longer the exact convolution: the bias is measured (benchmarks/RESULTS.md).
 
 6. **Indicator** I (Eq. 24's 1_s): 0 off the image or where slots[j, i] = 0; 1 where
    slots[j, i] = s; ``bleed`` (in [0, 1], default 0; Unreal's BoundaryColorBleed) on another profile id.
@@ -100,6 +120,9 @@ XIE_C = 2.5715
 C_RANGE = (2.0, 3.0)
 #: the most samples per pixel
 MAX_SPP = 1 << 16
+#: the coarsest mip level of step 5b, and Xie 2020's a of Eq. 22
+MAX_MIP = 5
+XIE_MIP_SCALE = 1.0 / 16.0
 #: energy fraction of the radius that sets golubev's sample cap (Golubev 2018)
 GOLUBEV_FRACTION = 0.997
 
@@ -199,6 +222,8 @@ class BurleyPlan:
     frame: int
     seed: int
     stable: bool
+    mips: bool = False
+    mip_scale: float = XIE_MIP_SCALE
 
     @property
     def slots(self) -> int:
@@ -222,7 +247,7 @@ class BurleyPlan:
 
 def build_burley_plan(params_by_id: dict, fx: float, fy: float, *, sampler: str = "exact", sequence: str = "r2",
                       c: float = XIE_C, bleed: float = 0.0, frame: int = 0, seed: int = 0,
-                      stable: bool = False) -> BurleyPlan:
+                      stable: bool = False, mips: bool = False, mip_scale: float = XIE_MIP_SCALE) -> BurleyPlan:
     """The plan for profile ids -> :class:`BurleyParams` (module docstring)."""
     if sampler not in SAMPLERS:
         raise PassError(f"unknown Burley sampler {sampler!r}; choose from {', '.join(SAMPLERS)}")
@@ -230,6 +255,8 @@ def build_burley_plan(params_by_id: dict, fx: float, fy: float, *, sampler: str 
         raise PassError(f"unknown sample sequence {sequence!r}; choose from {', '.join(SEQUENCES)}")
     if not (isinstance(c, (int, float)) and C_RANGE[0] < c < C_RANGE[1]):
         raise PassError(f"Eq. 21's c must lie in ({C_RANGE[0]:g}, {C_RANGE[1]:g}), got {c!r}")
+    if not (isinstance(mip_scale, (int, float)) and math.isfinite(mip_scale) and mip_scale > 0):
+        raise PassError(f"mip_scale (Eq. 22's a) must be a positive number, got {mip_scale!r}")
     if not (isinstance(bleed, (int, float)) and 0.0 <= bleed <= 1.0):
         raise PassError(f"bleed must lie in [0, 1], got {bleed!r}")
     for name, f in (("fx", fx), ("fy", fy)):
@@ -252,7 +279,27 @@ def build_burley_plan(params_by_id: dict, fx: float, fy: float, *, sampler: str 
         ch[s] = p.sampling_channel
         r997[s] = float(burley_inverse_cdf(GOLUBEV_FRACTION, d[s, ch[s]]))
     return BurleyPlan(ids, d, ch, r997, sampler, sequence, float(c), float(bleed), float(fx), float(fy),
-                      int(frame), int(seed), bool(stable))
+                      int(frame), int(seed), bool(stable), bool(mips), float(mip_scale))
+
+
+def mip_pyramid(diffuse: np.ndarray, slots: np.ndarray, n_slots: int, levels: int = MAX_MIP) -> list[np.ndarray]:
+    """Step 5b's pyramids: a list over levels 0..levels of (S, H_k, W_k, 4) float64 arrays holding, per
+    slot, the mean premultiplied colour (RGB) and coverage of the level's 2^k x 2^k block (slot 0 unused)."""
+    e = np.asarray(diffuse, dtype=np.float64)
+    h, w = slots.shape
+    base = np.zeros((n_slots, h, w, 4))
+    for s in range(1, n_slots):
+        m = (slots == s).astype(np.float64)
+        base[s, ..., :3] = e * m[..., None]
+        base[s, ..., 3] = m
+    out = [base]
+    for _ in range(levels):
+        prev = out[-1]
+        ph, pw = prev.shape[1:3]
+        pad = np.zeros((n_slots, ph + ph % 2, pw + pw % 2, 4))
+        pad[:, :ph, :pw] = prev
+        out.append(0.25 * (pad[:, 0::2, 0::2] + pad[:, 1::2, 0::2] + pad[:, 0::2, 1::2] + pad[:, 1::2, 1::2]))
+    return out
 
 
 def check_counts(spp, shape: tuple[int, int]) -> np.ndarray | int:

@@ -122,7 +122,7 @@ class NumbaBackend(Backend):
         """The Burley pass (kernel in :mod:`ssskit.backends._numba_burley`), rows on the thread pool."""
         from ._numba_burley import burley_rows
         from .base import check_burley_frame
-        from .burley_plan import GOLDEN32, KEY2, R2_A1, R2_A2, SAMPLERS, SEQUENCES
+        from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, SAMPLERS, SEQUENCES, mip_pyramid
 
         spp = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
         h, w = np.shape(slots)
@@ -137,7 +137,11 @@ class NumbaBackend(Backend):
                 np.ascontiguousarray(plan.r997_mm, np.float64), SAMPLERS.index(plan.sampler),
                 SEQUENCES.index(plan.sequence), plan.c, plan.bleed, plan.fx, plan.fy,
                 u64(frame_base(0 if plan.stable else plan.frame, plan.seed)), plan.stable, u64(KEY2), u64(GOLDEN32),
-                u64(R2_A1), u64(R2_A2))
+                u64(R2_A1), u64(R2_A2), plan.mips, plan.mip_scale, MAX_MIP)
+        levels = mip_pyramid(src, np.asarray(slots), plan.slots) if plan.mips else [np.zeros((1, 1, 1, 4))]
+        sizes = [lv.size for lv in levels]
+        rest += (np.concatenate([lv.ravel() for lv in levels]), np.cumsum([0] + sizes[:-1]).astype(np.int64),
+                 np.array([lv.shape[1] for lv in levels], np.int64), np.array([lv.shape[2] for lv in levels], np.int64))
         self._rows(h, lambda y0, y1: burley_rows(*args, y0, y1, *rest))
         return out
 

@@ -17,7 +17,7 @@ from ..sampling.hashes import jitter_angles
 from ..profiles.burley import burley_inverse_cdf
 from ..sampling.hashes import frame_base, mix32
 from .base import Backend, check_burley_frame, check_frame
-from .burley_plan import GOLDEN32, KEY2, R2_A1, R2_A2, BurleyPlan
+from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, BurleyPlan, mip_pyramid
 from .plan import SeparablePlan, TermTable
 
 
@@ -120,6 +120,42 @@ def burley_weights(r: np.ndarray, r_prime: np.ndarray, d_s: np.ndarray, d: np.nd
     return (d_s[:, None] / d) * (np.exp(-rp / d) + np.exp(-rp / (3.0 * d))) / pdf[:, None]
 
 
+def burley_mip_level(plan: BurleyPlan, r: np.ndarray, d_s: np.ndarray, n: np.ndarray, zp: np.ndarray) -> np.ndarray:
+    """Step 5b (Xie 2020 Eqs. 22-23): m = min(MAX_MIP, max(-log2(a n p_A t), 0) / 2)."""
+    p_r = (np.exp(-r / d_s) + np.exp(-r / (3.0 * d_s))) / (4.0 * d_s)  # per unit radius
+    with np.errstate(divide="ignore"):
+        p_area = p_r / (2.0 * np.pi * r)  # per mm^2 (inf at r = 0: level 0)
+        t = (zp / plan.fx) * (zp / plan.fy)  # Eq. 23: the texel's area at the centre's depth, mm^2
+        m = 0.5 * np.maximum(-np.log2(plan.mip_scale * n * p_area * t), 0.0)
+    return np.minimum(m, float(MAX_MIP))
+
+
+def burley_mip_fetch(pyr: list, slot: np.ndarray, px: np.ndarray, py: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """Step 5b: the trilinear, coverage-normalised fetch of each sample's slot pyramid at (px, py) (level-0
+    pixels), level m; (N, 3)."""
+    lo = np.floor(m).astype(np.int64)
+    f = m - lo
+    acc = np.zeros((px.size, 4))
+    for level in range(MAX_MIP + 1):
+        for which, wl in ((lo == level, 1.0 - f), (lo + 1 == level, f)):
+            k = np.flatnonzero(which & (wl > 0))
+            if k.size == 0:
+                continue
+            img = pyr[level]
+            hh, ww = img.shape[1:3]
+            u = px[k] / 2.0**level - 0.5
+            v = py[k] / 2.0**level - 0.5
+            i0, j0 = np.floor(u).astype(np.int64), np.floor(v).astype(np.int64)
+            tu, tv = u - i0, v - j0
+            for di, dj in ((0, 0), (1, 0), (0, 1), (1, 1)):
+                b = (tu if di else 1.0 - tu) * (tv if dj else 1.0 - tv) * wl[k]
+                ii, jj = i0 + di, j0 + dj
+                on = (ii >= 0) & (ii < ww) & (jj >= 0) & (jj < hh)
+                val = img[slot[k], np.clip(jj, 0, hh - 1), np.clip(ii, 0, ww - 1)]
+                acc[k] += np.where(on, b, 0.0)[:, None] * val
+    return acc[:, :3] / acc[:, 3:4]
+
+
 def burley_counts(plan: BurleyPlan, spp, ys: np.ndarray, xs: np.ndarray, sx: np.ndarray, sy: np.ndarray,
                   slot: np.ndarray) -> np.ndarray:
     """Step 2: samples of each pixel (golubev: capped by pi r997^2 sx sy / 4, at least 1)."""
@@ -145,6 +181,7 @@ def burley_pass(plan: BurleyPlan, src: np.ndarray, z: np.ndarray, slots: np.ndar
     n = burley_counts(plan, spp, ys, xs, sx, sy, slot)
     d = plan.d_mm[slot]  # (N, 3)
     d_s = plan.d_sample[slot]
+    pyr = mip_pyramid(src, slots, plan.slots) if plan.mips else None
     num = np.zeros((ys.size, 3))
     den = np.zeros((ys.size, 3))
     for j in range(int(n.max(initial=0))):
@@ -152,15 +189,23 @@ def burley_pass(plan: BurleyPlan, src: np.ndarray, z: np.ndarray, slots: np.ndar
         xi1, xi2 = burley_uniforms(plan, h1[k], h2[k], j, n[k])
         r = burley_radius(plan, xi1, d_s[k])
         phi = 2.0 * np.pi * xi2
-        qx = np.floor(xs[k] + 0.5 + r * np.cos(phi) * sx[k]).astype(np.int64)  # step 5: nearest texel
-        qy = np.floor(ys[k] + 0.5 + r * np.sin(phi) * sy[k]).astype(np.int64)
+        px = xs[k] + 0.5 + r * np.cos(phi) * sx[k]  # step 5
+        py = ys[k] + 0.5 + r * np.sin(phi) * sy[k]
+        qx, qy = np.floor(px).astype(np.int64), np.floor(py).astype(np.int64)
         on = (qx >= 0) & (qx < w) & (qy >= 0) & (qy < h)
         qx, qy = np.clip(qx, 0, w - 1), np.clip(qy, 0, h - 1)
         qs = np.where(on, slots[qy, qx], 0)
         ind = np.where(qs == slot[k], 1.0, np.where(qs > 0, plan.bleed, 0.0))  # step 6
         dz = np.where(ind > 0, z[qy, qx] - zp[k], 0.0)
         wgt = ind[:, None] * burley_weights(r, np.sqrt(r * r + dz * dz), d_s[k], d[k])  # step 7
-        num[k] += wgt * src[qy, qx]
+        if pyr is None:
+            value = src[qy, qx]  # nearest texel
+        else:
+            value = np.zeros((k.size, 3))
+            hit = ind > 0
+            level = burley_mip_level(plan, r[hit], d_s[k][hit], n[k][hit], zp[k][hit])
+            value[hit] = burley_mip_fetch(pyr, qs[hit], px[hit], py[hit], level)
+        num[k] += wgt * value
         den[k] += wgt
     ok = den > 0
     out[ys, xs] = np.where(ok, num / np.where(ok, den, 1.0), src[ys, xs])  # step 8

@@ -105,7 +105,7 @@ def build_settings(ctx: click.Context, settings_file: str | None, params: dict, 
 #: options of the separable pass, refused with --method burley
 SEPARABLE_ONLY = ("model", "photons", "kernel_spec", "taps", "tap_method", "jitter", "depth_mode")
 #: options of the Burley pass, refused with --method separable
-BURLEY_ONLY = ("sampler", "c", "albedo", "dmfp")
+BURLEY_ONLY = ("sampler", "c", "albedo", "dmfp", "no_mips")
 
 
 class RGBFloats(click.ParamType):
@@ -129,13 +129,14 @@ def _burley_inputs(ctx, params: dict):
     """BurleySettings and optional BurleyParams from the Burley options (each error names its option)."""
     from ..screenspace import BurleyParams, BurleySettings
 
-    kw = {"sampler": params["sampler"], "c": params["c"], "frame": params["frame"], "seed": params["seed"]}
+    kw = {"sampler": params["sampler"], "c": params["c"], "frame": params["frame"], "seed": params["seed"],
+          "mips": not params["no_mips"]}
     if given(ctx, "spp"):
         kw["spp"] = params["spp"]
     if given(ctx, "backend"):
         kw["backend"] = params["backend"]
     flags = {"sampler": "--sampler", "c": "--c", "spp": "--spp", "frame": "--frame", "seed": "--seed",
-             "backend": "--backend"}
+             "backend": "--backend", "mips": "--no-mips"}
     b = BurleySettings()
     for key, value in kw.items():
         try:
@@ -169,6 +170,8 @@ def _burley_inputs(ctx, params: dict):
               show_default=True, help="--method burley: radius sampler (exact inverse CDF, Xie Eq. 21, Golubev 2018).")
 @click.option("--c", "c", type=float, default=2.5715, show_default=True,
               help="--method burley: Eq. 21's c for --sampler xie, in (2, 3) (Unreal ships 2.6).")
+@click.option("--no-mips", is_flag=True,
+              help="--method burley: fetch every sample at full resolution (no prefiltered pyramid, Xie Eqs. 22-23).")
 @click.option("--albedo", type=RGBFloats(), default=None,
               help="--method burley: surface albedo A in [0, 1] (one or R,G,B), with --dmfp instead of --material.")
 @click.option("--dmfp", type=RGBFloats(), default=None,
@@ -270,7 +273,7 @@ def _render_burley(ctx, scene, settings_file, save_gbuffer, out, as_json, params
         return
     h, w = res.gbuffer.shape
     click.echo(f"# {res.scene}: Burley d = {', '.join(f'{d:.3g}' for d in res.params.d_mm)} mm, {b.sampler} sampler, "
-               f"{b.spp} spp, {w}x{h}, {b.backend} backend")
+               f"{b.spp} spp, {'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend")
     for against, m in res.metrics.items():
         click.echo(f"vs {against:12s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
     if out:

@@ -36,6 +36,7 @@ from ..backends.burley_plan import (
     SAMPLERS,
     SEQUENCES,
     XIE_C,
+    XIE_MIP_SCALE,
     BurleyParams,
     BurleyPlan,
     build_burley_plan,
@@ -55,7 +56,9 @@ class BurleySettings(Settings):
     (low-discrepancy, default) or random (independent samples); ``bleed``: weight of samples on
     another profile id, in [0, 1] (Unreal's BoundaryColorBleed; 0: none); ``frame`` and ``seed`` key
     the per-pixel random numbers; ``stable``: a pattern that stays the same across frames (a hash of
-    pixel and depth instead of the frame, as HDRP does); ``backend``: a name from
+    pixel and depth instead of the frame, as HDRP does); ``mips``: fetch from a prefiltered pyramid
+    of the diffuse layer (Eqs. 22-23; on by default as in Xie 2020, biased) with Eq. 22's
+    ``mip_scale`` a (Xie: 1/16); ``backend``: a name from
     :data:`ssskit.backends.BACKENDS` whose ``passes`` include "burley".
     """
 
@@ -67,6 +70,8 @@ class BurleySettings(Settings):
     frame: int = 0
     seed: int = 0
     stable: bool = False
+    mips: bool = True
+    mip_scale: float = XIE_MIP_SCALE
     backend: str = DEFAULT_BACKEND
 
     def __post_init__(self) -> None:
@@ -80,8 +85,10 @@ class BurleySettings(Settings):
         object.__setattr__(self, "bleed", check_float("bleed", self.bleed, 0.0, 1.0))
         object.__setattr__(self, "frame", check_int("frame", self.frame, 0, 2**31 - 1))
         object.__setattr__(self, "seed", check_int("seed", self.seed, 0, 2**31 - 1))
-        if not isinstance(self.stable, bool):
-            raise SettingsError(f"stable must be true or false, got {self.stable!r}")
+        for name in ("stable", "mips"):
+            if not isinstance(getattr(self, name), bool):
+                raise SettingsError(f"{name} must be true or false, got {getattr(self, name)!r}")
+        object.__setattr__(self, "mip_scale", check_float("mip_scale", self.mip_scale, 1e-6, 1e6))
         object.__setattr__(self, "backend", check_choice("backend", self.backend, BACKENDS.names()))
 
 
@@ -123,7 +130,7 @@ def burley_plan_for(params, ids, fx: float, fy: float, settings: BurleySettings)
     """The pass plan for profile ``ids`` (each with its :class:`BurleyParams`) under ``settings``."""
     return build_burley_plan(_params_by_id(params, ids), fx, fy, sampler=settings.sampler, sequence=settings.sequence,
                              c=settings.c, bleed=settings.bleed, frame=settings.frame, seed=settings.seed,
-                             stable=settings.stable)
+                             stable=settings.stable, mips=settings.mips, mip_scale=settings.mip_scale)
 
 
 def burley_backend(name: str):
