@@ -1,0 +1,299 @@
+"""The variance-guided adaptive sampler (Xie 2020 Sec. 4.1): history update, sample counts, disocclusion,
+reprojection, settings, and the circle scenario's Must-show properties (Figs. 2 and 3)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from ssskit.errors import PassError, SettingsError
+from ssskit.screenspace.adaptive import (
+    AVAILABLE,
+    MU,
+    N_BAR,
+    VAR,
+    AdaptiveSettings,
+    circle_scenario,
+    clamp_counts,
+    estimate_counts,
+    new_history,
+    reproject_history,
+    sample_counts,
+    shading_value,
+    update_history,
+)
+
+SIGMA0 = 0.08
+#: frames after the cold start over which the steady-state properties are measured
+STEADY = slice(50, 150)
+PIXELS = 200
+
+
+def circle(kappa, disocclusion=False, correction="variance", seed=7):
+    s = AdaptiveSettings(sigma0_sq=SIGMA0**2, kappa=kappa, b_min=8, b_max=64, alpha=0.2, correction=correction)
+    return circle_scenario(s, 150, disocclusion=disocclusion, pixels=PIXELS, seed=seed)
+
+
+@pytest.fixture(scope="module")
+def runs():
+    return {(k, d): circle(k, d) for k in (0.0, 1.0) for d in (False, True)}
+
+
+def excursions(n, threshold):
+    """Mean peak height and mean length of the runs of frames with n > threshold, over all pixels."""
+    heights, lengths = [], []
+    for col in n.T:
+        length = top = 0
+        for v in col:
+            if v > threshold:
+                length, top = length + 1, max(top, v)
+            elif length:
+                heights.append(top)
+                lengths.append(length)
+                length = top = 0
+    return float(np.mean(heights)), float(np.mean(lengths))
+
+
+# ---- the circle scenario: Must-show properties -----------------------------------------------------------
+
+@pytest.mark.parametrize("kappa", [0.0, 1.0])
+def test_circle_mu_converges_to_one(runs, kappa):
+    """Xie 2020 Sec. 4.1.3: after the cold start mu converges to the true value 1 (mean of 4/pi on the disk)."""
+    run = runs[(kappa, False)]
+    assert run.mu[0].max() < 0.5  # H_0 = 0: the first frames are far from it (the cold start)
+    assert abs(run.mu[STEADY].mean() - 1.0) < 0.01
+    assert np.all(np.abs(np.median(run.mu[STEADY], axis=1) - 1.0) < 0.05)
+
+
+@pytest.mark.parametrize("kappa", [0.0, 1.0])
+def test_circle_sigma_stays_near_sigma0(runs, kappa):
+    """After the cold start sigma (Eq. 9) stays near the target sigma0 for both kappa."""
+    run = runs[(kappa, False)]
+    assert run.sigma[:10].max(axis=0).min() > 3 * SIGMA0  # the cold start overshoots
+    ratio = float(np.median(run.sigma[STEADY])) / SIGMA0
+    assert 0.9 < ratio < 1.25, ratio
+    rms = math.sqrt(float((run.sigma[STEADY] ** 2).mean())) / SIGMA0
+    assert 0.9 < rms < 1.35, rms
+
+
+def test_circle_counts_reach_the_needed_level(runs):
+    """kappa = 0 settles where the per-frame variance (4/pi - 1) / n is near sigma0^2 (about 43 spp), inside
+    the budget; kappa = 1 spends more samples than kappa = 0 (Sec. 4.1.3: "kappa = 0 uses fewer samples")."""
+    n0, n1 = runs[(0.0, False)].n[STEADY].mean(), runs[(1.0, False)].n[STEADY].mean()
+    needed = (4 / math.pi - 1) / SIGMA0**2
+    assert 0.8 * needed < n0 < 1.2 * needed
+    assert n1 > n0 + 3
+
+
+def test_circle_kappa1_has_taller_shorter_peaks(runs):
+    """Fig. 2's shape: kappa = 1 has higher sample-count peaks lasting fewer frames; kappa = 0 smooths the
+    increases over several frames (peaks: runs of frames above the budget's midpoint)."""
+    h0, l0 = excursions(runs[(0.0, False)].n[STEADY], 36)
+    h1, l1 = excursions(runs[(1.0, False)].n[STEADY], 36)
+    assert h1 > h0 + 5, (h0, h1)
+    assert l1 < 0.9 * l0, (l0, l1)
+    # frame-to-frame: kappa = 0 changes the count smoothly, kappa = 1 jumps
+    j0 = np.abs(np.diff(runs[(0.0, False)].n[STEADY], axis=0)).mean()
+    j1 = np.abs(np.diff(runs[(1.0, False)].n[STEADY], axis=0)).mean()
+    assert j1 > 2 * j0
+
+
+@pytest.mark.parametrize("kappa", [0.0, 1.0])
+def test_circle_disocclusion_removes_the_initial_burst(runs, kappa):
+    """Fig. 3: with Eqs. 16-17 on frame 1 the cold start's burst of samples disappears: no excess over the
+    steady-state rate in the first 20 frames, and n_hat's start-up peak drops by an order of magnitude."""
+    cold, dis = runs[(kappa, False)], runs[(kappa, True)]
+    rate_cold, rate_dis = cold.n[75:].mean(), dis.n[75:].mean()
+    excess_cold = cold.n[:20].mean() - rate_cold
+    excess_dis = dis.n[:20].mean() - rate_dis
+    assert excess_cold > 8, excess_cold
+    assert excess_dis < 2, excess_dis
+    assert np.median(dis.n_hat[:30].max(axis=0)) < 0.1 * np.median(cold.n_hat[:30].max(axis=0))
+    # the cold start pins (nearly) every pixel at b_max for frames 3..15 (Fig. 2); after a disocclusion the first
+    # three frames stay below the steady-state rate (Fig. 3)
+    assert (cold.n[2:15] == 64).mean() > 0.95
+    assert dis.n[:3].mean() < rate_dis
+    # and mu starts at the first estimate instead of climbing from 0
+    assert abs(dis.mu[0].mean() - 1.0) < 0.06 and cold.mu[0].max() < 0.5
+
+
+def test_circle_is_reproducible():
+    a, b = circle(1.0, seed=3), circle(1.0, seed=3)
+    assert np.array_equal(a.n, b.n) and np.array_equal(a.mu, b.mu)
+    assert not np.array_equal(a.n, circle(1.0, seed=4).n)
+
+
+def test_correction_forms_agree_at_kappa0_and_differ_otherwise():
+    """kappa = 0 drops Delta (Eq. 14), so Eq. 15 as printed and its variance form give the same run;
+    at kappa = 0.2 the printed form (1/(sigma + sigma0) times larger near the target) already acts like
+    kappa = 1, the variance form stays between kappa = 0 and kappa = 1."""
+    assert np.array_equal(circle(0.0, correction="sigma").n, circle(0.0, correction="variance").n)
+
+    def jumps(kappa, correction):
+        return np.abs(np.diff(circle(kappa, correction=correction).n[STEADY], axis=0)).mean()
+
+    j0, j1 = jumps(0.0, "variance"), jumps(1.0, "variance")
+    jv, js = jumps(0.2, "variance"), jumps(0.2, "sigma")
+    assert j0 < jv < 0.85 * j1
+    assert js > 0.9 * j1
+
+
+# ---- the equations -----------------------------------------------------------------------------------------
+
+def finch(mean, var, x, a):
+    """Finch 2009, incremental exponentially weighted mean and variance (independent of the module)."""
+    diff = x - mean
+    incr = a * diff
+    mean = mean + incr
+    var = (1 - a) * (var + diff * incr)
+    return mean, var
+
+
+def test_update_history_follows_eqs_6_8_9():
+    s = AdaptiveSettings(sigma0_sq=1e-3, alpha=0.25)
+    h = new_history(2, 3, available=True)
+    h[..., N_BAR], h[..., MU], h[..., VAR] = 20.0, 0.5, 0.01
+    value = np.array([[0.4, 0.5, 0.9], [0.0, 1.0, 0.55]])
+    counts = np.array([[8, 16, 64], [9, 30, 12]])
+    out = update_history(h, value, counts, s)
+    assert out.shape == (2, 3, 4) and out.dtype == np.float32
+    mean, var = finch(0.5, 0.01, value, 0.25)
+    np.testing.assert_allclose(out[..., MU], mean, rtol=1e-6)
+    np.testing.assert_allclose(out[..., VAR], var, rtol=1e-5)
+    np.testing.assert_allclose(out[..., N_BAR], 0.75 * 20 + 0.25 * counts, rtol=1e-6)
+    assert np.all(out[..., AVAILABLE] == 1)
+
+
+def test_disocclusion_eqs_16_17_and_mask():
+    s = AdaptiveSettings(sigma0_sq=2e-3)
+    h = new_history(1, 3, available=True)
+    h[..., N_BAR], h[..., MU], h[..., VAR] = 30.0, 0.2, 0.05
+    h[0, 1] = 0.0  # pixel 1 has no history: C_s = 0
+    out = update_history(h, np.array([[0.7, 0.7, 0.7]]), np.array([[8, 8, 8]]), s, mask=np.array([[1, 1, 0]]))
+    # M' = 1: mu = S, n_bar = n; sigma^2 = sigma0^2 (Eq. 17)
+    np.testing.assert_allclose(out[0, 1], [8.0, 0.7, 2e-3, 1.0], rtol=1e-6)
+    assert out[0, 0, MU] == pytest.approx(0.8 * 0.2 + 0.2 * 0.7)
+    assert np.all(out[0, 2] == 0)  # outside the SSS mask: no history
+
+
+def test_estimate_counts_eqs_13_15():
+    h = new_history(1, 4, available=True)
+    h[..., N_BAR] = 16.0
+    h[..., VAR] = [0.04, 0.01, 0.0025, 0.01]
+    h[0, 3, AVAILABLE] = 0.0
+    h[0, 3] = 0.0
+    k = 2 / 0.2 - 1
+    var = np.array([0.04, 0.01, 0.0025])
+    expected = var / 0.01 * 16  # Eq. 13's E(n_bar)
+    for kappa in (0.0, 0.5, 1.0):
+        s = AdaptiveSettings(sigma0_sq=0.01, kappa=kappa, alpha=0.2, correction="variance")
+        got = estimate_counts(h, s)[0]
+        np.testing.assert_allclose(got[:3], expected + kappa * (var - 0.01) / 0.01 * 16 * (k - 1), rtol=1e-5, atol=1e-4)
+        assert got[3] == 0.0
+        s = s.replace(correction="sigma")
+        np.testing.assert_allclose(estimate_counts(h, s)[0, :3],
+                                   expected + kappa * (np.sqrt(var) - 0.1) / 0.01 * 16 * (k - 1), rtol=1e-5, atol=1e-3)
+    # at the target variance Delta vanishes in both forms: n_hat = n_bar
+    for corr in ("variance", "sigma"):
+        assert estimate_counts(h, AdaptiveSettings(sigma0_sq=0.01, kappa=1.0, correction=corr))[0, 1] == \
+            pytest.approx(16.0, abs=1e-3)
+
+
+def test_counts_are_clamped_to_the_budget():
+    s = AdaptiveSettings(b_min=8, b_max=64)
+    n_hat = np.array([[-50.0, 0.0, 8.2, 40.0, 63.5, 1e9, np.inf]])
+    np.testing.assert_array_equal(clamp_counts(n_hat, s), [[8, 8, 9, 40, 64, 64, 64]])
+    mask = np.array([[1, 1, 1, 0, 1, 1, 1]], bool)
+    counts = clamp_counts(n_hat, s, mask)
+    assert counts.dtype == np.int64 and counts[0, 3] == 0
+    c, nh = sample_counts(new_history(2, 2), s)
+    assert np.all(c == 8) and np.all(nh == 0)  # no history: the floor beta = b_min
+
+
+def test_reproject_history_nearest_and_offscreen():
+    h = new_history(3, 4, available=True)
+    h[..., MU] = np.arange(12).reshape(3, 4)
+    mv = np.zeros((3, 4, 2))
+    mv[..., 0] = -1.0  # the surface was one pixel to the left
+    out = reproject_history(h, mv)
+    np.testing.assert_array_equal(out[:, 1:, MU], h[:, :-1, MU])
+    assert np.all(out[:, 0] == 0)  # fetched from off screen: no history
+    mv[..., 0] = 0.4  # nearest fetch: 0.4 px stays in the same pixel, 0.6 moves one
+    np.testing.assert_array_equal(reproject_history(h, mv)[..., MU], h[..., MU])
+    mv[..., 0] = 0.6
+    np.testing.assert_array_equal(reproject_history(h, mv)[:, :3, MU], h[:, 1:, MU])
+    valid = np.ones((3, 4), bool)
+    valid[1, 2] = False
+    out = reproject_history(h, None, valid)
+    assert np.all(out[1, 2] == 0) and out[0, 0, AVAILABLE] == 1
+    assert np.array_equal(reproject_history(h)[..., MU], h[..., MU])
+
+
+def test_reproject_through_camera_motion_vectors():
+    """A camera panning by a whole number of pixels: motion_vectors + the nearest fetch find each surface
+    point's own history."""
+    from ssskit.screenspace import Camera, motion_vectors
+
+    w2c = np.eye(4)
+    prev = Camera(16, 8, 20.0, 20.0, 8.0, 4.0, w2c)
+    shift = np.eye(4)
+    shift[0, 3] = -3.0 * 10.0 / 20.0  # 3 px at depth 10
+    cur = Camera(16, 8, 20.0, 20.0, 8.0, 4.0, shift)
+    depth = np.full((8, 16), 10.0)
+    h = new_history(8, 16, available=True)
+    h[..., MU] = np.arange(16)[None, :]
+    out = reproject_history(h, motion_vectors(depth, cur, prev))
+    np.testing.assert_array_equal(out[:, :13, MU], h[:, 3:, MU])
+    assert np.all(out[:, 13:, AVAILABLE] == 0)
+
+
+def test_shading_value_is_gamma_corrected_luminance():
+    rgb = np.zeros((1, 3, 3))
+    rgb[0, 0] = 1.0
+    rgb[0, 1] = [0.0, 0.25, 0.0]
+    rgb[0, 2] = [0.5, 0.5, 0.5]
+    v = shading_value(rgb, 2.0)
+    np.testing.assert_allclose(v[0], [1.0, math.sqrt(0.7152 * 0.25), math.sqrt(0.5)])
+    np.testing.assert_allclose(shading_value(rgb, 1.0)[0, 2], 0.5)
+
+
+# ---- bad parameters ----------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"sigma0_sq": 0.0}, "sigma0_sq (the target variance sigma0^2) must be > 0"),
+    ({"sigma0_sq": -1e-3}, "sigma0_sq"),
+    ({"sigma0_sq": float("nan")}, "sigma0_sq"),
+    ({"kappa": 1.5}, "kappa must be a finite number in [0, 1]"),
+    ({"kappa": -0.1}, "kappa"),
+    ({"b_min": 65, "b_max": 64}, "needs b_min <= b_max, got b_min=65 > b_max=64"),
+    ({"b_min": 0}, "b_min must lie in [1, 65536]"),
+    ({"alpha": 0.0}, "alpha must lie in (0, 1]"),
+    ({"alpha": 1.2}, "alpha"),
+    ({"correction": "stddev"}, "correction must be one of variance, sigma"),
+])
+def test_bad_settings_one_clear_line(kwargs, message):
+    with pytest.raises(SettingsError) as err:
+        AdaptiveSettings(**kwargs)
+    text = str(err.value)
+    assert message in text and "\n" not in text
+
+
+def test_settings_round_trip_and_k():
+    s = AdaptiveSettings(sigma0_sq=1e-4, kappa=0.6, b_min=4, b_max=32, alpha=1.0, correction="SIGMA")
+    assert s.correction == "sigma" and s.k == 1.0
+    assert AdaptiveSettings.from_dict(s.to_dict()) == s
+    assert AdaptiveSettings().k == pytest.approx(9.0)
+
+
+def test_bad_arrays_raise_pass_error():
+    h = new_history(2, 2)
+    with pytest.raises(PassError, match=r"\(H, W, 4\)"):
+        sample_counts(np.zeros((2, 2, 3)))
+    with pytest.raises(PassError, match="NaN"):
+        sample_counts(np.full((2, 2, 4), np.nan))
+    with pytest.raises(PassError, match="shading value must be"):
+        update_history(h, np.zeros((3, 2)), np.zeros((2, 2), int))
+    with pytest.raises(PassError, match="motion vectors must be"):
+        reproject_history(h, np.zeros((2, 2)))
+    with pytest.raises(PassError, match="AdaptiveSettings"):
+        sample_counts(h, {"kappa": 1})
