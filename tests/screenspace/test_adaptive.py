@@ -138,6 +138,20 @@ def test_correction_forms_agree_at_kappa0_and_differ_otherwise():
     assert js > 0.9 * j1
 
 
+def test_variance_form_is_free_of_the_values_unit():
+    """The same problem in other units (irradiance and sigma0 both times c) takes the same counts with the
+    variance form (Eqs. 13-15 then depend on sigma^2 / sigma0^2 only); with Eq. 15 as printed Delta scales
+    with 1 / c, so a small kappa acts like a larger one as the unit shrinks (c = 0.125: sigma0 = 0.01, Fig. 4)."""
+    def run(correction, c):
+        s = AdaptiveSettings(sigma0_sq=(SIGMA0 * c) ** 2, kappa=0.05, correction=correction)
+        return circle_scenario(s, 150, pixels=PIXELS, seed=7, scale=c).n[STEADY]
+
+    a, b = run("variance", 1.0), run("variance", 0.125)
+    assert abs(a.mean() - b.mean()) < 0.01 * a.mean() and abs((a == 64).mean() - (b == 64).mean()) < 0.02
+    a, b = run("sigma", 1.0), run("sigma", 0.125)
+    assert (b == 64).mean() > (a == 64).mean() + 0.1
+
+
 # ---- the equations -----------------------------------------------------------------------------------------
 
 def finch(mean, var, x, a):

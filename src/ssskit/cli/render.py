@@ -6,13 +6,19 @@ which validates every value before any work starts. ``--method burley`` runs the
 pass instead of the separable one (:func:`ssskit.pipeline.burley.render_burley`): ``--sampler``,
 ``--spp`` (then the pass's samples per pixel), ``--c``, ``--albedo``/``--dmfp`` build its
 :class:`~ssskit.screenspace.BurleySettings` and parameters; the separable pass's own options are refused.
+``--method burley-adaptive`` runs ``--frames`` frames of the Burley pass on a static camera with the
+variance-guided sample counts of Xie 2020 Sec. 4.1 (:func:`ssskit.screenspace.adaptive.adaptive_frames`;
+``--sigma0``, ``--kappa``, ``--budget B_MIN:B_MAX``, ``--alpha``, ``--correction``) and compares every
+frame, and their average, with the pass's limit; beside it one frame at a fixed B_MAX spp.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import click
+import numpy as np
 
 from ..errors import SettingsError, SsskitError
 from ..pipeline.settings import TAP_RANGE, RenderSettings
@@ -37,6 +43,15 @@ from .options import (
 )
 
 _D = RenderSettings()
+
+
+def _adaptive_defaults():
+    from ..screenspace.adaptive import AdaptiveSettings
+
+    return AdaptiveSettings()
+
+
+_A = _adaptive_defaults()
 
 #: click parameter -> the settings field(s) it sets ("sss." for the pass settings)
 FIELDS: dict[str, tuple[str, ...]] = {
@@ -106,6 +121,26 @@ def build_settings(ctx: click.Context, settings_file: str | None, params: dict, 
 SEPARABLE_ONLY = ("model", "photons", "kernel_spec", "taps", "tap_method", "jitter", "depth_mode")
 #: options of the Burley pass, refused with --method separable
 BURLEY_ONLY = ("sampler", "c", "albedo", "dmfp", "no_mips")
+#: options of the adaptive sampler, refused unless --method burley-adaptive
+ADAPTIVE_ONLY = ("frames", "sigma0", "kappa", "budget", "alpha", "correction")
+
+
+class Budget(click.ParamType):
+    """``B_MIN:B_MAX``: the adaptive sampler's samples per pixel and frame (two integers)."""
+
+    name = "B_MIN:B_MAX"
+
+    def get_metavar(self, param, ctx=None) -> str:
+        return "B_MIN:B_MAX"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        try:
+            lo, hi = (int(v) for v in str(value).split(":"))
+        except ValueError:
+            self.fail(f"must look like 8:64 (two integers), got {value!r}", param, ctx)
+        return lo, hi
 
 
 class RGBFloats(click.ParamType):
@@ -159,13 +194,29 @@ def _burley_inputs(ctx, params: dict):
 @click.command(epilog=examples(
     "ssskit render --scene slab --material skin1 --kernel preintegrated --taps 7 --out slab.png",
     "ssskit render --scene slab --method burley --sampler xie --spp 32 --out burley.png",
+    "ssskit render --scene slab --method burley-adaptive --frames 32 --sigma0 0.01 --kappa 0.2 --budget 8:64 --json",
     "ssskit render --scene sphere --kernel artist --jitter 0.3 --size 256x192 --out s.exr --reference",
     "ssskit render --scene my_gbuffer.exr --kernel svd:2 --json",
     "ssskit render --scene slab --settings frame.toml --taps 11 --backend numpy"))
 @scene_option()
-@click.option("--method", type=click.Choice(["separable", "burley"], case_sensitive=False), default="separable",
+@click.option("--method", type=click.Choice(["separable", "burley", "burley-adaptive"], case_sensitive=False),
+              default="separable", show_default=True,
+              help="The screen-space pass: separable (kernel taps), burley (Monte Carlo, Xie 2020) or burley-adaptive "
+                   "(its variance-guided sample counts over --frames frames, Xie 2020 Sec. 4.1).")
+@click.option("--frames", type=int, default=16, show_default=True,
+              help="--method burley-adaptive: frames on the static camera (1..100000).")
+@click.option("--sigma0", type=float, default=math.sqrt(_A.sigma0_sq), show_default="0.0316 (sigma0^2 = 1e-3)",
+              help="--method burley-adaptive: target standard deviation sigma0 of a frame's gamma-corrected "
+                   "luminance, > 0 (Xie: sigma0^2 = 1e-3, i.e. --sigma0 0.0316).")
+@click.option("--kappa", type=float, default=_A.kappa, show_default=True,
+              help="--method burley-adaptive: correction factor kappa of Eq. 14, in [0, 1].")
+@click.option("--budget", type=Budget(), default=f"{_A.b_min}:{_A.b_max}", show_default=True,
+              help="--method burley-adaptive: samples per pixel and frame, b_min <= b_max.")
+@click.option("--alpha", type=float, default=_A.alpha, show_default=True,
+              help="--method burley-adaptive: EMA weight alpha of the history (Eqs. 6, 8, 9), in (0, 1].")
+@click.option("--correction", type=click.Choice(["variance", "sigma"], case_sensitive=False), default=_A.correction,
               show_default=True,
-              help="The screen-space pass: separable (kernel taps) or burley (Monte Carlo, Xie 2020).")
+              help="--method burley-adaptive: Eq. 15 with variances, or as printed with standard deviations.")
 @click.option("--sampler", type=click.Choice(["exact", "xie", "golubev"], case_sensitive=False), default="exact",
               show_default=True, help="--method burley: radius sampler (exact inverse CDF, Xie Eq. 21, Golubev 2018).")
 @click.option("--c", "c", type=float, default=2.5715, show_default=True,
@@ -209,10 +260,20 @@ def render(ctx, scene, settings_file, save_gbuffer, out, as_json, method, **para
     """Screen-space SSS (separable, or Burley Monte Carlo) of a scene, with errors against the exact 2D
     convolution."""
     gbuffer_file = isinstance(scene, Path)
-    burley = method.lower() == "burley"
+    method = method.lower()
+    burley = method in ("burley", "burley-adaptive")
     for name in BURLEY_ONLY if not burley else SEPARABLE_ONLY:
         if given(ctx, name):
             raise SsskitError(f"{option_name(ctx, name)} applies to --method {'burley' if not burley else 'separable'}")
+    if method != "burley-adaptive":
+        for name in ADAPTIVE_ONLY:
+            if given(ctx, name):
+                raise SsskitError(f"{option_name(ctx, name)} applies to --method burley-adaptive")
+    if method == "burley-adaptive":
+        _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, params)
+        return
+    for name in ADAPTIVE_ONLY:
+        params.pop(name)
     if burley:
         _render_burley(ctx, scene, settings_file, save_gbuffer, out, as_json, params)
         return
@@ -276,6 +337,111 @@ def _render_burley(ctx, scene, settings_file, save_gbuffer, out, as_json, params
                f"{b.spp} spp, {'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend")
     for against, m in res.metrics.items():
         click.echo(f"vs {against:12s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
+    if out:
+        click.echo(f"# wrote {out}")
+
+
+def _adaptive_inputs(ctx, params: dict):
+    """AdaptiveSettings and the frame count from the adaptive options (each error names its option)."""
+    from ..screenspace.adaptive import AdaptiveSettings
+
+    sigma0 = params["sigma0"]
+    if not (math.isfinite(sigma0) and sigma0 > 0):
+        raise SettingsError(f"--sigma0: the target standard deviation sigma0 must be > 0, got {sigma0!r}")
+    b_min, b_max = params["budget"]
+    steps = (("--sigma0", {"sigma0_sq": sigma0 * sigma0}), ("--kappa", {"kappa": params["kappa"]}),
+             ("--budget", {"b_min": b_min, "b_max": b_max}), ("--alpha", {"alpha": params["alpha"]}),
+             ("--correction", {"correction": params["correction"]}))
+    a = AdaptiveSettings()
+    for flag, change in steps:
+        try:
+            a = a.replace(**change)
+        except SsskitError as exc:
+            raise SettingsError(f"{flag}: {exc}") from None
+    frames = params["frames"]
+    if not 1 <= frames <= 100_000:
+        raise SettingsError(f"--frames: the number of frames must lie in [1, 100000], got {frames}")
+    if params["frame"] + frames - 1 > 2**31 - 1:
+        raise SettingsError(f"--frames: {frames} frames from --frame {params['frame']} pass frame 2^31 - 1")
+    return a, frames
+
+
+def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, params) -> None:
+    """--method burley-adaptive: a static-camera sequence of the Burley pass with adaptive counts."""
+    import dataclasses
+
+    from ..metrics import region_metrics
+
+    gbuffer_file = isinstance(scene, Path)
+    if gbuffer_file and given(ctx, "size"):
+        raise SsskitError(f"--size applies to a built-in scene; the G-buffer file {str(scene)!r} has its own")
+    if given(ctx, "spp"):
+        raise SsskitError("--spp: the adaptive pass chooses its samples per pixel; give --budget B_MIN:B_MAX")
+    s = build_settings(ctx, settings_file, params, skip=("spp",))
+    b, burley_params = _burley_inputs(ctx, params)
+    a, frames = _adaptive_inputs(ctx, params)
+    if gbuffer_file and s.reference:
+        raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
+    material_file = Path(s.material) if Path(s.material).is_file() else None
+    check_distinct({"--out": out, "--save-gbuffer": save_gbuffer},
+                   {"--scene": scene if gbuffer_file else None, "--settings": settings_file,
+                    "--material": material_file})
+    from ..pipeline.burley import render_burley
+    from ..screenspace.adaptive import adaptive_frames
+
+    say = None if as_json else progress
+    # one frame at a fixed b_max spp: the G-buffer, the pass's limit (exact) and the fixed-count comparison
+    fixed = render_burley(scene, s, b.replace(spp=a.b_max), progress=say, params=burley_params)
+    gb, mask = fixed.gbuffer, fixed.gbuffer.mask
+    exact = None if fixed.exact is None else gb.composite(fixed.exact)
+    rows: list[dict] = []
+
+    def on_frame(f, sss, counts):
+        psnr = region_metrics(exact, gb.composite(sss), mask, False)["psnr"] if exact is not None else None
+        rows.append({"frame": b.frame + f, "mean_spp": float(counts[mask].mean()) if mask.any() else 0.0,
+                     "psnr": psnr})
+
+    every = max(1, frames // 8)
+    say_some = None if say is None else (lambda msg: say(msg) if len(rows) % every == 0 else None)
+    run = adaptive_frames(gb, fixed.params, a, frames, burley=b, progress=say_some, on_frame=on_frame)
+    for row, ms, ms_update in zip(rows, run.ms_pass, run.ms_update):
+        row["ms"], row["ms_update"] = ms, ms_update
+    image = gb.composite(run.last)
+    res = dataclasses.replace(fixed, burley=b, sss=run.last, image=image, metrics={})
+    if exact is not None:
+        res.metrics["exact_2d"] = region_metrics(exact, image, mask, s.perceptual)
+        res.metrics["average_exact_2d"] = region_metrics(exact, gb.composite(run.mean.astype(np.float32)), mask, False)
+    if fixed.reference is not None:
+        res.metrics["path_traced"] = region_metrics(fixed.reference, image, mask, s.perceptual)
+    if save_gbuffer:
+        gb.save(save_gbuffer)
+    if out:
+        res.save(out)
+    total = int(run.counts.sum())
+    if as_json:
+        data = res.to_dict()
+        data["method"] = "burley-adaptive"
+        data["burley"].pop("spp", None)
+        data["adaptive"] = {**a.to_dict(), "sigma0": math.sqrt(a.sigma0_sq), "frames": frames,
+                            "history": "(H, W, 4) float32: n_bar, mu, sigma^2, available"}
+        data["frames"] = rows
+        data["mean_spp"] = float(np.mean([r["mean_spp"] for r in rows]))
+        data["total_samples"] = total
+        data["fixed"] = {"spp": a.b_max, "metrics": fixed.to_dict()["metrics"]}
+        echo_json(data)
+        return
+    h, w = gb.shape
+    click.echo(f"# {res.scene}: Burley adaptive, sigma0 {math.sqrt(a.sigma0_sq):.4g} (sigma0^2 {a.sigma0_sq:.3g}), "
+               f"kappa {a.kappa:g}, budget {a.b_min}:{a.b_max}, {frames} frames, {b.sampler} sampler, "
+               f"{'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend")
+    spp = [r["mean_spp"] for r in rows]
+    click.echo(f"mean spp per frame: first {spp[0]:.1f}, last {spp[-1]:.1f}, average {np.mean(spp):.1f} "
+               f"(fixed: {a.b_max}); median ms: pass {np.median(run.ms_pass):.3g}, update {np.median(run.ms_update):.3g}")
+    for against, m in res.metrics.items():
+        click.echo(f"vs {against:16s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
+    for against, m in fixed.metrics.items():
+        click.echo(f"fixed {a.b_max} spp vs {against:12s} "
+                   + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
     if out:
         click.echo(f"# wrote {out}")
 

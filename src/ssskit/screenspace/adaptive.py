@@ -299,7 +299,7 @@ class AdaptiveFrames:
 
 
 def adaptive_frames(gbuffer, params_by_id, settings: AdaptiveSettings | None = None, frames: int = 16, *,
-                    burley=None, history=None, progress=None) -> AdaptiveFrames:
+                    burley=None, history=None, progress=None, on_frame=None) -> AdaptiveFrames:
     """``frames`` frames of the Burley pass on a static G-buffer, each with the counts of the
     variance-guided sampler (Xie 2020 Sec. 4.1, Fig. 8's guiding phase): per frame f,
 
@@ -309,7 +309,8 @@ def adaptive_frames(gbuffer, params_by_id, settings: AdaptiveSettings | None = N
 
     The camera does not move, so the history needs no reprojection. ``history``: the initial (H, W, 4)
     history (default: none, so frame 0 takes the disocclusion initialisation of Eqs. 16-17);
-    ``burley``: :class:`~ssskit.screenspace.BurleySettings` (its ``spp`` is unused). The counts are
+    ``burley``: :class:`~ssskit.screenspace.BurleySettings` (its ``spp`` is unused); ``on_frame(f, sss,
+    counts)`` is called after every frame with its blurred diffuse layer and counts. The counts are
     chosen before a frame's samples are drawn, from earlier frames only, so each frame's estimate has
     the expectation of the pass at its count: adapting counts adds no bias of its own.
     """
@@ -353,6 +354,8 @@ def adaptive_frames(gbuffer, params_by_id, settings: AdaptiveSettings | None = N
         total += o
         total_sq += o * o
         counts_all[f] = counts
+        if on_frame is not None:
+            on_frame(f, out, counts)
     mean = total / frames
     var = np.maximum(total_sq / frames - mean * mean, 0.0) * (frames / max(frames - 1, 1))
     return AdaptiveFrames(settings=s, burley=b, mean=mean, stderr=np.sqrt(var / frames), last=out,
@@ -381,7 +384,7 @@ class CircleRun:
 
 
 def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150, *, disocclusion: bool = False,
-                    pixels: int = 1, seed: int = 0) -> CircleRun:
+                    pixels: int = 1, seed: int = 0, scale: float = 1.0) -> CircleRun:
     """Xie 2020 Sec. 4.1.3: a pixel integrates uniform irradiance 4/pi inside the circle of radius 0.5
     centred at (0.5, 0.5) with uniform 2D random samples (xi1, xi2) in [0, 1)^2, so its true value is 1
     and one sample's variance is 4/pi - 1. H_0 = 0; every frame takes the counts of
@@ -390,12 +393,14 @@ def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150,
     ``disocclusion``: False is the paper's *cold start* (Fig. 2: H_0 = 0 treated as history); True
     marks H_0 as missing, so frame 1 takes Eqs. 16-17 (Fig. 3). ``pixels`` independent pixels run side
     by side (one random stream per frame from ``seed``). The paper's setting: b = [8, 64], alpha = 0.2,
-    sigma0^2 = 0.08^2, 150 frames, gamma not applied (the value is the irradiance itself).
+    sigma0^2 = 0.08^2, 150 frames, gamma not applied (the value is the irradiance itself). ``scale``
+    multiplies the irradiance (the paper: 1), to study how the sampler depends on the unit of the values.
     """
     s = _settings(settings)
     frames = check_int("frames", frames, 1, 1_000_000)
     pixels = check_int("pixels", pixels, 1, 1_000_000)
     seed = check_int("seed", seed, 0, 2**63 - 1)
+    scale = check_float("scale", scale, 1e-12, 1e12)
     if not isinstance(disocclusion, bool):
         raise PassError(f"disocclusion must be true or false, got {disocclusion!r}")
     history = new_history(1, pixels, available=not disocclusion)
@@ -407,7 +412,7 @@ def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150,
         xi = np.random.default_rng([seed, f]).random((pixels, s.b_max, 2))
         inside = ((xi - 0.5) ** 2).sum(axis=-1) < 0.25
         used = slots[None, :] < n[:, None]
-        value = CIRCLE_IRRADIANCE * (inside & used).sum(axis=1) / n
+        value = scale * CIRCLE_IRRADIANCE * (inside & used).sum(axis=1) / n
         history = update_history(history, value[None, :], counts, s)
         series["n_hat"][f], series["n"][f], series["value"][f] = n_hat[0], n, value
         series["mu"][f] = history[0, :, MU]
