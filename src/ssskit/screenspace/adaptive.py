@@ -125,11 +125,13 @@ def check_history(history) -> np.ndarray:
         raise PassError(f"the adaptive history must be an (H, W, {HISTORY_CHANNELS}) array, got shape {arr.shape}")
     if not np.issubdtype(arr.dtype, np.floating):
         raise PassError(f"the adaptive history must hold floats, got {arr.dtype}")
-    if not np.all(np.isfinite(arr)):
+    arr = arr.astype(np.float32, copy=False)
+    # one cheap pass first (a sum is NaN or inf if any entry is); the exact test only when it fails
+    if not math.isfinite(float(arr.sum(dtype=np.float64))) and not np.all(np.isfinite(arr)):
         raise PassError("the adaptive history holds NaN or infinite values")
-    if np.any(arr[..., N_BAR] < 0) or np.any(arr[..., VAR] < 0):
+    if arr.size and (float(arr[..., N_BAR].min()) < 0 or float(arr[..., VAR].min()) < 0):
         raise PassError("the adaptive history holds a negative mean count or variance")
-    return arr.astype(np.float32, copy=False)
+    return arr
 
 
 def _mask(mask, shape: tuple[int, int]) -> np.ndarray:
@@ -142,15 +144,15 @@ def _mask(mask, shape: tuple[int, int]) -> np.ndarray:
 
 
 def shading_value(rgb, gamma: float = 2.2) -> np.ndarray:
-    """The per-pixel value S the history records: gamma-corrected luminance Y^(1/gamma) (H, W) float64
+    """The per-pixel value S the history records: gamma-corrected luminance Y^(1/gamma) (H, W) float32
     of linear RGB (H, W, 3), Y = 0.2126 R + 0.7152 G + 0.0722 B (ITU-R BT.709), as Xie 2020 Sec. 4.1.2
     records "the moving average of gamma-corrected luminance to consider human perception"."""
-    a = np.asarray(rgb, dtype=np.float64)
+    a = np.asarray(rgb, dtype=np.float32)
     if a.ndim != 3 or a.shape[2] != 3:
         raise PassError(f"shading_value needs an (H, W, 3) RGB image, got shape {a.shape}")
     g = check_float("gamma", gamma, 0.1, 10.0)
-    y = np.maximum(a @ np.asarray(LUMA_709), 0.0)
-    return y ** (1.0 / g)
+    y = np.maximum(a @ np.asarray(LUMA_709, np.float32), np.float32(0.0))
+    return y if g == 1.0 else y ** np.float32(1.0 / g)
 
 
 def estimate_counts(history, settings: AdaptiveSettings | None = None) -> np.ndarray:
@@ -164,18 +166,25 @@ def estimate_counts(history, settings: AdaptiveSettings | None = None) -> np.nda
     with (n_bar, sigma^2) the (reprojected) history and k = 2 / alpha - 1. Pixels without history
     (channel 3 = 0) hold zeros, so n_hat = 0 there and the floor beta = b_min applies (Sec. 4.1.4).
     """
-    s = _settings(settings)
-    h = check_history(history).astype(np.float64)
-    n_bar, var = h[..., N_BAR], h[..., VAR]
+    return _estimate(check_history(history), _settings(settings))
+
+
+def _estimate(h: np.ndarray, s: AdaptiveSettings) -> np.ndarray:
+    """:func:`estimate_counts` on a checked float32 history (no checks)."""
+    n_bar = h[..., N_BAR].astype(np.float64) * h[..., AVAILABLE]  # pixels without history: n_bar = 0, n_hat = 0
+    var = h[..., VAR].astype(np.float64)
     s0_sq = s.sigma0_sq
-    expected = var / s0_sq * n_bar  # Eq. 13: E(n_bar_i)
     if s.correction == "sigma":
         spread = np.sqrt(var) - math.sqrt(s0_sq)  # Eq. 15 as printed
     else:
         spread = var - s0_sq  # Eq. 13's correction term
-    delta = spread / s0_sq * n_bar * (s.k - 1.0)  # Eq. 15
-    n_hat = s.kappa * delta + expected  # Eq. 14
-    return np.where(h[..., AVAILABLE] > 0, n_hat, 0.0)
+    # Eq. 14: n_hat = kappa * Delta + E(n_bar), Delta = spread / s0^2 * n_bar * (k - 1) (Eq. 15),
+    # E(n_bar) = var / s0^2 * n_bar (Eq. 13)
+    spread *= s.kappa * (s.k - 1.0)
+    spread += var
+    spread *= n_bar
+    spread /= s0_sq
+    return spread
 
 
 def clamp_counts(n_hat, settings: AdaptiveSettings | None = None, mask=None) -> np.ndarray:
@@ -187,10 +196,16 @@ def clamp_counts(n_hat, settings: AdaptiveSettings | None = None, mask=None) -> 
     nh = np.asarray(n_hat, dtype=np.float64)
     if nh.ndim != 2:
         raise PassError(f"n_hat must be an (H, W) array, got shape {nh.shape}")
-    m = _mask(mask, nh.shape)
-    top = float(s.b_max)
-    n = np.clip(np.ceil(np.nan_to_num(nh, nan=top, posinf=top, neginf=0.0)), s.b_min, s.b_max)
-    return np.where(m, n, 0).astype(np.int64)
+    return _clamp(nh, s, _mask(mask, nh.shape))
+
+
+def _clamp(nh: np.ndarray, s: AdaptiveSettings, m: np.ndarray) -> np.ndarray:
+    """:func:`clamp_counts` on checked inputs (NaN counts as b_max: the clip keeps it, so map it first)."""
+    n = np.ceil(nh)
+    n[np.isnan(n)] = s.b_max
+    np.clip(n, s.b_min, s.b_max, out=n)
+    n[~m] = 0
+    return n.astype(np.int64)
 
 
 def sample_counts(history, settings: AdaptiveSettings | None = None, mask=None) -> tuple[np.ndarray, np.ndarray]:
@@ -215,9 +230,9 @@ def update_history(history, value, counts, settings: AdaptiveSettings | None = N
     :func:`reproject_history`). Pixels outside ``mask`` (no SSS this frame) get no history.
     """
     s = _settings(settings)
-    h = check_history(history).astype(np.float64)
+    h = check_history(history)
     shape = h.shape[:2]
-    v = np.asarray(value, dtype=np.float64)
+    v = np.asarray(value)
     if v.shape != shape:
         raise PassError(f"the shading value must be (H, W) = {shape}, got {v.shape}")
     n = np.asarray(counts)
@@ -226,17 +241,29 @@ def update_history(history, value, counts, settings: AdaptiveSettings | None = N
     m = _mask(mask, shape)
     if not np.all(np.isfinite(v[m])):
         raise PassError("the shading value holds NaN or infinite values inside the mask")
+    return _update(h, v, n, s, m)
+
+
+def _update(h: np.ndarray, v: np.ndarray, n: np.ndarray, s: AdaptiveSettings, m: np.ndarray) -> np.ndarray:
+    """:func:`update_history` on checked inputs (float32 arithmetic, as the history is stored)."""
+    f32 = np.float32
     had = h[..., AVAILABLE] > 0
-    a = np.where(had, s.alpha, 1.0)  # Eq. 16: M' = 1 without history
-    n_bar, c, var = h[..., N_BAR], h[..., MU], h[..., VAR]
-    diff = v - c
-    out = np.zeros(h.shape, np.float64)
-    out[..., N_BAR] = (1.0 - a) * n_bar + a * n  # Eq. 8
-    out[..., MU] = (1.0 - a) * c + a * v  # Eq. 6
-    out[..., VAR] = np.where(had, (1.0 - a) * var + a * (1.0 - a) * diff * diff, s.sigma0_sq)  # Eq. 9; Eq. 17
-    out[..., AVAILABLE] = 1.0
-    out[~m] = 0.0
-    return out.astype(np.float32)
+    a = np.where(had, f32(s.alpha), f32(1.0))  # Eq. 16: M' = 1 without history
+    b = f32(1.0) - a
+    c = h[..., MU]
+    diff = np.where(m, v, 0).astype(f32)
+    diff -= c  # S - C
+    n_bar = b * h[..., N_BAR]
+    n_bar += a * n.astype(f32)  # Eq. 8
+    mu = a * diff
+    mu += c  # Eq. 6: (1 - a) C + a S
+    var = a * diff
+    var *= diff
+    var += h[..., VAR]
+    var *= b  # Eq. 9: (1 - a) sigma^2 + a (1 - a) (S - C)^2
+    var[~had] = s.sigma0_sq  # Eq. 17
+    mf = m.astype(f32)  # no SSS this frame: no history
+    return np.stack([n_bar * mf, mu * mf, var * mf, mf], axis=-1)
 
 
 def reproject_history(history, motion=None, valid=None) -> np.ndarray:
@@ -342,11 +369,11 @@ def adaptive_frames(gbuffer, params_by_id, settings: AdaptiveSettings | None = N
         if progress is not None:
             progress(f"adaptive frame {f + 1}/{frames}")
         t0 = time.perf_counter()
-        counts, _ = sample_counts(h, s, mask)
+        counts = _clamp(_estimate(h, s), s, mask)  # sample_counts without the checks (h is ours)
         t1 = time.perf_counter()
         out = burley_sss(gbuffer, params_by_id, b.replace(frame=b.frame + f), counts=counts)
         t2 = time.perf_counter()
-        h = update_history(h, shading_value(out, s.gamma), counts, s, mask)
+        h = _update(h, shading_value(out, s.gamma), counts, s, mask)  # update_history without the checks
         t3 = time.perf_counter()
         ms_pass.append(1e3 * (t2 - t1))
         ms_update.append(1e3 * ((t1 - t0) + (t3 - t2)))
