@@ -1,8 +1,8 @@
 """The circle scenario (Xie 2020 Sec. 4.1.3) over many pixels: Eq. 15 as printed vs its variance form.
 
-For each correction form, kappa and unit of the values (the irradiance and sigma0 scaled together), runs :func:`ssskit.screenspace.adaptive.circle_scenario`
-(b = [8, 64], alpha = 0.2, 150 frames, cold start) on independent pixels and prints, over frames 50-150
-(after the cold start): mean samples per frame, sigma (RMS and median) over sigma0, |mean mu - 1|, the
+For each correction form, kappa and unit of the values (the irradiance and sigma0 scaled together),
+runs :func:`ssskit.screenspace.adaptive.circle_scenario` (b = [8, 64], alpha = 0.2, 150 frames, cold
+start) on independent pixels and prints, over frames 50-150 (after the cold start): mean samples per frame, sigma (RMS and median) over sigma0, |mean mu - 1|, the
 peaks of n (runs of frames above the budget's midpoint: mean height and length), the mean frame-to-frame
 jump of n, and the share of frames at b_min and at b_max; then the start-up (cold start vs disocclusion
 initialisation): samples above the steady rate over the first 20 frames and the median peak of n_hat.
@@ -55,11 +55,13 @@ def main() -> None:
                 h, ln = peaks(n, 0.5 * (s.b_min + s.b_max))
                 print(f"| {c:.3g} | {s0:.3g} | {corr} | {kappa:g} | {n.mean():.1f} | "
                       f"{math.sqrt((sig**2).mean() / s0):.3f}, "
-                      f"{np.median(sig) / math.sqrt(s0):.3f} | {abs(run.mu[50:].mean() / c - 1):.4f} | {h:.1f}, {ln:.2f} | "
+                      f"{np.median(sig) / math.sqrt(s0):.3f} | {abs(run.mu[50:].mean() / c - 1):.4f} | "
+                      f"{h:.1f}, {ln:.2f} | "
                       f"{np.abs(np.diff(n, axis=0)).mean():.1f} | {(n == s.b_min).mean():.2f}, "
                       f"{(n == s.b_max).mean():.2f} |")
     print()
-    print("| Eq. 15 | kappa | start | samples above the steady rate, frames 1-20 (per frame) | median max n_hat, frames 1-30 |")
+    print("| Eq. 15 | kappa | start | samples above the steady rate, frames 1-20 (per frame) "
+          "| median max n_hat, frames 1-30 |")
     print("|---|---|---|---|---|")
     for corr in ("variance", "sigma"):
         for kappa in (0.0, 1.0):

@@ -436,7 +436,8 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
                f"{'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend")
     spp = [r["mean_spp"] for r in rows]
     click.echo(f"mean spp per frame: first {spp[0]:.1f}, last {spp[-1]:.1f}, average {np.mean(spp):.1f} "
-               f"(fixed: {a.b_max}); median ms: pass {np.median(run.ms_pass):.3g}, update {np.median(run.ms_update):.3g}")
+               f"(fixed: {a.b_max}); median ms: pass {np.median(run.ms_pass):.3g}, "
+               f"update {np.median(run.ms_update):.3g}")
     for against, m in res.metrics.items():
         click.echo(f"vs {against:16s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
     for against, m in fixed.metrics.items():

@@ -447,6 +447,7 @@ def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150,
     return CircleRun(settings=s, disocclusion=disocclusion, **series)
 
 
-__all__ = ["AVAILABLE", "AdaptiveFrames", "AdaptiveSettings", "CIRCLE_IRRADIANCE", "CORRECTIONS", "CircleRun", "HISTORY_CHANNELS",
-           "MU", "N_BAR", "VAR", "adaptive_frames", "check_history", "circle_scenario", "clamp_counts", "estimate_counts",
-           "new_history", "reproject_history", "sample_counts", "shading_value", "update_history"]
+__all__ = ["AVAILABLE", "AdaptiveFrames", "AdaptiveSettings", "CIRCLE_IRRADIANCE", "CORRECTIONS", "CircleRun",
+           "HISTORY_CHANNELS", "MU", "N_BAR", "VAR", "adaptive_frames", "check_history", "circle_scenario",
+           "clamp_counts", "estimate_counts", "new_history", "reproject_history", "sample_counts", "shading_value",
+           "update_history"]
