@@ -2,10 +2,11 @@
 
 For each correction form, kappa and unit of the values (the irradiance and sigma0 scaled together),
 runs :func:`ssskit.screenspace.adaptive.circle_scenario` (b = [8, 64], alpha = 0.2, 150 frames, cold
-start) on independent pixels and prints, over frames 50-150 (after the cold start): mean samples per frame, sigma (RMS and median) over sigma0, |mean mu - 1|, the
-peaks of n (runs of frames above the budget's midpoint: mean height and length), the mean frame-to-frame
-jump of n, and the share of frames at b_min and at b_max; then the start-up (cold start vs disocclusion
-initialisation): samples above the steady rate over the first 20 frames and the median peak of n_hat.
+start) on independent pixels and prints, over frames 50-150 (after the cold start): mean samples per
+frame, sigma (RMS and median) over sigma0, |mean mu - 1|, the peaks of n (runs of frames above the
+budget's midpoint: mean height and length), the mean frame-to-frame jump of n, and the share of frames
+at b_min and at b_max; then the start-up (cold start vs disocclusion initialisation): samples above the
+steady rate over the first 20 frames and the median peak of n_hat.
 The numbers quoted in docs/adaptive.md come from this script.
 
     python docs/adaptive_circle.py [--pixels 300] [--seed 2]
