@@ -1,4 +1,4 @@
-"""Benchmark: the separable pass on the ``gl`` backend (GLSL compute), ms per frame and per pass.
+"""Benchmark: the separable and Burley passes on the ``gl`` backend (GLSL compute), ms per frame and per pass.
 
 The scene of ``bench_separable.py``: 7 importance-sampled taps of the pre-integrated Skin1 kernel,
 the follow-surface depth test, float32 RGB, every pixel inside the SSS mask, a tilted plane; without
@@ -12,6 +12,10 @@ readback inside a timed frame). In the same run:
 * the floor: a compute shader that copies the same bytes the two passes move (RGBA32F texel read
   and written twice per pixel, no arithmetic), timed the same way;
 * on the CPU (``--cpu``): the numba backend's pass on the same frame (wall time, medians).
+
+The Burley pass (``--burley-spp``): Skin1's Burley parameters on the same frame, samplers exact and
+xie, with and without the mip pyramid, GPU time per frame (pyramid included) and samples per second;
+with ``--cpu`` the numba backend on the same frame.
 
 Prints one JSON object.
 
@@ -157,6 +161,50 @@ def time_copy_floor(width: int, height: int, batches: int, batch: int) -> dict:
             "bytes": nbytes, "gb_per_s": nbytes / ms / 1e6, "copy_exact": bool(ok)}
 
 
+def time_burley(width: int, height: int, spp: int, mips: bool, sampler: str, batches: int, batch: int,
+                cpu: bool, cpu_repeats: int) -> dict:
+    """The Burley pass (Xie 2020) on the same frame: Skin1's Burley parameters (searchlight d), every
+    pixel inside the mask; GPU time of a frame (mip pyramid included) and of the pyramid alone."""
+    from ssskit.backends.burley_plan import build_burley_plan
+    from ssskit.backends.gl.burley import BurleyFrame
+    from ssskit.backends.gl.context import time_gpu
+    from ssskit.backends.numpy_backend import NumpyBackend
+    from ssskit.screenspace.burley import burley_params_for_material
+
+    image, depth = scene(width, height)
+    f = FOCAL_1080P * width / 1920
+    plan = build_burley_plan({1: burley_params_for_material("skin1")}, f, f, sampler=sampler, mips=mips)
+    slots = np.ones((height, width), np.int32)
+    frame = BurleyFrame(plan, image, depth, slots, spp)
+    frame.run()
+    per_frame = time_gpu(frame.run, batches, batch, warmup_ms=300.0)  # long frames: let the clocks settle
+    mips_ms = statistics.median(time_gpu(frame.build_mips, batches, batch, warmup_ms=100.0)) if mips else 0.0
+    frame.release()
+    ms = statistics.median(per_frame)
+    out = {"spp": spp, "mips": mips, "sampler": sampler, "frame_ms": ms, "mip_pyramid_ms": mips_ms,
+           "gsamples_per_s": width * height * spp / ms / 1e6}
+    # parity on a crop: the share of values off the float64 oracle by more than 1e-5
+    ch, cw = min(height, 64), min(width, 96)
+    crop = BurleyFrame(plan, image[:ch, :cw], depth[:ch, :cw], slots[:ch, :cw], spp)
+    crop.run()
+    got = crop.read()
+    crop.release()
+    ref = NumpyBackend().burley(plan, image[:ch, :cw], depth[:ch, :cw], slots[:ch, :cw], spp)
+    out["crop_share_off_by_1e-5"] = float((np.abs(got - ref) > 1e-5).mean())
+    if cpu:
+        from ssskit.backends import get_backend
+
+        nb = get_backend("numba")
+        nb.burley(plan, image, depth, slots, spp)
+        times = []
+        for _ in range(cpu_repeats):
+            t0 = time.perf_counter()
+            nb.burley(plan, image, depth, slots, spp)
+            times.append(time.perf_counter() - t0)
+        out["numba_ms"] = 1e3 * statistics.median(times)
+    return out
+
+
 def time_numba(width: int, height: int, jitter: float, repeats: int) -> float:
     from ssskit.screenspace.separable import filter_arrays
 
@@ -183,6 +231,9 @@ def main(argv=None) -> dict:
                     help="layouts to compare: default (this device's), gpu, cpu, or HxW:VxW:SSS (t/b per image)")
     ap.add_argument("--cpu", action="store_true", help="also time the numba backend on the same frames")
     ap.add_argument("--cpu-repeats", type=int, default=5)
+    ap.add_argument("--burley-spp", type=int, nargs="*", default=[8, 16, 32, 64],
+                    help="also time the Burley pass at these sample counts (none: skip it)")
+    ap.add_argument("--burley-sizes", nargs="*", default=["1920x1080"])
     args = ap.parse_args(argv)
     from ssskit.backends.gl.context import renderer
 
@@ -202,6 +253,16 @@ def main(argv=None) -> dict:
                     case["numba_over_gl"] = case["numba_ms"] / case["gl"]["frame_ms"]
                 result["cases"].append(case)
                 print(json.dumps(case), file=sys.stderr, flush=True)
+    result["burley"] = []
+    for text in args.burley_sizes if args.burley_spp else []:
+        w, h = _size(text)
+        for sampler in ("exact", "xie"):
+            for mips in (False, True):
+                for spp in args.burley_spp:
+                    case = {"size": f"{w}x{h}", **time_burley(w, h, spp, mips, sampler, args.batches, args.batch,
+                                                               args.cpu, args.cpu_repeats)}
+                    result["burley"].append(case)
+                    print(json.dumps(case), file=sys.stderr, flush=True)
     print(json.dumps(result, indent=1))
     return result
 

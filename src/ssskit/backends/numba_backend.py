@@ -27,6 +27,7 @@ class NumbaBackend(Backend):
     name = "numba"
     description = "numba on the CPU, float32, parallel over rows and vectorised (the default)"
     dtype = np.float32
+    passes = frozenset({"separable", "burley"})
 
     def __init__(self) -> None:
         self._key: tuple | None = None
@@ -115,6 +116,34 @@ class NumbaBackend(Backend):
             contribution = term.sign[slots].astype(np.float32) * out
             acc = contribution if acc is None else acc + contribution
         return np.where((slots > 0)[..., None], acc, src).astype(np.float32)
+
+
+    def burley(self, plan, diffuse, depth_mm, slots, spp):
+        """The Burley pass (kernel in :mod:`ssskit.backends._numba_burley`), rows on the thread pool."""
+        from ._numba_burley import burley_rows
+        from .base import check_burley_frame
+        from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, SAMPLERS, SEQUENCES, mip_pyramid
+
+        spp = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
+        h, w = np.shape(slots)
+        src = np.ascontiguousarray(diffuse, dtype=np.float32)
+        z = np.ascontiguousarray(depth_mm, dtype=np.float32)
+        counts = np.zeros((1, 1), np.int64) if np.isscalar(spp) else np.ascontiguousarray(spp, np.int64)
+        out = np.empty((h, w, 3), np.float32)
+        u64 = np.uint64
+        args = (src, z, z.view(np.uint32), np.ascontiguousarray(slots, np.int32), counts,
+                int(spp) if np.isscalar(spp) else 0, not np.isscalar(spp), out)
+        rest = (np.ascontiguousarray(plan.d_mm, np.float64), np.ascontiguousarray(plan.channel, np.int64),
+                np.ascontiguousarray(plan.r997_mm, np.float64), SAMPLERS.index(plan.sampler),
+                SEQUENCES.index(plan.sequence), plan.c, plan.bleed, plan.fx, plan.fy,
+                u64(frame_base(0 if plan.stable else plan.frame, plan.seed)), plan.stable, u64(KEY2), u64(GOLDEN32),
+                u64(R2_A1), u64(R2_A2), plan.mips, plan.mip_scale, MAX_MIP)
+        levels = mip_pyramid(src, np.asarray(slots), plan.slots) if plan.mips else [np.zeros((1, 1, 1, 4))]
+        sizes = [lv.size for lv in levels]
+        rest += (np.concatenate([lv.ravel() for lv in levels]), np.cumsum([0] + sizes[:-1]).astype(np.int64),
+                 np.array([lv.shape[1] for lv in levels], np.int64), np.array([lv.shape[2] for lv in levels], np.int64))
+        self._rows(h, lambda y0, y1: burley_rows(*args, y0, y1, *rest))
+        return out
 
 
 def _tables(term: TermTable):

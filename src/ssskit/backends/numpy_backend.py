@@ -3,6 +3,10 @@
 It is the oracle of the parity tests, written to be read next to :mod:`ssskit.backends.plan`:
 every tap sample is a 2D bilinear fetch of its four texels (for an unjittered tap along the x axis
 the two texels of the next row have weight 0), each texel with its own depth factor and slot test.
+
+The Burley pass (:meth:`NumpyBackend.burley`) follows the numbered steps of
+:mod:`ssskit.backends.burley_plan`, one helper per step, vectorised over the pixels with SSS and
+looped over the sample index.
 """
 
 from __future__ import annotations
@@ -10,7 +14,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..sampling.hashes import jitter_angles
-from .base import Backend, check_frame
+from ..profiles.burley import burley_inverse_cdf
+from ..sampling.hashes import frame_base, mix32
+from .base import Backend, check_burley_frame, check_frame
+from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, BurleyPlan, mip_pyramid
 from .plan import SeparablePlan, TermTable
 
 
@@ -66,10 +73,150 @@ def one_pass(src: np.ndarray, z_mm: np.ndarray, slots: np.ndarray, f_axis: float
     return out
 
 
+_M32 = np.uint64(0xFFFFFFFF)
+
+
+def burley_keys(plan: BurleyPlan, ys: np.ndarray, xs: np.ndarray, z_mm: np.ndarray):
+    """Step 1: the pixel keys (h1, h2) (uint64 holding 32 bits) of pixels (ys, xs) with depth z_mm."""
+    base = np.uint64(frame_base(0 if plan.stable else plan.frame, plan.seed))
+    h = mix32(mix32(base ^ ys.astype(np.uint64)) ^ xs.astype(np.uint64))
+    if plan.stable:
+        h = mix32(h ^ np.asarray(z_mm, np.float32).view(np.uint32).astype(np.uint64))
+    return h, mix32(h ^ np.uint64(KEY2))
+
+
+def _unit(u: np.ndarray) -> np.ndarray:
+    """xi = (float(U >> 8) + 0.5) 2^-24 in (0, 1) (step 3)."""
+    return ((u >> np.uint64(8)).astype(np.float64) + 0.5) * 2.0**-24
+
+
+def burley_uniforms(plan: BurleyPlan, h1: np.ndarray, h2: np.ndarray, j: int, n: np.ndarray):
+    """Step 3: (xi1, xi2) of sample j for pixels with keys h1, h2 and counts n."""
+    jj = np.uint64(j)
+    if plan.sampler == "golubev":
+        xi1 = (j + 0.5) / n
+        u2 = (h2 + jj * np.uint64(GOLDEN32)) & _M32
+        return xi1, _unit(u2)
+    if plan.sequence == "r2":
+        u1 = (h1 + jj * np.uint64(R2_A1)) & _M32
+        u2 = (h2 + jj * np.uint64(R2_A2)) & _M32
+    else:
+        k = np.uint64((j * GOLDEN32) & 0xFFFFFFFF)
+        u1, u2 = mix32(h1 ^ k), mix32(h2 ^ k)
+    return _unit(u1), _unit(u2)
+
+
+def burley_radius(plan: BurleyPlan, xi: np.ndarray, d_s: np.ndarray) -> np.ndarray:
+    """Step 4: the radius (mm) in the sampling channel: the exact inverse of Xie 2020 Eq. 20, or Eq. 21."""
+    if plan.sampler == "xie":
+        return d_s * ((2.0 - plan.c) * xi - 2.0) * np.log1p(-xi)  # Eq. 21
+    return burley_inverse_cdf(xi, 1.0) * d_s  # Eq. 20 inverted (cdf depends on r / d only)
+
+
+def burley_weights(r: np.ndarray, r_prime: np.ndarray, d_s: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Step 7 (Xie 2020 Eq. 24): w_c = r' R_c(r') / p(r) without the constant A_c / (2 pi); (N, 3)."""
+    pdf = np.exp(-r / d_s) + np.exp(-r / (3.0 * d_s))
+    rp = r_prime[:, None]
+    return (d_s[:, None] / d) * (np.exp(-rp / d) + np.exp(-rp / (3.0 * d))) / pdf[:, None]
+
+
+def burley_mip_level(plan: BurleyPlan, r: np.ndarray, d_s: np.ndarray, n: np.ndarray, zp: np.ndarray) -> np.ndarray:
+    """Step 5b (Xie 2020 Eqs. 22-23): m = min(MAX_MIP, max(-log2(a n p_A t), 0) / 2)."""
+    p_r = (np.exp(-r / d_s) + np.exp(-r / (3.0 * d_s))) / (4.0 * d_s)  # per unit radius
+    with np.errstate(divide="ignore"):
+        p_area = p_r / (2.0 * np.pi * r)  # per mm^2 (inf at r = 0: level 0)
+        t = (zp / plan.fx) * (zp / plan.fy)  # Eq. 23: the texel's area at the centre's depth, mm^2
+        m = 0.5 * np.maximum(-np.log2(plan.mip_scale * n * p_area * t), 0.0)
+    return np.minimum(m, float(MAX_MIP))
+
+
+def burley_mip_fetch(pyr: list, slot: np.ndarray, px: np.ndarray, py: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """Step 5b: the trilinear, coverage-normalised fetch of each sample's slot pyramid at (px, py) (level-0
+    pixels), level m; (N, 3)."""
+    lo = np.floor(m).astype(np.int64)
+    f = m - lo
+    acc = np.zeros((px.size, 4))
+    for level in range(MAX_MIP + 1):
+        for which, wl in ((lo == level, 1.0 - f), (lo + 1 == level, f)):
+            k = np.flatnonzero(which & (wl > 0))
+            if k.size == 0:
+                continue
+            img = pyr[level]
+            hh, ww = img.shape[1:3]
+            u = px[k] / 2.0**level - 0.5
+            v = py[k] / 2.0**level - 0.5
+            i0, j0 = np.floor(u).astype(np.int64), np.floor(v).astype(np.int64)
+            tu, tv = u - i0, v - j0
+            for di, dj in ((0, 0), (1, 0), (0, 1), (1, 1)):
+                b = (tu if di else 1.0 - tu) * (tv if dj else 1.0 - tv) * wl[k]
+                ii, jj = i0 + di, j0 + dj
+                on = (ii >= 0) & (ii < ww) & (jj >= 0) & (jj < hh)
+                val = img[slot[k], np.clip(jj, 0, hh - 1), np.clip(ii, 0, ww - 1)]
+                acc[k] += np.where(on, b, 0.0)[:, None] * val
+    return acc[:, :3] / acc[:, 3:4]
+
+
+def burley_counts(plan: BurleyPlan, spp, ys: np.ndarray, xs: np.ndarray, sx: np.ndarray, sy: np.ndarray,
+                  slot: np.ndarray) -> np.ndarray:
+    """Step 2: samples of each pixel (golubev: capped by pi r997^2 sx sy / 4, at least 1)."""
+    n = np.full(ys.shape, spp, np.int64) if np.isscalar(spp) else np.asarray(spp, np.int64)[ys, xs]
+    if plan.sampler == "golubev":
+        r = plan.r997_mm[slot]
+        cap = np.floor(np.pi * r * r * sx * sy / 4.0).astype(np.int64)
+        n = np.where(n > 0, np.maximum(1, np.minimum(n, cap)), 0)
+    return n
+
+
+def burley_pass(plan: BurleyPlan, src: np.ndarray, z: np.ndarray, slots: np.ndarray, spp) -> np.ndarray:
+    """The Burley pass in float64 (:mod:`ssskit.backends.burley_plan`, steps 1-8)."""
+    h, w = slots.shape
+    out = src.copy()
+    ys, xs = np.nonzero(slots > 0)
+    if ys.size == 0:
+        return out
+    slot = slots[ys, xs]
+    zp = z[ys, xs]
+    sx, sy = plan.fx / zp, plan.fy / zp  # pixels per mm (step 5)
+    h1, h2 = burley_keys(plan, ys, xs, zp)
+    n = burley_counts(plan, spp, ys, xs, sx, sy, slot)
+    d = plan.d_mm[slot]  # (N, 3)
+    d_s = plan.d_sample[slot]
+    pyr = mip_pyramid(src, slots, plan.slots) if plan.mips else None
+    num = np.zeros((ys.size, 3))
+    den = np.zeros((ys.size, 3))
+    for j in range(int(n.max(initial=0))):
+        k = np.flatnonzero(n > j)  # the pixels that draw sample j
+        xi1, xi2 = burley_uniforms(plan, h1[k], h2[k], j, n[k])
+        r = burley_radius(plan, xi1, d_s[k])
+        phi = 2.0 * np.pi * xi2
+        px = xs[k] + 0.5 + r * np.cos(phi) * sx[k]  # step 5
+        py = ys[k] + 0.5 + r * np.sin(phi) * sy[k]
+        qx, qy = np.floor(px).astype(np.int64), np.floor(py).astype(np.int64)
+        on = (qx >= 0) & (qx < w) & (qy >= 0) & (qy < h)
+        qx, qy = np.clip(qx, 0, w - 1), np.clip(qy, 0, h - 1)
+        qs = np.where(on, slots[qy, qx], 0)
+        ind = np.where(qs == slot[k], 1.0, np.where(qs > 0, plan.bleed, 0.0))  # step 6
+        dz = np.where(ind > 0, z[qy, qx] - zp[k], 0.0)
+        wgt = ind[:, None] * burley_weights(r, np.sqrt(r * r + dz * dz), d_s[k], d[k])  # step 7
+        if pyr is None:
+            value = src[qy, qx]  # nearest texel
+        else:
+            value = np.zeros((k.size, 3))
+            hit = ind > 0
+            level = burley_mip_level(plan, r[hit], d_s[k][hit], n[k][hit], zp[k][hit])
+            value[hit] = burley_mip_fetch(pyr, qs[hit], px[hit], py[hit], level)
+        num[k] += wgt * value
+        den[k] += wgt
+    ok = den > 0
+    out[ys, xs] = np.where(ok, num / np.where(ok, den, 1.0), src[ys, xs])  # step 8
+    return out
+
+
 class NumpyBackend(Backend):
     name = "numpy"
     description = "numpy, float64: the reference every other backend is tested against (slow)"
     dtype = np.float64
+    passes = frozenset({"separable", "burley"})
 
     def availability(self) -> tuple[bool, str]:
         return True, "float64 reference (the oracle)"
@@ -87,3 +234,8 @@ class NumpyBackend(Backend):
             out += term.sign[slots] * one_pass(tmp, z, slots, plan.fy, False, term, plan, angles)
         inside = (slots > 0)[..., None]
         return np.where(inside, out, src)
+
+    def burley(self, plan, diffuse, depth_mm, slots, spp):
+        spp = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
+        return burley_pass(plan, np.asarray(diffuse, dtype=np.float64), np.asarray(depth_mm, dtype=np.float64),
+                           np.asarray(slots, dtype=np.int64), spp)

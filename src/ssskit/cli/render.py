@@ -1,15 +1,24 @@
-"""``ssskit render``: screen-space separable SSS of a scene or a G-buffer file, against ground truth.
+"""``ssskit render``: screen-space SSS of a scene or a G-buffer file, against ground truth.
 
 The options build a :class:`~ssskit.pipeline.settings.RenderSettings` (optionally on top of a
 settings file, ``--settings FILE.toml|json``: options given on the command line override it),
-which validates every value before any work starts.
+which validates every value before any work starts. ``--method burley`` runs the Burley Monte Carlo
+pass instead of the separable one (:func:`ssskit.pipeline.burley.render_burley`): ``--sampler``,
+``--spp`` (then the pass's samples per pixel), ``--c``, ``--albedo``/``--dmfp`` build its
+:class:`~ssskit.screenspace.BurleySettings` and parameters; the separable pass's own options are refused.
+``--method burley-adaptive`` runs ``--frames`` frames of the Burley pass on a static camera with the
+variance-guided sample counts of Xie 2020 Sec. 4.1 (:func:`ssskit.screenspace.adaptive.adaptive_frames`;
+``--sigma0``, ``--kappa``, ``--budget B_MIN:B_MAX``, ``--alpha``, ``--correction``) and compares every
+frame, and their average, with the pass's limit; beside it one frame at a fixed B_MAX spp.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import click
+import numpy as np
 
 from ..errors import SettingsError, SsskitError
 from ..pipeline.settings import TAP_RANGE, RenderSettings
@@ -34,6 +43,15 @@ from .options import (
 )
 
 _D = RenderSettings()
+
+
+def _adaptive_defaults():
+    from ..screenspace.adaptive import AdaptiveSettings
+
+    return AdaptiveSettings()
+
+
+_A = _adaptive_defaults()
 
 #: click parameter -> the settings field(s) it sets ("sss." for the pass settings)
 FIELDS: dict[str, tuple[str, ...]] = {
@@ -73,12 +91,12 @@ def _apply(s: RenderSettings, flag: str, fields: tuple[str, ...], values: tuple)
         raise SettingsError(f"{flag}: {exc}") from None
 
 
-def build_settings(ctx: click.Context, settings_file: str | None, params: dict) -> RenderSettings:
+def build_settings(ctx: click.Context, settings_file: str | None, params: dict, skip=()) -> RenderSettings:
     """RenderSettings from the settings file (or the defaults) with the options the user gave applied,
-    each validated and named in the error when wrong."""
+    each validated and named in the error when wrong (parameters in ``skip`` left out)."""
     s = RenderSettings.load(settings_file) if settings_file else RenderSettings()
     for name, fields in FIELDS.items():
-        if not given(ctx, name):
+        if not given(ctx, name) or name in skip:
             continue
         value = params[name]
         if name == "size":
@@ -101,12 +119,116 @@ def build_settings(ctx: click.Context, settings_file: str | None, params: dict) 
     return s
 
 
+#: options of the separable pass, refused with --method burley
+SEPARABLE_ONLY = ("model", "photons", "kernel_spec", "taps", "tap_method", "jitter", "depth_mode")
+#: options of the Burley pass, refused with --method separable
+BURLEY_ONLY = ("sampler", "c", "albedo", "dmfp", "no_mips")
+#: options of the adaptive sampler, refused unless --method burley-adaptive
+ADAPTIVE_ONLY = ("frames", "sigma0", "kappa", "budget", "alpha", "correction")
+
+
+class Budget(click.ParamType):
+    """``B_MIN:B_MAX``: the adaptive sampler's samples per pixel and frame (two integers)."""
+
+    name = "B_MIN:B_MAX"
+
+    def get_metavar(self, param, ctx=None) -> str:
+        return "B_MIN:B_MAX"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        try:
+            lo, hi = (int(v) for v in str(value).split(":"))
+        except ValueError:
+            self.fail(f"must look like 8:64 (two integers), got {value!r}", param, ctx)
+        return lo, hi
+
+
+class RGBFloats(click.ParamType):
+    """One number or three comma-separated numbers (R,G,B)."""
+
+    name = "V[,V,V]"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        try:
+            vals = tuple(float(v) for v in str(value).split(","))
+        except ValueError:
+            self.fail(f"{value!r} is not a number or three comma-separated numbers", param, ctx)
+        if len(vals) not in (1, 3):
+            self.fail(f"{value!r}: give one number or three (R,G,B)", param, ctx)
+        return vals if len(vals) == 3 else vals * 3
+
+
+def _burley_inputs(ctx, params: dict):
+    """BurleySettings and optional BurleyParams from the Burley options (each error names its option)."""
+    from ..screenspace import BurleyParams, BurleySettings
+
+    kw = {"sampler": params["sampler"], "c": params["c"], "frame": params["frame"], "seed": params["seed"],
+          "mips": not params["no_mips"]}
+    if given(ctx, "spp"):
+        kw["spp"] = params["spp"]
+    if given(ctx, "backend"):
+        kw["backend"] = params["backend"]
+    flags = {"sampler": "--sampler", "c": "--c", "spp": "--spp", "frame": "--frame", "seed": "--seed",
+             "backend": "--backend", "mips": "--no-mips"}
+    b = BurleySettings()
+    for key, value in kw.items():
+        try:
+            b = b.replace(**{key: value})
+        except SsskitError as exc:
+            raise SettingsError(f"{flags[key]}: {exc}") from None
+    albedo, dmfp = params["albedo"], params["dmfp"]
+    if (albedo is None) != (dmfp is None):
+        raise SsskitError("--albedo and --dmfp go together (Burley parameters from albedo and diffuse mean free "
+                          "path, Xie 2020 Eq. 5); give both or neither")
+    burley_params = None
+    if albedo is not None:
+        try:
+            burley_params = BurleyParams.from_dmfp(albedo, dmfp)
+        except SsskitError as exc:
+            raise SettingsError(f"--albedo/--dmfp: {exc}") from None
+    return b, burley_params
+
+
 @click.command(epilog=examples(
     "ssskit render --scene slab --material skin1 --kernel preintegrated --taps 7 --out slab.png",
+    "ssskit render --scene slab --method burley --sampler xie --spp 32 --out burley.png",
+    "ssskit render --scene slab --method burley-adaptive --frames 32 --sigma0 0.01 --kappa 0.2 --budget 8:64 --json",
     "ssskit render --scene sphere --kernel artist --jitter 0.3 --size 256x192 --out s.exr --reference",
     "ssskit render --scene my_gbuffer.exr --kernel svd:2 --json",
     "ssskit render --scene slab --settings frame.toml --taps 11 --backend numpy"))
 @scene_option()
+@click.option("--method", type=click.Choice(["separable", "burley", "burley-adaptive"], case_sensitive=False),
+              default="separable", show_default=True,
+              help="The screen-space pass: separable (kernel taps), burley (Monte Carlo, Xie 2020) or burley-adaptive "
+                   "(its variance-guided sample counts over --frames frames, Xie 2020 Sec. 4.1).")
+@click.option("--frames", type=int, default=16, show_default=True,
+              help="--method burley-adaptive: frames on the static camera (1..100000).")
+@click.option("--sigma0", type=float, default=math.sqrt(_A.sigma0_sq), show_default="0.0316 (sigma0^2 = 1e-3)",
+              help="--method burley-adaptive: target standard deviation sigma0 of a frame's gamma-corrected "
+                   "luminance, > 0 (Xie: sigma0^2 = 1e-3, i.e. --sigma0 0.0316).")
+@click.option("--kappa", type=float, default=_A.kappa, show_default=True,
+              help="--method burley-adaptive: correction factor kappa of Eq. 14, in [0, 1].")
+@click.option("--budget", type=Budget(), default=f"{_A.b_min}:{_A.b_max}", show_default=True,
+              help="--method burley-adaptive: samples per pixel and frame, b_min <= b_max.")
+@click.option("--alpha", type=float, default=_A.alpha, show_default=True,
+              help="--method burley-adaptive: EMA weight alpha of the history (Eqs. 6, 8, 9), in (0, 1].")
+@click.option("--correction", type=click.Choice(["variance", "sigma"], case_sensitive=False), default=_A.correction,
+              show_default=True,
+              help="--method burley-adaptive: Eq. 15 with variances, or as printed with standard deviations.")
+@click.option("--sampler", type=click.Choice(["exact", "xie", "golubev"], case_sensitive=False), default="exact",
+              show_default=True, help="--method burley: radius sampler (exact inverse CDF, Xie Eq. 21, Golubev 2018).")
+@click.option("--c", "c", type=float, default=2.5715, show_default=True,
+              help="--method burley: Eq. 21's c for --sampler xie, in (2, 3) (Unreal ships 2.6).")
+@click.option("--no-mips", is_flag=True,
+              help="--method burley: fetch every sample at full resolution (no prefiltered pyramid, Xie Eqs. 22-23).")
+@click.option("--albedo", type=RGBFloats(), default=None,
+              help="--method burley: surface albedo A in [0, 1] (one or R,G,B), with --dmfp instead of --material.")
+@click.option("--dmfp", type=RGBFloats(), default=None,
+              help="--method burley: diffuse mean free path in mm (> 0; one or R,G,B), with --albedo.")
 @click.option("--settings", "settings_file", type=click.Path(exists=True, dir_okay=False), default=None,
               metavar="FILE.toml|json", help="Render settings file (RenderSettings); options given here override it.")
 @material_option(default=_D.material, help="Preset name or material file.")
@@ -122,7 +244,8 @@ def build_settings(ctx: click.Context, settings_file: str | None, params: dict) 
 @backend_option(_D.sss.backend)
 @click.option("--size", type=Size(), default=f"{_D.width}x{_D.height}", show_default=True,
               help="Image size of a built-in scene (a G-buffer file has its own).")
-@click.option("--spp", type=int, default=_D.spp, show_default=True, help="Samples per pixel of a built-in scene's G-buffer.")
+@click.option("--spp", type=int, default=_D.spp, show_default=True,
+              help="Samples per pixel of a built-in scene's G-buffer; with --method burley, of the Burley pass.")
 @click.option("--frame", type=int, default=_D.sss.frame, show_default=True,
               help="Frame along the scene's camera orbit (and of the jitter pattern).")
 @click.option("--seed", type=int, default=_D.seed, show_default=True, help="Random seed (renders and jitter).")
@@ -139,9 +262,29 @@ def build_settings(ctx: click.Context, settings_file: str | None, params: dict) 
 @out_option((".exr", ".png"), "Write the image: FILE.exr (linear, with sss/exact/reference layers) or FILE.png (tone-mapped).")
 @json_option("Print one JSON object with settings and error metrics.")
 @click.pass_context
-def render(ctx, scene, settings_file, save_gbuffer, out, as_json, **params) -> None:
-    """Screen-space separable SSS of a scene, with errors against the exact 2D convolution."""
+def render(ctx, scene, settings_file, save_gbuffer, out, as_json, method, **params) -> None:
+    """Screen-space SSS (separable, or Burley Monte Carlo) of a scene, with errors against the exact 2D
+    convolution."""
     gbuffer_file = isinstance(scene, Path)
+    method = method.lower()
+    burley = method in ("burley", "burley-adaptive")
+    for name in BURLEY_ONLY if not burley else SEPARABLE_ONLY:
+        if given(ctx, name):
+            raise SsskitError(f"{option_name(ctx, name)} applies to --method {'burley' if not burley else 'separable'}")
+    if method != "burley-adaptive":
+        for name in ADAPTIVE_ONLY:
+            if given(ctx, name):
+                raise SsskitError(f"{option_name(ctx, name)} applies to --method burley-adaptive")
+    if method == "burley-adaptive":
+        _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, params)
+        return
+    for name in ADAPTIVE_ONLY:
+        params.pop(name)
+    if burley:
+        _render_burley(ctx, scene, settings_file, save_gbuffer, out, as_json, params)
+        return
+    for name in BURLEY_ONLY:
+        params.pop(name)
     if gbuffer_file:
         for name in SCENE_ONLY:
             if given(ctx, name):
@@ -179,6 +322,143 @@ def render(ctx, scene, settings_file, save_gbuffer, out, as_json, **params) -> N
         click.echo(f"# reference: {ref.spp} spp, relative standard error of the SSS mask's mean "
                    + ", ".join(f"{v:.2%}" for v in ref.rel_se) + f" (target {ref.target_rel_se:.1%}, budget "
                    f"{ref.max_spp} spp: {'converged' if ref.converged else 'budget spent, not converged'})")
+    if out:
+        click.echo(f"# wrote {out}")
+
+
+def _render_burley(ctx, scene, settings_file, save_gbuffer, out, as_json, params) -> None:
+    gbuffer_file = isinstance(scene, Path)
+    if gbuffer_file and given(ctx, "size"):
+        raise SsskitError(f"--size applies to a built-in scene; the G-buffer file {str(scene)!r} has its own")
+    s = build_settings(ctx, settings_file, params, skip=("spp",))
+    b, burley_params = _burley_inputs(ctx, params)
+    if gbuffer_file and s.reference:
+        raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
+    material_file = Path(s.material) if Path(s.material).is_file() else None
+    check_distinct({"--out": out, "--save-gbuffer": save_gbuffer},
+                   {"--scene": scene if gbuffer_file else None, "--settings": settings_file,
+                    "--material": material_file})
+    from ..pipeline.burley import render_burley
+
+    res = render_burley(scene, s, b, progress=None if as_json else progress, params=burley_params)
+    if save_gbuffer:
+        res.gbuffer.save(save_gbuffer)
+    if out:
+        res.save(out)
+    if as_json:
+        echo_json(res.to_dict())
+        return
+    h, w = res.gbuffer.shape
+    click.echo(f"# {res.scene}: Burley d = {', '.join(f'{d:.3g}' for d in res.params.d_mm)} mm, {b.sampler} sampler, "
+               f"{b.spp} spp, {'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend")
+    for against, m in res.metrics.items():
+        click.echo(f"vs {against:12s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
+    if out:
+        click.echo(f"# wrote {out}")
+
+
+def _adaptive_inputs(ctx, params: dict):
+    """AdaptiveSettings and the frame count from the adaptive options (each error names its option)."""
+    from ..screenspace.adaptive import AdaptiveSettings
+
+    sigma0 = params["sigma0"]
+    if not (math.isfinite(sigma0) and sigma0 > 0):
+        raise SettingsError(f"--sigma0: the target standard deviation sigma0 must be > 0, got {sigma0!r}")
+    b_min, b_max = params["budget"]
+    steps = (("--sigma0", {"sigma0_sq": sigma0 * sigma0}), ("--kappa", {"kappa": params["kappa"]}),
+             ("--budget", {"b_min": b_min, "b_max": b_max}), ("--alpha", {"alpha": params["alpha"]}),
+             ("--correction", {"correction": params["correction"]}))
+    a = AdaptiveSettings()
+    for flag, change in steps:
+        try:
+            a = a.replace(**change)
+        except SsskitError as exc:
+            raise SettingsError(f"{flag}: {exc}") from None
+    frames = params["frames"]
+    if not 1 <= frames <= 100_000:
+        raise SettingsError(f"--frames: the number of frames must lie in [1, 100000], got {frames}")
+    if params["frame"] + frames - 1 > 2**31 - 1:
+        raise SettingsError(f"--frames: {frames} frames from --frame {params['frame']} pass frame 2^31 - 1")
+    return a, frames
+
+
+def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, params) -> None:
+    """--method burley-adaptive: a static-camera sequence of the Burley pass with adaptive counts."""
+    import dataclasses
+
+    from ..metrics import region_metrics
+
+    gbuffer_file = isinstance(scene, Path)
+    if gbuffer_file and given(ctx, "size"):
+        raise SsskitError(f"--size applies to a built-in scene; the G-buffer file {str(scene)!r} has its own")
+    if given(ctx, "spp"):
+        raise SsskitError("--spp: the adaptive pass chooses its samples per pixel; give --budget B_MIN:B_MAX")
+    s = build_settings(ctx, settings_file, params, skip=("spp",))
+    b, burley_params = _burley_inputs(ctx, params)
+    a, frames = _adaptive_inputs(ctx, params)
+    if gbuffer_file and s.reference:
+        raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
+    material_file = Path(s.material) if Path(s.material).is_file() else None
+    check_distinct({"--out": out, "--save-gbuffer": save_gbuffer},
+                   {"--scene": scene if gbuffer_file else None, "--settings": settings_file,
+                    "--material": material_file})
+    from ..pipeline.burley import render_burley
+    from ..screenspace.adaptive import adaptive_frames
+
+    say = None if as_json else progress
+    # one frame at a fixed b_max spp: the G-buffer, the pass's limit (exact) and the fixed-count comparison
+    fixed = render_burley(scene, s, b.replace(spp=a.b_max), progress=say, params=burley_params)
+    gb, mask = fixed.gbuffer, fixed.gbuffer.mask
+    exact = None if fixed.exact is None else gb.composite(fixed.exact)
+    rows: list[dict] = []
+
+    def on_frame(f, sss, counts):
+        psnr = region_metrics(exact, gb.composite(sss), mask, False)["psnr"] if exact is not None else None
+        rows.append({"frame": b.frame + f, "mean_spp": float(counts[mask].mean()) if mask.any() else 0.0,
+                     "psnr": psnr})
+
+    every = max(1, frames // 8)
+    say_some = None if say is None else (lambda msg: say(msg) if len(rows) % every == 0 else None)
+    run = adaptive_frames(gb, fixed.params, a, frames, burley=b, progress=say_some, on_frame=on_frame)
+    for row, ms, ms_update in zip(rows, run.ms_pass, run.ms_update):
+        row["ms"], row["ms_update"] = ms, ms_update
+    image = gb.composite(run.last)
+    res = dataclasses.replace(fixed, burley=b, sss=run.last, image=image, metrics={})
+    if exact is not None:
+        res.metrics["exact_2d"] = region_metrics(exact, image, mask, s.perceptual)
+        res.metrics["average_exact_2d"] = region_metrics(exact, gb.composite(run.mean.astype(np.float32)), mask, False)
+    if fixed.reference is not None:
+        res.metrics["path_traced"] = region_metrics(fixed.reference, image, mask, s.perceptual)
+    if save_gbuffer:
+        gb.save(save_gbuffer)
+    if out:
+        res.save(out)
+    total = int(run.counts.sum())
+    if as_json:
+        data = res.to_dict()
+        data["method"] = "burley-adaptive"
+        data["burley"].pop("spp", None)
+        data["adaptive"] = {**a.to_dict(), "sigma0": math.sqrt(a.sigma0_sq), "frames": frames,
+                            "history": "(H, W, 4) float32: n_bar, mu, sigma^2, available"}
+        data["frames"] = rows
+        data["mean_spp"] = float(np.mean([r["mean_spp"] for r in rows]))
+        data["total_samples"] = total
+        data["fixed"] = {"spp": a.b_max, "metrics": fixed.to_dict()["metrics"]}
+        echo_json(data)
+        return
+    h, w = gb.shape
+    click.echo(f"# {res.scene}: Burley adaptive, sigma0 {math.sqrt(a.sigma0_sq):.4g} (sigma0^2 {a.sigma0_sq:.3g}), "
+               f"kappa {a.kappa:g}, budget {a.b_min}:{a.b_max}, {frames} frames, {b.sampler} sampler, "
+               f"{'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend")
+    spp = [r["mean_spp"] for r in rows]
+    click.echo(f"mean spp per frame: first {spp[0]:.1f}, last {spp[-1]:.1f}, average {np.mean(spp):.1f} "
+               f"(fixed: {a.b_max}); median ms: pass {np.median(run.ms_pass):.3g}, "
+               f"update {np.median(run.ms_update):.3g}")
+    for against, m in res.metrics.items():
+        click.echo(f"vs {against:16s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
+    for against, m in fixed.metrics.items():
+        click.echo(f"fixed {a.b_max} spp vs {against:12s} "
+                   + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
     if out:
         click.echo(f"# wrote {out}")
 

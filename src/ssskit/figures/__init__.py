@@ -10,6 +10,7 @@ from typing import Callable
 
 from ..errors import SsskitError
 from ..registry import Registry
+from . import adaptive as _a
 from . import kernels as _k
 
 Figure = Callable[..., list[Path]]
@@ -19,6 +20,8 @@ FIGURES.register("fig4", _k.fig4_svd_ranks)
 FIGURES.register("fig5", _k.fig5_slices)
 FIGURES.register("fig7", _k.fig7_step)
 FIGURES.register("figS5", _k.figS5_disk)
+FIGURES.register("xie-fig2", _a.xie_fig2_cold_start)
+FIGURES.register("xie-fig3", _a.xie_fig3_disocclusion)
 
 
 def make_figures(names, out_dir, profile, progress=None) -> dict[str, list[Path]]:

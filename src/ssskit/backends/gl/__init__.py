@@ -24,6 +24,7 @@ class GLBackend(Backend):
     name = "gl"
     description = "GLSL compute shaders through moderngl/EGL, float32: a GPU, or Mesa's llvmpipe on the CPU"
     dtype = np.float32
+    passes = frozenset({"separable", "burley"})
 
     def __init__(self):
         self._lock = threading.Lock()
@@ -38,21 +39,42 @@ class GLBackend(Backend):
         return True, renderer()
 
     def separable(self, plan, diffuse, depth_mm, slots):
-        from .context import context
         from .separable import SeparableFrame
 
         check_frame(diffuse, depth_mm, slots, plan)
         slots = np.asarray(slots)
         if slots.size == 0:
             return np.array(diffuse, dtype=np.float32, copy=True)
+        return self._run(lambda: SeparableFrame(plan, np.asarray(diffuse, np.float32),
+                                                np.asarray(depth_mm, np.float32), slots))
+
+    def burley(self, plan, diffuse, depth_mm, slots, spp):
+        from ..base import check_burley_frame
+        from .burley import BurleyFrame
+
+        spp = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
+        slots = np.asarray(slots)
+        if slots.size == 0:
+            return np.array(diffuse, dtype=np.float32, copy=True)
+        return self._run(lambda: BurleyFrame(plan, np.asarray(diffuse, np.float32),
+                                             np.asarray(depth_mm, np.float32), slots, spp), release=True)
+
+    def _run(self, make_frame, release: bool = False):
+        """Upload, run and read back one frame under the backend's lock; the context is released after, so
+        another thread can make it current."""
+        from .context import context
+
         with self._lock:
             ctx = context()
+            frame = None
             try:
-                frame = SeparableFrame(plan, np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
+                frame = make_frame()
                 frame.run()
                 return frame.read()
             finally:
-                ctx.__exit__(None, None, None)  # release it, so another thread can make it current
+                if release and frame is not None:
+                    frame.release()
+                ctx.__exit__(None, None, None)
 
 
 __all__ = ["GLBackend"]

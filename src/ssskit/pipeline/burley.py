@@ -1,0 +1,186 @@
+"""Render one frame with the Burley Monte Carlo pass (Xie 2020 Sec. 4.2, 5) and compare it with ground
+truth, beside :func:`ssskit.pipeline.render` (the separable pass).
+
+    >>> from ssskit.pipeline.burley import render_burley
+    >>> from ssskit.screenspace import BurleySettings
+    >>> r = render_burley("slab", burley=BurleySettings(spp=64))             # doctest: +SKIP
+    >>> r.metrics["exact_2d"]["psnr"]                                          # doctest: +SKIP
+
+The steps: material -> Burley profile (:func:`ssskit.profiles.burley_profile`: A from the dipole's
+total reflectance, d from the searchlight configuration of Eq. 5) -> per-id :class:`BurleyParams`
+-> G-buffer (a built-in scene rendered by Mitsuba, a G-buffer file, or a GBuffer) -> the Burley pass
+(``burley``: :class:`BurleySettings`) -> composite albedo * sss + specular -> ground truths.
+
+``settings`` (:class:`RenderSettings`) supplies the material, the scene's size, G-buffer samples and
+seed, and which ground truths to compute; its kernel, taps and separable pass settings are unused.
+Every check (the scene, the material, the backend having the Burley pass) runs before any work.
+
+Ground truths:
+
+* ``exact``: :func:`burley_exact`, the limit of the pass on a fronto-parallel surface: the exact 2D
+  convolution of the diffuse layer with R(r) under Eq. 24's boundary rule (samples off the region
+  dropped from both sums), per profile id at its median depth;
+* ``reference``: the path-traced image, as for the separable pass.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import SettingsError, SignalError
+from ..io import check_distinct, save_image
+from ..metrics import region_metrics
+from ..screenspace import BurleyParams, BurleySettings, GBuffer, burley_sss
+from ..screenspace.burley import burley_backend
+from .settings import RenderSettings
+
+Progress = Callable[[str], None]
+
+
+def burley_exact(gbuffer: GBuffer, params_by_id) -> np.ndarray | None:
+    """The Burley pass's limit (exact sampler, no mips) on a fronto-parallel surface, (H, W, 3) float32;
+    None if the pixels are not square.
+
+    Per region m (the pixels of one profile id) at its median depth z (pixel size z / fx mm), with
+    K_c the exact cell integrals of R_c (Xie 2020 Eq. 4) over every offset the image holds:
+
+        M_c = ((m E_c) * K_c) / (m * K_c)
+
+    (Eq. 24's self-normalised estimator drops samples off the region from both sums; the nearest-texel
+    fetch makes its expectation exactly this sum of cell integrals). Pixels without SSS keep their
+    diffuse value. Where the region covers the whole kernel this equals
+    :func:`ssskit.truth.exact_screen_space`, which keeps the centre value for the uncovered share instead.
+    """
+    from scipy.signal import fftconvolve
+
+    cam = gbuffer.camera
+    if abs(cam.fx - cam.fy) > 1e-6 * cam.fx:
+        return None
+    h, w = gbuffer.shape
+    e = gbuffer.diffuse.astype(np.float64)
+    out = e.copy()
+    for pid in [int(i) for i in np.unique(gbuffer.profile_id[gbuffer.profile_id > 0])]:
+        p = params_by_id.get(pid) if isinstance(params_by_id, Mapping) else params_by_id
+        if not isinstance(p, BurleyParams):
+            raise SignalError(f"no Burley parameters given for profile id {pid}")
+        region = gbuffer.profile_id == pid
+        m = region.astype(np.float64)[..., None]
+        z = float(np.median(gbuffer.depth_mm[region]))
+        k = p.profile().discretize_2d(z / cam.fx, 2 * max(h, w) + 1)
+        num = fftconvolve(m * e, k, mode="same", axes=(0, 1))
+        den = fftconvolve(np.broadcast_to(m, e.shape), k, mode="same", axes=(0, 1))
+        out[region] = (num / np.maximum(den, 1e-300))[region]
+    return out.astype(np.float32)
+
+
+@dataclass
+class BurleyResult:
+    """One frame of the Burley pass: inputs, output, ground truths and errors."""
+
+    scene: str
+    settings: RenderSettings
+    burley: BurleySettings
+    material: Any
+    params: BurleyParams
+    gbuffer: GBuffer
+    sss: np.ndarray  # blurred diffuse layer (H, W, 3)
+    image: np.ndarray  # composite albedo * sss + specular
+    exact: np.ndarray | None = None
+    reference: np.ndarray | None = None
+    metrics: dict[str, Any] = field(default_factory=dict)
+    source: Path | None = None
+
+    def layers(self) -> dict[str, np.ndarray]:
+        out = {"sss": self.sss, "diffuse": self.gbuffer.diffuse}
+        if self.exact is not None:
+            out["exact"] = self.gbuffer.composite(self.exact)
+        if self.reference is not None:
+            out["reference"] = self.reference
+        return out
+
+    def save(self, path: str | Path) -> None:
+        """``.exr`` (linear, with :meth:`layers`) or ``.png`` (tone-mapped); never over the G-buffer file."""
+        check_distinct(path, self.source, what="output image")
+        save_image(path, self.image, self.layers(), what="output image")
+
+    def to_dict(self) -> dict[str, Any]:
+        h, w = self.gbuffer.shape
+        return {"scene": self.scene, "method": "burley", "material": getattr(self.material, "name", str(self.material)),
+                "size": [int(w), int(h)], "burley_params": {"albedo": list(self.params.albedo),
+                                                            "d_mm": list(self.params.d_mm)},
+                "settings": self.settings.to_dict(), "burley": self.burley.to_dict(),
+                "metrics": _finite(self.metrics)}
+
+
+def _finite(value):
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    return value
+
+
+def plan_burley(scene, settings: RenderSettings, burley: BurleySettings, params: BurleyParams | None = None):
+    """Check everything :func:`render_burley` needs, doing no work; returns (render plan, params)."""
+    from ..screenspace.burley import burley_params_for_material
+    from .render import plan_render
+
+    if not isinstance(burley, BurleySettings):
+        raise SettingsError(f"burley must be BurleySettings, got {type(burley).__name__}")
+    plan = plan_render(scene, settings)
+    burley_backend(burley.backend)
+    if params is not None:
+        if not isinstance(params, BurleyParams):
+            raise SettingsError(f"params must be BurleyParams, got {type(params).__name__}")
+        return plan, params
+    if not hasattr(plan.material, "eta"):
+        raise SettingsError(f"the Burley pass needs a homogeneous material (its profile comes from the "
+                            f"coefficients); {plan.material.name!r} is a {type(plan.material).__name__}")
+    params = burley_params_for_material(plan.material)
+    return plan, params
+
+
+def render_burley(scene: str | Path | GBuffer = "slab", settings: RenderSettings | None = None,
+                  burley: BurleySettings | None = None, progress: Progress | None = None,
+                  params: BurleyParams | None = None) -> BurleyResult:
+    """Render ``scene`` with the Burley pass (module docstring); ``params`` (every profile id) instead of
+    the material's Burley profile; ``progress`` receives one message per step."""
+    from ..scenes import render_gbuffer, render_reference
+
+    settings = RenderSettings() if settings is None else settings
+    burley = BurleySettings() if burley is None else burley
+    plan, params = plan_burley(scene, settings, burley, params)
+    say = progress or (lambda msg: None)
+    mat = plan.material
+    gb = plan.gbuffer
+    if gb is None:
+        say(f"rendering the {plan.builtin} G-buffer ({settings.width}x{settings.height}, {settings.spp} spp, "
+            "Mitsuba scalar_rgb)")
+        gb = render_gbuffer(plan.builtin, np.clip(params.albedo, 0.0, 1.0), eta=mat.eta, width=settings.width,
+                            height=settings.height, spp=settings.spp, seed=settings.seed, frame=burley.frame,
+                            material=mat.name)
+    say(f"Burley pass: {burley.sampler} sampler, {burley.spp} spp, {burley.backend} backend")
+    sss = burley_sss(gb, params, burley)
+    res = BurleyResult(plan.scene, settings, burley, mat, params, gb, sss, gb.composite(sss), source=plan.source)
+    mask = gb.mask
+    if settings.exact and mask.any():
+        say("exact 2D convolution (FFT)")
+        res.exact = burley_exact(gb, params)
+        if res.exact is not None:
+            res.metrics["exact_2d"] = region_metrics(gb.composite(res.exact), res.image, mask, settings.perceptual)
+    if settings.reference:
+        say(f"path tracing {plan.builtin} ({settings.reference_spp} spp, Mitsuba volpathmis; cached)")
+        res.reference = render_reference(plan.builtin, mat, width=gb.shape[1], height=gb.shape[0],
+                                         spp=settings.reference_spp, seed=settings.seed, frame=burley.frame,
+                                         progress=progress is not None)
+        res.metrics["path_traced"] = region_metrics(res.reference, res.image, mask, settings.perceptual)
+    return res
+
+
+__all__ = ["BurleyResult", "burley_exact", "plan_burley", "render_burley"]

@@ -1,0 +1,453 @@
+"""Single-pass variance-guided adaptive sample counts with a temporal history (Xie et al. 2020, Sec. 4.1).
+
+Per pixel and per frame the pass chooses how many Burley samples to take from a temporally accumulated
+variance estimate, in one pass, with one history texture, leaving the engine's TAA untouched. A frame:
+
+1. ``h = reproject_history(history, motion, valid)``: the previous history fetched through the motion
+   vectors with a nearest-neighbour lookup and no rejection (C of Eq. 6 chosen as Eq. 18's lower bound);
+   off-screen fetches and pixels where ``valid`` is False lose their history (disocclusion);
+2. ``counts, n_hat = sample_counts(h, settings, mask)``: Eqs. 13-15 and the budget clamp;
+3. the Burley pass with ``counts`` (:func:`ssskit.screenspace.burley_sss`);
+4. ``history = update_history(h, shading_value(sss), counts, settings, mask)``: Eqs. 8, 6 and 9, with
+   Eqs. 16-17 where the history was not available.
+
+**History format** (the one texture passed between frames): an (H, W, 4) float32 array,
+
+    [..., 0]  n_bar    EMA of the sample count (Eq. 8)
+    [..., 1]  mu       EMA of the gamma-corrected luminance (Eq. 6)
+    [..., 2]  sigma^2  exponential moving variance of it (Eq. 9, Finch 2009)
+    [..., 3]  m        1 where the pixel holds history (the SSS mask of the frame that wrote it),
+                       0 where not: C_s of Sec. 4.1.4, which switches Eqs. 16-17 on
+
+so H_i = (n_bar_i, mu_i, sigma_i^2) of the paper plus the subsurface-mask history it reads in Eq. 16
+(16 bytes per pixel; the paper stores the mask in a separate profile-id texture it keeps anyway).
+
+``AdaptiveSettings.correction`` picks Eq. 15 as printed (``"sigma"``: (sigma - sigma0) / sigma0^2, units
+of 1/sigma) or the variance form of Eq. 13's correction term (``"variance"``: (sigma^2 - sigma0^2) /
+sigma0^2, dimensionless, the default). Which matches the paper's Figs. 2-3: ``docs/adaptive.md``.
+
+    >>> s = AdaptiveSettings(sigma0_sq=0.08 ** 2, kappa=1.0)
+    >>> run = circle_scenario(s, frames=150)           # Xie 2020 Sec. 4.1.3, Fig. 2
+    >>> bool(abs(run.mu[-50:].mean() - 1.0) < 0.05)
+    True
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..backends.burley_plan import MAX_SPP
+from ..errors import PassError, SettingsError
+from ..settings import Settings, check_choice, check_float, check_int
+
+#: history channels (see the module docstring)
+N_BAR, MU, VAR, AVAILABLE = 0, 1, 2, 3
+HISTORY_CHANNELS = 4
+#: Eq. 15 as printed (standard deviations) or with variances (Eq. 13's correction term)
+CORRECTIONS = ("variance", "sigma")
+#: ITU-R BT.709 luminance weights of linear RGB
+LUMA_709 = (0.2126, 0.7152, 0.0722)
+
+
+@dataclass(frozen=True)
+class AdaptiveSettings(Settings):
+    """Parameters of the variance-guided sampler (Xie 2020 Sec. 4.1; defaults: its Fig. 1 / Fig. 9 setting).
+
+    ``sigma0_sq``: the target variance sigma0^2 of the per-frame mean (> 0; Xie: 1e-3, i.e. 30 dB on
+    values in [0, 1]); ``kappa``: the correction factor of Eq. 14, in [0, 1]; ``b_min``, ``b_max``: the
+    sample budget per pixel and frame (b_min <= b_max; Xie: [8, 64]; b_min is also beta, the floor of
+    Eq. 7); ``alpha``: the EMA weight alpha0 of the current frame (Eqs. 6, 8, 9; in (0, 1]; Xie: 0.2,
+    UE4's maximum TAA weight); ``correction``: ``"variance"`` or ``"sigma"`` (Eq. 15 as printed);
+    ``gamma``: the display gamma of the luminance the history records (Sec. 4.1.2; 1 = linear).
+    """
+
+    sigma0_sq: float = 1e-3
+    kappa: float = 0.2
+    b_min: int = 8
+    b_max: int = 64
+    alpha: float = 0.2
+    correction: str = "variance"
+    gamma: float = 2.2
+
+    def __post_init__(self) -> None:
+        s0 = check_float("sigma0_sq", self.sigma0_sq, 0.0, math.inf)
+        if s0 <= 0.0:
+            raise SettingsError(f"sigma0_sq (the target variance sigma0^2) must be > 0, got {self.sigma0_sq!r}")
+        object.__setattr__(self, "sigma0_sq", s0)
+        object.__setattr__(self, "kappa", check_float("kappa", self.kappa, 0.0, 1.0))
+        object.__setattr__(self, "b_min", check_int("b_min", self.b_min, 1, MAX_SPP))
+        object.__setattr__(self, "b_max", check_int("b_max", self.b_max, 1, MAX_SPP))
+        if self.b_min > self.b_max:
+            raise SettingsError(f"the sample budget needs b_min <= b_max, got b_min={self.b_min} > b_max={self.b_max}")
+        a = check_float("alpha", self.alpha, 0.0, 1.0)
+        if a <= 0.0:
+            raise SettingsError(f"alpha must lie in (0, 1], got {self.alpha!r}")
+        object.__setattr__(self, "alpha", a)
+        object.__setattr__(self, "correction", check_choice("correction", self.correction, CORRECTIONS))
+        object.__setattr__(self, "gamma", check_float("gamma", self.gamma, 0.1, 10.0))
+
+    @property
+    def k(self) -> float:
+        """k = 2 / alpha - 1 (Xie 2020 Sec. 4.1.2: the SMA length of an EMA, Bauer and Dahlquist 1998)."""
+        return 2.0 / self.alpha - 1.0
+
+
+def _settings(settings) -> AdaptiveSettings:
+    if settings is None:
+        return AdaptiveSettings()
+    if not isinstance(settings, AdaptiveSettings):
+        raise PassError(f"settings must be AdaptiveSettings, got {type(settings).__name__}")
+    return settings
+
+
+def new_history(height: int, width: int, *, available: bool = False) -> np.ndarray:
+    """H_0 = 0: an (H, W, 4) float32 history of zeros (format: module docstring).
+
+    ``available=True`` marks it as real history (Xie 2020 Sec. 4.1.3's *cold start*, Fig. 2: every
+    pixel starts from (n_bar, mu, sigma^2) = 0 and Eqs. 6-9 run unchanged); ``False`` (default) marks
+    it as missing, so the first frame takes the disocclusion initialisation of Eqs. 16-17 (Fig. 3).
+    """
+    h = check_int("height", height, 1, 1 << 16)
+    w = check_int("width", width, 1, 1 << 16)
+    out = np.zeros((h, w, HISTORY_CHANNELS), np.float32)
+    if available:
+        out[..., AVAILABLE] = 1.0
+    return out
+
+
+def check_history(history) -> np.ndarray:
+    """``history`` as an (H, W, 4) float32 array with finite, valid entries, else a PassError."""
+    arr = np.asarray(history)
+    if arr.ndim != 3 or arr.shape[2] != HISTORY_CHANNELS:
+        raise PassError(f"the adaptive history must be an (H, W, {HISTORY_CHANNELS}) array, got shape {arr.shape}")
+    if not np.issubdtype(arr.dtype, np.floating):
+        raise PassError(f"the adaptive history must hold floats, got {arr.dtype}")
+    arr = arr.astype(np.float32, copy=False)
+    # one cheap pass first (a sum is NaN or inf if any entry is); the exact test only when it fails
+    if not math.isfinite(float(arr.sum(dtype=np.float64))) and not np.all(np.isfinite(arr)):
+        raise PassError("the adaptive history holds NaN or infinite values")
+    if arr.size and (float(arr[..., N_BAR].min()) < 0 or float(arr[..., VAR].min()) < 0):
+        raise PassError("the adaptive history holds a negative mean count or variance")
+    return arr
+
+
+def _mask(mask, shape: tuple[int, int]) -> np.ndarray:
+    if mask is None:
+        return np.ones(shape, bool)
+    m = np.asarray(mask)
+    if m.shape != shape:
+        raise PassError(f"the mask must be (H, W) = {shape}, got {m.shape}")
+    return m.astype(bool)
+
+
+def shading_value(rgb, gamma: float = 2.2) -> np.ndarray:
+    """The per-pixel value S the history records: gamma-corrected luminance Y^(1/gamma) (H, W) float32
+    of linear RGB (H, W, 3), Y = 0.2126 R + 0.7152 G + 0.0722 B (ITU-R BT.709), as Xie 2020 Sec. 4.1.2
+    records "the moving average of gamma-corrected luminance to consider human perception"."""
+    a = np.asarray(rgb, dtype=np.float32)
+    if a.ndim != 3 or a.shape[2] != 3:
+        raise PassError(f"shading_value needs an (H, W, 3) RGB image, got shape {a.shape}")
+    g = check_float("gamma", gamma, 0.1, 10.0)
+    y = np.maximum(a @ np.asarray(LUMA_709, np.float32), np.float32(0.0))
+    return y if g == 1.0 else y ** np.float32(1.0 / g)
+
+
+def estimate_counts(history, settings: AdaptiveSettings | None = None) -> np.ndarray:
+    """n_hat (H, W) float64, the unclamped sample-count estimate for the next frame (Xie 2020 Eqs. 13-15):
+
+        E(n_bar) = sigma^2 / sigma0^2 * n_bar                              (Eq. 13)
+        Delta    = (sigma - sigma0) / sigma0^2 * n_bar * (k - 1)          (Eq. 15 as printed, "sigma")
+                 = (sigma^2 - sigma0^2) / sigma0^2 * n_bar * (k - 1)      (Eq. 13's term, "variance")
+        n_hat    = kappa * Delta + E(n_bar)                                (Eq. 14)
+
+    with (n_bar, sigma^2) the (reprojected) history and k = 2 / alpha - 1. Pixels without history
+    (channel 3 = 0) hold zeros, so n_hat = 0 there and the floor beta = b_min applies (Sec. 4.1.4).
+    """
+    return _estimate(check_history(history), _settings(settings))
+
+
+def _estimate(h: np.ndarray, s: AdaptiveSettings) -> np.ndarray:
+    """:func:`estimate_counts` on a checked float32 history (no checks)."""
+    n_bar = h[..., N_BAR].astype(np.float64) * h[..., AVAILABLE]  # pixels without history: n_bar = 0, n_hat = 0
+    var = h[..., VAR].astype(np.float64)
+    s0_sq = s.sigma0_sq
+    if s.correction == "sigma":
+        spread = np.sqrt(var) - math.sqrt(s0_sq)  # Eq. 15 as printed
+    else:
+        spread = var - s0_sq  # Eq. 13's correction term
+    # Eq. 14: n_hat = kappa * Delta + E(n_bar), Delta = spread / s0^2 * n_bar * (k - 1) (Eq. 15),
+    # E(n_bar) = var / s0^2 * n_bar (Eq. 13)
+    spread *= s.kappa * (s.k - 1.0)
+    spread += var
+    spread *= n_bar
+    spread /= s0_sq
+    return spread
+
+
+def clamp_counts(n_hat, settings: AdaptiveSettings | None = None, mask=None) -> np.ndarray:
+    """Samples per pixel (H, W) int64: n = clamp(max(ceil(n_hat), beta), b_min, b_max) with beta = b_min
+    (Xie 2020 Eq. 7's floor and the budget of Sec. 4.1.3); 0 outside ``mask`` (no SSS there).
+
+    n_hat is rounded up: the count is the smallest that reaches the target variance."""
+    s = _settings(settings)
+    nh = np.asarray(n_hat, dtype=np.float64)
+    if nh.ndim != 2:
+        raise PassError(f"n_hat must be an (H, W) array, got shape {nh.shape}")
+    return _clamp(nh, s, _mask(mask, nh.shape))
+
+
+def _clamp(nh: np.ndarray, s: AdaptiveSettings, m: np.ndarray) -> np.ndarray:
+    """:func:`clamp_counts` on checked inputs (NaN counts as b_max: the clip keeps it, so map it first)."""
+    n = np.ceil(nh)
+    n[np.isnan(n)] = s.b_max
+    np.clip(n, s.b_min, s.b_max, out=n)
+    n[~m] = 0
+    return n.astype(np.int64)
+
+
+def sample_counts(history, settings: AdaptiveSettings | None = None, mask=None) -> tuple[np.ndarray, np.ndarray]:
+    """(counts (H, W) int64, n_hat (H, W) float64) for the next frame: :func:`estimate_counts`
+    (Eqs. 13-15) clamped to the budget by :func:`clamp_counts`. ``counts`` goes to
+    :func:`ssskit.screenspace.burley_sss` as its ``counts`` image."""
+    n_hat = estimate_counts(history, settings)
+    return clamp_counts(n_hat, settings, mask), n_hat
+
+
+def update_history(history, value, counts, settings: AdaptiveSettings | None = None, mask=None) -> np.ndarray:
+    """H_i from the (reprojected) H_{i-1}, this frame's value S (H, W) and sample counts n_i (H, W); a new
+    (H, W, 4) float32 array (Xie 2020 Sec. 4.1.2, 4.1.4):
+
+        n_bar_i   = (1 - a) n_bar_{i-1} + a n_i                          (Eq. 8)
+        mu_i      = (1 - a) C + a S                                       (Eq. 6; C = mu_{i-1})
+        sigma_i^2 = (1 - a) sigma_{i-1}^2 + a (1 - a) (S - C)^2           (Eq. 9, Finch 2009)
+
+    with a = M'(alpha0) = alpha0 where the pixel had history and 1 where not (Eq. 16: C_s = 0, the
+    history's channel 3), and there sigma_i^2 = sigma0^2 (Eq. 17) instead of Eq. 9's 0. C is the
+    history as given (a nearest fetch without rejection, Eq. 18's lower bound: see
+    :func:`reproject_history`). Pixels outside ``mask`` (no SSS this frame) get no history.
+    """
+    s = _settings(settings)
+    h = check_history(history)
+    shape = h.shape[:2]
+    v = np.asarray(value)
+    if v.shape != shape:
+        raise PassError(f"the shading value must be (H, W) = {shape}, got {v.shape}")
+    n = np.asarray(counts)
+    if n.shape != shape:
+        raise PassError(f"the sample counts must be (H, W) = {shape}, got {n.shape}")
+    m = _mask(mask, shape)
+    if not np.all(np.isfinite(v[m])):
+        raise PassError("the shading value holds NaN or infinite values inside the mask")
+    return _update(h, v, n, s, m)
+
+
+def _update(h: np.ndarray, v: np.ndarray, n: np.ndarray, s: AdaptiveSettings, m: np.ndarray) -> np.ndarray:
+    """:func:`update_history` on checked inputs (float32 arithmetic, as the history is stored)."""
+    f32 = np.float32
+    had = h[..., AVAILABLE] > 0
+    a = np.where(had, f32(s.alpha), f32(1.0))  # Eq. 16: M' = 1 without history
+    b = f32(1.0) - a
+    c = h[..., MU]
+    diff = np.where(m, v, 0).astype(f32)
+    diff -= c  # S - C
+    n_bar = b * h[..., N_BAR]
+    n_bar += a * n.astype(f32)  # Eq. 8
+    mu = a * diff
+    mu += c  # Eq. 6: (1 - a) C + a S
+    var = a * diff
+    var *= diff
+    var += h[..., VAR]
+    var *= b  # Eq. 9: (1 - a) sigma^2 + a (1 - a) (S - C)^2
+    var[~had] = s.sigma0_sq  # Eq. 17
+    mf = m.astype(f32)  # no SSS this frame: no history
+    return np.stack([n_bar * mf, mu * mf, var * mf, mf], axis=-1)
+
+
+def reproject_history(history, motion=None, valid=None) -> np.ndarray:
+    """The previous frame's history seen from this frame's pixels, (H, W, 4) float32.
+
+    ``motion`` (H, W, 2): pixels from each pixel to where its surface was in the previous frame, (u, v)
+    order, as :func:`ssskit.screenspace.camera.motion_vectors` returns (None: a static camera). The
+    fetch is nearest-neighbour without rejection or clamping: C of Eq. 6 chosen as the lower bound of
+    Eq. 18 (Xie 2020 Sec. 4.1.5). Off-screen fetches and pixels where ``valid`` (H, W) is False (the
+    caller's disocclusion test) come back without history (zeros; Eqs. 16-17 then apply).
+    """
+    h = check_history(history)
+    hh, ww = h.shape[:2]
+    ok = np.ones((hh, ww), bool) if valid is None else _mask(valid, (hh, ww))
+    if motion is None:
+        out = h.copy()
+    else:
+        mv = np.asarray(motion, dtype=np.float64)
+        if mv.shape != (hh, ww, 2):
+            raise PassError(f"the motion vectors must be (H, W, 2) = {(hh, ww, 2)}, got {mv.shape}")
+        if not np.all(np.isfinite(mv)):
+            raise PassError("the motion vectors hold NaN or infinite values")
+        v, u = np.mgrid[0:hh, 0:ww] + 0.5
+        px = np.floor(u + mv[..., 0]).astype(np.int64)  # nearest pixel of the previous position
+        py = np.floor(v + mv[..., 1]).astype(np.int64)
+        inside = (px >= 0) & (px < ww) & (py >= 0) & (py < hh)
+        out = h[np.clip(py, 0, hh - 1), np.clip(px, 0, ww - 1)]
+        ok &= inside
+    out[~ok] = 0.0
+    return out
+
+
+# ---- a static frame loop: the Burley pass with adaptive counts ------------------------------------------
+
+@dataclass
+class AdaptiveFrames:
+    """A sequence of the Burley pass with adaptive counts on one G-buffer (:func:`adaptive_frames`).
+
+    ``mean`` and ``stderr`` (H, W, 3) float64: the average of the frames' blurred diffuse layers and its
+    standard error from the spread across frames; ``last`` (H, W, 3) float32: the last frame;
+    ``counts`` (frames, H, W) int32: the samples each pixel took; ``history``: the final (H, W, 4)
+    history; ``ms_pass`` / ``ms_update``: per-frame wall times of the Burley pass and of the guiding
+    phase (counts estimate + history update), in ms."""
+
+    settings: AdaptiveSettings
+    burley: object
+    mean: np.ndarray
+    stderr: np.ndarray
+    last: np.ndarray
+    counts: np.ndarray
+    history: np.ndarray
+    ms_pass: list
+    ms_update: list
+
+    @property
+    def mean_spp(self) -> np.ndarray:
+        """Mean samples per SSS pixel, per frame (frames,)."""
+        mask = self.counts[0] > 0
+        return self.counts[:, mask].mean(axis=1) if mask.any() else np.zeros(len(self.counts))
+
+
+def adaptive_frames(gbuffer, params_by_id, settings: AdaptiveSettings | None = None, frames: int = 16, *,
+                    burley=None, history=None, progress=None, on_frame=None) -> AdaptiveFrames:
+    """``frames`` frames of the Burley pass on a static G-buffer, each with the counts of the
+    variance-guided sampler (Xie 2020 Sec. 4.1, Fig. 8's guiding phase): per frame f,
+
+        counts = sample_counts(history)                       (Eqs. 13-15, clamped to [b_min, b_max])
+        sss_f  = burley_sss(gbuffer, params, burley with frame = burley.frame + f, counts=counts)
+        history = update_history(history, shading_value(sss_f), counts)   (Eqs. 6, 8, 9; 16-17)
+
+    The camera does not move, so the history needs no reprojection. ``history``: the initial (H, W, 4)
+    history (default: none, so frame 0 takes the disocclusion initialisation of Eqs. 16-17);
+    ``burley``: :class:`~ssskit.screenspace.BurleySettings` (its ``spp`` is unused); ``on_frame(f, sss,
+    counts)`` is called after every frame with its blurred diffuse layer and counts. The counts are
+    chosen before a frame's samples are drawn, from earlier frames only, so each frame's estimate has
+    the expectation of the pass at its count: adapting counts adds no bias of its own.
+    """
+    import time
+
+    from .burley import BurleySettings, burley_sss
+    from .gbuffer import GBuffer
+
+    s = _settings(settings)
+    if not isinstance(gbuffer, GBuffer):
+        raise PassError(f"expected a GBuffer, got {type(gbuffer).__name__}")
+    b = BurleySettings() if burley is None else burley
+    if not isinstance(b, BurleySettings):
+        raise PassError(f"burley must be BurleySettings, got {type(b).__name__}")
+    frames = check_int("frames", frames, 1, 1_000_000)
+    if b.frame + frames - 1 > 2**31 - 1:
+        raise SettingsError(f"frames: {frames} frames from frame {b.frame} pass the last frame number 2^31 - 1")
+    hh, ww = gbuffer.shape
+    mask = gbuffer.profile_id > 0
+    h = new_history(hh, ww) if history is None else check_history(history)
+    if h.shape[:2] != (hh, ww):
+        raise PassError(f"the history is {h.shape[1]}x{h.shape[0]} but the G-buffer is {ww}x{hh}")
+    total = np.zeros((hh, ww, 3))
+    total_sq = np.zeros((hh, ww, 3))
+    counts_all = np.zeros((frames, hh, ww), np.int32)
+    ms_pass, ms_update = [], []
+    out = None
+    for f in range(frames):
+        if progress is not None:
+            progress(f"adaptive frame {f + 1}/{frames}")
+        t0 = time.perf_counter()
+        counts = _clamp(_estimate(h, s), s, mask)  # sample_counts without the checks (h is ours)
+        t1 = time.perf_counter()
+        out = burley_sss(gbuffer, params_by_id, b.replace(frame=b.frame + f), counts=counts)
+        t2 = time.perf_counter()
+        h = _update(h, shading_value(out, s.gamma), counts, s, mask)  # update_history without the checks
+        t3 = time.perf_counter()
+        ms_pass.append(1e3 * (t2 - t1))
+        ms_update.append(1e3 * ((t1 - t0) + (t3 - t2)))
+        o = out.astype(np.float64)
+        total += o
+        total_sq += o * o
+        counts_all[f] = counts
+        if on_frame is not None:
+            on_frame(f, out, counts)
+    mean = total / frames
+    var = np.maximum(total_sq / frames - mean * mean, 0.0) * (frames / max(frames - 1, 1))
+    return AdaptiveFrames(settings=s, burley=b, mean=mean, stderr=np.sqrt(var / frames), last=out,
+                          counts=counts_all, history=h, ms_pass=ms_pass, ms_update=ms_update)
+
+
+# ---- the circle scenario (Xie 2020 Sec. 4.1.3, Figs. 2 and 3) --------------------------------------------
+
+#: uniform irradiance inside the unit-square's inscribed circle: its mean over [0, 1)^2 is 1
+CIRCLE_IRRADIANCE = 4.0 / math.pi
+
+
+@dataclass(frozen=True)
+class CircleRun:
+    """Per-frame series of the circle scenario, each (frames, pixels) float64: ``n_hat`` (the estimate
+    of Eq. 14 before clamping), ``n`` (samples used), ``value`` (the frame's estimate S), ``mu`` and
+    ``sigma`` (the history after the frame's update: Eq. 6, and the square root of Eq. 9)."""
+
+    settings: AdaptiveSettings
+    disocclusion: bool
+    n_hat: np.ndarray
+    n: np.ndarray
+    value: np.ndarray
+    mu: np.ndarray
+    sigma: np.ndarray
+
+
+def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150, *, disocclusion: bool = False,
+                    pixels: int = 1, seed: int = 0, scale: float = 1.0) -> CircleRun:
+    """Xie 2020 Sec. 4.1.3: a pixel integrates uniform irradiance 4/pi inside the circle of radius 0.5
+    centred at (0.5, 0.5) with uniform 2D random samples (xi1, xi2) in [0, 1)^2, so its true value is 1
+    and one sample's variance is 4/pi - 1. H_0 = 0; every frame takes the counts of
+    :func:`sample_counts`, estimates the value with that many samples and runs :func:`update_history`.
+
+    ``disocclusion``: False is the paper's *cold start* (Fig. 2: H_0 = 0 treated as history); True
+    marks H_0 as missing, so frame 1 takes Eqs. 16-17 (Fig. 3). ``pixels`` independent pixels run side
+    by side (one random stream per frame from ``seed``). The paper's setting: b = [8, 64], alpha = 0.2,
+    sigma0^2 = 0.08^2, 150 frames, gamma not applied (the value is the irradiance itself). ``scale``
+    multiplies the irradiance (the paper: 1), to study how the sampler depends on the unit of the values.
+    """
+    s = _settings(settings)
+    frames = check_int("frames", frames, 1, 1_000_000)
+    pixels = check_int("pixels", pixels, 1, 1_000_000)
+    seed = check_int("seed", seed, 0, 2**63 - 1)
+    scale = check_float("scale", scale, 1e-12, 1e12)
+    if not isinstance(disocclusion, bool):
+        raise PassError(f"disocclusion must be true or false, got {disocclusion!r}")
+    history = new_history(1, pixels, available=not disocclusion)
+    series = {k: np.zeros((frames, pixels)) for k in ("n_hat", "n", "value", "mu", "sigma")}
+    slots = np.arange(s.b_max)
+    for f in range(frames):
+        counts, n_hat = sample_counts(history, s)
+        n = counts[0]
+        xi = np.random.default_rng([seed, f]).random((pixels, s.b_max, 2))
+        inside = ((xi - 0.5) ** 2).sum(axis=-1) < 0.25
+        used = slots[None, :] < n[:, None]
+        value = scale * CIRCLE_IRRADIANCE * (inside & used).sum(axis=1) / n
+        history = update_history(history, value[None, :], counts, s)
+        series["n_hat"][f], series["n"][f], series["value"][f] = n_hat[0], n, value
+        series["mu"][f] = history[0, :, MU]
+        series["sigma"][f] = np.sqrt(history[0, :, VAR])
+    return CircleRun(settings=s, disocclusion=disocclusion, **series)
+
+
+__all__ = ["AVAILABLE", "AdaptiveFrames", "AdaptiveSettings", "CIRCLE_IRRADIANCE", "CORRECTIONS", "CircleRun",
+           "HISTORY_CHANNELS", "MU", "N_BAR", "VAR", "adaptive_frames", "check_history", "circle_scenario",
+           "clamp_counts", "estimate_counts", "new_history", "reproject_history", "sample_counts", "shading_value",
+           "update_history"]

@@ -1,0 +1,168 @@
+"""The screen-space Burley Monte Carlo SSS pass (Xie et al. 2020, Sec. 4.2 and 5), one frame.
+
+For every pixel p inside the SSS mask, n samples q_j of Burley's normalized diffusion (Eq. 4) are
+drawn in the plane through p perpendicular to the view axis: a radius r_j from the sampling channel
+(the channel with the largest d) and a uniform angle, converted to pixels with p's own pixels per
+mm (fx / z_p horizontally, fy / z_p vertically). The blurred diffuse value is the bilateral,
+self-normalised estimator (Xie 2020, Eq. 24, from Eq. 19)
+
+    L_c(p) = sum_j 1_s(q_j) r'_j R_c(r'_j) / pdf(r_j) E_c(q_j)  /  sum_j 1_s(q_j) r'_j R_c(r'_j) / pdf(r_j)
+
+with r' = sqrt(r^2 + dz^2) (dz the depth difference in mm), pdf the radius density per unit radius
+of the sampling channel (Eq. 20's derivative), and 1_s the indicator of the same profile id; the
+albedo layer multiplies the result afterwards (:meth:`GBuffer.composite`). What every backend
+computes, step by step (random numbers, samplers, weights): :mod:`ssskit.backends.burley_plan`.
+
+Samplers: ``exact`` (Eq. 20 inverted exactly), ``xie`` (Eq. 21 with ``c``, default 2.5715; Unreal
+ships 2.6; biased since the weights keep Burley's pdf) and ``golubev`` (Golubev 2018 / Unity HDRP:
+stratified radii, golden-angle rotation, exact inverse, samples capped by the footprint).
+
+    >>> from ssskit.screenspace import burley_sss, BurleyParams            # doctest: +SKIP
+    >>> out = burley_sss(gbuffer, {1: BurleyParams.from_dmfp(0.8, (1.0, 0.5, 0.25))}, spp=32)  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..backends import BACKENDS, DEFAULT_BACKEND, get_backend
+from ..backends.burley_plan import (
+    C_RANGE,
+    MAX_SPP,
+    SAMPLERS,
+    SEQUENCES,
+    XIE_C,
+    XIE_MIP_SCALE,
+    BurleyParams,
+    BurleyPlan,
+    build_burley_plan,
+)
+from ..backends.plan import profile_ids
+from ..errors import GBufferError, PassError, SettingsError
+from ..settings import Settings, check_choice, check_float, check_int
+from .gbuffer import GBuffer
+
+
+@dataclass(frozen=True)
+class BurleySettings(Settings):
+    """How the Burley pass runs (Xie 2020 Sec. 4.2, 5; :mod:`ssskit.backends.burley_plan`).
+
+    ``sampler``: exact, xie or golubev; ``spp``: samples per pixel (1..65536; a per-pixel count image
+    goes to :func:`burley_sss` as ``counts``); ``c``: Eq. 21's damping, in (2, 3); ``sequence``: r2
+    (low-discrepancy, default) or random (independent samples); ``bleed``: weight of samples on
+    another profile id, in [0, 1] (Unreal's BoundaryColorBleed; 0: none); ``frame`` and ``seed`` key
+    the per-pixel random numbers; ``stable``: a pattern that stays the same across frames (a hash of
+    pixel and depth instead of the frame, as HDRP does); ``mips``: fetch from a prefiltered pyramid
+    of the diffuse layer (Eqs. 22-23; on by default as in Xie 2020, biased) with Eq. 22's
+    ``mip_scale`` a (Xie: 1/16); ``backend``: a name from
+    :data:`ssskit.backends.BACKENDS` whose ``passes`` include "burley".
+    """
+
+    sampler: str = "exact"
+    spp: int = 32
+    c: float = XIE_C
+    sequence: str = "r2"
+    bleed: float = 0.0
+    frame: int = 0
+    seed: int = 0
+    stable: bool = False
+    mips: bool = True
+    mip_scale: float = XIE_MIP_SCALE
+    backend: str = DEFAULT_BACKEND
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "sampler", check_choice("sampler", self.sampler, SAMPLERS))
+        object.__setattr__(self, "spp", check_int("spp", self.spp, 1, MAX_SPP))
+        c = check_float("c", self.c, -math.inf, math.inf)
+        if not C_RANGE[0] < c < C_RANGE[1]:
+            raise SettingsError(f"c must lie in the open interval ({C_RANGE[0]:g}, {C_RANGE[1]:g}), got {c!r}")
+        object.__setattr__(self, "c", c)
+        object.__setattr__(self, "sequence", check_choice("sequence", self.sequence, SEQUENCES))
+        object.__setattr__(self, "bleed", check_float("bleed", self.bleed, 0.0, 1.0))
+        object.__setattr__(self, "frame", check_int("frame", self.frame, 0, 2**31 - 1))
+        object.__setattr__(self, "seed", check_int("seed", self.seed, 0, 2**31 - 1))
+        for name in ("stable", "mips"):
+            if not isinstance(getattr(self, name), bool):
+                raise SettingsError(f"{name} must be true or false, got {getattr(self, name)!r}")
+        object.__setattr__(self, "mip_scale", check_float("mip_scale", self.mip_scale, 1e-6, 1e6))
+        object.__setattr__(self, "backend", check_choice("backend", self.backend, BACKENDS.names()))
+
+
+def burley_params_for_material(material, configuration: str = "searchlight") -> BurleyParams:
+    """:class:`BurleyParams` of a Material or preset name through :func:`ssskit.profiles.burley_profile`
+    (A: the dipole's total diffuse reflectance; d: the Eq. 5 ``configuration``, Xie 2020)."""
+    from ..materials import get_material
+    from ..profiles import burley_profile
+
+    mat = get_material(material) if isinstance(material, str) else material
+    return BurleyParams.from_profile(burley_profile(mat, configuration))
+
+
+def _settings(settings: BurleySettings | None, overrides: dict) -> BurleySettings:
+    base = BurleySettings() if settings is None else settings
+    if not isinstance(base, BurleySettings):
+        raise PassError(f"settings must be BurleySettings, got {type(base).__name__}")
+    return base.replace(**overrides) if overrides else base
+
+
+def _params_by_id(params, ids) -> dict[int, BurleyParams]:
+    if isinstance(params, BurleyParams):
+        return {int(i): params for i in ids}
+    if not isinstance(params, Mapping):
+        raise PassError(f"the Burley pass needs BurleyParams or a mapping profile id -> BurleyParams, got "
+                        f"{type(params).__name__}")
+    out = {}
+    for i in ids:
+        p = params.get(int(i))
+        if p is None:
+            raise PassError(f"no Burley parameters given for profile id {int(i)}")
+        if not isinstance(p, BurleyParams):
+            raise PassError(f"parameters for profile id {int(i)} must be BurleyParams, got {type(p).__name__}")
+        out[int(i)] = p
+    return out
+
+
+def burley_plan_for(params, ids, fx: float, fy: float, settings: BurleySettings) -> BurleyPlan:
+    """The pass plan for profile ``ids`` (each with its :class:`BurleyParams`) under ``settings``."""
+    return build_burley_plan(_params_by_id(params, ids), fx, fy, sampler=settings.sampler, sequence=settings.sequence,
+                             c=settings.c, bleed=settings.bleed, frame=settings.frame, seed=settings.seed,
+                             stable=settings.stable, mips=settings.mips, mip_scale=settings.mip_scale)
+
+
+def burley_backend(name: str):
+    """The named backend if it has the Burley pass, else a BackendError saying so."""
+    from ..errors import BackendError
+
+    backend = get_backend(name)
+    if "burley" not in backend.passes:
+        raise BackendError(f"backend {backend.name!r} has no Burley pass")
+    return backend
+
+
+def burley_sss(gbuffer: GBuffer, params_by_id, settings: BurleySettings | None = None, *, counts=None,
+               **overrides) -> np.ndarray:
+    """Blurred diffuse layer (H, W, 3) float32 by the Burley Monte Carlo pass, every profile id at once.
+
+    ``params_by_id``: one :class:`BurleyParams` for every region, or a mapping profile id -> params.
+    ``settings`` (:class:`BurleySettings`; keyword ``overrides`` such as ``spp=64`` replace its fields).
+    ``counts``: an optional (H, W) integer image of samples per pixel (the adaptive sampler's), used
+    instead of ``settings.spp``. Pixels without SSS keep their diffuse value.
+    """
+    if not isinstance(gbuffer, GBuffer):
+        raise GBufferError(f"expected a GBuffer, got {type(gbuffer).__name__}")
+    s = _settings(settings, overrides)
+    backend = burley_backend(s.backend)
+    ids = profile_ids(gbuffer.profile_id)
+    cam = gbuffer.camera
+    plan = burley_plan_for(params_by_id, ids, cam.fx, cam.fy, s)
+    spp = s.spp if counts is None else counts
+    out = backend.burley(plan, gbuffer.diffuse, gbuffer.depth_mm, plan.slot_map(gbuffer.profile_id), spp)
+    return np.asarray(out, dtype=np.float32)
+
+
+__all__ = ["BurleyParams", "BurleySettings", "burley_backend", "burley_params_for_material", "burley_plan_for",
+           "burley_sss"]

@@ -1,0 +1,81 @@
+"""``ssskit render --method burley-adaptive``: the Burley pass with variance-guided sample counts (Xie 2020
+Sec. 4.1) over frames on a static camera, and its bad parameters (one line, exit status 2, nothing written)."""
+
+import json
+import math
+
+import pytest
+
+from tests.cli.test_bad_input import one_error_line, workdir  # noqa: F401  (fixture)
+
+
+def adaptive_json(run, *args):
+    code, out, err = run("render", "--method", "burley-adaptive", *args, "--json")
+    assert code == 0, err
+    return json.loads(out)
+
+
+def test_adaptive_render_on_a_gbuffer_file(run, gbuffer_file, tmp_path):
+    import OpenEXR
+
+    exr = tmp_path / "a.exr"
+    data = adaptive_json(run, "--scene", gbuffer_file, "--frames", "12", "--sigma0", "0.01", "--kappa", "0.6",
+                         "--budget", "4:32", "--no-mips", "--no-perceptual", "--out", exr)
+    a = data["adaptive"]
+    assert data["method"] == "burley-adaptive" and a["frames"] == 12
+    assert a["sigma0_sq"] == pytest.approx(1e-4) and a["sigma0"] == pytest.approx(0.01)
+    assert (a["kappa"], a["b_min"], a["b_max"], a["alpha"], a["correction"]) == (0.6, 4, 32, 0.2, "variance")
+    rows = data["frames"]
+    assert [r["frame"] for r in rows] == list(range(12))
+    assert rows[0]["mean_spp"] == 4  # no history on the first frame: b_min (Eqs. 16-17)
+    assert all(4 <= r["mean_spp"] <= 32 and r["ms"] > 0 and r["ms_update"] > 0 for r in rows)
+    assert max(r["mean_spp"] for r in rows) > 4  # the counts adapt
+    assert data["mean_spp"] == pytest.approx(sum(r["mean_spp"] for r in rows) / 12)
+    assert all(math.isfinite(r["psnr"]) for r in rows)
+    assert data["fixed"]["spp"] == 32 and data["fixed"]["metrics"]["exact_2d"]["psnr"] > 30
+    # the average of the frames is closer to the pass's limit than one frame
+    assert data["metrics"]["average_exact_2d"]["psnr"] > data["metrics"]["exact_2d"]["psnr"]
+    with OpenEXR.File(str(exr)) as f:
+        assert {"RGB", "sss", "exact"} <= set(f.channels())
+
+
+def test_text_output(run, gbuffer_file):
+    code, out, err = run("render", "--method", "burley-adaptive", "--scene", gbuffer_file, "--frames", "3",
+                         "--no-perceptual")
+    assert code == 0, err
+    assert "Burley adaptive, sigma0 0.03162 (sigma0^2 0.001), kappa 0.2, budget 8:64, 3 frames" in out
+    assert "mean spp per frame: first 8.0" in out and "fixed 64 spp vs exact_2d" in out
+
+
+BAD = [
+    (["--sigma0", "0"], "--sigma0: the target standard deviation sigma0 must be > 0, got 0.0"),
+    (["--sigma0", "-0.1"], "--sigma0: the target standard deviation sigma0 must be > 0"),
+    (["--sigma0", "nan"], "--sigma0"),
+    (["--kappa", "1.5"], "--kappa: kappa must be a finite number in [0, 1], got 1.5"),
+    (["--kappa", "-0.2"], "--kappa: kappa must be a finite number in [0, 1]"),
+    (["--budget", "64:8"], "--budget: the sample budget needs b_min <= b_max, got b_min=64 > b_max=8"),
+    (["--budget", "0:8"], "--budget: b_min must lie in [1, 65536], got 0"),
+    (["--budget", "8-64"], "must look like 8:64"),
+    (["--alpha", "0"], "--alpha: alpha must lie in (0, 1], got 0.0"),
+    (["--alpha", "1.5"], "--alpha: alpha must be a finite number in [0, 1]"),
+    (["--frames", "0"], "--frames: the number of frames must lie in [1, 100000], got 0"),
+    (["--correction", "stddev"], "Invalid value for '--correction'"),
+    (["--spp", "32"], "--spp: the adaptive pass chooses its samples per pixel"),
+    (["--taps", "5"], "--taps applies to --method separable"),
+    (["--c", "3.5"], "--c: c must lie in the open interval (2, 3)"),
+    (["--out", "x.exr"], "x.exr"),
+]
+
+
+@pytest.mark.parametrize("args,fragment", BAD)
+def test_bad_adaptive_input(run, workdir, args, fragment):  # noqa: F811
+    one_error_line(run, workdir, ["render", "--scene", "slab", "--method", "burley-adaptive", "--size", "24x16",
+                                  *args], fragment)
+
+
+@pytest.mark.parametrize("method", [[], ["--method", "burley"]])
+@pytest.mark.parametrize("args,flag", [(["--kappa", "0.5"], "--kappa"), (["--frames", "8"], "--frames"),
+                                       (["--budget", "8:32"], "--budget"), (["--sigma0", "0.01"], "--sigma0")])
+def test_adaptive_options_refused_elsewhere(run, workdir, method, args, flag):  # noqa: F811
+    one_error_line(run, workdir, ["render", "--scene", "slab", *method, *args],
+                   f"{flag} applies to --method burley-adaptive")
