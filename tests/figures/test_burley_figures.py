@@ -23,3 +23,16 @@ def test_fig6_is_registered_and_written(tmp_path):
     assert max(_params(profile_for_material("skin1", "dipole")).d_mm) > 1.0  # Xie's A = 0.9, dmfp 20 mm
     (path,) = fig6_xie_inverse(tmp_path, burley, spp=4)
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_burley_comparison_rows_and_figure(tmp_path, monkeypatch):
+    """The demo's Burley comparison at a tiny size: more samples, closer to the converged reference."""
+    from ssskit.figures.burley import burley_comparison
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    png, rows = burley_comparison(tmp_path, scenes=["slab"], width=32, height=24, spp=1, spps=(4, 64),
+                                  reference_spp=256)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    burley = [r for r in rows if r["method"].startswith("Burley")]
+    assert [r["spp"] for r in burley] == [4, 64] and any(r["method"] == "separable burley_fit" for r in rows)
+    assert burley[1]["rmse"] < burley[0]["rmse"] and burley[1]["psnr_gray"] > burley[0]["psnr_gray"]
