@@ -94,9 +94,11 @@ position lies within float32 rounding of a texel edge, so its parity test counts
        w_c = (d_s / d_c) (exp(-r'/d_c) + exp(-r'/(3 d_c))) / (exp(-r/d_s) + exp(-r/(3 d_s)))
 
    (= 2 pi r' R_c(r') / (A_c p(r)), the area measure of the sample being p(r) / (2 pi r) per mm^2
-   for a uniform angle). For the exact sampler, c = k and dz = 0 every weight is 1.
+   for a uniform angle). For the exact sampler, c = k and dz = 0 every weight is 1. (The numba
+   backend evaluates exp(-x/d) as a^3 with a = exp(-x/(3d)): four exps per sample, not eight.)
 
-8. **Result** per channel: out_c(p) = sum_j I w_c E_c(i, j) / sum_j I w_c (Eq. 24), or E_c(p) when
+8. **Result** per channel: out_c(p) = sum_j I w_c V_c / sum_j I w_c (Eq. 24), V = E(i, j) or, with
+   mips, step 5b's value, or E_c(p) when
    the denominator is 0 (every sample rejected). The albedo layer multiplies it afterwards, as for
    the separable pass (:meth:`ssskit.screenspace.GBuffer.composite`).
 """

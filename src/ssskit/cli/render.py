@@ -226,7 +226,8 @@ def _burley_inputs(ctx, params: dict):
 @click.option("--no-mips", is_flag=True,
               help="--method burley: fetch every sample at full resolution (no prefiltered pyramid, Xie Eqs. 22-23).")
 @click.option("--albedo", type=RGBFloats(), default=None,
-              help="--method burley: surface albedo A in [0, 1] (one or R,G,B), with --dmfp instead of --material.")
+              help="--method burley: surface albedo A in [0, 1] (one or R,G,B), with --dmfp: parameters instead of "
+                   "the material's Burley profile (the material still gives a built-in scene its eta).")
 @click.option("--dmfp", type=RGBFloats(), default=None,
               help="--method burley: diffuse mean free path in mm (> 0; one or R,G,B), with --albedo.")
 @click.option("--settings", "settings_file", type=click.Path(exists=True, dir_okay=False), default=None,

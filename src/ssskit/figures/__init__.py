@@ -11,6 +11,8 @@ from typing import Callable
 from ..errors import SsskitError
 from ..registry import Registry
 from . import adaptive as _a
+
+from . import burley as _b
 from . import kernels as _k
 
 Figure = Callable[..., list[Path]]
@@ -22,6 +24,8 @@ FIGURES.register("fig7", _k.fig7_step)
 FIGURES.register("figS5", _k.figS5_disk)
 FIGURES.register("xie-fig2", _a.xie_fig2_cold_start)
 FIGURES.register("xie-fig3", _a.xie_fig3_disocclusion)
+
+FIGURES.register("xie-fig6", _b.fig6_xie_inverse)
 
 
 def make_figures(names, out_dir, profile, progress=None) -> dict[str, list[Path]]:
