@@ -183,3 +183,27 @@ def test_cli_without_egl(tmp_path):
     assert r.returncode == 2, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and "backend 'gl' is not available" in r.stderr
     assert "Traceback" not in r.stderr and not out.exists()
+
+
+@pytest.mark.parametrize("filtered", [False, True])
+def test_burley_one_profile_and_filtered_mips(filtered):
+    """One profile (the mask read from the depth's sign, no slots texture) with the mip pyramid, fetched
+    texel by texel or through the texture unit's bilinear filter (exact in float32 on llvmpipe; a GPU
+    rounds the filter weights, so there the bound is looser)."""
+    _require_gl()
+    from ssskit.backends.burley_plan import BurleyParams, build_burley_plan
+    from ssskit.backends.gl.burley import BurleyFrame
+    from ssskit.backends.gl.context import is_software
+
+    e, depth, slots = _one_region(45, 61)
+    params = {1: BurleyParams.from_dmfp((0.8, 0.5, 0.3), (3.0, 1.5, 0.8))}
+    for sampler in ("exact", "xie"):
+        plan = build_burley_plan(params, 300.0, 330.0, sampler=sampler, mips=True, seed=3, frame=2)
+        want = NumpyBackend().burley(plan, e, depth, slots, 32)
+        frame = BurleyFrame(plan, e, depth, slots, 32, filtered_mips=filtered)
+        frame.run()
+        got = frame.read()
+        frame.release()
+        bound = GL_TOL if (is_software() or not filtered) else 5e-3
+        share_off = float((np.abs(got - want) > bound).mean())
+        assert share_off <= 0.002, (sampler, share_off)

@@ -29,21 +29,25 @@ def _template(name: str) -> str:
     return resources.files(__package__).joinpath(name).read_text(encoding="utf-8")
 
 
-def mip_layout(width: int, height: int) -> tuple[list[int], list[tuple[int, int]]]:
-    """(x offsets, sizes) of levels 0..MAX_MIP in the pyramid atlas: level k is ceil(W / 2^k) x ceil(H / 2^k)."""
+def mip_layout(width: int, height: int) -> tuple[list[int], list[tuple[int, int]], tuple[int, int]]:
+    """(x offsets, sizes, atlas size) of levels 0..MAX_MIP in the pyramid atlas: level k is
+    ceil(W / 2^k) x ceil(H / 2^k), at (offset, 1), each level inside a border of one zero texel."""
     sizes = [(-(-width // 2**k), -(-height // 2**k)) for k in range(MAX_MIP + 1)]
-    offsets = [int(sum(s[0] for s in sizes[:k])) for k in range(MAX_MIP + 1)]
-    return offsets, sizes
+    offsets = [1 + int(sum(s[0] + 1 for s in sizes[:k])) for k in range(MAX_MIP + 1)]
+    return offsets, sizes, (offsets[-1] + sizes[-1][0] + 1, height + 2)
 
 
 def _mip_constants(width: int, height: int) -> list[str]:
-    offsets, sizes = mip_layout(width, height)
+    offsets, sizes, atlas = mip_layout(width, height)
     return [f"#define MAX_MIP {MAX_MIP}", _array("int", "MIP_X", [str(o) for o in offsets]),
-            _array("ivec2", "MIP_SIZE", [f"ivec2({w}, {h})" for w, h in sizes])]
+            _array("ivec2", "MIP_SIZE", [f"ivec2({w}, {h})" for w, h in sizes]),
+            f"const ivec2 ATLAS_SIZE = ivec2({atlas[0]}, {atlas[1]});"]
 
 
-def burley_source(plan: BurleyPlan, width: int, height: int, count_image: bool) -> str:
-    """The complete GLSL source of the Burley pass for ``plan`` on a ``width`` x ``height`` frame."""
+def burley_source(plan: BurleyPlan, width: int, height: int, count_image: bool, filtered_mips: bool = False) -> str:
+    """The complete GLSL source of the Burley pass for ``plan`` on a ``width`` x ``height`` frame
+    (``filtered_mips``: the texture unit's bilinear filter for the pyramid fetches, faster, with weights
+    rounded by the hardware; off by default so results match the oracle)."""
     if plan.slots > MAX_SLOTS:
         raise PassError(f"the gl backend holds at most {MAX_SLOTS - 1} profile ids in one frame, got {plan.slots - 1}")
     S = plan.slots
@@ -55,6 +59,8 @@ def burley_source(plan: BurleyPlan, width: int, height: int, count_image: bool) 
         f"#define STABLE {int(plan.stable)}",
         f"#define MIPS {int(plan.mips)}",
         f"#define COUNT_IMAGE {int(bool(count_image))}",
+        f"#define MULTI_SLOT {int(S > 2)}",
+        f"#define FILTERED_MIPS {int(bool(filtered_mips))}",
         f"#define XIE_C {_f(plan.c)}",
         f"#define BLEED {_f(plan.bleed)}",
         f"#define MIP_SCALE {_f(plan.mip_scale)}",
@@ -76,7 +82,8 @@ class BurleyFrame:
     """A frame of the Burley pass on the device: upload, build the mip pyramid (if the plan has mips) and
     run the pass without readback, read back when asked."""
 
-    def __init__(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, spp):
+    def __init__(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, spp,
+                 filtered_mips: bool = False):
         import moderngl
 
         from .context import context
@@ -100,19 +107,22 @@ class BurleyFrame:
         self.counts = texture(1, "i4", np.asarray(spp, np.int32)) if self.count_image else None
         self.spp = 0 if self.count_image else int(spp)
         self.out = ctx.texture((w, h), 4, dtype="f4")
-        self.program = _program(burley_source(plan, w, h, self.count_image), "Burley")
+        self.program = _program(burley_source(plan, w, h, self.count_image, filtered_mips), "Burley")
         self.atlas = None
         if plan.mips and plan.slots > 1:
-            offsets, sizes = mip_layout(w, h)
-            self.atlas = ctx.texture_array((offsets[-1] + sizes[-1][0], h, plan.slots - 1), 4, dtype="f4")
-            self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            (aw, ah) = mip_layout(w, h)[2]
+            zeros = np.zeros((plan.slots - 1, ah, aw, 4), np.float32)  # the borders stay 0
+            self.atlas = ctx.texture_array((aw, ah, plan.slots - 1), 4, zeros.tobytes(), dtype="f4")
+            linear = moderngl.LINEAR if filtered_mips else moderngl.NEAREST
+            self.atlas.filter = (linear, linear)
+            self.atlas.repeat_x = self.atlas.repeat_y = False
             self.mips = _program(mips_source(w, h), "mip pyramid")
 
     def build_mips(self) -> None:
         """The prefiltered irradiance pyramid of every slot (Xie 2020 Eqs. 22-23), on the device."""
         if self.atlas is None:
             return
-        _, sizes = mip_layout(*self.size)
+        _, sizes, _ = mip_layout(*self.size)
         self.src.use(0)
         self.slots.use(1)
         self.atlas.bind_to_image(1, read=True, write=True)
@@ -132,7 +142,8 @@ class BurleyFrame:
         base = frame_base(0 if plan.stable else plan.frame, plan.seed)
         _uniforms(self.program, u_size=(w, h), u_fx=plan.fx, u_fy=plan.fy, u_base=base, u_spp=self.spp)
         self.src.use(0)
-        self.slots.use(1)
+        if plan.slots > 2:
+            self.slots.use(1)
         if self.counts is not None:
             self.counts.use(2)
         if self.atlas is not None:

@@ -1,6 +1,7 @@
 // ssskit: the prefiltered irradiance of the Burley pass (Xie 2020 Eqs. 22-23; ssskit.backends.burley_plan
 // step 5b), GLSL 4.30 compute. One dispatch per level into an RGBA32F 2D array (one layer per slot;
-// level k at x offset MIP_X[k], MIP_SIZE[k] = ceil(size / 2^k)): level 0 holds the premultiplied
+// level k at (MIP_X[k], 1), MIP_SIZE[k] = ceil(size / 2^k), inside a border of zero texels that is
+// never written): level 0 holds the premultiplied
 // colour and coverage (E [slot = layer + 1], [slot = layer + 1]), level k the mean of the 2 x 2 children
 // of level k - 1 (children off that level count 0).
 
@@ -29,10 +30,10 @@ void main() {
             for (int di = 0; di < 2; ++di) {
                 ivec2 q = 2 * g.xy + ivec2(di, dj);
                 if (q.x < child.x && q.y < child.y)
-                    v += imageLoad(u_atlas, ivec3(q.x + MIP_X[u_level - 1], q.y, g.z));
+                    v += imageLoad(u_atlas, ivec3(q.x + MIP_X[u_level - 1], q.y + 1, g.z));
             }
         }
         v *= 0.25;
     }
-    imageStore(u_atlas, ivec3(g.x + MIP_X[u_level], g.y, g.z), v);
+    imageStore(u_atlas, ivec3(g.x + MIP_X[u_level], g.y + 1, g.z), v);
 }
