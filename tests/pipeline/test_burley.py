@@ -43,3 +43,22 @@ def test_material_gives_the_burley_profile():
     assert res.params.d_mm == tuple(c.d for c in burley_profile(get_material("marble")).channels)
     np.testing.assert_allclose(res.sss, 1.0, rtol=1e-6)
     assert burley_params_for_material("marble").d_mm == res.params.d_mm
+
+
+def test_converged_reference_is_cached(tmp_path, monkeypatch):
+    from ssskit.pipeline.burley import burley_reference
+    from ssskit.screenspace import burley_sss
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path))
+    gb = _disk_gbuffer()
+    a = burley_reference(gb, PARAMS, spp=64)
+    files = list((tmp_path / "reference").glob("burley-*.npy"))
+    assert len(files) == 1
+    np.testing.assert_array_equal(a, burley_sss(gb, PARAMS, spp=64, sampler="exact", mips=False, seed=0))
+    np.testing.assert_array_equal(burley_reference(gb, PARAMS, spp=64), a)  # from the cache
+    b = burley_reference(gb, PARAMS, spp=32)  # another key
+    assert len(list((tmp_path / "reference").glob("burley-*.npy"))) == 2 and not np.array_equal(a, b)
+    # converged: closer to the exact limit than a 64-spp frame
+    truth, _ = normalised_truth(gb, PARAMS)
+    ref = burley_reference(gb, PARAMS, spp=4096)
+    assert np.sqrt(np.mean((ref - truth)[gb.mask] ** 2)) < 0.25 * np.sqrt(np.mean((a - truth)[gb.mask] ** 2))

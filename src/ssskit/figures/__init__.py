@@ -10,6 +10,7 @@ from typing import Callable
 
 from ..errors import SsskitError
 from ..registry import Registry
+from . import burley as _b
 from . import kernels as _k
 
 Figure = Callable[..., list[Path]]
@@ -19,6 +20,7 @@ FIGURES.register("fig4", _k.fig4_svd_ranks)
 FIGURES.register("fig5", _k.fig5_slices)
 FIGURES.register("fig7", _k.fig7_step)
 FIGURES.register("figS5", _k.figS5_disk)
+FIGURES.register("xie-fig6", _b.fig6_xie_inverse)
 
 
 def make_figures(names, out_dir, profile, progress=None) -> dict[str, list[Path]]:
