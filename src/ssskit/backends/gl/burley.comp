@@ -9,7 +9,7 @@
 //
 // Images: u_src (RGBA32F) E in .rgb and the depth z (mm) in .a (-1 without SSS); u_slots (R16UI);
 // u_counts (R32I, with COUNT_IMAGE) the per-pixel sample counts; u_mips (RGBA32F 2D array, with MIPS)
-// one layer per slot, level k at (MIP_X[k], 1) inside a border of zeros (premultiplied colour and
+// one layer per slot, level k at (u_mip_x[k], 1) inside a border of zeros (premultiplied colour and
 // coverage); u_dst the result. With one profile (MULTI_SLOT 0) the slots texture is not read.
 
 #version 430
@@ -35,6 +35,10 @@ uniform float u_fx;
 uniform float u_fy;
 uniform uint u_base;   // frame_base(frame, seed) (frame 0 with a stable pattern)
 uniform int u_spp;
+#if MIPS
+uniform int u_mip_x[MAX_MIP + 1];        // x offset of each level in the atlas
+uniform ivec2 u_atlas_size;
+#endif
 
 const float PI = 3.14159265358979;
 
@@ -92,17 +96,17 @@ float inverse_cdf_unit(float xi) {
 
 #if MIPS
 // Step 5b: the coverage-normalised trilinear fetch of layer `layer` at level-0 position q, level m.
-// Level k sits at (MIP_X[k], 1) in the atlas with a border of zero texels around it, so the bilinear
+// Level k sits at (u_mip_x[k], 1) in the atlas with a border of zero texels around it, so the bilinear
 // texels just off the level read 0 (as the plan says) without a bounds test.
 vec4 mip_bilinear(vec2 q, int level, int layer) {
     vec2 uv = q * exp2(-float(level)) - 0.5;
 #if FILTERED_MIPS
     // the texture unit's bilinear filter (its weights are rounded: about 1e-3 of the texel differences)
-    return texture(u_mips, vec3((vec2(MIP_X[level], 1) + uv + 0.5) / vec2(ATLAS_SIZE), float(layer)));
+    return texture(u_mips, vec3((vec2(u_mip_x[level], 1) + uv + 0.5) / vec2(u_atlas_size), float(layer)));
 #else
     vec2 f = floor(uv);
     vec2 t = uv - f;
-    ivec3 i0 = ivec3(ivec2(f) + ivec2(MIP_X[level], 1), layer);
+    ivec3 i0 = ivec3(ivec2(f) + ivec2(u_mip_x[level], 1), layer);
     return (1.0 - t.y) * ((1.0 - t.x) * texelFetch(u_mips, i0, 0) + t.x * texelFetch(u_mips, i0 + ivec3(1, 0, 0), 0))
          + t.y * ((1.0 - t.x) * texelFetch(u_mips, i0 + ivec3(0, 1, 0), 0) + t.x * texelFetch(u_mips, i0 + ivec3(1, 1, 0), 0));
 #endif
