@@ -162,7 +162,7 @@ def time_copy_floor(width: int, height: int, batches: int, batch: int) -> dict:
 
 
 def time_burley(width: int, height: int, spp: int, mips: bool, sampler: str, batches: int, batch: int,
-                cpu: bool, cpu_repeats: int) -> dict:
+                cpu: bool, cpu_repeats: int, filtered: bool = False) -> dict:
     """The Burley pass (Xie 2020) on the same frame: Skin1's Burley parameters (searchlight d), every
     pixel inside the mask; GPU time of a frame (mip pyramid included) and of the pyramid alone."""
     from ssskit.backends.burley_plan import build_burley_plan
@@ -175,22 +175,24 @@ def time_burley(width: int, height: int, spp: int, mips: bool, sampler: str, bat
     f = FOCAL_1080P * width / 1920
     plan = build_burley_plan({1: burley_params_for_material("skin1")}, f, f, sampler=sampler, mips=mips)
     slots = np.ones((height, width), np.int32)
-    frame = BurleyFrame(plan, image, depth, slots, spp)
+    frame = BurleyFrame(plan, image, depth, slots, spp, filtered_mips=filtered)
     frame.run()
     per_frame = time_gpu(frame.run, batches, batch, warmup_ms=300.0)  # long frames: let the clocks settle
     mips_ms = statistics.median(time_gpu(frame.build_mips, batches, batch, warmup_ms=100.0)) if mips else 0.0
     frame.release()
     ms = statistics.median(per_frame)
-    out = {"spp": spp, "mips": mips, "sampler": sampler, "frame_ms": ms, "mip_pyramid_ms": mips_ms,
+    out = {"spp": spp, "mips": mips, "filtered_mips": filtered, "sampler": sampler, "frame_ms": ms,
+           "mip_pyramid_ms": mips_ms,
            "gsamples_per_s": width * height * spp / ms / 1e6}
     # parity on a crop: the share of values off the float64 oracle by more than 1e-5
     ch, cw = min(height, 64), min(width, 96)
-    crop = BurleyFrame(plan, image[:ch, :cw], depth[:ch, :cw], slots[:ch, :cw], spp)
+    crop = BurleyFrame(plan, image[:ch, :cw], depth[:ch, :cw], slots[:ch, :cw], spp, filtered_mips=filtered)
     crop.run()
     got = crop.read()
     crop.release()
     ref = NumpyBackend().burley(plan, image[:ch, :cw], depth[:ch, :cw], slots[:ch, :cw], spp)
     out["crop_share_off_by_1e-5"] = float((np.abs(got - ref) > 1e-5).mean())
+    out["crop_max_abs"] = float(np.abs(got - ref).max())
     if cpu:
         from ssskit.backends import get_backend
 
@@ -257,10 +259,10 @@ def main(argv=None) -> dict:
     for text in args.burley_sizes if args.burley_spp else []:
         w, h = _size(text)
         for sampler in ("exact", "xie"):
-            for mips in (False, True):
+            for mips, filtered in ((False, False), (True, False), (True, True)):
                 for spp in args.burley_spp:
                     case = {"size": f"{w}x{h}", **time_burley(w, h, spp, mips, sampler, args.batches, args.batch,
-                                                               args.cpu, args.cpu_repeats)}
+                                                               args.cpu and not filtered, args.cpu_repeats, filtered)}
                     result["burley"].append(case)
                     print(json.dumps(case), file=sys.stderr, flush=True)
     print(json.dumps(result, indent=1))

@@ -206,3 +206,48 @@ def test_exported_source_runs_and_matches_the_oracle():
     frame.programs = [(compiled(0, r), compiled(1, r)) for r in range(len(plan.terms))]
     frame.run()
     np.testing.assert_allclose(frame.read(), NumpyBackend().separable(plan, e, depth, slots), atol=GL_TOL)
+
+@pytest.mark.parametrize("filtered", [False, True])
+def test_burley_one_profile_and_filtered_mips(filtered):
+    """One profile (the mask read from the depth's sign, no slots texture) with the mip pyramid, fetched
+    texel by texel or through the texture unit's bilinear filter (exact in float32 on llvmpipe; a GPU
+    rounds the filter weights, so there the bound is looser)."""
+    _require_gl()
+    from ssskit.backends.burley_plan import BurleyParams, build_burley_plan
+    from ssskit.backends.gl.burley import BurleyFrame
+    from ssskit.backends.gl.context import is_software
+
+    e, depth, slots = _one_region(45, 61)
+    params = {1: BurleyParams.from_dmfp((0.8, 0.5, 0.3), (3.0, 1.5, 0.8))}
+    for sampler in ("exact", "xie"):
+        plan = build_burley_plan(params, 300.0, 330.0, sampler=sampler, mips=True, seed=3, frame=2)
+        want = NumpyBackend().burley(plan, e, depth, slots, 32)
+        frame = BurleyFrame(plan, e, depth, slots, 32, filtered_mips=filtered)
+        frame.run()
+        got = frame.read()
+        frame.release()
+        bound = GL_TOL if (is_software() or not filtered) else 5e-3
+        share_off = float((np.abs(got - want) > bound).mean())
+        assert share_off <= 0.002, (sampler, share_off)
+
+
+def test_burley_export_source_runs_and_matches_the_oracle():
+    """The Burley pass exported for engines (one file, the pyramid's layout in uniforms, so any frame
+    size) is the shader the backend runs: compiled from the exported text it matches the oracle."""
+    _require_gl()
+    from ssskit.backends.burley_plan import BurleyParams, build_burley_plan
+    from ssskit.backends.gl.burley import BurleyFrame, burley_export_source
+    from ssskit.backends.gl.context import compile_compute
+
+    params = {1: BurleyParams.from_dmfp((0.8, 0.5, 0.3), (3.0, 1.5, 0.8))}
+    plan = build_burley_plan(params, 300.0, 330.0, sampler="exact", mips=True, seed=3, frame=2)
+    text = burley_export_source(plan)
+    assert "how to run it" in text and "u_mip_x" in text
+    for h, w in ((45, 61), (30, 34)):  # one source, two frame sizes
+        e, depth, slots = _one_region(h, w)
+        frame = BurleyFrame(plan, e, depth, slots, 16)
+        frame.program = compile_compute(text, "exported Burley")
+        frame.run()
+        got = frame.read()
+        frame.release()
+        np.testing.assert_allclose(got, NumpyBackend().burley(plan, e, depth, slots, 16), atol=GL_TOL)

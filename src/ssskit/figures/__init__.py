@@ -11,7 +11,6 @@ from typing import Callable
 from ..errors import SsskitError
 from ..registry import Registry
 from . import adaptive as _a
-
 from . import burley as _b
 from . import kernels as _k
 

@@ -9,7 +9,8 @@
 //
 // Images: u_src (RGBA32F) E in .rgb and the depth z (mm) in .a (-1 without SSS); u_slots (R16UI);
 // u_counts (R32I, with COUNT_IMAGE) the per-pixel sample counts; u_mips (RGBA32F 2D array, with MIPS)
-// one layer per slot, level k at x offset MIP_X[k] (premultiplied colour and coverage); u_dst the result.
+// one layer per slot, level k at (u_mip_x[k], 1) inside a border of zeros (premultiplied colour and
+// coverage); u_dst the result. With one profile (MULTI_SLOT 0) the slots texture is not read.
 
 #version 430
 
@@ -18,7 +19,9 @@
 layout(local_size_x = 16, local_size_y = 16) in;
 
 layout(binding = 0) uniform sampler2D u_src;
+#if MULTI_SLOT
 layout(binding = 1) uniform usampler2D u_slots;
+#endif
 #if COUNT_IMAGE
 layout(binding = 2) uniform isampler2D u_counts;
 #endif
@@ -32,6 +35,10 @@ uniform float u_fx;
 uniform float u_fy;
 uniform uint u_base;   // frame_base(frame, seed) (frame 0 with a stable pattern)
 uniform int u_spp;
+#if MIPS
+uniform int u_mip_x[MAX_MIP + 1];        // x offset of each level in the atlas
+uniform ivec2 u_atlas_size;
+#endif
 
 const float PI = 3.14159265358979;
 
@@ -88,24 +95,21 @@ float inverse_cdf_unit(float xi) {
 }
 
 #if MIPS
-// Step 5b: the coverage-normalised trilinear fetch of layer `layer` at level-0 position q, level m
+// Step 5b: the coverage-normalised trilinear fetch of layer `layer` at level-0 position q, level m.
+// Level k sits at (u_mip_x[k], 1) in the atlas with a border of zero texels around it, so the bilinear
+// texels just off the level read 0 (as the plan says) without a bounds test.
 vec4 mip_bilinear(vec2 q, int level, int layer) {
-    float scale = exp2(-float(level));
-    vec2 uv = q * scale - 0.5;
+    vec2 uv = q * exp2(-float(level)) - 0.5;
+#if FILTERED_MIPS
+    // the texture unit's bilinear filter (its weights are rounded: about 1e-3 of the texel differences)
+    return texture(u_mips, vec3((vec2(u_mip_x[level], 1) + uv + 0.5) / vec2(u_atlas_size), float(layer)));
+#else
     vec2 f = floor(uv);
     vec2 t = uv - f;
-    ivec2 i0 = ivec2(f);
-    ivec2 size = MIP_SIZE[level];
-    vec4 acc = vec4(0.0);
-    for (int dj = 0; dj < 2; ++dj) {
-        for (int di = 0; di < 2; ++di) {
-            ivec2 q = i0 + ivec2(di, dj);
-            float b = (di == 1 ? t.x : 1.0 - t.x) * (dj == 1 ? t.y : 1.0 - t.y);
-            if (q.x >= 0 && q.y >= 0 && q.x < size.x && q.y < size.y && b > 0.0)
-                acc += b * texelFetch(u_mips, ivec3(q.x + MIP_X[level], q.y, layer), 0);
-        }
-    }
-    return acc;
+    ivec3 i0 = ivec3(ivec2(f) + ivec2(u_mip_x[level], 1), layer);
+    return (1.0 - t.y) * ((1.0 - t.x) * texelFetch(u_mips, i0, 0) + t.x * texelFetch(u_mips, i0 + ivec3(1, 0, 0), 0))
+         + t.y * ((1.0 - t.x) * texelFetch(u_mips, i0 + ivec3(0, 1, 0), 0) + t.x * texelFetch(u_mips, i0 + ivec3(1, 1, 0), 0));
+#endif
 }
 
 vec3 mip_fetch(vec2 q, float m, int layer) {
@@ -121,7 +125,11 @@ void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (p.x >= u_size.x || p.y >= u_size.y) return;
     vec4 c = texelFetch(u_src, p, 0);
+#if MULTI_SLOT
     int s = int(texelFetch(u_slots, p, 0).r);
+#else
+    int s = c.a < 0.0 ? 0 : 1;   // one profile: the depth's sign is the mask
+#endif
 #if COUNT_IMAGE
     int n = texelFetch(u_counts, p, 0).r;
 #else
@@ -174,10 +182,17 @@ void main() {
         ivec2 qi = ivec2(floor(q));
         // step 6: the indicator
         if (qi.x < 0 || qi.y < 0 || qi.x >= u_size.x || qi.y >= u_size.y) continue;
+#if MULTI_SLOT
         int qs = int(texelFetch(u_slots, qi, 0).r);
         float ind = qs == s ? 1.0 : (qs > 0 ? BLEED : 0.0);
         if (ind == 0.0) continue;
         vec4 t = texelFetch(u_src, qi, 0);
+#else
+        vec4 t = texelFetch(u_src, qi, 0);
+        if (t.a < 0.0) continue;
+        const int qs = 1;
+        const float ind = 1.0;
+#endif
         // step 7: Eq. 24's weights
         float dz = t.a - zp;
         float rp = sqrt(r * r + dz * dz);
