@@ -27,6 +27,7 @@ import json
 import os
 import platform
 import statistics
+import sys
 import time
 from pathlib import Path
 
@@ -35,17 +36,14 @@ os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
-FOCAL_1080P = 1000.0  # pixels at 1080p; scaled with the width so the footprint in pixels is the same
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_separable import FOCAL_1080P, scene  # noqa: E402
 
 
 def gbuffer(width: int, height: int):
     from ssskit.screenspace import Camera, GBuffer
 
-    rng = np.random.default_rng(0)
-    image = rng.random((height, width, 3), dtype=np.float32)
-    xx = np.arange(width, dtype=np.float32)[None, :]
-    yy = np.arange(height, dtype=np.float32)[:, None]
-    depth = (400.0 + 0.1 * xx * (1920 / width) + 0.05 * yy * (1080 / height)).astype(np.float32)
+    image, depth = scene(width, height)  # the frame of bench_separable.py
     f = FOCAL_1080P * width / 1920
     return GBuffer(diffuse=image, albedo=np.ones_like(image), depth=depth,
                    profile_id=np.ones((height, width), np.uint32), camera=Camera(width, height, f, f, width / 2,

@@ -16,21 +16,13 @@ import math
 import numpy as np
 from numba import njit
 
+from ._numba_separable import _mix32  # lowbias32, shared with the separable kernels
+
 _M32 = np.uint64(0xFFFFFFFF)
 
 #: sampler and sequence codes of the kernel (index into burley_plan.SAMPLERS / SEQUENCES)
 EXACT, XIE, GOLUBEV = 0, 1, 2
 R2, RANDOM = 0, 1
-
-
-@njit(cache=True, inline="always")
-def _mix32(h):
-    """lowbias32 (ssskit.sampling.hashes.mix32) on a uint64 holding 32 bits."""
-    h = h ^ (h >> np.uint64(16))
-    h = (h * np.uint64(0x7FEB352D)) & np.uint64(0xFFFFFFFF)
-    h = h ^ (h >> np.uint64(15))
-    h = (h * np.uint64(0x846CA68B)) & np.uint64(0xFFFFFFFF)
-    return h ^ (h >> np.uint64(16))
 
 
 @njit(cache=True, inline="always")
