@@ -98,31 +98,6 @@ def compile_compute(source: str, name: str):
         raise ShaderError(f"the {name} compute shader does not compile: {first}{where}") from None
 
 
-class GpuTimer:
-    """Elapsed time of GL work: GL_TIME_ELAPSED queries on a GPU, wall time around glFinish on llvmpipe.
-
-    ``with timer("name"): ...`` records one interval; :meth:`results` gives {name: [ms, ...]}. Query
-    results are read at the end, so timing does not stall the pipeline between passes.
-    """
-
-    def __init__(self, gpu: bool | None = None):
-        self.ctx = context()
-        self.gpu = (not is_software()) if gpu is None else gpu
-        self._pending: list[tuple[str, object]] = []
-        self._wall: dict[str, list[float]] = {}
-
-    def __call__(self, name: str):
-        return _Interval(self, name)
-
-    def results(self) -> dict[str, list[float]]:
-        out = {k: list(v) for k, v in self._wall.items()}
-        for name, q in self._pending:
-            out.setdefault(name, []).append(q.elapsed / 1e6)  # ns -> ms (waits for the result)
-        self._pending.clear()
-        self._wall = {}
-        return out
-
-
 def time_gpu(fn, batches: int = 20, batch: int = 10, warmup_ms: float = 50.0) -> list[float]:
     """ms per call of ``fn`` (which only queues GL work): ``batches`` medians-ready samples, each one
     GL_TIME_ELAPSED query around ``batch`` calls queued back to back (on llvmpipe: wall time around
@@ -152,28 +127,3 @@ def time_gpu(fn, batches: int = 20, batch: int = 10, warmup_ms: float = 50.0) ->
             ctx.finish()
             samples.append((time.perf_counter() - t) * 1e3 / batch)
     return [q.elapsed / 1e6 / batch for q in samples] if gpu else samples
-
-
-class _Interval:
-    def __init__(self, timer: GpuTimer, name: str):
-        self.timer, self.name = timer, name
-
-    def __enter__(self):
-        t = self.timer
-        if t.gpu:
-            self.q = t.ctx.query(time=True)
-            self.q.__enter__()
-        else:
-            t.ctx.finish()
-            self.t0 = time.perf_counter()
-        return self
-
-    def __exit__(self, *exc):
-        t = self.timer
-        if t.gpu:
-            self.q.__exit__(*exc)
-            t._pending.append((self.name, self.q))
-        else:
-            t.ctx.finish()
-            t._wall.setdefault(self.name, []).append((time.perf_counter() - self.t0) * 1e3)
-        return False
