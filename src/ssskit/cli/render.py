@@ -292,12 +292,7 @@ def render(ctx, scene, settings_file, save_gbuffer, out, as_json, method, **para
                 raise SsskitError(f"{option_name(ctx, name)} applies to a built-in scene; the G-buffer file "
                                   f"{str(scene)!r} has its own")
     s = build_settings(ctx, settings_file, params)
-    if gbuffer_file and s.reference:
-        raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
-    material_file = Path(s.material) if Path(s.material).is_file() else None
-    check_distinct({"--out": out, "--save-gbuffer": save_gbuffer},
-                   {"--scene": scene if gbuffer_file else None, "--settings": settings_file,
-                    "--material": material_file})
+    _check_files(scene, s, settings_file, out, save_gbuffer)
     from ..pipeline import render as run
 
     res = run(scene, s, progress=None if as_json else progress)  # checks everything before any work
@@ -327,18 +322,27 @@ def render(ctx, scene, settings_file, save_gbuffer, out, as_json, method, **para
         click.echo(f"# wrote {out}")
 
 
-def _render_burley(ctx, scene, settings_file, save_gbuffer, out, as_json, params) -> None:
-    gbuffer_file = isinstance(scene, Path)
-    if gbuffer_file and given(ctx, "size"):
+def _check_size(ctx, scene) -> None:
+    if isinstance(scene, Path) and given(ctx, "size"):
         raise SsskitError(f"--size applies to a built-in scene; the G-buffer file {str(scene)!r} has its own")
-    s = build_settings(ctx, settings_file, params, skip=("spp",))
-    b, burley_params = _burley_inputs(ctx, params)
+
+
+def _check_files(scene, s, settings_file, out, save_gbuffer) -> None:
+    """A G-buffer file has no scene to path-trace; no output may be one of the inputs."""
+    gbuffer_file = isinstance(scene, Path)
     if gbuffer_file and s.reference:
         raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
     material_file = Path(s.material) if Path(s.material).is_file() else None
     check_distinct({"--out": out, "--save-gbuffer": save_gbuffer},
                    {"--scene": scene if gbuffer_file else None, "--settings": settings_file,
                     "--material": material_file})
+
+
+def _render_burley(ctx, scene, settings_file, save_gbuffer, out, as_json, params) -> None:
+    _check_size(ctx, scene)
+    s = build_settings(ctx, settings_file, params, skip=("spp",))
+    b, burley_params = _burley_inputs(ctx, params)
+    _check_files(scene, s, settings_file, out, save_gbuffer)
     from ..pipeline.burley import render_burley
 
     res = render_burley(scene, s, b, progress=None if as_json else progress, params=burley_params)
@@ -389,20 +393,13 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
 
     from ..metrics import region_metrics
 
-    gbuffer_file = isinstance(scene, Path)
-    if gbuffer_file and given(ctx, "size"):
-        raise SsskitError(f"--size applies to a built-in scene; the G-buffer file {str(scene)!r} has its own")
+    _check_size(ctx, scene)
     if given(ctx, "spp"):
         raise SsskitError("--spp: the adaptive pass chooses its samples per pixel; give --budget B_MIN:B_MAX")
     s = build_settings(ctx, settings_file, params, skip=("spp",))
     b, burley_params = _burley_inputs(ctx, params)
     a, frames = _adaptive_inputs(ctx, params)
-    if gbuffer_file and s.reference:
-        raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
-    material_file = Path(s.material) if Path(s.material).is_file() else None
-    check_distinct({"--out": out, "--save-gbuffer": save_gbuffer},
-                   {"--scene": scene if gbuffer_file else None, "--settings": settings_file,
-                    "--material": material_file})
+    _check_files(scene, s, settings_file, out, save_gbuffer)
     from ..pipeline.burley import render_burley
     from ..screenspace.adaptive import adaptive_frames
 
