@@ -37,10 +37,10 @@ from typing import Any
 import numpy as np
 
 from ..errors import SettingsError, SignalError
-from ..io import check_distinct, save_image
 from ..metrics import region_metrics
 from ..screenspace import BurleyParams, BurleySettings, GBuffer, burley_sss
 from ..screenspace.burley import burley_backend
+from .render import ImageLayers
 from .settings import RenderSettings
 
 Progress = Callable[[str], None]
@@ -121,7 +121,7 @@ def burley_reference(gbuffer: GBuffer, params_by_id, spp: int = 4096, seed: int 
 
 
 @dataclass
-class BurleyResult:
+class BurleyResult(ImageLayers):
     """One frame of the Burley pass: inputs, output, ground truths and errors."""
 
     scene: str
@@ -136,19 +136,6 @@ class BurleyResult:
     reference: np.ndarray | None = None
     metrics: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
-
-    def layers(self) -> dict[str, np.ndarray]:
-        out = {"sss": self.sss, "diffuse": self.gbuffer.diffuse}
-        if self.exact is not None:
-            out["exact"] = self.gbuffer.composite(self.exact)
-        if self.reference is not None:
-            out["reference"] = self.reference
-        return out
-
-    def save(self, path: str | Path) -> None:
-        """``.exr`` (linear, with :meth:`layers`) or ``.png`` (tone-mapped); never over the G-buffer file."""
-        check_distinct(path, self.source, what="output image")
-        save_image(path, self.image, self.layers(), what="output image")
 
     def to_dict(self) -> dict[str, Any]:
         h, w = self.gbuffer.shape

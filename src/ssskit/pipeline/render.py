@@ -80,8 +80,29 @@ def _default(name: str):
     return {f.name: f.default for f in dataclasses.fields(RenderSettings)}[name]
 
 
+class ImageLayers:
+    """What a rendered result writes: its ``image`` with the extra EXR layers (shared by the separable
+    and the Burley results; they hold ``gbuffer``, ``sss``, ``image``, ``exact``, ``reference``, ``source``)."""
+
+    def layers(self) -> dict[str, np.ndarray]:
+        """The extra EXR layers of :meth:`save`: ``sss``, ``diffuse``, and ``exact`` (composited) and
+        ``reference`` when computed."""
+        out = {"sss": self.sss, "diffuse": self.gbuffer.diffuse}
+        if self.exact is not None:
+            out["exact"] = self.gbuffer.composite(self.exact)
+        if self.reference is not None:
+            out["reference"] = self.reference
+        return out
+
+    def save(self, path: str | Path) -> None:
+        """Write the image: ``.exr`` (linear, with :meth:`layers`) or ``.png`` (tone-mapped); never over
+        the G-buffer file it was rendered from."""
+        check_distinct(path, self.source, what="output image")
+        save_image(path, self.image, self.layers(), what="output image")
+
+
 @dataclass
-class RenderResult:
+class RenderResult(ImageLayers):
     """One rendered frame: its inputs, the pass's output, the ground truths and the errors."""
 
     scene: str  # the built-in scene's name, the G-buffer file's name, or the G-buffer's meta["scene"]
@@ -99,21 +120,6 @@ class RenderResult:
     metrics: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None  # the G-buffer file read, if any
 
-    def layers(self) -> dict[str, np.ndarray]:
-        """The extra EXR layers of :meth:`save`: ``sss``, ``diffuse``, and ``exact`` (composited) and
-        ``reference`` when computed."""
-        out = {"sss": self.sss, "diffuse": self.gbuffer.diffuse}
-        if self.exact is not None:
-            out["exact"] = self.gbuffer.composite(self.exact)
-        if self.reference is not None:
-            out["reference"] = self.reference
-        return out
-
-    def save(self, path: str | Path) -> None:
-        """Write the image: ``.exr`` (linear, with :meth:`layers`) or ``.png`` (tone-mapped); never over
-        the G-buffer file it was rendered from."""
-        check_distinct(path, self.source, what="output image")
-        save_image(path, self.image, self.layers(), what="output image")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary: scene, material, size [W, H], tap count, settings, taps and metrics
