@@ -251,3 +251,18 @@ def test_burley_export_source_runs_and_matches_the_oracle():
         got = frame.read()
         frame.release()
         np.testing.assert_allclose(got, NumpyBackend().burley(plan, e, depth, slots, 16), atol=GL_TOL)
+
+
+def test_frames_of_different_sizes_keep_their_own_images():
+    """Each frame owns its device images: a second frame of another size does not free the first's."""
+    _require_gl()
+    from ssskit.backends.gl.separable import SeparableFrame
+
+    plan = build_separable_plan({1: _taps("preintegrated")}, 120.0, 120.0, jitter=0.0, depth_mode="follow")
+    small, big = _one_region(20, 24), _one_region()
+    first = SeparableFrame(plan, *small)
+    second = SeparableFrame(plan, *big)
+    for frame, (e, depth, slots) in ((first, small), (second, big)):
+        frame.run()
+        np.testing.assert_allclose(frame.read(), NumpyBackend().separable(plan, e, depth, slots), atol=GL_TOL)
+        frame.release()

@@ -57,11 +57,11 @@ class GLBackend(Backend):
         if slots.size == 0:
             return np.array(diffuse, dtype=np.float32, copy=True)
         return self._run(lambda: BurleyFrame(plan, np.asarray(diffuse, np.float32),
-                                             np.asarray(depth_mm, np.float32), slots, spp), release=True)
+                                             np.asarray(depth_mm, np.float32), slots, spp))
 
-    def _run(self, make_frame, release: bool = False):
-        """Upload, run and read back one frame under the backend's lock; the context is released after, so
-        another thread can make it current."""
+    def _run(self, make_frame):
+        """Upload, run and read back one frame under the backend's lock, then free its device images; the
+        context is released after, so another thread can make it current."""
         from .context import context
 
         with self._lock:
@@ -72,7 +72,7 @@ class GLBackend(Backend):
                 frame.run()
                 return frame.read()
             finally:
-                if release and frame is not None:
+                if frame is not None:
                     frame.release()
                 ctx.__exit__(None, None, None)
 

@@ -182,7 +182,7 @@ class SeparableFrame:
         self.layout = layout = default_layout() if layout is None else layout
         h, w = slots.shape
         self.size = (w, h)
-        self._textures = _Images.get(self.ctx, w, h, layout.storage)
+        self._textures = _Images(self.ctx, w, h, tuple(layout.storage))
         self.upload(diffuse, depth_mm, slots)
         self.programs = [(_program(plan, r, False, layout), _program(plan, r, True, layout))
                          for r in range(len(plan.terms))]
@@ -225,6 +225,10 @@ class SeparableFrame:
         prog.run(-(-w // lx), -(-h // ly), 1)
         self.ctx.memory_barrier()
 
+    def release(self) -> None:
+        """Free the frame's device images (the frame cannot run after this)."""
+        self._textures.release()
+
     def read(self) -> np.ndarray:
         """The filtered diffuse layer, (H, W, 3) float32 (a new array)."""
         from .context import context
@@ -242,20 +246,9 @@ def padded_pitch(width: int) -> int:
 
 
 class _Images:
-    """The frame's images (source, intermediate, output, slots), kept per size and storage and reused
-    across frames: RGBA32F textures or storage buffers of vec4 with padded rows; slots in R16UI."""
-
-    _cache: dict = {}
-
-    @classmethod
-    def get(cls, ctx, w: int, h: int, storage) -> _Images:
-        key = (id(ctx), w, h, tuple(storage))
-        if key not in cls._cache:
-            for old in cls._cache.values():  # one set at a time: release the previous frame size's
-                old.release()
-            cls._cache.clear()
-            cls._cache[key] = cls(ctx, w, h, tuple(storage))
-        return cls._cache[key]
+    """A frame's images (source, intermediate, output, slots), owned by its :class:`SeparableFrame` and
+    reused by its later frames: RGBA32F textures or storage buffers of vec4 with padded rows; slots in
+    R16UI."""
 
     def __init__(self, ctx, w: int, h: int, storage):
         import moderngl
