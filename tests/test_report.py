@@ -26,6 +26,31 @@ def test_a_section_is_built_once_and_copied_after(tmp_path, monkeypatch):
     assert len(calls) == 2
 
 
+def test_the_backend_is_part_of_a_sections_cache_key(tmp_path, monkeypatch):
+    """A section made on one backend is not served for another (``ssskit demo --backend``)."""
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    seen = []
+
+    def section(out, progress, ctx):
+        seen.append(ctx["backend"])
+        return f"<h2>ran on {ctx['backend']}</h2>"
+
+    for backend in ("numba", "numpy", "numba"):
+        report._cached_section("fake", section, tmp_path, lambda msg: None, {"photons": 5000, "backend": backend})
+    assert seen == ["numba", "numpy"]
+
+
+def test_a_backend_that_cannot_run_stops_the_report_before_any_work(tmp_path, monkeypatch):
+    import pytest
+
+    from ssskit.errors import BackendError
+
+    out = tmp_path / "report"
+    with pytest.raises(BackendError, match="unknown backend 'vulkan'"):
+        report.build_report(out, backend="vulkan")
+    assert not out.exists()
+
+
 def test_table_of_contents_links_every_section():
     body, toc = report._with_contents(["<h2>One</h2>x", "<h2 id=two>Two <i>t</i></h2>y"])
     assert "<h2 id='section-0-0'>One</h2>" in body[0] and "<h2 id='two'>" in body[1]

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .backends import DEFAULT_BACKEND
 from .io import write_text
 from .materials import CHANNELS, MATERIALS, Material
 
@@ -134,7 +135,7 @@ def _kernels_section(out: Path, progress: Progress, ctx: dict) -> str:
     from .profiles import profile_for_material
 
     prof = profile_for_material("skin1", "montecarlo", photons=ctx["photons"])
-    written = make_figures([], out / "figures", prof, progress=progress)
+    written = make_figures([], out / "figures", prof, progress=progress, backend=ctx.get("backend"))
     imgs = "".join(f"<img src='figures/{p.name}'>" for paths in written.values() for p in paths)
     methods = ["svd:1", "svd:3", "gaussians:1", "gaussians:6", "preintegrated", "preintegrated_svd:1", "guided:0",
                "guided:2", "artist:fit", "jimenez2012", "burley_fit"]
@@ -194,9 +195,12 @@ def _region_table(regions: dict) -> str:
 def _screenspace_section(out: Path, progress: Progress, ctx: dict) -> str:
     from .figures.screenspace import screen_space_comparison, slab_edge_profile
     from .metrics import psnr_text
+    from .screenspace import PassSettings
 
     photons = ctx.get("photons", DEMO_PHOTONS)
-    png, rows, regions = screen_space_comparison(out / "figures", photons=photons, progress=progress)
+    backend = ctx.get("backend", DEFAULT_BACKEND)
+    png, rows, regions = screen_space_comparison(out / "figures", photons=photons, progress=progress,
+                                                 sss=PassSettings(jitter=0.1, backend=backend))
     body = "".join(
         f"<tr><td class=name>{html.escape(r['scene'])}</td><td class=name>{html.escape(r['method'])}</td>"
         + "".join(f"<td>{psnr_text(r[k]['psnr'])} / {r[k]['flip']:.3f}</td>" if k in r else "<td>-</td>"
@@ -204,7 +208,7 @@ def _screenspace_section(out: Path, progress: Progress, ctx: dict) -> str:
         + "</tr>"
         for r in rows
     )
-    edge_png, edge = slab_edge_profile(out / "figures", photons=photons, progress=progress)
+    edge_png, edge = slab_edge_profile(out / "figures", photons=photons, progress=progress, backend=backend)
     shape = edge["shape"]
     rmse_rows = "".join(
         f"<tr><td class=name>{label}</td><td>{shape[k]['rmse']:.4f} ± {shape[k]['rmse_se']:.4f}</td>"
@@ -217,7 +221,7 @@ def _screenspace_section(out: Path, progress: Progress, ctx: dict) -> str:
         f"<p class=note>Skin1, Monte Carlo profile ({photons:,} photons per channel). G-buffers rendered by "
         "Mitsuba 3 (scalar_rgb, CPU): diffuse light E/&pi; (direct light only), specular, albedo, depth, normals, "
         "SSS mask. Horizontal then vertical pass inside the mask, footprint from depth and projection, "
-        "follow-surface depth test, 10% jitter. Errors inside the SSS mask: PSNR (dB) / FLIP against the exact "
+        "follow-surface depth test, 10% jitter, on the {html.escape(backend)} backend. Errors inside the SSS mask: PSNR (dB) / FLIP against the exact "
         "2D convolution with the same profile and against a volumetric path-traced reference (Mitsuba volpathmis, "
         "homogeneous medium inside a rough dielectric, Beckmann &alpha; = 0.15; every other surface black, so "
         "both sides are lit by the lights alone; independent chunks until the SSS mask's relative standard "
@@ -271,7 +275,8 @@ def _cached_section(name: str, section: Section, out: Path, progress: Progress, 
     from .cache import cache_dir
     from .io import atomic_output
 
-    key = json.dumps({"section": name, "photons": ctx.get("photons"), "source": _source_digest()}, sort_keys=True)
+    key = json.dumps({"section": name, "photons": ctx.get("photons"), "backend": ctx.get("backend"),
+                      "source": _source_digest()}, sort_keys=True)
     path = cache_dir("demo") / f"{name}-{hashlib.sha1(key.encode()).hexdigest()[:16]}.pkl"
     if path.is_file():
         try:
@@ -296,6 +301,12 @@ def _cached_section(name: str, section: Section, out: Path, progress: Progress, 
     return text
 
 
+def _backend_text(backend) -> str:
+    """``name backend (details)``, e.g. the gl backend's renderer string."""
+    ok, details = backend.availability()
+    return f"{backend.name} backend" + (f" ({details})" if ok and details else "")
+
+
 def _with_contents(sections: list[str]) -> tuple[list[str], str]:
     """Give every section heading (h2) an id and return (sections, a table of contents linking them)."""
     import re
@@ -315,13 +326,18 @@ def _with_contents(sections: list[str]) -> tuple[list[str], str]:
 
 
 def build_report(out_dir: str | Path, progress: Progress | None = None, photons: int = DEMO_PHOTONS,
-                 progress_bars: bool = False) -> Path:
-    """Run every section into ``out_dir`` and write ``index.html`` last; returns its path."""
+                 progress_bars: bool = False, backend: str = DEFAULT_BACKEND) -> Path:
+    """Run every section into ``out_dir`` and write ``index.html`` last; returns its path. The
+    screen-space passes run on ``backend`` (checked before any work: a BackendError if it cannot run
+    here)."""
+    from .backends import get_backend
+
+    runner = get_backend(backend)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     progress = progress or (lambda msg: None)
     t0 = time.perf_counter()
-    ctx = {"photons": photons, "progress_bars": progress_bars}
+    ctx = {"photons": photons, "progress_bars": progress_bars, "backend": runner.name}
     body = [_cached_section(name, section, out, progress, ctx) for name, section in SECTIONS]
     from . import __version__
 
@@ -329,7 +345,8 @@ def build_report(out_dir: str | Path, progress: Progress | None = None, photons:
     page = (
         "<!doctype html><html><head><meta charset='utf-8'><title>ssskit demo</title>"
         f"<style>{_CSS}</style></head><body><h1>ssskit demo report</h1>"
-        f"<p class=note>ssskit {__version__}; built in {time.perf_counter() - t0:.1f} s.</p>"
+        f"<p class=note>ssskit {__version__}; screen-space passes on the {html.escape(_backend_text(runner))}; "
+        f"built in {time.perf_counter() - t0:.1f} s.</p>"
         + toc
         + "".join(body)
         + "</body></html>\n"

@@ -183,6 +183,12 @@ def test_cli_without_egl(tmp_path):
     assert r.returncode == 2, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and "backend 'gl' is not available" in r.stderr
     assert "Traceback" not in r.stderr and not out.exists()
+    for args in (["demo", "--out", str(tmp_path / "demo")], ["figures", "xie-fig6", "--out", str(tmp_path / "figs")]):
+        r = subprocess.run([sys.executable, "-m", "ssskit.cli", *args, "--backend", "gl"], capture_output=True,
+                           text=True, env=env, timeout=300, cwd=tmp_path)
+        assert r.returncode == 2 and "backend 'gl' is not available" in r.stderr, (args, r.stderr)
+        assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # nothing written
 
 
 def test_exported_source_runs_and_matches_the_oracle():

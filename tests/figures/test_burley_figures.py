@@ -25,6 +25,24 @@ def test_fig6_is_registered_and_written(tmp_path):
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_figures_run_their_pass_on_the_backend_asked_for(tmp_path, monkeypatch):
+    """``ssskit figures --backend``: make_figures hands the backend to every figure that runs a pass."""
+    import ssskit.screenspace as ss
+    from ssskit.figures import make_figures, runs_a_pass
+    from ssskit.profiles import profile_for_material
+
+    assert runs_a_pass(fig6_xie_inverse) and not runs_a_pass(FIGURES.get("fig7"))
+    real, asked = ss.burley_sss, []
+
+    def spy(gb, params, settings=None, **kw):
+        asked.append(kw["backend"])
+        return real(gb, params, settings, **{**kw, "backend": "numba", "spp": 2})  # the figure, cheaply
+
+    monkeypatch.setattr(ss, "burley_sss", spy)
+    written = make_figures(["xie-fig6"], tmp_path, profile_for_material("skin1", "burley"), backend="numpy")
+    assert asked == ["numpy", "numpy"] and written["xie-fig6"][0].is_file()
+
+
 def test_burley_comparison_rows_and_figure(tmp_path, monkeypatch):
     """The demo's Burley comparison at a tiny size: more samples, closer to the converged reference."""
     from ssskit.figures.burley import burley_comparison

@@ -6,44 +6,63 @@ from pathlib import Path
 
 import click
 
+from ..backends import DEFAULT_BACKEND
 from ..errors import SsskitError
-from .options import FIGURE, examples, material_option, model_option, out_dir_option, photons_option, progress
+from .options import (
+    FIGURE,
+    backend_option,
+    examples,
+    material_option,
+    model_option,
+    out_dir_option,
+    photons_option,
+    progress,
+)
 from .profiles import check_material_for_model, resolve_profile
 
 
 @click.command(epilog=examples(
     "ssskit figures fig7 figS5 --material skin1 --out ssskit-out/figures",
-    "ssskit figures --model dipole"))
+    "ssskit figures --model dipole",
+    "ssskit figures xie-fig6 --backend gl"))
 @click.argument("names", nargs=-1, type=FIGURE, metavar="[NAME]...")
 @material_option(default="skin1", help="Material of the figures.")
 @model_option("montecarlo", help="Profile model of the figures.")
 @photons_option(200_000, help="--model montecarlo: photons per channel (cached).")
+@backend_option(DEFAULT_BACKEND)
 @out_dir_option("ssskit-out/figures")
 @click.pass_context
-def figures(ctx, names, material, model, photons, out) -> None:
-    """Regenerate the papers' figures (NAMES: any of the registered figures; all by default)."""
+def figures(ctx, names, material, model, photons, backend, out) -> None:
+    """Regenerate the papers' figures (NAMES: any of the registered figures; all by default). The
+    figures that run a screen-space pass run it on --backend."""
+    from ..backends import get_backend
     from ..figures import make_figures
 
     check_material_for_model(ctx, material, model)
+    get_backend(backend)  # can it run here? checked before any work
     prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
-    written = make_figures(list(names), out, prof, progress=progress)
+    written = make_figures(list(names), out, prof, progress=progress, backend=backend)
     for paths in written.values():
         for p in paths:
             click.echo(str(p))
 
 
-@click.command(epilog=examples("ssskit demo", "ssskit demo --out report --photons 20000", "ssskit demo --full"))
+@click.command(epilog=examples("ssskit demo", "ssskit demo --out report --photons 20000", "ssskit demo --full",
+                               "ssskit demo --backend gl"))
 @out_dir_option("ssskit-out/demo")
 @photons_option(None, help="Monte Carlo photons per channel [default: 200,000].")
 @click.option("--full", is_flag=True, help="Monte Carlo with the supplement's 10^7 photons per channel (slow the first time, then cached).")
-def demo(out: str, photons: int | None, full: bool) -> None:
+@backend_option(DEFAULT_BACKEND)
+def demo(out: str, photons: int | None, full: bool, backend: str) -> None:
     """The main job: build the report (figures + index.html) on built-in defaults."""
+    from ..backends import get_backend
     from ..profiles.montecarlo import DEFAULT_PHOTONS
     from ..report import DEMO_PHOTONS, build_report
 
     if full and photons is not None:
         raise SsskitError("give either --full or --photons, not both")
     n = DEFAULT_PHOTONS if full else (photons or DEMO_PHOTONS)
+    get_backend(backend)  # can it run here? checked before any work
     click.echo(f"ssskit demo: writing the report to {out}/", err=True)
-    index = build_report(Path(out), progress=progress, photons=n, progress_bars=True)
+    index = build_report(Path(out), progress=progress, photons=n, progress_bars=True, backend=backend)
     click.echo(str(index))

@@ -1,10 +1,13 @@
 """The papers' figures, reproduced; each is ``fn(out_dir, profile, progress) -> list of written paths``.
 
-    ssskit figures [NAME...] [--material skin1] [--model montecarlo] [--out DIR]
+    ssskit figures [NAME...] [--material skin1] [--model montecarlo] [--backend numba] [--out DIR]
+
+A figure that runs a screen-space pass takes a ``backend`` keyword (see :func:`runs_a_pass`).
 """
 
 from __future__ import annotations
 
+import inspect
 from pathlib import Path
 from typing import Callable
 
@@ -27,8 +30,14 @@ FIGURES.register("xie-fig3", _a.xie_fig3_disocclusion)
 FIGURES.register("xie-fig6", _b.fig6_xie_inverse)
 
 
-def make_figures(names, out_dir, profile, progress=None) -> dict[str, list[Path]]:
-    """Build the named figures (all when ``names`` is empty) for ``profile`` into ``out_dir``."""
+def runs_a_pass(fn: Figure) -> bool:
+    """Whether figure ``fn`` runs a screen-space pass (it then takes ``backend=``)."""
+    return "backend" in inspect.signature(fn).parameters
+
+
+def make_figures(names, out_dir, profile, progress=None, backend: str | None = None) -> dict[str, list[Path]]:
+    """Build the named figures (all when ``names`` is empty) for ``profile`` into ``out_dir``; the figures
+    that run a screen-space pass run it on ``backend`` (default: ssskit's default backend)."""
     chosen = [FIGURES.get(n) for n in names] if names else [f for _, f in FIGURES.items()]
     labels = list(names) if names else FIGURES.names()
     out = Path(out_dir)
@@ -37,8 +46,9 @@ def make_figures(names, out_dir, profile, progress=None) -> dict[str, list[Path]
     for label, fn in zip(labels, chosen):
         if progress is not None:
             progress(f"figure {label}")
-        result[label] = fn(out, profile, progress)
+        kw = {"backend": backend} if backend is not None and runs_a_pass(fn) else {}
+        result[label] = fn(out, profile, progress, **kw)
     return result
 
 
-__all__ = ["FIGURES", "make_figures"]
+__all__ = ["FIGURES", "make_figures", "runs_a_pass"]

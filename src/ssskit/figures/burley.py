@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..backends import DEFAULT_BACKEND
 from .plots import pyplot, save_figure
 
 #: c values of the inverse panel: Xie's least-squares 2.5715 and Unreal's 2.6
@@ -44,8 +45,8 @@ def beam_disk(size: int = 256, px_per_mm: float = 8.0, radius_mm: float = 10.0):
                    profile_id=np.ones((size, size), np.uint32), camera=Camera(size, size, f, f, size / 2, size / 2))
 
 
-def fig6_xie_inverse(out: Path, profile, progress=None, spp: int = 256) -> list[Path]:
-    """Xie 2020 Fig. 6 (module docstring): ``xie_fig6.png``."""
+def fig6_xie_inverse(out: Path, profile, progress=None, spp: int = 256, backend: str = DEFAULT_BACKEND) -> list[Path]:
+    """Xie 2020 Fig. 6 (module docstring): ``xie_fig6.png``; the Burley pass runs on ``backend``."""
     from ..metrics import tonemap
     from ..pipeline.burley import burley_exact
     from ..profiles.burley import burley_inverse_cdf
@@ -75,8 +76,9 @@ def fig6_xie_inverse(out: Path, profile, progress=None, spp: int = 256) -> list[
     gb = beam_disk()
     if progress is not None:
         progress("xie fig6: beam-light disk, exact and xie samplers")
-    images = {"exact sampler": burley_sss(gb, params, spp=spp, sampler="exact", mips=False, seed=3),
-              f"xie sampler, c = {CS[0]}": burley_sss(gb, params, spp=spp, sampler="xie", c=CS[0], mips=False, seed=3)}
+    common = dict(spp=spp, mips=False, seed=3, backend=backend)
+    images = {"exact sampler": burley_sss(gb, params, sampler="exact", **common),
+              f"xie sampler, c = {CS[0]}": burley_sss(gb, params, sampler="xie", c=CS[0], **common)}
     ref = burley_exact(gb, params)
     peak = float(ref.max())
     for ax, (label, img) in zip(axes[1:3], images.items()):

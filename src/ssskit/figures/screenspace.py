@@ -17,6 +17,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..backends import DEFAULT_BACKEND
 from ..cache import cache_dir
 from ..io import atomic_output
 from ..metrics import region_metrics, tonemap
@@ -130,11 +131,12 @@ def _render_scenes(material, scenes, width, height, spp, reference_spp, referenc
 
 def slab_edge_profile(out: Path, material: str = "skin1", photons: int = 200_000, width: int = 128,
                       height: int = 48, reference_spp: int = 64, reference_max_spp: int = 4096,
-                      target_rel_se: float = 0.002, progress: Callable[[str], None] | None = None):
+                      target_rel_se: float = 0.002, progress: Callable[[str], None] | None = None,
+                      backend: str = DEFAULT_BACKEND):
     """The slab's shadow-edge profile: 7 importance-sampled taps of the Monte Carlo profile's
     pre-integrated kernel vs the exact 2D convolution vs the path-traced reference, each divided by
     its own plateau (shape apart from level), with the reference's standard error; RMSEs with
-    standard errors. Written to ``slab_edge.png``; returns (path, numbers).
+    standard errors. Written to ``slab_edge.png``; returns (path, numbers). The pass runs on ``backend``.
 
     The index-matched set-up (the material at eta = 1, Mitsuba ``null`` boundary, MCML at eta = 1):
     its reference converges ~100x faster than the rough dielectric's (whose point-light paths must
@@ -142,9 +144,9 @@ def slab_edge_profile(out: Path, material: str = "skin1", photons: int = 200_000
     is in the scene table.
     """
     key = dict(material=material, photons=photons, w=width, h=height, spp=reference_spp, max=reference_max_spp,
-               rel=target_rel_se)
+               rel=target_rel_se, backend=backend)
     data = _cached("slab_edge", key, lambda: _slab_edge(material, photons, width, height, reference_spp,
-                                                         reference_max_spp, target_rel_se, progress))
+                                                         reference_max_spp, target_rel_se, progress, backend))
     shape = data["shape"]
     plt = pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.2), sharey=True)
@@ -175,7 +177,7 @@ def slab_edge_profile(out: Path, material: str = "skin1", photons: int = 200_000
     return path, data
 
 
-def _slab_edge(material, photons, width, height, reference_spp, reference_max_spp, target_rel_se, progress):
+def _slab_edge(material, photons, width, height, reference_spp, reference_max_spp, target_rel_se, progress, backend):
     from ..kernels import build_kernel, default_grid
     from ..materials import get_material
     from ..pipeline.regions import compare_regions
@@ -193,7 +195,7 @@ def _slab_edge(material, photons, width, height, reference_spp, reference_max_sp
     taps = make_taps(build_kernel("preintegrated", prof, cell, n), 7, "importance")
     gb = render_gbuffer("slab", np.clip(prof.total_rd(), 0, 1), eta=1.0, width=width, height=height, spp=16,
                         material=mat.name)
-    sss = separable_sss(gb, taps, PassSettings(jitter=0.0))
+    sss = separable_sss(gb, taps, PassSettings(jitter=0.0, backend=backend))
     exact = exact_screen_space(gb, prof)
     say(f"slab edge: path tracing (index-matched, {reference_spp} to {reference_max_spp} spp)")
     ref = render_reference("slab", mat, width=width, height=height, spp=reference_spp, max_spp=reference_max_spp,
