@@ -1,27 +1,7 @@
-"""The demo's Burley section (issue 13 item 7): :func:`ssskit.figures.burley.burley_comparison` on a small
-scene, and its place in the report (``report.SECTIONS``, the backend from ``ctx``)."""
+"""The demo's Burley section (issue 13 item 7) in the report (``report.SECTIONS``, the backend from
+``ctx``; the comparison itself: tests/figures/test_burley_figures.py), and Xie's Fig. 5 as a figure."""
 
-import numpy as np
 import pytest
-
-
-def test_burley_comparison_converges_and_states_the_reference_error(tmp_path, monkeypatch):
-    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
-    from ssskit.figures.burley import burley_comparison
-
-    png, rows, refs = burley_comparison(tmp_path, scenes=["slab"], width=48, height=36, spp=2, spps=(4, 64),
-                                        reference_spp=512, backend="numba")
-    assert png.is_file() and png.stat().st_size > 10_000
-    burley = {r["spp"]: r for r in rows if r["spp"]}
-    sep = [r for r in rows if r["method"] == "separable burley_fit"]
-    assert set(burley) == {4, 64} and len(sep) == 1
-    # more samples: closer to the converged pass, by every measure
-    assert burley[64]["rmse"] < 0.5 * burley[4]["rmse"]
-    assert burley[64]["psnr_gray"] > burley[4]["psnr_gray"] + 3
-    assert burley[64]["flip"] < burley[4]["flip"]
-    # the reference's own error is measured (two seeds) and far below a 4-spp frame's
-    se = refs["slab"]["ref_se"]
-    assert 0 < se < 0.2 * burley[4]["rmse"] and refs["slab"]["spp"] == 512
 
 
 def test_the_report_has_the_burley_section_on_the_ctx_backend(monkeypatch, tmp_path):
