@@ -226,7 +226,7 @@ def render(scene: str | Path | GBuffer = "slab", settings: RenderSettings | None
     Burley pass runs instead (:func:`ssskit.pipeline.burley.render_burley` with ``settings.burley``;
     a :class:`~ssskit.pipeline.burley.BurleyResult`)."""
     settings = RenderSettings() if settings is None else settings
-    if settings.method == "burley":
+    if isinstance(settings, RenderSettings) and settings.method == "burley":  # plan_render checks the type
         from .burley import render_burley
 
         return render_burley(scene, settings, progress=progress)
