@@ -245,12 +245,19 @@ def _screenspace_section(out: Path, progress: Progress, ctx: dict) -> str:
     )
 
 
+def _burley_section(out: Path, progress: Progress, ctx: dict) -> str:
+    from .figures.burley import demo_section
+
+    return demo_section(out, progress, ctx)
+
+
 SECTIONS: list[tuple[str, Section]] = [
     ("materials", _materials_section),
     ("profiles", _profiles_section),
     ("sampling", _sampling_section),
     ("kernels", _kernels_section),
     ("screenspace", _screenspace_section),
+    ("burley", _burley_section),
 ]
 
 

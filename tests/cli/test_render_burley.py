@@ -90,3 +90,27 @@ def test_count_image_of_the_wrong_shape_is_one_error(tmp_path):
                  camera=Camera(10, 8, 50.0, 50.0, 5, 4))
     with pytest.raises(PassError, match=r"\(H, W\) = \(8, 10\), got \(10, 8\)"):
         burley_sss(gb, BurleyParams.from_dmfp(0.5, 1.0), counts=np.ones((10, 8), np.int64))
+
+
+def test_settings_file_holds_the_burley_settings(run, gbuffer_file, tmp_path):
+    """A settings file with method = "burley" and a [burley] table runs the Burley pass without --method;
+    options given on the command line override it; --method separable wins over the file's method."""
+    from ssskit.pipeline import RenderSettings
+    from ssskit.screenspace import BurleySettings
+
+    s = RenderSettings(method="burley", perceptual=False,
+                       burley=BurleySettings(sampler="xie", spp=8, c=2.6, mips=False, seed=4, backend="numpy"))
+    path = tmp_path / "burley.toml"
+    s.save(path)
+    code, out, err = run("render", "--scene", gbuffer_file, "--settings", path, "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["method"] == "burley" and data["burley"] == s.burley.to_dict()
+    assert data["settings"]["burley"] == s.burley.to_dict() and data["settings"]["method"] == "burley"
+    data = render_json(run, "--scene", gbuffer_file, "--settings", path, "--spp", "16", "--sampler", "exact")
+    assert data["burley"] == s.burley.replace(spp=16, sampler="exact").to_dict()  # c, seed, mips: the file's
+    code, out, err = run("render", "--scene", gbuffer_file, "--settings", path, "--method", "separable",
+                         "--backend", "numpy", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["settings"]["method"] == "separable" and "taps" in data

@@ -48,9 +48,12 @@ def test_burley_comparison_rows_and_figure(tmp_path, monkeypatch):
     from ssskit.figures.burley import burley_comparison
 
     monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
-    png, rows = burley_comparison(tmp_path, scenes=["slab"], width=32, height=24, spp=1, spps=(4, 64),
-                                  reference_spp=256)
+    png, rows, refs = burley_comparison(tmp_path, scenes=["slab"], width=32, height=24, spp=1, spps=(4, 64),
+                                        reference_spp=256)
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     burley = [r for r in rows if r["method"].startswith("Burley")]
     assert [r["spp"] for r in burley] == [4, 64] and any(r["method"] == "separable burley_fit" for r in rows)
     assert burley[1]["rmse"] < burley[0]["rmse"] and burley[1]["psnr_gray"] > burley[0]["psnr_gray"]
+    assert burley[1]["flip"] < burley[0]["flip"]
+    # the reference's own error: measured with a second seed, far below a 4-spp frame's
+    assert refs["slab"]["spp"] == 256 and 0 < refs["slab"]["ref_se"] < 0.2 * burley[0]["rmse"]

@@ -168,18 +168,49 @@ def test_mip_pyramid_is_the_masked_block_mean():
         assert pyr[5][s, 0, 0, 3] == pytest.approx(m.sum() / 1024)  # the 32 x 32 block: zeros off the image
 
 
-def test_mip_level_is_eq22():
-    """m = 0.5 max(-log2(a n p_A t), 0), p_A = p(r) / (2 pi r) per mm^2, t = (z/fx)(z/fy) mm^2 (Eq. 23)."""
+def test_mip_level_is_eq22_in_xie_units():
+    """m = 0.5 max(-log2(a n p(r) / (ell_max^2 t)), 0) with p(r) the radial pdf per mm (Eq. 20's
+    derivative), ell_max the largest dmfp (mm) and t = (sx / W)(sy / H) (Eq. 23: UV^2 per mm^2), as in
+    Unreal's pass; numbers worked by hand."""
     from ssskit.backends.numpy_backend import burley_mip_level
 
-    plan = build_burley_plan({1: BurleyParams.from_dmfp(0.5, 1.0)}, 800.0, 500.0, mips=True, mip_scale=1 / 16)
-    r = np.array([0.0, 0.05, 1.0, 5.0, 40.0])
+    # A = 0.33 in every channel: d = dmfp / 3.5, so dmfp (1, 2, 4) mm gives ell_max = 4 mm
+    plan = build_burley_plan({1: BurleyParams.from_dmfp(0.33, (1.0, 2.0, 4.0))}, 800.0, 500.0, mips=True,
+                             mip_scale=1 / 16)
+    assert plan.dmfp_max_mm[1] == pytest.approx(4.0)
+    # z = 400 mm: sx = 2, sy = 1.25 px/mm; W x H = 160 x 100: t = (2/160)(1.25/100) = 1.5625e-4
+    r = np.array([0.0, 1.0, 40.0, 60.0, 400.0])
     d = np.full(5, 2.0)
-    m = burley_mip_level(plan, r, d, np.full(5, 16), np.full(5, 400.0))
-    p_area = (np.exp(-r[1:] / 2) + np.exp(-r[1:] / 6)) / 8.0 / (2 * np.pi * r[1:])
-    want = 0.5 * np.maximum(-np.log2(16 / 16 * p_area * 0.5 * 0.8), 0)
-    np.testing.assert_allclose(m[1:], np.minimum(want, 5.0))
-    assert m[0] == 0.0 and m[-1] == 5.0 and 0 < m[2] < 5
+    m = burley_mip_level(plan, r, d, np.full(5, 16), np.full(5, 400.0), np.ones(5, np.int64), (100, 160))
+    # r = 60: p = (e^-30 + e^-10) / 8 = 5.6750e-6 per mm; a n p / (ell^2 t) = 5.6750e-6 / (16 x 1.5625e-4)
+    #       = 2.2700e-3, m = 0.5 x 8.783 = 4.391
+    assert m[3] == pytest.approx(0.5 * -np.log2(5.6750e-6 / (16 * 1.5625e-4)), rel=1e-4)
+    assert m[3] == pytest.approx(4.391, abs=2e-3)
+    # r = 40: p = 1.5908e-4, ratio 0.063632, m = 1.987; r <= 1: p >= 0.18, ratio > 1, level 0
+    assert m[2] == pytest.approx(1.987, abs=2e-3)
+    assert m[0] == 0.0 and m[1] == 0.0
+    assert m[-1] == 5.0  # clamped
+
+
+def test_mip_level_does_not_depend_on_the_resolution():
+    """Eq. 23's t is in viewport UV per mm: the same view at twice the pixels (fx and W doubled) gives
+    the same levels (and a = 1/16 means the paper's a at any resolution)."""
+    from ssskit.backends.numpy_backend import burley_mip_level
+
+    p = {1: BurleyParams.from_dmfp(0.6, (8.0, 4.0, 2.0))}
+    r = np.linspace(0.1, 80.0, 50)
+    one = np.ones(50, np.int64)
+    lo = burley_mip_level(build_burley_plan(p, 300.0, 300.0, mips=True), r, np.full(50, 2.0), np.full(50, 8),
+                          np.full(50, 500.0), one, (120, 160))
+    hi = burley_mip_level(build_burley_plan(p, 600.0, 600.0, mips=True), r, np.full(50, 2.0), np.full(50, 8),
+                          np.full(50, 500.0), one, (240, 320))
+    np.testing.assert_allclose(lo, hi, rtol=1e-12)
+    assert lo.max() > 0  # the tail reaches coarser levels
+
+
+def test_dmfp_inverts_from_dmfp():
+    p = BurleyParams.from_dmfp((0.9, 0.6, 0.2), (3.0, 2.0, 1.0))
+    np.testing.assert_allclose(p.dmfp_mm, (3.0, 2.0, 1.0), rtol=1e-12)
 
 
 def test_mips_blur_more_at_low_counts():

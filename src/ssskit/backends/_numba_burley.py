@@ -91,11 +91,13 @@ def _bilinear(pyr, off, hh, ww, level, s, px, py, wl, acc):
 
 @njit(cache=True, nogil=True)
 def burley_rows(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, d_mm, chan, r997, sampler, sequence,
-                c, bleed, fx, fy, base, stable, key2, golden, a1, a2, mips, mip_scale, max_mip, pyr, off, hh, ww):
+                c, bleed, fx, fy, base, stable, key2, golden, a1, a2, mips, mip_scale, max_mip, pyr, off, hh, ww,
+                ell_max):
     """Steps 1-8 of the plan for rows [y0, y1). src (H, W, 3) float32, z (H, W) float32 (mm),
     zbits (H, W) uint32 (the bits of z, for a stable pattern), slots (H, W) int32, counts (H, W) int64
     (used when use_counts), out (H, W, 3) float32; with ``mips`` the pyramid of step 5b flattened
-    into pyr (level L at off[L], (S, hh[L], ww[L], 4))."""
+    into pyr (level L at off[L], (S, hh[L], ww[L], 4)); ell_max (S,) the slots' largest dmfp (mm) of
+    step 5b."""
     h, w = slots.shape
     acc = np.zeros(4)
     for y in range(y0, y1):
@@ -175,8 +177,9 @@ def burley_rows(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, d_mm
                 a = math.exp(-rp * i2)
                 w2 = f * q2 * (a * a * a + a)
                 if mips:  # step 5b
-                    p_area = (b * b * b + b) / (4.0 * d_s) / (2.0 * math.pi * r) if r > 0.0 else math.inf
-                    arg = mip_scale * n * p_area * (zp / fx) * (zp / fy)
+                    p_r = (b * b * b + b) / (4.0 * d_s)  # Eq. 22 in Xie's units: radial pdf (mm^-1),
+                    t = (sx / w) * (sy / h)  # t of Eq. 23 (UV^2 per mm^2), ell_max (mm)
+                    arg = mip_scale * n * p_r / (ell_max[s] * ell_max[s] * t)
                     m = 0.5 * max(-math.log2(arg), 0.0) if arg > 0.0 else np.float64(max_mip)
                     m = min(m, np.float64(max_mip))
                     lo = np.int64(math.floor(m))

@@ -72,18 +72,37 @@ position lies within float32 rounding of a texel edge, so its parity test counts
    mean of the 2 x 2 children of level k-1 (children off the image count 0; level k is
    ceil(H / 2^k) x ceil(W / 2^k)), k = 0 .. MAX_MIP = 5. The sample's level is
 
-       m = min(MAX_MIP, 0.5 max(-log2(a n p_A t), 0))                         (Eq. 22)
+       m = min(MAX_MIP, 0.5 max(-log2(a n p(r) / (ell_s^2 t)), 0))              (Eq. 22)
+       t = (sx / W) (sy / H)                                                     (Eq. 23)
 
-   with a = ``mip_scale`` (Xie: 1/16), n the pixel's count, p_A = p(r) / (2 pi r) the sample's
-   density per unit area (mm^-2; p(r) the radius density of step 7's denominator, with d = d_s) and
-   t = (z_p / fx) (z_p / fy) the area (mm^2) a texel covers at the centre's depth (Eq. 23:
-   (w/D)^2 x aspect ratio), so 1 / (n p_A t) is the number of texels per sample around q. The
-   value is the trilinear, coverage-normalised fetch of slot s' = slots[j, i]'s pyramid: at level
+   in the paper's own units, which are those of Unreal Engine 4.25+'s SubsurfaceBurleyNormalized.ush,
+   the code Xie's pass shipped in (its level is one half of max(-log2(a x samples x Pdf / (dmfp^2 x
+   texSize)), 0) with a = MIP_CONSTANT_FACTOR = 0.0625, Pdf from GetPdf and texSize the product of
+   the two components of BurleyScale, the UV offset per mm of radius):
+
+   * a = ``mip_scale`` (Xie: 1/16, :data:`XIE_MIP_SCALE`); n the pixel's count;
+   * p(r) the **radial** density of the sample, per mm: the derivative of Eq. 20,
+     (exp(-r/d_s) + exp(-r/(3 d_s))) / (4 d_s) (Eq. 19 integrates 2 pi r R(r) over dr, so its pdf
+     is per unit radius; Unreal's ``GetPdf`` = ``GetCDFDeriv1``) -- not the area density
+     p(r) / (2 pi r) per mm^2;
+   * ell_s = :attr:`BurleyPlan.dmfp_max_mm`, the slot's largest diffuse mean free path (mm), the
+     surface dmfp ell_c = d_c (3.5 + 100 (A_c - 0.33)^4) of Eq. 5 configuration 3 -- not d;
+   * t the squared screen-space scale at the centre's depth: (w / D)^2 x aspect ratio of Eq. 23 with
+     w / D = sx / W the **viewport UV units** (image widths) per mm (Unreal's ``BurleyScale``, whose
+     y is x times the aspect ratio W / H), i.e. t = (sx / W)(sy / H) in UV^2 per mm^2 with W x H
+     the frame size (level 0) -- not the texel's area in mm^2.
+
+   The argument is not dimensionless (mm^-1 / UV^2) and does not depend on the resolution (sx / W is
+   fixed by the field of view): a = 1/16 means Xie's a only in these units. With it, the level rises
+   above 0 only for samples whose radial pdf is below ell^2 t / (a n), i.e. far in the profile's
+   tail; the bias and the gain are measured (benchmarks/RESULTS.md). The value is the trilinear,
+   coverage-normalised fetch of slot s' = slots[j, i]'s pyramid: at level
    L = floor(m) and L + 1 with f = m - L, bilinear weights at (u, v) = (qx / 2^L - 1/2, qy / 2^L - 1/2)
    (qx, qy the continuous position of step 5; texels off the level are 0), C = sum of weight x
    premultiplied colour, K = sum of weight x coverage, and value = ((1-f) C_L + f C_(L+1)) /
-   ((1-f) K_L + f K_(L+1)). Constant irradiance stays constant and nothing crosses slots, but the
-   estimator is no longer the exact convolution: the bias is measured (benchmarks/RESULTS.md).
+   ((1-f) K_L + f K_(L+1)). (Unreal rounds m up and fetches the nearest texel of that level.)
+   Constant irradiance stays constant and nothing crosses slots, but the estimator is no longer the
+   exact convolution: the bias is measured (benchmarks/RESULTS.md).
 
 6. **Indicator** I (Eq. 24's 1_s): 0 off the image or where slots[j, i] = 0; 1 where
    slots[j, i] = s; ``bleed`` (in [0, 1], default 0; Unreal's BoundaryColorBleed) on another profile id.
@@ -122,7 +141,8 @@ XIE_C = 2.5715
 C_RANGE = (2.0, 3.0)
 #: the most samples per pixel
 MAX_SPP = 1 << 16
-#: the coarsest mip level of step 5b, and Xie 2020's a of Eq. 22
+#: the coarsest mip level of step 5b, and Xie 2020's a of Eq. 22 (Unreal's MIP_CONSTANT_FACTOR), in the
+#: units of step 5b
 MAX_MIP = 5
 XIE_MIP_SCALE = 1.0 / 16.0
 #: energy fraction of the radius that sets golubev's sample cap (Golubev 2018)
@@ -178,6 +198,13 @@ class BurleyParams:
                             f"{getattr(profile, 'model', type(profile).__name__)!r}")
         return cls(tuple(c.albedo for c in chans), tuple(c.d for c in chans))
 
+    @property
+    def dmfp_mm(self) -> tuple[float, float, float]:
+        """The surface diffuse mean free path per channel, ell = d (3.5 + 100 (A - 0.33)^4) (mm): Eq. 5
+        configuration 3 solved for ell (the inverse of :meth:`from_dmfp`, whatever made d)."""
+        a = np.asarray(self.albedo)
+        return tuple(float(v) for v in np.asarray(self.d_mm) * (3.5 + 100.0 * (a - 0.33) ** 4))
+
     def profile(self):
         """The RGBProfile of these parameters (for ground truth and figures)."""
         from ..profiles.base import RGBProfile
@@ -226,6 +253,16 @@ class BurleyPlan:
     stable: bool
     mips: bool = False
     mip_scale: float = XIE_MIP_SCALE
+    #: (S,) float64: each slot's largest diffuse mean free path ell (mm), Eq. 22's ell_max (slot 0: 1);
+    #: set by :func:`build_burley_plan` from the parameters' albedos
+    dmfp_max_mm: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        ell = None if self.dmfp_max_mm is None else np.asarray(self.dmfp_max_mm, np.float64)
+        if ell is None or ell.shape != (len(self.ids) + 1,) or not np.all(ell > 0):
+            raise PassError("a BurleyPlan needs dmfp_max_mm, one positive dmfp per slot: build it with "
+                            "build_burley_plan")
+        object.__setattr__(self, "dmfp_max_mm", ell)
 
     @property
     def slots(self) -> int:
@@ -271,6 +308,7 @@ def build_burley_plan(params_by_id: dict, fx: float, fy: float, *, sampler: str 
     d = np.ones((n, 3))
     ch = np.zeros(n, np.int64)
     r997 = np.zeros(n)
+    ell = np.ones(n)
     from ..profiles.burley import burley_inverse_cdf
 
     for s, pid in enumerate(ids, start=1):
@@ -280,8 +318,9 @@ def build_burley_plan(params_by_id: dict, fx: float, fy: float, *, sampler: str 
         d[s] = p.d_mm
         ch[s] = p.sampling_channel
         r997[s] = float(burley_inverse_cdf(GOLUBEV_FRACTION, d[s, ch[s]]))
+        ell[s] = float(np.max(p.dmfp_mm))
     return BurleyPlan(ids, d, ch, r997, sampler, sequence, float(c), float(bleed), float(fx), float(fy),
-                      int(frame), int(seed), bool(stable), bool(mips), float(mip_scale))
+                      int(frame), int(seed), bool(stable), bool(mips), float(mip_scale), ell)
 
 
 def mip_pyramid(diffuse: np.ndarray, slots: np.ndarray, n_slots: int, levels: int = MAX_MIP) -> list[np.ndarray]:

@@ -141,7 +141,8 @@ class NumbaBackend(Backend):
         levels = mip_pyramid(src, np.asarray(slots), plan.slots) if plan.mips else [np.zeros((1, 1, 1, 4))]
         sizes = [lv.size for lv in levels]
         rest += (np.concatenate([lv.ravel() for lv in levels]), np.cumsum([0] + sizes[:-1]).astype(np.int64),
-                 np.array([lv.shape[1] for lv in levels], np.int64), np.array([lv.shape[2] for lv in levels], np.int64))
+                 np.array([lv.shape[1] for lv in levels], np.int64), np.array([lv.shape[2] for lv in levels], np.int64),
+                 np.ascontiguousarray(plan.dmfp_max_mm, np.float64))
         self._rows(h, lambda y0, y1: burley_rows(*args, y0, y1, *rest))
         return out
 

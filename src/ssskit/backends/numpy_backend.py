@@ -120,13 +120,16 @@ def burley_weights(r: np.ndarray, r_prime: np.ndarray, d_s: np.ndarray, d: np.nd
     return (d_s[:, None] / d) * (np.exp(-rp / d) + np.exp(-rp / (3.0 * d))) / pdf[:, None]
 
 
-def burley_mip_level(plan: BurleyPlan, r: np.ndarray, d_s: np.ndarray, n: np.ndarray, zp: np.ndarray) -> np.ndarray:
-    """Step 5b (Xie 2020 Eqs. 22-23): m = min(MAX_MIP, max(-log2(a n p_A t), 0) / 2)."""
-    p_r = (np.exp(-r / d_s) + np.exp(-r / (3.0 * d_s))) / (4.0 * d_s)  # per unit radius
-    with np.errstate(divide="ignore"):
-        p_area = p_r / (2.0 * np.pi * r)  # per mm^2 (inf at r = 0: level 0)
-        t = (zp / plan.fx) * (zp / plan.fy)  # Eq. 23: the texel's area at the centre's depth, mm^2
-        m = 0.5 * np.maximum(-np.log2(plan.mip_scale * n * p_area * t), 0.0)
+def burley_mip_level(plan: BurleyPlan, r: np.ndarray, d_s: np.ndarray, n: np.ndarray, zp: np.ndarray,
+                     slot: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """Step 5b (Xie 2020 Eqs. 22-23 in the paper's units): m = min(MAX_MIP, max(-log2(a n p(r) /
+    (ell_max^2 t)), 0) / 2) with p(r) the radial pdf (mm^-1), ell_max the slot's largest dmfp (mm) and
+    t = (sx / W)(sy / H) (UV^2 per mm^2); ``size`` = (H, W)."""
+    h, w = size
+    p_r = (np.exp(-r / d_s) + np.exp(-r / (3.0 * d_s))) / (4.0 * d_s)  # Eq. 20's derivative, per mm
+    t = (plan.fx / zp / w) * (plan.fy / zp / h)  # Eq. 23: (w/D)^2 x aspect, UV^2 per mm^2
+    ell = plan.dmfp_max_mm[slot]
+    m = 0.5 * np.maximum(-np.log2(plan.mip_scale * n * p_r / (ell * ell * t)), 0.0)
     return np.minimum(m, float(MAX_MIP))
 
 
@@ -203,7 +206,7 @@ def burley_pass(plan: BurleyPlan, src: np.ndarray, z: np.ndarray, slots: np.ndar
         else:
             value = np.zeros((k.size, 3))
             hit = ind > 0
-            level = burley_mip_level(plan, r[hit], d_s[k][hit], n[k][hit], zp[k][hit])
+            level = burley_mip_level(plan, r[hit], d_s[k][hit], n[k][hit], zp[k][hit], slot[k][hit], (h, w))
             value[hit] = burley_mip_fetch(pyr, qs[hit], px[hit], py[hit], level)
         num[k] += wgt * value
         den[k] += wgt

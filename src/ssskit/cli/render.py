@@ -5,7 +5,9 @@ settings file, ``--settings FILE.toml|json``: options given on the command line 
 which validates every value before any work starts. ``--method burley`` runs the Burley Monte Carlo
 pass instead of the separable one (:func:`ssskit.pipeline.burley.render_burley`): ``--sampler``,
 ``--spp`` (then the pass's samples per pixel), ``--c``, ``--albedo``/``--dmfp`` build its
-:class:`~ssskit.screenspace.BurleySettings` and parameters; the separable pass's own options are refused.
+:class:`~ssskit.screenspace.BurleySettings` and parameters (on top of a settings file's ``[burley]``
+table; a file with ``method = "burley"`` runs the Burley pass without ``--method``); the separable
+pass's own options are refused.
 ``--method burley-adaptive`` runs ``--frames`` frames of the Burley pass on a static camera with the
 variance-guided sample counts of Xie 2020 Sec. 4.1 (:func:`ssskit.screenspace.adaptive.adaptive_frames`;
 ``--sigma0``, ``--kappa``, ``--budget B_MIN:B_MAX``, ``--alpha``, ``--correction``) and compares every
@@ -162,19 +164,19 @@ class RGBFloats(click.ParamType):
         return vals if len(vals) == 3 else vals * 3
 
 
-def _burley_inputs(ctx, params: dict):
-    """BurleySettings and optional BurleyParams from the Burley options (each error names its option)."""
+def _burley_inputs(ctx, params: dict, base=None):
+    """BurleySettings and optional BurleyParams from the Burley options (each error names its option):
+    the options the user gave applied to ``base`` (a settings file's ``[burley]`` table; default
+    :class:`BurleySettings`, whose defaults are the options' defaults)."""
     from ..screenspace import BurleyParams, BurleySettings
 
-    kw = {"sampler": params["sampler"], "c": params["c"], "frame": params["frame"], "seed": params["seed"],
-          "mips": not params["no_mips"]}
-    if given(ctx, "spp"):
-        kw["spp"] = params["spp"]
-    if given(ctx, "backend"):
-        kw["backend"] = params["backend"]
+    values = {"sampler": params["sampler"], "c": params["c"], "frame": params["frame"], "seed": params["seed"],
+              "mips": not params["no_mips"], "spp": params["spp"], "backend": params["backend"]}
+    option = {"mips": "no_mips"}
+    kw = {key: v for key, v in values.items() if given(ctx, option.get(key, key))}
     flags = {"sampler": "--sampler", "c": "--c", "spp": "--spp", "frame": "--frame", "seed": "--seed",
              "backend": "--backend", "mips": "--no-mips"}
-    b = BurleySettings()
+    b = BurleySettings() if base is None else base
     for key, value in kw.items():
         try:
             b = b.replace(**{key: value})
@@ -268,6 +270,8 @@ def render(ctx, scene, settings_file, save_gbuffer, out, as_json, method, **para
     convolution."""
     gbuffer_file = isinstance(scene, Path)
     method = method.lower()
+    if settings_file and not given(ctx, "method"):  # the file's method, unless --method says otherwise
+        method = RenderSettings.load(settings_file).method
     burley = method in ("burley", "burley-adaptive")
     for name in BURLEY_ONLY if not burley else SEPARABLE_ONLY:
         if given(ctx, name):
@@ -291,7 +295,7 @@ def render(ctx, scene, settings_file, save_gbuffer, out, as_json, method, **para
             if given(ctx, name):
                 raise SsskitError(f"{option_name(ctx, name)} applies to a built-in scene; the G-buffer file "
                                   f"{str(scene)!r} has its own")
-    s = build_settings(ctx, settings_file, params)
+    s = build_settings(ctx, settings_file, params).replace(method="separable")
     _check_files(scene, s, settings_file, out, save_gbuffer)
     from ..pipeline import render as run
 
@@ -341,7 +345,8 @@ def _check_files(scene, s, settings_file, out, save_gbuffer) -> None:
 def _render_burley(ctx, scene, settings_file, save_gbuffer, out, as_json, params) -> None:
     _check_size(ctx, scene)
     s = build_settings(ctx, settings_file, params, skip=("spp",))
-    b, burley_params = _burley_inputs(ctx, params)
+    b, burley_params = _burley_inputs(ctx, params, base=s.burley)
+    s = s.replace(method="burley", burley=b)
     _check_files(scene, s, settings_file, out, save_gbuffer)
     from ..pipeline.burley import render_burley
 

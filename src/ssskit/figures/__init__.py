@@ -28,6 +28,7 @@ FIGURES.register("xie-fig2", _a.xie_fig2_cold_start)
 FIGURES.register("xie-fig3", _a.xie_fig3_disocclusion)
 
 FIGURES.register("xie-fig6", _b.fig6_xie_inverse)
+FIGURES.register("xie-fig5", _b.fig5_xie_c)
 
 
 def runs_a_pass(fn: Figure) -> bool:

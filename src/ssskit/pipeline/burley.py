@@ -177,12 +177,13 @@ def plan_burley(scene, settings: RenderSettings, burley: BurleySettings, params:
 def render_burley(scene: str | Path | GBuffer = "slab", settings: RenderSettings | None = None,
                   burley: BurleySettings | None = None, progress: Progress | None = None,
                   params: BurleyParams | None = None) -> BurleyResult:
-    """Render ``scene`` with the Burley pass (module docstring); ``params`` (every profile id) instead of
-    the material's Burley profile; ``progress`` receives one message per step."""
+    """Render ``scene`` with the Burley pass (module docstring): ``burley`` (default: ``settings.burley``);
+    ``params`` (every profile id) instead of the material's Burley profile; ``progress`` receives one
+    message per step."""
     from ..scenes import render_gbuffer, render_reference
 
     settings = RenderSettings() if settings is None else settings
-    burley = BurleySettings() if burley is None else burley
+    burley = settings.burley if burley is None else burley
     plan, params = plan_burley(scene, settings, burley, params)
     say = progress or (lambda msg: None)
     mat = plan.material

@@ -55,7 +55,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -72,6 +72,9 @@ from ..scenes.scenes import mitsuba
 from ..screenspace import GBuffer, load_gbuffer, separable_sss
 from ..truth import exact_screen_space
 from .settings import RenderSettings
+
+if TYPE_CHECKING:
+    from .burley import BurleyResult
 
 Progress = Callable[[str], None]
 
@@ -217,10 +220,16 @@ def plan_render(scene, settings: RenderSettings) -> _Plan:
 
 
 def render(scene: str | Path | GBuffer = "slab", settings: RenderSettings | None = None,
-           progress: Progress | None = None) -> RenderResult:
+           progress: Progress | None = None) -> RenderResult | BurleyResult:
     """Render ``scene`` with separable SSS under ``settings`` and compare it with ground truth (module
-    docstring). ``progress`` receives one message per step."""
+    docstring). ``progress`` receives one message per step. With ``settings.method == "burley"`` the
+    Burley pass runs instead (:func:`ssskit.pipeline.burley.render_burley` with ``settings.burley``;
+    a :class:`~ssskit.pipeline.burley.BurleyResult`)."""
     settings = RenderSettings() if settings is None else settings
+    if isinstance(settings, RenderSettings) and settings.method == "burley":  # plan_render checks the type
+        from .burley import render_burley
+
+        return render_burley(scene, settings, progress=progress)
     plan = plan_render(scene, settings)
     say = progress or (lambda msg: None)
     mat = plan.material

@@ -10,12 +10,15 @@ from dataclasses import dataclass, field
 
 from ..errors import SettingsError
 from ..scenes.scenes import SIZE_RANGE  # image sizes of the built-in scenes (pixels per side)
+from ..screenspace.burley import BurleySettings
 from ..screenspace.settings import PassSettings
 from ..settings import Settings, check_choice, check_int
 
 #: photons per channel of Monte Carlo profiles: one range for every command
 PHOTONS_RANGE = (1_000, 10_000_000_000)
 TAP_RANGE = (1, 255)
+#: the screen-space passes a frame can run (``method``)
+METHODS = ("separable", "burley")
 
 
 @dataclass(frozen=True)
@@ -32,6 +35,12 @@ class RenderSettings(Settings):
     the relative standard error of its mean over the SSS mask is at most ``reference_rel_se`` or
     ``reference_max_spp`` is spent (:func:`ssskit.scenes.render_reference`); ``perceptual``: FLIP in the metrics;
     ``sss``: the pass itself (:class:`PassSettings`: jitter, depth mode, frame, seed, backend).
+
+    ``method``: the screen-space pass, ``separable`` (the kernel above and ``sss``) or ``burley``
+    (the Monte Carlo pass of Xie 2020, :func:`ssskit.pipeline.burley.render_burley`, with ``burley``:
+    :class:`~ssskit.screenspace.BurleySettings`; then ``spp`` is still the G-buffer's and the pass's
+    samples per pixel are ``burley.spp``, and model, kernel, taps and ``sss`` are unused).
+    :func:`ssskit.pipeline.render` runs the method named here.
     """
 
     material: str = "skin1"
@@ -51,6 +60,8 @@ class RenderSettings(Settings):
     reference_rel_se: float = 0.01
     perceptual: bool = True
     sss: PassSettings = field(default_factory=PassSettings)
+    method: str = "separable"
+    burley: BurleySettings = field(default_factory=BurleySettings)
 
     def __post_init__(self) -> None:
         from ..kernels import parse_method_spec
@@ -86,3 +97,6 @@ class RenderSettings(Settings):
                 raise SettingsError(f"{name} must be true or false, got {getattr(self, name)!r}")
         if not isinstance(self.sss, PassSettings):
             raise SettingsError(f"sss must be PassSettings, got {type(self.sss).__name__}")
+        object.__setattr__(self, "method", check_choice("method", self.method, METHODS))
+        if not isinstance(self.burley, BurleySettings):
+            raise SettingsError(f"burley must be BurleySettings, got {type(self.burley).__name__}")

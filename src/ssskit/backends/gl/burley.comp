@@ -201,9 +201,11 @@ void main() {
         vec3 e3 = exp(-rp / (3.0 * d));
         vec3 w = ind * (ds / d) * (e3 * e3 * e3 + e3) / pdf;
 #if MIPS
-        float p_area = pdf / (4.0 * ds) / (2.0 * PI * r);
-        float texel_area = (zp / u_fx) * (zp / u_fy);
-        float m = min(float(MAX_MIP), 0.5 * max(-log2(MIP_SCALE * float(n) * p_area * texel_area), 0.0));
+        // Eq. 22 in Xie's units: radial pdf (mm^-1), the slot's largest dmfp (mm), Eq. 23's t (UV^2 per mm^2)
+        float p_r = pdf / (4.0 * ds);
+        float t_uv = (sx / float(u_size.x)) * (sy / float(u_size.y));
+        float ell = L_MAX[s];
+        float m = min(float(MAX_MIP), 0.5 * max(-log2(MIP_SCALE * float(n) * p_r / (ell * ell * t_uv)), 0.0));
         vec3 value = mip_fetch(q, m, qs - 1);
 #else
         vec3 value = t.rgb;

@@ -71,6 +71,7 @@ def burley_source(plan: BurleyPlan, count_image: bool = False, filtered_mips: bo
         _array("vec3", "D_MM", ["vec3(" + ", ".join(_f(v) for v in plan.d_mm[s]) + ")" for s in range(S)]),
         _array("float", "D_SAMPLE", [_f(d_sample[s]) for s in range(S)]),
         _array("float", "R997", [_f(plan.r997_mm[s]) for s in range(S)]),
+        _array("float", "L_MAX", [_f(plan.dmfp_max_mm[s]) for s in range(S)]),
         f"#define MAX_MIP {MAX_MIP}",
         "// ---- end of the generated block ----",
     ]
