@@ -23,6 +23,11 @@ FIGURES.register("fig7", _k.fig7_step)
 FIGURES.register("figS5", _k.figS5_disk)
 FIGURES.register("xie-fig2", _a.xie_fig2_cold_start)
 FIGURES.register("xie-fig3", _a.xie_fig3_disocclusion)
+FIGURES.register("xie-fig4", _a.xie_fig4)
+FIGURES.register("xie-fig10", _a.xie_fig10)
+FIGURES.register("xie-fig11", _a.xie_fig11)
+FIGURES.register("xie-fig13", _a.xie_fig13)
+FIGURES.register("xie-table1", _a.xie_table1)
 
 FIGURES.register("xie-fig6", _b.fig6_xie_inverse)
 

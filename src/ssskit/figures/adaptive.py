@@ -90,4 +90,438 @@ def xie_fig3_disocclusion(out: Path, profile=None, progress=None) -> list[Path]:
                        Path(out) / "xie_fig3_circle_disocclusion.png")
 
 
-__all__ = ["circle_runs", "plot_circle", "xie_fig2_cold_start", "xie_fig3_disocclusion"]
+
+
+# ---- Fig. 4, Figs. 10, 11 and 13 and Table 1 in kind: frame sequences with TAA ---------------------------
+#
+# The scene: a fronto-parallel SSS plane at 1080p's scale (f = 1000 px, 400 mm away: 2.5 px per mm; a
+# small crop of a 1080p frame), lit on its right half (0.8) and in shadow on its left (0.05) with a lit
+# disk inside the shadow, a skin-like Burley material (albedo 0.8 / 0.5 / 0.3, dmfp 2 / 1 / 0.5 mm): light
+# scatters across both shadow edges, where adaptation matters, and the lit and shadowed plateaus need few
+# samples. Exact sampler, no mips, so the pass's limit (:func:`ssskit.pipeline.burley.burley_exact`) is the
+# reference. Every frame: the adaptive counts (the guiding phase on ``backend``), the Burley pass, the
+# history update, then a global TAA (:class:`ssskit.screenspace.taa.TemporalAA`, Karis 2014) that the
+# sampler does not read. "Final PSNR": the mean over the last quarter of the frames of the TAA output's
+# PSNR against the limit; "single-frame PSNR": the same of the pass's own frames (Xie 2020 Figs. 10-11).
+
+#: focal length (px) and depth (mm) of the plane: 2.5 px per mm, as at 1080p (Figs. 10, 13); close: Fig. 11
+PLANE_FOCAL = 1000.0
+PLANE_DEPTH_MM = {"regular": 400.0, "close": 150.0}
+PLANE_DMFP_MM = (2.0, 1.0, 0.5)
+PLANE_ALBEDO = (0.8, 0.5, 0.3)
+#: Figs. 10, 11: the grid of sigma0^2 and kappa at b_max = 64 (Xie 2020 Sec. 6)
+GRID_SIGMA0_SQ = (1e-4, 3e-4, 1e-3, 3e-3)
+GRID_KAPPA = (0.0, 0.2, 0.6, 1.0)
+GRID_SIZE = (160, 90)
+GRID_FRAMES = 24
+#: Fig. 13: the two settings Xie 2020 found best for the Buddha scene
+EQUAL_TIME_SETTINGS = ((1e-3, 0.2), (1e-4, 0.6))
+#: Fig. 4: sigma0^2 = 0.01^2, alpha 0.2, kappa 1, b = [8, 64] (Xie 2020 Sec. 4.1.5)
+FIG4_SIGMA0_SQ = 0.01**2
+FIG4_SIZE = (96, 54)
+FIG4_FRAMES = 64
+FIG4_REPLICAS = 12
+
+
+def shadow_plane(width: int, height: int, distance: str = "regular"):
+    """The G-buffer of the scene above (a plane of profile id 1 filling the frame)."""
+    from ..screenspace import Camera, GBuffer
+
+    yy, xx = np.mgrid[0:height, 0:width]
+    diffuse = np.full((height, width, 3), 0.05, np.float32)
+    diffuse[xx >= width // 2] = 0.8
+    diffuse[(xx - width / 4) ** 2 + (yy - height / 2) ** 2 < (height / 5) ** 2] = 0.8
+    return GBuffer(diffuse=diffuse, albedo=np.ones_like(diffuse),
+                   depth=np.full((height, width), PLANE_DEPTH_MM[distance], np.float32),
+                   profile_id=np.ones((height, width), np.uint32),
+                   camera=Camera(width, height, PLANE_FOCAL, PLANE_FOCAL, width / 2, height / 2))
+
+
+def plane_params():
+    from ..screenspace import BurleyParams
+
+    return BurleyParams.from_dmfp(PLANE_ALBEDO, PLANE_DMFP_MM)
+
+
+def _source_digest() -> str:
+    """A hash of ssskit's source: cached sequences are reused only by the code that made them."""
+    import hashlib
+
+    root = Path(__file__).parent.parent
+    h = hashlib.sha1()
+    for path in sorted(root.rglob("*.py")) + sorted(root.rglob("*.comp")):
+        h.update(str(path.relative_to(root)).encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()
+
+
+def _cached(name: str, key: dict, compute):
+    """compute() once per (name, key, ssskit's source), kept in the ``figures`` cache (a pickle)."""
+    import hashlib
+    import json
+    import pickle
+
+    from ..cache import cache_dir
+    from ..io import atomic_output
+
+    text = json.dumps({"name": name, "key": key, "source": _source_digest()}, sort_keys=True)
+    path = cache_dir("figures") / f"{name}-{hashlib.sha1(text.encode()).hexdigest()[:16]}.pkl"
+    if path.is_file():
+        try:
+            with open(path, "rb") as fh:
+                return pickle.load(fh)
+        except Exception:  # noqa: BLE001 - an unreadable entry is computed again
+            pass
+    value = compute()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_output(path) as tmp:
+        with open(tmp, "wb") as fh:
+            pickle.dump(value, fh)
+    return value
+
+
+def run_sequence(gbuffer, params, reference, settings: AdaptiveSettings | None, frames: int, *, spp: int = 64,
+                 backend: str = "numba", seed: int = 0, taa=None, pixels=(), mips: bool = False) -> dict:
+    """``frames`` frames of the Burley pass on a static G-buffer, adaptive (``settings``) or at a fixed
+    ``spp`` (``settings`` None), each followed by the global TAA (``taa``: TAASettings; default
+    TAASettings()). Per frame: ``mean_spp``, ``psnr`` (the frame), ``psnr_taa`` (the TAA output), ``ms``
+    (the pass + guiding phase: estimate, prefilter, sampling, update; GPU/glFinish time on gl), and per
+    pixel (x, y) of ``pixels``: ``value`` and ``value_taa`` (the gamma-corrected luminance of the frame
+    and of the TAA output, as the history records it) and ``sigma_local`` (the history's sigma, Eq. 9);
+    ``phases``: median ms per phase; ``last``, ``last_taa``, ``counts`` (of the last frame)."""
+    import dataclasses
+    import time
+
+    from ..backends import get_backend
+    from ..backends.adaptive_plan import as_plan
+    from ..backends.base import PHASES
+    from ..metrics import psnr
+    from ..screenspace import BurleySettings
+    from ..screenspace.adaptive import VAR, new_history, shading_value
+    from ..screenspace.burley import burley_backend, burley_plan_for
+    from ..screenspace.taa import TAASettings, TemporalAA
+
+    b = burley_backend(backend)
+    bs = BurleySettings(sampler="exact", sequence="r2", mips=mips, seed=seed, backend=backend)
+    cam = gbuffer.camera
+    base = burley_plan_for(params, [1], cam.fx, cam.fy, bs)
+    slots = base.slot_map(gbuffer.profile_id)
+    inside = slots > 0
+    gamma = 2.2 if settings is None else settings.gamma
+    aa = TemporalAA(TAASettings() if taa is None else taa)
+    out = {k: [] for k in ("mean_spp", "psnr", "psnr_taa", "ms")}
+    traces = {p: {"value": [], "value_taa": [], "sigma_local": []} for p in pixels}
+    times: dict[str, list] = {p: [] for p in PHASES}
+    runner = None
+    if settings is not None:
+        runner = get_backend(backend).adaptive_runner(as_plan(settings), new_history(*gbuffer.shape))
+    try:
+        if runner is not None:
+            runner.load(gbuffer.diffuse, gbuffer.depth_mm, slots)
+        for f in range(frames):
+            plan = dataclasses.replace(base, frame=f)
+            if runner is None:
+                from ..backends.burley_plan import mip_pyramid
+
+                counts = np.where(inside, spp, 0)
+                t = time.perf_counter()
+                pyr = mip_pyramid(gbuffer.diffuse, slots, plan.slots) if mips and backend != "gl" else None
+                t1 = time.perf_counter()
+                img = b.burley(plan, gbuffer.diffuse, gbuffer.depth_mm, slots, counts, pyramid=pyr)
+                t2 = time.perf_counter()
+                times["prefilter"].append(1e3 * (t1 - t))
+                times["sampling"].append(1e3 * (t2 - t1))
+                ms = 1e3 * (t2 - t)
+            else:
+                before = {p: len(v) for p, v in runner.times.items()}
+                counts = runner.counts()
+                runner.sample(plan)
+                runner.update()
+                ms = sum(sum(v[before[p]:]) for p, v in runner.times.items())
+                img = runner.result()
+            res = aa.resolve(img)
+            out["mean_spp"].append(float(counts[inside].mean()))
+            out["psnr"].append(psnr(reference, img))
+            out["psnr_taa"].append(psnr(reference, res))
+            out["ms"].append(ms)
+            if pixels:
+                v, vt = shading_value(img, gamma), shading_value(res, gamma)
+                hist = runner.history() if runner is not None else None
+                for (x, y) in pixels:
+                    traces[(x, y)]["value"].append(float(v[y, x]))
+                    traces[(x, y)]["value_taa"].append(float(vt[y, x]))
+                    traces[(x, y)]["sigma_local"].append(float(np.sqrt(hist[y, x, VAR])) if hist is not None
+                                                         else float("nan"))
+        if runner is not None:
+            times = {p: list(v) for p, v in runner.times.items()}
+    finally:
+        if runner is not None:
+            runner.release()
+    result = {k: np.asarray(v) for k, v in out.items()}
+    result["phases"] = {p: (float(np.median(v[1:] if len(v) > 1 else v)) if v else None) for p, v in times.items()}
+    result["traces"] = {p: {k: np.asarray(v) for k, v in t.items()} for p, t in traces.items()}
+    result.update(last=img, last_taa=res, counts=np.asarray(counts))
+    return result
+
+
+def _final(run: dict, key: str) -> float:
+    """The mean of the last quarter of the frames (at least one)."""
+    v = run[key]
+    return float(np.mean(v[-max(1, len(v) // 4):]))
+
+
+# ---- Fig. 4 -------------------------------------------------------------------------------------------------
+
+def fig4_pixels(width: int, height: int) -> dict[str, tuple[int, int]]:
+    """On the row at a sixth of the height (above the lit disk): P1, a shadowed pixel 4 px from the shadow
+    edge (light scatters in from the lit side: high variance, many samples); P2, a lit pixel 9 px from it
+    (a little light scatters out: low variance, near b_min). Deep inside either plateau the estimator of a
+    constant irradiance is exact (no variance at all), so neither pixel is taken there."""
+    return {"P1 (shadow)": (width // 2 - 4, height // 6), "P2 (lit)": (width // 2 + 9, height // 6)}
+
+
+def fig4_data(backend: str = "numba", frames: int = FIG4_FRAMES, replicas: int = FIG4_REPLICAS,
+              size: tuple[int, int] = FIG4_SIZE, progress=None) -> dict:
+    """Xie 2020 Fig. 4 in kind: per frame, at P1 and P2, the local and the global (after TAA) standard
+    deviation, from ``replicas`` independent runs (seeds 0..replicas-1): ``sigma_l`` the standard deviation
+    across runs of the frame's value S (what the guiding phase targets: sigma0), ``sigma_g`` that of the
+    TAA output, ``sigma_hist`` the history's own estimate (Eq. 9; the mean over runs), ``spp`` the mean
+    count. sigma0^2 = 0.01^2, alpha 0.2, kappa 1, b = [8, 64]."""
+    def compute():
+        gb = shadow_plane(*size)
+        params = plane_params()
+        from ..pipeline.burley import burley_exact
+
+        ref = burley_exact(gb, params)
+        settings = AdaptiveSettings(sigma0_sq=FIG4_SIGMA0_SQ, kappa=1.0, b_min=8, b_max=64, alpha=0.2)
+        pix = fig4_pixels(*size)
+        runs = []
+        for r in range(replicas):
+            if progress is not None:
+                progress(f"xie-fig4: run {r + 1}/{replicas}")
+            runs.append(run_sequence(gb, params, ref, settings, frames, backend=backend, seed=r,
+                                     pixels=tuple(pix.values())))
+        out = {"pixels": pix, "frames": frames, "replicas": replicas, "size": size, "backend": backend, "series": {}}
+        for name, p in pix.items():
+            v = np.stack([run["traces"][p]["value"] for run in runs])
+            vt = np.stack([run["traces"][p]["value_taa"] for run in runs])
+            sh = np.stack([run["traces"][p]["sigma_local"] for run in runs])
+            out["series"][name] = {"sigma_l": v.std(axis=0, ddof=1), "sigma_g": vt.std(axis=0, ddof=1),
+                                   "sigma_hist": sh.mean(axis=0), "value": v.mean(axis=0)}
+        counts = np.stack([run["counts"] for run in runs])
+        out["spp"] = {name: float(counts[:, p[1], p[0]].mean()) for name, p in pix.items()}
+        return out
+
+    return _cached("xie-fig4", {"backend": backend, "frames": frames, "replicas": replicas, "size": list(size)},
+                   compute)
+
+
+def xie_fig4(out: Path, profile=None, progress=None, backend: str = "numba") -> list[Path]:
+    """Xie 2020 Fig. 4 in kind: per-frame local and global (after TAA) standard deviation at a shadowed and a
+    lit pixel (sigma0^2 = 0.01^2, alpha 0.2, kappa 1, b = [8, 64]). ``profile`` is not used."""
+    d = fig4_data(backend, progress=progress)
+    plt = pyplot()
+    fig, axes = plt.subplots(1, len(d["series"]), figsize=(12, 3.6), squeeze=False)
+    skip = 8  # the start-up frames (the disocclusion initialisation and the TAA's first frames)
+    for ax, (name, s) in zip(axes[0], d["series"].items()):
+        frames = np.arange(1, d["frames"] + 1)
+        ax.plot(frames, s["sigma_l"], color="#d62728", lw=1.2,
+                label=rf"local $\sigma_l$ (mean {s['sigma_l'][skip:].mean():.4f})")
+        ax.plot(frames, s["sigma_g"], color="#1f77b4", lw=1.2,
+                label=rf"global $\sigma_g$ after TAA (mean {s['sigma_g'][skip:].mean():.4f})")
+        ax.plot(frames, s["sigma_hist"], color="#d62728", lw=0.8, ls=":", label=r"history's $\sigma$ (Eq. 9)")
+        ax.axhline(np.sqrt(FIG4_SIGMA0_SQ), color="0.4", ls="--", lw=0.8, label=r"$\sigma_0$")
+        ax.set_xlabel("frame")
+        ax.set_ylabel("SD of gamma-corrected luminance" if ax is axes[0][0] else "")
+        ax.set_title(f"{name}, pixel {d['pixels'][name]}: {d['spp'][name]:.1f} spp in the last frame", fontsize=9)
+        ax.legend(fontsize=8)
+        ax.set_ylim(0, None)
+    fig.suptitle(rf"Xie 2020 Fig. 4 in kind: shadow-edge plane {d['size'][0]}x{d['size'][1]}, "
+                 rf"$\sigma_0^2 = 0.01^2$, $\alpha$ = 0.2, $\kappa$ = 1, b = [8, 64]; standard deviations over "
+                 f"{d['replicas']} independent runs ({d['backend']})", fontsize=9)
+    fig.tight_layout()
+    path = Path(out) / "xie_fig4_local_global_sd.png"
+    save_figure(fig, path)
+    return [path]
+
+
+# ---- Figs. 10, 11, 13 and Table 1 ---------------------------------------------------------------------------
+
+def grid_data(distance: str = "regular", backend: str = "numba", frames: int = GRID_FRAMES,
+              size: tuple[int, int] = GRID_SIZE, progress=None) -> dict:
+    """The sigma0^2 x kappa grid at b = [8, 64] (Xie 2020 Figs. 10-11) beside fixed 64 spp, and the equal-time
+    comparison (Fig. 13): per setting ``psnr_taa`` (final), ``psnr`` (single frame), ``mean_spp`` and ``ms``
+    (medians over the frames after the first, whose time includes compiling); ``equal_time``: for each of
+    :data:`EQUAL_TIME_SETTINGS` a fixed count whose measured time matches the adaptive run's, both runs."""
+    def summary(run):
+        return {"psnr_taa": _final(run, "psnr_taa"), "psnr": _final(run, "psnr"), "mean_spp": _final(run, "mean_spp"),
+                "ms": float(np.median(run["ms"][1:])), "phases": run["phases"]}
+
+    def compute():
+        from ..pipeline.burley import burley_exact
+
+        gb = shadow_plane(*size, distance)
+        params = plane_params()
+        ref = burley_exact(gb, params)
+        fixed = run_sequence(gb, params, ref, None, frames, spp=64, backend=backend)
+        out = {"distance": distance, "backend": backend, "frames": frames, "size": size, "fixed64": summary(fixed),
+               "grid": {}, "equal_time": []}
+        runs = {}
+        for s0 in GRID_SIGMA0_SQ:
+            for k in GRID_KAPPA:
+                if progress is not None:
+                    progress(f"adaptive grid ({distance}): sigma0^2 = {s0:g}, kappa = {k:g}")
+                run = run_sequence(gb, params, ref, AdaptiveSettings(sigma0_sq=s0, kappa=k, b_min=8, b_max=64),
+                                   frames, backend=backend)
+                runs[(s0, k)] = run
+                out["grid"][(s0, k)] = summary(run)
+        ms_per_spp = out["fixed64"]["ms"] / 64.0
+        for s0, k in EQUAL_TIME_SETTINGS:
+            a = out["grid"][(s0, k)]
+            n = int(np.clip(round(a["ms"] / ms_per_spp), 1, 64))
+            if progress is not None:
+                progress(f"equal time ({distance}): fixed {n} spp vs sigma0^2 = {s0:g}, kappa = {k:g}")
+            f = run_sequence(gb, params, ref, None, frames, spp=n, backend=backend)
+            ad = runs[(s0, k)]
+            out["equal_time"].append({"sigma0_sq": s0, "kappa": k, "fixed_spp": n, "fixed": summary(f),
+                                      "adaptive": a, "images": {"reference": ref, "fixed": f["last"],
+                                                                "adaptive": ad["last"], "counts": ad["counts"]}})
+        return out
+
+    return _cached("xie-grid", {"distance": distance, "backend": backend, "frames": frames, "size": list(size)},
+                   compute)
+
+
+def phase_data(backend: str = "numba", frames: int = 12, size: tuple[int, int] = GRID_SIZE, progress=None) -> dict:
+    """Xie 2020 Table 1 in kind: median ms per phase (prefilter, sampling, update; estimate on the first
+    frame), fixed 64 spp vs adaptive (sigma0^2 = 1e-3, kappa = 0.2), with mips on (the paper's setting), and
+    the combine step (albedo x result + specular, numpy)."""
+    def compute():
+        import time
+
+        from ..pipeline.burley import burley_exact
+
+        gb = shadow_plane(*size)
+        params = plane_params()
+        ref = burley_exact(gb, params)
+        rows = {}
+        for label, settings in (("fixed 64 spp", None),
+                                ("adaptive (1e-3, 0.2)", AdaptiveSettings(sigma0_sq=1e-3, kappa=0.2))):
+            if progress is not None:
+                progress(f"table 1: {label}")
+            run = run_sequence(gb, params, ref, settings, frames, backend=backend, mips=True)
+            t = []
+            for _ in range(5):
+                t0 = time.perf_counter()
+                gb.composite(run["last"])
+                t.append(1e3 * (time.perf_counter() - t0))
+            rows[label] = dict(run["phases"], combine=float(np.median(t)), mean_spp=_final(run, "mean_spp"),
+                               psnr_taa=_final(run, "psnr_taa"))
+        return {"backend": backend, "size": size, "frames": frames, "rows": rows}
+
+    return _cached("xie-table1", {"backend": backend, "frames": frames, "size": list(size)}, compute)
+
+
+def plot_grid(d: dict, path: Path) -> list[Path]:
+    """Figs. 10-11 in kind: final PSNR (single-frame in parentheses), mean spp and ms per frame per cell,
+    coloured by ms per frame."""
+    plt = pyplot()
+    ms = np.array([[d["grid"][(s0, k)]["ms"] for k in GRID_KAPPA] for s0 in GRID_SIGMA0_SQ])
+    fig, ax = plt.subplots(figsize=(8.5, 5.2))
+    im = ax.imshow(ms, cmap="viridis", aspect="auto")
+    for i, s0 in enumerate(GRID_SIGMA0_SQ):
+        for j, k in enumerate(GRID_KAPPA):
+            c = d["grid"][(s0, k)]
+            ax.text(j, i, f"{c['psnr_taa']:.2f} ({c['psnr']:.2f}) dB\n{c['mean_spp']:.1f} spp, {c['ms']:.0f} ms",
+                    ha="center", va="center", fontsize=8, color="w" if ms[i, j] < ms.mean() else "k")
+    ax.set_xticks(range(len(GRID_KAPPA)), [f"{k:g}" for k in GRID_KAPPA])
+    ax.set_yticks(range(len(GRID_SIGMA0_SQ)), [f"{s:g}" for s in GRID_SIGMA0_SQ])
+    ax.set_xlabel(r"$\kappa$")
+    ax.set_ylabel(r"$\sigma_0^2$")
+    fig.colorbar(im, ax=ax, label="ms per frame (pass + guiding phase)")
+    f = d["fixed64"]
+    ax.set_title(f"Xie 2020 Fig. {10 if d['distance'] == 'regular' else 11} in kind ({d['distance']} distance, "
+                 f"{d['size'][0]}x{d['size'][1]}, {d['frames']} frames, b = [8, 64], {d['backend']}): final PSNR "
+                 f"with TAA (single frame)\nfixed 64 spp: {f['psnr_taa']:.2f} ({f['psnr']:.2f}) dB, {f['ms']:.0f} ms",
+                 fontsize=9)
+    fig.tight_layout()
+    save_figure(fig, path)
+    return [path]
+
+
+def xie_fig10(out: Path, profile=None, progress=None, backend: str = "numba") -> list[Path]:
+    """Xie 2020 Fig. 10 in kind: the sigma0^2 x kappa grid at regular distance (2.5 px per mm)."""
+    return plot_grid(grid_data("regular", backend, progress=progress), Path(out) / "xie_fig10_grid_regular.png")
+
+
+def xie_fig11(out: Path, profile=None, progress=None, backend: str = "numba") -> list[Path]:
+    """Xie 2020 Fig. 11 in kind: the same grid at close distance (6.7 px per mm)."""
+    return plot_grid(grid_data("close", backend, progress=progress), Path(out) / "xie_fig11_grid_close.png")
+
+
+def xie_fig13(out: Path, profile=None, progress=None, backend: str = "numba") -> list[Path]:
+    """Xie 2020 Fig. 13 in kind: equal time, fixed vs adaptive (the last frame before TAA, and the counts)."""
+    d = grid_data("regular", backend, progress=progress)
+    plt = pyplot()
+    rows = d["equal_time"]
+    fig, axes = plt.subplots(len(rows), 4, figsize=(13, 2.3 * len(rows)), squeeze=False)
+    for row, e in zip(axes, rows):
+        im = e["images"]
+        top = float(im["reference"].max())
+        for ax, key, title in ((row[0], "reference", "the pass's limit"),
+                               (row[1], "fixed", f"fixed {e['fixed_spp']} spp: {e['fixed']['psnr']:.2f} dB, "
+                                                 f"{e['fixed']['ms']:.0f} ms"),
+                               (row[2], "adaptive", rf"adaptive $\sigma_0^2$={e['sigma0_sq']:g}, $\kappa$={e['kappa']:g}: "
+                                                    f"{e['adaptive']['psnr']:.2f} dB, {e['adaptive']['ms']:.0f} ms")):
+            ax.imshow(np.clip(im[key] / top, 0, 1) ** (1 / 2.2))
+            ax.set_title(title, fontsize=8)
+            ax.axis("off")
+        c = row[3].imshow(im["counts"], cmap="magma", vmin=0, vmax=64)
+        row[3].set_title(f"adaptive counts ({e['adaptive']['mean_spp']:.1f} spp mean)", fontsize=8)
+        row[3].axis("off")
+        fig.colorbar(c, ax=row[3], fraction=0.04)
+    fig.suptitle("Xie 2020 Fig. 13 in kind: equal time, fixed vs adaptive (single frame, no TAA; PSNR of the "
+                 "frame against the limit)", fontsize=9)
+    fig.tight_layout()
+    path = Path(out) / "xie_fig13_equal_time.png"
+    save_figure(fig, path)
+    return [path]
+
+
+def xie_table1(out: Path, profile=None, progress=None, backend: str = "numba") -> list[Path]:
+    """Xie 2020 Table 1 in kind: per-phase ms, fixed 64 spp vs adaptive, as a CSV and a bar chart."""
+    from ..io import atomic_output
+
+    d = phase_data(backend, progress=progress)
+    phases = ("estimate", "prefilter", "sampling", "update", "combine")
+    csv = Path(out) / "xie_table1_phases.csv"
+    lines = ["setting," + ",".join(phases) + ",total,mean_spp,final_psnr_db"]
+    for label, r in d["rows"].items():
+        vals = [r.get(p) for p in phases]
+        total = sum(v for v in vals if v is not None)
+        lines.append(",".join([label] + ["" if v is None else f"{v:.3f}" for v in vals]
+                              + [f"{total:.3f}", f"{r['mean_spp']:.2f}", f"{r['psnr_taa']:.2f}"]))
+    with atomic_output(csv) as tmp:
+        tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(8, 2.6))
+    for i, (label, r) in enumerate(d["rows"].items()):
+        left = 0.0
+        for p, color in zip(phases, ("#8c564b", "#9467bd", "#1f77b4", "#d62728", "#2ca02c")):
+            v = r.get(p) or 0.0
+            ax.barh(i, v, left=left, color=color, label=p if i == 0 else None)
+            left += v
+    ax.set_yticks(range(len(d["rows"])), list(d["rows"]))
+    ax.set_xlabel("ms per frame (medians)")
+    ax.legend(fontsize=8, ncol=5, loc="lower right")
+    ax.set_title(f"Xie 2020 Table 1 in kind: phases per frame, {d['size'][0]}x{d['size'][1]}, mips on, "
+                 f"{d['backend']}", fontsize=9)
+    fig.tight_layout()
+    png = Path(out) / "xie_table1_phases.png"
+    save_figure(fig, png)
+    return [csv, png]
+
+
+__all__ = ["circle_runs", "fig4_data", "fig4_pixels", "grid_data", "phase_data", "plane_params", "plot_circle",
+           "plot_grid", "run_sequence", "shadow_plane", "xie_fig10", "xie_fig11", "xie_fig13", "xie_fig2_cold_start",
+           "xie_fig3_disocclusion", "xie_fig4", "xie_table1"]
