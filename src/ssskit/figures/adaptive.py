@@ -458,7 +458,8 @@ def xie_fig13(out: Path, profile=None, progress=None, backend: str = "numba") ->
         for ax, key, title in ((row[0], "reference", "the pass's limit"),
                                (row[1], "fixed", f"fixed {e['fixed_spp']} spp: {e['fixed']['psnr']:.2f} dB, "
                                                  f"{e['fixed']['ms']:.0f} ms"),
-                               (row[2], "adaptive", rf"adaptive $\sigma_0^2$={e['sigma0_sq']:g}, $\kappa$={e['kappa']:g}: "
+                               (row[2], "adaptive",
+                                rf"adaptive $\sigma_0^2$={e['sigma0_sq']:g}, $\kappa$={e['kappa']:g}: "
                                                     f"{e['adaptive']['psnr']:.2f} dB, {e['adaptive']['ms']:.0f} ms")):
             ax.imshow(np.clip(im[key] / top, 0, 1) ** (1 / 2.2))
             ax.set_title(title, fontsize=8)
@@ -546,7 +547,8 @@ def demo_section(out: Path, progress, ctx: dict) -> str:
         for n in (64, 8):
             f = g[f"fixed{n}"]
             grid_rows.append(f"<tr><td class=name>{dist}: fixed {n} spp</td><td>-</td><td>-</td>"
-                             f"<td>{f['psnr_taa']:.2f}</td><td>{f['psnr']:.2f}</td><td>{n}</td><td>{f['ms']:.1f}</td></tr>")
+                             f"<td>{f['psnr_taa']:.2f}</td><td>{f['psnr']:.2f}</td><td>{n}</td>"
+                             f"<td>{f['ms']:.1f}</td></tr>")
         for (s0, k), c in g["grid"].items():
             grid_rows.append(f"<tr><td class=name>{dist}</td><td>{s0:g}</td><td>{k:g}</td><td>{c['psnr_taa']:.2f}</td>"
                              f"<td>{c['psnr']:.2f}</td><td>{c['mean_spp']:.1f}</td><td>{c['ms']:.1f}</td></tr>")

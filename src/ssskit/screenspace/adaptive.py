@@ -44,7 +44,7 @@ from ..backends.adaptive_plan import (
     AVAILABLE,
     CORRECTIONS,
     HISTORY_CHANNELS,
-    LUMA_709,  # noqa: F401  (re-exported)
+    LUMA_709,
     MU,
     N_BAR,
     VAR,
@@ -291,7 +291,8 @@ class AdaptiveFrames:
 
 
 def adaptive_frames(gbuffer, params_by_id, settings: AdaptiveSettings | None = None, frames: int = 16, *,
-                    burley=None, history=None, progress=None, on_frame=None, backend: str | None = None) -> AdaptiveFrames:
+                    burley=None, history=None, progress=None, on_frame=None,
+                    backend: str | None = None) -> AdaptiveFrames:
     """``frames`` frames of the Burley pass on a static G-buffer, each with the counts of the
     variance-guided sampler (Xie 2020 Sec. 4.1, Fig. 8's guiding phase): per frame f,
 
@@ -441,6 +442,6 @@ def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150,
 
 
 __all__ = ["AVAILABLE", "AdaptiveFrames", "AdaptiveSettings", "CIRCLE_IRRADIANCE", "CORRECTIONS", "CircleRun",
-           "HISTORY_CHANNELS", "MU", "N_BAR", "VAR", "adaptive_frames", "check_history", "circle_scenario",
+           "HISTORY_CHANNELS", "LUMA_709", "MU", "N_BAR", "VAR", "adaptive_frames", "check_history", "circle_scenario",
            "clamp_counts", "estimate_counts", "new_history", "reproject_history", "sample_counts", "shading_value",
            "update_history"]
