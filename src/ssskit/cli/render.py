@@ -208,11 +208,14 @@ def _burley_inputs(ctx, params: dict):
               help="The screen-space pass: separable (kernel taps), burley (Monte Carlo, Xie 2020) or burley-adaptive "
                    "(its variance-guided sample counts over --frames frames, Xie 2020 Sec. 4.1).")
 @click.option("--frames", type=int, default=16, show_default=True,
-              help="--method burley-adaptive: frames along the scene's camera and light paths from --frame (1..100000).")
+              help="--method burley-adaptive: frames along the scene's camera and light paths from --frame "
+                   "(1..100000).")
 @click.option("--static", is_flag=True,
-              help="--method burley-adaptive: keep the camera and lights at --frame (a G-buffer file is always static).")
+              help="--method burley-adaptive: keep the camera and lights at --frame (a G-buffer file is always "
+                   "static).")
 @click.option("--taa/--no-taa", default=True, show_default=True,
-              help="--method burley-adaptive: resolve every frame with the global TAA (Karis 2014) and report psnr_taa.")
+              help="--method burley-adaptive: resolve every frame with the global TAA (Karis 2014) and report "
+                   "psnr_taa.")
 @click.option("--frames-dir", type=OutputDir(), default=None,
               help="--method burley-adaptive: write per-frame images and sample-count heatmaps (PNG) into DIR.")
 @click.option("--limit-spp", type=int, default=2048, show_default=True,
@@ -590,7 +593,8 @@ def _render_moving(ctx, scene, s, b, burley_params, a, frames, taa_on, frames_di
                                  "noise_rms_max": max(ref_noise)},
                    "final_frames": last, "frames": rows, **summary})
         return
-    click.echo(f"# {plan.scene}: Burley adaptive along the camera/light path, frames {b.frame}..{b.frame + frames - 1}, "
+    click.echo(f"# {plan.scene}: Burley adaptive along the camera/light path, frames "
+               f"{b.frame}..{b.frame + frames - 1}, "
                f"sigma0^2 {a.sigma0_sq:.3g}, kappa {a.kappa:g}, budget {a.b_min}:{a.b_max}, {b.sampler} sampler, "
                f"{'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend, TAA {'on' if taa_on else 'off'}")
     click.echo(f"# reference per frame: exact sampler, {refs[0].spp} spp, no mips (noise RMS <= {max(ref_noise):.3g})")

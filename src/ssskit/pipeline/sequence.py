@@ -165,7 +165,8 @@ class SequenceRun:
     """Per-frame results of :func:`run_sequence`: ``mean_spp``, ``psnr`` (the pass's frame against its
     reference, composite inside the SSS mask), ``psnr_taa`` (after TAA; None without TAA), ``ms`` (the
     Burley pass) and ``ms_update`` (the guiding phase: reprojection, counts and history update), each a
-    list over frames; ``psnr_gray`` and ``psnr_gray_taa`` the same as :func:`display_psnr`; ``samples`` the total samples taken; ``last`` / ``last_taa`` the last frame's
+    list over frames; ``psnr_gray`` and ``psnr_gray_taa`` the same as :func:`display_psnr`; ``samples``
+    the total samples taken; ``last`` / ``last_taa`` the last frame's
     composite images; ``counts`` (frames, H, W) int32 when kept."""
 
     adaptive: AdaptiveSettings | None
