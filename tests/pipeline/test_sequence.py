@@ -89,6 +89,38 @@ def test_adaptive_sequence_is_the_same_with_taa_on_and_off(setup):
     assert on.counts.max() <= 32 and on.counts[masks_of(gbs)].min() >= 4
 
 
+def test_disocclusion_spp_takes_its_count_where_the_history_is_missing(setup):
+    from ssskit.screenspace import motion_vectors
+    from ssskit.screenspace.adaptive import AVAILABLE, new_history, reproject_history
+
+    import dataclasses
+
+    params, gbs, refs = setup
+    # frame 0 without part of its SSS: those pixels become SSS in frame 1 (a disocclusion)
+    pid = gbs[0].profile_id.copy()
+    pid[:, : pid.shape[1] // 2] = 0
+    gbs = [dataclasses.replace(gbs[0], profile_id=pid), *gbs[1:]]
+    a = AdaptiveSettings(sigma0_sq=1e-3, kappa=0.2, b_min=4, b_max=32)
+    paper = run_sequence(gbs, params, BURLEY, adaptive=a, keep_counts=True)
+    variant = run_sequence(gbs, params, BURLEY, adaptive=a, disocclusion_spp=32, keep_counts=True)
+    assert paper.mean_spp[0] == 4 and variant.mean_spp[0] == 32  # frame 0 has no history anywhere
+    # later frames: the pixels whose previous position was not SSS (or off-screen) take 32
+    seen = 0
+    for f in range(1, FRAMES):
+        prev, gb = gbs[f - 1], gbs[f]
+        h = new_history(*gb.shape)
+        h[..., AVAILABLE] = prev.mask
+        missing = gb.mask & (reproject_history(h, motion_vectors(gb.depth, gb.camera, prev.camera))[..., AVAILABLE] == 0)
+        assert np.all(variant.counts[f][missing] == 32)
+        assert np.all(paper.counts[f][missing] == 4)
+        seen += int(missing.sum())
+    assert seen > 0  # the orbit uncovers pixels
+    with pytest.raises(SettingsError):
+        run_sequence(gbs, params, BURLEY, adaptive=a, disocclusion_spp=64)  # outside [b_min, b_max]
+    with pytest.raises(SettingsError):
+        run_sequence(gbs, params, BURLEY, spp=8, disocclusion_spp=8)
+
+
 def masks_of(gbs):
     return np.stack([g.mask for g in gbs])
 

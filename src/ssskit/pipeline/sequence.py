@@ -39,6 +39,7 @@ from ..io import atomic_output
 from ..metrics import region_metrics
 from ..screenspace import BurleySettings, Camera, GBuffer, burley_sss, motion_vectors
 from ..screenspace.adaptive import (
+    AVAILABLE,
     LUMA_709,
     AdaptiveSettings,
     new_history,
@@ -231,12 +232,19 @@ def display_psnr(reference, image, mask, gamma: float = 2.2) -> float | None:
 
 def run_sequence(gbuffers: Sequence[GBuffer], params, burley: BurleySettings | None = None,
                  adaptive: AdaptiveSettings | None = None, spp: int | None = None, taa: TAASettings | None = None,
-                 references: Sequence[SequenceReference] | None = None, keep_counts: bool = False,
+                 references: Sequence[SequenceReference] | None = None, disocclusion_spp: int | None = None,
+                 keep_counts: bool = False,
                  on_frame: Callable[..., None] | None = None,
                  progress: Callable[[str], None] | None = None) -> SequenceRun:
     """The Burley pass over ``gbuffers`` (module docstring) with ``adaptive`` counts or a fixed ``spp``
     (exactly one of them), ``burley`` its sampler settings (frame f uses frame number burley.frame + f),
     ``taa`` the TAA settings or None (no TAA), ``references`` one per G-buffer or None (no PSNR).
+    ``disocclusion_spp`` (adaptive only): the count of pixels inside the mask whose reprojected history
+    is missing (channel 3 = 0: new, newly SSS, or off-screen before; the first frame everywhere). None is
+    Xie 2020 Sec. 4.1.4 as printed: n = max(n_hat, beta) = b_min there. A larger value is this
+    package's variant (not the paper's): a newly visible pixel has no TAA history either, so its
+    b_min-sample noise reaches the screen unfiltered; the history is still initialised by Eqs. 16-17
+    (Eq. 8 records the count actually taken).
     ``on_frame(f, image, image_taa, counts)`` is called after every frame (``image_taa`` None without TAA)."""
     b = BurleySettings() if burley is None else burley
     if not isinstance(b, BurleySettings):
@@ -247,6 +255,10 @@ def run_sequence(gbuffers: Sequence[GBuffer], params, burley: BurleySettings | N
         raise SettingsError(f"adaptive must be AdaptiveSettings, got {type(adaptive).__name__}")
     if spp is not None:
         spp = check_int("spp", spp, 1, 65536)
+    if disocclusion_spp is not None:
+        if adaptive is None:
+            raise SettingsError("disocclusion_spp applies to the adaptive counts")
+        disocclusion_spp = check_int("disocclusion_spp", disocclusion_spp, adaptive.b_min, adaptive.b_max)
     if taa is not None and not isinstance(taa, TAASettings):
         raise SettingsError(f"taa must be TAASettings, got {type(taa).__name__}")
     gbs = list(gbuffers)
@@ -275,6 +287,8 @@ def run_sequence(gbuffers: Sequence[GBuffer], params, burley: BurleySettings | N
         if adaptive is not None:
             h = reproject_history(history, motion)
             counts, _ = sample_counts(h, adaptive, mask)
+            if disocclusion_spp is not None:
+                counts[mask & (h[..., AVAILABLE] <= 0)] = disocclusion_spp
         else:
             counts = np.where(mask, spp, 0)
         t1 = time.perf_counter()
