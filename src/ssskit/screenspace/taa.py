@@ -74,7 +74,8 @@ class TAASettings(Settings):
         object.__setattr__(self, "neighbourhood", check_choice("neighbourhood", self.neighbourhood, NEIGHBOURHOODS))
         g = check_float("gamma", self.gamma, 0.0, 100.0)
         if g <= 0.0:
-            raise SettingsError(f"gamma (the variance box's width in standard deviations) must be > 0, got {self.gamma!r}")
+            raise SettingsError(f"gamma (the variance box's width in standard deviations) must be > 0, "
+                                f"got {self.gamma!r}")
         object.__setattr__(self, "gamma", g)
         object.__setattr__(self, "fetch", check_choice("fetch", self.fetch, FETCHES))
 
