@@ -246,3 +246,32 @@ def test_same_seed_same_frames_and_thread_count_free(guide_backend):
     np.testing.assert_array_equal(a.last, b.last)
     c = adaptive_frames(gb, PARAMS, settings, 4, burley=bs.replace(seed=8), backend=guide_backend)
     assert not np.array_equal(a.last, c.last)
+
+
+def test_runner_follows_a_change_of_sampler(guide_backend):
+    """A loaded frame sampled with another sampler (another shader on gl) gives that sampler's pass."""
+    from ssskit.screenspace.burley import burley_plan_for
+
+    gb = _gbuffer(24, 32)
+    b = get_backend(guide_backend)
+    sampler = b if guide_backend != "numpy" else get_backend("numba")
+    from ssskit.backends.base import AdaptiveRunner
+
+    plan = as_plan(AdaptiveSettings(sigma0_sq=1e-4))
+    runner = (b.adaptive_runner(plan, new_history(*gb.shape)) if sampler is b
+              else AdaptiveRunner(b, plan, new_history(*gb.shape), sampler=sampler))
+    exact = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(mips=False))
+    xie = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(sampler="xie", mips=True))
+    slots = exact.slot_map(gb.profile_id)
+    try:
+        runner.load(gb.diffuse, gb.depth_mm, slots)
+        counts = runner.counts()
+        runner.sample(exact)
+        first = runner.result()
+        runner.sample(xie)
+        second = runner.result()
+    finally:
+        runner.release()
+    np.testing.assert_allclose(first, sampler.burley(exact, gb.diffuse, gb.depth_mm, slots, counts), atol=1e-6)
+    np.testing.assert_allclose(second, sampler.burley(xie, gb.diffuse, gb.depth_mm, slots, counts), atol=1e-6)
+    assert not np.allclose(first, second)

@@ -200,16 +200,19 @@ class GLAdaptiveRunner(AdaptiveRunner):
         self._timed("estimate", lambda: dispatch(self.plan, self._images, self._hist[self._cur], self._cnt))
 
     def sample(self, plan) -> None:
-        from .burley import BurleyFrame
+        from .burley import BurleyFrame, burley_source
         from .context import context
 
         if self._loaded is None:
             raise PassError("load a frame before sampling it")
         context()
+        if self._burley is not None and burley_source(plan, True) != burley_source(self._burley.plan, True):
+            self._burley.release()  # another sampler, sequence, mips or profile: another shader and images
+            self._burley = None
         if self._burley is None:
             diffuse, depth, slots = self._loaded
             self._burley = BurleyFrame(plan, diffuse, depth, slots, None, counts_texture=self._cnt)
-        self._burley.plan = plan  # the frame and seed of this sample (the shader does not depend on them)
+        self._burley.plan = plan  # this sample's frame, seed and focal lengths (uniforms of the same shader)
         if self._burley.atlas is not None:
             self._timed("prefilter", self._burley.build_mips)
         self._timed("sampling", self._burley.run_pass)
