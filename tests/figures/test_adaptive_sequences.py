@@ -71,3 +71,21 @@ def test_fixed_and_adaptive_sequences_agree_on_numba_and_gl():
     b = fa.run_sequence(gb, params, ref, s, 6, backend="gl")
     np.testing.assert_allclose(a["mean_spp"], b["mean_spp"], atol=0.1)
     np.testing.assert_allclose(a["psnr_taa"], b["psnr_taa"], atol=0.3)
+
+
+def test_demo_section_writes_its_figures_and_links_them(tmp_path, monkeypatch):
+    """The report section (``(out, progress, ctx) -> html``) on small runs: every figure it links exists."""
+    import re
+
+    small = {"fig4_data": dict(frames=10, replicas=3, size=(48, 27)), "grid_data": dict(frames=6, size=(48, 27)),
+             "phase_data": dict(frames=3, size=(48, 27))}
+    for name, kw in small.items():
+        original = getattr(fa, name)
+        monkeypatch.setattr(fa, name, lambda *a, _f=original, _kw=kw, **k: _f(*a, **{**k, **_kw}))
+    messages = []
+    text = fa.demo_section(tmp_path, messages.append, {})
+    assert "<h2 id=adaptive>" in text and "Table 1 in kind" in text and messages
+    links = re.findall(r"src='figures/([^']+)'", text)
+    assert len(links) == 7
+    for name in links:
+        assert (tmp_path / "figures" / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
