@@ -3,8 +3,9 @@
 The root is ``$SSSKIT_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/ssskit`` (default
 ``~/.cache/ssskit``). Each kind of result has its own sub-folder, named here so that no module
 borrows another's: ``mcml`` (Monte Carlo profiles), ``reference`` (path-traced images),
-``meshes`` (the built-in scenes' PLY meshes), ``demo`` (the demo report's sections, keyed by their
-settings and the package's source, so a second ``ssskit demo`` copies them instead of computing).
+``meshes`` (the built-in scenes' PLY meshes), ``gbuffers`` (per-frame G-buffers of sequences), ``figures``
+(the frame sequences behind the adaptive sampler's figures), ``demo`` (the demo report's sections, keyed
+by their settings and the package's source, so a second ``ssskit demo`` copies them instead of computing).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import os
 from pathlib import Path
 
 #: sub-folders of the cache root, one per kind of cached result
-KINDS = ("mcml", "reference", "meshes", "demo")
+KINDS = ("mcml", "reference", "meshes", "demo", "gbuffers", "figures")
 
 
 def cache_root() -> Path:

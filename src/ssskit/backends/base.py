@@ -13,6 +13,12 @@ Frame inputs of the separable pass (all pixel-aligned):
 The Burley pass (:mod:`ssskit.backends.burley_plan`) takes the same images and ``spp``, one sample
 count or an (H, W) integer count image. Every backend has the separable pass; a backend that also
 implements the Burley pass names it in ``passes``.
+
+The guiding phase of the adaptive sampler (:mod:`ssskit.backends.adaptive_plan`, pass name
+"adaptive") has two entry points, :meth:`Backend.adaptive_counts` and :meth:`Backend.adaptive_update`,
+and a frame loop that keeps the history and the counts with the backend between frames,
+:meth:`Backend.adaptive_runner` (:class:`AdaptiveRunner`: arrays in memory on the CPU backends, device
+images on ``gl``).
 """
 
 from __future__ import annotations
@@ -25,7 +31,11 @@ import numpy as np
 from .plan import SeparablePlan
 
 if TYPE_CHECKING:
+    from .adaptive_plan import AdaptivePlan
     from .burley_plan import BurleyPlan
+
+#: the phases an AdaptiveRunner times, in frame order (Xie 2020 Fig. 8 and Table 1)
+PHASES = ("estimate", "prefilter", "sampling", "update")
 
 
 class Backend(ABC):
@@ -50,15 +60,134 @@ class Backend(ABC):
         """The separable pass (see :mod:`ssskit.backends.plan`): a new (H, W, 3) array."""
 
     def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-               spp) -> np.ndarray:
+               spp, pyramid=None) -> np.ndarray:
         """The Burley Monte Carlo pass (see :mod:`ssskit.backends.burley_plan`): a new (H, W, 3) array.
 
         ``spp``: samples per pixel, an int or an (H, W) integer image (checked by
-        :func:`check_burley_frame`). A backend without it raises :class:`~ssskit.errors.BackendError`.
+        :func:`check_burley_frame`). ``pyramid``: the frame's :func:`~ssskit.backends.burley_plan.mip_pyramid`
+        if the caller built it already (CPU backends; None: built here when the plan has mips). A backend
+        without the pass raises :class:`~ssskit.errors.BackendError`.
         """
         from ..errors import BackendError
 
         raise BackendError(f"backend {self.name!r} has no Burley pass")
+
+    def adaptive_counts(self, plan: AdaptivePlan, history, mask, motion=None, valid=None) -> np.ndarray:
+        """The guiding phase's *estimate* (:mod:`ssskit.backends.adaptive_plan` steps 1, 3, 4): this frame's
+        sample counts (H, W) int64 from the previous (H, W, 4) history, reprojected through ``motion``
+        (H, W, 2) (None: static) with ``valid`` (H, W) (None: everywhere), and the frame's SSS ``mask``."""
+        from ..errors import BackendError
+
+        raise BackendError(f"backend {self.name!r} has no adaptive guiding pass")
+
+    def adaptive_update(self, plan: AdaptivePlan, history, rgb, counts, mask, motion=None,
+                        valid=None) -> tuple[np.ndarray, np.ndarray]:
+        """The guiding phase's *update* (:mod:`ssskit.backends.adaptive_plan` steps 1-4): (the new (H, W, 4)
+        float32 history, the next frame's counts (H, W) int64 for the same pixels) from the previous
+        history, this frame's Burley result ``rgb`` (H, W, 3) and the ``counts`` it used."""
+        from ..errors import BackendError
+
+        raise BackendError(f"backend {self.name!r} has no adaptive guiding pass")
+
+    def adaptive_runner(self, plan: AdaptivePlan, history) -> AdaptiveRunner:
+        """A frame loop of the Burley pass with adaptive counts that keeps the history (and counts) with this
+        backend between frames (:class:`AdaptiveRunner`; the gl backend keeps them on the device)."""
+        if "adaptive" not in self.passes or "burley" not in self.passes:
+            from ..errors import BackendError
+
+            raise BackendError(f"backend {self.name!r} has no adaptive guiding pass")
+        return AdaptiveRunner(self, plan, history)
+
+
+class AdaptiveRunner:
+    """Frames of the Burley pass with the counts of the guiding phase (Xie 2020 Fig. 8), on one backend.
+
+    Per frame: :meth:`load` a G-buffer (with the motion from it to the previous frame, if it moved; this
+    runs the *estimate*), or keep the last one (then the counts the last *update* produced are used),
+    :meth:`sample` (the Burley pass with those counts, mips first) and :meth:`update` (the history update
+    and the next counts). :meth:`result`, :meth:`counts` and :meth:`history` read back; ``times`` holds the
+    ms of every phase run (:data:`PHASES`). This base class keeps everything in numpy arrays and calls the
+    backend's entry points; the gl backend's subclass keeps it on the device.
+    """
+
+    def __init__(self, backend: Backend, plan: AdaptivePlan, history, sampler: Backend | None = None) -> None:
+        from .adaptive_plan import check_guide_frame
+
+        self.backend = backend
+        self.sampler = backend if sampler is None else sampler  # the backend of the Burley pass
+        self.plan = plan
+        h = check_guide_frame(history, np.zeros(np.shape(history)[:2], bool))[0]
+        self._history = np.array(h, np.float32)
+        self._counts: np.ndarray | None = None
+        self._out: np.ndarray | None = None
+        self._frame: tuple | None = None
+        self._motion = self._valid = None
+        self.times: dict[str, list[float]] = {p: [] for p in PHASES}
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self._history.shape[:2]
+
+    def _timed(self, phase: str, fn):
+        import time
+
+        t = time.perf_counter()
+        out = fn()
+        self.times[phase].append(1e3 * (time.perf_counter() - t))
+        return out
+
+    def load(self, diffuse, depth_mm, slots, motion=None, valid=None) -> None:
+        """A frame's G-buffer images (the Burley pass's inputs: :mod:`ssskit.backends.base`), and ``motion``
+        (H, W, 2) from it to the previous frame (None: the camera and the scene did not move) and ``valid``
+        (H, W) (the caller's disocclusion test; None: everywhere); runs the *estimate* for the frame."""
+        slots = np.asarray(slots)
+        if slots.shape != self.shape:
+            from ..errors import PassError
+
+            raise PassError(f"the frame is {slots.shape[1]}x{slots.shape[0]} but the history is "
+                            f"{self.shape[1]}x{self.shape[0]}")
+        self._frame = (np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
+        self._motion, self._valid = motion, valid
+        self._counts = self._timed("estimate", lambda: self.backend.adaptive_counts(
+            self.plan, self._history, slots > 0, motion, valid))
+
+    def sample(self, plan: BurleyPlan) -> None:
+        """The Burley pass of the loaded frame with the current counts (``plan.frame`` keys its samples)."""
+        from ..errors import PassError
+        from .burley_plan import mip_pyramid
+
+        if self._frame is None or self._counts is None:
+            raise PassError("load a frame before sampling it")
+        diffuse, depth, slots = self._frame
+        pyr = self._timed("prefilter", lambda: mip_pyramid(diffuse, slots, plan.slots)) if plan.mips else None
+        self._out = self._timed("sampling", lambda: self.sampler.burley(plan, diffuse, depth, slots, self._counts,
+                                                                         pyramid=pyr))
+
+    def update(self) -> None:
+        """The history update from the last :meth:`sample` (Eqs. 6, 8, 9; 16-17) and the next counts."""
+        from ..errors import PassError
+
+        if self._out is None:
+            raise PassError("sample a frame before updating the history")
+        slots = self._frame[2]
+        self._history, self._counts = self._timed("update", lambda: self.backend.adaptive_update(
+            self.plan, self._history, self._out, self._counts, slots > 0, self._motion, self._valid))
+        self._motion = self._valid = None  # the next frame, unless loaded anew, is this one again
+
+    def result(self) -> np.ndarray:
+        """The last sampled frame's Burley result (H, W, 3) float32 (a new array)."""
+        return np.array(self._out, np.float32)
+
+    def counts(self) -> np.ndarray:
+        """The counts the next :meth:`sample` uses (H, W) int64 (a new array)."""
+        return np.array(self._counts, np.int64)
+
+    def history(self) -> np.ndarray:
+        """The history (H, W, 4) float32 (a new array)."""
+        return np.array(self._history, np.float32)
+
+    def release(self) -> None:
+        """Free what the runner holds (device images on gl)."""
 
 
 def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, plan: SeparablePlan,

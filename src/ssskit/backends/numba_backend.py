@@ -27,7 +27,7 @@ class NumbaBackend(Backend):
     name = "numba"
     description = "numba on the CPU, float32, parallel over rows and vectorised (the default)"
     dtype = np.float32
-    passes = frozenset({"separable", "burley"})
+    passes = frozenset({"separable", "burley", "adaptive"})
 
     def __init__(self) -> None:
         self._key: tuple | None = None
@@ -118,7 +118,7 @@ class NumbaBackend(Backend):
         return np.where((slots > 0)[..., None], acc, src).astype(np.float32)
 
 
-    def burley(self, plan, diffuse, depth_mm, slots, spp):
+    def burley(self, plan, diffuse, depth_mm, slots, spp, pyramid=None):
         """The Burley pass (kernel in :mod:`ssskit.backends._numba_burley`), rows on the thread pool."""
         from ._numba_burley import burley_rows
         from .base import check_burley_frame
@@ -138,13 +138,46 @@ class NumbaBackend(Backend):
                 SEQUENCES.index(plan.sequence), plan.c, plan.bleed, plan.fx, plan.fy,
                 u64(frame_base(0 if plan.stable else plan.frame, plan.seed)), plan.stable, u64(KEY2), u64(GOLDEN32),
                 u64(R2_A1), u64(R2_A2), plan.mips, plan.mip_scale, MAX_MIP)
-        levels = mip_pyramid(src, np.asarray(slots), plan.slots) if plan.mips else [np.zeros((1, 1, 1, 4))]
+        if plan.mips:
+            levels = mip_pyramid(src, np.asarray(slots), plan.slots) if pyramid is None else pyramid
+        else:
+            levels = [np.zeros((1, 1, 1, 4))]
         sizes = [lv.size for lv in levels]
         rest += (np.concatenate([lv.ravel() for lv in levels]), np.cumsum([0] + sizes[:-1]).astype(np.int64),
                  np.array([lv.shape[1] for lv in levels], np.int64), np.array([lv.shape[2] for lv in levels], np.int64),
                  np.ascontiguousarray(plan.dmfp_max_mm, np.float64))
         self._rows(h, lambda y0, y1: burley_rows(*args, y0, y1, *rest))
         return out
+
+    def adaptive_counts(self, plan, history, mask, motion=None, valid=None):
+        """The *estimate* of :mod:`ssskit.backends.adaptive_plan` (kernel in ``_numba_adaptive``)."""
+        return self._guide(plan, history, mask, motion, valid, None, None)[1]
+
+    def adaptive_update(self, plan, history, rgb, counts, mask, motion=None, valid=None):
+        """The *update* of :mod:`ssskit.backends.adaptive_plan` (kernel in ``_numba_adaptive``)."""
+        if rgb is None or counts is None:
+            raise PassError("the history update needs the pass's result and the frame's sample counts")
+        return self._guide(plan, history, mask, motion, valid, rgb, counts)
+
+    def _guide(self, plan, history, mask, motion, valid, rgb, counts):
+        from ._numba_adaptive import guide_rows
+        from .adaptive_plan import check_guide_frame
+
+        h, m, mv, ok, img, n = check_guide_frame(history, mask, motion, valid, rgb, counts)
+        hh, ww = m.shape
+        update = img is not None
+        hist = np.ascontiguousarray(h, np.float32)
+        out_hist = np.zeros((hh, ww, 4) if update else (1, 1, 4), np.float32)
+        out_counts = np.empty((hh, ww), np.int64)
+        args = (hist, np.zeros((1, 1, 2)) if mv is None else np.ascontiguousarray(mv), mv is not None,
+                np.zeros((1, 1), bool) if ok is None else np.ascontiguousarray(ok), ok is not None,
+                np.ascontiguousarray(m), np.zeros((1, 1, 3), np.float32) if img is None else np.ascontiguousarray(img),
+                np.zeros((1, 1), np.int64) if n is None else np.ascontiguousarray(n), update,
+                np.float32(plan.alpha), float(plan.sigma0_sq), float(plan.kappa * (plan.k - 1.0)),
+                plan.correction == "variance", math.sqrt(plan.sigma0_sq), int(plan.b_min), int(plan.b_max),
+                plan.gamma == 1.0, np.float32(1.0 / plan.gamma), out_hist, out_counts)
+        self._rows(hh, lambda y0, y1: guide_rows(*args, y0, y1))
+        return (out_hist if update else None), out_counts
 
 
 def _tables(term: TermTable):

@@ -16,6 +16,7 @@ import numpy as np
 from ..sampling.hashes import jitter_angles
 from ..profiles.burley import burley_inverse_cdf
 from ..sampling.hashes import frame_base, mix32
+from .adaptive_plan import reference_counts, reference_update_pass
 from .base import Backend, check_burley_frame, check_frame
 from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, BurleyPlan, mip_pyramid
 from .plan import SeparablePlan, TermTable
@@ -170,8 +171,10 @@ def burley_counts(plan: BurleyPlan, spp, ys: np.ndarray, xs: np.ndarray, sx: np.
     return n
 
 
-def burley_pass(plan: BurleyPlan, src: np.ndarray, z: np.ndarray, slots: np.ndarray, spp) -> np.ndarray:
-    """The Burley pass in float64 (:mod:`ssskit.backends.burley_plan`, steps 1-8)."""
+def burley_pass(plan: BurleyPlan, src: np.ndarray, z: np.ndarray, slots: np.ndarray, spp,
+                pyramid=None) -> np.ndarray:
+    """The Burley pass in float64 (:mod:`ssskit.backends.burley_plan`, steps 1-8); ``pyramid``: the
+    frame's :func:`mip_pyramid` if already built."""
     h, w = slots.shape
     out = src.copy()
     ys, xs = np.nonzero(slots > 0)
@@ -184,7 +187,7 @@ def burley_pass(plan: BurleyPlan, src: np.ndarray, z: np.ndarray, slots: np.ndar
     n = burley_counts(plan, spp, ys, xs, sx, sy, slot)
     d = plan.d_mm[slot]  # (N, 3)
     d_s = plan.d_sample[slot]
-    pyr = mip_pyramid(src, slots, plan.slots) if plan.mips else None
+    pyr = (mip_pyramid(src, slots, plan.slots) if pyramid is None else pyramid) if plan.mips else None
     num = np.zeros((ys.size, 3))
     den = np.zeros((ys.size, 3))
     for j in range(int(n.max(initial=0))):
@@ -219,7 +222,7 @@ class NumpyBackend(Backend):
     name = "numpy"
     description = "numpy, float64: the reference every other backend is tested against (slow)"
     dtype = np.float64
-    passes = frozenset({"separable", "burley"})
+    passes = frozenset({"separable", "burley", "adaptive"})
 
     def availability(self) -> tuple[bool, str]:
         return True, "float64 reference (the oracle)"
@@ -238,7 +241,15 @@ class NumpyBackend(Backend):
         inside = (slots > 0)[..., None]
         return np.where(inside, out, src)
 
-    def burley(self, plan, diffuse, depth_mm, slots, spp):
+    def burley(self, plan, diffuse, depth_mm, slots, spp, pyramid=None):
         spp = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
         return burley_pass(plan, np.asarray(diffuse, dtype=np.float64), np.asarray(depth_mm, dtype=np.float64),
-                           np.asarray(slots, dtype=np.int64), spp)
+                           np.asarray(slots, dtype=np.int64), spp, pyramid)
+
+    def adaptive_counts(self, plan, history, mask, motion=None, valid=None):
+        """The *estimate* of :mod:`ssskit.backends.adaptive_plan` (its reference functions)."""
+        return reference_counts(plan, history, mask, motion, valid)
+
+    def adaptive_update(self, plan, history, rgb, counts, mask, motion=None, valid=None):
+        """The *update* of :mod:`ssskit.backends.adaptive_plan` (its reference functions)."""
+        return reference_update_pass(plan, history, rgb, counts, mask, motion, valid)

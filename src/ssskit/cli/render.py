@@ -25,6 +25,7 @@ import numpy as np
 from ..errors import SettingsError, SsskitError
 from ..pipeline.settings import TAP_RANGE, RenderSettings
 from .options import (
+    OutputDir,
     Size,
     backend_option,
     check_distinct,
@@ -126,7 +127,8 @@ SEPARABLE_ONLY = ("model", "photons", "kernel_spec", "taps", "tap_method", "jitt
 #: options of the Burley pass, refused with --method separable
 BURLEY_ONLY = ("sampler", "c", "albedo", "dmfp", "no_mips")
 #: options of the adaptive sampler, refused unless --method burley-adaptive
-ADAPTIVE_ONLY = ("frames", "sigma0", "kappa", "budget", "alpha", "correction")
+ADAPTIVE_ONLY = ("frames", "sigma0", "kappa", "budget", "alpha", "correction", "static", "taa", "frames_dir",
+                 "limit_spp")
 
 
 class Budget(click.ParamType):
@@ -208,7 +210,19 @@ def _burley_inputs(ctx, params: dict, base=None):
               help="The screen-space pass: separable (kernel taps), burley (Monte Carlo, Xie 2020) or burley-adaptive "
                    "(its variance-guided sample counts over --frames frames, Xie 2020 Sec. 4.1).")
 @click.option("--frames", type=int, default=16, show_default=True,
-              help="--method burley-adaptive: frames on the static camera (1..100000).")
+              help="--method burley-adaptive: frames along the scene's camera and light paths from --frame "
+                   "(1..100000).")
+@click.option("--static", is_flag=True,
+              help="--method burley-adaptive: keep the camera and lights at --frame (a G-buffer file is always "
+                   "static).")
+@click.option("--taa/--no-taa", default=True, show_default=True,
+              help="--method burley-adaptive: resolve every frame with the global TAA (Karis 2014) and report "
+                   "psnr_taa.")
+@click.option("--frames-dir", type=OutputDir(), default=None,
+              help="--method burley-adaptive: write per-frame images and sample-count heatmaps (PNG) into DIR.")
+@click.option("--limit-spp", type=int, default=2048, show_default=True,
+              help="--method burley-adaptive on a moving camera: samples per pixel of each frame's converged "
+                   "reference (exact sampler, no mips; two cached halves give its standard error).")
 @click.option("--sigma0", type=float, default=math.sqrt(_A.sigma0_sq), show_default="0.0316 (sigma0^2 = 1e-3)",
               help="--method burley-adaptive: target standard deviation sigma0 of a frame's gamma-corrected "
                    "luminance, > 0 (Xie: sigma0^2 = 1e-3, i.e. --sigma0 0.0316).")
@@ -279,7 +293,8 @@ def render(ctx, scene, settings_file, save_gbuffer, out, as_json, method, **para
     if method != "burley-adaptive":
         for name in ADAPTIVE_ONLY:
             if given(ctx, name):
-                raise SsskitError(f"{option_name(ctx, name)} applies to --method burley-adaptive")
+                flag = "--taa/--no-taa" if name == "taa" else option_name(ctx, name)
+                raise SsskitError(f"{flag} applies to --method burley-adaptive")
     if method == "burley-adaptive":
         _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, params)
         return
@@ -393,7 +408,8 @@ def _adaptive_inputs(ctx, params: dict):
 
 
 def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, params) -> None:
-    """--method burley-adaptive: a static-camera sequence of the Burley pass with adaptive counts."""
+    """--method burley-adaptive: a sequence of the Burley pass with adaptive counts, along the scene's
+    camera and light paths (:func:`_render_moving`) or on a static camera."""
     import dataclasses
 
     from ..metrics import region_metrics
@@ -401,12 +417,23 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
     _check_size(ctx, scene)
     if given(ctx, "spp"):
         raise SsskitError("--spp: the adaptive pass chooses its samples per pixel; give --budget B_MIN:B_MAX")
+    static = bool(params.pop("static")) or isinstance(scene, Path)
+    taa_on, frames_dir, limit_spp = params.pop("taa"), params.pop("frames_dir"), params.pop("limit_spp")
     s = build_settings(ctx, settings_file, params, skip=("spp",))
     b, burley_params = _burley_inputs(ctx, params)
     a, frames = _adaptive_inputs(ctx, params)
     _check_files(scene, s, settings_file, out, save_gbuffer)
+    if not static:
+        _render_moving(ctx, scene, s, b, burley_params, a, frames, taa_on, frames_dir, limit_spp, out, save_gbuffer,
+                       as_json)
+        return
+    if given(ctx, "limit_spp"):
+        raise SsskitError("--limit-spp applies to a moving camera; a static run compares with the exact limit "
+                          "(burley_exact)")
     from ..pipeline.burley import render_burley
     from ..screenspace.adaptive import adaptive_frames
+
+    from ..screenspace.taa import TAASettings, TemporalAA
 
     say = None if as_json else progress
     # one frame at a fixed b_max spp: the G-buffer, the pass's limit (exact) and the fixed-count comparison
@@ -414,11 +441,19 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
     gb, mask = fixed.gbuffer, fixed.gbuffer.mask
     exact = None if fixed.exact is None else gb.composite(fixed.exact)
     rows: list[dict] = []
+    taa = TemporalAA(TAASettings()) if taa_on else None
+    writer = _FrameWriter(frames_dir, a, exact if exact is not None else gb.composite(fixed.sss))
 
     def on_frame(f, sss, counts):
-        psnr = region_metrics(exact, gb.composite(sss), mask, False)["psnr"] if exact is not None else None
+        image = gb.composite(sss)
+        image_taa = None if taa is None else taa.resolve(image)
+        psnr = region_metrics(exact, image, mask, False)["psnr"] if exact is not None and mask.any() else None
+        psnr_taa = None
+        if image_taa is not None and exact is not None and mask.any():
+            psnr_taa = region_metrics(exact, image_taa, mask, False)["psnr"]
         rows.append({"frame": b.frame + f, "mean_spp": float(counts[mask].mean()) if mask.any() else 0.0,
-                     "psnr": psnr})
+                     "psnr": psnr, "psnr_taa": psnr_taa})
+        writer(b.frame + f, image, image_taa, counts)
 
     every = max(1, frames // 8)
     say_some = None if say is None else (lambda msg: say(msg) if len(rows) % every == 0 else None)
@@ -443,6 +478,8 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
         data["burley"].pop("spp", None)
         data["adaptive"] = {**a.to_dict(), "sigma0": math.sqrt(a.sigma0_sq), "frames": frames,
                             "history": "(H, W, 4) float32: n_bar, mu, sigma^2, available"}
+        data["static"] = True
+        data["taa"] = TAASettings().to_dict() if taa_on else None
         data["frames"] = rows
         data["mean_spp"] = float(np.mean([r["mean_spp"] for r in rows]))
         data["total_samples"] = total
@@ -462,6 +499,118 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
     for against, m in fixed.metrics.items():
         click.echo(f"fixed {a.b_max} spp vs {against:12s} "
                    + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
+    if out:
+        click.echo(f"# wrote {out}")
+
+
+class _FrameWriter:
+    """Writes ``frame_NNNN.png`` (the pass's composite), ``frame_NNNN_taa.png`` (after TAA) and
+    ``counts_NNNN.png`` (sample-count heatmap, colour bar 0..b_max) into ``folder`` (None: nothing),
+    tone-mapped with one peak for the whole sequence (the 99.5th percentile of ``like``)."""
+
+    def __init__(self, folder, a, like) -> None:
+        self.folder = None if folder is None else Path(folder)
+        finite = np.asarray(like)[np.isfinite(like)]
+        self.peak = float(np.percentile(finite, 99.5)) if finite.size else 1.0
+        self.b_max = a.b_max
+        if self.folder is not None:
+            self.folder.mkdir(parents=True, exist_ok=True)
+
+    def __call__(self, frame, image, image_taa, counts, label: str = "adaptive") -> None:
+        if self.folder is None:
+            return
+        from ..figures.sequence import save_frame_png, save_heatmap_png
+
+        save_frame_png(self.folder / f"frame_{frame:04d}.png", image, self.peak)
+        if image_taa is not None:
+            save_frame_png(self.folder / f"frame_{frame:04d}_taa.png", image_taa, self.peak)
+        mask = counts > 0
+        mean = float(counts[mask].mean()) if mask.any() else 0.0
+        save_heatmap_png(self.folder / f"counts_{frame:04d}.png", counts, self.b_max,
+                         f"{label} frame {frame}: mean {mean:.1f} spp")
+
+
+def _render_moving(ctx, scene, s, b, burley_params, a, frames, taa_on, frames_dir, limit_spp, out, save_gbuffer,
+                   as_json) -> None:
+    """--method burley-adaptive along the scene's camera and light paths (:mod:`ssskit.pipeline.sequence`):
+    the adaptive pass and the fixed b_max pass through the same loop and the same TAA, each frame against
+    its converged reference."""
+    from ..pipeline.burley import plan_burley
+    from ..pipeline.sequence import run_sequence, sequence_gbuffers, sequence_references
+    from ..screenspace.taa import TAASettings
+
+    if save_gbuffer:
+        raise SsskitError("--save-gbuffer applies to one frame; add --static")
+    if s.reference:
+        raise SsskitError("--reference applies to one frame; add --static (a moving sequence compares each frame "
+                          "with its converged Burley reference)")
+    if isinstance(limit_spp, bool) or not 2 <= limit_spp <= 131072:
+        raise SettingsError(f"--limit-spp: the reference's samples per pixel must lie in [2, 131072], got {limit_spp}")
+    if b.frame + frames - 1 > 2**31 - 1:
+        raise SettingsError(f"--frames: {frames} frames from --frame {b.frame} pass frame 2^31 - 1")
+    plan, params = plan_burley(scene, s, b, burley_params)  # checks the scene, material and backend first
+    say = None if as_json else progress
+    gbs = sequence_gbuffers(plan.builtin, plan.material, frames, b.frame, width=s.width, height=s.height, spp=s.spp,
+                            seed=s.seed, progress=say)
+    refs = sequence_references(gbs, params, spp=limit_spp, backend=b.backend, progress=say)
+    taa = TAASettings() if taa_on else None
+    writer = _FrameWriter(frames_dir, a, gbs[0].composite(refs[0].sss))
+    every = max(1, frames // 8)
+
+    def some(label):  # "frame k/N" messages, every frames // 8-th
+        if say is None:
+            return None
+        return lambda msg: say(f"{label} {msg}") if (int(msg.split()[1].split("/")[0]) - 1) % every == 0 else None
+
+    run = run_sequence(gbs, params, b, adaptive=a, taa=taa, references=refs, progress=some("adaptive"),
+                       on_frame=lambda f, img, img_taa, counts: writer(b.frame + f, img, img_taa, counts))
+    fixed = run_sequence(gbs, params, b, spp=a.b_max, taa=taa, references=refs, progress=some(f"fixed {a.b_max} spp"))
+    last = min(20, frames)
+    if out:
+        from ..io import save_image
+
+        gb = gbs[-1]
+        image = run.last_taa if run.last_taa is not None else run.last
+        save_image(out, image, {"frame": run.last, "reference": gb.composite(refs[-1].sss)}, what="output image")
+    rows = run.rows()
+    for row in rows:
+        row["frame"] += b.frame
+    ref_noise = [float(np.sqrt(np.mean((g.albedo * r.stderr)[g.mask] ** 2))) if g.mask.any() else 0.0
+                 for g, r in zip(gbs, refs)]
+    def finals(r):
+        return {"final_psnr_taa": r.final_psnr(last) if taa_on else None, "final_psnr": r.final_psnr(last, taa=False),
+                "final_psnr_gray_taa": r.final_psnr(last, gray=True) if taa_on else None,
+                "final_psnr_gray": r.final_psnr(last, taa=False, gray=True), "total_samples": r.samples,
+                "mean_spp": float(np.mean(r.mean_spp)), "median_ms": float(np.median(r.ms))}
+
+    summary = {**finals(run), "fixed": {"spp": a.b_max, **finals(fixed),
+                                        "frames": [{**r, "frame": r["frame"] + b.frame} for r in fixed.rows()]}}
+    summary["sample_ratio"] = fixed.samples / run.samples if run.samples else None
+    h, w = gbs[0].shape
+    if as_json:
+        echo_json({"scene": plan.scene, "method": "burley-adaptive", "static": False,
+                   "material": getattr(plan.material, "name", str(plan.material)), "size": [int(w), int(h)],
+                   "burley": {k: v for k, v in b.to_dict().items() if k != "spp"},
+                   "adaptive": {**a.to_dict(), "sigma0": math.sqrt(a.sigma0_sq), "frames": frames,
+                                "history": "(H, W, 4) float32: n_bar, mu, sigma^2, available"},
+                   "taa": taa.to_dict() if taa is not None else None,
+                   "reference": {"spp": refs[0].spp, "sampler": "exact", "mips": False,
+                                 "noise_rms_max": max(ref_noise)},
+                   "final_frames": last, "frames": rows, **summary})
+        return
+    click.echo(f"# {plan.scene}: Burley adaptive along the camera/light path, frames "
+               f"{b.frame}..{b.frame + frames - 1}, "
+               f"sigma0^2 {a.sigma0_sq:.3g}, kappa {a.kappa:g}, budget {a.b_min}:{a.b_max}, {b.sampler} sampler, "
+               f"{'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend, TAA {'on' if taa_on else 'off'}")
+    click.echo(f"# reference per frame: exact sampler, {refs[0].spp} spp, no mips (noise RMS <= {max(ref_noise):.3g})")
+    for name, r in (("adaptive", run), (f"fixed {a.b_max} spp", fixed)):
+        taa_txt = f", with TAA {r.final_psnr(last):.2f} ({r.final_psnr(last, gray=True):.2f})" if taa_on else ""
+        click.echo(f"{name:14s} mean spp {np.mean(r.mean_spp):6.2f}  samples {r.samples}  final PSNR, gray in () "
+                   f"(last {last} frames): {r.final_psnr(last, taa=False):.2f} ({r.final_psnr(last, False, True):.2f})"
+                   f"{taa_txt} dB  median pass {np.median(r.ms):.3g} ms")
+    click.echo(f"samples: fixed / adaptive = {summary['sample_ratio']:.2f}x")
+    if frames_dir:
+        click.echo(f"# wrote frames and sample-count heatmaps to {frames_dir}")
     if out:
         click.echo(f"# wrote {out}")
 

@@ -34,22 +34,30 @@ sigma0^2, dimensionless, the default). Which matches the paper's Figs. 2-3: ``do
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..backends.adaptive_plan import (
+    AVAILABLE,
+    CORRECTIONS,
+    HISTORY_CHANNELS,
+    LUMA_709,
+    MU,
+    N_BAR,
+    VAR,
+    as_plan,
+    reference_clamp,
+    reference_estimate,
+    reference_luminance,
+    reference_reproject,
+    reference_update,
+)
 from ..backends.burley_plan import MAX_SPP
 from ..errors import PassError, SettingsError
 from ..settings import Settings, check_choice, check_float, check_int
-
-#: history channels (see the module docstring)
-N_BAR, MU, VAR, AVAILABLE = 0, 1, 2, 3
-HISTORY_CHANNELS = 4
-#: Eq. 15 as printed (standard deviations) or with variances (Eq. 13's correction term)
-CORRECTIONS = ("variance", "sigma")
-#: ITU-R BT.709 luminance weights of linear RGB
-LUMA_709 = (0.2126, 0.7152, 0.0722)
 
 
 @dataclass(frozen=True)
@@ -150,9 +158,7 @@ def shading_value(rgb, gamma: float = 2.2) -> np.ndarray:
     a = np.asarray(rgb, dtype=np.float32)
     if a.ndim != 3 or a.shape[2] != 3:
         raise PassError(f"shading_value needs an (H, W, 3) RGB image, got shape {a.shape}")
-    g = check_float("gamma", gamma, 0.1, 10.0)
-    y = np.maximum(a @ np.asarray(LUMA_709, np.float32), np.float32(0.0))
-    return y if g == 1.0 else y ** np.float32(1.0 / g)
+    return reference_luminance(a, check_float("gamma", gamma, 0.1, 10.0))
 
 
 def estimate_counts(history, settings: AdaptiveSettings | None = None) -> np.ndarray:
@@ -169,22 +175,8 @@ def estimate_counts(history, settings: AdaptiveSettings | None = None) -> np.nda
     return _estimate(check_history(history), _settings(settings))
 
 
-def _estimate(h: np.ndarray, s: AdaptiveSettings) -> np.ndarray:
-    """:func:`estimate_counts` on a checked float32 history (no checks)."""
-    n_bar = h[..., N_BAR].astype(np.float64) * h[..., AVAILABLE]  # pixels without history: n_bar = 0, n_hat = 0
-    var = h[..., VAR].astype(np.float64)
-    s0_sq = s.sigma0_sq
-    if s.correction == "sigma":
-        spread = np.sqrt(var) - math.sqrt(s0_sq)  # Eq. 15 as printed
-    else:
-        spread = var - s0_sq  # Eq. 13's correction term
-    # Eq. 14: n_hat = kappa * Delta + E(n_bar), Delta = spread / s0^2 * n_bar * (k - 1) (Eq. 15),
-    # E(n_bar) = var / s0^2 * n_bar (Eq. 13)
-    spread *= s.kappa * (s.k - 1.0)
-    spread += var
-    spread *= n_bar
-    spread /= s0_sq
-    return spread
+#: estimate_counts on a checked float32 history (no checks): step 3 of ssskit.backends.adaptive_plan
+_estimate = reference_estimate
 
 
 def clamp_counts(n_hat, settings: AdaptiveSettings | None = None, mask=None) -> np.ndarray:
@@ -199,13 +191,8 @@ def clamp_counts(n_hat, settings: AdaptiveSettings | None = None, mask=None) -> 
     return _clamp(nh, s, _mask(mask, nh.shape))
 
 
-def _clamp(nh: np.ndarray, s: AdaptiveSettings, m: np.ndarray) -> np.ndarray:
-    """:func:`clamp_counts` on checked inputs (NaN counts as b_max: the clip keeps it, so map it first)."""
-    n = np.ceil(nh)
-    n[np.isnan(n)] = s.b_max
-    np.clip(n, s.b_min, s.b_max, out=n)
-    n[~m] = 0
-    return n.astype(np.int64)
+#: clamp_counts on checked inputs: step 4 of ssskit.backends.adaptive_plan
+_clamp = reference_clamp
 
 
 def sample_counts(history, settings: AdaptiveSettings | None = None, mask=None) -> tuple[np.ndarray, np.ndarray]:
@@ -244,26 +231,8 @@ def update_history(history, value, counts, settings: AdaptiveSettings | None = N
     return _update(h, v, n, s, m)
 
 
-def _update(h: np.ndarray, v: np.ndarray, n: np.ndarray, s: AdaptiveSettings, m: np.ndarray) -> np.ndarray:
-    """:func:`update_history` on checked inputs (float32 arithmetic, as the history is stored)."""
-    f32 = np.float32
-    had = h[..., AVAILABLE] > 0
-    a = np.where(had, f32(s.alpha), f32(1.0))  # Eq. 16: M' = 1 without history
-    b = f32(1.0) - a
-    c = h[..., MU]
-    diff = np.where(m, v, 0).astype(f32)
-    diff -= c  # S - C
-    n_bar = b * h[..., N_BAR]
-    n_bar += a * n.astype(f32)  # Eq. 8
-    mu = a * diff
-    mu += c  # Eq. 6: (1 - a) C + a S
-    var = a * diff
-    var *= diff
-    var += h[..., VAR]
-    var *= b  # Eq. 9: (1 - a) sigma^2 + a (1 - a) (S - C)^2
-    var[~had] = s.sigma0_sq  # Eq. 17
-    mf = m.astype(f32)  # no SSS this frame: no history
-    return np.stack([n_bar * mf, mu * mf, var * mf, mf], axis=-1)
+#: update_history on checked inputs (float32 arithmetic): step 2 of ssskit.backends.adaptive_plan
+_update = reference_update
 
 
 def reproject_history(history, motion=None, valid=None) -> np.ndarray:
@@ -277,23 +246,15 @@ def reproject_history(history, motion=None, valid=None) -> np.ndarray:
     """
     h = check_history(history)
     hh, ww = h.shape[:2]
-    ok = np.ones((hh, ww), bool) if valid is None else _mask(valid, (hh, ww))
-    if motion is None:
-        out = h.copy()
-    else:
+    ok = None if valid is None else _mask(valid, (hh, ww))
+    mv = None
+    if motion is not None:
         mv = np.asarray(motion, dtype=np.float64)
         if mv.shape != (hh, ww, 2):
             raise PassError(f"the motion vectors must be (H, W, 2) = {(hh, ww, 2)}, got {mv.shape}")
         if not np.all(np.isfinite(mv)):
             raise PassError("the motion vectors hold NaN or infinite values")
-        v, u = np.mgrid[0:hh, 0:ww] + 0.5
-        px = np.floor(u + mv[..., 0]).astype(np.int64)  # nearest pixel of the previous position
-        py = np.floor(v + mv[..., 1]).astype(np.int64)
-        inside = (px >= 0) & (px < ww) & (py >= 0) & (py < hh)
-        out = h[np.clip(py, 0, hh - 1), np.clip(px, 0, ww - 1)]
-        ok &= inside
-    out[~ok] = 0.0
-    return out
+    return reference_reproject(h, mv, ok)
 
 
 # ---- a static frame loop: the Burley pass with adaptive counts ------------------------------------------
@@ -305,8 +266,10 @@ class AdaptiveFrames:
     ``mean`` and ``stderr`` (H, W, 3) float64: the average of the frames' blurred diffuse layers and its
     standard error from the spread across frames; ``last`` (H, W, 3) float32: the last frame;
     ``counts`` (frames, H, W) int32: the samples each pixel took; ``history``: the final (H, W, 4)
-    history; ``ms_pass`` / ``ms_update``: per-frame wall times of the Burley pass and of the guiding
-    phase (counts estimate + history update), in ms."""
+    history; ``ms_pass`` / ``ms_update``: per-frame times of the Burley pass (prefilter + sampling) and
+    of the guiding phase (counts estimate + history update), in ms; ``phases``: per-frame ms of each
+    phase (:data:`ssskit.backends.base.PHASES`: estimate, prefilter, sampling, update; on gl GPU time,
+    or wall time around glFinish on llvmpipe); ``backend``: the guiding phase's backend."""
 
     settings: AdaptiveSettings
     burley: object
@@ -317,6 +280,8 @@ class AdaptiveFrames:
     history: np.ndarray
     ms_pass: list
     ms_update: list
+    phases: dict = field(default_factory=dict)
+    backend: str = ""
 
     @property
     def mean_spp(self) -> np.ndarray:
@@ -326,7 +291,8 @@ class AdaptiveFrames:
 
 
 def adaptive_frames(gbuffer, params_by_id, settings: AdaptiveSettings | None = None, frames: int = 16, *,
-                    burley=None, history=None, progress=None, on_frame=None) -> AdaptiveFrames:
+                    burley=None, history=None, progress=None, on_frame=None,
+                    backend: str | None = None) -> AdaptiveFrames:
     """``frames`` frames of the Burley pass on a static G-buffer, each with the counts of the
     variance-guided sampler (Xie 2020 Sec. 4.1, Fig. 8's guiding phase): per frame f,
 
@@ -340,10 +306,15 @@ def adaptive_frames(gbuffer, params_by_id, settings: AdaptiveSettings | None = N
     counts)`` is called after every frame with its blurred diffuse layer and counts. The counts are
     chosen before a frame's samples are drawn, from earlier frames only, so each frame's estimate has
     the expectation of the pass at its count: adapting counts adds no bias of its own.
-    """
-    import time
 
-    from .burley import BurleySettings, burley_sss
+    ``backend``: where the guiding phase runs (a backend with the "adaptive" pass,
+    :mod:`ssskit.backends.adaptive_plan`; default: the Burley settings' backend). When it is the Burley
+    pass's backend, the history and counts stay with it between frames (on gl, on the device; read
+    back once per frame here, for the average and ``on_frame``).
+    """
+    from ..backends import BACKENDS, get_backend
+    from ..backends.plan import profile_ids
+    from .burley import BurleySettings, burley_backend, burley_plan_for
     from .gbuffer import GBuffer
 
     s = _settings(settings)
@@ -356,37 +327,60 @@ def adaptive_frames(gbuffer, params_by_id, settings: AdaptiveSettings | None = N
     if b.frame + frames - 1 > 2**31 - 1:
         raise SettingsError(f"frames: {frames} frames from frame {b.frame} pass the last frame number 2^31 - 1")
     hh, ww = gbuffer.shape
-    mask = gbuffer.profile_id > 0
     h = new_history(hh, ww) if history is None else check_history(history)
     if h.shape[:2] != (hh, ww):
         raise PassError(f"the history is {h.shape[1]}x{h.shape[0]} but the G-buffer is {ww}x{hh}")
+    name = b.backend if backend is None else backend
+    guide = get_backend(check_choice("backend", name, BACKENDS.names()))
+    if "adaptive" not in guide.passes:
+        from ..errors import BackendError
+
+        raise BackendError(f"backend {guide.name!r} has no adaptive guiding pass")
+    sampler = burley_backend(b.backend)
+    plan = as_plan(s)
+    if sampler is guide:
+        runner = guide.adaptive_runner(plan, h)
+    else:
+        from ..backends.base import AdaptiveRunner
+
+        runner = AdaptiveRunner(guide, plan, h, sampler=sampler)
+    ids = profile_ids(gbuffer.profile_id)
+    cam = gbuffer.camera
+    base_plan = burley_plan_for(params_by_id, ids, cam.fx, cam.fy, b)
+    slots = base_plan.slot_map(gbuffer.profile_id)
     total = np.zeros((hh, ww, 3))
     total_sq = np.zeros((hh, ww, 3))
     counts_all = np.zeros((frames, hh, ww), np.int32)
-    ms_pass, ms_update = [], []
     out = None
-    for f in range(frames):
-        if progress is not None:
-            progress(f"adaptive frame {f + 1}/{frames}")
-        t0 = time.perf_counter()
-        counts = _clamp(_estimate(h, s), s, mask)  # sample_counts without the checks (h is ours)
-        t1 = time.perf_counter()
-        out = burley_sss(gbuffer, params_by_id, b.replace(frame=b.frame + f), counts=counts)
-        t2 = time.perf_counter()
-        h = _update(h, shading_value(out, s.gamma), counts, s, mask)  # update_history without the checks
-        t3 = time.perf_counter()
-        ms_pass.append(1e3 * (t2 - t1))
-        ms_update.append(1e3 * ((t1 - t0) + (t3 - t2)))
-        o = out.astype(np.float64)
-        total += o
-        total_sq += o * o
-        counts_all[f] = counts
-        if on_frame is not None:
-            on_frame(f, out, counts)
+    try:
+        runner.load(gbuffer.diffuse, gbuffer.depth_mm, slots)
+        for f in range(frames):
+            if progress is not None:
+                progress(f"adaptive frame {f + 1}/{frames}")
+            counts = runner.counts()
+            runner.sample(dataclasses.replace(base_plan, frame=b.frame + f))
+            runner.update()
+            out = runner.result()
+            o = out.astype(np.float64)
+            total += o
+            total_sq += o * o
+            counts_all[f] = counts
+            if on_frame is not None:
+                on_frame(f, out, counts)
+        h = runner.history()
+    finally:
+        runner.release()
+    t = {k: list(v) for k, v in runner.times.items()}
+    zeros = [0.0] * frames
+    est = [t["estimate"][0]] + zeros[1:] if t["estimate"] else zeros
+    pre = t["prefilter"] or zeros
+    ms_pass = [a + c for a, c in zip(pre, t["sampling"])]
+    ms_update = [a + c for a, c in zip(est, t["update"])]
     mean = total / frames
     var = np.maximum(total_sq / frames - mean * mean, 0.0) * (frames / max(frames - 1, 1))
     return AdaptiveFrames(settings=s, burley=b, mean=mean, stderr=np.sqrt(var / frames), last=out,
-                          counts=counts_all, history=h, ms_pass=ms_pass, ms_update=ms_update)
+                          counts=counts_all, history=h, ms_pass=ms_pass, ms_update=ms_update, phases=t,
+                          backend=guide.name)
 
 
 # ---- the circle scenario (Xie 2020 Sec. 4.1.3, Figs. 2 and 3) --------------------------------------------
@@ -448,6 +442,6 @@ def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150,
 
 
 __all__ = ["AVAILABLE", "AdaptiveFrames", "AdaptiveSettings", "CIRCLE_IRRADIANCE", "CORRECTIONS", "CircleRun",
-           "HISTORY_CHANNELS", "MU", "N_BAR", "VAR", "adaptive_frames", "check_history", "circle_scenario",
+           "HISTORY_CHANNELS", "LUMA_709", "MU", "N_BAR", "VAR", "adaptive_frames", "check_history", "circle_scenario",
            "clamp_counts", "estimate_counts", "new_history", "reproject_history", "sample_counts", "shading_value",
            "update_history"]

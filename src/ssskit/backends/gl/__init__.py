@@ -24,7 +24,7 @@ class GLBackend(Backend):
     name = "gl"
     description = "GLSL compute shaders through moderngl/EGL, float32: a GPU, or Mesa's llvmpipe on the CPU"
     dtype = np.float32
-    passes = frozenset({"separable", "burley"})
+    passes = frozenset({"separable", "burley", "adaptive"})
 
     def __init__(self):
         self._lock = threading.Lock()
@@ -48,7 +48,7 @@ class GLBackend(Backend):
         return self._run(lambda: SeparableFrame(plan, np.asarray(diffuse, np.float32),
                                                 np.asarray(depth_mm, np.float32), slots))
 
-    def burley(self, plan, diffuse, depth_mm, slots, spp):
+    def burley(self, plan, diffuse, depth_mm, slots, spp, pyramid=None):
         from ..base import check_burley_frame
         from .burley import BurleyFrame
 
@@ -58,6 +58,35 @@ class GLBackend(Backend):
             return np.array(diffuse, dtype=np.float32, copy=True)
         return self._run(lambda: BurleyFrame(plan, np.asarray(diffuse, np.float32),
                                              np.asarray(depth_mm, np.float32), slots, spp))
+
+    def adaptive_counts(self, plan, history, mask, motion=None, valid=None):
+        """The *estimate* of :mod:`ssskit.backends.adaptive_plan` (``adaptive.comp``), host arrays in and out."""
+        return self._guide(plan, history, mask, motion, valid, None, None)[1]
+
+    def adaptive_update(self, plan, history, rgb, counts, mask, motion=None, valid=None):
+        """The *update* of :mod:`ssskit.backends.adaptive_plan` (``adaptive.comp``), host arrays in and out."""
+        from ...errors import PassError
+
+        if rgb is None or counts is None:
+            raise PassError("the history update needs the pass's result and the frame's sample counts")
+        return self._guide(plan, history, mask, motion, valid, rgb, counts)
+
+    def _guide(self, *args):
+        from .adaptive import guide
+        from .context import context
+
+        with self._lock:
+            ctx = context()
+            try:
+                return guide(*args)
+            finally:
+                ctx.__exit__(None, None, None)
+
+    def adaptive_runner(self, plan, history):
+        """The frame loop with history, counts and images on the device (:class:`~.adaptive.GLAdaptiveRunner`)."""
+        from .adaptive import GLAdaptiveRunner
+
+        return GLAdaptiveRunner(self, plan, history)
 
     def _run(self, make_frame):
         """Upload, run and read back one frame under the backend's lock, then free its device images; the

@@ -109,7 +109,7 @@ class BurleyFrame:
     run the pass without readback, read back when asked."""
 
     def __init__(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, spp,
-                 filtered_mips: bool = False):
+                 filtered_mips: bool = False, counts_texture=None):
         import moderngl
 
         from .context import context
@@ -118,7 +118,8 @@ class BurleyFrame:
         self.plan = plan
         h, w = slots.shape
         self.size = (w, h)
-        self.count_image = not np.isscalar(spp)
+        self.count_image = counts_texture is not None or not np.isscalar(spp)
+        self._borrowed = counts_texture  # an R32I count image on the device (the guiding phase's); not ours
 
         def texture(components: int, dtype: str, data: np.ndarray):
             tex = ctx.texture((w, h), components, np.ascontiguousarray(data).tobytes(), dtype=dtype)
@@ -130,7 +131,10 @@ class BurleyFrame:
         src[..., 3] = np.where(slots > 0, depth_mm, -1.0)
         self.src = texture(4, "f4", src)
         self.slots = texture(1, "u2", slots.astype(np.uint16))
-        self.counts = texture(1, "i4", np.asarray(spp, np.int32)) if self.count_image else None
+        if counts_texture is not None:
+            self.counts = counts_texture
+        else:
+            self.counts = texture(1, "i4", np.asarray(spp, np.int32)) if self.count_image else None
         self.spp = 0 if self.count_image else int(spp)
         self.out = ctx.texture((w, h), 4, dtype="f4")
         self.program = _program(burley_source(plan, self.count_image, filtered_mips), "Burley")
@@ -164,6 +168,13 @@ class BurleyFrame:
 
         context()
         self.build_mips()
+        self.run_pass()
+
+    def run_pass(self) -> None:
+        """The pass alone (the pyramid built already, if the plan has mips); no readback."""
+        from .context import context
+
+        context()
         w, h = self.size
         plan = self.plan
         base = frame_base(0 if plan.stable else plan.frame, plan.seed)
@@ -192,7 +203,7 @@ class BurleyFrame:
 
     def release(self) -> None:
         for obj in (self.src, self.slots, self.counts, self.out, self.atlas):
-            if obj is not None:
+            if obj is not None and obj is not self._borrowed:
                 obj.release()
 
 

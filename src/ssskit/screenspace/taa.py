@@ -1,0 +1,282 @@
+"""A global temporal anti-aliasing (TAA) resolve, as engines have it (Karis 2014), separate from the
+adaptive sampler (:mod:`.adaptive`), which must work with it on and off and does not read its state.
+
+Per frame and pixel (Karis 2014, "High quality temporal supersampling", SIGGRAPH Advances course;
+Xie 2020 Eq. 6 with C the clamped history and M the per-pixel weight):
+
+1. **Reprojection.** The previous TAA output is fetched at the pixel's previous position
+   x + motion(x) (``motion``: pixels, (u, v), as :func:`ssskit.screenspace.motion_vectors` returns),
+   with a bilinear or a Catmull-Rom bicubic filter (Karis 2014 uses Catmull-Rom to keep the history
+   sharp; its weights, Catmull and Rom 1974 / Keys 1981 with a = -1/2, sum to 1 so a constant stays
+   constant). Texels outside the image are clamped to the edge.
+2. **Neighbourhood clamping in YCoCg** (Karis 2014): the history is clamped, component by component,
+   to a box around this frame's 3x3 neighbourhood in YCoCg (Malvar and Sullivan 2003):
+   ``"minmax"`` (default): the box of the 9 values' minimum and maximum (Karis 2014);
+   ``"variance"``: mu +- gamma * sigma of the 9 values (variance clipping, Salvi 2016, "An excursion
+   in temporal supersampling", GDC; gamma = 1 there), intersected with the min/max box;
+   ``"none"``: no clamping (a plain exponential moving average, for tests and comparisons).
+3. **Blend** (Xie 2020 Eq. 6, Karis 2014): out = (1 - a) * clamped history + a * current, a = ``alpha``
+   (the current frame's weight; Karis 2014 and UE4: 0.04-0.2; default 0.1) where the history is
+   available, a = 1 where it is not: off-screen previous positions, pixels where ``valid`` is False
+   (a disocclusion test such as :func:`reprojection_valid`), and the first frame.
+
+Only the blend runs on linear RGB; the box is built and applied in YCoCg, which is linear in RGB,
+so the result is RGB again by the inverse transform (clamped at 0: a box corner can be negative).
+
+API::
+
+    taa = TemporalAA(TAASettings(alpha=0.1, neighbourhood="minmax", fetch="catmull-rom"))
+    out = taa.resolve(frame_rgb, motion=None, valid=None)   # (H, W, 3) float32, keeps the history
+    out = taa_resolve(frame_rgb, history_rgb, motion, valid, settings)   # the same, stateless
+    ok = reprojection_valid(depth, camera, previous_depth, previous_camera)   # disocclusion test
+
+    >>> import numpy as np
+    >>> taa = TemporalAA(TAASettings(alpha=0.5, neighbourhood="none"))
+    >>> _ = taa.resolve(np.zeros((4, 4, 3), np.float32))
+    >>> float(taa.resolve(np.ones((4, 4, 3), np.float32))[0, 0, 0])
+    0.5
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import PassError, SettingsError
+from ..settings import Settings, check_choice, check_float
+from .camera import Camera
+
+#: neighbourhood boxes the history is clamped to (module docstring)
+NEIGHBOURHOODS = ("minmax", "variance", "none")
+#: history fetch filters
+FETCHES = ("bilinear", "catmull-rom")
+
+
+@dataclass(frozen=True)
+class TAASettings(Settings):
+    """TAA parameters (module docstring). ``alpha``: the current frame's blend weight where the history
+    is available, in (0, 1] (Karis 2014: about 0.04-0.1; Xie 2020: UE4's maximum 0.2); ``neighbourhood``:
+    ``"minmax"``, ``"variance"`` or ``"none"``; ``gamma``: the width of the variance box in standard
+    deviations (Salvi 2016: 1; > 0); ``fetch``: ``"bilinear"`` or ``"catmull-rom"``."""
+
+    alpha: float = 0.1
+    neighbourhood: str = "minmax"
+    gamma: float = 1.0
+    fetch: str = "catmull-rom"
+
+    def __post_init__(self) -> None:
+        a = check_float("alpha", self.alpha, 0.0, 1.0)
+        if a <= 0.0:
+            raise SettingsError(f"alpha (the current frame's TAA weight) must lie in (0, 1], got {self.alpha!r}")
+        object.__setattr__(self, "alpha", a)
+        object.__setattr__(self, "neighbourhood", check_choice("neighbourhood", self.neighbourhood, NEIGHBOURHOODS))
+        g = check_float("gamma", self.gamma, 0.0, 100.0)
+        if g <= 0.0:
+            raise SettingsError(f"gamma (the variance box's width in standard deviations) must be > 0, "
+                                f"got {self.gamma!r}")
+        object.__setattr__(self, "gamma", g)
+        object.__setattr__(self, "fetch", check_choice("fetch", self.fetch, FETCHES))
+
+
+# ---- colour space --------------------------------------------------------------------------------------
+
+def rgb_to_ycocg(rgb) -> np.ndarray:
+    """YCoCg (..., 3) of RGB (Malvar and Sullivan 2003): Y = R/4 + G/2 + B/4, Co = (R - B)/2,
+    Cg = -R/4 + G/2 - B/4."""
+    a = np.asarray(rgb)
+    r, g, b = a[..., 0], a[..., 1], a[..., 2]
+    return np.stack([0.25 * r + 0.5 * g + 0.25 * b, 0.5 * (r - b), -0.25 * r + 0.5 * g - 0.25 * b], axis=-1)
+
+
+def ycocg_to_rgb(ycocg) -> np.ndarray:
+    """The inverse of :func:`rgb_to_ycocg`: R = Y + Co - Cg, G = Y + Cg, B = Y - Co - Cg."""
+    a = np.asarray(ycocg)
+    y, co, cg = a[..., 0], a[..., 1], a[..., 2]
+    return np.stack([y + co - cg, y + cg, y - co - cg], axis=-1)
+
+
+# ---- history fetch ---------------------------------------------------------------------------------------
+
+def _catmull_rom_weights(t: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Weights of the 4 taps at offsets -1, 0, 1, 2 for fractional position t in [0, 1) (Catmull-Rom,
+    i.e. Keys 1981 cubic convolution with a = -1/2); they sum to 1."""
+    t2 = t * t
+    t3 = t2 * t
+    return (-0.5 * t3 + t2 - 0.5 * t, 1.5 * t3 - 2.5 * t2 + 1.0, -1.5 * t3 + 2.0 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2)
+
+
+def fetch(image, x, y, filter: str = "bilinear") -> np.ndarray:
+    """``image`` (H, W, C) sampled at continuous pixel positions (x, y) (each (H, W); pixel centres at
+    integer + 0.5), with a bilinear or Catmull-Rom filter and clamp-to-edge addressing; (H, W, C) float64."""
+    img = np.asarray(image, dtype=np.float64)
+    hh, ww = img.shape[:2]
+    fx = np.asarray(x, dtype=np.float64) - 0.5
+    fy = np.asarray(y, dtype=np.float64) - 0.5
+    x0 = np.floor(fx)
+    y0 = np.floor(fy)
+    tx = (fx - x0)[..., None]
+    ty = (fy - y0)[..., None]
+    x0 = x0.astype(np.int64)
+    y0 = y0.astype(np.int64)
+    if filter == "bilinear":
+        offsets, wx, wy = (0, 1), (1.0 - tx, tx), (1.0 - ty, ty)
+    elif filter == "catmull-rom":
+        offsets, wx, wy = (-1, 0, 1, 2), _catmull_rom_weights(tx), _catmull_rom_weights(ty)
+    else:
+        raise PassError(f"unknown fetch filter {filter!r}; known: {', '.join(FETCHES)}")
+    out = np.zeros(fx.shape + img.shape[2:], np.float64)
+    for j, oy in enumerate(offsets):
+        rows = np.clip(y0 + oy, 0, hh - 1)
+        row = np.zeros_like(out)
+        for i, ox in enumerate(offsets):
+            row += wx[i] * img[rows, np.clip(x0 + ox, 0, ww - 1)]
+        out += wy[j] * row
+    return out
+
+
+# ---- neighbourhood -----------------------------------------------------------------------------------------
+
+def _shifted(a: np.ndarray):
+    """The 9 images of a's 3x3 neighbourhood (clamp-to-edge)."""
+    p = np.pad(a, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    hh, ww = a.shape[:2]
+    for dy in range(3):
+        for dx in range(3):
+            yield p[dy:dy + hh, dx:dx + ww]
+
+
+def neighbourhood_box(ycocg, kind: str = "minmax", gamma: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) (H, W, 3): the box of each pixel's 3x3 neighbourhood of ``ycocg`` the history is
+    clamped to: its component-wise min/max (Karis 2014), or mu +- gamma * sigma of the 9 values
+    (Salvi 2016) intersected with the min/max box (``kind="variance"``)."""
+    a = np.asarray(ycocg, dtype=np.float64)
+    taps = np.stack(list(_shifted(a)), axis=0)
+    low, high = taps.min(axis=0), taps.max(axis=0)
+    if kind == "variance":
+        mu = taps.mean(axis=0)
+        sd = np.sqrt(np.maximum((taps * taps).mean(axis=0) - mu * mu, 0.0))
+        low = np.maximum(low, mu - gamma * sd)
+        high = np.minimum(high, mu + gamma * sd)
+    elif kind != "minmax":
+        raise PassError(f"unknown neighbourhood {kind!r}; known: minmax, variance")
+    return low, high
+
+
+# ---- disocclusion ------------------------------------------------------------------------------------------
+
+def reprojection_valid(depth, camera: Camera, previous_depth, previous_camera: Camera,
+                       tolerance: float = 0.05) -> np.ndarray:
+    """(H, W) bool: True where this frame's pixel was visible in the previous frame (a depth test, as
+    engines reject disoccluded history): its world point projects inside the previous image and its
+    depth there agrees with ``previous_depth`` at the nearest pixel within ``tolerance`` relative.
+    Pixels without a surface (depth inf) are valid where the previous frame had none there either."""
+    z = np.asarray(depth, dtype=np.float64)
+    zp = np.asarray(previous_depth, dtype=np.float64)
+    if z.ndim != 2 or zp.shape != z.shape:
+        raise PassError(f"depth and previous depth must be (H, W) arrays of one shape, got {z.shape} and {zp.shape}")
+    if not (isinstance(camera, Camera) and isinstance(previous_camera, Camera)):
+        raise PassError("reprojection_valid needs two Camera objects")
+    tol = check_float("tolerance", tolerance, 0.0, math.inf)
+    hh, ww = z.shape
+    finite = np.isfinite(z)
+    world = camera.unproject(np.where(finite, z, 1.0))
+    uv, zprev = previous_camera.project(world)
+    with np.errstate(invalid="ignore"):
+        px = np.floor(uv[..., 0])
+        py = np.floor(uv[..., 1])
+        inside = (px >= 0) & (px < ww) & (py >= 0) & (py < hh) & (zprev > 0)
+    ix = np.clip(np.nan_to_num(px, nan=0.0), 0, ww - 1).astype(np.int64)
+    iy = np.clip(np.nan_to_num(py, nan=0.0), 0, hh - 1).astype(np.int64)
+    seen = zp[iy, ix]
+    with np.errstate(invalid="ignore"):
+        same = np.isfinite(seen) & (np.abs(seen - zprev) <= tol * np.abs(zprev))
+    out = finite & inside & same
+    # background: no surface now, none at the same pixel before (the motion there is zero)
+    out |= ~finite & ~np.isfinite(zp)
+    return out
+
+
+# ---- the resolve ---------------------------------------------------------------------------------------------
+
+def _check_frame(current) -> np.ndarray:
+    a = np.asarray(current)
+    if a.ndim != 3 or a.shape[2] != 3:
+        raise PassError(f"TAA needs an (H, W, 3) RGB frame, got shape {a.shape}")
+    a = a.astype(np.float64)
+    if not np.all(np.isfinite(a)):
+        raise PassError("the TAA input frame holds NaN or infinite values")
+    return a
+
+
+def taa_resolve(current, history=None, motion=None, valid=None, settings: TAASettings | None = None,
+                return_weight: bool = False):
+    """One TAA frame (module docstring): ``current`` (H, W, 3) linear RGB, ``history`` (H, W, 3) the
+    previous output (None: the first frame, which is ``current``), ``motion`` (H, W, 2) pixels from each
+    pixel to its previous position (None: a static camera), ``valid`` (H, W) bool (False: disoccluded,
+    take the current frame). Returns the (H, W, 3) float32 output, and with ``return_weight`` also the
+    (H, W) weight a of the current frame used per pixel (1 where the history was rejected)."""
+    s = TAASettings() if settings is None else settings
+    if not isinstance(s, TAASettings):
+        raise PassError(f"settings must be TAASettings, got {type(s).__name__}")
+    cur = _check_frame(current)
+    hh, ww = cur.shape[:2]
+    if history is None:
+        out = cur.astype(np.float32)
+        return (out, np.ones((hh, ww))) if return_weight else out
+    hist = _check_frame(history)
+    if hist.shape != cur.shape:
+        raise PassError(f"the TAA history is {hist.shape[1]}x{hist.shape[0]} but the frame is {ww}x{hh}")
+    v, u = np.mgrid[0:hh, 0:ww] + 0.5
+    ok = np.ones((hh, ww), bool)
+    if valid is not None:
+        vm = np.asarray(valid)
+        if vm.shape != (hh, ww):
+            raise PassError(f"valid must be (H, W) = {(hh, ww)}, got {vm.shape}")
+        ok &= vm.astype(bool)
+    if motion is not None:
+        mv = np.asarray(motion, dtype=np.float64)
+        if mv.shape != (hh, ww, 2):
+            raise PassError(f"the motion vectors must be (H, W, 2) = {(hh, ww, 2)}, got {mv.shape}")
+        if not np.all(np.isfinite(mv)):
+            raise PassError("the motion vectors hold NaN or infinite values")
+        u = u + mv[..., 0]
+        v = v + mv[..., 1]
+        ok &= (u >= 0) & (u < ww) & (v >= 0) & (v < hh)  # off-screen: no history
+    prev = fetch(rgb_to_ycocg(hist), u, v, s.fetch)
+    cur_y = rgb_to_ycocg(cur)
+    if s.neighbourhood != "none":
+        low, high = neighbourhood_box(cur_y, s.neighbourhood, s.gamma)
+        prev = np.clip(prev, low, high)
+    a = np.where(ok, s.alpha, 1.0)
+    out_y = (1.0 - a)[..., None] * prev + a[..., None] * cur_y
+    out = np.maximum(ycocg_to_rgb(out_y), 0.0).astype(np.float32)
+    return (out, a) if return_weight else out
+
+
+class TemporalAA:
+    """A TAA resolve that keeps its history between frames: ``resolve(current, motion, valid)`` returns
+    this frame's output (:func:`taa_resolve`) and remembers it; ``reset()`` forgets it (the next frame
+    is taken as is). ``history``: the last output, or None."""
+
+    def __init__(self, settings: TAASettings | None = None) -> None:
+        s = TAASettings() if settings is None else settings
+        if not isinstance(s, TAASettings):
+            raise PassError(f"settings must be TAASettings, got {type(s).__name__}")
+        self.settings = s
+        self.history: np.ndarray | None = None
+
+    def resolve(self, current, motion=None, valid=None) -> np.ndarray:
+        if self.history is not None and np.shape(current)[:2] != self.history.shape[:2]:
+            raise PassError(f"the frame is {np.shape(current)[1]}x{np.shape(current)[0]} but the TAA history is "
+                            f"{self.history.shape[1]}x{self.history.shape[0]}; reset() first")
+        self.history = taa_resolve(current, self.history, motion, valid, self.settings)
+        return self.history
+
+    def reset(self) -> None:
+        self.history = None
+
+
+__all__ = ["FETCHES", "NEIGHBOURHOODS", "TAASettings", "TemporalAA", "fetch", "neighbourhood_box", "reprojection_valid",
+           "rgb_to_ycocg", "taa_resolve", "ycocg_to_rgb"]
