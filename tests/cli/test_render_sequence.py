@@ -27,6 +27,7 @@ def test_moving_sequence_json_and_frames(run, workdir):  # noqa: F811
         assert 4 <= r["mean_spp"] <= 16 and r["ms"] > 0
         assert math.isfinite(r["psnr"]) and math.isfinite(r["psnr_taa"])
     assert rows[0]["mean_spp"] == 4  # no history on the first frame: b_min (Eqs. 16-17)
+    assert data["adaptive"]["disocclusion_spp"] == 4
     assert rows[0]["psnr_taa"] == pytest.approx(rows[0]["psnr"])  # TAA's first frame is the frame itself
     fixed = data["fixed"]
     assert fixed["spp"] == 16 and all(r["mean_spp"] == 16 for r in fixed["frames"])
@@ -45,6 +46,11 @@ def test_taa_off_leaves_the_sampler_unchanged(run, workdir):  # noqa: F811
     # the adaptive sampler reads the pre-TAA output only: same counts and frames with TAA on or off
     assert [r["mean_spp"] for r in on["frames"]] == [r["mean_spp"] for r in off["frames"]]
     assert [r["psnr"] for r in on["frames"]] == pytest.approx([r["psnr"] for r in off["frames"]])
+
+
+def test_disocclusion_spp_sets_the_first_frame(run, workdir):  # noqa: F811
+    data = run_json(run, "--frames", "2", "--budget", "4:16", "--disocclusion-spp", "16")
+    assert data["adaptive"]["disocclusion_spp"] == 16 and data["frames"][0]["mean_spp"] == 16
 
 
 def test_static_flag_keeps_the_camera(run, workdir):  # noqa: F811
@@ -68,6 +74,8 @@ BAD = [
     (["--save-gbuffer", "g.exr"], "--save-gbuffer applies to one frame; add --static"),
     (["--reference"], "--reference applies to one frame; add --static"),
     (["--frames-dir", "notes.txt"], "is a file, not a folder"),
+    (["--disocclusion-spp", "65"], "--disocclusion-spp must lie in the budget [8, 64], got 65"),
+    (["--static", "--disocclusion-spp", "64"], "--disocclusion-spp applies to a moving camera"),
 ]
 
 

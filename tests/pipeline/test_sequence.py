@@ -110,7 +110,8 @@ def test_disocclusion_spp_takes_its_count_where_the_history_is_missing(setup):
         prev, gb = gbs[f - 1], gbs[f]
         h = new_history(*gb.shape)
         h[..., AVAILABLE] = prev.mask
-        missing = gb.mask & (reproject_history(h, motion_vectors(gb.depth, gb.camera, prev.camera))[..., AVAILABLE] == 0)
+        moved = reproject_history(h, motion_vectors(gb.depth, gb.camera, prev.camera))
+        missing = gb.mask & (moved[..., AVAILABLE] == 0)
         assert np.all(variant.counts[f][missing] == 32)
         assert np.all(paper.counts[f][missing] == 4)
         seen += int(missing.sum())

@@ -128,7 +128,7 @@ SEPARABLE_ONLY = ("model", "photons", "kernel_spec", "taps", "tap_method", "jitt
 BURLEY_ONLY = ("sampler", "c", "albedo", "dmfp", "no_mips")
 #: options of the adaptive sampler, refused unless --method burley-adaptive
 ADAPTIVE_ONLY = ("frames", "sigma0", "kappa", "budget", "alpha", "correction", "static", "taa", "frames_dir",
-                 "limit_spp")
+                 "limit_spp", "disocclusion_spp")
 
 
 class Budget(click.ParamType):
@@ -220,6 +220,9 @@ def _burley_inputs(ctx, params: dict, base=None):
                    "psnr_taa.")
 @click.option("--frames-dir", type=OutputDir(), default=None,
               help="--method burley-adaptive: write per-frame images and sample-count heatmaps (PNG) into DIR.")
+@click.option("--disocclusion-spp", type=int, default=None,
+              help="--method burley-adaptive on a moving camera: samples where the history is missing (new pixels; "
+                   "default b_min, Xie 2020 Sec. 4.1.4; a larger value is ssskit's variant), in [b_min, b_max].")
 @click.option("--limit-spp", type=int, default=2048, show_default=True,
               help="--method burley-adaptive on a moving camera: samples per pixel of each frame's converged "
                    "reference (exact sampler, no mips; two cached halves give its standard error).")
@@ -419,14 +422,20 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
         raise SsskitError("--spp: the adaptive pass chooses its samples per pixel; give --budget B_MIN:B_MAX")
     static = bool(params.pop("static")) or isinstance(scene, Path)
     taa_on, frames_dir, limit_spp = params.pop("taa"), params.pop("frames_dir"), params.pop("limit_spp")
+    disocclusion_spp = params.pop("disocclusion_spp")
     s = build_settings(ctx, settings_file, params, skip=("spp",))
     b, burley_params = _burley_inputs(ctx, params)
     a, frames = _adaptive_inputs(ctx, params)
     _check_files(scene, s, settings_file, out, save_gbuffer)
     if not static:
+        if disocclusion_spp is not None and not a.b_min <= disocclusion_spp <= a.b_max:
+            raise SettingsError(f"--disocclusion-spp must lie in the budget [{a.b_min}, {a.b_max}], "
+                                f"got {disocclusion_spp}")
         _render_moving(ctx, scene, s, b, burley_params, a, frames, taa_on, frames_dir, limit_spp, out, save_gbuffer,
-                       as_json)
+                       as_json, disocclusion_spp)
         return
+    if disocclusion_spp is not None:
+        raise SsskitError("--disocclusion-spp applies to a moving camera (a static run has no new pixels)")
     if given(ctx, "limit_spp"):
         raise SsskitError("--limit-spp applies to a moving camera; a static run compares with the exact limit "
                           "(burley_exact)")
@@ -531,7 +540,7 @@ class _FrameWriter:
 
 
 def _render_moving(ctx, scene, s, b, burley_params, a, frames, taa_on, frames_dir, limit_spp, out, save_gbuffer,
-                   as_json) -> None:
+                   as_json, disocclusion_spp=None) -> None:
     """--method burley-adaptive along the scene's camera and light paths (:mod:`ssskit.pipeline.sequence`):
     the adaptive pass and the fixed b_max pass through the same loop and the same TAA, each frame against
     its converged reference."""
@@ -562,7 +571,8 @@ def _render_moving(ctx, scene, s, b, burley_params, a, frames, taa_on, frames_di
             return None
         return lambda msg: say(f"{label} {msg}") if (int(msg.split()[1].split("/")[0]) - 1) % every == 0 else None
 
-    run = run_sequence(gbs, params, b, adaptive=a, taa=taa, references=refs, progress=some("adaptive"),
+    run = run_sequence(gbs, params, b, adaptive=a, taa=taa, references=refs, disocclusion_spp=disocclusion_spp,
+                       progress=some("adaptive"),
                        on_frame=lambda f, img, img_taa, counts: writer(b.frame + f, img, img_taa, counts))
     fixed = run_sequence(gbs, params, b, spp=a.b_max, taa=taa, references=refs, progress=some(f"fixed {a.b_max} spp"))
     last = min(20, frames)
@@ -592,7 +602,8 @@ def _render_moving(ctx, scene, s, b, burley_params, a, frames, taa_on, frames_di
                    "material": getattr(plan.material, "name", str(plan.material)), "size": [int(w), int(h)],
                    "burley": {k: v for k, v in b.to_dict().items() if k != "spp"},
                    "adaptive": {**a.to_dict(), "sigma0": math.sqrt(a.sigma0_sq), "frames": frames,
-                                "history": "(H, W, 4) float32: n_bar, mu, sigma^2, available"},
+                                "history": "(H, W, 4) float32: n_bar, mu, sigma^2, available",
+                                "disocclusion_spp": disocclusion_spp if disocclusion_spp is not None else a.b_min},
                    "taa": taa.to_dict() if taa is not None else None,
                    "reference": {"spp": refs[0].spp, "sampler": "exact", "mips": False,
                                  "noise_rms_max": max(ref_noise)},
