@@ -135,7 +135,11 @@ def _kernels_section(out: Path, progress: Progress, ctx: dict) -> str:
     from .profiles import profile_for_material
 
     prof = profile_for_material("skin1", "montecarlo", photons=ctx["photons"])
-    written = make_figures([], out / "figures", prof, progress=progress, backend=ctx.get("backend"))
+    from .figures import FIGURES
+
+    # every figure but the adaptive sampler's, which have their own section
+    names = [n for n, fn in FIGURES.items() if fn.__module__ != "ssskit.figures.adaptive"]
+    written = make_figures(names, out / "figures", prof, progress=progress, backend=ctx.get("backend"))
     imgs = "".join(f"<img src='figures/{p.name}'>" for paths in written.values() for p in paths)
     methods = ["svd:1", "svd:3", "gaussians:1", "gaussians:6", "preintegrated", "preintegrated_svd:1", "guided:0",
                "guided:2", "artist:fit", "jimenez2012", "burley_fit"]
@@ -251,6 +255,12 @@ def _burley_section(out: Path, progress: Progress, ctx: dict) -> str:
     return demo_section(out, progress, ctx)
 
 
+def _adaptive_section(out: Path, progress: Progress, ctx: dict) -> str:
+    from .figures.adaptive import demo_section
+
+    return demo_section(out, progress, ctx)
+
+
 SECTIONS: list[tuple[str, Section]] = [
     ("materials", _materials_section),
     ("profiles", _profiles_section),
@@ -258,6 +268,7 @@ SECTIONS: list[tuple[str, Section]] = [
     ("kernels", _kernels_section),
     ("screenspace", _screenspace_section),
     ("burley", _burley_section),
+    ("adaptive", _adaptive_section),
 ]
 
 

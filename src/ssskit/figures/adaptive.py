@@ -516,10 +516,10 @@ def xie_table1(out: Path, profile=None, progress=None, backend: str = "numba") -
 def demo_section(out: Path, progress, ctx: dict) -> str:
     """The demo report's section on the adaptive sampler (``ssskit.report.SECTIONS`` signature ``(out,
     progress, ctx) -> html``): Figs. 2-4, the grid of Figs. 10-11, Fig. 13 and Table 1 in kind, on numba
-    (``ctx["adaptive_backend"]`` to choose another backend)."""
+    (``ctx["adaptive_backend"]``, else the demo's ``ctx["backend"]``, to choose another backend)."""
     import html
 
-    backend = ctx.get("adaptive_backend", "numba")
+    backend = ctx.get("adaptive_backend", ctx.get("backend", "numba"))
     figs = Path(out) / "figures"
     figs.mkdir(parents=True, exist_ok=True)
     say = progress if progress is not None else (lambda _msg: None)
