@@ -26,6 +26,19 @@ def cache_root() -> Path:
     return Path(base) / "ssskit"
 
 
+def source_digest() -> str:
+    """A hash of ssskit's own source (Python and GLSL): a cached result keyed by it is reused only by
+    the code that made it."""
+    import hashlib
+
+    root = Path(__file__).parent
+    h = hashlib.sha1()
+    for path in sorted(root.rglob("*.py")) + sorted(root.rglob("*.comp")):
+        h.update(str(path.relative_to(root)).encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()
+
+
 def cache_dir(kind: str) -> Path:
     """The folder of one kind of cached result (see :data:`KINDS`); not created here."""
     if kind not in KINDS:

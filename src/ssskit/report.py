@@ -272,29 +272,17 @@ SECTIONS: list[tuple[str, Section]] = [
 ]
 
 
-def _source_digest() -> str:
-    """A hash of ssskit's own source files: a cached section is reused only by the code that made it."""
-    import hashlib
-
-    root = Path(__file__).parent
-    h = hashlib.sha1()
-    for path in sorted(root.rglob("*.py")):
-        h.update(str(path.relative_to(root)).encode())
-        h.update(path.read_bytes())
-    return h.hexdigest()
-
-
 def _cached_section(name: str, section: Section, out: Path, progress: Progress, ctx: dict) -> str:
     """Run a report section, or copy its HTML and files from the ``demo`` cache when the same settings
     and the same source made them before (a second ``ssskit demo`` is then fast)."""
     import hashlib
     import pickle
 
-    from .cache import cache_dir
+    from .cache import cache_dir, source_digest
     from .io import atomic_output
 
     key = json.dumps({"section": name, "photons": ctx.get("photons"), "backend": ctx.get("backend"),
-                      "source": _source_digest()}, sort_keys=True)
+                      "source": source_digest()}, sort_keys=True)
     path = cache_dir("demo") / f"{name}-{hashlib.sha1(key.encode()).hexdigest()[:16]}.pkl"
     if path.is_file():
         try:

@@ -143,41 +143,12 @@ def plane_params():
     return BurleyParams.from_dmfp(PLANE_ALBEDO, PLANE_DMFP_MM)
 
 
-def _source_digest() -> str:
-    """A hash of ssskit's source: cached sequences are reused only by the code that made them."""
-    import hashlib
-
-    root = Path(__file__).parent.parent
-    h = hashlib.sha1()
-    for path in sorted(root.rglob("*.py")) + sorted(root.rglob("*.comp")):
-        h.update(str(path.relative_to(root)).encode())
-        h.update(path.read_bytes())
-    return h.hexdigest()
-
-
 def _cached(name: str, key: dict, compute):
     """compute() once per (name, key, ssskit's source), kept in the ``figures`` cache (a pickle)."""
-    import hashlib
-    import json
-    import pickle
+    from ..cache import source_digest
+    from .stored import stored
 
-    from ..cache import cache_dir
-    from ..io import atomic_output
-
-    text = json.dumps({"name": name, "key": key, "source": _source_digest()}, sort_keys=True)
-    path = cache_dir("figures") / f"{name}-{hashlib.sha1(text.encode()).hexdigest()[:16]}.pkl"
-    if path.is_file():
-        try:
-            with open(path, "rb") as fh:
-                return pickle.load(fh)
-        except Exception:  # noqa: BLE001 - an unreadable entry is computed again
-            pass
-    value = compute()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_output(path) as tmp:
-        with open(tmp, "wb") as fh:
-            pickle.dump(value, fh)
-    return value
+    return stored("figures", name, {"name": name, "key": key, "source": source_digest()}, compute)
 
 
 def run_sequence(gbuffer, params, reference, settings: AdaptiveSettings | None, frames: int, *, spp: int = 64,

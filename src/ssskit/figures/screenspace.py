@@ -9,22 +9,18 @@ second ``ssskit demo`` reads the images and numbers instead of rendering them ag
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
-import pickle
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
 from ..backends import DEFAULT_BACKEND
-from ..cache import cache_dir
-from ..io import atomic_output
 from ..metrics import region_metrics, tonemap
 from ..pipeline import RenderSettings, render
 from ..scenes import SCENES
 from ..screenspace import PassSettings
 from .plots import CHANNEL_COLORS, pyplot, save_figure
+from .stored import stored
 
 #: (label, kernel spec, taps, tap placement) shown per scene
 SCREEN_SPACE_METHODS = (
@@ -40,19 +36,7 @@ _FIGURE_VERSION = 2
 
 def _cached(name: str, key: dict, make: Callable[[], object]):
     """``make()`` once per ``key``: pickled in the reference cache (the demo's screen-space results)."""
-    text = json.dumps({**key, "v": _FIGURE_VERSION}, sort_keys=True, default=str)
-    path = cache_dir("reference") / f"{name}-{hashlib.sha1(text.encode()).hexdigest()[:16]}.pkl"
-    if path.is_file():
-        try:
-            with open(path, "rb") as fh:
-                return pickle.load(fh)
-        except Exception:  # noqa: BLE001 - an unreadable entry is computed again
-            pass
-    value = make()
-    with atomic_output(path) as tmp:
-        with open(tmp, "wb") as fh:
-            pickle.dump(value, fh)
-    return value
+    return stored("reference", name, {**key, "v": _FIGURE_VERSION}, make)
 
 
 def screen_space_comparison(out: Path, material: str = "skin1", scenes=None, width: int = 160, height: int = 120,

@@ -58,6 +58,7 @@ from ..backends.adaptive_plan import (
 from ..backends.burley_plan import MAX_SPP
 from ..errors import PassError, SettingsError
 from ..settings import Settings, check_choice, check_float, check_int
+from .camera import check_motion
 
 
 @dataclass(frozen=True)
@@ -249,11 +250,7 @@ def reproject_history(history, motion=None, valid=None) -> np.ndarray:
     ok = None if valid is None else _mask(valid, (hh, ww))
     mv = None
     if motion is not None:
-        mv = np.asarray(motion, dtype=np.float64)
-        if mv.shape != (hh, ww, 2):
-            raise PassError(f"the motion vectors must be (H, W, 2) = {(hh, ww, 2)}, got {mv.shape}")
-        if not np.all(np.isfinite(mv)):
-            raise PassError("the motion vectors hold NaN or infinite values")
+        mv = check_motion(motion, (hh, ww))
     return reference_reproject(h, mv, ok)
 
 

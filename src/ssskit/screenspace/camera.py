@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import GBufferError
+from ..errors import GBufferError, PassError
 
 
 @dataclass(frozen=True)
@@ -104,6 +104,18 @@ class Camera:
             if isinstance(exc, GBufferError):
                 raise
             raise GBufferError(f"camera: not an ssskit camera record ({exc})") from None
+
+
+def check_motion(motion, shape: tuple[int, int]) -> np.ndarray:
+    """Motion vectors as a float64 (H, W, 2) array (pixels, current to previous), or a PassError naming
+    the expected shape or the non-finite values."""
+    hh, ww = shape
+    mv = np.asarray(motion, dtype=np.float64)
+    if mv.shape != (hh, ww, 2):
+        raise PassError(f"the motion vectors must be (H, W, 2) = {(hh, ww, 2)}, got {mv.shape}")
+    if not np.all(np.isfinite(mv)):
+        raise PassError("the motion vectors hold NaN or infinite values")
+    return mv
 
 
 def motion_vectors(depth: np.ndarray, camera: Camera, previous: Camera) -> np.ndarray:

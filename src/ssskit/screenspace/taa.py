@@ -46,7 +46,7 @@ import numpy as np
 
 from ..errors import PassError, SettingsError
 from ..settings import Settings, check_choice, check_float
-from .camera import Camera
+from .camera import Camera, check_motion
 
 #: neighbourhood boxes the history is clamped to (module docstring)
 NEIGHBOURHOODS = ("minmax", "variance", "none")
@@ -236,11 +236,7 @@ def taa_resolve(current, history=None, motion=None, valid=None, settings: TAASet
             raise PassError(f"valid must be (H, W) = {(hh, ww)}, got {vm.shape}")
         ok &= vm.astype(bool)
     if motion is not None:
-        mv = np.asarray(motion, dtype=np.float64)
-        if mv.shape != (hh, ww, 2):
-            raise PassError(f"the motion vectors must be (H, W, 2) = {(hh, ww, 2)}, got {mv.shape}")
-        if not np.all(np.isfinite(mv)):
-            raise PassError("the motion vectors hold NaN or infinite values")
+        mv = check_motion(motion, (hh, ww))
         u = u + mv[..., 0]
         v = v + mv[..., 1]
         ok &= (u >= 0) & (u < ww) & (v >= 0) & (v < hh)  # off-screen: no history

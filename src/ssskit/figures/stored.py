@@ -1,0 +1,32 @@
+"""Figure data computed once: a pickle per (name, key) in one of ssskit's cache folders."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import pickle
+from typing import Callable, TypeVar
+
+from ..cache import cache_dir
+from ..io import atomic_output
+
+T = TypeVar("T")
+
+
+def stored(kind: str, name: str, key: dict, make: Callable[[], T]) -> T:
+    """``make()`` once per ``key`` (JSON, non-JSON values by ``str``), pickled in ``cache_dir(kind)``;
+    an unreadable entry is computed again."""
+    text = json.dumps(key, sort_keys=True, default=str)
+    path = cache_dir(kind) / f"{name}-{hashlib.sha1(text.encode()).hexdigest()[:16]}.pkl"
+    if path.is_file():
+        try:
+            with open(path, "rb") as fh:
+                return pickle.load(fh)
+        except Exception:  # noqa: BLE001 - an unreadable entry is computed again
+            pass
+    value = make()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_output(path) as tmp:
+        with open(tmp, "wb") as fh:
+            pickle.dump(value, fh)
+    return value
