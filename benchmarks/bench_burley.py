@@ -26,7 +26,6 @@ import argparse
 import json
 import os
 import platform
-import statistics
 import sys
 import time
 from pathlib import Path
@@ -37,7 +36,7 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_separable import FOCAL_1080P, scene  # noqa: E402
+from bench_separable import FOCAL_1080P, median_ms, scene  # noqa: E402
 
 
 def gbuffer(width: int, height: int):
@@ -48,19 +47,6 @@ def gbuffer(width: int, height: int):
     return GBuffer(diffuse=image, albedo=np.ones_like(image), depth=depth,
                    profile_id=np.ones((height, width), np.uint32), camera=Camera(width, height, f, f, width / 2,
                                                                                 height / 2))
-
-
-def median_ms(fns: dict, repeats: int) -> dict:
-    """Interleaved repeats (every case sees the same machine state); medians in ms."""
-    for fn in fns.values():
-        fn()
-    times = {k: [] for k in fns}
-    for _ in range(repeats):
-        for k, fn in fns.items():
-            t0 = time.perf_counter()
-            fn()
-            times[k].append(time.perf_counter() - t0)
-    return {k: 1e3 * statistics.median(v) for k, v in times.items()}
 
 
 def fft_exact(gb, params):
