@@ -20,20 +20,6 @@ import math
 import numpy as np
 
 
-def peaks(n: np.ndarray, threshold: float) -> tuple[float, float]:
-    heights, lengths = [], []
-    for col in n.T:
-        length = top = 0
-        for v in col:
-            if v > threshold:
-                length, top = length + 1, max(top, v)
-            elif length:
-                heights.append(top)
-                lengths.append(length)
-                length = top = 0
-    return (float(np.mean(heights)), float(np.mean(lengths))) if heights else (float("nan"), float("nan"))
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pixels", type=int, default=300)
@@ -53,7 +39,7 @@ def main() -> None:
                 s = AdaptiveSettings(sigma0_sq=s0, kappa=kappa, correction=corr)
                 run = circle_scenario(s, 150, pixels=args.pixels, seed=args.seed, scale=c)
                 n, sig = run.n[50:], run.sigma[50:]
-                h, ln = peaks(n, 0.5 * (s.b_min + s.b_max))
+                h, ln = run.peaks(0.5 * (s.b_min + s.b_max), 50)
                 print(f"| {c:.3g} | {s0:.3g} | {corr} | {kappa:g} | {n.mean():.1f} | "
                       f"{math.sqrt((sig**2).mean() / s0):.3f}, "
                       f"{np.median(sig) / math.sqrt(s0):.3f} | {abs(run.mu[50:].mean() / c - 1):.4f} | "

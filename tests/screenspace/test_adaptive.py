@@ -13,6 +13,7 @@ from ssskit.screenspace.adaptive import (
     N_BAR,
     VAR,
     AdaptiveSettings,
+    CircleRun,
     circle_scenario,
     clamp_counts,
     estimate_counts,
@@ -37,21 +38,6 @@ def circle(kappa, disocclusion=False, correction="variance", seed=7):
 @pytest.fixture(scope="module")
 def runs():
     return {(k, d): circle(k, d) for k in (0.0, 1.0) for d in (False, True)}
-
-
-def excursions(n, threshold):
-    """Mean peak height and mean length of the runs of frames with n > threshold, over all pixels."""
-    heights, lengths = [], []
-    for col in n.T:
-        length = top = 0
-        for v in col:
-            if v > threshold:
-                length, top = length + 1, max(top, v)
-            elif length:
-                heights.append(top)
-                lengths.append(length)
-                length = top = 0
-    return float(np.mean(heights)), float(np.mean(lengths))
 
 
 # ---- the circle scenario: Must-show properties -----------------------------------------------------------
@@ -88,8 +74,8 @@ def test_circle_counts_reach_the_needed_level(runs):
 def test_circle_kappa1_has_taller_shorter_peaks(runs):
     """Fig. 2's shape: kappa = 1 has higher sample-count peaks lasting fewer frames; kappa = 0 smooths the
     increases over several frames (peaks: runs of frames above the budget's midpoint)."""
-    h0, l0 = excursions(runs[(0.0, False)].n[STEADY], 36)
-    h1, l1 = excursions(runs[(1.0, False)].n[STEADY], 36)
+    h0, l0 = runs[(0.0, False)].peaks(36, STEADY.start)
+    h1, l1 = runs[(1.0, False)].peaks(36, STEADY.start)
     assert h1 > h0 + 5, (h0, h1)
     assert l1 < 0.9 * l0, (l0, l1)
     # frame-to-frame: kappa = 0 changes the count smoothly, kappa = 1 jumps
@@ -394,3 +380,14 @@ def test_adaptive_average_has_no_visible_bias():
     assert abs(z.mean()) < 0.15, z.mean()
     assert 0.85 < math.sqrt((z**2).mean()) < 1.2
     assert (np.abs(z) > 4).mean() < 0.01  # rare-event tails far from an edge aside, no outliers
+
+
+def test_circle_run_peaks_counts_closed_runs():
+    """Two pixels: runs above 36 of heights 40, 50 (lengths 2, 1) and one still open at the end (not
+    counted); a pixel with no run contributes nothing; no run at all gives NaN."""
+    n = np.array([[8, 8], [40, 8], [38, 8], [8, 8], [50, 8], [8, 8], [60, 8]], float)
+    z = np.zeros_like(n)
+    run = CircleRun(AdaptiveSettings(), False, z, n, z, z, z)
+    assert run.peaks(36) == (45.0, 1.5)
+    assert run.peaks(36, start=3) == (50.0, 1.0)
+    assert all(math.isnan(v) for v in run.peaks(100))

@@ -400,6 +400,25 @@ class CircleRun:
     mu: np.ndarray
     sigma: np.ndarray
 
+    def peaks(self, threshold: float, start: int = 0) -> tuple[float, float]:
+        """The peaks of the sample count (Fig. 2's shape): over frames ``start``... of every pixel, the
+        runs of consecutive frames with n > ``threshold``; returns their mean height (max n in the run)
+        and mean length in frames, NaN for both when there is no run. A run still open at the last
+        frame is not counted (its length is unknown)."""
+        heights, lengths = [], []
+        for col in self.n[start:].T:
+            length = top = 0
+            for v in col:
+                if v > threshold:
+                    length, top = length + 1, max(top, v)
+                elif length:
+                    heights.append(top)
+                    lengths.append(length)
+                    length = top = 0
+        if not heights:
+            return float("nan"), float("nan")
+        return float(np.mean(heights)), float(np.mean(lengths))
+
 
 def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150, *, disocclusion: bool = False,
                     pixels: int = 1, seed: int = 0, scale: float = 1.0) -> CircleRun:
