@@ -424,7 +424,8 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
     taa_on, frames_dir, limit_spp = params.pop("taa"), params.pop("frames_dir"), params.pop("limit_spp")
     disocclusion_spp = params.pop("disocclusion_spp")
     s = build_settings(ctx, settings_file, params, skip=("spp",))
-    b, burley_params = _burley_inputs(ctx, params)
+    b, burley_params = _burley_inputs(ctx, params, base=s.burley)  # the file's [burley] table, then the options
+    s = s.replace(burley=b)
     a, frames = _adaptive_inputs(ctx, params)
     _check_files(scene, s, settings_file, out, save_gbuffer)
     if not static:
