@@ -372,29 +372,6 @@ def test_adaptive_frames_bad_inputs():
         adaptive_frames(gb, _params(), burley={"spp": 8})
 
 
-def test_adaptive_average_has_no_visible_bias():
-    """Must-show: on a static scene the average of 256 frames of the adaptive pass equals the converged
-    reference within Monte Carlo error. The reference is the pass's own limit (exact sampler, no mips:
-    :func:`ssskit.pipeline.burley.burley_exact`); the error is each pixel's standard error across the frames.
-    The counts are chosen from earlier frames only, so adapting them adds no bias."""
-    from ssskit.pipeline.burley import burley_exact
-    from ssskit.screenspace import BurleySettings
-    from ssskit.screenspace.adaptive import adaptive_frames
-
-    gb = _step_gbuffer()
-    b = BurleySettings(sampler="exact", sequence="random", mips=False, backend="numba", seed=0)
-    run = adaptive_frames(gb, _params(), AdaptiveSettings(sigma0_sq=1e-4, kappa=0.2), 256, burley=b)
-    late = run.counts[128:]
-    assert late.min() == 8 and late.max() == 64 and 20 < late.mean() < 60  # the counts do adapt
-    ref = burley_exact(gb, _params())
-    noisy = run.stderr > 1e-4  # flat patches far from an edge return their value exactly
-    assert noisy.mean() > 0.95
-    z = (run.mean - ref)[noisy] / run.stderr[noisy]
-    assert abs(z.mean()) < 0.15, z.mean()
-    assert 0.85 < math.sqrt((z**2).mean()) < 1.2
-    assert (np.abs(z) > 4).mean() < 0.01  # rare-event tails far from an edge aside, no outliers
-
-
 def test_with_mips_adapting_counts_moves_the_average_no_more_than_its_noise():
     """Eq. 22's mip level depends on the count n, so the adaptive pass with prefiltered mips reads other levels
     than fixed 64 spp. With a = 1/16 in Xie's units (docs/burley-mips.md) that changes the prefilter's bias by
@@ -416,3 +393,26 @@ def test_with_mips_adapting_counts_moves_the_average_no_more_than_its_noise():
     ref = burley_exact(gb, _params())
     for run in (ada, fix):  # the mips' own bias: above the noise floor of the average, for both
         assert np.sqrt(np.mean((run.mean - ref) ** 2)) > 1.5 * np.sqrt(np.mean(run.stderr**2))
+
+
+def test_adaptive_average_has_no_visible_bias():
+    """Must-show: on a static scene the average of 256 frames of the adaptive pass equals the converged
+    reference within Monte Carlo error. The reference is the pass's own limit (exact sampler, no mips:
+    :func:`ssskit.pipeline.burley.burley_exact`); the error is each pixel's standard error across the frames.
+    The counts are chosen from earlier frames only, so adapting them adds no bias."""
+    from ssskit.pipeline.burley import burley_exact
+    from ssskit.screenspace import BurleySettings
+    from ssskit.screenspace.adaptive import adaptive_frames
+
+    gb = _step_gbuffer()
+    b = BurleySettings(sampler="exact", sequence="random", mips=False, backend="numba", seed=0)
+    run = adaptive_frames(gb, _params(), AdaptiveSettings(sigma0_sq=1e-4, kappa=0.2), 256, burley=b)
+    late = run.counts[128:]
+    assert late.min() == 8 and late.max() == 64 and 20 < late.mean() < 60  # the counts do adapt
+    ref = burley_exact(gb, _params())
+    noisy = run.stderr > 1e-4  # flat patches far from an edge return their value exactly
+    assert noisy.mean() > 0.95
+    z = (run.mean - ref)[noisy] / run.stderr[noisy]
+    assert abs(z.mean()) < 0.15, z.mean()
+    assert 0.85 < math.sqrt((z**2).mean()) < 1.2
+    assert (np.abs(z) > 4).mean() < 0.01  # rare-event tails far from an edge aside, no outliers
