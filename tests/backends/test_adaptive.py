@@ -275,3 +275,40 @@ def test_runner_follows_a_change_of_sampler(guide_backend):
     np.testing.assert_allclose(first, sampler.burley(exact, gb.diffuse, gb.depth_mm, slots, counts), atol=1e-6)
     np.testing.assert_allclose(second, sampler.burley(xie, gb.diffuse, gb.depth_mm, slots, counts), atol=1e-6)
     assert not np.allclose(first, second)
+
+
+def test_runner_takes_counts_from_the_caller(guide_backend):
+    """load(estimate=False) + set_counts: the pass runs with the caller's counts (a fixed count, or the
+    estimate changed), the update records them (Eq. 8); sampling without counts, or bad counts, raise."""
+    from ssskit.backends.base import AdaptiveRunner
+    from ssskit.screenspace.burley import burley_plan_for
+
+    gb = _gbuffer(24, 32)
+    b = get_backend(guide_backend)
+    sampler = b if guide_backend != "numpy" else get_backend("numba")
+    plan = as_plan(AdaptiveSettings(sigma0_sq=1e-4, b_min=4, b_max=40))
+    runner = (b.adaptive_runner(plan, new_history(*gb.shape)) if sampler is b
+              else AdaptiveRunner(b, plan, new_history(*gb.shape), sampler=sampler))
+    burley = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(mips=False))
+    slots = burley.slot_map(gb.profile_id)
+    mask = slots > 0
+    fixed = np.where(mask, 17, 0)
+    try:
+        runner.load(gb.diffuse, gb.depth_mm, slots, estimate=False)
+        assert not runner.times["estimate"]
+        with pytest.raises(PassError, match="set its counts"):
+            runner.sample(burley)
+        with pytest.raises(PassError):
+            runner.set_counts(np.zeros((3, 3), np.int64))
+        with pytest.raises(PassError):
+            runner.set_counts(np.full(gb.shape, 1.5))
+        runner.set_counts(fixed)
+        np.testing.assert_array_equal(runner.counts(), fixed)
+        runner.sample(burley)
+        out = runner.result()
+        runner.update()
+        hist = runner.history()
+    finally:
+        runner.release()
+    np.testing.assert_allclose(out, sampler.burley(burley, gb.diffuse, gb.depth_mm, slots, fixed), atol=1e-6)
+    np.testing.assert_array_equal(hist[..., 0], np.where(mask, 17.0, 0.0))  # Eq. 16: M' = 1, n_bar = n

@@ -114,3 +114,36 @@ def test_settings_file_holds_the_burley_settings(run, gbuffer_file, tmp_path):
     assert code == 0, err
     data = json.loads(out)
     assert data["settings"]["method"] == "separable" and "taps" in data
+
+
+def test_adaptive_takes_the_burley_settings_from_the_file(run, gbuffer_file, tmp_path):
+    """--method burley-adaptive --settings FILE runs the pass with the file's [burley] table (sampler, c,
+    mips, seed, backend; spp is the adaptive budget's business), options on the command line override it."""
+    from ssskit.pipeline import RenderSettings
+    from ssskit.screenspace import BurleySettings
+
+    s = RenderSettings(perceptual=False,
+                       burley=BurleySettings(sampler="xie", spp=8, c=2.6, mips=False, seed=4, backend="numpy"))
+    path = tmp_path / "burley.toml"
+    s.save(path)
+    want = {k: v for k, v in s.burley.to_dict().items() if k != "spp"}
+    code, out, err = run("render", "--method", "burley-adaptive", "--scene", gbuffer_file, "--settings", path,
+                         "--frames", "2", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["method"] == "burley-adaptive" and data["burley"] == want
+    assert {k: v for k, v in data["settings"]["burley"].items() if k != "spp"} == want
+    code, out, err = run("render", "--method", "burley-adaptive", "--scene", gbuffer_file, "--settings", path,
+                         "--frames", "2", "--sampler", "exact", "--seed", "9", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["burley"] == {**want, "sampler": "exact", "seed": 9}  # c, mips, backend: the file's
+    # the file's seed reaches the samples: another seed, another frame
+    code, out, err = run("render", "--method", "burley-adaptive", "--scene", gbuffer_file, "--settings", path,
+                         "--frames", "2", "--seed", "5", "--json")
+    assert code == 0, err
+    other = json.loads(out)
+    code, out, err = run("render", "--method", "burley-adaptive", "--scene", gbuffer_file, "--settings", path,
+                         "--frames", "2", "--json")
+    same = json.loads(out)
+    assert same["metrics"]["exact_2d"] != other["metrics"]["exact_2d"]

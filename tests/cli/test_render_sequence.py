@@ -25,12 +25,15 @@ def test_moving_sequence_json_and_frames(run, workdir):  # noqa: F811
     assert [r["frame"] for r in rows] == list(range(5))
     for r in rows:
         assert 4 <= r["mean_spp"] <= 16 and r["ms"] > 0
+        # the guiding phase's time from the backend's runner, inside the whole loop's wall time
+        assert r["ms_update"] > 0 and r["ms_frame"] >= 0.99 * (r["ms"] + r["ms_update"])
         assert math.isfinite(r["psnr"]) and math.isfinite(r["psnr_taa"])
     assert rows[0]["mean_spp"] == 4  # no history on the first frame: b_min (Eqs. 16-17)
     assert data["adaptive"]["disocclusion_spp"] == 4
     assert rows[0]["psnr_taa"] == pytest.approx(rows[0]["psnr"])  # TAA's first frame is the frame itself
     fixed = data["fixed"]
     assert fixed["spp"] == 16 and all(r["mean_spp"] == 16 for r in fixed["frames"])
+    assert all(r["ms_update"] == 0 for r in fixed["frames"]) and fixed["total_ms_frame"] > 0  # no guiding phase
     assert fixed["total_samples"] == 16 * 24 * 16 * 5  # the slab fills the small frame
     assert data["total_samples"] == pytest.approx(sum(r["mean_spp"] for r in rows) * 24 * 16)
     assert data["reference"]["spp"] == 64 and data["reference"]["mips"] is False

@@ -170,3 +170,59 @@ def test_bad_sequence_arguments(setup):
         run_sequence(gbs, params, BURLEY, spp=8, references=refs[:2])
     with pytest.raises(PassError):
         run_sequence([], params, BURLEY, spp=8)
+
+
+def _host_loop(gbs, params, b, a, disocclusion_spp=None):
+    """The sequence loop as it ran before the backend's runner: the guiding phase through the numpy public
+    functions of ssskit.screenspace.adaptive (the oracle), the Burley pass on ``b.backend``; (counts, last)."""
+    from ssskit.screenspace import burley_sss, motion_vectors
+    from ssskit.screenspace.adaptive import (AVAILABLE, new_history, reproject_history, sample_counts,
+                                             shading_value, update_history)
+
+    history = new_history(*gbs[0].shape)
+    counts_all, prev, sss = [], None, None
+    for f, gb in enumerate(gbs):
+        motion = None if prev is None else motion_vectors(gb.depth, gb.camera, prev.camera)
+        h = reproject_history(history, motion)
+        counts, _ = sample_counts(h, a, gb.mask)
+        if disocclusion_spp is not None:
+            counts[gb.mask & (h[..., AVAILABLE] <= 0)] = disocclusion_spp
+        sss = burley_sss(gb, params, b.replace(frame=b.frame + f), counts=counts)
+        history = update_history(h, shading_value(sss, a.gamma), counts, a, gb.mask)
+        counts_all.append(counts)
+        prev = gb
+    return np.stack(counts_all), sss
+
+
+@pytest.mark.parametrize("disocclusion_spp", [None, 24])
+def test_sequence_runs_the_guiding_phase_on_the_backend(setup, backend, disocclusion_spp):
+    """run_sequence runs the guiding phase through the Burley backend's runner: on numpy and numba the
+    counts and frames equal the host loop on the numpy oracle bit for bit (the same float32 operations);
+    on gl (float32 GLSL) the counts differ in a tiny fraction of pixels (rounding flips, test_adaptive.py's
+    bound for adaptive_frames) and the PSNRs agree."""
+    from ssskit.backends import get_backend
+
+    if "burley" not in get_backend(backend).passes:
+        pytest.skip(f"backend {backend} has no Burley pass")
+    params, gbs, refs = setup
+    b = BURLEY.replace(backend=backend)
+    a = AdaptiveSettings(sigma0_sq=1e-4, kappa=0.6, b_min=4, b_max=32)
+    ref_counts, ref_last = _host_loop(gbs, params, b, a, disocclusion_spp)
+    run = run_sequence(gbs, params, b, adaptive=a, references=refs, keep_counts=True,
+                       disocclusion_spp=disocclusion_spp)
+    masks = masks_of(gbs)
+    ref_spp = [float(c[m].mean()) for c, m in zip(ref_counts, masks)]
+    if backend == "gl":
+        assert (run.counts != ref_counts).mean() < 0.01
+        np.testing.assert_allclose(run.mean_spp, ref_spp, atol=0.2)
+        np.testing.assert_allclose(run.last, gbs[-1].composite(ref_last), rtol=0.05, atol=0.02 * ref_last.max())
+    else:
+        np.testing.assert_array_equal(run.counts, ref_counts)
+        assert run.mean_spp == ref_spp
+        np.testing.assert_array_equal(run.last, gbs[-1].composite(ref_last))
+    # the runner's per-phase times: the guiding phase and the pass, and the whole loop's wall time
+    assert all(u > 0 for u in run.ms_update) and all(p > 0 for p in run.ms)
+    assert all(w >= 0.99 * (p + u) for w, p, u in zip(run.ms_frame, run.ms, run.ms_update))  # it holds both
+    fixed = run_sequence(gbs, params, b, spp=8, references=refs)
+    assert fixed.ms_update == [0.0] * FRAMES and all(w > 0 for w in fixed.ms_frame)
+    assert {"ms", "ms_update", "ms_frame"} <= set(run.rows()[0])

@@ -136,10 +136,12 @@ class AdaptiveRunner:
         self.times[phase].append(1e3 * (time.perf_counter() - t))
         return out
 
-    def load(self, diffuse, depth_mm, slots, motion=None, valid=None) -> None:
+    def load(self, diffuse, depth_mm, slots, motion=None, valid=None, estimate: bool = True) -> None:
         """A frame's G-buffer images (the Burley pass's inputs: :mod:`ssskit.backends.base`), and ``motion``
         (H, W, 2) from it to the previous frame (None: the camera and the scene did not move) and ``valid``
-        (H, W) (the caller's disocclusion test; None: everywhere); runs the *estimate* for the frame."""
+        (H, W) (the caller's disocclusion test; None: everywhere); runs the *estimate* for the frame.
+        ``estimate=False`` skips it (a fixed count, or the caller's own): :meth:`set_counts` must follow
+        before :meth:`sample`."""
         slots = np.asarray(slots)
         if slots.shape != self.shape:
             from ..errors import PassError
@@ -148,8 +150,15 @@ class AdaptiveRunner:
                             f"{self.shape[1]}x{self.shape[0]}")
         self._frame = (np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
         self._motion, self._valid = motion, valid
-        self._counts = self._timed("estimate", lambda: self.backend.adaptive_counts(
-            self.plan, self._history, slots > 0, motion, valid))
+        self._counts = None
+        if estimate:
+            self._counts = self._timed("estimate", lambda: self.backend.adaptive_counts(
+                self.plan, self._history, slots > 0, motion, valid))
+
+    def set_counts(self, counts) -> None:
+        """Replace the counts the next :meth:`sample` (and :meth:`update`'s Eq. 8) uses: an (H, W) integer
+        image (a fixed count on the mask, or the estimate changed by the caller); not timed."""
+        self._counts = _checked_counts(counts, self.shape)
 
     def sample(self, plan: BurleyPlan) -> None:
         """The Burley pass of the loaded frame with the current counts (``plan.frame`` keys its samples)."""
@@ -157,7 +166,7 @@ class AdaptiveRunner:
         from .burley_plan import mip_pyramid
 
         if self._frame is None or self._counts is None:
-            raise PassError("load a frame before sampling it")
+            raise PassError("load a frame (and set its counts, without the estimate) before sampling it")
         diffuse, depth, slots = self._frame
         pyr = self._timed("prefilter", lambda: mip_pyramid(diffuse, slots, plan.slots)) if plan.mips else None
         self._out = self._timed("sampling", lambda: self.sampler.burley(plan, diffuse, depth, slots, self._counts,
@@ -188,6 +197,16 @@ class AdaptiveRunner:
 
     def release(self) -> None:
         """Free what the runner holds (device images on gl)."""
+
+
+def _checked_counts(counts, shape: tuple[int, int]) -> np.ndarray:
+    """An (H, W) integer count image as int64 (values in the Burley pass's range), or a PassError."""
+    from ..errors import PassError
+    from .burley_plan import check_counts
+
+    if np.ndim(counts) != 2:
+        raise PassError(f"the sample counts must be an (H, W) = {tuple(shape)} integer image, got {np.shape(counts)}")
+    return np.array(check_counts(counts, shape), np.int64)
 
 
 def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, plan: SeparablePlan,

@@ -424,7 +424,8 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
     taa_on, frames_dir, limit_spp = params.pop("taa"), params.pop("frames_dir"), params.pop("limit_spp")
     disocclusion_spp = params.pop("disocclusion_spp")
     s = build_settings(ctx, settings_file, params, skip=("spp",))
-    b, burley_params = _burley_inputs(ctx, params)
+    b, burley_params = _burley_inputs(ctx, params, base=s.burley)  # the file's [burley] table, then the options
+    s = s.replace(burley=b)
     a, frames = _adaptive_inputs(ctx, params)
     _check_files(scene, s, settings_file, out, save_gbuffer)
     if not static:
@@ -591,7 +592,9 @@ def _render_moving(ctx, scene, s, b, burley_params, a, frames, taa_on, frames_di
         return {"final_psnr_taa": r.final_psnr(last) if taa_on else None, "final_psnr": r.final_psnr(last, taa=False),
                 "final_psnr_gray_taa": r.final_psnr(last, gray=True) if taa_on else None,
                 "final_psnr_gray": r.final_psnr(last, taa=False, gray=True), "total_samples": r.samples,
-                "mean_spp": float(np.mean(r.mean_spp)), "median_ms": float(np.median(r.ms))}
+                "mean_spp": float(np.mean(r.mean_spp)), "median_ms": float(np.median(r.ms)),
+                "median_ms_update": float(np.median(r.ms_update)), "median_ms_frame": float(np.median(r.ms_frame)),
+                "total_ms_frame": float(np.sum(r.ms_frame))}
 
     summary = {**finals(run), "fixed": {"spp": a.b_max, **finals(fixed),
                                         "frames": [{**r, "frame": r["frame"] + b.frame} for r in fixed.rows()]}}
@@ -618,7 +621,8 @@ def _render_moving(ctx, scene, s, b, burley_params, a, frames, taa_on, frames_di
         taa_txt = f", with TAA {r.final_psnr(last):.2f} ({r.final_psnr(last, gray=True):.2f})" if taa_on else ""
         click.echo(f"{name:14s} mean spp {np.mean(r.mean_spp):6.2f}  samples {r.samples}  final PSNR, gray in () "
                    f"(last {last} frames): {r.final_psnr(last, taa=False):.2f} ({r.final_psnr(last, False, True):.2f})"
-                   f"{taa_txt} dB  median pass {np.median(r.ms):.3g} ms")
+                   f"{taa_txt} dB  median ms: pass {np.median(r.ms):.3g}, guiding {np.median(r.ms_update):.3g}, "
+                   f"whole loop {np.median(r.ms_frame):.3g}")
     click.echo(f"samples: fixed / adaptive = {summary['sample_ratio']:.2f}x")
     if frames_dir:
         click.echo(f"# wrote frames and sample-count heatmaps to {frames_dir}")

@@ -7,17 +7,20 @@ sample counts (Xie 2020 Sec. 4.1) or a fixed count, each optionally followed by 
     >>> run = run_sequence(gbs, params, burley, AdaptiveSettings(), taa=TAASettings(), references=refs)
 
 Per frame f (G-buffer g_f with its camera; motion m_f = :func:`~ssskit.screenspace.motion_vectors`
-from g_f's pixels to where their surface was in g_{f-1}):
+from g_f's pixels to where their surface was in g_{f-1}), through the Burley backend's frame loop
+(:meth:`ssskit.backends.Backend.adaptive_runner`, :mod:`ssskit.backends.adaptive_plan`; the history and
+the counts stay with the backend, on the device for gl):
 
-1. adaptive: ``h = reproject_history(history, m_f)`` (nearest, no rejection: Xie 2020 Sec. 4.1.5's
-   lower bound, Eq. 18); pixels whose previous position is off-screen or was not SSS (the history's
-   channel 3 is 0 there) take the disocclusion initialisation (Eqs. 16-17); ``counts =
-   sample_counts(h)``; fixed: ``counts = spp`` on the SSS mask;
-2. ``sss_f = burley_sss(g_f, counts)`` (the frame number keys the random numbers);
-3. adaptive: ``history = update_history(h, shading_value(sss_f), counts)`` on the pre-TAA output, so
-   the sampler is the same with TAA on or off (it never reads the TAA's state);
-4. ``image_f = g_f.composite(sss_f)``; with TAA, ``taa_f = TemporalAA.resolve(image_f, m_f, valid_f)``
-   with ``valid_f`` the depth test :func:`~ssskit.screenspace.taa.reprojection_valid`.
+1. ``runner.load(g_f, m_f)``: adaptive: the *estimate*, the history reprojected (nearest, no rejection:
+   Xie 2020 Sec. 4.1.5's lower bound, Eq. 18; pixels whose previous position is off-screen or was not
+   SSS, channel 3 = 0, take the disocclusion initialisation, Eqs. 16-17), then Eqs. 13-15 and the clamp
+   give the counts; fixed: ``counts = spp`` on the SSS mask (``runner.set_counts``);
+2. ``runner.sample(plan_f)``: the Burley pass with those counts (the frame number keys the random numbers);
+3. adaptive: ``runner.update()``, the history update (Eqs. 8, 6, 9) on the pre-TAA output, so the
+   sampler is the same with TAA on or off (it never reads the TAA's state);
+4. ``sss_f = runner.result()``; ``image_f = g_f.composite(sss_f)``; with TAA, ``taa_f =
+   TemporalAA.resolve(image_f, m_f, valid_f)`` with ``valid_f`` the depth test
+   :func:`~ssskit.screenspace.taa.reprojection_valid`.
 
 The G-buffers are cached per frame (``cache_dir("gbuffers")``), the references by
 :func:`ssskit.pipeline.burley.burley_reference` (``cache_dir("reference")``).
@@ -37,17 +40,8 @@ from ..cache import cache_dir
 from ..errors import PassError, SettingsError
 from ..io import atomic_output
 from ..metrics import region_metrics
-from ..screenspace import BurleySettings, Camera, GBuffer, burley_sss, motion_vectors
-from ..screenspace.adaptive import (
-    AVAILABLE,
-    LUMA_709,
-    AdaptiveSettings,
-    new_history,
-    reproject_history,
-    sample_counts,
-    shading_value,
-    update_history,
-)
+from ..screenspace import BurleySettings, Camera, GBuffer, motion_vectors
+from ..screenspace.adaptive import AVAILABLE, LUMA_709, AdaptiveSettings, new_history, reproject_history
 from ..screenspace.taa import TAASettings, TemporalAA, reprojection_valid
 from ..settings import check_int
 
@@ -165,8 +159,9 @@ def sequence_references(gbuffers: Sequence[GBuffer], params, spp: int = 8192, se
 class SequenceRun:
     """Per-frame results of :func:`run_sequence`: ``mean_spp``, ``psnr`` (the pass's frame against its
     reference, composite inside the SSS mask), ``psnr_taa`` (after TAA; None without TAA), ``ms`` (the
-    Burley pass) and ``ms_update`` (the guiding phase: reprojection, counts and history update), each a
-    list over frames; ``psnr_gray`` and ``psnr_gray_taa`` the same as :func:`display_psnr`; ``samples``
+    Burley pass: prefilter + sampling), ``ms_update`` (the guiding phase: estimate with its reprojection,
+    and history update; 0 for a fixed count) and ``ms_frame`` (the wall time of the whole loop: guiding
+    phase, pass, upload and readback; :func:`run_sequence`), each a list over frames; ``psnr_gray`` and ``psnr_gray_taa`` the same as :func:`display_psnr`; ``samples``
     the total samples taken; ``last`` / ``last_taa`` the last frame's
     composite images; ``counts`` (frames, H, W) int32 when kept."""
 
@@ -180,6 +175,7 @@ class SequenceRun:
     psnr_gray_taa: list = field(default_factory=list)
     ms: list = field(default_factory=list)
     ms_update: list = field(default_factory=list)
+    ms_frame: list = field(default_factory=list)
     samples: int = 0
     last: np.ndarray | None = None
     last_taa: np.ndarray | None = None
@@ -190,7 +186,7 @@ class SequenceRun:
         return [{"frame": f, "mean_spp": self.mean_spp[f], "psnr": self.psnr[f],
                  "psnr_taa": self.psnr_taa[f] if self.taa is not None else None, "psnr_gray": self.psnr_gray[f],
                  "psnr_gray_taa": self.psnr_gray_taa[f] if self.taa is not None else None, "ms": self.ms[f],
-                 "ms_update": self.ms_update[f]} for f in range(len(self.mean_spp))]
+                 "ms_update": self.ms_update[f], "ms_frame": self.ms_frame[f]} for f in range(len(self.mean_spp))]
 
     def final_psnr(self, last: int = 20, taa: bool = True, gray: bool = False) -> float:
         """The sequence's final PSNR: the mean over its last ``last`` frames of the per-frame PSNR (after
@@ -239,13 +235,32 @@ def run_sequence(gbuffers: Sequence[GBuffer], params, burley: BurleySettings | N
     """The Burley pass over ``gbuffers`` (module docstring) with ``adaptive`` counts or a fixed ``spp``
     (exactly one of them), ``burley`` its sampler settings (frame f uses frame number burley.frame + f),
     ``taa`` the TAA settings or None (no TAA), ``references`` one per G-buffer or None (no PSNR).
+
+    Both run through the Burley backend's frame loop, :meth:`~ssskit.backends.Backend.adaptive_runner`
+    (:mod:`ssskit.backends.adaptive_plan`): per frame ``load`` (the G-buffer and the motion; the
+    *estimate*), ``sample`` (the Burley pass), ``update`` (the history update and the next counts),
+    ``result``. The history and the counts stay with the backend (on gl on the device); only the result
+    (for the TAA and the PSNR) and the counts (for the statistics) are read back. The fixed count loads
+    without the estimate, sets ``spp`` on the mask and skips the update.
+
     ``disocclusion_spp`` (adaptive only): the count of pixels inside the mask whose reprojected history
     is missing (channel 3 = 0: new, newly SSS, or off-screen before; the first frame everywhere). None is
     Xie 2020 Sec. 4.1.4 as printed: n = max(n_hat, beta) = b_min there. A larger value is this
     package's variant (not the paper's): a newly visible pixel has no TAA history either, so its
     b_min-sample noise reaches the screen unfiltered; the history is still initialised by Eqs. 16-17
     (Eq. 8 records the count actually taken).
-    ``on_frame(f, image, image_taa, counts)`` is called after every frame (``image_taa`` None without TAA)."""
+    ``on_frame(f, image, image_taa, counts)`` is called after every frame (``image_taa`` None without TAA).
+
+    Times per frame: ``ms`` the Burley pass (prefilter + sampling) and ``ms_update`` the guiding phase
+    (estimate + update), from the runner's ``times`` (GPU time or wall time around glFinish on gl);
+    ``ms_frame`` the wall time of the whole loop (load with its upload and estimate, pass, update,
+    the result's readback). Outside ``ms_frame``: the counts' readback for the statistics, the fixed
+    count's (or the variant's) upload, motion vectors, TAA and metrics."""
+    from ..backends import get_backend
+    from ..backends.adaptive_plan import as_plan
+    from ..backends.plan import profile_ids
+    from ..screenspace.burley import burley_backend, burley_plan_for
+
     b = BurleySettings() if burley is None else burley
     if not isinstance(b, BurleySettings):
         raise SettingsError(f"burley must be BurleySettings, got {type(b).__name__}")
@@ -271,59 +286,87 @@ def run_sequence(gbuffers: Sequence[GBuffer], params, burley: BurleySettings | N
         raise PassError(f"{len(references)} references for {len(gbs)} frames")
     if b.frame + len(gbs) - 1 > 2**31 - 1:
         raise SettingsError(f"{len(gbs)} frames from frame {b.frame} pass the last frame number 2^31 - 1")
+    backend = burley_backend(b.backend)  # the Burley pass's backend runs the guiding phase too
     run = SequenceRun(adaptive=adaptive, spp=spp, taa=taa)
     resolver = TemporalAA(taa) if taa is not None else None
-    history = new_history(*shape) if adaptive is not None else None
     counts_all = np.zeros((len(gbs), *shape), np.int32) if keep_counts else None
+    runner = backend.adaptive_runner(as_plan(adaptive if adaptive is not None else AdaptiveSettings()),
+                                     new_history(*shape))
     prev: GBuffer | None = None
-    for f, gb in enumerate(gbs):
-        if progress is not None:
-            progress(f"frame {f + 1}/{len(gbs)}")
-        mask = gb.mask
-        motion = None  # the camera's motion (also the TAA's input), outside the guiding phase's time
-        if prev is not None and not np.array_equal(prev.camera.world_to_camera, gb.camera.world_to_camera):
-            motion = motion_vectors(gb.depth, gb.camera, prev.camera)
-        t0 = time.perf_counter()
-        if adaptive is not None:
-            h = reproject_history(history, motion)
-            counts, _ = sample_counts(h, adaptive, mask)
-            if disocclusion_spp is not None:
-                counts[mask & (h[..., AVAILABLE] <= 0)] = disocclusion_spp
-        else:
-            counts = np.where(mask, spp, 0)
-        t1 = time.perf_counter()
-        sss = burley_sss(gb, params, b.replace(frame=b.frame + f), counts=counts)
-        t2 = time.perf_counter()
-        if adaptive is not None:
-            history = update_history(h, shading_value(sss, adaptive.gamma), counts, adaptive, mask)
-        t3 = time.perf_counter()
-        image = gb.composite(sss)
-        ref = None if references is None else gb.composite(references[f].sss)
-        run.mean_spp.append(float(counts[mask].mean()) if mask.any() else 0.0)
-        run.samples += int(counts[mask].sum())
-        run.ms.append(1e3 * (t2 - t1))
-        run.ms_update.append(1e3 * ((t1 - t0) + (t3 - t2)))
-        run.psnr.append(_psnr(ref, image, mask))
-        run.psnr_gray.append(display_psnr(ref, image, mask))
-        out_taa = None
-        if resolver is not None:
-            valid = None
-            if prev is not None:
-                valid = reprojection_valid(gb.depth, gb.camera, prev.depth, prev.camera)
-            out_taa = resolver.resolve(image, motion, valid)
-            run.psnr_taa.append(_psnr(ref, out_taa, mask))
-            run.psnr_gray_taa.append(display_psnr(ref, out_taa, mask))
-        else:
-            run.psnr_taa.append(None)
-            run.psnr_gray_taa.append(None)
-        if counts_all is not None:
-            counts_all[f] = counts
-        if on_frame is not None:
-            on_frame(f, image, out_taa, counts)
-        run.last, run.last_taa = image, out_taa
-        prev = gb
+    prev_inside: np.ndarray | None = None
+    try:
+        for f, gb in enumerate(gbs):
+            if progress is not None:
+                progress(f"frame {f + 1}/{len(gbs)}")
+            mask = gb.mask
+            motion = None  # the camera's motion (also the TAA's input), outside the loop's time
+            if prev is not None and not np.array_equal(prev.camera.world_to_camera, gb.camera.world_to_camera):
+                motion = motion_vectors(gb.depth, gb.camera, prev.camera)
+            cam = gb.camera
+            plan = burley_plan_for(params, profile_ids(gb.profile_id), cam.fx, cam.fy, b.replace(frame=b.frame + f))
+            slots = plan.slot_map(gb.profile_id)
+            inside = slots > 0
+            before = {p: len(v) for p, v in runner.times.items()}
+            t0 = time.perf_counter()
+            runner.load(gb.diffuse, gb.depth_mm, slots, motion, estimate=adaptive is not None)
+            t1 = time.perf_counter()
+            if adaptive is None:
+                counts = np.where(inside, spp, 0)
+                runner.set_counts(counts)
+            else:
+                counts = runner.counts()
+                if disocclusion_spp is not None:
+                    counts[inside & ~_had_history(prev_inside, motion, shape)] = disocclusion_spp
+                    runner.set_counts(counts)
+            t2 = time.perf_counter()
+            runner.sample(plan)
+            if adaptive is not None:
+                runner.update()
+            sss = runner.result()
+            t3 = time.perf_counter()
+            phase = {p: sum(v[before[p]:]) for p, v in runner.times.items()}
+            image = gb.composite(sss)
+            ref = None if references is None else gb.composite(references[f].sss)
+            run.mean_spp.append(float(counts[mask].mean()) if mask.any() else 0.0)
+            run.samples += int(counts[mask].sum())
+            run.ms.append(phase["prefilter"] + phase["sampling"])
+            run.ms_update.append(phase["estimate"] + phase["update"])
+            run.ms_frame.append(1e3 * ((t1 - t0) + (t3 - t2)))
+            run.psnr.append(_psnr(ref, image, mask))
+            run.psnr_gray.append(display_psnr(ref, image, mask))
+            out_taa = None
+            if resolver is not None:
+                valid = None
+                if prev is not None:
+                    valid = reprojection_valid(gb.depth, gb.camera, prev.depth, prev.camera)
+                out_taa = resolver.resolve(image, motion, valid)
+                run.psnr_taa.append(_psnr(ref, out_taa, mask))
+                run.psnr_gray_taa.append(display_psnr(ref, out_taa, mask))
+            else:
+                run.psnr_taa.append(None)
+                run.psnr_gray_taa.append(None)
+            if counts_all is not None:
+                counts_all[f] = counts
+            if on_frame is not None:
+                on_frame(f, image, out_taa, counts)
+            run.last, run.last_taa = image, out_taa
+            prev, prev_inside = gb, inside
+    finally:
+        runner.release()
     run.counts = counts_all
     return run
+
+
+def _had_history(prev_inside: np.ndarray | None, motion, shape) -> np.ndarray:
+    """(H, W) bool: where the reprojected history holds history (channel 3 > 0). After an update the
+    history's channel 3 is the frame's SSS mask (:mod:`ssskit.backends.adaptive_plan` step 2), so this
+    is that mask fetched like the history (step 1: nearest, no rejection, off-screen: none); nothing
+    before the first frame."""
+    if prev_inside is None:
+        return np.zeros(shape, bool)
+    h = np.zeros((*shape, 4), np.float32)
+    h[..., AVAILABLE] = prev_inside
+    return reproject_history(h, motion)[..., AVAILABLE] > 0
 
 
 __all__ = ["GBUFFER_VERSION", "SequenceReference", "SequenceRun", "display_psnr", "run_sequence", "sequence_gbuffers",

@@ -165,6 +165,7 @@ class GLAdaptiveRunner(AdaptiveRunner):
         self._burley = None
         self._loaded = None
         self._sampled = False
+        self._has_counts = False
 
     def _timed(self, phase: str, fn):
         from .context import context
@@ -183,7 +184,7 @@ class GLAdaptiveRunner(AdaptiveRunner):
         self.times[phase].append(q.elapsed / 1e6)
         return out
 
-    def load(self, diffuse, depth_mm, slots, motion=None, valid=None) -> None:
+    def load(self, diffuse, depth_mm, slots, motion=None, valid=None, estimate: bool = True) -> None:
         from .context import context
 
         slots = np.asarray(slots)
@@ -197,14 +198,25 @@ class GLAdaptiveRunner(AdaptiveRunner):
         self._images = GuideImages(ctx, m, mv, ok)
         self._loaded = (np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
         self._sampled = False
-        self._timed("estimate", lambda: dispatch(self.plan, self._images, self._hist[self._cur], self._cnt))
+        self._has_counts = estimate
+        if estimate:
+            self._timed("estimate", lambda: dispatch(self.plan, self._images, self._hist[self._cur], self._cnt))
+
+    def set_counts(self, counts) -> None:
+        from ..base import _checked_counts
+        from .context import context
+
+        n = _checked_counts(counts, self.shape)
+        context()
+        self._cnt.write(np.ascontiguousarray(n, np.int32).tobytes())
+        self._has_counts = True
 
     def sample(self, plan) -> None:
         from .burley import BurleyFrame, burley_source
         from .context import context
 
-        if self._loaded is None:
-            raise PassError("load a frame before sampling it")
+        if self._loaded is None or not self._has_counts:
+            raise PassError("load a frame (and set its counts, without the estimate) before sampling it")
         context()
         if self._burley is not None and burley_source(plan, True) != burley_source(self._burley.plan, True):
             self._burley.release()  # another sampler, sequence, mips or profile: another shader and images
