@@ -134,16 +134,18 @@ def check_int(name: str, value, lo: int, hi: int) -> int:
     return v
 
 
-def check_float(name: str, value, lo: float, hi: float) -> float:
-    """A finite float in [lo, hi], or a SettingsError naming ``name``."""
+def check_float(name: str, value, lo: float, hi: float, *, open_lo: bool = False) -> float:
+    """A finite float in [lo, hi] (in (lo, hi] with ``open_lo``), or a SettingsError naming ``name``
+    and the interval."""
     if isinstance(value, bool):
         raise SettingsError(f"{name} must be a number, got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError):
         raise SettingsError(f"{name} must be a number, got {value!r}") from None
-    if not (math.isfinite(v) and lo <= v <= hi):
-        raise SettingsError(f"{name} must be a finite number in [{lo:g}, {hi:g}], got {value!r}")
+    if not (math.isfinite(v) and (lo < v if open_lo else lo <= v) and v <= hi):
+        raise SettingsError(f"{name} must be a finite number in {'(' if open_lo else '['}{lo:g}, {hi:g}], "
+                            f"got {value!r}")
     return v
 
 

@@ -267,7 +267,7 @@ def test_shading_value_is_gamma_corrected_luminance():
     ({"kappa": -0.1}, "kappa"),
     ({"b_min": 65, "b_max": 64}, "needs b_min <= b_max, got b_min=65 > b_max=64"),
     ({"b_min": 0}, "b_min must lie in [1, 65536]"),
-    ({"alpha": 0.0}, "alpha must lie in (0, 1]"),
+    ({"alpha": 0.0}, "alpha must be a finite number in (0, 1]"),
     ({"alpha": 1.2}, "alpha"),
     ({"correction": "stddev"}, "correction must be one of variance, sigma"),
 ])

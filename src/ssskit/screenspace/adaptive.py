@@ -91,10 +91,7 @@ class AdaptiveSettings(Settings):
         object.__setattr__(self, "b_max", check_int("b_max", self.b_max, 1, MAX_SPP))
         if self.b_min > self.b_max:
             raise SettingsError(f"the sample budget needs b_min <= b_max, got b_min={self.b_min} > b_max={self.b_max}")
-        a = check_float("alpha", self.alpha, 0.0, 1.0)
-        if a <= 0.0:
-            raise SettingsError(f"alpha must lie in (0, 1], got {self.alpha!r}")
-        object.__setattr__(self, "alpha", a)
+        object.__setattr__(self, "alpha", check_float("alpha", self.alpha, 0.0, 1.0, open_lo=True))
         object.__setattr__(self, "correction", check_choice("correction", self.correction, CORRECTIONS))
         object.__setattr__(self, "gamma", check_float("gamma", self.gamma, 0.1, 10.0))
 
