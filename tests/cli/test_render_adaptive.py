@@ -64,6 +64,16 @@ BAD = [
     (["--taps", "5"], "--taps applies to --method separable"),
     (["--c", "3.5"], "--c: c must lie in the open interval (2, 3)"),
     (["--out", "x.exr"], "x.exr"),
+    # sigma0 is fine but its square is not a usable float64: the error says so, not "sigma0_sq ... got 0.0"
+    (["--sigma0", "1e-200"], "--sigma0: sigma0^2 must be a positive finite float64, but 1e-200^2 underflows to 0"),
+    (["--sigma0", "1e200"], "--sigma0: sigma0^2 must be a positive finite float64, but 1e+200^2 overflows"),
+    # --frames-dir may be neither another output nor the folder of another output's name
+    (["--static", "--out", "f.png", "--frames-dir", "f.png"], "--frames-dir 'f.png' is also the --out file"),
+    (["--static", "--save-gbuffer", "new.exr", "--frames-dir", "new.exr"],
+     "--frames-dir 'new.exr' is also the --save-gbuffer file"),
+    (["--static", "--out", "fd/frame_0001.png", "--frames-dir", "fd"],
+     "--out 'fd/frame_0001.png' is one of the frame files --frames-dir writes"),
+    (["--static", "--out", "fd/counts_0000.png", "--frames-dir", "fd"], "is one of the frame files --frames-dir"),
 ]
 
 

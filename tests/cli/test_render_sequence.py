@@ -79,6 +79,8 @@ BAD = [
     (["--frames-dir", "notes.txt"], "is a file, not a folder"),
     (["--disocclusion-spp", "65"], "--disocclusion-spp must lie in the budget [8, 64], got 65"),
     (["--static", "--disocclusion-spp", "64"], "--disocclusion-spp applies to a moving camera"),
+    (["--out", "a.png", "--frames-dir", "a.png"], "--frames-dir 'a.png' is also the --out file"),
+    (["--out", "fd/frame_0001_taa.png", "--frames-dir", "fd"], "is one of the frame files --frames-dir writes"),
 ]
 
 

@@ -17,12 +17,13 @@ frame, and their average, with the pass's limit; beside it one frame at a fixed 
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import click
 import numpy as np
 
-from ..errors import SettingsError, SsskitError
+from ..errors import OutputError, SettingsError, SsskitError
 from ..pipeline.settings import TAP_RANGE, RenderSettings
 from .options import (
     OutputDir,
@@ -392,6 +393,9 @@ def _adaptive_inputs(ctx, params: dict):
     sigma0 = params["sigma0"]
     if not (math.isfinite(sigma0) and sigma0 > 0):
         raise SettingsError(f"--sigma0: the target standard deviation sigma0 must be > 0, got {sigma0!r}")
+    if not (0 < sigma0 * sigma0 < math.inf):  # the history works with sigma0^2 (float64)
+        raise SettingsError(f"--sigma0: sigma0^2 must be a positive finite float64, but {sigma0!r}^2 "
+                            f"{'underflows to 0' if sigma0 < 1 else 'overflows'}; give sigma0 in [1e-150, 1e150]")
     b_min, b_max = params["budget"]
     steps = (("--sigma0", {"sigma0_sq": sigma0 * sigma0}), ("--kappa", {"kappa": params["kappa"]}),
              ("--budget", {"b_min": b_min, "b_max": b_max}), ("--alpha", {"alpha": params["alpha"]}),
@@ -408,6 +412,27 @@ def _adaptive_inputs(ctx, params: dict):
     if params["frame"] + frames - 1 > 2**31 - 1:
         raise SettingsError(f"--frames: {frames} frames from --frame {params['frame']} pass frame 2^31 - 1")
     return a, frames
+
+
+#: the files :class:`_FrameWriter` writes into --frames-dir
+FRAME_FILE = re.compile(r"(frame_\d{4,}(_taa)?|counts_\d{4,})\.png")
+
+
+def _check_frames_dir(frames_dir, outputs: dict) -> None:
+    """No other output (``{option: path}``, None skipped) may be the --frames-dir folder or one of the
+    frame files written into it (``frame_NNNN.png``, ``frame_NNNN_taa.png``, ``counts_NNNN.png``)."""
+    if frames_dir is None:
+        return
+    folder = Path(frames_dir).resolve()
+    for opt, path in outputs.items():
+        if path is None:
+            continue
+        p = Path(path).resolve()
+        if p == folder:
+            raise OutputError(f"--frames-dir {str(frames_dir)!r} is also the {opt} file; choose another folder")
+        if p.parent == folder and FRAME_FILE.fullmatch(p.name):
+            raise OutputError(f"{opt} {str(path)!r} is one of the frame files --frames-dir writes; choose another "
+                              "name or folder")
 
 
 def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, params) -> None:
@@ -428,6 +453,7 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
     s = s.replace(burley=b)
     a, frames = _adaptive_inputs(ctx, params)
     _check_files(scene, s, settings_file, out, save_gbuffer)
+    _check_frames_dir(frames_dir, {"--out": out, "--save-gbuffer": save_gbuffer})
     if not static:
         if disocclusion_spp is not None and not a.b_min <= disocclusion_spp <= a.b_max:
             raise SettingsError(f"--disocclusion-spp must lie in the budget [{a.b_min}, {a.b_max}], "
