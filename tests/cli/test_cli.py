@@ -38,6 +38,16 @@ def test_every_command_help_has_an_example(capsys, name):
     assert examples and all(line.strip().startswith(f"ssskit {name}") for line in examples)
 
 
+def test_figures_help_lists_every_figure(capsys):
+    """The README: "the figure names come from the registries, so --help lists what is installed"."""
+    from ssskit.figures import FIGURES
+
+    code, out, _ = run(capsys, "figures", "--help")
+    assert code == 0
+    listed = out.split("Figures (NAME):")[1].split("Options:")[0]
+    assert [n.strip() for n in " ".join(listed.split()).split(",")] == list(FIGURES.names())
+
+
 def test_backends_lists_every_backend(capsys):
     from ssskit.backends import BACKENDS
 
