@@ -450,7 +450,7 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
     disocclusion_spp = params.pop("disocclusion_spp")
     s = build_settings(ctx, settings_file, params, skip=("spp",))
     b, burley_params = _burley_inputs(ctx, params, base=s.burley)  # the file's [burley] table, then the options
-    s = s.replace(burley=b)
+    s = s.replace(method="burley", burley=b)  # the frame's pass (the JSON's settings say so, not "separable")
     a, frames = _adaptive_inputs(ctx, params)
     _check_files(scene, s, settings_file, out, save_gbuffer)
     _check_frames_dir(frames_dir, {"--out": out, "--save-gbuffer": save_gbuffer})
@@ -525,7 +525,7 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
     h, w = gb.shape
     click.echo(f"# {res.scene}: Burley adaptive, sigma0 {math.sqrt(a.sigma0_sq):.4g} (sigma0^2 {a.sigma0_sq:.3g}), "
                f"kappa {a.kappa:g}, budget {a.b_min}:{a.b_max}, {frames} frames, {b.sampler} sampler, "
-               f"{'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend")
+               f"{'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend, TAA {'on' if taa_on else 'off'}")
     spp = [r["mean_spp"] for r in rows]
     click.echo(f"mean spp per frame: first {spp[0]:.1f}, last {spp[-1]:.1f}, average {np.mean(spp):.1f} "
                f"(fixed: {a.b_max}); median ms: pass {np.median(run.ms_pass):.3g}, "
@@ -535,6 +535,8 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
     for against, m in fixed.metrics.items():
         click.echo(f"fixed {a.b_max} spp vs {against:12s} "
                    + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
+    if frames_dir:
+        click.echo(f"# wrote frames and sample-count heatmaps to {frames_dir}")
     if out:
         click.echo(f"# wrote {out}")
 
