@@ -227,9 +227,10 @@ def _burley_inputs(ctx, params: dict, base=None):
 @click.option("--limit-spp", type=int, default=2048, show_default=True,
               help="--method burley-adaptive on a moving camera: samples per pixel of each frame's converged "
                    "reference (exact sampler, no mips; two cached halves give its standard error).")
-@click.option("--sigma0", type=float, default=math.sqrt(_A.sigma0_sq), show_default="0.0316 (sigma0^2 = 1e-3)",
+@click.option("--sigma0", type=float, default=math.sqrt(_A.sigma0_sq),
               help="--method burley-adaptive: target standard deviation sigma0 of a frame's gamma-corrected "
-                   "luminance, > 0 (Xie: sigma0^2 = 1e-3, i.e. --sigma0 0.0316).")
+                   f"luminance, > 0 (Xie: sigma0^2 = 1e-3, i.e. --sigma0 0.0316).  [default: "
+                   f"{math.sqrt(_A.sigma0_sq):.4g}, sigma0^2 = {_A.sigma0_sq:.3g}]")
 @click.option("--kappa", type=float, default=_A.kappa, show_default=True,
               help="--method burley-adaptive: correction factor kappa of Eq. 14, in [0, 1].")
 @click.option("--budget", type=Budget(), default=f"{_A.b_min}:{_A.b_max}", show_default=True,
