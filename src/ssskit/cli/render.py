@@ -583,6 +583,10 @@ def _render_moving(ctx, scene, s, b, burley_params, a, frames, taa_on, frames_di
     if s.reference:
         raise SsskitError("--reference applies to one frame; add --static (a moving sequence compares each frame "
                           "with its converged Burley reference)")
+    for name in ("reference_spp", "reference_max_spp", "reference_rel_se", "no_exact"):  # else silently unused
+        if given(ctx, name):
+            raise SsskitError(f"{option_name(ctx, name)} applies to one frame; add --static (a moving sequence "
+                              "compares each frame with its converged Burley reference of --limit-spp spp)")
     if isinstance(limit_spp, bool) or not 2 <= limit_spp <= 131072:
         raise SettingsError(f"--limit-spp: the reference's samples per pixel must lie in [2, 131072], got {limit_spp}")
     if b.frame + frames - 1 > 2**31 - 1:
