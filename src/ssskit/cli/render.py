@@ -8,10 +8,13 @@ pass instead of the separable one (:func:`ssskit.pipeline.burley.render_burley`)
 :class:`~ssskit.screenspace.BurleySettings` and parameters (on top of a settings file's ``[burley]``
 table; a file with ``method = "burley"`` runs the Burley pass without ``--method``); the separable
 pass's own options are refused.
-``--method burley-adaptive`` runs ``--frames`` frames of the Burley pass on a static camera with the
-variance-guided sample counts of Xie 2020 Sec. 4.1 (:func:`ssskit.screenspace.adaptive.adaptive_frames`;
-``--sigma0``, ``--kappa``, ``--budget B_MIN:B_MAX``, ``--alpha``, ``--correction``) and compares every
-frame, and their average, with the pass's limit; beside it one frame at a fixed B_MAX spp.
+``--method burley-adaptive`` runs ``--frames`` frames of the Burley pass with the variance-guided sample
+counts of Xie 2020 Sec. 4.1 (``--sigma0``, ``--kappa``, ``--budget B_MIN:B_MAX``, ``--alpha``,
+``--correction``): along a built-in scene's camera and light paths (:func:`_render_moving`,
+:func:`ssskit.pipeline.sequence.run_sequence`: each frame against its converged reference, beside the same
+loop at a fixed B_MAX spp, both through the same TAA), or with ``--static`` (always for a G-buffer file)
+on one camera (:func:`ssskit.screenspace.adaptive.adaptive_frames`: every frame and their average against
+the pass's limit, beside one frame at a fixed B_MAX spp).
 """
 
 from __future__ import annotations
@@ -267,7 +270,8 @@ def _burley_inputs(ctx, params: dict, base=None):
 @click.option("--size", type=Size(), default=f"{_D.width}x{_D.height}", show_default=True,
               help="Image size of a built-in scene (a G-buffer file has its own).")
 @click.option("--spp", type=int, default=_D.spp, show_default=True,
-              help="Samples per pixel of a built-in scene's G-buffer; with --method burley, of the Burley pass.")
+              help="Samples per pixel of a built-in scene's G-buffer; with --method burley, of the Burley pass "
+                   "(not with burley-adaptive: --budget).")
 @click.option("--frame", type=int, default=_D.sss.frame, show_default=True,
               help="Frame along the scene's camera orbit (and of the jitter pattern).")
 @click.option("--seed", type=int, default=_D.seed, show_default=True, help="Random seed (renders and jitter).")
@@ -286,7 +290,8 @@ def _burley_inputs(ctx, params: dict, base=None):
 @click.pass_context
 def render(ctx, scene, settings_file, save_gbuffer, out, as_json, method, **params) -> None:
     """Screen-space SSS (separable, or Burley Monte Carlo) of a scene, with errors against the exact 2D
-    convolution."""
+    convolution; --method burley-adaptive: a sequence of frames with adaptive sample counts, each against
+    its converged reference."""
     gbuffer_file = isinstance(scene, Path)
     method = method.lower()
     if settings_file and not given(ctx, "method"):  # the file's method, unless --method says otherwise
