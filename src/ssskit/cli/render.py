@@ -204,7 +204,9 @@ def _burley_inputs(ctx, params: dict, base=None):
 @click.command(epilog=examples(
     "ssskit render --scene slab --material skin1 --kernel preintegrated --taps 7 --out slab.png",
     "ssskit render --scene slab --method burley --sampler xie --spp 32 --out burley.png",
-    "ssskit render --scene slab --method burley-adaptive --frames 32 --sigma0 0.01 --kappa 0.2 --budget 8:64 --json",
+    "ssskit render --scene slab --method burley-adaptive --size 128x96 --frames 16 --sigma0 0.01 --kappa 0.2 "
+    "--frames-dir ssskit-out/adaptive --json",
+    "ssskit render --scene bumpy --method burley-adaptive --size 128x96 --frames 16 --static --budget 4:32",
     "ssskit render --scene sphere --kernel artist --jitter 0.3 --size 256x192 --out s.exr --reference",
     "ssskit render --scene my_gbuffer.exr --kernel svd:2 --json",
     "ssskit render --scene slab --settings frame.toml --taps 11 --backend numpy"))
