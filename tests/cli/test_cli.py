@@ -38,6 +38,25 @@ def test_every_command_help_has_an_example(capsys, name):
     assert examples and all(line.strip().startswith(f"ssskit {name}") for line in examples)
 
 
+@pytest.mark.parametrize("name", sorted(cli.commands))
+def test_help_defaults_are_plain_values(capsys, name):
+    """Every ``[default: ...]`` shows a value, not click's parenthesised show_default text (render's
+    --sigma0 read ``[default: (0.0316 (sigma0^2 = 1e-3))]``)."""
+    code, out, _ = run(capsys, name, "--help")
+    assert code == 0
+    assert "[default: (" not in " ".join(out.split())
+
+
+def test_figures_help_lists_every_figure(capsys):
+    """The README: "the figure names come from the registries, so --help lists what is installed"."""
+    from ssskit.figures import FIGURES
+
+    code, out, _ = run(capsys, "figures", "--help")
+    assert code == 0
+    listed = out.split("Figures (NAME):")[1].split("Options:")[0]
+    assert [n.strip() for n in " ".join(listed.split()).split(",")] == list(FIGURES.names())
+
+
 def test_backends_lists_every_backend(capsys):
     from ssskit.backends import BACKENDS
 

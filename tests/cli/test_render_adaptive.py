@@ -23,6 +23,7 @@ def test_adaptive_render_on_a_gbuffer_file(run, gbuffer_file, tmp_path):
                          "--budget", "4:32", "--no-mips", "--no-perceptual", "--out", exr)
     a = data["adaptive"]
     assert data["method"] == "burley-adaptive" and a["frames"] == 12
+    assert data["settings"]["method"] == "burley"  # the frame's pass, not the separable default
     assert a["sigma0_sq"] == pytest.approx(1e-4) and a["sigma0"] == pytest.approx(0.01)
     assert (a["kappa"], a["b_min"], a["b_max"], a["alpha"], a["correction"]) == (0.6, 4, 32, 0.2, "variance")
     rows = data["frames"]
@@ -39,11 +40,14 @@ def test_adaptive_render_on_a_gbuffer_file(run, gbuffer_file, tmp_path):
         assert {"RGB", "sss", "exact"} <= set(f.channels())
 
 
-def test_text_output(run, gbuffer_file):
+def test_text_output(run, gbuffer_file, tmp_path):
     code, out, err = run("render", "--method", "burley-adaptive", "--scene", gbuffer_file, "--frames", "3",
-                         "--no-perceptual")
+                         "--no-perceptual", "--frames-dir", tmp_path / "fd")
     assert code == 0, err
     assert "Burley adaptive, sigma0 0.03162 (sigma0^2 0.001), kappa 0.2, budget 8:64, 3 frames" in out
+    assert "backend, TAA on" in out  # as the moving run's header says
+    assert f"# wrote frames and sample-count heatmaps to {tmp_path / 'fd'}" in out
+    assert {f"counts_{f:04d}.png" for f in range(3)} <= {p.name for p in (tmp_path / "fd").iterdir()}
     assert "mean spp per frame: first 8.0" in out and "fixed 64 spp vs exact_2d" in out
 
 
@@ -64,6 +68,16 @@ BAD = [
     (["--taps", "5"], "--taps applies to --method separable"),
     (["--c", "3.5"], "--c: c must lie in the open interval (2, 3)"),
     (["--out", "x.exr"], "x.exr"),
+    # sigma0 is fine but its square is not a usable float64: the error says so, not "sigma0_sq ... got 0.0"
+    (["--sigma0", "1e-200"], "--sigma0: sigma0^2 must be a positive finite float64, but 1e-200^2 underflows to 0"),
+    (["--sigma0", "1e200"], "--sigma0: sigma0^2 must be a positive finite float64, but 1e+200^2 overflows"),
+    # --frames-dir may be neither another output nor the folder of another output's name
+    (["--static", "--out", "f.png", "--frames-dir", "f.png"], "--frames-dir 'f.png' is also the --out file"),
+    (["--static", "--save-gbuffer", "new.exr", "--frames-dir", "new.exr"],
+     "--frames-dir 'new.exr' is also the --save-gbuffer file"),
+    (["--static", "--out", "fd/frame_0001.png", "--frames-dir", "fd"],
+     "--out 'fd/frame_0001.png' is one of the frame files --frames-dir writes"),
+    (["--static", "--out", "fd/counts_0000.png", "--frames-dir", "fd"], "is one of the frame files --frames-dir"),
 ]
 
 

@@ -79,6 +79,13 @@ BAD = [
     (["--frames-dir", "notes.txt"], "is a file, not a folder"),
     (["--disocclusion-spp", "65"], "--disocclusion-spp must lie in the budget [8, 64], got 65"),
     (["--static", "--disocclusion-spp", "64"], "--disocclusion-spp applies to a moving camera"),
+    # the one-frame comparisons' options would be silently unused on a moving run
+    (["--reference-spp", "128"], "--reference-spp applies to one frame; add --static"),
+    (["--reference-max-spp", "128"], "--reference-max-spp applies to one frame; add --static"),
+    (["--reference-rel-se", "0.5"], "--reference-rel-se applies to one frame; add --static"),
+    (["--no-exact"], "--no-exact applies to one frame; add --static"),
+    (["--out", "a.png", "--frames-dir", "a.png"], "--frames-dir 'a.png' is also the --out file"),
+    (["--out", "fd/frame_0001_taa.png", "--frames-dir", "fd"], "is one of the frame files --frames-dir writes"),
 ]
 
 

@@ -8,21 +8,25 @@ pass instead of the separable one (:func:`ssskit.pipeline.burley.render_burley`)
 :class:`~ssskit.screenspace.BurleySettings` and parameters (on top of a settings file's ``[burley]``
 table; a file with ``method = "burley"`` runs the Burley pass without ``--method``); the separable
 pass's own options are refused.
-``--method burley-adaptive`` runs ``--frames`` frames of the Burley pass on a static camera with the
-variance-guided sample counts of Xie 2020 Sec. 4.1 (:func:`ssskit.screenspace.adaptive.adaptive_frames`;
-``--sigma0``, ``--kappa``, ``--budget B_MIN:B_MAX``, ``--alpha``, ``--correction``) and compares every
-frame, and their average, with the pass's limit; beside it one frame at a fixed B_MAX spp.
+``--method burley-adaptive`` runs ``--frames`` frames of the Burley pass with the variance-guided sample
+counts of Xie 2020 Sec. 4.1 (``--sigma0``, ``--kappa``, ``--budget B_MIN:B_MAX``, ``--alpha``,
+``--correction``): along a built-in scene's camera and light paths (:func:`_render_moving`,
+:func:`ssskit.pipeline.sequence.run_sequence`: each frame against its converged reference, beside the same
+loop at a fixed B_MAX spp, both through the same TAA), or with ``--static`` (always for a G-buffer file)
+on one camera (:func:`ssskit.screenspace.adaptive.adaptive_frames`: every frame and their average against
+the pass's limit, beside one frame at a fixed B_MAX spp).
 """
 
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import click
 import numpy as np
 
-from ..errors import SettingsError, SsskitError
+from ..errors import OutputError, SettingsError, SsskitError
 from ..pipeline.settings import TAP_RANGE, RenderSettings
 from .options import (
     OutputDir,
@@ -200,7 +204,9 @@ def _burley_inputs(ctx, params: dict, base=None):
 @click.command(epilog=examples(
     "ssskit render --scene slab --material skin1 --kernel preintegrated --taps 7 --out slab.png",
     "ssskit render --scene slab --method burley --sampler xie --spp 32 --out burley.png",
-    "ssskit render --scene slab --method burley-adaptive --frames 32 --sigma0 0.01 --kappa 0.2 --budget 8:64 --json",
+    "ssskit render --scene slab --method burley-adaptive --size 128x96 --frames 16 --sigma0 0.01 --kappa 0.2 "
+    "--frames-dir ssskit-out/adaptive --json",
+    "ssskit render --scene bumpy --method burley-adaptive --size 128x96 --frames 16 --static --budget 4:32",
     "ssskit render --scene sphere --kernel artist --jitter 0.3 --size 256x192 --out s.exr --reference",
     "ssskit render --scene my_gbuffer.exr --kernel svd:2 --json",
     "ssskit render --scene slab --settings frame.toml --taps 11 --backend numpy"))
@@ -226,9 +232,10 @@ def _burley_inputs(ctx, params: dict, base=None):
 @click.option("--limit-spp", type=int, default=2048, show_default=True,
               help="--method burley-adaptive on a moving camera: samples per pixel of each frame's converged "
                    "reference (exact sampler, no mips; two cached halves give its standard error).")
-@click.option("--sigma0", type=float, default=math.sqrt(_A.sigma0_sq), show_default="0.0316 (sigma0^2 = 1e-3)",
+@click.option("--sigma0", type=float, default=math.sqrt(_A.sigma0_sq),
               help="--method burley-adaptive: target standard deviation sigma0 of a frame's gamma-corrected "
-                   "luminance, > 0 (Xie: sigma0^2 = 1e-3, i.e. --sigma0 0.0316).")
+                   f"luminance, > 0 (Xie: sigma0^2 = 1e-3, i.e. --sigma0 0.0316).  [default: "
+                   f"{math.sqrt(_A.sigma0_sq):.4g}, sigma0^2 = {_A.sigma0_sq:.3g}]")
 @click.option("--kappa", type=float, default=_A.kappa, show_default=True,
               help="--method burley-adaptive: correction factor kappa of Eq. 14, in [0, 1].")
 @click.option("--budget", type=Budget(), default=f"{_A.b_min}:{_A.b_max}", show_default=True,
@@ -265,7 +272,8 @@ def _burley_inputs(ctx, params: dict, base=None):
 @click.option("--size", type=Size(), default=f"{_D.width}x{_D.height}", show_default=True,
               help="Image size of a built-in scene (a G-buffer file has its own).")
 @click.option("--spp", type=int, default=_D.spp, show_default=True,
-              help="Samples per pixel of a built-in scene's G-buffer; with --method burley, of the Burley pass.")
+              help="Samples per pixel of a built-in scene's G-buffer; with --method burley, of the Burley pass "
+                   "(not with burley-adaptive: --budget).")
 @click.option("--frame", type=int, default=_D.sss.frame, show_default=True,
               help="Frame along the scene's camera orbit (and of the jitter pattern).")
 @click.option("--seed", type=int, default=_D.seed, show_default=True, help="Random seed (renders and jitter).")
@@ -284,7 +292,8 @@ def _burley_inputs(ctx, params: dict, base=None):
 @click.pass_context
 def render(ctx, scene, settings_file, save_gbuffer, out, as_json, method, **params) -> None:
     """Screen-space SSS (separable, or Burley Monte Carlo) of a scene, with errors against the exact 2D
-    convolution."""
+    convolution; --method burley-adaptive: a sequence of frames with adaptive sample counts, each against
+    its converged reference."""
     gbuffer_file = isinstance(scene, Path)
     method = method.lower()
     if settings_file and not given(ctx, "method"):  # the file's method, unless --method says otherwise
@@ -392,6 +401,9 @@ def _adaptive_inputs(ctx, params: dict):
     sigma0 = params["sigma0"]
     if not (math.isfinite(sigma0) and sigma0 > 0):
         raise SettingsError(f"--sigma0: the target standard deviation sigma0 must be > 0, got {sigma0!r}")
+    if not (0 < sigma0 * sigma0 < math.inf):  # the history works with sigma0^2 (float64)
+        raise SettingsError(f"--sigma0: sigma0^2 must be a positive finite float64, but {sigma0!r}^2 "
+                            f"{'underflows to 0' if sigma0 < 1 else 'overflows'}; give sigma0 in [1e-150, 1e150]")
     b_min, b_max = params["budget"]
     steps = (("--sigma0", {"sigma0_sq": sigma0 * sigma0}), ("--kappa", {"kappa": params["kappa"]}),
              ("--budget", {"b_min": b_min, "b_max": b_max}), ("--alpha", {"alpha": params["alpha"]}),
@@ -410,6 +422,27 @@ def _adaptive_inputs(ctx, params: dict):
     return a, frames
 
 
+#: the files :class:`_FrameWriter` writes into --frames-dir
+FRAME_FILE = re.compile(r"(frame_\d{4,}(_taa)?|counts_\d{4,})\.png")
+
+
+def _check_frames_dir(frames_dir, outputs: dict) -> None:
+    """No other output (``{option: path}``, None skipped) may be the --frames-dir folder or one of the
+    frame files written into it (``frame_NNNN.png``, ``frame_NNNN_taa.png``, ``counts_NNNN.png``)."""
+    if frames_dir is None:
+        return
+    folder = Path(frames_dir).resolve()
+    for opt, path in outputs.items():
+        if path is None:
+            continue
+        p = Path(path).resolve()
+        if p == folder:
+            raise OutputError(f"--frames-dir {str(frames_dir)!r} is also the {opt} file; choose another folder")
+        if p.parent == folder and FRAME_FILE.fullmatch(p.name):
+            raise OutputError(f"{opt} {str(path)!r} is one of the frame files --frames-dir writes; choose another "
+                              "name or folder")
+
+
 def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, params) -> None:
     """--method burley-adaptive: a sequence of the Burley pass with adaptive counts, along the scene's
     camera and light paths (:func:`_render_moving`) or on a static camera."""
@@ -425,9 +458,10 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
     disocclusion_spp = params.pop("disocclusion_spp")
     s = build_settings(ctx, settings_file, params, skip=("spp",))
     b, burley_params = _burley_inputs(ctx, params, base=s.burley)  # the file's [burley] table, then the options
-    s = s.replace(burley=b)
+    s = s.replace(method="burley", burley=b)  # the frame's pass (the JSON's settings say so, not "separable")
     a, frames = _adaptive_inputs(ctx, params)
     _check_files(scene, s, settings_file, out, save_gbuffer)
+    _check_frames_dir(frames_dir, {"--out": out, "--save-gbuffer": save_gbuffer})
     if not static:
         if disocclusion_spp is not None and not a.b_min <= disocclusion_spp <= a.b_max:
             raise SettingsError(f"--disocclusion-spp must lie in the budget [{a.b_min}, {a.b_max}], "
@@ -499,7 +533,7 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
     h, w = gb.shape
     click.echo(f"# {res.scene}: Burley adaptive, sigma0 {math.sqrt(a.sigma0_sq):.4g} (sigma0^2 {a.sigma0_sq:.3g}), "
                f"kappa {a.kappa:g}, budget {a.b_min}:{a.b_max}, {frames} frames, {b.sampler} sampler, "
-               f"{'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend")
+               f"{'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend, TAA {'on' if taa_on else 'off'}")
     spp = [r["mean_spp"] for r in rows]
     click.echo(f"mean spp per frame: first {spp[0]:.1f}, last {spp[-1]:.1f}, average {np.mean(spp):.1f} "
                f"(fixed: {a.b_max}); median ms: pass {np.median(run.ms_pass):.3g}, "
@@ -509,6 +543,8 @@ def _render_adaptive(ctx, scene, settings_file, save_gbuffer, out, as_json, para
     for against, m in fixed.metrics.items():
         click.echo(f"fixed {a.b_max} spp vs {against:12s} "
                    + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float)))
+    if frames_dir:
+        click.echo(f"# wrote frames and sample-count heatmaps to {frames_dir}")
     if out:
         click.echo(f"# wrote {out}")
 
@@ -554,6 +590,10 @@ def _render_moving(ctx, scene, s, b, burley_params, a, frames, taa_on, frames_di
     if s.reference:
         raise SsskitError("--reference applies to one frame; add --static (a moving sequence compares each frame "
                           "with its converged Burley reference)")
+    for name in ("reference_spp", "reference_max_spp", "reference_rel_se", "no_exact"):  # else silently unused
+        if given(ctx, name):
+            raise SsskitError(f"{option_name(ctx, name)} applies to one frame; add --static (a moving sequence "
+                              "compares each frame with its converged Burley reference of --limit-spp spp)")
     if isinstance(limit_spp, bool) or not 2 <= limit_spp <= 131072:
         raise SettingsError(f"--limit-spp: the reference's samples per pixel must lie in [2, 131072], got {limit_spp}")
     if b.frame + frames - 1 > 2**31 - 1:

@@ -21,7 +21,21 @@ from .options import (
 from .profiles import check_material_for_model, resolve_profile
 
 
-@click.command(epilog=examples(
+class _FiguresCommand(click.Command):
+    """``ssskit figures``: its help lists the registered figure names (the argument's metavar is
+    ``[NAME]...``, so the usage line does not)."""
+
+    def format_help_text(self, ctx, formatter) -> None:
+        super().format_help_text(ctx, formatter)
+        import textwrap
+
+        with formatter.section("Figures (NAME)"):
+            width = max(formatter.width - formatter.current_indent, 20)
+            for line in textwrap.wrap(", ".join(FIGURE.names()), width, break_on_hyphens=False):
+                formatter.write(" " * formatter.current_indent + line + "\n")
+
+
+@click.command(cls=_FiguresCommand, epilog=examples(
     "ssskit figures fig7 figS5 --material skin1 --out ssskit-out/figures",
     "ssskit figures --model dipole",
     "ssskit figures xie-fig6 --backend gl"))
@@ -33,7 +47,7 @@ from .profiles import check_material_for_model, resolve_profile
 @out_dir_option("ssskit-out/figures")
 @click.pass_context
 def figures(ctx, names, material, model, photons, backend, out) -> None:
-    """Regenerate the papers' figures (NAMES: any of the registered figures; all by default). The
+    """Regenerate the papers' figures (NAME: any of the figures listed below; all by default). The
     figures that run a screen-space pass run it on --backend."""
     from ..backends import get_backend
     from ..figures import make_figures
