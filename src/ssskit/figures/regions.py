@@ -75,7 +75,7 @@ def attribution_table_html(data: dict[str, Any]) -> str:
     relative to the plateau's, and against the run's first setup the reference ratio and the share of
     the gap (reference - exact) removed; every number R, G, B ± its standard error."""
     head = ("<table><tr><th>experiment</th><th>scene</th><th>region</th><th>setup</th><th>path traced ± SE</th>"
-            "<th>exact / path traced</th><th>... / plateau's</th><th>path traced / first setup's</th>"
+            "<th>exact / path traced</th><th>... / the plateau's (none: the object's)</th><th>path traced / first setup's</th>"
             "<th>share of the gap removed</th></tr>")
     rows = []
     for run in data["runs"]:
@@ -85,7 +85,7 @@ def attribution_table_html(data: dict[str, Any]) -> str:
             for k, s in enumerate(run["setups"]):
                 cell = s["regions"][name]
                 vs = s.get("vs_first", {}).get(name)
-                rel = cell.get("exact_over_reference_vs_plateau")
+                rel = cell.get("exact_over_reference_vs_plateau") or cell.get("exact_over_reference_vs_object")
                 rows.append(
                     f"<tr><td class=name>{run['experiment'] if k == 0 else ''}</td>"
                     f"<td class=name>{html.escape(run['scene']) if k == 0 else ''}</td>"

@@ -62,10 +62,11 @@ Progress = Callable[[str], None]
 
 #: the experiments
 EXPERIMENTS = ("transmission", "fresnel", "curvature")
-#: the region table's regions and one more: the SSS pixels seen at a grazing angle (normal . view
-#: direction < :data:`GRAZING_COS`), where the boundary's Fresnel transmission to the camera is low;
-#: it overlaps the others (mostly the silhouette band)
-ATTRIBUTION_REGIONS = (*REGIONS, "grazing_view")
+#: the region table's regions and two more, which overlap them: ``grazing_view``, the SSS pixels
+#: seen at a grazing angle (normal . view direction < :data:`GRAZING_COS`), where the boundary's
+#: Fresnel transmission to the camera is low; ``object``, every SSS pixel (the reference for a
+#: region's ratio when there is no plateau)
+ATTRIBUTION_REGIONS = (*REGIONS, "grazing_view", "object")
 GRAZING_COS = 0.5
 
 
@@ -159,6 +160,7 @@ def regions_of(prep: Prepared, fraction: float = 0.99) -> dict[str, np.ndarray]:
     radius_px = float(np.max(prep.profile.radius_at_fraction(fraction))) / pixel_mm(gb)
     masks = region_masks(gb.diffuse, gb.mask, radius_px)
     masks["grazing_view"] = gb.mask & (view_cosine(gb) < GRAZING_COS)
+    masks["object"] = gb.mask.copy()
     return masks
 
 
@@ -228,8 +230,8 @@ def run_experiment(setups: Sequence[Setup], width: int = 160, height: int = 120,
     Returns a JSON-ready dict: ``regions`` (names, pixels), per setup and region the levels of the
     pass, the exact 2D convolution, the surface convolution (``surface``) and the reference (± SE),
     ``exact_over_reference``, ``pass_over_reference`` and ``surface_over_reference`` (± SE), and
-    ``exact_over_reference_vs_plateau`` (that ratio divided by the plateau's, ± SE, when there is a
-    plateau); per setup after the first, against the first: ``reference_ratio`` (its reference level
+    ``exact_over_reference_vs_plateau`` / ``_vs_object`` (that ratio divided by the plateau's, when
+    there is a plateau, / by the whole object's, ± SE from the paired chunks); per setup after the first, against the first: ``reference_ratio`` (its reference level
     / the first's) and ``gap_removed`` (the share of the first setup's gap reference - exact that is
     gone: 1 - gap / first gap), each ± SE. Each setup's levels are taken against its own E / pi.
     """
@@ -249,7 +251,7 @@ def run_experiment(setups: Sequence[Setup], width: int = 160, height: int = 120,
     names = ATTRIBUTION_REGIONS
     pixels = {name: int(masks[name].sum()) for name in names}
     present = [j for j, name in enumerate(names) if pixels[name]]
-    plateau = names.index("plateau")
+    plateau, whole = names.index("plateau"), names.index("object")
     per_setup, levels, exacts = [], [], []
     for prep in preps:
         t0 = time.perf_counter()
@@ -273,11 +275,12 @@ def run_experiment(setups: Sequence[Setup], width: int = 160, height: int = 120,
                 cell[f"{key}_over_reference"] = _pair(*ratio_se(np.broadcast_to(model[j], lv[:, j].shape), lv[:, j]))
             if sur is not None:
                 cell["surface"] = sur[j].tolist()
-            if pixels["plateau"] and j != plateau:
-                # (x_j / a_j) / (x_p / a_p) = (x_j / x_p) * (a_p / a_j): a paired ratio of two regions' chunks
-                r, se = ratio_se(lv[:, plateau], lv[:, j])
-                scale = exa[j] / exa[plateau]
-                cell["exact_over_reference_vs_plateau"] = _pair(r * scale, se * np.abs(scale))
+            for other, key in ((plateau, "plateau"), (whole, "object")):
+                if pixels[key] and j != other:
+                    # (x_j / a_j) / (x_o / a_o) = (x_j / x_o) * (a_o / a_j): a paired ratio of two regions' chunks
+                    r, se = ratio_se(lv[:, other], lv[:, j])
+                    scale = exa[j] / exa[other]
+                    cell[f"exact_over_reference_vs_{key}"] = _pair(r * scale, se * np.abs(scale))
             row["regions"][names[j]] = cell
         if levels:
             row["vs_first"] = {}
