@@ -265,8 +265,8 @@ def _attribution_html(out: Path, photons: int) -> str:
     data = cached_attribution(photons=photons)
     title = "<h3>What each difference is: controlled experiments</h3>"
     if data is None:
-        return (title + "<p class=note>Not measured yet: <code>ssskit figures region-attribution</code> path-traces "
-                "the experiments once (transmission: a black backing behind the unseen surface; grazing Fresnel: "
+        return (title + f"<p class=note>Not measured yet: <code>ssskit figures region-attribution --photons {photons}</code> "
+                "(about 30 minutes on 2 cores) path-traces the experiments once (transmission: a black backing behind the unseen surface; grazing Fresnel: "
                 "the index-matched boundary; curvature: the scene scaled by k), then this report shows them. "
                 "See docs/regions.md.</p>")
     png = out / "figures" / "region_attribution.png"

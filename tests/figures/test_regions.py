@@ -49,7 +49,7 @@ def test_the_demo_shows_the_attribution_only_when_stored(tmp_path, monkeypatch):
     monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
     (tmp_path / "out" / "figures").mkdir(parents=True)
     text = report._attribution_html(tmp_path / "out", 5000)
-    assert "ssskit figures region-attribution" in text and "<table>" not in text
+    assert "ssskit figures region-attribution --photons 5000" in text and "<table>" not in text
     assert report._SECTION_KEYS["screenspace"]({"photons": 5000}) == {"attribution": False}
     stored("figures", "region_attribution", fr._key("skin1", 5000, fr.ATTRIBUTION_SPP, 160, 120), _fake_data)
     assert fr.cached_attribution(photons=5000) is not None and fr.cached_attribution(photons=6000) is None
