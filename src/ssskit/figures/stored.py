@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 import json
 import pickle
+from pathlib import Path
 from typing import Callable, TypeVar
 
 from ..cache import cache_dir
@@ -13,17 +14,37 @@ from ..io import atomic_output
 T = TypeVar("T")
 
 
-def stored(kind: str, name: str, key: dict, make: Callable[[], T]) -> T:
-    """``make()`` once per ``key`` (JSON, non-JSON values by ``str``), pickled in ``cache_dir(kind)``;
-    an unreadable entry is computed again."""
+_MISSING = object()
+
+
+def _path(kind: str, name: str, key: dict) -> Path:
     text = json.dumps(key, sort_keys=True, default=str)
-    path = cache_dir(kind) / f"{name}-{hashlib.sha1(text.encode()).hexdigest()[:16]}.pkl"
+    return cache_dir(kind) / f"{name}-{hashlib.sha1(text.encode()).hexdigest()[:16]}.pkl"
+
+
+def _load(path: Path):
     if path.is_file():
         try:
             with open(path, "rb") as fh:
                 return pickle.load(fh)
-        except Exception:  # noqa: BLE001 - an unreadable entry is computed again
+        except Exception:  # noqa: BLE001 - an unreadable entry counts as missing
             pass
+    return _MISSING
+
+
+def peek(kind: str, name: str, key: dict):
+    """What :func:`stored` holds for ``key``, or None when nothing (readable) is stored; computes nothing."""
+    value = _load(_path(kind, name, key))
+    return None if value is _MISSING else value
+
+
+def stored(kind: str, name: str, key: dict, make: Callable[[], T]) -> T:
+    """``make()`` once per ``key`` (JSON, non-JSON values by ``str``), pickled in ``cache_dir(kind)``;
+    an unreadable entry is computed again."""
+    path = _path(kind, name, key)
+    value = _load(path)
+    if value is not _MISSING:
+        return value
     value = make()
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_output(path) as tmp:

@@ -19,10 +19,11 @@ import numpy as np
 
 from ..errors import SceneError
 from ..screenspace.gbuffer import GBuffer
-from .scenes import COAT_ROUGHNESS, FLOOR_ALBEDO, SCENES, check_size, check_spp, render_dict, scene_camera, scene_dict
+from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, SceneSpec, check_size, check_spp, get_scene, render_dict,
+                     scene_camera, scene_dict)
 
 
-def render_gbuffer(scene: str, albedo, eta: float = 1.4, width: int = 256, height: int = 192, spp: int = 32,
+def render_gbuffer(scene: str | SceneSpec, albedo, eta: float = 1.4, width: int = 256, height: int = 192, spp: int = 32,
                    seed: int = 0, frame: int = 0, material: str = "material") -> GBuffer:
     """Render the named scene's G-buffer (module docstring) at ``frame`` with Mitsuba ``scalar_rgb``.
 
@@ -30,7 +31,7 @@ def render_gbuffer(scene: str, albedo, eta: float = 1.4, width: int = 256, heigh
     ``eta``: their refractive index (specular layer). Returns a :class:`GBuffer` with profile id 1
     on the SSS objects, ``materials = (material,)`` and meta (scene, frame, spp, seed, eta).
     """
-    spec = SCENES.get(scene)
+    spec = get_scene(scene)
     check_size(width, height)
     check_spp(spp)
     alb = np.broadcast_to(np.asarray(albedo, dtype=float), (3,))

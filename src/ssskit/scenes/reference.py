@@ -42,7 +42,7 @@ import numpy as np
 from ..cache import cache_dir
 from ..errors import SceneError
 from ..io import atomic_output, progress_bar
-from .scenes import COAT_ROUGHNESS, SCENES, check_size, check_spp, mitsuba, scene_dict
+from .scenes import COAT_ROUGHNESS, SceneSpec, check_size, check_spp, get_scene, mitsuba, scene_dict
 
 #: bumped when the reference renders change (invalidates the cache). 3: a unique seed per mi.render
 #: call (before, chunks replayed each other shifted by a pixel), black surroundings, chunk statistics
@@ -182,10 +182,10 @@ class ReferenceRenderer:
     image (every sample lands in it; a region's error falls faster).
     """
 
-    def __init__(self, scene: str, material, width: int, height: int, max_depth: int = 1024, seed: int = 0,
+    def __init__(self, scene: str | SceneSpec, material, width: int, height: int, max_depth: int = 1024, seed: int = 0,
                  frame: int = 0, boundary: str = "rough-dielectric", surround_albedo: float = 0.0,
                  crop: tuple[int, int, int, int] | None = None) -> None:
-        self.spec = SCENES.get(scene)
+        self.spec = get_scene(scene)
         check_size(width, height)
         _check_options(max_depth, seed, frame, boundary, surround_albedo)
         self.g = reference_phase_g(material)
@@ -246,9 +246,9 @@ def _check_options(max_depth, seed, frame, boundary, surround_albedo) -> None:
         raise SceneError(f"surround_albedo must lie in [0, 1], got {surround_albedo!r}")
 
 
-def sss_region(scene: str, width: int, height: int, frame: int = 0) -> np.ndarray:
+def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) -> np.ndarray:
     """(H, W) bool: the pixels that see an SSS object of ``scene`` (one AOV sample per pixel)."""
-    spec = SCENES.get(scene)
+    spec = get_scene(scene)
     check_size(width, height)
     mi = mitsuba()
     white = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 1.0}}
@@ -262,7 +262,7 @@ def sss_region(scene: str, width: int, height: int, frame: int = 0) -> np.ndarra
     return img[..., 0] > 0.6
 
 
-def render_reference(scene: str, material, width: int = 128, height: int = 96, spp: int = 64,
+def render_reference(scene: str | SceneSpec, material, width: int = 128, height: int = 96, spp: int = 64,
                      max_spp: int | None = None, target_rel_se: float = TARGET_REL_SE, region=None,
                      max_depth: int = 1024, seed: int = 0, frame: int = 0, chunk_spp: int = 8,
                      boundary: str = "rough-dielectric", surround_albedo: float = 0.0, use_cache: bool = True,
@@ -281,7 +281,7 @@ def render_reference(scene: str, material, width: int = 128, height: int = 96, s
     channel, or until ``max_spp`` (default: ``spp``, i.e. a fixed budget) is spent. Cached in
     :func:`reference_cache_dir`, keyed by every input.
     """
-    spec = SCENES.get(scene)
+    spec = get_scene(scene)
     check_size(width, height)
     check_spp(spp)
     check_spp(chunk_spp)
@@ -294,7 +294,7 @@ def render_reference(scene: str, material, width: int = 128, height: int = 96, s
     _check_options(max_depth, seed, frame, boundary, surround_albedo)
     g = reference_phase_g(material)
     if region is None:
-        region = sss_region(spec.name, width, height, frame)
+        region = sss_region(spec, width, height, frame)
     region = np.asarray(region, dtype=bool)
     if region.shape != (height, width):
         raise SceneError(f"region has shape {region.shape}, the image {(height, width)}")
@@ -316,7 +316,7 @@ def render_reference(scene: str, material, width: int = 128, height: int = 96, s
             return _load(path, region, opts)
         except Exception:  # noqa: BLE001 - a truncated or foreign file is rendered again
             pass
-    renderer = ReferenceRenderer(spec.name, material, width, height, max_depth, seed, frame, boundary,
+    renderer = ReferenceRenderer(spec, material, width, height, max_depth, seed, frame, boundary,
                                  surround_albedo)
     min_chunks = -(-int(spp) // chunk_spp)
     max_chunks = max(int(max_spp) // chunk_spp, min_chunks)

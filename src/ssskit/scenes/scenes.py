@@ -63,6 +63,12 @@ class SceneSpec:
 SCENES: Registry[SceneSpec] = Registry("scene", SceneError)
 
 
+def get_scene(scene: str | SceneSpec) -> SceneSpec:
+    """A built-in scene by name (:data:`SCENES`), or ``scene`` itself when it already is a
+    :class:`SceneSpec` (a controlled variant of :mod:`ssskit.scenes.variants`)."""
+    return scene if isinstance(scene, SceneSpec) else SCENES.get(scene)
+
+
 def mitsuba():
     """The ``mitsuba`` module with the ``scalar_rgb`` variant set, or a SceneError saying how to get it."""
     try:

@@ -1,0 +1,77 @@
+"""What each difference in the region table is, measured: controlled path-traced experiments that each
+switch ONE cause off and compare with the uncontrolled reference in the same run
+(:mod:`ssskit.pipeline.attribution`).
+
+* transmission: the scene with a black backing just outside the surface the camera does not see
+  (no light enters the medium there) vs the scene as rendered;
+* fresnel: the index-matched boundary (material at eta = 1, MC profile at eta = 1 for the pass and
+  the exact 2D convolution) vs the rough dielectric;
+* curvature: the scene scaled by k (same image, k x the mm per pixel) for each k.
+
+Per experiment, scene, setup and region: the levels (pass, exact 2D, reference ± SE), exact /
+reference ± SE, that ratio relative to the plateau's ± SE, and against the first setup the reference
+ratio and the share of the gap (reference - exact) removed ± SE. Every setup uses the same chunk
+seeds and the first setup's pixels. Prints one JSON object; progress on stderr.
+
+    PYTHONPATH=src python benchmarks/region_attribution.py          # every run, stored for the report
+    PYTHONPATH=src python benchmarks/region_attribution.py --experiment curvature --scene sphere --factors 1,2,4,8
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+import time
+
+from ssskit.figures.regions import ATTRIBUTION_RUNS, ATTRIBUTION_SPP, CURVATURE_FACTORS, attribution_data
+from ssskit.pipeline.attribution import SETUPS, curvature_setups, run_experiment
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--experiment", choices=sorted(SETUPS), action="append",
+                    help="run only this experiment (repeatable; default: the default runs)")
+    ap.add_argument("--scene", action="append", help="run only on this scene (repeatable)")
+    ap.add_argument("--material", default="skin1")
+    ap.add_argument("--size", default="160x120", help="the demo's image size")
+    ap.add_argument("--spp", type=int, default=ATTRIBUTION_SPP, help="reference samples per pixel per setup")
+    ap.add_argument("--chunk-spp", type=int, default=8)
+    ap.add_argument("--photons", type=int, default=200_000, help="MCML photons per channel (the demo's)")
+    ap.add_argument("--factors", default=",".join(f"{k:g}" for k in CURVATURE_FACTORS),
+                    help="curvature: the scale factors, the first the baseline")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args(argv)
+    w, h = (int(v) for v in args.size.lower().split("x"))
+    factors = tuple(float(v) for v in args.factors.split(","))
+    runs = [(e, s) for e, s in ATTRIBUTION_RUNS if (not args.experiment or e in args.experiment)
+            and (not args.scene or s in args.scene)]
+    if args.experiment and args.scene:
+        runs = [(e, s) for e in args.experiment for s in args.scene]
+    say = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
+    out = {"material": args.material, "spp": args.spp, "size": [w, h], "machine": platform.node(), "runs": []}
+    t0 = time.perf_counter()
+    if (not args.experiment and not args.scene and args.chunk_spp == 8 and args.seed == 0
+            and factors == CURVATURE_FACTORS):
+        # the figure's runs: stored where `ssskit figures region-attribution` and the demo find them
+        data = attribution_data(args.material, photons=args.photons, spp=args.spp, width=w, height=h, progress=say)
+        out["runs"] = data["runs"]
+        out["stored"] = True
+        out["seconds"] = round(time.perf_counter() - t0, 1)
+        print(json.dumps(out, indent=1))
+        return
+    for exp, scene in runs:
+        say(f"== {exp} on {scene}")
+        setups = (curvature_setups(scene, args.material, factors) if exp == "curvature"
+                  else SETUPS[exp](scene, args.material))
+        t = time.perf_counter()
+        res = run_experiment(setups, width=w, height=h, spp=args.spp, chunk_spp=args.chunk_spp,
+                             photons=args.photons, seed=args.seed, progress=say)
+        out["runs"].append({"experiment": exp, "scene": scene, "seconds": round(time.perf_counter() - t, 1), **res})
+    out["seconds"] = round(time.perf_counter() - t0, 1)
+    print(json.dumps(out, indent=1))
+
+
+if __name__ == "__main__":
+    main()
