@@ -56,6 +56,8 @@ BAD = [
     (["--sampler", "sobol"], "Invalid value for '--sampler'"),
     (["--c", "3.5"], "--c: c must lie in the open interval (2, 3)"),
     (["--c", "2"], "--c: c must lie in the open interval (2, 3)"),
+    (["--c", "2.6"], "--c: c is the xie sampler's constant (Xie 2020 Eq. 21), unused by the exact sampler"),
+    (["--sampler", "golubev", "--c", "2.6"], "unused by the golubev sampler; add --sampler xie"),
     (["--albedo", "-0.2", "--dmfp", "1"], "--albedo/--dmfp: Burley albedo must lie in [0, 1]"),
     (["--albedo", "0.5", "--dmfp", "1,-2,3"], "--albedo/--dmfp: diffuse mean free path must be > 0 mm"),
     (["--albedo", "0.5,0.5", "--dmfp", "1"], "give one number or three"),

@@ -188,6 +188,9 @@ def _burley_inputs(ctx, params: dict, base=None):
             b = b.replace(**{key: value})
         except SsskitError as exc:
             raise SettingsError(f"{flags[key]}: {exc}") from None
+    if "c" in kw and b.sampler != "xie":
+        raise SettingsError(f"--c: c is the xie sampler's constant (Xie 2020 Eq. 21), unused by the {b.sampler} "
+                            "sampler; add --sampler xie")
     albedo, dmfp = params["albedo"], params["dmfp"]
     if (albedo is None) != (dmfp is None):
         raise SsskitError("--albedo and --dmfp go together (Burley parameters from albedo and diffuse mean free "
