@@ -155,7 +155,7 @@ def surface_convolution(gbuffer, profile, fraction: float = 0.999, min_cos: floa
     e_full = gb.diffuse.astype(np.float64)
     out = np.zeros_like(e_full)
     finite = np.isfinite(gb.depth)
-    inv = np.linalg.inv(cam.world_to_camera)
+    pos_full, cos_full = gb.positions(), gb.view_cosine()
     ids = [int(i) for i in np.unique(gb.profile_id[gb.profile_id > 0])]
     for pid in ids:
         prof = profile.get(pid) if isinstance(profile, Mapping) else profile
@@ -165,15 +165,8 @@ def surface_convolution(gbuffer, profile, fraction: float = 0.999, min_cos: floa
         ys, xs = np.nonzero(m_full)
         win = (slice(ys.min(), ys.max() + 1), slice(xs.min(), xs.max() + 1))
         m, e = m_full[win], e_full[win]
-        # the window's surface points (Camera.unproject's formula on the window's pixel centres)
-        v, u = np.mgrid[win[0], win[1]] + 0.5
         z = np.where(m, gb.depth[win], 1.0).astype(np.float64)
-        pc = np.stack([(u - cam.cx) / cam.fx * z, (v - cam.cy) / cam.fy * z, z], axis=-1)
-        pos = pc @ inv[:3, :3].T + inv[:3, 3]
-        view = inv[:3, 3] - pos
-        view /= np.maximum(np.linalg.norm(view, axis=-1, keepdims=True), 1e-300)
-        normal = gb.normal[win].astype(np.float64)
-        cos = np.abs(np.sum(normal * view, axis=-1)) / np.maximum(np.linalg.norm(normal, axis=-1), 1e-300)
+        pos, cos = pos_full[win], cos_full[win]  # the window's surface points and view cosines
         px_mm = z / cam.fx / cam.world_units_per_mm
         area = px_mm**2 / np.maximum(cos, min_cos)
         radius = float(np.max(prof.radius_at_fraction(fraction)))

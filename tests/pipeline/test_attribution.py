@@ -18,7 +18,6 @@ from ssskit.pipeline.attribution import (
     ratio_se,
     run_experiment,
     transmission_setups,
-    view_cosine,
 )
 from ssskit.scenes.scenes import SceneSpec, get_scene
 from ssskit.scenes.variants import scaled_scene
@@ -68,7 +67,7 @@ def test_view_cosine_and_surface_convolution_on_the_flat_slab():
     are the albedo Rd far from the shadow edge."""
     p = prepare(Setup("slab", "slab", SKIN), 32, 24, 0, gbuffer_spp=4, model="dipole")
     gb = p.gbuffer
-    cos = view_cosine(gb)
+    cos = gb.view_cosine()
     assert cos[gb.mask].min() > 0.99
     plateau = np.zeros(gb.shape, bool)
     plateau[4:20, 1:7] = True  # lit, > 20 mm (2.3 mm pixels) from the shadow edge at the centre column
@@ -81,7 +80,7 @@ def test_view_cosine_and_surface_convolution_on_the_flat_slab():
 
 def test_view_cosine_falls_to_zero_at_the_sphere_silhouette():
     p = prepare(Setup("sphere", "sphere", SKIN), 64, 48, 0, gbuffer_spp=4, surface=False, model="dipole")
-    cos = view_cosine(p.gbuffer)[p.gbuffer.mask]
+    cos = p.gbuffer.view_cosine()[p.gbuffer.mask]
     assert cos.max() > 0.99 and cos.min() < 0.2
 
 

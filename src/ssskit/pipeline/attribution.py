@@ -140,26 +140,13 @@ def prepare(setup: Setup, width: int, height: int, photons: int, gbuffer_spp: in
                     surface_convolution(gb, prof) if surface else None)
 
 
-def view_cosine(gbuffer) -> np.ndarray:
-    """(H, W): |normal . direction to the camera| per pixel (0 where there is no surface)."""
-    gb = gbuffer
-    cam = gb.camera
-    finite = np.isfinite(gb.depth)
-    pos = cam.unproject(np.where(finite, gb.depth, 1.0))
-    view = np.linalg.inv(cam.world_to_camera)[:3, 3] - pos
-    view /= np.maximum(np.linalg.norm(view, axis=-1, keepdims=True), 1e-300)
-    n = gb.normal.astype(np.float64)
-    cos = np.abs(np.sum(n * view, axis=-1)) / np.maximum(np.linalg.norm(n, axis=-1), 1e-300)
-    return np.where(finite, cos, 0.0)
-
-
 def regions_of(prep: Prepared, fraction: float = 0.99) -> dict[str, np.ndarray]:
     """The region masks of a prepared setup, as in the region table (reach: the profile's ``fraction``
     radius in pixels at the objects' median depth), and ``grazing_view`` (:data:`ATTRIBUTION_REGIONS`)."""
     gb = prep.gbuffer
     radius_px = float(np.max(prep.profile.radius_at_fraction(fraction))) / pixel_mm(gb)
     masks = region_masks(gb.diffuse, gb.mask, radius_px)
-    masks["grazing_view"] = gb.mask & (view_cosine(gb) < GRAZING_COS)
+    masks["grazing_view"] = gb.mask & (gb.view_cosine() < GRAZING_COS)
     masks["object"] = gb.mask.copy()
     return masks
 
@@ -297,4 +284,4 @@ def run_experiment(setups: Sequence[Setup], width: int = 160, height: int = 120,
 
 
 __all__ = ["ATTRIBUTION_REGIONS", "EXPERIMENTS", "GRAZING_COS", "SETUPS", "Prepared", "Setup", "curvature_setups", "fresnel_setups", "prepare",
-           "ratio_se", "reference_levels", "regions_of", "run_experiment", "transmission_setups", "view_cosine"]
+           "ratio_se", "reference_levels", "regions_of", "run_experiment", "transmission_setups"]

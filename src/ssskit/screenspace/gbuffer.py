@@ -95,6 +95,21 @@ class GBuffer:
         """Pixels that receive SSS (profile_id > 0), (H, W) bool."""
         return self.profile_id > 0
 
+    def positions(self) -> np.ndarray:
+        """World positions (H, W, 3) float64 of the pixels' surface points (:meth:`Camera.unproject`);
+        pixels without a surface (infinite depth) are placed at depth 1."""
+        return self.camera.unproject(np.where(np.isfinite(self.depth), self.depth, 1.0))
+
+    def view_cosine(self) -> np.ndarray:
+        """(H, W) float64: |normal . unit direction to the camera| per pixel, 0 where there is no
+        surface (the cosine of the angle a pixel's surface is seen at)."""
+        pos = self.positions()
+        view = np.linalg.inv(self.camera.world_to_camera)[:3, 3] - pos
+        view /= np.maximum(np.linalg.norm(view, axis=-1, keepdims=True), 1e-300)
+        n = self.normal.astype(np.float64)
+        cos = np.abs(np.sum(n * view, axis=-1)) / np.maximum(np.linalg.norm(n, axis=-1), 1e-300)
+        return np.where(np.isfinite(self.depth), cos, 0.0)
+
     def with_layers(self, **layers) -> "GBuffer":
         return replace(self, **layers)
 
