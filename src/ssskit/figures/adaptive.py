@@ -102,8 +102,8 @@ def xie_fig3_disocclusion(out: Path, profile=None, progress=None) -> list[Path]:
 # reference: with the prefiltered mips (Eqs. 22-23, a = 1/16) the pass carries the prefilter's own bias, about
 # 0.0034 RMS (47.5 dB) on this plane whether the counts adapt or not (benchmarks/adaptive_mips_bias.py: the
 # 256-frame averages of adaptive and fixed 64 spp with mips lie within one standard error of each other),
-# and that bias would cap every final PSNR near 47.5 dB and hide the sampler's differences. Every frame: the adaptive counts (the guiding phase on ``backend``), the Burley pass, the
-# history update, then a global TAA (:class:`ssskit.screenspace.taa.TemporalAA`, Karis 2014) that the
+# and that bias would cap every final PSNR near 47.5 dB and hide the sampler's differences. Every frame: the
+# adaptive counts (the guiding phase on ``backend``), the Burley pass, the history update, then a global TAA (:class:`ssskit.screenspace.taa.TemporalAA`, Karis 2014) that the
 # sampler does not read. "Final PSNR": the mean over the last quarter of the frames of the TAA output's
 # PSNR against the limit; "single-frame PSNR": the same of the pass's own frames (Xie 2020 Figs. 10-11).
 

@@ -218,8 +218,8 @@ def run_experiment(setups: Sequence[Setup], width: int = 160, height: int = 120,
     pass, the exact 2D convolution, the surface convolution (``surface``) and the reference (± SE),
     ``exact_over_reference``, ``pass_over_reference`` and ``surface_over_reference`` (± SE), and
     ``exact_over_reference_vs_plateau`` / ``_vs_object`` (that ratio divided by the plateau's, when
-    there is a plateau, / by the whole object's, ± SE from the paired chunks); per setup after the first, against the first: ``reference_ratio`` (its reference level
-    / the first's) and ``gap_removed`` (the share of the first setup's gap reference - exact that is
+    there is a plateau, / by the whole object's, ± SE from the paired chunks); per setup after the
+    first, against the first: ``reference_ratio`` (its reference level / the first's) and ``gap_removed`` (the share of the first setup's gap reference - exact that is
     gone: 1 - gap / first gap), each ± SE. Each setup's levels are taken against its own E / pi.
     """
     if len(setups) < 1:
@@ -283,5 +283,5 @@ def run_experiment(setups: Sequence[Setup], width: int = 160, height: int = 120,
             "seed": seed, "setups": per_setup}
 
 
-__all__ = ["ATTRIBUTION_REGIONS", "EXPERIMENTS", "GRAZING_COS", "SETUPS", "Prepared", "Setup", "curvature_setups", "fresnel_setups", "prepare",
-           "ratio_se", "reference_levels", "regions_of", "run_experiment", "transmission_setups"]
+__all__ = ["ATTRIBUTION_REGIONS", "EXPERIMENTS", "GRAZING_COS", "SETUPS", "Prepared", "Setup", "curvature_setups",
+           "fresnel_setups", "prepare", "ratio_se", "reference_levels", "regions_of", "run_experiment", "transmission_setups"]

@@ -161,9 +161,9 @@ class SequenceRun:
     reference, composite inside the SSS mask), ``psnr_taa`` (after TAA; None without TAA), ``ms`` (the
     Burley pass: prefilter + sampling), ``ms_update`` (the guiding phase: estimate with its reprojection,
     and history update; 0 for a fixed count) and ``ms_frame`` (the wall time of the whole loop: guiding
-    phase, pass, upload and readback; :func:`run_sequence`), each a list over frames; ``psnr_gray`` and ``psnr_gray_taa`` the same as :func:`display_psnr`; ``samples``
-    the total samples taken; ``last`` / ``last_taa`` the last frame's
-    composite images; ``counts`` (frames, H, W) int32 when kept."""
+    phase, pass, upload and readback; :func:`run_sequence`), each a list over frames; ``psnr_gray`` and
+    ``psnr_gray_taa`` the same as :func:`display_psnr`; ``samples`` the total samples taken; ``last`` /
+    ``last_taa`` the last frame's composite images; ``counts`` (frames, H, W) int32 when kept."""
 
     adaptive: AdaptiveSettings | None
     spp: int | None
