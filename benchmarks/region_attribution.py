@@ -26,7 +26,7 @@ import sys
 import time
 
 from ssskit.figures.regions import ATTRIBUTION_RUNS, ATTRIBUTION_SPP, CURVATURE_FACTORS, attribution_data
-from ssskit.pipeline.attribution import SETUPS, curvature_setups, run_experiment
+from ssskit.pipeline.attribution import SETUPS, experiment_setups, run_experiment
 
 
 def main(argv=None) -> None:
@@ -63,8 +63,7 @@ def main(argv=None) -> None:
         return
     for exp, scene in runs:
         say(f"== {exp} on {scene}")
-        setups = (curvature_setups(scene, args.material, factors) if exp == "curvature"
-                  else SETUPS[exp](scene, args.material))
+        setups = experiment_setups(exp, scene, args.material, factors)
         t = time.perf_counter()
         res = run_experiment(setups, width=w, height=h, spp=args.spp, chunk_spp=args.chunk_spp,
                              photons=args.photons, seed=args.seed, progress=say)

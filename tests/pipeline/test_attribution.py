@@ -13,6 +13,7 @@ from ssskit.pipeline.attribution import (
     ATTRIBUTION_REGIONS,
     Setup,
     curvature_setups,
+    experiment_setups,
     fresnel_setups,
     prepare,
     ratio_se,
@@ -107,3 +108,14 @@ def test_run_experiment_checks_its_budget():
         run_experiment([Setup("x", "slab", SKIN)], spp=8, chunk_spp=8)
     with pytest.raises(SettingsError, match="at least one setup"):
         run_experiment([])
+
+
+def test_experiment_setups_dispatches_by_name():
+    """Each experiment's own setups; only curvature takes the scale factors; an unknown name is refused."""
+    c = experiment_setups("curvature", "sphere", "skin1", (1.0, 8.0))
+    assert [s.label for s in c] == ["x1", "x8"] and c[1].scene.name == "sphere-x8"
+    f = experiment_setups("fresnel", "sphere", "skin1", (1.0, 8.0))
+    assert [s.boundary for s in f] == ["rough-dielectric", "index-matched"]
+    assert experiment_setups("transmission", "ear", "skin1")[1].scene.name == "ear-backed"
+    with pytest.raises(SettingsError, match="experiment must be one of transmission, fresnel, curvature"):
+        experiment_setups("gravity", "sphere", "skin1")

@@ -44,15 +44,14 @@ def attribution_data(material: str = "skin1", photons: int = 200_000, spp: int =
     """Every run of :data:`ATTRIBUTION_RUNS` (:func:`ssskit.pipeline.attribution.run_experiment`), stored."""
 
     def make() -> dict[str, Any]:
-        from ..pipeline.attribution import SETUPS, curvature_setups, run_experiment
+        from ..pipeline.attribution import experiment_setups, run_experiment
 
         runs = []
         for exp, scene in ATTRIBUTION_RUNS:
             if progress is not None:
                 progress(f"region attribution: {exp} on {scene}")
             t0 = time.perf_counter()
-            setups = (curvature_setups(scene, material, CURVATURE_FACTORS) if exp == "curvature"
-                      else SETUPS[exp](scene, material))
+            setups = experiment_setups(exp, scene, material, CURVATURE_FACTORS)
             res = run_experiment(setups, width=width, height=height, spp=spp, photons=photons, progress=progress)
             runs.append({"experiment": exp, "scene": scene, "seconds": round(time.perf_counter() - t0, 1), **res})
         return {"material": material, "photons": photons, "spp": spp, "runs": runs}

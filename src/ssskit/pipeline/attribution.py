@@ -109,6 +109,16 @@ SETUPS: dict[str, Callable[..., list[Setup]]] = {
     "transmission": transmission_setups, "fresnel": fresnel_setups, "curvature": curvature_setups}
 
 
+def experiment_setups(experiment: str, scene: str, material, factors: Sequence[float] = (1.0, 2.0, 4.0)) -> list[Setup]:
+    """The setups of ``experiment`` (one of :data:`EXPERIMENTS`) on ``scene``; ``factors``: the curvature
+    experiment's scale factors (the others take none)."""
+    if experiment not in SETUPS:
+        raise SettingsError(f"experiment must be one of {', '.join(EXPERIMENTS)}, got {experiment!r}")
+    if experiment == "curvature":
+        return curvature_setups(scene, material, factors)
+    return SETUPS[experiment](scene, material)
+
+
 @dataclass
 class Prepared:
     """A setup's screen-space side: its Monte Carlo profile, G-buffer, pass, exact 2D convolution and
@@ -284,4 +294,4 @@ def run_experiment(setups: Sequence[Setup], width: int = 160, height: int = 120,
 
 
 __all__ = ["ATTRIBUTION_REGIONS", "EXPERIMENTS", "GRAZING_COS", "SETUPS", "Prepared", "Setup", "curvature_setups",
-           "fresnel_setups", "prepare", "ratio_se", "reference_levels", "regions_of", "run_experiment", "transmission_setups"]
+           "experiment_setups", "fresnel_setups", "prepare", "ratio_se", "reference_levels", "regions_of", "run_experiment", "transmission_setups"]

@@ -147,8 +147,8 @@ def backing_faces(verts: np.ndarray, faces: np.ndarray, normals: np.ndarray, eye
 def backed_scene(scene: str | SceneSpec, offset_mm: float = BACKING_OFFSET_MM, frame: int = 0,
                  grazing_cos: float = 0.0) -> SceneSpec:
     """``scene`` with a black shell ``offset_mm`` (beyond the sag of its mesh, :func:`surface_mesh`)
-    outside the part of each SSS object's surface that the camera (at ``frame``) does not see: no light enters the medium through its back (module
-    docstring). The shell is a shape that is not an SSS object, so it is black in the reference.
+    outside the part of each SSS object's surface that the camera (at ``frame``) does not see: no light
+    enters the medium through its back (module docstring). The shell is a shape that is not an SSS object, so it is black in the reference.
     With ``grazing_cos`` > 0 the shell also covers the surface seen at grazing angles, cos < grazing_cos
     (:func:`backing_faces`): a thin object's edge, where the light of a back light enters and which
     the image resolves in less than a pixel; that shell hides those slivers of the seen surface
@@ -156,6 +156,8 @@ def backed_scene(scene: str | SceneSpec, offset_mm: float = BACKING_OFFSET_MM, f
     spec = get_scene(scene)
     if not (isinstance(offset_mm, (int, float, np.floating)) and math.isfinite(offset_mm) and offset_mm > 0):
         raise SceneError(f"the backing offset must be a positive number of mm, got {offset_mm!r}")
+    if not (isinstance(grazing_cos, (int, float, np.floating)) and 0.0 <= grazing_cos < 1.0):
+        raise SceneError(f"grazing_cos must lie in [0, 1), got {grazing_cos!r}")
     eye = camera_pose(spec, frame)[0]
 
     def shapes() -> dict[str, dict]:
@@ -166,8 +168,6 @@ def backed_scene(scene: str | SceneSpec, offset_mm: float = BACKING_OFFSET_MM, f
             d[f"{sid}-backing"] = _ply(f"{sid}-backing", v + (sag + float(offset_mm)) * n, f[keep])
         return d
 
-    if not (isinstance(grazing_cos, (int, float, np.floating)) and 0.0 <= grazing_cos < 1.0):
-        raise SceneError(f"grazing_cos must lie in [0, 1), got {grazing_cos!r}")
     return dataclasses.replace(spec, name=f"{spec.name}-backed" + (f"{grazing_cos:g}" if grazing_cos else ""),
                                description=f"{spec.description}; black backing behind the unseen surface",
                                shapes=shapes)
