@@ -1,0 +1,148 @@
+"""The bumpy tile's G/B residual, measured: the flat-limit prediction from MCML for the tile's own
+light and view angles, and the controlled path-traced experiment on a flat medium at those angles
+(:mod:`ssskit.pipeline.oblique`, issue 11).
+
+Scaled 8x (:func:`ssskit.scenes.variants.scaled_scene`), the tile is flat within the profile's reach
+and the red gap closes; what is left is how a flat medium lit at grazing incidence and seen at ~45
+degrees differs from the model's Rd(0) E / pi. The script
+
+1. tabulates MCML over the incidence angle (:func:`ssskit.profiles.montecarlo.oblique.oblique_table`,
+   eta of the material and eta = 1);
+2. predicts every region's level from the tile's per-pixel incidence and view angles (the G-buffer
+   of the unscaled tile: the scaled one's image, normals and E / pi are the same) and compares with
+   the measured exact / reference ratios: k = 8 of the curvature experiment (rough dielectric) and
+   k = 1 of the Fresnel experiment (index-matched), taken from ``--measured`` (the JSON that
+   ``region_attribution.py`` prints) or, without it, measured here (``run_experiment``, k = 1 and 8,
+   and the index-matched setup);
+3. measures the rough dielectric's factor on a flat slab (:func:`ssskit.scenes.flat.flat_scene`) at
+   the tile's E / pi-weighted view angle and azimuth for a range of incidence angles, with the
+   index-matched boundary at the tile's mean angles as the control (it must give 1), and applies the
+   measured factor per pixel (interpolated in cos theta_i) to the prediction.
+
+Prints one JSON object; progress on stderr.
+
+    PYTHONPATH=src python benchmarks/oblique_attribution.py --measured regions-attribution.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import platform
+import sys
+import time
+
+import numpy as np
+
+from ssskit.materials import get_material
+from ssskit.pipeline.attribution import Setup, curvature_setups, fresnel_setups, prepare, regions_of, run_experiment
+from ssskit.pipeline.oblique import compare_flat_limit, flat_experiment, flat_prediction, point_light
+from ssskit.profiles.montecarlo.oblique import oblique_table
+
+REGIONS = ("silhouette", "shadow_edge", "grazing_view", "object")
+
+
+def measured_runs(path, scene):
+    """{experiment: last setup's regions} of ``scene`` from a region_attribution.py JSON."""
+    data = json.loads(open(path).read())
+    out = {}
+    for run in data["runs"]:
+        if run["scene"] == scene and run["experiment"] in ("curvature", "fresnel"):
+            out[run["experiment"]] = {"label": run["setups"][-1]["label"], "regions": run["setups"][-1]["regions"],
+                                      "spp": run["setups"][-1]["spp"]}
+    return out
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scene", default="bumpy")
+    ap.add_argument("--material", default="skin1")
+    ap.add_argument("--size", default="160x120", help="the demo's image size")
+    ap.add_argument("--measured",
+                    help="region_attribution.py JSON with the scene's curvature (last factor) and fresnel runs")
+    ap.add_argument("--measure-spp", type=int, default=1024, help="without --measured: reference spp per setup")
+    ap.add_argument("--table-photons", type=int, default=1_000_000, help="MCML photons per channel and angle")
+    ap.add_argument("--angles", default="0,30,50,60,65,70,75,80,85", help="flat experiment: incidence angles")
+    ap.add_argument("--flat-spp", type=int, default=2048, help="flat experiment, rough dielectric: spp per angle")
+    ap.add_argument("--flat-size", default="64x48")
+    ap.add_argument("--control-spp", type=int, default=512, help="flat experiment, index-matched control: spp")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args(argv)
+    say = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
+    w, h = (int(v) for v in args.size.lower().split("x"))
+    fw, fh = (int(v) for v in args.flat_size.lower().split("x"))
+    mat = get_material(args.material)
+    mat1 = dataclasses.replace(mat, eta=1.0)
+    t0 = time.perf_counter()
+    out = {"scene": args.scene, "material": mat.name, "machine": platform.node(), "size": [w, h]}
+
+    say("MCML tables")
+    t = time.perf_counter()
+    tab, tab1 = oblique_table(mat, photons=args.table_photons), oblique_table(mat1, photons=args.table_photons)
+    out["table"] = {"rough": tab.to_dict(), "index_matched": tab1.to_dict(),
+                    "seconds": round(time.perf_counter() - t, 1)}
+
+    say("G-buffers, regions, per-pixel prediction")
+    prep = prepare(Setup("x1", args.scene, mat), w, h, 200_000, surface=False)
+    prep1 = prepare(Setup("index-matched", args.scene, mat1, "index-matched"), w, h, 200_000, surface=False)
+    masks = regions_of(prep)
+    light = point_light(args.scene)
+    pred = flat_prediction(prep.gbuffer, light, tab, masks)
+    pred1 = flat_prediction(prep1.gbuffer, light, tab1, masks)
+    out["prediction"] = {"rough": pred, "index_matched": pred1}
+
+    if args.measured:
+        meas = measured_runs(args.measured, args.scene)
+        out["measured_from"] = args.measured
+    else:
+        meas = {}
+        for exp, setups in (("curvature", curvature_setups(args.scene, mat, (1.0, 8.0))),
+                            ("fresnel", fresnel_setups(args.scene, mat))):
+            say(f"== measuring {exp}")
+            res = run_experiment(setups, width=w, height=h, spp=args.measure_spp, seed=args.seed, surface=False,
+                                 progress=say)
+            last = res["setups"][-1]
+            meas[exp] = {"label": last["label"], "regions": last["regions"], "spp": last["spp"]}
+
+    say("flat experiment: index-matched control at the tile's mean angles")
+    tile = pred["object"]
+    view, az, inc = round(tile["view_deg"]), round(tile["azimuth_deg"]), round(tile["incidence_deg"])
+    control = flat_experiment(mat, inc, view, az, "index-matched", fw, fh, args.control_spp, seed=args.seed,
+                              table=tab1, progress=say)
+    angles = [float(v) for v in args.angles.split(",")]
+    flats = []
+    for a in angles:
+        say(f"flat experiment: rough dielectric at {a:g} deg")
+        flats.append(flat_experiment(mat, a, view, az, "rough-dielectric", fw, fh, args.flat_spp, seed=args.seed,
+                                     table=tab, progress=say))
+    out["flat"] = {"view_deg": view, "azimuth_deg": az, "control": control, "rough": flats}
+    factor = np.array([f["reference_over_prediction"] for f in flats]).T
+    factor_se = np.array([f["reference_over_prediction_se"] for f in flats]).T
+    pred_b = flat_prediction(prep.gbuffer, light, tab, masks, boundary=(angles, factor, factor_se))
+    out["prediction"]["rough_with_measured_boundary"] = pred_b
+
+    comp = {}
+    for name in REGIONS:
+        row = {}
+        if "curvature" in meas and name in meas["curvature"]["regions"] and name in pred:
+            c = meas["curvature"]["regions"][name]
+            eo = c["exact_over_reference"]
+            row["rough_flat_limit"] = compare_flat_limit(pred[name], c["exact_2d"], eo["value"], eo["se"],
+                                                         f"{meas['curvature']['label']} vs MCML, smooth boundary")
+            row["rough_flat_limit_measured_boundary"] = compare_flat_limit(
+                pred_b[name], c["exact_2d"], eo["value"], eo["se"],
+                f"{meas['curvature']['label']} vs MCML x flat rough factor")
+        if "fresnel" in meas and name in meas["fresnel"]["regions"] and name in pred1:
+            c = meas["fresnel"]["regions"][name]
+            eo = c["exact_over_reference"]
+            row["index_matched_k1"] = compare_flat_limit(pred1[name], c["exact_2d"], eo["value"], eo["se"],
+                                                         "index-matched, unscaled, vs MCML at eta 1")
+        comp[name] = row
+    out["comparison"] = comp
+    out["seconds"] = round(time.perf_counter() - t0, 1)
+    print(json.dumps(out, indent=1))
+
+
+if __name__ == "__main__":
+    main()

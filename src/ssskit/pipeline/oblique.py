@@ -1,0 +1,234 @@
+"""What the light's incidence angle, the view angle and the boundary do to a region's level, measured:
+the flat-medium prediction from MCML for a scene's own geometry, and the controlled path-traced
+experiment on a flat medium lit and seen at the same angles.
+
+The screen-space model gives a lit pixel Rd(0) E / pi (the normal-incidence profile's total
+reflectance, a Lambertian exit). In the flat limit (the scene scaled up until its surface is flat
+within the profile's reach, :func:`ssskit.scenes.variants.scaled_scene`) what is left between the
+model and the reference is how a flat medium lit at theta_i and seen at theta_v differs from that:
+
+* **oblique incidence**: Rd(theta_i) / Rd(0), MCML with the beam at theta_i (the Fresnel
+  transmittance of a smooth boundary at theta_i and the shallower refracted beam);
+* **non-Lambertian exit**: MCML's radiance factor f(theta_i, mu_v)
+  (:mod:`ssskit.profiles.montecarlo.oblique`);
+* **the boundary**: the reference's rough dielectric (Mitsuba ``roughdielectric``, single-scattering
+  Beckmann microfacets) is not MCML's smooth Fresnel boundary; what it changes is measured by
+  :func:`flat_experiment` (a flat slab, :func:`ssskit.scenes.flat.flat_scene`, at the scene's angles:
+  the reference over the MCML prediction, with the index-matched boundary as the control that must
+  give 1).
+
+:func:`flat_prediction` forms the first two per pixel -- cos theta_i from the G-buffer's positions and
+normals and the scene's point light, mu_v from :meth:`GBuffer.view_cosine` -- and averages them the
+way a region's level is formed (level = mean diffuse part / mean E / pi, so each pixel weighs with its
+E / pi):
+
+    level_flat = sum_p (E/pi)_p Rd(theta_i,p) f(theta_i,p, mu_v,p) / sum_p (E/pi)_p,
+
+and splits it as Rd(0) x incidence x exit with incidence = sum (E/pi) Rd(theta_i) / sum (E/pi) / Rd(0)
+and exit = level_flat / (Rd(0) incidence).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from ..errors import SceneError, SettingsError
+from ..materials import get_material
+from ..profiles.montecarlo.oblique import ObliqueTable, incidence_cosines, oblique_table
+from ..scenes import render_gbuffer, scene_lights
+from ..scenes.flat import SLAB_HALF_MM, flat_scene, light_position
+from ..scenes.reference import ReferenceRenderer, batch_mean_se
+from ..scenes.scenes import SceneSpec, camera_pose, get_scene
+
+#: how far (mm) inside the flat slab's edges a pixel of :func:`flat_experiment` must lie
+FLAT_MARGIN_MM = 20.0
+
+
+def point_light(scene: str | SceneSpec, frame: int = 0) -> np.ndarray:
+    """(3,) the position of the scene's only light, a point light; a SceneError for any other lighting."""
+    lights = scene_lights(get_scene(scene), frame)
+    if len(lights) != 1 or next(iter(lights.values())).get("type") != "point":
+        raise SceneError("the flat-medium prediction needs a scene lit by one point light "
+                         f"(got {', '.join(str(d.get('type')) for d in lights.values())})")
+    return np.asarray(next(iter(lights.values()))["position"], float)
+
+
+def pixel_angles(gbuffer, light) -> tuple[np.ndarray, np.ndarray]:
+    """(cos theta_i, mu_v), each (H, W): the point light's incidence cosine on each pixel's surface
+    (normal turned towards the camera; 0 where the light is below the horizon) and the view cosine
+    (:meth:`GBuffer.view_cosine`)."""
+    pos = gbuffer.positions()
+    eye = np.linalg.inv(gbuffer.camera.world_to_camera)[:3, 3]
+    n = gbuffer.normal.astype(np.float64)
+    n = np.where((np.sum(n * (eye - pos), axis=-1) < 0)[..., None], -n, n)
+    return incidence_cosines(pos, n, light), gbuffer.view_cosine()
+
+
+def interpolate_in_cos(angles_deg, values, cos_i) -> np.ndarray:
+    """(C, ...) ``values`` (C, A) given at ``angles_deg`` (A,) increasing, linear in cos theta between
+    them, held constant beyond the first and the last angle, at ``cos_i``."""
+    return np.einsum("ca,...a->c...", np.asarray(values, float), _cos_weights(angles_deg, cos_i))
+
+
+def _cos_weights(angles_deg, cos_i) -> np.ndarray:
+    """(..., A) the weights of linear interpolation in cos theta between ``angles_deg`` at ``cos_i``."""
+    nodes = np.cos(np.radians(np.asarray(angles_deg, float)))[::-1]
+    c = np.clip(np.asarray(cos_i, float), nodes[0], nodes[-1])
+    j = np.clip(np.searchsorted(nodes, c, side="right") - 1, 0, nodes.size - 2)
+    t = (c - nodes[j]) / (nodes[j + 1] - nodes[j])
+    w = np.zeros(c.shape + (nodes.size,))
+    np.put_along_axis(w, j[..., None], (1.0 - t)[..., None], axis=-1)
+    np.put_along_axis(w, (j + 1)[..., None], t[..., None], axis=-1)
+    return w[..., ::-1]
+
+
+def flat_prediction(gbuffer, light, table: ObliqueTable, masks: dict[str, np.ndarray],
+                    boundary: tuple | None = None) -> dict[str, dict[str, Any]]:
+    """Per region (``masks``: name -> (H, W) bool) the flat medium's level at the pixels' own angles
+    (module docstring): ``level`` (3,), its split ``incidence`` and ``exit`` (3,), ``rd0`` (3,), a
+    conservative relative standard error ``rel_se`` (3,) from MCML's (the table's errors at the
+    neighbouring nodes added, not combined in quadrature), and the E / pi-weighted mean incidence and
+    view angles (degrees) and relative azimuth of light and camera about the normal (degrees, 0: the
+    camera on the light's side).
+
+    ``boundary`` = (angles_deg (A,), factor (3, A), factor_se (3, A)): a measured factor of the
+    boundary per incidence angle (:func:`flat_experiment`'s reference / prediction at those angles),
+    interpolated in cos theta_i per pixel (:func:`interpolate_in_cos`) and applied to every pixel's
+    radiance: then ``level`` includes it, ``boundary`` (3,) is its share and ``boundary_se`` (3,) its
+    standard error (the nodes' independent errors, propagated through the interpolation weights)."""
+    cos_i, cos_v = pixel_angles(gbuffer, light)
+    e = gbuffer.diffuse.astype(np.float64)
+    rd0 = table.rd[:, 0]
+    pos = gbuffer.positions()
+    eye = np.linalg.inv(gbuffer.camera.world_to_camera)[:3, 3]
+    out = {}
+    for name, m in masks.items():
+        if not m.any():
+            continue
+        w = e[m]  # (P, 3)
+        ci, cv = cos_i[m], cos_v[m]
+        rd = table.rd_at(ci).T  # (P, 3)
+        f = table.radiance_factor(ci, cv).T
+        rd_rel = table.rd_rel_se(ci).T
+        level = (w * rd * f).sum(axis=0) / w.sum(axis=0)
+        extra: dict[str, Any] = {}
+        if boundary is not None:
+            b_ang, b_val, b_se = (np.asarray(v, float) for v in boundary)
+            wts = _cos_weights(b_ang, ci)  # (P, A)
+            b = (wts @ b_val.T)  # (P, 3)
+            base = w * rd * f
+            share = (base * b).sum(axis=0) / base.sum(axis=0)
+            # d share / d b_a = sum_p base_p wts_pa / sum_p base_p
+            grad = np.einsum("pc,pa->ca", base, wts) / base.sum(axis=0)[:, None]
+            extra = {"boundary": share.tolist(), "boundary_se": np.sqrt(((grad * b_se) ** 2).sum(axis=1)).tolist()}
+            level = level * share
+        inc = (w * rd).sum(axis=0) / w.sum(axis=0) / rd0
+        # the table's errors at each pixel's nodes, relative, added (an upper bound: the pixels share nodes)
+        f_rel = table.radiance_factor_se(ci, cv).T / f
+        rel = (w * rd * f * (rd_rel + f_rel)).sum(axis=0) / (w * rd * f).sum(axis=0)
+        ww = w[:, 1]
+        d_l = np.asarray(light, float) - pos[m]
+        d_c = eye - pos[m]
+        az = np.degrees(np.arctan2(d_c[:, 1], d_c[:, 0]) - np.arctan2(d_l[:, 1], d_l[:, 0]))
+        az = (az + 180.0) % 360.0 - 180.0
+        exit_part = level / (rd0 * inc) / (np.asarray(extra["boundary"]) if extra else 1.0)
+        out[name] = {"pixels": int(m.sum()), "level": level.tolist(), "rd0": rd0.tolist(),
+                     "incidence": inc.tolist(), "exit": exit_part.tolist(), "rel_se": rel.tolist(), **extra,
+                     "incidence_deg": float(np.degrees(np.arccos(np.clip(ci, 0, 1))) @ ww / ww.sum()),
+                     "view_deg": float(np.degrees(np.arccos(np.clip(cv, 0, 1))) @ ww / ww.sum()),
+                     "azimuth_deg": float(az @ ww / ww.sum()),
+                     "lit_pixels": int((ci > 0).sum())}
+    return out
+
+
+def compare_flat_limit(prediction: dict[str, Any], exact_level, measured_exact_over_ref, measured_se,
+                       label: str = "") -> dict[str, Any]:
+    """The flat-medium prediction of one region (an entry of :func:`flat_prediction`) against a measured
+    exact / reference ratio (± SE) in the flat limit: ``predicted_exact_over_reference`` = exact level /
+    flat level; ``reference_over_flat`` = that / the measured ratio (± SE; 1 when the prediction
+    explains the whole difference, below 1 when the reference is darker than a flat medium with a
+    smooth Fresnel boundary)."""
+    pred = np.asarray(exact_level, float) / np.asarray(prediction["level"], float)
+    meas = np.asarray(measured_exact_over_ref, float)
+    ratio = pred / meas
+    rel_b = (np.asarray(prediction["boundary_se"], float) / np.asarray(prediction["boundary"], float)
+             if "boundary" in prediction else 0.0)
+    se = np.abs(ratio) * np.sqrt((np.asarray(measured_se, float) / meas) ** 2
+                                 + np.asarray(prediction["rel_se"], float) ** 2 + rel_b**2)
+    return {"label": label, "measured_exact_over_reference": meas.tolist(),
+            "measured_se": np.asarray(measured_se, float).tolist(),
+            "predicted_exact_over_reference": pred.tolist(), "reference_over_flat": ratio.tolist(),
+            "reference_over_flat_se": se.tolist()}
+
+
+def flat_experiment(material, incidence_deg: float, view_deg: float, azimuth_deg: float = 0.0,
+                    boundary: str = "rough-dielectric", width: int = 64, height: int = 48, spp: int = 256,
+                    chunk_spp: int = 8, photons: int = 1_000_000, seed: int = 0, max_depth: int = 1024,
+                    table: ObliqueTable | None = None, progress=None) -> dict[str, Any]:
+    """The path-traced reference of a flat medium lit at ``incidence_deg`` and seen at ``view_deg``
+    (:func:`ssskit.scenes.flat.flat_scene`) against the MCML prediction at every pixel's angles
+    (:func:`flat_prediction`): ``reference`` (3,) = mean diffuse part / mean E / pi ± SE (batches of
+    ``chunk_spp``; the G-buffer's specular layer subtracted), ``prediction`` and
+    ``reference_over_prediction`` ± SE (the reference's and MCML's errors combined).
+
+    ``boundary``: ``rough-dielectric`` (the material's eta; MCML with a smooth Fresnel boundary of the
+    same eta) or ``index-matched`` (Mitsuba ``null``; the material and MCML at eta = 1). ``table``: an
+    :class:`ObliqueTable` of the material at the boundary's eta (else computed with ``photons``)."""
+    mat = get_material(material)
+    if boundary not in ("rough-dielectric", "index-matched"):
+        raise SettingsError(f"boundary must be rough-dielectric or index-matched, got {boundary!r}")
+    if boundary == "index-matched":
+        mat = dataclasses.replace(mat, eta=1.0)
+    if isinstance(spp, bool) or not (isinstance(spp, int) and isinstance(chunk_spp, int) and chunk_spp >= 1
+                                     and spp >= 2 * chunk_spp):
+        raise SettingsError(f"spp must be an integer of at least two chunks of {chunk_spp!r} spp, got {spp!r}")
+    spec = flat_scene(incidence_deg, view_deg, azimuth_deg)
+    if table is None:
+        table = oblique_table(mat, photons=photons)
+    elif not math.isclose(table.eta, mat.eta):
+        raise SettingsError(f"the table is for eta {table.eta:g}, the {boundary} boundary needs {mat.eta:g}")
+    gb = render_gbuffer(spec, (1.0, 1.0, 1.0), eta=mat.eta, width=width, height=height, spp=16, material=mat.name)
+    pos = gb.positions()
+    region = gb.mask & np.all(np.abs(pos[..., :2]) < SLAB_HALF_MM - FLAT_MARGIN_MM, axis=-1)
+    if not region.all():
+        raise SceneError("the flat slab does not fill the image (its field of view reaches an edge)")
+    pred = flat_prediction(gb, light_position(incidence_deg), table, {"flat": region})["flat"]
+    e = gb.diffuse.astype(np.float64).mean(axis=(0, 1))
+    spec_mean = gb.specular.astype(np.float64).mean(axis=(0, 1))
+    renderer = ReferenceRenderer(spec, mat, width, height, max_depth=max_depth, seed=seed, boundary=boundary)
+    chunks = spp // chunk_spp
+    t0 = time.perf_counter()
+    levels = np.empty((chunks, 3))
+    for i in range(chunks):
+        levels[i] = (renderer.chunk(i, chunk_spp).mean(axis=(0, 1)) - spec_mean) / e
+        if progress is not None and (i + 1) % max(1, chunks // 4) == 0:
+            progress(f"flat {boundary} ({incidence_deg:g}, {view_deg:g}): {(i + 1) * chunk_spp} spp, "
+                     f"{time.perf_counter() - t0:.0f} s")
+    ref, ref_se = batch_mean_se(levels)
+    level = np.asarray(pred["level"])
+    ratio = ref / level
+    se = ratio * np.hypot(ref_se / ref, np.asarray(pred["rel_se"]))
+    return {"boundary": boundary, "eta": float(mat.eta), "incidence_deg": float(incidence_deg),
+            "view_deg": float(view_deg), "azimuth_deg": float(azimuth_deg), "size": [width, height],
+            "spp": chunks * chunk_spp, "seconds": round(time.perf_counter() - t0, 1),
+            "specular_fraction": (spec_mean / e / np.maximum(ref, 1e-300)).tolist(),
+            "reference": ref.tolist(), "reference_se": ref_se.tolist(), "prediction": pred,
+            "reference_over_prediction": ratio.tolist(), "reference_over_prediction_se": se.tolist()}
+
+
+def camera_azimuth(scene: str | SceneSpec, frame: int = 0) -> float:
+    """Degrees about the z axis from the scene's point light to its camera, seen from the target."""
+    spec = get_scene(scene)
+    eye = camera_pose(spec, frame)[0] - np.asarray(spec.target, float)
+    light = point_light(spec, frame) - np.asarray(spec.target, float)
+    az = math.degrees(math.atan2(eye[1], eye[0]) - math.atan2(light[1], light[0]))
+    return (az + 180.0) % 360.0 - 180.0
+
+
+__all__ = ["FLAT_MARGIN_MM", "camera_azimuth", "compare_flat_limit", "flat_experiment", "flat_prediction",
+           "interpolate_in_cos", "pixel_angles", "point_light"]
