@@ -17,7 +17,9 @@ degrees differs from the model's Rd(0) E / pi. The script
 3. measures the rough dielectric's factor on a flat slab (:func:`ssskit.scenes.flat.flat_scene`) at
    the tile's E / pi-weighted view angle and azimuth for a range of incidence angles, with the
    index-matched boundary at the tile's mean angles as the control (it must give 1), and applies the
-   measured factor per pixel (interpolated in cos theta_i) to the prediction.
+   measured factor per pixel (interpolated in cos theta_i) to the prediction; splits the factor into
+   the boundary's entry (the rough dielectric's transmittance over Fresnel's, sampled from Mitsuba's
+   BSDF: :func:`ssskit.scenes.flat.rough_dielectric_transmittance`) and the rest.
 
 Prints one JSON object; progress on stderr.
 
@@ -38,7 +40,8 @@ import numpy as np
 from ssskit.materials import get_material
 from ssskit.pipeline.attribution import Setup, curvature_setups, fresnel_setups, prepare, regions_of, run_experiment
 from ssskit.pipeline.oblique import compare_flat_limit, flat_experiment, flat_prediction, point_light
-from ssskit.profiles.montecarlo.oblique import oblique_table
+from ssskit.profiles.montecarlo.oblique import fresnel_transmittance, oblique_table
+from ssskit.scenes.flat import rough_dielectric_transmittance
 
 REGIONS = ("silhouette", "shadow_edge", "grazing_view", "object")
 
@@ -67,6 +70,8 @@ def main(argv=None) -> None:
     ap.add_argument("--flat-spp", type=int, default=2048, help="flat experiment, rough dielectric: spp per angle")
     ap.add_argument("--flat-size", default="64x48")
     ap.add_argument("--control-spp", type=int, default=512, help="flat experiment, index-matched control: spp")
+    ap.add_argument("--bsdf-samples", type=int, default=50_000,
+                    help="samples of the boundary's transmittance per angle")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
     say = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
@@ -116,11 +121,23 @@ def main(argv=None) -> None:
         say(f"flat experiment: rough dielectric at {a:g} deg")
         flats.append(flat_experiment(mat, a, view, az, "rough-dielectric", fw, fh, args.flat_spp, seed=args.seed,
                                      table=tab, progress=say))
-    out["flat"] = {"view_deg": view, "azimuth_deg": az, "control": control, "rough": flats}
     factor = np.array([f["reference_over_prediction"] for f in flats]).T
     factor_se = np.array([f["reference_over_prediction_se"] for f in flats]).T
+    # the boundary's entry: the rough dielectric's transmittance over the smooth one's at each angle
+    cos_a = np.cos(np.radians(angles))
+    t_rough, t_se = rough_dielectric_transmittance(cos_a, mat.eta, samples=args.bsdf_samples, seed=args.seed)
+    entry = t_rough / fresnel_transmittance(cos_a, mat.eta)
+    entry_se = t_se / fresnel_transmittance(cos_a, mat.eta)
+    rest = factor / entry
+    rest_se = rest * np.hypot(factor_se / factor, entry_se / entry)
+    out["flat"] = {"view_deg": view, "azimuth_deg": az, "control": control, "rough": flats,
+                   "entry_transmittance_ratio": entry.tolist(), "entry_transmittance_ratio_se": entry_se.tolist(),
+                   "factor_over_entry": rest.tolist(), "factor_over_entry_se": rest_se.tolist()}
     pred_b = flat_prediction(prep.gbuffer, light, tab, masks, boundary=(angles, factor, factor_se))
     out["prediction"]["rough_with_measured_boundary"] = pred_b
+    pred_e = flat_prediction(prep.gbuffer, light, tab, masks,
+                             boundary=(angles, np.tile(entry, (3, 1)), np.tile(entry_se, (3, 1))))
+    out["prediction"]["rough_with_rough_entry"] = pred_e
 
     comp = {}
     for name in REGIONS:
@@ -130,6 +147,9 @@ def main(argv=None) -> None:
             eo = c["exact_over_reference"]
             row["rough_flat_limit"] = compare_flat_limit(pred[name], c["exact_2d"], eo["value"], eo["se"],
                                                          f"{meas['curvature']['label']} vs MCML, smooth boundary")
+            row["rough_flat_limit_rough_entry"] = compare_flat_limit(
+                pred_e[name], c["exact_2d"], eo["value"], eo["se"],
+                f"{meas['curvature']['label']} vs MCML x the rough entry transmittance")
             row["rough_flat_limit_measured_boundary"] = compare_flat_limit(
                 pred_b[name], c["exact_2d"], eo["value"], eo["se"],
                 f"{meas['curvature']['label']} vs MCML x flat rough factor")

@@ -10,7 +10,8 @@ import pytest
 from ssskit.errors import SceneError
 from ssskit.profiles.montecarlo.oblique import incidence_cosines
 from ssskit.scenes import render_gbuffer
-from ssskit.scenes.flat import SLAB_HALF_MM, camera_position, flat_scene, light_position
+from ssskit.profiles.montecarlo.oblique import fresnel_transmittance
+from ssskit.scenes.flat import SLAB_HALF_MM, camera_position, flat_scene, light_position, rough_dielectric_transmittance
 
 
 @pytest.fixture(autouse=True)
@@ -51,3 +52,18 @@ def test_positions_and_names():
             flat_scene(bad)
     with pytest.raises(SceneError, match="view angle"):
         flat_scene(30.0, 95.0)
+
+
+def test_rough_dielectric_transmittance():
+    """The reference's boundary (Beckmann alpha = 0.15, eta 1.3) transmits what a smooth one does (1 - R,
+    Born & Wolf 1.5.21/22) within 0.5% up to 70 degrees' incidence; at grazing incidence more (its
+    microfacets face the light: 9% at 80 degrees, 45% at 85 measured with 5e4 samples)."""
+    c = np.cos(np.radians([0.0, 60.0, 85.0]))
+    t, se = rough_dielectric_transmittance(c, 1.3, samples=20_000, seed=2)
+    smooth = fresnel_transmittance(c, 1.3)
+    assert np.all(se / t < 0.01)
+    assert abs(t[0] / smooth[0] - 1) < 3 * se[0] / t[0] + 1e-3
+    assert abs(t[1] / smooth[1] - 1) < 0.01
+    assert t[2] / smooth[2] > 1.3
+    with pytest.raises(SceneError, match="eta > 1"):
+        rough_dielectric_transmittance(c, 1.0)

@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from ..errors import SceneError
-from .scenes import SceneSpec, _T
+from .scenes import COAT_ROUGHNESS, SceneSpec, _T, mitsuba
 
 #: half the slab's side (mm) and its thickness
 SLAB_HALF_MM = 100.0
@@ -75,5 +75,37 @@ def flat_scene(incidence_deg: float, view_deg: float = 0.0, azimuth_deg: float =
         orbit_deg_per_frame=0.0)
 
 
+def rough_dielectric_transmittance(cos_i, eta: float, alpha: float = COAT_ROUGHNESS, samples: int = 50_000,
+                                   seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(transmittance, standard error) at each incidence cosine ``cos_i`` of the reference's boundary
+    for light arriving from outside: Mitsuba's ``roughdielectric`` (Beckmann ``alpha``, int_ior =
+    ``eta``) sampled ``samples`` times per angle in importance transport mode, the mean weight of the
+    samples that cross it. A smooth boundary transmits 1 - R (Fresnel); a rough one sees the light at
+    the microfacets' own angles, which near grazing incidence face the light more than the mean
+    surface does."""
+    if not (isinstance(eta, (int, float, np.floating)) and math.isfinite(eta) and eta > 1.0):
+        raise SceneError(f"a dielectric boundary needs eta > 1, got {eta!r}")
+    if isinstance(samples, bool) or not (isinstance(samples, int) and samples >= 2):
+        raise SceneError(f"samples must be an integer >= 2, got {samples!r}")
+    mi = mitsuba()
+    bsdf = mi.load_dict({"type": "roughdielectric", "int_ior": float(eta), "ext_ior": 1.0,
+                         "distribution": "beckmann", "alpha": float(alpha)})
+    ctx = mi.BSDFContext(mi.TransportMode.Importance)
+    rng = np.random.default_rng(seed)
+    cos = np.atleast_1d(np.asarray(cos_i, float))
+    t, se = np.empty(cos.shape), np.empty(cos.shape)
+    for j, c in enumerate(cos):
+        si = mi.SurfaceInteraction3f()
+        si.wi = mi.Vector3f(math.sqrt(max(1.0 - c * c, 0.0)), 0.0, float(c))
+        si.sh_frame = mi.Frame3f(mi.Vector3f(0.0, 0.0, 1.0))
+        u = rng.random((samples, 3))
+        w = np.empty(samples)
+        for k in range(samples):
+            bs, weight = bsdf.sample(ctx, si, float(u[k, 0]), mi.Point2f(float(u[k, 1]), float(u[k, 2])))
+            w[k] = weight[0] if bs.wo[2] < 0 else 0.0
+        t[j], se[j] = w.mean(), w.std(ddof=1) / math.sqrt(samples)
+    return t.reshape(np.shape(cos_i)), se.reshape(np.shape(cos_i))
+
+
 __all__ = ["CAMERA_DISTANCE_MM", "FIELD_MM", "LIGHT_DISTANCE_MM", "SLAB_HALF_MM", "SLAB_THICKNESS_MM",
-           "camera_position", "flat_scene", "light_position"]
+           "camera_position", "flat_scene", "light_position", "rough_dielectric_transmittance"]
