@@ -203,9 +203,10 @@ def supplement_grid(material: Material | LayeredMaterial, extent_mfp: float = SU
 
 def config_for_material(material: Material | LayeredMaterial, channel: int | str, photons: int = DEFAULT_PHOTONS,
                         seed: int = 1, batch_size: int = DEFAULT_BATCH,
-                        extent_mfp: float = SUPPLEMENT_GRID_MFP) -> MCConfig:
+                        extent_mfp: float = SUPPLEMENT_GRID_MFP, roughness: float = 0.0) -> MCConfig:
     """The supplement's simulation of one channel (index 0-2 or 'R', 'G', 'B') of a material
-    (``extent_mfp``: the grid's reach, :func:`supplement_grid`)."""
+    (``extent_mfp``: the grid's reach, :func:`supplement_grid`; ``roughness``: Beckmann alpha of
+    the top surface, 0 for the supplement's smooth one, :class:`MCConfig`)."""
     if isinstance(channel, str):
         if channel.strip().upper() not in CHANNELS:
             raise ProfileError(f"channel must be R, G or B, got {channel!r}")
@@ -220,7 +221,7 @@ def config_for_material(material: Material | LayeredMaterial, channel: int | str
         above, below = material.eta_above, material.eta_below
     else:
         above = below = material.eta_ambient
-    return MCConfig(layers, dr, nr, photons, seed, above, below, batch_size)
+    return MCConfig(layers, dr, nr, photons, seed, above, below, batch_size, roughness=roughness)
 
 
 __all__ = ["DEFAULT_BATCH", "DEFAULT_PHOTONS", "ENGINE_VERSION", "N_EXIT_BINS", "SUPPLEMENT_GRID_MFP", "MCConfig", "MCLayer", "config_for_material",
