@@ -9,7 +9,9 @@ camera's direction (``MCResult.radiance_factor_at``) with the beam at the platea
 angle, which is what a camera looking along the normal sees.
 
 Two boundaries: the scenes' rough dielectric (Beckmann alpha = 0.15, eta of the material) against
-MCML with a smooth Fresnel boundary of the same eta, and the index-matched one (Mitsuba ``null``)
+MCML with a smooth Fresnel boundary of the same eta and against MCML with the same rough surface
+(``MCConfig.roughness``: Mitsuba's single-scattering ``roughdielectric``, which loses light at
+grazing internal reflections and widens the exit lobe), and the index-matched one (Mitsuba ``null``)
 against MCML at eta = 1. Every chunk of the reference is an independent batch; it renders until the
 plateau's relative standard error is at most --rel-se or --max-spp is spent, only inside the
 plateau's window. Prints one JSON object.
@@ -31,6 +33,7 @@ import numpy as np
 from ssskit.materials import get_material
 from ssskit.profiles.montecarlo import config_for_material, montecarlo_rgb, simulate
 from ssskit.scenes import SCENES, render_gbuffer
+from ssskit.scenes.scenes import COAT_ROUGHNESS
 from ssskit.scenes.reference import ReferenceRenderer, batch_mean_se
 
 LIGHT = np.array([400.0, 0.0, 1000.0])  # the slab scene's point light (ssskit.scenes.scenes)
@@ -110,7 +113,35 @@ def run(material, boundary, args):
     out["radiance_factor_se"] = f_se.tolist()
     out["ratio_to_oblique_Rd_times_radiance_factor"] = ratio_c.tolist()
     out["ratio_to_oblique_Rd_times_radiance_factor_se"] = (ratio_c * np.hypot(ref_se / ref_mean, f_se / f)).tolist()
+    if boundary == "rough-dielectric":
+        out["same_surface"] = same_surface(mat, ref_mean, ref_se, epi, inc, mu_cam, args)
     return out
+
+
+def same_surface(mat, ref_mean, ref_se, epi, inc, mu_cam, args):
+    """The reference against MCML with the scene's own rough surface (Beckmann alpha = COAT_ROUGHNESS):
+    (a) the Monte Carlo profile of that surface, normal incidence, Lambertian exit, as the pipeline
+    would use it; (b) the beam at the plateau's incidence and MCML's radiance factor at the camera."""
+    normal = [simulate(dataclasses.replace(config_for_material(mat, c, photons=args.photons, seed=5),
+                                           roughness=COAT_ROUGHNESS)) for c in range(3)]
+    oblique = [simulate(dataclasses.replace(config_for_material(mat, c, photons=args.photons, seed=7),
+                                            incidence_deg=inc, roughness=COAT_ROUGHNESS)) for c in range(3)]
+    rd_a = np.array([r.total_rd for r in normal])
+    rd_a_se = np.array([r.total_rd_se for r in normal])
+    rd_b = np.array([r.total_rd for r in oblique])
+    rd_b_se = np.array([r.total_rd_se for r in oblique])
+    rf = [r.radiance_factor_at(mu_cam) for r in oblique]
+    f, f_se = np.array([v[0] for v in rf]), np.array([v[1] for v in rf])
+    ratio_a = ref_mean / (epi * rd_a)
+    ratio_b = ref_mean / (epi * rd_b * f)
+    return {"roughness": COAT_ROUGHNESS, "photons": args.photons,
+            "profile_total_Rd": rd_a.tolist(), "rsp": [r.rsp for r in normal],
+            "ratio_to_profile_Rd": ratio_a.tolist(),
+            "ratio_to_profile_Rd_se": (ratio_a * np.hypot(ref_se / ref_mean, rd_a_se / rd_a)).tolist(),
+            "oblique_total_Rd": rd_b.tolist(), "radiance_factor_at_camera": f.tolist(),
+            "ratio_to_oblique_Rd_times_radiance_factor": ratio_b.tolist(),
+            "ratio_to_oblique_Rd_times_radiance_factor_se":
+                (ratio_b * np.sqrt((ref_se / ref_mean) ** 2 + (rd_b_se / rd_b) ** 2 + (f_se / f) ** 2)).tolist()}
 
 
 def main(argv=None):

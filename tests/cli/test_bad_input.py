@@ -59,6 +59,8 @@ BAD = [
     (["render", "--scene", "slab", "--reference", "--reference-max-spp", "0"], "--reference-max-spp"),
     (["simulate", "--material", "skin1,marble", "--grid-fraction", "0.999"], "single material"),
     (["simulate", "--material", "skin1", "--grid-fraction", "1.5"], "--grid-fraction"),
+    (["simulate", "--material", "skin1", "--roughness", "1.5"], "--roughness"),
+    (["profile", "--material", "skin1", "--model", "dipole", "--roughness", "0.15"], "--roughness does not apply"),
     # simulate
     (["simulate", "--material", "skin1", "--resume", "--restart"], "exclude each other"),
     (["simulate", "--material", "skin1", "--restart", "--no-cache"], "cannot be combined with --no-cache"),

@@ -30,3 +30,25 @@ def test_simulate_and_profile_report_the_same_totals(capsys, tmp_path, monkeypat
     assert "# total Rd in grid (R, G, B)" in text and "with overflow" in text
     assert main(["simulate", "--material", "marble", "--photons", "20000"]) == 0
     assert "total Rd with overflow" in capsys.readouterr().out
+
+
+def test_rough_surface_through_simulate_and_profile(capsys, tmp_path, monkeypatch):
+    """--roughness reaches the engine on both commands: the same run (same totals), the entry's
+    Rsp estimated for the rough surface (within its Monte Carlo error of the smooth Fresnel value at
+    normal incidence)."""
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    args = ["--material", "skin1", "--photons", "100000"]
+    assert main(["simulate", *args, "--roughness", "0.15", "--json"]) == 0
+    rough = json.loads(capsys.readouterr().out)
+    assert main(["simulate", *args, "--json"]) == 0
+    smooth = json.loads(capsys.readouterr().out)
+    assert main(["profile", *args, "--model", "montecarlo", "--roughness", "0.15", "--json"]) == 0
+    prof = json.loads(capsys.readouterr().out)
+    assert rough["roughness"] == 0.15 and smooth["roughness"] == 0.0
+    for ch in "RGB":
+        r, s = rough["channels"][ch], smooth["channels"][ch]
+        assert prof["channels"][ch]["params"]["total_Rd_with_overflow"] == pytest.approx(r["total_Rd"], rel=1e-12)
+        assert r["Rsp"] == pytest.approx(s["Rsp"], abs=6e-4)
+        assert r["Rsp"] != s["Rsp"]
+    assert main(["simulate", *args, "--roughness", "0.15"]) == 0
+    assert "rough surface (Beckmann alpha 0.15)" in capsys.readouterr().out

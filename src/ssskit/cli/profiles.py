@@ -77,6 +77,9 @@ def resolve_profile(ctx: click.Context, material, model: str, options: dict[str,
 @photons_option(200_000, help="--model montecarlo (and burley's A): photons per channel (cached).")
 @click.option("--grid-fraction", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=None,
               help="--model montecarlo: lengthen the 32-MFP grid until it holds this fraction of the light (e.g. 0.999).")
+@click.option("--roughness", type=click.FloatRange(0, 1), default=0.0, show_default=True,
+              help="--model montecarlo: Beckmann alpha of a rough surface (0: MCML's smooth one; "
+                   "the 3D scenes use 0.15).")
 @click.option("--points", type=click.IntRange(2, 1_000_000), default=256, show_default=True, help="Number of radii (bin centres).")
 @click.option("--r-max", "r_max", type=float, default=None,
               help="Largest radius in mm [default: where every channel holds 99.9% of its energy].")
@@ -84,8 +87,8 @@ def resolve_profile(ctx: click.Context, material, model: str, options: dict[str,
 @out_option((".csv", ".npz"), "Write the table to FILE.csv or FILE.npz.")
 @out_option((".png", ".pdf", ".svg"), "Write a plot to FILE.png (or .pdf/.svg).", name="--plot")
 @click.pass_context
-def profile(ctx, material, model, configuration, albedo_source, n_gaussians, photons, grid_fraction, points, r_max,
-            as_json, out, plot) -> None:
+def profile(ctx, material, model, configuration, albedo_source, n_gaussians, photons, grid_fraction, roughness,
+            points, r_max, as_json, out, plot) -> None:
     """Diffuse reflectance profile R(r) of a material, per RGB channel."""
     import numpy as np
 
@@ -98,7 +101,8 @@ def profile(ctx, material, model, configuration, albedo_source, n_gaussians, pho
                                                   "albedo_source": ("albedo_source", albedo_source),
                                                   "n_gaussians": ("n", n_gaussians),
                                                   "photons": ("photons", photons),
-                                                  "grid_fraction": ("grid_fraction", grid_fraction)})
+                                                  "grid_fraction": ("grid_fraction", grid_fraction),
+                                                  "roughness": ("roughness", roughness)})
     prof = make()
     if r_max is None:
         r_max = float(max(prof.radius_at_fraction(0.999)))
@@ -155,13 +159,16 @@ def _channels():
               help="Photons per random stream / standard-error batch.")
 @click.option("--grid-fraction", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=None,
               help="Lengthen the 32-MFP grid until it holds this fraction of the reflected light (e.g. 0.999); single material.")
+@click.option("--roughness", type=click.FloatRange(0, 1), default=0.0, show_default=True,
+              help="Beckmann alpha of a rough top surface, Mitsuba's roughdielectric (0: MCML's smooth one; "
+                   "the 3D scenes use 0.15).")
 @click.option("--resume", is_flag=True, help="Continue the partial result of an interrupted run with the same inputs.")
 @click.option("--restart", is_flag=True, help="Discard the partial result of an interrupted run and start over.")
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the on-disk cache.")
 @out_option((".npz",), "Write FILE.npz (one material) with r_mm, Rd, Rd_se per channel.")
 @json_option()
-def simulate(material, channel, photons, seed, threads, jobs, scheduler, batch_size, grid_fraction, resume, restart,
-             no_cache, out, as_json) -> None:
+def simulate(material, channel, photons, seed, threads, jobs, scheduler, batch_size, grid_fraction, roughness, resume,
+             restart, no_cache, out, as_json) -> None:
     """Monte Carlo (MCML) diffuse reflectance profiles with the supplement's settings.
 
     An interrupted run (Ctrl-C) keeps its finished batches: run it again with --resume to continue
@@ -190,15 +197,16 @@ def simulate(material, channel, photons, seed, threads, jobs, scheduler, batch_s
         raise SsskitError("--no-cache, --threads and --grid-fraction apply to a single material (a sweep runs one "
                           "thread per job)")
     for m in mats:  # photons, seed and batch size checked by the engine's own configuration, before any work
-        config_for_material(m, 0, photons, seed, batch_size)
+        config_for_material(m, 0, photons, seed, batch_size, roughness=roughness)
     if single:
         runs = {mats[0].name: simulate_material(mats[0], channel, photons=photons, seed=seed, threads=threads,
                                                 progress=True, resume=resume, restart=restart,
                                                 use_cache=not no_cache, batch_size=batch_size,
-                                                grid_fraction=grid_fraction)}
+                                                grid_fraction=grid_fraction, roughness=roughness)}
     else:
         runs = simulate_many(mats, channel, photons=photons, seed=seed, jobs=jobs, batch_size=batch_size,
-                             progress=True, resume=resume, restart=restart, scheduler=scheduler)
+                             progress=True, resume=resume, restart=restart, scheduler=scheduler,
+                             roughness=roughness)
 
     def one(results):
         first = next(iter(results.values()))
@@ -208,6 +216,7 @@ def simulate(material, channel, photons, seed, threads, jobs, scheduler, batch_s
             "r_mm": first.r_mm.tolist(),
             "channels": {ch: r.to_dict() for ch, r in results.items()},
             "photons": first.photons,
+            "roughness": first.config.roughness,
             "seconds": seconds,
             "photons_per_second": total / seconds if seconds > 0 else None,
             "cached": all(r.extra.get("cached", False) for r in results.values()),
@@ -234,6 +243,7 @@ def simulate(material, channel, photons, seed, threads, jobs, scheduler, batch_s
                        f"Rsp = {c['Rsp']:.4f}")
         rate = d["photons_per_second"]
         click.echo(f"{name:<10}    {d['photons']} photons/channel, {d['seconds']:.1f} s"
+                   + (f", rough surface (Beckmann alpha {roughness:g})" if roughness else "")
                    + (f", {rate:,.0f} photons/s" if rate else "") + (" (cached)" if d["cached"] else ""))
     if out:
         click.echo(f"wrote {out}")

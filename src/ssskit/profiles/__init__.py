@@ -113,16 +113,18 @@ _DEON2007_NO_MATERIAL = "the deon2007 model is a fixed skin preset and takes no 
 
 @MODELS.decorator("montecarlo")
 def montecarlo_profile(material: Material | LayeredMaterial, photons: int = 200_000, seed: int = 1,
-                       grid_fraction: float | None = None, **options: Any) -> RGBProfile:
+                       grid_fraction: float | None = None, roughness: float = 0.0, **options: Any) -> RGBProfile:
     """MCML-simulated profiles (supplement F grid; cached on disk). Needs numba.
 
     ``grid_fraction`` (e.g. 0.999): lengthen the grid of a channel until it holds that fraction of
-    the reflected light. ``options`` go to :func:`ssskit.profiles.montecarlo.simulate_material`
+    the reflected light. ``roughness`` > 0: a rough top surface of that Beckmann alpha (the
+    path-traced references' boundary) instead of MCML's smooth one. ``options`` go to :func:`ssskit.profiles.montecarlo.simulate_material`
     (threads, progress, resume, restart, use_cache, batch_size).
     """
     from .montecarlo import montecarlo_rgb
 
-    return montecarlo_rgb(material, photons=photons, seed=seed, grid_fraction=grid_fraction, **options)
+    return montecarlo_rgb(material, photons=photons, seed=seed, grid_fraction=grid_fraction, roughness=roughness,
+                          **options)
 
 
 #: Models that take no material (fixed presets).

@@ -36,7 +36,7 @@ from .config import (
 )
 from .profile import MonteCarloProfile, montecarlo_rgb
 from .result import MCResult, assemble_result, batch_stats
-from .run import simulate
+from .run import rough_boundary_albedo, simulate
 from .sweep import simulate_many, simulate_material
 
 
@@ -62,6 +62,7 @@ __all__ = [
     "config_for_material",
     "layer_arrays",
     "montecarlo_rgb",
+    "rough_boundary_albedo",
     "simulate",
     "simulate_many",
     "simulate_material",

@@ -58,7 +58,11 @@ class MCConfig:
 
     ``layers`` top first (only the last may be semi-infinite); radial grid of ``nr`` bins of
     ``dr_mm``; ``photons`` split into batches of ``batch_size`` (the last one shorter), each batch
-    its own random stream derived from ``seed``; ambient indices ``eta_above`` / ``eta_below``.
+    its own random stream derived from ``seed``; ambient indices ``eta_above`` / ``eta_below``;
+    ``roughness``: Beckmann alpha of the top surface, 0 for MCML's smooth Fresnel boundary, > 0 for
+    the single-scattering rough dielectric of Mitsuba 3's ``roughdielectric`` (Walter et al. 2007;
+    :func:`~ssskit.profiles.montecarlo.engine_numba._rough_interface`), the path-traced references'
+    boundary (:data:`ssskit.scenes.scenes.COAT_ROUGHNESS`).
     """
 
     layers: tuple[MCLayer, ...]
@@ -70,6 +74,7 @@ class MCConfig:
     eta_below: float = 1.0
     batch_size: int = DEFAULT_BATCH
     incidence_deg: float = 0.0
+    roughness: float = 0.0
 
     def __post_init__(self) -> None:
         if not self.layers:
@@ -92,6 +97,8 @@ class MCConfig:
                 raise ProfileError(f"{name} must be >= 1")
         if not (isinstance(self.incidence_deg, (int, float)) and 0 <= self.incidence_deg < 90):
             raise ProfileError(f"incidence angle must lie in [0, 90) degrees, got {self.incidence_deg!r}")
+        if not (isinstance(self.roughness, (int, float)) and 0 <= self.roughness <= 1):
+            raise ProfileError(f"surface roughness (Beckmann alpha) must lie in [0, 1], got {self.roughness!r}")
 
     @property
     def n_batches(self) -> int:
@@ -104,15 +111,19 @@ class MCConfig:
         return sizes
 
     def key(self) -> str:
-        """Hash of every input and the engine version."""
+        """Hash of every input and the engine version (a smooth surface's key leaves ``roughness``
+        out: its transport did not change when the option came, so its cached results stay valid)."""
         data = asdict(self)
+        if self.roughness == 0:
+            del data["roughness"]
         data["engine"] = ENGINE_VERSION
         text = json.dumps(data, sort_keys=True, default=repr)
         return hashlib.sha256(text.encode()).hexdigest()[:24]
 
     def specular_reflectance(self) -> float:
         """Rsp = ((n0 - n1) / (n0 + n1))^2 at normal incidence (MCML's Rspecular, no glass layer); at
-        ``incidence_deg`` the unpolarised Fresnel reflectance (Born & Wolf, Eq. 1.5.21/22, averaged)."""
+        ``incidence_deg`` the unpolarised Fresnel reflectance (Born & Wolf, Eq. 1.5.21/22, averaged).
+        The smooth surface's: a rough one's is estimated by the engine (``simulate``)."""
         n0, n1 = self.eta_above, self.layers[0].eta
         if self.incidence_deg == 0:
             return ((n0 - n1) / (n0 + n1)) ** 2
@@ -127,7 +138,11 @@ class MCConfig:
         return math.cos(th), math.sqrt(max(1.0 - st * st, 0.0))
 
     def launch_direction(self) -> tuple[float, float]:
-        """(ux, uz) of the refracted beam inside the top layer (uy = 0): (0, 1) at normal incidence."""
+        """(ux, uz) of the refracted beam inside the top layer (uy = 0): (0, 1) at normal incidence.
+        With a rough top surface the beam outside, which the engine refracts through a microfacet."""
+        if self.roughness > 0:
+            th = math.radians(self.incidence_deg)
+            return math.sin(th), math.cos(th)
         ct = self._cosines()[1]
         return math.sqrt(max(1.0 - ct * ct, 0.0)), ct
 
@@ -188,9 +203,10 @@ def supplement_grid(material: Material | LayeredMaterial, extent_mfp: float = SU
 
 def config_for_material(material: Material | LayeredMaterial, channel: int | str, photons: int = DEFAULT_PHOTONS,
                         seed: int = 1, batch_size: int = DEFAULT_BATCH,
-                        extent_mfp: float = SUPPLEMENT_GRID_MFP) -> MCConfig:
+                        extent_mfp: float = SUPPLEMENT_GRID_MFP, roughness: float = 0.0) -> MCConfig:
     """The supplement's simulation of one channel (index 0-2 or 'R', 'G', 'B') of a material
-    (``extent_mfp``: the grid's reach, :func:`supplement_grid`)."""
+    (``extent_mfp``: the grid's reach, :func:`supplement_grid`; ``roughness``: Beckmann alpha of
+    the top surface, 0 for the supplement's smooth one, :class:`MCConfig`)."""
     if isinstance(channel, str):
         if channel.strip().upper() not in CHANNELS:
             raise ProfileError(f"channel must be R, G or B, got {channel!r}")
@@ -205,7 +221,7 @@ def config_for_material(material: Material | LayeredMaterial, channel: int | str
         above, below = material.eta_above, material.eta_below
     else:
         above = below = material.eta_ambient
-    return MCConfig(layers, dr, nr, photons, seed, above, below, batch_size)
+    return MCConfig(layers, dr, nr, photons, seed, above, below, batch_size, roughness=roughness)
 
 
 __all__ = ["DEFAULT_BATCH", "DEFAULT_PHOTONS", "ENGINE_VERSION", "N_EXIT_BINS", "SUPPLEMENT_GRID_MFP", "MCConfig", "MCLayer", "config_for_material",

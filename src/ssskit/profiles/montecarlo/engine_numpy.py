@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from ...errors import ProfileError
 from .config import N_EXIT_BINS, MCConfig, layer_arrays
 from .engine_numba import COS_90D, COS_ZERO, ROULETTE_CHANCE, WEIGHT_THRESHOLD
 from .result import MCResult, assemble_result
@@ -46,7 +47,11 @@ def _fresnel(n1, n2, ca1):
 
 def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> MCResult:
     """Run all ``cfg.photons`` photons at once with numpy's PCG64 seeded by ``seed`` (default
-    ``cfg.seed``); nothing is cached. The twin of :func:`~ssskit.profiles.montecarlo.simulate`."""
+    ``cfg.seed``); nothing is cached. The twin of :func:`~ssskit.profiles.montecarlo.simulate`, for
+    smooth surfaces only (MCML's)."""
+    if cfg.roughness > 0:
+        raise ProfileError("the numpy engine simulates MCML's smooth surface only; a rough top surface "
+                           f"(roughness {cfg.roughness}) needs simulate()")
     t0 = time.perf_counter()
     rng = np.random.default_rng(cfg.seed if seed is None else seed)
     a = layer_arrays(cfg)

@@ -80,13 +80,13 @@ def montecarlo_rgb(material: Material | LayeredMaterial, photons: int = 200_000,
     """An RGBProfile of simulated profiles (cached), usable wherever a profile is.
 
     ``kwargs`` go to :func:`~ssskit.profiles.montecarlo.simulate_material` (threads, progress,
-    resume, restart, use_cache, batch_size, grid_fraction).
+    resume, restart, use_cache, batch_size, grid_fraction, roughness).
     """
     results = simulate_material(material, "all", photons=photons, seed=seed, **kwargs)
     chans = tuple(results[ch].profile() for ch in CHANNELS)
     return RGBProfile(chans, "montecarlo", material.name,  # type: ignore[arg-type]
                       {"material": material.to_dict(), "photons": photons, "seed": seed,
-                       "grid_fraction": kwargs.get("grid_fraction")})
+                       "grid_fraction": kwargs.get("grid_fraction"), "roughness": kwargs.get("roughness", 0.0)})
 
 
 __all__ = ["MonteCarloProfile", "montecarlo_rgb"]

@@ -139,12 +139,13 @@ def batch_stats(values: np.ndarray, sizes: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def assemble_result(cfg: MCConfig, bins: np.ndarray, totals: np.ndarray, seconds: float,
-                    extra: dict[str, Any] | None = None) -> MCResult:
+                    extra: dict[str, Any] | None = None, rsp: float | None = None) -> MCResult:
     """An :class:`MCResult` from an engine's per-batch tallies over all of ``cfg``'s batches.
 
     bins: (cfg.n_batches, cfg.nr) escaping weight per radial bin, the last one for every radius beyond
     the grid; totals: (cfg.n_batches, 3 + N_EXIT_BINS) weight sums [diffusely reflected, transmitted,
-    absorbed, reflected per exit-direction bin...]; seconds: the simulation's run time.
+    absorbed, reflected per exit-direction bin...]; seconds: the simulation's run time; rsp: the
+    specular reflectance if not the smooth surface's ``cfg.specular_reflectance()``.
     """
     sizes = cfg.batch_sizes()
     if bins.shape != (sizes.shape[0], cfg.nr) or totals.shape != (sizes.shape[0], 3 + N_EXIT_BINS):
@@ -158,7 +159,8 @@ def assemble_result(cfg: MCConfig, bins: np.ndarray, totals: np.ndarray, seconds
     return MCResult(
         config=cfg, r_mm=r_mm, rd=mean_bins[:n] / area, rd_se=se_bins[:n] / area,
         total_rd=float(mean_tot[0]), total_rd_se=float(se_tot[0]), tt=float(mean_tot[1]), tt_se=float(se_tot[1]),
-        absorbed=float(mean_tot[2]), absorbed_se=float(se_tot[2]), rsp=cfg.specular_reflectance(), seconds=seconds,
+        absorbed=float(mean_tot[2]), absorbed_se=float(se_tot[2]), rsp=cfg.specular_reflectance() if rsp is None else float(rsp),
+        seconds=seconds,
         photons=cfg.photons, overflow=float(mean_bins[n]), overflow_se=float(se_bins[n]),
         exit_rd=mean_tot[3:].copy(), exit_rd_se=se_tot[3:].copy(), extra=dict(extra or {}),
     )

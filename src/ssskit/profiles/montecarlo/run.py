@@ -10,6 +10,7 @@ simulation again needs ``resume=True`` (continue it) or ``restart=True`` (discar
 from __future__ import annotations
 
 import contextlib
+import math
 import time
 from pathlib import Path
 
@@ -71,6 +72,8 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
 
     arrays = layer_arrays(cfg)
     rsp = cfg.specular_reflectance()
+    if cfg.roughness > 0:  # the engine launches with weight 1; the entry's reflectance is estimated apart
+        rsp = rough_specular(cfg)
     ux0, uz0 = cfg.launch_direction()
     todo = np.flatnonzero(~done)
     bar = _progress_bar(cfg.photons, int(sizes[done].sum()), label) if progress else None
@@ -85,7 +88,8 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
                 engine_numba.run_batches(
                     np.uint64(cfg.seed), ids.astype(np.int64), sizes[ids], arrays["mua"], arrays["mus"],
                     arrays["g"], arrays["z_top"], arrays["z_bot"], arrays["n_idx"], arrays["cos_crit_up"],
-                    arrays["cos_crit_down"], rsp, ux0, uz0, cfg.dr_mm, b_rows, t_rows)
+                    arrays["cos_crit_down"], 0.0 if cfg.roughness > 0 else rsp, ux0, uz0, cfg.dr_mm,
+                    float(cfg.roughness), b_rows, t_rows)
                 bins[ids], totals[ids], done[ids] = b_rows, t_rows, True
                 if bar is not None:
                     bar.update(int(sizes[ids].sum()))
@@ -102,7 +106,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
     finally:
         if bar is not None:
             bar.close()
-    result = assemble_result(cfg, bins, totals, elapsed + time.perf_counter() - t0)
+    result = assemble_result(cfg, bins, totals, elapsed + time.perf_counter() - t0, rsp=rsp)
     if use_cache:
         save_arrays(final_path, r_mm=result.r_mm, rd=result.rd, rd_se=result.rd_se, exit_rd=result.exit_rd,
                     exit_rd_se=result.exit_rd_se,
@@ -112,6 +116,38 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
         with contextlib.suppress(OSError):
             partial_path.unlink()
     return result
+
+
+#: samples of the entry estimate of a rough surface's specular reflectance (SE ~ 2e-5)
+RSP_SAMPLES = 1_000_000
+
+
+def rough_boundary_albedo(cos_theta: float, eta_from: float, eta_to: float, alpha: float,
+                          samples: int = RSP_SAMPLES, seed: int = 0) -> dict[str, tuple[float, float]]:
+    """Directional albedo of the simulation's rough dielectric surface (Beckmann ``alpha``, Walter et
+    al. 2007 Eqs. 27-29, 40-41, :func:`~.engine_numba._rough_interface`) for light arriving at
+    ``cos_theta`` to the normal from the medium of index ``eta_from``: ``{"reflected", "transmitted",
+    "lost"}``, each (mean, standard error) over ``samples`` samples of the stream ``seed``. "lost" is
+    what the single-scattering BSDF removes (masking), 0 for a smooth surface."""
+    for name, v, ok in (("cos_theta", cos_theta, 0 < cos_theta <= 1), ("eta_from", eta_from, eta_from >= 1),
+                        ("eta_to", eta_to, eta_to >= 1), ("alpha", alpha, 0 < alpha <= 1)):
+        if not (isinstance(v, (int, float)) and ok):
+            raise ProfileError(f"{name} out of range: {v!r} (cos_theta in (0, 1], etas >= 1, alpha in (0, 1])")
+    if not (isinstance(samples, (int, np.integer)) and samples >= 2):
+        raise ProfileError(f"samples must be an integer >= 2, got {samples!r}")
+    from . import engine_numba
+
+    out = engine_numba.rough_interface_albedo(float(cos_theta), float(eta_from), float(eta_to), float(alpha),
+                                              int(samples), int(seed))
+    return {k: (float(out[i]), float(out[3 + i])) for i, k in enumerate(("reflected", "transmitted", "lost"))}
+
+
+def rough_specular(cfg: MCConfig) -> float:
+    """The specular reflectance Rsp at the entry of ``cfg``'s rough top surface, for the beam at
+    ``cfg.incidence_deg`` (:func:`rough_boundary_albedo`, a stream of its own derived from ``cfg.seed``)."""
+    mu = math.cos(math.radians(cfg.incidence_deg))
+    return rough_boundary_albedo(mu, cfg.eta_above, cfg.layers[0].eta, cfg.roughness,
+                                 seed=cfg.seed)["reflected"][0]
 
 
 def _load_partial(cfg: MCConfig, path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, float] | None:
@@ -162,4 +198,4 @@ def _progress_bar(total: int, initial: int, label: str):
                         dynamic_ncols=True, leave=False)
 
 
-__all__ = ["simulate"]
+__all__ = ["RSP_SAMPLES", "rough_boundary_albedo", "rough_specular", "simulate"]
