@@ -7,7 +7,7 @@ and the red gap closes; what is left is how a flat medium lit at grazing inciden
 degrees differs from the model's Rd(0) E / pi. The script
 
 1. tabulates MCML over the incidence angle (:func:`ssskit.profiles.montecarlo.oblique.oblique_table`,
-   eta of the material and eta = 1);
+   eta of the material with a smooth surface and with the references' rough one, and eta = 1);
 2. predicts every region's level from the tile's per-pixel incidence and view angles (the G-buffer
    of the unscaled tile: the scaled one's image, normals and E / pi are the same) and compares with
    the measured exact / reference ratios: k = 8 of the curvature experiment (rough dielectric) and
@@ -41,6 +41,7 @@ from ssskit.materials import get_material
 from ssskit.pipeline.attribution import Setup, curvature_setups, fresnel_setups, prepare, regions_of, run_experiment
 from ssskit.pipeline.oblique import compare_flat_limit, flat_experiment, flat_prediction, point_light
 from ssskit.profiles.montecarlo.oblique import fresnel_transmittance, oblique_table
+from ssskit.scenes import COAT_ROUGHNESS
 from ssskit.scenes.flat import rough_dielectric_transmittance
 
 REGIONS = ("silhouette", "shadow_edge", "grazing_view", "object")
@@ -85,7 +86,9 @@ def main(argv=None) -> None:
     say("MCML tables")
     t = time.perf_counter()
     tab, tab1 = oblique_table(mat, photons=args.table_photons), oblique_table(mat1, photons=args.table_photons)
-    out["table"] = {"rough": tab.to_dict(), "index_matched": tab1.to_dict(),
+    # MCML with the references' own rough surface (Beckmann alpha = COAT_ROUGHNESS)
+    tab_r = oblique_table(mat, photons=args.table_photons, roughness=COAT_ROUGHNESS)
+    out["table"] = {"rough": tab.to_dict(), "index_matched": tab1.to_dict(), "rough_mcml": tab_r.to_dict(),
                     "seconds": round(time.perf_counter() - t, 1)}
 
     say("G-buffers, regions, per-pixel prediction")
@@ -95,7 +98,8 @@ def main(argv=None) -> None:
     light = point_light(args.scene)
     pred = flat_prediction(prep.gbuffer, light, tab, masks)
     pred1 = flat_prediction(prep1.gbuffer, light, tab1, masks)
-    out["prediction"] = {"rough": pred, "index_matched": pred1}
+    pred_r = flat_prediction(prep.gbuffer, light, tab_r, masks)
+    out["prediction"] = {"rough": pred, "index_matched": pred1, "rough_mcml": pred_r}
 
     if args.measured:
         meas = measured_runs(args.measured, args.scene)
@@ -120,7 +124,7 @@ def main(argv=None) -> None:
     for a in angles:
         say(f"flat experiment: rough dielectric at {a:g} deg")
         flats.append(flat_experiment(mat, a, view, az, "rough-dielectric", fw, fh, args.flat_spp, seed=args.seed,
-                                     table=tab, progress=say))
+                                     table=tab, compare={"rough_mcml": tab_r}, progress=say))
     factor = np.array([f["reference_over_prediction"] for f in flats]).T
     factor_se = np.array([f["reference_over_prediction_se"] for f in flats]).T
     # the boundary's entry: the rough dielectric's transmittance over the smooth one's at each angle
@@ -147,6 +151,9 @@ def main(argv=None) -> None:
             eo = c["exact_over_reference"]
             row["rough_flat_limit"] = compare_flat_limit(pred[name], c["exact_2d"], eo["value"], eo["se"],
                                                          f"{meas['curvature']['label']} vs MCML, smooth boundary")
+            row["rough_flat_limit_rough_mcml"] = compare_flat_limit(
+                pred_r[name], c["exact_2d"], eo["value"], eo["se"],
+                f"{meas['curvature']['label']} vs MCML with the same rough surface")
             row["rough_flat_limit_rough_entry"] = compare_flat_limit(
                 pred_e[name], c["exact_2d"], eo["value"], eo["se"],
                 f"{meas['curvature']['label']} vs MCML x the rough entry transmittance")

@@ -169,7 +169,8 @@ def compare_flat_limit(prediction: dict[str, Any], exact_level, measured_exact_o
 def flat_experiment(material, incidence_deg: float, view_deg: float, azimuth_deg: float = 0.0,
                     boundary: str = "rough-dielectric", width: int = 64, height: int = 48, spp: int = 256,
                     chunk_spp: int = 8, photons: int = 1_000_000, seed: int = 0, max_depth: int = 1024,
-                    table: ObliqueTable | None = None, progress=None) -> dict[str, Any]:
+                    table: ObliqueTable | None = None, compare: dict[str, ObliqueTable] | None = None,
+                    progress=None) -> dict[str, Any]:
     """The path-traced reference of a flat medium lit at ``incidence_deg`` and seen at ``view_deg``
     (:func:`ssskit.scenes.flat.flat_scene`) against the MCML prediction at every pixel's angles
     (:func:`flat_prediction`): ``reference`` (3,) = mean diffuse part / mean E / pi ± SE (batches of
@@ -178,7 +179,9 @@ def flat_experiment(material, incidence_deg: float, view_deg: float, azimuth_deg
 
     ``boundary``: ``rough-dielectric`` (the material's eta; MCML with a smooth Fresnel boundary of the
     same eta) or ``index-matched`` (Mitsuba ``null``; the material and MCML at eta = 1). ``table``: an
-    :class:`ObliqueTable` of the material at the boundary's eta (else computed with ``photons``)."""
+    :class:`ObliqueTable` of the material at the boundary's eta (else computed with ``photons``).
+    ``compare``: more tables (name -> table, e.g. MCML with the rough surface), each giving
+    ``against[name]`` = its ``prediction`` and ``reference_over_prediction`` ± SE for the same reference."""
     mat = get_material(material)
     if boundary not in ("rough-dielectric", "index-matched"):
         raise SettingsError(f"boundary must be rough-dielectric or index-matched, got {boundary!r}")
@@ -210,15 +213,25 @@ def flat_experiment(material, incidence_deg: float, view_deg: float, azimuth_deg
             progress(f"flat {boundary} ({incidence_deg:g}, {view_deg:g}): {(i + 1) * chunk_spp} spp, "
                      f"{time.perf_counter() - t0:.0f} s")
     ref, ref_se = batch_mean_se(levels)
-    level = np.asarray(pred["level"])
-    ratio = ref / level
-    se = ratio * np.hypot(ref_se / ref, np.asarray(pred["rel_se"]))
+
+    def against(p):
+        r = ref / np.asarray(p["level"])
+        return r, r * np.hypot(ref_se / ref, np.asarray(p["rel_se"]))
+
+    ratio, se = against(pred)
+    others = {}
+    for name, tab in (compare or {}).items():
+        p = flat_prediction(gb, light_position(incidence_deg), tab, {"flat": region})["flat"]
+        r, r_se = against(p)
+        others[name] = {"prediction": p, "reference_over_prediction": r.tolist(),
+                        "reference_over_prediction_se": r_se.tolist()}
     return {"boundary": boundary, "eta": float(mat.eta), "incidence_deg": float(incidence_deg),
             "view_deg": float(view_deg), "azimuth_deg": float(azimuth_deg), "size": [width, height],
             "spp": chunks * chunk_spp, "seconds": round(time.perf_counter() - t0, 1),
             "specular_fraction": (spec_mean / e / np.maximum(ref, 1e-300)).tolist(),
             "reference": ref.tolist(), "reference_se": ref_se.tolist(), "prediction": pred,
-            "reference_over_prediction": ratio.tolist(), "reference_over_prediction_se": se.tolist()}
+            "reference_over_prediction": ratio.tolist(), "reference_over_prediction_se": se.tolist(),
+            "against": others}
 
 
 def camera_azimuth(scene: str | SceneSpec, frame: int = 0) -> float:

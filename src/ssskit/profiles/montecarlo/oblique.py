@@ -50,7 +50,7 @@ class ObliqueTable:
     ``rd`` / ``rd_se`` (3, A): total diffuse reflectance per channel and angle (MCML's Rd, all
     diffusely reflected light, the specular part excluded); ``radiance`` / ``radiance_se``
     (3, A, N_EXIT_BINS): the radiance factor per exit bin (bins uniform in mu_v^2, the last one
-    nearest the normal)."""
+    nearest the normal); ``roughness``: the top surface's Beckmann alpha (0: smooth)."""
 
     angles_deg: np.ndarray
     rd: np.ndarray
@@ -59,6 +59,7 @@ class ObliqueTable:
     radiance_se: np.ndarray
     eta: float
     photons: int
+    roughness: float = 0.0
 
     def _weights(self, cos_i: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Indices (lo, hi) of the table angles around each cos theta_i and the weight of hi (linear in cos)."""
@@ -116,15 +117,19 @@ class ObliqueTable:
 
     def to_dict(self) -> dict:
         return {"angles_deg": self.angles_deg.tolist(), "eta": self.eta, "photons": self.photons,
+                "roughness": self.roughness,
                 "Rd": self.rd.tolist(), "Rd_se": self.rd_se.tolist(),
                 "Rd_ratio": (self.rd / self.rd[:, :1]).tolist()}
 
 
 def oblique_table(material: Material | LayeredMaterial, angles_deg: Sequence[float] = OBLIQUE_ANGLES_DEG,
-                  photons: int = 1_000_000, seed: int = 21, threads: int | None = None) -> ObliqueTable:
+                  photons: int = 1_000_000, seed: int = 21, threads: int | None = None,
+                  roughness: float = 0.0) -> ObliqueTable:
     """MCML (the supplement's grid for the material, :func:`config_for_material`) with the beam at each
     of ``angles_deg`` (the first must be 0, increasing, each < 90), ``photons`` per channel and angle;
-    every run cached (:func:`simulate`)."""
+    every run cached (:func:`simulate`). ``roughness``: Beckmann alpha of the top surface (0: MCML's
+    smooth Fresnel boundary; > 0: the references' single-scattering rough dielectric,
+    :class:`~ssskit.profiles.montecarlo.MCConfig`)."""
     angles = np.asarray([float(a) for a in angles_deg])
     if angles.size < 2 or angles[0] != 0.0 or np.any(np.diff(angles) <= 0) or angles[-1] >= 90.0:
         raise ProfileError("incidence angles must start at 0, increase and stay below 90 degrees, "
@@ -136,14 +141,14 @@ def oblique_table(material: Material | LayeredMaterial, angles_deg: Sequence[flo
     rad = np.empty((3, angles.size, N_EXIT_BINS))
     rad_se = np.empty_like(rad)
     for c in range(3):
-        base = config_for_material(material, c, photons=photons, seed=seed)
+        base = config_for_material(material, c, photons=photons, seed=seed, roughness=roughness)
         for a, ang in enumerate(angles):
             res = simulate(dataclasses.replace(base, incidence_deg=float(ang)), threads=threads)
             rd[c, a], rd_se[c, a] = res.total_rd, res.total_rd_se
             rad[c, a] = res.radiance_factor()
             rad_se[c, a] = N_EXIT_BINS * res.exit_rd_se / res.total_rd
     eta = float(material.layers[0].eta if isinstance(material, LayeredMaterial) else material.eta)
-    return ObliqueTable(angles, rd, rd_se, rad, rad_se, eta, photons)
+    return ObliqueTable(angles, rd, rd_se, rad, rad_se, eta, photons, float(roughness))
 
 
 def incidence_cosines(points: np.ndarray, normals: np.ndarray, light: Sequence[float]) -> np.ndarray:
