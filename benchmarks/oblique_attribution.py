@@ -9,7 +9,8 @@ degrees differs from the model's Rd(0) E / pi. The script
 1. tabulates MCML over the incidence angle (:func:`ssskit.profiles.montecarlo.oblique.oblique_table`,
    eta of the material with a smooth surface and with the references' rough one, and eta = 1);
 2. predicts every region's level from the tile's per-pixel incidence and view angles (the G-buffer
-   of the unscaled tile: the scaled one's image, normals and E / pi are the same) and compares with
+   of the unscaled tile: the scaled one's image, normals and E / pi are the same; angles and E / pi
+   taken at ``--subpixels`` x that many sub-pixels per pixel) and compares with
    the measured exact / reference ratios: k = 8 of the curvature experiment (rough dielectric) and
    k = 1 of the Fresnel experiment (index-matched), taken from ``--measured`` (the JSON that
    ``region_attribution.py`` prints) or, without it, measured here (``run_experiment``, k = 1 and 8,
@@ -41,7 +42,7 @@ from ssskit.materials import get_material
 from ssskit.pipeline.attribution import Setup, curvature_setups, fresnel_setups, prepare, regions_of, run_experiment
 from ssskit.pipeline.oblique import compare_flat_limit, flat_experiment, flat_prediction, point_light
 from ssskit.profiles.montecarlo.oblique import fresnel_transmittance, oblique_table
-from ssskit.scenes import COAT_ROUGHNESS
+from ssskit.scenes import COAT_ROUGHNESS, render_gbuffer
 from ssskit.scenes.flat import rough_dielectric_transmittance
 
 REGIONS = ("silhouette", "shadow_edge", "grazing_view", "object")
@@ -73,6 +74,8 @@ def main(argv=None) -> None:
     ap.add_argument("--control-spp", type=int, default=512, help="flat experiment, index-matched control: spp")
     ap.add_argument("--bsdf-samples", type=int, default=50_000,
                     help="samples of the boundary's transmittance per angle")
+    ap.add_argument("--subpixels", type=int, default=4, help="angles and E / pi at s x s sub-pixels per pixel")
+    ap.add_argument("--subpixel-spp", type=int, default=4, help="spp of the sub-pixel G-buffer")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
     say = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
@@ -96,9 +99,17 @@ def main(argv=None) -> None:
     prep1 = prepare(Setup("index-matched", args.scene, mat1, "index-matched"), w, h, 200_000, surface=False)
     masks = regions_of(prep)
     light = point_light(args.scene)
-    pred = flat_prediction(prep.gbuffer, light, tab, masks)
-    pred1 = flat_prediction(prep1.gbuffer, light, tab1, masks)
-    pred_r = flat_prediction(prep.gbuffer, light, tab_r, masks)
+    # the angles and E / pi at s x s sub-pixels per pixel (the tile's pits are a pixel wide)
+    sub = args.subpixels
+    fine = render_gbuffer(args.scene, prep.profile.total_rd(), eta=mat.eta, width=w * sub, height=h * sub,
+                          spp=args.subpixel_spp, material=mat.name) if sub > 1 else None
+    fine1 = render_gbuffer(args.scene, prep1.profile.total_rd(), eta=1.0, width=w * sub, height=h * sub,
+                           spp=args.subpixel_spp, material=mat.name) if sub > 1 else None
+    pred = flat_prediction(prep.gbuffer, light, tab, masks, fine=fine)
+    pred1 = flat_prediction(prep1.gbuffer, light, tab1, masks, fine=fine1)
+    pred_r = flat_prediction(prep.gbuffer, light, tab_r, masks, fine=fine)
+    # the same at one normal per pixel (what the region table's G-buffer holds)
+    out["prediction_one_normal_per_pixel"] = {"rough_mcml": flat_prediction(prep.gbuffer, light, tab_r, masks)}
     out["prediction"] = {"rough": pred, "index_matched": pred1, "rough_mcml": pred_r}
 
     if args.measured:
@@ -137,10 +148,10 @@ def main(argv=None) -> None:
     out["flat"] = {"view_deg": view, "azimuth_deg": az, "control": control, "rough": flats,
                    "entry_transmittance_ratio": entry.tolist(), "entry_transmittance_ratio_se": entry_se.tolist(),
                    "factor_over_entry": rest.tolist(), "factor_over_entry_se": rest_se.tolist()}
-    pred_b = flat_prediction(prep.gbuffer, light, tab, masks, boundary=(angles, factor, factor_se))
+    pred_b = flat_prediction(prep.gbuffer, light, tab, masks, boundary=(angles, factor, factor_se), fine=fine)
     out["prediction"]["rough_with_measured_boundary"] = pred_b
     pred_e = flat_prediction(prep.gbuffer, light, tab, masks,
-                             boundary=(angles, np.tile(entry, (3, 1)), np.tile(entry_se, (3, 1))))
+                             boundary=(angles, np.tile(entry, (3, 1)), np.tile(entry_se, (3, 1))), fine=fine)
     out["prediction"]["rough_with_rough_entry"] = pred_e
 
     comp = {}

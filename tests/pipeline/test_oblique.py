@@ -103,3 +103,28 @@ def test_index_matched_flat_medium_at_grazing_incidence_matches_mcml():
     assert np.all(np.array(res["prediction"]["incidence"]) > 1.15)
     with pytest.raises(SettingsError, match="eta"):
         flat_experiment("skin1", 70.0, 44.0, -110.0, "rough-dielectric", spp=16, table=tab)
+
+
+def test_fine_gbuffer_sums_over_the_sub_pixels():
+    """With a fine G-buffer of the same view at 2 x 2 sub-pixels per pixel, a region's level is the E / pi
+    weighted mean over its pixels' sub-pixels; a uniform flat patch gives the same level either way."""
+    tab = _table()
+    light = np.array([1000.0, 0.0, 577.35])
+    coarse = _gbuffer(1.0, 1.0)
+    cam = coarse.camera
+
+    def flat(h, w):
+        return GBuffer(diffuse=np.ones((h, w, 3), np.float32), albedo=np.ones((h, w, 3), np.float32),
+                       depth=np.full((h, w), 100.0, np.float32), profile_id=np.ones((h, w), np.uint32),
+                       camera=Camera.from_fov(w, h, 10.0, world_to_camera=cam.world_to_camera, world_units_per_mm=1.0),
+                       normal=np.broadcast_to(np.float32([0, 0, 1]), (h, w, 3)).copy(), materials=("m",))
+
+    fine = flat(4, 8)
+    mask = np.zeros((2, 4), bool)
+    mask[:, 1:3] = True
+    a = flat_prediction(coarse, light, tab, {"r": mask})["r"]
+    b = flat_prediction(coarse, light, tab, {"r": mask}, fine=fine)["r"]
+    assert b["pixels"] == 4 and b["samples"] == 16
+    np.testing.assert_allclose(b["level"], a["level"], rtol=2e-3)
+    with pytest.raises(SettingsError, match="integer multiple"):
+        flat_prediction(coarse, light, tab, {"r": mask}, fine=flat(4, 6))

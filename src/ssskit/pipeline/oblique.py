@@ -88,7 +88,7 @@ def _cos_weights(angles_deg, cos_i) -> np.ndarray:
 
 
 def flat_prediction(gbuffer, light, table: ObliqueTable, masks: dict[str, np.ndarray],
-                    boundary: tuple | None = None) -> dict[str, dict[str, Any]]:
+                    boundary: tuple | None = None, fine=None) -> dict[str, dict[str, Any]]:
     """Per region (``masks``: name -> (H, W) bool) the flat medium's level at the pixels' own angles
     (module docstring): ``level`` (3,), its split ``incidence`` and ``exit`` (3,), ``rd0`` (3,), a
     conservative relative standard error ``rel_se`` (3,) from MCML's (the table's errors at the
@@ -100,7 +100,23 @@ def flat_prediction(gbuffer, light, table: ObliqueTable, masks: dict[str, np.nda
     boundary per incidence angle (:func:`flat_experiment`'s reference / prediction at those angles),
     interpolated in cos theta_i per pixel (:func:`interpolate_in_cos`) and applied to every pixel's
     radiance: then ``level`` includes it, ``boundary`` (3,) is its share and ``boundary_se`` (3,) its
-    standard error (the nodes' independent errors, propagated through the interpolation weights)."""
+    standard error (the nodes' independent errors, propagated through the interpolation weights).
+
+    ``fine``: a G-buffer of the same view at s times the width and height (s an integer): the angles
+    and E / pi are then taken at its pixels, s x s per pixel of ``masks`` (a region's sums run over
+    the SSS sub-pixels of its pixels). One pixel's normal is one sample of the surface within it;
+    where the surface's slope varies within a pixel (the bumpy tile's 0.3 mm pits at 0.27 mm per
+    pixel) the mean of the nonlinear Rd(theta_i) E over the pixel is not Rd at its one normal times
+    its mean E."""
+    pixels = {name: int(m.sum()) for name, m in masks.items()}
+    if fine is not None:
+        h, w = gbuffer.shape
+        s = fine.shape[0] // h
+        if s < 1 or fine.shape != (h * s, w * s):
+            raise SettingsError(f"the fine G-buffer must be an integer multiple of {w}x{h}, got "
+                                f"{fine.shape[1]}x{fine.shape[0]}")
+        masks = {name: np.repeat(np.repeat(m, s, axis=0), s, axis=1) & fine.mask for name, m in masks.items()}
+        gbuffer = fine
     cos_i, cos_v = pixel_angles(gbuffer, light)
     e = gbuffer.diffuse.astype(np.float64)
     rd0 = table.rd[:, 0]
@@ -137,7 +153,7 @@ def flat_prediction(gbuffer, light, table: ObliqueTable, masks: dict[str, np.nda
         az = np.degrees(np.arctan2(d_c[:, 1], d_c[:, 0]) - np.arctan2(d_l[:, 1], d_l[:, 0]))
         az = (az + 180.0) % 360.0 - 180.0
         exit_part = level / (rd0 * inc) / (np.asarray(extra["boundary"]) if extra else 1.0)
-        out[name] = {"pixels": int(m.sum()), "level": level.tolist(), "rd0": rd0.tolist(),
+        out[name] = {"pixels": pixels[name], "samples": int(m.sum()), "level": level.tolist(), "rd0": rd0.tolist(),
                      "incidence": inc.tolist(), "exit": exit_part.tolist(), "rel_se": rel.tolist(), **extra,
                      "incidence_deg": float(np.degrees(np.arccos(np.clip(ci, 0, 1))) @ ww / ww.sum()),
                      "view_deg": float(np.degrees(np.arccos(np.clip(cv, 0, 1))) @ ww / ww.sum()),
