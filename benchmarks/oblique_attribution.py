@@ -22,6 +22,15 @@ degrees differs from the model's Rd(0) E / pi. The script
    the boundary's entry (the rough dielectric's transmittance over Fresnel's, sampled from Mitsuba's
    BSDF: :func:`ssskit.scenes.flat.rough_dielectric_transmittance`) and the rest.
 
+4. estimates the light that leaves the surface (the boundary's reflection, the diffuse light) and
+   re-enters it elsewhere (:func:`ssskit.pipeline.oblique.surface_reentry`), which the G-buffer's
+   direct E / pi lacks, and applies it to the rough-surface MCML prediction.
+
+Keys: ``prediction.rough`` / ``table.rough``: MCML with a smooth surface at the material's eta (for the
+reference's rough dielectric); ``rough_mcml``: MCML with the references' rough surface; ``index_matched``:
+MCML at eta = 1; ``comparison.<region>.<column>.reference_over_flat``: the predicted exact / reference over
+the measured one (1: the prediction explains the difference).
+
 Prints one JSON object; progress on stderr.
 
     PYTHONPATH=src python benchmarks/oblique_attribution.py --measured regions-attribution.json
@@ -40,7 +49,8 @@ import numpy as np
 
 from ssskit.materials import get_material
 from ssskit.pipeline.attribution import Setup, curvature_setups, fresnel_setups, prepare, regions_of, run_experiment
-from ssskit.pipeline.oblique import compare_flat_limit, flat_experiment, flat_prediction, point_light
+from ssskit.pipeline.oblique import (compare_flat_limit, flat_experiment, flat_prediction, point_light,
+                                     surface_reentry)
 from ssskit.profiles.montecarlo.oblique import fresnel_transmittance, oblique_table
 from ssskit.scenes import COAT_ROUGHNESS, render_gbuffer
 from ssskit.scenes.flat import rough_dielectric_transmittance
@@ -76,6 +86,7 @@ def main(argv=None) -> None:
                     help="samples of the boundary's transmittance per angle")
     ap.add_argument("--subpixels", type=int, default=4, help="angles and E / pi at s x s sub-pixels per pixel")
     ap.add_argument("--subpixel-spp", type=int, default=4, help="spp of the sub-pixel G-buffer")
+    ap.add_argument("--reentry-samples", type=int, default=40_000, help="surface points for the re-entry estimate")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
     say = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
@@ -154,6 +165,15 @@ def main(argv=None) -> None:
                              boundary=(angles, np.tile(entry, (3, 1)), np.tile(entry_se, (3, 1))), fine=fine)
     out["prediction"]["rough_with_rough_entry"] = pred_e
 
+    say("light leaving the surface and re-entering it")
+    reentry = surface_reentry(args.scene, tab_r, samples=args.reentry_samples, seed=args.seed)
+    out["reentry"] = reentry
+    gain = 1.0 + np.asarray(reentry["specular_reentry"]) + np.asarray(reentry["diffuse_reentry"])
+    gain_se = np.hypot(reentry["specular_reentry_se"], reentry["diffuse_reentry_se"])
+    pred_rr = {name: {**p, "level": (np.asarray(p["level"]) * gain).tolist(),
+                      "rel_se": np.hypot(p["rel_se"], gain_se / gain).tolist()} for name, p in pred_r.items()}
+    out["prediction"]["rough_mcml_with_reentry"] = pred_rr
+
     comp = {}
     for name in REGIONS:
         row = {}
@@ -165,6 +185,9 @@ def main(argv=None) -> None:
             row["rough_flat_limit_rough_mcml"] = compare_flat_limit(
                 pred_r[name], c["exact_2d"], eo["value"], eo["se"],
                 f"{meas['curvature']['label']} vs MCML with the same rough surface")
+            row["rough_flat_limit_rough_mcml_reentry"] = compare_flat_limit(
+                pred_rr[name], c["exact_2d"], eo["value"], eo["se"],
+                f"{meas['curvature']['label']} vs MCML with the rough surface x (1 + light re-entering)")
             row["rough_flat_limit_rough_entry"] = compare_flat_limit(
                 pred_e[name], c["exact_2d"], eo["value"], eo["se"],
                 f"{meas['curvature']['label']} vs MCML x the rough entry transmittance")

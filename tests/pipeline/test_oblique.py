@@ -10,7 +10,7 @@ import pytest
 from ssskit.errors import SceneError, SettingsError
 from ssskit.materials import get_material
 from ssskit.pipeline.oblique import (compare_flat_limit, flat_experiment, flat_prediction, interpolate_in_cos,
-                                     pixel_angles, point_light)
+                                     pixel_angles, point_light, surface_reentry)
 from ssskit.profiles.montecarlo.oblique import ObliqueTable, oblique_table
 from ssskit.screenspace.camera import Camera
 from ssskit.screenspace.gbuffer import GBuffer
@@ -128,3 +128,20 @@ def test_fine_gbuffer_sums_over_the_sub_pixels():
     np.testing.assert_allclose(b["level"], a["level"], rtol=2e-3)
     with pytest.raises(SettingsError, match="integer multiple"):
         flat_prediction(coarse, light, tab, {"r": mask}, fine=flat(4, 6))
+
+
+def test_surface_reentry_is_zero_on_a_flat_surface_and_positive_on_the_relief():
+    """Light leaving a flat surface never meets it again; on the bumpy tile (a swell and pits lit at
+    ~70 degrees) some of the boundary's reflection and of the diffuse light re-enters. The reflected
+    share on the flat slab is the rough dielectric's reflectance at 70 degrees (1 - its transmittance,
+    sampled separately)."""
+    from ssskit.scenes.flat import flat_scene, rough_dielectric_transmittance
+
+    tab = _table()
+    flat = surface_reentry(flat_scene(70.0, 44.0, -110.0), tab, samples=600, seed=1, batches=6)
+    assert flat["specular_reentry"] == [0.0, 0.0, 0.0] and flat["diffuse_reentry"] == [0.0, 0.0, 0.0]
+    t, t_se = rough_dielectric_transmittance(np.cos(np.radians([70.0])), 1.3, samples=4000, seed=3)
+    assert abs(flat["reflected"] - (1 - t[0])) < 3 * np.hypot(flat["reflected_se"], t_se[0]) + 0.005
+    bumpy = surface_reentry("bumpy", tab, samples=1200, seed=1, batches=6)
+    assert all(0 < v < bumpy["reflected"] for v in bumpy["specular_reentry"])
+    assert all(v > 0 for v in bumpy["diffuse_reentry"])

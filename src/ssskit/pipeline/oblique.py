@@ -43,7 +43,7 @@ from ..profiles.montecarlo.oblique import ObliqueTable, incidence_cosines, obliq
 from ..scenes import render_gbuffer, scene_lights
 from ..scenes.flat import SLAB_HALF_MM, flat_scene, light_position
 from ..scenes.reference import ReferenceRenderer, batch_mean_se
-from ..scenes.scenes import SceneSpec, camera_pose, get_scene
+from ..scenes.scenes import COAT_ROUGHNESS, SceneSpec, camera_pose, get_scene, mitsuba
 
 #: how far (mm) inside the flat slab's edges a pixel of :func:`flat_experiment` must lie
 FLAT_MARGIN_MM = 20.0
@@ -250,6 +250,104 @@ def flat_experiment(material, incidence_deg: float, view_deg: float, azimuth_deg
             "against": others}
 
 
+def surface_reentry(scene: str | SceneSpec, table: ObliqueTable, samples: int = 20_000, seed: int = 0,
+                    batches: int = 10) -> dict[str, Any]:
+    """How much light leaving an SSS surface re-enters it elsewhere (light the G-buffer's direct E / pi
+    does not have and the path-traced reference does): the scene's SSS shapes alone (the rest is black
+    in the reference), lit by its point light (:func:`point_light`).
+
+    Monte Carlo over points q uniform in the shapes' projected area (rays cast down along -z: a
+    heightfield, such as the bumpy tile): the light's irradiance E(q) (shadow ray), the diffuse light
+    leaving E Rd(theta_q) (``table``: MCML of the material, e.g. with the references' rough surface);
+    one sample of the boundary's reflection (Mitsuba ``roughdielectric``, Beckmann alpha =
+    :data:`ssskit.scenes.COAT_ROUGHNESS`, eta of the table, importance transport: its weight is the
+    reflected energy) and one cosine-weighted direction of the diffuse light (a Lambertian exit), each
+    traced to the surface: where it hits the front side at cos theta_p, it enters and leaves again as
+    x Rd(theta_p) (the table; for the diffuse bounce Rd at the hit's angle of a Lambertian source is
+    approximated by Rd(theta_p) of a beam). Returns ``reflected`` (the share of the incident light the
+    boundary reflects), ``specular_reentry`` and ``diffuse_reentry`` (3,): the re-entering light's
+    diffuse output over the direct light's, each ± SE (``batches`` batches), and ``samples``."""
+    spec = get_scene(scene)
+    mi = mitsuba()
+    shapes = spec.shapes()
+    sc = mi.load_dict({"type": "scene", **{sid: dict(shapes[sid]) for sid in spec.sss_shapes}})
+    coat = mi.load_dict({"type": "roughdielectric", "int_ior": float(table.eta), "ext_ior": 1.0,
+                         "distribution": "beckmann", "alpha": COAT_ROUGHNESS})
+    ctx = mi.BSDFContext(mi.TransportMode.Importance)
+    light = point_light(spec)
+    bbox = sc.bbox()
+    lo, hi = np.array(bbox.min, float), np.array(bbox.max, float)
+    rng = np.random.default_rng(seed)
+    per = max(samples // batches, 1)
+    acc = np.zeros((batches, 8))  # incident, reflected, direct out (3), specular back (3) ... see below
+    diff = np.zeros((batches, 3))
+
+    def trace(p, n, d):
+        hit = sc.ray_intersect(mi.Ray3f(mi.Point3f(*(p + 1e-3 * n)), mi.Vector3f(*d)))
+        if not hit.is_valid():
+            return None
+        n2 = np.asarray(hit.n, float)
+        n2 = n2 if n2[2] > 0 else -n2
+        c2 = float(-(n2 @ d))
+        return c2 if c2 > 0 else None
+
+    for b in range(batches):
+        for _ in range(per):
+            x, y = rng.uniform(lo[0], hi[0]), rng.uniform(lo[1], hi[1])
+            u = rng.random(5)
+            si = sc.ray_intersect(mi.Ray3f(mi.Point3f(x, y, hi[2] + 1.0), mi.Vector3f(0.0, 0.0, -1.0)))
+            if not si.is_valid():
+                continue
+            p, n = np.asarray(si.p, float), np.asarray(si.n, float)
+            n = n if n[2] > 0 else -n
+            to_l = light - p
+            dist = float(np.linalg.norm(to_l))
+            to_l /= dist
+            cl = float(n @ to_l)
+            if cl <= 0 or sc.ray_test(mi.Ray3f(mi.Point3f(*(p + 1e-3 * n)), mi.Vector3f(*to_l), dist - 1e-2)):
+                continue
+            e = cl / dist**2 / n[2]  # irradiance x the area element of a uniform (x, y) sample
+            out_direct = e * table.rd_at(cl)
+            acc[b, 0] += e
+            acc[b, 2:5] += out_direct
+            frame = mi.Frame3f(mi.Vector3f(*n))
+            s2 = mi.SurfaceInteraction3f()
+            s2.sh_frame = frame
+            s2.wi = frame.to_local(mi.Vector3f(*to_l))
+            bs, weight = coat.sample(ctx, s2, float(u[0]), mi.Point2f(float(u[1]), float(u[2])))
+            if bs.wo[2] > 0:
+                acc[b, 1] += e * float(weight[0])
+                c2 = trace(p, n, np.asarray(frame.to_world(bs.wo), float))
+                if c2 is not None:
+                    acc[b, 5:8] += e * float(weight[0]) * table.rd_at(c2)
+            # a cosine-weighted direction of the diffuse light leaving q
+            r, phi = math.sqrt(u[3]), 2.0 * math.pi * u[4]
+            local = mi.Vector3f(r * math.cos(phi), r * math.sin(phi), math.sqrt(max(1.0 - u[3], 0.0)))
+            c3 = trace(p, n, np.asarray(frame.to_world(local), float))
+            if c3 is not None:
+                diff[b] += out_direct * table.rd_at(c3)
+    direct = acc[:, 2:5]
+
+    def ratio(num):
+        r, se = _batch_ratio(num, direct)
+        return r.tolist(), se.tolist()
+
+    refl, refl_se = _batch_ratio(acc[:, 1:2], acc[:, 0:1])
+    spec_r, spec_se = ratio(acc[:, 5:8])
+    diff_r, diff_se = ratio(diff)
+    return {"samples": per * batches, "reflected": float(refl[0]), "reflected_se": float(refl_se[0]),
+            "specular_reentry": spec_r, "specular_reentry_se": spec_se,
+            "diffuse_reentry": diff_r, "diffuse_reentry_se": diff_se}
+
+
+def _batch_ratio(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """sum(num) / sum(den) over batches (axis 0) and its standard error (batch and delta methods)."""
+    k = num.shape[0]
+    r = num.sum(axis=0) / den.sum(axis=0)
+    se = (num - r * den).std(axis=0, ddof=1) * math.sqrt(k) / den.sum(axis=0)
+    return r, se
+
+
 def camera_azimuth(scene: str | SceneSpec, frame: int = 0) -> float:
     """Degrees about the z axis from the scene's point light to its camera, seen from the target."""
     spec = get_scene(scene)
@@ -260,4 +358,4 @@ def camera_azimuth(scene: str | SceneSpec, frame: int = 0) -> float:
 
 
 __all__ = ["FLAT_MARGIN_MM", "camera_azimuth", "compare_flat_limit", "flat_experiment", "flat_prediction",
-           "interpolate_in_cos", "pixel_angles", "point_light"]
+           "interpolate_in_cos", "pixel_angles", "point_light", "surface_reentry"]
