@@ -15,7 +15,9 @@ model and the reference is how a flat medium lit at theta_i and seen at theta_v 
   Beckmann microfacets) is not MCML's smooth Fresnel boundary; what it changes is measured by
   :func:`flat_experiment` (a flat slab, :func:`ssskit.scenes.flat.flat_scene`, at the scene's angles:
   the reference over the MCML prediction, with the index-matched boundary as the control that must
-  give 1).
+  give 1), or by MCML with the references' rough surface (``oblique_table(..., roughness=)``);
+* **re-entry** (:func:`surface_reentry`): on a relief, light that leaves the surface (the boundary's
+  reflection, the diffuse light) meets it again and enters; the G-buffer's E / pi is direct light only.
 
 :func:`flat_prediction` forms the first two per pixel -- cos theta_i from the G-buffer's positions and
 normals and the scene's point light, mu_v from :meth:`GBuffer.view_cosine` -- and averages them the
@@ -43,7 +45,7 @@ from ..profiles.montecarlo.oblique import ObliqueTable, incidence_cosines, obliq
 from ..scenes import render_gbuffer, scene_lights
 from ..scenes.flat import SLAB_HALF_MM, flat_scene, light_position
 from ..scenes.reference import ReferenceRenderer, batch_mean_se
-from ..scenes.scenes import COAT_ROUGHNESS, SceneSpec, camera_pose, get_scene, mitsuba
+from ..scenes.scenes import COAT_ROUGHNESS, SceneSpec, get_scene, mitsuba
 
 #: how far (mm) inside the flat slab's edges a pixel of :func:`flat_experiment` must lie
 FLAT_MARGIN_MM = 20.0
@@ -348,14 +350,5 @@ def _batch_ratio(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return r, se
 
 
-def camera_azimuth(scene: str | SceneSpec, frame: int = 0) -> float:
-    """Degrees about the z axis from the scene's point light to its camera, seen from the target."""
-    spec = get_scene(scene)
-    eye = camera_pose(spec, frame)[0] - np.asarray(spec.target, float)
-    light = point_light(spec, frame) - np.asarray(spec.target, float)
-    az = math.degrees(math.atan2(eye[1], eye[0]) - math.atan2(light[1], light[0]))
-    return (az + 180.0) % 360.0 - 180.0
-
-
-__all__ = ["FLAT_MARGIN_MM", "camera_azimuth", "compare_flat_limit", "flat_experiment", "flat_prediction",
+__all__ = ["FLAT_MARGIN_MM", "compare_flat_limit", "flat_experiment", "flat_prediction",
            "interpolate_in_cos", "pixel_angles", "point_light", "surface_reentry"]
