@@ -5,8 +5,8 @@ The screen-space model (and the exact 2D convolution, paper Eq. 1) uses the semi
 profile: light entering the seen surface comes back out of it with total Rd(inf). A slab of thickness
 t returns Rd(t) < Rd(inf): the rest diffuses through to its back and leaves there (MCML's Tt). The
 ear is a flattened ellipsoid 0-4 mm thick against red's diffusion length of 3.7 mm (Skin1), so after
-the transmission control (no light entering its unseen surface, :func:`ssskit.scenes.variants.backed_scene`)
-the model is still too bright in red. Three measurements:
+the transmission control (no light entering its unseen surface,
+:func:`ssskit.scenes.variants.backed_scene`) the model is still too bright in red. Three measurements:
 
 * :func:`slab_setups` / :func:`slab_check` (the reference does what MCML says): the slab cut to a
   thickness t (:func:`ssskit.scenes.variants.thin_scene`) against the 20 mm slab, the plateau's
@@ -20,12 +20,13 @@ the model is still too bright in red. Three measurements:
 * :func:`predict_thin` (the model's prediction, no path tracing): per pixel the chord through the
   medium along the inward normal (:func:`ssskit.scenes.thickness.chord_thickness`), MCML's
   Rd(t) / Rd(inf) per channel at that thickness and at the pixel's incidence angle of the light
-  (:func:`ssskit.profiles.montecarlo.slab.thickness_table` at a few angles, interpolated in both), averaged over a region the way its level is: predicted exact / reference =
-  sum(w) / sum(w f(t)) with w = E / pi (the loss decided where the light enters: entry-weighted) or
-  w = the exact 2D result (decided where it leaves: exit-weighted). It neglects lateral transport in
-  a shell whose thickness changes within a diffusion length (the two weightings bracket part of it),
-  the curvature of the shell, the rim (thickness -> 0 within a pixel), shadows in the incidence angle
-  and the exit angle (the camera's).
+  (:func:`ssskit.profiles.montecarlo.slab.thickness_table` at a few angles, interpolated in both),
+  averaged over a region the way its level is: predicted exact / reference = sum(w) / sum(w f(t))
+  with w = E / pi (the loss decided where the light enters: entry-weighted) or w = the exact 2D
+  result (decided where it leaves: exit-weighted; the two differ only where the light changes within
+  a diffusion length, on the ear by < 10^-3). It neglects lateral transport in a shell whose
+  thickness changes within a diffusion length, the curvature of the shell, the rim (thickness -> 0
+  within a pixel), shadows in the incidence angle and the exit angle (the camera's).
 """
 
 from __future__ import annotations
