@@ -103,3 +103,68 @@ def test_backing_needs_a_known_surface():
         backed_scene("slab").shapes()
     with pytest.raises(SceneError, match="offset"):
         backed_scene("ear", offset_mm=0)
+
+
+# ---- thickness: the thin slab and the deepened ear ---------------------------------------------------------
+
+def test_thin_scene_keeps_the_top_face_and_the_image():
+    """The slab cut to 2 mm below its top face: its box is 2 mm thick, its top at z = 0 as before, and
+    the G-buffer (mask, E / pi, depth) is the 20 mm slab's."""
+    from ssskit.scenes.variants import box_thickness_mm, thin_scene
+
+    thin = thin_scene("slab", 2.0)
+    box = thin.shapes()["slab"]
+    assert thin.name == "slab-t2" and box_thickness_mm(box) == pytest.approx(2.0)
+    m = np.array(box["to_world"].matrix)
+    assert m[2, 3] + m[2, 2] == pytest.approx(0.0, abs=1e-6) and m[2, 3] - m[2, 2] == pytest.approx(-2.0)
+    g0, g1 = _gb("slab"), _gb(thin)
+    np.testing.assert_array_equal(g1.mask, g0.mask)
+    np.testing.assert_allclose(g1.diffuse, g0.diffuse, rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(g1.depth[g0.mask], g0.depth[g0.mask], rtol=1e-6)
+
+
+@pytest.mark.parametrize("args", [("sphere", 2.0), ("slab", 20.0), ("slab", 0.0), ("slab", float("nan"))])
+def test_thin_scene_rejects(args):
+    from ssskit.scenes.variants import thin_scene
+
+    with pytest.raises(SceneError):
+        thin_scene(*args)
+
+
+def test_deepened_ear_keeps_the_seen_half_and_stretches_the_other():
+    """The ear's half facing away from the camera is 10 x deeper along its short axis (y): the seen half's
+    vertices and normals are written back unchanged, the back half reaches 10 x 2 mm; the G-buffer's mask,
+    normals and depth are the same and E / pi too, but on a few rim pixels."""
+    from ssskit.scenes.variants import _read_ply, deepened_scene
+
+    deep = deepened_scene("ear", 10)
+    v0, f0, n0 = _read_ply(get_scene("ear").shapes()["ear"]["filename"])
+    v1, f1, n1 = _read_ply(deep.shapes()["ear"]["filename"])
+    np.testing.assert_array_equal(f1, f0)
+    front = v0[:, 1] <= 1e-9
+    np.testing.assert_array_equal(v1[front], v0[front])
+    np.testing.assert_array_equal(n1[front], n0[front])
+    assert v0[:, 1].max() == pytest.approx(2.0, rel=1e-3) and v1[:, 1].max() == pytest.approx(20.0, rel=1e-3)
+    # the stretched half's normals are the ellipsoid (18, 20, 28)'s: n ~ (x / 18^2, y / 20^2, (z - 32) / 28^2)
+    back = v1[:, 1] > 0.5
+    ref = (v1[back] - [0, 0, 32]) / np.array([18.0, 20.0, 28.0]) ** 2
+    ref /= np.linalg.norm(ref, axis=1, keepdims=True)
+    np.testing.assert_allclose(n1[back], ref, atol=2e-3)
+    g0, g1 = _gb(backed_scene("ear")), _gb(backed_scene(deep))
+    np.testing.assert_array_equal(g1.mask, g0.mask)
+    m = g0.mask
+    np.testing.assert_array_equal(g1.normal[m], g0.normal[m])
+    np.testing.assert_array_equal(g1.depth[m], g0.depth[m])
+    # E / pi: the same but on a few rim pixels whose samples partly see the floor, where the deeper ear's
+    # shadow falls differently (the attribution takes each setup's levels against its own E / pi)
+    changed = np.abs(g1.diffuse - g0.diffuse).max(axis=-1) > 1e-6
+    assert (changed & m).sum() <= 0.01 * m.sum()
+    assert abs(g1.diffuse[m].mean() / g0.diffuse[m].mean() - 1) < 2e-3
+
+
+@pytest.mark.parametrize("args", [("slab", 2.0), ("ear", 0.5), ("ear", -2), ("ear", "3")])
+def test_deepened_scene_rejects(args):
+    from ssskit.scenes.variants import deepened_scene
+
+    with pytest.raises(SceneError):
+        deepened_scene(*args)

@@ -14,6 +14,16 @@ screen-space model and the path-traced reference, so that the difference it remo
   surface; tests/scenes check the G-buffer's mask and E / pi). Light leaving the medium through its
   back is lost with or without the shell (the surroundings are black in the reference and the
   objects are convex).
+* :func:`thin_scene` (thickness, a flat control): each SSS box of the scene (the slab) cut to a
+  finite thickness t below its top face; everything the camera sees stays (the top face, lights,
+  camera). Light that a semi-infinite medium would return leaves through the bottom face into the
+  black surroundings: the reference's plateau level falls to MCML's Rd(t) / Rd(inf) (tests/scenes).
+* :func:`deepened_scene` (thickness, the curved object's control): each SSS mesh's half that faces
+  away from the camera stretched by a factor along the mesh's shortest axis. The seen surface (its
+  vertices and normals), and with it the G-buffer, stay bit for bit; behind it the medium is ``factor``
+  times deeper, so light entering the seen surface of a thin object (the ear, 4 mm) is no longer lost
+  through its back. With :func:`backed_scene` on top (no light enters the unseen surface) it
+  separates the thin object's back losses from its transmission.
 
 The variants are :class:`~ssskit.scenes.scenes.SceneSpec` values; :func:`ssskit.scenes.render_gbuffer`
 and :func:`ssskit.scenes.render_reference` take them wherever they take a scene name.
@@ -173,4 +183,101 @@ def backed_scene(scene: str | SceneSpec, offset_mm: float = BACKING_OFFSET_MM, f
                                shapes=shapes)
 
 
-__all__ = ["BACKING_OFFSET_MM", "backed_scene", "backing_faces", "scaled_scene", "surface_mesh"]
+def _check_positive(value, what: str) -> float:
+    if isinstance(value, bool) or not (isinstance(value, (int, float, np.integer, np.floating))
+                                       and math.isfinite(value) and value > 0):
+        raise SceneError(f"{what} must be a positive number, got {value!r}")
+    return float(value)
+
+
+def box_thickness_mm(shape: dict) -> float:
+    """The thickness (mm) of a Mitsuba ``cube`` shape along its local z axis: 2 |to_world e_z| (the
+    unit cube spans [-1, 1]^3)."""
+    m = np.array(shape.get("to_world", _T()()).matrix, dtype=float)
+    return 2.0 * float(np.linalg.norm(m[:3, 2]))
+
+
+def thin_scene(scene: str | SceneSpec, thickness_mm: float) -> SceneSpec:
+    """``scene`` with each SSS box (a Mitsuba ``cube``: the slab) cut to ``thickness_mm`` below the face
+    at its local +z (the slab's lit top face, which the camera sees): to_world' = to_world .
+    translate(0, 0, 1 - s) . scale(1, 1, s), s = thickness / the box's thickness, keeps the local
+    z = +1 face and moves the z = -1 face up (module docstring). A SceneError for a scene with no SSS
+    box, or a thickness not below the box's. Named ``<name>-t<thickness>``."""
+    spec = get_scene(scene)
+    t = _check_positive(thickness_mm, "the thickness (mm)")
+    base = spec.shapes()
+    boxes = [sid for sid in spec.sss_shapes if base[sid].get("type") == "cube"]
+    if not boxes:
+        raise SceneError(f"scene {spec.name!r} has no SSS box (a Mitsuba cube) to make thinner")
+    for sid in boxes:
+        full = box_thickness_mm(base[sid])
+        if not t < full:
+            raise SceneError(f"the thickness must be below the {sid!r} box's {full:g} mm, got {t:g}")
+
+    def shapes() -> dict[str, dict]:
+        d = spec.shapes()
+        for sid in boxes:
+            s = t / box_thickness_mm(d[sid])
+            d[sid] = dict(d[sid], to_world=d[sid].get("to_world", _T()()) @ _T()().translate([0.0, 0.0, 1.0 - s])
+                          @ _T()().scale([1.0, 1.0, s]))
+        return d
+
+    return dataclasses.replace(spec, name=f"{spec.name}-t{t:g}", description=f"{spec.description}; {t:g} mm thick",
+                               shapes=shapes)
+
+
+def short_axis(verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(centre, unit axis): the vertices' centroid and the principal axis of least spread (the
+    eigenvector of the smallest eigenvalue of their covariance): a flattened object's thickness axis."""
+    c = verts.mean(axis=0)
+    w, v = np.linalg.eigh(np.cov((verts - c).T))
+    return c, v[:, 0] / np.linalg.norm(v[:, 0])
+
+
+def deepen_mesh(verts: np.ndarray, normals: np.ndarray, eye, factor: float) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, unit normals) of a mesh whose half beyond its mid-plane (through the centroid, normal to
+    :func:`short_axis`) on the side away from ``eye`` is stretched by ``factor`` along that axis:
+    v' = v + (factor - 1) ((v - c) . a) a there (vertices on the mid-plane, to rounding, stay). Normals
+    of the stretched half transform with the inverse transpose, n' ~ n + (1 / factor - 1) (n . a) a; the other half is returned unchanged."""
+    c, a = short_axis(verts)
+    if np.dot(np.asarray(eye, float) - c, a) > 0:  # a points away from the camera
+        a = -a
+    h = (verts - c) @ a
+    back = h > 1e-9 * float(np.ptp(h))  # the vertices on the mid-plane stay where they are
+    v = verts.copy()
+    v[back] += (factor - 1.0) * h[back, None] * a
+    n = normals.copy()
+    n[back] += (1.0 / factor - 1.0) * (n[back] @ a)[:, None] * a
+    n[back] /= np.linalg.norm(n[back], axis=1, keepdims=True)
+    return v, n
+
+
+def deepened_scene(scene: str | SceneSpec, factor: float, frame: int = 0) -> SceneSpec:
+    """``scene`` with each SSS mesh's half facing away from the camera (at ``frame``) ``factor`` times
+    deeper along the mesh's shortest axis (:func:`deepen_mesh`; module docstring): the ear's 2 mm back
+    half becomes 2 ``factor`` mm, its seen half and the G-buffer stay the same. A SceneError for an
+    SSS shape that is not a PLY mesh. Named ``<name>-deep<factor>``."""
+    spec = get_scene(scene)
+    k = _check_positive(factor, "the depth factor")
+    if k < 1:
+        raise SceneError(f"the depth factor must be at least 1, got {factor!r}")
+    base = spec.shapes()
+    for sid in spec.sss_shapes:
+        if base[sid].get("type") != "ply":
+            raise SceneError(f"cannot deepen SSS shape {sid!r} of type {base[sid].get('type')!r} (a PLY mesh)")
+    eye = camera_pose(spec, frame)[0]
+
+    def shapes() -> dict[str, dict]:
+        d = spec.shapes()
+        for sid in spec.sss_shapes:
+            v, f, n = _read_ply(d[sid]["filename"])  # the stored normals: the seen half is written back bit for bit
+            v2, n2 = deepen_mesh(v, _vertex_normals(v, f) if n is None else n, eye, k)
+            d[sid] = _ply(f"{sid}-deep", v2, f, n2)
+        return d
+
+    return dataclasses.replace(spec, name=f"{spec.name}-deep{k:g}",
+                               description=f"{spec.description}; its unseen half {k:g} x deeper", shapes=shapes)
+
+
+__all__ = ["BACKING_OFFSET_MM", "backed_scene", "backing_faces", "box_thickness_mm", "deepen_mesh", "deepened_scene",
+           "scaled_scene", "short_axis", "surface_mesh", "thin_scene"]
