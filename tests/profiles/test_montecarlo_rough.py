@@ -10,6 +10,7 @@ import pytest
 from ssskit.errors import ProfileError
 from ssskit.materials import get_material
 from ssskit.profiles.montecarlo import MCConfig, MCLayer, config_for_material, rough_boundary_albedo, simulate
+from ssskit.scenes.flat import rough_dielectric_weights
 
 ETA = 1.3
 ALPHA = 0.15  # ssskit.scenes.scenes.COAT_ROUGHNESS
@@ -20,26 +21,6 @@ def _cache(tmp_path, monkeypatch):
     monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
 
 
-def _mitsuba_albedo(mu, inside, n, seed):
-    """Mean sample weights (reflected, transmitted) of Mitsuba's own roughdielectric, sampled with its
-    visible-normal routine (not the Walter sampling the engine uses), in importance (flux) mode."""
-    from ssskit.scenes.scenes import mitsuba
-
-    mi = mitsuba()
-    bsdf = mi.load_dict({"type": "roughdielectric", "distribution": "beckmann", "alpha": ALPHA,
-                         "int_ior": ETA, "ext_ior": 1.0})
-    si = mi.SurfaceInteraction3f()
-    si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
-    si.wi = mi.Vector3f(math.sqrt(1 - mu * mu), 0, -mu if inside else mu)
-    ctx = mi.BSDFContext(mi.TransportMode.Importance)
-    u = np.random.default_rng(seed).random((n, 3))
-    w = np.zeros((n, 2))
-    for k in range(n):
-        bs, val = bsdf.sample(ctx, si, float(u[k, 0]), mi.Point2f(float(u[k, 1]), float(u[k, 2])))
-        w[k, int(bs.wo.z * si.wi.z < 0)] = val[0]
-    return w.mean(axis=0), w.std(axis=0, ddof=1) / math.sqrt(n)
-
-
 @pytest.mark.parametrize("mu, inside", [(0.9, True), (0.5, True), (0.3, True), (0.1, True), (0.5, False)])
 def test_interface_albedo_matches_mitsuba_roughdielectric(mu, inside):
     """The engine's surface reflects, transmits and loses what Mitsuba's BSDF does: from inside past
@@ -47,7 +28,8 @@ def test_interface_albedo_matches_mitsuba_roughdielectric(mu, inside):
     0.3, 8.5% at 0.1 (measured here on both sides)."""
     n1, n2 = (ETA, 1.0) if inside else (1.0, ETA)
     ours = rough_boundary_albedo(mu, n1, n2, ALPHA, samples=400_000, seed=3)
-    ref, ref_se = _mitsuba_albedo(mu, inside, 40_000, seed=4)
+    # Mitsuba's own BSDF, sampled with its visible-normal routine (not the engine's Walter sampling)
+    ref, ref_se = rough_dielectric_weights(mu, ETA, ALPHA, samples=40_000, seed=4, inside=inside)
     for k, name in enumerate(("reflected", "transmitted")):
         m, se = ours[name]
         assert abs(m - ref[k]) <= 4 * math.hypot(se, ref_se[k]) + 1e-6, (name, m, ref[k])
