@@ -180,20 +180,13 @@ def main(argv=None) -> None:
         if "curvature" in meas and name in meas["curvature"]["regions"] and name in pred:
             c = meas["curvature"]["regions"][name]
             eo = c["exact_over_reference"]
-            row["rough_flat_limit"] = compare_flat_limit(pred[name], c["exact_2d"], eo["value"], eo["se"],
-                                                         f"{meas['curvature']['label']} vs MCML, smooth boundary")
-            row["rough_flat_limit_rough_mcml"] = compare_flat_limit(
-                pred_r[name], c["exact_2d"], eo["value"], eo["se"],
-                f"{meas['curvature']['label']} vs MCML with the same rough surface")
-            row["rough_flat_limit_rough_mcml_reentry"] = compare_flat_limit(
-                pred_rr[name], c["exact_2d"], eo["value"], eo["se"],
-                f"{meas['curvature']['label']} vs MCML with the rough surface x (1 + light re-entering)")
-            row["rough_flat_limit_rough_entry"] = compare_flat_limit(
-                pred_e[name], c["exact_2d"], eo["value"], eo["se"],
-                f"{meas['curvature']['label']} vs MCML x the rough entry transmittance")
-            row["rough_flat_limit_measured_boundary"] = compare_flat_limit(
-                pred_b[name], c["exact_2d"], eo["value"], eo["se"],
-                f"{meas['curvature']['label']} vs MCML x flat rough factor")
+            for key, p, what in (("", pred, "MCML, smooth boundary"),
+                                 ("_rough_mcml", pred_r, "MCML with the same rough surface"),
+                                 ("_rough_mcml_reentry", pred_rr, "MCML with the rough surface x (1 + light re-entering)"),
+                                 ("_rough_entry", pred_e, "MCML x the rough entry transmittance"),
+                                 ("_measured_boundary", pred_b, "MCML x flat rough factor")):
+                row["rough_flat_limit" + key] = compare_flat_limit(p[name], c["exact_2d"], eo["value"], eo["se"],
+                                                                   f"{meas['curvature']['label']} vs {what}")
         if "fresnel" in meas and name in meas["fresnel"]["regions"] and name in pred1:
             c = meas["fresnel"]["regions"][name]
             eo = c["exact_over_reference"]

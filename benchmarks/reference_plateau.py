@@ -32,18 +32,18 @@ import numpy as np
 
 from ssskit.materials import get_material
 from ssskit.profiles.montecarlo import config_for_material, montecarlo_rgb, simulate
-from ssskit.scenes import SCENES, render_gbuffer
+from ssskit.pipeline.oblique import pixel_angles, point_light
+from ssskit.scenes import render_gbuffer
 from ssskit.scenes.scenes import COAT_ROUGHNESS
 from ssskit.scenes.reference import ReferenceRenderer, batch_mean_se
 
-LIGHT = np.array([400.0, 0.0, 1000.0])  # the slab scene's point light (ssskit.scenes.scenes)
 
 
 def plateau(gb, x_range=(-36.0, -15.0), y_half=25.0):
     """(H, W) bool: slab pixels with x in x_range mm and |y| < y_half mm (world coordinates on z = 0)."""
     world = gb.camera.unproject(np.where(gb.mask, gb.depth, 600.0))
     x, y = world[..., 0], world[..., 1]
-    return gb.mask & (x >= x_range[0]) & (x <= x_range[1]) & (np.abs(y) < y_half), world
+    return gb.mask & (x >= x_range[0]) & (x <= x_range[1]) & (np.abs(y) < y_half)
 
 
 def converge(renderer, region_crop, chunk_spp, rel_se, max_spp, label):
@@ -67,7 +67,7 @@ def run(material, boundary, args):
     w, h = args.size
     mat = material if boundary == "rough-dielectric" else dataclasses.replace(material, eta=1.0)
     gb = render_gbuffer("slab", (1.0, 1.0, 1.0), eta=mat.eta, width=w, height=h, spp=args.gbuffer_spp)
-    region, world = plateau(gb)
+    region = plateau(gb)
     ys, xs = np.nonzero(region)
     crop = (int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1), int(ys.max() - ys.min() + 1))
     sub = region[crop[1]:crop[1] + crop[3], crop[0]:crop[0] + crop[2]]
@@ -82,10 +82,9 @@ def run(material, boundary, args):
     ref_mean, ref_se = batch_mean_se(diffuse_means)
     epi = e_pi.mean(axis=0)
     # the plateau's mean incidence angle of the point light and the camera's exit cosine
-    p = world[region]
-    inc = float(np.degrees(np.mean(np.arccos((LIGHT[2] - p[:, 2]) / np.linalg.norm(LIGHT - p, axis=1)))))
-    origin = np.array(SCENES.get("slab").origin)
-    mu_cam = float(np.mean((origin[2] - p[:, 2]) / np.linalg.norm(origin - p, axis=1)))
+    cos_i, mu_v = pixel_angles(gb, point_light("slab"))
+    inc = float(np.degrees(np.mean(np.arccos(cos_i[region]))))
+    mu_cam = float(np.mean(mu_v[region]))
     out = {"boundary": boundary, "eta": mat.eta, "size": [w, h], "plateau_pixels": int(region.sum()),
            "spp": spp, "seconds": round(seconds, 1), "ref_diffuse": ref_mean.tolist(),
            "ref_rel_se": (ref_se / ref_mean).tolist(), "E_over_pi": epi.tolist(),

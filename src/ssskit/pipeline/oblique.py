@@ -41,7 +41,7 @@ import numpy as np
 
 from ..errors import SceneError, SettingsError
 from ..materials import get_material
-from ..profiles.montecarlo.oblique import ObliqueTable, incidence_cosines, oblique_table
+from ..profiles.montecarlo.oblique import ObliqueTable, cos_brackets, incidence_cosines, oblique_table
 from ..scenes import render_gbuffer, scene_lights
 from ..scenes.flat import SLAB_HALF_MM, flat_scene, light_position
 from ..scenes.reference import ReferenceRenderer, batch_mean_se
@@ -78,15 +78,13 @@ def interpolate_in_cos(angles_deg, values, cos_i) -> np.ndarray:
 
 
 def _cos_weights(angles_deg, cos_i) -> np.ndarray:
-    """(..., A) the weights of linear interpolation in cos theta between ``angles_deg`` at ``cos_i``."""
-    nodes = np.cos(np.radians(np.asarray(angles_deg, float)))[::-1]
-    c = np.clip(np.asarray(cos_i, float), nodes[0], nodes[-1])
-    j = np.clip(np.searchsorted(nodes, c, side="right") - 1, 0, nodes.size - 2)
-    t = (c - nodes[j]) / (nodes[j + 1] - nodes[j])
-    w = np.zeros(c.shape + (nodes.size,))
-    np.put_along_axis(w, j[..., None], (1.0 - t)[..., None], axis=-1)
-    np.put_along_axis(w, (j + 1)[..., None], t[..., None], axis=-1)
-    return w[..., ::-1]
+    """(..., A) the weights of linear interpolation in cos theta between ``angles_deg`` at ``cos_i``
+    (:func:`~ssskit.profiles.montecarlo.oblique.cos_brackets`)."""
+    lo, hi, t = cos_brackets(angles_deg, cos_i)
+    w = np.zeros(t.shape + (np.size(angles_deg),))
+    np.put_along_axis(w, lo[..., None], (1.0 - t)[..., None], axis=-1)
+    np.put_along_axis(w, hi[..., None], t[..., None], axis=-1)
+    return w
 
 
 def flat_prediction(gbuffer, light, table: ObliqueTable, masks: dict[str, np.ndarray],

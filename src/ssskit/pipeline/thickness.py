@@ -46,6 +46,7 @@ from ..scenes.scenes import get_scene
 from ..scenes.thickness import chord_thickness, incidence_angle
 from ..scenes.variants import backed_scene, box_thickness_mm, deepened_scene, thin_scene
 from .attribution import ATTRIBUTION_REGIONS, Prepared, Setup, prepare, regions_of, run_experiment
+from .oblique import pixel_angles, point_light
 
 Progress = Callable[[str], None]
 
@@ -183,10 +184,9 @@ def slab_check(material, thicknesses: Sequence[float] = SLAB_THICKNESSES, bounda
     plateau = regions_of(prep)["plateau"]
     if not plateau.any():
         raise SettingsError(f"scene {spec.name!r} has no lit plateau")
-    p = prep.gbuffer.positions()[plateau]
-    light = np.asarray(next(iter(spec.lights().values()))["position"], float)
-    inc = float(np.degrees(np.mean(np.arccos(np.clip((light - p)[:, 2] / np.linalg.norm(light - p, axis=1), -1, 1)))))
-    mu = float(np.mean(prep.gbuffer.view_cosine()[plateau]))
+    cos_i, mu_v = pixel_angles(prep.gbuffer, point_light(spec))
+    inc = float(np.degrees(np.mean(np.arccos(cos_i[plateau]))))
+    mu = float(np.mean(mu_v[plateau]))
     full = box_thickness_mm(spec.shapes()[spec.sss_shapes[0]])
     mat = setups[0].material
 

@@ -62,13 +62,7 @@ class ObliqueTable:
     roughness: float = 0.0
 
     def _weights(self, cos_i: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Indices (lo, hi) of the table angles around each cos theta_i and the weight of hi (linear in cos)."""
-        nodes = np.cos(np.radians(self.angles_deg))[::-1]  # increasing cosines
-        c = np.clip(np.asarray(cos_i, float), nodes[0], nodes[-1])
-        j = np.clip(np.searchsorted(nodes, c, side="right") - 1, 0, nodes.size - 2)
-        t = (c - nodes[j]) / (nodes[j + 1] - nodes[j])
-        a = self.angles_deg.size - 1
-        return a - j, a - (j + 1), t  # back to indices of angles_deg (decreasing cos)
+        return cos_brackets(self.angles_deg, cos_i)
 
     def rd_at(self, cos_i) -> np.ndarray:
         """(3, ...) Rd at incidence cosines ``cos_i`` (linear in cos theta_i between the table's angles;
@@ -151,6 +145,19 @@ def oblique_table(material: Material | LayeredMaterial, angles_deg: Sequence[flo
     return ObliqueTable(angles, rd, rd_se, rad, rad_se, eta, photons, float(roughness))
 
 
+def cos_brackets(angles_deg, cos_i) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Linear interpolation in cos theta between ``angles_deg`` (increasing from 0) at ``cos_i``:
+    indices (lo, hi) into ``angles_deg`` of the two angles around each cos theta_i and the weight of
+    hi (1 - that of lo); beyond the first and the last angle, that angle's value."""
+    angles = np.asarray(angles_deg, float)
+    nodes = np.cos(np.radians(angles))[::-1]  # increasing cosines
+    c = np.clip(np.asarray(cos_i, float), nodes[0], nodes[-1])
+    j = np.clip(np.searchsorted(nodes, c, side="right") - 1, 0, nodes.size - 2)
+    t = (c - nodes[j]) / (nodes[j + 1] - nodes[j])
+    a = angles.size - 1
+    return a - j, a - (j + 1), t  # back to indices of angles_deg (decreasing cos)
+
+
 def incidence_cosines(points: np.ndarray, normals: np.ndarray, light: Sequence[float]) -> np.ndarray:
     """(...,) cos theta_i = n . (light - p) / |light - p| of a point light at ``light`` on surface
     points ``points`` (..., 3) with unit normals ``normals`` (..., 3), clipped to [0, 1] (0: the light
@@ -172,5 +179,5 @@ def fresnel_transmittance(cos_i, eta: float) -> np.ndarray:
     return 1.0 - 0.5 * (rs + rp)
 
 
-__all__ = ["OBLIQUE_ANGLES_DEG", "ObliqueTable", "fresnel_transmittance", "incidence_cosines", "oblique_table"]
+__all__ = ["OBLIQUE_ANGLES_DEG", "ObliqueTable", "cos_brackets", "fresnel_transmittance", "incidence_cosines", "oblique_table"]
 

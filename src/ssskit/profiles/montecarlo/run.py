@@ -129,9 +129,10 @@ def rough_boundary_albedo(cos_theta: float, eta_from: float, eta_to: float, alph
     ``cos_theta`` to the normal from the medium of index ``eta_from``: ``{"reflected", "transmitted",
     "lost"}``, each (mean, standard error) over ``samples`` samples of the stream ``seed``. "lost" is
     what the single-scattering BSDF removes (masking), 0 for a smooth surface."""
-    for name, v, ok in (("cos_theta", cos_theta, 0 < cos_theta <= 1), ("eta_from", eta_from, eta_from >= 1),
-                        ("eta_to", eta_to, eta_to >= 1), ("alpha", alpha, 0 < alpha <= 1)):
-        if not (isinstance(v, (int, float)) and ok):
+    for name, v, lo, hi in (("cos_theta", cos_theta, 0.0, 1.0), ("eta_from", eta_from, 1.0, math.inf),
+                            ("eta_to", eta_to, 1.0, math.inf), ("alpha", alpha, 0.0, 1.0)):
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool) and (lo < v <= hi if lo == 0 else lo <= v < hi)
+        if not ok:
             raise ProfileError(f"{name} out of range: {v!r} (cos_theta in (0, 1], etas >= 1, alpha in (0, 1])")
     if not (isinstance(samples, (int, np.integer)) and samples >= 2):
         raise ProfileError(f"samples must be an integer >= 2, got {samples!r}")
