@@ -9,7 +9,12 @@ import pytest
 
 #: files each test finds in its (empty, current) folder: a regular file, a file named like a G-buffer
 #: (never read: every check below fails before the G-buffer is loaded) and a folder named x.exr
-SETUP = {"f.txt": "not a folder", "g.exr": "not read", "m.json": '{"sigma_a": 0.01, "sigma_s": 1.0}'}
+SETUP = {"f.txt": "not a folder", "g.exr": "not read", "m.json": '{"sigma_a": 0.01, "sigma_s": 1.0}',
+         # materials outside every model's domain, or outside some (ssskit.profiles.domain)
+         "eta4.json": '{"sigma_a": 0.1, "sigma_s": 1.0, "eta": 4}',
+         "eta1e6.json": '{"sigma_a": 0.1, "sigma_s": 1.0, "eta": 1e6}',
+         "huge.json": '{"sigma_a": 1e300, "sigma_s": 1e300}',
+         "tiny.json": '{"sigma_a": 1e-300, "sigma_s": 1e-300}'}
 
 
 @pytest.fixture
@@ -137,6 +142,26 @@ BAD = [
 
 @pytest.mark.parametrize("args, fragment", BAD, ids=[" ".join(a) for a, _ in BAD])
 def test_bad_input(run, workdir, args, fragment):
+    one_error_line(run, workdir, args, fragment)
+
+
+#: the inputs a newcomer's trial found still let through (issue 23), each failing before its fix
+FIRST_HOUR = [
+    # physically meaningless materials: each model's valid domain, named
+    (["profile", "--material", "eta4.json"], "the dipole model takes a relative index eta in [1, 2.5]"),
+    (["profile", "--material", "eta1e6.json", "--model", "gaussians"], "the gaussians (fitted to the dipole) model"),
+    (["profile", "--material", "eta1e6.json", "--model", "montecarlo"], "the montecarlo model takes a relative index eta in [1, 4]"),
+    (["profile", "--material", "huge.json", "--out", "p.csv"], "the dipole model takes transport mean free paths"),
+    (["profile", "--material", "tiny.json", "--model", "burley", "--out", "p.csv"], "the burley model takes transport"),
+    (["simulate", "--material", "huge.json"], "the montecarlo model takes transport mean free paths"),
+    (["kernel", "--material", "tiny.json", "--model", "dipole", "--method", "svd"], "the dipole model takes transport"),
+    (["evaluate", "--material", "eta4.json", "--model", "dipole"], "the dipole model takes a relative index"),
+    (["profile", "--material", "skin1", "--r-max", "1e308", "--out", "p.csv"], "--r-max must be a positive number of mm up to"),
+]
+
+
+@pytest.mark.parametrize("args, fragment", FIRST_HOUR, ids=[" ".join(a) for a, _ in FIRST_HOUR])
+def test_bad_input_of_the_first_hour(run, workdir, args, fragment):
     one_error_line(run, workdir, args, fragment)
 
 

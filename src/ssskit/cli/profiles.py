@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import inspect
-import math
 
 import click
 
@@ -20,6 +19,10 @@ from .options import (
     out_option,
     photons_option,
 )
+
+#: the largest radius ``profile --r-max`` takes (mm): ten of the longest mean free path any model takes
+R_MAX_MM = 1e5
+
 
 def model_parameters(model: str) -> set[str]:
     """The named keyword parameters of a profile model's factory (from the MODELS registry)."""
@@ -82,7 +85,7 @@ def resolve_profile(ctx: click.Context, material, model: str, options: dict[str,
                    "the 3D scenes use 0.15).")
 @click.option("--points", type=click.IntRange(2, 1_000_000), default=256, show_default=True, help="Number of radii (bin centres).")
 @click.option("--r-max", "r_max", type=float, default=None,
-              help="Largest radius in mm [default: where every channel holds 99.9% of its energy].")
+              help=f"Largest radius in mm, at most {R_MAX_MM:g} [default: where every channel holds 99.9% of its energy].")
 @json_option("Print one JSON object: r_mm and channels R/G/B with Rd (mm^-2) and total_Rd.")
 @out_option((".csv", ".npz"), "Write the table to FILE.csv or FILE.npz.")
 @out_option((".png", ".pdf", ".svg"), "Write a plot to FILE.png (or .pdf/.svg).", name="--plot")
@@ -95,8 +98,9 @@ def profile(ctx, material, model, configuration, albedo_source, n_gaussians, pho
     from ..io import save_profile_table
 
     check_material_for_model(ctx, material, model)
-    if r_max is not None and not (r_max > 0 and math.isfinite(r_max)):
-        raise SsskitError(f"--r-max must be a positive number of mm, got {r_max}")
+    if r_max is not None and not (0 < r_max <= R_MAX_MM):
+        raise SsskitError(f"--r-max must be a positive number of mm up to {R_MAX_MM:g} (10 times the longest mean free "
+                          f"path a model takes), got {r_max:g}")
     make = resolve_profile(ctx, material, model, {"configuration": ("configuration", configuration),
                                                   "albedo_source": ("albedo_source", albedo_source),
                                                   "n_gaussians": ("n", n_gaussians),

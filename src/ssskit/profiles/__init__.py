@@ -26,6 +26,7 @@ from .burley import (
 )
 from .dipole import DipoleProfile, fresnel_diffuse_reflectance
 from .discretize import cell_integrals, grid_coordinates
+from .domain import check_burley_material, check_dipole
 from .gaussians import (
     DEON2007_SKIN_VARIANCES,
     DEON2007_SKIN_WEIGHTS,
@@ -39,7 +40,9 @@ MODELS: Registry[ProfileFactory] = Registry("profile model", ProfileError)
 
 @MODELS.decorator("dipole")
 def dipole_profile(material: Material) -> RGBProfile:
-    """The [JMLH01] dipole for each channel of ``material``."""
+    """The [JMLH01] dipole for each channel of ``material``; valid for a relative index eta in [1, 2.5]
+    and transport mean free paths in [1e-4, 1e4] mm (:mod:`ssskit.profiles.domain`)."""
+    check_dipole(material)
     chans = tuple(
         DipoleProfile(material.sigma_a[i], material.sigma_s[i], material.g[i], material.eta / material.eta_ambient)
         for i in range(3)
@@ -68,10 +71,14 @@ def burley_profile(
     1 / sigma_t' (the volume mean free path for g = 0, as in all presets), turned into d by the chosen
     Eq. 5 configuration (default: searchlight, the normal-incidence set-up of the supplement's
     simulations).
+
+    Valid domain (:mod:`ssskit.profiles.domain`): transport mean free paths in [1e-4, 1e4] mm, and
+    the domain of the model A comes from (montecarlo's, or the dipole's).
     """
     source = str(albedo_source).strip().lower()
     if source not in BURLEY_ALBEDO_SOURCES:
         raise ProfileError(f"albedo source must be one of {', '.join(BURLEY_ALBEDO_SOURCES)}, got {albedo_source!r}")
+    check_burley_material(material, albedo_given=albedo is not None or source == "dipole")
     if albedo is not None:
         source = "given"
     elif source == "dipole":
@@ -91,7 +98,9 @@ def burley_profile(
 
 @MODELS.decorator("gaussians")
 def gaussians_profile(material: Material, n: int = 6) -> RGBProfile:
-    """A sum of ``n`` Gaussians (Eq. S.1) fitted to the material's dipole, L1-constrained."""
+    """A sum of ``n`` Gaussians (Eq. S.1) fitted to the material's dipole, L1-constrained (the dipole's
+    valid domain, :mod:`ssskit.profiles.domain`)."""
+    check_dipole(material, "gaussians (fitted to the dipole)")
     base = dipole_profile(material)
     chans = tuple(fit_gaussian_sum(c, n) for c in base.channels)
     return RGBProfile(chans, "gaussians", material.name, {"material": material.to_dict(), "fit_to": "dipole"})  # type: ignore[arg-type]
@@ -118,7 +127,9 @@ def montecarlo_profile(material: Material | LayeredMaterial, photons: int = 200_
 
     ``grid_fraction`` (e.g. 0.999): lengthen the grid of a channel until it holds that fraction of
     the reflected light. ``roughness`` > 0: a rough top surface of that Beckmann alpha (the
-    path-traced references' boundary) instead of MCML's smooth one. ``options`` go to :func:`ssskit.profiles.montecarlo.simulate_material`
+    path-traced references' boundary) instead of MCML's smooth one. Valid domain
+    (:mod:`ssskit.profiles.domain`): eta in [1, 4] per layer, transport mean free paths in [1e-4, 1e4]
+    mm, the longest at most 31 times the shortest. ``options`` go to :func:`ssskit.profiles.montecarlo.simulate_material`
     (threads, progress, resume, restart, use_cache, batch_size).
     """
     from .montecarlo import montecarlo_rgb

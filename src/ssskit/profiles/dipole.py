@@ -27,6 +27,7 @@ import numpy as np
 
 from ..errors import ProfileError
 from .base import RadialProfile
+from .domain import _DIPOLE_WHY, DIPOLE_ETA_MAX, check_eta, check_mfp
 
 
 def fresnel_diffuse_reflectance(eta: float) -> float:
@@ -49,13 +50,13 @@ class DipoleProfile(RadialProfile):
             raise ProfileError(f"dipole needs sigma_s >= 0, got {sigma_s}")
         if not -1 < g < 1:
             raise ProfileError(f"dipole needs |g| < 1, got {g}")
-        if not (math.isfinite(eta) and eta >= 1):
-            raise ProfileError(f"dipole needs eta >= 1, got {eta}")
+        check_eta("dipole", eta, DIPOLE_ETA_MAX, _DIPOLE_WHY)
         self.sigma_a, self.sigma_s, self.g, self.eta = float(sigma_a), float(sigma_s), float(g), float(eta)
         sigma_s_r = sigma_s * (1.0 - g)
         self.sigma_t_r = sigma_a + sigma_s_r
         if self.sigma_t_r <= 0:
             raise ProfileError("dipole needs sigma_a + sigma_s' > 0")
+        check_mfp("dipole", [1.0 / self.sigma_t_r], per_channel=False)
         self.alpha_r = sigma_s_r / self.sigma_t_r
         self.sigma_tr = math.sqrt(3.0 * sigma_a * self.sigma_t_r)
         f_dr = fresnel_diffuse_reflectance(eta)

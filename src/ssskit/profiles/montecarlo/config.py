@@ -206,7 +206,11 @@ def config_for_material(material: Material | LayeredMaterial, channel: int | str
                         extent_mfp: float = SUPPLEMENT_GRID_MFP, roughness: float = 0.0) -> MCConfig:
     """The supplement's simulation of one channel (index 0-2 or 'R', 'G', 'B') of a material
     (``extent_mfp``: the grid's reach, :func:`supplement_grid`; ``roughness``: Beckmann alpha of
-    the top surface, 0 for the supplement's smooth one, :class:`MCConfig`)."""
+    the top surface, 0 for the supplement's smooth one, :class:`MCConfig`). The material must lie in
+    the Monte Carlo model's domain (:func:`ssskit.profiles.domain.check_montecarlo`)."""
+    from ..domain import check_montecarlo
+
+    check_montecarlo(material)
     if isinstance(channel, str):
         if channel.strip().upper() not in CHANNELS:
             raise ProfileError(f"channel must be R, G or B, got {channel!r}")

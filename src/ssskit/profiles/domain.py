@@ -1,0 +1,103 @@
+"""Where each profile model is valid: the materials it can take, checked before any work, with a
+message naming the model, the quantity, its range and the channel (docs/models.md lists them).
+
+Shared by every model, transport mean free paths 1/sigma_t' (sigma_t' = sigma_a + sigma_s (1 - g))
+in :data:`MFP_RANGE_MM`, 0.1 um to 10 m: ssskit's lengths are millimetres and its profiles are sampled
+on grids of a fraction of the shortest path up to tens of the longest, so outside that range the
+arithmetic overflows or underflows (sigma = 1e300 or 1e-300 gave R(r) = NaN) long before the physics
+of a translucent material is left. Per model (``eta``: the index relative to the outside):
+
+* ``dipole`` and ``gaussians`` (fitted to the dipole): eta in [1, :data:`DIPOLE_ETA_MAX`]. [JMLH01]
+  takes the diffuse Fresnel reflectance from the fit F_dr = -1.440/eta^2 + 0.710/eta + 0.668 + 0.0636
+  eta (Egan and Hilgeman); against the exact hemispherical average of the Fresnel equations its
+  boundary term A = (1 + F_dr) / (1 - F_dr) is within 0.33% for eta <= 2, 4.6% at 2.5, 26% at 3, and
+  the fit passes 1 at eta = 3.85 (A < 0: total R_d of 6.7e60 at eta = 4, negative R(r) beyond).
+  ``tests/profiles/test_domain.py`` integrates the Fresnel equations to check these numbers.
+* ``montecarlo`` (MCML): eta in [1, :data:`OPTICAL_ETA_MAX`] per layer, and the supplement's grid
+  (dr = min MFP / 20 out to 32 max MFP) at most :data:`MAX_GRID_BINS` bins, i.e. a longest mean free
+  path at most 31 times the shortest over the channels and layers (Ketchup, the widest preset: 6.1).
+  MCML's transport holds for any eta >= 1; beyond 4, which no optical medium reaches in the visible
+  (water 1.33, glass 1.5, diamond 2.42, rutile 2.9), the critical angle is under 14.5 degrees and the
+  photons spend their time in total internal reflection.
+* ``burley``: A (MCML's total R_d unless given: the montecarlo domain) in [0, 1] and d > 0 from Xie
+  2020 Eq. 5, whose fits are stated for A in [0, 1].
+* ``deon2007``: a fixed preset, no material.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+from ..errors import ProfileError
+from ..materials import CHANNELS, LayeredMaterial, Material
+
+#: transport mean free paths 1/sigma_t' every model takes (mm)
+MFP_RANGE_MM = (1e-4, 1e4)
+#: the largest relative index of the [JMLH01] dipole's F_dr fit (its A within 5% of the exact one)
+DIPOLE_ETA_MAX = 2.5
+#: the largest relative index the Monte Carlo model takes (no optical medium in the visible beyond it)
+OPTICAL_ETA_MAX = 4.0
+#: the most radial bins of the supplement's Monte Carlo grid (its tallies hold one row per batch)
+MAX_GRID_BINS = 20_000
+
+
+def _layers(material: Material | LayeredMaterial) -> tuple[Material, ...]:
+    return tuple(material.layers) if isinstance(material, LayeredMaterial) else (material,)
+
+
+def check_mfp(model: str, mfp_mm: Iterable[float], where: str = "", per_channel: bool = True) -> None:
+    """Refuse transport mean free paths outside :data:`MFP_RANGE_MM`, naming ``model`` and (with
+    ``per_channel``: the values are R, G, B) the channel."""
+    lo, hi = MFP_RANGE_MM
+    for c, v in enumerate(mfp_mm):
+        if not (math.isfinite(v) and lo <= v <= hi):
+            channel = f" in channel {CHANNELS[c]}" if per_channel else ""
+            raise ProfileError(
+                f"the {model} model takes transport mean free paths 1/sigma_t' in [{lo:g}, {hi:g}] mm, got {v:.3g} mm"
+                f"{channel}{where} (sigma_t' = sigma_a + sigma_s (1 - g), mm^-1)")
+
+
+def check_eta(model: str, eta: float, eta_max: float, why: str) -> None:
+    """Refuse a relative index outside [1, eta_max], naming ``model`` and why it stops there."""
+    if not (math.isfinite(eta) and 1.0 <= eta <= eta_max):
+        raise ProfileError(f"the {model} model takes a relative index eta in [1, {eta_max:g}] ({why}), got {eta:g}")
+
+
+_DIPOLE_WHY = "its diffuse Fresnel fit F_dr of [JMLH01] is within 5% there and passes 1 at eta = 3.85"
+
+
+def check_dipole(material: Material, model: str = "dipole") -> None:
+    """The domain of the [JMLH01] dipole (and of what is fitted to it): module docstring."""
+    check_mfp(model, material.mfp_reduced_mm)
+    check_eta(model, material.eta / material.eta_ambient, DIPOLE_ETA_MAX, _DIPOLE_WHY)
+
+
+def check_montecarlo(material: Material | LayeredMaterial, model: str = "montecarlo") -> None:
+    """The domain of the MCML model on the supplement's grid: module docstring."""
+    layers = _layers(material)
+    for k, layer in enumerate(layers):
+        where = f" of layer {k + 1}" if len(layers) > 1 else ""
+        check_mfp(model, layer.mfp_reduced_mm, where)
+        check_eta(model, layer.eta, OPTICAL_ETA_MAX, "no optical medium is denser in the visible; beyond it the "
+                  "photons are trapped by total internal reflection")
+    mfp = [v for layer in layers for v in layer.mfp_reduced_mm]
+    ratio = max(mfp) / min(mfp)
+    bins = math.ceil(32.0 * 20.0 * ratio)
+    if bins > MAX_GRID_BINS:
+        raise ProfileError(
+            f"the {model} model's grid (supplement F: dr = shortest mean free path / 20, out to 32 longest) would need "
+            f"{bins:,} bins, more than {MAX_GRID_BINS:,}: the longest transport mean free path is {ratio:.3g} times the "
+            f"shortest (at most {MAX_GRID_BINS / 640:.3g}; Ketchup, the widest preset, 6.1)")
+
+
+def check_burley_material(material: Material, albedo_given: bool) -> None:
+    """The domain of Burley's profile matched to a material: its mean free paths, and the montecarlo
+    domain where A comes from MCML (``albedo_given`` False)."""
+    check_mfp("burley", material.mfp_reduced_mm)
+    if not albedo_given:
+        check_montecarlo(material, "burley (A from MCML)")
+
+
+__all__ = ["DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM", "OPTICAL_ETA_MAX", "check_burley_material",
+           "check_dipole", "check_eta", "check_mfp", "check_montecarlo"]

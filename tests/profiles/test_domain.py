@@ -1,0 +1,93 @@
+"""Each profile model's valid domain (ssskit.profiles.domain): the bounds are justified by an
+independent computation (the Fresnel equations integrated numerically), every preset lies inside, and
+what lies outside is refused naming the model, the quantity and its range."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from ssskit.errors import ProfileError
+from ssskit.materials import MATERIALS, Material
+from ssskit.profiles import DipoleProfile, fresnel_diffuse_reflectance, profile_for_material
+from ssskit.profiles.domain import DIPOLE_ETA_MAX, MAX_GRID_BINS, MFP_RANGE_MM, OPTICAL_ETA_MAX, check_montecarlo
+from ssskit.profiles.montecarlo import supplement_grid
+
+
+def _fresnel_inside(cos_i: float, eta: float) -> float:
+    """Unpolarised Fresnel reflectance (Born & Wolf Eqs. 1.5.21/22) for light inside a medium of
+    relative index eta meeting its boundary at cos_i."""
+    sin_t = eta * math.sqrt(max(0.0, 1.0 - cos_i * cos_i))
+    if sin_t >= 1.0:
+        return 1.0
+    cos_t = math.sqrt(1.0 - sin_t * sin_t)
+    rs = ((eta * cos_i - cos_t) / (eta * cos_i + cos_t)) ** 2
+    rp = ((eta * cos_t - cos_i) / (eta * cos_t + cos_i)) ** 2
+    return 0.5 * (rs + rp)
+
+
+def _fdr_exact(eta: float) -> float:
+    """The diffuse (cosine-weighted hemispherical) internal Fresnel reflectance, integrated numerically."""
+    crit = [math.sqrt(1.0 - 1.0 / eta**2)] if eta > 1 else None
+    return quad(lambda c: 2.0 * c * _fresnel_inside(c, eta), 0.0, 1.0, points=crit, limit=200)[0]
+
+
+def _a(f: float) -> float:
+    return (1.0 + f) / (1.0 - f)
+
+
+def test_the_dipole_eta_bound_is_where_the_fdr_fit_holds():
+    """[JMLH01]'s F_dr fit against the exact Fresnel average: A within 0.33% up to eta 2, within 5% up to
+    DIPOLE_ETA_MAX = 2.5, off by more than 20% at 3, and past 1 (A < 0) before 3.9."""
+    err = lambda e: abs(_a(fresnel_diffuse_reflectance(e)) / _a(_fdr_exact(e)) - 1.0)  # noqa: E731
+    assert max(err(e) for e in np.linspace(1.0, 2.0, 41)) < 0.0035
+    assert max(err(e) for e in np.linspace(1.0, DIPOLE_ETA_MAX, 61)) < 0.05
+    assert err(3.0) > 0.2
+    assert fresnel_diffuse_reflectance(3.84) < 1.0 < fresnel_diffuse_reflectance(3.86)
+
+
+@pytest.mark.parametrize("name", MATERIALS.names())
+def test_every_preset_lies_in_every_domain(name):
+    m = MATERIALS.get(name)
+    lo, hi = MFP_RANGE_MM
+    assert all(lo <= v <= hi for v in m.mfp_reduced_mm)
+    assert m.eta <= DIPOLE_ETA_MAX
+    check_montecarlo(m)
+    assert supplement_grid(m)[1] <= MAX_GRID_BINS
+    assert np.all(np.isfinite(profile_for_material(m, "dipole").total_rd()))
+
+
+def _mat(**kw) -> Material:
+    return Material("x", kw.pop("sigma_a", 0.1), kw.pop("sigma_s", 1.0), **kw)
+
+
+@pytest.mark.parametrize("model", ["dipole", "gaussians"])
+def test_the_dipole_refuses_an_index_past_its_fit(model):
+    """eta = 4 gave a total Rd of 6.7e60 and eta = 1e6 a negative R(r)."""
+    for eta in (4.0, 1e6):
+        with pytest.raises(ProfileError, match=rf"the {model}.* takes a relative index eta in \[1, 2.5\]"):
+            profile_for_material(_mat(eta=eta), model)
+    with pytest.raises(ProfileError, match="eta in"):
+        DipoleProfile(0.1, 1.0, eta=4.0)
+    assert np.isfinite(DipoleProfile(0.1, 1.0, eta=2.5).total_rd())
+
+
+@pytest.mark.parametrize("model", ["dipole", "gaussians", "burley", "montecarlo"])
+@pytest.mark.parametrize("sigma", [1e300, 1e-300])
+def test_every_model_refuses_lengths_it_cannot_compute(model, sigma):
+    """sigma_a = sigma_s = 1e300 or 1e-300 gave profiles of NaN."""
+    with pytest.raises(ProfileError, match=rf"the {model}.*transport mean free paths 1/sigma_t' in \[0.0001, 10000\] mm"):
+        profile_for_material(_mat(sigma_a=sigma, sigma_s=sigma), model)
+
+
+def test_montecarlo_refuses_an_index_no_optical_medium_has():
+    with pytest.raises(ProfileError, match=r"the montecarlo model takes a relative index eta in \[1, 4\]"):
+        check_montecarlo(_mat(eta=1e6))
+    check_montecarlo(_mat(eta=OPTICAL_ETA_MAX))
+
+
+def test_montecarlo_refuses_a_grid_it_cannot_hold():
+    """dr = shortest MFP / 20 out to 32 longest: a 100:1 spread needs 64,000 bins per batch row."""
+    with pytest.raises(ProfileError, match="would need 64,000 bins"):
+        check_montecarlo(Material("x", (0.0, 0.0, 0.0), (1.0, 1.0, 100.0)))
