@@ -2,6 +2,7 @@
 fail as one clear line (truncated, directories, multi-part), and G-buffer files."""
 
 import os
+import re
 import stat
 
 import numpy as np
@@ -174,3 +175,56 @@ def test_gbuffer_file_layer_errors_name_the_file(tmp_path):
               {"ssskit_camera": __import__("json").dumps(gb.camera.to_dict())})
     with pytest.raises(GBufferError, match=r"bad\.exr.*'depth' must be positive"):
         load_gbuffer(tmp_path / "bad.exr")
+
+
+def test_multipart_exr_with_two_complete_parts_says_so(tmp_path):
+    """Both parts hold every layer: the error said "no single part holds the layers" (false); it now
+    says which parts hold them all and that the choice is ambiguous."""
+    import OpenEXR
+
+    gb = _gbuffer()
+    layers = {name: np.ascontiguousarray(getattr(gb, name)) for name in ("diffuse", "albedo", "depth", "profile_id")}
+    base = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    parts = [OpenEXR.Part({**base, "name": n}, layers, n) for n in ("left", "right")]
+    path = tmp_path / "stereo.exr"
+    with OpenEXR.File(parts) as f:
+        f.write(str(path))
+    with pytest.raises(GBufferError, match=r"multi-part EXR and parts 0, 1 each hold every layer diffuse, albedo, "
+                                           r"depth, profile_id, so which one to read is ambiguous") as info:
+        load_gbuffer(path)
+    assert "no single part" not in str(info.value)
+
+
+@pytest.mark.parametrize("named, fragment", [
+    ('["Skin1"]', None), ("[]", "uses id 1 but the header 'ssskit_materials' names 0 material(s)"),
+    ('{"a": 1}', "must be a list of material names"), ('[""]', "must be a list of material names")])
+def test_gbuffer_header_names_a_material_for_every_id(tmp_path, named, fragment):
+    """``ssskit_materials = []`` with profile id 1 was accepted (id k is the k-th name)."""
+    gb = _gbuffer()
+    assert int(gb.profile_id.max()) == 1
+    write_exr(tmp_path / "g.exr", {name: np.ascontiguousarray(getattr(gb, name)) for name in
+                                   ("diffuse", "albedo", "depth", "profile_id")},
+              {"ssskit_camera": __import__("json").dumps(gb.camera.to_dict()), "ssskit_materials": named})
+    if fragment is None:
+        assert load_gbuffer(tmp_path / "g.exr").materials == ("Skin1",)
+    else:
+        with pytest.raises(GBufferError, match=re.escape(fragment)):
+            load_gbuffer(tmp_path / "g.exr")
+
+
+def test_staged_folder_moves_everything_or_nothing(tmp_path):
+    """io.staged_folder: a failure inside leaves the target as it was and no staging folder; errors
+    that name a staged path name the target instead."""
+    from ssskit.io import staged_folder
+
+    out = tmp_path / "figs"
+    with pytest.raises(OutputError, match=re.escape(f"cannot write {str(out / 'b.png')!r}")):
+        with staged_folder(out) as stage:
+            (stage / "a.png").write_bytes(b"a")
+            with atomic_output(stage / "b.png") as tmp:
+                raise OSError(28, "No space left on device")
+    assert list(tmp_path.iterdir()) == []
+    with staged_folder(out) as stage:
+        (stage / "sub").mkdir()
+        (stage / "sub" / "c.txt").write_text("c")
+    assert (out / "sub" / "c.txt").read_text() == "c" and sorted(p.name for p in tmp_path.iterdir()) == ["figs"]

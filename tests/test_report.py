@@ -55,3 +55,32 @@ def test_table_of_contents_links_every_section():
     body, toc = report._with_contents(["<h2>One</h2>x", "<h2 id=two>Two <i>t</i></h2>y"])
     assert "<h2 id='section-0-0'>One</h2>" in body[0] and "<h2 id='two'>" in body[1]
     assert "href='#section-0-0'" in toc and "href='#two'>Two t<" in toc
+
+
+def test_an_interrupted_report_leaves_no_partial_folder(tmp_path, monkeypatch):
+    """Ctrl-C in the middle of ``ssskit demo`` (a trial left 23-26 PNGs and no index.html): the sections
+    are built in a staging folder, so neither the report folder nor the staging folder remains."""
+    import pytest
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+
+    def first(out, progress, ctx):
+        (out / "a.png").write_bytes(b"png")
+        return "<h2>A</h2>"
+
+    def second(out, progress, ctx):
+        (out / "b.png").write_bytes(b"png")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(report, "SECTIONS", [("first", first), ("second", second)])
+    out = tmp_path / "demo"
+    with pytest.raises(KeyboardInterrupt):
+        report.build_report(out, backend="numpy")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cache"]
+    # a finished report moves into place whole, beside what the folder held before
+    out.mkdir()
+    (out / "mine.txt").write_text("kept")
+    monkeypatch.setattr(report, "SECTIONS", [("first", first)])
+    index = report.build_report(out, backend="numpy")
+    assert index == out / "index.html" and index.is_file()
+    assert sorted(p.name for p in out.iterdir()) == ["a.png", "index.html", "mine.txt"]

@@ -8,7 +8,22 @@ from __future__ import annotations
 
 
 class SsskitError(ValueError):
-    """Base class for errors caused by user input (parameters, names, files)."""
+    """Base class for errors caused by user input (parameters, names, files).
+
+    ``cli_message``: the same message in the command line's terms (its options instead of the
+    Python API's keywords), which the CLI prints instead of ``str(error)`` when given.
+    """
+
+    def __init__(self, *args: object, cli_message: str | None = None) -> None:
+        super().__init__(*args)
+        self.cli_message = cli_message
+
+    def __reduce__(self):  # keep cli_message across processes (sweeps raise in worker processes)
+        return (_rebuild, (type(self), self.args, self.cli_message))
+
+
+def _rebuild(cls: type[SsskitError], args: tuple, cli_message: str | None) -> SsskitError:
+    return cls(*args, cli_message=cli_message)
 
 
 class MaterialError(SsskitError):

@@ -71,7 +71,10 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
     os.close(fd)
     tmp = Path(tmp_name)
     try:
-        yield tmp
+        try:
+            yield tmp
+        except OSError as exc:  # the write itself failed (a full disk, a file size limit): name the target
+            raise OutputError(f"cannot write {str(target)!r}: {exc.strerror or exc}") from None
         try:
             os.chmod(tmp, 0o666 & ~_umask())
             os.replace(tmp, target)
@@ -81,6 +84,36 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
+
+
+@contextlib.contextmanager
+def staged_folder(out: str | Path) -> Iterator[Path]:
+    """Build a folder of outputs in a hidden staging folder beside ``out`` and move its files into
+    ``out`` only when all are written: an interrupted or failed run (Ctrl-C, a full disk) leaves no
+    partial folder and no new file in ``out``, only what was there before. Errors naming the staging
+    folder are reworded to name ``out``."""
+    import shutil
+
+    final = Path(out)
+    parent = final.resolve().parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f".{final.resolve().name}.partial-", dir=parent))
+    except OSError as exc:
+        raise OutputError(f"cannot write {str(final)!r}: {exc.strerror or exc}") from None
+    try:
+        yield staging
+        for src in sorted(p for p in staging.rglob("*") if p.is_file()):
+            dst = final / src.relative_to(staging)
+            try:
+                dst.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(src, dst)
+            except OSError as exc:
+                raise OutputError(f"cannot write {str(dst)!r}: {exc.strerror or exc}") from None
+    except OutputError as exc:
+        raise OutputError(str(exc).replace(str(staging), str(final))) from None
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def write_text(path: str | Path, text: str) -> None:
@@ -222,12 +255,28 @@ def _library_message(text: str, path: Path) -> str:
     return re.sub(r"^\((EXR_ERR_\w+)\)\s*", r"\1: ", line)
 
 
+def check_regular_file(path: str | Path, what: str, error: type[Exception] = OutputError) -> None:
+    """Refuse an input ``path`` that exists but is no regular file: a FIFO (reading it would wait for a
+    writer forever), a socket or a device. A missing path or a folder is left to the caller's own
+    message."""
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return
+    if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+        kind = "a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+        raise error(f"{what} {str(path)!r} is {kind}, not a regular file")
+
+
 def _check_readable(path: Path, what: str) -> int:
     """The version field of an OpenEXR file, after checking that ``path`` is a readable OpenEXR file."""
     if not path.exists():
         raise GBufferError(f"{what} {str(path)!r} does not exist")
     if path.is_dir():
         raise GBufferError(f"{what} {str(path)!r} is a directory, not a file")
+    check_regular_file(path, what, GBufferError)
     try:
         with open(path, "rb") as fh:
             head = fh.read(8)
@@ -273,7 +322,13 @@ def read_exr(path: str | Path, what: str = "EXR file", required: Iterable[str] =
         return parts[holding[0]]
     listing = "; ".join(f"part {i} {h.get('name', '')!r}: {', '.join(sorted(ch)) or 'no channels'}"
                         for i, (h, ch) in enumerate(parts))
-    need = f"no single part holds the layers {', '.join(required)}" if required else "ssskit reads single-part files"
+    if not required:
+        need = "ssskit reads single-part files"
+    elif holding:
+        need = (f"parts {', '.join(map(str, holding))} each hold every layer {', '.join(required)}, so which one to "
+                "read is ambiguous; keep one of them")
+    else:
+        need = f"no single part holds the layers {', '.join(required)}"
     raise GBufferError(f"{what} {str(p)!r} is a multi-part EXR and {need} ({listing})")
 
 
@@ -299,12 +354,13 @@ def write_exr(path: str | Path, channels: dict[str, np.ndarray], attributes: dic
 
 class _LineProgress:
     """A tqdm-like progress report for a stderr that is no terminal (a log file, CI): one plain line
-    at each tenth of the total and at the end, instead of carriage-return redraws."""
+    at each tenth of the total, at least every :data:`LINE_INTERVAL_S` seconds while work is done, and
+    at the end, instead of carriage-return redraws."""
 
     def __init__(self, total: int, desc: str, unit: str, initial: int = 0) -> None:
         self.total, self.desc, self.unit, self.n = max(int(total), 1), desc, unit, int(initial)
         self.postfix, self._next = "", self._step(self.n)
-        self._t0 = time.perf_counter()
+        self._t0 = self._last = time.perf_counter()
 
     def _step(self, n: int) -> int:
         tenth = max(self.total // 10, 1)
@@ -312,8 +368,10 @@ class _LineProgress:
 
     def update(self, k: int = 1) -> None:
         self.n += int(k)
-        if self.n >= self._next or self.n >= self.total:
+        now = time.perf_counter()
+        if self.n >= self._next or self.n >= self.total or now - self._last >= LINE_INTERVAL_S:
             self._next = self._step(self.n)
+            self._last = now
             self._say()
 
     def set_postfix_str(self, text: str) -> None:
@@ -328,14 +386,30 @@ class _LineProgress:
         pass
 
 
+#: the longest a plain-line progress report stays silent while its work advances (seconds)
+LINE_INTERVAL_S = 5.0
+
+
+def plain_progress() -> bool:
+    """Whether progress is written as plain lines: stderr is no terminal, or ``SSSKIT_PROGRESS=lines``
+    (set in worker processes, whose redrawn bars would garble a shared terminal)."""
+    return os.environ.get("SSSKIT_PROGRESS", "").strip().lower() == "lines" or not sys.stderr.isatty()
+
+
+def say(message: str) -> None:
+    """One progress line on stderr (stdout carries only results)."""
+    print(f"  {message}", file=sys.stderr, flush=True)
+
+
 def progress_bar(total: int, desc: str, unit: str = "it", enabled: bool = True, initial: int = 0, **tqdm_kw):
-    """A progress bar on stderr: tqdm when stderr is a terminal, plain lines at each tenth otherwise
-    (readable in logs), nothing when not ``enabled``. Supports update, set_postfix_str and close."""
+    """A progress bar on stderr: tqdm on a terminal, plain lines otherwise (:func:`plain_progress`: at
+    each tenth and at least every :data:`LINE_INTERVAL_S` seconds, readable in logs), nothing when not
+    ``enabled``. Supports update, set_postfix_str and close."""
     if not enabled:
         from tqdm import tqdm
 
         return tqdm(total=total, disable=True)
-    if not sys.stderr.isatty():
+    if plain_progress():
         return _LineProgress(total, desc, unit, initial)
     from tqdm import tqdm
 

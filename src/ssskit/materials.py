@@ -393,6 +393,9 @@ def load_material(path: str | Path) -> Material | LayeredMaterial:
     p = Path(path)
     if p.is_dir():
         raise MaterialError(f"material file {str(p)!r} is a directory, not a .toml or .json file")
+    from .io import check_regular_file
+
+    check_regular_file(p, "material file", MaterialError)
     try:
         raw = p.read_bytes()
     except OSError as exc:

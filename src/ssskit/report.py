@@ -357,10 +357,16 @@ def build_report(out_dir: str | Path, progress: Progress | None = None, photons:
     here)."""
     from .backends import get_backend
 
+    from .io import staged_folder
+
     runner = get_backend(backend)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     progress = progress or (lambda msg: None)
+    with staged_folder(out_dir) as stage:  # an interrupted or failed demo leaves no partial folder
+        _build(stage, progress, photons, progress_bars, runner)
+    return Path(out_dir) / "index.html"
+
+
+def _build(out: Path, progress: Progress, photons: int, progress_bars: bool, runner) -> None:
     t0 = time.perf_counter()
     ctx = {"photons": photons, "progress_bars": progress_bars, "backend": runner.name}
     body = [_cached_section(name, section, out, progress, ctx) for name, section in SECTIONS]
@@ -376,6 +382,4 @@ def build_report(out_dir: str | Path, progress: Progress | None = None, photons:
         + "".join(body)
         + "</body></html>\n"
     )
-    index = out / "index.html"
-    write_text(index, page)
-    return index
+    write_text(out / "index.html", page)

@@ -64,6 +64,9 @@ class Settings:
         suffix = p.suffix.lower()
         if suffix not in (".toml", ".json"):
             raise SettingsError(f"settings file {str(p)!r} must end in .toml or .json")
+        from .io import check_regular_file
+
+        check_regular_file(p, "settings file", SettingsError)
         try:
             text = p.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:

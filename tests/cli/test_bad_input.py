@@ -128,7 +128,7 @@ BAD = [
     (["kernel", "--method", "svd", "--material", "skin1", "--size", "50"], "--size must be odd"),
     (["kernel", "--method", "jimenez2012", "--taps", "10"], "odd"),
     (["kernel", "--method", "jimenez2012", "--out", "k.txt"], "must end in .npz or .json"),
-    (["kernel", "--method", "jimenez2012", "--model", "dipole"], "need a --material"),
+    (["kernel", "--method", "jimenez2012", "--model", "dipole"], "reads no profile; drop --model"),
     (["evaluate", "--material", "skin1", "--signal", "plaid"], "unknown signal 'plaid'"),
     (["evaluate", "--material", "skin1", "--methods", "svd:x"], "integer"),
     (["evaluate", "--model", "dipole"], "--material is required"),
@@ -157,6 +157,14 @@ FIRST_HOUR = [
     (["kernel", "--material", "tiny.json", "--model", "dipole", "--method", "svd"], "the dipole model takes transport"),
     (["evaluate", "--material", "eta4.json", "--model", "dipole"], "the dipole model takes a relative index"),
     (["profile", "--material", "skin1", "--r-max", "1e308", "--out", "p.csv"], "--r-max must be a positive number of mm up to"),
+    # options accepted and ignored, or computed twice
+    (["kernel", "--method", "jimenez2012", "--material", "skin1"], "jimenez2012 is a fixed engine kernel that reads no profile"),
+    (["evaluate", "--material", "skin1", "--methods", "svd,svd:1"], "'svd:1' names the same kernel as 'svd'"),
+    (["evaluate", "--material", "skin1", "--methods", "guided:0,preintegrated,guided:0"], "names the same kernel"),
+    (["figures", "fig2", "fig2", "--model", "dipole"], "figure fig2 named more than once"),
+    # paths
+    (["figures", "fig2", "--model", "dipole", "--out", ""], "--out is empty"),
+    (["demo", "--out", ""], "--out is empty"),
 ]
 
 
@@ -219,3 +227,95 @@ def test_bad_input_in_a_subprocess_has_no_traceback(tmp_path):
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("ssskit: error: --jitter")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_FSIZE as a stand-in for a full disk")
+def test_a_full_disk_names_the_file_and_leaves_no_partial_output(tmp_path):
+    """A write that fails half-way (here RLIMIT_FSIZE: fig2's PNG of ~50 KB fits under 100 KB, fig4's
+    ~140 KB does not) is one error line naming the file, and no figure is left (fig2 was before)."""
+    import resource
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, 100_000))  # Python ignores SIGXFSZ: writes fail
+
+    env = dict(os.environ, SSSKIT_CACHE_DIR=str(tmp_path / "cache"))
+    proc = subprocess.run([sys.executable, "-m", "ssskit.cli", "figures", "fig2", "fig4", "--model", "dipole",
+                           "--out", "figs"], capture_output=True, text=True, cwd=tmp_path, env=env, preexec_fn=limit)
+    lines = proc.stderr.splitlines()
+    assert proc.returncode == 2 and proc.stdout == "", proc.stderr
+    assert lines[-1].startswith("ssskit: error: cannot write 'figs/fig4_svd_ranks.png': "), proc.stderr
+    assert all(line.startswith("  ") for line in lines[:-1])  # the rest is progress
+    assert [p.name for p in tmp_path.iterdir() if p.name != "cache"] == []
+
+
+def test_an_interrupted_simulation_speaks_the_command_lines_terms(run, workdir, monkeypatch):
+    """Ctrl-C in ``simulate``: the message names ``ssskit simulate`` and --resume, not the library's
+    ``resume (CLI --resume)``."""
+    from ssskit.profiles.montecarlo import engine_numba
+
+    real, calls = engine_numba.run_batches, []
+
+    def interrupted(*args):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*args)
+
+    monkeypatch.setattr(engine_numba, "run_batches", interrupted)
+    code, out, err = run("simulate", "--material", "skin1", "--photons", "40000", "--batch-size", "1000",
+                         "--threads", "1")
+    line = err.splitlines()[-1]
+    assert code == 130 and out == ""
+    assert line.startswith("ssskit: Skin1 R: simulation interrupted after 2000 of 40000 photons; they are kept: "
+                           "run ssskit simulate with the same material, photons and seed and --resume"), err
+    assert "CLI" not in err and "=True" not in err
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+@pytest.mark.parametrize("option, name, fragment", [
+    ("--material", "m.toml", "material file 'm.toml' is a FIFO"), ("--material", "pipe", "is a FIFO"),
+    ("--scene", "g2.exr", "G-buffer file 'g2.exr' is a FIFO"), ("--settings", "s.toml", "settings file 's.toml' is a FIFO")])
+def test_a_fifo_is_refused_not_read(tmp_path, option, name, fragment):
+    """A named pipe as an input blocked forever on open (nobody writes to it); now one line, at once
+    (a subprocess with a time limit, so the old behaviour fails instead of hanging the suite)."""
+    os.mkfifo(tmp_path / name)
+    args = ["render", "--scene", "slab"] if option != "--scene" else ["render"]
+    if option == "--material":
+        args = ["profile"]
+    proc = subprocess.run([sys.executable, "-m", "ssskit.cli", *args, option, name], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=60, env=dict(os.environ, SSSKIT_CACHE_DIR=str(tmp_path / "cache")))
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("ssskit: error: ") and fragment in proc.stderr
+
+
+def test_help_lists_the_kernel_methods(run):
+    """The README says --help lists the choices: --methods, --method and --kernel name every method."""
+    from ssskit.kernels import METHODS
+
+    for command in ("evaluate", "kernel", "render", "export"):
+        code, out, _ = run(command, "--help")
+        flat = " ".join(out.split())
+        assert code == 0 and all(m in flat for m in METHODS.names()), (command, out)
+
+
+def test_json_is_strict_json(run, workdir):
+    """One batch has no standard error (NaN): strict parsers reject NaN, so the JSON says null."""
+    import json
+
+    code, out, _ = run("simulate", "--material", "skin1", "--photons", "1000", "--batch-size", "1000000", "--json",
+                       "--no-cache")
+
+    def refuse(name):
+        raise ValueError(f"not JSON: {name}")
+
+    data = json.loads(out, parse_constant=refuse)
+    assert code == 0 and data["channels"]["R"]["total_Rd_se"] is None and data["channels"]["R"]["total_Rd"] > 0
+
+
+def test_the_kernel_header_names_the_preset_built(run):
+    """``kernel --method artist --preset production`` was labelled 'fit'."""
+    code, out, _ = run("kernel", "--method", "artist", "--preset", "production")
+    header = out.splitlines()[0]
+    assert code == 0 and header.startswith("# artist:production kernel"), header
+    code, out, _ = run("kernel", "--method", "svd", "--material", "skin1", "--model", "dipole")
+    assert out.startswith("# svd:1 kernel"), out

@@ -207,8 +207,10 @@ def test_simulate_json_and_sweep_identity(capsys, tmp_path, monkeypatch):
         assert c["Rsp"] == pytest.approx(((1.3 - 1) / 2.3) ** 2)
         assert c["total_Rd_se"] > 0
     # a two-process sweep gives the same numbers as the single-process run
-    code, out, _ = run(capsys, "simulate", "--material", "ketchup,skin1", "--photons", "20000", "--jobs", "2", "--json")
+    code, out, err = run(capsys, "simulate", "--material", "ketchup,skin1", "--photons", "20000", "--jobs", "2", "--json")
     assert code == 0
+    # progress on stderr with --json too: the sweep says each material as it finishes
+    assert "sweep (2 processes): " in err and "2 of 2 materials" in err, err
     sweep = json.loads(out)["materials"]
     assert sweep["Ketchup"]["channels"]["G"]["Rd"] == single["channels"]["G"]["Rd"]
     npz = tmp_path / "k.npz"

@@ -219,14 +219,19 @@ def test_cache_and_resume_after_interrupt(monkeypatch):
     cfg = config_for_material(get_material("skin1"), 2, photons=20_000, seed=9, batch_size=1_000)
     reference = simulate(cfg, use_cache=False)
     restore = _interrupt_on_call(monkeypatch, 3)  # one thread: 2 batches per call, so 4 batches done
-    with pytest.raises(SimulationInterrupted, match="interrupted after 4000 of 20000 photons.*--resume.*--restart"):
+    with pytest.raises(SimulationInterrupted, match="interrupted after 4000 of 20000 photons.*resume=True.*restart=True") as exc:
         simulate(cfg, threads=1)
+    # the command line's message names the command and its options, not the API's keywords
+    assert "ssskit simulate" in exc.value.cli_message and "--resume" in exc.value.cli_message
+    assert "=True" not in exc.value.cli_message
     restore()
     assert len(_partial_files()) == 1
     # the partial result is never dropped silently: running again without resume or restart is an error
     with pytest.raises(ProfileError, match=r"^a partial result of an interrupted run exists \(4000 of 20000 "
-                       r"photons\); pass resume \(CLI --resume\) to continue it or restart \(CLI --restart\)"):
+                       r"photons\); pass resume=True to continue it or restart=True to discard it") as exc:
         simulate(cfg, threads=1)
+    assert exc.value.cli_message.endswith("run ssskit simulate with the same material, photons and seed and --resume "
+                                          "to continue it, or --restart to discard it")
     with pytest.raises(ProfileError, match="resume and restart exclude each other"):
         simulate(cfg, resume=True, restart=True)
     with pytest.raises(ProfileError, match="cannot be combined with use_cache=False"):
@@ -338,14 +343,18 @@ def test_layered_material_errors(tmp_path):
         profile_for_material(str(f), "dipole")
 
 
-def test_dask_cluster_sweep_matches_single_process():
-    """A sweep on a dask.distributed cluster (a local one here) equals the single-process run."""
+def test_dask_cluster_sweep_matches_single_process(capsys):
+    """A sweep on a dask.distributed cluster (a local one here) equals the single-process run, and says
+    on stderr which materials are done."""
     distributed = pytest.importorskip("distributed")
     from ssskit.profiles.montecarlo import simulate_many, simulate_material
 
     mats = [get_material("ketchup"), get_material("skin1")]
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        swept = simulate_many(mats, "G", photons=10_000, seed=3, batch_size=1_000, scheduler=cluster.scheduler_address)
+        swept = simulate_many(mats, "G", photons=10_000, seed=3, batch_size=1_000, scheduler=cluster.scheduler_address,
+                              progress=True)
+    err = capsys.readouterr().err
+    assert "sweep (dask at tcp://" in err and "2 of 2 materials" in err, err
     for m in mats:
         alone = simulate_material(m, "G", photons=10_000, seed=3, batch_size=1_000, use_cache=False)
         assert np.array_equal(swept[m.name]["G"].rd, alone["G"].rd)

@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     except click.exceptions.Exit as exc:
         return exc.exit_code
     except SimulationInterrupted as exc:
-        click.echo(f"ssskit: {exc}", err=True)
+        click.echo(f"ssskit: {' '.join((exc.cli_message or str(exc)).splitlines())}", err=True)
         return 130
     except click.exceptions.Abort:
         click.echo("ssskit: aborted", err=True)
@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
         click.echo(f"ssskit: error: {message}", err=True)
         return EXIT_USAGE
     except SsskitError as exc:
-        click.echo(f"ssskit: error: {' '.join(str(exc).splitlines())}", err=True)
+        click.echo(f"ssskit: error: {' '.join((exc.cli_message or str(exc)).splitlines())}", err=True)
         return EXIT_USAGE
     except OSError as exc:  # a file system refusal the upfront checks could not foresee (disk full...)
         where = f" {exc.filename!r}" if getattr(exc, "filename", None) else ""

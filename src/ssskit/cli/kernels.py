@@ -88,6 +88,19 @@ def method_parameters(method_spec: str, values: dict[str, str | None]) -> tuple[
     return m, params
 
 
+def kernel_label(method, params: dict, kernel) -> str:
+    """``name:value`` of the kernel as built: its primary parameter as given, as the kernel records it,
+    or the builder's default (``artist:production``, ``svd:1``)."""
+    import inspect
+
+    if method.primary is None:
+        return method.name
+    value = params.get(method.primary, kernel.params.get(method.primary) if hasattr(kernel, "params") else None)
+    if value is None:
+        value = inspect.signature(method.builder).parameters[method.primary].default
+    return f"{method.name}:{value}"
+
+
 def _dest_of(param: str) -> str:
     return next(d for d, (p, _) in PRIMARY_OPTIONS.items() if p == param)
 
@@ -121,6 +134,10 @@ def kernel(ctx, material, method_spec, model, photons, grid_n, as_json, out, **m
     from ..profiles import MATERIAL_FREE_MODELS
 
     prof = None
+    if not m.uses_profile and (material is not None or given(ctx, "model") or given(ctx, "photons")):
+        given_opt = "--material" if material is not None else "--model" if given(ctx, "model") else "--photons"
+        raise SsskitError(f"--method {m.name} is a fixed engine kernel that reads no profile; drop {given_opt} "
+                          "(its fit to a material's profile is --method burley_fit)")
     if material is not None or (m.needs_profile and model.lower() in MATERIAL_FREE_MODELS):
         check_material_for_model(ctx, material, model)
         prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
@@ -136,7 +153,7 @@ def kernel(ctx, material, method_spec, model, photons, grid_n, as_json, out, **m
         d["material"] = material
         echo_json(d)
         return
-    click.echo(f"# {m.name} kernel ({m.description})" + (f" of {prof.name} ({prof.model})" if prof else ""))
+    click.echo(f"# {kernel_label(m, params, k)} kernel: {m.description}" + (f"; of {prof.name} ({prof.model})" if prof else ""))
     click.echo(f"# rank {k.rank}, {k.convolutions_1d} 1D convolutions; total per channel: "
                + ", ".join(f"{v:.6f}" for v in k.total()))
     if hasattr(k, "offsets_mm"):

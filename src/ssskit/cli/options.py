@@ -59,9 +59,25 @@ __all__ = [
 # ---------------------------------------------------------------------------------------------- helpers
 
 
+def strict_json(data: Any) -> Any:
+    """``data`` with every non-finite number (NaN, +-inf: a standard error of one batch, a PSNR of
+    identical images) as ``null``, which strict JSON parsers accept (RFC 8259 has no NaN)."""
+    import math
+
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: strict_json(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [strict_json(v) for v in data]
+    if hasattr(data, "item") and hasattr(data, "dtype") and getattr(data, "ndim", 1) == 0:  # a numpy scalar
+        return strict_json(data.item())
+    return data
+
+
 def echo_json(data) -> None:
-    """Print exactly one JSON object on stdout."""
-    click.echo(json.dumps(data))
+    """Print exactly one JSON object on stdout, strict JSON (non-finite numbers as null)."""
+    click.echo(json.dumps(strict_json(data), allow_nan=False))
 
 
 def progress(msg: str) -> None:
@@ -102,8 +118,12 @@ def check_writable(target: str | Path, opt: str, folder: bool = False) -> None:
     """Refuse an output ``target`` (a file, or a folder with ``folder=True``) that cannot be written:
     a write test in its folder or, if that does not exist yet, in the nearest existing ancestor.
 
-    Nothing is left behind: no folder is created and the test file is removed.
+    Nothing is left behind: no folder is created and the test file is removed. An empty path (which
+    would mean the current folder) is refused.
     """
+    if not str(target).strip():
+        raise OutputError(f"{opt} is empty; give a {'folder' if folder else 'file'} path (. for the current folder)"
+                          if folder else f"{opt} is empty; give a file path")
     t = Path(target)
     if folder and t.exists() and not t.is_dir():
         raise OutputError(f"{opt} {str(t)!r} is a file, not a folder")
@@ -208,7 +228,9 @@ class KernelSpec(click.ParamType):
         self.many = many
 
     def get_metavar(self, param, ctx=None) -> str:
-        return "METHOD[:VALUE]" + (",..." if self.many else "")
+        from ..kernels import METHODS
+
+        return "[" + "|".join(METHODS.names()) + "][:VALUE]" + (",..." if self.many else "")
 
     def convert(self, value, param, ctx):
         from ..kernels import parse_method_spec
@@ -220,12 +242,29 @@ class KernelSpec(click.ParamType):
         if not specs:
             self.fail(f"no kernel method given ({str(value)!r})", param, ctx)
         labels = []
+        seen: dict[tuple[str, str], str] = {}
         for s in specs:
             try:
-                labels.append(parse_method_spec(s)[2])
+                method, params, label = parse_method_spec(s)
             except SsskitError as exc:
                 self.fail(str(exc), param, ctx)
+            same = _canonical_spec(method, params)
+            if self.many and same in seen:
+                self.fail(f"{label!r} names the same kernel as {seen[same]!r}; give each method once", param, ctx)
+            seen[same] = label
+            labels.append(label)
         return labels if self.many else labels[0]
+
+
+def _canonical_spec(method, params: dict[str, Any]) -> tuple[str, str]:
+    """(method, its primary parameter with the builder's default filled in): ``svd`` and ``svd:1`` are
+    one kernel."""
+    import inspect
+
+    if method.primary is None:
+        return method.name, ""
+    value = params.get(method.primary, inspect.signature(method.builder).parameters[method.primary].default)
+    return method.name, str(value).strip().lower()
 
 
 class Size(click.ParamType):
@@ -275,6 +314,12 @@ class SceneRef(click.ParamType):
                 self.fail(f"G-buffer file {text!r} does not exist", param, ctx)
             if p.suffix.lower() != ".exr":
                 self.fail(f"a G-buffer file must end in .exr, got {text!r}", param, ctx)
+            from ..io import check_regular_file
+
+            try:
+                check_regular_file(p, "G-buffer file")
+            except SsskitError as exc:
+                self.fail(str(exc), param, ctx)
             return p
         return RegistryName(_scenes).convert(text, param, ctx)
 

@@ -52,13 +52,19 @@ def figures(ctx, names, material, model, photons, backend, out) -> None:
     from ..backends import get_backend
     from ..figures import make_figures
 
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise SsskitError(f"figure {', '.join(twice)} named more than once; name each figure once")
     check_material_for_model(ctx, material, model)
     get_backend(backend)  # can it run here? checked before any work
     prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
-    written = make_figures(list(names), out, prof, progress=progress, backend=backend)
+    from ..io import staged_folder
+
+    with staged_folder(out) as stage:  # all figures or none: a failure leaves no partial output
+        written = make_figures(list(names), stage, prof, progress=progress, backend=backend)
     for paths in written.values():
         for p in paths:
-            click.echo(str(p))
+            click.echo(str(Path(out) / Path(p).relative_to(stage)))
 
 
 @click.command(epilog=examples("ssskit demo", "ssskit demo --out report --photons 20000", "ssskit demo --full",

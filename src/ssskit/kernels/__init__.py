@@ -29,6 +29,8 @@ class KernelMethod:
     description: str
     unit_energy: bool = False  # kernel normalised to 1 by construction (energy matched in evaluations)
     needs_profile: bool = True
+    #: False for a fixed kernel that never reads a profile (jimenez2012): a material given to it is refused
+    uses_profile: bool = True
 
 
 def _svd(profile, cell_mm, n, rank=1, renormalise=False):
@@ -107,11 +109,12 @@ for _m in (
     KernelMethod("preintegrated", _preintegrated, None, str, "pre-integrated rank-1 kernel (paper Eqs. 4-5)"),
     KernelMethod("preintegrated_svd", _preintegrated_svd, "rank", _int,
                  "pre-integrated kernel + rank-N SVD of the residual (paper Sec. 7, 'Limitations and future work')"),
-    KernelMethod("artist", _artist, "preset", str, "artist-friendly two-Gaussian model (paper Eq. 6, Table 2; 'fit')",
-                 unit_energy=False, needs_profile=False),
+    KernelMethod("artist", _artist, "preset", str,
+                 "artist-friendly two-Gaussian model (paper Eq. 6): a Table 2 preset, or the preset 'fit' fitted to the "
+                 "profile", unit_energy=False, needs_profile=False),
     KernelMethod("guided", _guided, "k", _float, "guided rank-1 optimisation (paper Eqs. 7-8, supplement S.7-S.9)"),
     KernelMethod("jimenez2012", _jimenez, "taps", _int, "the engines' separable-SSS tap kernel (Jimenez 2012)",
-                 unit_energy=True, needs_profile=False),
+                 unit_energy=True, needs_profile=False, uses_profile=False),
     KernelMethod("burley_fit", _burley_fit, "error", str, "engine profile fitted to Burley (Xie 2020 A.1, Eqs. 25-27)"),
 ):
     METHODS.register(_m.name, _m)

@@ -165,10 +165,21 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
         except GBufferError as exc:
             raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None
     try:
-        materials = tuple(json.loads(header.get("ssskit_materials", "[]")))
+        named = json.loads(header["ssskit_materials"]) if "ssskit_materials" in header else None
         meta = json.loads(header.get("ssskit_meta", "{}"))
     except json.JSONDecodeError:
         raise GBufferError(f"G-buffer {str(p)!r}: material or meta header attribute is not JSON") from None
+    materials: tuple[str, ...] = ()
+    if named is not None:  # a file that names its materials names one for every profile id it uses
+        if not (isinstance(named, list) and all(isinstance(m, str) and m.strip() for m in named)):
+            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_materials' must be a list of material names, "
+                               f"got {header['ssskit_materials']!r}")
+        ids = np.unique(np.asarray(channels["profile_id"]))
+        top = int(ids.max(initial=0))
+        if top > len(named):
+            raise GBufferError(f"G-buffer {str(p)!r}: layer 'profile_id' uses id {top} but the header "
+                               f"'ssskit_materials' names {len(named)} material(s) {named!r} (id k is the k-th name)")
+        materials = tuple(named)
     try:
         return GBuffer(diffuse=channels["diffuse"], albedo=channels["albedo"], depth=channels["depth"],
                        profile_id=channels["profile_id"], camera=camera, specular=channels.get("specular"),

@@ -24,8 +24,12 @@ from .result import MCResult, assemble_result
 
 
 def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = False, resume: bool = False,
-             restart: bool = False, use_cache: bool = True, label: str = "") -> MCResult:
+             restart: bool = False, use_cache: bool = True, label: str = "", shipped: bool = True) -> MCResult:
     """Run (or load from the cache) one MCML simulation on the numba engine.
+
+    A configuration the package ships (the supplement's profiles at 10^7 photons,
+    :mod:`.shipped`) is returned from the shipped file at once, unless ``shipped=False`` or
+    ``use_cache=False``; its ``extra`` says ``{"shipped": True}``.
 
     If an interrupted run of the same inputs left a partial result, ``resume=True`` continues it
     and ``restart=True`` discards it and starts over; with neither, a :class:`ProfileError` says
@@ -37,8 +41,15 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
         raise ProfileError("resume and restart exclude each other: resume continues an interrupted run, "
                            "restart discards it")
     if (resume or restart) and not use_cache:
-        raise ProfileError(f"{'resume' if resume else 'restart'} acts on the on-disk cache; it cannot be "
-                           "combined with use_cache=False (CLI --no-cache)")
+        which = "resume" if resume else "restart"
+        raise ProfileError(f"{which} acts on the on-disk cache; it cannot be combined with use_cache=False",
+                           cli_message=f"--{which} acts on the on-disk cache; it cannot be combined with --no-cache")
+    if use_cache and shipped:
+        from .shipped import shipped_result
+
+        found = shipped_result(cfg)
+        if found is not None:
+            return found
     key = cfg.key()
     cdir = cache_dir("mcml")
     final_path = cdir / f"{key}.npz"
@@ -61,11 +72,14 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
             partial = _load_partial(cfg, partial_path)
             if not resume:
                 held = "an unknown number of" if partial is None else f"{int(sizes[partial[2]].sum())} of {cfg.photons}"
-                raise ProfileError(f"{prefix}a partial result of an interrupted run exists ({held} photons); pass "
-                                   "resume (CLI --resume) to continue it or restart (CLI --restart) to discard it")
+                what = f"{prefix}a partial result of an interrupted run exists ({held} photons)"
+                raise ProfileError(f"{what}; pass resume=True to continue it or restart=True to discard it",
+                                   cli_message=f"{what}; {_CLI_AGAIN} and --resume to continue it, or --restart to "
+                                               "discard it")
             if partial is None:
-                raise ProfileError(f"{prefix}the partial result of an interrupted run ({partial_path}) cannot be "
-                                   "read; pass restart (CLI --restart) to discard it")
+                what = f"{prefix}the partial result of an interrupted run ({partial_path}) cannot be read"
+                raise ProfileError(f"{what}; pass restart=True to discard it",
+                                   cli_message=f"{what}; {_CLI_AGAIN} and --restart to discard it")
             bins, totals, done, elapsed = partial
 
     from . import engine_numba
@@ -80,9 +94,14 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
     t0 = time.perf_counter()
     try:
         with _numba_threads(threads) as nthreads:
+            # two batches per thread for balance; with progress shown, one when a chunk takes longer than
+            # CHUNK_S (progress then advances more often); the result does not depend on the chunks
             chunk = max(2 * nthreads, 1)
-            for start in range(0, todo.shape[0], chunk):
+            start = 0
+            while start < todo.shape[0]:
                 ids = todo[start : start + chunk]
+                start += ids.shape[0]
+                t_chunk = time.perf_counter()
                 b_rows = np.zeros((ids.shape[0], cfg.nr))
                 t_rows = np.zeros((ids.shape[0], 3 + N_EXIT_BINS))
                 engine_numba.run_batches(
@@ -91,6 +110,8 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
                     arrays["cos_crit_down"], 0.0 if cfg.roughness > 0 else rsp, ux0, uz0, cfg.dr_mm,
                     float(cfg.roughness), b_rows, t_rows)
                 bins[ids], totals[ids], done[ids] = b_rows, t_rows, True
+                if bar is not None and time.perf_counter() - t_chunk > CHUNK_S:
+                    chunk = max(nthreads, 1)
                 if bar is not None:
                     bar.update(int(sizes[ids].sum()))
     except KeyboardInterrupt:
@@ -98,10 +119,12 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
             save_arrays(partial_path, bins=bins, totals=totals, done=done,
                         seconds=np.array(elapsed + time.perf_counter() - t0))
         n_done = int(sizes[done].sum())
+        what = f"{prefix}simulation interrupted after {n_done} of {cfg.photons} photons; "
         raise SimulationInterrupted(
-            f"{prefix}simulation interrupted after {n_done} of {cfg.photons} photons; "
-            + ("run again with resume (CLI --resume) to continue, or restart (CLI --restart) to discard them"
-               if use_cache else "nothing was kept (cache disabled)")
+            what + ("they are kept: resume=True continues them, restart=True discards them" if use_cache
+                    else "nothing was kept (the cache is off)"),
+            cli_message=what + (f"they are kept: {_CLI_AGAIN} and --resume to continue them, or --restart to "
+                                "discard them" if use_cache else "nothing was kept (--no-cache)"),
         ) from None
     finally:
         if bar is not None:
@@ -116,6 +139,13 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
         with contextlib.suppress(OSError):
             partial_path.unlink()
     return result
+
+
+#: a chunk of batches (one engine call) that takes longer than this is halved for the next (seconds)
+CHUNK_S = 2.0
+
+#: how a CLI message says to run the simulation again (``simulate`` is the command with --resume/--restart)
+_CLI_AGAIN = "run ssskit simulate with the same material, photons and seed"
 
 
 #: samples of the entry estimate of a rough surface's specular reflectance (SE ~ 2e-5)

@@ -13,7 +13,8 @@ from .run import simulate
 def simulate_material(material: Material | LayeredMaterial, channels: str = "all", *, photons: int = DEFAULT_PHOTONS,
                       seed: int = 1, threads: int | None = None, progress: bool = False, resume: bool = False,
                       restart: bool = False, use_cache: bool = True, batch_size: int = DEFAULT_BATCH,
-                      grid_fraction: float | None = None, roughness: float = 0.0) -> dict[str, MCResult]:
+                      grid_fraction: float | None = None, roughness: float = 0.0,
+                      shipped: bool = True) -> dict[str, MCResult]:
     """Simulate the requested channels ('R', 'G', 'B' or 'all') of a material: {channel: MCResult}.
 
     Each channel uses its own seed stream derived from ``seed`` and the channel index, on the
@@ -27,7 +28,8 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
 
     ``roughness`` > 0: a rough top surface with that Beckmann alpha (the path-traced references'
     single-scattering rough dielectric, :class:`~ssskit.profiles.montecarlo.MCConfig`) instead of
-    the supplement's smooth one.
+    the supplement's smooth one. ``shipped=False``: simulate even what the package ships
+    (:mod:`.shipped`).
     """
     wanted = list(CHANNELS) if channels.strip().lower() == "all" else [channels.strip().upper()]
     for ch in wanted:
@@ -42,7 +44,7 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
         while True:
             cfg = config_for_material(material, c, photons, _channel_seed(seed, c), batch_size, extent, roughness)
             res = simulate(cfg, threads=threads, progress=progress, resume=resume, restart=restart,
-                           use_cache=use_cache, label=f"{material.name} {ch}")
+                           use_cache=use_cache, label=f"{material.name} {ch}", shipped=shipped)
             if grid_fraction is None or res.overflow <= (1.0 - grid_fraction) * res.total_rd or extent >= 64 * 32:
                 break
             extent *= 2.0
@@ -56,10 +58,44 @@ def _channel_seed(seed: int, c: int) -> int:
 
 
 def _sweep_job(args):
-    material, channels, photons, seed, batch_size, resume, restart, roughness = args
+    material, channels, photons, seed, batch_size, resume, restart, roughness, progress = args
+    if progress:  # a worker's lines go to the shared stderr; redrawn bars of several processes would garble it
+        import os
+
+        os.environ["SSSKIT_PROGRESS"] = "lines"
     return material.name, simulate_material(material, channels, photons=photons, seed=seed, threads=1,
                                             batch_size=batch_size, resume=resume, restart=restart,
-                                            roughness=roughness)
+                                            roughness=roughness, progress=progress)
+
+
+#: the longest a sweep waits without a progress line (seconds)
+HEARTBEAT_S = 5.0
+
+
+def _gather(futures: list, names: list[str], progress: bool, where: str) -> dict[str, dict[str, MCResult]]:
+    """Wait for the sweep's futures (concurrent.futures or dask.distributed ones), saying on stderr
+    which materials are done, at least every :data:`HEARTBEAT_S` seconds while any runs."""
+    import time
+
+    from ...io import say
+
+    t0 = last = time.perf_counter()
+    pending = dict(zip(names, futures))
+    out: dict[str, dict[str, MCResult]] = {}
+    while pending:
+        finished = [n for n, f in pending.items() if f.done()]
+        for n in finished:
+            out[n] = pending.pop(n).result()[1]  # re-raises a worker's error
+            if progress:
+                say(f"sweep ({where}): {n} done, {len(out)} of {len(names)} materials ({time.perf_counter() - t0:.0f} s)")
+                last = time.perf_counter()
+        if pending and progress and time.perf_counter() - last >= HEARTBEAT_S:
+            say(f"sweep ({where}): {len(out)} of {len(names)} materials done, running {', '.join(pending)} "
+                f"({time.perf_counter() - t0:.0f} s)")
+            last = time.perf_counter()
+        if pending:
+            time.sleep(0.2)
+    return {n: out[n] for n in names}
 
 
 def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "all", *,
@@ -71,7 +107,8 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
     is given (optional extra ``ssskit[cluster]``).
 
     Results depend only on each simulation's inputs and seed, so they are identical to a
-    single-process run; on one machine finished simulations land in the shared cache, and so do
+    single-process run. ``progress``: lines on stderr, from the workers (local processes) and from this
+    process as materials finish, at least every few seconds; on one machine finished simulations land in the shared cache, and so do
     the partial results of an interrupted sweep, which ``resume`` / ``restart`` continue / discard.
     """
     if not (isinstance(jobs, int) and jobs >= 1):
@@ -82,7 +119,7 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
     names = [m.name for m in materials]
     if len(set(names)) != len(names):
         raise ProfileError("material names in a sweep must be distinct")
-    tasks = [(m, channels, photons, seed, batch_size, resume, restart, roughness) for m in materials]
+    tasks = [(m, channels, photons, seed, batch_size, resume, restart, roughness, progress) for m in materials]
     if scheduler is not None:
         try:
             from distributed import Client
@@ -94,7 +131,7 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
             raise ProfileError(f"cannot reach the dask scheduler at {scheduler!r}: {exc}") from None
         try:
             futures = client.map(_sweep_job, tasks, pure=False)
-            return dict(client.gather(futures))
+            return _gather(futures, names, progress, f"dask at {scheduler}")
         finally:
             client.close()
     if jobs == 1 or len(tasks) == 1:
@@ -106,7 +143,11 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
 
     ctx = mp.get_context("spawn")  # numba's threading layers are not fork-safe
     with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
-        return dict(pool.map(_sweep_job, tasks))
+        if progress:
+            from ...io import say
+
+            say(f"sweep: {len(tasks)} materials on {min(jobs, len(tasks))} local processes (starting them takes a few seconds)")
+        return _gather([pool.submit(_sweep_job, t) for t in tasks], names, progress, f"{jobs} processes")
 
 
 __all__ = ["simulate_many", "simulate_material"]

@@ -1,0 +1,63 @@
+"""The longest silence of a command: how long its stderr (a pipe, so no terminal) goes without a line.
+
+    python benchmarks/silence.py -- ssskit simulate --material skin1,marble,ketchup --jobs 2
+    python benchmarks/silence.py --env SSSKIT_CACHE_DIR=/tmp/empty-cache -- ssskit demo --out /tmp/demo
+
+Runs the command with stdout and stderr as pipes and stamps every stderr line as it arrives; prints one
+JSON object: the exit status, the wall time, the number of stderr lines, the longest gap in seconds
+(from the start to the first line, between lines, and from the last line to the exit) and the lines
+around it, and the load average before and after (the machine is shared: silences grow with load).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--env", action="append", default=[], metavar="NAME=VALUE", help="extra environment")
+    ap.add_argument("command", nargs=argparse.REMAINDER, help="the command, after --")
+    args = ap.parse_args(argv)
+    cmd = args.command[1:] if args.command[:1] == ["--"] else args.command
+    if not cmd:
+        ap.error("give the command after --")
+    env = dict(os.environ, **dict(e.split("=", 1) for e in args.env))
+    load0 = os.getloadavg()
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    stamps: list[tuple[float, str]] = []
+
+    def drain_stdout() -> None:
+        assert proc.stdout is not None
+        for _ in proc.stdout:
+            pass
+
+    reader = threading.Thread(target=drain_stdout, daemon=True)
+    reader.start()
+    assert proc.stderr is not None
+    for line in proc.stderr:
+        stamps.append((time.perf_counter() - t0, line.rstrip("\n")))
+    code = proc.wait()
+    reader.join()
+    wall = time.perf_counter() - t0
+    times = [0.0] + [t for t, _ in stamps] + [wall]
+    gaps = [b - a for a, b in zip(times, times[1:])]
+    k = max(range(len(gaps)), key=gaps.__getitem__)
+    before = stamps[k - 1][1] if k >= 1 else "(start)"
+    after = stamps[k][1] if k < len(stamps) else "(exit)"
+    print(json.dumps({"command": cmd, "exit": code, "wall_s": round(wall, 1), "stderr_lines": len(stamps),
+                      "longest_silence_s": round(gaps[k], 1), "silence_after": before, "silence_before": after,
+                      "load_before": [round(v, 2) for v in load0],
+                      "load_after": [round(v, 2) for v in os.getloadavg()]}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
