@@ -84,3 +84,24 @@ def test_an_interrupted_report_leaves_no_partial_folder(tmp_path, monkeypatch):
     index = report.build_report(out, backend="numpy")
     assert index == out / "index.html" and index.is_file()
     assert sorted(p.name for p in out.iterdir()) == ["a.png", "index.html", "mine.txt"]
+
+
+def test_no_template_text_reaches_the_page():
+    """A string without its f prefix printed "on the {html.escape(backend)} backend" in the report: no
+    plain string (or plain segment of a joined string) of the report's modules holds an interpolation of
+    code (a call or an attribute inside braces), which only an f-string would fill."""
+    import ast
+    import re
+    from pathlib import Path
+
+    import ssskit
+
+    root = Path(ssskit.__file__).parent
+    pattern = re.compile(r"\{[A-Za-z_][\w.]*\([^{}]*\)[^{}]*\}|\{[A-Za-z_]\w*\.\w+[^{}]*\}")
+    found = []
+    for path in [root / "report.py", *sorted((root / "figures").glob("*.py"))]:
+        # (a plain segment joined to f-strings shows up as a constant part of the joined string: checked too)
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and pattern.search(node.value):
+                found.append(f"{path.name}:{node.lineno}: {node.value[:60]!r}")
+    assert found == []

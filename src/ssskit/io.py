@@ -14,6 +14,7 @@ line naming the file.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import io
 import json
 import os
@@ -21,7 +22,7 @@ import re
 import sys
 import tempfile
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -388,6 +389,50 @@ class _LineProgress:
 
 #: the longest a plain-line progress report stays silent while its work advances (seconds)
 LINE_INTERVAL_S = 5.0
+
+
+# ---- progress -------------------------------------------------------------------------------------
+
+_REPORTER: contextvars.ContextVar[Callable[[str], None] | None] = contextvars.ContextVar("ssskit_reporter", default=None)
+
+
+@contextlib.contextmanager
+def reporting(fn: Callable[[str], None] | None) -> Iterator[None]:
+    """Within the block, :func:`report` passes progress messages to ``fn`` (the CLI's stderr lines): long
+    computations deep in the library (an optimisation, a Monte Carlo run) say how far they are without a
+    callback through every call in between. ``None`` silences them."""
+    token = _REPORTER.set(fn)
+    try:
+        yield
+    finally:
+        _REPORTER.reset(token)
+
+
+def reporting_active() -> bool:
+    """Whether a :func:`reporting` block with a reporter encloses the caller."""
+    return _REPORTER.get() is not None
+
+
+def report(message: str) -> None:
+    """A progress message for the enclosing :func:`reporting` block (nothing outside one)."""
+    fn = _REPORTER.get()
+    if fn is not None:
+        fn(message)
+
+
+class Ticker:
+    """:func:`report` at most every ``interval_s`` seconds, the first after ``interval_s``: for progress
+    from inner loops, e.g. each step of an optimisation (a quick loop says nothing)."""
+
+    def __init__(self, interval_s: float = 2.0) -> None:
+        self.interval_s = interval_s
+        self._last = time.perf_counter()
+
+    def __call__(self, message: str | Callable[[], str]) -> None:
+        now = time.perf_counter()
+        if now - self._last >= self.interval_s and reporting_active():
+            self._last = now
+            report(message() if callable(message) else message)
 
 
 def plain_progress() -> bool:

@@ -56,7 +56,7 @@ BAD = [
     (["render", "--scene", "slab", "--material", ""], "the material name is empty"),
     (["profile", "--model", "deon2007", "--material", "marble"], "takes no --material"),
     (["figures", "--model", "deon2007", "--material", "marble"], "takes no --material"),
-    (["profile", "--material", "skin1", "--photons", "5000"], "--photons does not apply to --model dipole"),
+    (["profile", "--material", "skin1", "--model", "dipole", "--photons", "5000"], "--photons does not apply to --model dipole"),
     (["profile", "--material", "skin1", "--model", "burley", "--gaussians", "3"], "--gaussians does not apply"),
     (["profile", "--material", "skin1", "--model", "dipole", "--albedo-source", "dipole"], "--albedo-source does not apply"),
     (["profile", "--material", "skin1", "--model", "dipole", "--grid-fraction", "0.999"], "--grid-fraction does not apply"),
@@ -148,10 +148,10 @@ def test_bad_input(run, workdir, args, fragment):
 #: the inputs a newcomer's trial found still let through (issue 23), each failing before its fix
 FIRST_HOUR = [
     # physically meaningless materials: each model's valid domain, named
-    (["profile", "--material", "eta4.json"], "the dipole model takes a relative index eta in [1, 2.5]"),
+    (["profile", "--material", "eta4.json", "--model", "dipole"], "the dipole model takes a relative index eta in [1, 2.5]"),
     (["profile", "--material", "eta1e6.json", "--model", "gaussians"], "the gaussians (fitted to the dipole) model"),
     (["profile", "--material", "eta1e6.json", "--model", "montecarlo"], "the montecarlo model takes a relative index eta in [1, 4]"),
-    (["profile", "--material", "huge.json", "--out", "p.csv"], "the dipole model takes transport mean free paths"),
+    (["profile", "--material", "huge.json", "--out", "p.csv"], "the montecarlo model takes transport mean free paths"),
     (["profile", "--material", "tiny.json", "--model", "burley", "--out", "p.csv"], "the burley model takes transport"),
     (["simulate", "--material", "huge.json"], "the montecarlo model takes transport mean free paths"),
     (["kernel", "--material", "tiny.json", "--model", "dipole", "--method", "svd"], "the dipole model takes transport"),

@@ -1,23 +1,22 @@
 """The README runs: every ``ssskit ...`` command of its shell blocks exits with status 0, and every
-```python block executes. This is also the suite's one run of ``ssskit demo``.
+```python block executes. The demo, the suite's one run of it, is the slow part (``test_readme_demo``, marked slow).
 
 How the commands are found: in each ```sh block, every line is cut at its comment (`` #``) and at
-``&&``; each part that starts with ``ssskit `` is a command. Optional parts written ``[--json]`` /
+``&&``; each part that starts with ``ssskit `` is a command (the README's and docs/commands.md's). Optional parts written ``[--json]`` /
 ``[--out DIR]`` are left out. Duplicates run once (``ssskit demo`` appears twice).
 
 What runs instead of what the README says (SUBSTITUTIONS, applied in order; each entry must still
 match the README, so the table cannot rot):
 
-* slow Monte Carlo settings are scaled down: the demo and every command with a Monte Carlo profile
-  (200,000 photons per channel by default) run at 5,000 photons (the demo runs first and fills the
-  cache the others read), ``simulate`` at 20,000 instead of 10^6 / 10^7; the path-traced render is
-  made small (256x192 -> 64x48);
+* the 11 presets' Monte Carlo profiles at the default 10^7 photons are shipped, so those commands run
+  as written; simulations of anything else (a material file, 10^6 photons, a sweep) run at 20,000
+  photons; the path-traced render is made small (256x192 -> 64x48), the adaptive run short;
 * ``--scheduler tcp://host:8786`` points at a ``distributed.LocalCluster`` the test starts.
 
 Placeholder files the README refers to are made first: ``my_material.toml`` is the README's material
 file block (``name = "my skin"``), ``frame.toml`` its ``# frame.toml`` block, ``my_gbuffer.exr`` a small slab G-buffer
 (``ssskit render --save-gbuffer``). Everything runs in a temporary folder with ``SSSKIT_CACHE_DIR``
-inside it (a cold cache: every Monte Carlo profile is simulated here).
+inside it (a cold cache: what is not shipped is simulated here).
 """
 
 import re
@@ -31,26 +30,26 @@ from ssskit.cli import main
 
 README = Path(__file__).resolve().parents[2] / "README.md"
 
-#: (README text, what runs instead, why). Monte Carlo profiles run at the demo's 5,000 photons per
-#: channel, so every later command finds them in the cache the demo filled.
-MC = "--photons 5000"
+#: (README text, what runs instead, why). The 11 presets' Monte Carlo profiles at the default 10^7 photons
+#: are shipped, so only simulations of other materials or other settings are scaled down.
 SUBSTITUTIONS = [
-    ("ssskit demo", f"ssskit demo {MC}", "200,000 photons per channel for 11 materials: minutes"),
     ("--photons 1000000", "--photons 20000", "10^6 photons per channel: ~10 s"),
     ("ssskit simulate --material skin1,marble,ketchup --jobs 2",
-     "ssskit simulate --material skin1,marble,ketchup --jobs 2 --photons 20000", "the default 10^7 photons: minutes"),
+     "ssskit simulate --material skin1,marble,ketchup --jobs 2 --photons 20000",
+     "the default 10^7 photons are shipped; 20,000 runs the two processes for real"),
     ("ssskit simulate --material skin1,marble --scheduler tcp://host:8786",
      "ssskit simulate --material skin1,marble --photons 20000 --scheduler {scheduler}",
-     "a LocalCluster stands for the cluster; 10^7 photons: minutes"),
-    ("--model montecarlo --plot m.png", f"--model montecarlo {MC} --plot m.png", "Monte Carlo, 200,000 photons"),
-    ("--method preintegrated --out k.npz", f"--method preintegrated {MC} --out k.npz", "Monte Carlo, 200,000 photons"),
-    ("--method svd --rank 3 --json", f"--method svd --rank 3 {MC} --json", "Monte Carlo, 200,000 photons"),
-    ("--methods svd:1,svd:3,preintegrated,guided:0 --json", f"--methods svd:1,svd:3,preintegrated,guided:0 {MC} --json",
-     "Monte Carlo, 200,000 photons"),
-    ("ssskit figures fig7 figS5 --material skin1", f"ssskit figures fig7 figS5 --material skin1 {MC}",
-     "Monte Carlo, 200,000 photons"),
+     "a LocalCluster stands for the cluster; 20,000 photons run there for real"),
+    ("--material my_material.toml --model burley --out skin.csv",
+     "--material my_material.toml --model burley --photons 20000 --out skin.csv",
+     "a material of one's own is simulated: 10^7 photons take minutes"),
     ("--size 256x192 --out s.exr --reference", "--size 64x48 --out s.exr --reference", "path tracing 256x192"),
+    ("--frames 8 --limit-spp 256", "--frames 2 --limit-spp 16", "converged references of 8 frames"),
 ]
+#: commands the fast test leaves to the slow one (the demo: minutes)
+SLOW = ("ssskit demo",)
+#: the files whose shell blocks hold the commands (the README's, and the details page it links)
+SOURCES = [README, README.parent / "docs" / "commands.md"]
 
 
 def blocks(text: str, *languages: str) -> list[str]:
@@ -77,9 +76,9 @@ def commands(text: str) -> list[str]:
 
 
 def test_substitutions_match_the_readme():
-    text = README.read_text(encoding="utf-8")
+    text = "".join(p.read_text(encoding="utf-8") for p in SOURCES)
     for old, _new, why in SUBSTITUTIONS:
-        assert old in text, f"substitution {old!r} ({why}) no longer matches the README"
+        assert old in text, f"substitution {old!r} ({why}) no longer matches the README or docs/commands.md"
 
 
 @pytest.fixture(scope="module")
@@ -90,12 +89,8 @@ def scheduler():
         yield cluster.scheduler_address
 
 
-@pytest.mark.slow
-def test_readme_commands_and_python_run(tmp_path, monkeypatch, capsys, scheduler):
-    text = README.read_text(encoding="utf-8")
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
-    # placeholder files the README refers to
+def _placeholders(tmp_path: Path, text: str, capsys) -> None:
+    """The files the README refers to: its material file, its settings file, a small G-buffer."""
     toml = blocks(text, "toml")
     (tmp_path / "my_material.toml").write_text(next(b for b in toml if b.startswith("name = ")))
     (tmp_path / "frame.toml").write_text(next(b for b in toml if b.startswith("# frame.toml")))
@@ -103,23 +98,42 @@ def test_readme_commands_and_python_run(tmp_path, monkeypatch, capsys, scheduler
                  "--save-gbuffer", "my_gbuffer.exr", "--json"]) == 0
     capsys.readouterr()
 
-    cmds = commands(text)
-    assert len(cmds) >= 20 and "ssskit demo --photons 5000" in cmds
-    seconds = {}
-    for cmd in cmds:
-        argv = shlex.split(cmd.format(scheduler=scheduler))[1:]
-        t0 = time.perf_counter()
-        code = main(argv)
-        seconds[cmd] = time.perf_counter() - t0
-        out, err = capsys.readouterr()
-        assert code == 0, f"{cmd}\n{err}"
-        if argv[0] == "demo":
-            demo_out = out
-    print("\n".join(f"{s:7.1f} s  {c}" for c, s in seconds.items()))
-    check_demo_report(tmp_path / "ssskit-out" / "demo", demo_out)
 
+def _run(cmd: str, scheduler: str, capsys) -> tuple[str, float]:
+    argv = shlex.split(cmd.format(scheduler=scheduler))[1:]
+    t0 = time.perf_counter()
+    code = main(argv)
+    seconds = time.perf_counter() - t0
+    out, err = capsys.readouterr()
+    assert code == 0, f"{cmd}\n{err}"
+    return out, seconds
+
+
+def test_readme_commands_and_python_run(tmp_path, monkeypatch, capsys, scheduler):
+    """Every command of the README and of docs/commands.md but the demo (``test_readme_demo``), and every
+    python block, in a fresh folder and cache."""
+    text = "".join(p.read_text(encoding="utf-8") for p in SOURCES)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    _placeholders(tmp_path, text, capsys)
+    cmds = [c for c in commands(text) if not c.startswith(SLOW)]
+    assert len(cmds) >= 20
+    seconds = {cmd: _run(cmd, scheduler, capsys)[1] for cmd in cmds}
+    print("\n".join(f"{s:7.1f} s  {c}" for c, s in seconds.items()))
     for i, block in enumerate(blocks(text, "python")):
-        exec(compile(block, f"README.md python block {i + 1}", "exec"), {"__name__": f"readme_{i}"})
+        exec(compile(block, f"python block {i + 1}", "exec"), {"__name__": f"readme_{i}"})
+
+
+@pytest.mark.slow
+def test_readme_demo(tmp_path, monkeypatch, capsys):
+    """The README's ``ssskit demo``, as written, in a fresh folder and cache (the suite's one demo)."""
+    text = README.read_text(encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    demos = [c for c in commands(text) if c.startswith(SLOW)]
+    assert demos == ["ssskit demo"]
+    out, _ = _run(demos[0], "", capsys)
+    check_demo_report(tmp_path / "ssskit-out" / "demo", out)
 
 
 def check_demo_report(folder: Path, stdout: str) -> None:

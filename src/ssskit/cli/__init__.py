@@ -59,8 +59,12 @@ for _command in (
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point: runs the CLI, turning user errors into one line on stderr and exit status 2."""
+    from ..io import reporting
+    from .options import progress
+
     try:
-        cli.main(args=argv, prog_name="ssskit", standalone_mode=False)
+        with reporting(progress):  # long computations deep in the library report on stderr (every mode)
+            cli.main(args=argv, prog_name="ssskit", standalone_mode=False)
     except click.exceptions.Exit as exc:
         return exc.exit_code
     except SimulationInterrupted as exc:

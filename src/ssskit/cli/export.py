@@ -13,6 +13,8 @@ import click
 
 from ..errors import SsskitError
 from .options import (
+    DEFAULT_MODEL,
+    DEFAULT_PHOTONS,
     TAP_RANGE,
     OutputFile,
     depth_mode_option,
@@ -118,8 +120,8 @@ def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
 @click.option("--jitter", type=click.FloatRange(0.0, 1.0), default=0.1, show_default=True,
               help="glsl-shader/hlsl-shader: taps within this fraction of the kernel size on rotated axes.")
 @depth_mode_option()
-@model_option("dipole", help="Profile model of the material (the source of the kernel or of the parameters).")
-@photons_option(200_000, help="--model montecarlo: photons per channel (cached).")
+@model_option(DEFAULT_MODEL, help="Profile model of the material (the source of the kernel or of the parameters).")
+@photons_option(DEFAULT_PHOTONS, help="--model montecarlo: photons per channel (shipped for the presets at 10^7, else cached).")
 @json_option("Print one JSON object describing what was written.")
 @click.pass_context
 def export(ctx, fmt, out, material, kernel_spec, taps, tap_method, jitter, depth_mode, model, photons,

@@ -12,6 +12,8 @@ import click
 
 from ..errors import SsskitError
 from .options import (
+    DEFAULT_MODEL,
+    DEFAULT_PHOTONS,
     SIZE_RANGE,
     KernelSpec,
     echo_json,
@@ -113,8 +115,8 @@ def _dest_of(param: str) -> str:
     "ssskit kernel --material skin1 --method artist --preset fit"))
 @material_option(help="Preset name or material file (not needed by methods without a profile: jimenez2012, artist presets).")
 @kernel_spec_option("--method", "method_spec", required=True, help="Kernel method name[:value] (see 'Methods' in the README).")
-@model_option("montecarlo", help="Profile the kernel approximates.")
-@photons_option(200_000, help="--model montecarlo: photons per channel (cached).")
+@model_option(DEFAULT_MODEL, help="Profile the kernel approximates.")
+@photons_option(DEFAULT_PHOTONS, help="--model montecarlo: photons per channel (shipped for the presets at 10^7, else cached).")
 @_method_parameter_options
 @click.option("--size", "grid_n", type=click.IntRange(3, 2001), default=201, show_default=True,
               help="Cells across the kernel grid (odd).")
@@ -175,8 +177,8 @@ def kernel(ctx, material, method_spec, model, photons, grid_n, as_json, out, **m
 @kernel_spec_option("--methods", "methods", many=True,
                     default="svd:1,svd:3,gaussians:1,gaussians:6,preintegrated,guided:2,artist:close fit,jimenez2012",
                     help="Comma-separated method specs name[:value] (svd:3, guided:0, artist:production...).")
-@model_option("montecarlo", help="Profile giving the ground truth.")
-@photons_option(200_000, help="--model montecarlo: photons per channel (cached).")
+@model_option(DEFAULT_MODEL, help="Profile giving the ground truth.")
+@photons_option(DEFAULT_PHOTONS, help="--model montecarlo: photons per channel (shipped for the presets at 10^7, else cached).")
 @click.option("--size", type=click.IntRange(*SIZE_RANGE), default=256, show_default=True, help="Image size in pixels.")
 @click.option("--no-perceptual", is_flag=True, help="Skip SSIM and FLIP.")
 @json_option("Print one JSON object: method -> metrics.")
@@ -188,7 +190,7 @@ def evaluate(ctx, material, signal, methods, model, photons, size, no_perceptual
     check_material_for_model(ctx, material, model)
     prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
     ev = run(prof, signal, methods, size=size, perceptual=not no_perceptual,
-             progress=None if as_json else (lambda m: progress(f"method {m}")))
+             progress=lambda m: progress(f"method {m}"))  # on stderr in every mode, --json included
     if as_json:
         echo_json(ev.to_json())
         return

@@ -8,6 +8,8 @@ import click
 
 from ..errors import SsskitError
 from .options import (
+    DEFAULT_MODEL,
+    DEFAULT_PHOTONS,
     RegistryName,
     echo_json,
     examples,
@@ -70,14 +72,14 @@ def resolve_profile(ctx: click.Context, material, model: str, options: dict[str,
     "ssskit profile --model deon2007 --out deon.npz",
     "ssskit profile --material marble --model montecarlo --photons 1000000 --plot m.png"))
 @material_option(help="Preset name or .toml/.json material file (not for fixed presets such as deon2007).")
-@model_option("dipole", help="Profile model (deon2007 is a fixed skin preset and takes no material).")
+@model_option(DEFAULT_MODEL, help="Profile model (deon2007 is a fixed skin preset and takes no material).")
 @click.option("--configuration", default="searchlight", show_default=True,
               help="--model burley: d from Xie 2020 Eq. 5: searchlight, diffuse-transmission or dmfp.")
 @click.option("--albedo-source", type=click.Choice(("montecarlo", "dipole")), default="montecarlo", show_default=True,
               help="--model burley: A from MCML's total diffuse reflectance (--photons) or the dipole's.")
 @click.option("--gaussians", "n_gaussians", type=click.IntRange(1, 16), default=6, show_default=True,
               help="--model gaussians: number of Gaussians.")
-@photons_option(200_000, help="--model montecarlo (and burley's A): photons per channel (cached).")
+@photons_option(DEFAULT_PHOTONS, help="--model montecarlo (and burley's A): photons per channel (shipped for the presets at 10^7, else cached).")
 @click.option("--grid-fraction", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=None,
               help="--model montecarlo: lengthen the 32-MFP grid until it holds this fraction of the light (e.g. 0.999).")
 @click.option("--roughness", type=click.FloatRange(0, 1), default=0.0, show_default=True,

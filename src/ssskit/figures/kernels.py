@@ -37,9 +37,11 @@ def fig2_singular_values(out: Path, profile, progress=None) -> list[Path]:
 
 
 def _finish(fig, title: str, path: Path, fontsize: float = 12) -> list[Path]:
-    """Title, lay out and write a figure; returns [path]."""
+    """Title, lay out and write a figure; returns [path]. The axes are laid out below the title (a
+    band of two lines of its font), so it never overlaps the first panel's label."""
     fig.suptitle(title, fontsize=fontsize)
-    fig.tight_layout()
+    band = 2.2 * fontsize / 72.0 / fig.get_figheight()
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - band))
     save_figure(fig, path)
     return [path]
 
@@ -105,16 +107,22 @@ def _comparison(out: Path, profile, signal: str, filename: str, title: str, prog
     rows = [(m, ev.images[m], ev.results[m]) for m in FIG7_METHODS] + [("true kernel", ev.truth, None)]
     ncol = 3 if crop == "full" else 1
     nrow = int(np.ceil(len(rows) / ncol))
-    size = (4.4 * ncol, 1.05 * nrow) if crop == "strip" else (3.6 * ncol, 3.0 * nrow)
+    # the strip: one row per method, its label and errors on one line; the disk: square panels (the
+    # disk stays round) with the method on one line and its errors on the next
+    size = (4.4 * ncol, 1.05 * nrow) if crop == "strip" else (3.6 * ncol, 3.9 * nrow)
     fig, axes = plt.subplots(nrow, ncol, figsize=size, squeeze=False)
     s = ev.truth.shape[0]
     for ax in axes.ravel():
         ax.axis("off")
     for ax, (label, img, res) in zip(axes.ravel(), rows):
         view = img[s // 2 - 12: s // 2 + 12] if crop == "strip" else img
-        ax.imshow(tonemap(view, peak), interpolation="nearest", aspect="auto")
-        text = label if res is None else (f"{label}  [{res['convolutions_1d']} conv]  rel.RMSE {res['relative_rmse']:.2e}"
-                                          f"  PSNR {psnr_text(res['psnr'])}  FLIP {res['flip']:.3f}")
+        ax.imshow(tonemap(view, peak), interpolation="nearest", aspect="auto" if crop == "strip" else "equal")
+        if res is None:
+            text = label
+        else:
+            errors = (f"rel.RMSE {res['relative_rmse']:.2e}  PSNR {psnr_text(res['psnr'])}  FLIP {res['flip']:.3f}")
+            sep = "  " if crop == "strip" else "\n"
+            text = f"{label}  [{res['convolutions_1d']} conv]{sep}{errors}"
         ax.set_title(text, fontsize=7, loc="left")
     return _finish(fig, f"{title}: {profile.name} ({profile.model}), {ev.pixel_mm:.3f} mm/pixel", out / filename, 9)
 

@@ -63,8 +63,13 @@ def plot_profiles(profiles, title: str, path: str | Path, n: int = 400) -> None:
     if grid_ends:
         axes[1].text(max(grid_ends), axes[1].get_ylim()[1], " Monte Carlo grid ends", rotation=90, va="top",
                      ha="right", fontsize=8, color="0.3")
-    # 1/r profiles (Burley) diverge at the origin: scale the linear panel from r >= r_max / 50.
-    axes[0].set_ylim(0, 1.2 * max(float(p.eval(r[n // 50 :]).max()) for p in profiles))
+    # 1/r profiles (Burley) diverge at the origin: scale the linear panel from r >= r_max / 50, and say
+    # so in the panel where a curve runs above it (the log-log panel shows the peaks)
+    cap = 1.2 * max(float(p.eval(r[n // 50 :]).max()) for p in profiles)
+    axes[0].set_ylim(0, cap)
+    if max(float(p.eval(r[:1]).max()) for p in profiles) > cap:
+        axes[0].text(0.98, 0.97, f"clipped at {cap:.3g} mm$^{{-2}}$ near r = 0\n(the peaks: log-log panel)",
+                     transform=axes[0].transAxes, ha="right", va="top", fontsize=8, color="0.3")
     top = max(float(p.eval(r_log[:1]).max()) for p in profiles)
     axes[1].set_ylim(top * 1e-10, top * 3)
     axes[0].set_title("R(r)  [mm$^{-2}$]")

@@ -31,7 +31,7 @@ SCREEN_SPACE_METHODS = (
 )
 
 #: bumped when what the cached figures hold changes
-_FIGURE_VERSION = 2
+_FIGURE_VERSION = 3
 
 
 def _cached(name: str, key: dict, make: Callable[[], object]):
@@ -41,7 +41,7 @@ def _cached(name: str, key: dict, make: Callable[[], object]):
 
 def screen_space_comparison(out: Path, material: str = "skin1", scenes=None, width: int = 160, height: int = 120,
                             spp: int = 16, reference_spp: int = 32, reference_max_spp: int = 128,
-                            model: str = "montecarlo", photons: int = 200_000,
+                            model: str = "montecarlo", photons: int = 10_000_000,
                             progress: Callable[[str], None] | None = None, sss: PassSettings | None = None):
     """Render every scene with :data:`SCREEN_SPACE_METHODS`; write ``screenspace.png``.
 
@@ -61,20 +61,50 @@ def screen_space_comparison(out: Path, material: str = "skin1", scenes=None, wid
         material, scenes, width, height, spp, reference_spp, reference_max_spp, model, photons, progress, sss))
     plt = pyplot()
     ncol = max(len(line) for _, line in grid)
-    fig, axes = plt.subplots(len(grid), ncol, figsize=(3.2 * ncol, 2.6 * len(grid)), squeeze=False)
+    # per scene two rows: the whole frames, then each frame's shadow edge zoomed (the box drawn above),
+    # where the methods differ; full width in the report (each panel ~400 px across)
+    fig, axes = plt.subplots(2 * len(grid), ncol, figsize=(3.9 * ncol, 2 * 2.9 * len(grid)), squeeze=False)
     for r, (scene, line) in enumerate(grid):
         peak = float(np.percentile(line[-1][1], 99.5)) or 1.0  # one exposure along a row
+        crop = regions.get(scene, {}).get("crop")
         for c in range(ncol):
-            ax = axes[r, c]
+            ax, zoom = axes[2 * r, c], axes[2 * r + 1, c]
             ax.axis("off")
-            if c < len(line):
-                ax.imshow(tonemap(line[c][1], peak))
-                ax.set_title(f"{scene}: {line[c][0]}" if c == 0 else line[c][0], fontsize=8)
-    fig.suptitle(f"Screen-space separable SSS, {material} ({model} profile); each row tone-mapped to its "
-                 "path-traced peak", fontsize=10)
+            zoom.axis("off")
+            if c >= len(line):
+                continue
+            img = tonemap(line[c][1], peak)
+            ax.imshow(img)
+            ax.set_title(f"{scene}: {line[c][0]}" if c == 0 else line[c][0], fontsize=9)
+            if crop is not None:
+                y0, y1, x0, x1 = crop
+                ax.add_patch(plt.Rectangle((x0 - 0.5, y0 - 0.5), x1 - x0, y1 - y0, fill=False, ec="#ffcc00", lw=1))
+                zoom.imshow(img[y0:y1, x0:x1], interpolation="nearest")
+                zoom.set_title(f"shadow edge, x{img.shape[1] // max(x1 - x0, 1)}", fontsize=8)
+    fig.suptitle(f"Screen-space separable SSS, {material} ({model} profile); each scene tone-mapped to its "
+                 "path-traced peak; below each frame its shadow edge zoomed", fontsize=11)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.5 / fig.get_figheight()))
     path = Path(out) / "screenspace.png"
     save_figure(fig, path)
     return path, rows, regions
+
+
+def _edge_window(gb, table) -> tuple[int, int, int, int] | None:
+    """(y0, y1, x0, x1): a quarter-size window of the frame centred on its shadow-edge band
+    (:func:`ssskit.metrics.region_masks`), or None when the frame has none."""
+    if not table:
+        return None
+    from ..metrics import region_masks
+
+    band = region_masks(gb.diffuse, gb.mask, table["radius_px"])["shadow_edge"]
+    if not band.any():
+        return None
+    h, w = band.shape
+    ys, xs = np.nonzero(band)
+    cy, cx = int(np.median(ys)), int(np.median(xs))
+    hh, hw = max(h // 4, 4), max(w // 4, 4)
+    y0, x0 = min(max(cy - hh // 2, 0), h - hh), min(max(cx - hw // 2, 0), w - hw)
+    return y0, y0 + hh, x0, x0 + hw
 
 
 def _render_scenes(material, scenes, width, height, spp, reference_spp, reference_max_spp, model, photons,
@@ -95,7 +125,8 @@ def _render_scenes(material, scenes, width, height, spp, reference_spp, referenc
                 base = r
                 line.append(("no SSS", r.gbuffer.composite()))
                 regions[scene] = {"table": r.metrics.get("regions"),
-                                  "reference": r.metrics["path_traced"]["reference"]}
+                                  "reference": r.metrics["path_traced"]["reference"],
+                                  "crop": _edge_window(r.gbuffer, r.metrics.get("regions"))}
             mask = r.gbuffer.mask
             row = {"scene": scene, "method": label}
             if base.exact is not None:
@@ -113,7 +144,7 @@ def _render_scenes(material, scenes, width, height, spp, reference_spp, referenc
     return grid, rows, regions
 
 
-def slab_edge_profile(out: Path, material: str = "skin1", photons: int = 200_000, width: int = 128,
+def slab_edge_profile(out: Path, material: str = "skin1", photons: int = 10_000_000, width: int = 128,
                       height: int = 48, reference_spp: int = 64, reference_max_spp: int = 4096,
                       target_rel_se: float = 0.002, progress: Callable[[str], None] | None = None,
                       backend: str = DEFAULT_BACKEND):

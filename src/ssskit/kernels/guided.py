@@ -98,7 +98,8 @@ def _level_problem(rd: np.ndarray, gamma: np.ndarray, cell_mm: float):
     return fun, coef, root
 
 
-def _solve_level(rd: np.ndarray, gamma: np.ndarray, cell_mm: float, a0: np.ndarray, maxiter: int) -> np.ndarray:
+def _solve_level(rd: np.ndarray, gamma: np.ndarray, cell_mm: float, a0: np.ndarray, maxiter: int,
+                 label: str = "") -> np.ndarray:
     """One solve of Eq. 7 on a grid: rd densities (mm^-2) (n, n), start a0 (n,), returns a (n,).
 
     Sequential quadratic programming (SLSQP, as in supplement D) in the scaled variables of
@@ -111,6 +112,14 @@ def _solve_level(rd: np.ndarray, gamma: np.ndarray, cell_mm: float, a0: np.ndarr
     objective wins.
     """
     from scipy.optimize import minimize
+
+    from ..io import Ticker
+
+    tick, steps = Ticker(5.0), [0]
+
+    def step(_xk) -> None:  # progress from inside the solver, at most every 5 s (ssskit.io.report)
+        steps[0] += 1
+        tick(lambda: f"{label}: step {steps[0]}")
 
     fun, coef, root = _level_problem(rd, gamma, cell_mm)
     c = rd.shape[0] // 2
@@ -126,7 +135,7 @@ def _solve_level(rd: np.ndarray, gamma: np.ndarray, cell_mm: float, a0: np.ndarr
 
     def slsqp(h0):
         sol = minimize(fun, h0, jac=True, method="SLSQP", bounds=bounds, constraints=[cons],
-                       options={"maxiter": maxiter, "ftol": 1e-15})
+                       options={"maxiter": maxiter, "ftol": 1e-15}, callback=step)
         return sol.success, feasible(sol.x)
 
     def fun_v(v):
@@ -143,7 +152,8 @@ def _solve_level(rd: np.ndarray, gamma: np.ndarray, cell_mm: float, a0: np.ndarr
         cands = starts + ([hv] if hv is not None else [])
         for h0 in starts:
             v0 = np.sqrt(h0) + 1e-6 * np.sqrt(h0.max())  # no exact zeros: v = 0 is stationary in the v^2 form
-            sol = minimize(fun_v, v0, jac=True, method="L-BFGS-B", options={"maxiter": 10 * maxiter, "ftol": 1e-13})
+            sol = minimize(fun_v, v0, jac=True, method="L-BFGS-B", options={"maxiter": 10 * maxiter, "ftol": 1e-13},
+                           callback=step)
             h = feasible(sol.x**2)
             if h is not None:
                 cands.append(h)
@@ -154,12 +164,19 @@ def _solve_level(rd: np.ndarray, gamma: np.ndarray, cell_mm: float, a0: np.ndarr
     return np.concatenate([best[:0:-1], best]) * root / cell_mm
 
 
-def guided_1d(channel, cell_mm: float, n: int, k: float = 2.0, b: float = GUIDE_B, maxiter: int = 300) -> np.ndarray:
-    """The optimal a (cell averages, mm^-1, shape (n,)) of Eq. 7 for one channel's radial profile."""
+def guided_1d(channel, cell_mm: float, n: int, k: float = 2.0, b: float = GUIDE_B, maxiter: int = 300,
+              label: str = "guided kernel") -> np.ndarray:
+    """The optimal a (cell averages, mm^-1, shape (n,)) of Eq. 7 for one channel's radial profile;
+    progress (each grid, and the solver's steps every few seconds) goes to :func:`ssskit.io.report`
+    under ``label``."""
+    from ..io import report
+
     extent = cell_mm * n
     a = None
     prev_x = None
-    for m in _levels(n):
+    levels = _levels(n)
+    for i, m in enumerate(levels):
+        report(f"{label}: grid {i + 1} of {len(levels)} ({m} cells)")
         h = extent / m
         x = (np.arange(m) - (m - 1) / 2.0) * h
         rd = channel.discretize_2d(h, m) / h**2
@@ -168,7 +185,7 @@ def guided_1d(channel, cell_mm: float, n: int, k: float = 2.0, b: float = GUIDE_
             a0 *= np.sqrt(rd.sum() * h**2) / (a0.sum() * h)
         else:
             a0 = np.interp(x, prev_x, a, left=0.0, right=0.0)
-        a = _solve_level(rd, _cell_guide(m, k, b), h, a0, maxiter)
+        a = _solve_level(rd, _cell_guide(m, k, b), h, a0, maxiter, f"{label}: grid {i + 1} of {len(levels)}")
         prev_x = x
     return a
 
@@ -188,6 +205,7 @@ def kernel_guided(profile, cell_mm: float, n: int, k: float = 2.0, b: float = GU
         raise KernelError(f"guide exponent k must lie in [0, 8] (the paper uses 0..4), got {k!r}")
     if not (np.isfinite(b) and b > 0):
         raise KernelError(f"guide suppression b must be > 0, got {b!r}")
-    comps = np.stack([guided_1d(ch, cell_mm, n, k, b) for ch in profile.channels])[:, None, :]
+    comps = np.stack([guided_1d(ch, cell_mm, n, k, b, label=f"guided kernel (k = {k:g}), channel {name}")
+                      for name, ch in zip("RGB", profile.channels)])[:, None, :]
     return Kernel(cell_mm, comps, np.ones((3, 1)), "guided", {"k": float(k), "b": float(b)},
                   {"model": profile.model, "name": profile.name})

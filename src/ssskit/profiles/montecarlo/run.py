@@ -23,7 +23,7 @@ from .config import N_EXIT_BINS, MCConfig, layer_arrays
 from .result import MCResult, assemble_result
 
 
-def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = False, resume: bool = False,
+def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None = None, resume: bool = False,
              restart: bool = False, use_cache: bool = True, label: str = "", shipped: bool = True) -> MCResult:
     """Run (or load from the cache) one MCML simulation on the numba engine.
 
@@ -35,7 +35,8 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
     and ``restart=True`` discards it and starts over; with neither, a :class:`ProfileError` says
     so (the partial result is kept). Both need the cache (``use_cache=True``); without the cache
     nothing is read or written, a partial result included. The result is bit-identical for any
-    ``threads`` and for resumed runs. ``label`` names the run in the progress bar and messages.
+    ``threads`` and for resumed runs. ``label`` names the run in the progress bar and messages;
+    ``progress=None`` shows the bar inside a :func:`ssskit.io.reporting` block (the CLI), not elsewhere.
     """
     if resume and restart:
         raise ProfileError("resume and restart exclude each other: resume continues an interrupted run, "
@@ -44,7 +45,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
         which = "resume" if resume else "restart"
         raise ProfileError(f"{which} acts on the on-disk cache; it cannot be combined with use_cache=False",
                            cli_message=f"--{which} acts on the on-disk cache; it cannot be combined with --no-cache")
-    if use_cache and shipped:
+    if use_cache and shipped:  # (shipped_result is None inside shipped.recompute(): ssskit demo --full)
         from .shipped import shipped_result
 
         found = shipped_result(cfg)
@@ -90,6 +91,10 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool = Fals
         rsp = rough_specular(cfg)
     ux0, uz0 = cfg.launch_direction()
     todo = np.flatnonzero(~done)
+    if progress is None:
+        from ...io import reporting_active
+
+        progress = reporting_active()
     bar = _progress_bar(cfg.photons, int(sizes[done].sum()), label) if progress else None
     t0 = time.perf_counter()
     try:

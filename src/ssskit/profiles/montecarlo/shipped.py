@@ -19,10 +19,13 @@ the engine version and the run time that made it.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import functools
 import hashlib
 import json
 from dataclasses import asdict, replace
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -72,6 +75,20 @@ def shipped_configs(photons: int = DEFAULT_PHOTONS) -> list[tuple[str, str, MCCo
     return out
 
 
+_ENABLED: contextvars.ContextVar[bool] = contextvars.ContextVar("ssskit_shipped_profiles", default=True)
+
+
+@contextlib.contextmanager
+def recompute() -> Iterator[None]:
+    """Within the block, :func:`~ssskit.profiles.montecarlo.simulate` ignores the shipped profiles and
+    simulates (``ssskit demo --full``)."""
+    token = _ENABLED.set(False)
+    try:
+        yield
+    finally:
+        _ENABLED.reset(token)
+
+
 @functools.lru_cache(maxsize=1)
 def _index() -> dict[str, int]:
     """{config id: entry} of the shipped file ({} when the file is absent)."""
@@ -92,7 +109,10 @@ def manifest() -> list[dict[str, Any]]:
 
 
 def shipped_result(cfg: MCConfig) -> MCResult | None:
-    """The shipped result of ``cfg``, or None if ``cfg`` is not one of the shipped simulations."""
+    """The shipped result of ``cfg``, or None if ``cfg`` is not one of the shipped simulations (or
+    inside a :func:`recompute` block)."""
+    if not _ENABLED.get():
+        return None
     i = _index().get(config_id(cfg))
     if i is None:
         return None
@@ -142,5 +162,5 @@ def write_shipped(entries: list[tuple[str, str, MCResult]], path: Path = SHIPPED
     return path
 
 
-__all__ = ["SHIPPED_FILE", "SHIPPED_SEED", "config_id", "manifest", "shipped_configs", "shipped_materials",
+__all__ = ["SHIPPED_FILE", "SHIPPED_SEED", "config_id", "manifest", "recompute", "shipped_configs", "shipped_materials",
            "shipped_result", "write_shipped"]

@@ -11,7 +11,7 @@ from .run import simulate
 
 
 def simulate_material(material: Material | LayeredMaterial, channels: str = "all", *, photons: int = DEFAULT_PHOTONS,
-                      seed: int = 1, threads: int | None = None, progress: bool = False, resume: bool = False,
+                      seed: int = 1, threads: int | None = None, progress: bool | None = None, resume: bool = False,
                       restart: bool = False, use_cache: bool = True, batch_size: int = DEFAULT_BATCH,
                       grid_fraction: float | None = None, roughness: float = 0.0,
                       shipped: bool = True) -> dict[str, MCResult]:
