@@ -41,17 +41,16 @@ def test_engine_tap_kernel_uses_taps(run, gbuffer_file):
 
 @pytest.mark.parametrize("suffix", [".toml", ".json"])
 def test_settings_file_and_overrides(run, tmp_path, gbuffer_file, suffix):
-    from ssskit.pipeline import RenderSettings
-    from ssskit.screenspace.settings import PassSettings
+    from ssskit.pipeline import RenderSettings, SeparablePass
 
-    settings = RenderSettings(kernel="svd:2", taps=9, perceptual=False, sss=PassSettings(jitter=0.3, backend="numpy"))
+    settings = RenderSettings(kernel="svd:2", taps=9, perceptual=False, backend="numpy", pass_=SeparablePass(jitter=0.3))
     path = tmp_path / f"frame{suffix}"
     settings.save(path)
     data = render_json(run, "--scene", gbuffer_file, "--settings", path)
     assert data["settings"] == settings.to_dict()
     # options given on the command line override the file; the others keep the file's values
     data = render_json(run, "--scene", gbuffer_file, "--settings", path, "--taps", "5", "--jitter", "0", "--seed", "3")
-    expected = settings.replace(taps=5, seed=3, sss=settings.sss.replace(jitter=0.0, seed=3))
+    expected = settings.replace(taps=5, seed=3, pass_=SeparablePass(jitter=0.0))
     assert data["settings"] == expected.to_dict()
     assert "flip" not in data["metrics"]["exact_2d"]
 
@@ -62,4 +61,4 @@ def test_backend_option(run, gbuffer_file):
     for name, status in backend_status().items():
         if status["available"]:
             data = render_json(run, "--scene", gbuffer_file, "--backend", name, "--no-exact")
-            assert data["settings"]["sss"]["backend"] == name
+            assert data["settings"]["backend"] == name
