@@ -165,6 +165,13 @@ FIRST_HOUR = [
     # paths
     (["figures", "fig2", "--model", "dipole", "--out", ""], "--out is empty"),
     (["demo", "--out", ""], "--out is empty"),
+    # render: options accepted and ignored (the settings tree of issue 22)
+    (["render", "--scene", "slab", "--model", "deon2007", "--material", "marble"], "--model deon2007 is a fixed preset"),
+    (["render", "--scene", "slab", "--reference", "--reference-spp", "64", "--reference-max-spp", "32"],
+     "--reference-max-spp 32 is below --reference-spp 64"),
+    (["render", "--scene", "slab", "--model", "dipole", "--photons", "5000"], "--photons does not apply to --model dipole"),
+    (["render", "--scene", "slab", "--reference-rel-se", "0.02"], "--reference-rel-se applies with --reference"),
+    (["render", "--scene", "slab", "--material", "eta4.json", "--model", "dipole"], "the dipole model takes a relative index"),
 ]
 
 
@@ -319,3 +326,56 @@ def test_the_kernel_header_names_the_preset_built(run):
     assert code == 0 and header.startswith("# artist:production kernel"), header
     code, out, _ = run("kernel", "--method", "svd", "--material", "skin1", "--model", "dipole")
     assert out.startswith("# svd:1 kernel"), out
+
+
+@pytest.mark.parametrize("content, fragment", [
+    ("width = 64\nheight = 48\n", "does not apply to the G-buffer file"),
+    ("method = 'separable'\n[burley]\nspp = 8\n", "never reads it"),
+])
+def test_settings_a_gbuffer_render_would_ignore(run, workdir, gbuffer_file, content, fragment):
+    """A settings file's width/height with a G-buffer, and a [burley] table under method = separable, were ignored."""
+    (workdir / "s.toml").write_text(content)
+    one_error_line(run, workdir, ["render", "--scene", str(gbuffer_file), "--settings", "s.toml"], fragment)
+
+
+def _gbuffer_variant(path, **changes):
+    from ssskit.screenspace import load_gbuffer
+
+    load_gbuffer(path).with_layers(**changes).save(path.parent / "variant.exr")
+    return path.parent / "variant.exr"
+
+
+@pytest.mark.parametrize("changes, fragment", [
+    ({"profile_id": "zeros"}, "has no SSS pixel"),
+    ({"materials": ("NoSuchMaterial",)}, "names material 'NoSuchMaterial' for profile id 1"),
+])
+def test_gbuffers_a_render_cannot_use(run, tmp_path, gbuffer_file, changes, fragment):
+    """A G-buffer with no SSS pixel exited 0 with no metrics; one naming an unknown material was accepted."""
+    import numpy as np
+
+    from ssskit.screenspace import load_gbuffer
+
+    local = tmp_path / "g.exr"
+    local.write_bytes(gbuffer_file.read_bytes())
+    if changes.get("profile_id") == "zeros":
+        changes = {"profile_id": np.zeros_like(load_gbuffer(local).profile_id)}
+    variant = _gbuffer_variant(local, **changes)
+    code, out, err = run("render", "--scene", variant, "--backend", "numpy", "--out", tmp_path / "o.png")
+    assert code == 2 and out == "" and err.count("\n") == 1 and fragment in err, err
+    assert not (tmp_path / "o.png").exists()
+
+
+def test_a_results_json_says_the_frames_size(run, gbuffer_file):
+    """The G-buffer JSON's settings said 256x192 (the default) for a 32x24 file."""
+    import json
+
+    code, out, _ = run("render", "--scene", gbuffer_file, "--backend", "numpy", "--no-perceptual", "--json")
+    data = json.loads(out)
+    assert code == 0 and data["size"] == [32, 24]
+    assert (data["settings"]["width"], data["settings"]["height"]) == (32, 24)
+
+
+def test_render_json_keeps_its_progress(run, gbuffer_file):
+    """--json dropped the progress lines of render: they go to stderr in every mode."""
+    code, out, err = run("render", "--scene", gbuffer_file, "--backend", "numpy", "--no-perceptual", "--json")
+    assert code == 0 and "separable pass" in err and out.count("\n") == 1

@@ -142,6 +142,26 @@ def montecarlo_profile(material: Material | LayeredMaterial, photons: int = 200_
 MATERIAL_FREE_MODELS = frozenset({"deon2007"})
 
 
+def check_model_domain(material: Material | LayeredMaterial | str, model: str) -> None:
+    """Refuse a material outside ``model``'s valid domain (:mod:`ssskit.profiles.domain`) without
+    computing anything: the check :func:`profile_for_material` makes, for callers that build the
+    profile later (a render plans every input first)."""
+    from .domain import check_montecarlo
+
+    key = MODELS.get(model) and model.strip().lower()
+    if key in MATERIAL_FREE_MODELS:
+        return
+    mat = get_material(material)
+    if key == "montecarlo":
+        check_montecarlo(mat)
+    elif isinstance(mat, LayeredMaterial):
+        raise ProfileError(f"layered material {mat.name!r} is only supported by the montecarlo model")
+    elif key in ("dipole", "gaussians"):
+        check_dipole(mat, key if key == "dipole" else "gaussians (fitted to the dipole)")
+    elif key == "burley":
+        check_burley_material(mat, albedo_given=False)
+
+
 def profile_for_material(material: Material | LayeredMaterial | str | None, model: str = "dipole",
                          **options: Any) -> RGBProfile:
     """An :class:`RGBProfile` of ``model`` for a material (preset name, file path or Material).
@@ -184,6 +204,7 @@ __all__ = [
     "burley_inverse_cdf",
     "burley_profile",
     "cell_integrals",
+    "check_model_domain",
     "deon2007_profile",
     "dipole_profile",
     "fit_gaussian_sum",
