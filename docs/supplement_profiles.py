@@ -32,6 +32,12 @@ _COST = {"Chicken1": 0, "Chicken2": 0, "Skin2": 1, "Potato": 2, "Apple": 3, "Ski
 
 
 def main(argv: list[str] | None = None) -> int:
+    import signal
+
+    def interrupt(signum, frame):  # kill (SIGTERM) like Ctrl-C: the running simulation keeps its batches
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, interrupt)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--photons", type=int, default=DEFAULT_PHOTONS, help="photons per channel (default 10^7)")
     ap.add_argument("--out", type=Path, default=SHIPPED_FILE, help="the file to write (default: the package's)")

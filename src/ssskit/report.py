@@ -52,7 +52,7 @@ def _materials_section(out: Path, progress: Progress, ctx: dict) -> str:
             f"<tr><td class=name><a href='#{name}'>{html.escape(name)}</a></td>"
             f"<td>{_fmt(m.sigma_a)}</td><td>{_fmt(m.sigma_s)}</td><td>{m.eta:g}</td>"
             f"<td>{_fmt(m.albedo)}</td><td>{_fmt(m.mfp_mm)}</td><td>{_fmt(m.sigma_tr)}</td>"
-            f"<td>{_fmt(dip.total_rd())}</td><td>{_fmt([c.d for c in bur.channels])}</td></tr>"
+            f"<td>{_fmt(dip.total_rd())}</td><td>{_fmt([getattr(c, "d") for c in bur.channels])}</td></tr>"
         )
     return (
         "<h2>Materials</h2><p class=note>The 11 measured materials of the separable-SSS supplement, "
@@ -407,7 +407,8 @@ def _with_contents(sections: list[str]) -> tuple[list[str], str]:
     """Give every section heading (h2) an id and return (sections, a table of contents linking them)."""
     import re
 
-    items, out = [], []
+    items: list[tuple[str, str]] = []
+    out: list[str] = []
     for k, text in enumerate(sections):
         def named(m, k=k):
             attrs, title = m.group(1), m.group(2)

@@ -379,3 +379,23 @@ def test_render_json_keeps_its_progress(run, gbuffer_file):
     """--json dropped the progress lines of render: they go to stderr in every mode."""
     code, out, err = run("render", "--scene", gbuffer_file, "--backend", "numpy", "--no-perceptual", "--json")
     assert code == 0 and "separable pass" in err and out.count("\n") == 1
+
+
+@pytest.mark.skipif(os.name != "posix", reason="signals")
+def test_a_terminated_demo_leaves_no_partial_folder(tmp_path):
+    """kill (SIGTERM) in the middle of ``ssskit demo``: handled as Ctrl-C, so the staging folder goes too
+    (a trial's Ctrl-C left 23-26 PNGs and no index.html)."""
+    import signal
+    import time
+
+    env = dict(os.environ, SSSKIT_CACHE_DIR=str(tmp_path / "cache"))
+    proc = subprocess.Popen([sys.executable, "-m", "ssskit.cli", "demo", "--photons", "5000", "--out", "d"],
+                            cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not any(p.name.startswith(".d.partial-") for p in tmp_path.iterdir()) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode != 0 and "interrupted" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cache"], err

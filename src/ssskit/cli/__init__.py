@@ -17,7 +17,9 @@ One module per command or group of commands:
 
 from __future__ import annotations
 
+import contextlib
 import sys
+from collections.abc import Iterator
 
 import click
 
@@ -57,13 +59,34 @@ for _command in (
     cli.add_command(_command)
 
 
+@contextlib.contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    """SIGTERM (``kill``, a CI timeout) handled as Ctrl-C while a command runs: its clean-up runs (a demo's
+    staging folder is removed, a simulation keeps its finished batches) instead of the process vanishing."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point: runs the CLI, turning user errors into one line on stderr and exit status 2."""
     from ..io import reporting
     from .options import progress
 
     try:
-        with reporting(progress):  # long computations deep in the library report on stderr (every mode)
+        with reporting(progress), _terminate_as_interrupt():  # progress from deep in the library, every mode
             cli.main(args=argv, prog_name="ssskit", standalone_mode=False)
     except click.exceptions.Exit as exc:
         return exc.exit_code

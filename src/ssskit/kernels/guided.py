@@ -117,7 +117,7 @@ def _solve_level(rd: np.ndarray, gamma: np.ndarray, cell_mm: float, a0: np.ndarr
 
     tick, steps = Ticker(5.0), [0]
 
-    def step(_xk) -> None:  # progress from inside the solver, at most every 5 s (ssskit.io.report)
+    def step(_xk: np.ndarray) -> None:  # progress from inside the solver, at most every 5 s (ssskit.io.report)
         steps[0] += 1
         tick(lambda: f"{label}: step {steps[0]}")
 
@@ -152,8 +152,8 @@ def _solve_level(rd: np.ndarray, gamma: np.ndarray, cell_mm: float, a0: np.ndarr
         cands = starts + ([hv] if hv is not None else [])
         for h0 in starts:
             v0 = np.sqrt(h0) + 1e-6 * np.sqrt(h0.max())  # no exact zeros: v = 0 is stationary in the v^2 form
-            sol = minimize(fun_v, v0, jac=True, method="L-BFGS-B", options={"maxiter": 10 * maxiter, "ftol": 1e-13},
-                           callback=step)
+            sol = minimize(fun_v, v0, jac=True, method="L-BFGS-B",  # type: ignore[call-overload]  # (stubs: callback)
+                           options={"maxiter": 10 * maxiter, "ftol": 1e-13}, callback=step)
             h = feasible(sol.x**2)
             if h is not None:
                 cands.append(h)

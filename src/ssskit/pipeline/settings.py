@@ -244,8 +244,8 @@ class RenderSettings(Settings):
     """
 
     material: str = "skin1"
-    model: str = "dipole"
-    photons: int = 200_000
+    model: str = "montecarlo"
+    photons: int = 10_000_000
     kernel: str = "preintegrated"
     taps: int = 7
     tap_method: str = "importance"

@@ -157,7 +157,7 @@ def write_shipped(entries: list[tuple[str, str, MCResult]], path: Path = SHIPPED
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_output(path) as tmp:
         with open(tmp, "wb") as fh:
-            np.savez_compressed(fh, **arrays)
+            np.savez_compressed(fh, **arrays)  # type: ignore[arg-type]  # (numpy stubs: allow_pickle)
     _index.cache_clear()
     return path
 
