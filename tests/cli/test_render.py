@@ -47,10 +47,11 @@ def test_settings_file_and_overrides(run, tmp_path, gbuffer_file, suffix):
     path = tmp_path / f"frame{suffix}"
     settings.save(path)
     data = render_json(run, "--scene", gbuffer_file, "--settings", path)
-    assert data["settings"] == settings.to_dict()
+    # the settings the frame was rendered with: the G-buffer's own size (32x24), not the default 256x192
+    assert data["settings"] == settings.replace(width=32, height=24).to_dict()
     # options given on the command line override the file; the others keep the file's values
     data = render_json(run, "--scene", gbuffer_file, "--settings", path, "--taps", "5", "--jitter", "0", "--seed", "3")
-    expected = settings.replace(taps=5, seed=3, pass_=SeparablePass(jitter=0.0))
+    expected = settings.replace(taps=5, seed=3, pass_=SeparablePass(jitter=0.0), width=32, height=24)
     assert data["settings"] == expected.to_dict()
     assert "flip" not in data["metrics"]["exact_2d"]
 

@@ -373,6 +373,11 @@ def _defaults() -> dict[str, Any]:
     return {f.name: f.default for f in dataclasses.fields(RenderSettings) if f.default is not dataclasses.MISSING}
 
 
+#: the profile fields' defaults of the layout before the single tree (every command now defaults to the
+#: Monte Carlo model at 10^7 photons, issue 23); an old file of another pass holds them as written by save
+_OLD_KERNEL_DEFAULTS = {"model": "dipole", "photons": 200_000}
+
+
 def _migrate(data: dict[str, Any], label: str) -> dict[str, Any]:
     """The layout before the single tree (``method``, ``[sss]``, ``[burley]`` with frame/seed/backend) in
     the new one: the method's own table gives the pass its values and frame, seed and backend (the values
@@ -408,6 +413,10 @@ def _migrate(data: dict[str, Any], label: str) -> dict[str, Any]:
                                 f"[{'sss' if method == 'separable' else method}] {key} = {value!r}; keep one")
         d[key] = value
     d[_BY_TABLE["separable" if method == "separable" else "burley"].table] = own
+    if method != "separable":  # the old layout's defaults, written out by save and never read by this pass
+        for key, was_default in _OLD_KERNEL_DEFAULTS.items():
+            if d.get(key) == was_default:
+                del d[key]
     warnings.warn(SettingsMigrated(
         f"{label} is in the old settings layout (method, [sss], frame/seed/backend per pass); read as one tree: "
         f"frame, seed and backend once, the pass as its [{method}] table (RenderSettings.save writes the new layout)"),
