@@ -228,3 +228,19 @@ def test_staged_folder_moves_everything_or_nothing(tmp_path):
         (stage / "sub").mkdir()
         (stage / "sub" / "c.txt").write_text("c")
     assert (out / "sub" / "c.txt").read_text() == "c" and sorted(p.name for p in tmp_path.iterdir()) == ["figs"]
+
+
+def test_heartbeat_fills_a_silence_in_plain_lines(capsys, monkeypatch):
+    """A step that reports nothing for longer than the heartbeat's interval gets a line naming it (stderr,
+    plain lines: capsys is no terminal); the block's own lines are kept."""
+    import time
+
+    from ssskit.io import heartbeat, say
+
+    with heartbeat(0.6):
+        say("a long step")
+        time.sleep(2.0)
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == "  a long step"
+    assert len(err) >= 2 and all(line.startswith("  ... still working, ") and line.endswith(": a long step")
+                                 for line in err[1:])

@@ -380,8 +380,9 @@ class _LineProgress:
 
     def _say(self) -> None:
         extra = f", {self.postfix}" if self.postfix else ""
-        print(f"  {self.desc}: {self.n:,}/{self.total:,} {self.unit}{extra} ({time.perf_counter() - self._t0:.0f} s)",
-              file=sys.stderr, flush=True)
+        line = f"{self.desc}: {self.n:,}/{self.total:,} {self.unit}{extra} ({time.perf_counter() - self._t0:.0f} s)"
+        print(f"  {line}", file=sys.stderr, flush=True)
+        noted(line)
 
     def close(self) -> None:
         pass
@@ -444,6 +445,49 @@ def plain_progress() -> bool:
 def say(message: str) -> None:
     """One progress line on stderr (stdout carries only results)."""
     print(f"  {message}", file=sys.stderr, flush=True)
+    noted(message)
+
+
+#: when the last progress line was written, and what it said (for :func:`heartbeat`)
+_LAST: dict[str, Any] = {"t": time.perf_counter(), "msg": ""}
+
+
+def noted(message: str) -> None:
+    """Record that a progress line was just written (every writer of progress lines calls it)."""
+    _LAST["t"], _LAST["msg"] = time.perf_counter(), message.strip()
+
+
+@contextlib.contextmanager
+def heartbeat(interval_s: float = 8.0) -> Iterator[None]:
+    """While the block runs, and progress goes out as plain lines (:func:`plain_progress`), a line on
+    stderr whenever no progress line came for ``interval_s`` seconds: what ran last and for how long (a
+    compilation, a solver or a render step that reports nothing itself). Nothing on a terminal, whose bars
+    show their own time."""
+    import threading
+
+    if not plain_progress():
+        yield
+        return
+    stop = threading.Event()
+
+    def beat() -> None:
+        said = 0.0
+        while not stop.wait(0.5):
+            now = time.perf_counter()
+            if now - max(_LAST["t"], said) >= interval_s:
+                last = f": {_LAST['msg'][:90]}" if _LAST["msg"] else ""
+                print(f"  ... still working, {now - _LAST['t']:.0f} s since the last step{last}", file=sys.stderr,
+                      flush=True)
+                said = now
+
+    _LAST["t"] = time.perf_counter()
+    thread = threading.Thread(target=beat, name="ssskit-heartbeat", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join()
 
 
 def progress_bar(total: int, desc: str, unit: str = "it", enabled: bool = True, initial: int = 0, **tqdm_kw):

@@ -82,11 +82,12 @@ def _terminate_as_interrupt() -> Iterator[None]:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point: runs the CLI, turning user errors into one line on stderr and exit status 2."""
-    from ..io import reporting
+    from ..io import heartbeat, reporting
     from .options import progress
 
     try:
-        with reporting(progress), _terminate_as_interrupt():  # progress from deep in the library, every mode
+        # progress from deep in the library in every mode; no silence longer than a few seconds in a log
+        with reporting(progress), _terminate_as_interrupt(), heartbeat():
             cli.main(args=argv, prog_name="ssskit", standalone_mode=False)
     except click.exceptions.Exit as exc:
         return exc.exit_code

@@ -92,7 +92,10 @@ def echo_json(data) -> None:
 
 def progress(msg: str) -> None:
     """A progress line on stderr (stdout carries only the result)."""
+    from ..io import noted
+
     click.echo(f"  {msg}", err=True)
+    noted(msg)
 
 
 def examples(*lines: str) -> str:

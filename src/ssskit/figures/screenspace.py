@@ -31,7 +31,7 @@ SCREEN_SPACE_METHODS = (
 )
 
 #: bumped when what the cached figures hold changes
-_FIGURE_VERSION = 3
+_FIGURE_VERSION = 4
 
 
 def _cached(name: str, key: dict, make: Callable[[], object]):
@@ -80,9 +80,9 @@ def screen_space_comparison(out: Path, material: str = "skin1", scenes=None, wid
                 y0, y1, x0, x1 = crop
                 ax.add_patch(plt.Rectangle((x0 - 0.5, y0 - 0.5), x1 - x0, y1 - y0, fill=False, ec="#ffcc00", lw=1))
                 zoom.imshow(img[y0:y1, x0:x1], interpolation="nearest")
-                zoom.set_title(f"shadow edge, x{img.shape[1] // max(x1 - x0, 1)}", fontsize=8)
+                zoom.set_title(f"the sharpest light step, x{img.shape[1] // max(x1 - x0, 1)}", fontsize=8)
     fig.suptitle(f"Screen-space separable SSS, {material} ({model} profile); each scene tone-mapped to its "
-                 "path-traced peak; below each frame its shadow edge zoomed", fontsize=11)
+                 "path-traced peak; below each frame its sharpest step of light (the slab's shadow edge) zoomed", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.5 / fig.get_figheight()))
     path = Path(out) / "screenspace.png"
     save_figure(fig, path)
@@ -90,20 +90,22 @@ def screen_space_comparison(out: Path, material: str = "skin1", scenes=None, wid
 
 
 def _edge_window(gb, table) -> tuple[int, int, int, int] | None:
-    """(y0, y1, x0, x1): a quarter-size window of the frame centred on its shadow-edge band
-    (:func:`ssskit.metrics.region_masks`), or None when the frame has none."""
-    if not table:
+    """(y0, y1, x0, x1): a quarter-size window of the frame centred on its sharpest step of light inside
+    the SSS mask (the largest jump of E/pi between two SSS neighbours: a shadow edge where the scene has
+    one), or None when the frame has no SSS pixels."""
+    light = gb.diffuse.astype(float).mean(axis=-1)
+    m = gb.mask
+    if not m.any():
         return None
-    from ..metrics import region_masks
-
-    band = region_masks(gb.diffuse, gb.mask, table["radius_px"])["shadow_edge"]
-    if not band.any():
-        return None
-    h, w = band.shape
-    ys, xs = np.nonzero(band)
-    cy, cx = int(np.median(ys)), int(np.median(xs))
+    jump = np.zeros(light.shape)
+    dx = np.abs(np.diff(light, axis=1)) * (m[:, 1:] & m[:, :-1])
+    dy = np.abs(np.diff(light, axis=0)) * (m[1:, :] & m[:-1, :])
+    jump[:, 1:] = np.maximum(jump[:, 1:], dx)
+    jump[1:, :] = np.maximum(jump[1:, :], dy)
+    cy, cx = np.unravel_index(int(np.argmax(jump)), jump.shape)
+    h, w = light.shape
     hh, hw = max(h // 4, 4), max(w // 4, 4)
-    y0, x0 = min(max(cy - hh // 2, 0), h - hh), min(max(cx - hw // 2, 0), w - hw)
+    y0, x0 = min(max(int(cy) - hh // 2, 0), h - hh), min(max(int(cx) - hw // 2, 0), w - hw)
     return y0, y0 + hh, x0, x0 + hw
 
 
@@ -122,7 +124,7 @@ def _render_scenes(material, scenes, width, height, spp, reference_spp, referenc
                                       reference_max_spp=reference_max_spp, frame=sss.frame, seed=sss.seed,
                                       backend=sss.backend,
                                       pass_=SeparablePass(jitter=sss.jitter, depth_mode=sss.depth_mode))
-            r = render(scene if first else base.gbuffer, settings, progress=say if first else None)
+            r = render(scene if first else base.gbuffer, settings, progress=say)
             if first:
                 base = r
                 line.append(("no SSS", r.gbuffer.composite()))
