@@ -52,7 +52,7 @@ def _materials_section(out: Path, progress: Progress, ctx: dict) -> str:
             f"<tr><td class=name><a href='#{name}'>{html.escape(name)}</a></td>"
             f"<td>{_fmt(m.sigma_a)}</td><td>{_fmt(m.sigma_s)}</td><td>{m.eta:g}</td>"
             f"<td>{_fmt(m.albedo)}</td><td>{_fmt(m.mfp_mm)}</td><td>{_fmt(m.sigma_tr)}</td>"
-            f"<td>{_fmt(dip.total_rd())}</td><td>{_fmt([getattr(c, "d") for c in bur.channels])}</td></tr>"
+            f"<td>{_fmt(dip.total_rd())}</td><td>{_fmt([getattr(c, 'd') for c in bur.channels])}</td></tr>"
         )
     return (
         "<h2>Materials</h2><p class=note>The 11 measured materials of the separable-SSS supplement, "
