@@ -350,12 +350,14 @@ def _adaptive_section(out: Path, progress: Progress, ctx: dict) -> str:
     return demo_section(out, progress, ctx)
 
 
+#: the report's sections in order: the user's question first (which kernel, how close to truth), then the
+#: materials and profiles behind the answer, then Xie 2020's passes
 SECTIONS: list[tuple[str, Section]] = [
+    ("kernels", _kernels_section),
+    ("screenspace", _screenspace_section),
     ("materials", _materials_section),
     ("profiles", _profiles_section),
     ("sampling", _sampling_section),
-    ("kernels", _kernels_section),
-    ("screenspace", _screenspace_section),
     ("burley", _burley_section),
     ("adaptive", _adaptive_section),
 ]
