@@ -107,7 +107,9 @@ def test_settings_file_holds_the_burley_settings(run, gbuffer_file, tmp_path):
     assert code == 0, err
     data = json.loads(out)
     assert data["pass"] == "burley" and data["burley"] == s.burley_settings().to_dict()
-    assert data["settings"] == s.to_dict() and "burley" in data["settings"] and "separable" not in data["settings"]
+    # the settings the frame ran with: the G-buffer's own size (32x24)
+    assert data["settings"] == s.replace(width=32, height=24).to_dict()
+    assert "burley" in data["settings"] and "separable" not in data["settings"]
     data = render_json(run, "--scene", gbuffer_file, "--settings", path, "--spp", "16", "--sampler", "exact")
     want = s.replace(pass_=BurleyPass(sampler="exact", spp=16, mips=False))  # c goes with the xie sampler
     assert data["burley"] == want.burley_settings().to_dict()  # seed, mips, backend: the file's

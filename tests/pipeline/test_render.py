@@ -99,7 +99,7 @@ def test_gbuffer_file_and_memory_give_the_same_frame(small, gbuffer_file):
 def test_progress_messages(small):
     said = []
     render(small.gbuffer, _settings(), progress=said.append)
-    assert any(m.startswith("profile: dipole of Skin1") for m in said)
+    assert any(m.startswith("profile: montecarlo of Skin1") for m in said)  # the default model (issue 23)
     assert any(m.startswith("separable pass: preintegrated, 7 importance taps") for m in said)
     assert "exact 2D convolution (FFT)" in said
 

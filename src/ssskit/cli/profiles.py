@@ -23,7 +23,7 @@ from .options import (
 )
 
 #: the largest radius ``profile --r-max`` takes (mm): ten of the longest mean free path any model takes
-R_MAX_MM = 1e5
+R_MAX_MM = 1e7
 
 
 def model_parameters(model: str) -> set[str]:

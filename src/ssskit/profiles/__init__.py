@@ -41,7 +41,7 @@ MODELS: Registry[ProfileFactory] = Registry("profile model", ProfileError)
 @MODELS.decorator("dipole")
 def dipole_profile(material: Material) -> RGBProfile:
     """The [JMLH01] dipole for each channel of ``material``; valid for a relative index eta in [1, 2.5]
-    and transport mean free paths in [1e-4, 1e4] mm (:mod:`ssskit.profiles.domain`)."""
+    and transport mean free paths in [1e-6, 1e6] mm (:mod:`ssskit.profiles.domain`)."""
     check_dipole(material)
     chans = tuple(
         DipoleProfile(material.sigma_a[i], material.sigma_s[i], material.g[i], material.eta / material.eta_ambient)
@@ -72,7 +72,7 @@ def burley_profile(
     Eq. 5 configuration (default: searchlight, the normal-incidence set-up of the supplement's
     simulations).
 
-    Valid domain (:mod:`ssskit.profiles.domain`): transport mean free paths in [1e-4, 1e4] mm, and
+    Valid domain (:mod:`ssskit.profiles.domain`): transport mean free paths in [1e-6, 1e6] mm, and
     the domain of the model A comes from (montecarlo's, or the dipole's).
     """
     source = str(albedo_source).strip().lower()
@@ -128,7 +128,7 @@ def montecarlo_profile(material: Material | LayeredMaterial, photons: int = 200_
     ``grid_fraction`` (e.g. 0.999): lengthen the grid of a channel until it holds that fraction of
     the reflected light. ``roughness`` > 0: a rough top surface of that Beckmann alpha (the
     path-traced references' boundary) instead of MCML's smooth one. Valid domain
-    (:mod:`ssskit.profiles.domain`): eta in [1, 4] per layer, transport mean free paths in [1e-4, 1e4]
+    (:mod:`ssskit.profiles.domain`): eta in [1, 4] per layer, transport mean free paths in [1e-6, 1e6]
     mm, the longest at most 31 times the shortest. ``options`` go to :func:`ssskit.profiles.montecarlo.simulate_material`
     (threads, progress, resume, restart, use_cache, batch_size).
     """

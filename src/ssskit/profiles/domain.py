@@ -2,7 +2,7 @@
 message naming the model, the quantity, its range and the channel (docs/models.md lists them).
 
 Shared by every model, transport mean free paths 1/sigma_t' (sigma_t' = sigma_a + sigma_s (1 - g))
-in :data:`MFP_RANGE_MM`, 0.1 um to 10 m: ssskit's lengths are millimetres and its profiles are sampled
+in :data:`MFP_RANGE_MM`, 1 nm to 1 km: ssskit's lengths are millimetres and its profiles are sampled
 on grids of a fraction of the shortest path up to tens of the longest, so outside that range the
 arithmetic overflows or underflows (sigma = 1e300 or 1e-300 gave R(r) = NaN) long before the physics
 of a translucent material is left. Per model (``eta``: the index relative to the outside):
@@ -33,7 +33,7 @@ from ..errors import ProfileError
 from ..materials import CHANNELS, LayeredMaterial, Material
 
 #: transport mean free paths 1/sigma_t' every model takes (mm)
-MFP_RANGE_MM = (1e-4, 1e4)
+MFP_RANGE_MM = (1e-6, 1e6)
 #: the largest relative index of the [JMLH01] dipole's F_dr fit (its A within 5% of the exact one)
 DIPOLE_ETA_MAX = 2.5
 #: the largest relative index the Monte Carlo model takes (no optical medium in the visible beyond it)

@@ -201,6 +201,11 @@ def supplement_grid(material: Material | LayeredMaterial, extent_mfp: float = SU
     return dr, max(int(math.ceil(extent_mfp * max(mfp) / dr - 1e-9)), 2)
 
 
+def channel_seed(seed: int, c: int) -> int:
+    """Distinct, reproducible seeds per channel (the streams are further split per batch)."""
+    return (int(seed) * 3 + c) % (2**63)
+
+
 def config_for_material(material: Material | LayeredMaterial, channel: int | str, photons: int = DEFAULT_PHOTONS,
                         seed: int = 1, batch_size: int = DEFAULT_BATCH,
                         extent_mfp: float = SUPPLEMENT_GRID_MFP, roughness: float = 0.0) -> MCConfig:
@@ -228,5 +233,5 @@ def config_for_material(material: Material | LayeredMaterial, channel: int | str
     return MCConfig(layers, dr, nr, photons, seed, above, below, batch_size, roughness=roughness)
 
 
-__all__ = ["DEFAULT_BATCH", "DEFAULT_PHOTONS", "ENGINE_VERSION", "N_EXIT_BINS", "SUPPLEMENT_GRID_MFP", "MCConfig", "MCLayer", "config_for_material",
+__all__ = ["DEFAULT_BATCH", "DEFAULT_PHOTONS", "ENGINE_VERSION", "channel_seed", "N_EXIT_BINS", "SUPPLEMENT_GRID_MFP", "MCConfig", "MCLayer", "config_for_material",
            "layer_arrays", "supplement_grid"]

@@ -45,6 +45,11 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
         which = "resume" if resume else "restart"
         raise ProfileError(f"{which} acts on the on-disk cache; it cannot be combined with use_cache=False",
                            cli_message=f"--{which} acts on the on-disk cache; it cannot be combined with --no-cache")
+    if threads is not None:  # checked before any answer, the shipped one included
+        import numba
+
+        if not (isinstance(threads, int) and 1 <= threads <= numba.config.NUMBA_NUM_THREADS):
+            raise ProfileError(f"threads must be in 1..{numba.config.NUMBA_NUM_THREADS}, got {threads!r}")
     if use_cache and shipped:  # (shipped_result is None inside shipped.recompute(): ssskit demo --full)
         from .shipped import shipped_result
 

@@ -32,14 +32,13 @@ from typing import Any
 import numpy as np
 
 from ...materials import MATERIALS, Material
-from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, ENGINE_VERSION, MCConfig, config_for_material
+from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, ENGINE_VERSION, MCConfig, channel_seed, config_for_material
 from .result import MCResult
-from .sweep import _channel_seed
 
 #: the shipped file (package data)
 SHIPPED_FILE = Path(__file__).parent / "data" / "supplement_profiles.npz"
 #: the seed of every shipped simulation (channel c uses the stream ``3 * seed + c``, as
-#: :func:`~ssskit.profiles.montecarlo.simulate_material`)
+#: config.channel_seed, as :func:`~ssskit.profiles.montecarlo.simulate_material`)
 SHIPPED_SEED = 1
 #: the order of the scalars stored per configuration
 _SCALARS = ("total_rd", "total_rd_se", "tt", "tt_se", "absorbed", "absorbed_se", "rsp", "seconds", "overflow",
@@ -70,7 +69,7 @@ def shipped_configs(photons: int = DEFAULT_PHOTONS) -> list[tuple[str, str, MCCo
     out = []
     for label, m in shipped_materials():
         for c, ch in enumerate("RGB"):
-            cfg = config_for_material(m, c, photons, _channel_seed(SHIPPED_SEED, c), DEFAULT_BATCH)
+            cfg = config_for_material(m, c, photons, channel_seed(SHIPPED_SEED, c), DEFAULT_BATCH)
             out.append((label, ch, cfg))
     return out
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from ...errors import ProfileError
 from ...materials import CHANNELS, LayeredMaterial, Material
-from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, SUPPLEMENT_GRID_MFP, config_for_material
+from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, SUPPLEMENT_GRID_MFP, channel_seed, config_for_material
 from .result import MCResult
 from .run import simulate
 
@@ -42,7 +42,7 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
         c = CHANNELS.index(ch)
         extent = SUPPLEMENT_GRID_MFP
         while True:
-            cfg = config_for_material(material, c, photons, _channel_seed(seed, c), batch_size, extent, roughness)
+            cfg = config_for_material(material, c, photons, channel_seed(seed, c), batch_size, extent, roughness)
             res = simulate(cfg, threads=threads, progress=progress, resume=resume, restart=restart,
                            use_cache=use_cache, label=f"{material.name} {ch}", shipped=shipped)
             if grid_fraction is None or res.overflow <= (1.0 - grid_fraction) * res.total_rd or extent >= 64 * 32:
@@ -50,11 +50,6 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
             extent *= 2.0
         out[ch] = res
     return out
-
-
-def _channel_seed(seed: int, c: int) -> int:
-    """Distinct, reproducible seeds per channel (the streams are further split per batch)."""
-    return (int(seed) * 3 + c) % (2**63)
 
 
 def _sweep_job(args):
