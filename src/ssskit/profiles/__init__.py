@@ -26,6 +26,7 @@ from .burley import (
 )
 from .dipole import DipoleProfile, fresnel_diffuse_reflectance
 from .discretize import cell_integrals, grid_coordinates
+from .montecarlo.config import DEFAULT_PHOTONS
 from .domain import check_burley_material, check_dipole
 from .gaussians import (
     DEON2007_SKIN_VARIANCES,
@@ -60,7 +61,7 @@ def burley_profile(
     configuration: str = "searchlight",
     albedo: tuple[float, float, float] | None = None,
     albedo_source: str = "montecarlo",
-    photons: int = 200_000,
+    photons: int = DEFAULT_PHOTONS,
 ) -> RGBProfile:
     """Burley's normalized diffusion (Xie 2020 Eq. 4) matched to ``material``.
 
@@ -121,7 +122,7 @@ _DEON2007_NO_MATERIAL = "the deon2007 model is a fixed skin preset and takes no 
 
 
 @MODELS.decorator("montecarlo")
-def montecarlo_profile(material: Material | LayeredMaterial, photons: int = 200_000, seed: int = 1,
+def montecarlo_profile(material: Material | LayeredMaterial, photons: int = DEFAULT_PHOTONS, seed: int = 1,
                        grid_fraction: float | None = None, roughness: float = 0.0, **options: Any) -> RGBProfile:
     """MCML-simulated profiles (supplement F grid; cached on disk). Needs numba.
 

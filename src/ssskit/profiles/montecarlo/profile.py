@@ -10,6 +10,7 @@ import numpy as np
 
 from ...materials import CHANNELS, LayeredMaterial, Material
 from ..base import RadialProfile, RGBProfile
+from .config import DEFAULT_PHOTONS
 from .result import MCResult
 from .sweep import simulate_material
 
@@ -75,7 +76,7 @@ class MonteCarloProfile(RadialProfile):
                 "layers": [asdict(l) for l in cfg.layers]}
 
 
-def montecarlo_rgb(material: Material | LayeredMaterial, photons: int = 200_000, seed: int = 1,
+def montecarlo_rgb(material: Material | LayeredMaterial, photons: int = DEFAULT_PHOTONS, seed: int = 1,
                    **kwargs: Any) -> RGBProfile:
     """An RGBProfile of simulated profiles (cached), usable wherever a profile is.
 
