@@ -110,6 +110,13 @@ class GuideSettings(Protocol):
     def gamma(self) -> float: ...
 
 
+class GuideParams(GuideSettings, Protocol):
+    """What the reference steps read: an :class:`AdaptivePlan` or ``AdaptiveSettings``, with k."""
+
+    @property
+    def k(self) -> float: ...
+
+
 #: :func:`check_guide_inputs`: mask (H, W) bool, motion (H, W, 2), valid (H, W) bool, rgb (H, W, 3), counts (H, W)
 GuideInputs: TypeAlias = tuple[NDArray[np.bool_], NDArray[np.float64] | None, NDArray[np.bool_] | None,
                                NDArray[np.float32] | None, NDArray[np.int64] | None]
@@ -201,7 +208,7 @@ def reference_reproject(h: np.ndarray, motion: np.ndarray | None, ok: np.ndarray
     return out
 
 
-def reference_estimate(h: np.ndarray, s: AdaptivePlan) -> NDArray[np.float64]:
+def reference_estimate(h: np.ndarray, s: GuideParams) -> NDArray[np.float64]:
     """Step 3: n_hat (H, W) float64 of a float32 history (Eqs. 13-15)."""
     n_bar = h[..., N_BAR].astype(np.float64) * h[..., AVAILABLE]  # pixels without history: n_bar = 0, n_hat = 0
     var = h[..., VAR].astype(np.float64)
@@ -219,7 +226,7 @@ def reference_estimate(h: np.ndarray, s: AdaptivePlan) -> NDArray[np.float64]:
     return spread
 
 
-def reference_clamp(nh: np.ndarray, s: AdaptivePlan, m: np.ndarray) -> NDArray[np.int64]:
+def reference_clamp(nh: np.ndarray, s: GuideParams, m: np.ndarray) -> NDArray[np.int64]:
     """Step 4: counts (H, W) int64 (NaN counts as b_max: the clip keeps it, so map it first)."""
     n = np.ceil(nh)
     n[np.isnan(n)] = s.b_max
@@ -228,7 +235,7 @@ def reference_clamp(nh: np.ndarray, s: AdaptivePlan, m: np.ndarray) -> NDArray[n
     return n.astype(np.int64)
 
 
-def reference_update(h: np.ndarray, v: np.ndarray, n: np.ndarray, s: AdaptivePlan, m: np.ndarray) -> NDArray[np.float32]:
+def reference_update(h: np.ndarray, v: np.ndarray, n: np.ndarray, s: GuideParams, m: np.ndarray) -> NDArray[np.float32]:
     """Step 2 on a reprojected float32 history h, values v (H, W), counts n (H, W): a new (H, W, 4) float32
     history (float32 arithmetic, as the history is stored)."""
     f32 = np.float32
