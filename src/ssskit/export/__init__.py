@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 from ..errors import KernelError
 from .arrays import (
     LANGUAGES,
@@ -25,6 +27,9 @@ from .arrays import (
     parse_shader_arrays,
 )
 from .bn import bn_bytes, load_bn, read_bn, save_bn
+if TYPE_CHECKING:
+    from ..kernels.base import AnyKernel
+
 from .engines import ENGINE_MODELS, ENGINES, engine_parameters, fit_burley, profile_error, reimport
 
 #: format -> (accepted output suffixes, whether it exports a kernel (True) or engine parameters (False))
@@ -42,7 +47,7 @@ FORMATS: dict[str, tuple[tuple[str, ...], bool]] = {
 }
 
 
-def export_kernel(kernel, fmt: str, path: str | Path, taps: int | None = None, tap_method: str = "importance",
+def export_kernel(kernel: AnyKernel, fmt: str, path: str | Path, taps: int | None = None, tap_method: str = "importance",
                   comment: str = "", jitter: float = 0.1, depth_mode: str | None = None) -> None:
     """Write ``kernel`` in a kernel format (``hlsl``, ``glsl``, ``bn``, ``json``, ``glsl-shader``,
     ``hlsl-shader``) to ``path`` (atomic). The shaders take ``jitter`` and ``depth_mode`` (the pass's)."""

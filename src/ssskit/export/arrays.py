@@ -27,9 +27,15 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import KernelError
+
+if TYPE_CHECKING:
+    from ..kernels.base import AnyKernel, TapKernel
 
 LANGUAGES = ("hlsl", "glsl")
 
@@ -47,7 +53,7 @@ class ShaderArray:
     signs: np.ndarray
 
 
-def demo_order(offsets, weights) -> tuple[np.ndarray, np.ndarray]:
+def demo_order(offsets: ArrayLike, weights: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Taps reordered as the demo stores them: the tap nearest 0 first, the others by ascending offset."""
     o = np.asarray(offsets, dtype=float)
     w = np.asarray(weights, dtype=float)
@@ -57,7 +63,7 @@ def demo_order(offsets, weights) -> tuple[np.ndarray, np.ndarray]:
     return o[order], w[order]
 
 
-def kernel_arrays(kernel, taps: int | None = None, tap_method: str = "importance") -> list[ShaderArray]:
+def kernel_arrays(kernel: AnyKernel, taps: int | None = None, tap_method: str = "importance") -> list[ShaderArray]:
     """The arrays of ``kernel`` (a TapKernel as shipped, or a Kernel through ``make_taps``), one per term.
 
     Weights are normalised so each channel's 2D kernel sums to 1 (what :func:`make_taps` returns);
@@ -167,7 +173,7 @@ def parse_shader_arrays(text: str) -> list[ShaderArray]:
     return out
 
 
-def arrays_to_tap_kernel(arrays: list[ShaderArray], method: str = "shader"):
+def arrays_to_tap_kernel(arrays: list[ShaderArray], method: str = "shader") -> TapKernel:
     """A rank-1 export read back as a :class:`~ssskit.kernels.TapKernel` (centre tap first)."""
     from ..kernels.base import TapKernel
 

@@ -19,16 +19,22 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import KernelError
 from ..io import atomic_output, check_suffix
+
+if TYPE_CHECKING:
+    from ..kernels.base import AnyKernel, Kernel
 
 #: relative tolerance on the grid spacing and its symmetry about 0 when reading (float32 positions)
 GRID_RTOL = 1e-4
 
 
-def bn_bytes(x_mm, rgb) -> bytes:
+def bn_bytes(x_mm: ArrayLike, rgb: ArrayLike) -> bytes:
     """The file contents for samples at ``x_mm`` (n,) with values ``rgb`` (n, 3) (module docstring)."""
     x = np.asarray(x_mm, dtype=float)
     v = np.asarray(rgb, dtype=float)
@@ -53,7 +59,7 @@ def _check_grid(x: np.ndarray, what: str) -> float:
     return h
 
 
-def save_bn(kernel, path: str | Path) -> None:
+def save_bn(kernel: AnyKernel, path: str | Path) -> None:
     """Write a rank-1 tabulated kernel (e.g. ``preintegrated``) as ``.bn`` (atomic)."""
     from ..kernels.base import Kernel
 
@@ -93,7 +99,7 @@ def read_bn(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     return x, rgb
 
 
-def load_bn(path: str | Path):
+def load_bn(path: str | Path) -> Kernel:
     """A ``.bn`` file as a rank-1 :class:`~ssskit.kernels.Kernel` (cell size: the grid spacing).
 
     The grid needs a centre sample (an odd count), as every ssskit kernel grid has.
