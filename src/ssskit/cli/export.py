@@ -9,9 +9,14 @@ what is lost). See :mod:`ssskit.export` and docs/exports.md.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import click
 
 from ..errors import SsskitError
+
+if TYPE_CHECKING:
+    from ..kernels import KernelMethod
 from .options import (
     TAP_RANGE,
     OutputFile,
@@ -42,7 +47,8 @@ def _all_suffixes() -> tuple[str, ...]:
 SHADERS = ("glsl-shader", "hlsl-shader")
 
 
-def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
+def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, material: str | None, taps: int | None,
+                   out: str) -> tuple[KernelMethod | None, dict[str, Any], int | None]:
     """Every combination check, before any work: returns (method, params, tap count for make_taps)."""
     from ..export import FORMATS
     from ..io import check_suffix
@@ -122,8 +128,8 @@ def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
 @photons_option(200_000, help="--model montecarlo: photons per channel (cached).")
 @json_option("Print one JSON object describing what was written.")
 @click.pass_context
-def export(ctx, fmt, out, material, kernel_spec, taps, tap_method, jitter, depth_mode, model, photons,
-           as_json) -> None:
+def export(ctx: click.Context, fmt: str, out: str, material: str | None, kernel_spec: str | None, taps: int | None,
+           tap_method: str, jitter: float, depth_mode: str | None, model: str, photons: int, as_json: bool) -> None:
     """Write a kernel or a material's parameters in a format an engine loads."""
     from ..export import engine_parameters, export_kernel
     from ..io import check_distinct, write_text
@@ -140,13 +146,15 @@ def export(ctx, fmt, out, material, kernel_spec, taps, tap_method, jitter, depth
         check_material_for_model(ctx, material, model, needed_by=f"--format {fmt}" if m is None else f"--kernel {m.name}")
         prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})
     elif given(ctx, "model") or given(ctx, "photons"):
+        assert m is not None  # only a kernel method may need no profile
         raise SsskitError(f"--model and --photons need a --material (--kernel {m.name} without one uses no profile)")
     # ---- work starts here: every check above has passed
     profile = prof() if prof is not None else None
-    summary = {"format": fmt, "out": out, "material": material, "model": model if profile is not None else None}
+    summary: dict[str, Any] = {"format": fmt, "out": out, "material": material, "model": model if profile is not None else None}
     if m is None:
         from ..materials import get_material
 
+        assert material is not None and profile is not None  # _check_options: an engine export has a material
         mat = get_material(material)
         data = engine_parameters(profile, fmt, mat)
         write_text(out, json.dumps(data, indent=1) + "\n")

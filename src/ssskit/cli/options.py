@@ -16,10 +16,13 @@ import os
 import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 from click.core import ParameterSource
+
+if TYPE_CHECKING:
+    from click.shell_completion import CompletionItem
 
 from ..errors import OutputError, SsskitError
 from ..pipeline.settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE
@@ -59,7 +62,7 @@ __all__ = [
 # ---------------------------------------------------------------------------------------------- helpers
 
 
-def echo_json(data) -> None:
+def echo_json(data: Any) -> None:
     """Print exactly one JSON object on stdout."""
     click.echo(json.dumps(data))
 
@@ -140,15 +143,15 @@ class RegistryName(click.ParamType):
         src = self._source()
         return list(src.names()) if hasattr(src, "names") else [str(n) for n in src]
 
-    def get_metavar(self, param, ctx=None) -> str:  # click >= 8.2 passes ctx
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:  # click >= 8.2 passes ctx
         return "[" + "|".join(self.names()) + "]"
 
-    def shell_complete(self, ctx, param, incomplete):
+    def shell_complete(self, ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
         from click.shell_completion import CompletionItem
 
         return [CompletionItem(n) for n in self.names() if n.lower().startswith(incomplete.lower())]
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         src = self._source()
         text = str(value)
         if hasattr(src, "get"):
@@ -174,10 +177,10 @@ class MaterialRef(click.ParamType):
     def __init__(self, split: bool = False) -> None:
         self.split = split
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "NAME|FILE" + (",..." if self.split else "")
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from ..materials import get_material
 
         if self.split and isinstance(value, list):
@@ -207,10 +210,10 @@ class KernelSpec(click.ParamType):
     def __init__(self, many: bool = False) -> None:
         self.many = many
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "METHOD[:VALUE]" + (",..." if self.many else "")
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from ..kernels import parse_method_spec
 
         if self.many and isinstance(value, list):
@@ -233,10 +236,10 @@ class Size(click.ParamType):
 
     name = "WxH"
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "WxH"
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, tuple):
             return value
         try:
@@ -257,10 +260,10 @@ class SceneRef(click.ParamType):
 
     name = "scene"
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "[" + "|".join(_scenes().names()) + "|GBUFFER.exr]"
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, Path):
             return value
         text = str(value)
@@ -279,7 +282,7 @@ class SceneRef(click.ParamType):
         return RegistryName(_scenes).convert(text, param, ctx)
 
 
-def _opt(param, fallback: str) -> str:
+def _opt(param: click.Parameter | None, fallback: str) -> str:
     return param.opts[0] if param is not None and getattr(param, "opts", None) else fallback
 
 
@@ -292,10 +295,10 @@ class OutputFile(click.ParamType):
     def __init__(self, suffixes: Sequence[str]) -> None:
         self.suffixes = tuple(s.lower() for s in suffixes)
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "FILE" + "|".join(self.suffixes)
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from ..io import check_suffix
 
         opt = _opt(param, "output")
@@ -309,10 +312,10 @@ class OutputDir(click.ParamType):
 
     name = "dir"
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "DIR"
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         check_writable(value, _opt(param, "output folder"), folder=True)
         return str(value)
 

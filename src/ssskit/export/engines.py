@@ -37,8 +37,9 @@ from numpy.typing import ArrayLike
 from ..errors import ProfileError
 from ..registry import Registry
 
+from ..materials import LayeredMaterial, Material
+
 if TYPE_CHECKING:
-    from ..materials import Material
     from ..profiles.base import RadialProfile, RGBProfile
 
 #: the targets of a parameter export (one JSON file each); the error table adds unreal's two models
@@ -203,7 +204,7 @@ def _colour(values: ArrayLike) -> tuple[list[float], float]:
     return (v / m).tolist(), m
 
 
-def _unreal(profile: RGBProfile, material: Material | None) -> dict[str, Any]:
+def _unreal(profile: RGBProfile, material: Material | LayeredMaterial | None) -> dict[str, Any]:
     a, d = fit_burley(profile)
     dmfp_mm = d * burley_scaling_dmfp(a)
     colour, dist_mm = _colour(dmfp_mm)
@@ -240,7 +241,7 @@ def _unreal(profile: RGBProfile, material: Material | None) -> dict[str, Any]:
     }
 
 
-def _unity(profile: RGBProfile, material: Material | None) -> dict[str, Any]:
+def _unity(profile: RGBProfile, material: Material | LayeredMaterial | None) -> dict[str, Any]:
     from ..profiles.burley import burley_inverse_cdf
 
     a, d = fit_burley(profile)
@@ -260,7 +261,7 @@ def _unity(profile: RGBProfile, material: Material | None) -> dict[str, Any]:
     }
 
 
-def _blender(profile: RGBProfile, material: Material | None, unit_m: float = 1.0) -> dict[str, Any]:
+def _blender(profile: RGBProfile, material: Material | LayeredMaterial | None, unit_m: float = 1.0) -> dict[str, Any]:
     a, d = fit_burley(profile)
     radius_units = d * burley_scaling_diffuse_transmission(a) / BLENDER_RADIUS_TO_MFP * 1e-3 / unit_m
     colour, scale = _colour(radius_units)
@@ -276,7 +277,7 @@ def _blender(profile: RGBProfile, material: Material | None, unit_m: float = 1.0
         "units": "subsurface_radius * subsurface_scale in scene units (metres per unit: unit_scale)",
         "formula": "radius_c * scale = 4 pi d_c (1.9 - A_c + 3.5 (A_c - 0.8)^2) (mm -> scene units)",
     }
-    if material is not None and hasattr(material, "eta"):
+    if isinstance(material, Material):  # (a layered material has no single eta)
         out["subsurface_ior"] = float(material.eta)
         out["subsurface_anisotropy"] = float(np.mean(material.g))
     return out
@@ -288,7 +289,7 @@ ENGINE_BUILDERS.register("unity", _unity)
 ENGINE_BUILDERS.register("blender", _blender)
 
 
-def engine_parameters(profile: RGBProfile, engine: str, material: Material | None = None) -> dict[str, Any]:
+def engine_parameters(profile: RGBProfile, engine: str, material: Material | LayeredMaterial | None = None) -> dict[str, Any]:
     """The engine's material parameters for ``profile`` (module docstring), with units, formulas,
     sources and what is lost. ``material`` (optional) gives the IOR and anisotropy."""
     key = engine.strip().lower()
