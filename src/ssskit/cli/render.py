@@ -37,7 +37,7 @@ from .options import (
     scene_option,
     tap_method_option,
 )
-from .render_options import Budget, FrameWriter, RGBFloats, build_settings, check_inputs, pass_of
+from .render_options import Budget, FrameWriter, RGBFloats, build_settings, check_inputs, load_settings, pass_of
 
 _D = RenderSettings()
 _A = AdaptivePass()
@@ -136,8 +136,9 @@ def render(ctx: click.Context, scene: str | Path, settings_file: str | None, sav
     """Screen-space SSS (separable, or Burley Monte Carlo) of a scene, with errors against the exact 2D
     convolution; --pass burley-adaptive: a sequence of frames with adaptive sample counts, each against
     its converged reference."""
-    name = pass_of(ctx, pass_name, method, settings_file)
-    s = build_settings(ctx, settings_file, params, name)
+    base = load_settings(settings_file) if settings_file else None
+    name = pass_of(ctx, pass_name, method, base)
+    s = build_settings(ctx, base, params, name)
     check_inputs(ctx, scene, s, settings_file, out, save_gbuffer, frames_dir)
     from ..pipeline import render as run
 

@@ -26,7 +26,7 @@ from ..pipeline.adaptive import AdaptiveFrame
 from ..pipeline.settings import (PASSES, AdaptivePass, BurleyPass, PassMember, RenderSettings, SeparablePass,
                                  SettingsMigrated)
 from ..settings import Settings
-from .options import check_distinct, given, option_name
+from .options import IntPair, check_distinct, given, option_name
 
 _S = TypeVar("_S", bound=Settings)
 
@@ -62,22 +62,11 @@ SAMPLING = OWN["burley"]
 SCENE_ONLY = ("size", "spp")
 
 
-class Budget(click.ParamType):
-    """``B_MIN:B_MAX``: the adaptive sampler's samples per pixel and frame (two integers)."""
+class Budget(IntPair):
+    """``B_MIN:B_MAX``: the adaptive sampler's samples per pixel and frame (two integers; the settings check
+    their range)."""
 
     name = "B_MIN:B_MAX"
-
-    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
-        return "B_MIN:B_MAX"
-
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        if isinstance(value, tuple):
-            return value
-        try:
-            lo, hi = (int(v) for v in str(value).split(":"))
-        except ValueError:
-            self.fail(f"must look like 8:64 (two integers), got {value!r}", param, ctx)
-        return lo, hi
 
 
 class RGBFloats(click.ParamType):
@@ -97,17 +86,15 @@ class RGBFloats(click.ParamType):
         return vals if len(vals) == 3 else vals * 3
 
 
-def pass_of(ctx: click.Context, pass_name: str | None, method: str | None, settings_file: str | None) -> str:
+def pass_of(ctx: click.Context, pass_name: str | None, method: str | None, base: RenderSettings | None) -> str:
     """The pass to run: ``--pass``, or ``--method`` (its deprecated alias: says so once), or the settings
-    file's, or separable; and every option of another pass refused."""
+    file's (``base``), or separable; and every option of another pass refused."""
     if method is not None:
         click.echo("ssskit: warning: --method is deprecated for render; use --pass (same values)", err=True)
         if pass_name is not None and pass_name.lower() != method.lower():
             raise SettingsError(f"--pass {pass_name} and --method {method} disagree; give --pass only")
         pass_name = pass_name or method
-    if pass_name is None:
-        pass_name = load_settings(settings_file).pass_name if settings_file else "separable"
-    name = PASSES.names()[[n.lower() for n in PASSES.names()].index(pass_name.lower())]
+    name = PASSES.get(pass_name).name if pass_name is not None else (base.pass_name if base else "separable")
     burley = name in ("burley", "burley-adaptive")
     for other, options in OWN.items():
         mine = other == name or (other == "burley" and burley)
@@ -197,10 +184,10 @@ def _pass_options(ctx: click.Context, member: PassMember, params: dict[str, Any]
     return member
 
 
-def build_settings(ctx: click.Context, settings_file: str | None, params: dict, pass_name: str) -> RenderSettings:
-    """RenderSettings from the settings file (or the defaults) with the options the user gave applied,
-    each validated and named in the error when wrong (module docstring)."""
-    s = load_settings(settings_file) if settings_file else RenderSettings()
+def build_settings(ctx: click.Context, base: RenderSettings | None, params: dict, pass_name: str) -> RenderSettings:
+    """RenderSettings from the settings file's (``base``; None: the defaults) with the options the user gave
+    applied, each validated and named in the error when wrong (module docstring)."""
+    s = RenderSettings() if base is None else base
     member = _pass_options(ctx, _member(s.pass_, pass_name), params)
     probe = s.replace(pass_=SeparablePass())  # the top-level values are checked one by one against it
     top: dict[str, Any] = {}
