@@ -74,11 +74,13 @@ def test_unity_encoding(burley_source):
 def test_blender_encoding(burley_source):
     p = engine_parameters(burley_source, "blender", get_material("marble"))
     assert p["subsurface_method"] == "BURLEY" and max(p["subsurface_radius"]) == 1.0
-    # Cycles bssrdf_burley_setup: l = radius / (4 pi); d = l / (1.9 - A + 3.5 (A - 0.8)^2); metres -> mm
+    # Cycles bssrdf_setup_radius (Blender >= 3.0): d = radius / (4 pi) for Burley; metres -> mm. The
+    # renders of tests/export/test_blender_cycles.py are the judge; this pins the encoding.
     radius_mm = np.array(p["subsurface_radius"]) * p["subsurface_scale"] * 1000.0
-    a = np.array(p["base_color"])
-    np.testing.assert_allclose(radius_mm / (4 * math.pi) / (1.9 - a + 3.5 * (a - 0.8) ** 2), D, rtol=1e-12)
-    assert p["subsurface_ior"] == get_material("marble").eta
+    np.testing.assert_allclose(radius_mm / (4 * math.pi), D, rtol=1e-12)
+    np.testing.assert_allclose(p["base_color"], A)
+    assert p["ior"] == get_material("marble").eta and p["specular_ior_level"] == 0.0
+    assert "3.0" in p["blender_versions"] and "4.2" in p["blender_versions"]
 
 
 @pytest.mark.parametrize("engine,model", [em for em in ENGINE_MODELS if em[1] == "burley"])

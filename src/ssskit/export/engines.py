@@ -53,9 +53,10 @@ ENGINE_SOURCES = {
              "scatteringDistanceMultiplier), R = S (e^{-Sr} + e^{-Sr/3}) / (8 pi r), i.e. Burley with d = "
              "scatteringDistance * multiplier in mm at worldScale 1; filterRadius = the CDF inverse at 0.997 of "
              "the widest channel; ior clamped to [1, 2]; the albedo is the material's)",
-    "blender": "Blender Cycles kernel/closure/bssrdf.h bssrdf_burley_setup (Christensen-Burley: l = radius / "
-               "(4 pi), d = l / (1.9 - A + 3.5 (A - 0.8)^2), A the base colour; radius = Subsurface Radius * "
-               "Subsurface Scale in scene units)",
+    "blender": "Blender Cycles intern/cycles/kernel/closure/bssrdf.h bssrdf_setup_radius (Blender 3.0 through 4.2): "
+               "d = radius / (4 pi) for CLOSURE_BSSRDF_BURLEY_ID, used as Burley's d by bssrdf_burley_eval and "
+               "truncated at 16 d (BURLEY_TRUNCATE); radius = Subsurface Radius * Subsurface Scale in scene units; "
+               "the BSSRDF weight is the base colour. Checked in Cycles (bpy 4.2) by ssskit.export.blender.render_slab",
 }
 
 LOST = {
@@ -81,6 +82,9 @@ LOST = {
         "the profile's shape beyond Burley's two exponentials (the fit error of the table)",
         "Cycles truncates Burley at 16 d (0.36% of the energy); EEVEE uses its own screen-space approximation",
         "Subsurface IOR and Anisotropy act only in the Random Walk methods, not in Christensen-Burley",
+        "the numbers are for subsurface_method BURLEY: Random Walk reads the radius as a mean free path and "
+        "renders another plateau and width (docs/exports.md)",
+        "Specular IOR Level is set to 0: a specular layer would take its share of the plateau",
     ],
 }
 
@@ -176,8 +180,6 @@ def burley_scaling_diffuse_transmission(albedo) -> np.ndarray:
     return 1.9 - a + 3.5 * (a - 0.8) ** 2
 
 
-#: Cycles' bssrdf_burley_compatible_mfp: l = radius / (4 pi)
-BLENDER_RADIUS_TO_MFP = 0.25 / math.pi
 #: Unreal's SUBSURFACE_KERNEL_SIZE: kernel offsets -3..3 map to -ScatterRadius..ScatterRadius
 UNREAL_KERNEL_SIZE = 3.0
 #: Unreal clamps FalloffColor and MeanFreePathColor to at least this (SubsurfaceProfile.cpp, Bias)
@@ -252,25 +254,12 @@ def _unity(profile, material) -> dict[str, Any]:
 
 
 def _blender(profile, material, unit_m: float = 1.0) -> dict[str, Any]:
+    from .blender import blender_parameters
+
     a, d = fit_burley(profile)
-    radius_units = d * burley_scaling_diffuse_transmission(a) / BLENDER_RADIUS_TO_MFP * 1e-3 / unit_m
-    colour, scale = _colour(radius_units)
-    out: dict[str, Any] = {
-        "engine": "blender",
-        "node": "Principled BSDF",
-        "subsurface_method": "BURLEY",
-        "base_color": a.tolist(),
-        "subsurface_weight": 1.0,
-        "subsurface_radius": colour,
-        "subsurface_scale": scale,
-        "unit_scale": unit_m,
-        "units": "subsurface_radius * subsurface_scale in scene units (metres per unit: unit_scale)",
-        "formula": "radius_c * scale = 4 pi d_c (1.9 - A_c + 3.5 (A_c - 0.8)^2) (mm -> scene units)",
-    }
-    if material is not None and hasattr(material, "eta"):
-        out["subsurface_ior"] = float(material.eta)
-        out["subsurface_anisotropy"] = float(np.mean(material.g))
-    return out
+    eta = float(material.eta) if material is not None and hasattr(material, "eta") else None
+    g = float(np.mean(material.g)) if material is not None and hasattr(material, "g") else None
+    return blender_parameters(a, d, eta, g, unit_m)
 
 
 ENGINE_BUILDERS: Registry = Registry("engine", ProfileError)
@@ -340,9 +329,9 @@ def reimport(params: dict[str, Any], model: str = "burley", albedo=None):
         d = f32(params["scatteringDistance"]) * f32(params["scatteringDistanceMultiplier"])
         return _burley_rgb(base, d, name, "unity")
     if engine == "blender" and model == "burley":
-        r = f32(params["subsurface_radius"]) * f32(params["subsurface_scale"]) * f32(params["unit_scale"]) * 1e3
-        return _burley_rgb(base, r * BLENDER_RADIUS_TO_MFP / burley_scaling_diffuse_transmission(base), name,
-                           "blender")
+        from .blender import blender_d_mm
+
+        return _burley_rgb(base, blender_d_mm(params), name, "blender")
     raise ProfileError(f"no {model!r} model in a {engine!r} export (known: "
                        f"{', '.join(f'{e}/{m}' for e, m in ENGINE_MODELS)})")
 
