@@ -41,10 +41,11 @@ ENGINES = ("unreal", "unity", "blender")
 ENGINE_MODELS = (("unreal", "burley"), ("unreal", "separable"), ("unity", "burley"), ("blender", "burley"))
 
 ENGINE_SOURCES = {
-    "unreal-burley": "Unreal Engine 4.25+ SubsurfaceProfile.cpp (DiffuseMeanFreePath = MeanFreePathColor * "
-                     "MeanFreePathDistance * 10, cm to mm) and BurleyNormalizedSSSCommon.ush (D = DMFP / "
-                     "GetSearchLightDiffuseScalingFactor(A), 3.5 + 100 (A - 0.33)^4: Christensen-Burley's "
-                     "diffuse-mean-free-path fit, Xie 2020 Eq. 5 Theta_3)",
+    "unreal-burley": "Unreal Engine 5 SubsurfaceProfile.cpp CreateTexture (bEnableMeanFreePath: DMFP (mm) = "
+                     "MFP * GetSearchLightDiffuseScalingFactor(A) / GetPerpendicularScalingFactor(A) * 10 / 0.6; "
+                     "Bias clamps 0.009) and BurleyNormalizedSSSCommon.ush (D = DMFP / (3.5 + 100 (A - 0.33)^4), "
+                     "Xie 2020 Eq. 5 Theta_3); the dmfp block: UE 4.25-4.27 (DMFP = MeanFreePathColor * "
+                     "MeanFreePathDistance * 10)",
     "unreal-separable": "Unreal Engine SeparableSSS.cpp ComputeMirroredSSSKernel (the 2012 demo profile with "
                         "SubsurfaceColor as strength and FalloffColor as falloff) and SubsurfaceProfile.cpp (kernel "
                         "offsets in -3..3 times ScatterRadius / 3, SUBSURFACE_KERNEL_SIZE = 3; FalloffColor clamped "
@@ -63,7 +64,9 @@ LOST = {
     "unreal-burley": [
         "the profile's shape beyond Burley's two exponentials (the fit error of the table)",
         "WorldUnitScale is written as UE's default (0.1) and not derived: the mapping assumes lengths in UE's cm",
-        "SurfaceAlbedo is clamped to [0, 1] and MeanFreePathColor to >= 0.009 by the engine",
+        "SurfaceAlbedo and MeanFreePathColor are clamped to >= 0.009 by the engine: ssskit applies the clamps "
+        "and lists each one that fires under 'clamps'",
+        "not run in Unreal: the mapping follows UE's source; the editor script is checked by Python's ast only",
     ],
     "unreal-separable": [
         "the shape: the fixed five-Gaussian skin profile, only widened per channel (the fit error of the table)",
@@ -75,8 +78,10 @@ LOST = {
     "unity": [
         "the profile's shape beyond Burley's two exponentials (the fit error of the table)",
         "the albedo: HDRP's profile is normalised; the total reflectance is the material's base colour",
+        "not run in Unity: the .asset is checked with a YAML parser against DiffusionProfileSettings.cs",
         "the tail beyond filterRadius (0.3% of the widest channel's energy)",
-        "scatteringDistance is the serialised (linear) colour; HDRP's inspector shows it gamma-encoded",
+        "scatteringDistance is the serialised (linear) colour; HDRP's inspector shows it sRGB-encoded "
+        "(scatteringDistance_inspector_srgb)",
     ],
     "blender": [
         "the profile's shape beyond Burley's two exponentials (the fit error of the table)",
@@ -197,44 +202,39 @@ def _colour(values) -> tuple[list[float], float]:
 
 
 def _unreal(profile, material) -> dict[str, Any]:
+    from .unreal import details_text, unreal_parameters
+
     a, d = fit_burley(profile)
-    dmfp_mm = d * burley_scaling_dmfp(a)
-    colour, dist_mm = _colour(dmfp_mm)
+    eta = float(material.eta) if material is not None and hasattr(material, "eta") else None
+    out = unreal_parameters(a, d, eta)
+    out["details_panel"] = {form: details_text(out[form]) for form in ("mfp", "dmfp")}
     # legacy separable: Xie A.1 fit of the demo profile's falloff (mm) to the source, per channel
     fits = [fit_separable_channel(ch) for ch in profile.channels]
     width = np.array([0.001 + f["params"]["falloff"] for f in fits])  # r' = r / (0.001 + falloff)
     k = float(np.max(width)) / 1.001  # widest channel -> FalloffColor 1
-    falloff = np.maximum(width / k - 0.001, UNREAL_COLOR_BIAS)
-    ior = float(getattr(material, "eta", 1.4)) if material is not None else 1.4
-    return {
-        "engine": "unreal",
-        "asset": "SubsurfaceProfile",
-        "burley": {
-            "bEnableBurley": True,
-            "SurfaceAlbedo": a.tolist(),
-            "MeanFreePathColor": colour,
-            "MeanFreePathDistance": dist_mm / 10.0,
-            "WorldUnitScale": UNREAL_DEFAULT_WORLD_UNIT_SCALE,
-            "units": "MeanFreePathDistance in cm; DiffuseMeanFreePath (mm) = MeanFreePathColor * "
-                     "MeanFreePathDistance * 10",
-            "formula": "DiffuseMeanFreePath_c = d_c (3.5 + 100 (A_c - 0.33)^4)",
-        },
-        "separable": {
-            "SubsurfaceColor": [1.0, 1.0, 1.0],
-            "FalloffColor": falloff.tolist(),
-            "ScatterRadius": UNREAL_KERNEL_SIZE * k / 10.0,
-            "units": "ScatterRadius in cm: kernel offset o (mm of the demo profile) lands at o * ScatterRadius / 3",
-            "formula": "falloff_c fitted by Xie A.1 (Eqs. 25-27, the best of the three); s = max_c(0.001 + falloff_c) / 1.001; FalloffColor_c = "
-                       "(0.001 + falloff_c) / s - 0.001; ScatterRadius = 3 s mm",
-            "fit_error_function": [f["error"] for f in fits],
-        },
-        "IOR": ior,
-        "base_color": a.tolist(),
+    raw = width / k - 0.001
+    falloff = np.maximum(raw, UNREAL_COLOR_BIAS)
+    for c in np.nonzero(raw < UNREAL_COLOR_BIAS)[0]:
+        out["clamps"].append(f"separable FalloffColor[{'RGB'[c]}] {raw[c]:.4g} -> 0.009 (UE clamp)")
+    out["separable_ue4_only"] = {
+        "unreal_versions": "UE 4 only: UE 5 converts a separable profile to Burley on load (UpgradeSeparableToBurley) "
+                           "and never renders it as written",
+        "bEnableBurley": False,
+        "SubsurfaceColor": [1.0, 1.0, 1.0],
+        "FalloffColor": falloff.tolist(),
+        "ScatterRadius": UNREAL_KERNEL_SIZE * k / 10.0,
+        "units": "ScatterRadius in cm: kernel offset o (mm of the demo profile) lands at o * ScatterRadius / 3",
+        "formula": "falloff_c fitted by Xie A.1 (Eqs. 25-27, the best of the three); s = max_c(0.001 + falloff_c) / "
+                   "1.001; FalloffColor_c = (0.001 + falloff_c) / s - 0.001; ScatterRadius = 3 s mm",
+        "fit_error_function": [f["error"] for f in fits],
     }
+    out["IOR"] = eta if eta is not None else 1.4
+    return out
 
 
 def _unity(profile, material) -> dict[str, Any]:
     from ..profiles.burley import burley_inverse_cdf
+    from .unity import srgb_encode
 
     a, d = fit_burley(profile)
     colour, mult = _colour(d)
@@ -243,12 +243,15 @@ def _unity(profile, material) -> dict[str, Any]:
         "engine": "unity",
         "asset": "DiffusionProfileSettings (HDRP)",
         "scatteringDistance": colour,
+        "scatteringDistance_inspector_srgb": srgb_encode(colour).tolist(),
         "scatteringDistanceMultiplier": mult,
         "worldScale": 1.0,
         "ior": min(max(ior, 1.0), 2.0),
         "filterRadius": float(burley_inverse_cdf(UNITY_FILTER_CDF, mult)),
         "base_color": a.tolist(),
-        "units": "scatteringDistance * multiplier in mm (worldScale 1: one unit is one metre); filterRadius in mm",
+        "units": "scatteringDistance * multiplier in mm (worldScale 1: one unit is one metre); filterRadius in mm; "
+                 "scatteringDistance is stored linear, the inspector shows scatteringDistance_inspector_srgb (type "
+                 "those into the colour picker's hex/0-1 fields)",
         "formula": "scatteringDistance_c * scatteringDistanceMultiplier = d_c; filterRadius = CDF^-1(0.997; max_c d_c)",
     }
 
@@ -307,16 +310,17 @@ def reimport(params: dict[str, Any], model: str = "burley", albedo=None):
     engine = params.get("engine")
     name = params.get("source_profile", {}).get("name", "export")
     base = f32(params["base_color"] if albedo is None else albedo)
-    if engine == "unreal" and model == "burley":
-        p = params["burley"]
-        a = np.clip(f32(p["SurfaceAlbedo"]), 0.0, 1.0)
-        dmfp = np.maximum(f32(p["MeanFreePathColor"]), UNREAL_COLOR_BIAS) * f32(p["MeanFreePathDistance"]) * 10.0
-        return _burley_rgb(a, dmfp / burley_scaling_dmfp(a), name, "unreal-burley")
+    if engine == "unreal" and model in ("burley", "dmfp"):
+        from .unreal import unreal_d_mm
+
+        block = params["mfp" if model == "burley" else "dmfp"]
+        a = np.clip(f32(block["SurfaceAlbedo"]), UNREAL_COLOR_BIAS, 1.0)
+        return _burley_rgb(a, unreal_d_mm(block), name, f"unreal-{'mfp' if model == 'burley' else 'dmfp'}")
     if engine == "unreal" and model == "separable":
         from ..kernels.burley_fit import _mixture
         from ..profiles.gaussians import GaussianSumProfile
 
-        p = params["separable"]
+        p = params["separable_ue4_only"]
         k = float(f32(p["ScatterRadius"])) * 10.0 / UNREAL_KERNEL_SIZE  # mm per kernel unit
         falloff = np.maximum(f32(p["FalloffColor"]), UNREAL_COLOR_BIAS)
         chans = []
