@@ -5,8 +5,9 @@
                                                                   # re-simulates a few entries instead)
 
 For each relative index eta and reduced albedo alpha' (g = 0, sigma_t' = 1 mm^-1, a semi-infinite medium,
-normal incidence, ssskit's MCML engine): the total diffuse reflectance Rd (overflow included) and the radius
-r50 holding half of it, each the mean of ``--seeds`` independent runs with its standard error (the runs'
+normal incidence, ssskit's MCML engine): the total diffuse reflectance Rd (overflow included), the radius
+r50 holding half of it and the Burley d fitted to the profile (ssskit.export.fit_burley_channel, the fit of
+every engine export), each the mean of ``--seeds`` independent runs with its standard error (the runs'
 scatter / sqrt(seeds)). The grid extends to 12 diffusion lengths 1/sqrt(3 (1 - alpha')) plus 4 mean free
 paths, in 500 bins. Progress on stderr.
 """
@@ -23,6 +24,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "src" / "ssskit" / "profiles" / "data" / "artist_table.json"
 ETAS = (1.0, 1.3, 1.4, 1.5)
+KEYS = ("rd", "rd_se", "r50", "r50_se", "burley_d", "burley_d_se")
 U = [round(0.02 + i * (0.999 - 0.02) / 27, 6) for i in range(28)]  # u = sqrt(1 - alpha')
 
 
@@ -32,28 +34,31 @@ def entry(alpha_reduced: float, eta: float, photons: int, seeds: int, first_seed
 
     import numpy as np
 
-    from ssskit.profiles.artist import mcml_rd_r50
+    from ssskit.export.engines import fit_burley_channel
+    from ssskit.profiles.artist import mcml_run, r50_of_result
 
-    rd, r50 = [], []
+    rd, r50, d = [], [], []
     for s in range(seeds):
-        a, _, w = mcml_rd_r50(1.0 - alpha_reduced, alpha_reduced, 0.0, eta, photons, first_seed + s)
-        rd.append(a)
-        r50.append(w)
+        res = mcml_run(1.0 - alpha_reduced, alpha_reduced, 0.0, eta, photons, first_seed + s)
+        rd.append(res.total_rd)
+        r50.append(r50_of_result(res.r_mm, res.rd, res.config.dr_mm, res.total_rd))
+        d.append(fit_burley_channel(res.profile())[1])
     se = lambda v: float(np.std(v, ddof=1) / math.sqrt(len(v)))  # noqa: E731
-    return {"rd": float(np.mean(rd)), "rd_se": se(rd), "r50": float(np.mean(r50)), "r50_se": se(r50)}
+    return {"rd": float(np.mean(rd)), "rd_se": se(rd), "r50": float(np.mean(r50)), "r50_se": se(r50),
+            "burley_d": float(np.mean(d)), "burley_d_se": se(d)}
 
 
 def table(photons: int, seeds: int, etas=ETAS) -> dict:
     out: dict = {"description": "MCML, semi-infinite, g = 0, sigma_t' = 1 mm^-1, normal incidence, eta_above 1: "
-                                "total Rd (overflow included) and r50 (units of 1/sigma_t') per (eta, alpha'); "
+                                "total Rd (overflow included), r50 and the fitted Burley d (units of 1/sigma_t') per (eta, alpha'); "
                                 "each the mean of `seeds` runs of `photons` photons, with its standard error",
                  "generator": "docs/artist_table.py", "photons": photons, "seeds": seeds,
                  "eta": list(etas), "alpha_reduced": [round(1.0 - u * u, 8) for u in U]}
-    for key in ("rd", "rd_se", "r50", "r50_se"):
+    for key in KEYS:
         out[key] = []
     t0 = time.perf_counter()
     for i, eta in enumerate(etas):
-        rows: dict = {k: [] for k in ("rd", "rd_se", "r50", "r50_se")}
+        rows: dict = {k: [] for k in KEYS}
         for j, ap in enumerate(out["alpha_reduced"]):
             e = entry(ap, eta, photons, seeds, first_seed=1 + 100 * j)
             for k in rows:

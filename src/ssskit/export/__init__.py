@@ -4,6 +4,9 @@ material parameters (Unreal, Unity HDRP, Blender), and GLSL-to-HLSL translation.
 * :mod:`.arrays` -- HLSL / GLSL ``float4 kernel[N]`` in the 2012 separable-SSS demo layout, and back;
 * :mod:`.bn` -- the binary kernel files of the 2015 separable-SSS code, write and read;
 * :mod:`.engines` -- engine parameters from a profile, their re-import and the error of the round trip;
+* :mod:`.blender`, :mod:`.unreal`, :mod:`.unity`, :mod:`.materialx` -- each tool's importable file (a Blender
+  script and the Cycles slab that judges it, an Unreal editor script, an HDRP .asset, a MaterialX document);
+* :mod:`.readers` -- engine files read back into (A, d) and a material;
 * :mod:`.shaders` -- the whole separable compute shader (``separable_shader``: the ``gl`` backend's
   GLSL with the taps baked in, and its HLSL translation through glslangValidator and spirv-cross).
 
@@ -33,9 +36,11 @@ FORMATS: dict[str, tuple[tuple[str, ...], bool]] = {
     "glsl": ((".glsl", ".h", ".comp", ".frag", ".inc"), True),
     "bn": ((".bn",), True),
     "json": ((".json",), True),
-    "unreal": ((".json",), False),
-    "unity": ((".json",), False),
-    "blender": ((".json",), False),
+    # engine parameters: JSON, or the engine's own file (the suffix chooses)
+    "unreal": ((".json", ".py"), False),
+    "unity": ((".json", ".asset"), False),
+    "blender": ((".json", ".py"), False),
+    "materialx": ((".mtlx",), False),
     # whole compute shaders of the separable pass, the taps baked in (the gl backend's source)
     "glsl-shader": ((".comp", ".glsl"), True),
     "hlsl-shader": ((".hlsl", ".fx", ".usf"), True),

@@ -120,7 +120,7 @@ def read_unity_asset(text: str, what: str = "the .asset file") -> dict[str, Any]
     try:
         doc = yaml.load(text, Loader=_unity_loader())
     except yaml.YAMLError as exc:
-        raise SsskitError(f"{what} is not valid YAML: {str(exc).splitlines()[0]}") from None
+        raise SsskitError(f"{what} is not valid YAML (truncated?): {str(exc).splitlines()[0]}") from None
     if not isinstance(doc, dict) or "MonoBehaviour" not in doc or not isinstance(doc["MonoBehaviour"], dict):
         raise SsskitError(f"{what} holds no Unity MonoBehaviour (not a DiffusionProfileSettings asset)")
     mb = doc["MonoBehaviour"]

@@ -12,8 +12,10 @@ ssskit's MCML engine, 4 seeds per entry, each value with its standard error) is 
 1. alpha' from Rd(alpha', eta) = A (monotone; PCHIP in u = sqrt(1 - alpha'), eta interpolated linearly);
 2. the length: with the **volume mean free path** l = 1 / sigma_t (``mfp``), sigma_t = 1 / l; with the
    **diffuse mean free path** l_d (``dmfp``, Christensen-Burley's convention that Unreal uses: Burley's
-   d = l_d / (3.5 + 100 (A - 0.33)^4), Xie 2020 Eq. 5 Theta_3), the asked width is Burley's median radius
-   r50 = 1.5522 d (the inverse of Xie 2020 Eq. 20 at 1/2) and sigma_t' = r50(alpha', eta) / r50;
+   d = l_d / (3.5 + 100 (A - 0.33)^4), Xie 2020 Eq. 5 Theta_3), the asked width is that d, and
+   sigma_t' = d_fit(alpha', eta) / d with d_fit the table's Burley d fitted to the MCML profile (the fit
+   every engine export makes, :func:`ssskit.export.fit_burley_channel`), so engine parameters read back,
+   simulated and exported again return to themselves;
 3. sigma_s = alpha sigma_t, sigma_a = (1 - alpha) sigma_t with alpha = alpha' / (1 - g + alpha' g).
 
 **The Burley-fit inversion** (:func:`burley_from_artist`, fast, no coefficients): Burley's (A, d) directly,
@@ -128,20 +130,29 @@ def reduced_albedo_for(rd: float, eta: float) -> float:
     return float(1.0 - uu * uu)
 
 
-def r50_per_transport_mfp(alpha_reduced: float, eta: float) -> float:
-    """The table's r50 (in units of 1/sigma_t') at alpha' (PCHIP in u = sqrt(1 - alpha'))."""
+def _per_transport_mfp(alpha_reduced: float, eta: float, key: str) -> float:
     from scipy.interpolate import PchipInterpolator
 
     t = artist_table()
     u = np.sqrt(1.0 - np.asarray(t["alpha_reduced"], dtype=float))
     order = np.argsort(u)
-    f = PchipInterpolator(u[order], np.log(_interp_eta(eta, "r50")[order]))
+    f = PchipInterpolator(u[order], np.log(_interp_eta(eta, key)[order]))
     return float(np.exp(f(math.sqrt(1.0 - alpha_reduced))))
+
+
+def r50_per_transport_mfp(alpha_reduced: float, eta: float) -> float:
+    """The table's r50 (in units of 1/sigma_t') at alpha' (PCHIP of ln r50 in u = sqrt(1 - alpha'))."""
+    return _per_transport_mfp(alpha_reduced, eta, "r50")
+
+
+def burley_d_per_transport_mfp(alpha_reduced: float, eta: float) -> float:
+    """The table's Burley d (units of 1/sigma_t') fitted to the MCML profile at alpha' (as r50)."""
+    return _per_transport_mfp(alpha_reduced, eta, "burley_d")
 
 
 def material_from_artist(art: ArtistMaterial) -> Material:
     """The Monte Carlo inversion (module docstring): a :class:`Material` whose MCML profile has total
-    reflectance A and, for ``dmfp``, median radius 1.5522 l_d / (3.5 + 100 (A - 0.33)^4)."""
+    reflectance A and, for ``dmfp``, a Burley fit of length l_d / (3.5 + 100 (A - 0.33)^4)."""
     sa, ss = [], []
     g = float(art.g)
     for a, length in zip(art.albedo, art.distance_mm):
@@ -151,7 +162,7 @@ def material_from_artist(art: ArtistMaterial) -> Material:
             sigma_t = 1.0 / length  # step 2, volume mean free path
         else:
             d = length / (3.5 + 100.0 * (a - 0.33) ** 4)  # Xie 2020 Eq. 5 Theta_3
-            sigma_t_red = r50_per_transport_mfp(ap, art.eta) / (BURLEY_R50_PER_D * d)
+            sigma_t_red = _per_transport_mfp(ap, art.eta, "burley_d") / d
             sigma_t = sigma_t_red / (1.0 - alpha * g)  # sigma_t' = sigma_t (1 - alpha g)
         ss.append(alpha * sigma_t)
         sa.append((1.0 - alpha) * sigma_t)
@@ -188,11 +199,9 @@ def r50_of_result(r_mm: np.ndarray, rd: np.ndarray, dr_mm: float, total: float) 
     return float(edges[k - 1] + (0.5 * total - cum[k - 1]) / (cum[k] - cum[k - 1]) * dr_mm)
 
 
-def mcml_rd_r50(sigma_a: float, sigma_s: float, g: float, eta: float, photons: int, seed: int,
-                use_cache: bool = False) -> tuple[float, float, float]:
-    """One MCML run of a semi-infinite medium (normal incidence): (total Rd with overflow, its standard
-    error, r50 mm). The grid reaches 12 diffusion lengths 1/sigma_tr (sigma_tr = sqrt(3 sigma_a sigma_t'),
-    [JMLH01]) plus 4 transport mean free paths, in 500 bins: the table's grid (``docs/artist_table.py``)."""
+def mcml_run(sigma_a: float, sigma_s: float, g: float, eta: float, photons: int, seed: int,
+             use_cache: bool = False):
+    """The MCML result of :func:`mcml_rd_r50`'s run (an :class:`~ssskit.profiles.montecarlo.MCResult`)."""
     from .montecarlo import MCConfig, MCLayer, simulate
 
     st_red = sigma_a + sigma_s * (1.0 - g)
@@ -200,10 +209,18 @@ def mcml_rd_r50(sigma_a: float, sigma_s: float, g: float, eta: float, photons: i
     nr = 500
     dr = (12.0 * length + 4.0 / st_red) / (nr - 1)
     cfg = MCConfig((MCLayer(sigma_a, sigma_s, g, eta),), dr_mm=dr, nr=nr, photons=photons, seed=seed)
-    res = simulate(cfg, use_cache=use_cache)
-    return res.total_rd, res.total_rd_se, r50_of_result(res.r_mm, res.rd, dr, res.total_rd)
+    return simulate(cfg, use_cache=use_cache)
+
+
+def mcml_rd_r50(sigma_a: float, sigma_s: float, g: float, eta: float, photons: int, seed: int,
+                use_cache: bool = False) -> tuple[float, float, float]:
+    """One MCML run of a semi-infinite medium (normal incidence): (total Rd with overflow, its standard
+    error, r50 mm). The grid reaches 12 diffusion lengths 1/sigma_tr (sigma_tr = sqrt(3 sigma_a sigma_t'),
+    [JMLH01]) plus 4 transport mean free paths, in 500 bins: the table's grid (``docs/artist_table.py``)."""
+    res = mcml_run(sigma_a, sigma_s, g, eta, photons, seed, use_cache)
+    return res.total_rd, res.total_rd_se, r50_of_result(res.r_mm, res.rd, res.config.dr_mm, res.total_rd)
 
 
 __all__ = ["ArtistMaterial", "BURLEY_R50_PER_D", "DISTANCE_KINDS", "TABLE_PATH", "artist_table",
-           "burley_from_artist", "check_artist", "material_from_artist", "mcml_rd_r50", "predicted_r50_mm", "r50_of_result",
+           "burley_d_per_transport_mfp", "burley_from_artist", "check_artist", "mcml_run", "material_from_artist", "mcml_rd_r50", "predicted_r50_mm", "r50_of_result",
            "r50_per_transport_mfp", "reduced_albedo_for"]
