@@ -134,8 +134,8 @@ def _material_source(ctx, fmt: str, material, albedo, mfp, dmfp, eta, g, model: 
             from ..profiles import BurleyProfile, RGBProfile
 
             a, d = burley_from_artist(art)
-            prof = RGBProfile(tuple(BurleyProfile(float(x), float(y)) for x, y in zip(a, d)), "burley", "artist",
-                              {"inversion": f"Burley fit ({kind})"})
+            chans = [BurleyProfile(float(x), float(y)) for x, y in zip(a, d)]
+            prof = RGBProfile((chans[0], chans[1], chans[2]), "burley", "artist", {"inversion": f"Burley fit ({kind})"})
             return (lambda: prof), None, "artist", used
         mat = material_from_artist(art)
         return _physical(ctx, mat, used), mat, "artist", used

@@ -17,6 +17,7 @@ material parameters (Unreal, Unity HDRP, Blender), and GLSL-to-HLSL translation.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from ..errors import KernelError
 from .arrays import (
@@ -47,7 +48,7 @@ FORMATS: dict[str, tuple[tuple[str, ...], bool]] = {
 }
 
 
-def export_kernel(kernel, fmt: str, path: str | Path, taps: int | None = None, tap_method: str = "importance",
+def export_kernel(kernel: Any, fmt: str, path: str | Path, taps: int | None = None, tap_method: str = "importance",
                   comment: str = "", jitter: float = 0.1, depth_mode: str | None = None) -> None:
     """Write ``kernel`` in a kernel format (``hlsl``, ``glsl``, ``bn``, ``json``, ``glsl-shader``,
     ``hlsl-shader``) to ``path`` (atomic). The shaders take ``jitter`` and ``depth_mode`` (the pass's)."""

@@ -24,6 +24,8 @@ Numbers are printed with 9 significant digits, so every value reads back as the 
 
 from __future__ import annotations
 
+from typing import Any
+
 import re
 from dataclasses import dataclass
 
@@ -47,7 +49,7 @@ class ShaderArray:
     signs: np.ndarray
 
 
-def demo_order(offsets, weights) -> tuple[np.ndarray, np.ndarray]:
+def demo_order(offsets: Any, weights: Any) -> tuple[np.ndarray, np.ndarray]:
     """Taps reordered as the demo stores them: the tap nearest 0 first, the others by ascending offset."""
     o = np.asarray(offsets, dtype=float)
     w = np.asarray(weights, dtype=float)
@@ -57,7 +59,7 @@ def demo_order(offsets, weights) -> tuple[np.ndarray, np.ndarray]:
     return o[order], w[order]
 
 
-def kernel_arrays(kernel, taps: int | None = None, tap_method: str = "importance") -> list[ShaderArray]:
+def kernel_arrays(kernel: Any, taps: int | None = None, tap_method: str = "importance") -> list[ShaderArray]:
     """The arrays of ``kernel`` (a TapKernel as shipped, or a Kernel through ``make_taps``), one per term.
 
     Weights are normalised so each channel's 2D kernel sums to 1 (what :func:`make_taps` returns);
@@ -167,7 +169,7 @@ def parse_shader_arrays(text: str) -> list[ShaderArray]:
     return out
 
 
-def arrays_to_tap_kernel(arrays: list[ShaderArray], method: str = "shader"):
+def arrays_to_tap_kernel(arrays: list[ShaderArray], method: str = "shader") -> Any:
     """A rank-1 export read back as a :class:`~ssskit.kernels.TapKernel` (centre tap first)."""
     from ..kernels.base import TapKernel
 

@@ -178,7 +178,7 @@ if __name__ == "__main__":
 def blender_script(params: dict[str, Any], name: str) -> str:
     """The Python script (Blender or bpy) that creates or updates material ``name`` with ``params``
     (:func:`blender_parameters`); the parameters are embedded as a Python literal."""
-    keep = {k: params[k] for k in ("subsurface_method", "base_color", "subsurface_weight", "subsurface_radius",
+    keep: dict[str, Any] = {k: params[k] for k in ("subsurface_method", "base_color", "subsurface_weight", "subsurface_radius",
                                    "subsurface_scale", "specular_ior_level", "ior", "subsurface_anisotropy")
             if k in params}
     keep["name"] = name
@@ -282,7 +282,7 @@ def edge_response(x_mm: np.ndarray, d_mm: float, truncated: bool = True) -> np.n
     return np.where(x > 0, 1.0 - out, out)
 
 
-def edge_distances(d_mm: float, levels=(0.25, 0.10, 0.03, 0.01), truncated: bool = True) -> np.ndarray:
+def edge_distances(d_mm: float, levels: tuple[float, ...] = (0.25, 0.10, 0.03, 0.01), truncated: bool = True) -> np.ndarray:
     """The distances (mm) into the shadow at which :func:`edge_response` falls to each level."""
     from scipy.optimize import brentq
 
@@ -358,7 +358,7 @@ def compare_slab(render: dict[str, Any], a: np.ndarray, d_mm: np.ndarray,
         dist = []
         for j, (lev, xp) in enumerate(zip(levels, edge_distances(float(d_mm[c]), levels))):
             xm = xs[j]
-            got = [p[1][j] for p in parts if p[1][j] is not None]
+            got = [v for p in parts if (v := p[1][j]) is not None]
             se = float(np.std(got, ddof=1) / math.sqrt(len(got))) if len(got) > 2 else float("inf")
             if xm is None:
                 dist.append({"level": lev, "predicted_mm": float(xp), "measured_mm": None, "ok": False})

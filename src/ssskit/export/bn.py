@@ -17,6 +17,8 @@ uniform grid, is refused with the reason.
 
 from __future__ import annotations
 
+from typing import Any
+
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +30,7 @@ from ..io import atomic_output, check_suffix
 GRID_RTOL = 1e-4
 
 
-def bn_bytes(x_mm, rgb) -> bytes:
+def bn_bytes(x_mm: Any, rgb: Any) -> bytes:
     """The file contents for samples at ``x_mm`` (n,) with values ``rgb`` (n, 3) (module docstring)."""
     x = np.asarray(x_mm, dtype=float)
     v = np.asarray(rgb, dtype=float)
@@ -53,7 +55,7 @@ def _check_grid(x: np.ndarray, what: str) -> float:
     return h
 
 
-def save_bn(kernel, path: str | Path) -> None:
+def save_bn(kernel: Any, path: str | Path) -> None:
     """Write a rank-1 tabulated kernel (e.g. ``preintegrated``) as ``.bn`` (atomic)."""
     from ..kernels.base import Kernel
 
@@ -93,7 +95,7 @@ def read_bn(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     return x, rgb
 
 
-def load_bn(path: str | Path):
+def load_bn(path: str | Path) -> Any:
     """A ``.bn`` file as a rank-1 :class:`~ssskit.kernels.Kernel` (cell size: the grid spacing).
 
     The grid needs a centre sample (an odd count), as every ssskit kernel grid has.

@@ -21,12 +21,13 @@ import runpy
 import sys
 import tempfile
 import time
+from typing import Any
 
 import bpy  # type: ignore[import-not-found]
 import numpy as np
 
 
-def _scene(extent: float, width: int, height: int, samples: int, seed: int, threads: int):
+def _scene(extent: float, width: int, height: int, samples: int, seed: int, threads: int) -> tuple[Any, Any]:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
@@ -90,7 +91,7 @@ def _scene(extent: float, width: int, height: int, samples: int, seed: int, thre
     return scene, slab
 
 
-def _render(scene, path: str) -> np.ndarray:
+def _render(scene: Any, path: str) -> np.ndarray:
     scene.render.filepath = path
     bpy.ops.render.render(write_still=True)
     img = bpy.data.images.load(path)
@@ -101,7 +102,7 @@ def _render(scene, path: str) -> np.ndarray:
     return px.reshape(h, w, 4)[::-1, :, :3].copy()  # Blender's rows run bottom-up
 
 
-def _white():
+def _white() -> Any:
     mat = bpy.data.materials.new("white")
     mat.use_nodes = True
     nodes = mat.node_tree.nodes
@@ -137,7 +138,7 @@ def main(argv: list[str]) -> int:
             slab.data.materials.append(mat)
             arrays[job["key"]] = _render(scene, os.path.join(tmp, f"r{i}.exr"))
             seconds[job["key"]] = time.perf_counter() - t0
-    np.savez(out_path, **arrays)
+    np.savez(out_path, **arrays)  # type: ignore[arg-type]  # numpy's stub types **kwds as allow_pickle
     with open(out_path + ".json", "w") as fh:
         json.dump({"seconds": seconds, "blender": bpy.app.version_string}, fh)
     return 0

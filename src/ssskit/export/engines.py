@@ -28,12 +28,15 @@ in scene units (metres at the default unit scale 1).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
 from ..errors import ProfileError
 from ..registry import Registry
+
+if TYPE_CHECKING:
+    from ..profiles.base import RadialProfile, RGBProfile
 
 #: the targets of a parameter export (one JSON file each); the error table adds unreal's two models
 ENGINES = ("unreal", "unity", "blender")
@@ -97,7 +100,7 @@ LOST = {
 # ------------------------------------------------------------------------------------------ fits
 
 
-def _radial_grid(channel, samples: int = 512, fraction: float = 0.999) -> np.ndarray:
+def _radial_grid(channel: RadialProfile, samples: int = 512, fraction: float = 0.999) -> np.ndarray:
     r_max = float(np.max(channel.radius_at_fraction(fraction)))
     if not (np.isfinite(r_max) and r_max > 0):
         raise ProfileError(f"cannot size a radial grid: the radius holding {fraction} of the energy is {r_max!r}")
@@ -109,7 +112,7 @@ def _burley_density(r: np.ndarray, d: float) -> np.ndarray:
     return (np.exp(-r / d) + np.exp(-r / (3.0 * d))) / (4.0 * d)
 
 
-def _misplaced(channel, density) -> float:
+def _misplaced(channel: RadialProfile, density: Callable[[np.ndarray], np.ndarray]) -> float:
     """int |p_src - p| dr / int p_src dr on the source's grid, p = 2 pi r R(r) / A (a fraction of the energy)."""
     r = _radial_grid(channel, 4096)
     p = 2.0 * np.pi * r * channel.eval(r)
@@ -118,7 +121,7 @@ def _misplaced(channel, density) -> float:
     return float(np.sum(np.abs(p - q / np.sum(q))))
 
 
-def fit_burley_channel(channel) -> tuple[float, float]:
+def fit_burley_channel(channel: RadialProfile) -> tuple[float, float]:
     """(A, d mm) of the Burley profile closest to one radial channel (module docstring).
 
     A = the channel's total diffuse reflectance (exact); d minimises the share of the energy put at a
@@ -140,7 +143,7 @@ def fit_burley_channel(channel) -> tuple[float, float]:
     return min(a, 1.0), float(math.exp(sol.x))
 
 
-def fit_separable_channel(channel) -> dict[str, Any]:
+def fit_separable_channel(channel: RadialProfile) -> dict[str, Any]:
     """The demo profile's falloff fitted to one channel by Xie 2020 appendix A.1: each of the three error
     functions (Eqs. 25-27, :func:`ssskit.kernels.burley_fit.fit_burley_channel`), keeping the fit that
     puts the least energy at a wrong radius (the metric of :func:`profile_error`)."""
@@ -156,14 +159,17 @@ def fit_separable_channel(channel) -> dict[str, Any]:
         fit["misplaced"] = _misplaced(channel, density)
         if best is None or fit["misplaced"] < best["misplaced"]:
             best = fit
+    assert best is not None  # ERROR_FUNCTIONS is not empty
     return best
 
 
-def fit_burley(profile) -> tuple[np.ndarray, np.ndarray]:
+def fit_burley(profile: RGBProfile) -> tuple[np.ndarray, np.ndarray]:
     """Per channel (A (3,), d (3,) mm) of :func:`fit_burley_channel`; a Burley channel is taken as is."""
+    from ..profiles.burley import BurleyProfile
+
     a, d = np.zeros(3), np.zeros(3)
     for c, ch in enumerate(profile.channels):
-        if getattr(ch, "model", "") == "burley":
+        if isinstance(ch, BurleyProfile):
             a[c], d[c] = ch.albedo, ch.d
         else:
             a[c], d[c] = fit_burley_channel(ch)
@@ -173,13 +179,13 @@ def fit_burley(profile) -> tuple[np.ndarray, np.ndarray]:
 # --------------------------------------------------------------------------------- engine formulas
 
 
-def burley_scaling_dmfp(albedo) -> np.ndarray:
+def burley_scaling_dmfp(albedo: Any) -> np.ndarray:
     """s(A) = 3.5 + 100 (A - 0.33)^4: d = dmfp / s (Xie 2020 Eq. 5 Theta_3; Unreal's scaling factor)."""
     a = np.asarray(albedo, dtype=float)
     return 3.5 + 100.0 * (a - 0.33) ** 4
 
 
-def burley_scaling_diffuse_transmission(albedo) -> np.ndarray:
+def burley_scaling_diffuse_transmission(albedo: Any) -> np.ndarray:
     """s(A) = 1.9 - A + 3.5 (A - 0.8)^2 (Xie 2020 Eq. 5 Theta_2; Cycles' bssrdf_burley_fitting)."""
     a = np.asarray(albedo, dtype=float)
     return 1.9 - a + 3.5 * (a - 0.8) ** 2
@@ -194,14 +200,14 @@ UNREAL_DEFAULT_WORLD_UNIT_SCALE = 0.1
 UNITY_FILTER_CDF = 0.997
 
 
-def _colour(values) -> tuple[list[float], float]:
+def _colour(values: Any) -> tuple[list[float], float]:
     """(colour with max 1, its scale): engines store a length colour as an LDR colour times a distance."""
     v = np.asarray(values, dtype=float)
     m = float(np.max(v))
     return (v / m).tolist(), m
 
 
-def _unreal(profile, material) -> dict[str, Any]:
+def _unreal(profile: RGBProfile, material: Any) -> dict[str, Any]:
     from .unreal import details_text, unreal_parameters
 
     a, d = fit_burley(profile)
@@ -232,7 +238,7 @@ def _unreal(profile, material) -> dict[str, Any]:
     return out
 
 
-def _unity(profile, material) -> dict[str, Any]:
+def _unity(profile: RGBProfile, material: Any) -> dict[str, Any]:
     from ..profiles.burley import burley_inverse_cdf
     from .unity import srgb_encode
 
@@ -256,7 +262,7 @@ def _unity(profile, material) -> dict[str, Any]:
     }
 
 
-def _blender(profile, material, unit_m: float = 1.0) -> dict[str, Any]:
+def _blender(profile: RGBProfile, material: Any, unit_m: float = 1.0) -> dict[str, Any]:
     from .blender import blender_parameters
 
     a, d = fit_burley(profile)
@@ -271,7 +277,7 @@ ENGINE_BUILDERS.register("unity", _unity)
 ENGINE_BUILDERS.register("blender", _blender)
 
 
-def engine_parameters(profile, engine: str, material=None) -> dict[str, Any]:
+def engine_parameters(profile: RGBProfile, engine: str, material: Any = None) -> dict[str, Any]:
     """The engine's material parameters for ``profile`` (module docstring), with units, formulas,
     sources and what is lost. ``material`` (optional) gives the IOR and anisotropy."""
     key = engine.strip().lower()
@@ -286,20 +292,20 @@ def engine_parameters(profile, engine: str, material=None) -> dict[str, Any]:
 # ------------------------------------------------------------------------------------------ re-import
 
 
-def _rgb(channels, model: str, name: str, prov: dict):
+def _rgb(channels: Any, model: str, name: str, prov: dict) -> RGBProfile:
     from ..profiles.base import RGBProfile
 
     return RGBProfile(tuple(channels), model, name, prov)
 
 
-def _burley_rgb(a, d, name: str, engine: str):
+def _burley_rgb(a: Any, d: Any, name: str, engine: str) -> RGBProfile:
     from ..profiles.burley import BurleyProfile
 
     return _rgb([BurleyProfile(float(min(max(a[c], 0.0), 1.0)), float(d[c])) for c in range(3)], "burley", name,
                 {"engine": engine})
 
 
-def reimport(params: dict[str, Any], model: str = "burley", albedo=None):
+def reimport(params: dict[str, Any], model: str = "burley", albedo: Any = None) -> RGBProfile:
     """ssskit's profile of an engine export, read the way the engine reads it (module docstring).
 
     ``model``: ``burley`` or, for Unreal, ``separable``. Engines whose profile carries no albedo (Unity,
@@ -327,7 +333,7 @@ def reimport(params: dict[str, Any], model: str = "burley", albedo=None):
         for c in range(3):
             # o = r_mm / k and r' = o / (0.001 + falloff): the demo profile with falloff k (0.001 + f) - 0.001
             w, sig = _mixture("jimenez2012", np.array([k * (0.001 + falloff[c]) - 0.001]))
-            chans.append(GaussianSumProfile(base[c] * w, sig**2))
+            chans.append(GaussianSumProfile((base[c] * w).tolist(), (sig**2).tolist()))
         return _rgb(chans, "gaussians", name, {"engine": "unreal-separable"})
     if engine == "unity" and model == "burley":
         d = f32(params["scatteringDistance"]) * f32(params["scatteringDistanceMultiplier"])
@@ -340,7 +346,7 @@ def reimport(params: dict[str, Any], model: str = "burley", albedo=None):
                        f"{', '.join(f'{e}/{m}' for e, m in ENGINE_MODELS)})")
 
 
-def profile_error(source, imported, samples: int = 4096, fraction: float = 0.999) -> dict[str, list[float]]:
+def profile_error(source: RGBProfile, imported: RGBProfile, samples: int = 4096, fraction: float = 0.999) -> dict[str, list[float]]:
     """Per channel: ``relative_l1`` = int |p_src - p_imp| dr / int p_src dr with p = 2 pi r R(r) on
     (0, r_fraction of the source] (the share of the energy put at a wrong radius), ``total_ratio`` =
     A_imp / A_src, and ``r50_ratio``, the ratio of the radii holding half the energy."""

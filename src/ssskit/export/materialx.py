@@ -31,7 +31,7 @@ def searchlight_scaling(a: Any) -> np.ndarray:
     return 1.85 - a + 7.0 * np.abs(a - 0.8) ** 3
 
 
-def _libraries():
+def _libraries() -> Any:
     import MaterialX as mx
 
     lib = mx.createDocument()
@@ -85,7 +85,7 @@ def materialx_document(a: np.ndarray, d_mm: np.ndarray, name: str, g: float = 0.
     return mx.writeToXmlString(doc)
 
 
-def check_document(doc) -> None:
+def check_document(doc: Any) -> None:
     """MaterialX's own validation, against the standard libraries (nodedefs, types, units)."""
     lib = _libraries()
     doc.importLibrary(lib)
@@ -112,7 +112,7 @@ def read_materialx(path: str | Path) -> dict[str, Any]:
         raise SsskitError(f"{str(path)!r}: MaterialX rejects the document: {why.strip().splitlines()[0]}")
     unit = {"millimeter": 1.0, "centimeter": 10.0, "meter": 1000.0, "inch": 25.4, "foot": 304.8, "": 1.0}
 
-    def length(inp) -> float:
+    def length(inp: Any) -> float:
         u = inp.getUnit() if inp.hasUnit() else ""
         if u not in unit:
             raise SsskitError(f"{str(path)!r}: unknown distance unit {u!r} on {inp.getName()}")

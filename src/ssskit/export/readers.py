@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -32,11 +33,11 @@ class EngineSource:
     d_mm: np.ndarray
     eta: float | None = None
 
-    def profile(self):
+    def profile(self) -> Any:
         from ..profiles import BurleyProfile, RGBProfile
 
-        return RGBProfile(tuple(BurleyProfile(float(a), float(d)) for a, d in zip(self.albedo, self.d_mm)),
-                          "burley", self.name, {"engine": self.engine})
+        c = [BurleyProfile(float(a), float(d)) for a, d in zip(self.albedo, self.d_mm)]
+        return RGBProfile((c[0], c[1], c[2]), "burley", self.name, {"engine": self.engine})
 
     def material(self, g: float = 0.0) -> Material:
         """The physical material of the Monte Carlo inversion (module docstring)."""
@@ -64,7 +65,7 @@ def is_engine_file(path: str | Path) -> bool:
     return isinstance(data, dict) and "engine" in data
 
 
-def read_engine_file(path: str | Path, expect: str | None = None, albedo=None) -> EngineSource:
+def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = None) -> EngineSource:
     """An :class:`EngineSource` from an engine file. ``expect``: the engine the caller asked for (an
     Unreal file given where a Unity one is expected is refused, naming both). ``albedo`` (3,): the
     surface albedo for a Unity .asset, whose profile holds none (HDRP takes it from the material)."""
@@ -113,8 +114,11 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo=None) -
         prof = reimport(data, "burley")
     except (KeyError, TypeError, ValueError) as exc:
         raise SsskitError(f"{str(p)!r} lacks the {engine} parameters ssskit writes ({exc})") from None
-    a = np.array([ch.albedo for ch in prof.channels])
-    d = np.array([ch.d for ch in prof.channels])
+    from ..profiles.burley import BurleyProfile
+
+    chans = [ch for ch in prof.channels if isinstance(ch, BurleyProfile)]  # reimport gives Burley channels
+    a = np.array([ch.albedo for ch in chans])
+    d = np.array([ch.d for ch in chans])
     eta = data.get("IOR", data.get("ior"))
     name = str(data.get("source_profile", {}).get("name", p.stem)) if isinstance(data.get("source_profile"), dict) \
         else p.stem

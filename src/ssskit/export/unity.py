@@ -100,7 +100,7 @@ def unity_asset(params: dict[str, Any], name: str) -> str:
     ])
 
 
-def _unity_loader():
+def _unity_loader() -> Any:
     import yaml  # PyYAML
 
     class Loader(yaml.SafeLoader):

@@ -200,7 +200,7 @@ def r50_of_result(r_mm: np.ndarray, rd: np.ndarray, dr_mm: float, total: float) 
 
 
 def mcml_run(sigma_a: float, sigma_s: float, g: float, eta: float, photons: int, seed: int,
-             use_cache: bool = False):
+             use_cache: bool = False) -> Any:
     """The MCML result of :func:`mcml_rd_r50`'s run (an :class:`~ssskit.profiles.montecarlo.MCResult`)."""
     from .montecarlo import MCConfig, MCLayer, simulate
 
