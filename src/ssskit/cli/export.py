@@ -161,6 +161,11 @@ def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
         for name, flag in (("jitter", "--jitter"), ("depth_mode", "--depth-mode")):
             if given(ctx, name):
                 raise SsskitError(f"{flag} applies to the whole shaders only (--format glsl-shader or hlsl-shader)")
+    if fmt == "materialx":
+        import importlib.util
+
+        if importlib.util.find_spec("MaterialX") is None:
+            raise SsskitError("--format materialx needs the materialx package (pip install 'materialx>=1.39,<1.40')")
     if fmt == "hlsl-shader":
         from ..export.shaders import tools_available
 

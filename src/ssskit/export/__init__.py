@@ -31,6 +31,8 @@ from .arrays import (
 from .bn import bn_bytes, load_bn, read_bn, save_bn
 from .engines import ENGINE_MODELS, ENGINES, engine_parameters, fit_burley, profile_error, reimport
 
+#: ``--format bn`` crops the grid to the part holding this fraction of each channel's kernel mass
+BN_SUPPORT = 0.999
 #: format -> (accepted output suffixes, whether it exports a kernel (True) or engine parameters (False))
 FORMATS: dict[str, tuple[tuple[str, ...], bool]] = {
     "hlsl": ((".hlsl", ".hlsli", ".h", ".fx", ".fxh", ".usf", ".ush"), True),
@@ -71,7 +73,7 @@ def export_kernel(kernel: Any, fmt: str, path: str | Path, taps: int | None = No
     elif key in LANGUAGES:
         write_text(path, format_shader_arrays(kernel_arrays(kernel, taps, tap_method), key, comment))
     elif key == "bn":
-        save_bn(kernel, path)
+        save_bn(kernel, path, support=BN_SUPPORT)
     else:
         save_kernel(kernel, path)
 

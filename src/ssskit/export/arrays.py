@@ -24,10 +24,9 @@ Numbers are printed with 9 significant digits, so every value reads back as the 
 
 from __future__ import annotations
 
-from typing import Any
-
 import re
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -114,6 +113,8 @@ def format_shader_arrays(arrays: list[ShaderArray], language: str, comment: str 
         "// Offsets are in mm. The demo's SSSSBlurPS moves a tap at offset a by a * sssWidth / 3 scene",
         "// units: these offsets are physical with sssWidth = 3 mm in scene units (0.003 for metres).",
         "// Each channel's 2D kernel sums to 1: sum over terms of sign * (sum of the term's weights)^2.",
+        "// This file replaces the kernel block of the demo's SeparableSSS.h (its SSSS_N_SAMPLES and",
+        "// kernel[] definitions); the rest of that header stays as it is.",
         f"#define SSSS_N_SAMPLES {n}",
     ]
     if len(arrays) > 1:

@@ -12,12 +12,11 @@ The tools come from the Debian packages ``glslang-tools`` and ``spirv-cross``; w
 
 from __future__ import annotations
 
-from typing import Any
-
 import shutil
 import subprocess
 import tempfile
 from pathlib import Path
+from typing import Any
 
 from ..errors import SsskitError
 
