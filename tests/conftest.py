@@ -58,6 +58,49 @@ def backend(request):
     return request.param
 
 
+#: max distance in float32 ulps between a CPU backend's float32 adaptive history and the numpy oracle's
+#: (ssskit.backends.adaptive_plan step 2: the same float32 operations in the same order). They agree bit
+#: for bit on one CPU only while both call the same maths: numba's LLVM may contract a*b + c into one FMA
+#: and links its own vector maths (SVML on AVX-512 CPUs) for pow, which the gamma-corrected luminance
+#: S = Y^(1/gamma) calls, while numpy uses glibc's; both are accurate to about 1 ulp, not the same ulp.
+#: Eqs. 8 and 6 carry that ulp of S into n_bar and mu, so those are bounded in their own ulps. Eq. 9's
+#: sigma^2 = (1 - a)(a d^2 + sigma^2) squares d = S - mu, a difference that cancels: an ulp of S is many
+#: ulps of a small sigma^2, but moves sigma = sqrt(sigma^2) by about a * ulp(S) (d sigma ~ a dS for
+#: sigma ~ |d|), so sigma is bounded in ulps of mu, the luminance's own scale (seen on an AVX-512 EPYC:
+#: 58 of 1728 mu 1 ulp apart, sigma at most 1.25 ulps of mu apart, i.e. 88 ulps of sigma^2). The bound
+#: leaves room for that to add up over a few frames. Bit identity across thread counts on one machine is
+#: asserted exactly elsewhere, never across CPUs or backends.
+ULPS = {("numpy", "float64"): 0, ("numba", "float32"): 4}
+
+
+def ulp_distance(a, b) -> np.ndarray:
+    """Elementwise distance between two float32 arrays in float32 ulps, counted on the ordered integer
+    line of float32 values (exact across binades; NaNs must not occur)."""
+    def ordered(x):
+        i = np.asarray(x, np.float32).view(np.int32).astype(np.int64)
+        return np.where(i < 0, -(i & 0x7FFFFFFF), i)
+
+    return np.abs(ordered(a) - ordered(b))
+
+
+def assert_history_ulps(actual, desired, backend: str, where=None) -> None:
+    """An (H, W, 4) adaptive history within ULPS of the oracle's (see there): n_bar and mu in their own
+    float32 ulps, sigma = sqrt(channel 2) in float32 ulps of mu, the availability flag exactly; only
+    where the (H, W) boolean ``where`` holds (default: everywhere). The message names the worst channel."""
+    from ssskit.backends import get_backend
+
+    bound = ULPS[(backend, np.dtype(get_backend(backend).dtype).name)]
+    a, d = np.asarray(actual, np.float32), np.asarray(desired, np.float32)
+    keep = np.ones(a.shape[:2], bool) if where is None else np.asarray(where, bool)
+    scale = np.spacing(np.maximum(np.abs(d[..., 1]), np.float32(2.0 ** -24)))  # one ulp of mu
+    sigma = np.abs(np.sqrt(a[..., 2].astype(np.float64)) - np.sqrt(d[..., 2].astype(np.float64))) / scale
+    worst = {"n_bar": ulp_distance(a[..., 0], d[..., 0]), "mu": ulp_distance(a[..., 1], d[..., 1]),
+             "sigma (ulps of mu)": sigma, "available": np.where(a[..., 3] == d[..., 3], 0.0, np.inf)}
+    for name, dist in worst.items():
+        w = float(np.where(keep, dist, 0).max(initial=0))
+        assert w <= bound, f"adaptive history on {backend}: {name} {w:.3g} ulps from the oracle (bound {bound})"
+
+
 def tolerance(backend: str) -> float:
     """Max absolute deviation of ``backend`` from the numpy oracle (see TOLERANCES)."""
     from ssskit.backends import get_backend

@@ -66,6 +66,16 @@ def test_an_upward_lazy_import_breaks_the_layers(tmp_path):
     assert re.search(r"ssskit\.materials -> ssskit\.pipeline", proc.stdout), proc.stdout
 
 
+def test_importing_the_lab_breaks_its_contract(tmp_path):
+    """The product never imports experiments/lab, even lazily."""
+    src = _scratch(tmp_path)
+    with open(src / "ssskit" / "truth.py", "a", encoding="utf-8") as f:
+        f.write("\n\ndef _lab():\n    import lab.attribution\n\n    return lab.attribution\n")
+    proc = _lint(src)
+    assert proc.returncode != 0
+    assert "product never imports the lab" in proc.stdout and re.search(r"ssskit\.truth -> lab", proc.stdout), proc.stdout
+
+
 def test_a_module_outside_the_layers_breaks_the_contract(tmp_path):
     src = _scratch(tmp_path)
     (src / "ssskit" / "unplaced.py").write_text('"""A new module nobody placed in a layer."""\n', encoding="utf-8")

@@ -1,4 +1,5 @@
-"""The scripts in benchmarks/ and docs/ import against the current package (their names move with it)."""
+"""The scripts in benchmarks/, docs/ and experiments/ import against the current package and lab (their
+names move with them)."""
 
 import importlib.util
 from pathlib import Path
@@ -6,7 +7,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-SCRIPTS = sorted([*ROOT.glob("benchmarks/*.py"), *ROOT.glob("docs/*.py")])
+SCRIPTS = sorted([*ROOT.glob("benchmarks/*.py"), *ROOT.glob("docs/*.py"), *ROOT.glob("experiments/*.py")])
 
 
 @pytest.mark.parametrize("path", SCRIPTS, ids=[p.name for p in SCRIPTS])

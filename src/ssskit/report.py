@@ -139,7 +139,7 @@ def _kernels_section(out: Path, progress: Progress, ctx: dict) -> str:
 
     # every figure but the adaptive sampler's, which have their own section, and the region
     # attribution's (minutes of path tracing: the screen-space section shows its table when stored)
-    names = [n for n, fn in FIGURES.items() if fn.__module__ not in ("ssskit.figures.adaptive", "ssskit.figures.regions")]
+    names = [n for n, fn in FIGURES.items() if fn.__module__ != "ssskit.figures.adaptive"]
     written = make_figures(names, out / "figures", prof, progress=progress, backend=ctx.get("backend"))
     imgs = "".join(f"<img src='figures/{p.name}'>" for paths in written.values() for p in paths)
     methods = ["svd:1", "svd:3", "gaussians:1", "gaussians:6", "preintegrated", "preintegrated_svd:1", "guided:0",
@@ -247,35 +247,25 @@ def _screenspace_section(out: Path, progress: Progress, ctx: dict) -> str:
         "~10<sup>4</sup> spp for 0.5% on the plateau.</p>"
         "<table><tr><th>RMSE of the normalised edge profile</th><th>RMSE ± SE</th><th>reference noise</th>"
         f"<th>resolved</th></tr>{rmse_rows}</table><img src='figures/{edge_png.name}' style='width:100%'>"
-        + _attribution_html(out, photons)
+        + _attribution_html()
     )
 
 
-def _attribution_stored(photons: int) -> bool:
-    from .figures.regions import cached_attribution
-
-    return cached_attribution(photons=photons) is not None
+#: where the stored attribution results live (the repository's lab, not installed with the package)
+ATTRIBUTION_RESULTS = "experiments/RESULTS.md"
 
 
-def _attribution_html(out: Path, photons: int) -> str:
-    """The region attribution's table and plot when ``ssskit figures region-attribution`` has stored
-    them for these photons (the demo never computes them: minutes of path tracing), else how to."""
-    from .figures.regions import attribution_table_html, cached_attribution, plot_attribution
-
-    data = cached_attribution(photons=photons)
-    title = "<h3>What each difference is: controlled experiments</h3>"
-    if data is None:
-        return (title + f"<p class=note>Not measured yet: <code>ssskit figures region-attribution --photons {photons}</code> "
-                "(about 30 minutes on 2 cores) path-traces the experiments once (transmission: a black backing behind the unseen surface; grazing Fresnel: "
-                "the index-matched boundary; curvature: the scene scaled by k), then this report shows them. "
-                "See docs/regions.md.</p>")
-    png = out / "figures" / "region_attribution.png"
-    plot_attribution(data, png)
-    return (title + f"<p class=note>Each experiment switches one cause off in the reference and measures the same "
-            f"pixels with the same chunk seeds ({data['spp']} spp per setup); standard errors from the chunks. "
-            "Share of the gap removed: 1 - (reference - exact) / (first setup's reference - exact). "
-            "See docs/regions.md.</p>" + attribution_table_html(data)
-            + f"<img src='figures/{png.name}' style='width:100%'>")
+def _attribution_html() -> str:
+    """What each region difference is: a link to the lab's stored results (the controlled experiments are
+    research, run by ``python experiments/region_attribution.py``; the report never computes them)."""
+    results = Path(__file__).resolve().parents[2] / ATTRIBUTION_RESULTS  # a source checkout has it
+    link = (f"<a href='{html.escape(results.as_uri())}'>{ATTRIBUTION_RESULTS}</a>" if results.is_file()
+            else f"<code>{ATTRIBUTION_RESULTS}</code> in the ssskit repository")
+    return ("<h3>What each difference is: controlled experiments</h3><p class=note>Each region's difference "
+            "between the exact 2D convolution and the path-traced reference is measured by switching one cause "
+            "off in the reference (light entering the unseen surface, grazing Fresnel, curvature, a thin "
+            f"object's back, the angles and the boundary): the stored results are in {link} (section \"What "
+            "each region difference is\"), made by <code>python experiments/region_attribution.py</code>.</p>")
 
 
 def _burley_section(out: Path, progress: Progress, ctx: dict) -> str:
@@ -301,12 +291,6 @@ SECTIONS: list[tuple[str, Section]] = [
 ]
 
 
-#: what else a section's cached HTML depends on: the screen-space section shows the region
-#: attribution once ``ssskit figures region-attribution`` has stored it
-_SECTION_KEYS: dict[str, Callable[[dict], dict]] = {
-    "screenspace": lambda ctx: {"attribution": _attribution_stored(ctx.get("photons", DEMO_PHOTONS))}}
-
-
 def _cached_section(name: str, section: Section, out: Path, progress: Progress, ctx: dict) -> str:
     """Run a report section, or copy its HTML and files from the ``demo`` cache when the same settings
     and the same source made them before (a second ``ssskit demo`` is then fast)."""
@@ -317,7 +301,7 @@ def _cached_section(name: str, section: Section, out: Path, progress: Progress, 
     from .io import atomic_output
 
     key = json.dumps({"section": name, "photons": ctx.get("photons"), "backend": ctx.get("backend"),
-                      "source": source_digest(), **_SECTION_KEYS.get(name, lambda ctx: {})(ctx)}, sort_keys=True)
+                      "source": source_digest()}, sort_keys=True)
     path = cache_dir("demo") / f"{name}-{hashlib.sha1(key.encode()).hexdigest()[:16]}.pkl"
     if path.is_file():
         try:

@@ -7,6 +7,7 @@ entry points, same-seed determinism, and the equations' fixed points."""
 import numpy as np
 import pytest
 
+from tests.conftest import assert_history_ulps
 from ssskit.backends import Backend, get_backend
 from ssskit.backends.adaptive_plan import as_plan
 from ssskit.backends.base import PHASES
@@ -205,8 +206,11 @@ def test_runner_with_motion_matches_the_host_loop(guide_backend, mips):
 
 
 def test_adaptive_frames_route_the_guiding_phase(guide_backend):
-    """adaptive_frames(backend=...) runs the guiding phase there; the CPU backends give the oracle's frames
-    bit for bit (same float32 operations), gl the same counts but for rare rounding flips."""
+    """adaptive_frames(backend=...) runs the guiding phase there. The CPU backends run the oracle's float32
+    operations in the same order: their history lies within conftest.ULPS float32 ulps of the oracle's (conftest.py: FMA contraction and the vector pow differ by CPU), their counts agree but for
+    rare +-1 flips where an estimate lies within that rounding of an integer, and wherever a pixel's counts
+    agree in every frame its frames are the same Burley results (the same numba sampler on both sides);
+    gl: the same counts but for rare rounding flips."""
     gb = _gbuffer()
     settings = AdaptiveSettings(sigma0_sq=1e-4, kappa=0.6)
     bs = BurleySettings(sequence="random", backend="numba")
@@ -220,9 +224,12 @@ def test_adaptive_frames_route_the_guiding_phase(guide_backend):
         assert diff.mean() < 0.01
         np.testing.assert_allclose(run.mean_spp, ref.mean_spp, atol=0.2)
     else:
-        np.testing.assert_array_equal(run.counts, ref.counts)
-        np.testing.assert_array_equal(run.history, ref.history)
-        np.testing.assert_array_equal(run.mean, ref.mean)
+        for f in range(len(ref.counts)):
+            _assert_counts_close(ref.counts[f], run.counts[f])
+        same = np.all(run.counts == ref.counts, axis=0)  # (H, W): the pixel took the oracle's counts throughout
+        assert same.mean() > 0.99
+        assert_history_ulps(run.history, ref.history, guide_backend, where=same)
+        np.testing.assert_array_equal(run.mean[same], ref.mean[same])
 
 
 def test_same_seed_same_frames_and_thread_count_free(guide_backend):

@@ -29,7 +29,7 @@ def test_adaptive_render_on_a_gbuffer_file(run, gbuffer_file, tmp_path):
     rows = data["frames"]
     assert [r["frame"] for r in rows] == list(range(12))
     assert rows[0]["mean_spp"] == 4  # no history on the first frame: b_min (Eqs. 16-17)
-    assert all(4 <= r["mean_spp"] <= 32 and r["ms"] > 0 and r["ms_update"] > 0 for r in rows)
+    assert all(4 <= r["mean_spp"] <= 32 and r["ms"] >= 0 and r["ms_update"] >= 0 for r in rows)
     assert max(r["mean_spp"] for r in rows) > 4  # the counts adapt
     assert data["mean_spp"] == pytest.approx(sum(r["mean_spp"] for r in rows) / 12)
     assert all(math.isfinite(r["psnr"]) for r in rows)

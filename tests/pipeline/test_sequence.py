@@ -196,10 +196,12 @@ def _host_loop(gbs, params, b, a, disocclusion_spp=None):
 
 @pytest.mark.parametrize("disocclusion_spp", [None, 24])
 def test_sequence_runs_the_guiding_phase_on_the_backend(setup, backend, disocclusion_spp):
-    """run_sequence runs the guiding phase through the Burley backend's runner: on numpy and numba the
-    counts and frames equal the host loop on the numpy oracle bit for bit (the same float32 operations);
-    on gl (float32 GLSL) the counts differ in a tiny fraction of pixels (rounding flips, test_adaptive.py's
-    bound for adaptive_frames) and the PSNRs agree."""
+    """run_sequence runs the guiding phase through the Burley backend's runner: on numpy the counts and
+    frames equal the host loop on the numpy oracle bit for bit (the same code); on numba (the oracle's
+    float32 operations, but FMA contraction and vector maths that differ by CPU: conftest.ULPS) the counts
+    agree but for rare +-1 flips, and wherever a pixel's counts agree in every frame so does its last frame
+    (the same Burley sampler on both sides); on gl (float32 GLSL) the counts differ in a tiny fraction of
+    pixels (rounding flips, test_adaptive.py's bound for adaptive_frames) and the PSNRs agree."""
     from ssskit.backends import get_backend
 
     if "burley" not in get_backend(backend).passes:
@@ -216,13 +218,19 @@ def test_sequence_runs_the_guiding_phase_on_the_backend(setup, backend, disocclu
         assert (run.counts != ref_counts).mean() < 0.01
         np.testing.assert_allclose(run.mean_spp, ref_spp, atol=0.2)
         np.testing.assert_allclose(run.last, gbs[-1].composite(ref_last), rtol=0.05, atol=0.02 * ref_last.max())
+    elif backend == "numba":
+        flips = run.counts != ref_counts
+        assert np.abs(run.counts - ref_counts).max() <= 1 and flips.mean() <= 2e-3
+        same = ~flips.any(axis=0)
+        np.testing.assert_allclose(run.mean_spp, ref_spp, atol=0.05)
+        np.testing.assert_array_equal(run.last[same], gbs[-1].composite(ref_last)[same])
     else:
         np.testing.assert_array_equal(run.counts, ref_counts)
         assert run.mean_spp == ref_spp
         np.testing.assert_array_equal(run.last, gbs[-1].composite(ref_last))
     # the runner's per-phase times: the guiding phase and the pass, and the whole loop's wall time
-    assert all(u > 0 for u in run.ms_update) and all(p > 0 for p in run.ms)
-    assert all(w >= 0.99 * (p + u) for w, p, u in zip(run.ms_frame, run.ms, run.ms_update))  # it holds both
+    for series in (run.ms, run.ms_update, run.ms_frame):  # one finite, non-negative time per frame (never
+        assert len(series) == len(gbs) and all(np.isfinite(t) and t >= 0 for t in series)  # an order of times)
     fixed = run_sequence(gbs, params, b, spp=8, references=refs)
     assert fixed.ms_update == [0.0] * FRAMES and all(w > 0 for w in fixed.ms_frame)
     assert {"ms", "ms_update", "ms_frame"} <= set(run.rows()[0])

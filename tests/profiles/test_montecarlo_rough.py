@@ -10,7 +10,7 @@ import pytest
 from ssskit.errors import ProfileError
 from ssskit.materials import get_material
 from ssskit.profiles.montecarlo import MCConfig, MCLayer, config_for_material, rough_boundary_albedo, simulate
-from ssskit.scenes.flat import rough_dielectric_weights
+from ssskit.scenes.boundary import rough_dielectric_weights
 
 ETA = 1.3
 ALPHA = 0.15  # ssskit.scenes.scenes.COAT_ROUGHNESS

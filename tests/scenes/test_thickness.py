@@ -1,13 +1,13 @@
-"""The medium's thickness under each pixel (scenes.thickness.chord_thickness): exact on the thin slab,
-and on the ear the chord of the analytic ellipsoid along the normal."""
+"""A scene's thickness (scenes.thickness): the chord under each pixel, exact on the thin slab and on the
+ear the analytic ellipsoid's along the normal; the slab cut thin keeps its top face and its image."""
 
 import numpy as np
 import pytest
 
 from ssskit.scenes import SceneError
 from ssskit.scenes.scenes import camera_pose, get_scene, scene_camera
-from ssskit.scenes.thickness import chord_thickness
-from ssskit.scenes.variants import backed_scene, thin_scene
+from ssskit.scenes import render_gbuffer
+from ssskit.scenes.thickness import box_thickness_mm, chord_thickness, thin_scene
 
 
 def test_chord_through_the_thin_slab_is_its_thickness():
@@ -23,8 +23,7 @@ def test_chord_through_the_ear_is_the_ellipsoids():
     the rim (measured 0.03%), within 1% on 98% of them, within 5% on all (a few where the faceted mesh
     and the smooth ellipsoid differ most), and never more than the ellipsoid's 4 mm."""
     w, h = 80, 60
-    c = chord_thickness(backed_scene("ear"), w, h)  # the backing shell is no SSS shape: same chords
-    np.testing.assert_array_equal(c, chord_thickness("ear", w, h))
+    c = chord_thickness("ear", w, h)
     ok = np.isfinite(c)
     assert ok.sum() > 1000 and np.nanmax(c) <= 4.0 + 1e-3
     # the analytic ellipsoid's chords at the pixel centres' hit points
@@ -79,3 +78,27 @@ def test_incidence_angle_on_the_slab_is_the_point_lights():
     assert np.isnan(a[0, 0])
     np.testing.assert_allclose(a[mask], ref[mask], atol=1e-3)
     assert 20 < np.nanmin(a) and np.nanmax(a) < 24
+
+
+def _gb(scene, w=64, h=48):
+    return render_gbuffer(scene, (0.5, 0.5, 0.5), eta=1.3, width=w, height=h, spp=4)
+
+
+def test_thin_scene_keeps_the_top_face_and_the_image():
+    """The slab cut to 2 mm below its top face: its box is 2 mm thick, its top at z = 0 as before, and
+    the G-buffer (mask, E / pi, depth) is the 20 mm slab's."""
+    thin = thin_scene("slab", 2.0)
+    box = thin.shapes()["slab"]
+    assert thin.name == "slab-t2" and box_thickness_mm(box) == pytest.approx(2.0)
+    m = np.array(box["to_world"].matrix)
+    assert m[2, 3] + m[2, 2] == pytest.approx(0.0, abs=1e-6) and m[2, 3] - m[2, 2] == pytest.approx(-2.0)
+    g0, g1 = _gb("slab"), _gb(thin)
+    np.testing.assert_array_equal(g1.mask, g0.mask)
+    np.testing.assert_allclose(g1.diffuse, g0.diffuse, rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(g1.depth[g0.mask], g0.depth[g0.mask], rtol=1e-6)
+
+
+@pytest.mark.parametrize("args", [("sphere", 2.0), ("slab", 20.0), ("slab", 0.0), ("slab", float("nan"))])
+def test_thin_scene_rejects(args):
+    with pytest.raises(SceneError):
+        thin_scene(*args)

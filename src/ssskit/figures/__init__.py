@@ -16,7 +16,6 @@ from ..registry import Registry
 from . import adaptive as _a
 from . import burley as _b
 from . import kernels as _k
-from . import regions as _r
 
 Figure = Callable[..., list[Path]]
 FIGURES: Registry[Figure] = Registry("figure", SsskitError)
@@ -35,8 +34,6 @@ FIGURES.register("xie-table1", _a.xie_table1)
 
 FIGURES.register("xie-fig6", _b.fig6_xie_inverse)
 FIGURES.register("xie-fig5", _b.fig5_xie_c)
-# minutes of path tracing the first time (stored after): the demo shows its table only when stored
-FIGURES.register("region-attribution", _r.region_attribution)
 
 
 def runs_a_pass(fn: Figure) -> bool:

@@ -65,7 +65,7 @@ SCENES: Registry[SceneSpec] = Registry("scene", SceneError)
 
 def get_scene(scene: str | SceneSpec) -> SceneSpec:
     """A built-in scene by name (:data:`SCENES`), or ``scene`` itself when it already is a
-    :class:`SceneSpec` (a controlled variant of :mod:`ssskit.scenes.variants`)."""
+    :class:`SceneSpec` (a variant such as :func:`ssskit.scenes.thickness.thin_scene`'s)."""
     return scene if isinstance(scene, SceneSpec) else SCENES.get(scene)
 
 

@@ -1,6 +1,8 @@
-"""How thick the medium is under each pixel (:func:`chord_thickness`: the chord through an SSS object
-along the inward normal of the surface point a pixel sees) and at what angle the light arrives there
-(:func:`incidence_angle`), for the thin-medium prediction of :mod:`ssskit.pipeline.thickness`.
+"""A scene's thickness: how thick the medium is under each pixel (:func:`chord_thickness`: the chord
+through an SSS object along the inward normal of the surface point a pixel sees), at what angle the
+light arrives there (:func:`incidence_angle`), and a built-in scene's slab cut to a chosen thickness
+(:func:`thin_scene`). Thin media lose through their back the light a semi-infinite one returns; MCML's
+finite slab (:mod:`ssskit.profiles.montecarlo.slab`) says how much.
 
 Why the normal and not the refracted view ray: what a thin object loses is the light that diffuses
 through to its back (:mod:`ssskit.profiles.montecarlo.slab`); after a reduced mean free path (1.3 mm
@@ -14,10 +16,13 @@ normal incidence and 0.79 at 45 degrees).
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import numpy as np
 
 from ..errors import SceneError
-from .scenes import SceneSpec, check_size, get_scene, mitsuba, scene_camera, scene_lights
+from .scenes import SceneSpec, _T, check_size, get_scene, mitsuba, scene_camera, scene_lights
 
 
 def _sss_only(spec: SceneSpec):
@@ -108,4 +113,47 @@ def incidence_angle(scene: str | SceneSpec, width: int, height: int, frame: int 
     return out
 
 
-__all__ = ["chord_thickness", "incidence_angle"]
+def _check_positive(value, what: str) -> float:
+    if isinstance(value, bool) or not (isinstance(value, (int, float, np.integer, np.floating))
+                                       and math.isfinite(value) and value > 0):
+        raise SceneError(f"{what} must be a positive number, got {value!r}")
+    return float(value)
+
+
+def box_thickness_mm(shape: dict) -> float:
+    """The thickness (mm) of a Mitsuba ``cube`` shape along its local z axis: 2 |to_world e_z| (the
+    unit cube spans [-1, 1]^3)."""
+    m = np.array(shape.get("to_world", _T()()).matrix, dtype=float)
+    return 2.0 * float(np.linalg.norm(m[:3, 2]))
+
+
+def thin_scene(scene: str | SceneSpec, thickness_mm: float) -> SceneSpec:
+    """``scene`` with each SSS box (a Mitsuba ``cube``: the slab) cut to ``thickness_mm`` below the face
+    at its local +z (the slab's lit top face, which the camera sees): to_world' = to_world .
+    translate(0, 0, 1 - s) . scale(1, 1, s), s = thickness / the box's thickness, keeps the local
+    z = +1 face and moves the z = -1 face up (module docstring). A SceneError for a scene with no SSS
+    box, or a thickness not below the box's. Named ``<name>-t<thickness>``."""
+    spec = get_scene(scene)
+    t = _check_positive(thickness_mm, "the thickness (mm)")
+    base = spec.shapes()
+    boxes = [sid for sid in spec.sss_shapes if base[sid].get("type") == "cube"]
+    if not boxes:
+        raise SceneError(f"scene {spec.name!r} has no SSS box (a Mitsuba cube) to make thinner")
+    for sid in boxes:
+        full = box_thickness_mm(base[sid])
+        if not t < full:
+            raise SceneError(f"the thickness must be below the {sid!r} box's {full:g} mm, got {t:g}")
+
+    def shapes() -> dict[str, dict]:
+        d = spec.shapes()
+        for sid in boxes:
+            s = t / box_thickness_mm(d[sid])
+            d[sid] = dict(d[sid], to_world=d[sid].get("to_world", _T()()) @ _T()().translate([0.0, 0.0, 1.0 - s])
+                          @ _T()().scale([1.0, 1.0, s]))
+        return d
+
+    return dataclasses.replace(spec, name=f"{spec.name}-t{t:g}", description=f"{spec.description}; {t:g} mm thick",
+                               shapes=shapes)
+
+
+__all__ = ["box_thickness_mm", "chord_thickness", "incidence_angle", "thin_scene"]

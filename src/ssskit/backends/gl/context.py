@@ -126,4 +126,18 @@ def time_gpu(fn, batches: int = 20, batch: int = 10, warmup_ms: float = 50.0) ->
                 fn()
             ctx.finish()
             samples.append((time.perf_counter() - t) * 1e3 / batch)
-    return [q.elapsed / 1e6 / batch for q in samples] if gpu else samples
+    return checked_times([q.elapsed / 1e6 / batch for q in samples] if gpu else samples)
+
+
+def checked_times(ms: list[float]) -> list[float]:
+    """``ms`` if every figure is finite and non-negative, else a BackendError saying the GPU timer failed
+    (a driver whose GL_TIME_ELAPSED query returns nothing usable), instead of a silently wrong timing."""
+    import math
+
+    bad = [v for v in ms if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0)]
+    if bad:
+        from ...errors import BackendError
+
+        raise BackendError(f"the GL timer returned {len(bad)} unusable figure(s) (e.g. {bad[0]!r} ms): this driver's "
+                           "GL_TIME_ELAPSED queries cannot time the passes; time them on another device")
+    return [float(v) for v in ms]

@@ -1,7 +1,7 @@
 """A medium of finite thickness: MCML's diffuse reflectance Rd(t) of a homogeneous slab of thickness t
 against the semi-infinite medium's Rd(inf), per channel, with batch standard errors.
 
-What a thin object loses (issue 11, the ear): the screen-space model (paper Eq. 1 with the Monte Carlo
+What a thin object loses: the screen-space model (paper Eq. 1 with the Monte Carlo
 profile) is the semi-infinite medium's; a slab of thickness t lit from the front returns only
 Rd(t) -- the rest of what the semi-infinite medium would return leaves through the back (MCML's Tt)
 or is absorbed on the longer way. The slab is MCML's multi-layered geometry with one layer of finite

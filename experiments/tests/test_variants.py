@@ -11,7 +11,7 @@ from ssskit.materials import get_material
 from ssskit.scenes import SCENES, SceneError, render_gbuffer
 from ssskit.scenes.reference import ReferenceRenderer
 from ssskit.scenes.scenes import camera_pose, get_scene
-from ssskit.scenes.variants import backed_scene, backing_faces, scaled_scene, surface_mesh
+from lab.variants import backed_scene, backing_faces, scaled_scene, surface_mesh
 
 SKIN = get_material("skin1")
 W, H = 64, 48
@@ -105,37 +105,20 @@ def test_backing_needs_a_known_surface():
         backed_scene("ear", offset_mm=0)
 
 
-# ---- thickness: the thin slab and the deepened ear ---------------------------------------------------------
+# ---- thickness: the deepened ear (the thin slab: tests/scenes/test_thickness.py) ---------------------------------------------------------
 
-def test_thin_scene_keeps_the_top_face_and_the_image():
-    """The slab cut to 2 mm below its top face: its box is 2 mm thick, its top at z = 0 as before, and
-    the G-buffer (mask, E / pi, depth) is the 20 mm slab's."""
-    from ssskit.scenes.variants import box_thickness_mm, thin_scene
+def test_backing_shell_leaves_the_chords():
+    """The backing shell is no SSS shape: the chord under every pixel is the plain ear's."""
+    from ssskit.scenes.thickness import chord_thickness
 
-    thin = thin_scene("slab", 2.0)
-    box = thin.shapes()["slab"]
-    assert thin.name == "slab-t2" and box_thickness_mm(box) == pytest.approx(2.0)
-    m = np.array(box["to_world"].matrix)
-    assert m[2, 3] + m[2, 2] == pytest.approx(0.0, abs=1e-6) and m[2, 3] - m[2, 2] == pytest.approx(-2.0)
-    g0, g1 = _gb("slab"), _gb(thin)
-    np.testing.assert_array_equal(g1.mask, g0.mask)
-    np.testing.assert_allclose(g1.diffuse, g0.diffuse, rtol=1e-5, atol=1e-7)
-    np.testing.assert_allclose(g1.depth[g0.mask], g0.depth[g0.mask], rtol=1e-6)
-
-
-@pytest.mark.parametrize("args", [("sphere", 2.0), ("slab", 20.0), ("slab", 0.0), ("slab", float("nan"))])
-def test_thin_scene_rejects(args):
-    from ssskit.scenes.variants import thin_scene
-
-    with pytest.raises(SceneError):
-        thin_scene(*args)
+    np.testing.assert_array_equal(chord_thickness(backed_scene("ear"), 80, 60), chord_thickness("ear", 80, 60))
 
 
 def test_deepened_ear_keeps_the_seen_half_and_stretches_the_other():
     """The ear's half facing away from the camera is 10 x deeper along its short axis (y): the seen half's
     vertices and normals are written back unchanged, the back half reaches 10 x 2 mm; the G-buffer's mask,
     normals and depth are the same and E / pi too, but on a few rim pixels."""
-    from ssskit.scenes.variants import _read_ply, deepened_scene
+    from lab.variants import _read_ply, deepened_scene
 
     deep = deepened_scene("ear", 10)
     v0, f0, n0 = _read_ply(get_scene("ear").shapes()["ear"]["filename"])
@@ -164,7 +147,7 @@ def test_deepened_ear_keeps_the_seen_half_and_stretches_the_other():
 
 @pytest.mark.parametrize("args", [("slab", 2.0), ("ear", 0.5), ("ear", -2), ("ear", "3")])
 def test_deepened_scene_rejects(args):
-    from ssskit.scenes.variants import deepened_scene
+    from lab.variants import deepened_scene
 
     with pytest.raises(SceneError):
         deepened_scene(*args)

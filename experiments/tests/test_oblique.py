@@ -1,4 +1,4 @@
-"""The flat-medium prediction (:mod:`ssskit.pipeline.oblique`): its averaging and boundary factor on
+"""The flat-medium prediction (:mod:`lab.oblique`): its averaging and boundary factor on
 a synthetic G-buffer, and the index-matched flat medium at grazing incidence against MCML at eta = 1
 (the cheap Mitsuba-vs-MCML check of the oblique-incidence transport)."""
 
@@ -9,9 +9,9 @@ import pytest
 
 from ssskit.errors import SceneError, SettingsError
 from ssskit.materials import get_material
-from ssskit.pipeline.oblique import (compare_flat_limit, flat_experiment, flat_prediction, interpolate_in_cos,
+from lab.oblique import (compare_flat_limit, flat_experiment, flat_prediction, interpolate_in_cos,
                                      pixel_angles, point_light, surface_reentry)
-from ssskit.profiles.montecarlo.oblique import ObliqueTable, oblique_table
+from lab.oblique_table import ObliqueTable, oblique_table
 from ssskit.screenspace.camera import Camera
 from ssskit.screenspace.gbuffer import GBuffer
 
@@ -135,7 +135,7 @@ def test_surface_reentry_is_zero_on_a_flat_surface_and_positive_on_the_relief():
     ~70 degrees) some of the boundary's reflection and of the diffuse light re-enters. The reflected
     share on the flat slab is the rough dielectric's reflectance at 70 degrees (1 - its transmittance,
     sampled separately)."""
-    from ssskit.scenes.flat import flat_scene, rough_dielectric_transmittance
+    from lab.flat import flat_scene, rough_dielectric_transmittance
 
     tab = _table()
     flat = surface_reentry(flat_scene(70.0, 44.0, -110.0), tab, samples=600, seed=1, batches=6)

@@ -1,13 +1,13 @@
 """What each difference in the region table is, measured: controlled path-traced experiments that each
 switch ONE cause off and compare with the uncontrolled reference in the same run
-(:mod:`ssskit.pipeline.attribution`).
+(:mod:`lab.attribution`).
 
 * transmission: the scene with a black backing just outside the surface the camera does not see
   (no light enters the medium there) vs the scene as rendered;
 * fresnel: the index-matched boundary (material at eta = 1, MC profile at eta = 1 for the pass and
   the exact 2D convolution) vs the rough dielectric;
 * curvature: the scene scaled by k (same image, k x the mm per pixel) for each k;
-* thickness (not in the default runs; :mod:`ssskit.pipeline.thickness`): the backed ear against the same
+* thickness (not in the default runs; :mod:`lab.thickness`): the backed ear against the same
   ear with its unseen half --depths times deeper (backed too), and the local-slab prediction (chord
   along the normal, MCML Rd(t) / Rd(inf)); thin-slab: the slab cut to --thicknesses mm against the
   20 mm slab on the plateau, reference vs MCML (--boundary index-matched or rough-dielectric).
@@ -31,11 +31,11 @@ import platform
 import sys
 import time
 
-from ssskit.figures.regions import ATTRIBUTION_RUNS, ATTRIBUTION_SPP, CURVATURE_FACTORS, attribution_data
-from ssskit.pipeline.attribution import SETUPS, experiment_setups, run_experiment
-from ssskit.pipeline.thickness import DEEPEN_FACTORS, SLAB_THICKNESSES, slab_check, thickness_experiment
+from lab.figure import ATTRIBUTION_RUNS, ATTRIBUTION_SPP, CURVATURE_FACTORS, attribution_data
+from lab.attribution import SETUPS, experiment_setups, run_experiment
+from lab.thickness import DEEPEN_FACTORS, SLAB_THICKNESSES, slab_check, thickness_experiment
 
-#: the thin-medium experiments (pipeline.thickness), run only when asked for
+#: the thin-medium experiments (lab.thickness), run only when asked for
 THICKNESS_EXPERIMENTS = ("thickness", "thin-slab")
 
 
@@ -59,6 +59,8 @@ def main(argv=None) -> None:
                     help="thin-slab: the reference's boundary")
     ap.add_argument("--mcml-photons", type=int, default=1_000_000, help="thin-slab: MCML photons per channel")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--plot", default=None, metavar="FILE.png",
+                    help="the default runs only: also draw their plot (lab.figure.plot_attribution) into FILE.png")
     args = ap.parse_args(argv)
     w, h = (int(v) for v in args.size.lower().split("x"))
     factors = tuple(float(v) for v in args.factors.split(","))
@@ -73,10 +75,15 @@ def main(argv=None) -> None:
     t0 = time.perf_counter()
     if (not args.experiment and not args.scene and args.chunk_spp == 8 and args.seed == 0
             and factors == CURVATURE_FACTORS):
-        # the figure's runs: stored where `ssskit figures region-attribution` and the demo find them
+        # the figure's runs: stored (lab.figure.attribution_data) where a later run finds them
         data = attribution_data(args.material, photons=args.photons, spp=args.spp, width=w, height=h, progress=say)
         out["runs"] = data["runs"]
         out["stored"] = True
+        if args.plot:
+            from lab.figure import plot_attribution
+
+            plot_attribution(data, args.plot)
+            say(f"wrote {args.plot}")
         out["seconds"] = round(time.perf_counter() - t0, 1)
         print(json.dumps(out, indent=1))
         return

@@ -4,16 +4,16 @@ experiment on a flat medium lit and seen at the same angles.
 
 The screen-space model gives a lit pixel Rd(0) E / pi (the normal-incidence profile's total
 reflectance, a Lambertian exit). In the flat limit (the scene scaled up until its surface is flat
-within the profile's reach, :func:`ssskit.scenes.variants.scaled_scene`) what is left between the
+within the profile's reach, :func:`lab.variants.scaled_scene`) what is left between the
 model and the reference is how a flat medium lit at theta_i and seen at theta_v differs from that:
 
 * **oblique incidence**: Rd(theta_i) / Rd(0), MCML with the beam at theta_i (the Fresnel
   transmittance of a smooth boundary at theta_i and the shallower refracted beam);
 * **non-Lambertian exit**: MCML's radiance factor f(theta_i, mu_v)
-  (:mod:`ssskit.profiles.montecarlo.oblique`);
+  (:mod:`lab.oblique_table`);
 * **the boundary**: the reference's rough dielectric (Mitsuba ``roughdielectric``, single-scattering
   Beckmann microfacets) is not MCML's smooth Fresnel boundary; what it changes is measured by
-  :func:`flat_experiment` (a flat slab, :func:`ssskit.scenes.flat.flat_scene`, at the scene's angles:
+  :func:`flat_experiment` (a flat slab, :func:`lab.flat.flat_scene`, at the scene's angles:
   the reference over the MCML prediction, with the index-matched boundary as the control that must
   give 1), or by MCML with the references' rough surface (``oblique_table(..., roughness=)``);
 * **re-entry** (:func:`surface_reentry`): on a relief, light that leaves the surface (the boundary's
@@ -39,13 +39,13 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SceneError, SettingsError
-from ..materials import get_material
-from ..profiles.montecarlo.oblique import ObliqueTable, cos_brackets, incidence_cosines, oblique_table
-from ..scenes import render_gbuffer, scene_lights
-from ..scenes.flat import SLAB_HALF_MM, flat_scene, light_position
-from ..scenes.reference import ReferenceRenderer, batch_mean_se
-from ..scenes.scenes import COAT_ROUGHNESS, SceneSpec, get_scene, mitsuba
+from ssskit.errors import SceneError, SettingsError
+from ssskit.materials import get_material
+from .oblique_table import ObliqueTable, cos_brackets, incidence_cosines, oblique_table
+from ssskit.scenes import render_gbuffer, scene_lights
+from .flat import SLAB_HALF_MM, flat_scene, light_position
+from ssskit.scenes.reference import ReferenceRenderer, batch_mean_se
+from ssskit.scenes.scenes import COAT_ROUGHNESS, SceneSpec, get_scene, mitsuba
 
 #: how far (mm) inside the flat slab's edges a pixel of :func:`flat_experiment` must lie
 FLAT_MARGIN_MM = 20.0
@@ -79,7 +79,7 @@ def interpolate_in_cos(angles_deg, values, cos_i) -> np.ndarray:
 
 def _cos_weights(angles_deg, cos_i) -> np.ndarray:
     """(..., A) the weights of linear interpolation in cos theta between ``angles_deg`` at ``cos_i``
-    (:func:`~ssskit.profiles.montecarlo.oblique.cos_brackets`)."""
+    (:func:`~lab.oblique_table.cos_brackets`)."""
     lo, hi, t = cos_brackets(angles_deg, cos_i)
     w = np.zeros(t.shape + (np.size(angles_deg),))
     np.put_along_axis(w, lo[..., None], (1.0 - t)[..., None], axis=-1)
@@ -188,7 +188,7 @@ def flat_experiment(material, incidence_deg: float, view_deg: float, azimuth_deg
                     table: ObliqueTable | None = None, compare: dict[str, ObliqueTable] | None = None,
                     progress=None) -> dict[str, Any]:
     """The path-traced reference of a flat medium lit at ``incidence_deg`` and seen at ``view_deg``
-    (:func:`ssskit.scenes.flat.flat_scene`) against the MCML prediction at every pixel's angles
+    (:func:`lab.flat.flat_scene`) against the MCML prediction at every pixel's angles
     (:func:`flat_prediction`): ``reference`` (3,) = mean diffuse part / mean E / pi ± SE (batches of
     ``chunk_spp``; the G-buffer's specular layer subtracted), ``prediction`` and
     ``reference_over_prediction`` ± SE (the reference's and MCML's errors combined).

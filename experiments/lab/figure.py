@@ -1,10 +1,10 @@
-"""``ssskit figures region-attribution``: what each difference of the region table is, measured by
-controlled path-traced experiments (:mod:`ssskit.pipeline.attribution`: transmission, grazing
-Fresnel, curvature), as a plot of exact 2D / reference per region and setup, and a table.
+"""What each difference of the region table is, measured by controlled path-traced experiments
+(:mod:`lab.attribution`: transmission, grazing Fresnel, curvature), as a plot of exact 2D / reference
+per region and setup, and a table (``python experiments/region_attribution.py --plot FILE.png``).
 
 The numbers are computed once per (material, photons, spp, image size) and stored
-(:func:`ssskit.figures.stored.stored`, ``cache_dir("figures")``); the demo report's region section
-shows the table when they are stored (:func:`cached_attribution`) and never computes them itself.
+(:func:`ssskit.figures.stored.stored`, ``cache_dir("figures")``); :func:`cached_attribution` reads them
+without computing anything. The results are recorded in experiments/RESULTS.md.
 """
 
 from __future__ import annotations
@@ -16,12 +16,12 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..materials import CHANNELS
-from ..pipeline.attribution import ATTRIBUTION_REGIONS
-from .plots import CHANNEL_COLORS, pyplot, save_figure
-from .stored import peek, stored
+from ssskit.materials import CHANNELS
+from .attribution import ATTRIBUTION_REGIONS
+from ssskit.figures.plots import CHANNEL_COLORS, pyplot, save_figure
+from ssskit.figures.stored import peek, stored
 
-#: (experiment, scene) pairs of the figure (and of benchmarks/region_attribution.py's default run)
+#: (experiment, scene) pairs of the figure (experiments/region_attribution.py's default run)
 ATTRIBUTION_RUNS = (("transmission", "ear"), ("transmission", "sphere"), ("fresnel", "sphere"), ("fresnel", "ear"),
                     ("fresnel", "bumpy"), ("curvature", "sphere"), ("curvature", "bumpy"))
 #: the curvature experiment's scale factors (the first is the scene as built)
@@ -41,10 +41,10 @@ ATTRIBUTION_SPP = 1024
 
 def attribution_data(material: str = "skin1", photons: int = 200_000, spp: int = ATTRIBUTION_SPP, width: int = 160,
                      height: int = 120, progress: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """Every run of :data:`ATTRIBUTION_RUNS` (:func:`ssskit.pipeline.attribution.run_experiment`), stored."""
+    """Every run of :data:`ATTRIBUTION_RUNS` (:func:`lab.attribution.run_experiment`), stored."""
 
     def make() -> dict[str, Any]:
-        from ..pipeline.attribution import experiment_setups, run_experiment
+        from .attribution import experiment_setups, run_experiment
 
         runs = []
         for exp, scene in ATTRIBUTION_RUNS:
@@ -131,17 +131,5 @@ def plot_attribution(data: dict[str, Any], path: str | Path) -> None:
     save_figure(fig, path)
 
 
-def region_attribution(out: Path, profile, progress=None) -> list[Path]:
-    """The attribution plot ``region_attribution.png`` for the profile's material (the experiments use
-    the Monte Carlo profile of that material, with the profile's photon count when it is one)."""
-    photons = 200_000
-    if profile.model == "montecarlo":
-        photons = int(profile.channels[0].result.config.photons)
-    data = attribution_data(profile.name, photons=photons, progress=progress)
-    path = Path(out) / "region_attribution.png"
-    plot_attribution(data, path)
-    return [path]
-
-
 __all__ = ["ATTRIBUTION_RUNS", "ATTRIBUTION_SPP", "CURVATURE_FACTORS", "attribution_data", "attribution_table_html",
-           "cached_attribution", "plot_attribution", "region_attribution"]
+           "cached_attribution", "plot_attribution"]

@@ -1,4 +1,4 @@
-"""The flat medium lit and seen at chosen angles (:mod:`ssskit.scenes.flat`): its G-buffer has the
+"""The flat medium lit and seen at chosen angles (:mod:`lab.flat`): its G-buffer has the
 incidence and view angles asked for at every pixel, E / pi = 1 at the centre, and only the slab's
 lit top face in view."""
 
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from ssskit.errors import SceneError
-from ssskit.profiles.montecarlo.oblique import incidence_cosines
+from lab.oblique_table import incidence_cosines
 from ssskit.scenes import render_gbuffer
-from ssskit.profiles.montecarlo.oblique import fresnel_transmittance
-from ssskit.scenes.flat import SLAB_HALF_MM, camera_position, flat_scene, light_position, rough_dielectric_transmittance
+from lab.oblique_table import fresnel_transmittance
+from lab.flat import SLAB_HALF_MM, camera_position, flat_scene, light_position, rough_dielectric_transmittance
 
 
 @pytest.fixture(autouse=True)

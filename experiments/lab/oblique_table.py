@@ -34,10 +34,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...errors import ProfileError
-from ...materials import LayeredMaterial, Material
-from .config import N_EXIT_BINS, config_for_material
-from .run import simulate
+from ssskit.errors import ProfileError
+from ssskit.materials import LayeredMaterial, Material
+from ssskit.profiles.montecarlo.config import N_EXIT_BINS, config_for_material
+from ssskit.profiles.montecarlo.run import simulate
 
 #: incidence angles (degrees) of the default table: dense where cos theta_i changes fastest in the
 #: quantities (grazing light), up to 89 degrees (MCML's launch needs theta_i < 90)

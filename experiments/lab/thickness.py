@@ -6,15 +6,15 @@ profile: light entering the seen surface comes back out of it with total Rd(inf)
 t returns Rd(t) < Rd(inf): the rest diffuses through to its back and leaves there (MCML's Tt). The
 ear is a flattened ellipsoid 0-4 mm thick against red's diffusion length of 3.7 mm (Skin1), so after
 the transmission control (no light entering its unseen surface,
-:func:`ssskit.scenes.variants.backed_scene`) the model is still too bright in red. Three measurements:
+:func:`lab.variants.backed_scene`) the model is still too bright in red. Three measurements:
 
 * :func:`slab_setups` / :func:`slab_check` (the reference does what MCML says): the slab cut to a
-  thickness t (:func:`ssskit.scenes.variants.thin_scene`) against the 20 mm slab, the plateau's
-  reference level with paired chunk seeds (:func:`ssskit.pipeline.attribution.run_experiment`),
+  thickness t (:func:`lab.variants.thin_scene`) against the 20 mm slab, the plateau's
+  reference level with paired chunk seeds (:func:`lab.attribution.run_experiment`),
   against MCML's Rd(t) F_t(mu) / (Rd(20) F_20(mu)) at the plateau's incidence (F: the radiance factor
   at the camera, :meth:`MCResult.radiance_factor_at`), both with standard errors.
 * :func:`thickness_setups` (the scene-level control on the ear): the backed ear against the same ear
-  with its unseen half ``factor`` times deeper (:func:`ssskit.scenes.variants.deepened_scene`, backed
+  with its unseen half ``factor`` times deeper (:func:`lab.variants.deepened_scene`, backed
   too): the seen surface and the G-buffer stay the same, the back losses go. ``gap_removed`` of
   :func:`run_experiment` is the share of the backed ear's difference reference - exact that they were.
 * :func:`predict_thin` (the model's prediction, no path tracing): per pixel the chord through the
@@ -38,13 +38,13 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SettingsError
-from ..materials import get_material
-from ..profiles.montecarlo.slab import interpolate_ratio, slab_config, thickness_table
-from ..profiles.montecarlo import simulate
-from ..scenes.scenes import get_scene
-from ..scenes.thickness import chord_thickness, incidence_angle
-from ..scenes.variants import backed_scene, box_thickness_mm, deepened_scene, thin_scene
+from ssskit.errors import SettingsError
+from ssskit.materials import get_material
+from ssskit.profiles.montecarlo.slab import interpolate_ratio, slab_config, thickness_table
+from ssskit.profiles.montecarlo import simulate
+from ssskit.scenes.scenes import get_scene
+from ssskit.scenes.thickness import chord_thickness, incidence_angle
+from .variants import backed_scene, box_thickness_mm, deepened_scene, thin_scene
 from .attribution import ATTRIBUTION_REGIONS, Prepared, Setup, prepare, regions_of, run_experiment
 from .oblique import pixel_angles, point_light
 

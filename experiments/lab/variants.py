@@ -1,6 +1,6 @@
 """Controlled variants of the built-in scenes: each switches off ONE cause of a difference between the
 screen-space model and the path-traced reference, so that the difference it removes can be measured
-(:mod:`ssskit.pipeline.attribution`).
+(:mod:`lab.attribution`).
 
 * :func:`scaled_scene` (curvature): every length of the scene -- shapes, lights, camera -- times k,
   the material unchanged. The image is the same (the direct light E / pi is scale-free: an area
@@ -14,10 +14,10 @@ screen-space model and the path-traced reference, so that the difference it remo
   surface; tests/scenes check the G-buffer's mask and E / pi). Light leaving the medium through its
   back is lost with or without the shell (the surroundings are black in the reference and the
   objects are convex).
-* :func:`thin_scene` (thickness, a flat control): each SSS box of the scene (the slab) cut to a
-  finite thickness t below its top face; everything the camera sees stays (the top face, lights,
-  camera). Light that a semi-infinite medium would return leaves through the bottom face into the
-  black surroundings: the reference's plateau level falls to MCML's Rd(t) / Rd(inf) (tests/scenes).
+* :func:`~ssskit.scenes.thickness.thin_scene` (thickness, a flat control; in the product, re-exported
+  here): each SSS box of the scene (the slab) cut to a finite thickness t below its top face; everything
+  the camera sees stays. Light that a semi-infinite medium would return leaves through the bottom face
+  into the black surroundings: the reference's plateau level falls to MCML's Rd(t) / Rd(inf).
 * :func:`deepened_scene` (thickness, the curved object's control): each SSS mesh's half that faces
   away from the camera stretched by a factor along the mesh's shortest axis. The seen surface (its
   vertices and normals), and with it the G-buffer, stay bit for bit; behind it the medium is ``factor``
@@ -37,8 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
-from .scenes import SceneSpec, _ellipsoid_geometry, _ply, _T, camera_pose, get_scene
+from ssskit.errors import SceneError
+from ssskit.scenes.scenes import SceneSpec, _ellipsoid_geometry, _ply, _T, camera_pose, get_scene
+from ssskit.scenes.thickness import _check_positive, box_thickness_mm, thin_scene  # noqa: F401  (re-exported)
 
 #: how far (mm) the backing shell lies outside the surface (beyond the deviation of the shell's mesh
 #: from an analytic surface): small against a pixel (~0.5 mm), so that it shadows little light
@@ -180,49 +181,6 @@ def backed_scene(scene: str | SceneSpec, offset_mm: float = BACKING_OFFSET_MM, f
 
     return dataclasses.replace(spec, name=f"{spec.name}-backed" + (f"{grazing_cos:g}" if grazing_cos else ""),
                                description=f"{spec.description}; black backing behind the unseen surface",
-                               shapes=shapes)
-
-
-def _check_positive(value, what: str) -> float:
-    if isinstance(value, bool) or not (isinstance(value, (int, float, np.integer, np.floating))
-                                       and math.isfinite(value) and value > 0):
-        raise SceneError(f"{what} must be a positive number, got {value!r}")
-    return float(value)
-
-
-def box_thickness_mm(shape: dict) -> float:
-    """The thickness (mm) of a Mitsuba ``cube`` shape along its local z axis: 2 |to_world e_z| (the
-    unit cube spans [-1, 1]^3)."""
-    m = np.array(shape.get("to_world", _T()()).matrix, dtype=float)
-    return 2.0 * float(np.linalg.norm(m[:3, 2]))
-
-
-def thin_scene(scene: str | SceneSpec, thickness_mm: float) -> SceneSpec:
-    """``scene`` with each SSS box (a Mitsuba ``cube``: the slab) cut to ``thickness_mm`` below the face
-    at its local +z (the slab's lit top face, which the camera sees): to_world' = to_world .
-    translate(0, 0, 1 - s) . scale(1, 1, s), s = thickness / the box's thickness, keeps the local
-    z = +1 face and moves the z = -1 face up (module docstring). A SceneError for a scene with no SSS
-    box, or a thickness not below the box's. Named ``<name>-t<thickness>``."""
-    spec = get_scene(scene)
-    t = _check_positive(thickness_mm, "the thickness (mm)")
-    base = spec.shapes()
-    boxes = [sid for sid in spec.sss_shapes if base[sid].get("type") == "cube"]
-    if not boxes:
-        raise SceneError(f"scene {spec.name!r} has no SSS box (a Mitsuba cube) to make thinner")
-    for sid in boxes:
-        full = box_thickness_mm(base[sid])
-        if not t < full:
-            raise SceneError(f"the thickness must be below the {sid!r} box's {full:g} mm, got {t:g}")
-
-    def shapes() -> dict[str, dict]:
-        d = spec.shapes()
-        for sid in boxes:
-            s = t / box_thickness_mm(d[sid])
-            d[sid] = dict(d[sid], to_world=d[sid].get("to_world", _T()()) @ _T()().translate([0.0, 0.0, 1.0 - s])
-                          @ _T()().scale([1.0, 1.0, s]))
-        return d
-
-    return dataclasses.replace(spec, name=f"{spec.name}-t{t:g}", description=f"{spec.description}; {t:g} mm thick",
                                shapes=shapes)
 
 

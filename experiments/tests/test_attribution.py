@@ -9,7 +9,7 @@ import pytest
 
 from ssskit.errors import SettingsError
 from ssskit.materials import get_material
-from ssskit.pipeline.attribution import (
+from lab.attribution import (
     ATTRIBUTION_REGIONS,
     Setup,
     curvature_setups,
@@ -21,7 +21,7 @@ from ssskit.pipeline.attribution import (
     transmission_setups,
 )
 from ssskit.scenes.scenes import SceneSpec, get_scene
-from ssskit.scenes.variants import scaled_scene
+from lab.variants import scaled_scene
 
 SKIN = get_material("skin1")
 

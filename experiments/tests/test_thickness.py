@@ -1,4 +1,4 @@
-"""The thin medium's back losses (pipeline.thickness): the path-traced slab cut to 2 mm loses what MCML
+"""The thin medium's back losses (lab.thickness): the path-traced slab cut to 2 mm loses what MCML
 says it loses, and the ear's prediction averages Rd(t) / Rd(inf) the way a level is averaged."""
 
 import types
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from ssskit.errors import SettingsError
-from ssskit.pipeline.attribution import ATTRIBUTION_REGIONS
-from ssskit.pipeline.thickness import predict_thin, slab_check, slab_setups, thickness_setups
+from lab.attribution import ATTRIBUTION_REGIONS
+from lab.thickness import predict_thin, slab_check, slab_setups, thickness_setups
 
 
 @pytest.fixture(autouse=True)

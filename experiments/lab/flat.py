@@ -1,6 +1,6 @@
 """A flat medium lit at a chosen incidence angle and seen at a chosen view angle: the control that
 separates what the light's and the camera's angles do to a region's level from what the surface's
-shape does (:mod:`ssskit.pipeline.oblique`).
+shape does (:mod:`lab.oblique`).
 
 :func:`flat_scene` is a 200 x 200 x 20 mm slab of the material (top face z = 0) with one point light
 far away (:data:`LIGHT_DISTANCE_MM`) at ``incidence_deg`` from the normal, in the x-z plane, and the
@@ -19,8 +19,9 @@ import math
 
 import numpy as np
 
-from ..errors import SceneError
-from .scenes import COAT_ROUGHNESS, SceneSpec, _T, mitsuba
+from ssskit.errors import SceneError
+from ssskit.scenes.boundary import rough_dielectric_transmittance, rough_dielectric_weights
+from ssskit.scenes.scenes import SceneSpec, _T
 
 #: half the slab's side (mm) and its thickness
 SLAB_HALF_MM = 100.0
@@ -75,49 +76,9 @@ def flat_scene(incidence_deg: float, view_deg: float = 0.0, azimuth_deg: float =
         orbit_deg_per_frame=0.0)
 
 
-def rough_dielectric_weights(cos_i, eta: float, alpha: float = COAT_ROUGHNESS, samples: int = 50_000,
-                             seed: int = 0, inside: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """(mean, standard error), each of shape cos_i.shape + (2,): the light the reference's boundary
-    reflects ([..., 0]) and transmits ([..., 1]) at each incidence cosine ``cos_i``, arriving from
-    outside (or, ``inside``, from the medium): Mitsuba's ``roughdielectric`` (Beckmann ``alpha``,
-    int_ior = ``eta``) sampled ``samples`` times per angle with its own visible-normal routine in
-    importance (flux) transport mode, the mean sample weight on each side. 1 minus both is what the
-    single-scattering BSDF loses."""
-    if not (isinstance(eta, (int, float, np.floating)) and math.isfinite(eta) and eta > 1.0):
-        raise SceneError(f"a dielectric boundary needs eta > 1, got {eta!r}")
-    if isinstance(samples, bool) or not (isinstance(samples, int) and samples >= 2):
-        raise SceneError(f"samples must be an integer >= 2, got {samples!r}")
-    mi = mitsuba()
-    bsdf = mi.load_dict({"type": "roughdielectric", "int_ior": float(eta), "ext_ior": 1.0,
-                         "distribution": "beckmann", "alpha": float(alpha)})
-    ctx = mi.BSDFContext(mi.TransportMode.Importance)
-    rng = np.random.default_rng(seed)
-    cos = np.atleast_1d(np.asarray(cos_i, float))
-    mean, se = np.empty(cos.shape + (2,)), np.empty(cos.shape + (2,))
-    for j, c in enumerate(cos):
-        si = mi.SurfaceInteraction3f()
-        si.wi = mi.Vector3f(math.sqrt(max(1.0 - c * c, 0.0)), 0.0, -float(c) if inside else float(c))
-        si.sh_frame = mi.Frame3f(mi.Vector3f(0.0, 0.0, 1.0))
-        u = rng.random((samples, 3))
-        w = np.zeros((samples, 2))
-        for k in range(samples):
-            bs, weight = bsdf.sample(ctx, si, float(u[k, 0]), mi.Point2f(float(u[k, 1]), float(u[k, 2])))
-            w[k, int(bs.wo[2] * si.wi[2] < 0)] = weight[0]
-        mean[j], se[j] = w.mean(axis=0), w.std(axis=0, ddof=1) / math.sqrt(samples)
-    shape = np.shape(cos_i) + (2,)
-    return mean.reshape(shape), se.reshape(shape)
-
-
-def rough_dielectric_transmittance(cos_i, eta: float, alpha: float = COAT_ROUGHNESS, samples: int = 50_000,
-                                   seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """(transmittance, standard error) at each incidence cosine ``cos_i`` of the reference's boundary
-    for light arriving from outside (:func:`rough_dielectric_weights`). A smooth boundary transmits
-    1 - R (Fresnel); a rough one sees the light at the microfacets' own angles, which near grazing
-    incidence face the light more than the mean surface does."""
-    mean, se = rough_dielectric_weights(cos_i, eta, alpha, samples, seed)
-    return mean[..., 1], se[..., 1]
-
-
 __all__ = ["CAMERA_DISTANCE_MM", "FIELD_MM", "LIGHT_DISTANCE_MM", "SLAB_HALF_MM", "SLAB_THICKNESS_MM",
            "camera_position", "flat_scene", "light_position", "rough_dielectric_transmittance",
            "rough_dielectric_weights"]
+
+# the references' boundary as Mitsuba samples it lives in the product (ssskit.scenes.boundary); re-exported
+# here for the experiments that use it beside the flat scene

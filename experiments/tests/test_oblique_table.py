@@ -1,4 +1,4 @@
-"""MCML's oblique-incidence table (:mod:`ssskit.profiles.montecarlo.oblique`): Rd(theta_i) against
+"""MCML's oblique-incidence table (:mod:`lab.oblique_table`): Rd(theta_i) against
 Chandrasekhar's H-function, the interpolation, the Fresnel transmittance and the incidence cosine."""
 
 import math
@@ -10,9 +10,9 @@ from ssskit.errors import ProfileError
 from ssskit.materials import Material
 from ssskit.profiles.montecarlo import MCConfig, MCLayer
 from ssskit.profiles.montecarlo.config import N_EXIT_BINS
-from ssskit.profiles.montecarlo.oblique import fresnel_transmittance, incidence_cosines, oblique_table
+from lab.oblique_table import fresnel_transmittance, incidence_cosines, oblique_table
 
-from .test_montecarlo import _chandrasekhar_h
+from tests.profiles.test_montecarlo import _chandrasekhar_h
 
 
 @pytest.fixture(autouse=True)

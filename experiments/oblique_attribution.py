@@ -1,12 +1,12 @@
 """The bumpy tile's G/B residual, measured: the flat-limit prediction from MCML for the tile's own
 light and view angles, and the controlled path-traced experiment on a flat medium at those angles
-(:mod:`ssskit.pipeline.oblique`, issue 11).
+(:mod:`lab.oblique`, issue 11).
 
-Scaled 8x (:func:`ssskit.scenes.variants.scaled_scene`), the tile is flat within the profile's reach
+Scaled 8x (:func:`lab.variants.scaled_scene`), the tile is flat within the profile's reach
 and the red gap closes; what is left is how a flat medium lit at grazing incidence and seen at ~45
 degrees differs from the model's Rd(0) E / pi. The script
 
-1. tabulates MCML over the incidence angle (:func:`ssskit.profiles.montecarlo.oblique.oblique_table`,
+1. tabulates MCML over the incidence angle (:func:`lab.oblique_table.oblique_table`,
    eta of the material with a smooth surface and with the references' rough one, and eta = 1);
 2. predicts every region's level from the tile's per-pixel incidence and view angles (the G-buffer
    of the unscaled tile: the scaled one's image, normals and E / pi are the same; angles and E / pi
@@ -15,15 +15,15 @@ degrees differs from the model's Rd(0) E / pi. The script
    k = 1 of the Fresnel experiment (index-matched), taken from ``--measured`` (the JSON that
    ``region_attribution.py`` prints) or, without it, measured here (``run_experiment``, k = 1 and 8,
    and the index-matched setup);
-3. measures the rough dielectric's factor on a flat slab (:func:`ssskit.scenes.flat.flat_scene`) at
+3. measures the rough dielectric's factor on a flat slab (:func:`lab.flat.flat_scene`) at
    the tile's E / pi-weighted view angle and azimuth for a range of incidence angles, with the
    index-matched boundary at the tile's mean angles as the control (it must give 1), and applies the
    measured factor per pixel (interpolated in cos theta_i) to the prediction; splits the factor into
    the boundary's entry (the rough dielectric's transmittance over Fresnel's, sampled from Mitsuba's
-   BSDF: :func:`ssskit.scenes.flat.rough_dielectric_transmittance`) and the rest.
+   BSDF: :func:`lab.flat.rough_dielectric_transmittance`) and the rest.
 
 4. estimates the light that leaves the surface (the boundary's reflection, the diffuse light) and
-   re-enters it elsewhere (:func:`ssskit.pipeline.oblique.surface_reentry`), which the G-buffer's
+   re-enters it elsewhere (:func:`lab.oblique.surface_reentry`), which the G-buffer's
    direct E / pi lacks, and applies it to the rough-surface MCML prediction.
 
 Keys: ``prediction.rough`` / ``table.rough``: MCML with a smooth surface at the material's eta (for the
@@ -48,12 +48,12 @@ import time
 import numpy as np
 
 from ssskit.materials import get_material
-from ssskit.pipeline.attribution import Setup, curvature_setups, fresnel_setups, prepare, regions_of, run_experiment
-from ssskit.pipeline.oblique import (compare_flat_limit, flat_experiment, flat_prediction, point_light,
+from lab.attribution import Setup, curvature_setups, fresnel_setups, prepare, regions_of, run_experiment
+from lab.oblique import (compare_flat_limit, flat_experiment, flat_prediction, point_light,
                                      surface_reentry)
-from ssskit.profiles.montecarlo.oblique import fresnel_transmittance, oblique_table
+from lab.oblique_table import fresnel_transmittance, oblique_table
 from ssskit.scenes import COAT_ROUGHNESS, render_gbuffer
-from ssskit.scenes.flat import rough_dielectric_transmittance
+from lab.flat import rough_dielectric_transmittance
 
 REGIONS = ("silhouette", "shadow_edge", "grazing_view", "object")
 

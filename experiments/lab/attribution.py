@@ -11,7 +11,7 @@ surface only. Three things the reference has and the model does not, each with i
 
 * **transmission** (:func:`transmission_setups`): light that enters the medium through the surface
   the camera does not see (through a thin part, around the silhouette). Control: the same scene
-  with a black backing just outside that surface (:func:`ssskit.scenes.variants.backed_scene`), so
+  with a black backing just outside that surface (:func:`lab.variants.backed_scene`), so
   no light enters there; nothing the camera sees changes.
 * **grazing Fresnel** (:func:`fresnel_setups`): the boundary's Fresnel transmission, which falls to
   0 at grazing angles (the silhouette, where the camera looks along the surface; the terminator,
@@ -20,7 +20,7 @@ surface only. Three things the reference has and the model does not, each with i
   a region's ratio exact / reference relative to the plateau's is the grazing Fresnel (plus the
   dielectric's change of the exit's angular shape).
 * **curvature** (:func:`curvature_setups`): the surface is not flat within the profile's reach.
-  Control: the whole scene scaled by k (:func:`ssskit.scenes.variants.scaled_scene`; the same
+  Control: the whole scene scaled by k (:func:`lab.variants.scaled_scene`; the same
   image, k times the mm per pixel): the surface's curvature relative to the profile's reach falls
   by k, and the ratio exact / reference trends to the flat surface's value.
 
@@ -43,20 +43,21 @@ from typing import Any
 
 import numpy as np
 
-from ..backends import DEFAULT_BACKEND
-from ..errors import SettingsError
-from ..kernels import build_kernel, default_grid
-from ..materials import get_material
-from ..metrics import REGIONS, region_masks
-from ..profiles import profile_for_material
-from ..sampling.taps import make_taps
-from ..scenes import render_gbuffer
-from ..scenes.reference import ReferenceRenderer, reference_phase_g
-from ..scenes.scenes import SceneSpec, get_scene
-from ..scenes.variants import backed_scene, scaled_scene
-from ..screenspace import PassSettings, separable_sss
-from ..truth import exact_screen_space, surface_convolution
-from .regions import pixel_mm
+from ssskit.backends import DEFAULT_BACKEND
+from ssskit.errors import SettingsError
+from ssskit.kernels import build_kernel, default_grid
+from ssskit.materials import get_material
+from ssskit.metrics import REGIONS, region_masks
+from ssskit.profiles import profile_for_material
+from ssskit.sampling.taps import make_taps
+from ssskit.scenes import render_gbuffer
+from ssskit.scenes.reference import ReferenceRenderer, reference_phase_g
+from ssskit.scenes.scenes import SceneSpec, get_scene
+from .variants import backed_scene, scaled_scene
+from ssskit.screenspace import PassSettings, separable_sss
+from ssskit.truth import exact_screen_space
+from .surface import surface_convolution
+from ssskit.pipeline.regions import pixel_mm
 
 Progress = Callable[[str], None]
 
@@ -122,7 +123,7 @@ def experiment_setups(experiment: str, scene: str, material, factors: Sequence[f
 @dataclass
 class Prepared:
     """A setup's screen-space side: its Monte Carlo profile, G-buffer, pass, exact 2D convolution and
-    the convolution over the seen surface (:func:`ssskit.truth.surface_convolution`, albedo included)."""
+    the convolution over the seen surface (:func:`lab.surface.surface_convolution`, albedo included)."""
 
     setup: Setup
     profile: Any
@@ -137,7 +138,7 @@ def prepare(setup: Setup, width: int, height: int, photons: int, gbuffer_spp: in
     """The ``model`` profile of the setup's material (Monte Carlo: ``photons`` per channel, cached), its G-buffer
     (albedo = the profile's total Rd), the pass (pre-integrated kernel, 7 importance-sampled taps,
     10% jitter: the demo's), the exact 2D convolution (paper Eq. 1) and, with ``surface``, Eq. 1 over
-    the seen surface (:func:`ssskit.truth.surface_convolution`)."""
+    the seen surface (:func:`lab.surface.surface_convolution`)."""
     mat = setup.material
     reference_phase_g(mat)
     prof = profile_for_material(mat, model, **({"photons": photons} if model == "montecarlo" else {}))

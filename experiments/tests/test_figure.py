@@ -1,11 +1,10 @@
-"""``ssskit figures region-attribution`` and the demo's use of it: the numbers are stored once and only
-read by the report (which never computes them), with a table and a plot of every run."""
+"""The attribution's stored numbers (lab.figure): stored once and read without computing anything, with
+a table and a plot of every run; the product no longer registers the figure."""
 
-from ssskit import report
+from lab import figure as fr
+from lab.attribution import ATTRIBUTION_REGIONS
 from ssskit.figures import FIGURES
-from ssskit.figures import regions as fr
 from ssskit.figures.stored import peek, stored
-from ssskit.pipeline.attribution import ATTRIBUTION_REGIONS
 
 
 def _pair(v, se):
@@ -40,19 +39,11 @@ def test_table_and_plot_of_the_runs(tmp_path):
     png = tmp_path / "a.png"
     fr.plot_attribution(data, png)
     assert png.read_bytes()[:4] == b"\x89PNG"
-    assert "region-attribution" in FIGURES.names()
+    assert "region-attribution" not in FIGURES.names()  # a lab figure: experiments/region_attribution.py --plot
 
 
-def test_the_demo_shows_the_attribution_only_when_stored(tmp_path, monkeypatch):
-    """Without stored numbers the report says how to make them (and computes nothing); with them it
-    shows the table and writes the plot; the screen-space section's cache key follows that."""
+def test_stored_numbers_are_read_without_computing(tmp_path, monkeypatch):
     monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
-    (tmp_path / "out" / "figures").mkdir(parents=True)
-    text = report._attribution_html(tmp_path / "out", 5000)
-    assert "ssskit figures region-attribution --photons 5000" in text and "<table>" not in text
-    assert report._SECTION_KEYS["screenspace"]({"photons": 5000}) == {"attribution": False}
+    assert fr.cached_attribution(photons=5000) is None
     stored("figures", "region_attribution", fr._key("skin1", 5000, fr.ATTRIBUTION_SPP, 160, 120), _fake_data)
     assert fr.cached_attribution(photons=5000) is not None and fr.cached_attribution(photons=6000) is None
-    text = report._attribution_html(tmp_path / "out", 5000)
-    assert "<table>" in text and (tmp_path / "out" / "figures" / "region_attribution.png").is_file()
-    assert report._SECTION_KEYS["screenspace"]({"photons": 5000}) == {"attribution": True}

@@ -32,7 +32,7 @@ import numpy as np
 
 from ssskit.materials import get_material
 from ssskit.profiles.montecarlo import config_for_material, montecarlo_rgb, simulate
-from ssskit.pipeline.oblique import pixel_angles, point_light
+from lab.oblique import pixel_angles, point_light
 from ssskit.scenes import render_gbuffer
 from ssskit.scenes.scenes import COAT_ROUGHNESS
 from ssskit.scenes.reference import ReferenceRenderer, batch_mean_se
