@@ -249,7 +249,9 @@ def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
 @click.option("--jitter", type=click.FloatRange(0.0, 1.0), default=0.1, show_default=True,
               help="glsl-shader/hlsl-shader: taps within this fraction of the kernel size on rotated axes.")
 @depth_mode_option()
-@model_option("dipole", help="Profile model of the material (the source of the kernel or of the parameters).")
+@model_option("dipole", help="Profile model of the material (the source of the kernel or of the parameters); engine "
+                             "files and artists' terms default to burley (Burley-fit inversion), montecarlo or "
+                             "dipole invert them to a physical material first.")
 @photons_option(200_000, help="--model montecarlo: photons per channel (cached).")
 @click.option("--grid-fraction", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=None,
               help="--model montecarlo: lengthen each channel's grid until it holds this fraction of the light.")
