@@ -12,6 +12,7 @@ import click
 from ..errors import SsskitError
 
 if TYPE_CHECKING:
+    from ..materials import LayeredMaterial, Material
     from ..profiles.base import RGBProfile
 from .options import (
     RegistryName,
@@ -46,7 +47,7 @@ def check_material_for_model(ctx: click.Context, material: str | None, model: st
         raise SsskitError(f"--material is required for {needed_by or f'--model {model}'}")
 
 
-def resolve_profile(ctx: click.Context, material: str | None, model: str,
+def resolve_profile(ctx: click.Context, material: str | Material | LayeredMaterial | None, model: str,
                     options: dict[str, tuple[str, object]]) -> Callable[[], RGBProfile]:
     """The profile of ``model`` for ``material``, passing each option the model takes.
 
