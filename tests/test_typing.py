@@ -25,7 +25,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "src" / "ssskit"
 #: what the dev extra installs for the mypy run (the stubs change what mypy reports, so they are required)
-TYPING_DISTRIBUTIONS = ("mypy", "scipy-stubs", "types-tqdm")
+TYPING_DISTRIBUTIONS = ("mypy", "scipy-stubs", "types-tqdm", "types-PyYAML")
 
 
 def public_modules(package: Path = PACKAGE) -> Iterator[Path]:
