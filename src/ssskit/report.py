@@ -9,14 +9,19 @@ from __future__ import annotations
 import html
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .backends import DEFAULT_BACKEND
 from .io import write_text
 from .materials import CHANNELS, MATERIALS, Material
+
+if TYPE_CHECKING:
+    from .backends.base import Backend
+    from .profiles.base import RadialProfile, RGBProfile
 
 Progress = Callable[[str], None]
 Section = Callable[[Path, Progress, dict], str]
@@ -37,8 +42,16 @@ tr.best td { background: #e8f5e9; font-weight: 600; }
 """
 
 
-def _fmt(values, digits: int = 4) -> str:
+def _fmt(values: Iterable[float], digits: int = 4) -> str:
     return ", ".join(f"{v:.{digits}g}" for v in values)
+
+
+def _burley_d(channel: RadialProfile) -> float:
+    """A Burley channel's d (mm)."""
+    from .profiles.burley import BurleyProfile
+
+    assert isinstance(channel, BurleyProfile)  # burley_profile's channels
+    return channel.d
 
 
 def _materials_section(out: Path, progress: Progress, ctx: dict) -> str:
@@ -52,7 +65,7 @@ def _materials_section(out: Path, progress: Progress, ctx: dict) -> str:
             f"<tr><td class=name><a href='#{name}'>{html.escape(name)}</a></td>"
             f"<td>{_fmt(m.sigma_a)}</td><td>{_fmt(m.sigma_s)}</td><td>{m.eta:g}</td>"
             f"<td>{_fmt(m.albedo)}</td><td>{_fmt(m.mfp_mm)}</td><td>{_fmt(m.sigma_tr)}</td>"
-            f"<td>{_fmt(dip.total_rd())}</td><td>{_fmt([getattr(c, 'd') for c in bur.channels])}</td></tr>"
+            f"<td>{_fmt(dip.total_rd())}</td><td>{_fmt([_burley_d(c) for c in bur.channels])}</td></tr>"
         )
     return (
         "<h2>Materials</h2><p class=note>The 11 measured materials of the separable-SSS supplement, "
@@ -96,7 +109,7 @@ def _profiles_section(out: Path, progress: Progress, ctx: dict) -> str:
     return "".join(parts)
 
 
-def _totals_table(m: Material, profs) -> str:
+def _totals_table(m: Material, profs: Sequence[RGBProfile]) -> str:
     head = "".join(f"<th>{c}</th>" for c in CHANNELS)
     rows = "".join(
         f"<tr><td class=name>{p.model}</td>"
@@ -139,7 +152,8 @@ RANK_SIGNALS = ("edge", "edge-rotated", "disk", "texture")
 RANK_MATERIALS = ("Skin1", "Marble", "Ketchup")
 
 
-def kernel_ranking(profile, methods=RANKED_METHODS, signals=RANK_SIGNALS, progress: Progress | None = None):
+def kernel_ranking(profile: RGBProfile, methods: list[str] = RANKED_METHODS, signals: tuple[str, ...] = RANK_SIGNALS,
+                   progress: Progress | None = None) -> list[tuple[str, dict[str, dict[str, Any]], float]]:
     """Each method's error against the exact 2D convolution (the kernel's error, not the model's) on
     each signal, ranked by the mean relative RMSE over the signals: a list of (method, {signal:
     metrics}, mean relative RMSE), best first."""
@@ -155,7 +169,8 @@ def kernel_ranking(profile, methods=RANKED_METHODS, signals=RANK_SIGNALS, progre
     return sorted(rows, key=lambda row: row[2])
 
 
-def _ranking_table(profile, rows, signals=RANK_SIGNALS) -> str:
+def _ranking_table(profile: RGBProfile, rows: list[tuple[str, dict[str, dict[str, Any]], float]],
+                   signals: tuple[str, ...] = RANK_SIGNALS) -> str:
     head = "".join(f"<th>{s}<br>rel. RMSE / FLIP</th>" for s in signals)
     body = []
     for k, (m, per, mean) in enumerate(rows, 1):
@@ -192,7 +207,7 @@ def _kernels_section(out: Path, progress: Progress, ctx: dict) -> str:
     )
 
 
-def _level_cells(row, key, ref=None) -> str:
+def _level_cells(row: dict[str, Any], key: str, ref: bool | None = None) -> str:
     if key not in row or row[key]["level"] is None:
         return "<td>-</td>"
     lev = row[key]["level"]
@@ -226,7 +241,7 @@ def _cause_cell(scene: str, region: str) -> str:
     return f"<td class=name style='font-weight:normal'>not measured: {_results_link('the experiments')}</td>"
 
 
-def _ratio_cell(row, key) -> str:
+def _ratio_cell(row: dict[str, Any], key: str) -> str:
     rr = row.get(f"{key}_vs_path_traced")
     if rr is None:
         return "<td>-</td>"
@@ -399,7 +414,7 @@ def _cached_section(name: str, section: Section, out: Path, progress: Progress, 
     return text
 
 
-def _backend_text(backend) -> str:
+def _backend_text(backend: Backend) -> str:
     """``name backend (details)``, e.g. the gl backend's renderer string."""
     ok, details = backend.availability()
     return f"{backend.name} backend" + (f" ({details})" if ok and details else "")
@@ -412,10 +427,10 @@ def _with_contents(sections: list[str]) -> tuple[list[str], str]:
     items: list[tuple[str, str]] = []
     out: list[str] = []
     for k, text in enumerate(sections):
-        def named(m, k=k):
+        def named(m: re.Match[str], k: int = k) -> str:
             attrs, title = m.group(1), m.group(2)
-            ident = re.search(r"id=['\"]?([\w-]+)", attrs)
-            ident = ident.group(1) if ident else f"section-{k}-{len(items)}"
+            found = re.search(r"id=['\"]?([\w-]+)", attrs)
+            ident = found.group(1) if found else f"section-{k}-{len(items)}"
             items.append((ident, re.sub(r"<[^>]+>", "", title)))
             return f"<h2 id='{ident}'>{title}</h2>"
 
@@ -447,7 +462,7 @@ def build_report(out_dir: str | Path, progress: Progress | None = None, photons:
     return Path(out_dir) / "index.html"
 
 
-def _build(out: Path, progress: Progress, ctx: dict, runner) -> None:
+def _build(out: Path, progress: Progress, ctx: dict[str, Any], runner: Backend) -> None:
     t0 = time.perf_counter()
     body = []
     for k, (name, section) in enumerate(SECTIONS, 1):

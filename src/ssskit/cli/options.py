@@ -16,10 +16,14 @@ import os
 import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 from click.core import ParameterSource
+
+if TYPE_CHECKING:
+    from ..kernels import KernelMethod
+    from click.shell_completion import CompletionItem
 
 from ..errors import OutputError, SsskitError
 from ..pipeline.settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE
@@ -85,7 +89,7 @@ def strict_json(data: Any) -> Any:
     return data
 
 
-def echo_json(data) -> None:
+def echo_json(data: Any) -> None:
     """Print exactly one JSON object on stdout, strict JSON (non-finite numbers as null)."""
     click.echo(json.dumps(strict_json(data), allow_nan=False))
 
@@ -173,15 +177,15 @@ class RegistryName(click.ParamType):
         src = self._source()
         return list(src.names()) if hasattr(src, "names") else [str(n) for n in src]
 
-    def get_metavar(self, param, ctx=None) -> str:  # click >= 8.2 passes ctx
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:  # click >= 8.2 passes ctx
         return "[" + "|".join(self.names()) + "]"
 
-    def shell_complete(self, ctx, param, incomplete):
+    def shell_complete(self, ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
         from click.shell_completion import CompletionItem
 
         return [CompletionItem(n) for n in self.names() if n.lower().startswith(incomplete.lower())]
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         src = self._source()
         text = str(value)
         if hasattr(src, "get"):
@@ -207,10 +211,10 @@ class MaterialRef(click.ParamType):
     def __init__(self, split: bool = False) -> None:
         self.split = split
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "NAME|FILE" + (",..." if self.split else "")
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from ..materials import get_material
 
         if self.split and isinstance(value, list):
@@ -240,12 +244,12 @@ class KernelSpec(click.ParamType):
     def __init__(self, many: bool = False) -> None:
         self.many = many
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         from ..kernels import METHODS
 
         return "[" + "|".join(METHODS.names()) + "][:VALUE]" + (",..." if self.many else "")
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from ..kernels import parse_method_spec
 
         if self.many and isinstance(value, list):
@@ -269,7 +273,7 @@ class KernelSpec(click.ParamType):
         return labels if self.many else labels[0]
 
 
-def _canonical_spec(method, params: dict[str, Any]) -> tuple[str, str]:
+def _canonical_spec(method: KernelMethod, params: dict[str, Any]) -> tuple[str, str]:
     """(method, its primary parameter with the builder's default filled in): ``svd`` and ``svd:1`` are
     one kernel."""
     import inspect
@@ -288,13 +292,14 @@ class IntPair(click.ParamType):
     sep = ":"
     hint = "8:64 (two integers)"
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return self.name
 
-    def check(self, a: int, b: int, value, param, ctx) -> tuple[int, int]:
+    def check(self, a: int, b: int, value: Any, param: click.Parameter | None,
+              ctx: click.Context | None) -> tuple[int, int]:
         return a, b
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, tuple):
             return value
         try:
@@ -311,7 +316,8 @@ class Size(IntPair):
     sep = "x"
     hint = "256x192"
 
-    def check(self, a: int, b: int, value, param, ctx) -> tuple[int, int]:
+    def check(self, a: int, b: int, value: Any, param: click.Parameter | None,
+              ctx: click.Context | None) -> tuple[int, int]:
         lo, hi = SIZE_RANGE
         for side, v in (("width", a), ("height", b)):
             if not lo <= v <= hi:
@@ -326,10 +332,10 @@ class SceneRef(click.ParamType):
 
     name = "scene"
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "[" + "|".join(_scenes().names()) + "|GBUFFER.exr]"
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, Path):
             return value
         text = str(value)
@@ -354,7 +360,7 @@ class SceneRef(click.ParamType):
         return RegistryName(_scenes).convert(text, param, ctx)
 
 
-def _opt(param, fallback: str) -> str:
+def _opt(param: click.Parameter | None, fallback: str) -> str:
     return param.opts[0] if param is not None and getattr(param, "opts", None) else fallback
 
 
@@ -367,10 +373,10 @@ class OutputFile(click.ParamType):
     def __init__(self, suffixes: Sequence[str]) -> None:
         self.suffixes = tuple(s.lower() for s in suffixes)
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "FILE" + "|".join(self.suffixes)
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from ..io import check_suffix
 
         opt = _opt(param, "output")
@@ -384,10 +390,10 @@ class OutputDir(click.ParamType):
 
     name = "dir"
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "DIR"
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         check_writable(value, _opt(param, "output folder"), folder=True)
         return str(value)
 

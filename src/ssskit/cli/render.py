@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -131,7 +132,8 @@ _PASS = RegistryName(lambda: PASSES)
 @out_option((".exr", ".png"), "Write the image: FILE.exr (linear, with sss/exact/reference layers) or FILE.png (tone-mapped).")
 @json_option("Print one JSON object with settings and error metrics.")
 @click.pass_context
-def render(ctx, scene, settings_file, save_gbuffer, out, as_json, pass_name, method, frames_dir, **params) -> None:
+def render(ctx: click.Context, scene: str | Path, settings_file: str | None, save_gbuffer: str | None, out: str | None,
+           as_json: bool, pass_name: str | None, method: str | None, frames_dir: str | None, **params: Any) -> None:
     """Screen-space SSS (separable, or Burley Monte Carlo) of a scene, with errors against the exact 2D
     convolution; --pass burley-adaptive: a sequence of frames with adaptive sample counts, each against
     its converged reference."""

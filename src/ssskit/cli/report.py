@@ -27,7 +27,7 @@ class _FiguresCommand(click.Command):
     """``ssskit figures``: its help lists the registered figure names (the argument's metavar is
     ``[NAME]...``, so the usage line does not)."""
 
-    def format_help_text(self, ctx, formatter) -> None:
+    def format_help_text(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         super().format_help_text(ctx, formatter)
         import textwrap
 
@@ -48,7 +48,8 @@ class _FiguresCommand(click.Command):
 @backend_option(DEFAULT_BACKEND)
 @out_dir_option("ssskit-out/figures")
 @click.pass_context
-def figures(ctx, names, material, model, photons, backend, out) -> None:
+def figures(ctx: click.Context, names: tuple[str, ...], material: str | None, model: str, photons: int, backend: str,
+            out: str) -> None:
     """Regenerate the papers' figures (NAME: any of the figures listed below; all by default). The
     figures that run a screen-space pass run it on --backend."""
     from ..backends import get_backend
@@ -78,7 +79,7 @@ def figures(ctx, names, material, model, photons, backend, out) -> None:
 @backend_option(DEFAULT_BACKEND)
 @material_option(split=True, help="The materials whose kernels the report ranks [default: skin1, marble, ketchup]; "
                                   "comma-separated presets or material files.")
-def demo(out: str, photons: int | None, full: bool, backend: str, material) -> None:
+def demo(out: str, photons: int | None, full: bool, backend: str, material: tuple[list[str], ...]) -> None:
     """The main job: build the report (figures + index.html) on built-in defaults."""
     from ..backends import get_backend
     from ..materials import get_material

@@ -9,13 +9,17 @@ from __future__ import annotations
 
 import inspect
 from pathlib import Path
-from typing import Callable
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Callable
 
 from ..errors import SsskitError
 from ..registry import Registry
 from . import adaptive as _a
 from . import burley as _b
 from . import kernels as _k
+
+if TYPE_CHECKING:
+    from ..profiles.base import RGBProfile
 
 Figure = Callable[..., list[Path]]
 FIGURES: Registry[Figure] = Registry("figure", SsskitError)
@@ -41,14 +45,15 @@ def runs_a_pass(fn: Figure) -> bool:
     return "backend" in inspect.signature(fn).parameters
 
 
-def make_figures(names, out_dir, profile, progress=None, backend: str | None = None) -> dict[str, list[Path]]:
+def make_figures(names: Sequence[str], out_dir: str | Path, profile: RGBProfile | None,
+                 progress: Callable[[str], None] | None = None, backend: str | None = None) -> dict[str, list[Path]]:
     """Build the named figures (all when ``names`` is empty) for ``profile`` into ``out_dir``; the figures
     that run a screen-space pass run it on ``backend`` (default: ssskit's default backend)."""
     chosen = [FIGURES.get(n) for n in names] if names else [f for _, f in FIGURES.items()]
     labels = list(names) if names else FIGURES.names()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    result = {}
+    result: dict[str, list[Path]] = {}
     for label, fn in zip(labels, chosen):
         if progress is not None:
             progress(f"figure {label}")

@@ -31,6 +31,7 @@ at 4096 samples per pixel without mips, cached).
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,10 +44,10 @@ from ..screenspace import BurleyParams, BurleySettings, GBuffer, burley_sss
 from ..screenspace.burley import burley_backend
 from .frame import (ImageLayers, Progress, ScenePlan, finite, frame_gbuffer, ground_truths, metric_lines, plan_scene,
                     reference_line)
-from .settings import BurleyPass, RenderSettings
+from .settings import AdaptivePass, BurleyPass, RenderSettings
 
 
-def burley_exact(gbuffer: GBuffer, params_by_id) -> np.ndarray | None:
+def burley_exact(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, BurleyParams]) -> np.ndarray | None:
     """The Burley pass's limit (exact sampler, no mips) on a fronto-parallel surface, (H, W, 3) float32;
     None if the pixels are not square.
 
@@ -86,7 +87,7 @@ def burley_exact(gbuffer: GBuffer, params_by_id) -> np.ndarray | None:
 REFERENCE_VERSION = 1
 
 
-def burley_reference(gbuffer: GBuffer, params_by_id, spp: int = 4096, seed: int = 0, backend: str = "numba",
+def burley_reference(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, BurleyParams], spp: int = 4096, seed: int = 0, backend: str = "numba",
                      use_cache: bool = True) -> np.ndarray:
     """A converged reference for any G-buffer (curved surfaces included): the pass with the exact sampler,
     ``spp`` samples per pixel (Xie 2020's reference: 2k spp; here 4096) and no mips, (H, W, 3) float32.
@@ -158,7 +159,7 @@ class BurleyResult(ImageLayers):
         return out
 
 
-def plan_burley(scene, settings: RenderSettings, params: BurleyParams | None = None) -> tuple[ScenePlan, BurleyParams]:
+def plan_burley(scene: str | os.PathLike[str] | GBuffer, settings: RenderSettings, params: BurleyParams | None = None) -> tuple[ScenePlan, BurleyParams]:
     """Check everything :func:`render_burley` (or the adaptive run) needs, doing no work: the scene
     (:func:`~ssskit.pipeline.frame.plan_scene`), the backend having the Burley pass, the parameters;
     returns (scene plan, params): ``params``, the settings' own (``albedo`` and ``dmfp_mm``) or the
@@ -174,7 +175,8 @@ def plan_burley(scene, settings: RenderSettings, params: BurleyParams | None = N
         if not isinstance(params, BurleyParams):
             raise SettingsError(f"params must be BurleyParams, got {type(params).__name__}")
         return plan, params
-    given = settings.pass_.params()  # type: ignore[union-attr]
+    p = settings.pass_  # burley_settings() refused the separable pass
+    given = p.params() if isinstance(p, (BurleyPass, AdaptivePass)) else None
     if given is not None:
         return plan, given
     if not hasattr(plan.material, "eta"):
@@ -183,7 +185,7 @@ def plan_burley(scene, settings: RenderSettings, params: BurleyParams | None = N
     return plan, burley_params_for_material(plan.material)
 
 
-def render_burley(scene: str | Path | GBuffer = "slab", settings: RenderSettings | None = None,
+def render_burley(scene: str | os.PathLike[str] | GBuffer = "slab", settings: RenderSettings | None = None,
                   progress: Progress | None = None, params: BurleyParams | None = None) -> BurleyResult:
     """Render ``scene`` with the Burley pass of ``settings`` (module docstring; default: the Burley pass
     with its defaults); ``params`` (every profile id) instead of the settings' or the material's Burley

@@ -24,16 +24,19 @@ from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..backends import get_backend
 from ..errors import SceneError, SettingsError
 from ..io import check_distinct, save_image
-from ..materials import get_material
+from ..materials import LayeredMaterial, Material, get_material
 from ..metrics import region_metrics
 from ..scenes import SCENES, reference_phase_g, render_gbuffer, render_reference
 from ..scenes.scenes import mitsuba
 from ..profiles import check_model_domain
 from ..screenspace import GBuffer, load_gbuffer
+from ..profiles.base import RGBProfile
+from ..scenes.reference import Reference
 from .regions import compare_regions
 from .settings import RenderSettings
 
@@ -88,7 +91,7 @@ def metric_lines(metrics: dict[str, Any], prefix: str = "vs ", width: int = 12) 
             for against, m in metrics.items() if against != "regions"]
 
 
-def reference_line(ref) -> str:
+def reference_line(ref: Reference) -> str:
     """The path-traced reference's convergence (:class:`ssskit.scenes.Reference`) in one line."""
     return (f"# reference: {ref.spp} spp, relative standard error of the SSS mask's mean "
             + ", ".join(f"{v:.2%}" for v in ref.rel_se) + f" (target {ref.target_rel_se:.1%}, budget "
@@ -120,7 +123,8 @@ class ScenePlan:
     source: Path | None
 
 
-def _scene(scene, settings: RenderSettings, material) -> tuple[str, str | None, GBuffer | None, Path | None]:
+def _scene(scene: str | os.PathLike[str] | GBuffer, settings: RenderSettings,
+           material: Material | LayeredMaterial) -> tuple[str, str | None, GBuffer | None, Path | None]:
     if isinstance(scene, GBuffer):
         if settings.reference:
             raise SettingsError("reference needs a built-in scene (a G-buffer in memory has no scene to path-trace)")
@@ -138,7 +142,7 @@ def _scene(scene, settings: RenderSettings, material) -> tuple[str, str | None, 
         raise SceneError(f"scene {text!r} is neither a built-in scene ({', '.join(SCENES.names())}) "
                          "nor a G-buffer .exr file")
     spec = SCENES.get(text)  # an unknown name fails here with the list of scenes
-    if not hasattr(material, "eta"):
+    if not isinstance(material, Material):  # a LayeredMaterial has no eta
         raise SettingsError(f"a built-in scene needs a homogeneous material (its eta makes the boundary); "
                             f"{material.name!r} is a {type(material).__name__}")
     if settings.reference:
@@ -152,7 +156,7 @@ def _default_size() -> tuple[int, int]:
     return d.width, d.height
 
 
-def plan_scene(scene, settings: RenderSettings) -> ScenePlan:
+def plan_scene(scene: str | os.PathLike[str] | GBuffer, settings: RenderSettings) -> ScenePlan:
     """Resolve and check the material, the backend and the scene of a frame, doing no work; reads a
     G-buffer file. A G-buffer keeps its own size: a ``width`` x ``height`` that differs from the default
     and from the G-buffer's is an error. Raises the first problem as an :class:`~ssskit.errors.SsskitError`."""
@@ -175,7 +179,7 @@ def plan_scene(scene, settings: RenderSettings) -> ScenePlan:
     return ScenePlan(material, label, builtin, gb, source)
 
 
-def _check_named_materials(gb: GBuffer, material, label: str) -> None:
+def _check_named_materials(gb: GBuffer, material: Any, label: str) -> None:
     """A G-buffer that names its materials (header ``ssskit_materials``) names ones ssskit knows: a preset,
     a material file, or the material the frame is rendered with (one material serves every id)."""
     from ..errors import MaterialError
@@ -191,11 +195,12 @@ def _check_named_materials(gb: GBuffer, material, label: str) -> None:
                                 "--material for it (one material serves every profile id)") from None
 
 
-def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo, say: Progress) -> GBuffer:
+def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo: ArrayLike, say: Progress) -> GBuffer:
     """The frame's G-buffer: the one given, or the built-in scene rendered by Mitsuba with ``albedo``
     (per channel, clipped to [0, 1]) at the settings' size, samples, seed and frame."""
     if plan.gbuffer is not None:
         return plan.gbuffer
+    assert plan.builtin is not None  # a plan without a G-buffer has a built-in scene
     say(f"rendering the {plan.builtin} G-buffer ({settings.width}x{settings.height}, {settings.spp} spp, "
         "Mitsuba scalar_rgb)")
     mat = plan.material
@@ -204,7 +209,7 @@ def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo, say: Progre
                           material=mat.name)
 
 
-def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, profile,
+def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, profile: RGBProfile,
                   exact: Callable[[], np.ndarray | None], say: Progress, progress: bool) -> None:
     """Add the ground truths to ``res`` (module docstring): ``exact()`` (the pass's exact limit, blurred
     diffuse layer or None) when ``settings.exact``, the path-traced reference when ``settings.reference``,
@@ -218,6 +223,7 @@ def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, p
         if res.exact is not None:
             res.metrics["exact_2d"] = region_metrics(gb.composite(res.exact), res.image, mask, settings.perceptual)
     if settings.reference:
+        assert plan.builtin is not None  # plan_scene refuses a reference without a built-in scene
         say(f"path tracing {plan.builtin} (Mitsuba volpathmis, {settings.reference_spp} to {settings.reference_max_spp} "
             f"spp until the SSS mask's relative standard error is {settings.reference_rel_se:.1%}; cached)")
         ref = render_reference(plan.builtin, plan.material, width=gb.shape[1], height=gb.shape[0],
@@ -226,7 +232,7 @@ def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, p
                                seed=settings.seed, frame=settings.frame, progress=progress)
         res.reference = ref.image
         res.reference_info = ref
-        m = region_metrics(res.reference, res.image, mask, settings.perceptual)
+        m: dict[str, Any] = region_metrics(res.reference, res.image, mask, settings.perceptual)
         m["mean_ratio_in_mask"] = ((res.image[mask].mean(axis=0) / np.maximum(res.reference[mask].mean(axis=0), 1e-12))
                                    .tolist() if mask.any() else None)
         m["pixels_with_surface"] = int(np.isfinite(gb.depth).sum())

@@ -15,7 +15,10 @@ Layers (section 6 of the separable-SSS paper splits the frame the same way):
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import SceneError
 from ..screenspace.gbuffer import GBuffer
@@ -23,7 +26,7 @@ from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, SceneSpec, check_size, check_
                      scene_camera, scene_dict)
 
 
-def render_gbuffer(scene: str | SceneSpec, albedo, eta: float = 1.4, width: int = 256, height: int = 192, spp: int = 32,
+def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float = 1.4, width: int = 256, height: int = 192, spp: int = 32,
                    seed: int = 0, frame: int = 0, material: str = "material") -> GBuffer:
     """Render the named scene's G-buffer (module docstring) at ``frame`` with Mitsuba ``scalar_rgb``.
 
@@ -69,7 +72,7 @@ def render_gbuffer(scene: str | SceneSpec, albedo, eta: float = 1.4, width: int 
                    normal=np.where(hit[..., None], normal, 0).astype(np.float32), materials=(material,), meta=meta)
 
 
-def render_sequence(scene: str, albedo, frames: int, first: int = 0, **kw) -> list[GBuffer]:
+def render_sequence(scene: str, albedo: ArrayLike, frames: int, first: int = 0, **kw: Any) -> list[GBuffer]:
     """G-buffers of ``frames`` consecutive frames ``first, first + 1, ...`` along the scene's camera and
     light paths (each with its camera and its frame index in ``meta["frame"]``); ``kw`` as for
     :func:`render_gbuffer` (except ``frame``)."""

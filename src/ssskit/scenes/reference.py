@@ -38,10 +38,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..cache import cache_dir
 from ..errors import SceneError
 from ..io import atomic_output, progress_bar
+from ..materials import Material
 from .scenes import COAT_ROUGHNESS, SceneSpec, check_size, check_spp, get_scene, mitsuba, scene_dict
 
 #: bumped when the reference renders change (invalidates the cache). 3: a unique seed per mi.render
@@ -61,7 +63,7 @@ def reference_cache_dir() -> Path:
     return cache_dir("reference")
 
 
-def reference_phase_g(material) -> float:
+def reference_phase_g(material: Material) -> float:
     """The one Henyey-Greenstein g of ``material`` for the reference's medium, or a SceneError.
 
     Mitsuba's ``hg`` phase function takes a single g, so a material whose g differs between channels
@@ -143,7 +145,7 @@ class Reference:
         """Relative standard error of the region's mean per channel (3,)."""
         return self.region_se / np.maximum(np.abs(self.region_mean), 1e-300)
 
-    def region_stats(self, mask) -> tuple[np.ndarray, np.ndarray]:
+    def region_stats(self, mask: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(mean, standard error) per channel of the mean over ``mask`` (H, W) bool.
 
         The standard error is sqrt(sum of the pixels' squared standard errors) / N: distinct pixels
@@ -182,7 +184,7 @@ class ReferenceRenderer:
     image (every sample lands in it; a region's error falls faster).
     """
 
-    def __init__(self, scene: str | SceneSpec, material, width: int, height: int, max_depth: int = 1024, seed: int = 0,
+    def __init__(self, scene: str | SceneSpec, material: Material, width: int, height: int, max_depth: int = 1024, seed: int = 0,
                  frame: int = 0, boundary: str = "rough-dielectric", surround_albedo: float = 0.0,
                  crop: tuple[int, int, int, int] | None = None) -> None:
         self.spec = get_scene(scene)
@@ -233,7 +235,7 @@ class ReferenceRenderer:
         return np.array(img, dtype=np.float64)[..., :3]
 
 
-def _check_options(max_depth, seed, frame, boundary, surround_albedo) -> None:
+def _check_options(max_depth: int, seed: int, frame: int, boundary: str, surround_albedo: float) -> None:
     if isinstance(max_depth, bool) or not (isinstance(max_depth, (int, np.integer)) and max_depth >= 1):
         raise SceneError(f"max_depth must be a positive integer, got {max_depth!r}")
     if isinstance(seed, bool) or not (isinstance(seed, (int, np.integer)) and seed >= 0):
@@ -262,8 +264,8 @@ def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) 
     return img[..., 0] > 0.6
 
 
-def render_reference(scene: str | SceneSpec, material, width: int = 128, height: int = 96, spp: int = 64,
-                     max_spp: int | None = None, target_rel_se: float = TARGET_REL_SE, region=None,
+def render_reference(scene: str | SceneSpec, material: Material, width: int = 128, height: int = 96, spp: int = 64,
+                     max_spp: int | None = None, target_rel_se: float = TARGET_REL_SE, region: ArrayLike | None = None,
                      max_depth: int = 1024, seed: int = 0, frame: int = 0, chunk_spp: int = 8,
                      boundary: str = "rough-dielectric", surround_albedo: float = 0.0, use_cache: bool = True,
                      progress: bool = True) -> Reference:
@@ -348,7 +350,8 @@ def render_reference(scene: str | SceneSpec, material, width: int = 128, height:
     return _assemble(acc, acc2, np.array(means), region, converged, opts)
 
 
-def _assemble(acc, acc2, means, region, converged, opts) -> Reference:
+def _assemble(acc: np.ndarray, acc2: np.ndarray, means: np.ndarray, region: np.ndarray, converged: bool,
+              opts: dict[str, Any]) -> Reference:
     k = means.shape[0]
     image = acc / k
     if k > 1:
@@ -362,7 +365,7 @@ def _assemble(acc, acc2, means, region, converged, opts) -> Reference:
                      **opts)
 
 
-def _load(path: Path, region, opts) -> Reference:
+def _load(path: Path, region: np.ndarray, opts: dict[str, Any]) -> Reference:
     with np.load(path) as z:
         return _assemble(z["acc"], z["acc2"], z["means"], region, bool(z["converged"]), opts)
 
