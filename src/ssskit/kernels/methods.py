@@ -117,7 +117,11 @@ def fit_gaussians_2d(channel: RadialProfile, count: int,
         return a @ w - b
 
     x0 = np.log(np.geomspace(max(r_lo / 2.0, 1e-6), r_hi / 3.0, count)) if count > 1 else np.log([r_hi / 4.0])
-    sol = least_squares(resid, x0, method="trf", x_scale=1.0, max_nfev=200 * count)
+    # the standard deviations stay within [1e-4, 10] x the fit's reach: a Gaussian narrower than that holds
+    # no sample of r, and its variance underflowed to 0 (NaN basis) on the 10^7-photon Skin1 profile
+    lo, hi = np.log(1e-4 * r_hi), np.log(10.0 * r_hi)
+    x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
+    sol = least_squares(resid, x0, method="trf", x_scale=1.0, max_nfev=200 * count, bounds=(lo, hi))
     w, _ = weights(sol.x)
     if w.sum() <= 0:
         raise KernelError("Gaussian fit failed: all weights vanished")
