@@ -137,9 +137,9 @@ def _kernels_section(out: Path, progress: Progress, ctx: dict) -> str:
     prof = profile_for_material("skin1", "montecarlo", photons=ctx["photons"])
     from .figures import FIGURES
 
-    # every figure but the adaptive sampler's, which have their own section, and the region
-    # attribution's (minutes of path tracing: the screen-space section shows its table when stored)
-    names = [n for n, fn in FIGURES.items() if fn.__module__ != "ssskit.figures.adaptive"]
+    # every figure but the adaptive sampler's, which have their own section, and the three-view study's
+    # (minutes on a life-size bust: ssskit figures xie-fig1, its table in benchmarks/RESULTS.md)
+    names = [n for n, fn in FIGURES.items() if fn.__module__ not in ("ssskit.figures.adaptive", "ssskit.figures.views")]
     written = make_figures(names, out / "figures", prof, progress=progress, backend=ctx.get("backend"))
     imgs = "".join(f"<img src='figures/{p.name}'>" for paths in written.values() for p in paths)
     methods = ["svd:1", "svd:3", "gaussians:1", "gaussians:6", "preintegrated", "preintegrated_svd:1", "guided:0",

@@ -16,6 +16,7 @@ from ..registry import Registry
 from . import adaptive as _a
 from . import burley as _b
 from . import kernels as _k
+from . import views as _v
 
 Figure = Callable[..., list[Path]]
 FIGURES: Registry[Figure] = Registry("figure", SsskitError)
@@ -34,6 +35,7 @@ FIGURES.register("xie-table1", _a.xie_table1)
 
 FIGURES.register("xie-fig6", _b.fig6_xie_inverse)
 FIGURES.register("xie-fig5", _b.fig5_xie_c)
+FIGURES.register("xie-fig1", _v.xie_fig1)
 
 
 def runs_a_pass(fn: Figure) -> bool:

@@ -1,0 +1,284 @@
+"""Xie et al. 2020 Fig. 1 and Sec. 6.4, in kind: the three-view study on the generated head-like bust
+(:func:`ssskit.scenes.generated.bust`) at the close, ear and front views.
+
+Four methods per view, on one G-buffer of the bust (material ``skin1`` by default, its Burley profile:
+A the dipole's total reflectance, d from Eq. 5's searchlight configuration):
+
+* ``adaptive``: the Burley pass with Xie's variance-guided counts (sigma0^2 = 1e-3, kappa = 0.2,
+  8-64 spp: Fig. 1(a)), Eq. 21's sampler with the prefiltered irradiance (Eqs. 22-23), ``frames``
+  frames of a still camera; the last frame is measured, its counts are the heatmap;
+* ``eq21-64``: the same pass at a fixed 64 spp (Fig. 1(c)'s count; Eq. 21's sampler);
+* ``golubev-64``: Golubev 2018's sampler in the same pass at 64 spp (Fig. 1(b), Sec. 6.4: exact inverse
+  CDF, stratified radii, golden-angle rotation, the count capped by the footprint);
+* ``separable``: the separable pass with the ``burley_fit`` kernel (Fig. 1(d); Xie 2020 appendix A.1).
+
+Each is compared with the pass's converged limit (:func:`ssskit.pipeline.burley.burley_reference`:
+the exact sampler at ``reference_spp`` spp without mips, Xie's "reference image at 2k samples per
+pixel"), as gray-scale PSNR of the composited image inside the SSS mask (Xie 2020 Sec. 6 reports
+gray PSNR), and optionally with the path-traced reference of the same bust per region
+(:func:`ssskit.pipeline.regions.compare_regions`: lit plateau, shadow edge, terminator, silhouette).
+Xie's Sec. 6.4 numbers, PSNR(Golubev) - PSNR(Eq. 21) = 2.09 / 0.29 / 0.26 dB in the close, ear and
+front views (:data:`XIE_GOLUBEV_MINUS_EQ21`), stand beside ours. Every method's time per frame is
+measured per backend (the median over frames; wall time of the pass, and of the guiding phase for
+the adaptive run).
+
+``ssskit figures xie-fig1`` draws it; ``benchmarks/xie_three_views.py`` prints the table as JSON.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .plots import pyplot, save_figure
+
+#: the views of Xie 2020 Fig. 1 (close skin patch, ear, front) as --view values of the bust: (azimuth,
+#: elevation, distance as a multiple of the framing distance, which fits the whole bust, shoulders and all):
+#: a cheek-and-nose patch, the side of the head with its ear, the face
+STUDY_VIEWS: dict[str, tuple[float, float, float]] = {"close": (25.0, 5.0, 0.22), "ear": (90.0, 5.0, 0.5),
+                                                      "front": (0.0, 5.0, 0.6)}
+#: the study's methods, in Fig. 1's order
+STUDY_METHODS = ("adaptive", "golubev-64", "eq21-64", "separable")
+#: Xie 2020 Sec. 6.4: PSNR(Golubev 64 spp) - PSNR(Eq. 21), dB, per view
+XIE_GOLUBEV_MINUS_EQ21 = {"close": 2.09, "ear": 0.29, "front": 0.26}
+FIXED_SPP = 64
+
+Progress = Callable[[str], None]
+
+
+def study_gbuffer(view: str | tuple[float, float, float], material: str = "skin1", width: int = 256, height: int = 192, spp: int = 16,
+                  seed: int = 0):
+    """(SceneSpec, GBuffer, BurleyParams) of the bust at ``view`` (a name of :data:`STUDY_VIEWS` or any
+    --view value) for the study."""
+    from ..materials import get_material
+    from ..scenes import render_gbuffer, resolve_scene
+    from ..screenspace.burley import burley_params_for_material
+
+    mat = get_material(material)
+    params = burley_params_for_material(mat)
+    v = STUDY_VIEWS.get(view, view) if isinstance(view, str) else view
+    spec = resolve_scene("bust", view=v, width=width, height=height).spec
+    gb = render_gbuffer(spec, np.clip(params.albedo, 0.0, 1.0), eta=mat.eta, width=width, height=height, spp=spp,
+                        seed=seed, material=mat.name)
+    return spec, gb, params
+
+
+def golubev_counts(gbuffer, params, spp: int = FIXED_SPP) -> np.ndarray:
+    """(H, W) int64: the samples Golubev's sampler takes per pixel, step 2 of the Burley plan
+    (:mod:`ssskit.backends.burley_plan`) as the numpy oracle computes it
+    (:func:`ssskit.backends.numpy_backend.burley_counts`: max(1, min(spp, floor(pi r997^2 sx sy / 4))),
+    sx = fx / z, sy = fy / z); 0 outside the mask."""
+    from ..backends.numpy_backend import burley_counts
+    from ..backends.plan import profile_ids
+    from ..screenspace import BurleySettings
+    from ..screenspace.burley import burley_plan_for
+
+    cam = gbuffer.camera
+    plan = burley_plan_for(params, profile_ids(gbuffer.profile_id), cam.fx, cam.fy,
+                           BurleySettings(sampler="golubev", spp=spp))
+    slots = plan.slot_map(gbuffer.profile_id)
+    ys, xs = np.nonzero(slots > 0)
+    z = gbuffer.depth_mm[ys, xs].astype(np.float64)
+    out = np.zeros(gbuffer.shape, dtype=np.int64)
+    out[ys, xs] = burley_counts(plan, spp, ys, xs, plan.fx / z, plan.fy / z, slots[ys, xs])
+    return out
+
+
+def _gray_psnr(reference: np.ndarray, test: np.ndarray, mask: np.ndarray) -> float:
+    from .burley import _gray_psnr as gray
+
+    return float(gray(reference, test, mask))
+
+
+def _timed(fn: Callable[[], Any], repeats: int) -> tuple[Any, float]:
+    """(the last result, the median wall time in ms of ``repeats`` calls after one warm-up call)."""
+    out = fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append((time.perf_counter() - t0) * 1e3)
+    return out, float(np.median(times))
+
+
+def _methods(gb, params, taps, backend: str, frames: int, repeats: int) -> dict[str, dict[str, Any]]:
+    """Each method's blurred diffuse layer, counts and ms per frame on ``backend``."""
+    from ..screenspace import AdaptiveSettings, BurleySettings, PassSettings, burley_sss, separable_sss
+    from ..screenspace.adaptive import adaptive_frames
+
+    out: dict[str, dict[str, Any]] = {}
+    burley = BurleySettings(sampler="xie", mips=True, backend=backend)
+    run = adaptive_frames(gb, params, AdaptiveSettings(sigma0_sq=1e-3, kappa=0.2, b_min=8, b_max=64), frames,
+                          burley=burley)
+    skip = min(2, frames - 1)  # the first frames compile and warm the caches
+    ms = np.add(run.ms_pass, run.ms_update)[skip:]
+    out["adaptive"] = {"sss": run.last, "counts": run.counts[-1].astype(np.int64), "ms": float(np.median(ms))}
+    for name, sampler in (("eq21-64", "xie"), ("golubev-64", "golubev")):
+        s = burley.replace(sampler=sampler, spp=FIXED_SPP)
+        sss, t = _timed(lambda s=s: burley_sss(gb, params, s), repeats)
+        counts = (golubev_counts(gb, params) if sampler == "golubev"
+                  else np.where(gb.mask, FIXED_SPP, 0).astype(np.int64))
+        out[name] = {"sss": sss, "counts": counts, "ms": t}
+    sep, t = _timed(lambda: separable_sss(gb, taps, PassSettings(backend=backend)), repeats)
+    # a separable pixel reads 2 x taps texels per term (horizontal and vertical passes)
+    out["separable"] = {"sss": sep, "counts": np.where(gb.mask, 2 * taps.taps * taps.rank, 0).astype(np.int64),
+                        "ms": t}
+    return out
+
+
+def three_view_study(material: str = "skin1", views: Sequence[str] = tuple(STUDY_VIEWS), width: int = 256,
+                     height: int = 192, frames: int = 16, backends: Sequence[str] = ("numba",),
+                     reference_spp: int = 4096, gbuffer_spp: int = 16, repeats: int = 3,
+                     path_traced: bool = False, path_traced_size: tuple[int, int] | None = None,
+                     path_traced_spp: tuple[int, int] = (64, 4096), path_traced_rel_se: float = 0.02,
+                     progress: Progress | None = None) -> dict[str, Any]:
+    """The study (module docstring). Returns a JSON-ready dict: ``rows`` (one per view, method and
+    backend: psnr_gray against the converged limit, mean_spp over the SSS mask, ms per frame),
+    ``golubev_minus_eq21`` per view (dB, first backend) beside ``xie``, ``limit`` (the converged
+    limit's own noise: ``psnr_gray`` of a second limit with another seed), ``regions`` (with
+    ``path_traced``: per view and method, each region's level against the path-traced reference's
+    with its standard error) and ``images`` (not JSON: per view, each method's composite, counts, the
+    limit), which :func:`xie_fig1` draws.
+
+    ``path_traced_size``: the reference's image size (default: the study's); the G-buffer is then
+    rendered again at that size for the region comparison.
+    """
+    from ..kernels import build_kernel, default_grid
+    from ..materials import get_material
+    from ..pipeline.burley import burley_reference
+    from ..profiles import burley_profile
+    from ..sampling.taps import make_taps
+
+    say = progress or (lambda msg: None)
+    if not backends:
+        raise ValueError("three_view_study needs at least one backend")
+    mat = get_material(material)
+    prof = burley_profile(mat)
+    cell, n = default_grid(prof)
+    taps = make_taps(build_kernel("burley_fit", prof, cell, n), 7)
+    rows: list[dict[str, Any]] = []
+    diff: dict[str, float] = {}
+    limits: dict[str, dict[str, float]] = {}
+    regions: dict[str, dict[str, Any]] = {}
+    images: dict[str, dict[str, Any]] = {}
+    for view in views:
+        say(f"xie-fig1: {view} view, G-buffer ({width}x{height})")
+        spec, gb, params = study_gbuffer(view, material, width, height, gbuffer_spp)
+        mask = gb.mask
+        say(f"xie-fig1: {view} view, converged limit ({reference_spp} spp, seeds 0 and 1; cached)")
+        limit = gb.composite(burley_reference(gb, params, spp=reference_spp, backend=backends[0]))
+        limit2 = gb.composite(burley_reference(gb, params, spp=reference_spp, seed=1, backend=backends[0]))
+        limits[view] = {"psnr_gray_second_seed": _gray_psnr(limit, limit2, mask), "spp": int(reference_spp),
+                        "sss_pixels": int(mask.sum())}
+        images[view] = {"limit": limit, "mask": mask}
+        for b in backends:
+            say(f"xie-fig1: {view} view, four methods on {b} ({frames} adaptive frames)")
+            res = _methods(gb, params, taps, b, frames, repeats)
+            for name in STUDY_METHODS:
+                r = res[name]
+                img = gb.composite(r["sss"])
+                rows.append({"view": view, "method": name, "backend": b,
+                             "psnr_gray": _gray_psnr(limit, img, mask),
+                             "mean_spp": float(r["counts"][mask].mean()) if mask.any() else 0.0, "ms": r["ms"]})
+                if b == backends[0]:
+                    images[view][name] = {"image": img, "counts": r["counts"], "sss": r["sss"]}
+        first = {r["method"]: r["psnr_gray"] for r in rows if r["view"] == view and r["backend"] == backends[0]}
+        diff[view] = first["golubev-64"] - first["eq21-64"]
+        if path_traced:
+            regions[view] = _path_traced_regions(spec, mat, prof, params, taps, view, width, height, gbuffer_spp,
+                                                 frames, backends[0], path_traced_size, path_traced_spp,
+                                                 path_traced_rel_se, say)
+    return {"material": mat.name, "size": [int(width), int(height)], "frames": int(frames),
+            "backends": list(backends), "reference_spp": int(reference_spp), "rows": rows,
+            "golubev_minus_eq21": diff, "xie": dict(XIE_GOLUBEV_MINUS_EQ21), "limit": limits, "regions": regions,
+            "images": images}
+
+
+def _path_traced_regions(spec, mat, prof, params, taps, view, width, height, gbuffer_spp, frames, backend, size,
+                         spp, rel_se, say) -> dict[str, Any]:
+    """Each method's region levels against the path-traced reference of the same view."""
+    from ..pipeline.regions import compare_regions
+    from ..scenes import render_reference
+
+    w, h = size or (width, height)
+    gb = study_gbuffer(view, mat.name, w, h, gbuffer_spp)[1] if (w, h) != (width, height) else None
+    if gb is None:
+        gb = study_gbuffer(view, mat.name, width, height, gbuffer_spp)[1]
+    say(f"xie-fig1: {view} view, path-traced reference ({w}x{h}, {spp[0]}-{spp[1]} spp to {rel_se:.0%}; cached)")
+    ref = render_reference(spec, mat, width=w, height=h, spp=spp[0], max_spp=spp[1], target_rel_se=rel_se,
+                           region=gb.mask, progress=True)
+    res = _methods(gb, params, taps, backend, frames, repeats=1)
+    out: dict[str, Any] = {"reference": ref.summary()}
+    for name in STUDY_METHODS:
+        table = compare_regions(gb, prof, res[name]["sss"], None, ref)
+        out[name] = table.get("regions", table)
+    return out
+
+
+def _heat(ax, counts, mask, vmax: float, title: str):
+    im = ax.imshow(np.where(mask, counts, np.nan), cmap="magma", vmin=0, vmax=vmax)
+    ax.set_title(title, fontsize=7)
+    ax.axis("off")
+    return im
+
+
+def plot_study(study: dict[str, Any], path: Path) -> Path:
+    """Fig. 1's layout: per view a row of the four methods (tone-mapped at the converged limit's 99.5th
+    percentile, titled with gray PSNR against it and ms per frame on the first backend), the converged
+    limit, and the adaptive sample-count heatmap (8-64)."""
+    from ..io import tonemap
+
+    plt = pyplot()
+    views = list(study["images"])
+    ncol = len(STUDY_METHODS) + 2
+    fig, axes = plt.subplots(len(views), ncol, figsize=(2.4 * ncol, 2.0 * len(views) + 0.6), squeeze=False)
+    first = study["backends"][0]
+    for r, view in enumerate(views):
+        im = study["images"][view]
+        peak = float(np.percentile(im["limit"], 99.5)) or 1.0
+        for c, name in enumerate(STUDY_METHODS):
+            row = next(x for x in study["rows"] if x["view"] == view and x["method"] == name and x["backend"] == first)
+            ax = axes[r, c]
+            ax.imshow(tonemap(im[name]["image"], peak))
+            ax.set_title(f"{view}: {name}\n{row['psnr_gray']:.1f} dB, {row['ms']:.1f} ms ({first})", fontsize=7)
+            ax.axis("off")
+        axes[r, ncol - 2].imshow(tonemap(im["limit"], peak))
+        axes[r, ncol - 2].set_title(f"converged limit ({study['reference_spp']} spp)", fontsize=7)
+        axes[r, ncol - 2].axis("off")
+        heat = _heat(axes[r, ncol - 1], im["adaptive"]["counts"], im["mask"], 64,
+                     f"adaptive spp (mean {im['adaptive']['counts'][im['mask']].mean():.1f})")
+    fig.colorbar(heat, ax=list(axes[:, -1]), fraction=0.05, pad=0.02).ax.tick_params(labelsize=6)
+    d = study["golubev_minus_eq21"]
+    fig.suptitle(f"Xie 2020 Fig. 1 in kind: the generated bust, {study['material']}, {study['size'][0]}x"
+                 f"{study['size'][1]}; Golubev - Eq. 21: " + ", ".join(
+                     f"{v} {d[v]:+.2f} dB (Xie {study['xie'].get(v, float('nan')):.2f})" for v in views), fontsize=8)
+    save_figure(fig, path)
+    return path
+
+
+def study_json(study: dict[str, Any]) -> dict[str, Any]:
+    """The study without its images (JSON-ready)."""
+    return {k: v for k, v in study.items() if k != "images"}
+
+
+def xie_fig1(out: Path, profile=None, progress=None, backend: str = "numba") -> list[Path]:
+    """``ssskit figures xie-fig1``: the three-view study at 256 x 192 on ``backend`` (skin1; the figure's
+    ``profile`` is not used: the study takes the material's Burley profile), ``xie_fig1.png`` and
+    ``xie_fig1.json``."""
+    import json
+
+    from ..io import write_text
+
+    study = three_view_study(backends=(backend,), progress=progress)
+    png = plot_study(study, Path(out) / "xie_fig1.png")
+    js = Path(out) / "xie_fig1.json"
+    write_text(js, json.dumps(study_json(study), indent=1))
+    return [png, js]
+
+
+__all__ = ["FIXED_SPP", "STUDY_METHODS", "STUDY_VIEWS", "XIE_GOLUBEV_MINUS_EQ21", "golubev_counts", "plot_study",
+           "study_gbuffer", "study_json", "three_view_study", "xie_fig1"]

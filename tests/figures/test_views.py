@@ -1,0 +1,49 @@
+"""The three-view study (Xie 2020 Fig. 1, Sec. 6.4 in kind) on the generated bust, kept tiny: small images,
+few frames, a short converged limit."""
+
+import math
+
+import numpy as np
+import pytest
+
+from ssskit.figures import FIGURES
+from ssskit.figures.views import (FIXED_SPP, STUDY_METHODS, STUDY_VIEWS, XIE_GOLUBEV_MINUS_EQ21, golubev_counts,
+                                  study_gbuffer, study_json, three_view_study, xie_fig1)
+
+
+def test_registered_and_views_are_xies():
+    assert FIGURES.get("xie-fig1") is xie_fig1
+    assert set(STUDY_VIEWS) == set(XIE_GOLUBEV_MINUS_EQ21) == {"close", "ear", "front"}
+    assert XIE_GOLUBEV_MINUS_EQ21 == {"close": 2.09, "ear": 0.29, "front": 0.26}  # Xie 2020 Sec. 6.4
+
+
+def test_golubev_counts_follow_the_footprint():
+    """n = max(1, min(64, floor(pi r997^2 sx sy / 4))): the close view (larger footprint per mm) takes at
+    least as many samples as the front view, never more than 64, none off the mask."""
+    near = study_gbuffer("close", width=64, height=48, spp=1)
+    far = study_gbuffer("front", width=64, height=48, spp=1)
+    cn, cf = golubev_counts(near[1], near[2]), golubev_counts(far[1], far[2])
+    for gb, c in ((near[1], cn), (far[1], cf)):
+        assert np.all(c[~gb.mask] == 0) and np.all((c[gb.mask] >= 1) & (c[gb.mask] <= FIXED_SPP))
+    assert cn[near[1].mask].mean() >= cf[far[1].mask].mean()
+
+
+def test_three_view_study_table():
+    study = three_view_study(views=("close", "ear"), width=48, height=36, frames=3, reference_spp=128, repeats=1,
+                             gbuffer_spp=2)
+    js = study_json(study)
+    assert "images" not in js and set(js["golubev_minus_eq21"]) == {"close", "ear"}
+    rows = {(r["view"], r["method"]): r for r in js["rows"]}
+    assert set(rows) == {(v, m) for v in ("close", "ear") for m in STUDY_METHODS}
+    for view in ("close", "ear"):
+        diff = rows[(view, "golubev-64")]["psnr_gray"] - rows[(view, "eq21-64")]["psnr_gray"]
+        assert js["golubev_minus_eq21"][view] == pytest.approx(diff, abs=1e-12)
+        for m in STUDY_METHODS:
+            r = rows[(view, m)]
+            assert math.isfinite(r["psnr_gray"]) and r["psnr_gray"] > 20 and r["ms"] > 0
+        # the converged limit is less noisy than any method at its count: its two seeds agree better
+        assert js["limit"][view]["psnr_gray_second_seed"] > max(rows[(view, m)]["psnr_gray"] for m in STUDY_METHODS)
+        counts = study["images"][view]["adaptive"]["counts"]
+        mask = study["images"][view]["mask"]
+        assert np.all((counts[mask] >= 8) & (counts[mask] <= 64))  # Xie's budget [b_min, b_max] = [8, 64]
+        assert rows[(view, "eq21-64")]["mean_spp"] == FIXED_SPP
