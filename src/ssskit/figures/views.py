@@ -58,10 +58,11 @@ def study_gbuffer(view: str | tuple[float, float, float], material: str = "skin1
     from ..scenes import render_gbuffer, resolve_scene
     from ..screenspace.burley import burley_params_for_material
 
-    mat = get_material(material)
+    mat: Any = get_material(material)
     params = burley_params_for_material(mat)
     v = STUDY_VIEWS.get(view, view) if isinstance(view, str) else view
     spec = resolve_scene("bust", view=v, width=width, height=height).spec
+    assert spec is not None  # a mesh scene always has one
     gb = render_gbuffer(spec, np.clip(params.albedo, 0.0, 1.0), eta=mat.eta, width=width, height=height, spp=spp,
                         seed=seed, material=mat.name)
     return spec, gb, params
@@ -118,8 +119,12 @@ def _methods(gb, params, taps, backend: str, frames: int, repeats: int) -> dict[
     ms = np.add(run.ms_pass, run.ms_update)[skip:]
     out["adaptive"] = {"sss": run.last, "counts": run.counts[-1].astype(np.int64), "ms": float(np.median(ms))}
     for name, sampler in (("eq21-64", "xie"), ("golubev-64", "golubev")):
-        s = burley.replace(sampler=sampler, spp=FIXED_SPP)
-        sss, t = _timed(lambda s=s: burley_sss(gb, params, s), repeats)
+        fixed = burley.replace(sampler=sampler, spp=FIXED_SPP)
+
+        def one(fixed: Any = fixed) -> np.ndarray:
+            return burley_sss(gb, params, fixed)
+
+        sss, t = _timed(one, repeats)
         counts = (golubev_counts(gb, params) if sampler == "golubev"
                   else np.where(gb.mask, FIXED_SPP, 0).astype(np.int64))
         out[name] = {"sss": sss, "counts": counts, "ms": t}
