@@ -47,3 +47,19 @@ def test_three_view_study_table():
         mask = study["images"][view]["mask"]
         assert np.all((counts[mask] >= 8) & (counts[mask] <= 64))  # Xie's budget [b_min, b_max] = [8, 64]
         assert rows[(view, "eq21-64")]["mean_spp"] == FIXED_SPP
+
+
+@pytest.mark.slow
+def test_path_traced_regions_of_the_study():
+    """The per-region comparison with the path-traced bust: every lit region's level has a standard error,
+    and each method's ratio to it is finite."""
+    study = three_view_study(views=("ear",), width=40, height=30, frames=2, reference_spp=64, repeats=1,
+                             gbuffer_spp=2, path_traced=True, path_traced_spp=(16, 64), path_traced_rel_se=0.5)
+    table = study["regions"]["ear"]
+    assert table["reference"]["spp"] >= 16
+    lit = [r for r in table["regions"].values() if r["pixels"] and "path_traced" in r]
+    assert lit
+    for row in lit:
+        assert all(np.isfinite(row["path_traced"]["se"]))
+        assert set(row["methods"]) == set(STUDY_METHODS)
+        assert all(np.all(np.isfinite(m["ratio"])) for m in row["methods"].values())

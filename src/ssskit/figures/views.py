@@ -194,34 +194,37 @@ def three_view_study(material: str = "skin1", views: Sequence[str] = tuple(STUDY
         first = {r["method"]: r["psnr_gray"] for r in rows if r["view"] == view and r["backend"] == backends[0]}
         diff[view] = first["golubev-64"] - first["eq21-64"]
         if path_traced:
-            regions[view] = _path_traced_regions(spec, mat, prof, params, taps, view, width, height, gbuffer_spp,
-                                                 frames, backends[0], path_traced_size, path_traced_spp,
-                                                 path_traced_rel_se, say)
+            pw, ph = path_traced_size or (width, height)
+            pgb = gb if (pw, ph) == (width, height) else study_gbuffer(view, material, pw, ph, gbuffer_spp)[1]
+            regions[view] = _path_traced_regions(spec, mat, prof, params, taps, pgb, backends[0], frames,
+                                                 path_traced_spp, path_traced_rel_se, say)
     return {"material": mat.name, "size": [int(width), int(height)], "frames": int(frames),
             "backends": list(backends), "reference_spp": int(reference_spp), "rows": rows,
             "golubev_minus_eq21": diff, "xie": dict(XIE_GOLUBEV_MINUS_EQ21), "limit": limits, "regions": regions,
             "images": images}
 
 
-def _path_traced_regions(spec, mat, prof, params, taps, view, width, height, gbuffer_spp, frames, backend, size,
-                         spp, rel_se, say) -> dict[str, Any]:
-    """Each method's region levels against the path-traced reference of the same view."""
+def _path_traced_regions(spec, mat, prof, params, taps, gb, backend: str, frames: int, spp: tuple[int, int],
+                         rel_se: float, say: Progress) -> dict[str, Any]:
+    """Each method's level per region (:func:`ssskit.pipeline.regions.compare_regions`) over the path-traced
+    reference's of the same view and size: {reference: its summary, regions: {name: {pixels, path_traced:
+    level and standard error (R, G, B), methods: {method: ratio and its standard error}}}}."""
     from ..pipeline.regions import compare_regions
     from ..scenes import render_reference
 
-    w, h = size or (width, height)
-    gb = study_gbuffer(view, mat.name, w, h, gbuffer_spp)[1] if (w, h) != (width, height) else None
-    if gb is None:
-        gb = study_gbuffer(view, mat.name, width, height, gbuffer_spp)[1]
-    say(f"xie-fig1: {view} view, path-traced reference ({w}x{h}, {spp[0]}-{spp[1]} spp to {rel_se:.0%}; cached)")
+    h, w = gb.shape
+    say(f"xie-fig1: path-traced reference ({w}x{h}, {spp[0]}-{spp[1]} spp until {rel_se:.0%}; cached)")
     ref = render_reference(spec, mat, width=w, height=h, spp=spp[0], max_spp=spp[1], target_rel_se=rel_se,
                            region=gb.mask, progress=True)
     res = _methods(gb, params, taps, backend, frames, repeats=1)
-    out: dict[str, Any] = {"reference": ref.summary()}
+    regions: dict[str, Any] = {}
     for name in STUDY_METHODS:
-        table = compare_regions(gb, prof, res[name]["sss"], None, ref)
-        out[name] = table.get("regions", table)
-    return out
+        for region, row in compare_regions(gb, prof, res[name]["sss"], None, ref)["regions"].items():
+            entry = regions.setdefault(region, {"pixels": row["pixels"], "methods": {}})
+            if "screen_space_vs_path_traced" in row:
+                entry["path_traced"] = {"level": row["path_traced"]["level"], "se": row["path_traced"]["se"]}
+                entry["methods"][name] = row["screen_space_vs_path_traced"]
+    return {"reference": ref.summary(), "regions": regions}
 
 
 def _heat(ax, counts, mask, vmax: float, title: str):
