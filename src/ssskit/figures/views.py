@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -50,22 +51,50 @@ FIXED_SPP = 64
 Progress = Callable[[str], None]
 
 
-def study_gbuffer(view: str | tuple[float, float, float], material: str = "skin1", width: int = 256, height: int = 192, spp: int = 16,
-                  seed: int = 0):
-    """(SceneSpec, GBuffer, BurleyParams) of the bust at ``view`` (a name of :data:`STUDY_VIEWS` or any
-    --view value) for the study."""
-    from ..materials import get_material
-    from ..scenes import render_gbuffer, resolve_scene
-    from ..screenspace.burley import burley_params_for_material
+@dataclass(frozen=True)
+class StudyScene:
+    """One view of the study's scene: its ``spec`` and G-buffer, the ``materials`` of its profile ids
+    (1, 2, ...), their Burley ``params`` and the separable pass's ``taps`` (the burley_fit kernel of each
+    material's Burley profile), and ``profile``: the profile that reaches furthest (it sizes the regions)."""
 
-    mat: Any = get_material(material)
-    params = burley_params_for_material(mat)
+    spec: Any
+    gbuffer: Any
+    materials: tuple[Any, ...]
+    params: dict[int, Any]
+    taps: dict[int, Any]
+    profile: Any
+
+
+def study_gbuffer(view: str | tuple[float, float, float], material: str = "skin1", width: int = 256,
+                  height: int = 192, spp: int = 16, seed: int = 0, scene: str = "bust", units: str | None = None,
+                  material_map: str | dict[str, str] | None = None) -> StudyScene:
+    """The study's :class:`StudyScene` at ``view`` (a name of :data:`STUDY_VIEWS` or any --view value):
+    ``scene`` a mesh scene (:func:`ssskit.scenes.resolve_scene`: the bust by default, or a mesh or
+    scene file with its ``units`` and ``material_map``); objects the scene gives no material take
+    ``material``."""
+    from ..kernels import build_kernel, default_grid
+    from ..materials import get_material
+    from ..profiles import burley_profile
+    from ..sampling.taps import make_taps
+    from ..scenes import render_gbuffer, resolve_scene
+    from ..screenspace import BurleyParams
+
     v = STUDY_VIEWS.get(view, view) if isinstance(view, str) else view
-    spec = resolve_scene("bust", view=v, width=width, height=height).spec
+    spec = resolve_scene(scene, view=v, units=units, material_map=material_map, width=width, height=height).spec
     assert spec is not None  # a mesh scene always has one
-    gb = render_gbuffer(spec, np.clip(params.albedo, 0.0, 1.0), eta=mat.eta, width=width, height=height, spp=spp,
-                        seed=seed, material=mat.name)
-    return spec, gb, params
+    mats: tuple[Any, ...] = tuple(get_material(m) for m in spec.shape_materials(material))
+    params, taps, profiles = {}, {}, []
+    for pid, mat in enumerate(mats, start=1):
+        prof = burley_profile(mat)
+        cell, n = default_grid(prof)
+        params[pid] = BurleyParams.from_profile(prof)
+        taps[pid] = make_taps(build_kernel("burley_fit", prof, cell, n), 7)
+        profiles.append(prof)
+    albedo = np.clip([params[pid].albedo for pid in params], 0.0, 1.0)
+    gb = render_gbuffer(spec, albedo, eta=[m.eta for m in mats], width=width, height=height, spp=spp, seed=seed,
+                        material=tuple(m.name for m in mats))
+    reach = [float(np.max(p.radius_at_fraction(0.99))) for p in profiles]
+    return StudyScene(spec, gb, mats, params, taps, profiles[int(np.argmax(reach))])
 
 
 def golubev_counts(gbuffer, params, spp: int = FIXED_SPP) -> np.ndarray:
@@ -106,11 +135,12 @@ def _timed(fn: Callable[[], Any], repeats: int) -> tuple[Any, float]:
     return out, float(np.median(times))
 
 
-def _methods(gb, params, taps, backend: str, frames: int, repeats: int) -> dict[str, dict[str, Any]]:
+def _methods(sc: StudyScene, backend: str, frames: int, repeats: int) -> dict[str, dict[str, Any]]:
     """Each method's blurred diffuse layer, counts and ms per frame on ``backend``."""
     from ..screenspace import AdaptiveSettings, BurleySettings, PassSettings, burley_sss, separable_sss
     from ..screenspace.adaptive import adaptive_frames
 
+    gb, params = sc.gbuffer, sc.params
     out: dict[str, dict[str, Any]] = {}
     burley = BurleySettings(sampler="xie", mips=True, backend=backend)
     run = adaptive_frames(gb, params, AdaptiveSettings(sigma0_sq=1e-3, kappa=0.2, b_min=8, b_max=64), frames,
@@ -128,15 +158,18 @@ def _methods(gb, params, taps, backend: str, frames: int, repeats: int) -> dict[
         counts = (golubev_counts(gb, params) if sampler == "golubev"
                   else np.where(gb.mask, FIXED_SPP, 0).astype(np.int64))
         out[name] = {"sss": sss, "counts": counts, "ms": t}
-    sep, t = _timed(lambda: separable_sss(gb, taps, PassSettings(backend=backend)), repeats)
+    sep, t = _timed(lambda: separable_sss(gb, sc.taps, PassSettings(backend=backend)), repeats)
     # a separable pixel reads 2 x taps texels per term (horizontal and vertical passes)
-    out["separable"] = {"sss": sep, "counts": np.where(gb.mask, 2 * taps.taps * taps.rank, 0).astype(np.int64),
-                        "ms": t}
+    reads = np.zeros(len(sc.taps) + 1, np.int64)
+    for pid, tp in sc.taps.items():
+        reads[pid] = 2 * tp.taps * tp.rank
+    out["separable"] = {"sss": sep, "counts": reads[gb.profile_id], "ms": t}
     return out
 
 
 def three_view_study(material: str = "skin1", views: Sequence[str] = tuple(STUDY_VIEWS), width: int = 256,
-                     height: int = 192, frames: int = 16, backends: Sequence[str] = ("numba",),
+                     height: int = 192, frames: int = 16, scene: str = "bust", units: str | None = None,
+                     material_map: str | dict[str, str] | None = None, backends: Sequence[str] = ("numba",),
                      reference_spp: int = 4096, gbuffer_spp: int = 16, repeats: int = 3,
                      path_traced: bool = False, path_traced_size: tuple[int, int] | None = None,
                      path_traced_spp: tuple[int, int] = (64, 4096), path_traced_rel_se: float = 0.02,
@@ -149,40 +182,36 @@ def three_view_study(material: str = "skin1", views: Sequence[str] = tuple(STUDY
     with its standard error) and ``images`` (not JSON: per view, each method's composite, counts, the
     limit), which :func:`xie_fig1` draws.
 
+    ``scene``, ``units``, ``material_map``: the mesh scene (:func:`study_gbuffer`; the bust by default).
     ``path_traced_size``: the reference's image size (default: the study's); the G-buffer is then
     rendered again at that size for the region comparison.
     """
-    from ..kernels import build_kernel, default_grid
-    from ..materials import get_material
     from ..pipeline.burley import burley_reference
-    from ..profiles import burley_profile
-    from ..sampling.taps import make_taps
 
     say = progress or (lambda msg: None)
     if not backends:
         raise ValueError("three_view_study needs at least one backend")
-    mat = get_material(material)
-    prof = burley_profile(mat)
-    cell, n = default_grid(prof)
-    taps = make_taps(build_kernel("burley_fit", prof, cell, n), 7)
+    opts: dict[str, Any] = {"scene": scene, "units": units, "material_map": material_map}
     rows: list[dict[str, Any]] = []
     diff: dict[str, float] = {}
     limits: dict[str, dict[str, float]] = {}
     regions: dict[str, dict[str, Any]] = {}
     images: dict[str, dict[str, Any]] = {}
+    names: tuple[str, ...] = ()
     for view in views:
         say(f"xie-fig1: {view} view, G-buffer ({width}x{height})")
-        spec, gb, params = study_gbuffer(view, material, width, height, gbuffer_spp)
-        mask = gb.mask
+        sc = study_gbuffer(view, material, width, height, gbuffer_spp, **opts)
+        gb, mask = sc.gbuffer, sc.gbuffer.mask
+        names = tuple(m.name for m in sc.materials)
         say(f"xie-fig1: {view} view, converged limit ({reference_spp} spp, seeds 0 and 1; cached)")
-        limit = gb.composite(burley_reference(gb, params, spp=reference_spp, backend=backends[0]))
-        limit2 = gb.composite(burley_reference(gb, params, spp=reference_spp, seed=1, backend=backends[0]))
+        limit = gb.composite(burley_reference(gb, sc.params, spp=reference_spp, backend=backends[0]))
+        limit2 = gb.composite(burley_reference(gb, sc.params, spp=reference_spp, seed=1, backend=backends[0]))
         limits[view] = {"psnr_gray_second_seed": _gray_psnr(limit, limit2, mask), "spp": int(reference_spp),
                         "sss_pixels": int(mask.sum())}
         images[view] = {"limit": limit, "mask": mask}
         for b in backends:
             say(f"xie-fig1: {view} view, four methods on {b} ({frames} adaptive frames)")
-            res = _methods(gb, params, taps, b, frames, repeats)
+            res = _methods(sc, b, frames, repeats)
             for name in STUDY_METHODS:
                 r = res[name]
                 img = gb.composite(r["sss"])
@@ -195,31 +224,32 @@ def three_view_study(material: str = "skin1", views: Sequence[str] = tuple(STUDY
         diff[view] = first["golubev-64"] - first["eq21-64"]
         if path_traced:
             pw, ph = path_traced_size or (width, height)
-            pgb = gb if (pw, ph) == (width, height) else study_gbuffer(view, material, pw, ph, gbuffer_spp)[1]
-            regions[view] = _path_traced_regions(spec, mat, prof, params, taps, pgb, backends[0], frames,
-                                                 path_traced_spp, path_traced_rel_se, say)
-    return {"material": mat.name, "size": [int(width), int(height)], "frames": int(frames),
-            "backends": list(backends), "reference_spp": int(reference_spp), "rows": rows,
-            "golubev_minus_eq21": diff, "xie": dict(XIE_GOLUBEV_MINUS_EQ21), "limit": limits, "regions": regions,
-            "images": images}
+            psc = sc if (pw, ph) == (width, height) else study_gbuffer(view, material, pw, ph, gbuffer_spp, **opts)
+            regions[view] = _path_traced_regions(psc, backends[0], frames, path_traced_spp, path_traced_rel_se, say)
+    return {"scene": str(scene), "material": names[0] if len(names) == 1 else list(names),
+            "size": [int(width), int(height)], "frames": int(frames), "backends": list(backends),
+            "reference_spp": int(reference_spp), "rows": rows, "golubev_minus_eq21": diff,
+            "xie": dict(XIE_GOLUBEV_MINUS_EQ21), "limit": limits, "regions": regions, "images": images}
 
 
-def _path_traced_regions(spec, mat, prof, params, taps, gb, backend: str, frames: int, spp: tuple[int, int],
-                         rel_se: float, say: Progress) -> dict[str, Any]:
+def _path_traced_regions(sc: StudyScene, backend: str, frames: int, spp: tuple[int, int], rel_se: float,
+                         say: Progress) -> dict[str, Any]:
     """Each method's level per region (:func:`ssskit.pipeline.regions.compare_regions`) over the path-traced
     reference's of the same view and size: {reference: its summary, regions: {name: {pixels, path_traced:
     level and standard error (R, G, B), methods: {method: ratio and its standard error}}}}."""
     from ..pipeline.regions import compare_regions
     from ..scenes import render_reference
 
+    gb = sc.gbuffer
     h, w = gb.shape
     say(f"xie-fig1: path-traced reference ({w}x{h}, {spp[0]}-{spp[1]} spp until {rel_se:.0%}; cached)")
-    ref = render_reference(spec, mat, width=w, height=h, spp=spp[0], max_spp=spp[1], target_rel_se=rel_se,
+    mats = list(sc.materials) if len(sc.materials) > 1 else sc.materials[0]
+    ref = render_reference(sc.spec, mats, width=w, height=h, spp=spp[0], max_spp=spp[1], target_rel_se=rel_se,
                            region=gb.mask, progress=True)
-    res = _methods(gb, params, taps, backend, frames, repeats=1)
+    res = _methods(sc, backend, frames, repeats=1)
     regions: dict[str, Any] = {}
     for name in STUDY_METHODS:
-        for region, row in compare_regions(gb, prof, res[name]["sss"], None, ref)["regions"].items():
+        for region, row in compare_regions(gb, sc.profile, res[name]["sss"], None, ref)["regions"].items():
             entry = regions.setdefault(region, {"pixels": row["pixels"], "methods": {}})
             if "screen_space_vs_path_traced" in row:
                 entry["path_traced"] = {"level": row["path_traced"]["level"], "se": row["path_traced"]["se"]}
@@ -261,7 +291,7 @@ def plot_study(study: dict[str, Any], path: Path) -> Path:
                      f"adaptive spp (mean {im['adaptive']['counts'][im['mask']].mean():.1f})")
     fig.colorbar(heat, ax=list(axes[:, -1]), fraction=0.05, pad=0.02).ax.tick_params(labelsize=6)
     d = study["golubev_minus_eq21"]
-    fig.suptitle(f"Xie 2020 Fig. 1 in kind: the generated bust, {study['material']}, {study['size'][0]}x"
+    fig.suptitle(f"Xie 2020 Fig. 1 in kind: {study['scene']}, {study['material']}, {study['size'][0]}x"
                  f"{study['size'][1]}; Golubev - Eq. 21: " + ", ".join(
                      f"{v} {d[v]:+.2f} dB (Xie {study['xie'].get(v, float('nan')):.2f})" for v in views), fontsize=8)
     save_figure(fig, path)
@@ -273,20 +303,24 @@ def study_json(study: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in study.items() if k != "images"}
 
 
-def xie_fig1(out: Path, profile=None, progress=None, backend: str = "numba") -> list[Path]:
-    """``ssskit figures xie-fig1``: the three-view study at 256 x 192 on ``backend`` (skin1; the figure's
-    ``profile`` is not used: the study takes the material's Burley profile), ``xie_fig1.png`` and
-    ``xie_fig1.json``."""
+def xie_fig1(out: Path, profile=None, progress=None, backend: str = "numba", scene: str = "bust",
+             units: str | None = None, material_map: str | dict[str, str] | None = None,
+             material: str = "skin1") -> list[Path]:
+    """``ssskit figures xie-fig1``: the three-view study at 256 x 192 on ``backend`` of ``scene`` (the
+    bust by default; ``--scene``, ``--units``, ``--material-map`` of ``ssskit figures``) in ``material``
+    (the figure's ``profile`` is not used: the study takes each material's Burley profile);
+    ``xie_fig1.png`` and ``xie_fig1.json``."""
     import json
 
     from ..io import write_text
 
-    study = three_view_study(backends=(backend,), progress=progress)
+    study = three_view_study(material=material, backends=(backend,), scene=scene, units=units,
+                             material_map=material_map, progress=progress)
     png = plot_study(study, Path(out) / "xie_fig1.png")
     js = Path(out) / "xie_fig1.json"
     write_text(js, json.dumps(study_json(study), indent=1))
     return [png, js]
 
 
-__all__ = ["FIXED_SPP", "STUDY_METHODS", "STUDY_VIEWS", "XIE_GOLUBEV_MINUS_EQ21", "golubev_counts", "plot_study",
+__all__ = ["FIXED_SPP", "STUDY_METHODS", "STUDY_VIEWS", "StudyScene", "XIE_GOLUBEV_MINUS_EQ21", "golubev_counts", "plot_study",
            "study_gbuffer", "study_json", "three_view_study", "xie_fig1"]
