@@ -10,6 +10,7 @@ from ..backends import DEFAULT_BACKEND
 from ..errors import SsskitError
 from .options import (
     FIGURE,
+    SceneRef,
     backend_option,
     examples,
     material_option,
@@ -17,6 +18,8 @@ from .options import (
     out_dir_option,
     photons_option,
     progress,
+    resolve_scene_value,
+    scene_mesh_options,
 )
 from .profiles import check_material_for_model, resolve_profile
 
@@ -44,18 +47,35 @@ class _FiguresCommand(click.Command):
 @model_option("montecarlo", help="Profile model of the figures.")
 @photons_option(200_000, help="--model montecarlo: photons per channel (cached).")
 @backend_option(DEFAULT_BACKEND)
+@click.option("--scene", type=SceneRef(), default=None,
+              help="The figures that render a scene (xie-fig1: the bust by default): a generated mesh, a mesh "
+                   "file or a scene .toml.")
+@scene_mesh_options(view=False)
 @out_dir_option("ssskit-out/figures")
 @click.pass_context
-def figures(ctx, names, material, model, photons, backend, out) -> None:
+def figures(ctx, names, material, model, photons, backend, scene, units, material_map, out) -> None:
     """Regenerate the papers' figures (NAME: any of the figures listed below; all by default). The
-    figures that run a screen-space pass run it on --backend."""
+    figures that run a screen-space pass run it on --backend; those that render a scene (xie-fig1) take
+    --scene, --units and --material-map."""
     from ..backends import get_backend
-    from ..figures import make_figures
+    from ..figures import FIGURES, make_figures, renders_a_scene
 
     check_material_for_model(ctx, material, model)
     get_backend(backend)  # can it run here? checked before any work
+    scene_kw = None
+    if scene is not None or units or material_map:
+        chosen = list(names) or FIGURES.names()
+        takers = [n for n in chosen if renders_a_scene(FIGURES.get(n))]
+        if not takers:
+            raise SsskitError(f"--scene, --units and --material-map apply to the figures that render a scene "
+                              f"({', '.join(n for n in FIGURES.names() if renders_a_scene(FIGURES.get(n)))}), "
+                              f"not to {', '.join(chosen)}")
+        value = "bust" if scene is None else scene
+        resolve_scene_value(value, units, material_map, view="front")  # every check before any work
+        scene_kw = {"scene": str(value), "units": (list(units) or [None])[0], "material_map": material_map,
+                    "material": material}
     prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
-    written = make_figures(list(names), out, prof, progress=progress, backend=backend)
+    written = make_figures(list(names), out, prof, progress=progress, backend=backend, scene=scene_kw)
     for paths in written.values():
         for p in paths:
             click.echo(str(p))

@@ -43,9 +43,18 @@ def runs_a_pass(fn: Figure) -> bool:
     return "backend" in inspect.signature(fn).parameters
 
 
-def make_figures(names, out_dir, profile, progress=None, backend: str | None = None) -> dict[str, list[Path]]:
+def renders_a_scene(fn: Figure) -> bool:
+    """Whether figure ``fn`` renders a scene of the user's choice (it then takes ``scene=``, ``units=``,
+    ``material_map=`` and ``material=``)."""
+    return "scene" in inspect.signature(fn).parameters
+
+
+def make_figures(names, out_dir, profile, progress=None, backend: str | None = None,
+                 scene: dict | None = None) -> dict[str, list[Path]]:
     """Build the named figures (all when ``names`` is empty) for ``profile`` into ``out_dir``; the figures
-    that run a screen-space pass run it on ``backend`` (default: ssskit's default backend)."""
+    that run a screen-space pass run it on ``backend`` (default: ssskit's default backend); those that
+    render a scene (:func:`renders_a_scene`) take the keywords of ``scene`` (scene, units, material_map,
+    material)."""
     chosen = [FIGURES.get(n) for n in names] if names else [f for _, f in FIGURES.items()]
     labels = list(names) if names else FIGURES.names()
     out = Path(out_dir)
@@ -55,8 +64,10 @@ def make_figures(names, out_dir, profile, progress=None, backend: str | None = N
         if progress is not None:
             progress(f"figure {label}")
         kw = {"backend": backend} if backend is not None and runs_a_pass(fn) else {}
+        if scene and renders_a_scene(fn):
+            kw.update(scene)
         result[label] = fn(out, profile, progress, **kw)
     return result
 
 
-__all__ = ["FIGURES", "make_figures", "runs_a_pass"]
+__all__ = ["FIGURES", "make_figures", "renders_a_scene", "runs_a_pass"]

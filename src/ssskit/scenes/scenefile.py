@@ -436,7 +436,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     unknown = sorted(set(material_map) - claimed)
     if unknown:
         names = [o.name for o in objects] + [s for s in shapes if s not in {o.id for o in objects}]
-        raise SceneError(f"material map names {', '.join(map(repr, unknown))}, which the scene does not have "
+        raise SceneError(f"material map names {', '.join(map(repr, unknown))}, which {source!r} does not have "
                          f"(its objects: {', '.join(names)})")
     if not sss:
         raise SceneError(f"{source}: no shape is an SSS object (sss = true)")

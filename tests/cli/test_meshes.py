@@ -1,0 +1,67 @@
+"""Meshes through the CLI: every bad mesh input is one line ``ssskit: error: ...`` and exit status 2 before
+any work, from every command that takes a mesh scene."""
+
+import numpy as np
+import pytest
+
+from ssskit.scenes.generated import icosphere
+from ssskit.scenes.meshes import Mesh, write_mesh
+
+#: the commands that take --scene with a mesh (their other arguments)
+COMMANDS = [["figures", "xie-fig1", "--out", "figs"]]
+
+
+@pytest.fixture
+def meshes(tmp_path, monkeypatch):
+    """A folder with good and bad meshes; the cache lies outside it (nothing may be written into it)."""
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    ball = icosphere(2, 30.0, name="ball")
+    write_mesh(work / "ball.ply", ball)
+    write_mesh(work / "two.glb", [Mesh("skinA", ball.vertices, ball.faces, ball.normals),
+                                  Mesh("skinB", ball.vertices + np.float32([70, 0, 0]), ball.faces, ball.normals)])
+    v = ball.vertices.copy()
+    v[3, 0] = np.nan
+    write_mesh(work / "nan.obj", Mesh("ball", v, ball.faces, ball.normals))
+    write_mesh(work / "nan.glb", Mesh("ball", v, ball.faces, ball.normals))
+    (work / "empty.obj").write_bytes(b"")
+    (work / "model.stl").write_bytes(b"solid x\n")
+    (work / "huge.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\n"
+                                    b"property float x\nproperty float y\nproperty float z\nelement face 2000000000\n"
+                                    b"property list uchar uint vertex_indices\nend_header\n")
+    return work
+
+
+BAD = [
+    (["--scene", "nope.obj"], "mesh 'nope.obj' does not exist"),
+    (["--scene", "empty.obj"], "mesh 'empty.obj' is empty (0 bytes)"),
+    (["--scene", "model.stl"], "unknown format '.stl'"),
+    (["--scene", "nan.obj"], "has NaN or infinite vertex positions"),
+    (["--scene", "nan.glb"], "has NaN or infinite vertex positions (1 of"),
+    (["--scene", "two.glb", "--material-map", "skinC=skin1"], "material map names 'skinC', which 'two.glb' does not "
+                                                              "have (its objects: skinA, skinB)"),
+    (["--scene", "two.glb", "--material-map", "skinA=unobtainium"], "unobtainium"),
+    (["--scene", "two.glb", "--material-map", "skinA"], "material map entry 'skinA' is not NAME=MATERIAL"),
+    (["--scene", "huge.ply"], "2,000,000,000 faces: rendering it at 256x192 needs about 745.1 GiB"),
+    (["--scene", "ball.ply", "--units", "mm", "--units", "m"], "conflicting units: mm, m (give --units once)"),
+    (["--scene", "ball.ply", "--units", "inch"], "'inch' is not one of 'mm', 'cm', 'm'"),
+]
+
+
+@pytest.mark.parametrize("command", COMMANDS, ids=[c[0] for c in COMMANDS])
+@pytest.mark.parametrize("args, fragment", BAD, ids=[f"{a[1]}{' ' + a[3] if len(a) > 3 else ''}" for a, _ in BAD])
+def test_bad_mesh_input(run, meshes, command, args, fragment):
+    before = sorted(p.name for p in meshes.rglob("*"))
+    code, out, err = run(*command, *args)
+    assert code == 2, err
+    assert out == ""
+    assert err.count("\n") == 1 and err.startswith("ssskit: error: "), err
+    assert fragment in err, err
+    assert sorted(p.name for p in meshes.rglob("*")) == before  # nothing written
+
+
+def test_figures_scene_options_need_a_figure_that_renders_a_scene(run, meshes):
+    code, _, err = run("figures", "fig7", "--scene", "ball.ply", "--out", "figs")
+    assert code == 2 and "apply to the figures that render a scene (xie-fig1), not to fig7" in err
