@@ -280,6 +280,12 @@ def _adaptive_section(out: Path, progress: Progress, ctx: dict) -> str:
     return demo_section(out, progress, ctx)
 
 
+def _model_section(out: Path, progress: Progress, ctx: dict) -> str:
+    from .figures.views import demo_section
+
+    return demo_section(out, progress, ctx)
+
+
 SECTIONS: list[tuple[str, Section]] = [
     ("materials", _materials_section),
     ("profiles", _profiles_section),
@@ -301,7 +307,8 @@ def _cached_section(name: str, section: Section, out: Path, progress: Progress, 
     from .io import atomic_output
 
     key = json.dumps({"section": name, "photons": ctx.get("photons"), "backend": ctx.get("backend"),
-                      "source": source_digest()}, sort_keys=True)
+                      "scene": ctx.get("scene_key") if name == "model" else None, "source": source_digest()},
+                     sort_keys=True)
     path = cache_dir("demo") / f"{name}-{hashlib.sha1(key.encode()).hexdigest()[:16]}.pkl"
     if path.is_file():
         try:
@@ -324,6 +331,14 @@ def _cached_section(name: str, section: Section, out: Path, progress: Progress, 
         with open(tmp, "wb") as fh:
             pickle.dump((text, files), fh)
     return text
+
+
+def _file_digest(path) -> str:
+    """sha1 of a file's bytes ("" for a name that is no file, e.g. the generated bust)."""
+    import hashlib
+
+    p = Path(str(path))
+    return hashlib.sha1(p.read_bytes()).hexdigest() if p.is_file() else ""
 
 
 def _backend_text(backend) -> str:
@@ -351,19 +366,29 @@ def _with_contents(sections: list[str]) -> tuple[list[str], str]:
 
 
 def build_report(out_dir: str | Path, progress: Progress | None = None, photons: int = DEMO_PHOTONS,
-                 progress_bars: bool = False, backend: str = DEFAULT_BACKEND) -> Path:
+                 progress_bars: bool = False, backend: str = DEFAULT_BACKEND, scene: dict | None = None) -> Path:
     """Run every section into ``out_dir`` and write ``index.html`` last; returns its path. The
     screen-space passes run on ``backend`` (checked before any work: a BackendError if it cannot run
-    here)."""
+    here). ``scene`` (scene, units, material_map: ``ssskit demo --scene``) adds the "Your model" section
+    (:func:`ssskit.figures.views.demo_section`), cached by the options and the scene file's content."""
     from .backends import get_backend
 
     runner = get_backend(backend)
+    sections = list(SECTIONS)
+    ctx: dict = {"photons": photons, "progress_bars": progress_bars, "backend": runner.name}
+    if scene is not None:
+        from .scenes import resolve_scene
+
+        resolve_scene(scene["scene"], units=scene.get("units"), material_map=scene.get("material_map"),
+                      view="front")  # every check before any work (the study places its own views)
+        ctx["scene"] = scene
+        ctx["scene_key"] = {**scene, "file": _file_digest(scene["scene"])}
+        sections.append(("model", _model_section))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     progress = progress or (lambda msg: None)
     t0 = time.perf_counter()
-    ctx = {"photons": photons, "progress_bars": progress_bars, "backend": runner.name}
-    body = [_cached_section(name, section, out, progress, ctx) for name, section in SECTIONS]
+    body = [_cached_section(name, section, out, progress, ctx) for name, section in sections]
     from . import __version__
 
     body, toc = _with_contents(body)

@@ -8,7 +8,7 @@ from ssskit.scenes.generated import icosphere
 from ssskit.scenes.meshes import Mesh, write_mesh
 
 #: the commands that take --scene with a mesh (their other arguments)
-COMMANDS = [["figures", "xie-fig1", "--out", "figs"]]
+COMMANDS = [["figures", "xie-fig1", "--out", "figs"], ["demo", "--out", "demo"]]
 
 
 @pytest.fixture
@@ -65,3 +65,24 @@ def test_bad_mesh_input(run, meshes, command, args, fragment):
 def test_figures_scene_options_need_a_figure_that_renders_a_scene(run, meshes):
     code, _, err = run("figures", "fig7", "--scene", "ball.ply", "--out", "figs")
     assert code == 2 and "apply to the figures that render a scene (xie-fig1), not to fig7" in err
+
+
+def test_demo_needs_scene_for_units(run, meshes):
+    code, _, err = run("demo", "--units", "mm", "--out", "demo")
+    assert code == 2 and "--units and --material-map need --scene" in err
+
+
+def test_demo_section_of_your_model(tmp_path, monkeypatch):
+    """build_report(scene=...) appends the "Your model" section (the other sections left out here)."""
+    import ssskit.figures.views as views
+    import ssskit.report as report
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(report, "SECTIONS", [])
+    monkeypatch.setattr(views, "DEMO_SIZE", (32, 24))
+    monkeypatch.setattr(views, "DEMO_FRAMES", 2)
+    monkeypatch.setattr(views, "DEMO_REFERENCE_SPP", 16)
+    index = report.build_report(tmp_path / "demo", scene={"scene": "icosphere"})
+    text = index.read_text()
+    assert "<h2" in text and "Your model: icosphere" in text and "golubev-64" in text
+    assert (tmp_path / "demo" / "figures" / "your_model.png").is_file()

@@ -87,8 +87,12 @@ def figures(ctx, names, material, model, photons, backend, scene, units, materia
 @photons_option(None, help="Monte Carlo photons per channel [default: 200,000].")
 @click.option("--full", is_flag=True, help="Monte Carlo with the supplement's 10^7 photons per channel (slow the first time, then cached).")
 @backend_option(DEFAULT_BACKEND)
-def demo(out: str, photons: int | None, full: bool, backend: str) -> None:
-    """The main job: build the report (figures + index.html) on built-in defaults."""
+@click.option("--scene", type=SceneRef(), default=None,
+              help="Add a section on your model (a mesh file, scene .toml or generated mesh): the three views of "
+                   "Xie 2020 Fig. 1 with every Burley method and the separable pass.")
+@scene_mesh_options(view=False)
+def demo(out: str, photons: int | None, full: bool, backend: str, scene, units, material_map) -> None:
+    """The main job: build the report (figures + index.html) on built-in defaults; --scene adds your model."""
     from ..backends import get_backend
     from ..profiles.montecarlo import DEFAULT_PHOTONS
     from ..report import DEMO_PHOTONS, build_report
@@ -97,6 +101,13 @@ def demo(out: str, photons: int | None, full: bool, backend: str) -> None:
         raise SsskitError("give either --full or --photons, not both")
     n = DEFAULT_PHOTONS if full else (photons or DEMO_PHOTONS)
     get_backend(backend)  # can it run here? checked before any work
+    scene_kw = None
+    if scene is not None or units or material_map:
+        if scene is None:
+            raise SsskitError("--units and --material-map need --scene (the model of the demo's last section)")
+        resolve_scene_value(scene, units, material_map, view="front")  # every check before any work
+        scene_kw = {"scene": str(scene), "units": (list(units) or [None])[0], "material_map": material_map}
     click.echo(f"ssskit demo: writing the report to {out}/", err=True)
-    index = build_report(Path(out), progress=progress, photons=n, progress_bars=True, backend=backend)
+    index = build_report(Path(out), progress=progress, photons=n, progress_bars=True, backend=backend,
+                         scene=scene_kw)
     click.echo(str(index))

@@ -322,5 +322,38 @@ def xie_fig1(out: Path, profile=None, progress=None, backend: str = "numba", sce
     return [png, js]
 
 
-__all__ = ["FIXED_SPP", "STUDY_METHODS", "STUDY_VIEWS", "StudyScene", "XIE_GOLUBEV_MINUS_EQ21", "golubev_counts", "plot_study",
+#: the demo's small study of the user's model: size, adaptive frames, converged limit's spp
+DEMO_SIZE = (128, 96)
+DEMO_FRAMES = 8
+DEMO_REFERENCE_SPP = 1024
+
+
+def demo_section(out: Path, progress, ctx: dict) -> str:
+    """The demo report's "Your model" section (``ssskit.report.SECTIONS`` signature), built when ``ssskit
+    demo --scene`` names one (``ctx["scene"]``: scene, units, material_map): the three-view study of it at
+    :data:`DEMO_SIZE` on ``ctx["backend"]``, its table and figure."""
+    import html
+
+    opts = ctx["scene"]
+    backend = ctx.get("backend") or "numba"
+    t0 = time.perf_counter()
+    study = three_view_study(backends=(backend,), width=DEMO_SIZE[0], height=DEMO_SIZE[1], frames=DEMO_FRAMES,
+                             reference_spp=DEMO_REFERENCE_SPP, repeats=1, scene=opts["scene"], units=opts.get("units"),
+                             material_map=opts.get("material_map"), progress=progress)
+    png = plot_study(study, Path(out) / "figures" / "your_model.png")
+    seconds = time.perf_counter() - t0
+    body = "".join(f"<tr><td class=name>{html.escape(r['view'])}</td><td class=name>{html.escape(r['method'])}</td>"
+                   f"<td>{r['psnr_gray']:.1f}</td><td>{r['mean_spp']:.1f}</td><td>{r['ms']:.1f}</td></tr>"
+                   for r in study["rows"])
+    return (f"<h2>Your model: {html.escape(str(opts['scene']))}</h2>"
+            f"<p class=note>The three views of Xie 2020 Fig. 1 (close, ear = profile, front) at {DEMO_SIZE[0]}x"
+            f"{DEMO_SIZE[1]}: the adaptive Burley pass (sigma0^2 = 1e-3, kappa = 0.2, 8-64 spp, {DEMO_FRAMES} frames), "
+            "Golubev's and Eq. 21's samplers at 64 spp and the separable burley_fit pass, each as gray PSNR against "
+            f"the pass's converged limit ({DEMO_REFERENCE_SPP} spp), with ms per frame on the {html.escape(backend)} "
+            f"backend. Materials: {html.escape(str(study['material']))}. Built in {seconds:.0f} s.</p>"
+            "<table><tr><th>view</th><th>method</th><th>PSNR gray</th><th>mean spp</th><th>ms</th></tr>"
+            f"{body}</table><img src='figures/{png.name}'>")
+
+
+__all__ = ["DEMO_FRAMES", "DEMO_REFERENCE_SPP", "DEMO_SIZE", "FIXED_SPP", "STUDY_METHODS", "STUDY_VIEWS", "StudyScene", "XIE_GOLUBEV_MINUS_EQ21", "demo_section", "golubev_counts", "plot_study",
            "study_gbuffer", "study_json", "three_view_study", "xie_fig1"]
