@@ -365,3 +365,36 @@ def test_conflicting_units_are_refused(tmp_path):
         resolve_scene(path, units="inch")
     with pytest.raises(SceneError, match="--units does not apply to the built-in scene 'slab'"):
         resolve_scene("slab", units="mm")
+
+
+def test_reference_is_cached_per_mesh_digest(tmp_path, monkeypatch):
+    """The reference's cache key holds the mesh's digest (in the cached PLY's name): the same mesh read again
+    reuses the render; the file rewritten with one vertex moved is rendered anew."""
+    from ssskit.materials import get_material
+    from ssskit.scenes.reference import reference_cache_dir
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    s = _sphere()
+    mat = get_material("skin1")
+    kw = dict(width=16, height=12, spp=8, chunk_spp=8, progress=False)
+
+    def files():
+        return sorted(p.name for p in reference_cache_dir().glob("*.npz"))
+
+    path = str(write_mesh(tmp_path / "ball.ply", s))
+    a = resolve_scene(path, units="mm", width=16, height=12)
+    ra = render_reference(a.spec, mat, **kw)
+    first = files()
+    assert len(first) == 1
+    again = resolve_scene(path, units="mm", width=16, height=12)
+    assert again.objects[0].digest == a.objects[0].digest
+    rb = render_reference(again.spec, mat, **kw)
+    assert files() == first
+    np.testing.assert_array_equal(rb.image, ra.image)
+    moved = s.vertices.copy()
+    moved[0] *= np.float32(1.01)
+    write_mesh(tmp_path / "ball.ply", Mesh("ball", moved, s.faces, s.normals))
+    c = resolve_scene(path, units="mm", width=16, height=12)
+    assert c.objects[0].digest != a.objects[0].digest
+    render_reference(c.spec, mat, **kw)
+    assert len(files()) == 2
