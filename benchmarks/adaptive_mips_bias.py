@@ -13,9 +13,9 @@ measures how much, on static G-buffers whose reference is exact:
 
 Per scene, mips on and off, ``--frames`` frames (exact sampler, random sequence so the frames are
 independent, numba) of: the adaptive pass at each (sigma0^2, kappa) of ``--settings`` (b = [8, 64],
-:func:`ssskit.screenspace.adaptive.adaptive_frames`), fixed 64 spp and fixed at the adaptive run's
+:func:`ssskit.screenspace.frames.adaptive_frames`), fixed 64 spp and fixed at the adaptive run's
 mean count rounded up (the same loop with the budget [n, n]). Against the no-mips converged reference
-(:func:`ssskit.pipeline.burley.burley_exact`, the exact sampler's limit), inside the mask, all channels:
+(:func:`ssskit.pipeline.burley_frame.burley_exact`, the exact sampler's limit), inside the mask, all channels:
 
 * ``mean_rmse`` / ``mean_psnr``: the average of the frames: the bias plus a noise floor ``noise_rms``
   (the RMS standard error of that average, from the spread across frames);
@@ -77,9 +77,10 @@ def main() -> None:
     args = ap.parse_args()
 
     from ssskit.figures.adaptive import plane_params, shadow_plane
-    from ssskit.pipeline.burley import burley_exact
+    from ssskit.pipeline.burley_frame import burley_exact
     from ssskit.screenspace import BurleyParams, BurleySettings
-    from ssskit.screenspace.adaptive import AdaptiveSettings, adaptive_frames
+    from ssskit.screenspace.adaptive import AdaptiveSettings
+    from ssskit.screenspace.frames import adaptive_frames
 
     scenes = {"step": (step_gbuffer(), BurleyParams.from_dmfp((0.8, 0.6, 0.4), (4.0, 2.5, 1.5))),
               "plane": (shadow_plane(160, 90), plane_params())}

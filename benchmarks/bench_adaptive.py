@@ -1,12 +1,12 @@
 """Benchmark: the variance-guided adaptive sampler (Xie 2020 Sec. 4.1) vs fixed counts, same run.
 
-A static frame sequence of the Burley pass (:func:`ssskit.screenspace.adaptive.adaptive_frames`) on a
+A static frame sequence of the Burley pass (:func:`ssskit.screenspace.frames.adaptive_frames`) on a
 synthetic G-buffer with structure where adaptation matters: a fronto-parallel SSS plane, half of it lit
 (0.8) and half in shadow (0.05) with a lit disk inside the shadow, a skin-like Burley material (albedo
 0.8/0.5/0.3, dmfp 2.0/1.0/0.5 mm; about 2.5 pixels per mm at 1080p). Per frame: mean samples per pixel,
 the pass's time and the guiding phase's time (counts estimate + history update, vectorised numpy,
 float32 arithmetic on the (H, W, 4) float32 history), and the PSNR of the frame against the pass's limit
-(:func:`ssskit.pipeline.burley.burley_exact`). Competitors, same run and G-buffer: the pass at a fixed
+(:func:`ssskit.pipeline.burley_frame.burley_exact`). Competitors, same run and G-buffer: the pass at a fixed
 spp at b_min, at b_max and at the adaptive run's mean count rounded up (equal samples): time and
 single-frame PSNR. The guiding phase is also timed alone at 1920x1080 through the public, checking API.
 
@@ -63,11 +63,11 @@ def main() -> None:
     ap.add_argument("--backend", default="numba")
     ap.add_argument("--repeats", type=int, default=5)
     args = ap.parse_args()
-    from ssskit.pipeline.burley import burley_exact
+    from ssskit.pipeline.burley_frame import burley_exact
     from ssskit.screenspace import BurleyParams, BurleySettings, burley_sss
+    from ssskit.screenspace.frames import adaptive_frames
     from ssskit.screenspace.adaptive import (
         AdaptiveSettings,
-        adaptive_frames,
         new_history,
         sample_counts,
         shading_value,

@@ -107,51 +107,37 @@ def bench_guide(name: str, w: int, h: int, plan, repeats: int) -> dict:
 
 
 def bench_phases(name: str, w: int, h: int, settings, frames: int) -> dict:
-    import dataclasses
-
     from bench_adaptive import gbuffer
 
-    from ssskit.backends import get_backend
-    from ssskit.backends.adaptive_plan import as_plan
     from ssskit.screenspace import BurleyParams, BurleySettings
-    from ssskit.screenspace.adaptive import new_history
-    from ssskit.screenspace.burley import burley_plan_for
+    from ssskit.screenspace.frames import run_frames
 
     gb = gbuffer(w, h)
     params = BurleyParams.from_dmfp((0.8, 0.5, 0.3), (2.0, 1.0, 0.5))
     bs = BurleySettings(sampler="exact", mips=True, backend=name)
-    base = burley_plan_for(params, [1], gb.camera.fx, gb.camera.fy, bs)
-    slots = base.slot_map(gb.profile_id)
-    backend = get_backend(name)
 
     def run(n: int):
-        runner = backend.adaptive_runner(as_plan(settings), new_history(h, w))
-        combine, readback, spp = [], [], []
-        try:
-            runner.load(gb.diffuse, gb.depth_mm, slots)
-            for f in range(n):
-                spp.append(float(runner.counts()[slots > 0].mean()))
-                runner.sample(dataclasses.replace(base, frame=f))
-                runner.update()
-                t = time.perf_counter()
-                out = runner.result()
-                readback.append(1e3 * (time.perf_counter() - t))
-                t = time.perf_counter()
-                gb.composite(out)
-                combine.append(1e3 * (time.perf_counter() - t))
-        finally:
-            runner.release()
-        return runner.times, combine, readback, spp
+        combine: list[float] = []
+
+        def on_frame(frame) -> None:  # the combine step after the loop's readback
+            t = time.perf_counter()
+            gb.composite(frame.sss)
+            combine.append(1e3 * (time.perf_counter() - t))
+
+        r = run_frames([gb] * n, params, bs, adaptive=settings, on_frame=on_frame)
+        return r.phases, combine, r.mean_spp
 
     run(1)  # compile / warm up
-    times, combine, readback, spp = run(frames)
-    med = {p: (statistics.median(v[1:] if len(v) > 1 else v) if v else None) for p, v in times.items()}
+    times, combine, spp = run(frames)
+    med = {p: (statistics.median(v[1:] if len(v) > 1 else v) if any(v) else None) for p, v in times.items()
+           if p != "readback"}
     med["estimate"] = times["estimate"][0] if times["estimate"] else None
     med["combine"] = statistics.median(combine[1:])
     if name == "gl":
-        med["readback"] = statistics.median(readback[1:])
+        med["readback"] = statistics.median(times["readback"][1:])
     return {"ms_median": med, "mean_spp_per_frame": [round(v, 2) for v in spp],
-            "note": "medians over frames 2..N; estimate: frame 1 only (a static camera)"}
+            "note": "medians over frames 2..N; estimate: frame 1 only (a static camera); the library's frame loop "
+                    "(ssskit.screenspace.frames.run_frames)"}
 
 
 def main() -> None:

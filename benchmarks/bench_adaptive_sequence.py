@@ -5,7 +5,7 @@ point light, the camera orbiting 2 degrees per frame), ``--frames`` frames (defa
 Skin1's Burley parameters, exact sampler without mips (so each frame's converged reference is the pass's
 own limit: :func:`ssskit.pipeline.sequence.sequence_references`, the exact sampler at ``--limit-spp`` spp
 without mips, two cached halves giving its standard error). Every run goes through one loop,
-:func:`ssskit.pipeline.sequence.run_sequence`: the adaptive history reprojected through the camera motion
+:func:`ssskit.screenspace.frames.run_frames`: the adaptive history reprojected through the camera motion
 (nearest, no rejection), the Burley pass, the history update, then the global TAA
 (:class:`ssskit.screenspace.taa.TAASettings` defaults: alpha 0.1, 3x3 YCoCg min/max clamp, Catmull-Rom).
 
@@ -22,7 +22,7 @@ The sweep: sigma0^2 in ``--sigma0-sq`` x kappa in ``--kappas`` (b = [8, 64], alp
 and fixed 64, 32 and 16 spp. The chosen setting is the sweep's cheapest (fewest total samples) whose final
 PSNR is within 0.5 dB of fixed 64; the fixed pass at its mean count rounded up (equal samples) runs beside
 it. Then the chosen adaptive run and fixed 64 are timed on each backend of ``--backends`` in the same run,
-``--repeat`` times alternately: the wall time of the whole loop (``SequenceRun.ms_frame``: the guiding
+``--repeat`` times alternately: the wall time of the whole loop (``FrameRun.ms_frame``: the guiding
 phase on the backend's runner, the pass, upload and readback; fixed 64 runs no guiding phase), and the
 median per-frame pass and guiding-phase times (the runner's ``times``), and per-frame
 sample-count heatmaps of the chosen run are written to ``--out`` (git-ignored). Prints one JSON object.
@@ -100,7 +100,8 @@ def main() -> None:
     from ssskit.backends import BACKENDS
     from ssskit.figures.sequence import save_heatmap_png
     from ssskit.materials import MATERIALS
-    from ssskit.pipeline.sequence import run_sequence, sequence_gbuffers, sequence_references
+    from ssskit.pipeline.sequence import sequence_gbuffers, sequence_references
+    from ssskit.screenspace.frames import run_frames
     from ssskit.screenspace import BurleySettings
     from ssskit.screenspace.adaptive import AdaptiveSettings
     from ssskit.screenspace.burley import burley_params_for_material
@@ -118,13 +119,14 @@ def main() -> None:
     ref_psnr = float(np.mean([20 * math.log10(p / n) for p, n in zip(ref_peak[-args.last:], ref_noise[-args.last:])]))
     taa = TAASettings()
     b = BurleySettings(sampler="exact", mips=False, backend="numba")
-    run_sequence(gbs[:2], params, b, spp=8)  # numba compile outside the timings
+    run_frames(gbs[:2], params, b, spp=8)  # numba compile outside the timings
 
     def go(backend="numba", **kw):
         if "adaptive" in kw:
             kw["disocclusion_spp"] = args.disocclusion_spp
         t = time.perf_counter()
-        r = run_sequence(gbs, params, b.replace(backend=backend), taa=taa, references=refs, keep_counts=True, **kw)
+        r = run_frames(gbs, params, b.replace(backend=backend), taa=taa, references=[x.sss for x in refs],
+                       keep_counts=True, **kw)
         return r, time.perf_counter() - t
 
     fixed = {}
@@ -161,9 +163,9 @@ def main() -> None:
     for name in (v for v in args.backends.split(",") if v):
         try:
             BACKENDS.get(name)()
-            run_sequence(gbs[:2], params, b.replace(backend=name), adaptive=a,
+            run_frames(gbs[:2], params, b.replace(backend=name), adaptive=a,
                          disocclusion_spp=args.disocclusion_spp)  # compile / warm up
-            run_sequence(gbs[:2], params, b.replace(backend=name), spp=64)
+            run_frames(gbs[:2], params, b.replace(backend=name), spp=64)
         except Exception as exc:  # noqa: BLE001 - an unavailable backend is reported, not fatal
             timings[name] = {"error": f"{type(exc).__name__}: {exc}".splitlines()[0]}
             continue

@@ -7,7 +7,7 @@ Xie's units (backends/burley_plan.py, step 5b).
 The G-buffer: 128 x 96 pixels at 400 mm, 3 pixels per mm, one profile id on a disk of radius 40 px,
 a textured diffuse layer (a sine grating, a hard vertical shadow edge and noise); Burley parameters
 from albedo 0.6 and dmfp 8/4/2 mm (d = 2.0/1.0/0.5 mm, Eq. 5 configuration 3). The reference is
-:func:`ssskit.pipeline.burley.burley_exact` (the pass's exact limit: the exact sampler without mips
+:func:`ssskit.pipeline.burley_frame.burley_exact` (the pass's exact limit: the exact sampler without mips
 converges to it, tests/screenspace/test_burley_consistency.py).
 
 For each configuration and n = 8, 16, 64 samples per pixel, K frames with independent seeds:
@@ -79,7 +79,7 @@ def main() -> None:
     ap.add_argument("--scene-frames", type=int, default=8, help="frames per row of the scenes' table (0: skip it)")
     ap.add_argument("--size", default="160x120", help="the scenes' G-buffer size, WxH")
     args = ap.parse_args()
-    from ssskit.pipeline.burley import burley_exact
+    from ssskit.pipeline.burley_frame import burley_exact
     from ssskit.screenspace import BurleyParams, burley_sss
 
     params = BurleyParams.from_dmfp(0.6, (8.0, 4.0, 2.0))
@@ -132,12 +132,12 @@ def main() -> None:
 def scene_table(args) -> list[dict]:
     """The four built-in scenes (Mitsuba G-buffers, ``--size``, Skin1's Burley profile): for each
     configuration of :data:`SCENE_CONFIGS` and n of ``--spp``, ``--scene-frames`` frames against the
-    converged reference (:func:`ssskit.pipeline.burley.burley_reference`: exact sampler,
+    converged reference (:func:`ssskit.pipeline.burley_frame.burley_reference`: exact sampler,
     ``--converged-spp``, no mips, seed 0). Per row: frame RMSE (mean over frames), its gray-scale PSNR
     (Xie 2020 Sec. 6; peak = the reference's gray maximum in the mask), bias RMSE (the frames' mean
     against the reference). The reference's own error: ``ref_se`` = RMS difference of two
     references with seeds 0 and 1 over sqrt(2)."""
-    from ssskit.pipeline.burley import burley_reference
+    from ssskit.pipeline.burley_frame import burley_reference
     from ssskit.scenes import SCENES, render_gbuffer
     from ssskit.screenspace import burley_sss
     from ssskit.screenspace.burley import burley_params_for_material

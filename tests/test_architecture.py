@@ -10,6 +10,7 @@ runs the same contracts by hand.
 from __future__ import annotations
 
 import importlib.util
+import json
 import os
 import re
 import shutil
@@ -74,6 +75,58 @@ def test_importing_the_lab_breaks_its_contract(tmp_path):
     proc = _lint(src)
     assert proc.returncode != 0
     assert "product never imports the lab" in proc.stdout and re.search(r"ssskit\.truth -> lab", proc.stdout), proc.stdout
+
+
+#: the import graph's cycles (lazy imports included): strongly connected components of grimp's graph
+_CYCLES = r"""
+import json, sys
+import grimp
+sys.setrecursionlimit(10000)
+g = grimp.build_graph("ssskit", include_external_packages=False)
+adj = {m: [x for x in g.find_modules_directly_imported_by(m) if x.startswith("ssskit")] for m in g.modules}
+index, low, stack, on, out, n = {}, {}, [], set(), [], [0]
+def visit(v):
+    index[v] = low[v] = n[0]; n[0] += 1; stack.append(v); on.add(v)
+    for w in adj[v]:
+        if w not in index:
+            visit(w); low[v] = min(low[v], low[w])
+        elif w in on:
+            low[v] = min(low[v], index[w])
+    if low[v] == index[v]:
+        comp = []
+        while True:
+            w = stack.pop(); on.discard(w); comp.append(w)
+            if w == v:
+                break
+        if len(comp) > 1:
+            out.append(sorted(comp))
+for m in sorted(adj):
+    if m not in index:
+        visit(m)
+print(json.dumps(out))
+"""
+
+
+def _cycles(src: Path) -> list[list[str]]:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(src), os.environ.get("PYTHONPATH")) if p)}
+    proc = subprocess.run([sys.executable, "-c", _CYCLES], cwd=src, env=env, capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout)
+
+
+def test_no_import_cycles():
+    """No two modules import each other, directly or through others, even lazily inside functions."""
+    assert _cycles(SRC) == []
+
+
+def test_a_cycle_is_found(tmp_path):
+    src = _scratch(tmp_path)
+    with open(src / "ssskit" / "registry.py", "a", encoding="utf-8") as f:
+        f.write("\n\ndef _back():\n    from . import cache\n\n    return cache\n")
+    with open(src / "ssskit" / "cache.py", "a", encoding="utf-8") as f:
+        f.write("\n\ndef _forth():\n    from . import registry\n\n    return registry\n")
+    assert ["ssskit.cache", "ssskit.registry"] in _cycles(src)
 
 
 def test_a_module_outside_the_layers_breaks_the_contract(tmp_path):

@@ -31,11 +31,6 @@ Triple = tuple[float, float, float]
 MM_PER_CM = 10.0
 
 
-def per_cm_from_per_mm(value: float) -> float:
-    """Convert a coefficient from mm^-1 to cm^-1 (1 mm^-1 = 10 cm^-1)."""
-    return value * MM_PER_CM
-
-
 def _is_number(value: Any) -> bool:
     """A real number (Python or numpy), not a boolean and not a string."""
     return isinstance(value, numbers.Real) and not isinstance(value, bool)

@@ -13,6 +13,9 @@ import numpy as np
 from .errors import SignalError
 from .io import tonemap  # the display encoding images are written with
 
+#: ITU-R BT.709 luminance weights of linear RGB (Y = 0.2126 R + 0.7152 G + 0.0722 B)
+BT709_LUMA = (0.2126, 0.7152, 0.0722)
+
 
 def _pair(reference, test) -> tuple[np.ndarray, np.ndarray]:
     ref = np.asarray(reference, dtype=np.float64)
@@ -249,3 +252,23 @@ def profile_rmse(test, reference, reference_se=None) -> dict[str, float]:
     rmse_se = float(se2 / (2.0 * rmse)) if rmse > 0 else noise
     return {"rmse": rmse, "noise": noise, "rmse_se": rmse_se,
             "resolved": bool(rmse**2 - noise**2 > 3.0 * se2)}
+def display_psnr(reference, image, mask, gamma: float = 2.2) -> float | None:
+    """Gray-scale PSNR on the display (Xie 2020 Sec. 6 reports "gray-scale PSNR"), inside ``mask``: both
+    images mapped by g(x) = clip(Y(x) / P, 0, 1)^(1/gamma), Y the BT.709 luminance and P the reference's
+    largest luminance inside the mask (so the reference spans [0, 1] like a display frame), then
+    PSNR = 20 log10(1 / RMSE). This is the scale the sampler's history measures (gamma-corrected
+    luminance, Sec. 4.1.2), where dark pixels weigh as much as on a screen; the linear ``psnr`` is
+    dominated by the brightest pixels. None without a reference or mask."""
+    if reference is None or not np.any(mask):
+        return None
+    w = np.asarray(BT709_LUMA)
+    y_ref = np.asarray(reference, np.float64)[mask] @ w
+    y_img = np.asarray(image, np.float64)[mask] @ w
+    peak = float(y_ref.max())
+    if peak <= 0:
+        return None
+    g = 1.0 / gamma
+    err = np.sqrt(np.mean((np.clip(y_ref / peak, 0, 1) ** g - np.clip(y_img / peak, 0, 1) ** g) ** 2))
+    return float("inf") if err == 0 else float(-20.0 * np.log10(err))
+
+

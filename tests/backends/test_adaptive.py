@@ -13,7 +13,8 @@ from ssskit.backends.adaptive_plan import as_plan
 from ssskit.backends.base import PHASES
 from ssskit.errors import BackendError, PassError
 from ssskit.screenspace import BurleyParams, BurleySettings, Camera, GBuffer
-from ssskit.screenspace.adaptive import AdaptiveSettings, adaptive_frames, new_history
+from ssskit.screenspace.adaptive import AdaptiveSettings, new_history
+from ssskit.screenspace.frames import adaptive_frames
 
 #: the largest fraction of counts a float32 backend may have one off the oracle's (rounding boundaries)
 COUNT_FLIPS = 2e-3

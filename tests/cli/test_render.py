@@ -41,17 +41,16 @@ def test_engine_tap_kernel_uses_taps(run, gbuffer_file):
 
 @pytest.mark.parametrize("suffix", [".toml", ".json"])
 def test_settings_file_and_overrides(run, tmp_path, gbuffer_file, suffix):
-    from ssskit.pipeline import RenderSettings
-    from ssskit.screenspace.settings import PassSettings
+    from ssskit.pipeline import RenderSettings, SeparablePass
 
-    settings = RenderSettings(kernel="svd:2", taps=9, perceptual=False, sss=PassSettings(jitter=0.3, backend="numpy"))
+    settings = RenderSettings(kernel="svd:2", taps=9, perceptual=False, backend="numpy", pass_=SeparablePass(jitter=0.3))
     path = tmp_path / f"frame{suffix}"
     settings.save(path)
     data = render_json(run, "--scene", gbuffer_file, "--settings", path)
     assert data["settings"] == settings.to_dict()
     # options given on the command line override the file; the others keep the file's values
     data = render_json(run, "--scene", gbuffer_file, "--settings", path, "--taps", "5", "--jitter", "0", "--seed", "3")
-    expected = settings.replace(taps=5, seed=3, sss=settings.sss.replace(jitter=0.0, seed=3))
+    expected = settings.replace(taps=5, seed=3, pass_=SeparablePass(jitter=0.0))
     assert data["settings"] == expected.to_dict()
     assert "flip" not in data["metrics"]["exact_2d"]
 
@@ -62,4 +61,33 @@ def test_backend_option(run, gbuffer_file):
     for name, status in backend_status().items():
         if status["available"]:
             data = render_json(run, "--scene", gbuffer_file, "--backend", name, "--no-exact")
-            assert data["settings"]["sss"]["backend"] == name
+            assert data["settings"]["backend"] == name
+
+
+def test_method_is_a_deprecated_alias_of_pass(run, gbuffer_file):
+    code, out, err = run("render", "--scene", gbuffer_file, "--method", "burley", "--spp", "4", "--backend", "numpy",
+                         "--no-perceptual", "--json")
+    assert code == 0, err
+    assert json.loads(out)["pass"] == "burley"
+    assert err.count("--method is deprecated") == 1 and "use --pass" in err
+    code, out, err = run("render", "--scene", gbuffer_file, "--method", "burley", "--pass", "separable")
+    assert code == 2 and "--pass separable and --method burley disagree" in err
+
+
+def test_an_old_settings_file_runs_as_the_tree_says_so_once(run, gbuffer_file, tmp_path):
+    """Yesterday's layout (method, [sss] with frame/seed/backend) gives the same frame as the same settings
+    in today's layout, with one warning line naming the file."""
+    from ssskit.pipeline import RenderSettings, SeparablePass
+
+    old = tmp_path / "old.toml"
+    old.write_text('kernel = "svd:2"\nperceptual = false\nmethod = "separable"\n\n[sss]\njitter = 0.3\nseed = 2\n'
+                   'backend = "numpy"\n')
+    new = tmp_path / "new.toml"
+    RenderSettings(kernel="svd:2", perceptual=False, seed=2, backend="numpy", pass_=SeparablePass(jitter=0.3)).save(new)
+    code, out, err = run("render", "--scene", gbuffer_file, "--settings", old, "--json")
+    assert code == 0, err
+    assert err.count("ssskit: warning: --settings") == 1 and "old settings layout" in err
+    code2, out2, err2 = run("render", "--scene", gbuffer_file, "--settings", new, "--json")
+    assert code2 == 0 and "warning" not in err2
+    assert json.loads(out)["metrics"] == json.loads(out2)["metrics"]
+    assert json.loads(out)["settings"] == json.loads(out2)["settings"]

@@ -10,7 +10,7 @@ from tests.cli.test_bad_input import one_error_line, workdir  # noqa: F401  (fix
 
 
 def render_json(run, *args):
-    code, out, err = run("render", "--method", "burley", *args, "--json")
+    code, out, err = run("render", "--pass", "burley", *args, "--json")
     assert code == 0, err
     return json.loads(out)
 
@@ -20,7 +20,7 @@ def test_burley_render_on_a_gbuffer_file(run, gbuffer_file, tmp_path):
 
     exr = tmp_path / "b.exr"
     data = render_json(run, "--scene", gbuffer_file, "--spp", "64", "--sampler", "exact", "--out", exr, "--no-mips")
-    assert data["method"] == "burley" and data["burley"]["spp"] == 64 and data["burley"]["sampler"] == "exact"
+    assert data["pass"] == "burley" and data["burley"]["spp"] == 64 and data["burley"]["sampler"] == "exact"
     assert data["burley"]["mips"] is False
     assert data["size"] == [32, 24]
     assert data["metrics"]["exact_2d"]["psnr"] > 30
@@ -45,7 +45,7 @@ def test_sampler_c_and_params_reach_the_pass(run, gbuffer_file):
 
 
 def test_text_output(run, gbuffer_file):
-    code, out, err = run("render", "--method", "burley", "--scene", gbuffer_file, "--spp", "4", "--no-perceptual")
+    code, out, err = run("render", "--pass", "burley", "--scene", gbuffer_file, "--spp", "4", "--no-perceptual")
     assert code == 0, err
     assert "Burley d =" in out and "exact sampler, 4 spp, mips" in out and "vs exact_2d" in out
 
@@ -57,27 +57,27 @@ BAD = [
     (["--c", "3.5"], "--c: c must lie in the open interval (2, 3)"),
     (["--c", "2"], "--c: c must lie in the open interval (2, 3)"),
     (["--c", "2.6"], "--c: c is the xie sampler's constant (Xie 2020 Eq. 21), unused by the exact sampler"),
-    (["--sampler", "golubev", "--c", "2.6"], "unused by the golubev sampler; add --sampler xie"),
+    (["--sampler", "golubev", "--c", "2.6"], "--c: c is the xie sampler's constant (Xie 2020 Eq. 21), unused by the golubev sampler"),
     (["--albedo", "-0.2", "--dmfp", "1"], "--albedo/--dmfp: Burley albedo must lie in [0, 1]"),
     (["--albedo", "0.5", "--dmfp", "1,-2,3"], "--albedo/--dmfp: diffuse mean free path must be > 0 mm"),
     (["--albedo", "0.5,0.5", "--dmfp", "1"], "give one number or three"),
     (["--albedo", "0.5"], "--albedo and --dmfp go together"),
-    (["--taps", "5"], "--taps applies to --method separable"),
-    (["--kernel", "svd:2"], "--kernel applies to --method separable"),
-    (["--jitter", "0.3"], "--jitter applies to --method separable"),
+    (["--taps", "5"], "--taps applies to --pass separable"),
+    (["--kernel", "svd:2"], "--kernel applies to --pass separable"),
+    (["--jitter", "0.3"], "--jitter applies to --pass separable"),
     (["--out", "x.exr"], "x.exr"),
 ]
 
 
 @pytest.mark.parametrize("args,fragment", BAD)
 def test_bad_burley_input(run, workdir, args, fragment):  # noqa: F811
-    one_error_line(run, workdir, ["render", "--scene", "slab", "--method", "burley", "--size", "24x16", *args],
+    one_error_line(run, workdir, ["render", "--scene", "slab", "--pass", "burley", "--size", "24x16", *args],
                    fragment)
 
 
-@pytest.mark.parametrize("args,fragment", [(["--sampler", "xie"], "--sampler applies to --method burley"),
-                                           (["--c", "2.6"], "--c applies to --method burley"),
-                                           (["--no-mips"], "--no-mips applies to --method burley")])
+@pytest.mark.parametrize("args,fragment", [(["--sampler", "xie"], "--sampler applies to --pass burley"),
+                                           (["--c", "2.6"], "--c applies to --pass burley"),
+                                           (["--no-mips"], "--no-mips applies to --pass burley")])
 def test_burley_options_refused_for_the_separable_pass(run, workdir, args, fragment):  # noqa: F811
     one_error_line(run, workdir, ["render", "--scene", "slab", *args], fragment)
 
@@ -95,57 +95,58 @@ def test_count_image_of_the_wrong_shape_is_one_error(tmp_path):
 
 
 def test_settings_file_holds_the_burley_settings(run, gbuffer_file, tmp_path):
-    """A settings file with method = "burley" and a [burley] table runs the Burley pass without --method;
-    options given on the command line override it; --method separable wins over the file's method."""
-    from ssskit.pipeline import RenderSettings
-    from ssskit.screenspace import BurleySettings
+    """A settings file with a [burley] table runs the Burley pass without --pass; options given on the
+    command line override it; --pass separable wins over the file's pass."""
+    from ssskit.pipeline import BurleyPass, RenderSettings
 
-    s = RenderSettings(method="burley", perceptual=False,
-                       burley=BurleySettings(sampler="xie", spp=8, c=2.6, mips=False, seed=4, backend="numpy"))
+    s = RenderSettings(perceptual=False, seed=4, backend="numpy",
+                       pass_=BurleyPass(sampler="xie", spp=8, c=2.6, mips=False))
     path = tmp_path / "burley.toml"
     s.save(path)
     code, out, err = run("render", "--scene", gbuffer_file, "--settings", path, "--json")
     assert code == 0, err
     data = json.loads(out)
-    assert data["method"] == "burley" and data["burley"] == s.burley.to_dict()
-    assert data["settings"]["burley"] == s.burley.to_dict() and data["settings"]["method"] == "burley"
+    assert data["pass"] == "burley" and data["burley"] == s.burley_settings().to_dict()
+    assert data["settings"] == s.to_dict() and "burley" in data["settings"] and "separable" not in data["settings"]
     data = render_json(run, "--scene", gbuffer_file, "--settings", path, "--spp", "16", "--sampler", "exact")
-    assert data["burley"] == s.burley.replace(spp=16, sampler="exact").to_dict()  # c, seed, mips: the file's
-    code, out, err = run("render", "--scene", gbuffer_file, "--settings", path, "--method", "separable",
+    want = s.replace(pass_=BurleyPass(sampler="exact", spp=16, mips=False))  # c goes with the xie sampler
+    assert data["burley"] == want.burley_settings().to_dict()  # seed, mips, backend: the file's
+    code, out, err = run("render", "--scene", gbuffer_file, "--settings", path, "--pass", "separable",
                          "--backend", "numpy", "--json")
     assert code == 0, err
     data = json.loads(out)
-    assert data["settings"]["method"] == "separable" and "taps" in data
+    assert data["pass"] == "separable" and "separable" in data["settings"] and "taps" in data
 
 
 def test_adaptive_takes_the_burley_settings_from_the_file(run, gbuffer_file, tmp_path):
-    """--method burley-adaptive --settings FILE runs the pass with the file's [burley] table (sampler, c,
-    mips, seed, backend; spp is the adaptive budget's business), options on the command line override it."""
-    from ssskit.pipeline import RenderSettings
-    from ssskit.screenspace import BurleySettings
+    """--pass burley-adaptive --settings FILE runs the pass with the file's [burley] sampler (sampler, c,
+    mips; spp is the adaptive budget's business) and its seed and backend; options on the command line
+    override them."""
+    from ssskit.pipeline import BurleyPass, RenderSettings
 
-    s = RenderSettings(perceptual=False,
-                       burley=BurleySettings(sampler="xie", spp=8, c=2.6, mips=False, seed=4, backend="numpy"))
+    s = RenderSettings(perceptual=False, seed=4, backend="numpy",
+                       pass_=BurleyPass(sampler="xie", spp=8, c=2.6, mips=False))
     path = tmp_path / "burley.toml"
     s.save(path)
-    want = {k: v for k, v in s.burley.to_dict().items() if k != "spp"}
-    code, out, err = run("render", "--method", "burley-adaptive", "--scene", gbuffer_file, "--settings", path,
+    want = {k: v for k, v in s.burley_settings().to_dict().items() if k != "spp"}
+    code, out, err = run("render", "--pass", "burley-adaptive", "--scene", gbuffer_file, "--settings", path,
                          "--frames", "2", "--json")
     assert code == 0, err
     data = json.loads(out)
-    assert data["method"] == "burley-adaptive" and data["burley"] == want
-    assert {k: v for k, v in data["settings"]["burley"].items() if k != "spp"} == want
-    code, out, err = run("render", "--method", "burley-adaptive", "--scene", gbuffer_file, "--settings", path,
-                         "--frames", "2", "--sampler", "exact", "--seed", "9", "--json")
+    assert data["pass"] == "burley-adaptive" and data["burley"] == want
+    assert {k: data["settings"]["adaptive"][k] for k in ("sampler", "c", "mips")} == {"sampler": "xie", "c": 2.6,
+                                                                                     "mips": False}
+    code, out, err = run("render", "--pass", "burley-adaptive", "--scene", gbuffer_file, "--settings", path,
+                         "--frames", "2", "--sampler", "exact", "--c", "2.5715", "--seed", "9", "--json")
     assert code == 0, err
     data = json.loads(out)
-    assert data["burley"] == {**want, "sampler": "exact", "seed": 9}  # c, mips, backend: the file's
+    assert data["burley"] == {**want, "sampler": "exact", "c": 2.5715, "seed": 9}  # mips, backend: the file's
     # the file's seed reaches the samples: another seed, another frame
-    code, out, err = run("render", "--method", "burley-adaptive", "--scene", gbuffer_file, "--settings", path,
+    code, out, err = run("render", "--pass", "burley-adaptive", "--scene", gbuffer_file, "--settings", path,
                          "--frames", "2", "--seed", "5", "--json")
     assert code == 0, err
     other = json.loads(out)
-    code, out, err = run("render", "--method", "burley-adaptive", "--scene", gbuffer_file, "--settings", path,
+    code, out, err = run("render", "--pass", "burley-adaptive", "--scene", gbuffer_file, "--settings", path,
                          "--frames", "2", "--json")
     same = json.loads(out)
     assert same["metrics"]["exact_2d"] != other["metrics"]["exact_2d"]

@@ -9,7 +9,7 @@ import pytest
 
 from tests.cli.test_bad_input import one_error_line, workdir  # noqa: F401  (fixture)
 
-SMALL = ["--scene", "slab", "--method", "burley-adaptive", "--size", "24x16", "--limit-spp", "64", "--no-perceptual"]
+SMALL = ["--scene", "slab", "--pass", "burley-adaptive", "--size", "24x16", "--limit-spp", "64", "--no-perceptual"]
 
 
 def run_json(run, *args):
@@ -72,13 +72,13 @@ def test_text_output(run, workdir):  # noqa: F811
 
 
 BAD = [
-    (["--limit-spp", "1"], "--limit-spp: the reference's samples per pixel must lie in [2, 131072], got 1"),
-    (["--static", "--limit-spp", "128"], "--limit-spp applies to a moving camera"),
+    (["--limit-spp", "1"], "--limit-spp: limit_spp must lie in [2, 131072], got 1"),
+    (["--static", "--limit-spp", "128"], "--limit-spp: limit_spp applies to a moving camera"),
     (["--save-gbuffer", "g.exr"], "--save-gbuffer applies to one frame; add --static"),
     (["--reference"], "--reference applies to one frame; add --static"),
     (["--frames-dir", "notes.txt"], "is a file, not a folder"),
-    (["--disocclusion-spp", "65"], "--disocclusion-spp must lie in the budget [8, 64], got 65"),
-    (["--static", "--disocclusion-spp", "64"], "--disocclusion-spp applies to a moving camera"),
+    (["--disocclusion-spp", "65"], "--disocclusion-spp: disocclusion_spp must lie in [8, 64], got 65"),
+    (["--static", "--disocclusion-spp", "64"], "--disocclusion-spp: disocclusion_spp applies to a moving camera"),
     # the one-frame comparisons' options would be silently unused on a moving run
     (["--reference-spp", "128"], "--reference-spp applies to one frame; add --static"),
     (["--reference-max-spp", "128"], "--reference-max-spp applies to one frame; add --static"),
@@ -95,9 +95,9 @@ def test_bad_sequence_input(run, workdir, args, fragment):  # noqa: F811
     one_error_line(run, workdir, ["render", *SMALL, "--frames", "2", *args], fragment)
 
 
-@pytest.mark.parametrize("method", [[], ["--method", "burley"]])
+@pytest.mark.parametrize("method", [[], ["--pass", "burley"]])
 @pytest.mark.parametrize("args,flag", [(["--static"], "--static"), (["--no-taa"], "--taa/--no-taa"),
                                        (["--frames-dir", "d"], "--frames-dir"), (["--limit-spp", "64"], "--limit-spp")])
 def test_sequence_options_refused_elsewhere(run, workdir, method, args, flag):  # noqa: F811
     one_error_line(run, workdir, ["render", "--scene", "slab", *method, *args],
-                   f"{flag} applies to --method burley-adaptive")
+                   f"{flag} applies to --pass burley-adaptive")

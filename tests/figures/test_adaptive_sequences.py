@@ -62,13 +62,13 @@ def test_fixed_and_adaptive_sequences_agree_on_numba_and_gl():
         pytest.skip("gl not available")
     gb = fa.shadow_plane(48, 27)
     params = fa.plane_params()
-    from ssskit.pipeline.burley import burley_exact
+    from ssskit.pipeline.burley_frame import burley_exact
     from ssskit.screenspace.adaptive import AdaptiveSettings
 
     ref = burley_exact(gb, params)
     s = AdaptiveSettings(sigma0_sq=1e-3, kappa=0.6)
-    a = fa.run_sequence(gb, params, ref, s, 6, backend="numba")
-    b = fa.run_sequence(gb, params, ref, s, 6, backend="gl")
+    a = fa.run_plane_frames(gb, params, ref, s, 6, backend="numba")
+    b = fa.run_plane_frames(gb, params, ref, s, 6, backend="gl")
     np.testing.assert_allclose(a["mean_spp"], b["mean_spp"], atol=0.1)
     np.testing.assert_allclose(a["psnr_taa"], b["psnr_taa"], atol=0.3)
 

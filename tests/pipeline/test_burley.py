@@ -1,12 +1,12 @@
-"""One frame of the Burley pass through the pipeline (:mod:`ssskit.pipeline.burley`) and its exact ground
+"""One frame of the Burley pass through the pipeline (:mod:`ssskit.pipeline.burley_frame`) and its exact ground
 truth, checked against the independent construction of tests/screenspace/test_burley_consistency.py."""
 
 import numpy as np
 import pytest
 
 from ssskit.errors import SettingsError
-from ssskit.pipeline import RenderSettings
-from ssskit.pipeline.burley import burley_exact, render_burley
+from ssskit.pipeline import BurleyPass, RenderSettings
+from ssskit.pipeline.burley_frame import burley_exact, render_burley
 from ssskit.screenspace import BurleySettings, Camera, GBuffer
 from ssskit.screenspace.burley import burley_params_for_material
 from tests.screenspace.test_burley_consistency import PARAMS, _disk_gbuffer, normalised_truth
@@ -23,12 +23,13 @@ def test_burley_exact_is_the_normalised_convolution():
 
 def test_render_burley_in_memory():
     gb = _disk_gbuffer()
-    res = render_burley(gb, RenderSettings(perceptual=False), BurleySettings(spp=256, mips=False, backend="numba"), params=PARAMS)
+    res = render_burley(gb, RenderSettings(perceptual=False, backend="numba", pass_=BurleyPass(spp=256, mips=False)),
+                        params=PARAMS)
     assert res.metrics["exact_2d"]["psnr"] > 35
     assert res.to_dict()["burley"]["spp"] == 256
     np.testing.assert_array_equal(res.image, gb.composite(res.sss))
-    with pytest.raises(SettingsError, match="burley must be BurleySettings"):
-        render_burley(gb, RenderSettings(), {"spp": 4})
+    with pytest.raises(SettingsError, match="not a Burley one"):
+        render_burley(gb, RenderSettings())  # settings of the separable pass
 
 
 def test_material_gives_the_burley_profile():
@@ -39,14 +40,14 @@ def test_material_gives_the_burley_profile():
     gb = GBuffer(diffuse=np.ones((h, w, 3), np.float32), albedo=np.ones((h, w, 3), np.float32),
                  depth=np.full((h, w), 100.0, np.float32), profile_id=np.ones((h, w), np.uint32),
                  camera=Camera(w, h, 100.0, 100.0, 4, 4))
-    res = render_burley(gb, RenderSettings(material="marble", perceptual=False), BurleySettings(spp=2))
+    res = render_burley(gb, RenderSettings(material="marble", perceptual=False, pass_=BurleyPass(spp=2)))
     assert res.params.d_mm == tuple(c.d for c in burley_profile(get_material("marble")).channels)
     np.testing.assert_allclose(res.sss, 1.0, rtol=1e-6)
     assert burley_params_for_material("marble").d_mm == res.params.d_mm
 
 
 def test_converged_reference_is_cached(tmp_path, monkeypatch):
-    from ssskit.pipeline.burley import burley_reference
+    from ssskit.pipeline.burley_frame import burley_reference
     from ssskit.screenspace import burley_sss
 
     monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path))

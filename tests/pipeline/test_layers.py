@@ -14,7 +14,16 @@ SRC = Path(ssskit.__file__).parent
 
 
 def _top_modules() -> set[str]:
-    return {m.name for m in pkgutil.iter_modules([str(SRC)])}
+    """The package's top-level modules but ``__main__`` (``python -m ssskit``: it runs the CLI when imported)."""
+    return {m.name for m in pkgutil.iter_modules([str(SRC)]) if m.name != "__main__"}
+
+
+def test_python_m_ssskit_is_the_command():
+    proc = subprocess.run([sys.executable, "-m", "ssskit", "--version"], capture_output=True, text=True)
+    assert proc.returncode == 0 and "ssskit" in proc.stdout, proc.stderr
+    proc = subprocess.run([sys.executable, "-m", "ssskit", "render", "--scene", "teapot"], capture_output=True,
+                          text=True)
+    assert proc.returncode == 2 and proc.stderr.startswith("ssskit: error: ") and proc.stderr.count("\n") == 1
 
 
 def test_every_module_is_a_lazy_attribute():

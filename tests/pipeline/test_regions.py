@@ -5,15 +5,13 @@ shape separates the screen-space kernel's error from the model's."""
 import numpy as np
 import pytest
 
-from ssskit.pipeline import RenderSettings, render
-from ssskit.screenspace import PassSettings
-
-SSS = PassSettings(backend="numpy", jitter=0.0)
+from ssskit.pipeline import RenderSettings, SeparablePass, render
 
 
 @pytest.fixture(scope="module")
 def slab():
-    return render("slab", RenderSettings(width=128, height=96, spp=4, perceptual=False, sss=SSS))
+    return render("slab", RenderSettings(width=128, height=96, spp=4, perceptual=False, backend="numpy",
+                                         pass_=SeparablePass(jitter=0.0)))
 
 
 def test_plateau_level_of_the_exact_convolution_is_the_total_rd(slab):

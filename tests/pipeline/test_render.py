@@ -11,17 +11,19 @@ from ssskit.errors import GBufferError, KernelError, OutputError, SceneError, Se
 from ssskit.metrics import flip
 from ssskit.pipeline import RenderResult, RenderSettings, render
 from ssskit.profiles import profile_for_material
+from ssskit.pipeline import SeparablePass
 from ssskit.screenspace import PassSettings, separable_sss
 from ssskit.truth import exact_screen_space
 
 #: the module (``ssskit.pipeline.render`` the attribute is the function it defines)
 pipeline_render = importlib.import_module("ssskit.pipeline.render")
+pipeline_frame = importlib.import_module("ssskit.pipeline.frame")
 #: the numpy backend (the float64 oracle) keeps these tests independent of the fast backends
-SSS = PassSettings(backend="numpy", jitter=0.0)
+SSS = dict(backend="numpy", pass_=SeparablePass(jitter=0.0))
 
 
 def _settings(**kw) -> RenderSettings:
-    base = dict(width=48, height=36, spp=1, perceptual=False, sss=SSS)
+    base = dict(width=48, height=36, spp=1, perceptual=False, **SSS)
     base.update(kw)
     return RenderSettings(**base)
 
@@ -65,7 +67,7 @@ def test_jitter_removes_cross_on_a_small_bright_dot(slab_result):
     exact = exact_screen_space(gb, profile_for_material("skin1", "dipole"))
     errs = {}
     for jit in (0.0, 0.3):
-        frames = [separable_sss(gb, base.taps, SSS, jitter=jit, frame=f) for f in range(8)]
+        frames = [separable_sss(gb, base.taps, PassSettings(backend="numpy"), jitter=jit, frame=f) for f in range(8)]
         img = np.mean(frames, axis=0)  # temporal accumulation of the per-frame rotations
         errs[jit] = (flip(exact, img), float(np.sqrt(np.mean((exact - img) ** 2))))
     assert errs[0.3][0] < errs[0.0][0]
@@ -80,7 +82,7 @@ def test_result_parts_and_summary(small):
     assert set(r.metrics) == {"exact_2d", "regions"} and r.metrics["exact_2d"]["psnr"] > 30
     d = r.to_dict()
     json.dumps(d, allow_nan=False)
-    assert d["size"] == [48, 36] and d["taps"] == 7 and d["settings"]["sss"]["backend"] == "numpy"
+    assert d["size"] == [48, 36] and d["taps"] == 7 and d["settings"]["backend"] == "numpy"
 
 
 def test_gbuffer_file_and_memory_give_the_same_frame(small, gbuffer_file):
@@ -132,9 +134,10 @@ def no_work(monkeypatch):
     def boom(*a, **k):
         raise AssertionError("work started before the inputs were checked")
 
-    for name in ("profile_for_material", "build_kernel", "make_taps", "render_gbuffer", "separable_sss",
-                 "exact_screen_space", "render_reference"):
+    for name in ("profile_for_material", "build_kernel", "make_taps", "separable_sss", "exact_screen_space"):
         monkeypatch.setattr(pipeline_render, name, boom)
+    for name in ("render_gbuffer", "render_reference"):  # the frame's shared steps (ssskit.pipeline.frame)
+        monkeypatch.setattr(pipeline_frame, name, boom)
 
 
 def _mixed_g_material(tmp_path):

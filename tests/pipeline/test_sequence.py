@@ -1,17 +1,15 @@
-"""Frame sequences along a scene's camera path (:mod:`ssskit.pipeline.sequence`): the adaptive history
-reprojected through the camera motion, the fixed-count baseline through the same loop, the adaptive
-sampler's independence of the TAA, cached G-buffers, the references' standard error and the display PSNR."""
+"""Frame sequences along a scene's camera path (:mod:`ssskit.pipeline.sequence` for the inputs,
+:func:`ssskit.screenspace.frames.run_frames` for the loop): the adaptive history reprojected through the
+camera motion, the fixed-count baseline through the same loop, the adaptive sampler's independence of the
+TAA, cached G-buffers, the references' standard error and the display PSNR."""
 
 import numpy as np
 import pytest
 
 from ssskit.errors import PassError, SettingsError
-from ssskit.pipeline.sequence import (
-    display_psnr,
-    run_sequence,
-    sequence_gbuffers,
-    sequence_references,
-)
+from ssskit.metrics import display_psnr
+from ssskit.pipeline.sequence import sequence_gbuffers, sequence_references
+from ssskit.screenspace.frames import run_frames
 from ssskit.screenspace import BurleySettings
 from ssskit.screenspace.adaptive import AdaptiveSettings
 from ssskit.screenspace.burley import burley_params_for_material
@@ -69,7 +67,7 @@ def test_reference_standard_error_matches_its_distance_to_a_finer_reference(setu
 
 def test_fixed_baseline_takes_its_count_everywhere(setup):
     params, gbs, refs = setup
-    run = run_sequence(gbs, params, BURLEY, spp=16, taa=TAASettings(), references=refs, keep_counts=True)
+    run = run_frames(gbs, params, BURLEY, spp=16, taa=TAASettings(), references=[r.sss for r in refs], keep_counts=True)
     masks = np.stack([g.mask for g in gbs])
     assert run.mean_spp == [16.0] * FRAMES and run.samples == 16 * int(masks.sum())
     assert np.array_equal(run.counts > 0, masks)
@@ -79,8 +77,8 @@ def test_fixed_baseline_takes_its_count_everywhere(setup):
 def test_adaptive_sequence_is_the_same_with_taa_on_and_off(setup):
     params, gbs, refs = setup
     a = AdaptiveSettings(sigma0_sq=1e-4, kappa=0.6, b_min=4, b_max=32)
-    on = run_sequence(gbs, params, BURLEY, adaptive=a, taa=TAASettings(), references=refs, keep_counts=True)
-    off = run_sequence(gbs, params, BURLEY, adaptive=a, taa=None, references=refs, keep_counts=True)
+    on = run_frames(gbs, params, BURLEY, adaptive=a, taa=TAASettings(), references=[r.sss for r in refs], keep_counts=True)
+    off = run_frames(gbs, params, BURLEY, adaptive=a, taa=None, references=[r.sss for r in refs], keep_counts=True)
     assert np.array_equal(on.counts, off.counts)
     assert np.array_equal(on.last, off.last) and on.psnr == off.psnr
     assert off.psnr_taa == [None] * FRAMES and on.last_taa is not None and off.last_taa is None
@@ -101,8 +99,8 @@ def test_disocclusion_spp_takes_its_count_where_the_history_is_missing(setup):
     pid[:, : pid.shape[1] // 2] = 0
     gbs = [dataclasses.replace(gbs[0], profile_id=pid), *gbs[1:]]
     a = AdaptiveSettings(sigma0_sq=1e-3, kappa=0.2, b_min=4, b_max=32)
-    paper = run_sequence(gbs, params, BURLEY, adaptive=a, keep_counts=True)
-    variant = run_sequence(gbs, params, BURLEY, adaptive=a, disocclusion_spp=32, keep_counts=True)
+    paper = run_frames(gbs, params, BURLEY, adaptive=a, keep_counts=True)
+    variant = run_frames(gbs, params, BURLEY, adaptive=a, disocclusion_spp=32, keep_counts=True)
     assert paper.mean_spp[0] == 4 and variant.mean_spp[0] == 32  # frame 0 has no history anywhere
     # later frames: the pixels whose previous position was not SSS (or off-screen) take 32
     seen = 0
@@ -117,9 +115,9 @@ def test_disocclusion_spp_takes_its_count_where_the_history_is_missing(setup):
         seen += int(missing.sum())
     assert seen > 0  # the orbit uncovers pixels
     with pytest.raises(SettingsError):
-        run_sequence(gbs, params, BURLEY, adaptive=a, disocclusion_spp=64)  # outside [b_min, b_max]
+        run_frames(gbs, params, BURLEY, adaptive=a, disocclusion_spp=64)  # outside [b_min, b_max]
     with pytest.raises(SettingsError):
-        run_sequence(gbs, params, BURLEY, spp=8, disocclusion_spp=8)
+        run_frames(gbs, params, BURLEY, spp=8, disocclusion_spp=8)
 
 
 def masks_of(gbs):
@@ -163,13 +161,13 @@ def test_display_psnr_properties(rng):
 def test_bad_sequence_arguments(setup):
     params, gbs, refs = setup
     with pytest.raises(SettingsError):
-        run_sequence(gbs, params, BURLEY)  # neither adaptive nor spp
+        run_frames(gbs, params, BURLEY)  # neither adaptive nor spp
     with pytest.raises(SettingsError):
-        run_sequence(gbs, params, BURLEY, adaptive=AdaptiveSettings(), spp=8)
+        run_frames(gbs, params, BURLEY, adaptive=AdaptiveSettings(), spp=8)
     with pytest.raises(PassError):
-        run_sequence(gbs, params, BURLEY, spp=8, references=refs[:2])
+        run_frames(gbs, params, BURLEY, spp=8, references=[r.sss for r in refs[:2]])
     with pytest.raises(PassError):
-        run_sequence([], params, BURLEY, spp=8)
+        run_frames([], params, BURLEY, spp=8)
 
 
 def _host_loop(gbs, params, b, a, disocclusion_spp=None):
@@ -196,7 +194,7 @@ def _host_loop(gbs, params, b, a, disocclusion_spp=None):
 
 @pytest.mark.parametrize("disocclusion_spp", [None, 24])
 def test_sequence_runs_the_guiding_phase_on_the_backend(setup, backend, disocclusion_spp):
-    """run_sequence runs the guiding phase through the Burley backend's runner: on numpy the counts and
+    """run_frames runs the guiding phase through the Burley backend's runner: on numpy the counts and
     frames equal the host loop on the numpy oracle bit for bit (the same code); on numba (the oracle's
     float32 operations, but FMA contraction and vector maths that differ by CPU: conftest.ULPS) the counts
     agree but for rare +-1 flips, and wherever a pixel's counts agree in every frame so does its last frame
@@ -210,7 +208,7 @@ def test_sequence_runs_the_guiding_phase_on_the_backend(setup, backend, disocclu
     b = BURLEY.replace(backend=backend)
     a = AdaptiveSettings(sigma0_sq=1e-4, kappa=0.6, b_min=4, b_max=32)
     ref_counts, ref_last = _host_loop(gbs, params, b, a, disocclusion_spp)
-    run = run_sequence(gbs, params, b, adaptive=a, references=refs, keep_counts=True,
+    run = run_frames(gbs, params, b, adaptive=a, references=[r.sss for r in refs], keep_counts=True,
                        disocclusion_spp=disocclusion_spp)
     masks = masks_of(gbs)
     ref_spp = [float(c[m].mean()) for c, m in zip(ref_counts, masks)]
@@ -231,6 +229,6 @@ def test_sequence_runs_the_guiding_phase_on_the_backend(setup, backend, disocclu
     # the runner's per-phase times: the guiding phase and the pass, and the whole loop's wall time
     for series in (run.ms, run.ms_update, run.ms_frame):  # one finite, non-negative time per frame (never
         assert len(series) == len(gbs) and all(np.isfinite(t) and t >= 0 for t in series)  # an order of times)
-    fixed = run_sequence(gbs, params, b, spp=8, references=refs)
+    fixed = run_frames(gbs, params, b, spp=8, references=[r.sss for r in refs])
     assert fixed.ms_update == [0.0] * FRAMES and all(w > 0 for w in fixed.ms_frame)
     assert {"ms", "ms_update", "ms_frame"} <= set(run.rows()[0])

@@ -1,59 +1,178 @@
-"""RenderSettings holds the Burley pass's settings (``method``, ``burley``): TOML/JSON round trips and
-bad values named by their key."""
+"""RenderSettings is one tree: frame, seed and backend once, the pass as one tagged member written as one
+table ([separable], [burley] or [adaptive]); TOML/JSON round trips, bad values named by their key, the
+files of the layout before the tree (method, [sss], frame/seed/backend per pass) still load."""
+
+import warnings
 
 import pytest
 
 from ssskit.errors import SettingsError
-from ssskit.pipeline import RenderSettings
-from ssskit.screenspace import BurleySettings
+from ssskit.pipeline import PASSES, AdaptivePass, BurleyPass, RenderSettings, SeparablePass
+from ssskit.pipeline.settings import SettingsMigrated
+from ssskit.screenspace import BurleySettings, PassSettings
 
 
 @pytest.mark.parametrize("suffix", [".toml", ".json"])
-def test_burley_settings_round_trip(tmp_path, suffix):
-    s = RenderSettings(method="burley", width=64, height=48,
-                       burley=BurleySettings(sampler="xie", spp=12, c=2.6, mips=False, mip_scale=0.25, stable=True,
-                                             bleed=0.3, seed=5, backend="numpy"))
+@pytest.mark.parametrize("member", [SeparablePass(jitter=0.3, depth_mode="follow"),
+                                    BurleyPass(sampler="xie", spp=12, c=2.6, mips=False, mip_scale=0.25, stable=True,
+                                               bleed=0.3, albedo=(0.8, 0.5, 0.3), dmfp_mm=(2.0, 1.0, 0.5)),
+                                    AdaptivePass(sigma0_sq=1e-4, kappa=0.6, b_min=4, b_max=32, frames=5,
+                                                 limit_spp=256, disocclusion_spp=16, taa=False)])
+def test_round_trip_holds_one_pass_table(tmp_path, suffix, member):
+    s = RenderSettings(width=64, height=48, seed=5, frame=2, backend="numpy", pass_=member)
     path = tmp_path / f"frame{suffix}"
     s.save(path)
     back = RenderSettings.load(path)
-    assert back == s
-    assert back.burley.sampler == "xie" and back.burley.mip_scale == 0.25 and back.method == "burley"
+    assert back == s and back.pass_name == member.name
     if suffix == ".toml":
         text = path.read_text()
-        assert 'method = "burley"' in text and "[burley]" in text and 'sampler = "xie"' in text
+        tables = [line for line in text.splitlines() if line.startswith("[")]
+        assert tables == [f"[{member.table}]"]  # one pass table; frame, seed and backend at the top
+        assert text.count("seed = ") == 1 and text.count("backend = ") == 1 and text.count("frame = ") == 1
 
 
-def test_defaults_run_the_separable_pass_with_xie_burley_defaults():
+def test_the_pass_level_settings_take_frame_seed_and_backend_from_the_tree():
+    s = RenderSettings(seed=7, frame=3, backend="numpy", pass_=BurleyPass(spp=9, sampler="golubev"))
+    assert s.burley_settings() == BurleySettings(sampler="golubev", spp=9, seed=7, frame=3, backend="numpy")
+    sep = RenderSettings(seed=7, frame=3, backend="numpy", pass_=SeparablePass(jitter=0.2))
+    assert sep.pass_settings() == PassSettings(jitter=0.2, seed=7, frame=3, backend="numpy")
+    a = RenderSettings(pass_=AdaptivePass(kappa=0.5)).adaptive_settings()
+    assert a.kappa == 0.5
+    with pytest.raises(SettingsError, match="not a Burley one"):
+        sep.burley_settings()
+    with pytest.raises(SettingsError, match="not the separable one"):
+        s.pass_settings()
+
+
+def test_defaults_run_the_separable_pass():
     s = RenderSettings()
-    assert s.method == "separable" and s.burley == BurleySettings()
-    assert RenderSettings.from_dict({"method": "burley"}).burley == BurleySettings()
+    assert s.pass_name == "separable" and s.pass_ == SeparablePass()
+    assert RenderSettings.from_dict({"burley": {}}).pass_ == BurleyPass()
+    assert PASSES.names() == ["separable", "burley", "burley-adaptive"]
 
 
 @pytest.mark.parametrize("data, key", [
-    ({"method": "burley-ish"}, "method"),
     ({"burley": {"sampler": "mis"}}, "sampler"),
     ({"burley": {"spp": 0}}, "spp"),
     ({"burley": {"c": 3.5}}, "c"),
     ({"burley": {"mips": "yes"}}, "mips"),
     ({"burley": {"unknown": 1}}, "burley"),
+    ({"burley": {"c": 2.6}}, "xie sampler"),
+    ({"burley": {"albedo": 0.5}}, "dmfp_mm go together"),
+    ({"adaptive": {"b_min": 64, "b_max": 8}}, "b_min <= b_max"),
+    ({"adaptive": {"static": True, "limit_spp": 64}}, "limit_spp applies to a moving camera"),
+    ({"adaptive": {"disocclusion_spp": 65}}, "disocclusion_spp"),
+    ({"separable": {"jitter": 2}}, "jitter"),
+    ({"separable": {}, "burley": {}}, "one pass per render"),
+    ({"kernel": "svd:2", "burley": {}}, "kernel applies to the separable pass"),
+    ({"frame": -1}, "frame"),
+    ({"backend": "cuda"}, "backend"),
+    ({"nonsense": 1}, "nonsense"),
 ])
-def test_bad_burley_settings_name_their_key(data, key):
+def test_bad_settings_name_their_key(data, key):
     with pytest.raises(SettingsError, match=key):
         RenderSettings.from_dict(data)
 
 
-def test_render_dispatches_on_method(monkeypatch):
-    """pipeline.render runs the Burley pass (with settings.burley) when method = burley."""
-    import ssskit.pipeline.burley as pb
+# ---- the layout before the tree: yesterday's files ---------------------------------------------------------
+
+#: a file as the layout before the tree saved it (every field, both pass tables, method)
+OLD_BURLEY = """material = "skin1"
+model = "dipole"
+photons = 200000
+kernel = "preintegrated"
+taps = 7
+tap_method = "importance"
+width = 64
+height = 48
+spp = 32
+seed = 4
+exact = true
+reference = false
+reference_spp = 64
+reference_max_spp = 1024
+reference_rel_se = 0.01
+perceptual = false
+method = "burley"
+
+[sss]
+jitter = 0.1
+frame = 0
+seed = 0
+backend = "numba"
+
+[burley]
+sampler = "xie"
+spp = 8
+c = 2.6
+sequence = "r2"
+bleed = 0.0
+frame = 2
+seed = 4
+stable = false
+mips = false
+mip_scale = 0.0625
+backend = "numpy"
+"""
+
+
+def _load_old(tmp_path, text):
+    path = tmp_path / "old.toml"
+    path.write_text(text)
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        s = RenderSettings.load(path)
+    assert [w.category for w in seen] == [SettingsMigrated]
+    return s
+
+
+def test_an_old_burley_file_loads_as_the_tree(tmp_path):
+    s = _load_old(tmp_path, OLD_BURLEY)
+    assert s.pass_ == BurleyPass(sampler="xie", spp=8, c=2.6, mips=False)
+    assert (s.frame, s.seed, s.backend, s.width, s.perceptual) == (2, 4, "numpy", 64, False)
+    assert s.burley_settings() == BurleySettings(sampler="xie", spp=8, c=2.6, mips=False, frame=2, seed=4,
+                                                 backend="numpy")  # what the old pass ran with
+
+
+def test_an_old_separable_file_loads_as_the_tree(tmp_path):
+    """The separable pass read its jitter, frame, seed and backend from [sss]; the [burley] table beside it,
+    at its defaults, was never read."""
+    head = OLD_BURLEY[:OLD_BURLEY.index('method = "burley"')].replace("seed = 4\n", "")
+    text = (head + 'method = "separable"\n\n[sss]\njitter = 0.3\nframe = 1\nseed = 4\nbackend = "numpy"\n\n'
+            '[burley]\nsampler = "exact"\nspp = 32\nbackend = "numba"\n')
+    s = _load_old(tmp_path, text)
+    assert s.pass_ == SeparablePass(jitter=0.3) and (s.frame, s.seed, s.backend) == (1, 4, "numpy")
+    assert s.pass_settings() == PassSettings(jitter=0.3, frame=1, seed=4, backend="numpy")
+
+
+def test_an_old_file_the_tree_cannot_hold_is_refused(tmp_path):
+    two_seeds = OLD_BURLEY.replace("seed = 4\nstable", "seed = 9\nstable")
+    with pytest.raises(SettingsError, match=r"seed is one setting now.*seed = 4.*\[burley\] seed = 9"):
+        _load_old(tmp_path, two_seeds)
+    unread = OLD_BURLEY.replace("[sss]\njitter = 0.1", "[sss]\njitter = 0.5")
+    with pytest.raises(SettingsError, match=r"the \[sss\] table sets jitter, but method = 'burley' never reads it"):
+        _load_old(tmp_path, unread)
+
+
+def test_render_dispatches_on_the_pass(monkeypatch):
+    """pipeline.render runs the pass the settings name."""
+    import importlib
+
     from ssskit.pipeline import render
+
+    pr = importlib.import_module("ssskit.pipeline.render")  # the module, which the package's `render` shadows
 
     seen = {}
 
-    def fake(scene, settings, burley=None, progress=None, params=None):
-        seen.update(scene=scene, burley=settings.burley if burley is None else burley)
+    def fake_burley(scene, settings, progress=None, params=None):
+        seen.update(scene=scene, burley=settings.burley_settings())
         return "burley result"
 
-    monkeypatch.setattr(pb, "render_burley", fake)
-    s = RenderSettings(method="burley", burley=BurleySettings(spp=7))
+    monkeypatch.setattr(pr, "render_burley", fake_burley)
+    monkeypatch.setattr(pr, "render_adaptive", lambda scene, settings, **kw: "adaptive result")
+    s = RenderSettings(pass_=BurleyPass(spp=7))
     assert render("slab", s) == "burley result"
     assert seen == {"scene": "slab", "burley": BurleySettings(spp=7)}
+    assert render("slab", RenderSettings(pass_=AdaptivePass())) == "adaptive result"
+    with pytest.raises(SettingsError, match="on_frame applies to the burley-adaptive pass"):
+        render("slab", RenderSettings(), on_frame=print)

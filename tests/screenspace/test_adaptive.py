@@ -320,7 +320,7 @@ def _params():
 
 def test_adaptive_frames_runs_the_guiding_phase_per_frame():
     from ssskit.screenspace import BurleySettings, burley_sss
-    from ssskit.screenspace.adaptive import adaptive_frames
+    from ssskit.screenspace.frames import adaptive_frames
 
     gb = _step_gbuffer(12, 16)
     b = BurleySettings(sampler="exact", sequence="random", mips=False, backend="numpy", frame=5, seed=2)
@@ -345,7 +345,7 @@ def test_adaptive_frames_runs_the_guiding_phase_per_frame():
 
 
 def test_adaptive_frames_bad_inputs():
-    from ssskit.screenspace.adaptive import adaptive_frames
+    from ssskit.screenspace.frames import adaptive_frames
 
     gb = _step_gbuffer(8, 8)
     with pytest.raises(PassError, match="expected a GBuffer"):
@@ -364,9 +364,9 @@ def test_with_mips_adapting_counts_moves_the_average_no_more_than_its_noise():
     less than the Monte Carlo error: the 256-frame averages of the adaptive pass and of fixed 64 spp (mips
     on, independent seeds) differ by about one combined standard error (RMS over pixels), while both carry
     the mips' bias against the no-mips limit. (Before the mip units were fixed the distance was 3.4.)"""
-    from ssskit.pipeline.burley import burley_exact
+    from ssskit.pipeline.burley_frame import burley_exact
     from ssskit.screenspace import BurleySettings
-    from ssskit.screenspace.adaptive import adaptive_frames
+    from ssskit.screenspace.frames import adaptive_frames
 
     gb = _step_gbuffer()
     b = BurleySettings(sampler="exact", sequence="random", mips=True, backend="numba")
@@ -384,11 +384,11 @@ def test_with_mips_adapting_counts_moves_the_average_no_more_than_its_noise():
 def test_adaptive_average_has_no_visible_bias():
     """Must-show: on a static scene the average of 256 frames of the adaptive pass equals the converged
     reference within Monte Carlo error. The reference is the pass's own limit (exact sampler, no mips:
-    :func:`ssskit.pipeline.burley.burley_exact`); the error is each pixel's standard error across the frames.
+    :func:`ssskit.pipeline.burley_frame.burley_exact`); the error is each pixel's standard error across the frames.
     The counts are chosen from earlier frames only, so adapting them adds no bias."""
-    from ssskit.pipeline.burley import burley_exact
+    from ssskit.pipeline.burley_frame import burley_exact
     from ssskit.screenspace import BurleySettings
-    from ssskit.screenspace.adaptive import adaptive_frames
+    from ssskit.screenspace.frames import adaptive_frames
 
     gb = _step_gbuffer()
     b = BurleySettings(sampler="exact", sequence="random", mips=False, backend="numba", seed=0)

@@ -1,6 +1,6 @@
 """The Burley pass's entry point, settings, per-id parameters and the plan's per-step recipe
 (:mod:`ssskit.backends.burley_plan`), checked against the independent implementations in
-:mod:`ssskit.profiles.burley`, :mod:`ssskit.sampling.burley` and :mod:`ssskit.sampling.hashes`."""
+:mod:`ssskit.profiles.burley`, :mod:`ssskit.sampling.burley_radius` and :mod:`ssskit.sampling.hashes`."""
 
 import math
 
@@ -12,7 +12,7 @@ from ssskit.backends.numpy_backend import burley_counts, burley_keys, burley_rad
 from ssskit.errors import PassError, SettingsError
 from ssskit.profiles import burley_d_dmfp, burley_profile
 from ssskit.profiles.burley import burley_inverse_cdf
-from ssskit.sampling.burley import xie_g
+from ssskit.sampling.burley_radius import xie_g
 from ssskit.sampling.hashes import pixel_hashes
 from ssskit.screenspace import BurleyParams, BurleySettings, Camera, GBuffer, burley_sss
 from ssskit.screenspace.burley import burley_params_for_material

@@ -59,6 +59,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import PassError
+from ..metrics import BT709_LUMA
 
 #: history channels
 N_BAR, MU, VAR, AVAILABLE = 0, 1, 2, 3
@@ -66,7 +67,7 @@ HISTORY_CHANNELS = 4
 #: Eq. 15 as printed (standard deviations) or with variances (Eq. 13's correction term)
 CORRECTIONS = ("variance", "sigma")
 #: ITU-R BT.709 luminance weights of linear RGB
-LUMA_709 = (0.2126, 0.7152, 0.0722)
+LUMA_709 = BT709_LUMA
 
 
 @dataclass(frozen=True)

@@ -64,7 +64,7 @@ position lies within float32 rounding of a texel edge, so its parity test counts
    i.e. at distance r in the plane through p perpendicular to the view axis. Its texel is
    (i, j) = (floor(.), floor(.)). Without mips the sample's value is E(i, j) (a nearest-texel fetch,
    so the estimator's expectation is the convolution with R's exact cell integrals: the ground truth
-   of :func:`ssskit.pipeline.burley.burley_exact`).
+   of :func:`ssskit.pipeline.burley_frame.burley_exact`).
 
 5b. **Prefiltered irradiance** (``mips``; Xie 2020 Eqs. 22-23, after Krivanek and Colbert 2008).
    Per slot s a pyramid of the diffuse layer restricted to the slot (:func:`mip_pyramid`): level 0

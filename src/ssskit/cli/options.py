@@ -28,6 +28,7 @@ __all__ = [
     "PHOTONS_RANGE",
     "SIZE_RANGE",
     "TAP_RANGE",
+    "IntPair",
     "KernelSpec",
     "MaterialRef",
     "OutputDir",
@@ -228,26 +229,43 @@ class KernelSpec(click.ParamType):
         return labels if self.many else labels[0]
 
 
-class Size(click.ParamType):
-    """``WxH`` in pixels, each side in ``SIZE_RANGE``."""
+class IntPair(click.ParamType):
+    """Two integers written with a separator (``name`` is the metavar, ``hint`` the message's example);
+    subclasses check their range in :meth:`check`."""
 
-    name = "WxH"
+    name = "A:B"
+    sep = ":"
+    hint = "8:64 (two integers)"
 
     def get_metavar(self, param, ctx=None) -> str:
-        return "WxH"
+        return self.name
+
+    def check(self, a: int, b: int, value, param, ctx) -> tuple[int, int]:
+        return a, b
 
     def convert(self, value, param, ctx):
         if isinstance(value, tuple):
             return value
         try:
-            w, h = (int(v) for v in str(value).lower().split("x"))
+            a, b = (int(v) for v in str(value).lower().split(self.sep))
         except ValueError:
-            self.fail(f"must look like 256x192, got {value!r}", param, ctx)
+            self.fail(f"must look like {self.hint}, got {value!r}", param, ctx)
+        return self.check(a, b, value, param, ctx)
+
+
+class Size(IntPair):
+    """``WxH`` in pixels, each side in ``SIZE_RANGE``."""
+
+    name = "WxH"
+    sep = "x"
+    hint = "256x192"
+
+    def check(self, a: int, b: int, value, param, ctx) -> tuple[int, int]:
         lo, hi = SIZE_RANGE
-        for side, v in (("width", w), ("height", h)):
+        for side, v in (("width", a), ("height", b)):
             if not lo <= v <= hi:
                 self.fail(f"the {side} must lie in {lo}..{hi} pixels, got {value!r}", param, ctx)
-        return w, h
+        return a, b
 
 
 class SceneRef(click.ParamType):

@@ -98,7 +98,7 @@ def xie_fig3_disocclusion(out: Path, profile=None, progress=None) -> list[Path]:
 # small crop of a 1080p frame), lit on its right half (0.8) and in shadow on its left (0.05) with a lit
 # disk inside the shadow, a skin-like Burley material (albedo 0.8 / 0.5 / 0.3, dmfp 2 / 1 / 0.5 mm): light
 # scatters across both shadow edges, where adaptation matters, and the lit and shadowed plateaus need few
-# samples. Exact sampler, no mips, so the pass's limit (:func:`ssskit.pipeline.burley.burley_exact`) is the
+# samples. Exact sampler, no mips, so the pass's limit (:func:`ssskit.pipeline.burley_frame.burley_exact`) is the
 # reference: with the prefiltered mips (Eqs. 22-23, a = 1/16) the pass carries the prefilter's own bias, about
 # 0.0034 RMS (47.5 dB) on this plane whether the counts adapt or not (benchmarks/adaptive_mips_bias.py: the
 # 256-frame averages of adaptive and fixed 64 spp with mips lie within one standard error of each other),
@@ -154,69 +154,54 @@ def _cached(name: str, key: dict, compute):
     return stored("figures", name, {"name": name, "key": key, "source": source_digest()}, compute)
 
 
-def run_sequence(gbuffer, params, reference, settings: AdaptiveSettings | None, frames: int, *, spp: int = 64,
-                 backend: str = "numba", seed: int = 0, taa=None, pixels=(), mips: bool = False) -> dict:
-    """``frames`` frames of the Burley pass on a static G-buffer, adaptive (``settings``) or at a fixed
-    ``spp`` (``settings`` None), each followed by the global TAA (``taa``: TAASettings; default
-    TAASettings()). Per frame: ``mean_spp``, ``psnr`` (the frame), ``psnr_taa`` (the TAA output), ``ms``
-    (the pass + guiding phase: estimate, prefilter, sampling, update; GPU/glFinish time on gl), and per
-    pixel (x, y) of ``pixels``: ``value`` and ``value_taa`` (the gamma-corrected luminance of the frame
-    and of the TAA output, as the history records it) and ``sigma_local`` (the history's sigma, Eq. 9);
-    ``phases``: median ms per phase; ``last``, ``last_taa``, ``counts`` (of the last frame)."""
-    import dataclasses
-
-    from ..backends import get_backend
-    from ..backends.adaptive_plan import as_plan
+def run_plane_frames(gbuffer, params, reference, settings: AdaptiveSettings | None, frames: int, *, spp: int = 64,
+                     backend: str = "numba", seed: int = 0, taa=None, pixels=(), mips: bool = False) -> dict:
+    """``frames`` frames of the Burley pass on a still G-buffer (the library's frame loop,
+    :func:`ssskit.screenspace.frames.run_frames`), adaptive (``settings``) or at a fixed ``spp`` (``settings``
+    None), each followed by the global TAA (``taa``: TAASettings; default TAASettings()). Per frame:
+    ``mean_spp``, ``psnr`` (the frame's blurred diffuse layer against ``reference`` over the whole image),
+    ``psnr_taa`` (the TAA output), ``ms`` (the pass + guiding phase: estimate, prefilter, sampling, update;
+    GPU/glFinish time on gl; a fixed count has no guiding phase), and per pixel (x, y) of ``pixels``:
+    ``value`` and ``value_taa`` (the gamma-corrected luminance of the frame and of the TAA output, as the
+    history records it) and ``sigma_local`` (the history's sigma, Eq. 9); ``phases``: median ms per phase;
+    ``last``, ``last_taa``, ``counts`` (of the last frame). The plane's albedo is 1 and its specular 0, so
+    the composite the loop's TAA resolves is the blurred diffuse layer itself."""
     from ..backends.base import PHASES
     from ..metrics import psnr
     from ..screenspace import BurleySettings
-    from ..screenspace.adaptive import VAR, new_history, shading_value
-    from ..screenspace.burley import burley_backend, burley_plan_for
-    from ..screenspace.taa import TAASettings, TemporalAA
+    from ..screenspace.adaptive import VAR, shading_value
+    from ..screenspace.frames import run_frames
+    from ..screenspace.taa import TAASettings
 
-    burley_backend(backend)  # a backend with the Burley pass, or a BackendError
     bs = BurleySettings(sampler="exact", sequence="r2", mips=mips, seed=seed, backend=backend)
-    cam = gbuffer.camera
-    base = burley_plan_for(params, [1], cam.fx, cam.fy, bs)
-    slots = base.slot_map(gbuffer.profile_id)
-    inside = slots > 0
     fixed = settings is None
-    # a fixed count runs through the same loop with the budget [spp, spp]; its guiding phase is not timed
-    s = AdaptiveSettings(b_min=spp, b_max=spp) if fixed else settings
-    gamma = s.gamma
-    aa = TemporalAA(TAASettings() if taa is None else taa)
-    out = {k: [] for k in ("mean_spp", "psnr", "psnr_taa", "ms")}
+    gamma = (AdaptiveSettings() if fixed else settings).gamma
+    out: dict = {k: [] for k in ("psnr", "psnr_taa")}
     traces = {p: {"value": [], "value_taa": [], "sigma_local": []} for p in pixels}
-    runner = get_backend(backend).adaptive_runner(as_plan(s), new_history(*gbuffer.shape))
+    last = {}
+
+    def on_frame(frame) -> None:
+        out["psnr"].append(psnr(reference, frame.sss))
+        out["psnr_taa"].append(psnr(reference, frame.image_taa))
+        if pixels:
+            v, vt = shading_value(frame.sss, gamma), shading_value(frame.image_taa, gamma)
+            hist = frame.history()
+            for (x, y) in pixels:
+                traces[(x, y)]["value"].append(float(v[y, x]))
+                traces[(x, y)]["value_taa"].append(float(vt[y, x]))
+                traces[(x, y)]["sigma_local"].append(float(np.sqrt(hist[y, x, VAR])))
+        last.update(img=frame.sss, res=frame.image_taa, counts=frame.counts)
+
+    run = run_frames([gbuffer] * frames, params, bs, adaptive=None if fixed else settings, spp=spp if fixed else None,
+                     taa=TAASettings() if taa is None else taa, on_frame=on_frame)
     timed = ("prefilter", "sampling") if fixed else PHASES
-    try:
-        runner.load(gbuffer.diffuse, gbuffer.depth_mm, slots)
-        for f in range(frames):
-            before = {p: len(v) for p, v in runner.times.items()}
-            counts = runner.counts()
-            runner.sample(dataclasses.replace(base, frame=f))
-            runner.update()
-            ms = sum(sum(runner.times[p][before[p]:]) for p in timed)
-            img = runner.result()
-            res = aa.resolve(img)
-            out["mean_spp"].append(float(counts[inside].mean()))
-            out["psnr"].append(psnr(reference, img))
-            out["psnr_taa"].append(psnr(reference, res))
-            out["ms"].append(ms)
-            if pixels:
-                v, vt = shading_value(img, gamma), shading_value(res, gamma)
-                hist = runner.history()
-                for (x, y) in pixels:
-                    traces[(x, y)]["value"].append(float(v[y, x]))
-                    traces[(x, y)]["value_taa"].append(float(vt[y, x]))
-                    traces[(x, y)]["sigma_local"].append(float(np.sqrt(hist[y, x, VAR])))
-        times = {p: (list(v) if p in timed else []) for p, v in runner.times.items()}
-    finally:
-        runner.release()
+    times = {p: (list(run.phases[p]) if p in timed else []) for p in PHASES}
     result = {k: np.asarray(v) for k, v in out.items()}
+    result["mean_spp"] = np.asarray(run.mean_spp)
+    result["ms"] = np.asarray([sum(run.phases[p][f] for p in timed) for f in range(frames)])
     result["phases"] = {p: (float(np.median(v[1:] if len(v) > 1 else v)) if v else None) for p, v in times.items()}
     result["traces"] = {p: {k: np.asarray(v) for k, v in t.items()} for p, t in traces.items()}
-    result.update(last=img, last_taa=res, counts=np.asarray(counts))
+    result.update(last=last["img"], last_taa=last["res"], counts=np.asarray(last["counts"]))
     return result
 
 
@@ -246,7 +231,7 @@ def fig4_data(backend: str = "numba", frames: int = FIG4_FRAMES, replicas: int =
     def compute():
         gb = shadow_plane(*size)
         params = plane_params()
-        from ..pipeline.burley import burley_exact
+        from ..pipeline.burley_frame import burley_exact
 
         ref = burley_exact(gb, params)
         settings = AdaptiveSettings(sigma0_sq=FIG4_SIGMA0_SQ, kappa=1.0, b_min=8, b_max=64, alpha=0.2)
@@ -255,7 +240,7 @@ def fig4_data(backend: str = "numba", frames: int = FIG4_FRAMES, replicas: int =
         for r in range(replicas):
             if progress is not None:
                 progress(f"xie-fig4: run {r + 1}/{replicas}")
-            runs.append(run_sequence(gb, params, ref, settings, frames, backend=backend, seed=r,
+            runs.append(run_plane_frames(gb, params, ref, settings, frames, backend=backend, seed=r,
                                      pixels=tuple(pix.values())))
         out = {"pixels": pix, "frames": frames, "replicas": replicas, "size": size, "backend": backend, "series": {}}
         for name, p in pix.items():
@@ -315,12 +300,12 @@ def grid_data(distance: str = "regular", backend: str = "numba", frames: int = G
                 "ms": float(np.median(run["ms"][1:])), "phases": run["phases"]}
 
     def compute():
-        from ..pipeline.burley import burley_exact
+        from ..pipeline.burley_frame import burley_exact
 
         gb = shadow_plane(*size, distance)
         params = plane_params()
         ref = burley_exact(gb, params)
-        fixed = run_sequence(gb, params, ref, None, frames, spp=64, backend=backend)
+        fixed = run_plane_frames(gb, params, ref, None, frames, spp=64, backend=backend)
         out = {"distance": distance, "backend": backend, "frames": frames, "size": size, "fixed64": summary(fixed),
                "grid": {}, "equal_time": []}
         runs = {}
@@ -328,12 +313,12 @@ def grid_data(distance: str = "regular", backend: str = "numba", frames: int = G
             for k in GRID_KAPPA:
                 if progress is not None:
                     progress(f"adaptive grid ({distance}): sigma0^2 = {s0:g}, kappa = {k:g}")
-                run = run_sequence(gb, params, ref, AdaptiveSettings(sigma0_sq=s0, kappa=k, b_min=8, b_max=64),
+                run = run_plane_frames(gb, params, ref, AdaptiveSettings(sigma0_sq=s0, kappa=k, b_min=8, b_max=64),
                                    frames, backend=backend)
                 runs[(s0, k)] = run
                 out["grid"][(s0, k)] = summary(run)
         # the fixed pass's time per frame as t0 + c n, from its runs at 8 and 64 spp
-        out["fixed8"] = summary(run_sequence(gb, params, ref, None, frames, spp=8, backend=backend))
+        out["fixed8"] = summary(run_plane_frames(gb, params, ref, None, frames, spp=8, backend=backend))
         c = max(out["fixed64"]["ms"] - out["fixed8"]["ms"], 1e-9) / 56.0
         t0 = out["fixed8"]["ms"] - 8.0 * c
         for s0, k in EQUAL_TIME_SETTINGS:
@@ -341,7 +326,7 @@ def grid_data(distance: str = "regular", backend: str = "numba", frames: int = G
             n = int(np.clip(round((a["ms"] - t0) / c), 1, 64))
             if progress is not None:
                 progress(f"equal time ({distance}): fixed {n} spp vs sigma0^2 = {s0:g}, kappa = {k:g}")
-            f = run_sequence(gb, params, ref, None, frames, spp=n, backend=backend)
+            f = run_plane_frames(gb, params, ref, None, frames, spp=n, backend=backend)
             ad = runs[(s0, k)]
             out["equal_time"].append({"sigma0_sq": s0, "kappa": k, "fixed_spp": n, "fixed": summary(f),
                                       "adaptive": a, "images": {"reference": ref, "fixed": f["last"],
@@ -359,7 +344,7 @@ def phase_data(backend: str = "numba", frames: int = 12, size: tuple[int, int] =
     def compute():
         import time
 
-        from ..pipeline.burley import burley_exact
+        from ..pipeline.burley_frame import burley_exact
 
         gb = shadow_plane(*size)
         params = plane_params()
@@ -369,8 +354,8 @@ def phase_data(backend: str = "numba", frames: int = 12, size: tuple[int, int] =
                                 ("adaptive (1e-3, 0.2)", AdaptiveSettings(sigma0_sq=1e-3, kappa=0.2))):
             if progress is not None:
                 progress(f"table 1: {label}")
-            run_sequence(gb, params, ref, settings, 2, backend=backend, mips=True)  # compile, warm up
-            run = run_sequence(gb, params, ref, settings, frames, backend=backend, mips=True)
+            run_plane_frames(gb, params, ref, settings, 2, backend=backend, mips=True)  # compile, warm up
+            run = run_plane_frames(gb, params, ref, settings, frames, backend=backend, mips=True)
             t = []
             for _ in range(5):
                 t0 = time.perf_counter()
@@ -579,5 +564,5 @@ def demo_section(out: Path, progress, ctx: dict) -> str:
 
 
 __all__ = ["circle_runs", "fig4_data", "fig4_pixels", "grid_data", "phase_data", "plane_params", "plot_circle",
-           "plot_grid", "run_sequence", "shadow_plane", "xie_fig10", "xie_fig11", "xie_fig13", "xie_fig2_cold_start",
+           "plot_grid", "run_plane_frames", "shadow_plane", "xie_fig10", "xie_fig11", "xie_fig13", "xie_fig2_cold_start",
            "xie_fig3_disocclusion", "xie_fig4", "xie_table1", "demo_section"]

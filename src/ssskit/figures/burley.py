@@ -9,7 +9,7 @@ Fig. 5 albedo A = 0.9 with diffuse mean free paths 20, 10, 5 mm (Eq. 5, configur
 plane of one profile id at 500 mm, 8 pixels per mm (256 x 256 pixels, 32 x 32 mm), irradiance 1
 inside r <= 10 mm and 0 outside; the pass runs with 256 samples
 per pixel, no mips, the same seed for both samplers, and is compared with its exact limit
-(:func:`ssskit.pipeline.burley.burley_exact`).
+(:func:`ssskit.pipeline.burley_frame.burley_exact`).
 """
 
 from __future__ import annotations
@@ -49,9 +49,9 @@ def beam_disk(size: int = 256, px_per_mm: float = 8.0, radius_mm: float = 10.0):
 def fig6_xie_inverse(out: Path, profile, progress=None, spp: int = 256, backend: str = DEFAULT_BACKEND) -> list[Path]:
     """Xie 2020 Fig. 6 (module docstring): ``xie_fig6.png``; the Burley pass runs on ``backend``."""
     from ..metrics import tonemap
-    from ..pipeline.burley import burley_exact
+    from ..pipeline.burley_frame import burley_exact
     from ..profiles.burley import burley_inverse_cdf
-    from ..sampling.burley import xie_g
+    from ..sampling.burley_radius import xie_g
     from ..screenspace import burley_sss
 
     params = _params(profile)
@@ -118,7 +118,7 @@ def fig5_xie_c(out: Path, profile=None, progress=None) -> list[Path]:
     error at r is 100 (g(cdf(r)) / r - 1) (it depends on r / d only). ``xie_fig5.png``; ``profile``
     is unused (the figure's parameters are the paper's)."""
     from ..profiles.burley import burley_cdf
-    from ..sampling.burley import xie_g
+    from ..sampling.burley_radius import xie_g
 
     d = 1.0 / (3.5 + 100.0 * (0.9 - 0.33) ** 4)  # Eq. 5, configuration 3
     r = np.linspace(1e-4, 12 * d, 2000)
@@ -164,7 +164,7 @@ def burley_comparison(out: Path, material: str = "skin1", scenes=None, width: in
                       spp: int = 16, spps=DEMO_SPPS, reference_spp: int = 4096, burley=None,
                       backend: str | None = None, progress=None):
     """Every scene with the Burley pass at ``spps`` samples per pixel beside its converged reference
-    (:func:`ssskit.pipeline.burley.burley_reference`: exact sampler, ``reference_spp``, no mips) and the
+    (:func:`ssskit.pipeline.burley_frame.burley_reference`: exact sampler, ``reference_spp``, no mips) and the
     separable pass with the ``burley_fit`` kernel (Xie 2020 appendix A.1); writes ``burley.png``.
 
     ``burley``: the pass's :class:`BurleySettings` (default: Xie's pass, the xie sampler with mips);
@@ -181,9 +181,9 @@ def burley_comparison(out: Path, material: str = "skin1", scenes=None, width: in
     """
     from ..metrics import region_metrics, tonemap
     from ..pipeline import RenderSettings, render
-    from ..pipeline.burley import burley_reference
+    from ..pipeline.burley_frame import burley_reference
     from ..scenes import SCENES
-    from ..screenspace import BurleySettings, PassSettings, burley_sss
+    from ..screenspace import BurleySettings, burley_sss
     from ..screenspace.burley import burley_params_for_material
 
     say = progress or (lambda msg: None)
@@ -196,7 +196,7 @@ def burley_comparison(out: Path, material: str = "skin1", scenes=None, width: in
         say(f"Burley pass: {scene}, G-buffer and separable burley_fit")
         sep = render(scene, RenderSettings(material=material, model="burley", kernel="burley_fit", width=width,
                                            height=height, spp=spp, exact=False, perceptual=False,
-                                           sss=PassSettings(backend=burley.backend)))
+                                           backend=burley.backend))
         gb = sep.gbuffer
         mask = gb.mask
         say(f"Burley pass: {scene}, converged references ({reference_spp} spp, seeds 0 and 1, cached)")

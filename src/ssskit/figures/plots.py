@@ -84,7 +84,7 @@ def plot_xie_c(path: str | Path, cs=(2.0, 2.5715, 3.0), c_minimax: float | None 
     """Xie 2020 Fig. 5 analogue: percentage error of Eq. 21 against the exact inverse of Eq. 20,
     and the CDF error cdf(g(xi)) - xi, for several c."""
     from ..profiles.burley import burley_inverse_cdf
-    from ..sampling.burley import xie_cdf_error, xie_g
+    from ..sampling.burley_radius import xie_cdf_error, xie_g
 
     plt = pyplot()
     xi = np.linspace(1e-4, 1 - 1e-4, 2000)

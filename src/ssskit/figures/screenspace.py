@@ -16,7 +16,7 @@ import numpy as np
 
 from ..backends import DEFAULT_BACKEND
 from ..metrics import region_metrics, tonemap
-from ..pipeline import RenderSettings, render
+from ..pipeline import RenderSettings, SeparablePass, render
 from ..scenes import SCENES
 from ..screenspace import PassSettings
 from .plots import CHANNEL_COLORS, pyplot, save_figure
@@ -89,7 +89,9 @@ def _render_scenes(material, scenes, width, height, spp, reference_spp, referenc
             settings = RenderSettings(material=material, model=model, photons=photons, kernel=spec, taps=taps,
                                       tap_method=placement, width=width, height=height, spp=spp, exact=first,
                                       reference=first, reference_spp=reference_spp,
-                                      reference_max_spp=reference_max_spp, sss=sss)
+                                      reference_max_spp=reference_max_spp, frame=sss.frame, seed=sss.seed,
+                                      backend=sss.backend,
+                                      pass_=SeparablePass(jitter=sss.jitter, depth_mode=sss.depth_mode))
             r = render(scene if first else base.gbuffer, settings, progress=say if first else None)
             if first:
                 base = r

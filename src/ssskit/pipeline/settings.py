@@ -1,46 +1,246 @@
-"""Settings of one rendered frame: material, profile, kernel, taps, scene size, ground truths, and the
-pass settings. A frozen dataclass, loadable from and savable to TOML/JSON (``ssskit render
---settings FILE``), used alike by the Python API and the CLI, and checked when made: a bad value
+"""Settings of one render: material, profile, kernel, taps, scene size, ground truths, the frame, the seed,
+the backend, and one screen-space pass. A frozen tree, loadable from and savable to TOML/JSON (``ssskit
+render --settings FILE``), used alike by the Python API and the CLI, and checked when made: a bad value
 fails before any work starts.
+
+The tree holds every value once. ``frame``, ``seed`` and ``backend`` are top-level (the G-buffer's frame
+along the scene's paths and the pass's random numbers, the G-buffer render's and the pass's seed, who
+runs the pass); the pass is one tagged member, ``pass_``, written as exactly one table named after it::
+
+    material = "skin1"
+    kernel = "svd:2"
+    seed = 3
+    backend = "numba"
+    [separable]            # or [burley], or [adaptive]; none: the separable pass with its defaults
+    jitter = 0.3
+
+:data:`PASSES` names the passes (``separable``, ``burley``, ``burley-adaptive``) and their member classes
+(:class:`SeparablePass`, :class:`BurleyPass`, :class:`AdaptivePass`); a member holds only how its pass
+runs, and :meth:`RenderSettings.pass_settings`, :meth:`~RenderSettings.burley_settings` and
+:meth:`~RenderSettings.adaptive_settings` give the complete settings the screen-space functions take.
+Files in the layout before the single tree (``method = ...``, an ``[sss]`` table, ``frame``/``seed``/
+``backend`` per pass) still load: they are migrated with a :class:`SettingsMigrated` warning, and a file
+whose values the new tree cannot hold (two different seeds, a table the file's method never read that
+holds values of its own) is refused with the reason.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import warnings
 from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
+from ..backends import BACKENDS, DEFAULT_BACKEND
 from ..errors import SettingsError
+from ..registry import Registry
 from ..scenes.scenes import SIZE_RANGE  # image sizes of the built-in scenes (pixels per side)
-from ..screenspace.burley import BurleySettings
+from ..screenspace.adaptive import AdaptiveSettings
+from ..screenspace.burley import BurleyParams, BurleySettings
 from ..screenspace.settings import PassSettings
 from ..settings import Settings, check_choice, check_int
 
 #: photons per channel of Monte Carlo profiles: one range for every command
 PHOTONS_RANGE = (1_000, 10_000_000_000)
 TAP_RANGE = (1, 255)
-#: the screen-space passes a frame can run (``method``)
-METHODS = ("separable", "burley")
+#: the samples per pixel of an adaptive run's converged references (moving camera)
+LIMIT_SPP_RANGE = (2, 131072)
+DEFAULT_LIMIT_SPP = 2048
+FRAMES_RANGE = (1, 100_000)
+#: the values the tree holds once, which the layout before it kept per pass
+SHARED = ("frame", "seed", "backend")
+
+
+class SettingsMigrated(UserWarning):
+    """A settings file in the layout before the single tree was read and migrated (the message says how)."""
+
+
+def _copy_checked(target: Settings, checked: Settings, names) -> None:
+    """Set ``names`` of the frozen ``target`` to ``checked``'s (canonical) values."""
+    for name in names:
+        object.__setattr__(target, name, getattr(checked, name))
+
+
+@dataclass(frozen=True)
+class SeparablePass(Settings):
+    """How the separable pass runs (separable-SSS paper section 6, supplement E): ``jitter`` (a fraction
+    of the kernel size, in [0, 1]; paper: 0.1, 0.3 for close-ups) and ``depth_mode`` (gaussian, follow,
+    none, or None for the kernel's default). The kernel itself is the tree's ``kernel``, ``taps`` and
+    ``tap_method``; frame, seed and backend are the tree's."""
+
+    name: ClassVar[str] = "separable"
+    table: ClassVar[str] = "separable"
+
+    jitter: float = 0.1
+    depth_mode: str | None = None
+
+    def __post_init__(self) -> None:
+        _copy_checked(self, PassSettings(jitter=self.jitter, depth_mode=self.depth_mode), ("jitter", "depth_mode"))
+
+    def settings(self, frame: int, seed: int, backend: str) -> PassSettings:
+        """The complete :class:`~ssskit.screenspace.PassSettings` of the pass."""
+        return PassSettings(jitter=self.jitter, depth_mode=self.depth_mode, frame=frame, seed=seed, backend=backend)
+
+
+#: the Burley sampler's fields shared by the Burley pass and the adaptive run (BurleySettings' own)
+_SAMPLING = ("sampler", "c", "sequence", "bleed", "stable", "mips", "mip_scale")
+_B = BurleySettings()
+
+
+def _rgb(name: str, value) -> tuple[float, float, float] | None:
+    if value is None:
+        return None
+    vals = tuple(value) if isinstance(value, (list, tuple)) else (value,)
+    if len(vals) not in (1, 3) or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in vals):
+        raise SettingsError(f"{name} must be a number or three numbers [R, G, B], got {value!r}")
+    out = tuple(float(v) for v in (vals * 3 if len(vals) == 1 else vals))
+    return out  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class _BurleySampling(Settings):
+    """The Burley sampler (Xie 2020 Sec. 4.2, 5; :class:`~ssskit.screenspace.BurleySettings`): ``sampler``
+    (exact, xie or golubev), ``c`` (Eq. 21's damping, for the xie sampler only), ``sequence``, ``bleed``,
+    ``stable``, ``mips``, ``mip_scale``; and the Burley parameters ``albedo`` with ``dmfp_mm`` (Eq. 5,
+    configuration 3: each a number or [R, G, B]; both or neither) instead of the material's Burley
+    profile."""
+
+    sampler: str = _B.sampler
+    c: float = _B.c
+    sequence: str = _B.sequence
+    bleed: float = _B.bleed
+    stable: bool = _B.stable
+    mips: bool = _B.mips
+    mip_scale: float = _B.mip_scale
+    albedo: tuple[float, float, float] | None = None
+    dmfp_mm: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        checked = BurleySettings(**{k: getattr(self, k) for k in _SAMPLING})
+        _copy_checked(self, checked, _SAMPLING)
+        if self.c != _B.c and self.sampler != "xie":
+            raise SettingsError(f"c is the xie sampler's constant (Xie 2020 Eq. 21), unused by the {self.sampler} "
+                                "sampler; set sampler = xie")
+        object.__setattr__(self, "albedo", _rgb("albedo", self.albedo))
+        object.__setattr__(self, "dmfp_mm", _rgb("dmfp_mm", self.dmfp_mm))
+        if (self.albedo is None) != (self.dmfp_mm is None):
+            raise SettingsError("albedo and dmfp_mm go together (Burley parameters from albedo and diffuse mean free "
+                                "path, Xie 2020 Eq. 5); give both or neither")
+        self.params()  # out-of-range parameters fail here
+
+    def params(self) -> BurleyParams | None:
+        """The Burley parameters given by ``albedo`` and ``dmfp_mm`` (Xie 2020 Eq. 5), or None."""
+        if self.albedo is None or self.dmfp_mm is None:
+            return None
+        return BurleyParams.from_dmfp(self.albedo, self.dmfp_mm)
+
+    def settings(self, frame: int, seed: int, backend: str, spp: int = _B.spp) -> BurleySettings:
+        """The complete :class:`~ssskit.screenspace.BurleySettings` of the sampler."""
+        return BurleySettings(**{k: getattr(self, k) for k in _SAMPLING}, spp=spp, frame=frame, seed=seed,
+                              backend=backend)
+
+
+@dataclass(frozen=True)
+class BurleyPass(_BurleySampling):
+    """The Burley Monte Carlo pass of one frame (Xie 2020): the sampler (:class:`_BurleySampling`'s fields)
+    and ``spp``, its samples per pixel (the tree's ``spp`` is the G-buffer render's)."""
+
+    name: ClassVar[str] = "burley"
+    table: ClassVar[str] = "burley"
+
+    spp: int = _B.spp
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        _copy_checked(self, BurleySettings(spp=self.spp), ("spp",))
+
+
+_A = AdaptiveSettings()
+_ADAPTIVE = ("sigma0_sq", "kappa", "b_min", "b_max", "alpha", "correction", "gamma")
+
+
+@dataclass(frozen=True)
+class AdaptivePass(_BurleySampling):
+    """The Burley pass over ``frames`` frames with the variance-guided sample counts of Xie 2020 Sec. 4.1
+    (:func:`ssskit.pipeline.adaptive.render_adaptive`): the sampler (:class:`_BurleySampling`'s fields),
+    the guiding phase (``sigma0_sq``, ``kappa``, ``b_min``, ``b_max``, ``alpha``, ``correction``,
+    ``gamma``: :class:`~ssskit.screenspace.AdaptiveSettings`), ``static`` (keep the camera and lights at
+    the tree's ``frame``; a G-buffer file is always static), ``taa`` (every frame through the global TAA,
+    Karis 2014), and for a moving camera ``limit_spp`` (each frame's converged reference: exact sampler,
+    no mips; default :data:`DEFAULT_LIMIT_SPP`) and ``disocclusion_spp`` (the count where the history is
+    missing; default b_min, Xie 2020 Sec. 4.1.4)."""
+
+    name: ClassVar[str] = "burley-adaptive"
+    table: ClassVar[str] = "adaptive"
+
+    sigma0_sq: float = _A.sigma0_sq
+    kappa: float = _A.kappa
+    b_min: int = _A.b_min
+    b_max: int = _A.b_max
+    alpha: float = _A.alpha
+    correction: str = _A.correction
+    gamma: float = _A.gamma
+    frames: int = 16
+    static: bool = False
+    taa: bool = True
+    limit_spp: int | None = None
+    disocclusion_spp: int | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        _copy_checked(self, AdaptiveSettings(**{k: getattr(self, k) for k in _ADAPTIVE}), _ADAPTIVE)
+        object.__setattr__(self, "frames", check_int("frames", self.frames, *FRAMES_RANGE))
+        for name in ("static", "taa"):
+            if not isinstance(getattr(self, name), bool):
+                raise SettingsError(f"{name} must be true or false, got {getattr(self, name)!r}")
+        if self.limit_spp is not None:
+            object.__setattr__(self, "limit_spp", check_int("limit_spp", self.limit_spp, *LIMIT_SPP_RANGE))
+        if self.disocclusion_spp is not None:
+            object.__setattr__(self, "disocclusion_spp",
+                               check_int("disocclusion_spp", self.disocclusion_spp, self.b_min, self.b_max))
+        if self.static and self.limit_spp is not None:
+            raise SettingsError("limit_spp applies to a moving camera; a static run compares with the pass's exact limit")
+        if self.static and self.disocclusion_spp is not None:
+            raise SettingsError("disocclusion_spp applies to a moving camera (a static run has no new pixels)")
+
+    def adaptive_settings(self) -> AdaptiveSettings:
+        """The guiding phase's :class:`~ssskit.screenspace.AdaptiveSettings`."""
+        return AdaptiveSettings(**{k: getattr(self, k) for k in _ADAPTIVE})
+
+    @property
+    def reference_spp(self) -> int:
+        """The samples per pixel of a moving run's per-frame references (``limit_spp`` or its default)."""
+        return DEFAULT_LIMIT_SPP if self.limit_spp is None else self.limit_spp
+
+
+PassMember = SeparablePass | BurleyPass | AdaptivePass
+#: the screen-space passes a render can run: name -> member class (its ``table`` names it in a file)
+PASSES: Registry[type[SeparablePass] | type[BurleyPass] | type[AdaptivePass]] = Registry("pass", SettingsError)
+for _cls in (SeparablePass, BurleyPass, AdaptivePass):
+    PASSES.register(_cls.name, _cls)
+_BY_TABLE = {cls.table: cls for _, cls in PASSES.items()}
+#: the fields of the tree that describe the separable pass's profile and kernel
+KERNEL_FIELDS = ("model", "photons", "kernel", "taps", "tap_method")
 
 
 @dataclass(frozen=True)
 class RenderSettings(Settings):
-    """One frame of screen-space separable SSS and its comparison with ground truth.
+    """One render and its comparison with ground truth (module docstring for the file layout).
 
-    ``material``: a preset name or a material file; ``model``: the profile the kernel approximates
-    (dipole, burley, gaussians, montecarlo; ``photons`` for montecarlo); ``kernel``: a method spec
-    ``name[:value]`` (``svd:2``, ``artist:production``, ``jimenez2012:17``...); ``taps``: taps per 1D
-    pass (odd; an engine tap kernel such as jimenez2012 is built with this many taps);
-    ``tap_method``: importance, uniform or quadratic; ``width`` x ``height``, ``spp`` and ``seed``:
-    the built-in scene's G-buffer render; ``exact``: also the exact 2D convolution; ``reference``:
-    also a volumetric path trace with at least ``reference_spp`` samples per pixel, continued until
-    the relative standard error of its mean over the SSS mask is at most ``reference_rel_se`` or
-    ``reference_max_spp`` is spent (:func:`ssskit.scenes.render_reference`); ``perceptual``: FLIP in the metrics;
-    ``sss``: the pass itself (:class:`PassSettings`: jitter, depth mode, frame, seed, backend).
-
-    ``method``: the screen-space pass, ``separable`` (the kernel above and ``sss``) or ``burley``
-    (the Monte Carlo pass of Xie 2020, :func:`ssskit.pipeline.burley.render_burley`, with ``burley``:
-    :class:`~ssskit.screenspace.BurleySettings`; then ``spp`` is still the G-buffer's and the pass's
-    samples per pixel are ``burley.spp``, and model, kernel, taps and ``sss`` are unused).
-    :func:`ssskit.pipeline.render` runs the method named here.
+    ``material``: a preset name or a material file; ``model``: the profile the separable pass's kernel
+    approximates (dipole, burley, gaussians, montecarlo; ``photons`` for montecarlo); ``kernel``: a method
+    spec ``name[:value]`` (``svd:2``, ``artist:production``, ``jimenez2012:17``...); ``taps``: taps per 1D
+    pass (odd; an engine tap kernel such as jimenez2012 is built with this many taps); ``tap_method``:
+    importance, uniform or quadratic; ``width`` x ``height`` and ``spp``: the built-in scene's G-buffer
+    render; ``seed``: the G-buffer render's and the pass's random numbers; ``frame``: the frame along the
+    scene's camera and light paths (and of the pass's random numbers); ``backend``: who runs the pass (a
+    name from :data:`ssskit.backends.BACKENDS`); ``exact``: also the exact 2D convolution;
+    ``reference``: also a volumetric path trace with at least ``reference_spp`` samples per pixel,
+    continued until the relative standard error of its mean over the SSS mask is at most
+    ``reference_rel_se`` or ``reference_max_spp`` is spent (:func:`ssskit.scenes.render_reference`);
+    ``perceptual``: FLIP in the metrics; ``pass_``: the pass (:data:`PASSES`: :class:`SeparablePass`,
+    :class:`BurleyPass` or :class:`AdaptivePass`), which :func:`ssskit.pipeline.render` runs. The kernel
+    fields apply to the separable pass only: with another pass they must keep their defaults.
     """
 
     material: str = "skin1"
@@ -53,15 +253,15 @@ class RenderSettings(Settings):
     height: int = 192
     spp: int = 32
     seed: int = 0
+    frame: int = 0
+    backend: str = DEFAULT_BACKEND
     exact: bool = True
     reference: bool = False
     reference_spp: int = 64
     reference_max_spp: int = 1024
     reference_rel_se: float = 0.01
     perceptual: bool = True
-    sss: PassSettings = field(default_factory=PassSettings)
-    method: str = "separable"
-    burley: BurleySettings = field(default_factory=BurleySettings)
+    pass_: PassMember = field(default_factory=SeparablePass)
 
     def __post_init__(self) -> None:
         from ..kernels import parse_method_spec
@@ -84,6 +284,8 @@ class RenderSettings(Settings):
         object.__setattr__(self, "height", check_int("height", self.height, *SIZE_RANGE))
         object.__setattr__(self, "spp", check_int("spp", self.spp, 1, 4096))
         object.__setattr__(self, "seed", check_int("seed", self.seed, 0, 2**31 - 1))
+        object.__setattr__(self, "frame", check_int("frame", self.frame, 0, 2**31 - 1))
+        object.__setattr__(self, "backend", check_choice("backend", self.backend, BACKENDS.names()))
         object.__setattr__(self, "reference_spp", check_int("reference_spp", self.reference_spp, 1, 1 << 20))
         object.__setattr__(self, "reference_max_spp", check_int("reference_max_spp", self.reference_max_spp, 1, 1 << 20))
         if self.reference_max_spp < self.reference_spp:
@@ -95,8 +297,123 @@ class RenderSettings(Settings):
         for name in ("exact", "reference", "perceptual"):
             if not isinstance(getattr(self, name), bool):
                 raise SettingsError(f"{name} must be true or false, got {getattr(self, name)!r}")
-        if not isinstance(self.sss, PassSettings):
-            raise SettingsError(f"sss must be PassSettings, got {type(self.sss).__name__}")
-        object.__setattr__(self, "method", check_choice("method", self.method, METHODS))
-        if not isinstance(self.burley, BurleySettings):
-            raise SettingsError(f"burley must be BurleySettings, got {type(self.burley).__name__}")
+        if not isinstance(self.pass_, (SeparablePass, BurleyPass, AdaptivePass)):
+            raise SettingsError(f"pass_ must be one of {', '.join(c.__name__ for _, c in PASSES.items())}, got "
+                                f"{type(self.pass_).__name__}")
+        if self.pass_name != "separable":
+            defaults = _defaults()
+            changed = [k for k in KERNEL_FIELDS if getattr(self, k) != defaults[k]]
+            if changed:
+                raise SettingsError(f"{', '.join(changed)} appl{'ies' if len(changed) == 1 else 'y'} to the separable "
+                                    f"pass (the kernel it filters with); this render runs the {self.pass_name} pass")
+
+    @property
+    def pass_name(self) -> str:
+        """The pass this render runs: ``separable``, ``burley`` or ``burley-adaptive``."""
+        return self.pass_.name
+
+    def pass_settings(self) -> PassSettings:
+        """The separable pass's complete :class:`~ssskit.screenspace.PassSettings` (frame, seed and backend
+        from the tree)."""
+        if not isinstance(self.pass_, SeparablePass):
+            raise SettingsError(f"this render runs the {self.pass_name} pass, not the separable one")
+        return self.pass_.settings(self.frame, self.seed, self.backend)
+
+    def burley_settings(self, spp: int | None = None) -> BurleySettings:
+        """The Burley sampler's complete :class:`~ssskit.screenspace.BurleySettings` (frame, seed and backend
+        from the tree; ``spp``: the Burley pass's own unless given)."""
+        p = self.pass_
+        if not isinstance(p, (BurleyPass, AdaptivePass)):
+            raise SettingsError(f"this render runs the {self.pass_name} pass, not a Burley one")
+        n = spp if spp is not None else (p.spp if isinstance(p, BurleyPass) else _B.spp)
+        return p.settings(self.frame, self.seed, self.backend, n)
+
+    def adaptive_settings(self) -> AdaptiveSettings:
+        """The adaptive run's guiding phase (:class:`~ssskit.screenspace.AdaptiveSettings`)."""
+        if not isinstance(self.pass_, AdaptivePass):
+            raise SettingsError(f"this render runs the {self.pass_name} pass, not burley-adaptive")
+        return self.pass_.adaptive_settings()
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data: the top-level values, and the pass as one table named after it."""
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(self):
+            if f.name != "pass_":
+                out[f.name] = getattr(self, f.name)
+        out[self.pass_.table] = self.pass_.to_dict()
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], where: str = "") -> "RenderSettings":
+        """Build from plain data (module docstring's layout; the old layout is migrated with a
+        :class:`SettingsMigrated` warning); unknown keys, wrong types and a second pass table are errors
+        naming the key."""
+        label = where or cls.__name__
+        if not isinstance(data, dict):
+            raise SettingsError(f"{label}: expected a table/object, got {type(data).__name__}")
+        data = _migrate(data, label)
+        tables = [t for t in _BY_TABLE if t in data]
+        if len(tables) > 1:
+            raise SettingsError(f"{label}: one pass per render, but the settings have the tables "
+                                f"{', '.join(f'[{t}]' for t in tables)}")
+        kwargs = {k: v for k, v in data.items() if k not in _BY_TABLE}
+        names = {f.name for f in dataclasses.fields(cls)} - {"pass_"}
+        unknown = sorted(set(kwargs) - names)
+        if unknown:
+            raise SettingsError(f"{label}: unknown setting(s) {', '.join(unknown)} (known: {', '.join(sorted(names))}, "
+                                f"and one pass table: {', '.join(f'[{t}]' for t in _BY_TABLE)})")
+        kwargs = {k: (tuple(v) if isinstance(v, list) else v) for k, v in kwargs.items()}
+        if tables:
+            member = _BY_TABLE[tables[0]]
+            kwargs["pass_"] = member.from_dict(data[tables[0]], where=f"{where + '.' if where else ''}{tables[0]}")
+        return cls(**kwargs)
+
+
+def _defaults() -> dict[str, Any]:
+    return {f.name: f.default for f in dataclasses.fields(RenderSettings) if f.default is not dataclasses.MISSING}
+
+
+def _migrate(data: dict[str, Any], label: str) -> dict[str, Any]:
+    """The layout before the single tree (``method``, ``[sss]``, ``[burley]`` with frame/seed/backend) in
+    the new one: the method's own table gives the pass its values and frame, seed and backend (the values
+    that pass used); the other table must hold only its defaults (the old code never read it); a top-level
+    ``seed`` that differs from the pass's is refused (the tree has one seed). Data without the old keys is
+    returned unchanged."""
+    burley = data.get("burley")
+    old = "method" in data or "sss" in data or (isinstance(burley, dict) and any(k in burley for k in SHARED))
+    if not old:
+        return data
+    d = dict(data)
+    method = check_choice("method", d.pop("method", "separable"), ("separable", "burley"))
+    tables = {"separable": d.pop("sss", None), "burley": d.pop("burley", None)}
+    full = {"separable": PassSettings, "burley": BurleySettings}
+    for name, table in tables.items():
+        if table is not None and not isinstance(table, dict):
+            raise SettingsError(f"{label}: [{'sss' if name == 'separable' else name}] must be a table")
+    other = "burley" if method == "separable" else "separable"
+    if tables[other]:
+        defaults = full[other]().to_dict()
+        extra = sorted(k for k, v in tables[other].items() if defaults.get(k, object()) != v)
+        if extra:
+            old_name = "sss" if other == "separable" else other
+            raise SettingsError(f"{label}: the [{old_name}] table sets {', '.join(extra)}, but method = {method!r} never "
+                                f"reads it; remove the table or set method = {other!r}")
+    own = dict(tables[method] or {})
+    for key in SHARED:
+        if key not in own:
+            continue
+        value = own.pop(key)
+        if key in d and d[key] != value:
+            raise SettingsError(f"{label}: {key} is one setting now, but the file gives {key} = {d[key]!r} and "
+                                f"[{'sss' if method == 'separable' else method}] {key} = {value!r}; keep one")
+        d[key] = value
+    d[_BY_TABLE["separable" if method == "separable" else "burley"].table] = own
+    warnings.warn(SettingsMigrated(
+        f"{label} is in the old settings layout (method, [sss], frame/seed/backend per pass); read as one tree: "
+        f"frame, seed and backend once, the pass as its [{method}] table (RenderSettings.save writes the new layout)"),
+        stacklevel=3)
+    return d
+
+
+__all__ = ["AdaptivePass", "BurleyPass", "DEFAULT_LIMIT_SPP", "KERNEL_FIELDS", "PASSES", "PHOTONS_RANGE", "PassMember",
+           "RenderSettings", "SHARED", "SIZE_RANGE", "SeparablePass", "SettingsMigrated", "TAP_RANGE"]

@@ -2,7 +2,7 @@
 the 1D taps of the separable screen-space pass (separable-SSS paper section 6)."""
 
 from .base import Distribution, check_uniform
-from .burley import XIE_C, BurleyRadial, BurleyRadialApprox, fit_xie_c, xie_cdf_error, xie_g
+from .burley_radius import XIE_C, BurleyRadial, BurleyRadialApprox, fit_xie_c, xie_cdf_error, xie_g
 from .radial import ProfileRadial
 from .taps import TAP_METHODS, SeparableTaps, make_taps
 

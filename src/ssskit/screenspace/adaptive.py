@@ -7,7 +7,8 @@ variance estimate, in one pass, with one history texture, leaving the engine's T
    vectors with a nearest-neighbour lookup and no rejection (C of Eq. 6 chosen as Eq. 18's lower bound);
    off-screen fetches and pixels where ``valid`` is False lose their history (disocclusion);
 2. ``counts, n_hat = sample_counts(h, settings, mask)``: Eqs. 13-15 and the budget clamp;
-3. the Burley pass with ``counts`` (:func:`ssskit.screenspace.burley_sss`);
+3. the Burley pass with ``counts`` (:func:`ssskit.screenspace.burley_sss`; over frames, through the
+   backend's runner: :func:`ssskit.screenspace.frames.run_frames`, :func:`~ssskit.screenspace.frames.adaptive_frames`);
 4. ``history = update_history(h, shading_value(sss), counts, settings, mask)``: Eqs. 8, 6 and 9, with
    Eqs. 16-17 where the history was not available.
 
@@ -34,9 +35,8 @@ sigma0^2, dimensionless, the default). Which matches the paper's Figs. 2-3: ``do
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -251,132 +251,6 @@ def reproject_history(history, motion=None, valid=None) -> np.ndarray:
     return reference_reproject(h, mv, ok)
 
 
-# ---- a static frame loop: the Burley pass with adaptive counts ------------------------------------------
-
-@dataclass
-class AdaptiveFrames:
-    """A sequence of the Burley pass with adaptive counts on one G-buffer (:func:`adaptive_frames`).
-
-    ``mean`` and ``stderr`` (H, W, 3) float64: the average of the frames' blurred diffuse layers and its
-    standard error from the spread across frames; ``last`` (H, W, 3) float32: the last frame;
-    ``counts`` (frames, H, W) int32: the samples each pixel took; ``history``: the final (H, W, 4)
-    history; ``ms_pass`` / ``ms_update``: per-frame times of the Burley pass (prefilter + sampling) and
-    of the guiding phase (counts estimate + history update), in ms; ``phases``: per-frame ms of each
-    phase (:data:`ssskit.backends.base.PHASES`: estimate, prefilter, sampling, update; on gl GPU time,
-    or wall time around glFinish on llvmpipe); ``backend``: the guiding phase's backend."""
-
-    settings: AdaptiveSettings
-    burley: object
-    mean: np.ndarray
-    stderr: np.ndarray
-    last: np.ndarray
-    counts: np.ndarray
-    history: np.ndarray
-    ms_pass: list
-    ms_update: list
-    phases: dict = field(default_factory=dict)
-    backend: str = ""
-
-    @property
-    def mean_spp(self) -> np.ndarray:
-        """Mean samples per SSS pixel, per frame (frames,)."""
-        mask = self.counts[0] > 0
-        return self.counts[:, mask].mean(axis=1) if mask.any() else np.zeros(len(self.counts))
-
-
-def adaptive_frames(gbuffer, params_by_id, settings: AdaptiveSettings | None = None, frames: int = 16, *,
-                    burley=None, history=None, progress=None, on_frame=None,
-                    backend: str | None = None) -> AdaptiveFrames:
-    """``frames`` frames of the Burley pass on a static G-buffer, each with the counts of the
-    variance-guided sampler (Xie 2020 Sec. 4.1, Fig. 8's guiding phase): per frame f,
-
-        counts = sample_counts(history)                       (Eqs. 13-15, clamped to [b_min, b_max])
-        sss_f  = burley_sss(gbuffer, params, burley with frame = burley.frame + f, counts=counts)
-        history = update_history(history, shading_value(sss_f), counts)   (Eqs. 6, 8, 9; 16-17)
-
-    The camera does not move, so the history needs no reprojection. ``history``: the initial (H, W, 4)
-    history (default: none, so frame 0 takes the disocclusion initialisation of Eqs. 16-17);
-    ``burley``: :class:`~ssskit.screenspace.BurleySettings` (its ``spp`` is unused); ``on_frame(f, sss,
-    counts)`` is called after every frame with its blurred diffuse layer and counts. The counts are
-    chosen before a frame's samples are drawn, from earlier frames only, so each frame's estimate has
-    the expectation of the pass at its count: adapting counts adds no bias of its own.
-
-    ``backend``: where the guiding phase runs (a backend with the "adaptive" pass,
-    :mod:`ssskit.backends.adaptive_plan`; default: the Burley settings' backend). When it is the Burley
-    pass's backend, the history and counts stay with it between frames (on gl, on the device; read
-    back once per frame here, for the average and ``on_frame``).
-    """
-    from ..backends import BACKENDS, get_backend
-    from ..backends.plan import profile_ids
-    from .burley import BurleySettings, burley_backend, burley_plan_for
-    from .gbuffer import GBuffer
-
-    s = _settings(settings)
-    if not isinstance(gbuffer, GBuffer):
-        raise PassError(f"expected a GBuffer, got {type(gbuffer).__name__}")
-    b = BurleySettings() if burley is None else burley
-    if not isinstance(b, BurleySettings):
-        raise PassError(f"burley must be BurleySettings, got {type(b).__name__}")
-    frames = check_int("frames", frames, 1, 1_000_000)
-    if b.frame + frames - 1 > 2**31 - 1:
-        raise SettingsError(f"frames: {frames} frames from frame {b.frame} pass the last frame number 2^31 - 1")
-    hh, ww = gbuffer.shape
-    h = new_history(hh, ww) if history is None else check_history(history)
-    if h.shape[:2] != (hh, ww):
-        raise PassError(f"the history is {h.shape[1]}x{h.shape[0]} but the G-buffer is {ww}x{hh}")
-    name = b.backend if backend is None else backend
-    guide = get_backend(check_choice("backend", name, BACKENDS.names()))
-    if "adaptive" not in guide.passes:
-        from ..errors import BackendError
-
-        raise BackendError(f"backend {guide.name!r} has no adaptive guiding pass")
-    sampler = burley_backend(b.backend)
-    plan = as_plan(s)
-    if sampler is guide:
-        runner = guide.adaptive_runner(plan, h)
-    else:
-        from ..backends.base import AdaptiveRunner
-
-        runner = AdaptiveRunner(guide, plan, h, sampler=sampler)
-    ids = profile_ids(gbuffer.profile_id)
-    cam = gbuffer.camera
-    base_plan = burley_plan_for(params_by_id, ids, cam.fx, cam.fy, b)
-    slots = base_plan.slot_map(gbuffer.profile_id)
-    total = np.zeros((hh, ww, 3))
-    total_sq = np.zeros((hh, ww, 3))
-    counts_all = np.zeros((frames, hh, ww), np.int32)
-    out = None
-    try:
-        runner.load(gbuffer.diffuse, gbuffer.depth_mm, slots)
-        for f in range(frames):
-            if progress is not None:
-                progress(f"adaptive frame {f + 1}/{frames}")
-            counts = runner.counts()
-            runner.sample(dataclasses.replace(base_plan, frame=b.frame + f))
-            runner.update()
-            out = runner.result()
-            o = out.astype(np.float64)
-            total += o
-            total_sq += o * o
-            counts_all[f] = counts
-            if on_frame is not None:
-                on_frame(f, out, counts)
-        h = runner.history()
-    finally:
-        runner.release()
-    t = {k: list(v) for k, v in runner.times.items()}
-    zeros = [0.0] * frames
-    est = [t["estimate"][0]] + zeros[1:] if t["estimate"] else zeros
-    pre = t["prefilter"] or zeros
-    ms_pass = [a + c for a, c in zip(pre, t["sampling"])]
-    ms_update = [a + c for a, c in zip(est, t["update"])]
-    mean = total / frames
-    var = np.maximum(total_sq / frames - mean * mean, 0.0) * (frames / max(frames - 1, 1))
-    return AdaptiveFrames(settings=s, burley=b, mean=mean, stderr=np.sqrt(var / frames), last=out,
-                          counts=counts_all, history=h, ms_pass=ms_pass, ms_update=ms_update, phases=t,
-                          backend=guide.name)
-
-
 # ---- the circle scenario (Xie 2020 Sec. 4.1.3, Figs. 2 and 3) --------------------------------------------
 
 #: uniform irradiance inside the unit-square's inscribed circle: its mean over [0, 1)^2 is 1
@@ -454,7 +328,6 @@ def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150,
     return CircleRun(settings=s, disocclusion=disocclusion, **series)
 
 
-__all__ = ["AVAILABLE", "AdaptiveFrames", "AdaptiveSettings", "CIRCLE_IRRADIANCE", "CORRECTIONS", "CircleRun",
-           "HISTORY_CHANNELS", "LUMA_709", "MU", "N_BAR", "VAR", "adaptive_frames", "check_history", "circle_scenario",
-           "clamp_counts", "estimate_counts", "new_history", "reproject_history", "sample_counts", "shading_value",
-           "update_history"]
+__all__ = ["AVAILABLE", "AdaptiveSettings", "CIRCLE_IRRADIANCE", "CORRECTIONS", "CircleRun", "HISTORY_CHANNELS",
+           "LUMA_709", "MU", "N_BAR", "VAR", "check_history", "circle_scenario", "clamp_counts", "estimate_counts",
+           "new_history", "reproject_history", "sample_counts", "shading_value", "update_history"]

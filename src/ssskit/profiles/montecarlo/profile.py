@@ -83,7 +83,7 @@ def montecarlo_rgb(material: Material | LayeredMaterial, photons: int = 200_000,
     resume, restart, use_cache, batch_size, grid_fraction, roughness).
     """
     results = simulate_material(material, "all", photons=photons, seed=seed, **kwargs)
-    chans = tuple(results[ch].profile() for ch in CHANNELS)
+    chans = tuple(MonteCarloProfile(results[ch]) for ch in CHANNELS)
     return RGBProfile(chans, "montecarlo", material.name,  # type: ignore[arg-type]
                       {"material": material.to_dict(), "photons": photons, "seed": seed,
                        "grid_fraction": kwargs.get("grid_fraction"), "roughness": kwargs.get("roughness", 0.0)})

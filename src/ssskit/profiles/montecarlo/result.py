@@ -18,14 +18,11 @@ for a Lambertian exit and says how far the material's exit is from one (MCML's R
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from .config import N_EXIT_BINS, MCConfig
-
-if TYPE_CHECKING:
-    from .profile import MonteCarloProfile
 
 
 @dataclass
@@ -92,12 +89,6 @@ class MCResult:
     @property
     def photons_per_second(self) -> float:
         return self.photons / self.seconds if self.seconds > 0 else float("inf")
-
-    def profile(self) -> MonteCarloProfile:
-        """This result as a :class:`~ssskit.profiles.montecarlo.MonteCarloProfile`."""
-        from .profile import MonteCarloProfile
-
-        return MonteCarloProfile(self)
 
     def to_dict(self) -> dict[str, Any]:
         return {

@@ -1,26 +1,29 @@
 """Render one frame with the Burley Monte Carlo pass (Xie 2020 Sec. 4.2, 5) and compare it with ground
 truth, beside :func:`ssskit.pipeline.render` (the separable pass).
 
-    >>> from ssskit.pipeline.burley import render_burley
-    >>> from ssskit.screenspace import BurleySettings
-    >>> r = render_burley("slab", burley=BurleySettings(spp=64))             # doctest: +SKIP
+    >>> from ssskit.pipeline import BurleyPass, RenderSettings
+    >>> from ssskit.pipeline.burley_frame import render_burley
+    >>> r = render_burley("slab", RenderSettings(pass_=BurleyPass(spp=64)))  # doctest: +SKIP
     >>> r.metrics["exact_2d"]["psnr"]                                          # doctest: +SKIP
 
 The steps: material -> Burley profile (:func:`ssskit.profiles.burley_profile`: A from the dipole's
 total reflectance, d from the searchlight configuration of Eq. 5) -> per-id :class:`BurleyParams`
 -> G-buffer (a built-in scene rendered by Mitsuba, a G-buffer file, or a GBuffer) -> the Burley pass
-(``burley``: :class:`BurleySettings`) -> composite albedo * sss + specular -> ground truths.
+(``settings.pass_``, a :class:`~ssskit.pipeline.settings.BurleyPass`, with the tree's frame, seed and
+backend: :meth:`RenderSettings.burley_settings`) -> composite albedo * sss + specular -> ground truths
+(:func:`ssskit.pipeline.frame.ground_truths`, shared with the separable pass).
 
-``settings`` (:class:`RenderSettings`) supplies the material, the scene's size, G-buffer samples and
-seed, and which ground truths to compute; its kernel, taps and separable pass settings are unused.
-Every check (the scene, the material, the backend having the Burley pass) runs before any work.
+``settings`` (:class:`RenderSettings`) also supplies the material, the scene's size, G-buffer samples
+and seed, and which ground truths to compute. Every check (the scene, the material, the backend having
+the Burley pass) runs before any work.
 
 Ground truths:
 
 * ``exact``: :func:`burley_exact`, the limit of the pass on a fronto-parallel surface: the exact 2D
   convolution of the diffuse layer with R(r) under Eq. 24's boundary rule (samples off the region
   dropped from both sums), per profile id at its median depth;
-* ``reference``: the path-traced image, as for the separable pass.
+* ``reference``: the path-traced image, as for the separable pass (converged to ``reference_rel_se``
+  within ``reference_max_spp``).
 
 On curved scenes the pass's own converged reference is :func:`burley_reference` (the exact sampler
 at 4096 samples per pixel without mips, cached).
@@ -28,8 +31,7 @@ at 4096 samples per pixel without mips, cached).
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,13 +39,11 @@ from typing import Any
 import numpy as np
 
 from ..errors import SettingsError, SignalError
-from ..metrics import region_metrics
 from ..screenspace import BurleyParams, BurleySettings, GBuffer, burley_sss
 from ..screenspace.burley import burley_backend
-from .render import ImageLayers
-from .settings import RenderSettings
-
-Progress = Callable[[str], None]
+from .frame import (ImageLayers, Progress, ScenePlan, finite, frame_gbuffer, ground_truths, metric_lines, plan_scene,
+                    reference_line)
+from .settings import BurleyPass, RenderSettings
 
 
 def burley_exact(gbuffer: GBuffer, params_by_id) -> np.ndarray | None:
@@ -134,81 +134,69 @@ class BurleyResult(ImageLayers):
     image: np.ndarray  # composite albedo * sss + specular
     exact: np.ndarray | None = None
     reference: np.ndarray | None = None
+    reference_info: Any = None  # the path trace's ssskit.scenes.Reference (standard errors, spp, convergence)
     metrics: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
 
     def to_dict(self) -> dict[str, Any]:
         h, w = self.gbuffer.shape
-        return {"scene": self.scene, "method": "burley", "material": getattr(self.material, "name", str(self.material)),
+        return {"scene": self.scene, "pass": "burley", "material": getattr(self.material, "name", str(self.material)),
                 "size": [int(w), int(h)], "burley_params": {"albedo": list(self.params.albedo),
                                                             "d_mm": list(self.params.d_mm)},
                 "settings": self.settings.to_dict(), "burley": self.burley.to_dict(),
-                "metrics": _finite(self.metrics)}
+                "metrics": finite(self.metrics)}
+
+    def lines(self) -> list[str]:
+        """The human-readable summary ``ssskit render`` prints."""
+        b = self.burley
+        h, w = self.gbuffer.shape
+        out = [f"# {self.scene}: Burley d = {', '.join(f'{d:.3g}' for d in self.params.d_mm)} mm, {b.sampler} sampler, "
+               f"{b.spp} spp, {'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend"]
+        out += metric_lines(self.metrics)
+        if self.reference_info is not None:
+            out.append(reference_line(self.reference_info))
+        return out
 
 
-def _finite(value):
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    return value
-
-
-def plan_burley(scene, settings: RenderSettings, burley: BurleySettings, params: BurleyParams | None = None):
-    """Check everything :func:`render_burley` needs, doing no work; returns (render plan, params)."""
+def plan_burley(scene, settings: RenderSettings, params: BurleyParams | None = None) -> tuple[ScenePlan, BurleyParams]:
+    """Check everything :func:`render_burley` (or the adaptive run) needs, doing no work: the scene
+    (:func:`~ssskit.pipeline.frame.plan_scene`), the backend having the Burley pass, the parameters;
+    returns (scene plan, params): ``params``, the settings' own (``albedo`` and ``dmfp_mm``) or the
+    material's Burley profile."""
     from ..screenspace.burley import burley_params_for_material
-    from .render import plan_render
 
-    if not isinstance(burley, BurleySettings):
-        raise SettingsError(f"burley must be BurleySettings, got {type(burley).__name__}")
-    plan = plan_render(scene, settings)
-    burley_backend(burley.backend)
+    if not isinstance(settings, RenderSettings):
+        raise SettingsError(f"settings must be RenderSettings, got {type(settings).__name__}")
+    b = settings.burley_settings()  # a SettingsError when the settings run no Burley pass
+    plan = plan_scene(scene, settings)
+    burley_backend(b.backend)
     if params is not None:
         if not isinstance(params, BurleyParams):
             raise SettingsError(f"params must be BurleyParams, got {type(params).__name__}")
         return plan, params
+    given = settings.pass_.params()  # type: ignore[union-attr]
+    if given is not None:
+        return plan, given
     if not hasattr(plan.material, "eta"):
         raise SettingsError(f"the Burley pass needs a homogeneous material (its profile comes from the "
                             f"coefficients); {plan.material.name!r} is a {type(plan.material).__name__}")
-    params = burley_params_for_material(plan.material)
-    return plan, params
+    return plan, burley_params_for_material(plan.material)
 
 
 def render_burley(scene: str | Path | GBuffer = "slab", settings: RenderSettings | None = None,
-                  burley: BurleySettings | None = None, progress: Progress | None = None,
-                  params: BurleyParams | None = None) -> BurleyResult:
-    """Render ``scene`` with the Burley pass (module docstring): ``burley`` (default: ``settings.burley``);
-    ``params`` (every profile id) instead of the material's Burley profile; ``progress`` receives one
-    message per step."""
-    from ..scenes import render_gbuffer, render_reference
-
-    settings = RenderSettings() if settings is None else settings
-    burley = settings.burley if burley is None else burley
-    plan, params = plan_burley(scene, settings, burley, params)
+                  progress: Progress | None = None, params: BurleyParams | None = None) -> BurleyResult:
+    """Render ``scene`` with the Burley pass of ``settings`` (module docstring; default: the Burley pass
+    with its defaults); ``params`` (every profile id) instead of the settings' or the material's Burley
+    parameters; ``progress`` receives one message per step."""
+    settings = RenderSettings(pass_=BurleyPass()) if settings is None else settings
+    plan, params = plan_burley(scene, settings, params)
+    b = settings.burley_settings()
     say = progress or (lambda msg: None)
-    mat = plan.material
-    gb = plan.gbuffer
-    if gb is None:
-        say(f"rendering the {plan.builtin} G-buffer ({settings.width}x{settings.height}, {settings.spp} spp, "
-            "Mitsuba scalar_rgb)")
-        gb = render_gbuffer(plan.builtin, np.clip(params.albedo, 0.0, 1.0), eta=mat.eta, width=settings.width,
-                            height=settings.height, spp=settings.spp, seed=settings.seed, frame=burley.frame,
-                            material=mat.name)
-    say(f"Burley pass: {burley.sampler} sampler, {burley.spp} spp, {burley.backend} backend")
-    sss = burley_sss(gb, params, burley)
-    res = BurleyResult(plan.scene, settings, burley, mat, params, gb, sss, gb.composite(sss), source=plan.source)
-    mask = gb.mask
-    if settings.exact and mask.any():
-        say("exact 2D convolution (FFT)")
-        res.exact = burley_exact(gb, params)
-        if res.exact is not None:
-            res.metrics["exact_2d"] = region_metrics(gb.composite(res.exact), res.image, mask, settings.perceptual)
-    if settings.reference:
-        say(f"path tracing {plan.builtin} ({settings.reference_spp} spp, Mitsuba volpathmis; cached)")
-        res.reference = render_reference(plan.builtin, mat, width=gb.shape[1], height=gb.shape[0],
-                                         spp=settings.reference_spp, seed=settings.seed, frame=burley.frame,
-                                         progress=progress is not None)
-        res.metrics["path_traced"] = region_metrics(res.reference, res.image, mask, settings.perceptual)
+    gb = frame_gbuffer(plan, settings, params.albedo, say)
+    say(f"Burley pass: {b.sampler} sampler, {b.spp} spp, {b.backend} backend")
+    sss = burley_sss(gb, params, b)
+    res = BurleyResult(plan.label, settings, b, plan.material, params, gb, sss, gb.composite(sss), source=plan.source)
+    ground_truths(res, settings, plan, params.profile(), lambda: burley_exact(gb, params), say, progress is not None)
     return res
 
 

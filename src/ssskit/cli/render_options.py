@@ -1,0 +1,309 @@
+"""The options of ``ssskit render`` turned into one :class:`~ssskit.pipeline.settings.RenderSettings` tree,
+and the checks between options and outputs that only the command line has.
+
+:func:`build_settings` starts from the settings file (``--settings``; the defaults without one) and
+applies the options the user gave, each validated by the settings classes and named in the error: the
+top-level values (:data:`FIELDS`), the pass (``--pass``, or the file's), and the pass member's options
+(:data:`OWN` says which pass each option belongs to; an option of another pass is refused). The frame
+writer (:class:`FrameWriter`) writes an adaptive run's frames through the pipeline's callback.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import warnings
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from ..backends.burley_plan import XIE_C
+from ..errors import OutputError, SettingsError, SsskitError
+from ..pipeline.adaptive import AdaptiveFrame
+from ..pipeline.settings import PASSES, AdaptivePass, BurleyPass, RenderSettings, SeparablePass, SettingsMigrated
+from .options import IntPair, check_distinct, given, option_name
+
+#: click parameter -> the top-level settings field(s) it sets
+FIELDS: dict[str, tuple[str, ...]] = {
+    "material": ("material",),
+    "model": ("model",),
+    "photons": ("photons",),
+    "kernel_spec": ("kernel",),
+    "taps": ("taps",),
+    "tap_method": ("tap_method",),
+    "size": ("width", "height"),
+    "seed": ("seed",),
+    "frame": ("frame",),
+    "backend": ("backend",),
+    "reference": ("reference",),
+    "reference_spp": ("reference_spp",),
+    "reference_max_spp": ("reference_max_spp",),
+    "reference_rel_se": ("reference_rel_se",),
+    "no_exact": ("exact",),
+    "no_perceptual": ("perceptual",),
+}
+#: the options each pass owns: with another pass they are refused
+OWN: dict[str, tuple[str, ...]] = {
+    "separable": ("model", "photons", "kernel_spec", "taps", "tap_method", "jitter", "depth_mode"),
+    "burley": ("sampler", "c", "albedo", "dmfp", "no_mips"),
+    "burley-adaptive": ("frames", "sigma0", "kappa", "budget", "alpha", "correction", "static", "taa", "frames_dir",
+                        "limit_spp", "disocclusion_spp"),
+}
+#: the Burley sampler's options, which the adaptive run takes too
+SAMPLING = OWN["burley"]
+#: options that describe how a built-in scene's G-buffer is rendered: refused with a G-buffer file
+SCENE_ONLY = ("size", "spp")
+
+
+class Budget(IntPair):
+    """``B_MIN:B_MAX``: the adaptive sampler's samples per pixel and frame (two integers; the settings check
+    their range)."""
+
+    name = "B_MIN:B_MAX"
+
+
+class RGBFloats(click.ParamType):
+    """One number or three comma-separated numbers (R,G,B)."""
+
+    name = "V[,V,V]"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        try:
+            vals = tuple(float(v) for v in str(value).split(","))
+        except ValueError:
+            self.fail(f"{value!r} is not a number or three comma-separated numbers", param, ctx)
+        if len(vals) not in (1, 3):
+            self.fail(f"{value!r}: give one number or three (R,G,B)", param, ctx)
+        return vals if len(vals) == 3 else vals * 3
+
+
+def pass_of(ctx: click.Context, pass_name: str | None, method: str | None, base: RenderSettings | None) -> str:
+    """The pass to run: ``--pass``, or ``--method`` (its deprecated alias: says so once), or the settings
+    file's (``base``), or separable; and every option of another pass refused."""
+    if method is not None:
+        click.echo("ssskit: warning: --method is deprecated for render; use --pass (same values)", err=True)
+        if pass_name is not None and pass_name.lower() != method.lower():
+            raise SettingsError(f"--pass {pass_name} and --method {method} disagree; give --pass only")
+        pass_name = pass_name or method
+    name = PASSES.get(pass_name).name if pass_name is not None else (base.pass_name if base else "separable")
+    burley = name in ("burley", "burley-adaptive")
+    for other, options in OWN.items():
+        mine = other == name or (other == "burley" and burley)
+        for opt in () if mine else options:
+            if given(ctx, opt):
+                flag = "--taa/--no-taa" if opt == "taa" else option_name(ctx, opt)
+                target = "burley" if other == "burley" else other
+                raise SsskitError(f"{flag} applies to --pass {target}")
+    return name
+
+
+def load_settings(path: str) -> RenderSettings:
+    """The settings file, with a one-line warning on stderr if it is in the old layout (it still loads)."""
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always", SettingsMigrated)
+        s = RenderSettings.load(path)
+    for w in seen:
+        if issubclass(w.category, SettingsMigrated):
+            click.echo(f"ssskit: warning: --settings {path}: {str(w.message)}", err=True)
+    assert isinstance(s, RenderSettings)
+    return s
+
+
+def _apply(obj, flag: str, changes: dict[str, Any]):
+    try:
+        return obj.replace(**changes)
+    except SsskitError as exc:
+        raise SettingsError(f"{flag}: {exc}") from None
+
+
+def _member(base, name: str):
+    """The pass member to start from: the settings file's when it is this pass's; a Burley member's sampler
+    carried over to the other Burley pass; else the pass's defaults (the command line overrides the file)."""
+    cls = PASSES.get(name)
+    if isinstance(base, cls):
+        return base
+    if isinstance(base, (BurleyPass, AdaptivePass)) and cls in (BurleyPass, AdaptivePass):
+        shared = {f.name: getattr(base, f.name) for f in dataclasses.fields(BurleyPass) if f.name != "spp"}
+        return cls(**shared)
+    return cls()
+
+
+def _sigma0_sq(sigma0: float) -> float:
+    if not (math.isfinite(sigma0) and sigma0 > 0):
+        raise SettingsError(f"--sigma0: the target standard deviation sigma0 must be > 0, got {sigma0!r}")
+    if not (0 < sigma0 * sigma0 < math.inf):  # the history works with sigma0^2 (float64)
+        raise SettingsError(f"--sigma0: sigma0^2 must be a positive finite float64, but {sigma0!r}^2 "
+                            f"{'underflows to 0' if sigma0 < 1 else 'overflows'}; give sigma0 in [1e-150, 1e150]")
+    return sigma0 * sigma0
+
+
+def _pass_options(ctx: click.Context, member, params: dict):
+    """The pass member with the pass's options the user gave applied in a fixed order (the sampler with
+    its c, the budget before the counts inside it), each named in its error. A sampler other than xie
+    asked for on the command line drops the file's c (Eq. 21's constant belongs to the xie sampler)."""
+    def opt(name: str, field: str | None = None) -> tuple[str, dict[str, Any]] | None:
+        return (option_name(ctx, name), {field or name: params[name]}) if given(ctx, name) else None
+
+    steps: list[tuple[str, dict[str, Any]] | None] = [opt("c")]
+    if given(ctx, "sampler"):  # with c in one step: each is checked against the other as asked for
+        c = params["c"] if given(ctx, "c") else (None if str(params["sampler"]).lower() == "xie" else XIE_C)
+        steps[0] = ("--c" if given(ctx, "c") else "--sampler",
+                    {"sampler": params["sampler"], **({} if c is None else {"c": c})})
+    if given(ctx, "no_mips"):
+        steps.append(("--no-mips", {"mips": False}))
+    if given(ctx, "albedo") or given(ctx, "dmfp"):
+        if params["albedo"] is None or params["dmfp"] is None:
+            raise SsskitError("--albedo and --dmfp go together (Burley parameters from albedo and diffuse mean free "
+                              "path, Xie 2020 Eq. 5); give both or neither")
+        steps.append(("--albedo/--dmfp", {"albedo": params["albedo"], "dmfp_mm": params["dmfp"]}))
+    if isinstance(member, BurleyPass):
+        steps.append(opt("spp"))
+    steps += [opt("jitter"), opt("depth_mode")]
+    if given(ctx, "sigma0"):
+        steps.append(("--sigma0", {"sigma0_sq": _sigma0_sq(params["sigma0"])}))
+    steps.append(opt("kappa"))
+    if given(ctx, "budget"):
+        b_min, b_max = params["budget"]
+        steps.append(("--budget", {"b_min": b_min, "b_max": b_max}))
+    steps += [opt("alpha"), opt("correction"), opt("frames")]
+    if given(ctx, "taa"):
+        steps.append(("--taa/--no-taa", {"taa": params["taa"]}))
+    steps += [opt("static"), opt("disocclusion_spp"), opt("limit_spp")]
+    for step in steps:
+        if step is not None:
+            member = _apply(member, *step)
+    return member
+
+
+def build_settings(ctx: click.Context, base: RenderSettings | None, params: dict, pass_name: str) -> RenderSettings:
+    """RenderSettings from the settings file's (``base``; None: the defaults) with the options the user gave
+    applied, each validated and named in the error when wrong (module docstring)."""
+    s = RenderSettings() if base is None else base
+    member = _pass_options(ctx, _member(s.pass_, pass_name), params)
+    probe = s.replace(pass_=SeparablePass())  # the top-level values are checked one by one against it
+    top: dict[str, Any] = {}
+    for name, fields in FIELDS.items():
+        if not given(ctx, name):
+            continue
+        value = params[name]
+        values = tuple(value) if name == "size" else ((not value,) if name.startswith("no_") else (value,) * len(fields))
+        change = dict(zip(fields, values))
+        probe = _apply(probe, option_name(ctx, name), change)
+        top.update(change)
+    if pass_name == "separable" and given(ctx, "spp"):  # the G-buffer's; the Burley pass's is its member's
+        probe = _apply(probe, "--spp", {"spp": params["spp"]})
+        top["spp"] = params["spp"]
+    try:
+        s = s.replace(**top, pass_=member)
+    except SsskitError as exc:
+        raise SettingsError(str(exc)) from None
+    return _engine_taps(ctx, s) if pass_name == "separable" else s
+
+
+def _engine_taps(ctx: click.Context, s: RenderSettings) -> RenderSettings:
+    """An engine tap kernel (a method whose parameter is its tap count, e.g. jimenez2012) is built with
+    --taps taps (ssskit.pipeline.render); --kernel NAME:N and an explicit --taps must agree."""
+    from ..kernels import parse_method_spec
+
+    method, inline, _ = parse_method_spec(s.kernel)
+    if method.primary == "taps" and inline.get("taps", s.taps) != s.taps:
+        if given(ctx, "taps"):
+            raise SettingsError(f"--kernel {s.kernel} builds {inline['taps']} taps but --taps is {s.taps}; "
+                                "give the number of taps once")
+        s = _apply(s, "--kernel", {"taps": inline["taps"]})
+    return s
+
+
+def check_inputs(ctx: click.Context, scene, s: RenderSettings, settings_file, out, save_gbuffer, frames_dir) -> None:
+    """What only the command line can get wrong, before any work: options for a built-in scene given with
+    a G-buffer file; the adaptive run's options of one kind of run given to the other; outputs that are
+    inputs, or each other, or the frames --frames-dir writes."""
+    gbuffer_file = isinstance(scene, Path)
+    name = s.pass_name
+    for opt in (SCENE_ONLY if name == "separable" else ("size",)) if gbuffer_file else ():
+        if given(ctx, opt):
+            raise SsskitError(f"{option_name(ctx, opt)} applies to a built-in scene; the G-buffer file "
+                              f"{str(scene)!r} has its own")
+    if name == "burley-adaptive":
+        _check_adaptive(ctx, s, gbuffer_file, save_gbuffer)
+    if gbuffer_file and s.reference:
+        raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
+    material_file = Path(s.material) if Path(s.material).is_file() else None
+    check_distinct({"--out": out, "--save-gbuffer": save_gbuffer},
+                   {"--scene": scene if gbuffer_file else None, "--settings": settings_file, "--material": material_file})
+    _check_frames_dir(frames_dir, {"--out": out, "--save-gbuffer": save_gbuffer})
+
+
+def _check_adaptive(ctx: click.Context, s: RenderSettings, gbuffer_file: bool, save_gbuffer) -> None:
+    p = s.pass_
+    assert isinstance(p, AdaptivePass)
+    if given(ctx, "spp"):
+        raise SsskitError("--spp: the adaptive pass chooses its samples per pixel; give --budget B_MIN:B_MAX")
+    if p.static or gbuffer_file:
+        if given(ctx, "disocclusion_spp"):
+            raise SsskitError("--disocclusion-spp applies to a moving camera (a static run has no new pixels)")
+        if given(ctx, "limit_spp"):
+            raise SsskitError("--limit-spp applies to a moving camera; a static run compares with the exact limit "
+                              "(burley_exact)")
+        return
+    if save_gbuffer:
+        raise SsskitError("--save-gbuffer applies to one frame; add --static")
+    if s.reference:
+        raise SsskitError("--reference applies to one frame; add --static (a moving sequence compares each frame "
+                          "with its converged Burley reference)")
+    for name in ("reference_spp", "reference_max_spp", "reference_rel_se", "no_exact"):  # else silently unused
+        if given(ctx, name):
+            raise SsskitError(f"{option_name(ctx, name)} applies to one frame; add --static (a moving sequence "
+                              "compares each frame with its converged Burley reference of --limit-spp spp)")
+
+
+#: the files :class:`FrameWriter` writes into --frames-dir
+FRAME_FILE = re.compile(r"(frame_\d{4,}(_taa)?|counts_\d{4,})\.png")
+
+
+def _check_frames_dir(frames_dir, outputs: dict) -> None:
+    """No other output (``{option: path}``, None skipped) may be the --frames-dir folder or one of the
+    frame files written into it (``frame_NNNN.png``, ``frame_NNNN_taa.png``, ``counts_NNNN.png``)."""
+    if frames_dir is None:
+        return
+    folder = Path(frames_dir).resolve()
+    for opt, path in outputs.items():
+        if path is None:
+            continue
+        p = Path(path).resolve()
+        if p == folder:
+            raise OutputError(f"--frames-dir {str(frames_dir)!r} is also the {opt} file; choose another folder")
+        if p.parent == folder and FRAME_FILE.fullmatch(p.name):
+            raise OutputError(f"{opt} {str(path)!r} is one of the frame files --frames-dir writes; choose another "
+                              "name or folder")
+
+
+class FrameWriter:
+    """Writes an adaptive run's frames into ``folder``: ``frame_NNNN.png`` (the pass's composite),
+    ``frame_NNNN_taa.png`` (after TAA) and ``counts_NNNN.png`` (sample-count heatmap, colour bar 0..b_max),
+    tone-mapped with the sequence's one peak (:class:`~ssskit.pipeline.adaptive.AdaptiveFrame`)."""
+
+    def __init__(self, folder: str | Path) -> None:
+        self.folder = Path(folder)
+        self.folder.mkdir(parents=True, exist_ok=True)
+
+    def __call__(self, frame: AdaptiveFrame) -> None:
+        from ..figures.sequence import save_frame_png, save_heatmap_png
+
+        n = frame.number
+        save_frame_png(self.folder / f"frame_{n:04d}.png", frame.image, frame.peak)
+        if frame.image_taa is not None:
+            save_frame_png(self.folder / f"frame_{n:04d}_taa.png", frame.image_taa, frame.peak)
+        mask = frame.counts > 0
+        mean = float(frame.counts[mask].mean()) if mask.any() else 0.0
+        save_heatmap_png(self.folder / f"counts_{n:04d}.png", np.asarray(frame.counts), frame.b_max,
+                         f"adaptive frame {n}: mean {mean:.1f} spp")
+
+
+__all__ = ["FIELDS", "FRAME_FILE", "OWN", "Budget", "FrameWriter", "RGBFloats", "build_settings", "check_inputs",
+           "load_settings", "pass_of"]

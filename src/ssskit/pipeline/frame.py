@@ -1,0 +1,218 @@
+"""What every rendered frame shares, whichever pass made it: the scene's plan (checked before any work), its
+G-buffer, the ground truths and their metrics, and the image layers a result writes.
+
+* :func:`plan_scene` resolves the material, the backend and the scene (a built-in scene name, a G-buffer
+  ``.exr`` file or a :class:`~ssskit.screenspace.GBuffer` in memory) and checks them against the
+  settings, doing no work (module docstring of :mod:`ssskit.pipeline.render` lists the checks);
+* :func:`frame_gbuffer` renders a built-in scene's G-buffer (Mitsuba ``scalar_rgb``) at the settings'
+  size, samples, seed and frame, or returns the G-buffer given;
+* :func:`ground_truths` adds to a result the exact 2D convolution (the pass's own, given as a function)
+  and the volumetric path-traced reference (:func:`ssskit.scenes.render_reference`, rendered until the
+  SSS mask's mean has a relative standard error of at most ``reference_rel_se`` or ``reference_max_spp``
+  is spent), their metrics inside the SSS mask (:func:`ssskit.metrics.region_metrics`), and the level
+  per region (:func:`ssskit.pipeline.regions.compare_regions`);
+* :class:`ImageLayers`: what a result writes (its image with the extra EXR layers).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from ..backends import get_backend
+from ..errors import SceneError, SettingsError
+from ..io import check_distinct, save_image
+from ..materials import get_material
+from ..metrics import region_metrics
+from ..scenes import SCENES, reference_phase_g, render_gbuffer, render_reference
+from ..scenes.scenes import mitsuba
+from ..screenspace import GBuffer, load_gbuffer
+from .regions import compare_regions
+from .settings import RenderSettings
+
+Progress = Callable[[str], None]
+
+
+class ImageLayers:
+    """What a rendered result writes: its ``image`` with the extra EXR layers (shared by the separable
+    and the Burley results; they hold ``gbuffer``, ``sss``, ``image``, ``exact``, ``reference``, ``source``)."""
+
+    gbuffer: GBuffer
+    sss: np.ndarray
+    image: np.ndarray
+    exact: np.ndarray | None
+    reference: np.ndarray | None
+    source: Path | None
+
+    def layers(self) -> dict[str, np.ndarray]:
+        """The extra EXR layers of :meth:`save`: ``sss``, ``diffuse``, and ``exact`` (composited) and
+        ``reference`` when computed."""
+        out = {"sss": self.sss, "diffuse": self.gbuffer.diffuse}
+        if self.exact is not None:
+            out["exact"] = self.gbuffer.composite(self.exact)
+        if self.reference is not None:
+            out["reference"] = self.reference
+        return out
+
+    def save(self, path: str | Path) -> None:
+        """Write the image: ``.exr`` (linear, with :meth:`layers`) or ``.png`` (tone-mapped); never over
+        the G-buffer file it was rendered from."""
+        check_distinct(path, self.source, what="output image")
+        save_image(path, self.image, self.layers(), what="output image")
+
+
+class TruthResult(Protocol):
+    """What :func:`ground_truths` fills in: a result's G-buffer, image and blurred diffuse layer, its ground
+    truths and metrics."""
+
+    gbuffer: GBuffer
+    sss: np.ndarray
+    image: np.ndarray
+    exact: np.ndarray | None
+    reference: np.ndarray | None
+    reference_info: Any
+    metrics: dict[str, Any]
+
+
+def metric_lines(metrics: dict[str, Any], prefix: str = "vs ", width: int = 12) -> list[str]:
+    """One line per ground truth (``exact_2d``, ``path_traced``...): its float metrics; the per-region table
+    is left to :func:`ssskit.pipeline.regions.format_regions`."""
+    return [f"{prefix}{against:{width}s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float))
+            for against, m in metrics.items() if against != "regions"]
+
+
+def reference_line(ref) -> str:
+    """The path-traced reference's convergence (:class:`ssskit.scenes.Reference`) in one line."""
+    return (f"# reference: {ref.spp} spp, relative standard error of the SSS mask's mean "
+            + ", ".join(f"{v:.2%}" for v in ref.rel_se) + f" (target {ref.target_rel_se:.1%}, budget "
+            f"{ref.max_spp} spp: {'converged' if ref.converged else 'budget spent, not converged'})")
+
+
+def finite(value: Any) -> Any:
+    """``value`` with every non-finite float (e.g. the PSNR of an exact match) replaced by None, through
+    dicts, lists and tuples: JSON-ready."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [finite(v) for v in value]
+    return value
+
+
+@dataclass(frozen=True)
+class ScenePlan:
+    """What a frame renders, resolved and checked before any work: the ``material``, the scene's
+    ``label``, a built-in scene's canonical name (``builtin``) or the ``gbuffer`` given or read from the
+    file ``source``."""
+
+    material: Any
+    label: str
+    builtin: str | None
+    gbuffer: GBuffer | None
+    source: Path | None
+
+
+def _scene(scene, settings: RenderSettings, material) -> tuple[str, str | None, GBuffer | None, Path | None]:
+    if isinstance(scene, GBuffer):
+        if settings.reference:
+            raise SettingsError("reference needs a built-in scene (a G-buffer in memory has no scene to path-trace)")
+        return str(scene.meta.get("scene", "G-buffer")), None, scene, None
+    if not isinstance(scene, (str, os.PathLike)):
+        raise SceneError(f"scene must be a built-in scene name, a G-buffer .exr file or a GBuffer, "
+                         f"got {type(scene).__name__}")
+    text = os.fspath(scene)
+    if text.strip().lower().endswith(".exr"):
+        if settings.reference:
+            raise SettingsError("reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
+        path = Path(text)
+        return path.name, None, load_gbuffer(path), path
+    if text not in SCENES and (Path(text).suffix or os.sep in text or Path(text).exists()):
+        raise SceneError(f"scene {text!r} is neither a built-in scene ({', '.join(SCENES.names())}) "
+                         "nor a G-buffer .exr file")
+    spec = SCENES.get(text)  # an unknown name fails here with the list of scenes
+    if not hasattr(material, "eta"):
+        raise SettingsError(f"a built-in scene needs a homogeneous material (its eta makes the boundary); "
+                            f"{material.name!r} is a {type(material).__name__}")
+    if settings.reference:
+        reference_phase_g(material)
+    mitsuba()  # the renderer must be importable
+    return spec.name, spec.name, None, None
+
+
+def _default_size() -> tuple[int, int]:
+    d = RenderSettings()
+    return d.width, d.height
+
+
+def plan_scene(scene, settings: RenderSettings) -> ScenePlan:
+    """Resolve and check the material, the backend and the scene of a frame, doing no work; reads a
+    G-buffer file. A G-buffer keeps its own size: a ``width`` x ``height`` that differs from the default
+    and from the G-buffer's is an error. Raises the first problem as an :class:`~ssskit.errors.SsskitError`."""
+    if not isinstance(settings, RenderSettings):
+        raise SettingsError(f"settings must be RenderSettings, got {type(settings).__name__}")
+    material = get_material(settings.material)
+    get_backend(settings.backend)
+    label, builtin, gb, source = _scene(scene, settings, material)
+    if gb is not None:
+        h, w = gb.shape
+        size = (settings.width, settings.height)
+        if size not in (_default_size(), (w, h)):
+            raise SettingsError(f"the image size {size[0]}x{size[1]} (--size) does not apply to a G-buffer file: "
+                                f"{label} is {w}x{h} and keeps its size")
+    return ScenePlan(material, label, builtin, gb, source)
+
+
+def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo, say: Progress) -> GBuffer:
+    """The frame's G-buffer: the one given, or the built-in scene rendered by Mitsuba with ``albedo``
+    (per channel, clipped to [0, 1]) at the settings' size, samples, seed and frame."""
+    if plan.gbuffer is not None:
+        return plan.gbuffer
+    say(f"rendering the {plan.builtin} G-buffer ({settings.width}x{settings.height}, {settings.spp} spp, "
+        "Mitsuba scalar_rgb)")
+    mat = plan.material
+    return render_gbuffer(plan.builtin, np.clip(albedo, 0.0, 1.0), eta=mat.eta, width=settings.width,
+                          height=settings.height, spp=settings.spp, seed=settings.seed, frame=settings.frame,
+                          material=mat.name)
+
+
+def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, profile,
+                  exact: Callable[[], np.ndarray | None], say: Progress, progress: bool) -> None:
+    """Add the ground truths to ``res`` (module docstring): ``exact()`` (the pass's exact limit, blurred
+    diffuse layer or None) when ``settings.exact``, the path-traced reference when ``settings.reference``,
+    their metrics inside the SSS mask, and with either the levels per region of ``profile`` (a radial
+    profile: its reach sizes the regions). ``progress``: show the path tracer's progress bar."""
+    gb = res.gbuffer
+    mask = gb.mask
+    if settings.exact and mask.any():
+        say("exact 2D convolution (FFT)")
+        res.exact = exact()
+        if res.exact is not None:
+            res.metrics["exact_2d"] = region_metrics(gb.composite(res.exact), res.image, mask, settings.perceptual)
+    if settings.reference:
+        say(f"path tracing {plan.builtin} (Mitsuba volpathmis, {settings.reference_spp} to {settings.reference_max_spp} "
+            f"spp until the SSS mask's relative standard error is {settings.reference_rel_se:.1%}; cached)")
+        ref = render_reference(plan.builtin, plan.material, width=gb.shape[1], height=gb.shape[0],
+                               spp=settings.reference_spp, max_spp=settings.reference_max_spp,
+                               target_rel_se=settings.reference_rel_se, region=mask if mask.any() else None,
+                               seed=settings.seed, frame=settings.frame, progress=progress)
+        res.reference = ref.image
+        res.reference_info = ref
+        m = region_metrics(res.reference, res.image, mask, settings.perceptual)
+        m["mean_ratio_in_mask"] = ((res.image[mask].mean(axis=0) / np.maximum(res.reference[mask].mean(axis=0), 1e-12))
+                                   .tolist() if mask.any() else None)
+        m["pixels_with_surface"] = int(np.isfinite(gb.depth).sum())
+        m["reference"] = ref.summary()
+        res.metrics["path_traced"] = m
+    if (settings.reference or res.exact is not None) and mask.any():
+        res.metrics["regions"] = compare_regions(gb, profile, res.sss, res.exact, res.reference_info)
+
+
+__all__ = ["ImageLayers", "ScenePlan", "finite", "frame_gbuffer", "ground_truths", "metric_lines", "plan_scene",
+           "reference_line"]
