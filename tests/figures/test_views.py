@@ -41,6 +41,9 @@ def test_three_view_study_table():
         for m in STUDY_METHODS:
             r = rows[(view, m)]
             assert math.isfinite(r["psnr_gray"]) and r["psnr_gray"] > 20 and r["ms"] > 0
+            assert (r["psnr_gray_taa"] is None) == (m == "separable")
+        taa = rows[(view, "golubev-64")]["psnr_gray_taa"] - rows[(view, "eq21-64")]["psnr_gray_taa"]
+        assert js["golubev_minus_eq21_taa"][view] == pytest.approx(taa, abs=1e-12)
         # the converged limit is less noisy than any method at its count: its two seeds agree better
         assert js["limit"][view]["psnr_gray_second_seed"] > max(rows[(view, m)]["psnr_gray"] for m in STUDY_METHODS)
         counts = study["images"][view]["adaptive"]["counts"]

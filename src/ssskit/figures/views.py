@@ -6,16 +6,19 @@ A the dipole's total reflectance, d from Eq. 5's searchlight configuration):
 
 * ``adaptive``: the Burley pass with Xie's variance-guided counts (sigma0^2 = 1e-3, kappa = 0.2,
   8-64 spp: Fig. 1(a)), Eq. 21's sampler with the prefiltered irradiance (Eqs. 22-23), ``frames``
-  frames of a still camera; the last frame is measured, its counts are the heatmap;
+  frames of a still camera through :func:`ssskit.screenspace.run_frames`; the last frame is measured,
+  its counts are the heatmap (the fixed-count runs go through the same loop);
 * ``eq21-64``: the same pass at a fixed 64 spp (Fig. 1(c)'s count; Eq. 21's sampler);
 * ``golubev-64``: Golubev 2018's sampler in the same pass at 64 spp (Fig. 1(b), Sec. 6.4: exact inverse
   CDF, stratified radii, golden-angle rotation, the count capped by the footprint);
 * ``separable``: the separable pass with the ``burley_fit`` kernel (Fig. 1(d); Xie 2020 appendix A.1).
 
-Each is compared with the pass's converged limit (:func:`ssskit.pipeline.burley.burley_reference`:
+Each is compared with the pass's converged limit (:func:`ssskit.pipeline.burley_frame.burley_reference`:
 the exact sampler at ``reference_spp`` spp without mips, Xie's "reference image at 2k samples per
-pixel"), as gray-scale PSNR of the composited image inside the SSS mask (Xie 2020 Sec. 6 reports
-gray PSNR), and optionally with the path-traced reference of the same bust per region
+pixel"), as gray-scale PSNR of the composited image inside the SSS mask on the display's scale
+(:func:`ssskit.metrics.display_psnr`; Xie 2020 Sec. 6 reports gray PSNR) of the last frame, and for
+the Burley methods also after the frame loop's TAA (:class:`~ssskit.screenspace.taa.TAASettings`
+defaults; Xie's images went through UE4's TAA), and optionally with the path-traced reference of the same bust per region
 (:func:`ssskit.pipeline.regions.compare_regions`: lit plateau, shadow edge, terminator, silhouette).
 Xie's Sec. 6.4 numbers, PSNR(Golubev) - PSNR(Eq. 21) = 2.09 / 0.29 / 0.26 dB in the close, ear and
 front views (:data:`XIE_GOLUBEV_MINUS_EQ21`), stand beside ours. Every method's time per frame is
@@ -118,12 +121,6 @@ def golubev_counts(gbuffer, params, spp: int = FIXED_SPP) -> np.ndarray:
     return out
 
 
-def _gray_psnr(reference: np.ndarray, test: np.ndarray, mask: np.ndarray) -> float:
-    from .burley import _gray_psnr as gray
-
-    return float(gray(reference, test, mask))
-
-
 def _timed(fn: Callable[[], Any], repeats: int) -> tuple[Any, float]:
     """(the last result, the median wall time in ms of ``repeats`` calls after one warm-up call)."""
     out = fn()
@@ -135,35 +132,36 @@ def _timed(fn: Callable[[], Any], repeats: int) -> tuple[Any, float]:
     return out, float(np.median(times))
 
 
-def _methods(sc: StudyScene, backend: str, frames: int, repeats: int) -> dict[str, dict[str, Any]]:
-    """Each method's blurred diffuse layer, counts and ms per frame on ``backend``."""
-    from ..screenspace import AdaptiveSettings, BurleySettings, PassSettings, burley_sss, separable_sss
-    from ..screenspace.adaptive import adaptive_frames
+def _methods(sc: StudyScene, backend: str, frames: int, repeats: int, limit_sss: np.ndarray | None = None,
+             taa: bool = True) -> dict[str, dict[str, Any]]:
+    """Each method's blurred diffuse layer, counts and ms per frame on ``backend``; with ``limit_sss`` (the
+    converged limit's blurred diffuse layer) the Burley methods' last-frame gray PSNR before and after TAA
+    (:func:`ssskit.metrics.display_psnr`, through the frame loop)."""
+    from ..screenspace import AdaptiveSettings, BurleySettings, PassSettings, run_frames, separable_sss
+    from ..screenspace.taa import TAASettings
 
     gb, params = sc.gbuffer, sc.params
     out: dict[str, dict[str, Any]] = {}
     burley = BurleySettings(sampler="xie", mips=True, backend=backend)
-    run = adaptive_frames(gb, params, AdaptiveSettings(sigma0_sq=1e-3, kappa=0.2, b_min=8, b_max=64), frames,
-                          burley=burley)
+    still = [gb] * frames  # the same G-buffer object: a still camera
+    refs = None if limit_sss is None else [limit_sss] * frames
     skip = min(2, frames - 1)  # the first frames compile and warm the caches
-    ms = np.add(run.ms_pass, run.ms_update)[skip:]
-    out["adaptive"] = {"sss": run.last, "counts": run.counts[-1].astype(np.int64), "ms": float(np.median(ms))}
-    for name, sampler in (("eq21-64", "xie"), ("golubev-64", "golubev")):
-        fixed = burley.replace(sampler=sampler, spp=FIXED_SPP)
-
-        def one(fixed: Any = fixed) -> np.ndarray:
-            return burley_sss(gb, params, fixed)
-
-        sss, t = _timed(one, repeats)
-        counts = (golubev_counts(gb, params) if sampler == "golubev"
-                  else np.where(gb.mask, FIXED_SPP, 0).astype(np.int64))
-        out[name] = {"sss": sss, "counts": counts, "ms": t}
+    runs: dict[str, dict[str, Any]] = {"adaptive": dict(burley=burley, adaptive=AdaptiveSettings(sigma0_sq=1e-3, kappa=0.2, b_min=8, b_max=64)),
+            "eq21-64": dict(burley=burley, spp=FIXED_SPP),
+            "golubev-64": dict(burley=burley.replace(sampler="golubev"), spp=FIXED_SPP)}
+    for name, kw in runs.items():
+        run = run_frames(still, params, references=refs, taa=TAASettings() if taa else None, keep_counts=True, **kw)
+        counts = run.counts[-1].astype(np.int64) if run.counts is not None else np.zeros(gb.shape, np.int64)
+        if name == "golubev-64":  # the footprint caps the count (the plan's step 2)
+            counts = golubev_counts(gb, params)
+        out[name] = {"sss": run.last_sss, "counts": counts, "ms": float(np.median(run.ms_frame[skip:])),
+                     "psnr_gray": run.psnr_gray[-1], "psnr_gray_taa": run.psnr_gray_taa[-1]}
     sep, t = _timed(lambda: separable_sss(gb, sc.taps, PassSettings(backend=backend)), repeats)
     # a separable pixel reads 2 x taps texels per term (horizontal and vertical passes)
     reads = np.zeros(len(sc.taps) + 1, np.int64)
     for pid, tp in sc.taps.items():
         reads[pid] = 2 * tp.taps * tp.rank
-    out["separable"] = {"sss": sep, "counts": reads[gb.profile_id], "ms": t}
+    out["separable"] = {"sss": sep, "counts": reads[gb.profile_id], "ms": t, "psnr_gray": None, "psnr_gray_taa": None}
     return out
 
 
@@ -186,7 +184,8 @@ def three_view_study(material: str = "skin1", views: Sequence[str] = tuple(STUDY
     ``path_traced_size``: the reference's image size (default: the study's); the G-buffer is then
     rendered again at that size for the region comparison.
     """
-    from ..pipeline.burley import burley_reference
+    from ..metrics import display_psnr
+    from ..pipeline.burley_frame import burley_reference
 
     say = progress or (lambda msg: None)
     if not backends:
@@ -194,7 +193,8 @@ def three_view_study(material: str = "skin1", views: Sequence[str] = tuple(STUDY
     opts: dict[str, Any] = {"scene": scene, "units": units, "material_map": material_map}
     rows: list[dict[str, Any]] = []
     diff: dict[str, float] = {}
-    limits: dict[str, dict[str, float]] = {}
+    diff_taa: dict[str, float] = {}
+    limits: dict[str, dict[str, Any]] = {}
     regions: dict[str, dict[str, Any]] = {}
     images: dict[str, dict[str, Any]] = {}
     names: tuple[str, ...] = ()
@@ -204,24 +204,26 @@ def three_view_study(material: str = "skin1", views: Sequence[str] = tuple(STUDY
         gb, mask = sc.gbuffer, sc.gbuffer.mask
         names = tuple(m.name for m in sc.materials)
         say(f"xie-fig1: {view} view, converged limit ({reference_spp} spp, seeds 0 and 1; cached)")
-        limit = gb.composite(burley_reference(gb, sc.params, spp=reference_spp, backend=backends[0]))
+        limit_sss = burley_reference(gb, sc.params, spp=reference_spp, backend=backends[0])
+        limit = gb.composite(limit_sss)
         limit2 = gb.composite(burley_reference(gb, sc.params, spp=reference_spp, seed=1, backend=backends[0]))
-        limits[view] = {"psnr_gray_second_seed": _gray_psnr(limit, limit2, mask), "spp": int(reference_spp),
+        limits[view] = {"psnr_gray_second_seed": display_psnr(limit, limit2, mask), "spp": int(reference_spp),
                         "sss_pixels": int(mask.sum())}
         images[view] = {"limit": limit, "mask": mask}
         for b in backends:
-            say(f"xie-fig1: {view} view, four methods on {b} ({frames} adaptive frames)")
-            res = _methods(sc, b, frames, repeats)
+            say(f"xie-fig1: {view} view, four methods on {b} ({frames} frames each)")
+            res = _methods(sc, b, frames, repeats, limit_sss)
             for name in STUDY_METHODS:
                 r = res[name]
                 img = gb.composite(r["sss"])
                 rows.append({"view": view, "method": name, "backend": b,
-                             "psnr_gray": _gray_psnr(limit, img, mask),
+                             "psnr_gray": display_psnr(limit, img, mask), "psnr_gray_taa": r["psnr_gray_taa"],
                              "mean_spp": float(r["counts"][mask].mean()) if mask.any() else 0.0, "ms": r["ms"]})
                 if b == backends[0]:
                     images[view][name] = {"image": img, "counts": r["counts"], "sss": r["sss"]}
-        first = {r["method"]: r["psnr_gray"] for r in rows if r["view"] == view and r["backend"] == backends[0]}
-        diff[view] = first["golubev-64"] - first["eq21-64"]
+        first = {r["method"]: r for r in rows if r["view"] == view and r["backend"] == backends[0]}
+        diff[view] = first["golubev-64"]["psnr_gray"] - first["eq21-64"]["psnr_gray"]
+        diff_taa[view] = first["golubev-64"]["psnr_gray_taa"] - first["eq21-64"]["psnr_gray_taa"]
         if path_traced:
             pw, ph = path_traced_size or (width, height)
             psc = sc if (pw, ph) == (width, height) else study_gbuffer(view, material, pw, ph, gbuffer_spp, **opts)
@@ -229,6 +231,7 @@ def three_view_study(material: str = "skin1", views: Sequence[str] = tuple(STUDY
     return {"scene": str(scene), "material": names[0] if len(names) == 1 else list(names),
             "size": [int(width), int(height)], "frames": int(frames), "backends": list(backends),
             "reference_spp": int(reference_spp), "rows": rows, "golubev_minus_eq21": diff,
+            "golubev_minus_eq21_taa": diff_taa,
             "xie": dict(XIE_GOLUBEV_MINUS_EQ21), "limit": limits, "regions": regions, "images": images}
 
 
@@ -246,7 +249,7 @@ def _path_traced_regions(sc: StudyScene, backend: str, frames: int, spp: tuple[i
     mats = list(sc.materials) if len(sc.materials) > 1 else sc.materials[0]
     ref = render_reference(sc.spec, mats, width=w, height=h, spp=spp[0], max_spp=spp[1], target_rel_se=rel_se,
                            region=gb.mask, progress=True)
-    res = _methods(sc, backend, frames, repeats=1)
+    res = _methods(sc, backend, frames, repeats=1, taa=False)
     regions: dict[str, Any] = {}
     for name in STUDY_METHODS:
         for region, row in compare_regions(gb, sc.profile, res[name]["sss"], None, ref)["regions"].items():
@@ -282,7 +285,8 @@ def plot_study(study: dict[str, Any], path: Path) -> Path:
             row = next(x for x in study["rows"] if x["view"] == view and x["method"] == name and x["backend"] == first)
             ax = axes[r, c]
             ax.imshow(tonemap(im[name]["image"], peak))
-            ax.set_title(f"{view}: {name}\n{row['psnr_gray']:.1f} dB, {row['ms']:.1f} ms ({first})", fontsize=7)
+            taa = "" if row["psnr_gray_taa"] is None else f" (TAA {row['psnr_gray_taa']:.1f})"
+            ax.set_title(f"{view}: {name}\n{row['psnr_gray']:.1f} dB{taa}, {row['ms']:.0f} ms ({first})", fontsize=7)
             ax.axis("off")
         axes[r, ncol - 2].imshow(tonemap(im["limit"], peak))
         axes[r, ncol - 2].set_title(f"converged limit ({study['reference_spp']} spp)", fontsize=7)
