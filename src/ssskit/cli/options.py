@@ -330,16 +330,22 @@ def scene_mesh_options(view: bool = True) -> Callable:
 
 
 def resolve_scene_value(scene, units=(), material_map: str | None = None, view: str | None = None,
-                        width: int = 256, height: int = 192):
-    """The ``--scene`` value resolved (:func:`ssskit.scenes.resolve_scene`) and checked before any work; what
-    it assumed (units, the model's size) goes to stderr."""
+                        width: int = 256, height: int = 192, say: bool = True):
+    """The ``--scene`` value resolved (:func:`ssskit.scenes.resolve_scene`) and checked before any work; with
+    ``say``, what it assumed (units, the model's size) goes to stderr (:func:`say_notes`)."""
     from ..scenes import resolve_scene
 
     resolved = resolve_scene(scene, units=list(units) or None, material_map=material_map, view=view, width=width,
                              height=height)
-    for note in resolved.notes:
-        click.echo(f"ssskit: {note}", err=True)
+    if say:
+        say_notes(resolved.notes)
     return resolved
+
+
+def say_notes(notes) -> None:
+    """What resolving a scene assumed, one ``ssskit: ...`` line each on stderr."""
+    for note in notes:
+        click.echo(f"ssskit: {note}", err=True)
 
 
 def _opt(param, fallback: str) -> str:

@@ -200,7 +200,7 @@ def _writer(on_frame: FrameCallback | None, peak: float, b_max: int):
     return lambda fr: on_frame(AdaptiveFrame(fr.number, fr.image, fr.image_taa, fr.counts, peak, b_max))
 
 
-def plan_adaptive(scene, settings: RenderSettings, params: BurleyParams | None = None):
+def plan_adaptive(scene, settings: RenderSettings, params=None):
     """Check what :func:`render_adaptive` needs, doing no work (the scene, the material, the backend, the
     moving run's limits); returns (scene plan, params, static)."""
     p = settings.pass_
@@ -210,8 +210,8 @@ def plan_adaptive(scene, settings: RenderSettings, params: BurleyParams | None =
     plan, params = plan_burley(scene, settings, params)
     static = p.static or plan.builtin is None
     if static and p.limit_spp is not None:
-        raise SettingsError("limit_spp applies to a moving camera; a static run (a G-buffer is always static) "
-                            "compares with the pass's exact limit")
+        raise SettingsError("limit_spp applies to a moving camera; a static run (a G-buffer or a mesh scene is "
+                            "always static) compares with the pass's exact limit")
     if static and p.disocclusion_spp is not None:
         raise SettingsError("disocclusion_spp applies to a moving camera (a static run has no new pixels)")
     if settings.frame + p.frames - 1 > 2**31 - 1:
@@ -231,7 +231,7 @@ def plan_adaptive(scene, settings: RenderSettings, params: BurleyParams | None =
 
 
 def render_adaptive(scene="slab", settings: RenderSettings | None = None, *, progress: Progress | None = None,
-                    params: BurleyParams | None = None, on_frame: FrameCallback | None = None) -> AdaptiveResult:
+                    params=None, on_frame: FrameCallback | None = None) -> AdaptiveResult:
     """Run the adaptive pass of ``settings`` on ``scene`` (module docstring): static or moving, the fixed
     b_max comparison, every frame to ``on_frame``; ``params`` (every profile id) instead of the settings'
     or the material's Burley parameters."""
