@@ -299,7 +299,7 @@ def _mitsuba_message(exc: Exception) -> str:
 
 
 def _read_mitsuba(p: Path, kind: str) -> tuple[Mesh, ...]:
-    from .scenes import mitsuba
+    from .mitsuba_variant import mitsuba
 
     mi = mitsuba()
     try:

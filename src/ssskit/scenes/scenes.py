@@ -33,6 +33,7 @@ from ..io import atomic_output
 from ..registry import Registry
 from ..screenspace.camera import Camera
 from .meshes import ply_bytes
+from .mitsuba_variant import mitsuba
 
 #: diffuse albedo of everything that is not an SSS object (floors, occluders)
 FLOOR_ALBEDO = 0.5
@@ -79,17 +80,6 @@ def get_scene(scene: str | SceneSpec) -> SceneSpec:
     """A built-in scene by name (:data:`SCENES`), or ``scene`` itself when it already is a
     :class:`SceneSpec` (a variant such as :func:`ssskit.scenes.thickness.thin_scene`'s)."""
     return scene if isinstance(scene, SceneSpec) else SCENES.get(scene)
-
-
-def mitsuba():
-    """The ``mitsuba`` module with the ``scalar_rgb`` variant set, or a SceneError saying how to get it."""
-    try:
-        import mitsuba as mi
-    except ImportError:  # pragma: no cover - mitsuba is a core dependency
-        raise SceneError("the 3D scenes need Mitsuba 3: pip install mitsuba") from None
-    if mi.variant() != "scalar_rgb":
-        mi.set_variant("scalar_rgb")
-    return mi
 
 
 def _T():
