@@ -220,7 +220,7 @@ def test_light_intensity_is_the_diffuse_radiance_at_the_centre(tmp_path, size):
     """A light at 3 bounding radii, 30 degrees off the view axis, intensity 1 (E = pi at the centre): the
     sphere's point facing it, 2 radii from it, receives E = pi (3/2)^2 from a point light (inverse square),
     and the same from a sphere light of radius a = 0.5 R: pi L (a/2R)^2 with L = (3R/a)^2 (a uniformly
-    bright sphere: E = pi L sin^2 alpha, PBRT 4th ed. sec. 4.5)."""
+    bright sphere: E = pi L sin^2 alpha, [PJH23] ch. 4)."""
     from ssskit.scenes import scene_camera
 
     doc = {"shapes": {"ball": {"type": "mesh", "file": str(write_mesh(tmp_path / "ball.ply", _sphere(30.0)))}},

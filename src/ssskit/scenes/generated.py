@@ -4,7 +4,7 @@ by :func:`bust_path`).
 
 The bust is the zero level set of a signed distance field built from implicit primitives
 (ellipsoids, capsules, a half-space cut) joined by a smooth minimum, polygonised by marching cubes
-(Lewiner et al. 2003, :func:`skimage.measure.marching_cubes`), with normals from the field's
+([LLVT03], :func:`skimage.measure.marching_cubes`), with normals from the field's
 gradient. Conventions of every generated mesh: mm, +Y up, the model faces +Z (glTF's convention).
 """
 

@@ -36,7 +36,7 @@ a 4:3 image (so the sphere fits with a 10% margin), k the view's distance factor
 
 Light intensity: a sphere light of radius a at distance d gives the irradiance E = pi L (a / d)^2
 at the centre on a surface facing it (a uniformly bright sphere subtends a cap of sin^2 alpha =
-(a/d)^2: Pharr, Jakob, Humphreys, *Physically Based Rendering*, 4th ed., sec. 4.5), a point light of
+(a/d)^2: [PJH23], ch. 4, radiometric integrals), a point light of
 intensity I gives E = I / d^2; ``intensity`` = E / pi, the diffuse layer a white surface facing
 the light at the centre would show.
 """
