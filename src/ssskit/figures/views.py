@@ -276,7 +276,7 @@ def plot_study(study: dict[str, Any], path: Path) -> Path:
     plt = pyplot()
     views = list(study["images"])
     ncol = len(STUDY_METHODS) + 2
-    fig, axes = plt.subplots(len(views), ncol, figsize=(2.4 * ncol, 2.0 * len(views) + 0.6), squeeze=False)
+    fig, axes = plt.subplots(len(views), ncol, figsize=(2.9 * ncol, 2.2 * len(views) + 0.6), squeeze=False)
     first = study["backends"][0]
     for r, view in enumerate(views):
         im = study["images"][view]
