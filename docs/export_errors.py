@@ -49,8 +49,10 @@ def table(model: str, materials: list[str] | None = None) -> list[dict]:
             back = reimport(exports[engine], engine_model)
             err = profile_error(source, back)
             encoding = max(profile_error(fits[engine_model], back)["relative_l1"])
+            clamps = exports[engine].get("clamps", []) if engine == "unreal" else []
             rows.append({"material": material.name, "source": model, "engine": engine, "model": engine_model,
-                         "albedo": [round(float(v), 4) for v in source.total_rd()], **err, "encoding_loss": encoding})
+                         "albedo": [round(float(v), 4) for v in source.total_rd()], **err, "encoding_loss": encoding,
+                         "clamps": clamps})
     return rows
 
 
@@ -64,23 +66,31 @@ def markdown(rows: list[dict]) -> str:
     return "\n".join(out)
 
 
+def clamped(rows: list[dict]) -> str:
+    """The Unreal clamps that fired (UE clamps SurfaceAlbedo and MeanFreePathColor to >= 0.009)."""
+    fired = sorted({c.split(" ")[0] for r in rows for c in r["clamps"]})
+    return ", ".join(f"{f} -> 0.009" for f in fired) if fired else "none"
+
+
 def summary(rows: list[dict]) -> str:
     """One row per material: the three Burley engines share one fit (they differ by their encoding only,
-    the last column), Unreal's separable profile is the other model."""
+    the encoding-loss column, taken where no engine clamp fires), Unreal's separable profile is the other model;
+    the last column lists the Unreal clamps that fired (their effect is in the --full table)."""
     fmt = lambda vals, p=3: " ".join(f"{v:.{p}f}" for v in vals)  # noqa: E731
     out = ["| material | albedo A (R G B) | Burley engines: misplaced energy R G B (r50 ratio) | "
-           "Unreal separable: misplaced energy R G B (r50 ratio) | largest encoding loss |",
-           "|---|---|---|---|---|"]
+           "Unreal separable: misplaced energy R G B (r50 ratio) | largest encoding loss | Unreal clamps |",
+           "|---|---|---|---|---|---|"]
     for name in dict.fromkeys(r["material"] for r in rows):
         mine = [r for r in rows if r["material"] == name]
-        burley = [r for r in mine if r["model"] == "burley"]
+        burley = [r for r in mine if r["model"] == "burley" and not r["clamps"]]
         sep = next(r for r in mine if r["model"] == "separable")
         spread = max(abs(a - b) for r in burley for a, b in zip(r["relative_l1"], burley[0]["relative_l1"]))
         assert spread < 1e-5, f"{name}: the Burley engines disagree by {spread}"
         b = burley[0]
         out.append(f"| {name} | {fmt(b['albedo'])} | {fmt(b['relative_l1'])} ({fmt(b['r50_ratio'], 2)}) | "
                    f"{fmt(sep['relative_l1'])} ({fmt(sep['r50_ratio'], 2)}) | "
-                   f"{max(r['encoding_loss'] for r in mine):.0e} |")
+                   f"{max(r['encoding_loss'] for r in mine if not r['clamps']):.0e} | "
+                   f"{clamped(mine)} |")
     return "\n".join(out)
 
 

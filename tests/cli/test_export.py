@@ -42,7 +42,8 @@ def test_tabulated_kernel_glsl_and_bn(run, tmp_path):
     code, _, err = run("export", "--material", "skin1", "--kernel", "preintegrated", "--format", "bn", "--out", bn)
     assert code == 0, err
     k = load_bn(bn)
-    assert k.rank == 1 and k.n == 201
+    # the 201-cell grid cropped to 99.9 % of each channel's mass (the loaders tap the file's whole extent)
+    assert k.rank == 1 and k.n % 2 == 1 and 3 <= k.n < 201
 
 
 @pytest.mark.parametrize("engine", ["unreal", "unity", "blender"])

@@ -88,3 +88,15 @@ def test_refused_kernels(tmp_path):
     with pytest.raises(KernelError, match="uniform"):
         bn_bytes([0.0, 1.0, 3.0], np.ones((3, 3)))
     assert not list(tmp_path.iterdir())
+
+
+def test_crop_to_support(kernel, tmp_path):
+    """--format bn crops the grid to 99.9 % of each channel's mass: the loaders' tap range is the file's extent."""
+    path = tmp_path / "c.bn"
+    save_bn(kernel, path, support=0.999)
+    x, rgb = read_bn(path)
+    assert x.size < kernel.n and x.size % 2 == kernel.n % 2 and x[0] == -x[-1]
+    full = np.abs(kernel.components[:, 0, :]).sum(axis=1)
+    assert np.all(np.abs(rgb).sum(axis=0) >= 0.999 * full * (1 - 1e-6))
+    # one cell fewer on each side would hold less than 99.9 % in some channel
+    assert np.any(np.abs(rgb[1:-1]).sum(axis=0) < 0.999 * full)

@@ -2,9 +2,16 @@
 
 Kernel formats (``--kernel`` required): ``hlsl`` / ``glsl`` (``float4 kernel[N]`` in the 2012
 separable-SSS demo layout, offsets in mm), ``bn`` (the 2015 pre-integrated kernel files), ``json``
-(ssskit's own kernel file). Parameter formats (``--material`` required, no kernel): ``unreal``,
-``unity``, ``blender`` (a JSON file of the engine's parameters, with units, formulas, sources and
-what is lost). See :mod:`ssskit.export` and docs/exports.md.
+(ssskit's own kernel file). Parameter formats (a material required, no kernel): ``unreal``,
+``unity``, ``blender`` (``.json``: the engine's parameters, with units, formulas, sources and what is
+lost; ``.py``/``.asset``: the engine's own importable file) and ``materialx`` (``.mtlx``).
+
+The material: ``--material`` (a preset, a material file, or an engine file ssskit reads back: an ssskit
+engine JSON export, an HDRP .asset with ``--albedo``, a .mtlx), or artists' terms ``--albedo`` with
+``--mfp`` or ``--dmfp`` (and ``--eta``, ``--g``). Engine files and artists' terms default to ``--model
+burley`` (the Burley-fit inversion, no coefficients); ``--model montecarlo`` or ``dipole`` goes through the
+Monte Carlo inversion of :mod:`ssskit.profiles.artist` to a physical material first. See :mod:`ssskit.export`
+and docs/exports.md.
 """
 
 from __future__ import annotations
@@ -21,7 +28,6 @@ from .options import (
     given,
     json_option,
     kernel_spec_option,
-    material_option,
     model_option,
     photons_option,
     tap_method_option,
@@ -42,6 +48,107 @@ def _all_suffixes() -> tuple[str, ...]:
 SHADERS = ("glsl-shader", "hlsl-shader")
 
 
+class ExportMaterial(click.ParamType):
+    """--material of export: a preset or material file (checked as ``ssskit profile`` checks it), or an engine
+    file (.asset, .mtlx, or a .json with an "engine" key), read later with the other checks."""
+
+    name = "material"
+
+    def get_metavar(self, param, ctx=None) -> str:
+        return "NAME|FILE"
+
+    def convert(self, value, param, ctx):
+        from ..export.readers import is_engine_file
+        from ..materials import get_material
+
+        text = str(value).strip()
+        if text and is_engine_file(text):
+            return text
+        try:
+            get_material(text)
+        except SsskitError as exc:
+            self.fail(str(exc), param, ctx)
+        return text
+
+
+class Triple(click.ParamType):
+    """A number or three comma-separated numbers (R,G,B)."""
+
+    name = "R,G,B"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        parts = [p.strip() for p in str(value).split(",")]
+        try:
+            vals = [float(p) for p in parts]
+        except ValueError:
+            self.fail(f"needs a number or 3 comma-separated numbers (R,G,B), got {value!r}", param, ctx)
+        if len(vals) == 1:
+            vals = vals * 3
+        if len(vals) != 3:
+            self.fail(f"needs 1 or 3 values (R,G,B), got {len(vals)}", param, ctx)
+        return tuple(vals)
+
+
+def _material_source(ctx, fmt: str, material, albedo, mfp, dmfp, eta, g, model: str):
+    """Every material check, before any work: returns (profile factory, Material or None, name, model used).
+
+    An engine file or artists' terms default to --model burley (no coefficients); montecarlo / dipole
+    invert to a physical material first (ssskit.profiles.artist)."""
+    from ..export.readers import is_engine_file, read_engine_file
+    from ..profiles.artist import ArtistMaterial, burley_from_artist, check_artist, material_from_artist
+
+    artist = albedo is not None or mfp is not None or dmfp is not None
+    engine_file = material is not None and is_engine_file(material)
+    for name, flag in (("eta", "--eta"), ("g", "--g")):
+        if given(ctx, name) and not artist:
+            raise SsskitError(f"{flag} belongs to artists' terms (--albedo with --mfp or --dmfp)")
+    if artist and material is not None and not (engine_file and str(material).lower().endswith(".asset")):
+        raise SsskitError("give the material once: --material or artists' terms (--albedo with --mfp or --dmfp)")
+    model_given = given(ctx, "model")
+    if engine_file or artist:
+        used = model.lower() if model_given else "burley"
+        if used not in ("burley", "montecarlo", "dipole"):
+            raise SsskitError(f"--model {model} does not apply to an engine file or artists' terms (burley, the "
+                              "Burley-fit inversion, or montecarlo / dipole through the Monte Carlo inversion)")
+    if engine_file:
+        if used == "burley":
+            for opt in ("photons", "grid_fraction"):
+                if given(ctx, opt):
+                    raise SsskitError(f"--{opt.replace('_', '-')} needs --model montecarlo")
+        src = read_engine_file(material, albedo=albedo)
+        if albedo is not None:
+            check_artist(albedo, src.d_mm, "dmfp", 1.0, 0.0)
+        if used == "burley":
+            return src.profile, None, src.name, used
+        mat = src.material()
+        return _physical(ctx, mat, used), mat, src.name, used
+    if artist:
+        if albedo is None or (mfp is None) == (dmfp is None):
+            raise SsskitError("artists' terms need --albedo and one of --mfp (volume mean free path, mm) or --dmfp "
+                              "(diffuse mean free path, mm)")
+        kind, dist = ("mfp", mfp) if mfp is not None else ("dmfp", dmfp)
+        art = ArtistMaterial("artist", albedo, dist, kind, eta, g)  # checks the domain
+        if used == "burley":
+            from ..profiles import BurleyProfile, RGBProfile
+
+            a, d = burley_from_artist(art)
+            chans = [BurleyProfile(float(x), float(y)) for x, y in zip(a, d)]
+            prof = RGBProfile((chans[0], chans[1], chans[2]), "burley", "artist", {"inversion": f"Burley fit ({kind})"})
+            return (lambda: prof), None, "artist", used
+        mat = material_from_artist(art)
+        return _physical(ctx, mat, used), mat, "artist", used
+    return None, None, None, model
+
+
+def _physical(ctx, mat, model: str):
+    from .profiles import resolve_profile
+
+    return resolve_profile(ctx, mat, model, {"photons": ("photons", ctx.params.get("photons")),
+                                             "grid_fraction": ("grid_fraction", ctx.params.get("grid_fraction"))})
+
+
 def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
     """Every combination check, before any work: returns (method, params, tap count for make_taps)."""
     from ..export import FORMATS
@@ -54,6 +161,11 @@ def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
         for name, flag in (("jitter", "--jitter"), ("depth_mode", "--depth-mode")):
             if given(ctx, name):
                 raise SsskitError(f"{flag} applies to the whole shaders only (--format glsl-shader or hlsl-shader)")
+    if fmt == "materialx":
+        import importlib.util
+
+        if importlib.util.find_spec("MaterialX") is None:
+            raise SsskitError("--format materialx needs the materialx package (pip install 'materialx>=1.39,<1.40')")
     if fmt == "hlsl-shader":
         from ..export.shaders import tools_available
 
@@ -103,13 +215,32 @@ def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
     "ssskit export --material skin1 --kernel preintegrated --format bn --out skin1.bn",
     "ssskit export --material marble --format unreal --out marble_unreal.json",
     "ssskit export --material ketchup --model burley --format unity --out ketchup_hdrp.json",
+    "ssskit export --material skin1 --format blender --out skin1_blender.py",
+    "ssskit export --material marble --format unreal --out marble_unreal.py",
+    "ssskit export --material skin1 --format unity --out Skin1.asset",
+    "ssskit export --material skin1 --format materialx --standard-surface --out skin1.mtlx",
+    "ssskit export --albedo 0.44,0.22,0.12 --dmfp 4.9,2.4,1.4 --model montecarlo --format blender --out a.py",
+    "ssskit export --material skin1_unreal.json --format unity --out Skin1.asset",
     "ssskit export --material skin1 --kernel preintegrated --taps 7 --format glsl-shader --out sss.comp"))
 @click.option("--format", "fmt", required=True, type=click.Choice(list(_formats()), case_sensitive=False),
               help="hlsl/glsl: shader arrays (demo layout); bn: pre-integrated kernel file; json: ssskit kernel; "
-                   "unreal/unity/blender: engine material parameters (JSON); glsl-shader/hlsl-shader: the whole "
+                   "unreal/unity/blender: engine material parameters (.json) or the engine's file (.py script for Blender "
+                   "and Unreal, .asset for Unity); materialx: an .mtlx (OpenPBR); glsl-shader/hlsl-shader: the whole "
                    "separable compute shader with the taps baked in (the gl backend's source).")
 @click.option("--out", required=True, type=OutputFile(_all_suffixes()), help="Output file (suffix by format).")
-@material_option(help="Preset name or material file (not needed by jimenez2012 or artist presets).")
+@click.option("--material", type=ExportMaterial(), default=None,
+              help="Preset name, material file, or an engine file to read back (an ssskit engine .json, an HDRP "
+                   ".asset with --albedo, a .mtlx); not needed by jimenez2012 or artist presets.")
+@click.option("--albedo", type=Triple(), default=None,
+              help="Artists' terms: surface albedo R,G,B in (0, 1) (with --mfp or --dmfp).")
+@click.option("--mfp", type=Triple(), default=None, help="Artists' terms: volume mean free path 1/sigma_t, mm.")
+@click.option("--dmfp", type=Triple(), default=None,
+              help="Artists' terms: diffuse mean free path, mm (Burley's convention: d = dmfp / (3.5 + 100 (A - 0.33)^4)).")
+@click.option("--eta", type=float, default=1.3, show_default=True, help="Artists' terms: relative refractive index.")
+@click.option("--g", type=float, default=0.0, show_default=True, help="Artists' terms: Henyey-Greenstein anisotropy.")
+@click.option("--unreal-form", type=click.Choice(("mfp", "dmfp")), default="mfp", show_default=True,
+              help="--format unreal with a .py: the Burley form the script writes (mfp: UE 5; dmfp: UE 4.25-4.27).")
+@click.option("--standard-surface", is_flag=True, help="--format materialx: add a standard_surface beside OpenPBR.")
 @kernel_spec_option(help="Kernel method name[:value] for hlsl/glsl/bn/json (e.g. jimenez2012, preintegrated, svd:2).")
 @click.option("--taps", type=click.IntRange(*TAP_RANGE), default=None,
               help="Taps per 1D pass (odd): jimenez2012's tap count, or the taps placed on a tabulated kernel "
@@ -118,39 +249,53 @@ def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
 @click.option("--jitter", type=click.FloatRange(0.0, 1.0), default=0.1, show_default=True,
               help="glsl-shader/hlsl-shader: taps within this fraction of the kernel size on rotated axes.")
 @depth_mode_option()
-@model_option("dipole", help="Profile model of the material (the source of the kernel or of the parameters).")
+@model_option("dipole", help="Profile model of the material (the source of the kernel or of the parameters); engine "
+                             "files and artists' terms default to burley (Burley-fit inversion), montecarlo or "
+                             "dipole invert them to a physical material first.")
 @photons_option(200_000, help="--model montecarlo: photons per channel (cached).")
+@click.option("--grid-fraction", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=None,
+              help="--model montecarlo: lengthen each channel's grid until it holds this fraction of the light.")
 @json_option("Print one JSON object describing what was written.")
 @click.pass_context
-def export(ctx, fmt, out, material, kernel_spec, taps, tap_method, jitter, depth_mode, model, photons,
-           as_json) -> None:
+def export(ctx, fmt, out, material, albedo, mfp, dmfp, eta, g, unreal_form, standard_surface, kernel_spec, taps,
+           tap_method, jitter, depth_mode, model, photons, grid_fraction, as_json) -> None:
     """Write a kernel or a material's parameters in a format an engine loads."""
-    from ..export import engine_parameters, export_kernel
+    from ..export import export_kernel
     from ..io import check_distinct, write_text
     from ..kernels import TapKernel, build_kernel
 
-    import json
-
     fmt = fmt.lower()
-    m, params, tap_count = _check_options(ctx, fmt, kernel_spec, material, taps, out)
+    prof, mat, src_name, used_model = _material_source(ctx, fmt, material, albedo, mfp, dmfp, eta, g, model)
+    have_material = material is not None or prof is not None
+    m, params, tap_count = _check_options(ctx, fmt, kernel_spec, "given" if have_material else None, taps, out)
     check_distinct(out, material, what="--out")
-    needs_profile = m is None or m.needs_profile
-    prof = None
-    if material is not None or needs_profile:
-        check_material_for_model(ctx, material, model, needed_by=f"--format {fmt}" if m is None else f"--kernel {m.name}")
-        prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})
-    elif given(ctx, "model") or given(ctx, "photons"):
-        raise SsskitError(f"--model and --photons need a --material (--kernel {m.name} without one uses no profile)")
+    suffix = str(out).lower().rsplit(".", 1)[-1]
+    if given(ctx, "unreal_form") and not (fmt == "unreal" and suffix == "py"):
+        raise SsskitError("--unreal-form applies to --format unreal with a .py output (the editor script)")
+    if standard_surface and fmt != "materialx":
+        raise SsskitError("--standard-surface applies to --format materialx")
+    if prof is None:
+        needs_profile = m is None or m.needs_profile
+        if material is not None or needs_profile:
+            check_material_for_model(ctx, material, model,
+                                     needed_by=f"--format {fmt}" if m is None else f"--kernel {m.name}")
+            prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons),
+                                                          "grid_fraction": ("grid_fraction", grid_fraction)})
+        elif given(ctx, "model") or given(ctx, "photons") or given(ctx, "grid_fraction"):
+            raise SsskitError(f"--model, --photons and --grid-fraction need a --material (--kernel {m.name} "
+                              "without one uses no profile)")
     # ---- work starts here: every check above has passed
     profile = prof() if prof is not None else None
-    summary = {"format": fmt, "out": out, "material": material, "model": model if profile is not None else None}
-    if m is None:
+    if mat is None and material is not None and src_name is None:
         from ..materials import get_material
 
         mat = get_material(material)
-        data = engine_parameters(profile, fmt, mat)
-        write_text(out, json.dumps(data, indent=1) + "\n")
-        summary["parameters"] = {k: v for k, v in data.items() if k not in ("sources", "lost")}
+    summary = {"format": fmt, "out": out, "material": material if material is not None else src_name,
+               "model": used_model if profile is not None else None}
+    if m is None:
+        text = _engine_file(profile, fmt, suffix, mat, src_name or getattr(mat, "name", "ssskit"), unreal_form,
+                            standard_surface, summary)
+        write_text(out, text)
     else:
         kernel = build_kernel(m.name, profile, **params)
         comment = (f"ssskit export: {kernel_spec} kernel" + (f" of {profile.name} ({profile.model})" if profile else "")
@@ -166,6 +311,40 @@ def export(ctx, fmt, out, material, kernel_spec, taps, tap_method, jitter, depth
         echo_json(summary)
     else:
         click.echo(f"# wrote {out} ({fmt})")
+
+
+def _engine_file(profile, fmt: str, suffix: str, mat, name: str, unreal_form: str, standard_surface: bool,
+                 summary: dict) -> str:
+    """The text of a parameter export (the suffix picks the engine's own file or the JSON)."""
+    import json
+
+    from ..export import engine_parameters, fit_burley
+
+    if fmt == "materialx":
+        from ..export.materialx import materialx_document
+
+        a, d = fit_burley(profile)
+        g = float(sum(mat.g) / 3.0) if mat is not None and hasattr(mat, "g") else 0.0
+        eta = float(mat.eta) if mat is not None and hasattr(mat, "eta") else None
+        summary["parameters"] = {"subsurface_color": a.tolist(), "d_mm": d.tolist()}
+        return materialx_document(a, d, name, g, eta, standard_surface)
+    data = engine_parameters(profile, fmt, mat)
+    summary["parameters"] = {k: v for k, v in data.items() if k not in ("sources", "lost")}
+    if suffix == "json":
+        return json.dumps(data, indent=1) + "\n"
+    asset = "".join(ch if ch.isalnum() or ch in "_-" else "_" for ch in name) or "ssskit"
+    if fmt == "blender":
+        from ..export.blender import blender_script
+
+        return blender_script(data, asset)
+    if fmt == "unreal":
+        from ..export.unreal import unreal_script
+
+        summary["unreal_form"] = unreal_form
+        return unreal_script(data, f"SP_{asset}", unreal_form)
+    from ..export.unity import unity_asset
+
+    return unity_asset(data, asset)
 
 
 __all__ = ["export"]

@@ -4,6 +4,9 @@ material parameters (Unreal, Unity HDRP, Blender), and GLSL-to-HLSL translation.
 * :mod:`.arrays` -- HLSL / GLSL ``float4 kernel[N]`` in the 2012 separable-SSS demo layout, and back;
 * :mod:`.bn` -- the binary kernel files of the 2015 separable-SSS code, write and read;
 * :mod:`.engines` -- engine parameters from a profile, their re-import and the error of the round trip;
+* :mod:`.blender`, :mod:`.unreal`, :mod:`.unity`, :mod:`.materialx` -- each tool's importable file (a Blender
+  script and the Cycles slab that judges it, an Unreal editor script, an HDRP .asset, a MaterialX document);
+* :mod:`.readers` -- engine files read back into (A, d) and a material;
 * :mod:`.shaders` -- the whole separable compute shader (``separable_shader``: the ``gl`` backend's
   GLSL with the taps baked in, and its HLSL translation through glslangValidator and spirv-cross).
 
@@ -14,6 +17,7 @@ material parameters (Unreal, Unity HDRP, Blender), and GLSL-to-HLSL translation.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from ..errors import KernelError
 from .arrays import (
@@ -27,22 +31,26 @@ from .arrays import (
 from .bn import bn_bytes, load_bn, read_bn, save_bn
 from .engines import ENGINE_MODELS, ENGINES, engine_parameters, fit_burley, profile_error, reimport
 
+#: ``--format bn`` crops the grid to the part holding this fraction of each channel's kernel mass
+BN_SUPPORT = 0.999
 #: format -> (accepted output suffixes, whether it exports a kernel (True) or engine parameters (False))
 FORMATS: dict[str, tuple[tuple[str, ...], bool]] = {
     "hlsl": ((".hlsl", ".hlsli", ".h", ".fx", ".fxh", ".usf", ".ush"), True),
     "glsl": ((".glsl", ".h", ".comp", ".frag", ".inc"), True),
     "bn": ((".bn",), True),
     "json": ((".json",), True),
-    "unreal": ((".json",), False),
-    "unity": ((".json",), False),
-    "blender": ((".json",), False),
+    # engine parameters: JSON, or the engine's own file (the suffix chooses)
+    "unreal": ((".json", ".py"), False),
+    "unity": ((".json", ".asset"), False),
+    "blender": ((".json", ".py"), False),
+    "materialx": ((".mtlx",), False),
     # whole compute shaders of the separable pass, the taps baked in (the gl backend's source)
     "glsl-shader": ((".comp", ".glsl"), True),
     "hlsl-shader": ((".hlsl", ".fx", ".usf"), True),
 }
 
 
-def export_kernel(kernel, fmt: str, path: str | Path, taps: int | None = None, tap_method: str = "importance",
+def export_kernel(kernel: Any, fmt: str, path: str | Path, taps: int | None = None, tap_method: str = "importance",
                   comment: str = "", jitter: float = 0.1, depth_mode: str | None = None) -> None:
     """Write ``kernel`` in a kernel format (``hlsl``, ``glsl``, ``bn``, ``json``, ``glsl-shader``,
     ``hlsl-shader``) to ``path`` (atomic). The shaders take ``jitter`` and ``depth_mode`` (the pass's)."""
@@ -65,7 +73,7 @@ def export_kernel(kernel, fmt: str, path: str | Path, taps: int | None = None, t
     elif key in LANGUAGES:
         write_text(path, format_shader_arrays(kernel_arrays(kernel, taps, tap_method), key, comment))
     elif key == "bn":
-        save_bn(kernel, path)
+        save_bn(kernel, path, support=BN_SUPPORT)
     else:
         save_kernel(kernel, path)
 

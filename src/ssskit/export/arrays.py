@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -47,7 +48,7 @@ class ShaderArray:
     signs: np.ndarray
 
 
-def demo_order(offsets, weights) -> tuple[np.ndarray, np.ndarray]:
+def demo_order(offsets: Any, weights: Any) -> tuple[np.ndarray, np.ndarray]:
     """Taps reordered as the demo stores them: the tap nearest 0 first, the others by ascending offset."""
     o = np.asarray(offsets, dtype=float)
     w = np.asarray(weights, dtype=float)
@@ -57,7 +58,7 @@ def demo_order(offsets, weights) -> tuple[np.ndarray, np.ndarray]:
     return o[order], w[order]
 
 
-def kernel_arrays(kernel, taps: int | None = None, tap_method: str = "importance") -> list[ShaderArray]:
+def kernel_arrays(kernel: Any, taps: int | None = None, tap_method: str = "importance") -> list[ShaderArray]:
     """The arrays of ``kernel`` (a TapKernel as shipped, or a Kernel through ``make_taps``), one per term.
 
     Weights are normalised so each channel's 2D kernel sums to 1 (what :func:`make_taps` returns);
@@ -112,6 +113,8 @@ def format_shader_arrays(arrays: list[ShaderArray], language: str, comment: str 
         "// Offsets are in mm. The demo's SSSSBlurPS moves a tap at offset a by a * sssWidth / 3 scene",
         "// units: these offsets are physical with sssWidth = 3 mm in scene units (0.003 for metres).",
         "// Each channel's 2D kernel sums to 1: sum over terms of sign * (sum of the term's weights)^2.",
+        "// This file replaces the kernel block of the demo's SeparableSSS.h (its SSSS_N_SAMPLES and",
+        "// kernel[] definitions); the rest of that header stays as it is.",
         f"#define SSSS_N_SAMPLES {n}",
     ]
     if len(arrays) > 1:
@@ -167,7 +170,7 @@ def parse_shader_arrays(text: str) -> list[ShaderArray]:
     return out
 
 
-def arrays_to_tap_kernel(arrays: list[ShaderArray], method: str = "shader"):
+def arrays_to_tap_kernel(arrays: list[ShaderArray], method: str = "shader") -> Any:
     """A rank-1 export read back as a :class:`~ssskit.kernels.TapKernel` (centre tap first)."""
     from ..kernels.base import TapKernel
 

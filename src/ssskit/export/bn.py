@@ -18,6 +18,7 @@ uniform grid, is refused with the reason.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -28,7 +29,7 @@ from ..io import atomic_output, check_suffix
 GRID_RTOL = 1e-4
 
 
-def bn_bytes(x_mm, rgb) -> bytes:
+def bn_bytes(x_mm: Any, rgb: Any) -> bytes:
     """The file contents for samples at ``x_mm`` (n,) with values ``rgb`` (n, 3) (module docstring)."""
     x = np.asarray(x_mm, dtype=float)
     v = np.asarray(rgb, dtype=float)
@@ -53,8 +54,26 @@ def _check_grid(x: np.ndarray, what: str) -> float:
     return h
 
 
-def save_bn(kernel, path: str | Path) -> None:
-    """Write a rank-1 tabulated kernel (e.g. ``preintegrated``) as ``.bn`` (atomic)."""
+def crop_to_support(x_mm: np.ndarray, rgb: np.ndarray, support: float) -> tuple[np.ndarray, np.ndarray]:
+    """The symmetric part of the grid that holds at least ``support`` of every channel's kernel mass (the
+    public loaders take the file's extent as the tap range: a grid wider than the kernel wastes taps)."""
+    if not 0.0 < support <= 1.0:
+        raise KernelError(f"the .bn support fraction must lie in (0, 1], got {support}")
+    mass = np.abs(np.asarray(rgb, dtype=float))
+    total = mass.sum(axis=0)
+    drop = 0
+    while x_mm.size - 2 * (drop + 1) >= 3:
+        kept = mass[drop + 1: x_mm.size - drop - 1].sum(axis=0)
+        if np.any(kept < support * total):
+            break
+        drop += 1
+    return x_mm[drop: x_mm.size - drop], rgb[drop: x_mm.size - drop]
+
+
+def save_bn(kernel: Any, path: str | Path, support: float | None = None) -> None:
+    """Write a rank-1 tabulated kernel (e.g. ``preintegrated``) as ``.bn`` (atomic); ``support`` (e.g.
+    0.999): crop the grid symmetrically to the part holding that fraction of each channel's mass
+    (:func:`crop_to_support`), since the engines' loaders tap the file's whole extent."""
     from ..kernels.base import Kernel
 
     check_suffix(path, (".bn",), "kernel output")
@@ -64,7 +83,10 @@ def save_bn(kernel, path: str | Path) -> None:
     if kernel.rank != 1 or np.any(kernel.signs != 1):
         raise KernelError(f"the .bn format holds one positive separable term; the {kernel.method} kernel has "
                           f"rank {kernel.rank} (use a rank-1 method such as preintegrated, or export hlsl/glsl)")
-    data = bn_bytes(kernel.x_mm, kernel.components[:, 0, :].T)
+    x, rgb = kernel.x_mm, kernel.components[:, 0, :].T
+    if support is not None:
+        x, rgb = crop_to_support(x, rgb, support)
+    data = bn_bytes(x, rgb)
     with atomic_output(path) as tmp:
         tmp.write_bytes(data)
 
@@ -93,7 +115,7 @@ def read_bn(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     return x, rgb
 
 
-def load_bn(path: str | Path):
+def load_bn(path: str | Path) -> Any:
     """A ``.bn`` file as a rank-1 :class:`~ssskit.kernels.Kernel` (cell size: the grid spacing).
 
     The grid needs a centre sample (an odd count), as every ssskit kernel grid has.

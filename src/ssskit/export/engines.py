@@ -28,12 +28,15 @@ in scene units (metres at the default unit scale 1).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
 from ..errors import ProfileError
 from ..registry import Registry
+
+if TYPE_CHECKING:
+    from ..profiles.base import RadialProfile, RGBProfile
 
 #: the targets of a parameter export (one JSON file each); the error table adds unreal's two models
 ENGINES = ("unreal", "unity", "blender")
@@ -41,10 +44,11 @@ ENGINES = ("unreal", "unity", "blender")
 ENGINE_MODELS = (("unreal", "burley"), ("unreal", "separable"), ("unity", "burley"), ("blender", "burley"))
 
 ENGINE_SOURCES = {
-    "unreal-burley": "Unreal Engine 4.25+ SubsurfaceProfile.cpp (DiffuseMeanFreePath = MeanFreePathColor * "
-                     "MeanFreePathDistance * 10, cm to mm) and BurleyNormalizedSSSCommon.ush (D = DMFP / "
-                     "GetSearchLightDiffuseScalingFactor(A), 3.5 + 100 (A - 0.33)^4: Christensen-Burley's "
-                     "diffuse-mean-free-path fit, Xie 2020 Eq. 5 Theta_3)",
+    "unreal-burley": "Unreal Engine 5 SubsurfaceProfile.cpp CreateTexture (bEnableMeanFreePath: DMFP (mm) = "
+                     "MFP * GetSearchLightDiffuseScalingFactor(A) / GetPerpendicularScalingFactor(A) * 10 / 0.6; "
+                     "Bias clamps 0.009) and BurleyNormalizedSSSCommon.ush (D = DMFP / (3.5 + 100 (A - 0.33)^4), "
+                     "Xie 2020 Eq. 5 Theta_3); the dmfp block: UE 4.25-4.27 (DMFP = MeanFreePathColor * "
+                     "MeanFreePathDistance * 10)",
     "unreal-separable": "Unreal Engine SeparableSSS.cpp ComputeMirroredSSSKernel (the 2012 demo profile with "
                         "SubsurfaceColor as strength and FalloffColor as falloff) and SubsurfaceProfile.cpp (kernel "
                         "offsets in -3..3 times ScatterRadius / 3, SUBSURFACE_KERNEL_SIZE = 3; FalloffColor clamped "
@@ -53,16 +57,19 @@ ENGINE_SOURCES = {
              "scatteringDistanceMultiplier), R = S (e^{-Sr} + e^{-Sr/3}) / (8 pi r), i.e. Burley with d = "
              "scatteringDistance * multiplier in mm at worldScale 1; filterRadius = the CDF inverse at 0.997 of "
              "the widest channel; ior clamped to [1, 2]; the albedo is the material's)",
-    "blender": "Blender Cycles kernel/closure/bssrdf.h bssrdf_burley_setup (Christensen-Burley: l = radius / "
-               "(4 pi), d = l / (1.9 - A + 3.5 (A - 0.8)^2), A the base colour; radius = Subsurface Radius * "
-               "Subsurface Scale in scene units)",
+    "blender": "Blender Cycles intern/cycles/kernel/closure/bssrdf.h bssrdf_setup_radius (Blender 3.0 through 4.2): "
+               "d = radius / (4 pi) for CLOSURE_BSSRDF_BURLEY_ID, used as Burley's d by bssrdf_burley_eval and "
+               "truncated at 16 d (BURLEY_TRUNCATE); radius = Subsurface Radius * Subsurface Scale in scene units; "
+               "the BSSRDF weight is the base colour. Checked in Cycles (bpy 4.2) by ssskit.export.blender.render_slab",
 }
 
 LOST = {
     "unreal-burley": [
         "the profile's shape beyond Burley's two exponentials (the fit error of the table)",
         "WorldUnitScale is written as UE's default (0.1) and not derived: the mapping assumes lengths in UE's cm",
-        "SurfaceAlbedo is clamped to [0, 1] and MeanFreePathColor to >= 0.009 by the engine",
+        "SurfaceAlbedo and MeanFreePathColor are clamped to >= 0.009 by the engine: ssskit applies the clamps "
+        "and lists each one that fires under 'clamps'",
+        "not run in Unreal: the mapping follows UE's source; the editor script is checked by Python's ast only",
     ],
     "unreal-separable": [
         "the shape: the fixed five-Gaussian skin profile, only widened per channel (the fit error of the table)",
@@ -74,13 +81,18 @@ LOST = {
     "unity": [
         "the profile's shape beyond Burley's two exponentials (the fit error of the table)",
         "the albedo: HDRP's profile is normalised; the total reflectance is the material's base colour",
+        "not run in Unity: the .asset is checked with a YAML parser against DiffusionProfileSettings.cs",
         "the tail beyond filterRadius (0.3% of the widest channel's energy)",
-        "scatteringDistance is the serialised (linear) colour; HDRP's inspector shows it gamma-encoded",
+        "scatteringDistance is the serialised (linear) colour; HDRP's inspector shows it sRGB-encoded "
+        "(scatteringDistance_inspector_srgb)",
     ],
     "blender": [
         "the profile's shape beyond Burley's two exponentials (the fit error of the table)",
         "Cycles truncates Burley at 16 d (0.36% of the energy); EEVEE uses its own screen-space approximation",
         "Subsurface IOR and Anisotropy act only in the Random Walk methods, not in Christensen-Burley",
+        "the numbers are for subsurface_method BURLEY: Random Walk reads the radius as a mean free path and "
+        "renders another plateau and width (docs/exports.md)",
+        "Specular IOR Level is set to 0: a specular layer would take its share of the plateau",
     ],
 }
 
@@ -88,7 +100,7 @@ LOST = {
 # ------------------------------------------------------------------------------------------ fits
 
 
-def _radial_grid(channel, samples: int = 512, fraction: float = 0.999) -> np.ndarray:
+def _radial_grid(channel: RadialProfile, samples: int = 512, fraction: float = 0.999) -> np.ndarray:
     r_max = float(np.max(channel.radius_at_fraction(fraction)))
     if not (np.isfinite(r_max) and r_max > 0):
         raise ProfileError(f"cannot size a radial grid: the radius holding {fraction} of the energy is {r_max!r}")
@@ -100,7 +112,7 @@ def _burley_density(r: np.ndarray, d: float) -> np.ndarray:
     return (np.exp(-r / d) + np.exp(-r / (3.0 * d))) / (4.0 * d)
 
 
-def _misplaced(channel, density) -> float:
+def _misplaced(channel: RadialProfile, density: Callable[[np.ndarray], np.ndarray]) -> float:
     """int |p_src - p| dr / int p_src dr on the source's grid, p = 2 pi r R(r) / A (a fraction of the energy)."""
     r = _radial_grid(channel, 4096)
     p = 2.0 * np.pi * r * channel.eval(r)
@@ -109,7 +121,7 @@ def _misplaced(channel, density) -> float:
     return float(np.sum(np.abs(p - q / np.sum(q))))
 
 
-def fit_burley_channel(channel) -> tuple[float, float]:
+def fit_burley_channel(channel: RadialProfile) -> tuple[float, float]:
     """(A, d mm) of the Burley profile closest to one radial channel (module docstring).
 
     A = the channel's total diffuse reflectance (exact); d minimises the share of the energy put at a
@@ -131,7 +143,7 @@ def fit_burley_channel(channel) -> tuple[float, float]:
     return min(a, 1.0), float(math.exp(sol.x))
 
 
-def fit_separable_channel(channel) -> dict[str, Any]:
+def fit_separable_channel(channel: RadialProfile) -> dict[str, Any]:
     """The demo profile's falloff fitted to one channel by Xie 2020 appendix A.1: each of the three error
     functions (Eqs. 25-27, :func:`ssskit.kernels.burley_fit.fit_burley_channel`), keeping the fit that
     puts the least energy at a wrong radius (the metric of :func:`profile_error`)."""
@@ -147,14 +159,17 @@ def fit_separable_channel(channel) -> dict[str, Any]:
         fit["misplaced"] = _misplaced(channel, density)
         if best is None or fit["misplaced"] < best["misplaced"]:
             best = fit
+    assert best is not None  # ERROR_FUNCTIONS is not empty
     return best
 
 
-def fit_burley(profile) -> tuple[np.ndarray, np.ndarray]:
+def fit_burley(profile: RGBProfile) -> tuple[np.ndarray, np.ndarray]:
     """Per channel (A (3,), d (3,) mm) of :func:`fit_burley_channel`; a Burley channel is taken as is."""
+    from ..profiles.burley import BurleyProfile
+
     a, d = np.zeros(3), np.zeros(3)
     for c, ch in enumerate(profile.channels):
-        if getattr(ch, "model", "") == "burley":
+        if isinstance(ch, BurleyProfile):
             a[c], d[c] = ch.albedo, ch.d
         else:
             a[c], d[c] = fit_burley_channel(ch)
@@ -164,20 +179,18 @@ def fit_burley(profile) -> tuple[np.ndarray, np.ndarray]:
 # --------------------------------------------------------------------------------- engine formulas
 
 
-def burley_scaling_dmfp(albedo) -> np.ndarray:
+def burley_scaling_dmfp(albedo: Any) -> np.ndarray:
     """s(A) = 3.5 + 100 (A - 0.33)^4: d = dmfp / s (Xie 2020 Eq. 5 Theta_3; Unreal's scaling factor)."""
     a = np.asarray(albedo, dtype=float)
     return 3.5 + 100.0 * (a - 0.33) ** 4
 
 
-def burley_scaling_diffuse_transmission(albedo) -> np.ndarray:
+def burley_scaling_diffuse_transmission(albedo: Any) -> np.ndarray:
     """s(A) = 1.9 - A + 3.5 (A - 0.8)^2 (Xie 2020 Eq. 5 Theta_2; Cycles' bssrdf_burley_fitting)."""
     a = np.asarray(albedo, dtype=float)
     return 1.9 - a + 3.5 * (a - 0.8) ** 2
 
 
-#: Cycles' bssrdf_burley_compatible_mfp: l = radius / (4 pi)
-BLENDER_RADIUS_TO_MFP = 0.25 / math.pi
 #: Unreal's SUBSURFACE_KERNEL_SIZE: kernel offsets -3..3 map to -ScatterRadius..ScatterRadius
 UNREAL_KERNEL_SIZE = 3.0
 #: Unreal clamps FalloffColor and MeanFreePathColor to at least this (SubsurfaceProfile.cpp, Bias)
@@ -187,52 +200,47 @@ UNREAL_DEFAULT_WORLD_UNIT_SCALE = 0.1
 UNITY_FILTER_CDF = 0.997
 
 
-def _colour(values) -> tuple[list[float], float]:
+def _colour(values: Any) -> tuple[list[float], float]:
     """(colour with max 1, its scale): engines store a length colour as an LDR colour times a distance."""
     v = np.asarray(values, dtype=float)
     m = float(np.max(v))
     return (v / m).tolist(), m
 
 
-def _unreal(profile, material) -> dict[str, Any]:
+def _unreal(profile: RGBProfile, material: Any) -> dict[str, Any]:
+    from .unreal import details_text, unreal_parameters
+
     a, d = fit_burley(profile)
-    dmfp_mm = d * burley_scaling_dmfp(a)
-    colour, dist_mm = _colour(dmfp_mm)
+    eta = float(material.eta) if material is not None and hasattr(material, "eta") else None
+    out = unreal_parameters(a, d, eta)
+    out["details_panel"] = {form: details_text(out[form]) for form in ("mfp", "dmfp")}
     # legacy separable: Xie A.1 fit of the demo profile's falloff (mm) to the source, per channel
     fits = [fit_separable_channel(ch) for ch in profile.channels]
     width = np.array([0.001 + f["params"]["falloff"] for f in fits])  # r' = r / (0.001 + falloff)
     k = float(np.max(width)) / 1.001  # widest channel -> FalloffColor 1
-    falloff = np.maximum(width / k - 0.001, UNREAL_COLOR_BIAS)
-    ior = float(getattr(material, "eta", 1.4)) if material is not None else 1.4
-    return {
-        "engine": "unreal",
-        "asset": "SubsurfaceProfile",
-        "burley": {
-            "bEnableBurley": True,
-            "SurfaceAlbedo": a.tolist(),
-            "MeanFreePathColor": colour,
-            "MeanFreePathDistance": dist_mm / 10.0,
-            "WorldUnitScale": UNREAL_DEFAULT_WORLD_UNIT_SCALE,
-            "units": "MeanFreePathDistance in cm; DiffuseMeanFreePath (mm) = MeanFreePathColor * "
-                     "MeanFreePathDistance * 10",
-            "formula": "DiffuseMeanFreePath_c = d_c (3.5 + 100 (A_c - 0.33)^4)",
-        },
-        "separable": {
-            "SubsurfaceColor": [1.0, 1.0, 1.0],
-            "FalloffColor": falloff.tolist(),
-            "ScatterRadius": UNREAL_KERNEL_SIZE * k / 10.0,
-            "units": "ScatterRadius in cm: kernel offset o (mm of the demo profile) lands at o * ScatterRadius / 3",
-            "formula": "falloff_c fitted by Xie A.1 (Eqs. 25-27, the best of the three); s = max_c(0.001 + falloff_c) / 1.001; FalloffColor_c = "
-                       "(0.001 + falloff_c) / s - 0.001; ScatterRadius = 3 s mm",
-            "fit_error_function": [f["error"] for f in fits],
-        },
-        "IOR": ior,
-        "base_color": a.tolist(),
+    raw = width / k - 0.001
+    falloff = np.maximum(raw, UNREAL_COLOR_BIAS)
+    for c in np.nonzero(raw < UNREAL_COLOR_BIAS)[0]:
+        out["clamps"].append(f"separable FalloffColor[{'RGB'[c]}] {raw[c]:.4g} -> 0.009 (UE clamp)")
+    out["separable_ue4_only"] = {
+        "unreal_versions": "UE 4 only: UE 5 converts a separable profile to Burley on load (UpgradeSeparableToBurley) "
+                           "and never renders it as written",
+        "bEnableBurley": False,
+        "SubsurfaceColor": [1.0, 1.0, 1.0],
+        "FalloffColor": falloff.tolist(),
+        "ScatterRadius": UNREAL_KERNEL_SIZE * k / 10.0,
+        "units": "ScatterRadius in cm: kernel offset o (mm of the demo profile) lands at o * ScatterRadius / 3",
+        "formula": "falloff_c fitted by Xie A.1 (Eqs. 25-27, the best of the three); s = max_c(0.001 + falloff_c) / "
+                   "1.001; FalloffColor_c = (0.001 + falloff_c) / s - 0.001; ScatterRadius = 3 s mm",
+        "fit_error_function": [f["error"] for f in fits],
     }
+    out["IOR"] = eta if eta is not None else 1.4
+    return out
 
 
-def _unity(profile, material) -> dict[str, Any]:
+def _unity(profile: RGBProfile, material: Any) -> dict[str, Any]:
     from ..profiles.burley import burley_inverse_cdf
+    from .unity import srgb_encode
 
     a, d = fit_burley(profile)
     colour, mult = _colour(d)
@@ -241,36 +249,26 @@ def _unity(profile, material) -> dict[str, Any]:
         "engine": "unity",
         "asset": "DiffusionProfileSettings (HDRP)",
         "scatteringDistance": colour,
+        "scatteringDistance_inspector_srgb": srgb_encode(colour).tolist(),
         "scatteringDistanceMultiplier": mult,
         "worldScale": 1.0,
         "ior": min(max(ior, 1.0), 2.0),
         "filterRadius": float(burley_inverse_cdf(UNITY_FILTER_CDF, mult)),
         "base_color": a.tolist(),
-        "units": "scatteringDistance * multiplier in mm (worldScale 1: one unit is one metre); filterRadius in mm",
+        "units": "scatteringDistance * multiplier in mm (worldScale 1: one unit is one metre); filterRadius in mm; "
+                 "scatteringDistance is stored linear, the inspector shows scatteringDistance_inspector_srgb (type "
+                 "those into the colour picker's hex/0-1 fields)",
         "formula": "scatteringDistance_c * scatteringDistanceMultiplier = d_c; filterRadius = CDF^-1(0.997; max_c d_c)",
     }
 
 
-def _blender(profile, material, unit_m: float = 1.0) -> dict[str, Any]:
+def _blender(profile: RGBProfile, material: Any, unit_m: float = 1.0) -> dict[str, Any]:
+    from .blender import blender_parameters
+
     a, d = fit_burley(profile)
-    radius_units = d * burley_scaling_diffuse_transmission(a) / BLENDER_RADIUS_TO_MFP * 1e-3 / unit_m
-    colour, scale = _colour(radius_units)
-    out: dict[str, Any] = {
-        "engine": "blender",
-        "node": "Principled BSDF",
-        "subsurface_method": "BURLEY",
-        "base_color": a.tolist(),
-        "subsurface_weight": 1.0,
-        "subsurface_radius": colour,
-        "subsurface_scale": scale,
-        "unit_scale": unit_m,
-        "units": "subsurface_radius * subsurface_scale in scene units (metres per unit: unit_scale)",
-        "formula": "radius_c * scale = 4 pi d_c (1.9 - A_c + 3.5 (A_c - 0.8)^2) (mm -> scene units)",
-    }
-    if material is not None and hasattr(material, "eta"):
-        out["subsurface_ior"] = float(material.eta)
-        out["subsurface_anisotropy"] = float(np.mean(material.g))
-    return out
+    eta = float(material.eta) if material is not None and hasattr(material, "eta") else None
+    g = float(np.mean(material.g)) if material is not None and hasattr(material, "g") else None
+    return blender_parameters(a, d, eta, g, unit_m)
 
 
 ENGINE_BUILDERS: Registry = Registry("engine", ProfileError)
@@ -279,7 +277,7 @@ ENGINE_BUILDERS.register("unity", _unity)
 ENGINE_BUILDERS.register("blender", _blender)
 
 
-def engine_parameters(profile, engine: str, material=None) -> dict[str, Any]:
+def engine_parameters(profile: RGBProfile, engine: str, material: Any = None) -> dict[str, Any]:
     """The engine's material parameters for ``profile`` (module docstring), with units, formulas,
     sources and what is lost. ``material`` (optional) gives the IOR and anisotropy."""
     key = engine.strip().lower()
@@ -294,20 +292,20 @@ def engine_parameters(profile, engine: str, material=None) -> dict[str, Any]:
 # ------------------------------------------------------------------------------------------ re-import
 
 
-def _rgb(channels, model: str, name: str, prov: dict):
+def _rgb(channels: Any, model: str, name: str, prov: dict) -> RGBProfile:
     from ..profiles.base import RGBProfile
 
     return RGBProfile(tuple(channels), model, name, prov)
 
 
-def _burley_rgb(a, d, name: str, engine: str):
+def _burley_rgb(a: Any, d: Any, name: str, engine: str) -> RGBProfile:
     from ..profiles.burley import BurleyProfile
 
     return _rgb([BurleyProfile(float(min(max(a[c], 0.0), 1.0)), float(d[c])) for c in range(3)], "burley", name,
                 {"engine": engine})
 
 
-def reimport(params: dict[str, Any], model: str = "burley", albedo=None):
+def reimport(params: dict[str, Any], model: str = "burley", albedo: Any = None) -> RGBProfile:
     """ssskit's profile of an engine export, read the way the engine reads it (module docstring).
 
     ``model``: ``burley`` or, for Unreal, ``separable``. Engines whose profile carries no albedo (Unity,
@@ -318,36 +316,37 @@ def reimport(params: dict[str, Any], model: str = "burley", albedo=None):
     engine = params.get("engine")
     name = params.get("source_profile", {}).get("name", "export")
     base = f32(params["base_color"] if albedo is None else albedo)
-    if engine == "unreal" and model == "burley":
-        p = params["burley"]
-        a = np.clip(f32(p["SurfaceAlbedo"]), 0.0, 1.0)
-        dmfp = np.maximum(f32(p["MeanFreePathColor"]), UNREAL_COLOR_BIAS) * f32(p["MeanFreePathDistance"]) * 10.0
-        return _burley_rgb(a, dmfp / burley_scaling_dmfp(a), name, "unreal-burley")
+    if engine == "unreal" and model in ("burley", "dmfp"):
+        from .unreal import unreal_d_mm
+
+        block = params["mfp" if model == "burley" else "dmfp"]
+        a = np.clip(f32(block["SurfaceAlbedo"]), UNREAL_COLOR_BIAS, 1.0)
+        return _burley_rgb(a, unreal_d_mm(block), name, f"unreal-{'mfp' if model == 'burley' else 'dmfp'}")
     if engine == "unreal" and model == "separable":
         from ..kernels.burley_fit import _mixture
         from ..profiles.gaussians import GaussianSumProfile
 
-        p = params["separable"]
+        p = params["separable_ue4_only"]
         k = float(f32(p["ScatterRadius"])) * 10.0 / UNREAL_KERNEL_SIZE  # mm per kernel unit
         falloff = np.maximum(f32(p["FalloffColor"]), UNREAL_COLOR_BIAS)
         chans = []
         for c in range(3):
             # o = r_mm / k and r' = o / (0.001 + falloff): the demo profile with falloff k (0.001 + f) - 0.001
             w, sig = _mixture("jimenez2012", np.array([k * (0.001 + falloff[c]) - 0.001]))
-            chans.append(GaussianSumProfile(base[c] * w, sig**2))
+            chans.append(GaussianSumProfile((base[c] * w).tolist(), (sig**2).tolist()))
         return _rgb(chans, "gaussians", name, {"engine": "unreal-separable"})
     if engine == "unity" and model == "burley":
         d = f32(params["scatteringDistance"]) * f32(params["scatteringDistanceMultiplier"])
         return _burley_rgb(base, d, name, "unity")
     if engine == "blender" and model == "burley":
-        r = f32(params["subsurface_radius"]) * f32(params["subsurface_scale"]) * f32(params["unit_scale"]) * 1e3
-        return _burley_rgb(base, r * BLENDER_RADIUS_TO_MFP / burley_scaling_diffuse_transmission(base), name,
-                           "blender")
+        from .blender import blender_d_mm
+
+        return _burley_rgb(base, blender_d_mm(params), name, "blender")
     raise ProfileError(f"no {model!r} model in a {engine!r} export (known: "
                        f"{', '.join(f'{e}/{m}' for e, m in ENGINE_MODELS)})")
 
 
-def profile_error(source, imported, samples: int = 4096, fraction: float = 0.999) -> dict[str, list[float]]:
+def profile_error(source: RGBProfile, imported: RGBProfile, samples: int = 4096, fraction: float = 0.999) -> dict[str, list[float]]:
     """Per channel: ``relative_l1`` = int |p_src - p_imp| dr / int p_src dr with p = 2 pi r R(r) on
     (0, r_fraction of the source] (the share of the energy put at a wrong radius), ``total_ratio`` =
     A_imp / A_src, and ``r50_ratio``, the ratio of the radii holding half the energy."""

@@ -16,6 +16,7 @@ import shutil
 import subprocess
 import tempfile
 from pathlib import Path
+from typing import Any
 
 from ..errors import SsskitError
 
@@ -110,7 +111,7 @@ def with_defines(source: str, **defines: int) -> str:
     return head + sep + lines + rest
 
 
-def separable_shader(taps, language: str, jitter: float = 0.1, depth_mode: str | None = None) -> str:
+def separable_shader(taps: Any, language: str, jitter: float = 0.1, depth_mode: str | None = None) -> str:
     """The whole separable-SSS compute shader for ``taps`` (:class:`~ssskit.sampling.SeparableTaps`), the
     same source the ``gl`` backend runs (:func:`ssskit.backends.gl.separable.export_source`), the taps
     baked in as constants.

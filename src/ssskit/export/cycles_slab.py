@@ -1,0 +1,148 @@
+"""The Cycles slab scene: a standalone script run by a Python that has ``bpy`` (Blender 4.2's wheel), never
+imported by ssskit (it needs only bpy and numpy).
+
+    python cycles_slab.py CONFIG.json OUT.npz
+
+A thick box (the slab, its top face at z = 0) carries the material that an exported ssskit Blender script
+creates; a sun straight down (angle 0: a sharp shadow) is blocked for x < 0 by a plane seen only by shadow
+rays; an orthographic camera looks straight down at the strip x in [-extent, extent]; Cycles on the CPU,
+box pixel filter, no denoising, no adaptive sampling, black world, Standard view transform, float EXR.
+Each render of CONFIG's ``renders`` list (``script``: the exported material script, ``extent_m``,
+``width`` x ``height`` pixels, ``samples``, ``seed``, optional ``method`` to override the subsurface
+method) is written as an (H, W, 3) float32 array; ``white`` renders the same view with a white Lambertian
+material (Diffuse BSDF, colour 1): the irradiance reference E / pi of the plateau.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import runpy
+import sys
+import tempfile
+import time
+from typing import Any
+
+import bpy  # type: ignore[import-not-found]
+import numpy as np
+
+
+def _scene(extent: float, width: int, height: int, samples: int, seed: int, threads: int) -> tuple[Any, Any]:
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = samples
+    scene.cycles.seed = seed
+    scene.cycles.use_animated_seed = False
+    scene.cycles.use_adaptive_sampling = False
+    scene.cycles.use_denoising = False
+    scene.cycles.pixel_filter_type = "BOX"
+    scene.cycles.filter_width = 1.0
+    scene.cycles.max_bounces = 8
+    scene.cycles.caustics_reflective = False
+    scene.cycles.caustics_refractive = False
+    scene.render.threads_mode = "FIXED"
+    scene.render.threads = threads
+    scene.render.resolution_x = width
+    scene.render.resolution_y = height
+    scene.render.resolution_percentage = 100
+    scene.render.film_transparent = False
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    world = bpy.data.worlds.new("black")
+    world.use_nodes = False
+    world.color = (0.0, 0.0, 0.0)
+    scene.world = world
+    # the slab: a box much wider than the view and deep enough for any walk (top face at z = 0)
+    size = 40.0 * extent
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, -size / 2.0))
+    slab = bpy.context.active_object
+    slab.scale = (size, size, size)
+    slab.name = "slab"
+    # the blocker: x < 0, seen by shadow rays only
+    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(-size / 4.0, 0.0, 0.05 * extent))
+    blocker = bpy.context.active_object
+    blocker.scale = (size / 2.0, size, 1.0)
+    for attr in ("visible_camera", "visible_diffuse", "visible_glossy", "visible_transmission",
+                 "visible_volume_scatter"):
+        setattr(blocker, attr, False)
+    # the sun: straight down, strength 1 (W/m^2 of irradiance), angle 0 (a delta light: a sharp edge)
+    sun_data = bpy.data.lights.new("sun", type="SUN")
+    sun_data.energy = 1.0
+    sun_data.angle = 0.0
+    sun = bpy.data.objects.new("sun", sun_data)
+    scene.collection.objects.link(sun)
+    # the camera: orthographic, straight down; ortho_scale spans the image width (2 extent)
+    cam_data = bpy.data.cameras.new("camera")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = 2.0 * extent
+    cam_data.sensor_fit = "HORIZONTAL"
+    cam_data.clip_start = 1e-4 * extent
+    cam_data.clip_end = 10.0 * extent
+    cam = bpy.data.objects.new("camera", cam_data)
+    cam.location = (0.0, 0.0, 1.0 * extent)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    return scene, slab
+
+
+def _render(scene: Any, path: str) -> np.ndarray:
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    img = bpy.data.images.load(path)
+    w, h = img.size
+    px = np.empty(w * h * 4, dtype=np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    return px.reshape(h, w, 4)[::-1, :, :3].copy()  # Blender's rows run bottom-up
+
+
+def _white() -> Any:
+    mat = bpy.data.materials.new("white")
+    mat.use_nodes = True
+    nodes = mat.node_tree.nodes
+    nodes.clear()
+    out = nodes.new("ShaderNodeOutputMaterial")
+    diff = nodes.new("ShaderNodeBsdfDiffuse")
+    diff.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    diff.inputs["Roughness"].default_value = 0.0
+    mat.node_tree.links.new(diff.outputs["BSDF"], out.inputs["Surface"])
+    return mat
+
+
+def main(argv: list[str]) -> int:
+    config_path, out_path = argv[0], argv[1]
+    with open(config_path) as fh:
+        config = json.load(fh)
+    threads = int(config.get("threads", 2))
+    arrays: dict[str, np.ndarray] = {}
+    seconds: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, job in enumerate(config["renders"]):
+            t0 = time.perf_counter()
+            scene, slab = _scene(float(job["extent_m"]), int(job["width"]), int(job["height"]),
+                                 int(job["samples"]), int(job["seed"]), threads)
+            if job.get("white"):
+                mat = _white()
+            else:
+                ns = runpy.run_path(job["script"], run_name="ssskit_material")
+                mat = ns["ssskit_material"](job.get("material_name"))
+                if job.get("method"):
+                    ns["set_method"](mat, job["method"])
+            slab.data.materials.clear()
+            slab.data.materials.append(mat)
+            arrays[job["key"]] = _render(scene, os.path.join(tmp, f"r{i}.exr"))
+            seconds[job["key"]] = time.perf_counter() - t0
+    np.savez(out_path, **arrays)  # type: ignore[arg-type]  # numpy's stub types **kwds as allow_pickle
+    with open(out_path + ".json", "w") as fh:
+        json.dump({"seconds": seconds, "blender": bpy.app.version_string}, fh)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

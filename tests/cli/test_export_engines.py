@@ -1,0 +1,138 @@
+"""``ssskit export`` to each engine's own file and back: engine files as --material, artists' terms, the
+round trip engine parameters -> material -> Monte Carlo profile -> export -> the same parameters, and bad
+input (one line, exit status 2, nothing written)."""
+
+import importlib.util
+import json
+
+import numpy as np
+import pytest
+
+from .test_bad_input import one_error_line, workdir  # noqa: F401  (the fixture)
+
+
+HAVE_MX = importlib.util.find_spec("MaterialX") is not None
+MX = pytest.mark.skipif(not HAVE_MX, reason="the materialx package is not installed (pip install materialx)")
+
+
+def _ok(run, *args):
+    code, out, err = run(*args)
+    assert code == 0, err
+    return out
+
+
+@pytest.mark.parametrize("fmt,out", [("blender", "s.py"), ("unreal", "s.py"), ("unity", "S.asset"),
+                                     pytest.param("materialx", "s.mtlx", marks=MX), ("unreal", "s.json")])
+def test_engine_files_are_written(run, tmp_path, fmt, out):
+    _ok(run, "export", "--material", "skin1", "--format", fmt, "--out", tmp_path / out)
+    assert (tmp_path / out).stat().st_size > 200
+
+
+def test_engine_json_reads_back_into_another_engine(run, tmp_path):
+    _ok(run, "export", "--material", "skin1", "--format", "unreal", "--out", tmp_path / "u.json")
+    _ok(run, "export", "--material", tmp_path / "u.json", "--format", "blender", "--out", tmp_path / "b.json")
+    _ok(run, "export", "--material", "skin1", "--format", "blender", "--out", tmp_path / "b0.json")
+    b, b0 = (json.loads((tmp_path / f).read_text()) for f in ("b.json", "b0.json"))
+    # the same Burley (A, d) through Unreal's encoding (float32, the 0.6 magic number and back)
+    np.testing.assert_allclose(b["base_color"], b0["base_color"], rtol=1e-6)
+    np.testing.assert_allclose(np.array(b["subsurface_radius"]) * b["subsurface_scale"],
+                               np.array(b0["subsurface_radius"]) * b0["subsurface_scale"], rtol=1e-5)
+
+
+@pytest.mark.parametrize("fmt,suffix", [("unreal", "json"), ("unity", "json"), ("blender", "json"),
+                                        pytest.param("materialx", "mtlx", marks=MX)])
+def test_round_trip_through_monte_carlo(run, tmp_path, fmt, suffix):
+    """Engine parameters -> material (Monte Carlo inversion) -> MCML profile -> Burley fit -> export: the
+    albedo within 1 % and each channel's length within 5 % of the start (MCML noise at 100k photons and the
+    table's interpolation)."""
+    from ssskit.export.readers import read_engine_file
+
+    first = tmp_path / f"a.{suffix}"
+    again = tmp_path / f"b.{suffix}"
+    _ok(run, "export", "--material", "skin1", "--format", fmt, "--out", first)
+    _ok(run, "export", "--material", first, "--model", "montecarlo", "--photons", "100000", "--format", fmt,
+        "--out", again)
+    a, b = read_engine_file(first), read_engine_file(again)
+    np.testing.assert_allclose(b.albedo, a.albedo, rtol=0.01)
+    np.testing.assert_allclose(b.d_mm, a.d_mm, rtol=0.05)
+
+
+def test_unity_asset_reads_back_with_an_albedo(run, tmp_path):
+    _ok(run, "export", "--material", "skin1", "--format", "unity", "--out", tmp_path / "S.asset")
+    _ok(run, "export", "--material", tmp_path / "S.asset", "--albedo", "0.43,0.22,0.12", "--format", "blender",
+        "--out", tmp_path / "b.json")
+    b = json.loads((tmp_path / "b.json").read_text())
+    np.testing.assert_allclose(b["base_color"], [0.43, 0.22, 0.12])
+
+
+def test_artists_terms(run, tmp_path):
+    _ok(run, "export", "--albedo", "0.44,0.22,0.12", "--dmfp", "4.9,2.4,1.4", "--format", "blender",
+        "--out", tmp_path / "b.json")
+    b = json.loads((tmp_path / "b.json").read_text())
+    a = np.array([0.44, 0.22, 0.12])
+    d = np.array([4.9, 2.4, 1.4]) / (3.5 + 100 * (a - 0.33) ** 4)  # the Burley-fit inversion (Xie Eq. 5)
+    np.testing.assert_allclose(np.array(b["subsurface_radius"]) * b["subsurface_scale"] * 1e3 / (4 * np.pi), d,
+                               rtol=1e-6)
+
+
+BAD_EXPORT = [
+    (["--albedo", "1.2,0.5,0.3", "--dmfp", "1", "--format", "blender", "--out", "o.json"], "must lie in (0, 1)"),
+    (["--albedo", "0,0.5,0.3", "--mfp", "1", "--format", "unity", "--out", "o.json"], "must lie in (0, 1)"),
+    (["--albedo", "0.5", "--dmfp", "0,1,1", "--format", "blender", "--out", "o.json"], "must be > 0 mm"),
+    (["--albedo", "0.5", "--mfp", "1,-1,1", "--format", "unreal", "--out", "o.json"], "must be > 0 mm"),
+    (["--albedo", "0.5", "--format", "unreal", "--out", "o.json"], "need --albedo and one of --mfp"),
+    (["--albedo", "0.5", "--mfp", "1", "--dmfp", "1", "--format", "unreal", "--out", "o.json"], "one of --mfp"),
+    (["--material", "skin1", "--albedo", "0.5", "--mfp", "1", "--format", "unreal", "--out", "o.json"],
+     "give the material once"),
+    (["--material", "skin1", "--eta", "1.4", "--format", "unreal", "--out", "o.json"], "--eta belongs"),
+    (["--material", "skin1", "--format", "godot", "--out", "o.json"], "'godot' is not one of"),
+    (["--material", "skin1", "--format", "unity", "--out", "o.py"], "--out for --format unity"),
+    (["--material", "other.json", "--format", "unity", "--out", "o.json"], "an export of engine 'godot'"),
+    (["--material", "other.asset", "--albedo", "0.5", "--format", "blender", "--out", "o.json"],
+     "not HDRP's DiffusionProfileSettings"),
+    (["--material", "cut.asset", "--albedo", "0.5", "--format", "blender", "--out", "o.json"], "truncated"),
+    pytest.param(["--material", "cut.mtlx", "--format", "blender", "--out", "o.json"],
+                 "not a readable MaterialX document", marks=MX),
+    (["--material", "good.asset", "--format", "blender", "--out", "o.json"], "holds no albedo"),
+    (["--material", "skin1", "--unreal-form", "dmfp", "--format", "unreal", "--out", "o.json"], "--unreal-form"),
+    (["--material", "skin1", "--standard-surface", "--format", "unity", "--out", "o.json"], "--standard-surface"),
+    (["--material", "skin1", "--model", "dipole", "--grid-fraction", "0.999", "--format", "unity", "--out", "o.json"],
+     "--grid-fraction does not apply"),
+]
+
+
+@pytest.fixture
+def engine_files(workdir):  # noqa: F811
+    from ssskit.export import engine_parameters
+    from ssskit.export.unity import unity_asset
+    from ssskit.materials import get_material
+    from ssskit.profiles import profile_for_material
+
+    prof = profile_for_material("skin1", "dipole")
+    asset = unity_asset(engine_parameters(prof, "unity", get_material("skin1")), "Skin1")
+    (workdir / "good.asset").write_text(asset)
+    (workdir / "cut.asset").write_text(asset[: asset.index("  profile:") + 40])
+    (workdir / "other.asset").write_text(asset.replace("b2686e09ec7aef44bad2843e4416f057",
+                                                       "0123456789abcdef0123456789abcdef"))
+    (workdir / "other.json").write_text(json.dumps({"engine": "godot", "albedo": [0.5, 0.5, 0.5]}))
+    if HAVE_MX:
+        from ssskit.export.materialx import materialx_document
+
+        mtlx = materialx_document(np.array([0.4, 0.2, 0.1]), np.array([1.0, 0.5, 0.3]), "x")
+        (workdir / "cut.mtlx").write_text(mtlx[: len(mtlx) // 2])
+    return workdir
+
+
+@pytest.mark.parametrize("args,fragment", BAD_EXPORT)
+def test_bad_export_input(run, engine_files, args, fragment):
+    one_error_line(run, engine_files, ["export", *args], fragment)
+
+
+def test_grid_fraction_widens_the_monte_carlo_grid(run, tmp_path):
+    """export --model montecarlo --grid-fraction: the supplement's 32-MFP grid drops Marble's red overflow;
+    a grid holding 99.9 % of the light gives the larger, complete albedo."""
+    common = ["export", "--material", "marble", "--model", "montecarlo", "--photons", "20000", "--format", "blender"]
+    _ok(run, *common, "--out", tmp_path / "a.json")
+    _ok(run, *common, "--grid-fraction", "0.999", "--out", tmp_path / "b.json")
+    a, b = (json.loads((tmp_path / f).read_text())["base_color"] for f in ("a.json", "b.json"))
+    assert b[0] > a[0] * 1.01  # the issue measured 2.3 % in red
