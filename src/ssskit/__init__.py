@@ -11,6 +11,7 @@ pipeline's entry points are reachable from the top, also lazily::
 from __future__ import annotations
 
 import importlib
+from typing import Any
 
 __version__ = "0.1.0"
 
@@ -21,7 +22,7 @@ _SUBMODULES = ("errors", "registry", "cache", "io", "settings", "metrics", "mate
 _API = {"render": "pipeline", "RenderSettings": "pipeline", "RenderResult": "pipeline"}
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> Any:
     if name in _SUBMODULES:
         return importlib.import_module(f"{__name__}.{name}")
     if name in _API:

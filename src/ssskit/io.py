@@ -23,9 +23,10 @@ import tempfile
 import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .errors import GBufferError, OutputError
 
@@ -119,11 +120,11 @@ def check_distinct(output: str | Path | None, *inputs: Any, what: str = "output"
 
 # ---- arrays and profile tables ---------------------------------------------------------------------
 
-def save_arrays(path: str | Path, **arrays) -> None:
+def save_arrays(path: str | Path, **arrays: ArrayLike) -> None:
     """Write an ``.npz`` of named arrays atomically."""
     with atomic_output(path) as tmp:
         with open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
+            np.savez(fh, allow_pickle=True, **arrays)  # the default, named so no array can take its place
 
 
 def save_profile_table(path: str | Path, r_mm: np.ndarray, rd: np.ndarray, meta: dict[str, Any]) -> None:
@@ -146,7 +147,7 @@ def save_profile_table(path: str | Path, r_mm: np.ndarray, rd: np.ndarray, meta:
 
 # ---- images ----------------------------------------------------------------------------------------
 
-def tonemap(image, peak: float) -> np.ndarray:
+def tonemap(image: ArrayLike, peak: float) -> NDArray[np.float64]:
     """Linear -> display: divide by ``peak``, clip to [0, 1], sRGB transfer function (IEC 61966-2-1)."""
     x = np.clip(np.asarray(image, dtype=np.float64) / peak, 0.0, 1.0)
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
@@ -297,6 +298,16 @@ def write_exr(path: str | Path, channels: dict[str, np.ndarray], attributes: dic
             raise OutputError(f"cannot write {what} {str(path)!r}: {detail}")
 
 
+class ProgressBar(Protocol):
+    """What :func:`progress_bar` returns (a tqdm bar, or plain lines for a log): the calls ssskit makes."""
+
+    def update(self, n: int = 1, /) -> object: ...
+
+    def set_postfix_str(self, s: str, /) -> None: ...
+
+    def close(self) -> None: ...
+
+
 class _LineProgress:
     """A tqdm-like progress report for a stderr that is no terminal (a log file, CI): one plain line
     at each tenth of the total and at the end, instead of carriage-return redraws."""
@@ -328,7 +339,8 @@ class _LineProgress:
         pass
 
 
-def progress_bar(total: int, desc: str, unit: str = "it", enabled: bool = True, initial: int = 0, **tqdm_kw):
+def progress_bar(total: int, desc: str, unit: str = "it", enabled: bool = True, initial: int = 0,
+                 **tqdm_kw: Any) -> ProgressBar:
     """A progress bar on stderr: tqdm when stderr is a terminal, plain lines at each tenth otherwise
     (readable in logs), nothing when not ``enabled``. Supports update, set_postfix_str and close."""
     if not enabled:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import math
 import numbers
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -150,7 +150,7 @@ class Material:
     @property
     def mfp_mm(self) -> Triple:
         """Volume mean free path 1 / sigma_t (mm); supplement F's MFP for g = 0."""
-        return tuple(1.0 / t for t in self.sigma_t)  # type: ignore[return-value]
+        return _map1(lambda t: 1.0 / t, self.sigma_t)
 
     @property
     def sigma_s_reduced(self) -> Triple:
@@ -170,7 +170,7 @@ class Material:
     @property
     def mfp_reduced_mm(self) -> Triple:
         """Transport mean free path 1 / sigma_t' (mm); supplement F's MFP definition."""
-        return tuple(1.0 / t for t in self.sigma_t_reduced)  # type: ignore[return-value]
+        return _map1(lambda t: 1.0 / t, self.sigma_t_reduced)
 
     @property
     def sigma_tr(self) -> Triple:
@@ -208,7 +208,11 @@ class Material:
         return d
 
 
-def _map2(fn, a: Triple, b: Triple) -> Triple:
+def _map1(fn: Callable[[float], float], a: Triple) -> Triple:
+    return (fn(a[0]), fn(a[1]), fn(a[2]))
+
+
+def _map2(fn: Callable[[float, float], float], a: Triple, b: Triple) -> Triple:
     return (fn(a[0], b[0]), fn(a[1], b[1]), fn(a[2], b[2]))
 
 
@@ -233,10 +237,10 @@ _MEASURED: dict[str, tuple[Triple, Triple, float]] = {
     "Wholemilk": ((0.0011, 0.0024, 0.0140), (2.5500, 3.2100, 3.7700), 1.3),
 }
 
-for _name, (_sa, _ss, _eta) in _MEASURED.items():
+for _preset, (_sa, _ss, _eta) in _MEASURED.items():
     MATERIALS.register(
-        _name,
-        Material(_name, _sa, _ss, (0.0, 0.0, 0.0), _eta, math.inf, 1.0, source=_SUPPLEMENT_G),
+        _preset,
+        Material(_preset, _sa, _ss, (0.0, 0.0, 0.0), _eta, math.inf, 1.0, source=_SUPPLEMENT_G),
     )
 
 
@@ -363,8 +367,8 @@ def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user mat
     if unit not in ("mm", "cm"):
         raise MaterialError(f"unit must be 'mm' or 'cm', got {unit!r}")
     scale = 1.0 / MM_PER_CM if unit == "cm" else 1.0
-    sigma_a = tuple(v * scale for v in _triple("sigma_a", data["sigma_a"]))
-    sigma_s = tuple(v * scale for v in _triple("sigma_s", data["sigma_s"]))
+    sigma_a = _map1(lambda v: v * scale, _triple("sigma_a", data["sigma_a"]))
+    sigma_s = _map1(lambda v: v * scale, _triple("sigma_s", data["sigma_s"]))
     thickness = data.get("thickness_mm")
     if thickness is None:
         thickness = math.inf
@@ -372,8 +376,8 @@ def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user mat
         thickness = _number("thickness_mm", thickness) * MM_PER_CM
     return Material(
         name=_name(data, default_name),
-        sigma_a=sigma_a,  # type: ignore[arg-type]
-        sigma_s=sigma_s,  # type: ignore[arg-type]
+        sigma_a=sigma_a,
+        sigma_s=sigma_s,
         g=data.get("g", 0.0),
         eta=data.get("eta", 1.3),
         thickness_mm=thickness,

@@ -9,6 +9,7 @@ to [0, 1] and sRGB-encoded first (:func:`tonemap`).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .errors import SignalError
 from .io import tonemap  # the display encoding images are written with
@@ -17,7 +18,7 @@ from .io import tonemap  # the display encoding images are written with
 BT709_LUMA = (0.2126, 0.7152, 0.0722)
 
 
-def _pair(reference, test) -> tuple[np.ndarray, np.ndarray]:
+def _pair(reference: ArrayLike, test: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     ref = np.asarray(reference, dtype=np.float64)
     tst = np.asarray(test, dtype=np.float64)
     if ref.shape != tst.shape:
@@ -29,19 +30,19 @@ def _pair(reference, test) -> tuple[np.ndarray, np.ndarray]:
     return ref, tst
 
 
-def rmse(reference, test) -> float:
+def rmse(reference: ArrayLike, test: ArrayLike) -> float:
     """Root-mean-square error over all pixels and channels (linear)."""
     ref, tst = _pair(reference, test)
     return float(np.sqrt(np.mean((ref - tst) ** 2)))
 
 
-def relative_rmse(reference, test) -> float:
+def relative_rmse(reference: ArrayLike, test: ArrayLike) -> float:
     """RMSE divided by the reference's RMS value."""
     ref, tst = _pair(reference, test)
     return float(np.sqrt(np.mean((ref - tst) ** 2) / np.mean(ref**2)))
 
 
-def psnr(reference, test, peak: float | None = None) -> float:
+def psnr(reference: ArrayLike, test: ArrayLike, peak: float | None = None) -> float:
     """Peak signal-to-noise ratio in dB, 20 log10(peak / RMSE); peak defaults to the reference's maximum."""
     ref, tst = _pair(reference, test)
     peak = float(ref.max()) if peak is None else float(peak)
@@ -49,7 +50,7 @@ def psnr(reference, test, peak: float | None = None) -> float:
     return float("inf") if err == 0 else float(20.0 * np.log10(peak / err))
 
 
-def ssim(reference, test) -> float:
+def ssim(reference: ArrayLike, test: ArrayLike) -> float:
     """Mean SSIM (scikit-image, Gaussian-weighted as in Wang et al.) of the tone-mapped images."""
     from skimage.metrics import structural_similarity
 
@@ -59,7 +60,7 @@ def ssim(reference, test) -> float:
                                        gaussian_weights=True, sigma=1.5, use_sample_covariance=False))
 
 
-def flip(reference, test, ppd: float = 67.0) -> float:
+def flip(reference: ArrayLike, test: ArrayLike, ppd: float = 67.0) -> float:
     """Mean LDR-FLIP error (NVIDIA flip-evaluator) of the tone-mapped images, 0 = identical."""
     import flip_evaluator
 
@@ -88,7 +89,7 @@ def psnr_text(value: float | None, digits: int = 1) -> str:
 PERCEPTUAL = ("ssim", "flip")
 
 
-def all_metrics(reference, test, perceptual: bool | tuple[str, ...] = True) -> dict[str, float]:
+def all_metrics(reference: ArrayLike, test: ArrayLike, perceptual: bool | tuple[str, ...] = True) -> dict[str, float]:
     """rmse, relative_rmse, psnr and the ``perceptual`` metrics: True for ssim and flip, False for
     none, or a tuple of names from :data:`PERCEPTUAL` (e.g. ``("flip",)`` when SSIM is not shown)."""
     names = PERCEPTUAL if perceptual is True else (() if perceptual is False else tuple(perceptual))
@@ -105,7 +106,7 @@ def all_metrics(reference, test, perceptual: bool | tuple[str, ...] = True) -> d
     return out
 
 
-def region_metrics(reference, test, mask, perceptual: bool = True) -> dict[str, float]:
+def region_metrics(reference: ArrayLike, test: ArrayLike, mask: ArrayLike, perceptual: bool = True) -> dict[str, float]:
     """Errors of ``test`` against ``reference`` (both (H, W, 3), linear) inside ``mask`` (H, W) bool:
     ``rmse``, ``relative_rmse`` and ``psnr`` (peak = the reference's maximum inside the mask) over the
     masked pixels, and with ``perceptual`` ``flip`` over the whole image (FLIP needs the image
@@ -136,7 +137,7 @@ def region_metrics(reference, test, mask, perceptual: bool = True) -> dict[str, 
 REGIONS = ("plateau", "shadow_edge", "terminator", "silhouette")
 
 
-def _distance_to(region: np.ndarray) -> np.ndarray:
+def _distance_to(region: NDArray[np.bool_]) -> NDArray[np.float64]:
     """Euclidean distance (pixels) of every pixel to the nearest pixel of ``region`` (inf if none)."""
     from scipy import ndimage
 
@@ -145,7 +146,8 @@ def _distance_to(region: np.ndarray) -> np.ndarray:
     return ndimage.distance_transform_edt(~region)
 
 
-def region_masks(e_over_pi, mask, radius_px: float, sharp: float = 0.3) -> dict[str, np.ndarray]:
+def region_masks(e_over_pi: ArrayLike, mask: ArrayLike, radius_px: float,
+                 sharp: float = 0.3) -> dict[str, NDArray[np.bool_]]:
     """The comparison regions inside ``mask`` (H, W) bool, from the white diffuse layer ``e_over_pi``
     ((H, W) or (H, W, 3): irradiance / pi) and the profile's reach ``radius_px`` (pixels):
 
@@ -192,7 +194,8 @@ def region_masks(e_over_pi, mask, radius_px: float, sharp: float = 0.3) -> dict[
     return {"plateau": plateau, "shadow_edge": shadow, "terminator": terminator, "silhouette": silhouette}
 
 
-def region_level(diffuse_part, e_over_pi, region, pixel_se=None) -> dict[str, object]:
+def region_level(diffuse_part: ArrayLike, e_over_pi: ArrayLike, region: ArrayLike,
+                 pixel_se: ArrayLike | None = None) -> dict[str, object]:
     """The effective albedo of a region: mean(diffuse part) / mean(E / pi) per channel over ``region``,
     with its standard error when ``pixel_se`` (the diffuse part's per-pixel standard errors from
     independent pixels) is given: sqrt(sum se^2) / N / mean(E / pi). On the lit plateau of a flat
@@ -213,7 +216,9 @@ def region_level(diffuse_part, e_over_pi, region, pixel_se=None) -> dict[str, ob
     return {"pixels": n, "level": level.tolist(), "se": se}
 
 
-def edge_profile(diffuse_part, region, plateau_level, pixel_se=None, axis: int = 0):
+def edge_profile(diffuse_part: ArrayLike, region: ArrayLike, plateau_level: ArrayLike,
+                 pixel_se: ArrayLike | None = None,
+                 axis: int = 0) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
     """The profile across a straight edge: the mean of the diffuse part over ``region``'s pixels along
     ``axis`` (0: down the columns, for a vertical edge), divided by the plateau's level (so a profile
     of the same shape but another albedo compares equal). Returns (profile (W, 3), standard error
@@ -231,7 +236,7 @@ def edge_profile(diffuse_part, region, plateau_level, pixel_se=None, axis: int =
     return prof, se
 
 
-def profile_rmse(test, reference, reference_se=None) -> dict[str, float]:
+def profile_rmse(test: ArrayLike, reference: ArrayLike, reference_se: ArrayLike | None = None) -> dict[str, float]:
     """RMSE between two normalised profiles (over the entries both hold), with the part of it that the
     reference's own noise explains: ``noise`` = rms of its standard errors, ``rmse_se`` the standard
     error of the RMSE (delta method: se(rmse^2) = 2 sqrt(sum d^2 se^2) / N), and ``resolved`` whether
@@ -252,7 +257,7 @@ def profile_rmse(test, reference, reference_se=None) -> dict[str, float]:
     rmse_se = float(se2 / (2.0 * rmse)) if rmse > 0 else noise
     return {"rmse": rmse, "noise": noise, "rmse_se": rmse_se,
             "resolved": bool(rmse**2 - noise**2 > 3.0 * se2)}
-def display_psnr(reference, image, mask, gamma: float = 2.2) -> float | None:
+def display_psnr(reference: ArrayLike | None, image: ArrayLike, mask: ArrayLike, gamma: float = 2.2) -> float | None:
     """Gray-scale PSNR on the display (Xie 2020 Sec. 6 reports "gray-scale PSNR"), inside ``mask``: both
     images mapped by g(x) = clip(Y(x) / P, 0, 1)^(1/gamma), Y the BT.709 luminance and P the reference's
     largest luminance inside the mask (so the reference spans [0, 1] like a display frame), then
@@ -262,8 +267,9 @@ def display_psnr(reference, image, mask, gamma: float = 2.2) -> float | None:
     if reference is None or not np.any(mask):
         return None
     w = np.asarray(BT709_LUMA)
-    y_ref = np.asarray(reference, np.float64)[mask] @ w
-    y_img = np.asarray(image, np.float64)[mask] @ w
+    m = np.asarray(mask, dtype=bool)
+    y_ref = np.asarray(reference, np.float64)[m] @ w
+    y_img = np.asarray(image, np.float64)[m] @ w
     peak = float(y_ref.max())
     if peak <= 0:
         return None

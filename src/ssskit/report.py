@@ -9,14 +9,19 @@ from __future__ import annotations
 import html
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .backends import DEFAULT_BACKEND
 from .io import write_text
 from .materials import CHANNELS, MATERIALS, Material
+
+if TYPE_CHECKING:
+    from .backends.base import Backend
+    from .profiles.base import RadialProfile, RGBProfile
 
 Progress = Callable[[str], None]
 Section = Callable[[Path, Progress, dict], str]
@@ -35,8 +40,16 @@ h2 { border-bottom: 2px solid #ddd; padding-bottom: 0.2em; margin-top: 2em; }
 """
 
 
-def _fmt(values, digits: int = 4) -> str:
+def _fmt(values: Iterable[float], digits: int = 4) -> str:
     return ", ".join(f"{v:.{digits}g}" for v in values)
+
+
+def _burley_d(channel: RadialProfile) -> float:
+    """A Burley channel's d (mm)."""
+    from .profiles.burley import BurleyProfile
+
+    assert isinstance(channel, BurleyProfile)  # burley_profile's channels
+    return channel.d
 
 
 def _materials_section(out: Path, progress: Progress, ctx: dict) -> str:
@@ -50,7 +63,7 @@ def _materials_section(out: Path, progress: Progress, ctx: dict) -> str:
             f"<tr><td class=name><a href='#{name}'>{html.escape(name)}</a></td>"
             f"<td>{_fmt(m.sigma_a)}</td><td>{_fmt(m.sigma_s)}</td><td>{m.eta:g}</td>"
             f"<td>{_fmt(m.albedo)}</td><td>{_fmt(m.mfp_mm)}</td><td>{_fmt(m.sigma_tr)}</td>"
-            f"<td>{_fmt(dip.total_rd())}</td><td>{_fmt([c.d for c in bur.channels])}</td></tr>"
+            f"<td>{_fmt(dip.total_rd())}</td><td>{_fmt([_burley_d(c) for c in bur.channels])}</td></tr>"
         )
     return (
         "<h2>Materials</h2><p class=note>The 11 measured materials of the separable-SSS supplement, "
@@ -94,7 +107,7 @@ def _profiles_section(out: Path, progress: Progress, ctx: dict) -> str:
     return "".join(parts)
 
 
-def _totals_table(m: Material, profs) -> str:
+def _totals_table(m: Material, profs: Sequence[RGBProfile]) -> str:
     head = "".join(f"<th>{c}</th>" for c in CHANNELS)
     rows = "".join(
         f"<tr><td class=name>{p.model}</td>"
@@ -164,7 +177,7 @@ def _kernels_section(out: Path, progress: Progress, ctx: dict) -> str:
     )
 
 
-def _level_cells(row, key, ref=None) -> str:
+def _level_cells(row: dict[str, Any], key: str, ref: bool | None = None) -> str:
     if key not in row or row[key]["level"] is None:
         return "<td>-</td>"
     lev = row[key]["level"]
@@ -333,7 +346,7 @@ def _cached_section(name: str, section: Section, out: Path, progress: Progress, 
     return text
 
 
-def _file_digest(path) -> str:
+def _file_digest(path: str | Path) -> str:
     """sha1 of a file's bytes ("" for a name that is no file, e.g. the generated bust)."""
     import hashlib
 
@@ -341,7 +354,7 @@ def _file_digest(path) -> str:
     return hashlib.sha1(p.read_bytes()).hexdigest() if p.is_file() else ""
 
 
-def _backend_text(backend) -> str:
+def _backend_text(backend: Backend) -> str:
     """``name backend (details)``, e.g. the gl backend's renderer string."""
     ok, details = backend.availability()
     return f"{backend.name} backend" + (f" ({details})" if ok and details else "")
@@ -351,12 +364,13 @@ def _with_contents(sections: list[str]) -> tuple[list[str], str]:
     """Give every section heading (h2) an id and return (sections, a table of contents linking them)."""
     import re
 
-    items, out = [], []
+    items: list[tuple[str, str]] = []
+    out: list[str] = []
     for k, text in enumerate(sections):
-        def named(m, k=k):
+        def named(m: re.Match[str], k: int = k) -> str:
             attrs, title = m.group(1), m.group(2)
-            ident = re.search(r"id=['\"]?([\w-]+)", attrs)
-            ident = ident.group(1) if ident else f"section-{k}-{len(items)}"
+            found = re.search(r"id=['\"]?([\w-]+)", attrs)
+            ident = found.group(1) if found else f"section-{k}-{len(items)}"
             items.append((ident, re.sub(r"<[^>]+>", "", title)))
             return f"<h2 id='{ident}'>{title}</h2>"
 

@@ -18,7 +18,8 @@ import json
 import math
 import typing
 from pathlib import Path
-from typing import Any
+from collections.abc import Collection
+from typing import Any, ClassVar, Self, SupportsIndex
 
 from .errors import SettingsError
 
@@ -26,25 +27,29 @@ from .errors import SettingsError
 class Settings:
     """Mixin for frozen dataclasses: ``to_dict``, ``from_dict``, ``replace``, ``load`` and ``save``."""
 
+    # what @dataclass gives every subclass (declared, not set: the mixin itself is no dataclass), so the
+    # type checker sees a Settings as the dataclass instance that dataclasses.fields/replace take
+    __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[Any]]]
+
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {}
-        for f in dataclasses.fields(self):  # type: ignore[arg-type]
+        for f in dataclasses.fields(self):
             v = getattr(self, f.name)
             out[f.name] = v.to_dict() if isinstance(v, Settings) else (list(v) if isinstance(v, tuple) else v)
         return out
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], where: str = "") -> "Settings":
+    def from_dict(cls, data: dict[str, Any], where: str = "") -> Self:
         """Build from plain data; unknown keys and wrong types are errors naming the key."""
         if not isinstance(data, dict):
             raise SettingsError(f"{where or cls.__name__}: expected a table/object, got {type(data).__name__}")
-        names = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+        names = {f.name: f for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - set(names))
         if unknown:
             raise SettingsError(f"{where or cls.__name__}: unknown setting(s) {', '.join(unknown)} "
                                 f"(known: {', '.join(names)})")
         hints = typing.get_type_hints(cls)
-        kwargs = {}
+        kwargs: dict[str, Any] = {}
         for key, value in data.items():
             sub = _settings_class(hints.get(key))
             if sub is not None:
@@ -53,12 +58,12 @@ class Settings:
                 kwargs[key] = tuple(value) if isinstance(value, list) else value
         return cls(**kwargs)
 
-    def replace(self, **changes) -> "Settings":
+    def replace(self, **changes: Any) -> Self:
         """A copy with ``changes`` applied (validated again)."""
-        return dataclasses.replace(self, **changes)  # type: ignore[type-var]
+        return dataclasses.replace(self, **changes)
 
     @classmethod
-    def load(cls, path: str | Path) -> "Settings":
+    def load(cls, path: str | Path) -> Self:
         """Read a ``.toml`` or ``.json`` settings file."""
         p = Path(path)
         suffix = p.suffix.lower()
@@ -91,18 +96,18 @@ class Settings:
         write_text(path, json.dumps(data, indent=2) + "\n" if suffix == ".json" else _to_toml(data))
 
 
-def _settings_class(hint) -> type | None:
+def _settings_class(hint: Any) -> type[Settings] | None:
     for t in (hint, *typing.get_args(hint)):
         if isinstance(t, type) and issubclass(t, Settings):
             return t
     return None
 
 
-def _drop_none(d: dict) -> dict:
+def _drop_none(d: dict[str, Any]) -> dict[str, Any]:
     return {k: (_drop_none(v) if isinstance(v, dict) else v) for k, v in d.items() if v is not None}
 
 
-def _toml_value(v) -> str:
+def _toml_value(v: object) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, (int, float)):
@@ -116,7 +121,7 @@ def _toml_value(v) -> str:
     raise SettingsError(f"cannot write {type(v).__name__} to TOML")
 
 
-def _to_toml(data: dict) -> str:
+def _to_toml(data: dict[str, Any]) -> str:
     lines = [f"{k} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
     for k, v in data.items():
         if isinstance(v, dict):
@@ -124,9 +129,9 @@ def _to_toml(data: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def check_int(name: str, value, lo: int, hi: int) -> int:
+def check_int(name: str, value: object, lo: int, hi: int) -> int:
     """An int in [lo, hi] (bools refused), or a SettingsError naming ``name``."""
-    if isinstance(value, bool) or not isinstance(value, int) and not (hasattr(value, "__index__")):
+    if isinstance(value, bool) or not isinstance(value, SupportsIndex):  # an int, or what has __index__
         raise SettingsError(f"{name} must be an integer, got {value!r}")
     v = int(value)
     if not lo <= v <= hi:
@@ -134,7 +139,7 @@ def check_int(name: str, value, lo: int, hi: int) -> int:
     return v
 
 
-def check_float(name: str, value, lo: float, hi: float, *, open_lo: bool = False) -> float:
+def check_float(name: str, value: Any, lo: float, hi: float, *, open_lo: bool = False) -> float:
     """A finite float in [lo, hi] (in (lo, hi] with ``open_lo``), or a SettingsError naming ``name``
     and the interval."""
     if isinstance(value, bool):
@@ -149,7 +154,7 @@ def check_float(name: str, value, lo: float, hi: float, *, open_lo: bool = False
     return v
 
 
-def check_choice(name: str, value, choices) -> str:
+def check_choice(name: str, value: object, choices: Collection[str]) -> str:
     """``value`` (case-insensitive) if it is one of ``choices``, returned in its canonical spelling."""
     if isinstance(value, str):
         for c in choices:

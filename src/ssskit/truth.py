@@ -14,9 +14,17 @@ from __future__ import annotations
 
 import math
 
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .errors import SignalError
+
+if TYPE_CHECKING:  # imported where used: truth loads without them
+    from .kernels.base import AnyKernel, Kernel
+    from .profiles.base import RGBProfile
+    from .screenspace.gbuffer import GBuffer
 
 
 def check_image(image: np.ndarray, what: str = "image") -> np.ndarray:
@@ -44,7 +52,7 @@ def convolve_2d(image: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return np.stack([fftconvolve(padded[..., c], k[..., c], mode="valid") for c in range(3)], axis=-1)
 
 
-def kernel_on_pixels(kernel, pixel_mm: float):
+def kernel_on_pixels(kernel: AnyKernel, pixel_mm: float) -> Kernel:
     """The kernel as a tabulated :class:`Kernel` on the pixel grid (resampled or tap-deposited)."""
     from .kernels.base import TapKernel
 
@@ -55,7 +63,7 @@ def kernel_on_pixels(kernel, pixel_mm: float):
     return kernel.resample(pixel_mm)
 
 
-def apply_separable(image: np.ndarray, kernel, pixel_mm: float) -> np.ndarray:
+def apply_separable(image: np.ndarray, kernel: AnyKernel, pixel_mm: float) -> np.ndarray:
     """E * A for A = sum_i s_i a_i(x) a_i(y) as 2N 1D convolutions (paper Eq. 2), per channel.
 
     Horizontal then vertical pass per term, border pixels repeated (scipy.ndimage.convolve1d,
@@ -74,7 +82,7 @@ def apply_separable(image: np.ndarray, kernel, pixel_mm: float) -> np.ndarray:
     return out
 
 
-def exact_screen_space(gbuffer, profile, fraction: float = 0.999) -> np.ndarray | None:
+def exact_screen_space(gbuffer: GBuffer, profile: RGBProfile | Mapping[int, RGBProfile], fraction: float = 0.999) -> np.ndarray | None:
     """The exact 2D convolution (paper Eq. 1) of a G-buffer's diffuse layer on each SSS region,
     (H, W, 3) float32; None if the pixels are not square (the profile's cells are square).
 
@@ -90,8 +98,6 @@ def exact_screen_space(gbuffer, profile, fraction: float = 0.999) -> np.ndarray 
     fronto-parallel surface (the slab scene); on curved surfaces it ignores the footprint's change with
     depth, which the pass does not. Pixels without SSS keep their diffuse value.
     """
-    from collections.abc import Mapping
-
     from scipy.signal import fftconvolve
 
     cam = gbuffer.camera

@@ -40,6 +40,8 @@ so the result does not depend on the number of threads).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numba import njit, prange
@@ -285,11 +287,11 @@ def _ring_source(name: str, n: int) -> str:
     return "\n".join(out) + "\n"
 
 
-def _make_ring(n: int):
+def _make_ring(n: int) -> Callable[..., None]:
     """Ring n's kernel: :func:`_ring_source` compiled here, njit-ed to be inlined into the cached passes (whose
     cache entries depend on this module's source, the generator included)."""
     name = f"_ring{n}"
-    ns = {"np": np}
+    ns: dict[str, Any] = {"np": np}
     exec(compile(_ring_source(name, n), f"<ssskit jitter window ring {n}>", "exec"), ns)
     return njit(inline="always", fastmath=_FM)(ns[name])
 

@@ -55,8 +55,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol, TypeAlias
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
 from ..metrics import BT709_LUMA
@@ -89,7 +91,38 @@ class AdaptivePlan:
         return 2.0 / self.alpha - 1.0
 
 
-def as_plan(settings) -> AdaptivePlan:
+class GuideSettings(Protocol):
+    """What :func:`as_plan` reads: the fields of an AdaptivePlan (``ssskit.screenspace.AdaptiveSettings``)."""
+
+    @property
+    def sigma0_sq(self) -> float: ...
+    @property
+    def kappa(self) -> float: ...
+    @property
+    def b_min(self) -> int: ...
+    @property
+    def b_max(self) -> int: ...
+    @property
+    def alpha(self) -> float: ...
+    @property
+    def correction(self) -> str: ...
+    @property
+    def gamma(self) -> float: ...
+
+
+class GuideParams(GuideSettings, Protocol):
+    """What the reference steps read: an :class:`AdaptivePlan` or ``AdaptiveSettings``, with k."""
+
+    @property
+    def k(self) -> float: ...
+
+
+#: :func:`check_guide_inputs`: mask (H, W) bool, motion (H, W, 2), valid (H, W) bool, rgb (H, W, 3), counts (H, W)
+GuideInputs: TypeAlias = tuple[NDArray[np.bool_], NDArray[np.float64] | None, NDArray[np.bool_] | None,
+                               NDArray[np.float32] | None, NDArray[np.int64] | None]
+
+
+def as_plan(settings: GuideSettings) -> AdaptivePlan:
     """An :class:`AdaptivePlan` of anything with the same fields (AdaptiveSettings)."""
     if isinstance(settings, AdaptivePlan):
         return settings
@@ -98,7 +131,11 @@ def as_plan(settings) -> AdaptivePlan:
                         gamma=float(settings.gamma))
 
 
-def check_guide_frame(history, mask, motion=None, valid=None, rgb=None, counts=None):
+def check_guide_frame(history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
+                      valid: ArrayLike | None = None, rgb: ArrayLike | None = None,
+                      counts: ArrayLike | None = None) -> tuple[
+        NDArray[np.float32], NDArray[np.bool_], NDArray[np.float64] | None, NDArray[np.bool_] | None,
+        NDArray[np.float32] | None, NDArray[np.int64] | None]:
     """The guiding phase's inputs as arrays of the kernels' types, or a PassError: history (H, W, 4)
     float32, mask (H, W) bool, motion (H, W, 2) float64 or None, valid (H, W) bool or None, rgb (H, W, 3)
     float32 or None, counts (H, W) int64 or None."""
@@ -110,7 +147,9 @@ def check_guide_frame(history, mask, motion=None, valid=None, rgb=None, counts=N
     return h.astype(np.float32, copy=False), m, mv, ok, img, n
 
 
-def check_guide_inputs(shape: tuple[int, int], mask, motion=None, valid=None, rgb=None, counts=None):
+def check_guide_inputs(shape: tuple[int, ...], mask: ArrayLike, motion: ArrayLike | None = None,
+                       valid: ArrayLike | None = None, rgb: ArrayLike | None = None,
+                       counts: ArrayLike | None = None) -> GuideInputs:
     """:func:`check_guide_frame` without the history, for a frame of (H, W) = ``shape``."""
     shape = tuple(shape)
     m = np.asarray(mask)
@@ -169,7 +208,7 @@ def reference_reproject(h: np.ndarray, motion: np.ndarray | None, ok: np.ndarray
     return out
 
 
-def reference_estimate(h: np.ndarray, s) -> np.ndarray:
+def reference_estimate(h: np.ndarray, s: GuideParams) -> NDArray[np.float64]:
     """Step 3: n_hat (H, W) float64 of a float32 history (Eqs. 13-15)."""
     n_bar = h[..., N_BAR].astype(np.float64) * h[..., AVAILABLE]  # pixels without history: n_bar = 0, n_hat = 0
     var = h[..., VAR].astype(np.float64)
@@ -187,7 +226,7 @@ def reference_estimate(h: np.ndarray, s) -> np.ndarray:
     return spread
 
 
-def reference_clamp(nh: np.ndarray, s, m: np.ndarray) -> np.ndarray:
+def reference_clamp(nh: np.ndarray, s: GuideParams, m: np.ndarray) -> NDArray[np.int64]:
     """Step 4: counts (H, W) int64 (NaN counts as b_max: the clip keeps it, so map it first)."""
     n = np.ceil(nh)
     n[np.isnan(n)] = s.b_max
@@ -196,7 +235,7 @@ def reference_clamp(nh: np.ndarray, s, m: np.ndarray) -> np.ndarray:
     return n.astype(np.int64)
 
 
-def reference_update(h: np.ndarray, v: np.ndarray, n: np.ndarray, s, m: np.ndarray) -> np.ndarray:
+def reference_update(h: np.ndarray, v: np.ndarray, n: np.ndarray, s: GuideParams, m: np.ndarray) -> NDArray[np.float32]:
     """Step 2 on a reprojected float32 history h, values v (H, W), counts n (H, W): a new (H, W, 4) float32
     history (float32 arithmetic, as the history is stored)."""
     f32 = np.float32
@@ -219,14 +258,16 @@ def reference_update(h: np.ndarray, v: np.ndarray, n: np.ndarray, s, m: np.ndarr
     return np.stack([n_bar * mf, mu * mf, var * mf, mf], axis=-1)
 
 
-def reference_counts(plan: AdaptivePlan, history, mask, motion=None, valid=None) -> np.ndarray:
+def reference_counts(plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
+                     valid: ArrayLike | None = None) -> NDArray[np.int64]:
     """The *estimate* entry point (steps 1, 3, 4) in numpy: counts (H, W) int64."""
     h, m, mv, ok, _, _ = check_guide_frame(history, mask, motion, valid)
     return reference_clamp(reference_estimate(reference_reproject(h, mv, ok), plan), plan, m)
 
 
-def reference_update_pass(plan: AdaptivePlan, history, rgb, counts, mask, motion=None,
-                          valid=None) -> tuple[np.ndarray, np.ndarray]:
+def reference_update_pass(plan: AdaptivePlan, history: ArrayLike, rgb: ArrayLike | None, counts: ArrayLike | None,
+                          mask: ArrayLike, motion: ArrayLike | None = None,
+                          valid: ArrayLike | None = None) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
     """The *update* entry point (steps 1-4) in numpy: (new history (H, W, 4) float32, next counts int64)."""
     h, m, mv, ok, img, n = check_guide_frame(history, mask, motion, valid, rgb, counts)
     if img is None or n is None:

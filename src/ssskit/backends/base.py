@@ -24,15 +24,26 @@ images on ``gl``).
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .plan import SeparablePlan
 
 if TYPE_CHECKING:
     from .adaptive_plan import AdaptivePlan
-    from .burley_plan import BurleyPlan
+    from .burley_plan import BurleyPlan, MipPyramid, SampleCounts
+
+_T = TypeVar("_T")
+
+
+class SlotPlan(Protocol):
+    """What :func:`check_frame` reads of a pass's plan (a SeparablePlan or a BurleyPlan): its slot count."""
+
+    @property
+    def slots(self) -> int: ...
 
 #: the phases an AdaptiveRunner times, in frame order (Xie 2020 Fig. 8 and Table 1)
 PHASES = ("estimate", "prefilter", "sampling", "update")
@@ -60,7 +71,7 @@ class Backend(ABC):
         """The separable pass (see :mod:`ssskit.backends.plan`): a new (H, W, 3) array."""
 
     def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-               spp, pyramid=None) -> np.ndarray:
+               spp: SampleCounts, pyramid: MipPyramid | None = None) -> np.ndarray:
         """The Burley Monte Carlo pass (see :mod:`ssskit.backends.burley_plan`): a new (H, W, 3) array.
 
         ``spp``: samples per pixel, an int or an (H, W) integer image (checked by
@@ -72,7 +83,8 @@ class Backend(ABC):
 
         raise BackendError(f"backend {self.name!r} has no Burley pass")
 
-    def adaptive_counts(self, plan: AdaptivePlan, history, mask, motion=None, valid=None) -> np.ndarray:
+    def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
+                        valid: ArrayLike | None = None) -> NDArray[np.int64]:
         """The guiding phase's *estimate* (:mod:`ssskit.backends.adaptive_plan` steps 1, 3, 4): this frame's
         sample counts (H, W) int64 from the previous (H, W, 4) history, reprojected through ``motion``
         (H, W, 2) (None: static) with ``valid`` (H, W) (None: everywhere), and the frame's SSS ``mask``."""
@@ -80,8 +92,9 @@ class Backend(ABC):
 
         raise BackendError(f"backend {self.name!r} has no adaptive guiding pass")
 
-    def adaptive_update(self, plan: AdaptivePlan, history, rgb, counts, mask, motion=None,
-                        valid=None) -> tuple[np.ndarray, np.ndarray]:
+    def adaptive_update(self, plan: AdaptivePlan, history: ArrayLike, rgb: ArrayLike | None, counts: ArrayLike | None,
+                        mask: ArrayLike, motion: ArrayLike | None = None,
+                        valid: ArrayLike | None = None) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
         """The guiding phase's *update* (:mod:`ssskit.backends.adaptive_plan` steps 1-4): (the new (H, W, 4)
         float32 history, the next frame's counts (H, W) int64 for the same pixels) from the previous
         history, this frame's Burley result ``rgb`` (H, W, 3) and the ``counts`` it used."""
@@ -89,7 +102,7 @@ class Backend(ABC):
 
         raise BackendError(f"backend {self.name!r} has no adaptive guiding pass")
 
-    def adaptive_runner(self, plan: AdaptivePlan, history) -> AdaptiveRunner:
+    def adaptive_runner(self, plan: AdaptivePlan, history: ArrayLike) -> AdaptiveRunner:
         """A frame loop of the Burley pass with adaptive counts that keeps the history (and counts) with this
         backend between frames (:class:`AdaptiveRunner`; the gl backend keeps them on the device)."""
         if "adaptive" not in self.passes or "burley" not in self.passes:
@@ -110,7 +123,7 @@ class AdaptiveRunner:
     backend's entry points; the gl backend's subclass keeps it on the device.
     """
 
-    def __init__(self, backend: Backend, plan: AdaptivePlan, history, sampler: Backend | None = None) -> None:
+    def __init__(self, backend: Backend, plan: AdaptivePlan, history: ArrayLike, sampler: Backend | None = None) -> None:
         from .adaptive_plan import check_guide_frame
 
         self.backend = backend
@@ -120,15 +133,17 @@ class AdaptiveRunner:
         self._history = np.array(h, np.float32)
         self._counts: np.ndarray | None = None
         self._out: np.ndarray | None = None
-        self._frame: tuple | None = None
-        self._motion = self._valid = None
+        self._frame: tuple[NDArray[np.float32], NDArray[np.float32], np.ndarray] | None = None
+        self._motion: ArrayLike | None = None
+        self._valid: ArrayLike | None = None
         self.times: dict[str, list[float]] = {p: [] for p in PHASES}
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self._history.shape[:2]
+        h, w = self._history.shape[:2]
+        return h, w
 
-    def _timed(self, phase: str, fn):
+    def _timed(self, phase: str, fn: Callable[[], _T]) -> _T:
         import time
 
         t = time.perf_counter()
@@ -136,7 +151,8 @@ class AdaptiveRunner:
         self.times[phase].append(1e3 * (time.perf_counter() - t))
         return out
 
-    def load(self, diffuse, depth_mm, slots, motion=None, valid=None, estimate: bool = True) -> None:
+    def load(self, diffuse: ArrayLike, depth_mm: ArrayLike, slots: ArrayLike, motion: ArrayLike | None = None,
+             valid: ArrayLike | None = None, estimate: bool = True) -> None:
         """A frame's G-buffer images (the Burley pass's inputs: :mod:`ssskit.backends.base`), and ``motion``
         (H, W, 2) from it to the previous frame (None: the camera and the scene did not move) and ``valid``
         (H, W) (the caller's disocclusion test; None: everywhere); runs the *estimate* for the frame.
@@ -155,7 +171,7 @@ class AdaptiveRunner:
             self._counts = self._timed("estimate", lambda: self.backend.adaptive_counts(
                 self.plan, self._history, slots > 0, motion, valid))
 
-    def set_counts(self, counts) -> None:
+    def set_counts(self, counts: ArrayLike) -> None:
         """Replace the counts the next :meth:`sample` (and :meth:`update`'s Eq. 8) uses: an (H, W) integer
         image (a fixed count on the mask, or the estimate changed by the caller); not timed."""
         self._counts = _checked_counts(counts, self.shape)
@@ -168,15 +184,16 @@ class AdaptiveRunner:
         if self._frame is None or self._counts is None:
             raise PassError("load a frame (and set its counts, without the estimate) before sampling it")
         diffuse, depth, slots = self._frame
+        counts = self._counts
         pyr = self._timed("prefilter", lambda: mip_pyramid(diffuse, slots, plan.slots)) if plan.mips else None
-        self._out = self._timed("sampling", lambda: self.sampler.burley(plan, diffuse, depth, slots, self._counts,
+        self._out = self._timed("sampling", lambda: self.sampler.burley(plan, diffuse, depth, slots, counts,
                                                                          pyramid=pyr))
 
     def update(self) -> None:
         """The history update from the last :meth:`sample` (Eqs. 6, 8, 9; 16-17) and the next counts."""
         from ..errors import PassError
 
-        if self._out is None:
+        if self._out is None or self._frame is None:  # a sampled frame was loaded
             raise PassError("sample a frame before updating the history")
         slots = self._frame[2]
         self._history, self._counts = self._timed("update", lambda: self.backend.adaptive_update(
@@ -199,7 +216,7 @@ class AdaptiveRunner:
         """Free what the runner holds (device images on gl)."""
 
 
-def _checked_counts(counts, shape: tuple[int, int]) -> np.ndarray:
+def _checked_counts(counts: ArrayLike, shape: tuple[int, int]) -> NDArray[np.int64]:
     """An (H, W) integer count image as int64 (values in the Burley pass's range), or a PassError."""
     from ..errors import PassError
     from .burley_plan import check_counts
@@ -209,7 +226,7 @@ def _checked_counts(counts, shape: tuple[int, int]) -> np.ndarray:
     return np.array(check_counts(counts, shape), np.int64)
 
 
-def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, plan: SeparablePlan,
+def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, plan: SlotPlan,
                 values: bool = True) -> None:
     """Shapes and slot range of the separable pass's inputs, or a precise error; with ``values`` also
     that every pixel with SSS has a positive finite depth (a backend may check that in its own pass)."""
@@ -229,11 +246,11 @@ def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, pl
         raise PassError("depth must be positive and finite on every pixel with SSS")
 
 
-def check_burley_frame(plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, spp,
-                       values: bool = True):
+def check_burley_frame(plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                       spp: SampleCounts, values: bool = True) -> NDArray[np.int64] | int:
     """:func:`check_frame` for the Burley pass plus its sample counts; returns the counts (an int, or an
     (H, W) int64 image) or raises :class:`~ssskit.errors.PassError`."""
     from .burley_plan import check_counts
 
-    check_frame(diffuse, depth_mm, slots, plan, values)  # type: ignore[arg-type]
+    check_frame(diffuse, depth_mm, slots, plan, values)
     return check_counts(spp, np.shape(depth_mm))

@@ -125,11 +125,22 @@ position lies within float32 rounding of a texel edge, so its parity test counts
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
+
+if TYPE_CHECKING:
+    from ..profiles.base import RGBProfile
+
+#: the Burley pass's samples per pixel: one count for every pixel, or an (H, W) integer image
+SampleCounts: TypeAlias = "int | np.integer[Any] | NDArray[np.integer[Any]]"
+#: :func:`mip_pyramid`'s levels 0..MAX_MIP, each (S, H_k, W_k, 4) float64
+MipPyramid: TypeAlias = "list[NDArray[np.float64]]"
 
 #: samplers of the radius (module docstring, step 4)
 SAMPLERS = ("exact", "xie", "golubev")
@@ -179,7 +190,7 @@ class BurleyParams:
         object.__setattr__(self, "d_mm", tuple(float(v) for v in d))
 
     @classmethod
-    def from_dmfp(cls, albedo, dmfp_mm) -> "BurleyParams":
+    def from_dmfp(cls, albedo: ArrayLike, dmfp_mm: ArrayLike) -> "BurleyParams":
         """d = dmfp / (3.5 + 100 (A - 0.33)^4) per channel (Xie 2020, Eq. 5, configuration 3)."""
         a = _rgb("albedo", albedo)
         ell = _rgb("dmfp", dmfp_mm)
@@ -187,10 +198,11 @@ class BurleyParams:
             raise PassError(f"Burley albedo must lie in [0, 1] per channel, got {tuple(a.tolist())}")
         if np.any(ell <= 0):
             raise PassError(f"diffuse mean free path must be > 0 mm per channel, got {tuple(ell.tolist())}")
-        return cls(tuple(a), tuple(ell / (3.5 + 100.0 * (a - 0.33) ** 4)))
+        d = ell / (3.5 + 100.0 * (a - 0.33) ** 4)
+        return cls((a[0], a[1], a[2]), (d[0], d[1], d[2]))
 
     @classmethod
-    def from_profile(cls, profile) -> "BurleyParams":
+    def from_profile(cls, profile: object) -> "BurleyParams":
         """A and d of a Burley RGBProfile's three channels (:class:`~ssskit.profiles.BurleyProfile`)."""
         chans = getattr(profile, "channels", None)
         if chans is None or len(chans) != 3 or any(getattr(c, "model", "") != "burley" for c in chans):
@@ -203,15 +215,16 @@ class BurleyParams:
         """The surface diffuse mean free path per channel, ell = d (3.5 + 100 (A - 0.33)^4) (mm): Eq. 5
         configuration 3 solved for ell (the inverse of :meth:`from_dmfp`, whatever made d)."""
         a = np.asarray(self.albedo)
-        return tuple(float(v) for v in np.asarray(self.d_mm) * (3.5 + 100.0 * (a - 0.33) ** 4))
+        r, g, b = (float(v) for v in np.asarray(self.d_mm) * (3.5 + 100.0 * (a - 0.33) ** 4))
+        return r, g, b
 
-    def profile(self):
+    def profile(self) -> RGBProfile:
         """The RGBProfile of these parameters (for ground truth and figures)."""
         from ..profiles.base import RGBProfile
         from ..profiles.burley import BurleyProfile
 
-        return RGBProfile(tuple(BurleyProfile(a, d) for a, d in zip(self.albedo, self.d_mm)), "burley", "burley",
-                          {"albedo": list(self.albedo), "d_mm": list(self.d_mm)})
+        r, g, b = (BurleyProfile(a, d) for a, d in zip(self.albedo, self.d_mm))
+        return RGBProfile((r, g, b), "burley", "burley", {"albedo": list(self.albedo), "d_mm": list(self.d_mm)})
 
     @property
     def sampling_channel(self) -> int:
@@ -219,7 +232,7 @@ class BurleyParams:
         return int(np.argmax(self.d_mm))
 
 
-def _rgb(name: str, value) -> np.ndarray:
+def _rgb(name: str, value: ArrayLike) -> NDArray[np.float64]:
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -284,7 +297,7 @@ class BurleyPlan:
         return out
 
 
-def build_burley_plan(params_by_id: dict, fx: float, fy: float, *, sampler: str = "exact", sequence: str = "r2",
+def build_burley_plan(params_by_id: Mapping[int, BurleyParams], fx: float, fy: float, *, sampler: str = "exact", sequence: str = "r2",
                       c: float = XIE_C, bleed: float = 0.0, frame: int = 0, seed: int = 0,
                       stable: bool = False, mips: bool = False, mip_scale: float = XIE_MIP_SCALE) -> BurleyPlan:
     """The plan for profile ids -> :class:`BurleyParams` (module docstring)."""
@@ -323,7 +336,7 @@ def build_burley_plan(params_by_id: dict, fx: float, fy: float, *, sampler: str 
                       int(frame), int(seed), bool(stable), bool(mips), float(mip_scale), ell)
 
 
-def mip_pyramid(diffuse: np.ndarray, slots: np.ndarray, n_slots: int, levels: int = MAX_MIP) -> list[np.ndarray]:
+def mip_pyramid(diffuse: ArrayLike, slots: np.ndarray, n_slots: int, levels: int = MAX_MIP) -> MipPyramid:
     """Step 5b's pyramids: a list over levels 0..levels of (S, H_k, W_k, 4) float64 arrays holding, per
     slot, the mean premultiplied colour (RGB) and coverage of the level's 2^k x 2^k block (slot 0 unused)."""
     e = np.asarray(diffuse, dtype=np.float64)
@@ -343,7 +356,7 @@ def mip_pyramid(diffuse: np.ndarray, slots: np.ndarray, n_slots: int, levels: in
     return out
 
 
-def check_counts(spp, shape: tuple[int, int]) -> np.ndarray | int:
+def check_counts(spp: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.int64] | int:
     """spp as an int in [1, MAX_SPP] or an (H, W) int64 image with values in [0, MAX_SPP], else PassError."""
     if isinstance(spp, (bool, np.bool_)):
         raise PassError(f"spp must be an integer or an (H, W) integer image, got {spp!r}")

@@ -10,13 +10,22 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
 from ..sampling.hashes import frame_base
 from .base import Backend, check_frame
 from .plan import SeparablePlan, TermTable
+
+if TYPE_CHECKING:
+    from concurrent.futures import ThreadPoolExecutor
+
+    from .adaptive_plan import AdaptivePlan
+    from .burley_plan import BurleyPlan, MipPyramid, SampleCounts
 
 
 #: the largest planar frame buffer the backend allocates (extreme close-ups need a wide pad)
@@ -30,9 +39,9 @@ class NumbaBackend(Backend):
     passes = frozenset({"separable", "burley", "adaptive"})
 
     def __init__(self) -> None:
-        self._key: tuple | None = None
-        self._buf: np.ndarray | None = None
-        self._pool = None
+        self._key: tuple[int, int, int] | None = None
+        self._buf: NDArray[np.float32] | None = None
+        self._pool: ThreadPoolExecutor | None = None
         self._lock = threading.Lock()
 
     def availability(self) -> tuple[bool, str]:
@@ -42,7 +51,7 @@ class NumbaBackend(Backend):
             return False, f"numba cannot be imported ({exc})"
         return True, f"numba {numba.__version__}, {numba.get_num_threads()} threads"
 
-    def _rows(self, h: int, fn) -> None:
+    def _rows(self, h: int, fn: Callable[[int, int], object]) -> None:
         """fn(y0, y1) over row ranges covering [0, h), on numba.get_num_threads() threads (the kernels
         release the GIL; rows are independent, so any thread count gives the same result)."""
         import numba
@@ -59,24 +68,26 @@ class NumbaBackend(Backend):
         for f in [self._pool.submit(fn, int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]:
             f.result()
 
-    def _buffer(self, h: int, w: int, pad: int):
+    def _buffer(self, h: int, w: int, pad: int) -> tuple[NDArray[np.float32], int, int]:
         from ._numba_separable import LANES, PLANES, Z_PLANE
 
         wps = w + 2 * pad + LANES
         plane = (h + 2 * pad) * wps
         key = (h, w, pad)
-        if self._key != key:
+        if self._key != key or self._buf is None:  # (a key is only set with its buffer)
             self._buf = np.zeros(PLANES * plane, np.float32)
             self._buf[Z_PLANE * plane:(Z_PLANE + 1) * plane] = np.inf
             self._key = key
         return self._buf, wps, plane
 
-    def separable(self, plan: SeparablePlan, diffuse, depth_mm, slots):
+    def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
+                  slots: np.ndarray) -> NDArray[np.float32]:
         check_frame(diffuse, depth_mm, slots, plan, values=False)
         with self._lock:  # one frame buffer per backend: one frame at a time
             return self._separable(plan, diffuse, depth_mm, slots)
 
-    def _separable(self, plan: SeparablePlan, diffuse, depth_mm, slots):
+    def _separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
+                   slots: np.ndarray) -> NDArray[np.float32]:
         from ._numba_separable import LANES, PASSES, PLANES, TMP_PLANE, block_slots, depth_range, pack
 
         h, w = slots.shape
@@ -103,7 +114,7 @@ class NumbaBackend(Backend):
         out = np.empty((h, w, 3), np.float32)
         flat = out.reshape(-1)
         tmp = TMP_PLANE * plane
-        acc = None
+        acc: NDArray[np.float32] | None = None
         bmap = block_slots(slots) if plan.slots > 2 else np.zeros((h, 1), np.int32)
         for term in plan.terms:
             t = _tables(term)
@@ -115,10 +126,12 @@ class NumbaBackend(Backend):
                 return out
             contribution = term.sign[slots].astype(np.float32) * out
             acc = contribution if acc is None else acc + contribution
+        assert acc is not None  # a plan has at least one term
         return np.where((slots > 0)[..., None], acc, src).astype(np.float32)
 
 
-    def burley(self, plan, diffuse, depth_mm, slots, spp, pyramid=None):
+    def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+               spp: SampleCounts, pyramid: MipPyramid | None = None) -> NDArray[np.float32]:
         """The Burley pass (kernel in :mod:`ssskit.backends._numba_burley`), rows on the thread pool."""
         from ._numba_burley import burley_rows
         from .base import check_burley_frame
@@ -128,11 +141,12 @@ class NumbaBackend(Backend):
         h, w = np.shape(slots)
         src = np.ascontiguousarray(diffuse, dtype=np.float32)
         z = np.ascontiguousarray(depth_mm, dtype=np.float32)
-        counts = np.zeros((1, 1), np.int64) if np.isscalar(spp) else np.ascontiguousarray(spp, np.int64)
+        # check_counts gives an int or an int64 image
+        counts = np.zeros((1, 1), np.int64) if isinstance(spp, int) else np.ascontiguousarray(spp, np.int64)
         out = np.empty((h, w, 3), np.float32)
         u64 = np.uint64
         args = (src, z, z.view(np.uint32), np.ascontiguousarray(slots, np.int32), counts,
-                int(spp) if np.isscalar(spp) else 0, not np.isscalar(spp), out)
+                spp if isinstance(spp, int) else 0, not isinstance(spp, int), out)
         rest = (np.ascontiguousarray(plan.d_mm, np.float64), np.ascontiguousarray(plan.channel, np.int64),
                 np.ascontiguousarray(plan.r997_mm, np.float64), SAMPLERS.index(plan.sampler),
                 SEQUENCES.index(plan.sequence), plan.c, plan.bleed, plan.fx, plan.fy,
@@ -143,23 +157,30 @@ class NumbaBackend(Backend):
         else:
             levels = [np.zeros((1, 1, 1, 4))]
         sizes = [lv.size for lv in levels]
-        rest += (np.concatenate([lv.ravel() for lv in levels]), np.cumsum([0] + sizes[:-1]).astype(np.int64),
-                 np.array([lv.shape[1] for lv in levels], np.int64), np.array([lv.shape[2] for lv in levels], np.int64),
-                 np.ascontiguousarray(plan.dmfp_max_mm, np.float64))
-        self._rows(h, lambda y0, y1: burley_rows(*args, y0, y1, *rest))
+        pyr = (np.concatenate([lv.ravel() for lv in levels]), np.cumsum([0] + sizes[:-1]).astype(np.int64),
+               np.array([lv.shape[1] for lv in levels], np.int64), np.array([lv.shape[2] for lv in levels], np.int64),
+               np.ascontiguousarray(plan.dmfp_max_mm, np.float64))
+        self._rows(h, lambda y0, y1: burley_rows(*args, y0, y1, *rest, *pyr))
         return out
 
-    def adaptive_counts(self, plan, history, mask, motion=None, valid=None):
+    def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
+                        valid: ArrayLike | None = None) -> NDArray[np.int64]:
         """The *estimate* of :mod:`ssskit.backends.adaptive_plan` (kernel in ``_numba_adaptive``)."""
         return self._guide(plan, history, mask, motion, valid, None, None)[1]
 
-    def adaptive_update(self, plan, history, rgb, counts, mask, motion=None, valid=None):
+    def adaptive_update(self, plan: AdaptivePlan, history: ArrayLike, rgb: ArrayLike | None, counts: ArrayLike | None,
+                        mask: ArrayLike, motion: ArrayLike | None = None,
+                        valid: ArrayLike | None = None) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
         """The *update* of :mod:`ssskit.backends.adaptive_plan` (kernel in ``_numba_adaptive``)."""
         if rgb is None or counts is None:
             raise PassError("the history update needs the pass's result and the frame's sample counts")
-        return self._guide(plan, history, mask, motion, valid, rgb, counts)
+        new, n = self._guide(plan, history, mask, motion, valid, rgb, counts)
+        assert new is not None  # an update returns the new history
+        return new, n
 
-    def _guide(self, plan, history, mask, motion, valid, rgb, counts):
+    def _guide(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None,
+               valid: ArrayLike | None, rgb: ArrayLike | None,
+               counts: ArrayLike | None) -> tuple[NDArray[np.float32] | None, NDArray[np.int64]]:
         from ._numba_adaptive import guide_rows
         from .adaptive_plan import check_guide_frame
 
@@ -180,7 +201,8 @@ class NumbaBackend(Backend):
         return (out_hist if update else None), out_counts
 
 
-def _tables(term: TermTable):
+def _tables(term: TermTable) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.int64], NDArray[np.int64],
+                                      NDArray[np.float32]]:
     f32 = np.float32
     return (np.ascontiguousarray(term.offsets_mm, f32),
             np.ascontiguousarray(np.concatenate([term.w_plus, term.w_minus], axis=-1), f32),

@@ -11,14 +11,17 @@ looped over the sample index.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..sampling.hashes import jitter_angles
 from ..profiles.burley import burley_inverse_cdf
 from ..sampling.hashes import frame_base, mix32
-from .adaptive_plan import reference_counts, reference_update_pass
+from .adaptive_plan import AdaptivePlan, reference_counts, reference_update_pass
 from .base import Backend, check_burley_frame, check_frame
-from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, BurleyPlan, mip_pyramid
+from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, BurleyPlan, MipPyramid, SampleCounts, mip_pyramid
 from .plan import SeparablePlan, TermTable
 
 
@@ -77,7 +80,8 @@ def one_pass(src: np.ndarray, z_mm: np.ndarray, slots: np.ndarray, f_axis: float
 _M32 = np.uint64(0xFFFFFFFF)
 
 
-def burley_keys(plan: BurleyPlan, ys: np.ndarray, xs: np.ndarray, z_mm: np.ndarray):
+def burley_keys(plan: BurleyPlan, ys: np.ndarray, xs: np.ndarray,
+                z_mm: np.ndarray) -> tuple[NDArray[np.uint64], NDArray[np.uint64]]:
     """Step 1: the pixel keys (h1, h2) (uint64 holding 32 bits) of pixels (ys, xs) with depth z_mm."""
     base = np.uint64(frame_base(0 if plan.stable else plan.frame, plan.seed))
     h = mix32(mix32(base ^ ys.astype(np.uint64)) ^ xs.astype(np.uint64))
@@ -91,7 +95,8 @@ def _unit(u: np.ndarray) -> np.ndarray:
     return ((u >> np.uint64(8)).astype(np.float64) + 0.5) * 2.0**-24
 
 
-def burley_uniforms(plan: BurleyPlan, h1: np.ndarray, h2: np.ndarray, j: int, n: np.ndarray):
+def burley_uniforms(plan: BurleyPlan, h1: np.ndarray, h2: np.ndarray, j: int,
+                    n: np.ndarray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Step 3: (xi1, xi2) of sample j for pixels with keys h1, h2 and counts n."""
     jj = np.uint64(j)
     if plan.sampler == "golubev":
@@ -129,12 +134,13 @@ def burley_mip_level(plan: BurleyPlan, r: np.ndarray, d_s: np.ndarray, n: np.nda
     h, w = size
     p_r = (np.exp(-r / d_s) + np.exp(-r / (3.0 * d_s))) / (4.0 * d_s)  # Eq. 20's derivative, per mm
     t = (plan.fx / zp / w) * (plan.fy / zp / h)  # Eq. 23: (w/D)^2 x aspect, UV^2 per mm^2
+    assert plan.dmfp_max_mm is not None  # BurleyPlan refuses a plan without it
     ell = plan.dmfp_max_mm[slot]
     m = 0.5 * np.maximum(-np.log2(plan.mip_scale * n * p_r / (ell * ell * t)), 0.0)
     return np.minimum(m, float(MAX_MIP))
 
 
-def burley_mip_fetch(pyr: list, slot: np.ndarray, px: np.ndarray, py: np.ndarray, m: np.ndarray) -> np.ndarray:
+def burley_mip_fetch(pyr: MipPyramid, slot: np.ndarray, px: np.ndarray, py: np.ndarray, m: np.ndarray) -> np.ndarray:
     """Step 5b: the trilinear, coverage-normalised fetch of each sample's slot pyramid at (px, py) (level-0
     pixels), level m; (N, 3)."""
     lo = np.floor(m).astype(np.int64)
@@ -160,7 +166,7 @@ def burley_mip_fetch(pyr: list, slot: np.ndarray, px: np.ndarray, py: np.ndarray
     return acc[:, :3] / acc[:, 3:4]
 
 
-def burley_counts(plan: BurleyPlan, spp, ys: np.ndarray, xs: np.ndarray, sx: np.ndarray, sy: np.ndarray,
+def burley_counts(plan: BurleyPlan, spp: SampleCounts, ys: np.ndarray, xs: np.ndarray, sx: np.ndarray, sy: np.ndarray,
                   slot: np.ndarray) -> np.ndarray:
     """Step 2: samples of each pixel (golubev: capped by pi r997^2 sx sy / 4, at least 1)."""
     n = np.full(ys.shape, spp, np.int64) if np.isscalar(spp) else np.asarray(spp, np.int64)[ys, xs]
@@ -171,8 +177,8 @@ def burley_counts(plan: BurleyPlan, spp, ys: np.ndarray, xs: np.ndarray, sx: np.
     return n
 
 
-def burley_pass(plan: BurleyPlan, src: np.ndarray, z: np.ndarray, slots: np.ndarray, spp,
-                pyramid=None) -> np.ndarray:
+def burley_pass(plan: BurleyPlan, src: np.ndarray, z: np.ndarray, slots: np.ndarray, spp: SampleCounts,
+                pyramid: MipPyramid | None = None) -> np.ndarray:
     """The Burley pass in float64 (:mod:`ssskit.backends.burley_plan`, steps 1-8); ``pyramid``: the
     frame's :func:`mip_pyramid` if already built."""
     h, w = slots.shape
@@ -227,7 +233,8 @@ class NumpyBackend(Backend):
     def availability(self) -> tuple[bool, str]:
         return True, "float64 reference (the oracle)"
 
-    def separable(self, plan, diffuse, depth_mm, slots):
+    def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
+                  slots: np.ndarray) -> NDArray[np.float64]:
         check_frame(diffuse, depth_mm, slots, plan)
         src = np.asarray(diffuse, dtype=np.float64)
         z = np.asarray(depth_mm, dtype=np.float64)
@@ -241,15 +248,19 @@ class NumpyBackend(Backend):
         inside = (slots > 0)[..., None]
         return np.where(inside, out, src)
 
-    def burley(self, plan, diffuse, depth_mm, slots, spp, pyramid=None):
+    def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+               spp: SampleCounts, pyramid: MipPyramid | None = None) -> np.ndarray:
         spp = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
         return burley_pass(plan, np.asarray(diffuse, dtype=np.float64), np.asarray(depth_mm, dtype=np.float64),
                            np.asarray(slots, dtype=np.int64), spp, pyramid)
 
-    def adaptive_counts(self, plan, history, mask, motion=None, valid=None):
+    def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
+                        valid: ArrayLike | None = None) -> NDArray[np.int64]:
         """The *estimate* of :mod:`ssskit.backends.adaptive_plan` (its reference functions)."""
         return reference_counts(plan, history, mask, motion, valid)
 
-    def adaptive_update(self, plan, history, rgb, counts, mask, motion=None, valid=None):
+    def adaptive_update(self, plan: AdaptivePlan, history: ArrayLike, rgb: ArrayLike | None, counts: ArrayLike | None,
+                        mask: ArrayLike, motion: ArrayLike | None = None,
+                        valid: ArrayLike | None = None) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
         """The *update* of :mod:`ssskit.backends.adaptive_plan` (its reference functions)."""
         return reference_update_pass(plan, history, rgb, counts, mask, motion, valid)

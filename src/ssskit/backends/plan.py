@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..errors import PassError
 
@@ -100,7 +101,8 @@ def profile_ids(profile_id: np.ndarray) -> list[int]:
     return [int(i) for i in np.unique(pid[pid > 0])]
 
 
-def term_rows(offsets: np.ndarray, weights: np.ndarray, n_jit: int):
+def term_rows(offsets: np.ndarray, weights: np.ndarray,
+              n_jit: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], int]:
     """Rows of one term of one slot: (offsets (K,), w_plus (K, 3), w_minus (K, 3), n_jit_rows).
 
     ``offsets`` (N,) signed mm and ``weights`` (N, 3) as :class:`~ssskit.sampling.SeparableTaps`

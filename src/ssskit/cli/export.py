@@ -16,9 +16,17 @@ and docs/exports.md.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
 import click
 
 from ..errors import SsskitError
+
+if TYPE_CHECKING:
+    from ..kernels import KernelMethod
+    from ..materials import LayeredMaterial, Material
+    from ..profiles.base import RGBProfile
 from .options import (
     TAP_RANGE,
     OutputFile,
@@ -54,10 +62,10 @@ class ExportMaterial(click.ParamType):
 
     name = "material"
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "NAME|FILE"
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from ..export.readers import is_engine_file
         from ..materials import get_material
 
@@ -76,7 +84,7 @@ class Triple(click.ParamType):
 
     name = "R,G,B"
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, tuple):
             return value
         parts = [p.strip() for p in str(value).split(",")]
@@ -91,7 +99,9 @@ class Triple(click.ParamType):
         return tuple(vals)
 
 
-def _material_source(ctx, fmt: str, material, albedo, mfp, dmfp, eta, g, model: str):
+def _material_source(ctx: click.Context, fmt: str, material: str | None, albedo: tuple[float, float, float] | None, mfp: tuple[float, float, float] | None,
+                     dmfp: tuple[float, float, float] | None, eta: float, g: float,
+                     model: str) -> tuple[Callable[[], RGBProfile] | None, Material | None, str | None, str]:
     """Every material check, before any work: returns (profile factory, Material or None, name, model used).
 
     An engine file or artists' terms default to --model burley (no coefficients); montecarlo / dipole
@@ -117,6 +127,7 @@ def _material_source(ctx, fmt: str, material, albedo, mfp, dmfp, eta, g, model: 
             for opt in ("photons", "grid_fraction"):
                 if given(ctx, opt):
                     raise SsskitError(f"--{opt.replace('_', '-')} needs --model montecarlo")
+        assert material is not None  # (engine_file)
         src = read_engine_file(material, albedo=albedo)
         if albedo is not None:
             check_artist(albedo, src.d_mm, "dmfp", 1.0, 0.0)
@@ -129,6 +140,7 @@ def _material_source(ctx, fmt: str, material, albedo, mfp, dmfp, eta, g, model: 
             raise SsskitError("artists' terms need --albedo and one of --mfp (volume mean free path, mm) or --dmfp "
                               "(diffuse mean free path, mm)")
         kind, dist = ("mfp", mfp) if mfp is not None else ("dmfp", dmfp)
+        assert dist is not None  # one of them, checked above
         art = ArtistMaterial("artist", albedo, dist, kind, eta, g)  # checks the domain
         if used == "burley":
             from ..profiles import BurleyProfile, RGBProfile
@@ -142,14 +154,15 @@ def _material_source(ctx, fmt: str, material, albedo, mfp, dmfp, eta, g, model: 
     return None, None, None, model
 
 
-def _physical(ctx, mat, model: str):
+def _physical(ctx: click.Context, mat: Material, model: str) -> Callable[[], RGBProfile]:
     from .profiles import resolve_profile
 
     return resolve_profile(ctx, mat, model, {"photons": ("photons", ctx.params.get("photons")),
                                              "grid_fraction": ("grid_fraction", ctx.params.get("grid_fraction"))})
 
 
-def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
+def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, material: str | None, taps: int | None,
+                   out: str) -> tuple[KernelMethod | None, dict[str, Any], int | None]:
     """Every combination check, before any work: returns (method, params, tap count for make_taps)."""
     from ..export import FORMATS
     from ..io import check_suffix
@@ -257,14 +270,17 @@ def _check_options(ctx, fmt: str, kernel_spec, material, taps, out):
               help="--model montecarlo: lengthen each channel's grid until it holds this fraction of the light.")
 @json_option("Print one JSON object describing what was written.")
 @click.pass_context
-def export(ctx, fmt, out, material, albedo, mfp, dmfp, eta, g, unreal_form, standard_surface, kernel_spec, taps,
-           tap_method, jitter, depth_mode, model, photons, grid_fraction, as_json) -> None:
+def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo: tuple[float, float, float] | None, mfp: tuple[float, float, float] | None,
+           dmfp: tuple[float, float, float] | None, eta: float, g: float, unreal_form: str, standard_surface: bool, kernel_spec: str | None,
+           taps: int | None, tap_method: str, jitter: float, depth_mode: str | None, model: str, photons: int,
+           grid_fraction: float | None, as_json: bool) -> None:
     """Write a kernel or a material's parameters in a format an engine loads."""
     from ..export import export_kernel
     from ..io import check_distinct, write_text
     from ..kernels import TapKernel, build_kernel
 
     fmt = fmt.lower()
+    mat: Material | LayeredMaterial | None
     prof, mat, src_name, used_model = _material_source(ctx, fmt, material, albedo, mfp, dmfp, eta, g, model)
     have_material = material is not None or prof is not None
     m, params, tap_count = _check_options(ctx, fmt, kernel_spec, "given" if have_material else None, taps, out)
@@ -282,6 +298,7 @@ def export(ctx, fmt, out, material, albedo, mfp, dmfp, eta, g, unreal_form, stan
             prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons),
                                                           "grid_fraction": ("grid_fraction", grid_fraction)})
         elif given(ctx, "model") or given(ctx, "photons") or given(ctx, "grid_fraction"):
+            assert m is not None  # only a kernel method may need no profile
             raise SsskitError(f"--model, --photons and --grid-fraction need a --material (--kernel {m.name} "
                               "without one uses no profile)")
     # ---- work starts here: every check above has passed
@@ -290,11 +307,12 @@ def export(ctx, fmt, out, material, albedo, mfp, dmfp, eta, g, unreal_form, stan
         from ..materials import get_material
 
         mat = get_material(material)
-    summary = {"format": fmt, "out": out, "material": material if material is not None else src_name,
+    summary: dict[str, Any] = {"format": fmt, "out": out, "material": material if material is not None else src_name,
                "model": used_model if profile is not None else None}
     if m is None:
-        text = _engine_file(profile, fmt, suffix, mat, src_name or getattr(mat, "name", "ssskit"), unreal_form,
-                            standard_surface, summary)
+        assert profile is not None  # a parameter export has its material's profile
+        text = _engine_file(profile, fmt, suffix, mat, src_name or (mat.name if mat is not None else "ssskit"),
+                            unreal_form, standard_surface, summary)
         write_text(out, text)
     else:
         kernel = build_kernel(m.name, profile, **params)
@@ -313,8 +331,8 @@ def export(ctx, fmt, out, material, albedo, mfp, dmfp, eta, g, unreal_form, stan
         click.echo(f"# wrote {out} ({fmt})")
 
 
-def _engine_file(profile, fmt: str, suffix: str, mat, name: str, unreal_form: str, standard_surface: bool,
-                 summary: dict) -> str:
+def _engine_file(profile: RGBProfile, fmt: str, suffix: str, mat: Material | LayeredMaterial | None, name: str, unreal_form: str,
+                 standard_surface: bool, summary: dict[str, Any]) -> str:
     """The text of a parameter export (the suffix picks the engine's own file or the JSON)."""
     import json
 
@@ -324,8 +342,10 @@ def _engine_file(profile, fmt: str, suffix: str, mat, name: str, unreal_form: st
         from ..export.materialx import materialx_document
 
         a, d = fit_burley(profile)
-        g = float(sum(mat.g) / 3.0) if mat is not None and hasattr(mat, "g") else 0.0
-        eta = float(mat.eta) if mat is not None and hasattr(mat, "eta") else None
+        from ..materials import Material
+
+        g = float(sum(mat.g) / 3.0) if isinstance(mat, Material) else 0.0  # (a layered one has no single g, eta)
+        eta = float(mat.eta) if isinstance(mat, Material) else None
         summary["parameters"] = {"subsurface_color": a.tolist(), "d_mm": d.tolist()}
         return materialx_document(a, d, name, g, eta, standard_surface)
     data = engine_parameters(profile, fmt, mat)

@@ -8,9 +8,14 @@ range-checked by the method itself; a new method needs no change here.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import click
 
 from ..errors import SsskitError
+
+if TYPE_CHECKING:
+    from ..kernels import KernelMethod
 from .options import (
     SIZE_RANGE,
     KernelSpec,
@@ -62,7 +67,7 @@ def _method_parameter_options(f):
     return f
 
 
-def method_parameters(method_spec: str, values: dict[str, str | None]) -> tuple[object, dict]:
+def method_parameters(method_spec: str, values: dict[str, str | None]) -> tuple[KernelMethod, dict[str, Any]]:
     """The method of ``method_spec`` and its parameters from the spec and the --<parameter> options,
     each parsed and range-checked by the method (KernelError naming the option otherwise)."""
     from ..kernels import check_params, parse_method_spec
@@ -108,9 +113,10 @@ def _dest_of(param: str) -> str:
 @json_option()
 @out_option((".npz", ".json"), "Write FILE.npz or FILE.json.")
 @click.pass_context
-def kernel(ctx, material, method_spec, model, photons, grid_n, as_json, out, **method_values) -> None:
+def kernel(ctx: click.Context, material: str | None, method_spec: str, model: str, photons: int, grid_n: int,
+           as_json: bool, out: str | None, **method_values: str | None) -> None:
     """A separable kernel approximation of a material's profile."""
-    from ..kernels import build_kernel, save_kernel
+    from ..kernels import TapKernel, build_kernel, save_kernel
 
     from ..io import check_distinct
 
@@ -139,7 +145,7 @@ def kernel(ctx, material, method_spec, model, photons, grid_n, as_json, out, **m
     click.echo(f"# {m.name} kernel ({m.description})" + (f" of {prof.name} ({prof.model})" if prof else ""))
     click.echo(f"# rank {k.rank}, {k.convolutions_1d} 1D convolutions; total per channel: "
                + ", ".join(f"{v:.6f}" for v in k.total()))
-    if hasattr(k, "offsets_mm"):
+    if isinstance(k, TapKernel):  # (offsets_mm: a tap kernel)
         click.echo("offset_mm,w_R,w_G,w_B")
         for o, w in zip(k.offsets_mm, k.weights):
             click.echo(f"{o:.6f}," + ",".join(f"{v:.6f}" for v in w))
@@ -164,7 +170,8 @@ def kernel(ctx, material, method_spec, model, photons, grid_n, as_json, out, **m
 @click.option("--no-perceptual", is_flag=True, help="Skip SSIM and FLIP.")
 @json_option("Print one JSON object: method -> metrics.")
 @click.pass_context
-def evaluate(ctx, material, signal, methods, model, photons, size, no_perceptual, as_json) -> None:
+def evaluate(ctx: click.Context, material: str | None, signal: str, methods: list[str], model: str, photons: int,
+             size: int, no_perceptual: bool, as_json: bool) -> None:
     """Each method's error against the exact 2D convolution on a test signal."""
     from ..pipeline import evaluate as run
 

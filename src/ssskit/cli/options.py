@@ -16,10 +16,13 @@ import os
 import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 from click.core import ParameterSource
+
+if TYPE_CHECKING:
+    from click.shell_completion import CompletionItem
 
 from ..errors import OutputError, SsskitError
 from ..pipeline.settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE
@@ -60,7 +63,7 @@ __all__ = [
 # ---------------------------------------------------------------------------------------------- helpers
 
 
-def echo_json(data) -> None:
+def echo_json(data: Any) -> None:
     """Print exactly one JSON object on stdout."""
     click.echo(json.dumps(data))
 
@@ -141,15 +144,15 @@ class RegistryName(click.ParamType):
         src = self._source()
         return list(src.names()) if hasattr(src, "names") else [str(n) for n in src]
 
-    def get_metavar(self, param, ctx=None) -> str:  # click >= 8.2 passes ctx
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:  # click >= 8.2 passes ctx
         return "[" + "|".join(self.names()) + "]"
 
-    def shell_complete(self, ctx, param, incomplete):
+    def shell_complete(self, ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
         from click.shell_completion import CompletionItem
 
         return [CompletionItem(n) for n in self.names() if n.lower().startswith(incomplete.lower())]
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         src = self._source()
         text = str(value)
         if hasattr(src, "get"):
@@ -175,10 +178,10 @@ class MaterialRef(click.ParamType):
     def __init__(self, split: bool = False) -> None:
         self.split = split
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "NAME|FILE" + (",..." if self.split else "")
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from ..materials import get_material
 
         if self.split and isinstance(value, list):
@@ -208,10 +211,10 @@ class KernelSpec(click.ParamType):
     def __init__(self, many: bool = False) -> None:
         self.many = many
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "METHOD[:VALUE]" + (",..." if self.many else "")
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from ..kernels import parse_method_spec
 
         if self.many and isinstance(value, list):
@@ -237,13 +240,14 @@ class IntPair(click.ParamType):
     sep = ":"
     hint = "8:64 (two integers)"
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return self.name
 
-    def check(self, a: int, b: int, value, param, ctx) -> tuple[int, int]:
+    def check(self, a: int, b: int, value: Any, param: click.Parameter | None,
+              ctx: click.Context | None) -> tuple[int, int]:
         return a, b
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, tuple):
             return value
         try:
@@ -260,7 +264,8 @@ class Size(IntPair):
     sep = "x"
     hint = "256x192"
 
-    def check(self, a: int, b: int, value, param, ctx) -> tuple[int, int]:
+    def check(self, a: int, b: int, value: Any, param: click.Parameter | None,
+              ctx: click.Context | None) -> tuple[int, int]:
         lo, hi = SIZE_RANGE
         for side, v in (("width", a), ("height", b)):
             if not lo <= v <= hi:
@@ -277,12 +282,12 @@ class SceneRef(click.ParamType):
 
     name = "scene"
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         from ..scenes import GENERATED_SCENES
 
         return "[" + "|".join([*_scenes().names(), *GENERATED_SCENES]) + "|MESH|SCENE.toml|GBUFFER.exr]"
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from ..scenes import GENERATED_SCENES
         from ..scenes.meshes import FORMATS
 
@@ -309,12 +314,12 @@ class SceneRef(click.ParamType):
         return RegistryName(_scenes).convert(text, param, ctx)
 
 
-def scene_mesh_options(view: bool = True) -> Callable:
+def scene_mesh_options(view: bool = True) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     """``--units``, ``--material-map`` and (``view``) ``--view``: how a mesh or scene file is read and seen
     (:func:`ssskit.scenes.resolve_scene`)."""
     from ..scenes.meshes import UNITS_MM
 
-    def deco(fn: Callable) -> Callable:
+    def deco(fn: Callable[..., Any]) -> Callable[..., Any]:
         if view:
             fn = click.option("--view", default=None, metavar="front|profile|ear|close|AZ,EL[,DIST]",
                               help="Mesh scenes: a view preset, or azimuth,elevation (degrees) and the distance as a "
@@ -329,8 +334,8 @@ def scene_mesh_options(view: bool = True) -> Callable:
     return deco
 
 
-def resolve_scene_value(scene, units=(), material_map: str | None = None, view: str | None = None,
-                        width: int = 256, height: int = 192, say: bool = True):
+def resolve_scene_value(scene: Any, units: Sequence[str] = (), material_map: str | None = None,
+                        view: str | None = None, width: int = 256, height: int = 192, say: bool = True) -> Any:
     """The ``--scene`` value resolved (:func:`ssskit.scenes.resolve_scene`) and checked before any work; with
     ``say``, what it assumed (units, the model's size) goes to stderr (:func:`say_notes`)."""
     from ..scenes import resolve_scene
@@ -342,13 +347,13 @@ def resolve_scene_value(scene, units=(), material_map: str | None = None, view: 
     return resolved
 
 
-def say_notes(notes) -> None:
+def say_notes(notes: Iterable[str]) -> None:
     """What resolving a scene assumed, one ``ssskit: ...`` line each on stderr."""
     for note in notes:
         click.echo(f"ssskit: {note}", err=True)
 
 
-def _opt(param, fallback: str) -> str:
+def _opt(param: click.Parameter | None, fallback: str) -> str:
     return param.opts[0] if param is not None and getattr(param, "opts", None) else fallback
 
 
@@ -361,10 +366,10 @@ class OutputFile(click.ParamType):
     def __init__(self, suffixes: Sequence[str]) -> None:
         self.suffixes = tuple(s.lower() for s in suffixes)
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "FILE" + "|".join(self.suffixes)
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from ..io import check_suffix
 
         opt = _opt(param, "output")
@@ -378,10 +383,10 @@ class OutputDir(click.ParamType):
 
     name = "dir"
 
-    def get_metavar(self, param, ctx=None) -> str:
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return "DIR"
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         check_writable(value, _opt(param, "output folder"), folder=True)
         return str(value)
 

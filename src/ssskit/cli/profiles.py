@@ -4,10 +4,16 @@ from __future__ import annotations
 
 import inspect
 import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import click
 
 from ..errors import SsskitError
+
+if TYPE_CHECKING:
+    from ..materials import LayeredMaterial, Material
+    from ..profiles.base import RGBProfile
 from .options import (
     RegistryName,
     echo_json,
@@ -30,7 +36,7 @@ def model_parameters(model: str) -> set[str]:
             if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
 
 
-def check_material_for_model(ctx: click.Context, material, model: str, needed_by: str = "") -> None:
+def check_material_for_model(ctx: click.Context, material: str | None, model: str, needed_by: str = "") -> None:
     """--material is refused by a material-free model (deon2007) and required by every other one."""
     from ..profiles import MATERIAL_FREE_MODELS
 
@@ -41,7 +47,8 @@ def check_material_for_model(ctx: click.Context, material, model: str, needed_by
         raise SsskitError(f"--material is required for {needed_by or f'--model {model}'}")
 
 
-def resolve_profile(ctx: click.Context, material, model: str, options: dict[str, tuple[str, object]]):
+def resolve_profile(ctx: click.Context, material: str | Material | LayeredMaterial | None, model: str,
+                    options: dict[str, tuple[str, object]]) -> Callable[[], RGBProfile]:
     """The profile of ``model`` for ``material``, passing each option the model takes.
 
     ``options``: {click parameter name: (factory parameter, value)}. An option applies to the models
@@ -87,8 +94,9 @@ def resolve_profile(ctx: click.Context, material, model: str, options: dict[str,
 @out_option((".csv", ".npz"), "Write the table to FILE.csv or FILE.npz.")
 @out_option((".png", ".pdf", ".svg"), "Write a plot to FILE.png (or .pdf/.svg).", name="--plot")
 @click.pass_context
-def profile(ctx, material, model, configuration, albedo_source, n_gaussians, photons, grid_fraction, roughness,
-            points, r_max, as_json, out, plot) -> None:
+def profile(ctx: click.Context, material: str | None, model: str, configuration: str, albedo_source: str,
+            n_gaussians: int, photons: int, grid_fraction: float | None, roughness: float, points: int,
+            r_max: float | None, as_json: bool, out: str | None, plot: str | None) -> None:
     """Diffuse reflectance profile R(r) of a material, per RGB channel."""
     import numpy as np
 
@@ -122,12 +130,15 @@ def profile(ctx, material, model, configuration, albedo_source, n_gaussians, pho
         return
     click.echo(f"# {prof.model} profile of {prof.name}; r in mm, Rd in mm^-2")
     click.echo("# total Rd (R, G, B): " + ", ".join(f"{v:.6f}" for v in prof.total_rd()))
-    if all(hasattr(c, "total_rd_with_overflow") for c in prof.channels):
+    from ..profiles.montecarlo import MonteCarloProfile
+
+    mc = [c for c in prof.channels if isinstance(c, MonteCarloProfile)]
+    if len(mc) == len(prof.channels):
         # a Monte Carlo profile: R(r) integrates to the light inside the grid; MCML's Rd adds the rest
-        click.echo("# total Rd in grid (R, G, B): " + ", ".join(f"{c.total_rd():.6f}" for c in prof.channels)
-                   + "   with overflow: " + ", ".join(f"{c.total_rd_with_overflow():.6f}" for c in prof.channels)
-                   + "   beyond the grid (" + ", ".join(f"{c.edges[-1]:.4g}" for c in prof.channels) + " mm): "
-                   + ", ".join(f"{c.overflow:.2e}" for c in prof.channels))
+        click.echo("# total Rd in grid (R, G, B): " + ", ".join(f"{c.total_rd():.6f}" for c in mc)
+                   + "   with overflow: " + ", ".join(f"{c.total_rd_with_overflow():.6f}" for c in mc)
+                   + "   beyond the grid (" + ", ".join(f"{c.edges[-1]:.4g}" for c in mc) + " mm): "
+                   + ", ".join(f"{c.overflow:.2e}" for c in mc))
     if not out:
         click.echo("r_mm,Rd_R,Rd_G,Rd_B")
         for ri, row in zip(r, prof.eval(r)):
@@ -167,8 +178,9 @@ def _channels():
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the on-disk cache.")
 @out_option((".npz",), "Write FILE.npz (one material) with r_mm, Rd, Rd_se per channel.")
 @json_option()
-def simulate(material, channel, photons, seed, threads, jobs, scheduler, batch_size, grid_fraction, roughness, resume,
-             restart, no_cache, out, as_json) -> None:
+def simulate(material: list[str], channel: str, photons: int, seed: int, threads: int | None, jobs: int,
+             scheduler: str | None, batch_size: int, grid_fraction: float | None, roughness: float, resume: bool,
+             restart: bool, no_cache: bool, out: str | None, as_json: bool) -> None:
     """Monte Carlo (MCML) diffuse reflectance profiles with the supplement's settings.
 
     An interrupted run (Ctrl-C) keeps its finished batches: run it again with --resume to continue

@@ -11,6 +11,8 @@ result. An adaptive run's frames reach ``--frames-dir`` through the pipeline's f
 from __future__ import annotations
 
 import math
+from pathlib import Path
+from typing import Any
 
 import click
 
@@ -136,8 +138,9 @@ _PASS = RegistryName(lambda: PASSES)
 @out_option((".exr", ".png"), "Write the image: FILE.exr (linear, with sss/exact/reference layers) or FILE.png (tone-mapped).")
 @json_option("Print one JSON object with settings and error metrics.")
 @click.pass_context
-def render(ctx, scene, settings_file, save_gbuffer, out, as_json, pass_name, method, frames_dir, units, material_map,
-           view, **params) -> None:
+def render(ctx: click.Context, scene: str | Path, settings_file: str | None, save_gbuffer: str | None, out: str | None,
+           as_json: bool, pass_name: str | None, method: str | None, frames_dir: str | None, units: tuple[str, ...],
+           material_map: str | None, view: str | None, **params: Any) -> None:
     """Screen-space SSS (separable, or Burley Monte Carlo) of a scene (built-in, generated, a mesh or a scene
     file), with errors against the exact 2D convolution; --pass burley-adaptive: a sequence of frames with
     adaptive sample counts, each against its converged reference."""

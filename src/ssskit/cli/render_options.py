@@ -15,7 +15,7 @@ import math
 import re
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import click
 import numpy as np
@@ -23,8 +23,12 @@ import numpy as np
 from ..backends.burley_plan import XIE_C
 from ..errors import OutputError, SettingsError, SsskitError
 from ..pipeline.adaptive import AdaptiveFrame
-from ..pipeline.settings import PASSES, AdaptivePass, BurleyPass, RenderSettings, SeparablePass, SettingsMigrated
+from ..pipeline.settings import (PASSES, AdaptivePass, BurleyPass, PassMember, RenderSettings, SeparablePass,
+                                 SettingsMigrated)
+from ..settings import Settings
 from .options import IntPair, check_distinct, given, option_name
+
+_S = TypeVar("_S", bound=Settings)
 
 #: click parameter -> the top-level settings field(s) it sets
 FIELDS: dict[str, tuple[str, ...]] = {
@@ -70,7 +74,7 @@ class RGBFloats(click.ParamType):
 
     name = "V[,V,V]"
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, tuple):
             return value
         try:
@@ -114,14 +118,14 @@ def load_settings(path: str) -> RenderSettings:
     return s
 
 
-def _apply(obj, flag: str, changes: dict[str, Any]):
+def _apply(obj: _S, flag: str, changes: dict[str, Any]) -> _S:
     try:
         return obj.replace(**changes)
     except SsskitError as exc:
         raise SettingsError(f"{flag}: {exc}") from None
 
 
-def _member(base, name: str):
+def _member(base: PassMember, name: str) -> PassMember:
     """The pass member to start from: the settings file's when it is this pass's; a Burley member's sampler
     carried over to the other Burley pass; else the pass's defaults (the command line overrides the file)."""
     cls = PASSES.get(name)
@@ -142,7 +146,7 @@ def _sigma0_sq(sigma0: float) -> float:
     return sigma0 * sigma0
 
 
-def _pass_options(ctx: click.Context, member, params: dict):
+def _pass_options(ctx: click.Context, member: PassMember, params: dict[str, Any]) -> PassMember:
     """The pass member with the pass's options the user gave applied in a fixed order (the sampler with
     its c, the budget before the counts inside it), each named in its error. A sampler other than xie
     asked for on the command line drops the file's c (Eq. 21's constant belongs to the xie sampler)."""
@@ -219,7 +223,8 @@ def _engine_taps(ctx: click.Context, s: RenderSettings) -> RenderSettings:
     return s
 
 
-def check_inputs(ctx: click.Context, scene, s: RenderSettings, settings_file, out, save_gbuffer, frames_dir) -> None:
+def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, settings_file: str | None, out: str | None,
+                 save_gbuffer: str | None, frames_dir: str | None) -> None:
     """What only the command line can get wrong, before any work: options for a built-in scene given with
     a G-buffer file; the adaptive run's options of one kind of run given to the other; outputs that are
     inputs, or each other, or the frames --frames-dir writes."""
@@ -240,7 +245,7 @@ def check_inputs(ctx: click.Context, scene, s: RenderSettings, settings_file, ou
     _check_frames_dir(frames_dir, {"--out": out, "--save-gbuffer": save_gbuffer})
 
 
-def _mesh_scene(scene) -> bool:
+def _mesh_scene(scene: Any) -> bool:
     """Whether ``scene`` (a --scene value) is a mesh scene: a mesh or scene file, or a generated mesh."""
     from ..scenes import GENERATED_SCENES
 
@@ -249,7 +254,7 @@ def _mesh_scene(scene) -> bool:
     return isinstance(scene, str) and scene in GENERATED_SCENES
 
 
-def _check_adaptive(ctx: click.Context, s: RenderSettings, still: bool, save_gbuffer) -> None:
+def _check_adaptive(ctx: click.Context, s: RenderSettings, still: bool, save_gbuffer: str | None) -> None:
     p = s.pass_
     assert isinstance(p, AdaptivePass)
     if given(ctx, "spp"):
@@ -276,7 +281,7 @@ def _check_adaptive(ctx: click.Context, s: RenderSettings, still: bool, save_gbu
 FRAME_FILE = re.compile(r"(frame_\d{4,}(_taa)?|counts_\d{4,})\.png")
 
 
-def _check_frames_dir(frames_dir, outputs: dict) -> None:
+def _check_frames_dir(frames_dir: str | None, outputs: dict[str, str | None]) -> None:
     """No other output (``{option: path}``, None skipped) may be the --frames-dir folder or one of the
     frame files written into it (``frame_NNNN.png``, ``frame_NNNN_taa.png``, ``counts_NNNN.png``)."""
     if frames_dir is None:

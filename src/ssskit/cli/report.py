@@ -28,7 +28,7 @@ class _FiguresCommand(click.Command):
     """``ssskit figures``: its help lists the registered figure names (the argument's metavar is
     ``[NAME]...``, so the usage line does not)."""
 
-    def format_help_text(self, ctx, formatter) -> None:
+    def format_help_text(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         super().format_help_text(ctx, formatter)
         import textwrap
 
@@ -53,7 +53,8 @@ class _FiguresCommand(click.Command):
 @scene_mesh_options(view=False)
 @out_dir_option("ssskit-out/figures")
 @click.pass_context
-def figures(ctx, names, material, model, photons, backend, scene, units, material_map, out) -> None:
+def figures(ctx: click.Context, names: tuple[str, ...], material: str | None, model: str, photons: int, backend: str,
+            scene: str | Path | None, units: tuple[str, ...], material_map: str | None, out: str) -> None:
     """Regenerate the papers' figures (NAME: any of the figures listed below; all by default). The
     figures that run a screen-space pass run it on --backend; those that render a scene (xie-fig1) take
     --scene, --units and --material-map."""
@@ -72,7 +73,7 @@ def figures(ctx, names, material, model, photons, backend, scene, units, materia
                               f"not to {', '.join(chosen)}")
         value = "bust" if scene is None else scene
         resolve_scene_value(value, units, material_map, view="front")  # every check before any work
-        scene_kw = {"scene": str(value), "units": (list(units) or [None])[0], "material_map": material_map,
+        scene_kw = {"scene": str(value), "units": units[0] if units else None, "material_map": material_map,
                     "material": material}
     prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
     written = make_figures(list(names), out, prof, progress=progress, backend=backend, scene=scene_kw)
@@ -91,7 +92,8 @@ def figures(ctx, names, material, model, photons, backend, scene, units, materia
               help="Add a section on your model (a mesh file, scene .toml or generated mesh): the three views of "
                    "Xie 2020 Fig. 1 with every Burley method and the separable pass.")
 @scene_mesh_options(view=False)
-def demo(out: str, photons: int | None, full: bool, backend: str, scene, units, material_map) -> None:
+def demo(out: str, photons: int | None, full: bool, backend: str, scene: str | Path | None, units: tuple[str, ...],
+         material_map: str | None) -> None:
     """The main job: build the report (figures + index.html) on built-in defaults; --scene adds your model."""
     from ..backends import get_backend
     from ..profiles.montecarlo import DEFAULT_PHOTONS
@@ -106,7 +108,7 @@ def demo(out: str, photons: int | None, full: bool, backend: str, scene, units, 
         if scene is None:
             raise SsskitError("--units and --material-map need --scene (the model of the demo's last section)")
         resolve_scene_value(scene, units, material_map, view="front")  # every check before any work
-        scene_kw = {"scene": str(scene), "units": (list(units) or [None])[0], "material_map": material_map}
+        scene_kw = {"scene": str(scene), "units": units[0] if units else None, "material_map": material_map}
     click.echo(f"ssskit demo: writing the report to {out}/", err=True)
     index = build_report(Path(out), progress=progress, photons=n, progress_bars=True, backend=backend,
                          scene=scene_kw)

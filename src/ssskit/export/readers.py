@@ -45,8 +45,9 @@ class EngineSource:
 
         dmfp = self.d_mm * (3.5 + 100.0 * (self.albedo - 0.33) ** 4)
         eta = self.eta if self.eta is not None and self.eta >= 1.0 else 1.3
-        art = ArtistMaterial(self.name, tuple(float(v) for v in self.albedo),  # type: ignore[arg-type]
-                             tuple(float(v) for v in dmfp), "dmfp", eta, g)  # type: ignore[arg-type]
+        a_r, a_g, a_b = (float(v) for v in self.albedo)
+        d_r, d_g, d_b = (float(v) for v in dmfp)
+        art = ArtistMaterial(self.name, (a_r, a_g, a_b), (d_r, d_g, d_b), "dmfp", eta, g)
         return material_from_artist(art)
 
 

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import inspect
 from pathlib import Path
-from typing import Callable
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import SsskitError
 from ..registry import Registry
@@ -17,6 +18,9 @@ from . import adaptive as _a
 from . import burley as _b
 from . import kernels as _k
 from . import views as _v
+
+if TYPE_CHECKING:
+    from ..profiles.base import RGBProfile
 
 Figure = Callable[..., list[Path]]
 FIGURES: Registry[Figure] = Registry("figure", SsskitError)
@@ -49,8 +53,9 @@ def renders_a_scene(fn: Figure) -> bool:
     return "scene" in inspect.signature(fn).parameters
 
 
-def make_figures(names, out_dir, profile, progress=None, backend: str | None = None,
-                 scene: dict | None = None) -> dict[str, list[Path]]:
+def make_figures(names: Sequence[str], out_dir: str | Path, profile: RGBProfile | None,
+                 progress: Callable[[str], None] | None = None, backend: str | None = None,
+                 scene: dict[str, Any] | None = None) -> dict[str, list[Path]]:
     """Build the named figures (all when ``names`` is empty) for ``profile`` into ``out_dir``; the figures
     that run a screen-space pass run it on ``backend`` (default: ssskit's default backend); those that
     render a scene (:func:`renders_a_scene`) take the keywords of ``scene`` (scene, units, material_map,
@@ -59,7 +64,7 @@ def make_figures(names, out_dir, profile, progress=None, backend: str | None = N
     labels = list(names) if names else FIGURES.names()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    result = {}
+    result: dict[str, list[Path]] = {}
     for label, fn in zip(labels, chosen):
         if progress is not None:
             progress(f"figure {label}")

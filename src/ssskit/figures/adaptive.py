@@ -10,12 +10,24 @@ and mu (Eq. 6).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
 from ..screenspace.adaptive import AdaptiveSettings, CircleRun, circle_scenario
 from .plots import pyplot, save_figure
+
+if TYPE_CHECKING:
+    from ..profiles.base import RGBProfile
+    from ..screenspace import BurleyParams, GBuffer
+    from ..screenspace.frames import Frame
+    from ..screenspace.taa import TAASettings
+
+#: a figure's progress messages
+Progress = Callable[[str], None]
+_T = TypeVar("_T")
 
 #: the paper's circle-scenario setting (Sec. 4.1.3)
 CIRCLE_SIGMA0_SQ = 0.08**2
@@ -74,7 +86,7 @@ def plot_circle(runs: list[CircleRun], title: str, path: Path) -> list[Path]:
     return [path]
 
 
-def xie_fig2_cold_start(out: Path, profile=None, progress=None) -> list[Path]:
+def xie_fig2_cold_start(out: Path, profile: RGBProfile | None = None, progress: Progress | None = None) -> list[Path]:
     """Xie 2020 Fig. 2: the circle scenario from a cold start (H_0 = 0), kappa = 0 and 1.
 
     ``profile`` is not used (the scenario integrates a uniform disk, not a diffusion profile)."""
@@ -83,7 +95,7 @@ def xie_fig2_cold_start(out: Path, profile=None, progress=None) -> list[Path]:
                        Path(out) / "xie_fig2_circle_cold_start.png")
 
 
-def xie_fig3_disocclusion(out: Path, profile=None, progress=None) -> list[Path]:
+def xie_fig3_disocclusion(out: Path, profile: RGBProfile | None = None, progress: Progress | None = None) -> list[Path]:
     """Xie 2020 Fig. 3: the circle scenario with the disocclusion initialisation (Eqs. 16-17), kappa = 0 and 1."""
     return plot_circle(circle_runs(True), "Xie 2020 Fig. 3, circle scenario, disocclusion initialisation "
                        r"(Eqs. 16-17: $\mathcal{M}'$ = 1, $\hat\sigma^2 = \sigma_0^2$ on frame 1)",
@@ -126,7 +138,7 @@ FIG4_FRAMES = 64
 FIG4_REPLICAS = 12
 
 
-def shadow_plane(width: int, height: int, distance: str = "regular"):
+def shadow_plane(width: int, height: int, distance: str = "regular") -> GBuffer:
     """The G-buffer of the scene above (a plane of profile id 1 filling the frame)."""
     from ..screenspace import Camera, GBuffer
 
@@ -140,13 +152,13 @@ def shadow_plane(width: int, height: int, distance: str = "regular"):
                    camera=Camera(width, height, PLANE_FOCAL, PLANE_FOCAL, width / 2, height / 2))
 
 
-def plane_params():
+def plane_params() -> BurleyParams:
     from ..screenspace import BurleyParams
 
     return BurleyParams.from_dmfp(PLANE_ALBEDO, PLANE_DMFP_MM)
 
 
-def _cached(name: str, key: dict, compute):
+def _cached(name: str, key: dict[str, Any], compute: Callable[[], _T]) -> _T:
     """compute() once per (name, key, ssskit's source), kept in the ``figures`` cache (a pickle)."""
     from ..cache import source_digest
     from .stored import stored
@@ -154,8 +166,10 @@ def _cached(name: str, key: dict, compute):
     return stored("figures", name, {"name": name, "key": key, "source": source_digest()}, compute)
 
 
-def run_plane_frames(gbuffer, params, reference, settings: AdaptiveSettings | None, frames: int, *, spp: int = 64,
-                     backend: str = "numba", seed: int = 0, taa=None, pixels=(), mips: bool = False) -> dict:
+def run_plane_frames(gbuffer: GBuffer, params: BurleyParams, reference: np.ndarray | None,
+                     settings: AdaptiveSettings | None, frames: int, *, spp: int = 64, backend: str = "numba",
+                     seed: int = 0, taa: TAASettings | None = None, pixels: tuple[tuple[int, int], ...] = (),
+                     mips: bool = False) -> dict[str, Any]:
     """``frames`` frames of the Burley pass on a still G-buffer (the library's frame loop,
     :func:`ssskit.screenspace.frames.run_frames`), adaptive (``settings``) or at a fixed ``spp`` (``settings``
     None), each followed by the global TAA (``taa``: TAASettings; default TAASettings()). Per frame:
@@ -173,14 +187,17 @@ def run_plane_frames(gbuffer, params, reference, settings: AdaptiveSettings | No
     from ..screenspace.frames import run_frames
     from ..screenspace.taa import TAASettings
 
+    assert reference is not None, "the PSNR needs a reference (the plane's pixels are square)"
     bs = BurleySettings(sampler="exact", sequence="r2", mips=mips, seed=seed, backend=backend)
     fixed = settings is None
-    gamma = (AdaptiveSettings() if fixed else settings).gamma
-    out: dict = {k: [] for k in ("psnr", "psnr_taa")}
-    traces = {p: {"value": [], "value_taa": [], "sigma_local": []} for p in pixels}
-    last = {}
+    gamma = (AdaptiveSettings() if settings is None else settings).gamma
+    out: dict[str, list[float]] = {k: [] for k in ("psnr", "psnr_taa")}
+    traces: dict[tuple[int, int], dict[str, list[float]]] = {
+        p: {"value": [], "value_taa": [], "sigma_local": []} for p in pixels}
+    last: dict[str, Any] = {}
 
-    def on_frame(frame) -> None:
+    def on_frame(frame: Frame) -> None:
+        assert frame.image_taa is not None  # the loop runs TAA
         out["psnr"].append(psnr(reference, frame.sss))
         out["psnr_taa"].append(psnr(reference, frame.image_taa))
         if pixels:
@@ -196,7 +213,7 @@ def run_plane_frames(gbuffer, params, reference, settings: AdaptiveSettings | No
                      taa=TAASettings() if taa is None else taa, on_frame=on_frame)
     timed = ("prefilter", "sampling") if fixed else PHASES
     times = {p: (list(run.phases[p]) if p in timed else []) for p in PHASES}
-    result = {k: np.asarray(v) for k, v in out.items()}
+    result: dict[str, Any] = {k: np.asarray(v) for k, v in out.items()}
     result["mean_spp"] = np.asarray(run.mean_spp)
     result["ms"] = np.asarray([sum(run.phases[p][f] for p in timed) for f in range(frames)])
     result["phases"] = {p: (float(np.median(v[1:] if len(v) > 1 else v)) if v else None) for p, v in times.items()}
@@ -205,7 +222,7 @@ def run_plane_frames(gbuffer, params, reference, settings: AdaptiveSettings | No
     return result
 
 
-def _final(run: dict, key: str) -> float:
+def _final(run: dict[str, Any], key: str) -> float:
     """The mean of the last quarter of the frames (at least one)."""
     v = run[key]
     return float(np.mean(v[-max(1, len(v) // 4):]))
@@ -222,7 +239,7 @@ def fig4_pixels(width: int, height: int) -> dict[str, tuple[int, int]]:
 
 
 def fig4_data(backend: str = "numba", frames: int = FIG4_FRAMES, replicas: int = FIG4_REPLICAS,
-              size: tuple[int, int] = FIG4_SIZE, progress=None) -> dict:
+              size: tuple[int, int] = FIG4_SIZE, progress: Progress | None = None) -> dict[str, Any]:
     """Xie 2020 Fig. 4 in kind: per frame, at P1 and P2, the local and the global (after TAA) standard
     deviation, from ``replicas`` independent runs (seeds 0..replicas-1): ``sigma_l`` the standard deviation
     across runs of the frame's value S (what the guiding phase targets: sigma0), ``sigma_g`` that of the
@@ -242,7 +259,8 @@ def fig4_data(backend: str = "numba", frames: int = FIG4_FRAMES, replicas: int =
                 progress(f"xie-fig4: run {r + 1}/{replicas}")
             runs.append(run_plane_frames(gb, params, ref, settings, frames, backend=backend, seed=r,
                                      pixels=tuple(pix.values())))
-        out = {"pixels": pix, "frames": frames, "replicas": replicas, "size": size, "backend": backend, "series": {}}
+        out: dict[str, Any] = {"pixels": pix, "frames": frames, "replicas": replicas, "size": size,
+                               "backend": backend, "series": {}}
         for name, p in pix.items():
             v = np.stack([run["traces"][p]["value"] for run in runs])
             vt = np.stack([run["traces"][p]["value_taa"] for run in runs])
@@ -257,7 +275,7 @@ def fig4_data(backend: str = "numba", frames: int = FIG4_FRAMES, replicas: int =
                    compute)
 
 
-def xie_fig4(out: Path, profile=None, progress=None, backend: str = "numba") -> list[Path]:
+def xie_fig4(out: Path, profile: RGBProfile | None = None, progress: Progress | None = None, backend: str = "numba") -> list[Path]:
     """Xie 2020 Fig. 4 in kind: per-frame local and global (after TAA) standard deviation at a shadowed and a
     lit pixel (sigma0^2 = 0.01^2, alpha 0.2, kappa 1, b = [8, 64]). ``profile`` is not used."""
     d = fig4_data(backend, progress=progress)
@@ -289,7 +307,7 @@ def xie_fig4(out: Path, profile=None, progress=None, backend: str = "numba") -> 
 # ---- Figs. 10, 11, 13 and Table 1 ---------------------------------------------------------------------------
 
 def grid_data(distance: str = "regular", backend: str = "numba", frames: int = GRID_FRAMES,
-              size: tuple[int, int] = GRID_SIZE, progress=None) -> dict:
+              size: tuple[int, int] = GRID_SIZE, progress: Progress | None = None) -> dict[str, Any]:
     """The sigma0^2 x kappa grid at b = [8, 64] (Xie 2020 Figs. 10-11) beside fixed 64 spp, and the equal-time
     comparison (Fig. 13): per setting ``psnr_taa`` (final), ``psnr`` (single frame), ``mean_spp`` and ``ms``
     (medians over the frames after the first, whose time includes compiling); ``fixed64`` and ``fixed8``;
@@ -306,8 +324,8 @@ def grid_data(distance: str = "regular", backend: str = "numba", frames: int = G
         params = plane_params()
         ref = burley_exact(gb, params)
         fixed = run_plane_frames(gb, params, ref, None, frames, spp=64, backend=backend)
-        out = {"distance": distance, "backend": backend, "frames": frames, "size": size, "fixed64": summary(fixed),
-               "grid": {}, "equal_time": []}
+        out: dict[str, Any] = {"distance": distance, "backend": backend, "frames": frames, "size": size,
+                               "fixed64": summary(fixed), "grid": {}, "equal_time": []}
         runs = {}
         for s0 in GRID_SIGMA0_SQ:
             for k in GRID_KAPPA:
@@ -337,7 +355,7 @@ def grid_data(distance: str = "regular", backend: str = "numba", frames: int = G
                    compute)
 
 
-def phase_data(backend: str = "numba", frames: int = 12, size: tuple[int, int] = GRID_SIZE, progress=None) -> dict:
+def phase_data(backend: str = "numba", frames: int = 12, size: tuple[int, int] = GRID_SIZE, progress: Progress | None = None) -> dict[str, Any]:
     """Xie 2020 Table 1 in kind: median ms per phase (prefilter, sampling, update; estimate on the first
     frame), fixed 64 spp vs adaptive (sigma0^2 = 1e-3, kappa = 0.2), with mips on (the paper's setting), and
     the combine step (albedo x result + specular, numpy)."""
@@ -395,17 +413,17 @@ def plot_grid(d: dict, path: Path) -> list[Path]:
     return [path]
 
 
-def xie_fig10(out: Path, profile=None, progress=None, backend: str = "numba") -> list[Path]:
+def xie_fig10(out: Path, profile: RGBProfile | None = None, progress: Progress | None = None, backend: str = "numba") -> list[Path]:
     """Xie 2020 Fig. 10 in kind: the sigma0^2 x kappa grid at regular distance (2.5 px per mm)."""
     return plot_grid(grid_data("regular", backend, progress=progress), Path(out) / "xie_fig10_grid_regular.png")
 
 
-def xie_fig11(out: Path, profile=None, progress=None, backend: str = "numba") -> list[Path]:
+def xie_fig11(out: Path, profile: RGBProfile | None = None, progress: Progress | None = None, backend: str = "numba") -> list[Path]:
     """Xie 2020 Fig. 11 in kind: the same grid at close distance (6.7 px per mm)."""
     return plot_grid(grid_data("close", backend, progress=progress), Path(out) / "xie_fig11_grid_close.png")
 
 
-def xie_fig13(out: Path, profile=None, progress=None, backend: str = "numba") -> list[Path]:
+def xie_fig13(out: Path, profile: RGBProfile | None = None, progress: Progress | None = None, backend: str = "numba") -> list[Path]:
     """Xie 2020 Fig. 13 in kind: equal time, fixed vs adaptive (the last frame before TAA, and the counts)."""
     d = grid_data("regular", backend, progress=progress)
     plt = pyplot()
@@ -435,7 +453,7 @@ def xie_fig13(out: Path, profile=None, progress=None, backend: str = "numba") ->
     return [path]
 
 
-def xie_table1(out: Path, profile=None, progress=None, backend: str = "numba") -> list[Path]:
+def xie_table1(out: Path, profile: RGBProfile | None = None, progress: Progress | None = None, backend: str = "numba") -> list[Path]:
     """Xie 2020 Table 1 in kind: per-phase ms, fixed 64 spp vs adaptive, as a CSV and a bar chart."""
     from ..io import atomic_output
 
@@ -472,7 +490,7 @@ def xie_table1(out: Path, profile=None, progress=None, backend: str = "numba") -
 
 # ---- the demo report's section ------------------------------------------------------------------------------
 
-def demo_section(out: Path, progress, ctx: dict) -> str:
+def demo_section(out: Path, progress: Progress | None, ctx: dict[str, Any]) -> str:
     """The demo report's section on the adaptive sampler (``ssskit.report.SECTIONS`` signature ``(out,
     progress, ctx) -> html``): Figs. 2-4, the grid of Figs. 10-11, Fig. 13 and Table 1 in kind, on numba
     (``ctx["adaptive_backend"]``, else the demo's ``ctx["backend"]``, to choose another backend)."""

@@ -14,18 +14,24 @@ per pixel, no mips, the same seed for both samplers, and is compared with its ex
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..backends import DEFAULT_BACKEND
 from .plots import pyplot, save_figure
 
+if TYPE_CHECKING:
+    from ..profiles.base import RGBProfile
+    from ..screenspace import BurleyParams, BurleySettings, GBuffer
+
 #: c values of the inverse panel: Xie's least-squares 2.5715 and Unreal's 2.6
 CS = (2.5715, 2.6)
 
 
-def _params(profile):
+def _params(profile: RGBProfile | None) -> BurleyParams:
     from ..screenspace import BurleyParams
 
     if getattr(profile, "model", "") == "burley":
@@ -33,7 +39,7 @@ def _params(profile):
     return BurleyParams.from_dmfp(0.9, (20.0, 10.0, 5.0))
 
 
-def beam_disk(size: int = 256, px_per_mm: float = 8.0, radius_mm: float = 10.0):
+def beam_disk(size: int = 256, px_per_mm: float = 8.0, radius_mm: float = 10.0) -> GBuffer:
     """The beam-light G-buffer: a plane at 500 mm, irradiance 1 inside ``radius_mm`` of the centre."""
     from ..screenspace import Camera, GBuffer
 
@@ -46,7 +52,7 @@ def beam_disk(size: int = 256, px_per_mm: float = 8.0, radius_mm: float = 10.0):
                    profile_id=np.ones((size, size), np.uint32), camera=Camera(size, size, f, f, size / 2, size / 2))
 
 
-def fig6_xie_inverse(out: Path, profile, progress=None, spp: int = 256, backend: str = DEFAULT_BACKEND) -> list[Path]:
+def fig6_xie_inverse(out: Path, profile: RGBProfile | None, progress: Callable[[str], None] | None = None, spp: int = 256, backend: str = DEFAULT_BACKEND) -> list[Path]:
     """Xie 2020 Fig. 6 (module docstring): ``xie_fig6.png``; the Burley pass runs on ``backend``."""
     from ..metrics import tonemap
     from ..pipeline.burley_frame import burley_exact
@@ -77,10 +83,11 @@ def fig6_xie_inverse(out: Path, profile, progress=None, spp: int = 256, backend:
     gb = beam_disk()
     if progress is not None:
         progress("xie fig6: beam-light disk, exact and xie samplers")
-    common = dict(spp=spp, mips=False, seed=3, backend=backend)
+    common: dict[str, Any] = dict(spp=spp, mips=False, seed=3, backend=backend)
     images = {"exact sampler": burley_sss(gb, params, sampler="exact", **common),
               f"xie sampler, c = {CS[0]}": burley_sss(gb, params, sampler="xie", c=CS[0], **common)}
     ref = burley_exact(gb, params)
+    assert ref is not None  # the beam disk's pixels are square
     peak = float(ref.max())
     for ax, (label, img) in zip(axes[1:3], images.items()):
         ax.imshow(tonemap(img, peak))
@@ -111,7 +118,8 @@ def fig6_xie_inverse(out: Path, profile, progress=None, spp: int = 256, backend:
 FIG5_CS = (2.0, 2.5715, 2.6, 3.0)
 
 
-def fig5_xie_c(out: Path, profile=None, progress=None) -> list[Path]:
+def fig5_xie_c(out: Path, profile: RGBProfile | None = None,
+               progress: Callable[[str], None] | None = None) -> list[Path]:
     """Xie 2020 Fig. 5: the percentage error of g (Eq. 21) against the exact inverse of Eq. 20 for
     several c (left axis), and the CDF of Eq. 20 (right axis), over the radius r for Fig. 5's
     d: A = 0.9, ell = 1 mm, Eq. 5 configuration 3 (d = 1 / (3.5 + 100 x 0.57^4) = 0.0711 mm). The
@@ -160,9 +168,11 @@ def _gray_psnr(reference: np.ndarray, test: np.ndarray, mask: np.ndarray) -> flo
     return psnr(r, t)
 
 
-def burley_comparison(out: Path, material: str = "skin1", scenes=None, width: int = 160, height: int = 120,
-                      spp: int = 16, spps=DEMO_SPPS, reference_spp: int = 4096, burley=None,
-                      backend: str | None = None, progress=None):
+def burley_comparison(out: Path, material: str = "skin1", scenes: Iterable[str] | None = None, width: int = 160,
+                      height: int = 120, spp: int = 16, spps: Iterable[int] = DEMO_SPPS, reference_spp: int = 4096,
+                      burley: BurleySettings | None = None, backend: str | None = None,
+                      progress: Callable[[str], None] | None = None) -> tuple[Path, list[dict[str, Any]],
+                                                                             dict[str, Any]]:
     """Every scene with the Burley pass at ``spps`` samples per pixel beside its converged reference
     (:func:`ssskit.pipeline.burley_frame.burley_reference`: exact sampler, ``reference_spp``, no mips) and the
     separable pass with the ``burley_fit`` kernel (Xie 2020 appendix A.1); writes ``burley.png``.
@@ -191,7 +201,9 @@ def burley_comparison(out: Path, material: str = "skin1", scenes=None, width: in
     if backend is not None:
         burley = burley.replace(backend=backend)
     params = burley_params_for_material(material)
-    rows, grid, refs = [], [], {}
+    rows: list[dict[str, Any]] = []
+    grid: list[Any] = []
+    refs: dict[str, Any] = {}
     for scene in list(scenes or SCENES.names()):
         say(f"Burley pass: {scene}, G-buffer and separable burley_fit")
         sep = render(scene, RenderSettings(material=material, model="burley", kernel="burley_fit", width=width,
@@ -243,13 +255,14 @@ def burley_comparison(out: Path, material: str = "skin1", scenes=None, width: in
     return path, rows, refs
 
 
-def _row(scene, method, n, ref, img, mask, region_metrics) -> dict:
+def _row(scene: str, method: str, n: int | None, ref: np.ndarray, img: np.ndarray, mask: np.ndarray,
+         region_metrics: Callable[..., dict[str, float]]) -> dict[str, Any]:
     m = region_metrics(ref, img, mask)
     return {"scene": scene, "method": method, "spp": n, "psnr_gray": _gray_psnr(ref, img, mask), "rmse": m["rmse"],
             "flip": m["flip"]}
 
 
-def demo_section(out: Path, progress, ctx: dict) -> str:
+def demo_section(out: Path, progress: Callable[[str], None] | None, ctx: dict[str, Any]) -> str:
     """The demo report's Burley section (``ssskit.report.SECTIONS`` signature): :func:`burley_comparison`
     on ``ctx["backend"]`` as a table and the figure."""
     import html

@@ -2,22 +2,25 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..kernels import build_kernel
-from ..kernels.base import default_grid
+from ..kernels.base import Kernel, default_grid
 from ..kernels.methods import singular_values
 from ..materials import CHANNELS
 from ..metrics import psnr_text, tonemap
+from ..profiles.base import RGBProfile
 from .plots import CHANNEL_COLORS, pyplot, save_figure
 
 #: grid of the kernel figures (the evaluation grids are tied to the image instead)
 FIG_N = 201
 
 
-def fig2_singular_values(out: Path, profile, progress=None) -> list[Path]:
+def fig2_singular_values(out: Path, profile: RGBProfile, progress: Callable[[str], None] | None = None) -> list[Path]:
     """Paper Fig. 2: singular values of the discrete Rd per channel (sigma_i / sigma_1, log scale)."""
     plt = pyplot()
     h, n = default_grid(profile, FIG_N)
@@ -36,7 +39,7 @@ def fig2_singular_values(out: Path, profile, progress=None) -> list[Path]:
     return [path]
 
 
-def _finish(fig, title: str, path: Path, fontsize: float = 12) -> list[Path]:
+def _finish(fig: Any, title: str, path: Path, fontsize: float = 12) -> list[Path]:
     """Title, lay out and write a figure; returns [path]."""
     fig.suptitle(title, fontsize=fontsize)
     fig.tight_layout()
@@ -50,7 +53,7 @@ def _kernel_rgb(cells: np.ndarray, ref: np.ndarray) -> np.ndarray:
     return (np.log10(x) + 4.0) / 4.0
 
 
-def fig4_svd_ranks(out: Path, profile, progress=None) -> list[Path]:
+def fig4_svd_ranks(out: Path, profile: RGBProfile, progress: Callable[[str], None] | None = None) -> list[Path]:
     """Paper Fig. 4: SVD rank 1, 3, 6 approximations of the 2D kernel next to the true kernel."""
     plt = pyplot()
     h, n = default_grid(profile, FIG_N)
@@ -60,6 +63,7 @@ def fig4_svd_ranks(out: Path, profile, progress=None) -> list[Path]:
     panels = [("true Rd", rd)]
     for r in (1, 3, 6):
         k = build_kernel("svd", profile, h, n, rank=r)
+        assert isinstance(k, Kernel)  # svd tabulates
         err = np.mean(k.compare(profile)["relative_frobenius"])
         panels.append((f"SVD rank {r} (rel. Frobenius {err:.3f})", k.to_2d()))
     for ax, (title, cells) in zip(axes, panels):
@@ -70,11 +74,12 @@ def fig4_svd_ranks(out: Path, profile, progress=None) -> list[Path]:
                    out / "fig4_svd_ranks.png")
 
 
-def fig5_slices(out: Path, profile, progress=None) -> list[Path]:
+def fig5_slices(out: Path, profile: RGBProfile, progress: Callable[[str], None] | None = None) -> list[Path]:
     """Paper Fig. 5: axis and diagonal slices of the pre-integrated kernel vs the true kernel."""
     plt = pyplot()
     h, n = default_grid(profile, FIG_N)
     k = build_kernel("preintegrated", profile, h, n)
+    assert isinstance(k, Kernel)  # preintegrated tabulates
     x = k.x_mm
     axis, diag = k.axis_slice(), k.diagonal_slice()
     fig, axes = plt.subplots(2, 3, figsize=(13, 6.5), sharex=True)
@@ -95,7 +100,8 @@ def fig5_slices(out: Path, profile, progress=None) -> list[Path]:
     return _finish(fig, f"Pre-integrated kernel vs ground truth, {profile.name} (paper Fig. 5)", out / "fig5_slices.png")
 
 
-def _comparison(out: Path, profile, signal: str, filename: str, title: str, progress, crop) -> list[Path]:
+def _comparison(out: Path, profile: RGBProfile, signal: str, filename: str, title: str,
+                progress: Callable[[str], None] | None, crop: str) -> list[Path]:
     from ..pipeline.evaluate import FIG7_METHODS, evaluate
 
     plt = pyplot()
@@ -119,11 +125,11 @@ def _comparison(out: Path, profile, signal: str, filename: str, title: str, prog
     return _finish(fig, f"{title}: {profile.name} ({profile.model}), {ev.pixel_mm:.3f} mm/pixel", out / filename, 9)
 
 
-def fig7_step(out: Path, profile, progress=None) -> list[Path]:
+def fig7_step(out: Path, profile: RGBProfile, progress: Callable[[str], None] | None = None) -> list[Path]:
     """Paper Fig. 7 / supplement Fig. S.3: every method on a step-like irradiance, errors beside each row."""
     return _comparison(out, profile, "edge", "fig7_step.png", "Step irradiance (paper Fig. 7 / S.3)", progress, "strip")
 
 
-def figS5_disk(out: Path, profile, progress=None) -> list[Path]:
+def figS5_disk(out: Path, profile: RGBProfile, progress: Callable[[str], None] | None = None) -> list[Path]:
     """Supplement Fig. S.5: every method on a white disk ('dot'), errors beside each image."""
     return _comparison(out, profile, "disk", "figS5_disk.png", "White disk (supplement Fig. S.5)", progress, "full")

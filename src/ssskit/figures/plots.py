@@ -5,18 +5,24 @@ pyplot is imported on first use, with the Agg backend (no display needed).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..io import atomic_output
 from ..materials import CHANNELS
 
+if TYPE_CHECKING:
+    from ..profiles.base import RGBProfile
+
 CHANNEL_COLORS = ("#d62728", "#2ca02c", "#1f77b4")
 _STYLES = ("-", "--", ":", "-.")
 
 
-def pyplot():
+def pyplot() -> ModuleType:
     """matplotlib.pyplot with the Agg backend."""
     import matplotlib
 
@@ -26,7 +32,7 @@ def pyplot():
     return plt
 
 
-def save_figure(fig, path: str | Path, dpi: int = 110) -> None:
+def save_figure(fig: Any, path: str | Path, dpi: int = 110) -> None:
     """Write ``fig`` atomically (format from the suffix) and close it."""
     with atomic_output(path) as tmp:
         # "tight": titles, labels and a legend beside the axes are kept whole, never clipped
@@ -34,7 +40,7 @@ def save_figure(fig, path: str | Path, dpi: int = 110) -> None:
     pyplot().close(fig)
 
 
-def plot_profiles(profiles, title: str, path: str | Path, n: int = 400) -> None:
+def plot_profiles(profiles: Sequence[RGBProfile], title: str, path: str | Path, n: int = 400) -> None:
     """Three panels: R(r) linear, R(r) on log-log axes (to the end of a Monte Carlo grid, marked), and
     2 pi r R(r) (the supplement's weighted view); one legend beside the panels.
 
@@ -80,7 +86,7 @@ def plot_profiles(profiles, title: str, path: str | Path, n: int = 400) -> None:
     save_figure(fig, path)
 
 
-def plot_xie_c(path: str | Path, cs=(2.0, 2.5715, 3.0), c_minimax: float | None = None) -> None:
+def plot_xie_c(path: str | Path, cs: Sequence[float] = (2.0, 2.5715, 3.0), c_minimax: float | None = None) -> None:
     """Xie 2020 Fig. 5 analogue: percentage error of Eq. 21 against the exact inverse of Eq. 20,
     and the CDF error cdf(g(xi)) - xi, for several c."""
     from ..profiles.burley import burley_inverse_cdf

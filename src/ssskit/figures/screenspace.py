@@ -10,17 +10,20 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import Callable
+from collections.abc import Iterable
+from typing import Any, Callable, TypeVar
 
 import numpy as np
 
 from ..backends import DEFAULT_BACKEND
 from ..metrics import region_metrics, tonemap
-from ..pipeline import RenderSettings, SeparablePass, render
+from ..pipeline import RenderResult, RenderSettings, SeparablePass, render
 from ..scenes import SCENES
-from ..screenspace import PassSettings
+from ..screenspace import GBuffer, PassSettings
 from .plots import CHANNEL_COLORS, pyplot, save_figure
 from .stored import stored
+
+_T = TypeVar("_T")
 
 #: (label, kernel spec, taps, tap placement) shown per scene
 SCREEN_SPACE_METHODS = (
@@ -34,15 +37,16 @@ SCREEN_SPACE_METHODS = (
 _FIGURE_VERSION = 2
 
 
-def _cached(name: str, key: dict, make: Callable[[], object]):
+def _cached(name: str, key: dict[str, Any], make: Callable[[], _T]) -> _T:
     """``make()`` once per ``key``: pickled in the reference cache (the demo's screen-space results)."""
     return stored("reference", name, {**key, "v": _FIGURE_VERSION}, make)
 
 
-def screen_space_comparison(out: Path, material: str = "skin1", scenes=None, width: int = 160, height: int = 120,
+def screen_space_comparison(out: Path, material: str = "skin1", scenes: Iterable[str] | None = None, width: int = 160, height: int = 120,
                             spp: int = 16, reference_spp: int = 32, reference_max_spp: int = 128,
                             model: str = "montecarlo", photons: int = 200_000,
-                            progress: Callable[[str], None] | None = None, sss: PassSettings | None = None):
+                            progress: Callable[[str], None] | None = None,
+                            sss: PassSettings | None = None) -> tuple[Path, list[dict[str, Any]], dict[str, Any]]:
     """Render every scene with :data:`SCREEN_SPACE_METHODS`; write ``screenspace.png``.
 
     ``model``: the profile of the kernels and the exact 2D convolution (the Monte Carlo profile by
@@ -77,12 +81,17 @@ def screen_space_comparison(out: Path, material: str = "skin1", scenes=None, wid
     return path, rows, regions
 
 
-def _render_scenes(material, scenes, width, height, spp, reference_spp, reference_max_spp, model, photons,
-                   progress, sss):
+def _render_scenes(material: str, scenes: list[str], width: int, height: int, spp: int, reference_spp: int,
+                   reference_max_spp: int, model: str, photons: int, progress: Callable[[str], None] | None,
+                   sss: PassSettings) -> tuple[list[tuple[str, list[tuple[str, np.ndarray]]]], list[dict[str, Any]],
+                                               dict[str, Any]]:
     say = progress or (lambda msg: None)
-    rows, grid, regions = [], [], {}
+    rows: list[dict[str, Any]] = []
+    grid: list[tuple[str, list[tuple[str, np.ndarray]]]] = []
+    regions: dict[str, Any] = {}
     for scene in scenes:
-        line, base = [], None
+        line: list[tuple[str, np.ndarray]] = []
+        base: RenderResult | None = None
         for label, spec, taps, placement in SCREEN_SPACE_METHODS:
             say(f"screen space: {scene}, {label}")
             first = base is None
@@ -92,20 +101,23 @@ def _render_scenes(material, scenes, width, height, spp, reference_spp, referenc
                                       reference_max_spp=reference_max_spp, frame=sss.frame, seed=sss.seed,
                                       backend=sss.backend,
                                       pass_=SeparablePass(jitter=sss.jitter, depth_mode=sss.depth_mode))
-            r = render(scene if first else base.gbuffer, settings, progress=say if first else None)
-            if first:
+            r = render(scene if base is None else base.gbuffer, settings, progress=say if first else None)
+            assert isinstance(r, RenderResult)  # the separable pass
+            if base is None:
                 base = r
                 line.append(("no SSS", r.gbuffer.composite()))
                 regions[scene] = {"table": r.metrics.get("regions"),
                                   "reference": r.metrics["path_traced"]["reference"]}
+            assert base.reference is not None  # the first render path-traces
             mask = r.gbuffer.mask
-            row = {"scene": scene, "method": label}
+            row: dict[str, Any] = {"scene": scene, "method": label}
             if base.exact is not None:
                 row["exact_2d"] = r.metrics["exact_2d"] if first else region_metrics(
                     r.gbuffer.composite(base.exact), r.image, mask)
             row["path_traced"] = r.metrics["path_traced"] if first else region_metrics(base.reference, r.image, mask)
             rows.append(row)
             line.append((label, r.image))
+        assert base is not None and base.reference is not None  # SCREEN_SPACE_METHODS is not empty
         if base.exact is not None:
             line.append(("exact 2D convolution", base.gbuffer.composite(base.exact)))
         else:
@@ -118,7 +130,7 @@ def _render_scenes(material, scenes, width, height, spp, reference_spp, referenc
 def slab_edge_profile(out: Path, material: str = "skin1", photons: int = 200_000, width: int = 128,
                       height: int = 48, reference_spp: int = 64, reference_max_spp: int = 4096,
                       target_rel_se: float = 0.002, progress: Callable[[str], None] | None = None,
-                      backend: str = DEFAULT_BACKEND):
+                      backend: str = DEFAULT_BACKEND) -> tuple[Path, dict[str, Any]]:
     """The slab's shadow-edge profile: 7 importance-sampled taps of the Monte Carlo profile's
     pre-integrated kernel vs the exact 2D convolution vs the path-traced reference, each divided by
     its own plateau (shape apart from level), with the reference's standard error; RMSEs with
@@ -163,9 +175,10 @@ def slab_edge_profile(out: Path, material: str = "skin1", photons: int = 200_000
     return path, data
 
 
-def _slab_edge(material, photons, width, height, reference_spp, reference_max_spp, target_rel_se, progress, backend):
+def _slab_edge(material: str, photons: int, width: int, height: int, reference_spp: int, reference_max_spp: int,
+               target_rel_se: float, progress: Callable[[str], None] | None, backend: str) -> dict[str, Any]:
     from ..kernels import build_kernel, default_grid
-    from ..materials import get_material
+    from ..materials import Material, get_material
     from ..pipeline.regions import compare_regions
     from ..profiles import profile_for_material
     from ..sampling.taps import make_taps
@@ -174,7 +187,9 @@ def _slab_edge(material, photons, width, height, reference_spp, reference_max_sp
     from ..truth import exact_screen_space
 
     say = progress or (lambda msg: None)
-    mat = dataclasses.replace(get_material(material), eta=1.0)
+    homogeneous = get_material(material)
+    assert isinstance(homogeneous, Material), "the slab edge needs a homogeneous material"
+    mat = dataclasses.replace(homogeneous, eta=1.0)
     say(f"slab edge: Monte Carlo profile of {mat.name} at eta = 1 ({photons:,} photons per channel)")
     prof = profile_for_material(mat, "montecarlo", photons=photons)
     cell, n = default_grid(prof)
@@ -198,13 +213,14 @@ def _slab_edge(material, photons, width, height, reference_spp, reference_max_sp
     e = gb.diffuse.astype(float)
     lev = np.asarray(plateau["path_traced"]["level"]) * e[region_mask(table, gb)].mean(axis=0)
     _, se = edge_profile(np.asarray(ref.image, float) - gb.specular, region, lev, ref.pixel_se)
+    assert se is not None  # the reference's pixel standard errors were given
     return {"material": mat.name, "shape": shape, "plateau": plateau, "reference": ref.summary(),
             "reference_profile_se": se[cols].tolist(), "pixel_mm": table["pixel_mm"],
             "radius_px": table["radius_px"], "profile_total_rd": prof.total_rd().tolist(),
             "region_level": region_level(np.asarray(ref.image, float), e, region)["level"]}
 
 
-def region_mask(table, gb) -> np.ndarray:
+def region_mask(table: dict[str, Any], gb: GBuffer) -> np.ndarray:
     """The plateau mask of a region table's frame (recomputed from the G-buffer and the table's reach)."""
     from ..metrics import region_masks
 

@@ -6,11 +6,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..io import atomic_output, tonemap
 
 
-def save_frame_png(path: str | Path, image, peak: float) -> Path:
+def save_frame_png(path: str | Path, image: ArrayLike, peak: float) -> Path:
     """A linear RGB frame (H, W, 3) as 8-bit sRGB PNG, tone-mapped by :func:`ssskit.io.tonemap` with one
     fixed ``peak`` for the whole sequence (so frames do not flicker in brightness)."""
     from matplotlib.image import imsave
@@ -22,7 +23,7 @@ def save_frame_png(path: str | Path, image, peak: float) -> Path:
     return p
 
 
-def save_heatmap_png(path: str | Path, counts, vmax: int, title: str = "", vmin: int = 0) -> Path:
+def save_heatmap_png(path: str | Path, counts: ArrayLike, vmax: int, title: str = "", vmin: int = 0) -> Path:
     """Samples per pixel (H, W) as a heatmap PNG with a colour bar over [vmin, vmax] (pixels without
     SSS, count 0, drawn black)."""
     import matplotlib

@@ -34,11 +34,15 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .plots import pyplot, save_figure
+
+if TYPE_CHECKING:
+    from ..profiles.base import RGBProfile
+    from ..screenspace import GBuffer
 
 #: the views of Xie 2020 Fig. 1 (close skin patch, ear, front) as --view values of the bust: (azimuth,
 #: elevation, distance as a multiple of the framing distance, which fits the whole bust, shoulders and all):
@@ -100,7 +104,7 @@ def study_gbuffer(view: str | tuple[float, float, float], material: str = "skin1
     return StudyScene(spec, gb, mats, params, taps, profiles[int(np.argmax(reach))])
 
 
-def golubev_counts(gbuffer, params, spp: int = FIXED_SPP) -> np.ndarray:
+def golubev_counts(gbuffer: GBuffer, params: Any, spp: int = FIXED_SPP) -> np.ndarray:
     """(H, W) int64: the samples Golubev's sampler takes per pixel, step 2 of the Burley plan
     (:mod:`ssskit.backends.burley_plan`) as the numpy oracle computes it
     (:func:`ssskit.backends.numpy_backend.burley_counts`: max(1, min(spp, floor(pi r997^2 sx sy / 4))),
@@ -260,7 +264,7 @@ def _path_traced_regions(sc: StudyScene, backend: str, frames: int, spp: tuple[i
     return {"reference": ref.summary(), "regions": regions}
 
 
-def _heat(ax, counts, mask, vmax: float, title: str):
+def _heat(ax: Any, counts: np.ndarray, mask: np.ndarray, vmax: float, title: str) -> Any:
     im = ax.imshow(np.where(mask, counts, np.nan), cmap="magma", vmin=0, vmax=vmax)
     ax.set_title(title, fontsize=7)
     ax.axis("off")
@@ -307,8 +311,8 @@ def study_json(study: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in study.items() if k != "images"}
 
 
-def xie_fig1(out: Path, profile=None, progress=None, backend: str = "numba", scene: str = "bust",
-             units: str | None = None, material_map: str | dict[str, str] | None = None,
+def xie_fig1(out: Path, profile: RGBProfile | None = None, progress: Progress | None = None, backend: str = "numba",
+             scene: str = "bust", units: str | None = None, material_map: str | dict[str, str] | None = None,
              material: str = "skin1") -> list[Path]:
     """``ssskit figures xie-fig1``: the three-view study at 256 x 192 on ``backend`` of ``scene`` (the
     bust by default; ``--scene``, ``--units``, ``--material-map`` of ``ssskit figures``) in ``material``
@@ -332,7 +336,7 @@ DEMO_FRAMES = 8
 DEMO_REFERENCE_SPP = 1024
 
 
-def demo_section(out: Path, progress, ctx: dict) -> str:
+def demo_section(out: Path, progress: Progress | None, ctx: dict[str, Any]) -> str:
     """The demo report's "Your model" section (``ssskit.report.SECTIONS`` signature), built when ``ssskit
     demo --scene`` names one (``ctx["scene"]``: scene, units, material_map): the three-view study of it at
     :data:`DEMO_SIZE` on ``ctx["backend"]``, its table and figure."""

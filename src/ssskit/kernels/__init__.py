@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from ..errors import KernelError
+from ..profiles.base import RGBProfile
 from ..registry import Registry
 from .base import AnyKernel, Kernel, TapKernel, default_grid, load_kernel, save_kernel
 
@@ -182,7 +183,8 @@ def parse_method_spec(spec: str) -> tuple[KernelMethod, dict[str, Any], str]:
     return method, params, label
 
 
-def build_kernel(method: str, profile=None, cell_mm: float | None = None, n: int | None = None, **params) -> AnyKernel:
+def build_kernel(method: str, profile: RGBProfile | None = None, cell_mm: float | None = None, n: int | None = None,
+                 **params: Any) -> AnyKernel:
     """Build a kernel by method name for ``profile`` on the grid (cell_mm, n) (default: :func:`default_grid`)."""
     m = METHODS.get(method)
     if profile is None and m.needs_profile:

@@ -17,15 +17,18 @@ bilinear fetches do) so it can be compared and convolved like every other kernel
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import KernelError
 from ..io import atomic_output, check_suffix
+from ..profiles.base import RGBProfile
 from ..profiles.discretize import grid_coordinates
 
 CHANNELS = ("R", "G", "B")
@@ -38,7 +41,7 @@ def _check_grid(cell_mm: float, n: int) -> None:
         raise KernelError(f"kernel cell size must be a positive number of mm, got {cell_mm!r}")
 
 
-def _scale_factors(factors) -> np.ndarray:
+def _scale_factors(factors: ArrayLike) -> NDArray[np.float64]:
     """Per-channel scale factors (3,), each positive and finite, or a precise error."""
     f = np.broadcast_to(np.asarray(factors, dtype=float), (3,))
     if not np.all(np.isfinite(f)) or np.any(f <= 0):
@@ -46,7 +49,7 @@ def _scale_factors(factors) -> np.ndarray:
     return f
 
 
-def default_grid(profile, n: int = 201, fraction: float = 0.999) -> tuple[float, int]:
+def default_grid(profile: RGBProfile, n: int = 201, fraction: float = 0.999) -> tuple[float, int]:
     """(cell_mm, n): an n-cell grid whose half-width is the largest channel radius holding ``fraction``.
 
     For a profile with a finite domain (binned Monte Carlo), the radius is capped by the domain.
@@ -162,12 +165,12 @@ class Kernel:
         return np.sqrt((x2 * marg).sum(axis=0) / marg.sum(axis=0))
 
     # ---- transforms --------------------------------------------------------------------------
-    def scaled(self, factors) -> "Kernel":
+    def scaled(self, factors: ArrayLike) -> "Kernel":
         """The kernel with each channel's A multiplied by ``factors`` (3,) (must be > 0)."""
         f = _scale_factors(factors)
         return self._replace(components=self.components * np.sqrt(f)[:, None, None])
 
-    def normalised(self, total=1.0) -> "Kernel":
+    def normalised(self, total: ArrayLike = 1.0) -> "Kernel":
         """Each channel scaled so that its total (sum of A) equals ``total`` (scalar or (3,))."""
         t = self.total()
         if np.any(t <= 0):
@@ -197,14 +200,11 @@ class Kernel:
             raise KernelError(f"rank must be in 1..{self.rank}, got {rank}")
         return self._replace(components=self.components[:, :rank], signs=self.signs[:, :rank])
 
-    def _replace(self, **changes) -> "Kernel":
-        kw = dict(cell_mm=self.cell_mm, components=self.components, signs=self.signs, method=self.method,
-                  params=self.params, source=self.source, depth_sigma_mm=self.depth_sigma_mm)
-        kw.update(changes)
-        return Kernel(**kw)
+    def _replace(self, **changes: Any) -> "Kernel":
+        return dataclasses.replace(self, **changes)
 
     # ---- comparison --------------------------------------------------------------------------
-    def compare(self, profile) -> dict[str, Any]:
+    def compare(self, profile: RGBProfile) -> dict[str, Any]:
         """Errors of A against the profile's exact cell integrals on the kernel's own grid.
 
         ``frobenius``: ||Rd - A||_F per channel; ``relative_frobenius``: divided by ||Rd||_F;
@@ -287,7 +287,7 @@ class TapKernel:
     def total(self) -> np.ndarray:
         return self.weights.sum(axis=0) ** 2
 
-    def scaled(self, factors) -> "TapKernel":
+    def scaled(self, factors: ArrayLike) -> "TapKernel":
         f = _scale_factors(factors)
         return TapKernel(self.offsets_mm, self.weights * np.sqrt(f), self.method, self.params, self.source)
 
@@ -363,7 +363,7 @@ def save_kernel(kernel: AnyKernel, path: str | Path) -> None:
             arrays = {"x_mm": kernel.x_mm, "components": kernel.components, "signs": kernel.signs}
         meta = {k: v for k, v in d.items() if k not in ("channels", "offsets", "weights", "x_mm")}
         with open(tmp, "wb") as fh:
-            np.savez(fh, meta=json.dumps(meta), **arrays)
+            np.savez(fh, allow_pickle=True, meta=json.dumps(meta), **arrays)  # the default, named (io.save_arrays)
 
 
 def load_kernel(path: str | Path) -> AnyKernel:

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import KernelError
+from ..profiles.base import RadialProfile, RGBProfile
 from .base import Kernel
 from .jimenez2012 import _PI_ENGINE, JIMENEZ2012_GAUSSIANS
 from .methods import gaussian_cell_averages
@@ -56,7 +57,7 @@ def _errors(rb: np.ndarray, rs: np.ndarray, r: np.ndarray) -> dict[str, float]:
     }
 
 
-def fit_burley_channel(channel, model: str = "jimenez2012", error: str = "difference", samples: int = 256) -> dict[str, Any]:
+def fit_burley_channel(channel: RadialProfile, model: str = "jimenez2012", error: str = "difference", samples: int = 256) -> dict[str, Any]:
     """Fit one channel (any radial profile, usually Burley's); returns params and every error value.
 
     ``relative_l2``: the 2D L2 error ||R_B - R_S|| / ||R_B|| (2 pi r-weighted), a common yardstick
@@ -105,19 +106,19 @@ def fit_burley_channel(channel, model: str = "jimenez2012", error: str = "differ
             "errors": _errors(rb, rs, r), "relative_l2": rel, "total": total}
 
 
-def fit_burley_separable(profile, model: str = "jimenez2012", error: str = "difference") -> list[dict[str, Any]]:
+def fit_burley_separable(profile: RGBProfile, model: str = "jimenez2012", error: str = "difference") -> list[dict[str, Any]]:
     """Per channel :func:`fit_burley_channel` of an RGB profile."""
     return [fit_burley_channel(ch, model, error) for ch in profile.channels]
 
 
-def compare_error_functions(profile, model: str = "jimenez2012") -> dict[str, Any]:
+def compare_error_functions(profile: RGBProfile, model: str = "jimenez2012") -> dict[str, Any]:
     """Fit with each of Eqs. 25-27 and report, per channel, which fit has the lowest relative 2D L2 error."""
     fits = {e: fit_burley_separable(profile, model, e) for e in ERROR_FUNCTIONS}
     best = [min(ERROR_FUNCTIONS, key=lambda e: fits[e][c]["relative_l2"]) for c in range(3)]
     return {"model": model, "fits": fits, "best": best}
 
 
-def kernel_burley_fit(profile, cell_mm: float, n: int, model: str = "jimenez2012", error: str = "difference") -> Kernel:
+def kernel_burley_fit(profile: RGBProfile, cell_mm: float, n: int, model: str = "jimenez2012", error: str = "difference") -> Kernel:
     """Rank-1 separable kernel of the fitted model (Xie 2020 A.1): A(x, y) = A_tot p(x) p(y).
 
     p is the fitted radial profile read along an axis, R_S(x, 0), normalised to integrate to 1:
@@ -127,8 +128,7 @@ def kernel_burley_fit(profile, cell_mm: float, n: int, model: str = "jimenez2012
     fits = fit_burley_separable(profile, model, error)
     comps = np.zeros((3, 1, n))
     for c, fit in enumerate(fits):
-        params = np.array(list(fit["params"].values()))
-        w, sig = _mixture(model, params)
+        w, sig = _mixture(model, np.array(list(fit["params"].values())))
         # the 1D axis function of a 2D Gaussian G2(r; s) is proportional to G1(x; s) / (sqrt(2 pi) s)
         w1 = w / sig
         w1 /= w1.sum()

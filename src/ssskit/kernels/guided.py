@@ -39,9 +39,13 @@ What Appendix A claims, and what docs/kernel-accuracy.md measures (MCML Skin1, M
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+from numpy.typing import NDArray
 
 from ..errors import KernelError
+from ..profiles.base import RadialProfile, RGBProfile
 from .base import Kernel
 
 GUIDE_B = 50.0
@@ -70,7 +74,8 @@ def _levels(n: int, coarsest: int = 13) -> list[int]:
     return levels[::-1]
 
 
-def _level_problem(rd: np.ndarray, gamma: np.ndarray, cell_mm: float):
+def _level_problem(rd: NDArray[np.float64], gamma: NDArray[np.float64], cell_mm: float) -> tuple[
+        Callable[[NDArray[np.float64]], tuple[float, NDArray[np.float64]]], NDArray[np.float64], float]:
     """Eq. 7 on one grid in scaled variables: the cell weights w = a h / sqrt(||Rd||_1) of x >= 0.
 
     In these units the constraint is sum_x w = 1 for any profile and grid, and the objective is
@@ -125,7 +130,9 @@ def _solve_level(rd: np.ndarray, gamma: np.ndarray, cell_mm: float, a0: np.ndarr
         return hv / s if s > 0 else None
 
     def slsqp(h0):
-        sol = minimize(fun, h0, jac=True, method="SLSQP", bounds=bounds, constraints=[cons],
+        # scipy-stubs 1.17 types a constraint dict's fun as scalar-valued; SLSQP takes a vector-valued one
+        # with its (m, n) Jacobian (scipy.optimize.minimize: "Constraints for COBYLA, SLSQP")
+        sol = minimize(fun, h0, jac=True, method="SLSQP", bounds=bounds, constraints=[cons],  # type: ignore[call-overload]
                        options={"maxiter": maxiter, "ftol": 1e-15})
         return sol.success, feasible(sol.x)
 
@@ -154,26 +161,28 @@ def _solve_level(rd: np.ndarray, gamma: np.ndarray, cell_mm: float, a0: np.ndarr
     return np.concatenate([best[:0:-1], best]) * root / cell_mm
 
 
-def guided_1d(channel, cell_mm: float, n: int, k: float = 2.0, b: float = GUIDE_B, maxiter: int = 300) -> np.ndarray:
+def guided_1d(channel: RadialProfile, cell_mm: float, n: int, k: float = 2.0, b: float = GUIDE_B,
+              maxiter: int = 300) -> NDArray[np.float64]:
     """The optimal a (cell averages, mm^-1, shape (n,)) of Eq. 7 for one channel's radial profile."""
     extent = cell_mm * n
-    a = None
-    prev_x = None
+    a: NDArray[np.float64] | None = None
+    prev_x: NDArray[np.float64] | None = None
     for m in _levels(n):
         h = extent / m
-        x = (np.arange(m) - (m - 1) / 2.0) * h
+        x = (np.arange(m, dtype=np.float64) - (m - 1) / 2.0) * h
         rd = channel.discretize_2d(h, m) / h**2
-        if a is None:
+        if a is None or prev_x is None:  # the coarsest level (both are set together)
             a0 = np.sqrt(np.maximum(rd[m // 2], 0.0))
             a0 *= np.sqrt(rd.sum() * h**2) / (a0.sum() * h)
         else:
             a0 = np.interp(x, prev_x, a, left=0.0, right=0.0)
         a = _solve_level(rd, _cell_guide(m, k, b), h, a0, maxiter)
         prev_x = x
+    assert a is not None  # _levels(n) ends with n
     return a
 
 
-def kernel_guided(profile, cell_mm: float, n: int, k: float = 2.0, b: float = GUIDE_B) -> Kernel:
+def kernel_guided(profile: RGBProfile, cell_mm: float, n: int, k: float = 2.0, b: float = GUIDE_B) -> Kernel:
     """Guided rank-1 kernel A_s = a_s(x) a_s(y) (paper Appendix A, Eqs. 7-8), per channel.
 
     k in [0, 4] per the paper (accepted up to 8): a larger k weights errors far from the origin more.

@@ -18,7 +18,10 @@ Offsets are in the profile's length unit (mm); at run time the engine scales the
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import KernelError
 from .base import TapKernel
@@ -30,14 +33,14 @@ JIMENEZ2012_FALLOFF = (1.0, 0.37, 0.3)
 _PI_ENGINE = 3.14
 
 
-def _triple(value, what: str) -> np.ndarray:
+def _triple(value: ArrayLike, what: str) -> NDArray[np.float64]:
     arr = np.broadcast_to(np.asarray(value, dtype=float), (3,)).copy()
     if not np.all(np.isfinite(arr)):
         raise KernelError(f"{what} must be finite, got {arr.tolist()}")
     return arr
 
 
-def jimenez2012_profile(r, falloff=JIMENEZ2012_FALLOFF) -> np.ndarray:
+def jimenez2012_profile(r: ArrayLike, falloff: ArrayLike = JIMENEZ2012_FALLOFF) -> NDArray[np.float64]:
     """The demo's radial profile P(r) per channel, shape r.shape + (3,) (engine constants kept)."""
     f = _triple(falloff, "falloff")
     rr = np.asarray(r, dtype=float)[..., None] / (0.001 + f)
@@ -47,7 +50,7 @@ def jimenez2012_profile(r, falloff=JIMENEZ2012_FALLOFF) -> np.ndarray:
     return out
 
 
-def jimenez2012_offsets(taps: int) -> np.ndarray:
+def jimenez2012_offsets(taps: int) -> NDArray[np.float64]:
     """Quadratically spaced tap offsets o_i (mm), in the engine's order before the centre moves first."""
     if not (isinstance(taps, (int, np.integer)) and taps >= 3 and taps % 2 == 1):
         raise KernelError(f"jimenez2012 needs an odd number of taps >= 3, got {taps!r}")
@@ -57,8 +60,8 @@ def jimenez2012_offsets(taps: int) -> np.ndarray:
     return np.concatenate([neg, [0.0], -neg[::-1]])
 
 
-def kernel_jimenez2012(taps: int = 11, strength=JIMENEZ2012_STRENGTH, falloff=JIMENEZ2012_FALLOFF,
-                       source: dict | None = None) -> TapKernel:
+def kernel_jimenez2012(taps: int = 11, strength: ArrayLike = JIMENEZ2012_STRENGTH,
+                       falloff: ArrayLike = JIMENEZ2012_FALLOFF, source: dict[str, Any] | None = None) -> TapKernel:
     """The engine's tap kernel (module docstring), centre tap first; weights (taps, 3)."""
     s = _triple(strength, "strength")
     if np.any(s < 0) or np.any(s > 1):

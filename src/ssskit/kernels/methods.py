@@ -11,21 +11,23 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import KernelError
 from ..materials import ARTIST_PRESETS
+from ..profiles.base import RadialProfile, RGBProfile
 from .base import Kernel
 
 
-def _source(profile) -> dict[str, Any]:
+def _source(profile: RGBProfile) -> dict[str, Any]:
     return {"model": profile.model, "name": profile.name}
 
 
-def _cell_edges(cell_mm: float, n: int) -> np.ndarray:
-    return (np.arange(n + 1) - n / 2.0) * cell_mm
+def _cell_edges(cell_mm: float, n: int) -> NDArray[np.float64]:
+    return (np.arange(n + 1, dtype=np.float64) - n / 2.0) * cell_mm
 
 
-def gaussian_cell_averages(sigma, cell_mm: float, n: int) -> np.ndarray:
+def gaussian_cell_averages(sigma: ArrayLike, cell_mm: float, n: int) -> NDArray[np.float64]:
     """Cell averages (mm^-1) of unit 1D Gaussians G(x, sigma) on an n-cell grid; shape sigma.shape + (n,).
 
     Exact: (Phi((x + h/2) / sigma) - Phi((x - h/2) / sigma)) / h.
@@ -39,7 +41,7 @@ def gaussian_cell_averages(sigma, cell_mm: float, n: int) -> np.ndarray:
 
 # ---- SVD rank-N (supplement B, Eqs. S.2-S.4) -----------------------------------------------------
 
-def _eigen_terms(matrix: np.ndarray, rank: int) -> tuple[np.ndarray, np.ndarray]:
+def _eigen_terms(matrix: NDArray[np.float64], rank: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The ``rank`` leading terms of a symmetric matrix's SVD as signed outer products.
 
     For symmetric M the singular values are |lambda_i| of its eigen-decomposition and the
@@ -56,13 +58,13 @@ def _eigen_terms(matrix: np.ndarray, rank: int) -> tuple[np.ndarray, np.ndarray]
     return w * flip[:, None], np.where(lam >= 0, 1.0, -1.0)
 
 
-def singular_values(profile, cell_mm: float, n: int) -> np.ndarray:
+def singular_values(profile: RGBProfile, cell_mm: float, n: int) -> NDArray[np.float64]:
     """Singular values sigma_i of the discrete Rd per channel (supplement Eq. S.2), shape (3, n), descending."""
     rd = profile.discretize_2d(cell_mm, n)
     return np.stack([np.linalg.svd(rd[..., c], compute_uv=False) for c in range(3)])
 
 
-def kernel_svd(profile, cell_mm: float, n: int, rank: int = 1, renormalise: bool = False) -> Kernel:
+def kernel_svd(profile: RGBProfile, cell_mm: float, n: int, rank: int = 1, renormalise: bool = False) -> Kernel:
     """Rank-N truncated SVD of the discrete Rd (supplement Eqs. S.2-S.4): A_s = U Sigma_N V^T.
 
     With ``renormalise`` the L1 energy renormalisation of supplement B is applied,
@@ -83,7 +85,8 @@ def kernel_svd(profile, cell_mm: float, n: int, rank: int = 1, renormalise: bool
 
 # ---- sum of Gaussians (d'Eon 2007; supplement Eq. S.1) -------------------------------------------
 
-def fit_gaussians_2d(channel, count: int, fraction: float = 0.999) -> tuple[np.ndarray, np.ndarray]:
+def fit_gaussians_2d(channel: RadialProfile, count: int,
+                     fraction: float = 0.999) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Weights and variances (mm^2) of ``count`` 2D Gaussians fitted to a radial profile (Eq. S.1).
 
     Minimises the 2D L2 error int (R - sum w_i G(r; tau_i))^2 2 pi r dr on [0, r_fraction] over
@@ -122,7 +125,7 @@ def fit_gaussians_2d(channel, count: int, fraction: float = 0.999) -> tuple[np.n
     return w[keep] * (total / w.sum()), np.exp(2.0 * sol.x[keep])
 
 
-def kernel_gaussians(profile, cell_mm: float, n: int, count: int = 6) -> Kernel:
+def kernel_gaussians(profile: RGBProfile, cell_mm: float, n: int, count: int = 6) -> Kernel:
     """Sum of ``count`` Gaussians (d'Eon et al. 2007; supplement Eq. S.1): A_g = sum_i w_i G(x, y; tau_i).
 
     Each 2D Gaussian is separable, w G(x, y; tau) = (sqrt(w) g(x)) (sqrt(w) g(y)), so the kernel has
@@ -131,24 +134,27 @@ def kernel_gaussians(profile, cell_mm: float, n: int, count: int = 6) -> Kernel:
     """
     if not (isinstance(count, (int, np.integer)) and 1 <= count <= 12):
         raise KernelError(f"number of Gaussians must be an integer in 1..12, got {count!r}")
-    comps, params = np.zeros((3, count, n)), {"count": int(count), "weights": [], "variances_mm2": []}
+    comps = np.zeros((3, count, n))
+    weights: list[list[float]] = []
+    variances: list[list[float]] = []
+    params = {"count": int(count), "weights": weights, "variances_mm2": variances}
     for c, ch in enumerate(profile.channels):
         w, var = fit_gaussians_2d(ch, count)
         comps[c, : w.size] = np.sqrt(w)[:, None] * gaussian_cell_averages(np.sqrt(var), cell_mm, n)
-        params["weights"].append(w.tolist())
-        params["variances_mm2"].append(var.tolist())
+        weights.append(w.tolist())
+        variances.append(var.tolist())
     k = Kernel(cell_mm, comps, np.ones((3, count)), "gaussians", params, _source(profile))
     return k.scaled(profile.discretize_2d(cell_mm, n).sum(axis=(0, 1)) / k.total())
 
 
 # ---- pre-integrated (paper Sec. 4, Eqs. 4-5; supplement C, Eqs. S.5-S.6) --------------------------
 
-def preintegrated_1d(rd: np.ndarray) -> np.ndarray:
+def preintegrated_1d(rd: NDArray[np.float64]) -> NDArray[np.float64]:
     """a_p per channel from discrete cells rd (n, n, 3): a_p(x) = int Rd(x, y) dy (Eq. 4), shape (3, n) (cell weights)."""
     return rd.sum(axis=0).T
 
 
-def kernel_preintegrated(profile, cell_mm: float, n: int) -> Kernel:
+def kernel_preintegrated(profile: RGBProfile, cell_mm: float, n: int) -> Kernel:
     """The pre-integrated rank-1 kernel A_p(x, y) = a_p(x) a_p(y) / ||Rd||_1 (paper Eq. 5, supplement Eq. S.6).
 
     a_p(x) = int Rd(x, y) dy is summed from the exact cell integrals, so on the grid A_p reproduces
@@ -160,7 +166,7 @@ def kernel_preintegrated(profile, cell_mm: float, n: int) -> Kernel:
     return Kernel(cell_mm, comps, np.ones((3, 1)), "preintegrated", {}, _source(profile))
 
 
-def kernel_preintegrated_svd(profile, cell_mm: float, n: int, rank: int = 1) -> Kernel:
+def kernel_preintegrated_svd(profile: RGBProfile, cell_mm: float, n: int, rank: int = 1) -> Kernel:
     """Pre-integrated kernel plus a rank-N SVD of the residual Rd - A_p (paper Sec. 7, Results, its
     "Limitations and future work" paragraph: "a low-rank approximation can be found by approximating
     the difference between the pre-integrated kernel and the actual diffusion profile").
@@ -182,7 +188,8 @@ def kernel_preintegrated_svd(profile, cell_mm: float, n: int, rank: int = 1) -> 
 
 # ---- artist-friendly two-Gaussian model (paper Sec. 5, Eq. 6; Table 2) ----------------------------
 
-def two_gaussian_1d(sigma_near, sigma_far, weight, cell_mm: float, n: int) -> np.ndarray:
+def two_gaussian_1d(sigma_near: ArrayLike, sigma_far: ArrayLike, weight: ArrayLike, cell_mm: float,
+                    n: int) -> NDArray[np.float64]:
     """Cell averages of a_m(x) = w G(x, sigma_n) + (1 - w) G(x, sigma_f) per channel (Eq. 6), shape (3, n)."""
     sn = np.broadcast_to(np.asarray(sigma_near, float), (3,))
     sf = np.broadcast_to(np.asarray(sigma_far, float), (3,))
@@ -190,7 +197,7 @@ def two_gaussian_1d(sigma_near, sigma_far, weight, cell_mm: float, n: int) -> np
     return w * gaussian_cell_averages(sn, cell_mm, n) + (1.0 - w) * gaussian_cell_averages(sf, cell_mm, n)
 
 
-def _check_artist(sigma_near, sigma_far, weight) -> None:
+def _check_artist(sigma_near: ArrayLike, sigma_far: ArrayLike, weight: ArrayLike) -> None:
     for name, v in (("sigma_near", sigma_near), ("sigma_far", sigma_far)):
         arr = np.broadcast_to(np.asarray(v, float), (3,))
         if not np.all(np.isfinite(arr)) or np.any(arr <= 0):
@@ -200,7 +207,7 @@ def _check_artist(sigma_near, sigma_far, weight) -> None:
         raise KernelError(f"artist weight w must lie in [0, 1], got {w.tolist()}")
 
 
-def fit_artist(profile, cell_mm: float, n: int) -> dict[str, list[float]]:
+def fit_artist(profile: RGBProfile, cell_mm: float, n: int) -> dict[str, list[float]]:
     """Fit (sigma_n, sigma_f, w) of Eq. 6 per channel to the profile's pre-integrated 1D kernel.
 
     The paper tunes its Table 2 presets by eye; ssskit fits a_m to a_p / ||a_p||_1 (Eq. 4) in least
@@ -236,8 +243,9 @@ def fit_artist(profile, cell_mm: float, n: int) -> dict[str, list[float]]:
     return out
 
 
-def kernel_artist(profile, cell_mm: float, n: int, preset: str = "close fit", sigma_near=None, sigma_far=None,
-                  weight=None, match_energy: bool = True) -> Kernel:
+def kernel_artist(profile: RGBProfile | None, cell_mm: float, n: int, preset: str = "close fit",
+                  sigma_near: ArrayLike | None = None, sigma_far: ArrayLike | None = None,
+                  weight: ArrayLike | None = None, match_energy: bool = True) -> Kernel:
     """The artist-friendly separable model A_m(x, y) = a_m(x) a_m(y) (paper Eq. 6).
 
     ``preset`` is a Table 2 preset ("close fit", "production") or "fit" (:func:`fit_artist`);
@@ -251,7 +259,8 @@ def kernel_artist(profile, cell_mm: float, n: int, preset: str = "close fit", si
             if profile is None:
                 raise KernelError("the 'fit' artist preset needs a profile to fit")
             fit = fit_artist(profile, cell_mm, n)
-            base = (fit["sigma_near"], fit["sigma_far"], fit["weight"], "fit")
+            base: tuple[ArrayLike, ArrayLike, ArrayLike, str] = (fit["sigma_near"], fit["sigma_far"], fit["weight"],
+                                                                 "fit")
         else:
             p = ARTIST_PRESETS.get(preset)
             base = (p.sigma_near, p.sigma_far, p.weight, p.name)

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,11 +40,11 @@ import numpy as np
 from ..errors import SettingsError
 from ..io import check_distinct, save_image
 from ..metrics import region_metrics
-from ..screenspace import BurleyParams, GBuffer
+from ..screenspace import AdaptiveSettings, BurleyParams, BurleySettings, GBuffer
 from ..screenspace.frames import Frame, FrameRun, run_frames
 from ..screenspace.taa import TAASettings
 from .burley_frame import plan_burley, render_burley
-from .frame import Progress, finite, metric_lines
+from .frame import BurleyInput, Progress, SceneInput, ScenePlan, finite, metric_lines
 from .sequence import sequence_gbuffers, sequence_references
 from .settings import AdaptivePass, BurleyPass, RenderSettings
 
@@ -194,13 +195,14 @@ def _some(say: Progress | None, frames: int, label: str) -> Progress | None:
     return lambda msg: say(f"{label} {msg}") if (int(msg.split()[1].split("/")[0]) - 1) % every == 0 else None
 
 
-def _writer(on_frame: FrameCallback | None, peak: float, b_max: int):
+def _writer(on_frame: FrameCallback | None, peak: float, b_max: int) -> Callable[[Frame], None] | None:
     if on_frame is None:
         return None
     return lambda fr: on_frame(AdaptiveFrame(fr.number, fr.image, fr.image_taa, fr.counts, peak, b_max))
 
 
-def plan_adaptive(scene, settings: RenderSettings, params=None):
+def plan_adaptive(scene: SceneInput, settings: RenderSettings,
+                  params: BurleyInput | None = None) -> tuple[ScenePlan, BurleyInput, bool]:
     """Check what :func:`render_adaptive` needs, doing no work (the scene, the material, the backend, the
     moving run's limits); returns (scene plan, params, static)."""
     p = settings.pass_
@@ -230,8 +232,9 @@ def plan_adaptive(scene, settings: RenderSettings, params=None):
     return plan, params, static
 
 
-def render_adaptive(scene="slab", settings: RenderSettings | None = None, *, progress: Progress | None = None,
-                    params=None, on_frame: FrameCallback | None = None) -> AdaptiveResult:
+def render_adaptive(scene: SceneInput = "slab", settings: RenderSettings | None = None, *,
+                    progress: Progress | None = None, params: BurleyInput | None = None,
+                    on_frame: FrameCallback | None = None) -> AdaptiveResult:
     """Run the adaptive pass of ``settings`` on ``scene`` (module docstring): static or moving, the fixed
     b_max comparison, every frame to ``on_frame``; ``params`` (every profile id) instead of the settings'
     or the material's Burley parameters."""
@@ -244,6 +247,7 @@ def render_adaptive(scene="slab", settings: RenderSettings | None = None, *, pro
     taa = TAASettings() if p.taa else None
     if static:
         return _static(scene, settings, p, a, b, params, taa, progress, on_frame)
+    assert plan.builtin is not None  # a moving run has a built-in scene (plan_adaptive)
     gbs = sequence_gbuffers(plan.builtin, plan.material, p.frames, settings.frame, width=settings.width,
                             height=settings.height, spp=settings.spp, seed=settings.seed, progress=progress)
     refs = sequence_references(gbs, params, spp=p.reference_spp, backend=b.backend, progress=progress)
@@ -266,7 +270,9 @@ def render_adaptive(scene="slab", settings: RenderSettings | None = None, *, pro
                                      "noise_rms_max": max(ref_noise)})
 
 
-def _static(scene, settings: RenderSettings, p: AdaptivePass, a, b, params, taa, progress, on_frame) -> AdaptiveResult:
+def _static(scene: SceneInput, settings: RenderSettings, p: AdaptivePass, a: AdaptiveSettings,
+            b: BurleySettings, params: BurleyInput, taa: TAASettings | None, progress: Progress | None,
+            on_frame: FrameCallback | None) -> AdaptiveResult:
     """The static run (module docstring): one fixed b_max frame with the ground truths, then the adaptive
     frames against the pass's exact limit."""
     sampling = {f.name: getattr(p, f.name) for f in dataclasses.fields(BurleyPass) if f.name != "spp"}

@@ -31,7 +31,8 @@ at 4096 samples per pixel without mips, cached).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import os
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -41,12 +42,12 @@ import numpy as np
 from ..errors import SettingsError, SignalError
 from ..screenspace import BurleyParams, BurleySettings, GBuffer, burley_sss
 from ..screenspace.burley import burley_backend
-from .frame import (ImageLayers, Progress, ScenePlan, finite, frame_gbuffer, ground_truths, metric_lines, per_id,
-                    plan_scene, reference_line)
-from .settings import BurleyPass, RenderSettings
+from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
+                    metric_lines, per_id, plan_scene, reference_line)
+from .settings import AdaptivePass, BurleyPass, RenderSettings
 
 
-def burley_exact(gbuffer: GBuffer, params_by_id) -> np.ndarray | None:
+def burley_exact(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, BurleyParams]) -> np.ndarray | None:
     """The Burley pass's limit (exact sampler, no mips) on a fronto-parallel surface, (H, W, 3) float32;
     None if the pixels are not square.
 
@@ -86,7 +87,7 @@ def burley_exact(gbuffer: GBuffer, params_by_id) -> np.ndarray | None:
 REFERENCE_VERSION = 1
 
 
-def burley_reference(gbuffer: GBuffer, params_by_id, spp: int = 4096, seed: int = 0, backend: str = "numba",
+def burley_reference(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, BurleyParams], spp: int = 4096, seed: int = 0, backend: str = "numba",
                      use_cache: bool = True) -> np.ndarray:
     """A converged reference for any G-buffer (curved surfaces included): the pass with the exact sampler,
     ``spp`` samples per pixel (Xie 2020's reference: 2k spp; here 4096) and no mips, (H, W, 3) float32.
@@ -159,19 +160,20 @@ class BurleyResult(ImageLayers):
         return out
 
 
-def _params_dict(params) -> dict[str, Any]:
+def _params_dict(params: BurleyInput) -> dict[str, Any]:
     """JSON of one BurleyParams ({albedo, d_mm}) or of a mapping id -> params ({"1": {...}, ...})."""
     if isinstance(params, Mapping):
         return {str(k): _params_dict(v) for k, v in params.items()}
     return {"albedo": list(params.albedo), "d_mm": list(params.d_mm)}
 
 
-def _on_params(params, fn):
+def _on_params(params: BurleyInput, fn: Callable[[BurleyParams], Any]) -> Any:
     """``fn`` of one BurleyParams, or a mapping id -> ``fn`` of each."""
     return {k: fn(v) for k, v in params.items()} if isinstance(params, Mapping) else fn(params)
 
 
-def plan_burley(scene, settings: RenderSettings, params=None) -> tuple[ScenePlan, Any]:
+def plan_burley(scene: SceneInput, settings: RenderSettings,
+                params: BurleyInput | None = None) -> tuple[ScenePlan, BurleyInput]:
     """Check everything :func:`render_burley` (or the adaptive run) needs, doing no work: the scene
     (:func:`~ssskit.pipeline.frame.plan_scene`), the backend having the Burley pass, the parameters;
     returns (scene plan, params): ``params`` (BurleyParams or a mapping profile id -> BurleyParams), the
@@ -191,7 +193,8 @@ def plan_burley(scene, settings: RenderSettings, params=None) -> tuple[ScenePlan
             raise SettingsError(f"params must be BurleyParams or a mapping profile id -> BurleyParams, "
                                 f"got {type(params).__name__}")
         return plan, params
-    given = settings.pass_.params()  # type: ignore[union-attr]
+    p = settings.pass_  # burley_settings() refused the separable pass
+    given = p.params() if isinstance(p, (BurleyPass, AdaptivePass)) else None
     if given is not None:
         return plan, given
     if not hasattr(plan.material, "eta"):
@@ -200,8 +203,8 @@ def plan_burley(scene, settings: RenderSettings, params=None) -> tuple[ScenePlan
     return plan, per_id(plan, burley_params_for_material)
 
 
-def render_burley(scene: str | Path | GBuffer = "slab", settings: RenderSettings | None = None,
-                  progress: Progress | None = None, params=None) -> BurleyResult:
+def render_burley(scene: SceneInput = "slab", settings: RenderSettings | None = None,
+                  progress: Progress | None = None, params: BurleyInput | None = None) -> BurleyResult:
     """Render ``scene`` with the Burley pass of ``settings`` (module docstring; default: the Burley pass
     with its defaults); ``params`` (every profile id) instead of the settings' or the material's Burley
     parameters; ``progress`` receives one message per step."""

@@ -19,13 +19,15 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
-from typing import Any, Iterable
+from collections.abc import Callable, Iterable
+from typing import Any
 
 import numpy as np
 
 from ..errors import SignalError
 from ..kernels import build_kernel, parse_method_spec
-from ..kernels.base import TapKernel
+from ..kernels.base import AnyKernel, TapKernel
+from ..profiles.base import RGBProfile
 from ..metrics import all_metrics
 from ..scenes.signals import make_signal
 from ..truth import apply_separable, convolve_2d
@@ -38,7 +40,7 @@ FIG7_METHODS = (
 )
 
 
-def evaluation_grid(profile, size: int = 256, fraction: float = 0.999) -> tuple[float, int]:
+def evaluation_grid(profile: RGBProfile, size: int = 256, fraction: float = 0.999) -> tuple[float, int]:
     """(pixel_mm, n): pixel size making the ``fraction`` radius span size / 6 pixels; kernel grid size n."""
     radius = float(np.max(profile.radius_at_fraction(fraction)))
     radius_px = max(size / 6.0, 4.0)
@@ -70,13 +72,13 @@ class _Identity:
 
     __slots__ = ("obj",)
 
-    def __init__(self, obj) -> None:
+    def __init__(self, obj: RGBProfile) -> None:
         self.obj = obj
 
     def __hash__(self) -> int:
         return id(self.obj)
 
-    def __eq__(self, other) -> bool:
+    def __eq__(self, other: object) -> bool:
         return isinstance(other, _Identity) and other.obj is self.obj
 
 
@@ -91,12 +93,13 @@ def _cells(profile: _Identity, pixel_mm: float, n: int) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=64)
-def _kernel(profile: _Identity, method: str, params: tuple, pixel_mm: float, n: int):
+def _kernel(profile: _Identity, method: str, params: tuple[tuple[str, Any], ...], pixel_mm: float, n: int) -> AnyKernel:
     return build_kernel(method, profile.obj, pixel_mm, n, **dict(params))
 
 
-def evaluate(profile, signal: str | np.ndarray, methods: Iterable[str], size: int = 256,
-             perceptual: bool | tuple[str, ...] = True, progress=None, keep_images: bool = False) -> Evaluation:
+def evaluate(profile: RGBProfile, signal: str | np.ndarray, methods: Iterable[str], size: int = 256,
+             perceptual: bool | tuple[str, ...] = True, progress: Callable[[str], object] | None = None,
+             keep_images: bool = False) -> Evaluation:
     """Errors of each method spec (``"svd:3"``...) against E * Rd on ``signal`` (a name or an (H, W, 3) image).
 
     ``perceptual``: SSIM and FLIP too (True), neither (False), or the named ones (``("flip",)``;
@@ -128,7 +131,7 @@ def evaluate(profile, signal: str | np.ndarray, methods: Iterable[str], size: in
             kernel = kernel.scaled(rd.sum(axis=(0, 1)) / kernel.total())
             matched = True
         out = apply_separable(image, kernel, pixel_mm)
-        res = all_metrics(truth, out, perceptual=perceptual)
+        res: dict[str, Any] = all_metrics(truth, out, perceptual=perceptual)
         res.update({"convolutions_1d": int(kernel.convolutions_1d), "rank": int(kernel.rank),
                     "energy_matched": matched, "pixel_mm": pixel_mm, "signal": name})
         if isinstance(kernel, TapKernel):

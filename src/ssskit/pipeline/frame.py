@@ -24,20 +24,28 @@ from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..backends import get_backend
 from ..errors import SceneError, SettingsError
 from ..io import check_distinct, save_image
-from ..materials import get_material
+from ..materials import LayeredMaterial, Material, get_material
 from ..metrics import region_metrics
 from ..scenes import SCENES, ResolvedScene, SceneSpec, reference_phase_g, render_gbuffer, render_reference, resolve_scene
 from ..scenes.reference import check_reference_scene
 from ..scenes.scenes import mitsuba
-from ..screenspace import GBuffer, load_gbuffer
+from ..screenspace import BurleyParams, GBuffer, load_gbuffer
+from ..profiles.base import RGBProfile
+from ..scenes.reference import Reference
 from .regions import compare_regions
 from .settings import RenderSettings
 
 Progress = Callable[[str], None]
+#: what a frame renders: a built-in scene name, a generated mesh, a mesh or scene .toml file, a G-buffer .exr
+#: file (a name or path), a SceneSpec, a resolved scene (:func:`ssskit.scenes.resolve_scene`), or a GBuffer
+SceneInput = str | os.PathLike[str] | GBuffer | SceneSpec | ResolvedScene
+#: the Burley parameters of every profile id, or a mapping profile id -> parameters
+BurleyInput = BurleyParams | Mapping[int, BurleyParams]
 
 
 class ImageLayers:
@@ -88,7 +96,7 @@ def metric_lines(metrics: dict[str, Any], prefix: str = "vs ", width: int = 12) 
             for against, m in metrics.items() if against != "regions"]
 
 
-def reference_line(ref) -> str:
+def reference_line(ref: Reference) -> str:
     """The path-traced reference's convergence (:class:`ssskit.scenes.Reference`) in one line."""
     return (f"# reference: {ref.spp} spp, relative standard error of the SSS mask's mean "
             + ", ".join(f"{v:.2%}" for v in ref.rel_se) + f" (target {ref.target_rel_se:.1%}, budget "
@@ -129,7 +137,7 @@ class ScenePlan:
         return len({getattr(m, "name", m) for m in self.materials}) > 1
 
 
-def _scene(scene, settings: RenderSettings, material) -> ScenePlan:
+def _scene(scene: SceneInput, settings: RenderSettings, material: Material | LayeredMaterial) -> ScenePlan:
     if isinstance(scene, GBuffer):
         if settings.reference:
             raise SettingsError("reference needs a built-in scene or a mesh (a G-buffer in memory has no scene to "
@@ -150,18 +158,20 @@ def _scene(scene, settings: RenderSettings, material) -> ScenePlan:
         return ScenePlan(material, path.name, None, load_gbuffer(path), path)
     spec = resolved.spec
     assert spec is not None
-    mats = tuple(get_material(m) for m in spec.shape_materials(settings.material))
-    for m in (material, *mats):
-        if not hasattr(m, "eta"):
+    mats: list[Material] = []
+    for m in (material, *(get_material(name) for name in spec.shape_materials(settings.material))):
+        if not isinstance(m, Material):  # a LayeredMaterial has no eta
             raise SettingsError(f"a scene needs homogeneous materials (their eta makes the boundary); "
                                 f"{m.name!r} is a {type(m).__name__}")
+        mats.append(m)
+    mats = mats[1:]
     if settings.reference:
         check_reference_scene(spec)
         for m in mats:
             reference_phase_g(m)
     mitsuba()  # the renderer must be importable
     builtin = spec.name if resolved.kind == "builtin" and spec.name in SCENES else None
-    return ScenePlan(material, spec.name, builtin, None, None, spec, mats, resolved.notes)
+    return ScenePlan(material, spec.name, builtin, None, None, spec, tuple(mats), resolved.notes)
 
 
 def _default_size() -> tuple[int, int]:
@@ -169,7 +179,7 @@ def _default_size() -> tuple[int, int]:
     return d.width, d.height
 
 
-def plan_scene(scene, settings: RenderSettings) -> ScenePlan:
+def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
     """Resolve and check the material, the backend and the scene of a frame, doing no work; reads a
     G-buffer file. ``scene``: a built-in scene name, a generated mesh, a mesh or scene .toml file (resolved
     with the defaults: no units, no material map, the scene's view), a :class:`~ssskit.scenes.ResolvedScene`
@@ -205,7 +215,8 @@ def per_id(plan: ScenePlan, make: Callable[[Any], Any]) -> Any:
     return out
 
 
-def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo, say: Progress) -> GBuffer:
+def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo: ArrayLike | Mapping[int, ArrayLike],
+                  say: Progress) -> GBuffer:
     """The frame's G-buffer: the one given, or the scene rendered by Mitsuba with ``albedo`` (per channel,
     clipped to [0, 1]; or a mapping profile id -> albedo, :func:`per_id`) at the settings' size, samples,
     seed and frame, each profile id with its material's eta and name."""
@@ -224,7 +235,7 @@ def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo, say: Progre
                           material=tuple(m.name for m in mats))
 
 
-def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, profile,
+def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, profile: RGBProfile,
                   exact: Callable[[], np.ndarray | None], say: Progress, progress: bool) -> None:
     """Add the ground truths to ``res`` (module docstring): ``exact()`` (the pass's exact limit, blurred
     diffuse layer or None) when ``settings.exact``, the path-traced reference when ``settings.reference``,
@@ -248,7 +259,7 @@ def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, p
                                seed=settings.seed, frame=settings.frame, progress=progress)
         res.reference = ref.image
         res.reference_info = ref
-        m = region_metrics(res.reference, res.image, mask, settings.perceptual)
+        m: dict[str, Any] = region_metrics(res.reference, res.image, mask, settings.perceptual)
         m["mean_ratio_in_mask"] = ((res.image[mask].mean(axis=0) / np.maximum(res.reference[mask].mean(axis=0), 1e-12))
                                    .tolist() if mask.any() else None)
         m["pixels_with_surface"] = int(np.isfinite(gb.depth).sum())
@@ -260,5 +271,5 @@ def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, p
         res.metrics["regions"] = compare_regions(gb, profile, res.sss, res.exact, res.reference_info)
 
 
-__all__ = ["ImageLayers", "ScenePlan", "finite", "frame_gbuffer", "ground_truths", "metric_lines", "per_id", "plan_scene",
+__all__ = ["BurleyInput", "ImageLayers", "SceneInput", "ScenePlan", "finite", "frame_gbuffer", "ground_truths", "metric_lines", "per_id", "plan_scene",
            "reference_line"]

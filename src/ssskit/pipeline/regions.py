@@ -20,26 +20,35 @@ from __future__ import annotations
 
 from typing import Any
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from ..profiles.base import RGBProfile
+    from ..scenes.reference import Reference
+    from ..screenspace.gbuffer import GBuffer
 
 from ..metrics import REGIONS, edge_profile, profile_rmse, region_level, region_masks
 
 
-def pixel_mm(gbuffer) -> float:
+def pixel_mm(gbuffer: GBuffer) -> float:
     """The size of a pixel (mm) at the SSS objects' median depth: depth / fx."""
     cam = gbuffer.camera
     depth = float(np.median(gbuffer.depth[gbuffer.mask]))
     return depth / cam.fx / cam.world_units_per_mm
 
 
-def _ratio(a, b, b_se=None):
+def _ratio(a: ArrayLike, b: ArrayLike, b_se: ArrayLike | None = None) -> tuple[Any, list[float] | None]:
     a, b = np.asarray(a, float), np.asarray(b, float)
     r = a / b
     se = None if b_se is None else (np.abs(r) * np.asarray(b_se, float) / np.abs(b)).tolist()
     return r.tolist(), se
 
 
-def compare_regions(gbuffer, profile, sss: np.ndarray, exact: np.ndarray | None, reference=None,
+def compare_regions(gbuffer: GBuffer, profile: RGBProfile, sss: np.ndarray, exact: np.ndarray | None,
+                    reference: Reference | None = None,
                     fraction: float = 0.99) -> dict[str, Any]:
     """The region table and the edge shape of one frame (module docstring). ``sss``: the pass's blurred
     diffuse layer; ``exact``: the exact 2D convolution's (or None); ``reference``: a
@@ -47,6 +56,7 @@ def compare_regions(gbuffer, profile, sss: np.ndarray, exact: np.ndarray | None,
     gb = gbuffer
     mask = gb.mask
     e = gb.diffuse.astype(np.float64)
+    assert gb.specular is not None, "the region comparison needs the G-buffer's specular layer"
     spec = gb.specular.astype(np.float64)
     px = pixel_mm(gb)
     radius_px = float(np.max(profile.radius_at_fraction(fraction))) / px
@@ -77,7 +87,8 @@ def compare_regions(gbuffer, profile, sss: np.ndarray, exact: np.ndarray | None,
     return out
 
 
-def _edge_shape(masks, parts, e, ref_se) -> dict[str, Any] | None:
+def _edge_shape(masks: dict[str, np.ndarray], parts: dict[str, np.ndarray], e: np.ndarray,
+                ref_se: np.ndarray | None) -> dict[str, Any] | None:
     """The normalised profile across a straight vertical shadow edge (the slab's), or None if the frame
     has none: the edge band's pixels must lie in a few columns' reach of one column."""
     band, plateau = masks["shadow_edge"], masks["plateau"]

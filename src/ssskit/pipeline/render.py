@@ -63,6 +63,7 @@ the mask, per channel, and the number of pixels with a surface).
 from __future__ import annotations
 
 import dataclasses
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -74,16 +75,16 @@ from ..errors import SettingsError
 from ..kernels import KernelMethod, TapKernel, build_kernel, check_params, default_grid, parse_method_spec
 from ..profiles import MATERIAL_FREE_MODELS, profile_for_material
 from ..sampling.taps import SeparableTaps, make_taps
-from ..screenspace import GBuffer, separable_sss
+from ..screenspace import BurleyParams, GBuffer, separable_sss
 from ..truth import exact_screen_space
 from .adaptive import AdaptiveResult, FrameCallback, render_adaptive
 from .burley_frame import BurleyResult, render_burley
-from .frame import (ImageLayers, Progress, ScenePlan, finite, frame_gbuffer, ground_truths, metric_lines, per_id,
-                    plan_scene, reference_line)
+from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
+                    metric_lines, per_id, plan_scene, reference_line)
 from .settings import RenderSettings
 
 
-def _default(name: str):
+def _default(name: str) -> Any:
     return {f.name: f.default for f in dataclasses.fields(RenderSettings)}[name]
 
 
@@ -158,7 +159,7 @@ def _kernel_plan(settings: RenderSettings) -> tuple[KernelMethod, dict[str, Any]
     return method, params, None
 
 
-def plan_render(scene, settings: RenderSettings) -> _Plan:
+def plan_render(scene: SceneInput, settings: RenderSettings) -> _Plan:
     """Resolve and check everything :func:`render_separable` needs, doing no work (module docstring); reads
     a G-buffer file. Raises the first problem as an :class:`~ssskit.errors.SsskitError`."""
     if not isinstance(settings, RenderSettings):
@@ -169,7 +170,7 @@ def plan_render(scene, settings: RenderSettings) -> _Plan:
     return _Plan(plan_scene(scene, settings), method, params, tap_count)
 
 
-def render_separable(scene: str | Path | GBuffer = "slab", settings: RenderSettings | None = None,
+def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None = None,
                      progress: Progress | None = None) -> RenderResult:
     """Render ``scene`` with the separable pass under ``settings`` and compare it with ground truth
     (module docstring). ``progress`` receives one message per step."""
@@ -212,7 +213,7 @@ def render_separable(scene: str | Path | GBuffer = "slab", settings: RenderSetti
     return res
 
 
-def plan(scene, settings: RenderSettings, *, params=None) -> ScenePlan:
+def plan(scene: SceneInput, settings: RenderSettings, *, params: BurleyInput | None = None) -> ScenePlan:
     """Every check :func:`render` makes for the pass ``settings`` names, doing no work; returns the scene's
     plan (its ``notes``: what resolving a mesh scene assumed). A caller that reports those notes runs this
     first, so a bad input is its only message."""
@@ -231,8 +232,8 @@ def plan(scene, settings: RenderSettings, *, params=None) -> ScenePlan:
     return plan_render(scene, settings).scene
 
 
-def render(scene: str | Path | GBuffer = "slab", settings: RenderSettings | None = None,
-           progress: Progress | None = None, *, params=None,
+def render(scene: SceneInput = "slab", settings: RenderSettings | None = None,
+           progress: Progress | None = None, *, params: BurleyInput | None = None,
            on_frame: FrameCallback | None = None) -> RenderResult | BurleyResult | AdaptiveResult:
     """Render ``scene`` with the pass ``settings.pass_`` names and compare it with ground truth:
     :func:`render_separable` (a :class:`RenderResult`), :func:`~ssskit.pipeline.burley_frame.render_burley`

@@ -19,14 +19,18 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..cache import cache_dir
 from ..errors import SettingsError
 from ..io import atomic_output
+from ..materials import Material
+from ..screenspace.burley import BurleyParams
 from ..screenspace import Camera, GBuffer
 from ..settings import check_int
 
@@ -34,21 +38,22 @@ from ..settings import check_int
 GBUFFER_VERSION = 1
 
 
-def _gbuffer_path(key: dict):
+def _gbuffer_path(key: dict[str, Any]) -> Path:
     digest = hashlib.sha1(json.dumps({**key, "v": GBUFFER_VERSION}, sort_keys=True).encode()).hexdigest()[:16]
     return cache_dir("gbuffers") / f"{key['scene']}-{key['frame']}-{digest}.npz"
 
 
-def _save_gbuffer(path, gb: GBuffer) -> None:
+def _save_gbuffer(path: Path, gb: GBuffer) -> None:
     with atomic_output(path) as tmp:
         with open(tmp, "wb") as fh:
+            assert gb.specular is not None and gb.normal is not None  # the scenes render both
             np.savez(fh, diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id,
                      specular=gb.specular, normal=gb.normal,
                      camera=np.array(json.dumps(gb.camera.to_dict())), meta=np.array(json.dumps(gb.meta)),
                      materials=np.array(json.dumps(list(gb.materials))))
 
 
-def _load_gbuffer(path) -> GBuffer | None:
+def _load_gbuffer(path: Path) -> GBuffer | None:
     try:
         with np.load(path) as z:
             return GBuffer(diffuse=z["diffuse"], albedo=z["albedo"], depth=z["depth"], profile_id=z["profile_id"],
@@ -59,7 +64,7 @@ def _load_gbuffer(path) -> GBuffer | None:
         return None
 
 
-def sequence_gbuffers(scene: str, material, frames: int, first: int = 0, *, width: int = 160, height: int = 120,
+def sequence_gbuffers(scene: str, material: str | Material, frames: int, first: int = 0, *, width: int = 160, height: int = 120,
                       spp: int = 64, seed: int = 0, static: bool = False, use_cache: bool = True,
                       progress: Callable[[str], None] | None = None) -> list[GBuffer]:
     """G-buffers of frames ``first .. first + frames - 1`` of the built-in ``scene`` along its camera and
@@ -115,7 +120,7 @@ class SequenceReference:
     spp: int
 
 
-def sequence_references(gbuffers: Sequence[GBuffer], params, spp: int = 8192, seed: int = 1000,
+def sequence_references(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, BurleyParams], spp: int = 8192, seed: int = 1000,
                         backend: str = "numba", use_cache: bool = True,
                         progress: Callable[[str], None] | None = None) -> list[SequenceReference]:
     """One :class:`SequenceReference` per G-buffer (identical G-buffers share theirs)."""

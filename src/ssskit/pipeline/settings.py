@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -55,7 +56,7 @@ class SettingsMigrated(UserWarning):
     """A settings file in the layout before the single tree was read and migrated (the message says how)."""
 
 
-def _copy_checked(target: Settings, checked: Settings, names) -> None:
+def _copy_checked(target: Settings, checked: Settings, names: Iterable[str]) -> None:
     """Set ``names`` of the frozen ``target`` to ``checked``'s (canonical) values."""
     for name in names:
         object.__setattr__(target, name, getattr(checked, name))
@@ -87,14 +88,14 @@ _SAMPLING = ("sampler", "c", "sequence", "bleed", "stable", "mips", "mip_scale")
 _B = BurleySettings()
 
 
-def _rgb(name: str, value) -> tuple[float, float, float] | None:
+def _rgb(name: str, value: object) -> tuple[float, float, float] | None:
     if value is None:
         return None
     vals = tuple(value) if isinstance(value, (list, tuple)) else (value,)
     if len(vals) not in (1, 3) or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in vals):
         raise SettingsError(f"{name} must be a number or three numbers [R, G, B], got {value!r}")
-    out = tuple(float(v) for v in (vals * 3 if len(vals) == 1 else vals))
-    return out  # type: ignore[return-value]
+    r, g, b = (float(v) for v in (vals * 3 if len(vals) == 1 else vals))
+    return r, g, b
 
 
 @dataclass(frozen=True)

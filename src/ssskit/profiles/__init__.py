@@ -40,11 +40,11 @@ MODELS: Registry[ProfileFactory] = Registry("profile model", ProfileError)
 @MODELS.decorator("dipole")
 def dipole_profile(material: Material) -> RGBProfile:
     """The [JMLH01] dipole for each channel of ``material``."""
-    chans = tuple(
+    r, g, b = (
         DipoleProfile(material.sigma_a[i], material.sigma_s[i], material.g[i], material.eta / material.eta_ambient)
         for i in range(3)
     )
-    return RGBProfile(chans, "dipole", material.name, {"material": material.to_dict()})  # type: ignore[arg-type]
+    return RGBProfile((r, g, b), "dipole", material.name, {"material": material.to_dict()})
 
 
 #: where Burley's A comes from for a material: MCML's total diffuse reflectance (default) or the dipole's
@@ -75,26 +75,32 @@ def burley_profile(
     if albedo is not None:
         source = "given"
     elif source == "dipole":
-        albedo = tuple(float(v) for v in dipole_profile(material).total_rd())  # type: ignore[assignment]
+        a_r, a_g, a_b = (float(v) for v in dipole_profile(material).total_rd())
+        albedo = (a_r, a_g, a_b)
     else:
-        from .montecarlo import montecarlo_rgb
+        from .montecarlo import MonteCarloProfile, montecarlo_rgb
 
         mc = montecarlo_rgb(material, photons=photons)
-        albedo = tuple(float(c.total_rd_with_overflow()) for c in mc.channels)  # type: ignore[assignment]
+        totals = []
+        for c in mc.channels:
+            assert isinstance(c, MonteCarloProfile)  # montecarlo_rgb's channels, for the type checker
+            totals.append(float(c.total_rd_with_overflow()))
+        a_r, a_g, a_b = totals
+        albedo = (a_r, a_g, a_b)
     ds = burley_d(albedo, material.mfp_reduced_mm, configuration)
-    chans = tuple(BurleyProfile(albedo[i], float(ds[i])) for i in range(3))  # type: ignore[index]
-    prov = {"material": material.to_dict(), "configuration": configuration, "albedo_source": source}
+    r, g, b = (BurleyProfile(albedo[i], float(ds[i])) for i in range(3))
+    prov: dict[str, Any] = {"material": material.to_dict(), "configuration": configuration, "albedo_source": source}
     if source == "montecarlo":
         prov["photons"] = photons
-    return RGBProfile(chans, "burley", material.name, prov)  # type: ignore[arg-type]
+    return RGBProfile((r, g, b), "burley", material.name, prov)
 
 
 @MODELS.decorator("gaussians")
 def gaussians_profile(material: Material, n: int = 6) -> RGBProfile:
     """A sum of ``n`` Gaussians (Eq. S.1) fitted to the material's dipole, L1-constrained."""
     base = dipole_profile(material)
-    chans = tuple(fit_gaussian_sum(c, n) for c in base.channels)
-    return RGBProfile(chans, "gaussians", material.name, {"material": material.to_dict(), "fit_to": "dipole"})  # type: ignore[arg-type]
+    r, g, b = (fit_gaussian_sum(c, n) for c in base.channels)
+    return RGBProfile((r, g, b), "gaussians", material.name, {"material": material.to_dict(), "fit_to": "dipole"})
 
 
 @MODELS.decorator("deon2007")
@@ -102,10 +108,10 @@ def deon2007_profile(material: None = None) -> RGBProfile:
     """The six-Gaussian skin profile of [dLE07]: a fixed preset, so it takes no material."""
     if material is not None:
         raise ProfileError(_DEON2007_NO_MATERIAL)
-    chans = tuple(
+    r, g, b = (
         GaussianSumProfile([w[i] for w in DEON2007_SKIN_WEIGHTS], DEON2007_SKIN_VARIANCES) for i in range(3)
     )
-    return RGBProfile(chans, "deon2007", "d'Eon 2007 skin", {"source": "[dLE07] six-Gaussian skin fit"})  # type: ignore[arg-type]
+    return RGBProfile((r, g, b), "deon2007", "d'Eon 2007 skin", {"source": "[dLE07] six-Gaussian skin fit"})
 
 
 _DEON2007_NO_MATERIAL = "the deon2007 model is a fixed skin preset and takes no material"

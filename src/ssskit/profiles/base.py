@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
 from ..materials import CHANNELS
@@ -30,7 +31,7 @@ class RadialProfile(ABC):
     model: str = "profile"
 
     @abstractmethod
-    def eval(self, r: np.ndarray | float) -> np.ndarray:
+    def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         """R(r) in mm^-2 (per unit area), vectorised over r >= 0 (mm)."""
 
     @abstractmethod
@@ -38,18 +39,18 @@ class RadialProfile(ABC):
         """Total diffuse reflectance 2 pi Int_0^inf R(r) r dr (dimensionless)."""
 
     @abstractmethod
-    def energy_outside(self, rho: np.ndarray | float) -> np.ndarray:
+    def energy_outside(self, rho: ArrayLike) -> NDArray[np.float64]:
         """S(rho) = 2 pi Int_rho^inf R(r) r dr, computed without cancellation for large rho."""
 
     @abstractmethod
-    def params(self) -> dict[str, float]:
+    def params(self) -> dict[str, Any]:
         """The parameters that define this channel's profile (for reports and provenance)."""
 
-    def energy_within(self, rho: np.ndarray | float) -> np.ndarray:
+    def energy_within(self, rho: ArrayLike) -> NDArray[np.float64]:
         """E(rho) = 2 pi Int_0^rho R(r) r dr."""
         return self.total_rd() - self.energy_outside(rho)
 
-    def radial_pdf(self, r: np.ndarray | float) -> np.ndarray:
+    def radial_pdf(self, r: ArrayLike) -> NDArray[np.float64]:
         """Density of the radius per unit radius: p(r) = 2 pi r R(r) / total_rd (mm^-1)."""
         r = np.asarray(r, dtype=float)
         with np.errstate(invalid="ignore"):
@@ -60,7 +61,7 @@ class RadialProfile(ABC):
         """lim_{r->0} 2 pi r R(r) / total_rd; 0 for profiles finite at r = 0."""
         return 0.0
 
-    def radius_at_fraction(self, fraction: float | np.ndarray) -> np.ndarray:
+    def radius_at_fraction(self, fraction: ArrayLike) -> NDArray[np.float64]:
         """The radius rho (mm) with E(rho) = fraction * total_rd, for 0 <= fraction < 1.
 
         Solved on S(rho) = (1 - fraction) total_rd, which keeps precision near fraction -> 1:
@@ -93,7 +94,7 @@ class RadialProfile(ABC):
         """A characteristic length of the profile (mm), used to start searches."""
         return 1.0
 
-    def discretize_2d(self, cell_mm: float, n: int) -> np.ndarray:
+    def discretize_2d(self, cell_mm: float, n: int) -> NDArray[np.float64]:
         """Cell integrals of R over an n x n grid of square cells, centred on the origin.
 
         See :func:`ssskit.profiles.discretize.cell_integrals`.
@@ -116,23 +117,23 @@ class RGBProfile:
         if len(self.channels) != 3:
             raise ProfileError(f"an RGB profile needs 3 channels, got {len(self.channels)}")
 
-    def eval(self, r: np.ndarray | float) -> np.ndarray:
+    def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         """R(r) per channel: shape r.shape + (3,), mm^-2."""
         return np.stack([c.eval(r) for c in self.channels], axis=-1)
 
-    def total_rd(self) -> np.ndarray:
+    def total_rd(self) -> NDArray[np.float64]:
         """Total diffuse reflectance per channel, shape (3,)."""
         return np.array([c.total_rd() for c in self.channels])
 
-    def radius_at_fraction(self, fraction: float) -> np.ndarray:
+    def radius_at_fraction(self, fraction: float) -> NDArray[np.float64]:
         """Per channel, the radius (mm) holding ``fraction`` of that channel's energy; shape (3,)."""
         return np.array([float(c.radius_at_fraction(fraction)) for c in self.channels])
 
-    def discretize_2d(self, cell_mm: float, n: int) -> np.ndarray:
+    def discretize_2d(self, cell_mm: float, n: int) -> NDArray[np.float64]:
         """Cell integrals of each channel over an n x n grid centred on the origin: (n, n, 3)."""
         return np.stack([c.discretize_2d(cell_mm, n) for c in self.channels], axis=-1)
 
-    def to_dict(self, r_mm: np.ndarray) -> dict[str, Any]:
+    def to_dict(self, r_mm: ArrayLike) -> dict[str, Any]:
         """The JSON shape of ``ssskit profile --json``: r_mm and per channel Rd and total_Rd."""
         r_mm = np.asarray(r_mm, dtype=float)
         values = self.eval(r_mm)
@@ -151,6 +152,6 @@ class RGBProfile:
         }
 
 
-def _finite_list(a: np.ndarray) -> list[float | None]:
+def _finite_list(a: ArrayLike) -> list[float | None]:
     """JSON has no infinity: non-finite values (R(0) of 1/r profiles) become null."""
     return [float(v) if math.isfinite(v) else None for v in np.asarray(a, dtype=float).ravel()]

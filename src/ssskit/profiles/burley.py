@@ -18,24 +18,25 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
 from .base import RadialProfile
 
 
-def burley_d_searchlight(albedo, ell):
+def burley_d_searchlight(albedo: ArrayLike, ell: ArrayLike) -> NDArray[np.float64]:
     """d for the searchlight configuration, Theta_1 of Xie 2020 Eq. 5; ell = volume mean free path."""
     a = _check_albedo(albedo)
     return np.asarray(ell, dtype=float) / (1.85 - a + 7.0 * np.abs(a - 0.8) ** 3)
 
 
-def burley_d_diffuse_transmission(albedo, ell):
+def burley_d_diffuse_transmission(albedo: ArrayLike, ell: ArrayLike) -> NDArray[np.float64]:
     """d for diffuse surface transmission, Theta_2 of Xie 2020 Eq. 5."""
     a = _check_albedo(albedo)
     return np.asarray(ell, dtype=float) / (1.9 - a + 3.5 * (a - 0.8) ** 2)
 
 
-def burley_d_dmfp(albedo, ell):
+def burley_d_dmfp(albedo: ArrayLike, ell: ArrayLike) -> NDArray[np.float64]:
     """d with ell the diffuse mean free path on the surface, Theta_3 of Xie 2020 Eq. 5."""
     a = _check_albedo(albedo)
     return np.asarray(ell, dtype=float) / (3.5 + 100.0 * (a - 0.33) ** 4)
@@ -49,7 +50,7 @@ BURLEY_CONFIGURATIONS = {
 }
 
 
-def burley_d(albedo, ell, configuration: str = "searchlight"):
+def burley_d(albedo: ArrayLike, ell: ArrayLike, configuration: str = "searchlight") -> NDArray[np.float64]:
     """d from the albedo A and a mean free path ell (mm) for a named Eq. 5 configuration."""
     key = configuration.strip().lower().replace("_", "-")
     try:
@@ -64,32 +65,32 @@ def burley_d(albedo, ell, configuration: str = "searchlight"):
     return fn(albedo, ell_arr)
 
 
-def _check_albedo(albedo) -> np.ndarray:
+def _check_albedo(albedo: ArrayLike) -> NDArray[np.float64]:
     a = np.asarray(albedo, dtype=float)
     if np.any(~np.isfinite(a)) or np.any(a < 0) or np.any(a > 1):
         raise ProfileError(f"Burley albedo A must be in [0, 1], got {albedo!r}")
     return a
 
 
-def burley_cdf(r, d):
+def burley_cdf(r: ArrayLike, d: float | NDArray[np.float64]) -> NDArray[np.float64]:
     """cdf(r) = 1 - exp(-r/d)/4 - 3 exp(-r/(3d))/4 (Xie 2020, Eq. 20), via expm1 near r = 0."""
     r = np.asarray(r, dtype=float)
     return -0.25 * np.expm1(-r / d) - 0.75 * np.expm1(-r / (3.0 * d))
 
 
-def burley_survival(r, d):
+def burley_survival(r: ArrayLike, d: float | NDArray[np.float64]) -> NDArray[np.float64]:
     """1 - cdf(r) = exp(-r/d)/4 + 3 exp(-r/(3d))/4 (complement of Xie 2020, Eq. 20)."""
     r = np.asarray(r, dtype=float)
     return 0.25 * np.exp(-r / d) + 0.75 * np.exp(-r / (3.0 * d))
 
 
-def burley_radial_pdf(r, d):
+def burley_radial_pdf(r: ArrayLike, d: float | NDArray[np.float64]) -> NDArray[np.float64]:
     """Density of the radius per unit radius, d cdf / dr = (exp(-r/d) + exp(-r/(3d))) / (4d)."""
     r = np.asarray(r, dtype=float)
     return (np.exp(-r / d) + np.exp(-r / (3.0 * d))) / (4.0 * d)
 
 
-def burley_inverse_cdf(xi, d):
+def burley_inverse_cdf(xi: ArrayLike, d: float | NDArray[np.float64]) -> NDArray[np.float64]:
     """Exact inverse of Xie 2020 Eq. 20: the radius r (mm) with cdf(r) = xi, 0 <= xi <= 1.
 
     With u = exp(-r/(3d)), Eq. 20 reads u^3 + 3u - 4(1 - xi) = 0, a depressed cubic with the one
@@ -127,7 +128,7 @@ class BurleyProfile(RadialProfile):
             raise ProfileError(f"Burley length d must be > 0 mm, got {d}")
         self.d = float(d)
 
-    def eval(self, r):
+    def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         """Xie 2020 Eq. 4 (mm^-2); infinite at r = 0 (the profile's 1/r singularity)."""
         r = np.asarray(r, dtype=float)
         d = self.d
@@ -137,17 +138,17 @@ class BurleyProfile(RadialProfile):
     def total_rd(self) -> float:
         return self.albedo
 
-    def energy_outside(self, rho):
+    def energy_outside(self, rho: ArrayLike) -> NDArray[np.float64]:
         return self.albedo * burley_survival(rho, self.d)
 
-    def energy_within(self, rho):
+    def energy_within(self, rho: ArrayLike) -> NDArray[np.float64]:
         """A cdf(rho), Xie 2020 Eq. 20, written with expm1 for precision near rho = 0."""
         return self.albedo * burley_cdf(rho, self.d)
 
     def _pdf_at_zero(self) -> float:
         return 1.0 / (2.0 * self.d)  # lim 2 pi r R(r) / A = (1 + 1) / (4 d)
 
-    def radius_at_fraction(self, fraction):
+    def radius_at_fraction(self, fraction: ArrayLike) -> NDArray[np.float64]:
         """Exact inverse of Eq. 20, :func:`burley_inverse_cdf`."""
         f = np.asarray(fraction, dtype=float)
         if np.any(~np.isfinite(f)) or np.any(f < 0) or np.any(f >= 1):

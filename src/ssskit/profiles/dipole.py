@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
 from .base import RadialProfile
@@ -63,7 +64,7 @@ class DipoleProfile(RadialProfile):
         self.z_r = 1.0 / self.sigma_t_r
         self.z_v = self.z_r * (1.0 + 4.0 / 3.0 * self.a_boundary)
 
-    def eval(self, r):
+    def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         r2 = np.square(np.asarray(r, dtype=float))
         out = np.zeros_like(r2)
         for z in (self.z_r, self.z_v):
@@ -75,7 +76,7 @@ class DipoleProfile(RadialProfile):
         s = math.sqrt(3.0 * (1.0 - self.alpha_r))
         return 0.5 * self.alpha_r * (1.0 + math.exp(-4.0 / 3.0 * self.a_boundary * s)) * math.exp(-s)
 
-    def energy_outside(self, rho):
+    def energy_outside(self, rho: ArrayLike) -> NDArray[np.float64]:
         r2 = np.square(np.asarray(rho, dtype=float))
         out = np.zeros_like(r2)
         for z in (self.z_r, self.z_v):

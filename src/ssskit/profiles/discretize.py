@@ -19,16 +19,19 @@ the profile's symmetry under reflection in y = x.
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
 
 _GL_ORDER = 24
 
 
-def grid_coordinates(cell_mm: float, n: int) -> np.ndarray:
+def grid_coordinates(cell_mm: float, n: int) -> NDArray[np.float64]:
     """Cell-centre coordinates (mm) of an n-cell axis centred on the origin: (k - (n-1)/2) h."""
-    return (np.arange(n) - (n - 1) / 2.0) * cell_mm
+    return (np.arange(n, dtype=np.float64) - (n - 1) / 2.0) * cell_mm
 
 
 def _check_grid(cell_mm: float, n: int) -> None:
@@ -38,7 +41,15 @@ def _check_grid(cell_mm: float, n: int) -> None:
         raise ProfileError(f"cell size must be a positive number of mm, got {cell_mm!r}")
 
 
-def cell_integrals(profile, cell_mm: float, n: int) -> np.ndarray:
+class RadialEnergy(Protocol):
+    """What the cell integrals need of a profile (a :class:`~ssskit.profiles.base.RadialProfile` has it)."""
+
+    def total_rd(self) -> float: ...
+
+    def energy_outside(self, rho: ArrayLike) -> NDArray[np.float64]: ...
+
+
+def cell_integrals(profile: RadialEnergy, cell_mm: float, n: int) -> NDArray[np.float64]:
     """Integrals of ``profile`` (a RadialProfile) over n x n square cells of side ``cell_mm``.
 
     Returns an (n, n) float64 array indexed [row = y, column = x], the origin at the centre of

@@ -12,9 +12,8 @@ is printed in GPU Gems 3, ch. 14), each channel normalised to total reflectance 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
 from .base import RadialProfile
@@ -36,7 +35,7 @@ class GaussianSumProfile(RadialProfile):
 
     model = "gaussians"
 
-    def __init__(self, weights: Sequence[float], variances: Sequence[float]) -> None:
+    def __init__(self, weights: ArrayLike, variances: ArrayLike) -> None:
         w = np.asarray(weights, dtype=float).ravel()
         v = np.asarray(variances, dtype=float).ravel()
         if w.size == 0 or w.size != v.size:
@@ -49,18 +48,18 @@ class GaussianSumProfile(RadialProfile):
             raise ProfileError("at least one Gaussian weight must be > 0")
         self.weights, self.variances = w, v
 
-    def eval(self, r):
+    def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         r2 = np.square(np.asarray(r, dtype=float))[..., None]
         return np.sum(self.weights * np.exp(-r2 / (2.0 * self.variances)) / (2.0 * np.pi * self.variances), axis=-1)
 
     def total_rd(self) -> float:
         return float(self.weights.sum())
 
-    def energy_outside(self, rho):
+    def energy_outside(self, rho: ArrayLike) -> NDArray[np.float64]:
         r2 = np.square(np.asarray(rho, dtype=float))[..., None]
         return np.sum(self.weights * np.exp(-r2 / (2.0 * self.variances)), axis=-1)
 
-    def energy_within(self, rho):
+    def energy_within(self, rho: ArrayLike) -> NDArray[np.float64]:
         r2 = np.square(np.asarray(rho, dtype=float))[..., None]
         return np.sum(self.weights * -np.expm1(-r2 / (2.0 * self.variances)), axis=-1)
 

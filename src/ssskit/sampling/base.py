@@ -13,6 +13,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import SamplingError
 
@@ -24,23 +25,23 @@ class Distribution(ABC):
     support: tuple[float, float] = (0.0, np.inf)
 
     @abstractmethod
-    def eval(self, x): ...
+    def eval(self, x: ArrayLike) -> NDArray[np.float64]: ...
 
     @abstractmethod
-    def pdf(self, x): ...
+    def pdf(self, x: ArrayLike) -> NDArray[np.float64]: ...
 
     @abstractmethod
-    def sample(self, u): ...
+    def sample(self, u: ArrayLike) -> NDArray[np.float64]: ...
 
     @abstractmethod
-    def cdf(self, x): ...
+    def cdf(self, x: ArrayLike) -> NDArray[np.float64]: ...
 
-    def invert(self, x):
+    def invert(self, x: ArrayLike) -> NDArray[np.float64]:
         """u with sample(u) = x; for exact inverse-CDF samplers this is the CDF."""
         return self.cdf(x)
 
 
-def check_uniform(u) -> np.ndarray:
+def check_uniform(u: ArrayLike) -> NDArray[np.float64]:
     """Validate uniform variates: finite, in [0, 1]."""
     u = np.asarray(u, dtype=float)
     if np.any(~(u >= 0)) or np.any(u > 1):

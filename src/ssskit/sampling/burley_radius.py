@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import SamplingError
 from ..profiles.burley import (
@@ -45,28 +46,28 @@ class BurleyRadial(Distribution):
     def __init__(self, d: float) -> None:
         self.d = _check_d(d)
 
-    def eval(self, r):
+    def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         """2 pi r R(r) / A for A = 1 (the normalised Eq. 4 times the circumference)."""
         return burley_radial_pdf(r, self.d)
 
-    def pdf(self, r):
+    def pdf(self, r: ArrayLike) -> NDArray[np.float64]:
         return burley_radial_pdf(r, self.d)
 
-    def cdf(self, r):
+    def cdf(self, r: ArrayLike) -> NDArray[np.float64]:
         return burley_cdf(r, self.d)  # Eq. 20
 
-    def sample(self, u):
+    def sample(self, u: ArrayLike) -> NDArray[np.float64]:
         return burley_inverse_cdf(check_uniform(u), self.d)
 
 
-def xie_g(xi, d: float, c: float = XIE_C):
+def xie_g(xi: ArrayLike, d: float, c: float = XIE_C) -> NDArray[np.float64]:
     """Xie 2020 Eq. 21: g(xi) = d ((2 - c) xi - 2) log(1 - xi), the approximate inverse of Eq. 20."""
     xi = np.asarray(xi, dtype=float)
     with np.errstate(divide="ignore"):
         return d * ((2.0 - c) * xi - 2.0) * np.log1p(-xi)
 
 
-def _xie_g_of_t(t, c):
+def _xie_g_of_t(t: NDArray[np.float64], c: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """g / d as a function of t = -log(1 - xi): t (c + (2 - c) exp(-t)), and its derivative."""
     e = np.exp(-t)
     return t * (c + (2.0 - c) * e), c + (2.0 - c) * e * (1.0 - t)
@@ -88,10 +89,10 @@ class BurleyRadialApprox(Distribution):
             raise SamplingError(f"Eq. 21 damping c must be in [2, 10], got {c!r}")
         self.c = float(c)
 
-    def sample(self, u):
+    def sample(self, u: ArrayLike) -> NDArray[np.float64]:
         return xie_g(check_uniform(u), self.d, self.c)
 
-    def _t_of_r(self, r):
+    def _t_of_r(self, r: ArrayLike) -> NDArray[np.float64]:
         """Solve g(t) = r / d for t = -log(1 - xi) >= 0 (g is increasing in t): Newton from r/(c d)."""
         y = np.asarray(r, dtype=float) / self.d
         finite = np.isfinite(y)
@@ -105,13 +106,13 @@ class BurleyRadialApprox(Distribution):
                 break
         return np.where(finite, t, np.inf)
 
-    def cdf(self, r):
+    def cdf(self, r: ArrayLike) -> NDArray[np.float64]:
         r = np.asarray(r, dtype=float)
         if np.any(r < 0):
             raise SamplingError("radius must be >= 0")
         return -np.expm1(-self._t_of_r(r))
 
-    def pdf(self, r):
+    def pdf(self, r: ArrayLike) -> NDArray[np.float64]:
         t = self._t_of_r(r)
         finite = np.isfinite(t)
         t = np.where(finite, t, 0.0)
@@ -119,19 +120,18 @@ class BurleyRadialApprox(Distribution):
         # dr/dxi = d * dg/dt * dt/dxi, dt/dxi = 1 / (1 - xi) = exp(t)
         return np.where(finite, np.exp(-t) / (self.d * dg_dt), 0.0)
 
-    def eval(self, r):
+    def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         return self.pdf(r)
 
-    def target_pdf(self, r):
+    def target_pdf(self, r: ArrayLike) -> NDArray[np.float64]:
         """Burley's exact radius density, which Eq. 21 approximates."""
         return burley_radial_pdf(r, self.d)
 
 
-def xie_cdf_error(c: float, xi=None) -> np.ndarray:
+def xie_cdf_error(c: float, xi: ArrayLike | None = None) -> NDArray[np.float64]:
     """cdf(g(xi | c)) - xi on a grid (Eq. 20 applied to Eq. 21); independent of d."""
-    if xi is None:
-        xi = (np.arange(100_000) + 0.5) / 100_000
-    return burley_cdf(xie_g(xi, 1.0, c), 1.0) - xi
+    x = (np.arange(100_000) + 0.5) / 100_000 if xi is None else np.asarray(xi, dtype=float)
+    return burley_cdf(xie_g(x, 1.0, c), 1.0) - x
 
 
 def fit_xie_c(method: str = "lsq", n: int = 100_000) -> tuple[float, float]:
@@ -147,14 +147,17 @@ def fit_xie_c(method: str = "lsq", n: int = 100_000) -> tuple[float, float]:
         raise SamplingError(f"need at least 100 points to fit c, got {n}")
     xi = (np.arange(n) + 0.5) / n
     if method == "lsq":
-        res = least_squares(lambda c: xie_cdf_error(c[0], xi), [XIE_C], xtol=1e-15, ftol=1e-15, gtol=1e-15)
+        def resid(c: NDArray[np.float64]) -> NDArray[np.float64]:
+            return xie_cdf_error(c[0], xi)
+
+        res = least_squares(resid, [XIE_C], xtol=1e-15, ftol=1e-15, gtol=1e-15)
         c = float(res.x[0])
     elif method == "minimax":
-        res = minimize_scalar(
-            lambda c: np.max(np.abs(xie_cdf_error(c, xi))), bounds=(2.0, 3.5), method="bounded",
+        sol = minimize_scalar(
+            lambda c: float(np.max(np.abs(xie_cdf_error(c, xi)))), bounds=(2.0, 3.5), method="bounded",
             options={"xatol": 1e-10},
         )
-        c = float(res.x)
+        c = float(sol.x)
     else:
         raise SamplingError(f"unknown fit method {method!r} (use 'lsq' or 'minimax')")
     return c, float(np.max(np.abs(xie_cdf_error(c, xi))))

@@ -15,14 +15,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 MASK32 = 0xFFFFFFFF
 GOLDEN32 = 0x9E3779B9
 
 
-def mix32(h: np.ndarray | np.uint64) -> np.ndarray:
+def mix32(value: ArrayLike) -> NDArray[np.uint64]:
     """lowbias32 on uint64 values holding 32-bit integers (module docstring)."""
-    h = np.asarray(h, dtype=np.uint64)
+    h = np.asarray(value, dtype=np.uint64)
     h = h ^ (h >> np.uint64(16))
     h = (h * np.uint64(0x7FEB352D)) & np.uint64(MASK32)
     h = h ^ (h >> np.uint64(15))
@@ -36,13 +37,13 @@ def frame_base(frame: int, seed: int) -> int:
     return int(mix32(base ^ np.uint64(int(frame) & MASK32)))
 
 
-def pixel_hashes(height: int, width: int, frame: int = 0, seed: int = 0) -> np.ndarray:
+def pixel_hashes(height: int, width: int, frame: int = 0, seed: int = 0) -> NDArray[np.uint64]:
     """(H, W) uint64 hashes mix(mix(base ^ y) ^ x), each a 32-bit value."""
     rows = mix32(np.uint64(frame_base(frame, seed)) ^ np.arange(height, dtype=np.uint64))
     return mix32(rows[:, None] ^ np.arange(width, dtype=np.uint64)[None, :])
 
 
-def jitter_angles(height: int, width: int, frame: int = 0, seed: int = 0) -> np.ndarray:
+def jitter_angles(height: int, width: int, frame: int = 0, seed: int = 0) -> NDArray[np.float64]:
     """theta(x, y, frame, seed) = 2 pi u in [0, 2 pi), (H, W) float64: the jitter rotation of the
     separable pass (separable-SSS paper section 6)."""
     return pixel_hashes(height, width, frame, seed).astype(np.float64) * (2.0 * math.pi / 4294967296.0)

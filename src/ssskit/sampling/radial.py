@@ -7,7 +7,9 @@ within r). ``sample`` inverts the CDF with the profile's bisection on S(r), to 1
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
+from ..profiles.base import RadialProfile
 from .base import Distribution, check_uniform
 
 
@@ -16,21 +18,21 @@ class ProfileRadial(Distribution):
 
     measure = "per unit radius (mm^-1); divide by 2 pi r for the per-area density"
 
-    def __init__(self, profile) -> None:
+    def __init__(self, profile: RadialProfile) -> None:
         self.profile = profile
         self._total = float(profile.total_rd())
 
-    def eval(self, r):
+    def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         r = np.asarray(r, dtype=float)
         return 2.0 * np.pi * r * self.profile.eval(r)
 
-    def pdf(self, r):
+    def pdf(self, r: ArrayLike) -> NDArray[np.float64]:
         return self.profile.radial_pdf(r)
 
-    def cdf(self, r):
+    def cdf(self, r: ArrayLike) -> NDArray[np.float64]:
         return self.profile.energy_within(r) / self._total
 
-    def sample(self, u):
+    def sample(self, u: ArrayLike) -> NDArray[np.float64]:
         u = check_uniform(u)
         out = np.full(u.shape, np.inf)
         ok = u < 1

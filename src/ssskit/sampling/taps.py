@@ -27,12 +27,17 @@ Placement (``method``):
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..errors import KernelError, SamplingError
+
+if TYPE_CHECKING:  # imported where used: taps load without the kernels package
+    from ..kernels.base import AnyKernel, Kernel
 
 TAP_METHODS = ("importance", "uniform", "quadratic")
 _SUBDIV = 64  # sub-cells per kernel cell when integrating centroids
@@ -81,7 +86,7 @@ class SeparableTaps:
     def taps(self) -> int:
         return int(self.offsets_mm.shape[1])
 
-    def total(self) -> np.ndarray:
+    def total(self) -> NDArray[np.float64]:
         """Sum of the 2D kernel per channel: sum_r s_r (sum_k w_rk)^2, shape (3,)."""
         return np.sum(self.signs * self.weights.sum(axis=1) ** 2, axis=0)
 
@@ -103,7 +108,7 @@ class SeparableTaps:
             return 0
         return int(np.max(np.sum(np.abs(self.offsets_mm) <= jitter * 2.0 * self.extent_mm + 1e-12, axis=1)))
 
-    def to_kernel(self, cell_mm: float, n: int | None = None):
+    def to_kernel(self, cell_mm: float, n: int | None = None) -> Kernel:
         """The taps deposited on a grid by linear interpolation (bilinear fetches), as a :class:`Kernel`."""
         from ..kernels.base import Kernel, TapKernel
 
@@ -120,11 +125,8 @@ class SeparableTaps:
                 "offsets_mm": self.offsets_mm.tolist(), "weights": self.weights.tolist(),
                 "signs": self.signs.tolist(), "source": self.source}
 
-    def _replace(self, **kw) -> "SeparableTaps":
-        d = dict(offsets_mm=self.offsets_mm, weights=self.weights, signs=self.signs, method=self.method,
-                 extent_mm=self.extent_mm, tau_max_mm2=self.tau_max_mm2, width_mm=self.width_mm, source=self.source)
-        d.update(kw)
-        return SeparableTaps(**d)
+    def _replace(self, **kw: Any) -> "SeparableTaps":
+        return dataclasses.replace(self, **kw)
 
 
 def _check_count(n: int) -> int:
@@ -133,7 +135,8 @@ def _check_count(n: int) -> int:
     return int(n)
 
 
-def _fine(kernel, r: int):
+def _fine(kernel: Kernel, r: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                                          NDArray[np.float64], float]:
     """Fine sub-cell edges and cumulative integrals of every channel's a_r and of the dominant |a_r|."""
     comps = kernel.components[:, r]  # (3, n)
     comps = 0.5 * (comps + comps[:, ::-1])  # kernels are even; remove rounding asymmetry
@@ -152,13 +155,15 @@ def _fine(kernel, r: int):
     return edges, cum, pcum, mcum, float(widths[dom])
 
 
-def _cell_weights(edges, cum, bounds) -> np.ndarray:
+def _cell_weights(edges: NDArray[np.float64], cum: NDArray[np.float64],
+                  bounds: NDArray[np.float64]) -> NDArray[np.float64]:
     """(N, 3): each channel's integral over the cells between consecutive ``bounds``."""
     at = np.stack([np.interp(bounds, edges, cum[c]) for c in range(3)], axis=1)
     return np.diff(at, axis=0)
 
 
-def _term_taps(kernel, r: int, n: int, method: str):
+def _term_taps(kernel: Kernel, r: int, n: int,
+               method: str) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     edges, cum, pcum, mcum, width = _fine(kernel, r)
     lo, hi = edges[0], edges[-1]
     # importance cells: equal-probability quantiles of the dominant |a| (paper section 6)
@@ -193,7 +198,7 @@ def _term_taps(kernel, r: int, n: int, method: str):
     return 0.5 * (offsets - offsets[::-1]), 0.5 * (weights + weights[::-1]), width
 
 
-def make_taps(kernel, n: int | None = None, method: str = "importance") -> SeparableTaps:
+def make_taps(kernel: AnyKernel, n: int | None = None, method: str = "importance") -> SeparableTaps:
     """Taps for any :class:`Kernel` or engine :class:`TapKernel` (module docstring), normalised.
 
     ``n``: taps per 1D pass (odd; default 7). A TapKernel is used as shipped (its own offsets and
@@ -230,6 +235,6 @@ def make_taps(kernel, n: int | None = None, method: str = "importance") -> Separ
     return taps.normalised()
 
 
-def _tap_width(offsets: np.ndarray, weights: np.ndarray) -> float:
+def _tap_width(offsets: NDArray[np.float64], weights: NDArray[np.float64]) -> float:
     w = np.abs(weights).max(axis=1)
     return float(np.sqrt(np.sum(w * offsets**2) / np.sum(w))) or 1.0

@@ -14,12 +14,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import SceneError
 from .scenes import COAT_ROUGHNESS, mitsuba
 
 
-def rough_dielectric_weights(cos_i, eta: float, alpha: float = COAT_ROUGHNESS, samples: int = 50_000,
+def rough_dielectric_weights(cos_i: ArrayLike, eta: float, alpha: float = COAT_ROUGHNESS, samples: int = 50_000,
                              seed: int = 0, inside: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(mean, standard error), each of shape cos_i.shape + (2,): the light the reference's boundary
     reflects ([..., 0]) and transmits ([..., 1]) at each incidence cosine ``cos_i``, arriving from
@@ -52,7 +53,7 @@ def rough_dielectric_weights(cos_i, eta: float, alpha: float = COAT_ROUGHNESS, s
     return mean.reshape(shape), se.reshape(shape)
 
 
-def rough_dielectric_transmittance(cos_i, eta: float, alpha: float = COAT_ROUGHNESS, samples: int = 50_000,
+def rough_dielectric_transmittance(cos_i: ArrayLike, eta: float, alpha: float = COAT_ROUGHNESS, samples: int = 50_000,
                                    seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """(transmittance, standard error) at each incidence cosine ``cos_i`` of the reference's boundary
     for light arriving from outside (:func:`rough_dielectric_weights`). A smooth boundary transmits

@@ -15,7 +15,10 @@ Layers (section 6 of the separable-SSS paper splits the frame the same way):
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import SceneError
 from ..screenspace.gbuffer import GBuffer
@@ -28,7 +31,7 @@ from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, SceneSpec, check_size, check_
 ID_SCALE = 1024.0
 
 
-def _per_shape(name: str, value, n: int, shape: tuple[int, ...]) -> np.ndarray:
+def _per_shape(name: str, value: ArrayLike, n: int, shape: tuple[int, ...]) -> np.ndarray:
     arr = np.asarray(value, dtype=float)
     if arr.shape == shape or arr.shape == () or arr.shape == (1,):
         return np.broadcast_to(arr.reshape(shape if arr.shape == shape else ()), (n, *shape)).copy()
@@ -37,8 +40,9 @@ def _per_shape(name: str, value, n: int, shape: tuple[int, ...]) -> np.ndarray:
     raise SceneError(f"{name} must have shape {shape or '()'} or one per SSS shape ({n}), got {arr.shape}")
 
 
-def render_gbuffer(scene: str | SceneSpec, albedo, eta=1.4, width: int = 256, height: int = 192, spp: int = 32,
-                   seed: int = 0, frame: int = 0, material: str | tuple[str, ...] = "material") -> GBuffer:
+def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float | ArrayLike = 1.4, width: int = 256,
+                   height: int = 192, spp: int = 32, seed: int = 0, frame: int = 0,
+                   material: str | tuple[str, ...] = "material") -> GBuffer:
     """Render the named scene's G-buffer (module docstring) at ``frame`` with Mitsuba ``scalar_rgb``.
 
     ``albedo``: (3,) diffuse albedo of the SSS objects (the profile's total reflectance), or (n, 3)
@@ -105,7 +109,7 @@ def render_gbuffer(scene: str | SceneSpec, albedo, eta=1.4, width: int = 256, he
                    normal=np.where(hit[..., None], normal, 0).astype(np.float32), materials=names, meta=meta)
 
 
-def render_sequence(scene: str, albedo, frames: int, first: int = 0, **kw) -> list[GBuffer]:
+def render_sequence(scene: str, albedo: ArrayLike, frames: int, first: int = 0, **kw: Any) -> list[GBuffer]:
     """G-buffers of ``frames`` consecutive frames ``first, first + 1, ...`` along the scene's camera and
     light paths (each with its camera and its frame index in ``meta["frame"]``); ``kw`` as for
     :func:`render_gbuffer` (except ``frame``)."""

@@ -11,6 +11,7 @@ gradient. Conventions of every generated mesh: mm, +Y up, the model faces +Z (gl
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -77,7 +78,7 @@ def torus(major: float = 1.0, minor: float = 0.3, n_major: int = 48, n_minor: in
 
 # ---- the bust --------------------------------------------------------------------------------------------
 
-def _ellipsoid(p: np.ndarray, centre, radii) -> np.ndarray:
+def _ellipsoid(p: np.ndarray, centre: Sequence[float], radii: Sequence[float]) -> np.ndarray:
     """Approximate signed distance to an ellipsoid: k0 (k0 - 1) / k1 with k0 = |p/r|, k1 = |p/r^2|
     (Quilez, "Ellipsoid SDF", exact on the surface, a bound elsewhere)."""
     q = p - np.asarray(centre, np.float32)
@@ -87,12 +88,12 @@ def _ellipsoid(p: np.ndarray, centre, radii) -> np.ndarray:
     return k0 * (k0 - 1.0) / np.maximum(k1, 1e-12)
 
 
-def _capsule(p: np.ndarray, a, b, radius: float) -> np.ndarray:
+def _capsule(p: np.ndarray, a: Sequence[float], b: Sequence[float], radius: float) -> np.ndarray:
     """Signed distance to a capsule: the segment a-b swept by a ball of ``radius``."""
-    a = np.asarray(a, np.float32)
-    ab = np.asarray(b, np.float32) - a
-    h = np.clip(((p - a) @ ab) / float(ab @ ab), 0.0, 1.0)
-    return np.linalg.norm(p - a - h[..., None] * ab, axis=-1) - radius
+    a0 = np.asarray(a, np.float32)
+    ab = np.asarray(b, np.float32) - a0
+    h = np.clip(((p - a0) @ ab) / float(ab @ ab), 0.0, 1.0)
+    return np.linalg.norm(p - a0 - h[..., None] * ab, axis=-1) - radius
 
 
 def _smooth_min(a: np.ndarray, b: np.ndarray, k: float) -> np.ndarray:
@@ -120,7 +121,8 @@ def bust_sdf(p: np.ndarray) -> np.ndarray:
     return _smooth_min(head, body, 15.0)
 
 
-def _narrow_band_field(sdf, axes: list[np.ndarray], h: float, block: int = 6) -> np.ndarray:
+def _narrow_band_field(sdf: Callable[[np.ndarray], np.ndarray], axes: list[np.ndarray], h: float,
+                       block: int = 6) -> np.ndarray:
     """``sdf`` sampled on the grid of ``axes`` (spacing ``h``) where it matters to marching cubes: the
     field is evaluated at the centre of each ``block``^3 group of nodes, and at every node only of
     the groups whose centre lies within 1.5 x their half-diagonal (+ 2 h) of the surface (a distance

@@ -356,7 +356,7 @@ def _read_gltf(p: Path) -> tuple[Mesh, ...]:
         offsets = np.cumsum([0] + [len(v) for v, _, _ in parts])
         verts = np.concatenate([v for v, _, _ in parts])
         faces = np.concatenate([f + o for (_, f, _), o in zip(parts, offsets)])
-        normals = None if not has_normals else np.concatenate([n for _, _, n in parts])  # type: ignore[misc]
+        normals = None if not has_normals else np.concatenate([n for _, _, n in parts if n is not None])
         meshes.append(Mesh(name, verts, faces, normals))
     return tuple(meshes)
 
@@ -437,7 +437,7 @@ def _merged(meshes: Sequence[Mesh]) -> Mesh:
     offsets = np.cumsum([0] + [len(m.vertices) for m in meshes])
     normals = None
     if all(m.normals is not None for m in meshes):
-        normals = np.concatenate([m.normals for m in meshes])  # type: ignore[misc]
+        normals = np.concatenate([m.normals for m in meshes if m.normals is not None])
     return Mesh("merged", np.concatenate([m.vertices for m in meshes]),
                 np.concatenate([m.faces.astype(np.int64) + o for m, o in zip(meshes, offsets)]), normals)
 

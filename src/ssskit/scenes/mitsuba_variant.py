@@ -3,12 +3,12 @@ variant every scene and reference of ssskit renders in (CPU, any machine)."""
 
 from __future__ import annotations
 
-from typing import Any
+from types import ModuleType
 
 from ..errors import SceneError
 
 
-def mitsuba() -> Any:
+def mitsuba() -> ModuleType:
     """The ``mitsuba`` module with the ``scalar_rgb`` variant set, or a SceneError saying how to get it."""
     try:
         import mitsuba as mi

@@ -35,13 +35,16 @@ import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..cache import cache_dir
 from ..errors import SceneError
 from ..io import atomic_output, progress_bar
+from ..materials import Material
 from .scenes import COAT_ROUGHNESS, SceneSpec, check_size, check_spp, get_scene, mitsuba, scene_dict
 
 #: bumped when the reference renders change (invalidates the cache). 3: a unique seed per mi.render
@@ -61,7 +64,7 @@ def reference_cache_dir() -> Path:
     return cache_dir("reference")
 
 
-def reference_phase_g(material) -> float:
+def reference_phase_g(material: Material) -> float:
     """The one Henyey-Greenstein g of ``material`` for the reference's medium, or a SceneError.
 
     Mitsuba's ``hg`` phase function takes a single g, so a material whose g differs between channels
@@ -143,7 +146,7 @@ class Reference:
         """Relative standard error of the region's mean per channel (3,)."""
         return self.region_se / np.maximum(np.abs(self.region_mean), 1e-300)
 
-    def region_stats(self, mask) -> tuple[np.ndarray, np.ndarray]:
+    def region_stats(self, mask: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(mean, standard error) per channel of the mean over ``mask`` (H, W) bool.
 
         The standard error is sqrt(sum of the pixels' squared standard errors) / N: distinct pixels
@@ -182,7 +185,7 @@ class ReferenceRenderer:
     image (every sample lands in it; a region's error falls faster).
     """
 
-    def __init__(self, scene: str | SceneSpec, material, width: int, height: int, max_depth: int = 1024, seed: int = 0,
+    def __init__(self, scene: str | SceneSpec, material: Material | Sequence[Material], width: int, height: int, max_depth: int = 1024, seed: int = 0,
                  frame: int = 0, boundary: str = "rough-dielectric", surround_albedo: float = 0.0,
                  crop: tuple[int, int, int, int] | None = None) -> None:
         self.spec = get_scene(scene)
@@ -220,7 +223,7 @@ class ReferenceRenderer:
         return np.array(img, dtype=np.float64)[..., :3]
 
 
-def _interior(material, boundary: str) -> dict:
+def _interior(material: Any, boundary: str) -> dict[str, Any]:
     """The BSDF (boundary) and interior medium of one SSS shape (:class:`ReferenceRenderer`)."""
     g = reference_phase_g(material)
     sigma_t = np.asarray(material.sigma_a, float) + np.asarray(material.sigma_s, float)
@@ -247,7 +250,7 @@ def check_reference_scene(spec: SceneSpec) -> None:
         raise SceneError(spec.reference_problem)
 
 
-def shape_materials(spec: SceneSpec, material) -> tuple:
+def shape_materials(spec: SceneSpec, material: Any) -> tuple[Any, ...]:
     """One material per SSS shape of ``spec``: ``material`` (a Material) for each, or a sequence of
     len(sss_shapes) Materials (the scene's own per-object materials, resolved by the caller)."""
     if isinstance(material, (list, tuple)):
@@ -258,7 +261,7 @@ def shape_materials(spec: SceneSpec, material) -> tuple:
     return (material,) * len(spec.sss_shapes)
 
 
-def _check_options(max_depth, seed, frame, boundary, surround_albedo) -> None:
+def _check_options(max_depth: int, seed: int, frame: int, boundary: str, surround_albedo: float) -> None:
     if isinstance(max_depth, bool) or not (isinstance(max_depth, (int, np.integer)) and max_depth >= 1):
         raise SceneError(f"max_depth must be a positive integer, got {max_depth!r}")
     if isinstance(seed, bool) or not (isinstance(seed, (int, np.integer)) and seed >= 0):
@@ -287,8 +290,8 @@ def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) 
     return img[..., 0] > 0.6
 
 
-def render_reference(scene: str | SceneSpec, material, width: int = 128, height: int = 96, spp: int = 64,
-                     max_spp: int | None = None, target_rel_se: float = TARGET_REL_SE, region=None,
+def render_reference(scene: str | SceneSpec, material: Material | Sequence[Material], width: int = 128, height: int = 96, spp: int = 64,
+                     max_spp: int | None = None, target_rel_se: float = TARGET_REL_SE, region: ArrayLike | None = None,
                      max_depth: int = 1024, seed: int = 0, frame: int = 0, chunk_spp: int = 8,
                      boundary: str = "rough-dielectric", surround_albedo: float = 0.0, use_cache: bool = True,
                      progress: bool = True) -> Reference:
@@ -329,12 +332,12 @@ def render_reference(scene: str | SceneSpec, material, width: int = 128, height:
         raise SceneError(f"region has shape {region.shape}, the image {(height, width)}")
     if not region.any():
         raise SceneError("the convergence region holds no pixel")
-    material = mats[0]
+    first = mats[0]
     media = {} if len(set(map(id, mats))) == 1 else {
         "media": [[list(m.sigma_a), list(m.sigma_s), reference_phase_g(m), m.eta,
                    float(getattr(m, "eta_ambient", 1.0))] for m in mats]}
-    key = json.dumps({**media, "scene": spec.name, "sa": list(material.sigma_a), "ss": list(material.sigma_s), "g": g,
-                      "eta": material.eta, "eta_amb": float(getattr(material, "eta_ambient", 1.0)),
+    key = json.dumps({**media, "scene": spec.name, "sa": list(first.sigma_a), "ss": list(first.sigma_s), "g": g,
+                      "eta": first.eta, "eta_amb": float(getattr(first, "eta_ambient", 1.0)),
                       "w": width, "h": height, "spp": spp, "max_spp": max_spp, "rel_se": float(target_rel_se),
                       "chunk": chunk_spp, "d": max_depth, "seed": seed, "frame": frame, "v": CACHE_VERSION,
                       "boundary": boundary, "surround": float(surround_albedo), "alpha": COAT_ROUGHNESS,
@@ -349,7 +352,7 @@ def render_reference(scene: str | SceneSpec, material, width: int = 128, height:
             return _load(path, region, opts)
         except Exception:  # noqa: BLE001 - a truncated or foreign file is rendered again
             pass
-    renderer = ReferenceRenderer(spec, mats if media else material, width, height, max_depth, seed, frame, boundary,
+    renderer = ReferenceRenderer(spec, mats if media else first, width, height, max_depth, seed, frame, boundary,
                                  surround_albedo)
     min_chunks = -(-int(spp) // chunk_spp)
     max_chunks = max(int(max_spp) // chunk_spp, min_chunks)
@@ -381,7 +384,8 @@ def render_reference(scene: str | SceneSpec, material, width: int = 128, height:
     return _assemble(acc, acc2, np.array(means), region, converged, opts)
 
 
-def _assemble(acc, acc2, means, region, converged, opts) -> Reference:
+def _assemble(acc: np.ndarray, acc2: np.ndarray, means: np.ndarray, region: np.ndarray, converged: bool,
+              opts: dict[str, Any]) -> Reference:
     k = means.shape[0]
     image = acc / k
     if k > 1:
@@ -395,7 +399,7 @@ def _assemble(acc, acc2, means, region, converged, opts) -> Reference:
                      **opts)
 
 
-def _load(path: Path, region, opts) -> Reference:
+def _load(path: Path, region: np.ndarray, opts: dict[str, Any]) -> Reference:
     with np.load(path) as z:
         return _assemble(z["acc"], z["acc2"], z["means"], region, bool(z["converged"]), opts)
 

@@ -47,12 +47,13 @@ import math
 import os
 import re
 import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import SceneError
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
@@ -228,7 +229,7 @@ def parse_view(view: str | Sequence[float] | None) -> tuple[float, float, float]
     return az, el, dist
 
 
-def _basis(up, front) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _basis(up: Sequence[float], front: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     u = np.asarray(up, float)
     f = np.asarray(front, float)
     if u.shape != (3,) or f.shape != (3,) or not (np.linalg.norm(u) > 0 and np.linalg.norm(f) > 0):
@@ -241,7 +242,7 @@ def _basis(up, front) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return u, f, np.cross(u, f)  # up, front, side (+X for glTF's axes)
 
 
-def direction(azimuth: float, elevation: float, up, front) -> np.ndarray:
+def direction(azimuth: float, elevation: float, up: Sequence[float], front: Sequence[float]) -> np.ndarray:
     """Unit vector from the model towards a viewer at ``azimuth`` (degrees about ``up``, from
     ``front`` towards the side front x up... i.e. +X for +Y up and +Z front) and ``elevation``."""
     u, f, s = _basis(up, front)
@@ -249,7 +250,8 @@ def direction(azimuth: float, elevation: float, up, front) -> np.ndarray:
     return math.cos(e) * (math.cos(a) * f + math.sin(a) * s) + math.sin(e) * u
 
 
-def framing(centre, radius: float, view: tuple[float, float, float], fov_x_deg: float, up, front) -> np.ndarray:
+def framing(centre: ArrayLike, radius: float, view: tuple[float, float, float], fov_x_deg: float, up: Sequence[float],
+            front: Sequence[float]) -> np.ndarray:
     """The camera origin (module docstring, "Framing") looking at ``centre``."""
     fov_v = 2.0 * math.atan(math.tan(math.radians(fov_x_deg) / 2.0) * 0.75)
     d = view[2] * radius / math.sin(fov_v / 2.0) * 1.1
@@ -257,7 +259,7 @@ def framing(centre, radius: float, view: tuple[float, float, float], fov_x_deg: 
 
 
 def _relative_light(name: str, spec: Mapping[str, Any], centre: np.ndarray, radius: float, cam_dir_az: float,
-                    cam_el: float, up, front) -> dict:
+                    cam_el: float, up: Sequence[float], front: Sequence[float]) -> dict[str, Any]:
     known = {"azimuth", "elevation", "distance", "size", "intensity"}
     unknown = sorted(set(spec) - known)
     if unknown:
@@ -490,7 +492,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                                  "camera is explicit; give type = point | sphere")
             lights[lid] = _relative_light(lid, ltable, centre, radius, vw[0], vw[1], up_v, front)
     desc = str(doc.get("description", f"meshes from {source}"))
-    spec = SceneSpec(str(doc.get("name", source)), desc, origin, target, up, fov,  # type: ignore[arg-type]
+    spec = SceneSpec(str(doc.get("name", source)), desc, origin, target, up, float(fov),
                      _frozen_dicts(shapes), tuple(sss), _frozen_dicts(lights),
                      orbit_deg_per_frame=float(doc.get("orbit_deg_per_frame", 2.0)),
                      light_orbit_deg_per_frame=float(doc.get("light_orbit_deg_per_frame", 0.0)),
@@ -499,7 +501,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     return LoadedScene(spec, tuple(notes), tuple(objects), not explicit, dict(doc), base)
 
 
-def _frozen_dicts(d: dict[str, dict]):
+def _frozen_dicts(d: dict[str, dict]) -> Callable[[], dict[str, dict]]:
     """A callable returning fresh copies of Mitsuba dicts (``to_world`` transforms are built at call
     time: Mitsuba is imported only when a scene is rendered)."""
     import copy

@@ -25,7 +25,10 @@ import math
 from dataclasses import dataclass
 from typing import Callable
 
+from types import ModuleType
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..cache import cache_dir
 from ..errors import SceneError
@@ -140,7 +143,9 @@ def _bumpy_mesh() -> dict:
 
 
 @functools.lru_cache(maxsize=None)
-def _ellipsoid_geometry(radii=(18.0, 2.0, 28.0), center=(0.0, 0.0, 32.0), n: int = 96):
+def _ellipsoid_geometry(radii: tuple[float, float, float] = (18.0, 2.0, 28.0),
+                        center: tuple[float, float, float] = (0.0, 0.0, 32.0),
+                        n: int = 96) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Vertices, faces and smooth normals of a UV-sphere mesh scaled to an ellipsoid (an ear-like thin
     shape); computed once per process."""
     th = np.linspace(0, np.pi, n)
@@ -171,7 +176,7 @@ def _frozen(a: np.ndarray) -> np.ndarray:
 
 # ---- camera and light paths ----------------------------------------------------------------------------
 
-def _orbit(point, spec: SceneSpec, degrees: float) -> np.ndarray:
+def _orbit(point: ArrayLike, spec: SceneSpec, degrees: float) -> np.ndarray:
     """``point`` rotated about the axis through the target along ``up`` (Rodrigues' formula)."""
     target = np.array(spec.target, float)
     up = np.array(spec.up, float) / np.linalg.norm(spec.up)

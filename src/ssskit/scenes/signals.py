@@ -7,7 +7,7 @@ centre at ((W - 1) / 2, (H - 1) / 2).
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -96,6 +96,6 @@ SIGNALS.register("line", line)
 SIGNALS.register("texture", texture)
 
 
-def make_signal(name: str, size: int = 256, **params) -> np.ndarray:
+def make_signal(name: str, size: int = 256, **params: Any) -> np.ndarray:
     """The named signal at ``size`` x ``size`` pixels."""
     return SIGNALS.get(name)(size, **params)

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 
@@ -25,7 +27,7 @@ from ..errors import SceneError
 from .scenes import SceneSpec, _T, check_size, get_scene, mitsuba, scene_camera, scene_lights
 
 
-def _sss_only(spec: SceneSpec):
+def _sss_only(spec: SceneSpec) -> Any:
     mi = mitsuba()
     shapes = spec.shapes()
     try:
@@ -34,7 +36,8 @@ def _sss_only(spec: SceneSpec):
         raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
 
 
-def _seen_points(spec: SceneSpec, width: int, height: int, frame: int, mask: np.ndarray | None):
+def _seen_points(spec: SceneSpec, width: int, height: int, frame: int,
+                 mask: np.ndarray | None) -> Iterator[tuple[int, int, Any, np.ndarray, Any]]:
     """Yield (y, x, hit, inward unit normal, Mitsuba scene) for each pixel (of ``mask``) whose centre ray
     hits an SSS object of ``spec``."""
     check_size(width, height)
@@ -113,7 +116,7 @@ def incidence_angle(scene: str | SceneSpec, width: int, height: int, frame: int 
     return out
 
 
-def _check_positive(value, what: str) -> float:
+def _check_positive(value: object, what: str) -> float:
     if isinstance(value, bool) or not (isinstance(value, (int, float, np.integer, np.floating))
                                        and math.isfinite(value) and value > 0):
         raise SceneError(f"{what} must be a positive number, got {value!r}")

@@ -38,7 +38,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from typing import Any
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..backends.adaptive_plan import (
     AVAILABLE,
@@ -101,7 +104,7 @@ class AdaptiveSettings(Settings):
         return 2.0 / self.alpha - 1.0
 
 
-def _settings(settings) -> AdaptiveSettings:
+def _settings(settings: object) -> AdaptiveSettings:
     if settings is None:
         return AdaptiveSettings()
     if not isinstance(settings, AdaptiveSettings):
@@ -124,7 +127,7 @@ def new_history(height: int, width: int, *, available: bool = False) -> np.ndarr
     return out
 
 
-def check_history(history) -> np.ndarray:
+def check_history(history: ArrayLike) -> NDArray[np.float32]:
     """``history`` as an (H, W, 4) float32 array with finite, valid entries, else a PassError."""
     arr = np.asarray(history)
     if arr.ndim != 3 or arr.shape[2] != HISTORY_CHANNELS:
@@ -140,7 +143,7 @@ def check_history(history) -> np.ndarray:
     return arr
 
 
-def _mask(mask, shape: tuple[int, int]) -> np.ndarray:
+def _mask(mask: ArrayLike | None, shape: tuple[int, ...]) -> NDArray[np.bool_]:
     if mask is None:
         return np.ones(shape, bool)
     m = np.asarray(mask)
@@ -149,7 +152,7 @@ def _mask(mask, shape: tuple[int, int]) -> np.ndarray:
     return m.astype(bool)
 
 
-def shading_value(rgb, gamma: float = 2.2) -> np.ndarray:
+def shading_value(rgb: ArrayLike, gamma: float = 2.2) -> NDArray[np.float32]:
     """The per-pixel value S the history records: gamma-corrected luminance Y^(1/gamma) (H, W) float32
     of linear RGB (H, W, 3), Y = 0.2126 R + 0.7152 G + 0.0722 B (ITU-R BT.709), as Xie 2020 Sec. 4.1.2
     records "the moving average of gamma-corrected luminance to consider human perception"."""
@@ -159,7 +162,7 @@ def shading_value(rgb, gamma: float = 2.2) -> np.ndarray:
     return reference_luminance(a, check_float("gamma", gamma, 0.1, 10.0))
 
 
-def estimate_counts(history, settings: AdaptiveSettings | None = None) -> np.ndarray:
+def estimate_counts(history: ArrayLike, settings: AdaptiveSettings | None = None) -> NDArray[np.float64]:
     """n_hat (H, W) float64, the unclamped sample-count estimate for the next frame (Xie 2020 Eqs. 13-15):
 
         E(n_bar) = sigma^2 / sigma0^2 * n_bar                              (Eq. 13)
@@ -177,7 +180,8 @@ def estimate_counts(history, settings: AdaptiveSettings | None = None) -> np.nda
 _estimate = reference_estimate
 
 
-def clamp_counts(n_hat, settings: AdaptiveSettings | None = None, mask=None) -> np.ndarray:
+def clamp_counts(n_hat: ArrayLike, settings: AdaptiveSettings | None = None,
+                 mask: ArrayLike | None = None) -> NDArray[np.int64]:
     """Samples per pixel (H, W) int64: n = clamp(max(ceil(n_hat), beta), b_min, b_max) with beta = b_min
     (Xie 2020 Eq. 7's floor and the budget of Sec. 4.1.3); 0 outside ``mask`` (no SSS there).
 
@@ -193,7 +197,8 @@ def clamp_counts(n_hat, settings: AdaptiveSettings | None = None, mask=None) -> 
 _clamp = reference_clamp
 
 
-def sample_counts(history, settings: AdaptiveSettings | None = None, mask=None) -> tuple[np.ndarray, np.ndarray]:
+def sample_counts(history: ArrayLike, settings: AdaptiveSettings | None = None,
+                  mask: ArrayLike | None = None) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """(counts (H, W) int64, n_hat (H, W) float64) for the next frame: :func:`estimate_counts`
     (Eqs. 13-15) clamped to the budget by :func:`clamp_counts`. ``counts`` goes to
     :func:`ssskit.screenspace.burley_sss` as its ``counts`` image."""
@@ -201,7 +206,8 @@ def sample_counts(history, settings: AdaptiveSettings | None = None, mask=None) 
     return clamp_counts(n_hat, settings, mask), n_hat
 
 
-def update_history(history, value, counts, settings: AdaptiveSettings | None = None, mask=None) -> np.ndarray:
+def update_history(history: ArrayLike, value: ArrayLike, counts: ArrayLike, settings: AdaptiveSettings | None = None,
+                   mask: ArrayLike | None = None) -> NDArray[np.float32]:
     """H_i from the (reprojected) H_{i-1}, this frame's value S (H, W) and sample counts n_i (H, W); a new
     (H, W, 4) float32 array (Xie 2020 Sec. 4.1.2, 4.1.4):
 
@@ -233,7 +239,8 @@ def update_history(history, value, counts, settings: AdaptiveSettings | None = N
 _update = reference_update
 
 
-def reproject_history(history, motion=None, valid=None) -> np.ndarray:
+def reproject_history(history: ArrayLike, motion: ArrayLike | None = None,
+                      valid: ArrayLike | None = None) -> np.ndarray:
     """The previous frame's history seen from this frame's pixels, (H, W, 4) float32.
 
     ``motion`` (H, W, 2): pixels from each pixel to where its surface was in the previous frame, (u, v)

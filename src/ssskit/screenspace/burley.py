@@ -24,8 +24,10 @@ stratified radii, golden-angle rotation, exact inverse, samples capped by the fo
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -39,12 +41,17 @@ from ..backends.burley_plan import (
     XIE_MIP_SCALE,
     BurleyParams,
     BurleyPlan,
+    SampleCounts,
     build_burley_plan,
 )
 from ..backends.plan import profile_ids
 from ..errors import GBufferError, PassError, SettingsError
 from ..settings import Settings, check_choice, check_float, check_int
 from .gbuffer import GBuffer
+
+if TYPE_CHECKING:
+    from ..backends.base import Backend
+    from ..materials import Material
 
 
 @dataclass(frozen=True)
@@ -92,7 +99,7 @@ class BurleySettings(Settings):
         object.__setattr__(self, "backend", check_choice("backend", self.backend, BACKENDS.names()))
 
 
-def burley_params_for_material(material, configuration: str = "searchlight") -> BurleyParams:
+def burley_params_for_material(material: Material | str, configuration: str = "searchlight") -> BurleyParams:
     """:class:`BurleyParams` of a Material or preset name through :func:`ssskit.profiles.burley_profile`
     (A: the dipole's total diffuse reflectance; d: the Eq. 5 ``configuration``, Xie 2020)."""
     from ..materials import get_material
@@ -102,14 +109,14 @@ def burley_params_for_material(material, configuration: str = "searchlight") -> 
     return BurleyParams.from_profile(burley_profile(mat, configuration))
 
 
-def _settings(settings: BurleySettings | None, overrides: dict) -> BurleySettings:
+def _settings(settings: BurleySettings | None, overrides: dict[str, Any]) -> BurleySettings:
     base = BurleySettings() if settings is None else settings
     if not isinstance(base, BurleySettings):
         raise PassError(f"settings must be BurleySettings, got {type(base).__name__}")
     return base.replace(**overrides) if overrides else base
 
 
-def _params_by_id(params, ids) -> dict[int, BurleyParams]:
+def _params_by_id(params: BurleyParams | Mapping[int, BurleyParams], ids: Iterable[int]) -> dict[int, BurleyParams]:
     if isinstance(params, BurleyParams):
         return {int(i): params for i in ids}
     if not isinstance(params, Mapping):
@@ -126,14 +133,14 @@ def _params_by_id(params, ids) -> dict[int, BurleyParams]:
     return out
 
 
-def burley_plan_for(params, ids, fx: float, fy: float, settings: BurleySettings) -> BurleyPlan:
+def burley_plan_for(params: BurleyParams | Mapping[int, BurleyParams], ids: Iterable[int], fx: float, fy: float, settings: BurleySettings) -> BurleyPlan:
     """The pass plan for profile ``ids`` (each with its :class:`BurleyParams`) under ``settings``."""
     return build_burley_plan(_params_by_id(params, ids), fx, fy, sampler=settings.sampler, sequence=settings.sequence,
                              c=settings.c, bleed=settings.bleed, frame=settings.frame, seed=settings.seed,
                              stable=settings.stable, mips=settings.mips, mip_scale=settings.mip_scale)
 
 
-def burley_backend(name: str):
+def burley_backend(name: str) -> Backend:
     """The named backend if it has the Burley pass, else a BackendError saying so."""
     from ..errors import BackendError
 
@@ -143,8 +150,9 @@ def burley_backend(name: str):
     return backend
 
 
-def burley_sss(gbuffer: GBuffer, params_by_id, settings: BurleySettings | None = None, *, counts=None,
-               **overrides) -> np.ndarray:
+def burley_sss(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, BurleyParams],
+               settings: BurleySettings | None = None, *, counts: SampleCounts | None = None,
+               **overrides: Any) -> np.ndarray:
     """Blurred diffuse layer (H, W, 3) float32 by the Burley Monte Carlo pass, every profile id at once.
 
     ``params_by_id``: one :class:`BurleyParams` for every region, or a mapping profile id -> params.

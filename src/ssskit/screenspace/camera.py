@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GBufferError, PassError
 
@@ -48,7 +49,7 @@ class Camera:
 
     @classmethod
     def from_fov(cls, width: int, height: int, fov_x_deg: float, pixel_aspect: float = 1.0,
-                 world_to_camera=None, world_units_per_mm: float = 1.0) -> "Camera":
+                 world_to_camera: ArrayLike | None = None, world_units_per_mm: float = 1.0) -> "Camera":
         """A camera with horizontal field of view ``fov_x_deg``; ``pixel_aspect`` = pixel height / width.
 
         fx = (W/2) / tan(fov_x/2); fy = fx / pixel_aspect (a pixel that is taller than wide covers
@@ -60,20 +61,21 @@ class Camera:
             raise GBufferError(f"camera: pixel aspect must be positive, got {pixel_aspect!r}")
         fx = 0.5 * width / math.tan(math.radians(fov_x_deg) / 2.0)
         return cls(int(width), int(height), fx, fx / pixel_aspect, width / 2.0, height / 2.0,
-                   np.eye(4) if world_to_camera is None else world_to_camera, world_units_per_mm)
+                   np.eye(4) if world_to_camera is None else np.asarray(world_to_camera, dtype=float),
+                   world_units_per_mm)
 
     @property
     def pixel_aspect(self) -> float:
         """Pixel height / pixel width (1 for square pixels)."""
         return self.fx / self.fy
 
-    def pixels_per_mm(self, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def pixels_per_mm(self, depth: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Horizontal and vertical pixels per mm of surface at linear depth ``depth`` (world units),
         for a fronto-parallel surface: f * world_units_per_mm / z."""
         z = np.asarray(depth, dtype=float)
         return self.fx * self.world_units_per_mm / z, self.fy * self.world_units_per_mm / z
 
-    def project(self, points_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def project(self, points_world: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Pixel coordinates (..., 2) (u, v; pixel centres at integer + 0.5) and depth z of world points."""
         p = np.asarray(points_world, dtype=float)
         cam = p @ self.world_to_camera[:3, :3].T + self.world_to_camera[:3, 3]
@@ -82,7 +84,7 @@ class Camera:
             uv = np.stack([self.fx * cam[..., 0] / z + self.cx, self.fy * cam[..., 1] / z + self.cy], axis=-1)
         return uv, z
 
-    def unproject(self, depth: np.ndarray) -> np.ndarray:
+    def unproject(self, depth: ArrayLike) -> np.ndarray:
         """World positions (H, W, 3) of the pixel centres at linear depth ``depth`` (H, W)."""
         z = np.asarray(depth, dtype=float)
         v, u = np.mgrid[0:z.shape[0], 0:z.shape[1]] + 0.5
@@ -106,7 +108,7 @@ class Camera:
             raise GBufferError(f"camera: not an ssskit camera record ({exc})") from None
 
 
-def check_motion(motion, shape: tuple[int, int]) -> np.ndarray:
+def check_motion(motion: ArrayLike, shape: tuple[int, int]) -> NDArray[np.float64]:
     """Motion vectors as a float64 (H, W, 2) array (pixels, current to previous), or a PassError naming
     the expected shape or the non-finite values."""
     hh, ww = shape

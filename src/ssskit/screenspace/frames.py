@@ -33,14 +33,16 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..backends.adaptive_plan import AVAILABLE, as_plan
-from ..backends.base import PHASES, AdaptiveRunner
+from ..backends.base import PHASES, AdaptiveRunner, Backend
+from ..backends.burley_plan import BurleyParams, BurleyPlan
 from ..backends.plan import profile_ids
 from ..errors import BackendError, PassError, SettingsError
 from ..metrics import display_psnr, region_metrics
@@ -132,13 +134,15 @@ class FrameRun:
         return float(np.mean(vals)) if vals else float("nan")
 
 
-def _psnr(reference, image, mask) -> float | None:
+def _psnr(reference: np.ndarray | None, image: np.ndarray, mask: np.ndarray) -> float | None:
     if reference is None or not mask.any():
         return None
     return region_metrics(reference, image, mask, False)["psnr"]
 
 
-def _check(gbuffers, burley, adaptive, spp, taa, references, disocclusion_spp):
+def _check(gbuffers: Sequence[GBuffer], burley: BurleySettings | None, adaptive: AdaptiveSettings | None,
+           spp: int | None, taa: TAASettings | None, references: Sequence[np.ndarray] | None,
+           disocclusion_spp: int | None) -> tuple[BurleySettings, int | None, int | None, list[GBuffer], tuple[int, int]]:
     b = BurleySettings() if burley is None else burley
     if not isinstance(b, BurleySettings):
         raise SettingsError(f"burley must be BurleySettings, got {type(b).__name__}")
@@ -167,7 +171,8 @@ def _check(gbuffers, burley, adaptive, spp, taa, references, disocclusion_spp):
     return b, spp, disocclusion_spp, gbs, shape
 
 
-def _runner(b: BurleySettings, adaptive: AdaptiveSettings | None, history, guide: str | None, shape):
+def _runner(b: BurleySettings, adaptive: AdaptiveSettings | None, history: ArrayLike | None, guide: str | None,
+            shape: tuple[int, int]) -> tuple[AdaptiveRunner, Backend]:
     """The backend runner: the Burley pass on ``b.backend``, the guiding phase on ``guide`` (default: the
     same backend, which then keeps the history and counts between frames)."""
     from ..backends import BACKENDS, get_backend
@@ -184,10 +189,10 @@ def _runner(b: BurleySettings, adaptive: AdaptiveSettings | None, history, guide
     return runner, g
 
 
-def run_frames(gbuffers: Sequence[GBuffer], params, burley: BurleySettings | None = None, *,
+def run_frames(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, BurleyParams], burley: BurleySettings | None = None, *,
                adaptive: AdaptiveSettings | None = None, spp: int | None = None, taa: TAASettings | None = None,
                references: Sequence[np.ndarray] | None = None, disocclusion_spp: int | None = None,
-               history=None, guide: str | None = None, keep_counts: bool = False, accumulate: bool = False,
+               history: ArrayLike | None = None, guide: str | None = None, keep_counts: bool = False, accumulate: bool = False,
                on_frame: Callable[[Frame], None] | None = None,
                progress: Callable[[str], None] | None = None) -> FrameRun:
     """The Burley pass over ``gbuffers`` (module docstring; the same G-buffer object twice in a row is a
@@ -217,7 +222,8 @@ def run_frames(gbuffers: Sequence[GBuffer], params, burley: BurleySettings | Non
     total_sq = np.zeros((*shape, 3)) if accumulate else None
     prev: GBuffer | None = None
     prev_inside: np.ndarray | None = None
-    plan = slots = None
+    plan: BurleyPlan | None = None
+    slots: np.ndarray | None = None
     try:
         for f, gb in enumerate(gbs):
             if progress is not None:
@@ -228,7 +234,7 @@ def run_frames(gbuffers: Sequence[GBuffer], params, burley: BurleySettings | Non
             if new and prev is not None and not np.array_equal(prev.camera.world_to_camera, gb.camera.world_to_camera):
                 motion = motion_vectors(gb.depth, gb.camera, prev.camera)
             cam = gb.camera
-            if new or plan is None:
+            if new or plan is None or slots is None:  # (the plan and its slots are set together)
                 plan = burley_plan_for(params, profile_ids(gb.profile_id), cam.fx, cam.fy, b)
                 slots = plan.slot_map(gb.profile_id)
             plan_f = dataclasses.replace(plan, frame=b.frame + f)
@@ -239,6 +245,7 @@ def run_frames(gbuffers: Sequence[GBuffer], params, burley: BurleySettings | Non
                 runner.load(gb.diffuse, gb.depth_mm, slots, motion, estimate=adaptive is not None)
             t1 = time.perf_counter()
             if adaptive is None:
+                assert spp is not None  # _check: adaptive settings or a fixed spp
                 counts = np.where(inside, spp, 0)
                 if new:
                     runner.set_counts(counts)
@@ -300,7 +307,8 @@ def run_frames(gbuffers: Sequence[GBuffer], params, burley: BurleySettings | Non
     return run
 
 
-def _had_history(prev_inside: np.ndarray | None, motion, shape, new: bool) -> np.ndarray:
+def _had_history(prev_inside: np.ndarray | None, motion: np.ndarray | None, shape: tuple[int, int],
+                 new: bool) -> np.ndarray:
     """(H, W) bool: where the reprojected history holds history (channel 3 > 0). After an update the
     history's channel 3 is the frame's SSS mask (:mod:`ssskit.backends.adaptive_plan` step 2), so this
     is that mask fetched like the history (step 1: nearest, no rejection, off-screen: none; a still frame:
@@ -347,8 +355,8 @@ class AdaptiveFrames:
         return self.counts[:, mask].mean(axis=1) if mask.any() else np.zeros(len(self.counts))
 
 
-def adaptive_frames(gbuffer: GBuffer, params_by_id, settings: AdaptiveSettings | None = None, frames: int = 16, *,
-                    burley: BurleySettings | None = None, history=None,
+def adaptive_frames(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, BurleyParams], settings: AdaptiveSettings | None = None, frames: int = 16, *,
+                    burley: BurleySettings | None = None, history: ArrayLike | None = None,
                     progress: Callable[[str], None] | None = None,
                     on_frame: Callable[[int, np.ndarray, np.ndarray], None] | None = None,
                     backend: str | None = None) -> AdaptiveFrames:

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GBufferError
 from ..io import check_suffix, read_exr, write_exr
@@ -103,6 +104,7 @@ class GBuffer:
     def view_cosine(self) -> np.ndarray:
         """(H, W) float64: |normal . unit direction to the camera| per pixel, 0 where there is no
         surface (the cosine of the angle a pixel's surface is seen at)."""
+        assert self.normal is not None, "view_cosine needs the G-buffer's normal layer"
         pos = self.positions()
         view = np.linalg.inv(self.camera.world_to_camera)[:3, 3] - pos
         view /= np.maximum(np.linalg.norm(view, axis=-1, keepdims=True), 1e-300)
@@ -110,7 +112,7 @@ class GBuffer:
         cos = np.abs(np.sum(n * view, axis=-1)) / np.maximum(np.linalg.norm(n, axis=-1), 1e-300)
         return np.where(np.isfinite(self.depth), cos, 0.0)
 
-    def with_layers(self, **layers) -> "GBuffer":
+    def with_layers(self, **layers: Any) -> "GBuffer":
         return replace(self, **layers)
 
     def composite(self, diffuse: np.ndarray | None = None) -> np.ndarray:
@@ -177,7 +179,7 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
         raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None
 
 
-def _float_layer(name: str, value, rgb: bool, allow_inf: bool = False) -> np.ndarray:
+def _float_layer(name: str, value: ArrayLike, rgb: bool, allow_inf: bool = False) -> np.ndarray:
     arr = np.asarray(value)
     if not np.issubdtype(arr.dtype, np.floating):
         raise GBufferError(f"layer {name!r} must be floating point (half or float), got {arr.dtype}")
@@ -194,7 +196,7 @@ def _float_layer(name: str, value, rgb: bool, allow_inf: bool = False) -> np.nda
     return arr
 
 
-def _id_layer(value) -> np.ndarray:
+def _id_layer(value: ArrayLike) -> NDArray[np.uint32]:
     arr = np.asarray(value)
     if arr.dtype == bool:
         arr = arr.astype(np.uint32)

@@ -33,7 +33,8 @@ each id's tap rows, and a backend (:mod:`ssskit.backends`) executes it.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -45,21 +46,21 @@ from .gbuffer import GBuffer
 from .settings import PassSettings
 
 
-def default_depth_mode(taps) -> str:
+def default_depth_mode(taps: SeparableTaps | Mapping[int, SeparableTaps]) -> str:
     """``gaussian`` if every kernel has a depth-correction width (the two-Gaussian model,
     supplement E), else ``follow``. ``taps``: one SeparableTaps or a mapping id -> taps."""
     values = [taps] if isinstance(taps, SeparableTaps) else list(taps.values())
     return "gaussian" if values and all(t.tau_max_mm2 is not None for t in values) else "follow"
 
 
-def _settings(settings: PassSettings | None, overrides: dict) -> PassSettings:
+def _settings(settings: PassSettings | None, overrides: dict[str, Any]) -> PassSettings:
     base = PassSettings() if settings is None else settings
     if not isinstance(base, PassSettings):
         raise PassError(f"settings must be PassSettings, got {type(base).__name__}")
     return base.replace(**overrides) if overrides else base
 
 
-def _taps_by_id(taps, ids) -> dict[int, SeparableTaps]:
+def _taps_by_id(taps: SeparableTaps | Mapping[int, SeparableTaps], ids: Iterable[int]) -> dict[int, SeparableTaps]:
     if isinstance(taps, SeparableTaps):
         return {int(i): taps for i in ids}
     if not isinstance(taps, Mapping):
@@ -76,7 +77,7 @@ def _taps_by_id(taps, ids) -> dict[int, SeparableTaps]:
     return out
 
 
-def plan_for(taps, ids, fx: float, fy: float, settings: PassSettings) -> SeparablePlan:
+def plan_for(taps: SeparableTaps | Mapping[int, SeparableTaps], ids: Iterable[int], fx: float, fy: float, settings: PassSettings) -> SeparablePlan:
     """The pass plan for profile ``ids`` (each with its taps) under ``settings``."""
     by_id = _taps_by_id(taps, ids)
     mode = settings.depth_mode or default_depth_mode(by_id or taps)
@@ -84,7 +85,8 @@ def plan_for(taps, ids, fx: float, fy: float, settings: PassSettings) -> Separab
                                 seed=settings.seed)
 
 
-def separable_sss(gbuffer: GBuffer, taps, settings: PassSettings | None = None, **overrides) -> np.ndarray:
+def separable_sss(gbuffer: GBuffer, taps: SeparableTaps | Mapping[int, SeparableTaps],
+                  settings: PassSettings | None = None, **overrides: Any) -> np.ndarray:
     """Blurred diffuse layer (H, W, 3) float32: every profile region filtered with its taps, in one pass.
 
     ``taps``: one :class:`SeparableTaps` for every region, or a mapping profile id -> taps.
@@ -102,8 +104,8 @@ def separable_sss(gbuffer: GBuffer, taps, settings: PassSettings | None = None, 
     return np.asarray(out, dtype=np.float32)
 
 
-def filter_arrays(diffuse: np.ndarray, depth_mm: np.ndarray, fx: float, fy: float, taps,
-                  settings: PassSettings | None = None, **overrides) -> np.ndarray:
+def filter_arrays(diffuse: np.ndarray, depth_mm: np.ndarray, fx: float, fy: float, taps: SeparableTaps,
+                  settings: PassSettings | None = None, **overrides: Any) -> np.ndarray:
     """The separable SSS of ``diffuse`` (H, W, 3) for one region given as arrays.
 
     ``depth_mm`` (H, W): linear depth in mm where the region has SSS and +inf elsewhere (stencil);

@@ -40,9 +40,12 @@ API::
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Literal, overload
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError, SettingsError
 from ..settings import Settings, check_choice, check_float
@@ -82,7 +85,7 @@ class TAASettings(Settings):
 
 # ---- colour space --------------------------------------------------------------------------------------
 
-def rgb_to_ycocg(rgb) -> np.ndarray:
+def rgb_to_ycocg(rgb: ArrayLike) -> np.ndarray:
     """YCoCg (..., 3) of RGB (Malvar and Sullivan 2003): Y = R/4 + G/2 + B/4, Co = (R - B)/2,
     Cg = -R/4 + G/2 - B/4."""
     a = np.asarray(rgb)
@@ -90,7 +93,7 @@ def rgb_to_ycocg(rgb) -> np.ndarray:
     return np.stack([0.25 * r + 0.5 * g + 0.25 * b, 0.5 * (r - b), -0.25 * r + 0.5 * g - 0.25 * b], axis=-1)
 
 
-def ycocg_to_rgb(ycocg) -> np.ndarray:
+def ycocg_to_rgb(ycocg: ArrayLike) -> np.ndarray:
     """The inverse of :func:`rgb_to_ycocg`: R = Y + Co - Cg, G = Y + Cg, B = Y - Co - Cg."""
     a = np.asarray(ycocg)
     y, co, cg = a[..., 0], a[..., 1], a[..., 2]
@@ -107,7 +110,7 @@ def _catmull_rom_weights(t: np.ndarray) -> tuple[np.ndarray, ...]:
     return (-0.5 * t3 + t2 - 0.5 * t, 1.5 * t3 - 2.5 * t2 + 1.0, -1.5 * t3 + 2.0 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2)
 
 
-def fetch(image, x, y, filter: str = "bilinear") -> np.ndarray:
+def fetch(image: ArrayLike, x: ArrayLike, y: ArrayLike, filter: str = "bilinear") -> NDArray[np.float64]:
     """``image`` (H, W, C) sampled at continuous pixel positions (x, y) (each (H, W); pixel centres at
     integer + 0.5), with a bilinear or Catmull-Rom filter and clamp-to-edge addressing; (H, W, C) float64."""
     img = np.asarray(image, dtype=np.float64)
@@ -120,6 +123,9 @@ def fetch(image, x, y, filter: str = "bilinear") -> np.ndarray:
     ty = (fy - y0)[..., None]
     x0 = x0.astype(np.int64)
     y0 = y0.astype(np.int64)
+    offsets: tuple[int, ...]
+    wx: tuple[np.ndarray, ...]
+    wy: tuple[np.ndarray, ...]
     if filter == "bilinear":
         offsets, wx, wy = (0, 1), (1.0 - tx, tx), (1.0 - ty, ty)
     elif filter == "catmull-rom":
@@ -138,7 +144,7 @@ def fetch(image, x, y, filter: str = "bilinear") -> np.ndarray:
 
 # ---- neighbourhood -----------------------------------------------------------------------------------------
 
-def _shifted(a: np.ndarray):
+def _shifted(a: np.ndarray) -> Iterator[np.ndarray]:
     """The 9 images of a's 3x3 neighbourhood (clamp-to-edge)."""
     p = np.pad(a, ((1, 1), (1, 1), (0, 0)), mode="edge")
     hh, ww = a.shape[:2]
@@ -147,7 +153,7 @@ def _shifted(a: np.ndarray):
             yield p[dy:dy + hh, dx:dx + ww]
 
 
-def neighbourhood_box(ycocg, kind: str = "minmax", gamma: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def neighbourhood_box(ycocg: ArrayLike, kind: str = "minmax", gamma: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) (H, W, 3): the box of each pixel's 3x3 neighbourhood of ``ycocg`` the history is
     clamped to: its component-wise min/max (Karis 2014), or mu +- gamma * sigma of the 9 values
     (Salvi 2016) intersected with the min/max box (``kind="variance"``)."""
@@ -166,8 +172,8 @@ def neighbourhood_box(ycocg, kind: str = "minmax", gamma: float = 1.0) -> tuple[
 
 # ---- disocclusion ------------------------------------------------------------------------------------------
 
-def reprojection_valid(depth, camera: Camera, previous_depth, previous_camera: Camera,
-                       tolerance: float = 0.05) -> np.ndarray:
+def reprojection_valid(depth: ArrayLike, camera: Camera, previous_depth: ArrayLike, previous_camera: Camera,
+                       tolerance: float = 0.05) -> NDArray[np.bool_]:
     """(H, W) bool: True where this frame's pixel was visible in the previous frame (a depth test, as
     engines reject disoccluded history): its world point projects inside the previous image and its
     depth there agrees with ``previous_depth`` at the nearest pixel within ``tolerance`` relative.
@@ -200,7 +206,7 @@ def reprojection_valid(depth, camera: Camera, previous_depth, previous_camera: C
 
 # ---- the resolve ---------------------------------------------------------------------------------------------
 
-def _check_frame(current) -> np.ndarray:
+def _check_frame(current: ArrayLike) -> NDArray[np.float64]:
     a = np.asarray(current)
     if a.ndim != 3 or a.shape[2] != 3:
         raise PassError(f"TAA needs an (H, W, 3) RGB frame, got shape {a.shape}")
@@ -210,8 +216,27 @@ def _check_frame(current) -> np.ndarray:
     return a
 
 
-def taa_resolve(current, history=None, motion=None, valid=None, settings: TAASettings | None = None,
-                return_weight: bool = False):
+@overload
+def taa_resolve(current: ArrayLike, history: ArrayLike | None = None, motion: ArrayLike | None = None,
+                valid: ArrayLike | None = None, settings: TAASettings | None = None,
+                return_weight: Literal[False] = False) -> NDArray[np.float32]: ...
+
+
+@overload
+def taa_resolve(current: ArrayLike, history: ArrayLike | None = None, motion: ArrayLike | None = None,
+                valid: ArrayLike | None = None, settings: TAASettings | None = None, *,
+                return_weight: Literal[True]) -> tuple[NDArray[np.float32], NDArray[np.float64]]: ...
+
+
+@overload
+def taa_resolve(current: ArrayLike, history: ArrayLike | None = None, motion: ArrayLike | None = None,
+                valid: ArrayLike | None = None, settings: TAASettings | None = None,
+                return_weight: bool = False) -> NDArray[np.float32] | tuple[NDArray[np.float32], NDArray[np.float64]]: ...
+
+
+def taa_resolve(current: ArrayLike, history: ArrayLike | None = None, motion: ArrayLike | None = None,
+                valid: ArrayLike | None = None, settings: TAASettings | None = None,
+                return_weight: bool = False) -> NDArray[np.float32] | tuple[NDArray[np.float32], NDArray[np.float64]]:
     """One TAA frame (module docstring): ``current`` (H, W, 3) linear RGB, ``history`` (H, W, 3) the
     previous output (None: the first frame, which is ``current``), ``motion`` (H, W, 2) pixels from each
     pixel to its previous position (None: a static camera), ``valid`` (H, W) bool (False: disoccluded,
@@ -263,7 +288,8 @@ class TemporalAA:
         self.settings = s
         self.history: np.ndarray | None = None
 
-    def resolve(self, current, motion=None, valid=None) -> np.ndarray:
+    def resolve(self, current: ArrayLike, motion: ArrayLike | None = None,
+                valid: ArrayLike | None = None) -> NDArray[np.float32]:
         if self.history is not None and np.shape(current)[:2] != self.history.shape[:2]:
             raise PassError(f"the frame is {np.shape(current)[1]}x{np.shape(current)[0]} but the TAA history is "
                             f"{self.history.shape[1]}x{self.history.shape[0]}; reset() first")

@@ -13,11 +13,30 @@ backends keep working.
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ...errors import BackendError
 from ..base import Backend, check_frame
+
+if TYPE_CHECKING:
+    from ..adaptive_plan import AdaptivePlan
+    from ..base import AdaptiveRunner
+    from ..burley_plan import BurleyPlan, MipPyramid, SampleCounts
+    from ..plan import SeparablePlan
+
+
+class _Frame(Protocol):
+    """A frame on the device (SeparableFrame, BurleyFrame): run, read back, free."""
+
+    def run(self) -> None: ...
+
+    def read(self) -> np.ndarray: ...
+
+    def release(self) -> None: ...
 
 
 class GLBackend(Backend):
@@ -26,7 +45,7 @@ class GLBackend(Backend):
     dtype = np.float32
     passes = frozenset({"separable", "burley", "adaptive"})
 
-    def __init__(self):
+    def __init__(self) -> None:
         self._lock = threading.Lock()
 
     def availability(self) -> tuple[bool, str]:
@@ -38,7 +57,8 @@ class GLBackend(Backend):
             return False, str(e)
         return True, renderer()
 
-    def separable(self, plan, diffuse, depth_mm, slots):
+    def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
+                  slots: np.ndarray) -> np.ndarray:
         from .separable import SeparableFrame
 
         check_frame(diffuse, depth_mm, slots, plan)
@@ -48,7 +68,8 @@ class GLBackend(Backend):
         return self._run(lambda: SeparableFrame(plan, np.asarray(diffuse, np.float32),
                                                 np.asarray(depth_mm, np.float32), slots))
 
-    def burley(self, plan, diffuse, depth_mm, slots, spp, pyramid=None):
+    def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+               spp: SampleCounts, pyramid: MipPyramid | None = None) -> np.ndarray:
         from ..base import check_burley_frame
         from .burley import BurleyFrame
 
@@ -59,19 +80,24 @@ class GLBackend(Backend):
         return self._run(lambda: BurleyFrame(plan, np.asarray(diffuse, np.float32),
                                              np.asarray(depth_mm, np.float32), slots, spp))
 
-    def adaptive_counts(self, plan, history, mask, motion=None, valid=None):
+    def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
+                        valid: ArrayLike | None = None) -> NDArray[np.int64]:
         """The *estimate* of :mod:`ssskit.backends.adaptive_plan` (``adaptive.comp``), host arrays in and out."""
         return self._guide(plan, history, mask, motion, valid, None, None)[1]
 
-    def adaptive_update(self, plan, history, rgb, counts, mask, motion=None, valid=None):
+    def adaptive_update(self, plan: AdaptivePlan, history: ArrayLike, rgb: ArrayLike | None, counts: ArrayLike | None,
+                        mask: ArrayLike, motion: ArrayLike | None = None,
+                        valid: ArrayLike | None = None) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
         """The *update* of :mod:`ssskit.backends.adaptive_plan` (``adaptive.comp``), host arrays in and out."""
         from ...errors import PassError
 
         if rgb is None or counts is None:
             raise PassError("the history update needs the pass's result and the frame's sample counts")
-        return self._guide(plan, history, mask, motion, valid, rgb, counts)
+        new, n = self._guide(plan, history, mask, motion, valid, rgb, counts)
+        assert new is not None  # an update returns the new history
+        return new, n
 
-    def _guide(self, *args):
+    def _guide(self, *args: Any) -> tuple[NDArray[np.float32] | None, NDArray[np.int64]]:
         from .adaptive import guide
         from .context import context
 
@@ -82,20 +108,20 @@ class GLBackend(Backend):
             finally:
                 ctx.__exit__(None, None, None)
 
-    def adaptive_runner(self, plan, history):
+    def adaptive_runner(self, plan: AdaptivePlan, history: ArrayLike) -> AdaptiveRunner:
         """The frame loop with history, counts and images on the device (:class:`~.adaptive.GLAdaptiveRunner`)."""
         from .adaptive import GLAdaptiveRunner
 
         return GLAdaptiveRunner(self, plan, history)
 
-    def _run(self, make_frame):
+    def _run(self, make_frame: Callable[[], _Frame]) -> np.ndarray:
         """Upload, run and read back one frame under the backend's lock, then free its device images; the
         context is released after, so another thread can make it current."""
         from .context import context
 
         with self._lock:
             ctx = context()
-            frame = None
+            frame: _Frame | None = None
             try:
                 frame = make_frame()
                 frame.run()

@@ -14,15 +14,26 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from importlib import resources
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ...errors import PassError
 from ..adaptive_plan import AdaptivePlan, check_guide_frame, check_guide_inputs
-from ..base import PHASES, AdaptiveRunner
+from ..base import PHASES, AdaptiveRunner, Backend
 from .burley import _program
 from .separable import _f, _uniforms
+
+if TYPE_CHECKING:
+    import moderngl
+
+    from ..burley_plan import BurleyPlan
+    from .burley import BurleyFrame
+
+_T = TypeVar("_T")
 
 
 def adaptive_source(plan: AdaptivePlan, update: bool, motion: bool = False, valid: bool = False) -> str:
@@ -53,13 +64,14 @@ def adaptive_source(plan: AdaptivePlan, update: bool, motion: bool = False, vali
 class GuideImages:
     """A frame's inputs of the guiding phase on the device: the mask, and motion / validity if given."""
 
-    def __init__(self, ctx, mask: np.ndarray, motion=None, valid=None):
+    def __init__(self, ctx: moderngl.Context, mask: np.ndarray, motion: ArrayLike | None = None,
+                 valid: ArrayLike | None = None) -> None:
         import moderngl
 
         h, w = mask.shape
         self.size = (w, h)
 
-        def texture(components: int, dtype: str, data: np.ndarray):
+        def texture(components: int, dtype: str, data: np.ndarray) -> moderngl.Texture:
             tex = ctx.texture((w, h), components, np.ascontiguousarray(data).tobytes(), dtype=dtype)
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             return tex
@@ -81,7 +93,8 @@ class GuideImages:
                 t.release()
 
 
-def dispatch(plan: AdaptivePlan, images: GuideImages, history, counts, rgb=None, dst=None) -> None:
+def dispatch(plan: AdaptivePlan, images: GuideImages, history: moderngl.Texture, counts: moderngl.Texture,
+             rgb: moderngl.Texture | None = None, dst: moderngl.Texture | None = None) -> None:
     """One run of the guiding shader: ``history`` (RGBA32F texture) read, ``counts`` (R32I texture) read and
     written; with ``rgb`` (the Burley result, RGBA32F) the *update* into ``dst``, else the *estimate*."""
     update = rgb is not None
@@ -91,7 +104,8 @@ def dispatch(plan: AdaptivePlan, images: GuideImages, history, counts, rgb=None,
     _uniforms(prog, u_size=(w, h))
     history.use(0)
     images.bind()
-    if update:
+    if rgb is not None:
+        assert dst is not None  # the update writes dst
         rgb.use(4)
         dst.bind_to_image(0, read=False, write=True)
     counts.bind_to_image(1, read=True, write=True)
@@ -99,7 +113,8 @@ def dispatch(plan: AdaptivePlan, images: GuideImages, history, counts, rgb=None,
     history.ctx.memory_barrier()
 
 
-def _texture(ctx, size, components: int, dtype: str, data=None):
+def _texture(ctx: moderngl.Context, size: tuple[int, int], components: int, dtype: str,
+             data: np.ndarray | None = None) -> moderngl.Texture:
     import moderngl
 
     tex = ctx.texture(size, components, None if data is None else np.ascontiguousarray(data).tobytes(), dtype=dtype)
@@ -107,7 +122,9 @@ def _texture(ctx, size, components: int, dtype: str, data=None):
     return tex
 
 
-def guide(plan: AdaptivePlan, history, mask, motion=None, valid=None, rgb=None, counts=None):
+def guide(plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
+          valid: ArrayLike | None = None, rgb: ArrayLike | None = None,
+          counts: ArrayLike | None = None) -> tuple[NDArray[np.float32] | None, NDArray[np.int64]]:
     """The guiding phase on host arrays (upload, run, read back): (new history or None, counts int64)."""
     from .context import context
 
@@ -120,7 +137,7 @@ def guide(plan: AdaptivePlan, history, mask, motion=None, valid=None, rgb=None, 
         return (np.zeros((hh, ww, 4), np.float32) if update else None), np.zeros((hh, ww), np.int64)
     ctx = context()
     size = (ww, hh)
-    made = []
+    made: list[GuideImages | moderngl.Texture] = []
     try:
         images = GuideImages(ctx, m, mv, ok)
         made.append(images)
@@ -137,7 +154,7 @@ def guide(plan: AdaptivePlan, history, mask, motion=None, valid=None, rgb=None, 
             made += [src, dst]
         dispatch(plan, images, hist, cnt, src, dst)
         counts_out = np.frombuffer(cnt.read(), np.int32).reshape(hh, ww).astype(np.int64)
-        hist_out = np.frombuffer(dst.read(), np.float32).reshape(hh, ww, 4).copy() if update else None
+        hist_out = np.frombuffer(dst.read(), np.float32).reshape(hh, ww, 4).copy() if dst is not None else None
         return hist_out, counts_out
     finally:
         for obj in made:
@@ -150,7 +167,7 @@ class GLAdaptiveRunner(AdaptiveRunner):
     Burley result stay on the device; :meth:`result`, :meth:`counts` and :meth:`history` read back.
     Phase times: GL_TIME_ELAPSED queries on a GPU, wall time around glFinish on llvmpipe."""
 
-    def __init__(self, backend, plan: AdaptivePlan, history) -> None:
+    def __init__(self, backend: Backend, plan: AdaptivePlan, history: ArrayLike) -> None:
         from .context import context, is_software
 
         super().__init__(backend, plan, history)
@@ -162,12 +179,12 @@ class GLAdaptiveRunner(AdaptiveRunner):
         self._cur = 0
         self._cnt = _texture(ctx, self._size, 1, "i4")
         self._images: GuideImages | None = None
-        self._burley = None
-        self._loaded = None
+        self._burley: BurleyFrame | None = None
+        self._loaded: tuple[NDArray[np.float32], NDArray[np.float32], np.ndarray] | None = None
         self._sampled = False
         self._has_counts = False
 
-    def _timed(self, phase: str, fn):
+    def _timed(self, phase: str, fn: Callable[[], _T]) -> _T:
         from .context import context
 
         ctx = context()
@@ -184,7 +201,8 @@ class GLAdaptiveRunner(AdaptiveRunner):
         self.times[phase].append(q.elapsed / 1e6)
         return out
 
-    def load(self, diffuse, depth_mm, slots, motion=None, valid=None, estimate: bool = True) -> None:
+    def load(self, diffuse: ArrayLike, depth_mm: ArrayLike, slots: ArrayLike, motion: ArrayLike | None = None,
+             valid: ArrayLike | None = None, estimate: bool = True) -> None:
         from .context import context
 
         slots = np.asarray(slots)
@@ -195,14 +213,14 @@ class GLAdaptiveRunner(AdaptiveRunner):
         if self._burley is not None:
             self._burley.release()
             self._burley = None
-        self._images = GuideImages(ctx, m, mv, ok)
+        self._images = images = GuideImages(ctx, m, mv, ok)
         self._loaded = (np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
         self._sampled = False
         self._has_counts = estimate
         if estimate:
-            self._timed("estimate", lambda: dispatch(self.plan, self._images, self._hist[self._cur], self._cnt))
+            self._timed("estimate", lambda: dispatch(self.plan, images, self._hist[self._cur], self._cnt))
 
-    def set_counts(self, counts) -> None:
+    def set_counts(self, counts: ArrayLike) -> None:
         from ..base import _checked_counts
         from .context import context
 
@@ -211,7 +229,7 @@ class GLAdaptiveRunner(AdaptiveRunner):
         self._cnt.write(np.ascontiguousarray(n, np.int32).tobytes())
         self._has_counts = True
 
-    def sample(self, plan) -> None:
+    def sample(self, plan: BurleyPlan) -> None:
         from .burley import BurleyFrame, burley_source
         from .context import context
 
@@ -224,25 +242,26 @@ class GLAdaptiveRunner(AdaptiveRunner):
         if self._burley is None:
             diffuse, depth, slots = self._loaded
             self._burley = BurleyFrame(plan, diffuse, depth, slots, None, counts_texture=self._cnt)
-        self._burley.plan = plan  # this sample's frame, seed and focal lengths (uniforms of the same shader)
-        if self._burley.atlas is not None:
-            self._timed("prefilter", self._burley.build_mips)
-        self._timed("sampling", self._burley.run_pass)
+        frame = self._burley
+        frame.plan = plan  # this sample's frame, seed and focal lengths (uniforms of the same shader)
+        if frame.atlas is not None:
+            self._timed("prefilter", frame.build_mips)
+        self._timed("sampling", frame.run_pass)
         self._sampled = True
 
     def update(self) -> None:
-        if not self._sampled:
+        images, frame, loaded = self._images, self._burley, self._loaded
+        if not self._sampled or images is None or frame is None or loaded is None:  # (sampled: all are set)
             raise PassError("sample a frame before updating the history")
         src, dst = self._hist[self._cur], self._hist[1 - self._cur]
-        self._timed("update", lambda: dispatch(self.plan, self._images, src, self._cnt, self._burley.out, dst))
+        self._timed("update", lambda: dispatch(self.plan, images, src, self._cnt, frame.out, dst))
         self._cur = 1 - self._cur
         # the next frame, unless loaded anew, is this one again: no motion, same mask
-        if self._images.motion is not None or self._images.valid is not None:
+        if images.motion is not None or images.valid is not None:
             from .context import context
 
-            m = self._images
-            self._images = GuideImages(context(), self._loaded[2] > 0)
-            m.release()
+            self._images = GuideImages(context(), loaded[2] > 0)
+            images.release()
         self._sampled = False
 
     def result(self) -> np.ndarray:
@@ -268,7 +287,9 @@ class GLAdaptiveRunner(AdaptiveRunner):
         from .context import context
 
         context()
-        for obj in (*self._hist, self._cnt, self._images, self._burley):
+        objs: tuple[moderngl.Texture | GuideImages | BurleyFrame | None, ...] = (*self._hist, self._cnt, self._images,
+                                                                                 self._burley)
+        for obj in objs:
             if obj is not None:
                 obj.release()
         self._hist, self._images, self._burley = [], None, None

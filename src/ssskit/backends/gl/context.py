@@ -14,22 +14,27 @@ import os
 import re
 import threading
 import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 from ...errors import BackendError
+
+if TYPE_CHECKING:
+    import moderngl
 
 #: what the gl backend needs, for the messages
 REQUIREMENTS = ("the Python package moderngl (pip install moderngl) and an EGL driver with OpenGL 4.3 "
                 "(Debian/Ubuntu: apt install libegl1 libgl1-mesa-dri libegl-mesa0)")
 
 _LOCK = threading.RLock()
-_STATE: dict = {}
+_STATE: dict[str, Any] = {}  # "ctx": the moderngl.Context, or "error": why there is none
 
 
 class ShaderError(BackendError):
     """A compute shader that does not compile; the message shows the driver's log and the source line."""
 
 
-def _create():
+def _create() -> moderngl.Context:
     try:
         import moderngl
     except ImportError as e:  # pragma: no cover - depends on the installation
@@ -39,14 +44,15 @@ def _create():
     if lib:
         kwargs["libegl"] = lib
     try:
-        ctx = moderngl.create_standalone_context(**kwargs)
+        # moderngl's stub types **settings as dicts; they are strings (backend="egl", libegl=path)
+        ctx = moderngl.create_standalone_context(**kwargs)  # type: ignore[arg-type]
     except Exception as e:  # glcontext raises plain Exceptions with the loader's message
         msg = " ".join(str(e).split()) or type(e).__name__
         raise BackendError(f"no OpenGL 4.3 context through EGL ({msg}); the gl backend needs {REQUIREMENTS}") from None
     return ctx
 
 
-def context():
+def context() -> moderngl.Context:
     """The process's GL context (made on first use), current in the calling thread, or a BackendError
     saying what is missing. Every entry point of the backend calls it: ``with ctx:`` blocks make the
     context current and, on leaving, make the previous one (possibly none) current again."""
@@ -78,7 +84,7 @@ def is_software() -> bool:
 _LOG_LINE = re.compile(r"(?:^|\s)\d+[:(](\d+)\)?\s*[:(]")
 
 
-def compile_compute(source: str, name: str):
+def compile_compute(source: str, name: str) -> moderngl.ComputeShader:
     """A moderngl ComputeShader of ``source``, or a ShaderError with the log and the offending line(s)."""
     import moderngl
 
@@ -98,7 +104,7 @@ def compile_compute(source: str, name: str):
         raise ShaderError(f"the {name} compute shader does not compile: {first}{where}") from None
 
 
-def time_gpu(fn, batches: int = 20, batch: int = 10, warmup_ms: float = 50.0) -> list[float]:
+def time_gpu(fn: Callable[[], object], batches: int = 20, batch: int = 10, warmup_ms: float = 50.0) -> list[float]:
     """ms per call of ``fn`` (which only queues GL work): ``batches`` medians-ready samples, each one
     GL_TIME_ELAPSED query around ``batch`` calls queued back to back (on llvmpipe: wall time around
     glFinish), after ``warmup_ms`` of calls so the GPU is busy and clocked up. Queueing a batch keeps the
@@ -111,7 +117,7 @@ def time_gpu(fn, batches: int = 20, batch: int = 10, warmup_ms: float = 50.0) ->
     while (time.perf_counter() - t0) * 1e3 < warmup_ms:
         fn()
         ctx.finish()
-    samples = []
+    samples: list[Any] = []  # GL_TIME_ELAPSED queries on a GPU, ms per call on llvmpipe
     for _ in range(batches):
         if gpu:
             q = ctx.query(time=True)

@@ -9,14 +9,19 @@ any GPU or on llvmpipe, and is what ``ssskit export`` writes as a whole shader.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import resources
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 
 from ...errors import PassError
 from ...sampling.hashes import frame_base
 from ..plan import DEPTH_MODES, SeparablePlan
+
+if TYPE_CHECKING:
+    import moderngl
 
 
 
@@ -74,7 +79,7 @@ def _array(kind: str, name: str, values: list[str]) -> str:
     return f"const {kind} {name}[{len(values)}] = {kind}[](\n    {body});"
 
 
-def _vec(v) -> str:
+def _vec(v: Sequence[float]) -> str:
     return "vec" + str(len(v)) + "(" + ", ".join(_f(x) for x in v) + ")"
 
 
@@ -250,18 +255,18 @@ class _Images:
     reused by its later frames: RGBA32F textures or storage buffers of vec4 with padded rows; slots in
     R16UI."""
 
-    def __init__(self, ctx, w: int, h: int, storage):
+    def __init__(self, ctx: moderngl.Context, w: int, h: int, storage: tuple[str, ...]) -> None:
         import moderngl
 
         self.size = (w, h)
         self.pitch = padded_pitch(w)
 
-        def texture(components: int, dtype: str):
+        def texture(components: int, dtype: str) -> moderngl.Texture:
             tex = ctx.texture((w, h), components, dtype=dtype)
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # integer textures are incomplete otherwise
             return tex
 
-        def image(kind: str):
+        def image(kind: str) -> moderngl.Texture | moderngl.Buffer:
             if kind == "texture":
                 return texture(4, "f4")
             return ctx.buffer(self._bordered(np.zeros((h, w, 4), np.float32)).tobytes())  # border .a = -1
@@ -283,7 +288,7 @@ class _Images:
         out[1:h + 1, 1:w + 1] = image
         return out
 
-    def _is_buffer(self, obj) -> bool:
+    def _is_buffer(self, obj: object) -> TypeGuard[moderngl.Buffer]:
         return isinstance(obj, self._buffer)
 
     def write_src(self, src: np.ndarray) -> None:
@@ -291,14 +296,14 @@ class _Images:
 
     def read_out(self) -> np.ndarray:
         w, h = self.size
-        if self._is_buffer(self.out):
+        if self._is_buffer(self.out) and self._staging is not None:  # (a buffer output has its staging)
             self.ctx.copy_buffer(self._staging, self.out)
             out = np.frombuffer(self._staging.read(), np.float32).reshape(h + 2, self.pitch, 4)[1:h + 1, 1:w + 1]
         else:
             out = np.frombuffer(self.out.read(), np.float32).reshape(h, w, 4)
         return np.ascontiguousarray(out[..., :3])
 
-    def bind(self, src, dst, slots: bool) -> None:
+    def bind(self, src: Any, dst: Any, slots: bool) -> None:
         if self._is_buffer(src):
             src.bind_to_storage_buffer(0)
         else:
@@ -316,17 +321,17 @@ class _Images:
                 obj.release()
 
 
-_PROGRAMS: dict = {}
+_PROGRAMS: dict[str, moderngl.ComputeShader] = {}
 
 
-def _uniforms(prog, **values) -> None:
+def _uniforms(prog: moderngl.ComputeShader, **values: Any) -> None:
     """Set the uniforms the compiled program uses (the compiler drops unused ones)."""
     for name, value in values.items():
         if name in prog:
             prog[name] = value
 
 
-def _program(plan: SeparablePlan, term: int, vertical: bool, layout: Layout):
+def _program(plan: SeparablePlan, term: int, vertical: bool, layout: Layout) -> moderngl.ComputeShader:
     from .context import compile_compute
 
     source = separable_source(plan, term, vertical, layout)

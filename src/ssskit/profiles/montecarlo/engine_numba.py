@@ -40,6 +40,7 @@ import math
 
 import numpy as np
 from numba import njit, prange
+from numpy.typing import NDArray
 
 from .config import N_EXIT_BINS
 
@@ -209,7 +210,8 @@ def _rough_interface(ux, uy, uz, n1, n2, alpha, state):
 
 
 @njit(cache=True)
-def rough_interface_albedo(cos_theta, n1, n2, alpha, n_samples, seed):
+def rough_interface_albedo(cos_theta: float, n1: float, n2: float, alpha: float, n_samples: int,
+                           seed: int) -> NDArray[np.float64]:
     """Monte Carlo estimate of a rough dielectric surface's directional albedo for light arriving
     at ``cos_theta`` from the side of index n1 (:func:`_rough_interface`, ``n_samples`` samples of
     the stream ``seed``): array [reflected, transmitted, lost, SE of each]. Lost = 1 - reflected -
@@ -377,8 +379,11 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
 
 
 @njit(parallel=True, cache=True)
-def run_batches(seed, batch_ids, batch_sizes, mua, mus, g, z_top, z_bot, n_idx, cos_crit_up,
-                cos_crit_down, rsp, ux0, uz0, dr, alpha, rd_bins, totals):
+def run_batches(seed: np.uint64, batch_ids: NDArray[np.int64], batch_sizes: NDArray[np.int64],
+                mua: NDArray[np.float64], mus: NDArray[np.float64], g: NDArray[np.float64],
+                z_top: NDArray[np.float64], z_bot: NDArray[np.float64], n_idx: NDArray[np.float64],
+                cos_crit_up: NDArray[np.float64], cos_crit_down: NDArray[np.float64], rsp: float, ux0: float,
+                uz0: float, dr: float, alpha: float, rd_bins: NDArray[np.float64], totals: NDArray[np.float64]) -> None:
     """Run the given batches in parallel; row k of rd_bins / totals receives batch batch_ids[k]."""
     for k in prange(batch_ids.shape[0]):
         _run_batch(seed, batch_ids[k], batch_sizes[k], mua, mus, g, z_top, z_bot, n_idx, cos_crit_up,

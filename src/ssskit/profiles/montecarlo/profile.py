@@ -7,6 +7,7 @@ from dataclasses import asdict
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ...materials import CHANNELS, LayeredMaterial, Material
 from ..base import RadialProfile, RGBProfile
@@ -45,7 +46,7 @@ class MonteCarloProfile(RadialProfile):
         """All diffusely reflected light, the grid's and beyond it (MCML's Rd)."""
         return float(self.result.total_rd)
 
-    def eval(self, r):
+    def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         r = np.asarray(r, dtype=float)
         n = self.rd.shape[0]
         i = np.floor(r / self.dr).astype(np.int64)
@@ -55,7 +56,7 @@ class MonteCarloProfile(RadialProfile):
     def total_rd(self) -> float:
         return self._total
 
-    def energy_outside(self, rho):
+    def energy_outside(self, rho: ArrayLike) -> NDArray[np.float64]:
         rho = np.asarray(rho, dtype=float)
         n = self.rd.shape[0]
         i = np.clip(np.floor(rho / self.dr).astype(np.int64), 0, n - 1)
@@ -83,8 +84,8 @@ def montecarlo_rgb(material: Material | LayeredMaterial, photons: int = 200_000,
     resume, restart, use_cache, batch_size, grid_fraction, roughness).
     """
     results = simulate_material(material, "all", photons=photons, seed=seed, **kwargs)
-    chans = tuple(MonteCarloProfile(results[ch]) for ch in CHANNELS)
-    return RGBProfile(chans, "montecarlo", material.name,  # type: ignore[arg-type]
+    r, g, b = (MonteCarloProfile(results[ch]) for ch in CHANNELS)
+    return RGBProfile((r, g, b), "montecarlo", material.name,
                       {"material": material.to_dict(), "photons": photons, "seed": seed,
                        "grid_fraction": kwargs.get("grid_fraction"), "roughness": kwargs.get("roughness", 0.0)})
 

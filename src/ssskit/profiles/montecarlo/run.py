@@ -12,13 +12,14 @@ from __future__ import annotations
 import contextlib
 import math
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from ...cache import cache_dir
 from ...errors import ProfileError, SimulationInterrupted
-from ...io import progress_bar, save_arrays
+from ...io import ProgressBar, progress_bar, save_arrays
 from .config import N_EXIT_BINS, MCConfig, layer_arrays
 from .result import MCResult, assemble_result
 
@@ -178,14 +179,16 @@ def _load_result(cfg: MCConfig, path: Path) -> MCResult:
 
 
 @contextlib.contextmanager
-def _numba_threads(threads: int | None):
+def _numba_threads(threads: int | None) -> Iterator[int]:
     import numba
 
     if threads is None:
         yield numba.get_num_threads()
         return
-    if not (isinstance(threads, int) and 1 <= threads <= numba.config.NUMBA_NUM_THREADS):
-        raise ProfileError(f"threads must be in 1..{numba.config.NUMBA_NUM_THREADS}, got {threads!r}")
+    # numba.config sets its NUMBA_* names through globals(), which its inline types cannot show
+    most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
+    if not (isinstance(threads, int) and 1 <= threads <= most):
+        raise ProfileError(f"threads must be in 1..{most}, got {threads!r}")
     old = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:
@@ -194,7 +197,7 @@ def _numba_threads(threads: int | None):
         numba.set_num_threads(old)
 
 
-def _progress_bar(total: int, initial: int, label: str):
+def _progress_bar(total: int, initial: int, label: str) -> ProgressBar:
     return progress_bar(total, label or "MCML", "photons", initial=initial, unit_scale=True, smoothing=0.1,
                         dynamic_ncols=True, leave=False)
 
