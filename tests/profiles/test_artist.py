@@ -10,6 +10,7 @@ import pytest
 
 from ssskit.errors import MaterialError
 from ssskit.materials import get_material
+from ssskit.profiles.montecarlo import MonteCarloProfile
 from ssskit.profiles.artist import (
     ArtistMaterial,
     artist_table,
@@ -36,7 +37,7 @@ def _check_mcml(inv, asked_albedo, asked_r50=None, asked_d=None):
             r50 = r50_of_result(res.r_mm, res.rd, res.config.dr_mm, res.total_rd)
             assert abs(r50 / asked_r50[c] - 1.0) < 0.03, (c, r50, asked_r50[c])
         if asked_d is not None:
-            d = fit_burley_channel(res.profile())[1]
+            d = fit_burley_channel(MonteCarloProfile(res))[1]
             assert abs(d / asked_d[c] - 1.0) < 0.03, (c, d, asked_d[c])
 
 
@@ -89,7 +90,7 @@ def test_table_entries_resimulate(i_eta, i_ap):
     for s in range(t["seeds"]):
         res = mcml_run(1.0 - ap, ap, 0.0, eta, t["photons"], seed=1000 + s)
         r50 = r50_of_result(res.r_mm, res.rd, res.config.dr_mm, res.total_rd)
-        runs.append((res.total_rd, r50, fit_burley_channel(res.profile())[1]))
+        runs.append((res.total_rd, r50, fit_burley_channel(MonteCarloProfile(res))[1]))
     for k, j in (("rd", 0), ("r50", 1), ("burley_d", 2)):
         vals = [r[j] for r in runs]
         mean, se = float(np.mean(vals)), float(np.std(vals, ddof=1) / math.sqrt(len(vals)))
