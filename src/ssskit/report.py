@@ -191,7 +191,8 @@ def _kernels_section(out: Path, progress: Progress, ctx: dict) -> str:
     names = ctx.get("materials") or RANK_MATERIALS
     profiles = [profile_for_material(n, "montecarlo", photons=ctx["photons"]) for n in names]
     tables = "".join(_ranking_table(p, kernel_ranking(p, progress=progress)) for p in profiles)
-    # every figure but the adaptive sampler's, which have their own section, for the first material
+    # the paper's kernel figures for the first material (the adaptive sampler's have their own section; the
+    # three-view study takes minutes on a life-size bust: ssskit figures xie-fig1, its table in RESULTS.md)
     figs = [n for n, fn in FIGURES.items() if fn.__module__ == "ssskit.figures.kernels"]
     written = make_figures(figs, out / "figures", profiles[0], progress=progress, backend=ctx.get("backend"))
     imgs = "".join(f"<img src='figures/{p.name}'>" for paths in written.values() for p in paths)
@@ -365,8 +366,14 @@ def _adaptive_section(out: Path, progress: Progress, ctx: dict) -> str:
     return demo_section(out, progress, ctx)
 
 
+def _model_section(out: Path, progress: Progress, ctx: dict) -> str:
+    from .figures.views import demo_section
+
+    return demo_section(out, progress, ctx)
+
+
 #: the report's sections in order: the user's question first (which kernel, how close to truth), then the
-#: materials and profiles behind the answer, then Xie 2020's passes
+#: materials and profiles behind the answer, then Xie 2020's passes (``ssskit demo --scene`` adds "model")
 SECTIONS: list[tuple[str, Section]] = [
     ("kernels", _kernels_section),
     ("screenspace", _screenspace_section),
@@ -389,7 +396,8 @@ def _cached_section(name: str, section: Section, out: Path, progress: Progress, 
 
     key = json.dumps({"section": name, "photons": ctx.get("photons"), "backend": ctx.get("backend"),
                       "recompute": ctx.get("recompute", False), "materials": ctx.get("materials"),
-                      "source": source_digest()}, sort_keys=True)
+                      "scene": ctx.get("scene_key") if name == "model" else None, "source": source_digest()},
+                     sort_keys=True)
     path = cache_dir("demo") / f"{name}-{hashlib.sha1(key.encode()).hexdigest()[:16]}.pkl"
     if path.is_file():
         try:
@@ -412,6 +420,14 @@ def _cached_section(name: str, section: Section, out: Path, progress: Progress, 
         with open(tmp, "wb") as fh:
             pickle.dump((text, files), fh)
     return text
+
+
+def _file_digest(path: str | Path) -> str:
+    """sha1 of a file's bytes ("" for a name that is no file, e.g. the generated bust)."""
+    import hashlib
+
+    p = Path(str(path))
+    return hashlib.sha1(p.read_bytes()).hexdigest() if p.is_file() else ""
 
 
 def _backend_text(backend: Backend) -> str:
@@ -441,11 +457,13 @@ def _with_contents(sections: list[str]) -> tuple[list[str], str]:
 
 def build_report(out_dir: str | Path, progress: Progress | None = None, photons: int = DEMO_PHOTONS,
                  progress_bars: bool = False, backend: str = DEFAULT_BACKEND, recompute: bool = False,
-                 materials: list[str] | None = None) -> Path:
+                 materials: list[str] | None = None, scene: dict | None = None) -> Path:
     """Run every section into ``out_dir`` and write ``index.html`` last; returns its path. The
     screen-space passes run on ``backend`` (checked before any work: a BackendError if it cannot run
     here). ``recompute``: simulate the Monte Carlo profiles instead of reading the shipped ones;
-    ``materials``: whose kernels the report ranks (:data:`RANK_MATERIALS` by default). Each
+    ``materials``: whose kernels the report ranks (:data:`RANK_MATERIALS` by default); ``scene`` (scene,
+    units, material_map: ``ssskit demo --scene``) adds the "Your model" section
+    (:func:`ssskit.figures.views.demo_section`), cached by the options and the scene file's content. Each
     section says when it starts and how long it took on ``progress``; the report is built in a staging
     folder, so an interrupted or failed demo leaves no partial folder."""
     import contextlib
@@ -455,21 +473,32 @@ def build_report(out_dir: str | Path, progress: Progress | None = None, photons:
     from .profiles.montecarlo.shipped import recompute as no_shipped
 
     runner = get_backend(backend)
+    sections = list(SECTIONS)
+    ctx: dict = {"photons": photons, "progress_bars": progress_bars, "backend": runner.name, "recompute": recompute,
+                 "materials": list(materials or RANK_MATERIALS), "sections": sections}
+    if scene is not None:
+        from .scenes import resolve_scene
+
+        resolve_scene(scene["scene"], units=scene.get("units"), material_map=scene.get("material_map"),
+                      view="front")  # every check before any work (the study places its own views)
+        ctx["scene"] = scene
+        ctx["scene_key"] = {**scene, "file": _file_digest(scene["scene"])}
+        sections.append(("model", _model_section))
     progress = progress or (lambda msg: None)
     with staged_folder(out_dir) as stage, (no_shipped() if recompute else contextlib.nullcontext()):
-        _build(stage, progress, {"photons": photons, "progress_bars": progress_bars, "backend": runner.name,
-                                 "recompute": recompute, "materials": list(materials or RANK_MATERIALS)}, runner)
+        _build(stage, progress, ctx, runner)
     return Path(out_dir) / "index.html"
 
 
 def _build(out: Path, progress: Progress, ctx: dict[str, Any], runner: Backend) -> None:
     t0 = time.perf_counter()
     body = []
-    for k, (name, section) in enumerate(SECTIONS, 1):
-        progress(f"[{k}/{len(SECTIONS)}] section {name}")
+    sections = ctx.pop("sections", SECTIONS)
+    for k, (name, section) in enumerate(sections, 1):
+        progress(f"[{k}/{len(sections)}] section {name}")
         t_section = time.perf_counter()
         body.append(_cached_section(name, section, out, progress, ctx))
-        progress(f"[{k}/{len(SECTIONS)}] section {name}: done in {time.perf_counter() - t_section:.1f} s")
+        progress(f"[{k}/{len(sections)}] section {name}: done in {time.perf_counter() - t_section:.1f} s")
     from . import __version__
 
     body, toc = _with_contents(body)

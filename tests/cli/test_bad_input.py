@@ -97,7 +97,7 @@ BAD = [
      "would overwrite the input 'm.json'"),
     (["render", "--scene", "x.exr"], "'x.exr' is a directory"),
     (["render", "--scene", "missing.exr"], "does not exist"),
-    (["render", "--scene", "f.txt"], "must end in .exr"),
+    (["render", "--scene", "f.txt"], "unknown format '.txt' (a mesh .obj, .ply, .glb, .gltf, a scene .toml or a G-buffer .exr)"),
     (["render", "--scene", "teapot"], "unknown scene 'teapot'"),
     # render: settings, each checked by RenderSettings / PassSettings before any work
     (["render", "--scene", "slab", "--size", "0x0"], "the width must lie in 8..8192"),

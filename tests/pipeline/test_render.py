@@ -154,7 +154,7 @@ def _mixed_g_material(tmp_path):
     ("slab", dict(kernel="jimenez2012", taps=1), KernelError, "odd in 3..255"),
     ("slab", dict(kernel="jimenez2012", tap_method="uniform"), SettingsError, "does not apply to the jimenez2012"),
     ("teapot", {}, SceneError, "unknown scene 'teapot'"),
-    ("scene.png", {}, SceneError, "neither a built-in scene"),
+    ("scene.png", {}, SceneError, "unknown format '.png'"),
     ("missing.exr", {}, GBufferError, "does not exist"),
     ("dir.exr", {}, GBufferError, "is a directory"),
     ("slab", dict(reference=True, material="MIXED"), SceneError, "one Henyey-Greenstein g"),

@@ -326,38 +326,95 @@ class Size(IntPair):
 
 
 class SceneRef(click.ParamType):
-    """A built-in scene name (the scenes registry) or a G-buffer ``.exr`` file that exists.
+    """A built-in scene name (the scenes registry), a generated mesh (``bust``, ``icosphere``, ``torus``), a
+    mesh file (.obj, .ply, .glb, .gltf), a scene .toml file, or a G-buffer ``.exr`` file that exists.
 
-    Returns the canonical scene name (str) or the file as a :class:`~pathlib.Path`."""
+    Returns the canonical scene name (str) or the file as a :class:`~pathlib.Path`; a mesh or scene file
+    is checked by :func:`ssskit.scenes.resolve_scene` (one error line naming what is wrong)."""
 
     name = "scene"
 
     def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
-        return "[" + "|".join(_scenes().names()) + "|GBUFFER.exr]"
+        from ..scenes import GENERATED_SCENES
+
+        return "[" + "|".join([*_scenes().names(), *GENERATED_SCENES]) + "|MESH|SCENE.toml|GBUFFER.exr]"
+
+    def _regular(self, path: Path, what: str, param: click.Parameter | None, ctx: click.Context | None) -> None:
+        """Fail unless ``path`` is a regular file (a FIFO as an input would hang: io.check_regular_file)."""
+        from ..io import check_regular_file
+
+        try:
+            check_regular_file(path, what)
+        except SsskitError as exc:
+            self.fail(str(exc), param, ctx)
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        from ..scenes import GENERATED_SCENES
+        from ..scenes.meshes import FORMATS
+
         if isinstance(value, Path):
             return value
         text = str(value)
         scenes = _scenes()
         if text in scenes:
             return RegistryName(_scenes).convert(text, param, ctx)
+        if text.strip().lower() in GENERATED_SCENES:
+            return text.strip().lower()
         p = Path(text)
-        if p.suffix.lower() == ".exr" or p.exists() or len(p.parts) > 1:
+        if p.suffix.lower() in FORMATS or p.suffix.lower() == ".toml":
+            if p.exists():  # a FIFO or device would hang the reader: refused here (what is missing: later)
+                self._regular(p, "scene file", param, ctx)
+            return p
+        if p.suffix or p.exists() or len(p.parts) > 1:
             if p.is_dir():
                 self.fail(f"{text!r} is a directory, not a G-buffer file", param, ctx)
+            if p.suffix.lower() != ".exr":
+                self.fail(f"scene file {text!r}: unknown format {p.suffix or '(no suffix)'!r} (a mesh "
+                          f"{', '.join(FORMATS)}, a scene .toml or a G-buffer .exr)", param, ctx)
             if not p.exists():
                 self.fail(f"G-buffer file {text!r} does not exist", param, ctx)
-            if p.suffix.lower() != ".exr":
-                self.fail(f"a G-buffer file must end in .exr, got {text!r}", param, ctx)
-            from ..io import check_regular_file
-
-            try:
-                check_regular_file(p, "G-buffer file")
-            except SsskitError as exc:
-                self.fail(str(exc), param, ctx)
+            self._regular(p, "G-buffer file", param, ctx)
             return p
         return RegistryName(_scenes).convert(text, param, ctx)
+
+
+def scene_mesh_options(view: bool = True) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """``--units``, ``--material-map`` and (``view``) ``--view``: how a mesh or scene file is read and seen
+    (:func:`ssskit.scenes.resolve_scene`)."""
+    from ..scenes.meshes import UNITS_MM
+
+    def deco(fn: Callable[..., Any]) -> Callable[..., Any]:
+        if view:
+            fn = click.option("--view", default=None, metavar="front|profile|ear|close|AZ,EL[,DIST]",
+                              help="Mesh scenes: a view preset, or azimuth,elevation (degrees) and the distance as a "
+                                   "multiple of the automatic framing's [default: the scene's, else front].")(fn)
+        fn = click.option("--material-map", "material_map", default=None, metavar="NAME=MATERIAL,...",
+                          help="Mesh scenes: a material per object (OBJ/PLY: the file's stem; glTF: its material "
+                               "names); the others take --material.")(fn)
+        return click.option("--units", type=click.Choice(list(UNITS_MM), case_sensitive=False), multiple=True,
+                            help="Mesh scenes: the length unit of the mesh files [default: mm for OBJ and PLY, m "
+                                 "for glTF; said on stderr with the model's size].")(fn)
+
+    return deco
+
+
+def resolve_scene_value(scene: Any, units: Sequence[str] = (), material_map: str | None = None,
+                        view: str | None = None, width: int = 256, height: int = 192, say: bool = True) -> Any:
+    """The ``--scene`` value resolved (:func:`ssskit.scenes.resolve_scene`) and checked before any work; with
+    ``say``, what it assumed (units, the model's size) goes to stderr (:func:`say_notes`)."""
+    from ..scenes import resolve_scene
+
+    resolved = resolve_scene(scene, units=list(units) or None, material_map=material_map, view=view, width=width,
+                             height=height)
+    if say:
+        say_notes(resolved.notes)
+    return resolved
+
+
+def say_notes(notes: Iterable[str]) -> None:
+    """What resolving a scene assumed, one ``ssskit: ...`` line each on stderr."""
+    for note in notes:
+        click.echo(f"ssskit: {note}", err=True)
 
 
 def _opt(param: click.Parameter | None, fallback: str) -> str:
@@ -495,7 +552,8 @@ def signal_option(default: str = "edge") -> Callable:
 
 def scene_option() -> Callable:
     return click.option("--scene", type=SceneRef(), required=True,
-                        help="Built-in scene or a G-buffer EXR (see 'G-buffer EXR' in the README).")
+                        help="Built-in scene, generated mesh (bust, icosphere, torus), mesh file (.obj, .ply, .glb, "
+                             ".gltf), scene .toml, or a G-buffer EXR (see 'G-buffer EXR' in the README).")
 
 
 def backend_option(default: str | None) -> Callable:

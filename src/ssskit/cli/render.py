@@ -35,6 +35,9 @@ from .options import (
     out_option,
     photons_option,
     progress,
+    resolve_scene_value,
+    say_notes,
+    scene_mesh_options,
     scene_option,
     tap_method_option,
 )
@@ -53,8 +56,11 @@ _PASS = RegistryName(lambda: PASSES)
     "ssskit render --scene bumpy --pass burley-adaptive --size 128x96 --frames 16 --static --budget 4:32",
     "ssskit render --scene sphere --kernel artist --jitter 0.3 --size 256x192 --out s.exr --reference",
     "ssskit render --scene my_gbuffer.exr --kernel svd:2 --json",
+    "ssskit render --scene head.glb --units m --material-map skin=skin1,lips=skin2 --view ear --out head.png",
+    "ssskit render --scene bust --view close --pass burley --reference --save-gbuffer bust-gbuffer.exr",
     "ssskit render --scene slab --settings frame.toml --taps 11 --backend numpy"))
 @scene_option()
+@scene_mesh_options()
 @click.option("--pass", "pass_name", type=_PASS, default=None,
               help="The screen-space pass: separable (kernel taps; the default), burley (Monte Carlo, Xie 2020) or "
                    "burley-adaptive (its variance-guided sample counts over --frames frames, Xie 2020 Sec. 4.1); "
@@ -112,14 +118,15 @@ _PASS = RegistryName(lambda: PASSES)
 @depth_mode_option()
 @backend_option(_D.backend)
 @click.option("--size", type=Size(), default=f"{_D.width}x{_D.height}", show_default=True,
-              help="Image size of a built-in scene (a G-buffer file has its own).")
+              help="Image size of a built-in or mesh scene (a G-buffer file has its own).")
 @click.option("--spp", type=int, default=_D.spp, show_default=True,
-              help="Samples per pixel of a built-in scene's G-buffer; with --pass burley, of the Burley pass "
+              help="Samples per pixel of a scene's G-buffer; with --pass burley, of the Burley pass "
                    "(not with burley-adaptive: --budget).")
 @click.option("--frame", type=int, default=_D.frame, show_default=True,
               help="Frame along the scene's camera orbit (and of the pass's random numbers).")
 @click.option("--seed", type=int, default=_D.seed, show_default=True, help="Random seed (renders, jitter, samples).")
-@click.option("--reference", is_flag=True, help="Also path-trace the built-in scene (Mitsuba volpathmis; cached) and compare.")
+@click.option("--reference", is_flag=True, help="Also path-trace the scene, built-in or mesh (Mitsuba volpathmis; cached) "
+                                               "and compare.")
 @click.option("--reference-spp", type=int, default=_D.reference_spp, show_default=True,
               help="Samples per pixel of the path-traced reference (at least).")
 @click.option("--reference-max-spp", type=int, default=_D.reference_max_spp, show_default=True,
@@ -133,23 +140,28 @@ _PASS = RegistryName(lambda: PASSES)
 @json_option("Print one JSON object with settings and error metrics.")
 @click.pass_context
 def render(ctx: click.Context, scene: str | Path, settings_file: str | None, save_gbuffer: str | None, out: str | None,
-           as_json: bool, pass_name: str | None, method: str | None, frames_dir: str | None, **params: Any) -> None:
-    """Screen-space SSS (separable, or Burley Monte Carlo) of a scene, with errors against the exact 2D
-    convolution; --pass burley-adaptive: a sequence of frames with adaptive sample counts, each against
-    its converged reference."""
+           as_json: bool, pass_name: str | None, method: str | None, frames_dir: str | None, units: tuple[str, ...],
+           material_map: str | None, view: str | None, **params: Any) -> None:
+    """Screen-space SSS (separable, or Burley Monte Carlo) of a scene (built-in, generated, a mesh or a scene
+    file), with errors against the exact 2D convolution; --pass burley-adaptive: a sequence of frames with
+    adaptive sample counts, each against its converged reference."""
     base = load_settings(settings_file) if settings_file else None
     name = pass_of(ctx, pass_name, method, base)
     s = build_settings(ctx, base, params, name)
     check_inputs(ctx, scene, s, settings_file, out, save_gbuffer, frames_dir)
-    if base is not None and isinstance(scene, Path):
+    if base is not None and isinstance(scene, Path) and scene.suffix.lower() == ".exr":
         d = RenderSettings()
         if (base.width, base.height) != (d.width, d.height):
             raise SsskitError(f"the settings file {settings_file!r} sets width x height {base.width}x{base.height}, "
                               f"which does not apply to the G-buffer file {str(scene)!r} (it keeps its own size)")
+    from ..pipeline import plan
     from ..pipeline import render as run
 
+    # a mesh or scene file is read and checked once; its notes go to stderr when every check has passed
+    resolved = resolve_scene_value(scene, units, material_map, view, s.width, s.height, say=False)
+    say_notes(plan(resolved, s).notes)
     writer = FrameWriter(frames_dir) if frames_dir is not None else None
-    res = run(scene, s, progress=progress, on_frame=writer)  # checks everything first; progress on stderr, --json too
+    res = run(resolved, s, progress=progress, on_frame=writer)  # checks everything first; progress on stderr, --json too
     if save_gbuffer:
         res.gbuffer.save(save_gbuffer)
     if out:

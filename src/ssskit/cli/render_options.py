@@ -228,14 +228,15 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
     """What only the command line can get wrong, before any work: options for a built-in scene given with
     a G-buffer file; the adaptive run's options of one kind of run given to the other; outputs that are
     inputs, or each other, or the frames --frames-dir writes."""
-    gbuffer_file = isinstance(scene, Path)
+    gbuffer_file = isinstance(scene, Path) and scene.suffix.lower() == ".exr"
+    still = gbuffer_file or _mesh_scene(scene)  # a G-buffer or a mesh scene: one still camera
     name = s.pass_name
     for opt in (SCENE_ONLY if name == "separable" else ("size",)) if gbuffer_file else ():
         if given(ctx, opt):
             raise SsskitError(f"{option_name(ctx, opt)} applies to a built-in scene; the G-buffer file "
                               f"{str(scene)!r} has its own")
     if name == "burley-adaptive":
-        _check_adaptive(ctx, s, gbuffer_file, save_gbuffer)
+        _check_adaptive(ctx, s, still, save_gbuffer)
     if gbuffer_file and s.reference:
         raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
     _check_ignored(ctx, s)
@@ -267,12 +268,21 @@ def _check_ignored(ctx: click.Context, s: RenderSettings) -> None:
                           "reference_max_spp")
 
 
-def _check_adaptive(ctx: click.Context, s: RenderSettings, gbuffer_file: bool, save_gbuffer: str | None) -> None:
+def _mesh_scene(scene: Any) -> bool:
+    """Whether ``scene`` (a --scene value) is a mesh scene: a mesh or scene file, or a generated mesh."""
+    from ..scenes import GENERATED_SCENES
+
+    if isinstance(scene, Path):
+        return scene.suffix.lower() != ".exr"
+    return isinstance(scene, str) and scene in GENERATED_SCENES
+
+
+def _check_adaptive(ctx: click.Context, s: RenderSettings, still: bool, save_gbuffer: str | None) -> None:
     p = s.pass_
     assert isinstance(p, AdaptivePass)
     if given(ctx, "spp"):
         raise SsskitError("--spp: the adaptive pass chooses its samples per pixel; give --budget B_MIN:B_MAX")
-    if p.static or gbuffer_file:
+    if p.static or still:
         if given(ctx, "disocclusion_spp"):
             raise SsskitError("--disocclusion-spp applies to a moving camera (a static run has no new pixels)")
         if given(ctx, "limit_spp"):

@@ -12,6 +12,7 @@ from .options import (
     DEFAULT_MODEL,
     DEFAULT_PHOTONS,
     FIGURE,
+    SceneRef,
     backend_option,
     examples,
     material_option,
@@ -19,6 +20,8 @@ from .options import (
     out_dir_option,
     photons_option,
     progress,
+    resolve_scene_value,
+    scene_mesh_options,
 )
 from .profiles import check_material_for_model, resolve_profile
 
@@ -46,25 +49,42 @@ class _FiguresCommand(click.Command):
 @model_option(DEFAULT_MODEL, help="Profile model of the figures.")
 @photons_option(DEFAULT_PHOTONS, help="--model montecarlo: photons per channel (shipped for the presets at 10^7, else cached).")
 @backend_option(DEFAULT_BACKEND)
+@click.option("--scene", type=SceneRef(), default=None,
+              help="The figures that render a scene (xie-fig1: the bust by default): a generated mesh, a mesh "
+                   "file or a scene .toml.")
+@scene_mesh_options(view=False)
 @out_dir_option("ssskit-out/figures")
 @click.pass_context
 def figures(ctx: click.Context, names: tuple[str, ...], material: str | None, model: str, photons: int, backend: str,
-            out: str) -> None:
+            scene: str | Path | None, units: tuple[str, ...], material_map: str | None, out: str) -> None:
     """Regenerate the papers' figures (NAME: any of the figures listed below; all by default). The
-    figures that run a screen-space pass run it on --backend."""
+    figures that run a screen-space pass run it on --backend; those that render a scene (xie-fig1) take
+    --scene, --units and --material-map."""
     from ..backends import get_backend
-    from ..figures import make_figures
+    from ..figures import FIGURES, make_figures, renders_a_scene
 
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
         raise SsskitError(f"figure {', '.join(twice)} named more than once; name each figure once")
     check_material_for_model(ctx, material, model)
     get_backend(backend)  # can it run here? checked before any work
+    scene_kw = None
+    if scene is not None or units or material_map:
+        chosen = list(names) or FIGURES.names()
+        takers = [n for n in chosen if renders_a_scene(FIGURES.get(n))]
+        if not takers:
+            raise SsskitError(f"--scene, --units and --material-map apply to the figures that render a scene "
+                              f"({', '.join(n for n in FIGURES.names() if renders_a_scene(FIGURES.get(n)))}), "
+                              f"not to {', '.join(chosen)}")
+        value = "bust" if scene is None else scene
+        resolve_scene_value(value, units, material_map, view="front")  # every check before any work
+        scene_kw = {"scene": str(value), "units": units[0] if units else None, "material_map": material_map,
+                    "material": material}
     prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
     from ..io import staged_folder
 
     with staged_folder(out) as stage:  # all figures or none: a failure leaves no partial output
-        written = make_figures(list(names), stage, prof, progress=progress, backend=backend)
+        written = make_figures(list(names), stage, prof, progress=progress, backend=backend, scene=scene_kw)
     for paths in written.values():
         for p in paths:
             click.echo(str(Path(out) / Path(p).relative_to(stage)))
@@ -79,8 +99,13 @@ def figures(ctx: click.Context, names: tuple[str, ...], material: str | None, mo
 @backend_option(DEFAULT_BACKEND)
 @material_option(split=True, help="The materials whose kernels the report ranks [default: skin1, marble, ketchup]; "
                                   "comma-separated presets or material files.")
-def demo(out: str, photons: int | None, full: bool, backend: str, material: tuple[list[str], ...]) -> None:
-    """The main job: build the report (figures + index.html) on built-in defaults."""
+@click.option("--scene", type=SceneRef(), default=None,
+              help="Add a section on your model (a mesh file, scene .toml or generated mesh): the three views of "
+                   "Xie 2020 Fig. 1 with every Burley method and the separable pass.")
+@scene_mesh_options(view=False)
+def demo(out: str, photons: int | None, full: bool, backend: str, material: tuple[list[str], ...],
+         scene: str | Path | None, units: tuple[str, ...], material_map: str | None) -> None:
+    """The main job: build the report (figures + index.html) on built-in defaults; --scene adds your model."""
     from ..backends import get_backend
     from ..materials import get_material
     from ..profiles.domain import check_montecarlo
@@ -92,7 +117,13 @@ def demo(out: str, photons: int | None, full: bool, backend: str, material: tupl
     for n in names or []:
         check_montecarlo(get_material(n))  # the ranking's profiles are Monte Carlo ones
     get_backend(backend)  # can it run here? checked before any work
+    scene_kw = None
+    if scene is not None or units or material_map:
+        if scene is None:
+            raise SsskitError("--units and --material-map need --scene (the model of the demo's last section)")
+        resolve_scene_value(scene, units, material_map, view="front")  # every check before any work
+        scene_kw = {"scene": str(scene), "units": units[0] if units else None, "material_map": material_map}
     click.echo(f"ssskit demo: writing the report to {out}/", err=True)
     index = build_report(Path(out), progress=progress, photons=photons or DEMO_PHOTONS, progress_bars=True,
-                         backend=backend, recompute=full, materials=names)
+                         backend=backend, recompute=full, materials=names, scene=scene_kw)
     click.echo(str(index))

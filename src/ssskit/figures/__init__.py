@@ -10,13 +10,14 @@ from __future__ import annotations
 import inspect
 from pathlib import Path
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import SsskitError
 from ..registry import Registry
 from . import adaptive as _a
 from . import burley as _b
 from . import kernels as _k
+from . import views as _v
 
 if TYPE_CHECKING:
     from ..profiles.base import RGBProfile
@@ -38,6 +39,7 @@ FIGURES.register("xie-table1", _a.xie_table1)
 
 FIGURES.register("xie-fig6", _b.fig6_xie_inverse)
 FIGURES.register("xie-fig5", _b.fig5_xie_c)
+FIGURES.register("xie-fig1", _v.xie_fig1)
 
 
 def runs_a_pass(fn: Figure) -> bool:
@@ -45,10 +47,19 @@ def runs_a_pass(fn: Figure) -> bool:
     return "backend" in inspect.signature(fn).parameters
 
 
+def renders_a_scene(fn: Figure) -> bool:
+    """Whether figure ``fn`` renders a scene of the user's choice (it then takes ``scene=``, ``units=``,
+    ``material_map=`` and ``material=``)."""
+    return "scene" in inspect.signature(fn).parameters
+
+
 def make_figures(names: Sequence[str], out_dir: str | Path, profile: RGBProfile | None,
-                 progress: Callable[[str], None] | None = None, backend: str | None = None) -> dict[str, list[Path]]:
+                 progress: Callable[[str], None] | None = None, backend: str | None = None,
+                 scene: dict[str, Any] | None = None) -> dict[str, list[Path]]:
     """Build the named figures (all when ``names`` is empty) for ``profile`` into ``out_dir``; the figures
-    that run a screen-space pass run it on ``backend`` (default: ssskit's default backend)."""
+    that run a screen-space pass run it on ``backend`` (default: ssskit's default backend); those that
+    render a scene (:func:`renders_a_scene`) take the keywords of ``scene`` (scene, units, material_map,
+    material)."""
     chosen = [FIGURES.get(n) for n in names] if names else [f for _, f in FIGURES.items()]
     labels = list(names) if names else FIGURES.names()
     out = Path(out_dir)
@@ -58,8 +69,10 @@ def make_figures(names: Sequence[str], out_dir: str | Path, profile: RGBProfile 
         if progress is not None:
             progress(f"figure {label}")
         kw = {"backend": backend} if backend is not None and runs_a_pass(fn) else {}
+        if scene and renders_a_scene(fn):
+            kw.update(scene)
         result[label] = fn(out, profile, progress, **kw)
     return result
 
 
-__all__ = ["FIGURES", "make_figures", "runs_a_pass"]
+__all__ = ["FIGURES", "make_figures", "renders_a_scene", "runs_a_pass"]

@@ -13,7 +13,7 @@ kernel evaluations on test signals.
 from .adaptive import AdaptiveFrame, AdaptiveResult, render_adaptive
 from .burley_frame import BurleyResult, render_burley
 from .evaluate import FIG7_METHODS, Evaluation, evaluate, evaluation_grid
-from .render import RenderResult, plan_render, render, render_separable
+from .render import RenderResult, plan, plan_render, render, render_separable
 from .settings import PASSES, AdaptivePass, BurleyPass, RenderSettings, SeparablePass
 
 __all__ = [
@@ -30,6 +30,7 @@ __all__ = [
     "SeparablePass",
     "evaluate",
     "evaluation_grid",
+    "plan",
     "plan_render",
     "render",
     "render_adaptive",

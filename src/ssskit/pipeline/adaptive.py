@@ -44,7 +44,7 @@ from ..screenspace import AdaptiveSettings, BurleyParams, BurleySettings, GBuffe
 from ..screenspace.frames import Frame, FrameRun, run_frames
 from ..screenspace.taa import TAASettings
 from .burley_frame import plan_burley, render_burley
-from .frame import Progress, ScenePlan, finite, metric_lines
+from .frame import BurleyInput, Progress, SceneInput, ScenePlan, finite, metric_lines
 from .sequence import sequence_gbuffers, sequence_references
 from .settings import AdaptivePass, BurleyPass, RenderSettings
 
@@ -201,8 +201,8 @@ def _writer(on_frame: FrameCallback | None, peak: float, b_max: int) -> Callable
     return lambda fr: on_frame(AdaptiveFrame(fr.number, fr.image, fr.image_taa, fr.counts, peak, b_max))
 
 
-def plan_adaptive(scene: str | os.PathLike[str] | GBuffer, settings: RenderSettings,
-                  params: BurleyParams | None = None) -> tuple[ScenePlan, BurleyParams, bool]:
+def plan_adaptive(scene: SceneInput, settings: RenderSettings,
+                  params: BurleyInput | None = None) -> tuple[ScenePlan, BurleyInput, bool]:
     """Check what :func:`render_adaptive` needs, doing no work (the scene, the material, the backend, the
     moving run's limits); returns (scene plan, params, static)."""
     p = settings.pass_
@@ -212,8 +212,8 @@ def plan_adaptive(scene: str | os.PathLike[str] | GBuffer, settings: RenderSetti
     plan, params = plan_burley(scene, settings, params)
     static = p.static or plan.builtin is None
     if static and p.limit_spp is not None:
-        raise SettingsError("limit_spp applies to a moving camera; a static run (a G-buffer is always static) "
-                            "compares with the pass's exact limit")
+        raise SettingsError("limit_spp applies to a moving camera; a static run (a G-buffer or a mesh scene is "
+                            "always static) compares with the pass's exact limit")
     if static and p.disocclusion_spp is not None:
         raise SettingsError("disocclusion_spp applies to a moving camera (a static run has no new pixels)")
     if settings.frame + p.frames - 1 > 2**31 - 1:
@@ -232,8 +232,9 @@ def plan_adaptive(scene: str | os.PathLike[str] | GBuffer, settings: RenderSetti
     return plan, params, static
 
 
-def render_adaptive(scene: str | os.PathLike[str] | GBuffer = "slab", settings: RenderSettings | None = None, *, progress: Progress | None = None,
-                    params: BurleyParams | None = None, on_frame: FrameCallback | None = None) -> AdaptiveResult:
+def render_adaptive(scene: SceneInput = "slab", settings: RenderSettings | None = None, *,
+                    progress: Progress | None = None, params: BurleyInput | None = None,
+                    on_frame: FrameCallback | None = None) -> AdaptiveResult:
     """Run the adaptive pass of ``settings`` on ``scene`` (module docstring): static or moving, the fixed
     b_max comparison, every frame to ``on_frame``; ``params`` (every profile id) instead of the settings'
     or the material's Burley parameters."""
@@ -269,8 +270,8 @@ def render_adaptive(scene: str | os.PathLike[str] | GBuffer = "slab", settings: 
                                      "noise_rms_max": max(ref_noise)})
 
 
-def _static(scene: str | os.PathLike[str] | GBuffer, settings: RenderSettings, p: AdaptivePass, a: AdaptiveSettings,
-            b: BurleySettings, params: BurleyParams, taa: TAASettings | None, progress: Progress | None,
+def _static(scene: SceneInput, settings: RenderSettings, p: AdaptivePass, a: AdaptiveSettings,
+            b: BurleySettings, params: BurleyInput, taa: TAASettings | None, progress: Progress | None,
             on_frame: FrameCallback | None) -> AdaptiveResult:
     """The static run (module docstring): one fixed b_max frame with the ground truths, then the adaptive
     frames against the pass's exact limit."""

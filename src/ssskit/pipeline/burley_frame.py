@@ -32,7 +32,7 @@ at 4096 samples per pixel without mips, cached).
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -42,8 +42,8 @@ import numpy as np
 from ..errors import SettingsError, SignalError
 from ..screenspace import BurleyParams, BurleySettings, GBuffer, burley_sss
 from ..screenspace.burley import burley_backend
-from .frame import (ImageLayers, Progress, ScenePlan, finite, frame_gbuffer, ground_truths, metric_lines, plan_scene,
-                    reference_line)
+from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
+                    metric_lines, per_id, plan_scene, reference_line)
 from .settings import AdaptivePass, BurleyPass, RenderSettings
 
 
@@ -129,7 +129,7 @@ class BurleyResult(ImageLayers):
     settings: RenderSettings
     burley: BurleySettings
     material: Any
-    params: BurleyParams
+    params: Any  # BurleyParams, or a mapping profile id -> BurleyParams (a scene with a material map)
     gbuffer: GBuffer
     sss: np.ndarray  # blurred diffuse layer (H, W, 3)
     image: np.ndarray  # composite albedo * sss + specular
@@ -142,16 +142,17 @@ class BurleyResult(ImageLayers):
     def to_dict(self) -> dict[str, Any]:
         h, w = self.gbuffer.shape
         return {"scene": self.scene, "pass": "burley", "material": getattr(self.material, "name", str(self.material)),
-                "size": [int(w), int(h)], "burley_params": {"albedo": list(self.params.albedo),
-                                                            "d_mm": list(self.params.d_mm)},
-                "settings": self.settings.replace(width=int(self.gbuffer.shape[1]), height=int(self.gbuffer.shape[0])).to_dict(), "burley": self.burley.to_dict(),
+                "size": [int(w), int(h)], "burley_params": _params_dict(self.params),
+                "settings": self.settings.replace(width=int(w), height=int(h)).to_dict(), "burley": self.burley.to_dict(),
                 "metrics": finite(self.metrics)}
 
     def lines(self) -> list[str]:
         """The human-readable summary ``ssskit render`` prints."""
         b = self.burley
         h, w = self.gbuffer.shape
-        out = [f"# {self.scene}: Burley d = {', '.join(f'{d:.3g}' for d in self.params.d_mm)} mm, {b.sampler} sampler, "
+        by_id = self.params if isinstance(self.params, Mapping) else {1: self.params}
+        d = "; ".join(", ".join(f"{x:.3g}" for x in p.d_mm) for p in by_id.values())
+        out = [f"# {self.scene}: Burley d = {d} mm, {b.sampler} sampler, "
                f"{b.spp} spp, {'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend"]
         out += metric_lines(self.metrics)
         if self.reference_info is not None:
@@ -159,11 +160,25 @@ class BurleyResult(ImageLayers):
         return out
 
 
-def plan_burley(scene: str | os.PathLike[str] | GBuffer, settings: RenderSettings, params: BurleyParams | None = None) -> tuple[ScenePlan, BurleyParams]:
+def _params_dict(params: BurleyInput) -> dict[str, Any]:
+    """JSON of one BurleyParams ({albedo, d_mm}) or of a mapping id -> params ({"1": {...}, ...})."""
+    if isinstance(params, Mapping):
+        return {str(k): _params_dict(v) for k, v in params.items()}
+    return {"albedo": list(params.albedo), "d_mm": list(params.d_mm)}
+
+
+def _on_params(params: BurleyInput, fn: Callable[[BurleyParams], Any]) -> Any:
+    """``fn`` of one BurleyParams, or a mapping id -> ``fn`` of each."""
+    return {k: fn(v) for k, v in params.items()} if isinstance(params, Mapping) else fn(params)
+
+
+def plan_burley(scene: SceneInput, settings: RenderSettings,
+                params: BurleyInput | None = None) -> tuple[ScenePlan, BurleyInput]:
     """Check everything :func:`render_burley` (or the adaptive run) needs, doing no work: the scene
     (:func:`~ssskit.pipeline.frame.plan_scene`), the backend having the Burley pass, the parameters;
-    returns (scene plan, params): ``params``, the settings' own (``albedo`` and ``dmfp_mm``) or the
-    material's Burley profile."""
+    returns (scene plan, params): ``params`` (BurleyParams or a mapping profile id -> BurleyParams), the
+    settings' own (``albedo`` and ``dmfp_mm``) or the materials' Burley profiles (one per profile id
+    when a material map gives the scene's objects their own materials)."""
     from ..screenspace.burley import burley_params_for_material
 
     if not isinstance(settings, RenderSettings):
@@ -172,8 +187,11 @@ def plan_burley(scene: str | os.PathLike[str] | GBuffer, settings: RenderSetting
     plan = plan_scene(scene, settings)
     burley_backend(b.backend)
     if params is not None:
-        if not isinstance(params, BurleyParams):
-            raise SettingsError(f"params must be BurleyParams, got {type(params).__name__}")
+        ok = isinstance(params, BurleyParams) or (isinstance(params, Mapping) and params and all(
+            isinstance(v, BurleyParams) for v in params.values()))
+        if not ok:
+            raise SettingsError(f"params must be BurleyParams or a mapping profile id -> BurleyParams, "
+                                f"got {type(params).__name__}")
         return plan, params
     p = settings.pass_  # burley_settings() refused the separable pass
     given = p.params() if isinstance(p, (BurleyPass, AdaptivePass)) else None
@@ -182,11 +200,11 @@ def plan_burley(scene: str | os.PathLike[str] | GBuffer, settings: RenderSetting
     if not hasattr(plan.material, "eta"):
         raise SettingsError(f"the Burley pass needs a homogeneous material (its profile comes from the "
                             f"coefficients); {plan.material.name!r} is a {type(plan.material).__name__}")
-    return plan, burley_params_for_material(plan.material)
+    return plan, per_id(plan, burley_params_for_material)
 
 
-def render_burley(scene: str | os.PathLike[str] | GBuffer = "slab", settings: RenderSettings | None = None,
-                  progress: Progress | None = None, params: BurleyParams | None = None) -> BurleyResult:
+def render_burley(scene: SceneInput = "slab", settings: RenderSettings | None = None,
+                  progress: Progress | None = None, params: BurleyInput | None = None) -> BurleyResult:
     """Render ``scene`` with the Burley pass of ``settings`` (module docstring; default: the Burley pass
     with its defaults); ``params`` (every profile id) instead of the settings' or the material's Burley
     parameters; ``progress`` receives one message per step."""
@@ -194,11 +212,12 @@ def render_burley(scene: str | os.PathLike[str] | GBuffer = "slab", settings: Re
     plan, params = plan_burley(scene, settings, params)
     b = settings.burley_settings()
     say = progress or (lambda msg: None)
-    gb = frame_gbuffer(plan, settings, params.albedo, say)
+    gb = frame_gbuffer(plan, settings, _on_params(params, lambda p: p.albedo), say)
     say(f"Burley pass: {b.sampler} sampler, {b.spp} spp, {b.backend} backend")
     sss = burley_sss(gb, params, b)
     res = BurleyResult(plan.label, settings, b, plan.material, params, gb, sss, gb.composite(sss), source=plan.source)
-    ground_truths(res, settings, plan, params.profile(), lambda: burley_exact(gb, params), say, progress is not None)
+    ground_truths(res, settings, plan, _on_params(params, lambda p: p.profile()), lambda: burley_exact(gb, params),
+                  say, progress is not None)
     return res
 
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -31,16 +31,22 @@ from ..errors import SceneError, SettingsError
 from ..io import check_distinct, save_image
 from ..materials import LayeredMaterial, Material, get_material
 from ..metrics import region_metrics
-from ..scenes import SCENES, reference_phase_g, render_gbuffer, render_reference
+from ..scenes import SCENES, ResolvedScene, SceneSpec, reference_phase_g, render_gbuffer, render_reference, resolve_scene
+from ..scenes.reference import check_reference_scene
 from ..scenes.scenes import mitsuba
 from ..profiles import check_model_domain
-from ..screenspace import GBuffer, load_gbuffer
+from ..screenspace import BurleyParams, GBuffer, load_gbuffer
 from ..profiles.base import RGBProfile
 from ..scenes.reference import Reference
 from .regions import compare_regions
 from .settings import RenderSettings
 
 Progress = Callable[[str], None]
+#: what a frame renders: a built-in scene name, a generated mesh, a mesh or scene .toml file, a G-buffer .exr
+#: file (a name or path), a SceneSpec, a resolved scene (:func:`ssskit.scenes.resolve_scene`), or a GBuffer
+SceneInput = str | os.PathLike[str] | GBuffer | SceneSpec | ResolvedScene
+#: the Burley parameters of every profile id, or a mapping profile id -> parameters
+BurleyInput = BurleyParams | Mapping[int, BurleyParams]
 
 
 class ImageLayers:
@@ -112,43 +118,61 @@ def finite(value: Any) -> Any:
 
 @dataclass(frozen=True)
 class ScenePlan:
-    """What a frame renders, resolved and checked before any work: the ``material``, the scene's
-    ``label``, a built-in scene's canonical name (``builtin``) or the ``gbuffer`` given or read from the
-    file ``source``."""
+    """What a frame renders, resolved and checked before any work: the ``material`` (the settings'), the
+    scene's ``label``, a built-in scene's canonical name (``builtin``), the ``spec`` of a built-in or mesh
+    scene (:func:`ssskit.scenes.resolve_scene`) with one material per profile id (``materials``) and what
+    resolving it assumed (``notes``), or the ``gbuffer`` given or read from the file ``source``."""
 
     material: Any
     label: str
     builtin: str | None
     gbuffer: GBuffer | None
     source: Path | None
+    spec: SceneSpec | None = None
+    materials: tuple[Any, ...] = ()
+    notes: tuple[str, ...] = ()
+
+    @property
+    def per_id(self) -> bool:
+        """Whether the scene's profile ids carry different materials (a material map)."""
+        return len({getattr(m, "name", m) for m in self.materials}) > 1
 
 
-def _scene(scene: str | os.PathLike[str] | GBuffer, settings: RenderSettings,
-           material: Material | LayeredMaterial) -> tuple[str, str | None, GBuffer | None, Path | None]:
+def _scene(scene: SceneInput, settings: RenderSettings, material: Material | LayeredMaterial) -> ScenePlan:
     if isinstance(scene, GBuffer):
         if settings.reference:
-            raise SettingsError("reference needs a built-in scene (a G-buffer in memory has no scene to path-trace)")
-        return str(scene.meta.get("scene", "G-buffer")), None, scene, None
-    if not isinstance(scene, (str, os.PathLike)):
-        raise SceneError(f"scene must be a built-in scene name, a G-buffer .exr file or a GBuffer, "
-                         f"got {type(scene).__name__}")
-    text = os.fspath(scene)
-    if text.strip().lower().endswith(".exr"):
+            raise SettingsError("reference needs a built-in scene or a mesh (a G-buffer in memory has no scene to "
+                                "path-trace)")
+        return ScenePlan(material, str(scene.meta.get("scene", "G-buffer")), None, scene, None)
+    if isinstance(scene, ResolvedScene):
+        resolved = scene
+    elif isinstance(scene, (str, os.PathLike, SceneSpec)):
+        resolved = resolve_scene(scene, width=settings.width, height=settings.height)
+    else:
+        raise SceneError(f"scene must be a built-in scene name, a mesh or scene .toml file, a G-buffer .exr file, "
+                         f"a ResolvedScene or a GBuffer, got {type(scene).__name__}")
+    if resolved.kind == "gbuffer":
         if settings.reference:
-            raise SettingsError("reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
-        path = Path(text)
-        return path.name, None, load_gbuffer(path), path
-    if text not in SCENES and (Path(text).suffix or os.sep in text or Path(text).exists()):
-        raise SceneError(f"scene {text!r} is neither a built-in scene ({', '.join(SCENES.names())}) "
-                         "nor a G-buffer .exr file")
-    spec = SCENES.get(text)  # an unknown name fails here with the list of scenes
-    if not isinstance(material, Material):  # a LayeredMaterial has no eta
-        raise SettingsError(f"a built-in scene needs a homogeneous material (its eta makes the boundary); "
-                            f"{material.name!r} is a {type(material).__name__}")
+            raise SettingsError("reference needs a built-in scene or a mesh (a G-buffer file has no scene to path-trace)")
+        path = resolved.path
+        assert path is not None
+        return ScenePlan(material, path.name, None, load_gbuffer(path), path)
+    spec = resolved.spec
+    assert spec is not None
+    mats: list[Material] = []
+    for m in (material, *(get_material(name) for name in spec.shape_materials(settings.material))):
+        if not isinstance(m, Material):  # a LayeredMaterial has no eta
+            raise SettingsError(f"a scene needs homogeneous materials (their eta makes the boundary); "
+                                f"{m.name!r} is a {type(m).__name__}")
+        mats.append(m)
+    mats = mats[1:]
     if settings.reference:
-        reference_phase_g(material)
+        check_reference_scene(spec)
+        for m in mats:
+            reference_phase_g(m)
     mitsuba()  # the renderer must be importable
-    return spec.name, spec.name, None, None
+    builtin = spec.name if resolved.kind == "builtin" and spec.name in SCENES else None
+    return ScenePlan(material, spec.name, builtin, None, None, spec, tuple(mats), resolved.notes)
 
 
 def _default_size() -> tuple[int, int]:
@@ -156,27 +180,34 @@ def _default_size() -> tuple[int, int]:
     return d.width, d.height
 
 
-def plan_scene(scene: str | os.PathLike[str] | GBuffer, settings: RenderSettings) -> ScenePlan:
+def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
     """Resolve and check the material, the backend and the scene of a frame, doing no work; reads a
-    G-buffer file. A G-buffer keeps its own size: a ``width`` x ``height`` that differs from the default
-    and from the G-buffer's is an error. Raises the first problem as an :class:`~ssskit.errors.SsskitError`."""
+    G-buffer file. ``scene``: a built-in scene name, a generated mesh, a mesh or scene .toml file (resolved
+    with the defaults: no units, no material map, the scene's view), a :class:`~ssskit.scenes.ResolvedScene`
+    (:func:`ssskit.scenes.resolve_scene` with the user's units, material map and view), a G-buffer ``.exr``
+    file or a :class:`~ssskit.screenspace.GBuffer`. A G-buffer keeps its own size: a ``width`` x ``height``
+    that differs from the default and from the G-buffer's is an error. Raises the first problem as an
+    :class:`~ssskit.errors.SsskitError`."""
     if not isinstance(settings, RenderSettings):
         raise SettingsError(f"settings must be RenderSettings, got {type(settings).__name__}")
     material = get_material(settings.material)
     check_model_domain(material, settings.model)  # the model's valid domain, before any work
     get_backend(settings.backend)
-    label, builtin, gb, source = _scene(scene, settings, material)
-    if gb is not None:
-        h, w = gb.shape
+    plan = _scene(scene, settings, material)
+    if plan.gbuffer is not None:
+        h, w = plan.gbuffer.shape
         size = (settings.width, settings.height)
         if size not in (_default_size(), (w, h)):
             raise SettingsError(f"the image size {size[0]}x{size[1]} (--size) does not apply to a G-buffer file: "
-                                f"{label} is {w}x{h} and keeps its size")
-        if not gb.mask.any():
-            raise SettingsError(f"the G-buffer {label} has no SSS pixel (its profile_id is 0 everywhere): there is "
-                                "nothing for the pass to blur and nothing to measure")
-        _check_named_materials(gb, material, label)
-    return ScenePlan(material, label, builtin, gb, source)
+                                f"{plan.label} is {w}x{h} and keeps its size")
+        if not plan.gbuffer.mask.any():
+            raise SettingsError(f"the G-buffer {plan.label} has no SSS pixel (its profile_id is 0 everywhere): there "
+                                "is nothing for the pass to blur and nothing to measure")
+        _check_named_materials(plan.gbuffer, material, plan.label)
+    for mat in plan.materials:  # a scene's own materials (a material map) are held to the model's domain too
+        if mat is not material:
+            check_model_domain(mat, settings.model)
+    return plan
 
 
 def _check_named_materials(gb: GBuffer, material: Any, label: str) -> None:
@@ -195,18 +226,38 @@ def _check_named_materials(gb: GBuffer, material: Any, label: str) -> None:
                                 "--material for it (one material serves every profile id)") from None
 
 
-def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo: ArrayLike, say: Progress) -> GBuffer:
-    """The frame's G-buffer: the one given, or the built-in scene rendered by Mitsuba with ``albedo``
-    (per channel, clipped to [0, 1]) at the settings' size, samples, seed and frame."""
+def per_id(plan: ScenePlan, make: Callable[[Any], Any]) -> Any:
+    """``make(material)`` for the plan's one material, or a mapping profile id -> ``make`` of that id's
+    material when the scene's ids carry different materials (each distinct material made once)."""
+    if not plan.per_id:
+        return make(plan.materials[0] if plan.materials else plan.material)
+    made: dict[str, Any] = {}
+    out = {}
+    for pid, mat in enumerate(plan.materials, start=1):
+        if mat.name not in made:
+            made[mat.name] = make(mat)
+        out[pid] = made[mat.name]
+    return out
+
+
+def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo: ArrayLike | Mapping[int, ArrayLike],
+                  say: Progress) -> GBuffer:
+    """The frame's G-buffer: the one given, or the scene rendered by Mitsuba with ``albedo`` (per channel,
+    clipped to [0, 1]; or a mapping profile id -> albedo, :func:`per_id`) at the settings' size, samples,
+    seed and frame, each profile id with its material's eta and name."""
     if plan.gbuffer is not None:
         return plan.gbuffer
-    assert plan.builtin is not None  # a plan without a G-buffer has a built-in scene
-    say(f"rendering the {plan.builtin} G-buffer ({settings.width}x{settings.height}, {settings.spp} spp, "
+    assert plan.spec is not None
+    say(f"rendering the {plan.label} G-buffer ({settings.width}x{settings.height}, {settings.spp} spp, "
         "Mitsuba scalar_rgb)")
-    mat = plan.material
-    return render_gbuffer(plan.builtin, np.clip(albedo, 0.0, 1.0), eta=mat.eta, width=settings.width,
-                          height=settings.height, spp=settings.spp, seed=settings.seed, frame=settings.frame,
-                          material=mat.name)
+    mats = plan.materials or (plan.material,)
+    if isinstance(albedo, Mapping):
+        alb = np.clip([albedo[pid] for pid in range(1, len(mats) + 1)], 0.0, 1.0)
+    else:
+        alb = np.clip(albedo, 0.0, 1.0)
+    return render_gbuffer(plan.spec, alb, eta=[m.eta for m in mats], width=settings.width, height=settings.height,
+                          spp=settings.spp, seed=settings.seed, frame=settings.frame,
+                          material=tuple(m.name for m in mats))
 
 
 def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, profile: RGBProfile,
@@ -214,7 +265,7 @@ def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, p
     """Add the ground truths to ``res`` (module docstring): ``exact()`` (the pass's exact limit, blurred
     diffuse layer or None) when ``settings.exact``, the path-traced reference when ``settings.reference``,
     their metrics inside the SSS mask, and with either the levels per region of ``profile`` (a radial
-    profile: its reach sizes the regions). ``progress``: show the path tracer's progress bar."""
+    profile, or a mapping profile id -> profile: the furthest-reaching one's reach sizes the regions). ``progress``: show the path tracer's progress bar."""
     gb = res.gbuffer
     mask = gb.mask
     if settings.exact and mask.any():
@@ -223,10 +274,11 @@ def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, p
         if res.exact is not None:
             res.metrics["exact_2d"] = region_metrics(gb.composite(res.exact), res.image, mask, settings.perceptual)
     if settings.reference:
-        assert plan.builtin is not None  # plan_scene refuses a reference without a built-in scene
-        say(f"path tracing {plan.builtin} (Mitsuba volpathmis, {settings.reference_spp} to {settings.reference_max_spp} "
+        say(f"path tracing {plan.label} (Mitsuba volpathmis, {settings.reference_spp} to {settings.reference_max_spp} "
             f"spp until the SSS mask's relative standard error is {settings.reference_rel_se:.1%}; cached)")
-        ref = render_reference(plan.builtin, plan.material, width=gb.shape[1], height=gb.shape[0],
+        assert plan.spec is not None
+        media = list(plan.materials) if plan.per_id else (plan.materials or (plan.material,))[0]
+        ref = render_reference(plan.spec, media, width=gb.shape[1], height=gb.shape[0],
                                spp=settings.reference_spp, max_spp=settings.reference_max_spp,
                                target_rel_se=settings.reference_rel_se, region=mask if mask.any() else None,
                                seed=settings.seed, frame=settings.frame, progress=progress)
@@ -239,8 +291,10 @@ def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, p
         m["reference"] = ref.summary()
         res.metrics["path_traced"] = m
     if (settings.reference or res.exact is not None) and mask.any():
+        if isinstance(profile, Mapping):  # one profile per id: the furthest-reaching sizes the regions
+            profile = max(profile.values(), key=lambda p: float(np.max(p.radius_at_fraction(0.99))))
         res.metrics["regions"] = compare_regions(gb, profile, res.sss, res.exact, res.reference_info)
 
 
-__all__ = ["ImageLayers", "ScenePlan", "finite", "frame_gbuffer", "ground_truths", "metric_lines", "plan_scene",
+__all__ = ["BurleyInput", "ImageLayers", "SceneInput", "ScenePlan", "finite", "frame_gbuffer", "ground_truths", "metric_lines", "per_id", "plan_scene",
            "reference_line"]

@@ -15,15 +15,20 @@ pass (``settings.pass_``, one pass over every profile id) -> composite albedo * 
 (separable-SSS paper section 6) -> ground truths and their metrics.
 
 ``scene`` is a built-in scene name (:data:`ssskit.scenes.SCENES`, rendered by Mitsuba at
-``settings.width`` x ``settings.height`` with ``settings.spp`` and ``settings.seed``), a G-buffer
-``.exr`` file, or a :class:`GBuffer` in memory (to run several kernels on one render). The frame
-(``settings.frame``) also moves a built-in scene's camera and lights along their paths.
+``settings.width`` x ``settings.height`` with ``settings.spp`` and ``settings.seed``), a mesh scene
+(a generated mesh such as ``bust``, a mesh file .obj/.ply/.glb/.gltf or a scene .toml, or a
+:class:`~ssskit.scenes.ResolvedScene` from :func:`ssskit.scenes.resolve_scene` with units, material
+map and view; docs/meshes.md), a G-buffer ``.exr`` file, or a :class:`GBuffer` in memory (to run
+several kernels on one render). The frame (``settings.frame``) also moves a scene's camera and lights
+along their paths.
 
 Every check happens before any work (no profile, render or convolution starts on bad input):
 
 * a G-buffer (file or in memory) keeps its own size: a ``width`` x ``height`` that differs from the
   default and from the G-buffer's size is an error (``--size`` does not apply to a G-buffer file);
-  ``reference`` needs a built-in scene and is refused for a G-buffer;
+  ``reference`` needs a scene and is refused for a G-buffer; a mesh scene's checks
+  (:func:`ssskit.scenes.resolve_scene`: the file, its size in memory, NaN vertices, the material map,
+  the units) all run here, and the reference refuses an open or non-manifold SSS mesh with the reason;
 * an engine tap kernel (a method whose parameter is its tap count: ``jimenez2012``) is built with
   ``settings.taps`` taps unless the spec names its count (``jimenez2012:17``); a spec count that
   differs from a non-default ``settings.taps`` is an error, and so is a non-default ``tap_method``
@@ -33,7 +38,10 @@ Every check happens before any work (no profile, render or convolution starts on
 * the backend must be able to run here.
 
 A profile model that takes no material (``deon2007``) is used as is; the material still gives the
-scene's boundary and the reference's medium. One material serves every profile id of a G-buffer.
+scene's boundary and the reference's medium. One material serves every profile id of a G-buffer; a
+scene whose objects carry their own materials (a material map) gets one profile, kernel and set of
+taps per profile id (``RenderResult.profile`` is then a mapping id -> profile; ``kernel`` and ``taps``
+are id 1's), and the reference one medium per object.
 
 Two ground truths:
 
@@ -56,6 +64,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -70,8 +79,8 @@ from ..screenspace import BurleyParams, GBuffer, separable_sss
 from ..truth import exact_screen_space
 from .adaptive import AdaptiveResult, FrameCallback, render_adaptive
 from .burley_frame import BurleyResult, render_burley
-from .frame import (ImageLayers, Progress, ScenePlan, finite, frame_gbuffer, ground_truths, metric_lines, plan_scene,
-                    reference_line)
+from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
+                    metric_lines, per_id, plan_scene, reference_line)
 from .settings import RenderSettings
 
 
@@ -150,7 +159,7 @@ def _kernel_plan(settings: RenderSettings) -> tuple[KernelMethod, dict[str, Any]
     return method, params, None
 
 
-def plan_render(scene: str | os.PathLike[str] | GBuffer, settings: RenderSettings) -> _Plan:
+def plan_render(scene: SceneInput, settings: RenderSettings) -> _Plan:
     """Resolve and check everything :func:`render_separable` needs, doing no work (module docstring); reads
     a G-buffer file. Raises the first problem as an :class:`~ssskit.errors.SsskitError`."""
     if not isinstance(settings, RenderSettings):
@@ -161,7 +170,7 @@ def plan_render(scene: str | os.PathLike[str] | GBuffer, settings: RenderSetting
     return _Plan(plan_scene(scene, settings), method, params, tap_count)
 
 
-def render_separable(scene: str | os.PathLike[str] | GBuffer = "slab", settings: RenderSettings | None = None,
+def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None = None,
                      progress: Progress | None = None) -> RenderResult:
     """Render ``scene`` with the separable pass under ``settings`` and compare it with ground truth
     (module docstring). ``progress`` receives one message per step."""
@@ -173,17 +182,30 @@ def render_separable(scene: str | os.PathLike[str] | GBuffer = "slab", settings:
     opts = {"photons": settings.photons} if model == "montecarlo" else {}
     say(f"profile: {settings.model}" + ("" if model in MATERIAL_FREE_MODELS else f" of {mat.name}")
         + (f" ({settings.photons:,} photons per channel)" if opts else ""))
-    profile = profile_for_material(None if model in MATERIAL_FREE_MODELS else mat, settings.model, **opts)
+    # one profile, kernel and taps, or one per profile id where a material map gives ids their own materials
+    profile = per_id(plan.scene, lambda m: profile_for_material(None if model in MATERIAL_FREE_MODELS else m,
+                                                                 settings.model, **opts))
     say(f"kernel: {settings.kernel}")
-    cell, n = default_grid(profile)
-    kernel = build_kernel(plan.method.name, profile, cell, n, **plan.params)
-    taps = make_taps(kernel, None if isinstance(kernel, TapKernel) else plan.tap_count, settings.tap_method)
-    gb = frame_gbuffer(plan.scene, settings, profile.total_rd(), say)
+
+    def taps_of(prof):
+        cell, n = default_grid(prof)
+        k = build_kernel(plan.method.name, prof, cell, n, **plan.params)
+        return k, make_taps(k, None if isinstance(k, TapKernel) else plan.tap_count, settings.tap_method)
+
+    if isinstance(profile, Mapping):
+        built = {pid: taps_of(p) for pid, p in profile.items()}
+        kernel, taps = built[1]
+        pass_taps: Any = {pid: t for pid, (_, t) in built.items()}
+        albedo: Any = {pid: p.total_rd() for pid, p in profile.items()}
+    else:
+        kernel, taps = taps_of(profile)
+        pass_taps, albedo = taps, profile.total_rd()
+    gb = frame_gbuffer(plan.scene, settings, albedo, say)
     placement = "engine" if isinstance(kernel, TapKernel) else settings.tap_method
     sss_settings = settings.pass_settings()
     say(f"separable pass: {settings.kernel}, {taps.taps} {placement} taps, jitter {sss_settings.jitter:g}, "
         f"{settings.backend} backend")
-    sss = separable_sss(gb, taps, sss_settings)
+    sss = separable_sss(gb, pass_taps, sss_settings)
     res = RenderResult(plan.scene.label, settings, mat, profile, kernel, taps, gb, sss, gb.composite(sss),
                        source=plan.scene.source)
     ground_truths(res, settings, plan.scene, profile, lambda: exact_screen_space(gb, profile), say,
@@ -191,8 +213,27 @@ def render_separable(scene: str | os.PathLike[str] | GBuffer = "slab", settings:
     return res
 
 
-def render(scene: str | os.PathLike[str] | GBuffer = "slab", settings: RenderSettings | None = None,
-           progress: Progress | None = None, *, params: BurleyParams | None = None,
+def plan(scene: SceneInput, settings: RenderSettings, *, params: BurleyInput | None = None) -> ScenePlan:
+    """Every check :func:`render` makes for the pass ``settings`` names, doing no work; returns the scene's
+    plan (its ``notes``: what resolving a mesh scene assumed). A caller that reports those notes runs this
+    first, so a bad input is its only message."""
+    if not isinstance(settings, RenderSettings):
+        raise SettingsError(f"settings must be RenderSettings, got {type(settings).__name__}")
+    if settings.pass_name == "burley-adaptive":
+        from .adaptive import plan_adaptive
+
+        return plan_adaptive(scene, settings, params)[0]
+    if settings.pass_name == "burley":
+        from .burley_frame import plan_burley
+
+        return plan_burley(scene, settings, params)[0]
+    if params is not None:
+        raise SettingsError("params (Burley parameters) apply to the Burley passes; this render runs the separable pass")
+    return plan_render(scene, settings).scene
+
+
+def render(scene: SceneInput = "slab", settings: RenderSettings | None = None,
+           progress: Progress | None = None, *, params: BurleyInput | None = None,
            on_frame: FrameCallback | None = None) -> RenderResult | BurleyResult | AdaptiveResult:
     """Render ``scene`` with the pass ``settings.pass_`` names and compare it with ground truth:
     :func:`render_separable` (a :class:`RenderResult`), :func:`~ssskit.pipeline.burley_frame.render_burley`
@@ -216,4 +257,4 @@ def render(scene: str | os.PathLike[str] | GBuffer = "slab", settings: RenderSet
     return render_separable(scene, settings, progress)
 
 
-__all__ = ["RenderResult", "plan_render", "render", "render_separable"]
+__all__ = ["RenderResult", "plan", "plan_render", "render", "render_separable"]

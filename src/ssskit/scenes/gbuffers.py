@@ -26,50 +26,87 @@ from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, SceneSpec, check_size, check_
                      scene_camera, scene_dict)
 
 
-def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float = 1.4, width: int = 256, height: int = 192, spp: int = 32,
-                   seed: int = 0, frame: int = 0, material: str = "material") -> GBuffer:
+#: the AOV pass tells SSS shapes apart by the green channel of their albedo tag: id / ID_SCALE (exact in
+#: float32 for ids below ID_SCALE)
+ID_SCALE = 1024.0
+
+
+def _per_shape(name: str, value: ArrayLike, n: int, shape: tuple[int, ...]) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.shape == shape or arr.shape == () or arr.shape == (1,):
+        return np.broadcast_to(arr.reshape(shape if arr.shape == shape else ()), (n, *shape)).copy()
+    if arr.shape == (n, *shape):
+        return arr
+    raise SceneError(f"{name} must have shape {shape or '()'} or one per SSS shape ({n}), got {arr.shape}")
+
+
+def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float | ArrayLike = 1.4, width: int = 256,
+                   height: int = 192, spp: int = 32, seed: int = 0, frame: int = 0,
+                   material: str | tuple[str, ...] = "material") -> GBuffer:
     """Render the named scene's G-buffer (module docstring) at ``frame`` with Mitsuba ``scalar_rgb``.
 
-    ``albedo``: (3,) diffuse albedo of the SSS objects (the profile's total reflectance);
-    ``eta``: their refractive index (specular layer). Returns a :class:`GBuffer` with profile id 1
-    on the SSS objects, ``materials = (material,)`` and meta (scene, frame, spp, seed, eta).
+    ``albedo``: (3,) diffuse albedo of the SSS objects (the profile's total reflectance), or (n, 3)
+    one per SSS shape; ``eta``: their refractive index (specular layer), one or n; ``material``:
+    its name, or n names. SSS shape i (``spec.sss_shapes[i]``) gets profile id i + 1, so a scene
+    with n SSS shapes has ids 1..n and ``materials`` of length n (one name repeated if one is
+    given); meta holds scene, frame, spp, seed, eta (a list if several).
     """
     spec = get_scene(scene)
     check_size(width, height)
     check_spp(spp)
-    alb = np.broadcast_to(np.asarray(albedo, dtype=float), (3,))
+    n = len(spec.sss_shapes)
+    alb = _per_shape("albedo", albedo, n, (3,))
     if not np.all(np.isfinite(alb)) or np.any(alb < 0) or np.any(alb > 1):
-        raise SceneError(f"albedo must lie in [0, 1], got {alb.tolist()}")
-    if not (isinstance(eta, (int, float, np.floating)) and np.isfinite(eta) and eta > 0):
+        raise SceneError(f"albedo must lie in [0, 1], got {alb.tolist() if n > 1 else alb[0].tolist()}")
+    if isinstance(eta, bool):
         raise SceneError(f"eta must be a positive refractive index, got {eta!r}")
+    etas = _per_shape("eta", eta, n, ())
+    if not (np.all(np.isfinite(etas)) and np.all(etas > 0)):
+        raise SceneError(f"eta must be a positive refractive index, got {eta!r}")
+    names = (material,) * n if isinstance(material, str) else tuple(str(m) for m in material)
+    if len(names) != n:
+        raise SceneError(f"material names one per SSS shape ({n}), got {len(names)}")
+    ids = {sid: i + 1 for i, sid in enumerate(spec.sss_shapes)}
     white = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 1.0}}
     black = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.0}}
-    coat = {"type": "roughplastic", "diffuse_reflectance": {"type": "rgb", "value": 0.0}, "int_ior": float(eta),
-            "distribution": "beckmann", "alpha": COAT_ROUGHNESS}
+
+    def coat(sid: str) -> dict:
+        if sid not in ids:
+            return black
+        return {"type": "roughplastic", "diffuse_reflectance": {"type": "rgb", "value": 0.0},
+                "int_ior": float(etas[ids[sid] - 1]), "distribution": "beckmann", "alpha": COAT_ROUGHNESS}
+
     direct = {"type": "direct", "emitter_samples": 1, "bsdf_samples": 1}
 
     diffuse = render_dict(scene_dict(spec, width, height, spp, seed, frame, direct, lambda sid: white))
-    specular = render_dict(scene_dict(spec, width, height, spp, seed + 1, frame, direct,
-                                      lambda sid: coat if sid in spec.sss_shapes else black))
+    specular = render_dict(scene_dict(spec, width, height, spp, seed + 1, frame, direct, coat))
     # Mitsuba merges meshes that share a material, so shapes are told apart by an albedo tag in the
-    # AOV pass (1 on SSS objects, 0.25 elsewhere, 0 where no surface) rather than by shape index.
+    # AOV pass (red 1 on SSS objects, 0.25 elsewhere, 0 where no surface; green: the profile id /
+    # ID_SCALE) rather than by shape index.
     tagged = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.25}}
+
+    def tag_for(sid: str) -> dict:
+        if sid not in ids:
+            return tagged
+        return {"type": "diffuse", "reflectance": {"type": "rgb", "value": [1.0, ids[sid] / ID_SCALE, 0.0]}}
+
     aov_int = {"type": "aov", "aovs": "pos:position,nn:sh_normal,alb:albedo"}
-    aov = render_dict(scene_dict(spec, width, height, 1, seed + 2, frame, aov_int,
-                                 lambda sid: white if sid in spec.sss_shapes else tagged))
+    aov = render_dict(scene_dict(spec, width, height, 1, seed + 2, frame, aov_int, tag_for))
     pos, normal, tag = aov[..., 0:3], aov[..., 3:6], aov[..., 6]
     hit = tag > 0.1
     sss = tag > 0.6
+    pid = np.where(sss, np.clip(np.rint(aov[..., 7] * ID_SCALE), 1, n), 0).astype(np.uint32)
     cam = scene_camera(spec, width, height, frame)
     cam_pos = pos @ cam.world_to_camera[:3, :3].T + cam.world_to_camera[:3, 3]
     depth = np.where(hit, cam_pos[..., 2], np.inf).astype(np.float32)
-    albedo_layer = np.where(sss[..., None], alb.astype(np.float32), np.float32(FLOOR_ALBEDO))
+    table = np.concatenate([np.full((1, 3), FLOOR_ALBEDO), alb]).astype(np.float32)
+    albedo_layer = table[pid]
     albedo_layer[~hit] = 0.0
     meta = {"scene": spec.name, "frame": int(frame), "spp": int(spp), "seed": int(seed),
-            "renderer": "mitsuba3 scalar_rgb", "eta": float(eta)}
+            "renderer": "mitsuba3 scalar_rgb", "eta": float(etas[0]) if n == 1 or np.ptp(etas) == 0 else etas.tolist()}
     return GBuffer(diffuse=np.maximum(diffuse[..., :3], 0), albedo=albedo_layer, depth=depth,
-                   profile_id=sss.astype(np.uint32), camera=cam, specular=np.maximum(specular[..., :3], 0),
-                   normal=np.where(hit[..., None], normal, 0).astype(np.float32), materials=(material,), meta=meta)
+                   profile_id=pid, camera=cam, specular=np.maximum(specular[..., :3], 0),
+                   normal=np.where(hit[..., None], normal, 0).astype(np.float32), materials=names, meta=meta)
 
 
 def render_sequence(scene: str, albedo: ArrayLike, frames: int, first: int = 0, **kw: Any) -> list[GBuffer]:

@@ -35,6 +35,7 @@ import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -184,33 +185,20 @@ class ReferenceRenderer:
     image (every sample lands in it; a region's error falls faster).
     """
 
-    def __init__(self, scene: str | SceneSpec, material: Material, width: int, height: int, max_depth: int = 1024, seed: int = 0,
+    def __init__(self, scene: str | SceneSpec, material: Material | Sequence[Material], width: int, height: int, max_depth: int = 1024, seed: int = 0,
                  frame: int = 0, boundary: str = "rough-dielectric", surround_albedo: float = 0.0,
                  crop: tuple[int, int, int, int] | None = None) -> None:
         self.spec = get_scene(scene)
         check_size(width, height)
+        check_reference_scene(self.spec)
         _check_options(max_depth, seed, frame, boundary, surround_albedo)
-        self.g = reference_phase_g(material)
-        sigma_t = np.asarray(material.sigma_a, float) + np.asarray(material.sigma_s, float)
-        scale = float(sigma_t.max())
-        if not scale > 0:
-            raise SceneError("the material has no extinction (sigma_a + sigma_s = 0)")
-        single = np.where(sigma_t > 0, np.asarray(material.sigma_s, float) / np.maximum(sigma_t, 1e-300), 0.0)
-        # RGB values of a Mitsuba medium must lie in [0, 1]: sigma_t is given relative to its maximum
-        medium = {"type": "homogeneous", "sigma_t": {"type": "rgb", "value": (sigma_t / scale).tolist()},
-                  "albedo": {"type": "rgb", "value": single.tolist()}, "phase": {"type": "hg", "g": self.g},
-                  "scale": scale}
-        if boundary == "rough-dielectric":
-            shell = {"type": "roughdielectric", "int_ior": float(material.eta),
-                     "ext_ior": float(getattr(material, "eta_ambient", 1.0)), "distribution": "beckmann",
-                     "alpha": COAT_ROUGHNESS}
-        else:
-            shell = {"type": "null"}
+        mats = shape_materials(self.spec, material)
+        self.g = reference_phase_g(mats[0])
+        interiors = {sid: _interior(m, boundary) for sid, m in zip(self.spec.sss_shapes, mats)}
         surround = {"type": "diffuse", "reflectance": {"type": "rgb", "value": float(surround_albedo)}}
-        sss = self.spec.sss_shapes
 
         def bsdf_for(sid):
-            return {**shell, "__medium": medium} if sid in sss else surround
+            return interiors.get(sid, surround)
 
         self.seed = int(seed)
         self.width, self.height = int(width), int(height)
@@ -233,6 +221,44 @@ class ReferenceRenderer:
         """Chunk ``index`` with ``spp`` samples per pixel, seeded by :func:`chunk_seed`; (H, W, 3) float64."""
         img = self._mi.render(self._scene, seed=chunk_seed(self.seed, index), spp=int(spp))
         return np.array(img, dtype=np.float64)[..., :3]
+
+
+def _interior(material: Any, boundary: str) -> dict[str, Any]:
+    """The BSDF (boundary) and interior medium of one SSS shape (:class:`ReferenceRenderer`)."""
+    g = reference_phase_g(material)
+    sigma_t = np.asarray(material.sigma_a, float) + np.asarray(material.sigma_s, float)
+    scale = float(sigma_t.max())
+    if not scale > 0:
+        raise SceneError(f"material {getattr(material, 'name', material)!r} has no extinction (sigma_a + sigma_s = 0)")
+    single = np.where(sigma_t > 0, np.asarray(material.sigma_s, float) / np.maximum(sigma_t, 1e-300), 0.0)
+    # RGB values of a Mitsuba medium must lie in [0, 1]: sigma_t is given relative to its maximum
+    medium = {"type": "homogeneous", "sigma_t": {"type": "rgb", "value": (sigma_t / scale).tolist()},
+              "albedo": {"type": "rgb", "value": single.tolist()}, "phase": {"type": "hg", "g": g}, "scale": scale}
+    if boundary == "rough-dielectric":
+        shell = {"type": "roughdielectric", "int_ior": float(material.eta),
+                 "ext_ior": float(getattr(material, "eta_ambient", 1.0)), "distribution": "beckmann",
+                 "alpha": COAT_ROUGHNESS}
+    else:
+        shell = {"type": "null"}
+    return {**shell, "__medium": medium}
+
+
+def check_reference_scene(spec: SceneSpec) -> None:
+    """A SceneError if the path-traced reference cannot render ``spec`` (an open or non-manifold SSS
+    mesh: :meth:`ssskit.scenes.meshes.Topology.reference_problem`); the pipeline calls it before any work."""
+    if spec.reference_problem:
+        raise SceneError(spec.reference_problem)
+
+
+def shape_materials(spec: SceneSpec, material: Any) -> tuple[Any, ...]:
+    """One material per SSS shape of ``spec``: ``material`` (a Material) for each, or a sequence of
+    len(sss_shapes) Materials (the scene's own per-object materials, resolved by the caller)."""
+    if isinstance(material, (list, tuple)):
+        if len(material) != len(spec.sss_shapes):
+            raise SceneError(f"the reference needs one material per SSS shape ({len(spec.sss_shapes)}), "
+                             f"got {len(material)}")
+        return tuple(material)
+    return (material,) * len(spec.sss_shapes)
 
 
 def _check_options(max_depth: int, seed: int, frame: int, boundary: str, surround_albedo: float) -> None:
@@ -264,7 +290,7 @@ def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) 
     return img[..., 0] > 0.6
 
 
-def render_reference(scene: str | SceneSpec, material: Material, width: int = 128, height: int = 96, spp: int = 64,
+def render_reference(scene: str | SceneSpec, material: Material | Sequence[Material], width: int = 128, height: int = 96, spp: int = 64,
                      max_spp: int | None = None, target_rel_se: float = TARGET_REL_SE, region: ArrayLike | None = None,
                      max_depth: int = 1024, seed: int = 0, frame: int = 0, chunk_spp: int = 8,
                      boundary: str = "rough-dielectric", surround_albedo: float = 0.0, use_cache: bool = True,
@@ -294,7 +320,11 @@ def render_reference(scene: str | SceneSpec, material: Material, width: int = 12
     if not (isinstance(target_rel_se, (int, float, np.floating)) and 0 < target_rel_se < 1):
         raise SceneError(f"target relative standard error must lie in (0, 1), got {target_rel_se!r}")
     _check_options(max_depth, seed, frame, boundary, surround_albedo)
-    g = reference_phase_g(material)
+    check_reference_scene(spec)
+    mats = shape_materials(spec, material)
+    g = reference_phase_g(mats[0])
+    for m in mats[1:]:
+        reference_phase_g(m)
     if region is None:
         region = sss_region(spec, width, height, frame)
     region = np.asarray(region, dtype=bool)
@@ -302,8 +332,12 @@ def render_reference(scene: str | SceneSpec, material: Material, width: int = 12
         raise SceneError(f"region has shape {region.shape}, the image {(height, width)}")
     if not region.any():
         raise SceneError("the convergence region holds no pixel")
-    key = json.dumps({"scene": spec.name, "sa": list(material.sigma_a), "ss": list(material.sigma_s), "g": g,
-                      "eta": material.eta, "eta_amb": float(getattr(material, "eta_ambient", 1.0)),
+    first = mats[0]
+    media = {} if len(set(map(id, mats))) == 1 else {
+        "media": [[list(m.sigma_a), list(m.sigma_s), reference_phase_g(m), m.eta,
+                   float(getattr(m, "eta_ambient", 1.0))] for m in mats]}
+    key = json.dumps({**media, "scene": spec.name, "sa": list(first.sigma_a), "ss": list(first.sigma_s), "g": g,
+                      "eta": first.eta, "eta_amb": float(getattr(first, "eta_ambient", 1.0)),
                       "w": width, "h": height, "spp": spp, "max_spp": max_spp, "rel_se": float(target_rel_se),
                       "chunk": chunk_spp, "d": max_depth, "seed": seed, "frame": frame, "v": CACHE_VERSION,
                       "boundary": boundary, "surround": float(surround_albedo), "alpha": COAT_ROUGHNESS,
@@ -318,7 +352,7 @@ def render_reference(scene: str | SceneSpec, material: Material, width: int = 12
             return _load(path, region, opts)
         except Exception:  # noqa: BLE001 - a truncated or foreign file is rendered again
             pass
-    renderer = ReferenceRenderer(spec, material, width, height, max_depth, seed, frame, boundary,
+    renderer = ReferenceRenderer(spec, mats if media else first, width, height, max_depth, seed, frame, boundary,
                                  surround_albedo)
     min_chunks = -(-int(spp) // chunk_spp)
     max_chunks = max(int(max_spp) // chunk_spp, min_chunks)
@@ -371,5 +405,5 @@ def _load(path: Path, region: np.ndarray, opts: dict[str, Any]) -> Reference:
 
 
 __all__ = ["BOUNDARIES", "CACHE_VERSION", "MAX_SPP", "TARGET_REL_SE", "Reference", "ReferenceRenderer",
-           "batch_mean_se", "chunk_seed", "reference_cache_dir", "reference_phase_g", "render_reference",
-           "sss_region"]
+           "batch_mean_se", "check_reference_scene", "chunk_seed", "reference_cache_dir", "reference_phase_g", "render_reference",
+           "shape_materials", "sss_region"]

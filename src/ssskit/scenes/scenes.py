@@ -35,6 +35,8 @@ from ..errors import SceneError
 from ..io import atomic_output
 from ..registry import Registry
 from ..screenspace.camera import Camera
+from .meshes import ply_bytes
+from .mitsuba_variant import mitsuba
 
 #: diffuse albedo of everything that is not an SSS object (floors, occluders)
 FLOOR_ALBEDO = 0.5
@@ -61,6 +63,17 @@ class SceneSpec:
     lights: Callable[[], dict[str, dict]]
     orbit_deg_per_frame: float = 2.0
     light_orbit_deg_per_frame: float = 0.0  # lights orbit the target about the up axis
+    #: one material (preset name or material file) per SSS shape, "" for the render's own material;
+    #: empty: every SSS shape takes the render's material. SSS shape i has profile id i + 1 either way.
+    sss_materials: tuple[str, ...] = ()
+    #: why the path-traced reference cannot render this scene (an open or non-manifold SSS mesh), or None
+    reference_problem: str | None = None
+
+    def shape_materials(self, default: str) -> tuple[str, ...]:
+        """The material of each SSS shape (profile id i + 1 is ``sss_shapes[i]``), ``default`` where the
+        scene names none."""
+        mats = self.sss_materials or ("",) * len(self.sss_shapes)
+        return tuple(m or default for m in mats)
 
 
 SCENES: Registry[SceneSpec] = Registry("scene", SceneError)
@@ -70,17 +83,6 @@ def get_scene(scene: str | SceneSpec) -> SceneSpec:
     """A built-in scene by name (:data:`SCENES`), or ``scene`` itself when it already is a
     :class:`SceneSpec` (a variant such as :func:`ssskit.scenes.thickness.thin_scene`'s)."""
     return scene if isinstance(scene, SceneSpec) else SCENES.get(scene)
-
-
-def mitsuba() -> ModuleType:
-    """The ``mitsuba`` module with the ``scalar_rgb`` variant set, or a SceneError saying how to get it."""
-    try:
-        import mitsuba as mi
-    except ImportError:  # pragma: no cover - mitsuba is a core dependency
-        raise SceneError("the 3D scenes need Mitsuba 3: pip install mitsuba") from None
-    if mi.variant() != "scalar_rgb":
-        mi.set_variant("scalar_rgb")
-    return mi
 
 
 def _T():
@@ -98,8 +100,11 @@ def _floor(size=400.0, z=0.0):
     return {"type": "rectangle", "to_world": _T()().translate([0, 0, z]) @ _T()().scale([size, size, 1])}
 
 
-def _ply(name: str, verts: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None) -> dict:
-    """A Mitsuba ``ply`` shape for a triangle mesh, written once to the ``meshes`` cache (binary PLY)."""
+def _ply(name: str, verts: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None,
+         face_normals: bool | None = None) -> dict:
+    """A Mitsuba ``ply`` shape for a triangle mesh, written once to the ``meshes`` cache (binary PLY,
+    named by a digest of the arrays). ``face_normals`` (default: when no normals are given) shades
+    with the faces' normals; otherwise Mitsuba interpolates the given or its own smooth vertex normals."""
     verts = np.ascontiguousarray(verts, dtype="<f4")
     faces = np.ascontiguousarray(faces, dtype="<u4")
     cols = [verts] if normals is None else [verts, np.ascontiguousarray(normals, dtype="<f4")]
@@ -107,17 +112,10 @@ def _ply(name: str, verts: np.ndarray, faces: np.ndarray, normals: np.ndarray | 
     digest = hashlib.sha1(vdata.tobytes() + faces.tobytes()).hexdigest()[:16]
     path = cache_dir("meshes") / f"{name}-{digest}.ply"
     if not path.is_file():
-        props = "property float x\nproperty float y\nproperty float z\n"
-        if normals is not None:
-            props += "property float nx\nproperty float ny\nproperty float nz\n"
-        header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(verts)}\n{props}"
-                  f"element face {len(faces)}\nproperty list uchar uint vertex_indices\nend_header\n")
-        fdata = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<u4", (3,))])
-        fdata["n"] = 3
-        fdata["i"] = faces
         with atomic_output(path) as tmp:
-            tmp.write_bytes(header.encode() + vdata.tobytes() + fdata.tobytes())
-    return {"type": "ply", "filename": str(path), "face_normals": normals is None}
+            tmp.write_bytes(ply_bytes(verts, faces, normals))
+    return {"type": "ply", "filename": str(path), "face_normals": normals is None if face_normals is None
+            else bool(face_normals)}
 
 
 def _grid_faces(rows: int, cols: int) -> np.ndarray:
@@ -173,40 +171,7 @@ def _frozen(a: np.ndarray) -> np.ndarray:
     return a
 
 
-def _register() -> None:
-    SCENES.register("sphere", SceneSpec(
-        "sphere", "a 30 mm sphere on a plane, soft shadow from a spherical area light",
-        (0.0, -160.0, 90.0), (0.0, 0.0, 22.0), (0.0, 0.0, 1.0), 32.0,
-        lambda: {"sphere": {"type": "sphere", "center": [0, 0, 30], "radius": 30},
-                 "floor": _floor()},
-        ("sphere",),
-        lambda: {"key": _area_sphere((90, -70, 160), 10, 60.0)}, light_orbit_deg_per_frame=6.0))
-    SCENES.register("slab", SceneSpec(
-        "slab", "a flat slab seen head-on with a straight hard shadow edge (the paper's Fig. 7 set-up)",
-        (0.0, 0.0, 600.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 7.0,
-        # the occluder (x from 60 to 330 mm at height 150) is outside the view; the point light at
-        # (400, 0, 1000) puts its straight shadow edge on the line x = 0 of the slab's top face
-        lambda: {"slab": {"type": "cube", "to_world": _T()().translate([0, 0, -10]) @ _T()().scale([60, 60, 10])},
-                 "occluder": {"type": "rectangle",
-                              "to_world": _T()().translate([195, 0, 150]) @ _T()().scale([135, 120, 1])}},
-        ("slab",),
-        lambda: {"key": {"type": "point", "position": [400, 0, 1000], "intensity": {"type": "rgb", "value": 3.0e6}}},
-        orbit_deg_per_frame=1.0))
-    SCENES.register("ear", SceneSpec(
-        "ear", "a thin ear-like flattened ellipsoid (4 mm thick) lit from the side and behind",
-        (0.0, -120.0, 40.0), (0.0, 0.0, 30.0), (0.0, 0.0, 1.0), 30.0,
-        lambda: {"ear": _ellipsoid_mesh(), "floor": _floor()},
-        ("ear",),
-        lambda: {"key": _area_sphere((70, 90, 80), 8, 80.0), "fill": _area_sphere((-90, -60, 60), 6, 15.0)}))
-    SCENES.register("bumpy", SceneSpec(
-        "bumpy", "a 40 mm skin-like tile with pore-scale pits, grazing light",
-        (0.0, -45.0, 45.0), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 40.0,
-        lambda: {"bumpy": _bumpy_mesh(), "floor": _floor(z=-3.0)},
-        ("bumpy",),
-        lambda: {"key": {"type": "point", "position": [80, 20, 25], "intensity": {"type": "rgb", "value": 8.0e3}}}))
-
-
-_register()
+# the built-in scenes are scene files (src/ssskit/scenes/builtin/*.toml), registered by .scenefile
 
 
 # ---- camera and light paths ----------------------------------------------------------------------------

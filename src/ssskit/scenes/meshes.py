@@ -1,0 +1,532 @@
+"""Triangle meshes from files: reading (OBJ and PLY through Mitsuba 3, glTF ``.glb``/``.gltf`` through
+trimesh), the checks a mesh passes before anything is rendered, and writers for the four formats.
+
+What is checked, and when (all before any rendering; :func:`inspect_mesh_file` runs the cheap ones
+without loading the mesh):
+
+* the file: missing, a directory, empty, a suffix that is none of :data:`FORMATS`;
+* its size: the vertex and face counts read from the file's header (PLY, glTF) or counted (OBJ
+  lines), and the memory a render of them at the asked image size would take
+  (:func:`memory_estimate`) against the memory available (:func:`check_memory`);
+* its data (:func:`check_mesh`): no faces, NaN or infinite vertex positions, face indices out of
+  range;
+* its topology (:func:`topology`): edges with one face (an open mesh), edges with more than two
+  (non-manifold), neighbouring faces wound against each other, the signed volume. The screen-space
+  passes take any mesh; the path-traced reference needs a closed, consistently wound one
+  (:meth:`Topology.reference_problem` says what does not hold).
+
+A file is one object (OBJ, PLY: Mitsuba merges an OBJ's groups into one mesh) named by its stem, or
+one object per glTF material (the primitives of all nodes that share a material, with the nodes'
+transforms applied), named by the material. Coordinates are in the file's units; the scene applies
+``--units`` (:data:`UNITS_MM`). glTF is in metres by its specification; OBJ and PLY carry no unit.
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import json
+import os
+import struct
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import SceneError
+from ..io import atomic_output
+
+#: mesh file suffixes and the reader of each
+FORMATS = {".obj": "obj", ".ply": "ply", ".glb": "gltf", ".gltf": "gltf"}
+#: millimetres per unit of a mesh file (ssskit's length unit is the mm: materials are in mm^-1)
+UNITS_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0}
+#: peak bytes per triangle of loading, checking and ray tracing a mesh: Mitsuba's scene with its BVH
+#: (87 B per face measured for a 327,680-face icosphere, scalar_rgb), the checks' welded edge arrays
+#: (3 edges x 2 int64 keys + sorting, ~150 B) and the reader's copies (trimesh's float64 arrays for glTF)
+BYTES_PER_FACE = 400
+#: peak bytes per image pixel of one frame: G-buffer layers, the three Mitsuba renders, the passes'
+#: float32/float64 images and the reference's accumulators
+BYTES_PER_PIXEL = 512
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """One object: ``vertices`` (V, 3) float32 in the file's units, ``faces`` (F, 3) uint32 indices,
+    ``normals`` (V, 3) float32 unit vertex normals or None (the renderer then computes smooth ones)."""
+
+    name: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        v = np.ascontiguousarray(self.vertices, dtype=np.float32)
+        f = np.ascontiguousarray(self.faces, dtype=np.int64)
+        if v.ndim != 2 or v.shape[1] != 3:
+            raise SceneError(f"mesh {self.name!r}: vertices must have shape (V, 3), got {v.shape}")
+        if f.ndim != 2 or f.shape[1] != 3:
+            raise SceneError(f"mesh {self.name!r}: faces must be triangles, shape (F, 3), got {f.shape}")
+        if f.size and (f.min() < 0 or f.max() >= len(v)):
+            raise SceneError(f"mesh {self.name!r}: face indices must lie in [0, {len(v) - 1}], "
+                             f"found {int(f.min())} to {int(f.max())}")
+        object.__setattr__(self, "vertices", v)
+        object.__setattr__(self, "faces", f.astype(np.uint32))
+        if self.normals is not None:
+            n = np.ascontiguousarray(self.normals, dtype=np.float32)
+            if n.shape != v.shape:
+                raise SceneError(f"mesh {self.name!r}: normals have shape {n.shape}, vertices {v.shape}")
+            object.__setattr__(self, "normals", n)
+
+    def digest(self) -> str:
+        """sha1 of the arrays (the reference cache's key for this geometry)."""
+        h = hashlib.sha1(self.vertices.tobytes() + self.faces.tobytes())
+        if self.normals is not None:
+            h.update(self.normals.tobytes())
+        return h.hexdigest()
+
+    def scaled(self, factor: float) -> "Mesh":
+        """The mesh with its vertices multiplied by ``factor`` (normals unchanged)."""
+        return Mesh(self.name, self.vertices * np.float32(factor), self.faces, self.normals)
+
+    def flipped(self) -> "Mesh":
+        """The faces wound the other way and the normals reversed (inside out)."""
+        n = None if self.normals is None else -self.normals
+        return Mesh(self.name, self.vertices, self.faces[:, ::-1], n)
+
+
+@dataclass(frozen=True)
+class Topology:
+    """Edge statistics of a mesh after welding equal vertex positions.
+
+    ``boundary_edges``: edges of one face (an open mesh has some); ``nonmanifold_edges``: edges of
+    more than two faces; ``misoriented_edges``: edges whose two faces run along it the same way
+    (wound against each other); ``volume``: the signed volume enclosed, V = 1/6 sum over faces of
+    v0 . (v1 x v2) (the divergence theorem over the triangles; positive when the faces wind
+    counter-clockwise seen from outside, meaningful only for a closed mesh).
+    """
+
+    vertices: int
+    faces: int
+    boundary_edges: int
+    nonmanifold_edges: int
+    misoriented_edges: int
+    volume: float
+
+    @property
+    def closed(self) -> bool:
+        return self.boundary_edges == 0 and self.nonmanifold_edges == 0
+
+    def reference_problem(self, name: str) -> str | None:
+        """Why the path-traced reference cannot take this mesh as a medium's boundary, or None.
+
+        The reference puts the medium inside the surface (Mitsuba's interior medium, entered through
+        a face against its normal): a hole lets paths leave the medium without crossing the boundary,
+        a non-manifold edge or a face wound against its neighbours makes inside and outside ambiguous.
+        """
+        if self.boundary_edges:
+            return (f"mesh {name!r} is open ({self.boundary_edges} edges with one face): the path-traced reference "
+                    "needs a closed surface around its medium")
+        if self.nonmanifold_edges:
+            return (f"mesh {name!r} is non-manifold ({self.nonmanifold_edges} edges with more than two faces): "
+                    "the path-traced reference needs a closed 2-manifold around its medium")
+        if self.misoriented_edges:
+            return (f"mesh {name!r} has faces wound against their neighbours ({self.misoriented_edges} edges): "
+                    "the path-traced reference needs consistent winding to tell inside from outside")
+        if not self.volume > 0:
+            return f"mesh {name!r} encloses no volume (signed volume {self.volume:.3g})"
+        return None
+
+
+@dataclass(frozen=True)
+class MeshCounts:
+    """Vertex and face (triangle) counts of a mesh file, read without loading it."""
+
+    vertices: int
+    faces: int
+
+
+# ---- the file ------------------------------------------------------------------------------------------
+
+def check_mesh_path(path: str | os.PathLike[str]) -> Path:
+    """``path`` as a Path, or a SceneError if it is missing, a directory, empty, or of an unknown format."""
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix not in FORMATS:
+        raise SceneError(f"mesh {str(p)!r}: unknown format {suffix or '(no suffix)'!r} "
+                         f"(known: {', '.join(FORMATS)})")
+    if not p.exists():
+        raise SceneError(f"mesh {str(p)!r} does not exist")
+    if p.is_dir():
+        raise SceneError(f"mesh {str(p)!r} is a directory, not a mesh file")
+    if p.stat().st_size == 0:
+        raise SceneError(f"mesh {str(p)!r} is empty (0 bytes)")
+    return p
+
+
+def _gltf_json(p: Path) -> dict:
+    """The JSON document of a .gltf file or of a .glb file's first chunk."""
+    data = p.read_bytes()
+    if p.suffix.lower() == ".glb":
+        if len(data) < 20 or data[:4] != b"glTF":
+            raise SceneError(f"mesh {str(p)!r} is not a binary glTF file (no 'glTF' magic)")
+        length, kind = struct.unpack_from("<I4s", data, 12)
+        if kind != b"JSON" or 20 + length > len(data):
+            raise SceneError(f"mesh {str(p)!r}: the binary glTF's first chunk is not its JSON")
+        text = data[20:20 + length]
+    else:
+        text = data
+    try:
+        doc = json.loads(text.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError):
+        raise SceneError(f"mesh {str(p)!r} is not a glTF file (its JSON does not parse)") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("asset"), dict):
+        raise SceneError(f"mesh {str(p)!r} is not a glTF file (no 'asset' object)")
+    return doc
+
+
+def _gltf_counts(p: Path) -> MeshCounts:
+    doc = _gltf_json(p)
+    accessors = doc.get("accessors", [])
+    uses = [0] * len(doc.get("meshes", []))
+    for node in doc.get("nodes", []):
+        if isinstance(node.get("mesh"), int) and 0 <= node["mesh"] < len(uses):
+            uses[node["mesh"]] += 1
+    nv = nf = 0
+    try:
+        for i, mesh in enumerate(doc.get("meshes", [])):
+            for prim in mesh.get("primitives", []):
+                if prim.get("mode", 4) != 4:
+                    raise SceneError(f"mesh {str(p)!r}: primitive mode {prim['mode']} is not triangles (4); "
+                                     "only triangle meshes are supported")
+                v = int(accessors[prim["attributes"]["POSITION"]]["count"])
+                n = int(accessors[prim["indices"]]["count"]) if "indices" in prim else v
+                nv += v * max(uses[i], 1)
+                nf += n // 3 * max(uses[i], 1)
+    except (KeyError, IndexError, TypeError, ValueError):
+        raise SceneError(f"mesh {str(p)!r}: a glTF primitive has no valid POSITION or indices accessor") from None
+    return MeshCounts(nv, nf)
+
+
+def _ply_counts(p: Path) -> MeshCounts:
+    with open(p, "rb") as fh:
+        head = fh.read(1 << 16)
+    if not head.startswith(b"ply"):
+        raise SceneError(f"mesh {str(p)!r} is not a PLY file (no 'ply' magic)")
+    end = head.find(b"end_header")
+    if end < 0:
+        raise SceneError(f"mesh {str(p)!r}: PLY header has no end_header")
+    counts = {}
+    for line in head[:end].decode("ascii", "replace").splitlines():
+        parts = line.split()
+        if len(parts) == 3 and parts[0] == "element" and parts[2].isdigit():
+            counts[parts[1]] = int(parts[2])
+    return MeshCounts(counts.get("vertex", 0), counts.get("face", 0))
+
+
+def _obj_counts(p: Path) -> MeshCounts:
+    nv = nf = 0
+    tail = b"\n"
+    with open(p, "rb") as fh:
+        while block := fh.read(1 << 22):
+            text = tail + block
+            nv += text.count(b"\nv ")
+            nf += text.count(b"\nf ")
+            tail = text[-2:] if not text.endswith(b"\n") else b"\n"
+    return MeshCounts(nv, nf)
+
+
+def mesh_counts(path: str | os.PathLike[str]) -> MeshCounts:
+    """Vertex and face counts of a mesh file without loading it: the PLY header's elements, the glTF
+    accessors' counts (times the nodes that instance each mesh), an OBJ's ``v`` and ``f`` lines (a
+    polygon line counts as one face: a lower bound)."""
+    p = check_mesh_path(path)
+    kind = FORMATS[p.suffix.lower()]
+    return {"ply": _ply_counts, "gltf": _gltf_counts, "obj": _obj_counts}[kind](p)
+
+
+def memory_estimate(counts: MeshCounts, width: int, height: int) -> int:
+    """Bytes a frame of this mesh at ``width`` x ``height`` needs at its peak (an estimate:
+    :data:`BYTES_PER_FACE` per triangle + :data:`BYTES_PER_PIXEL` per pixel)."""
+    return int(counts.faces) * BYTES_PER_FACE + int(width) * int(height) * BYTES_PER_PIXEL
+
+
+def available_memory() -> int:
+    """Bytes of memory available to a new allocation: ``MemAvailable`` of /proc/meminfo, else the
+    physical memory."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+
+
+def _gb(n: float) -> str:
+    return f"{n / 2**30:.1f} GiB"
+
+
+def check_memory(path: str | os.PathLike[str], counts: MeshCounts, width: int, height: int,
+                 available: int | None = None) -> int:
+    """The :func:`memory_estimate`, or a SceneError saying it exceeds the memory available."""
+    need = memory_estimate(counts, width, height)
+    have = available_memory() if available is None else int(available)
+    if need > have:
+        raise SceneError(f"mesh {str(path)!r} has {counts.faces:,} faces: rendering it at {width}x{height} needs "
+                         f"about {_gb(need)} ({BYTES_PER_FACE} B per face, {BYTES_PER_PIXEL} B per pixel), more than "
+                         f"the {_gb(have)} of memory available")
+    return need
+
+
+def inspect_mesh_file(path: str | os.PathLike[str], width: int, height: int) -> MeshCounts:
+    """The checks that need no loading (:func:`check_mesh_path`, :func:`mesh_counts`,
+    :func:`check_memory`); returns the counts."""
+    counts = mesh_counts(path)
+    if counts.faces == 0:
+        raise SceneError(f"mesh {str(path)!r} has no faces")
+    check_memory(path, counts, width, height)
+    return counts
+
+
+# ---- reading -------------------------------------------------------------------------------------------
+
+def _mitsuba_message(exc: Exception) -> str:
+    text = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+    return text.rsplit("]: ", 1)[-1].rsplit("] ", 1)[-1].strip()
+
+
+def _read_mitsuba(p: Path, kind: str) -> tuple[Mesh, ...]:
+    from .mitsuba_variant import mitsuba
+
+    mi = mitsuba()
+    try:
+        shape = mi.load_dict({"type": kind, "filename": str(p)})
+    except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
+        msg = _mitsuba_message(exc)
+        if "invalid vertex position" in msg:
+            raise SceneError(f"mesh {str(p)!r} has NaN or infinite vertex positions (Mitsuba: {msg})") from None
+        raise SceneError(f"mesh {str(p)!r} cannot be read: {msg}") from None
+    params = mi.traverse(shape)
+    verts = np.array(params["vertex_positions"], dtype=np.float32).reshape(-1, 3)
+    faces = np.array(params["faces"], dtype=np.uint32).reshape(-1, 3)
+    normals = None
+    if "vertex_normals" in params and shape.has_vertex_normals():
+        normals = np.array(params["vertex_normals"], dtype=np.float32).reshape(-1, 3)
+    return (Mesh(p.stem, verts, faces, normals if normals is not None and len(normals) == len(verts) else None),)
+
+
+def _read_gltf(p: Path) -> tuple[Mesh, ...]:
+    doc = _gltf_json(p)
+    prims = [prim for mesh in doc.get("meshes", []) for prim in mesh.get("primitives", [])]
+    has_normals = bool(prims) and all("NORMAL" in prim.get("attributes", {}) for prim in prims)
+    try:
+        import trimesh
+    except ImportError:  # pragma: no cover - trimesh is a core dependency
+        raise SceneError("reading glTF needs trimesh: pip install trimesh") from None
+    try:
+        scene: Any = trimesh.load(str(p), force="scene", process=False)
+    except Exception as exc:  # noqa: BLE001 - trimesh raises many kinds of errors
+        raise SceneError(f"mesh {str(p)!r} cannot be read as glTF: {exc}") from None
+    groups: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray | None]]] = {}
+    for node in scene.graph.nodes_geometry:
+        transform, gname = scene.graph[node]
+        geom = scene.geometry[gname]
+        if not hasattr(geom, "faces"):
+            continue
+        material = getattr(getattr(geom, "visual", None), "material", None)
+        mname = str(getattr(material, "name", None) or "default")
+        t = np.asarray(transform, dtype=np.float64)
+        v = np.asarray(geom.vertices, dtype=np.float64) @ t[:3, :3].T + t[:3, 3]
+        n = None
+        if has_normals:
+            # normals transform by the inverse transpose of the node's linear part
+            n = np.asarray(geom.vertex_normals, dtype=np.float64) @ np.linalg.inv(t[:3, :3])
+            n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+            if np.linalg.det(t[:3, :3]) < 0:
+                n = -n
+        groups.setdefault(mname, []).append((v, np.asarray(geom.faces, dtype=np.int64), n))
+    # the file's material order (trimesh's node order is not the file's)
+    order = [str(m.get("name")) for m in doc.get("materials", []) if isinstance(m, dict)]
+    rank = {name: (order.index(name) if name in order else len(order), name) for name in groups}
+    meshes = []
+    for name, parts in sorted(groups.items(), key=lambda kv: rank[kv[0]]):
+        offsets = np.cumsum([0] + [len(v) for v, _, _ in parts])
+        verts = np.concatenate([v for v, _, _ in parts])
+        faces = np.concatenate([f + o for (_, f, _), o in zip(parts, offsets)])
+        normals = None if not has_normals else np.concatenate([n for _, _, n in parts if n is not None])
+        meshes.append(Mesh(name, verts, faces, normals))
+    return tuple(meshes)
+
+
+def read_mesh(path: str | os.PathLike[str]) -> tuple[Mesh, ...]:
+    """The objects of a mesh file (module docstring), each checked by :func:`check_mesh`."""
+    p = check_mesh_path(path)
+    kind = FORMATS[p.suffix.lower()]
+    meshes = _read_gltf(p) if kind == "gltf" else _read_mitsuba(p, kind)
+    if not meshes:
+        raise SceneError(f"mesh {str(p)!r} holds no triangle mesh")
+    for m in meshes:
+        check_mesh(m, str(p))
+    return meshes
+
+
+def check_mesh(mesh: Mesh, source: str = "") -> None:
+    """A SceneError if the mesh has no faces or a NaN or infinite vertex position."""
+    where = f"mesh {source!r} (object {mesh.name!r})" if source else f"mesh {mesh.name!r}"
+    if len(mesh.faces) == 0:
+        raise SceneError(f"{where} has no faces")
+    bad = ~np.isfinite(mesh.vertices).all(axis=1)
+    if bad.any():
+        raise SceneError(f"{where} has NaN or infinite vertex positions ({int(bad.sum())} of {len(bad)} vertices, "
+                         f"the first at index {int(np.flatnonzero(bad)[0])})")
+
+
+def topology(mesh: Mesh) -> Topology:
+    """The mesh's :class:`Topology`: vertices at equal positions are welded first (a reader that splits
+    vertices at seams of normals or texture coordinates leaves the surface closed)."""
+    _, inverse = np.unique(mesh.vertices, axis=0, return_inverse=True)
+    f = inverse.reshape(-1)[mesh.faces.astype(np.int64)]
+    f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])]  # drop collapsed faces
+    a = f.reshape(-1)
+    b = f[:, [1, 2, 0]].reshape(-1)
+    n = int(inverse.max(initial=0)) + 1
+    undirected = np.minimum(a, b) * n + np.maximum(a, b)
+    _, counts = np.unique(undirected, return_counts=True)
+    directed = a * n + b
+    _, dcounts = np.unique(directed, return_counts=True)
+    v = mesh.vertices.astype(np.float64)
+    tri = v[mesh.faces.astype(np.int64)]
+    volume = float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6.0)
+    return Topology(vertices=n, faces=len(f), boundary_edges=int((counts == 1).sum()),
+                    nonmanifold_edges=int((counts > 2).sum()), misoriented_edges=int((dcounts > 1).sum()),
+                    volume=volume)
+
+
+def bounding_sphere(meshes: Sequence[Mesh], scale: float = 1.0) -> tuple[np.ndarray, float]:
+    """(centre (3,), radius) of a sphere around every vertex: the centre of the axis-aligned bounding
+    box and the largest distance from it, times ``scale``."""
+    v = np.concatenate([m.vertices for m in meshes]).astype(np.float64) * scale
+    centre = 0.5 * (v.min(axis=0) + v.max(axis=0))
+    return centre, float(np.linalg.norm(v - centre, axis=1).max())
+
+
+# ---- writing -------------------------------------------------------------------------------------------
+
+def ply_bytes(verts: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None) -> bytes:
+    """A binary little-endian PLY file of a triangle mesh (float32 positions and normals, uint32 indices)."""
+    verts = np.ascontiguousarray(verts, dtype="<f4")
+    cols = [verts] if normals is None else [verts, np.ascontiguousarray(normals, dtype="<f4")]
+    vdata = np.concatenate(cols, axis=1).astype("<f4")
+    props = "property float x\nproperty float y\nproperty float z\n"
+    if normals is not None:
+        props += "property float nx\nproperty float ny\nproperty float nz\n"
+    header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(verts)}\n{props}"
+              f"element face {len(faces)}\nproperty list uchar uint vertex_indices\nend_header\n")
+    fdata = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<u4", (3,))])
+    fdata["n"] = 3
+    fdata["i"] = faces
+    return header.encode() + vdata.tobytes() + fdata.tobytes()
+
+
+def _merged(meshes: Sequence[Mesh]) -> Mesh:
+    if len(meshes) == 1:
+        return meshes[0]
+    offsets = np.cumsum([0] + [len(m.vertices) for m in meshes])
+    normals = None
+    if all(m.normals is not None for m in meshes):
+        normals = np.concatenate([m.normals for m in meshes if m.normals is not None])
+    return Mesh("merged", np.concatenate([m.vertices for m in meshes]),
+                np.concatenate([m.faces.astype(np.int64) + o for m, o in zip(meshes, offsets)]), normals)
+
+
+def _obj_text(meshes: Sequence[Mesh]) -> str:
+    lines = ["# written by ssskit"]
+    base = 1
+    for m in meshes:
+        lines.append(f"o {m.name}")
+        lines.extend(f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in m.vertices.tolist())
+        if m.normals is not None:
+            lines.extend(f"vn {x:.9g} {y:.9g} {z:.9g}" for x, y, z in m.normals.tolist())
+            lines.extend(f"f {a}//{a} {b}//{b} {c}//{c}" for a, b, c in (m.faces.astype(np.int64) + base).tolist())
+        else:
+            lines.extend(f"f {a} {b} {c}" for a, b, c in (m.faces.astype(np.int64) + base).tolist())
+        base += len(m.vertices)
+    return "\n".join(lines) + "\n"
+
+
+def _gltf_document(meshes: Sequence[Mesh]) -> tuple[dict, bytes]:
+    """A glTF 2.0 document (one mesh, node and material per object, named after it) and its buffer."""
+    blob = bytearray()
+    views: list[dict] = []
+    accessors: list[dict] = []
+
+    def add(array: np.ndarray, target: int, kind: str, ctype: int, minmax: bool = False) -> int:
+        while len(blob) % 4:
+            blob.append(0)
+        data = array.tobytes()
+        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(data), "target": target})
+        blob.extend(data)
+        acc = {"bufferView": len(views) - 1, "componentType": ctype, "count": int(len(array)), "type": kind}
+        if minmax:
+            acc.update(min=array.min(axis=0).tolist(), max=array.max(axis=0).tolist())
+        accessors.append(acc)
+        return len(accessors) - 1
+
+    gl_meshes, nodes, materials = [], [], []
+    for i, m in enumerate(meshes):
+        attrs = {"POSITION": add(m.vertices.astype("<f4"), 34962, "VEC3", 5126, minmax=True)}
+        if m.normals is not None:
+            attrs["NORMAL"] = add(m.normals.astype("<f4"), 34962, "VEC3", 5126)
+        idx = add(m.faces.astype("<u4").reshape(-1), 34963, "SCALAR", 5125)
+        materials.append({"name": m.name, "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+                                                                    "metallicFactor": 0.0}})
+        gl_meshes.append({"name": m.name, "primitives": [{"attributes": attrs, "indices": idx, "material": i,
+                                                          "mode": 4}]})
+        nodes.append({"name": m.name, "mesh": i})
+    while len(blob) % 4:
+        blob.append(0)
+    doc = {"asset": {"version": "2.0", "generator": "ssskit"}, "scene": 0,
+           "scenes": [{"nodes": list(range(len(nodes)))}], "nodes": nodes, "meshes": gl_meshes,
+           "materials": materials, "accessors": accessors, "bufferViews": views,
+           "buffers": [{"byteLength": len(blob)}]}
+    return doc, bytes(blob)
+
+
+def write_mesh(path: str | os.PathLike[str], meshes: Mesh | Sequence[Mesh]) -> Path:
+    """Write ``meshes`` to ``path`` (format from the suffix, atomically): ``.obj`` (one ``o`` group per
+    object), ``.ply`` (binary; several objects are merged), ``.glb`` / ``.gltf`` (glTF 2.0, one node,
+    mesh and material per object named after it; a ``.gltf`` embeds its buffer as a data URI)."""
+    p = Path(path)
+    items = (meshes,) if isinstance(meshes, Mesh) else tuple(meshes)
+    if not items:
+        raise SceneError("write_mesh needs at least one mesh")
+    kind = FORMATS.get(p.suffix.lower())
+    if kind is None:
+        raise SceneError(f"mesh {str(p)!r}: unknown format {p.suffix!r} (known: {', '.join(FORMATS)})")
+    if kind == "ply":
+        m = _merged(items)
+        data = ply_bytes(m.vertices, m.faces, m.normals)
+    elif kind == "obj":
+        data = _obj_text(items).encode("ascii")
+    else:
+        doc, blob = _gltf_document(items)
+        if p.suffix.lower() == ".gltf":
+            doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(blob).decode()
+            data = json.dumps(doc).encode()
+        else:
+            text = json.dumps(doc).encode()
+            text += b" " * (-len(text) % 4)
+            body = struct.pack("<I4s", len(text), b"JSON") + text + struct.pack("<I4s", len(blob), b"BIN\x00") + blob
+            data = struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
+    with atomic_output(p) as tmp:
+        tmp.write_bytes(data)
+    return p
+
+
+__all__ = ["BYTES_PER_FACE", "BYTES_PER_PIXEL", "FORMATS", "Mesh", "MeshCounts", "Topology", "UNITS_MM",
+           "available_memory", "bounding_sphere", "check_memory", "check_mesh", "check_mesh_path",
+           "inspect_mesh_file", "memory_estimate", "mesh_counts", "ply_bytes", "read_mesh", "topology",
+           "write_mesh"]

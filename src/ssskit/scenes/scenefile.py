@@ -1,0 +1,672 @@
+"""Scene files (TOML) and mesh scenes: one description of shapes, materials, camera and lights that
+loads into the same :class:`~ssskit.scenes.scenes.SceneSpec` as the built-in scenes (which are
+written in it: ``src/ssskit/scenes/builtin/*.toml``), and :func:`resolve_scene`, which turns a
+``--scene`` value into what the pipeline renders.
+
+A scene file::
+
+    name = "head"                 # optional (default: the file's stem)
+    units = "m"                   # of every mesh file (mm, cm, m), unless a shape names its own
+
+    [camera]                      # explicit: origin, target, up (world mm), fov (degrees, horizontal)
+    view = "front"                # or automatic framing: view = front | profile | close, or
+    # azimuth = 30.0; elevation = 10.0; distance = 1.0   (degrees; multiple of the framing distance)
+    # up = [0, 1, 0]; front = [0, 0, 1]                  (the model's up and facing axes: glTF's)
+
+    [shapes.head]                 # one table per shape, its id after the dot
+    type = "mesh"                 # mesh | generated | sphere | rectangle | cube
+    file = "head.glb"             # relative to the scene file
+    materials = { skin = "skin1", lips = "skin2" }   # per glTF material (or material = "skin1")
+
+    [lights.key]                  # relative to the view: azimuth/elevation (degrees, from the camera's
+    azimuth = 40.0                # direction), distance (bounding radii), size (radius in bounding
+    elevation = 35.0              # radii; 0: a point light), intensity (E / pi at the model's centre)
+    intensity = 1.0
+
+Shapes: ``mesh`` (``file``, ``units``, ``material`` or ``materials``; SSS unless ``sss = false``;
+one SSS shape per object of the file: :mod:`ssskit.scenes.meshes`), ``generated`` (``generator`` =
+:data:`GENERATORS`, ``params``), ``sphere`` (``center``, ``radius``), ``rectangle`` / ``cube``
+(``translate``, ``scale``: to_world = translate x scale). Lights: relative ones as above, or
+explicit Mitsuba ones (``type = "point"``, ``position``, ``intensity``; ``type = "sphere"``,
+``center``, ``radius``, ``radiance``).
+
+Framing (:func:`framing`): the camera looks at the centre of the bounding sphere (radius R) from
+the view's direction at distance k * R / sin(fov_v / 2) * 1.1, fov_v the vertical field of view of
+a 4:3 image (so the sphere fits with a 10% margin), k the view's distance factor.
+
+Light intensity: a sphere light of radius a at distance d gives the irradiance E = pi L (a / d)^2
+at the centre on a surface facing it (a uniformly bright sphere subtends a cap of sin^2 alpha =
+(a/d)^2: [PJH23], ch. 4, radiometric integrals), a point light of
+intensity I gives E = I / d^2; ``intensity`` = E / pi, the diffuse layer a white surface facing
+the light at the centre would show.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import tomllib
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import SceneError
+from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
+from .scenes import SCENES, SceneSpec, _T, _ply, check_size
+
+#: the built-in scenes' files (each registered into SCENES under its stem)
+BUILTIN_DIR = Path(__file__).parent / "builtin"
+#: --view presets: (azimuth, elevation) in degrees from the model's front, distance factor
+VIEWS: dict[str, tuple[float, float, float]] = {"front": (0.0, 0.0, 1.0), "profile": (90.0, 0.0, 1.0),
+                                                "close": (20.0, 5.0, 0.45)}
+#: the view's aliases (Xie 2020, Fig. 1: close, ear and front views)
+VIEW_ALIASES = {"ear": "profile"}
+#: the default lights of a mesh scene: key, fill, back (relative to the view)
+DEFAULT_LIGHTS: dict[str, dict[str, float]] = {
+    "key": {"azimuth": 50.0, "elevation": 40.0, "distance": 6.0, "size": 0.2, "intensity": 1.0},
+    "fill": {"azimuth": -70.0, "elevation": 15.0, "distance": 6.0, "size": 0.4, "intensity": 0.3},
+    "back": {"azimuth": 150.0, "elevation": 35.0, "distance": 6.0, "size": 0.2, "intensity": 0.5},
+}
+DEFAULT_FOV = 30.0
+#: the model's axes when a scene names none: glTF's (+Y up, facing +Z)
+DEFAULT_UP = (0.0, 1.0, 0.0)
+DEFAULT_FRONT = (0.0, 0.0, 1.0)
+#: the units a mesh file is read in when none are given: glTF's specification says metres; OBJ and PLY
+#: carry none, and ssskit's length unit is the mm
+DEFAULT_UNITS = {"gltf": "m", "obj": "mm", "ply": "mm"}
+#: a plausible size of a translucent object (bounding-sphere diameter, mm), for the units hint
+PLAUSIBLE_MM = (5.0, 3000.0)
+
+
+def _generated(kind: str, params: Mapping[str, Any]) -> tuple[Mesh | None, dict | None]:
+    """A generated shape: (Mesh, None) for the mesh generators, (None, Mitsuba dict) for the built-in
+    scenes' own geometry (kept bit-identical to the dicts they always had)."""
+    from . import generated, scenes
+
+    try:
+        if kind == "bust":
+            return Mesh("bust", *_bust_arrays(float(params.get("voxel_mm", 1.5)))), None
+        if kind == "icosphere":
+            return generated.icosphere(**params), None
+        if kind == "torus":
+            return generated.torus(**params), None
+        if kind == "ellipsoid":
+            args = {k: tuple(v) if isinstance(v, list) else v for k, v in params.items()}
+            return None, _ply("ellipsoid", *scenes._ellipsoid_geometry(**args))
+        if kind == "heightfield":
+            return None, _ply("bumpy", *scenes._bumpy_geometry(**params))
+    except TypeError as exc:
+        raise SceneError(f"generator {kind!r}: {exc}") from None
+    raise SceneError(f"unknown generator {kind!r} (known: {', '.join(GENERATORS)})")
+
+
+#: the shape generators of scene files; the direct ones give the built-in scenes' Mitsuba dicts as they were
+GENERATORS = ("bust", "icosphere", "torus", "ellipsoid", "heightfield")
+DIRECT_GENERATORS = ("ellipsoid", "heightfield")
+
+
+def _bust_arrays(voxel_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    from .generated import bust_path
+
+    (m,) = read_mesh(bust_path(voxel_mm))
+    return m.vertices, m.faces, m.normals
+
+
+# ---- objects: meshes with their units and materials ----------------------------------------------------
+
+@dataclass(frozen=True)
+class MeshObject:
+    """One SSS object of a mesh scene: its Mitsuba shape (mm), material ("" = the render's), the
+    topology problem the reference would meet (or None), and its source."""
+
+    id: str
+    name: str
+    shape: dict
+    material: str
+    problem: str | None
+    digest: str
+
+
+def _shape_id(name: str, taken: set[str]) -> str:
+    base = re.sub(r"[^A-Za-z0-9_]", "_", name) or "object"
+    if base[0].isdigit() or base.startswith("_"):
+        base = "m" + base
+    sid, k = base, 2
+    while sid in taken:
+        sid, k = f"{base}_{k}", k + 1
+    taken.add(sid)
+    return sid
+
+
+def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[str, str], default: str,
+                  source: str, taken: set[str]) -> list[MeshObject]:
+    names = [m.name for m in meshes]
+    unknown = sorted(set(materials) - set(names))
+    if unknown:
+        raise SceneError(f"material map names {', '.join(map(repr, unknown))}, which {source!r} does not have "
+                         f"(its objects: {', '.join(names)})")
+    out = []
+    for m in meshes:
+        topo = topology(m)
+        if topo.closed and topo.misoriented_edges == 0 and topo.volume < 0:
+            m = m.flipped()  # wound inside out: the medium goes inside
+            topo = topology(m)
+        mm = m.scaled(scale_mm)
+        shape = _ply(f"mesh-{re.sub(r'[^A-Za-z0-9_]', '_', m.name)}", mm.vertices, mm.faces, mm.normals,
+                     face_normals=False)
+        out.append(MeshObject(_shape_id(m.name, taken), m.name, shape, materials.get(m.name, default),
+                              topo.reference_problem(f"{source}:{m.name}" if len(meshes) > 1 else source),
+                              mm.digest()))
+    return out
+
+
+# ---- units ---------------------------------------------------------------------------------------------
+
+def check_units(units: str | Sequence[str] | None) -> str | None:
+    """One unit name of :data:`UNITS_MM`, or None; a SceneError for an unknown unit or for several
+    different ones (``--units`` given twice)."""
+    if units is None:
+        return None
+    values = [units] if isinstance(units, str) else list(units)
+    if not values:
+        return None
+    norm = []
+    for u in values:
+        key = str(u).strip().lower()
+        if key not in UNITS_MM:
+            raise SceneError(f"unknown units {u!r} (known: {', '.join(UNITS_MM)})")
+        norm.append(key)
+    if len(set(norm)) > 1:
+        raise SceneError(f"conflicting units: {', '.join(norm)} (give --units once)")
+    return norm[0]
+
+
+def _units_note(source: str, unit: str, assumed: bool, diameter_mm: float) -> str:
+    text = (f"{source}: {'assumed ' if assumed else ''}units {unit}"
+            + (" (no --units given)" if assumed else "") + f"; the model is {diameter_mm:.4g} mm across "
+            "(bounding-sphere diameter)")
+    lo, hi = PLAUSIBLE_MM
+    if assumed and not lo <= diameter_mm <= hi:
+        scale = UNITS_MM[unit]
+        fits = [u for u, f in UNITS_MM.items() if lo <= diameter_mm / scale * f <= hi]
+        if fits:
+            text += f"; if it is in {fits[0]}, give --units {fits[0]} ({diameter_mm / scale * UNITS_MM[fits[0]]:.4g} mm)"
+    return text
+
+
+# ---- views and lights ----------------------------------------------------------------------------------
+
+def parse_view(view: str | Sequence[float] | None) -> tuple[float, float, float]:
+    """(azimuth deg, elevation deg, distance factor) of a ``--view``: a preset of :data:`VIEWS` (or
+    ``ear`` = ``profile``), ``"AZ,EL[,DIST]"`` or a sequence of 2 or 3 numbers."""
+    if view is None:
+        return VIEWS["front"]
+    if isinstance(view, str):
+        key = VIEW_ALIASES.get(view.strip().lower(), view.strip().lower())
+        if key in VIEWS:
+            return VIEWS[key]
+        try:
+            nums = [float(x) for x in view.split(",")]
+        except ValueError:
+            raise SceneError(f"view {view!r} is neither a preset ({', '.join([*VIEWS, *VIEW_ALIASES])}) nor "
+                             "AZIMUTH,ELEVATION[,DISTANCE]") from None
+    else:
+        nums = [float(x) for x in view]
+    if len(nums) not in (2, 3) or not all(math.isfinite(x) for x in nums):
+        raise SceneError(f"view must be AZIMUTH,ELEVATION[,DISTANCE] (degrees, degrees, a multiple of the framing "
+                         f"distance), got {view!r}")
+    az, el = nums[0], nums[1]
+    dist = nums[2] if len(nums) == 3 else 1.0
+    if not -90.0 < el < 90.0:
+        raise SceneError(f"view elevation must lie in (-90, 90) degrees, got {el:g}")
+    if not 0.05 <= dist <= 100.0:
+        raise SceneError(f"view distance must lie in [0.05, 100] (a multiple of the framing distance), got {dist:g}")
+    return az, el, dist
+
+
+def _basis(up: Sequence[float], front: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    u = np.asarray(up, float)
+    f = np.asarray(front, float)
+    if u.shape != (3,) or f.shape != (3,) or not (np.linalg.norm(u) > 0 and np.linalg.norm(f) > 0):
+        raise SceneError(f"camera up and front must be non-zero 3-vectors, got {up!r}, {front!r}")
+    u = u / np.linalg.norm(u)
+    f = f - u * (u @ f)
+    if np.linalg.norm(f) < 1e-9:
+        raise SceneError(f"camera front {front!r} is parallel to up {up!r}")
+    f /= np.linalg.norm(f)
+    return u, f, np.cross(u, f)  # up, front, side (+X for glTF's axes)
+
+
+def direction(azimuth: float, elevation: float, up: Sequence[float], front: Sequence[float]) -> np.ndarray:
+    """Unit vector from the model towards a viewer at ``azimuth`` (degrees about ``up``, from
+    ``front`` towards the side front x up... i.e. +X for +Y up and +Z front) and ``elevation``."""
+    u, f, s = _basis(up, front)
+    a, e = math.radians(azimuth), math.radians(elevation)
+    return math.cos(e) * (math.cos(a) * f + math.sin(a) * s) + math.sin(e) * u
+
+
+def framing(centre: ArrayLike, radius: float, view: tuple[float, float, float], fov_x_deg: float, up: Sequence[float],
+            front: Sequence[float]) -> np.ndarray:
+    """The camera origin (module docstring, "Framing") looking at ``centre``."""
+    fov_v = 2.0 * math.atan(math.tan(math.radians(fov_x_deg) / 2.0) * 0.75)
+    d = view[2] * radius / math.sin(fov_v / 2.0) * 1.1
+    return np.asarray(centre, float) + d * direction(view[0], view[1], up, front)
+
+
+def _relative_light(name: str, spec: Mapping[str, Any], centre: np.ndarray, radius: float, cam_dir_az: float,
+                    cam_el: float, up: Sequence[float], front: Sequence[float]) -> dict[str, Any]:
+    known = {"azimuth", "elevation", "distance", "size", "intensity"}
+    unknown = sorted(set(spec) - known)
+    if unknown:
+        raise SceneError(f"light {name!r}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(known))}; "
+                         "or an explicit Mitsuba light with type = point | sphere)")
+    d = float(spec.get("distance", 4.0))
+    size = float(spec.get("size", 0.15))
+    inten = float(spec.get("intensity", 1.0))
+    if not (d > 1.0 and 0.0 <= size < d - 1.0):
+        raise SceneError(f"light {name!r}: distance must exceed 1 bounding radius and size lie in [0, distance - 1), "
+                         f"got distance {d:g}, size {size:g}")
+    if not (math.isfinite(inten) and inten >= 0):
+        raise SceneError(f"light {name!r}: intensity must be a non-negative number, got {inten!r}")
+    el = float(np.clip(cam_el + float(spec.get("elevation", 0.0)), -89.0, 89.0))
+    pos = centre + d * radius * direction(cam_dir_az + float(spec.get("azimuth", 0.0)), el, up, front)
+    e = math.pi * inten  # irradiance at the centre (intensity = E / pi)
+    if size == 0:
+        return {"type": "point", "position": pos.tolist(),
+                "intensity": {"type": "rgb", "value": e * (d * radius) ** 2}}  # E = I / d^2
+    a = size * radius
+    return {"type": "sphere", "center": pos.tolist(), "radius": a,
+            "emitter": {"type": "area", "radiance": {"type": "rgb", "value": e / (math.pi * (a / (d * radius)) ** 2)}}}
+
+
+def _explicit_light(name: str, spec: Mapping[str, Any]) -> dict:
+    kind = spec.get("type")
+    if kind == "point":
+        _keys(f"light {name!r}", spec, {"type", "position", "intensity"}, {"position", "intensity"})
+        return {"type": "point", "position": spec["position"], "intensity": {"type": "rgb", "value": spec["intensity"]}}
+    if kind == "sphere":
+        _keys(f"light {name!r}", spec, {"type", "center", "radius", "radiance"}, {"center", "radius", "radiance"})
+        return {"type": "sphere", "center": list(spec["center"]), "radius": spec["radius"],
+                "emitter": {"type": "area", "radiance": {"type": "rgb", "value": spec["radiance"]}}}
+    raise SceneError(f"light {name!r}: type must be point or sphere, got {kind!r}")
+
+
+def _keys(where: str, table: Mapping[str, Any], allowed: set[str], required: set[str] = frozenset()) -> None:  # type: ignore[assignment]
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise SceneError(f"{where}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(allowed))})")
+    missing = sorted(required - set(table))
+    if missing:
+        raise SceneError(f"{where}: missing {', '.join(missing)}")
+
+
+# ---- the loader ----------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class LoadedScene:
+    """A scene file's or mesh's :class:`SceneSpec` and what loading it found out: ``notes`` (the units
+    assumed and the model's size, meshes turned inside out) and each mesh object."""
+
+    spec: SceneSpec
+    notes: tuple[str, ...] = ()
+    objects: tuple[MeshObject, ...] = ()
+    framed: bool = False  # the camera came from the automatic framing (a --view may change it)
+    document: dict = field(default_factory=dict)
+    base: Path | None = None
+
+
+def load_scene_file(path: str | os.PathLike[str], **options: Any) -> LoadedScene:
+    """Read a TOML scene file (module docstring) into a :class:`LoadedScene`; ``options`` as for
+    :func:`scene_from_document`."""
+    p = Path(path)
+    if not p.is_file():
+        raise SceneError(f"scene file {str(p)!r} does not exist" if not p.exists() else
+                         f"scene file {str(p)!r} is not a file")
+    try:
+        doc = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise SceneError(f"scene file {str(p)!r} is not valid TOML: {exc}") from None
+    doc.setdefault("name", p.stem)
+    return scene_from_document(doc, base=p.parent, source=str(p), **options)
+
+
+def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source: str = "scene", *,
+                        units: str | Sequence[str] | None = None, material_map: Mapping[str, str] | None = None,
+                        view: str | Sequence[float] | None = None, width: int = 256, height: int = 192,
+                        default_material: str = "") -> LoadedScene:
+    """A :class:`LoadedScene` from a parsed scene document.
+
+    ``units``: the mesh files' units (``--units``; a SceneError if it conflicts with the document's
+    or is given twice differently); ``material_map``: object or glTF material name -> ssskit
+    material (``--material-map``; every name must be an object of the scene); ``view``: overrides
+    the document's view (automatic framing only); ``width`` x ``height``: the image size the memory
+    check (:func:`ssskit.scenes.meshes.check_memory`) is made for.
+    """
+    _keys(source, doc, {"name", "description", "units", "camera", "shapes", "lights", "orbit_deg_per_frame",
+                        "light_orbit_deg_per_frame"}, {"shapes"})
+    check_size(width, height)
+    cli_units = check_units(units)
+    doc_units = check_units(doc.get("units"))
+    if cli_units and doc_units and cli_units != doc_units:
+        raise SceneError(f"conflicting units: --units {cli_units}, but {source} says units = {doc_units!r}")
+    material_map = dict(material_map or {})
+    shapes_doc = doc["shapes"]
+    if not isinstance(shapes_doc, Mapping) or not shapes_doc:
+        raise SceneError(f"{source}: [shapes] must hold at least one shape table")
+    notes: list[str] = []
+    shapes: dict[str, dict] = {}
+    sss: list[str] = []
+    sss_materials: list[str] = []
+    objects: list[MeshObject] = []
+    problems: list[str] = []
+    mesh_vertices: list[np.ndarray] = []
+    taken: set[str] = set()
+    claimed: set[str] = set()
+    for sid, table in shapes_doc.items():
+        where = f"{source}: shape {sid!r}"
+        if not isinstance(table, Mapping):
+            raise SceneError(f"{where} must be a table")
+        kind = table.get("type")
+        is_sss = table.get("sss", kind in ("mesh", "generated"))
+        if not isinstance(is_sss, bool):
+            raise SceneError(f"{where}: sss must be true or false")
+        meshes: tuple[Mesh, ...] | None = None
+        if kind == "mesh":
+            _keys(where, table, {"type", "file", "units", "material", "materials", "sss"}, {"file"})
+            fpath = Path(table["file"])
+            if base is not None and not fpath.is_absolute():
+                fpath = base / fpath
+            inspect_mesh_file(fpath, width, height)
+            shape_units = check_units(table.get("units"))
+            if cli_units and shape_units and cli_units != shape_units:
+                raise SceneError(f"conflicting units: --units {cli_units}, but {where} says units = {shape_units!r}")
+            unit = cli_units or shape_units or doc_units
+            assumed = unit is None
+            unit = unit or DEFAULT_UNITS[FORMATS[fpath.suffix.lower()]]
+            meshes = read_mesh(fpath)
+            label = str(table["file"])
+        elif kind == "generated":
+            _keys(where, table, {"type", "generator", "params", "material", "materials", "sss"}, {"generator"})
+            gen, params = str(table["generator"]), dict(table.get("params", {}))
+            if gen in DIRECT_GENERATORS:  # the built-in scenes' geometry, made when the scene is rendered
+                shapes[sid] = {"__thunk": (gen, params)}
+                taken.add(sid)
+                if is_sss:
+                    sss.append(sid)
+                    sss_materials.append(str(table.get("material", "")))
+                continue
+            mesh, _ = _generated(gen, params)
+            meshes = (mesh,)  # type: ignore[assignment]
+            unit, assumed, label = "mm", False, str(table["generator"])
+        else:
+            shapes[sid] = _primitive(where, kind, table)
+            taken.add(sid)
+            if is_sss:
+                sss.append(sid)
+                sss_materials.append(str(table.get("material", "")))
+            continue
+        assert meshes is not None
+        if len(meshes) == 1 and meshes[0].name != sid:
+            meshes = (Mesh(sid, meshes[0].vertices, meshes[0].faces, meshes[0].normals),)
+            own = {sid: material_map[sid]} if sid in material_map else {}
+        else:
+            own = {m.name: material_map[m.name] for m in meshes if m.name in material_map}
+        if "materials" in table:
+            if not isinstance(table["materials"], Mapping):
+                raise SceneError(f"{where}: materials must be a table object name -> material")
+            own = {**{str(k): str(v) for k, v in table["materials"].items()}, **own}
+        claimed.update(own)
+        scale = UNITS_MM[unit]
+        objs = _mesh_objects(meshes, scale, own, str(table.get("material", "")), label, taken)
+        centre, r = bounding_sphere(meshes, scale)
+        if kind == "mesh":
+            notes.append(_units_note(label, unit, assumed, 2 * r))
+        for o in objs:
+            shapes[o.id] = o.shape
+            if is_sss:
+                sss.append(o.id)
+                sss_materials.append(o.material)
+                if o.problem:
+                    problems.append(o.problem)
+        objects.extend(objs)
+        mesh_vertices.extend(m.vertices.astype(np.float64) * scale for m in meshes)
+    unknown = sorted(set(material_map) - claimed)
+    if unknown:
+        names = [o.name for o in objects] + [s for s in shapes if s not in {o.id for o in objects}]
+        raise SceneError(f"material map names {', '.join(map(repr, unknown))}, which {source!r} does not have "
+                         f"(its objects: {', '.join(names)})")
+    if not sss:
+        raise SceneError(f"{source}: no shape is an SSS object (sss = true)")
+    if default_material:
+        sss_materials = [m or default_material for m in sss_materials]
+    cam = dict(doc.get("camera", {}))
+    explicit = "origin" in cam
+    if explicit:
+        _keys(f"{source}: [camera]", cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
+        if view is not None:
+            raise SceneError(f"--view needs automatic framing, but {source} places its camera (origin, target)")
+        origin = tuple(cam["origin"])
+        target = tuple(cam["target"])
+        up = tuple(cam["up"])
+        fov = cam["fov"]
+    else:
+        _keys(f"{source}: [camera]", cam, {"view", "azimuth", "elevation", "distance", "fov", "up", "front"})
+        if view is None and "view" in cam:
+            view = cam["view"]
+        elif view is None and ("azimuth" in cam or "elevation" in cam):
+            view = (cam.get("azimuth", 0.0), cam.get("elevation", 0.0), cam.get("distance", 1.0))
+        vw = parse_view(view)
+        up_v = cam.get("up", DEFAULT_UP)
+        front = cam.get("front", DEFAULT_FRONT)
+        fov = float(cam.get("fov", DEFAULT_FOV))
+        if not 1.0 <= fov <= 150.0:
+            raise SceneError(f"{source}: camera fov must lie in [1, 150] degrees, got {fov:g}")
+        if not mesh_vertices:
+            raise SceneError(f"{source}: automatic framing needs a mesh or generated shape; give camera origin, "
+                             "target, up and fov")
+        allv = np.concatenate(mesh_vertices)
+        centre = 0.5 * (allv.min(axis=0) + allv.max(axis=0))
+        radius = float(np.linalg.norm(allv - centre, axis=1).max())
+        origin = tuple(framing(centre, radius, vw, fov, up_v, front).tolist())
+        target = tuple(centre.tolist())
+        up = tuple(_basis(up_v, front)[0].tolist())
+    light_doc = doc.get("lights")
+    if light_doc is None:
+        if explicit:
+            raise SceneError(f"{source}: a scene with an explicit camera needs explicit [lights]")
+        light_doc = DEFAULT_LIGHTS
+    lights: dict[str, dict] = {}
+    for lid, ltable in dict(light_doc).items():
+        if not isinstance(ltable, Mapping):
+            raise SceneError(f"{source}: light {lid!r} must be a table")
+        if "type" in ltable:
+            lights[lid] = _explicit_light(lid, ltable)
+        else:
+            if explicit:
+                raise SceneError(f"{source}: light {lid!r} is placed relative to the automatic framing, but the "
+                                 "camera is explicit; give type = point | sphere")
+            lights[lid] = _relative_light(lid, ltable, centre, radius, vw[0], vw[1], up_v, front)
+    desc = str(doc.get("description", f"meshes from {source}"))
+    spec = SceneSpec(str(doc.get("name", source)), desc, origin, target, up, float(fov),
+                     _frozen_dicts(shapes), tuple(sss), _frozen_dicts(lights),
+                     orbit_deg_per_frame=float(doc.get("orbit_deg_per_frame", 2.0)),
+                     light_orbit_deg_per_frame=float(doc.get("light_orbit_deg_per_frame", 0.0)),
+                     sss_materials=tuple(sss_materials) if any(sss_materials) else (),
+                     reference_problem="; ".join(problems) or None)
+    return LoadedScene(spec, tuple(notes), tuple(objects), not explicit, dict(doc), base)
+
+
+def _frozen_dicts(d: dict[str, dict]) -> Callable[[], dict[str, dict]]:
+    """A callable returning fresh copies of Mitsuba dicts (``to_world`` transforms are built at call
+    time: Mitsuba is imported only when a scene is rendered)."""
+    import copy
+
+    def make() -> dict[str, dict]:
+        out = {}
+        for k, v in d.items():
+            if "__thunk" in v:
+                direct = _generated(*v["__thunk"])[1]
+                assert direct is not None  # a DIRECT_GENERATORS entry
+                out[k] = direct
+                continue
+            entry = copy.deepcopy({kk: vv for kk, vv in v.items() if kk != "__to_world"})
+            if "__to_world" in v:
+                t, s = v["__to_world"]
+                entry["to_world"] = _T()().translate(t) @ _T()().scale(s)
+            out[k] = entry
+        return out
+
+    return make
+
+
+def _primitive(where: str, kind: Any, table: Mapping[str, Any]) -> dict:
+    if kind == "sphere":
+        _keys(where, table, {"type", "center", "radius", "sss", "material"}, {"center", "radius"})
+        return {"type": "sphere", "center": list(table["center"]), "radius": table["radius"]}
+    if kind in ("rectangle", "cube"):
+        _keys(where, table, {"type", "translate", "scale", "sss", "material"})
+        entry: dict[str, Any] = {"type": kind}
+        if "translate" in table or "scale" in table:
+            entry["__to_world"] = (list(table.get("translate", [0, 0, 0])), list(table.get("scale", [1, 1, 1])))
+        return entry
+    raise SceneError(f"{where}: type must be one of mesh, generated, sphere, rectangle, cube; got {kind!r}")
+
+
+# ---- the built-in scenes -------------------------------------------------------------------------------
+
+def builtin_scene_files() -> list[Path]:
+    """The built-in scenes' TOML files, in registration order."""
+    order = ("sphere", "slab", "ear", "bumpy")
+    return [BUILTIN_DIR / f"{name}.toml" for name in order]
+
+
+def _register_builtins() -> None:
+    for path in builtin_scene_files():
+        SCENES.register(path.stem, load_scene_file(path).spec)
+
+
+_register_builtins()
+
+
+# ---- --scene values ------------------------------------------------------------------------------------
+
+#: meshes made in code that --scene accepts by name (the bust, and the test shapes)
+GENERATED_SCENES: dict[str, dict[str, Any]] = {"bust": {"generator": "bust"},
+                    "icosphere": {"generator": "icosphere", "params": {"subdivisions": 4, "radius": 40.0}},
+                    "torus": {"generator": "torus", "params": {"major": 40.0, "minor": 14.0, "n_major": 96,
+                                                                 "n_minor": 48}}}
+
+
+@dataclass(frozen=True)
+class ResolvedScene:
+    """What a ``--scene`` value names: ``kind`` ``builtin`` | ``generated`` | ``mesh`` | ``file`` (a scene
+    TOML) with its ``spec``, or ``gbuffer`` with its ``path``; ``notes``: what loading assumed."""
+
+    kind: str
+    label: str
+    spec: SceneSpec | None = None
+    path: Path | None = None
+    notes: tuple[str, ...] = ()
+    objects: tuple[MeshObject, ...] = ()
+
+    @property
+    def materials(self) -> tuple[str, ...]:
+        """The scene's own material per SSS object ("" = the render's); empty for a G-buffer."""
+        if self.spec is None:
+            return ()
+        return self.spec.sss_materials or ("",) * len(self.spec.sss_shapes)
+
+
+def parse_material_map(text: str | Mapping[str, str] | None) -> dict[str, str]:
+    """``name=material,name=material`` (``--material-map``) as a dict; a SceneError if malformed or a
+    name appears twice. Materials are checked by :func:`resolve_scene`."""
+    if text is None:
+        return {}
+    if isinstance(text, Mapping):
+        return {str(k): str(v) for k, v in text.items()}
+    out: dict[str, str] = {}
+    for item in filter(None, (s.strip() for s in str(text).split(","))):
+        name, sep, mat = item.partition("=")
+        if not sep or not name.strip() or not mat.strip():
+            raise SceneError(f"material map entry {item!r} is not NAME=MATERIAL")
+        if name.strip() in out:
+            raise SceneError(f"material map names {name.strip()!r} twice")
+        out[name.strip()] = mat.strip()
+    return out
+
+
+def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
+                  material_map: str | Mapping[str, str] | None = None, view: str | Sequence[float] | None = None,
+                  width: int = 256, height: int = 192) -> ResolvedScene:
+    """Turn a ``--scene`` value into what the pipeline renders, checking everything first (no render):
+
+    * a built-in scene name (:data:`SCENES`): its spec (``units``, ``material_map`` and ``view`` do not
+      apply to its fixed camera and primitives: an error if given);
+    * a generated mesh name (:data:`GENERATED_SCENES`: ``bust``, ``icosphere``, ``torus``) or a mesh file
+      (:data:`~ssskit.scenes.meshes.FORMATS`): a mesh scene, framed from the bounding sphere by
+      ``view``, with the default key, fill and back lights;
+    * a ``.toml`` scene file: its scene (``units``, ``material_map``, ``view`` as overrides);
+    * a ``.exr`` file: a G-buffer (``kind="gbuffer"``; the other options do not apply).
+
+    Every material named by the map or the scene must exist (:func:`ssskit.materials.get_material`).
+    """
+    from ..materials import get_material
+
+    mmap = parse_material_map(material_map)
+    cli_units = check_units(units)
+    if isinstance(value, SceneSpec):
+        return ResolvedScene("builtin", value.name, spec=value)
+    if not isinstance(value, (str, os.PathLike)):
+        raise SceneError(f"scene must be a built-in scene name, a mesh, a scene .toml or a G-buffer .exr, "
+                         f"got {type(value).__name__}")
+    text = os.fspath(value)
+    suffix = Path(text).suffix.lower()
+
+    def no_options(what: str) -> None:
+        given = [n for n, v in (("--units", cli_units), ("--material-map", mmap), ("--view", view)) if v]
+        if given:
+            raise SceneError(f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} not apply to {what}")
+
+    if text in SCENES:
+        no_options(f"the built-in scene {text!r} (fixed camera and primitives)")
+        spec = SCENES.get(text)
+        return ResolvedScene("builtin", spec.name, spec=spec)
+    if suffix == ".exr":
+        no_options("a G-buffer file")
+        return ResolvedScene("gbuffer", Path(text).name, path=Path(text))
+    if text.strip().lower() in GENERATED_SCENES:
+        name = text.strip().lower()
+        if cli_units:
+            raise SceneError(f"--units does not apply to the generated {name!r} (made in mm)")
+        doc = {"name": name, "description": f"the generated {name} (mm)",
+               "shapes": {name: {"type": "generated", **GENERATED_SCENES[name]}}}
+        loaded = scene_from_document(doc, None, name, material_map=mmap, view=view, width=width, height=height)
+        kind = "generated"
+    elif suffix in FORMATS:
+        p = Path(text)
+        doc = {"name": p.stem, "description": f"the mesh {p.name}", "shapes": {p.stem: {"type": "mesh", "file": text}}}
+        loaded = scene_from_document(doc, None, text, units=cli_units, material_map=mmap, view=view, width=width,
+                                     height=height)
+        kind = "mesh"
+    elif suffix == ".toml":
+        loaded = load_scene_file(text, units=cli_units, material_map=mmap, view=view, width=width, height=height)
+        kind = "file"
+    else:
+        if Path(text).suffix or os.sep in text or Path(text).exists():
+            raise SceneError(f"scene {text!r}: unknown format {suffix or '(no suffix)'!r} (a mesh "
+                             f"{', '.join(FORMATS)}, a scene .toml or a G-buffer .exr)")
+        known = [*SCENES.names(), *GENERATED_SCENES]
+        raise SceneError(f"unknown scene {text!r} (built-in: {', '.join(known)}; or a mesh, scene .toml or .exr file)")
+    for mat in {m for m in loaded.spec.sss_materials if m}:
+        get_material(mat)
+    return ResolvedScene(kind, loaded.spec.name, spec=loaded.spec, notes=loaded.notes, objects=loaded.objects)
+
+
+__all__ = ["BUILTIN_DIR", "DEFAULT_LIGHTS", "GENERATED_SCENES", "GENERATORS", "LoadedScene", "MeshObject",
+           "ResolvedScene", "VIEWS", "builtin_scene_files", "check_units", "direction", "framing",
+           "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document"]

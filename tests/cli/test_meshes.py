@@ -1,0 +1,137 @@
+"""Meshes through the CLI: every bad mesh input is one line ``ssskit: error: ...`` and exit status 2 before
+any work, from every command that takes a mesh scene."""
+
+import numpy as np
+import pytest
+
+from ssskit.scenes.generated import icosphere
+from ssskit.scenes.meshes import Mesh, write_mesh
+
+#: the commands that take --scene with a mesh (their other arguments)
+COMMANDS = [["render", "--size", "32x24"], ["figures", "xie-fig1", "--out", "figs"], ["demo", "--out", "demo"]]
+
+
+@pytest.fixture
+def meshes(tmp_path, monkeypatch):
+    """A folder with good and bad meshes; the cache lies outside it (nothing may be written into it)."""
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    ball = icosphere(2, 30.0, name="ball")
+    write_mesh(work / "ball.ply", ball)
+    write_mesh(work / "two.glb", [Mesh("skinA", ball.vertices, ball.faces, ball.normals),
+                                  Mesh("skinB", ball.vertices + np.float32([70, 0, 0]), ball.faces, ball.normals)])
+    v = ball.vertices.copy()
+    v[3, 0] = np.nan
+    write_mesh(work / "nan.obj", Mesh("ball", v, ball.faces, ball.normals))
+    write_mesh(work / "nan.glb", Mesh("ball", v, ball.faces, ball.normals))
+    (work / "empty.obj").write_bytes(b"")
+    (work / "model.stl").write_bytes(b"solid x\n")
+    (work / "huge.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\n"
+                                    b"property float x\nproperty float y\nproperty float z\nelement face 2000000000\n"
+                                    b"property list uchar uint vertex_indices\nend_header\n")
+    return work
+
+
+BAD = [
+    (["--scene", "nope.obj"], "mesh 'nope.obj' does not exist"),
+    (["--scene", "empty.obj"], "mesh 'empty.obj' is empty (0 bytes)"),
+    (["--scene", "model.stl"], "unknown format '.stl'"),
+    (["--scene", "nan.obj"], "has NaN or infinite vertex positions"),
+    (["--scene", "nan.glb"], "has NaN or infinite vertex positions (1 of"),
+    (["--scene", "two.glb", "--material-map", "skinC=skin1"], "material map names 'skinC', which 'two.glb' does not "
+                                                              "have (its objects: skinA, skinB)"),
+    (["--scene", "two.glb", "--material-map", "skinA=unobtainium"], "unobtainium"),
+    (["--scene", "two.glb", "--material-map", "skinA"], "material map entry 'skinA' is not NAME=MATERIAL"),
+    (["--scene", "huge.ply"], "2,000,000,000 faces: rendering it at "),
+    (["--scene", "ball.ply", "--units", "mm", "--units", "m"], "conflicting units: mm, m (give --units once)"),
+    (["--scene", "ball.ply", "--units", "inch"], "'inch' is not one of 'mm', 'cm', 'm'"),
+]
+
+
+@pytest.mark.parametrize("command", COMMANDS, ids=[c[0] for c in COMMANDS])
+@pytest.mark.parametrize("args, fragment", BAD, ids=[f"{a[1]}{' ' + a[3] if len(a) > 3 else ''}" for a, _ in BAD])
+def test_bad_mesh_input(run, meshes, command, args, fragment):
+    before = sorted(p.name for p in meshes.rglob("*"))
+    code, out, err = run(*command, *args)
+    assert code == 2, err
+    assert out == ""
+    assert err.count("\n") == 1 and err.startswith("ssskit: error: "), err
+    assert fragment in err, err
+    assert sorted(p.name for p in meshes.rglob("*")) == before  # nothing written
+
+
+def test_figures_scene_options_need_a_figure_that_renders_a_scene(run, meshes):
+    code, _, err = run("figures", "fig7", "--scene", "ball.ply", "--out", "figs")
+    assert code == 2 and "apply to the figures that render a scene (xie-fig1), not to fig7" in err
+
+
+def test_demo_needs_scene_for_units(run, meshes):
+    code, _, err = run("demo", "--units", "mm", "--out", "demo")
+    assert code == 2 and "--units and --material-map need --scene" in err
+
+
+def test_demo_section_of_your_model(tmp_path, monkeypatch):
+    """build_report(scene=...) appends the "Your model" section (the other sections left out here)."""
+    import ssskit.figures.views as views
+    import ssskit.report as report
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(report, "SECTIONS", [])
+    monkeypatch.setattr(views, "DEMO_SIZE", (32, 24))
+    monkeypatch.setattr(views, "DEMO_FRAMES", 2)
+    monkeypatch.setattr(views, "DEMO_REFERENCE_SPP", 16)
+    index = report.build_report(tmp_path / "demo", scene={"scene": "icosphere"})
+    text = index.read_text()
+    assert "<h2" in text and "Your model: icosphere" in text and "golubev-64" in text
+    assert (tmp_path / "demo" / "figures" / "your_model.png").is_file()
+
+
+RENDER = ["render", "--size", "40x30", "--spp", "2", "--no-exact", "--no-perceptual", "--backend", "numpy"]
+
+
+def _saved(run, *args):
+    from ssskit.screenspace import load_gbuffer
+
+    code, out, err = run(*RENDER, *args)
+    assert code == 0, err
+    return load_gbuffer(args[args.index("--save-gbuffer") + 1]), err
+
+
+def test_render_formats_and_units_give_the_same_gbuffer(run, meshes):
+    """ssskit render --save-gbuffer: the mesh as OBJ (mm), glTF text (mm) and PLY in metres with --units m
+    give the same G-buffer within float32; without --units the command says what it assumed."""
+    ball = icosphere(2, 30.0, name="ball")
+    write_mesh(meshes / "ball.obj", ball)
+    write_mesh(meshes / "ball.gltf", ball)
+    write_mesh(meshes / "ball_m.ply", Mesh("ball", ball.vertices / np.float32(1000), ball.faces, ball.normals))
+    ref, err = _saved(run, "--scene", "ball.ply", "--save-gbuffer", "ply.exr")
+    assert "ssskit: ball.ply: assumed units mm (no --units given); the model is 60 mm across" in err
+    for args in (["--scene", "ball.obj", "--units", "mm"], ["--scene", "ball.gltf", "--units", "mm"],
+                 ["--scene", "ball_m.ply", "--units", "m"]):
+        gb, err = _saved(run, *args, "--save-gbuffer", f"{args[1]}.exr")
+        assert "assumed" not in err
+        np.testing.assert_array_equal(gb.profile_id, ref.profile_id)
+        m = ref.mask
+        np.testing.assert_allclose(gb.depth[m], ref.depth[m], rtol=1e-5)
+        np.testing.assert_allclose(gb.diffuse, ref.diffuse, rtol=1e-4, atol=1e-5)
+
+
+def test_render_two_materials_and_reference_checks(run, meshes):
+    gb, _ = _saved(run, "--scene", "two.glb", "--units", "mm", "--material-map", "skinA=skin1,skinB=marble",
+                   "--save-gbuffer", "two.exr")
+    assert gb.materials == ("Skin1", "Marble") and set(np.unique(gb.profile_id)) == {0, 1, 2}
+    code, out, err = run(*RENDER, "--scene", "two.glb", "--units", "mm", "--material-map", "skinB=marble",
+                         "--pass", "burley", "--json")
+    assert code == 0, err
+    import json
+
+    assert set(json.loads(out)["burley_params"]) == {"1", "2"}
+    s = icosphere(2, 30.0, name="cup")
+    write_mesh(meshes / "cup.ply", Mesh("cup", s.vertices, s.faces[8:], s.normals))
+    code, out, err = run(*RENDER, "--scene", "cup.ply", "--reference")
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert "mesh 'cup.ply' is open" in err and "path-traced reference needs a closed surface" in err
+    code, _, err = run(*RENDER, "--scene", "slab", "--view", "front")
+    assert code == 2 and "--view does not apply to the built-in scene 'slab'" in err
