@@ -8,14 +8,18 @@ array with one weight vector: depth-unaware, mask-unaware, integer taps, the che
 can be asked to do. Also timed: the paper's 10% jitter, and a G-buffer with three profile ids
 (three materials, each with its own taps, in one pass) against the same G-buffer with one id (the
 mean over the three materials, and with the same taps everywhere).
-Timings are medians of interleaved repeats. Prints one JSON object.
+Also timed, the issue-27 figures: the public API (``separable_sss`` on a GBuffer, every per-frame step
+included) with 10% jitter against OpenCV's plain 7-tap ``sepFilter2D`` on the same float32 image (if
+OpenCV is installed: ``pip install opencv-python-headless``; it is a competitor here, never a
+dependency), and a numpy copy of the image. Timings are medians of interleaved repeats, with min,
+median and max of each; the load average before and after. Prints one JSON object.
 
 ``--before REV`` also times the same cases with the code of git revision REV (checked out into
 the git-ignored ``benchmarks/.before-<rev>/`` and run in a subprocess, in the same run), so a
 change is judged by its ratio to scipy before and after.
 
     NUMBA_THREADING_LAYER is set to 'workqueue' unless given.
-    python benchmarks/bench_separable.py [--sizes 1280x720 1920x1080 3840x2160] [--repeats 9] [--before 11c9ea3]
+    python benchmarks/bench_separable.py [--sizes 960x540 1920x1080 3840x2160] [--repeats 9] [--before 11c9ea3]
 """
 
 from __future__ import annotations
@@ -71,27 +75,74 @@ def taps_for(material: str, spec: str = "preintegrated", n: int = 7):
     return make_taps(build_kernel(spec, profile, cell, size), n, "importance")
 
 
+def spread_ms(times_s: list[float]) -> dict:
+    ms = [1e3 * t for t in times_s]
+    return {"min": round(min(ms), 3), "median": round(statistics.median(ms), 3), "max": round(max(ms), 3)}
+
+
+def interleaved(fns: dict, repeats: int) -> dict:
+    """Every function once (warm-up), then ``repeats`` rounds calling each in turn: {name: [seconds]}."""
+    for fn in fns.values():
+        fn()
+    times: dict = {k: [] for k in fns}
+    for _ in range(repeats):
+        for k, fn in fns.items():
+            t0 = time.perf_counter()
+            fn()
+            times[k].append(time.perf_counter() - t0)
+    return times
+
+
+def opencv():
+    """cv2, or None with the reason (OpenCV is a benchmark competitor only, never a dependency of ssskit)."""
+    try:
+        import cv2
+    except ImportError as exc:
+        return None, f"not run: OpenCV is not installed ({exc}; pip install opencv-python-headless)"
+    return cv2, f"OpenCV {cv2.__version__}, {cv2.getNumThreads()} threads"
+
+
 def time_sizes(sizes, repeats: int, numpy_max_pixels: int) -> list[dict]:
-    """The pass (this checkout's API or, via filter_arrays' keywords, an older one) vs scipy per size."""
+    """The pass (this checkout's API or, via filter_arrays' keywords, an older one) vs scipy and OpenCV per size.
+
+    Per size, interleaved: ``filter_arrays`` without and with 10% jitter; the public API
+    (:func:`ssskit.screenspace.separable_sss` on a GBuffer) with 10% jitter; scipy's two plain 7-tap
+    ``convolve1d`` passes; OpenCV's plain 7-tap ``sepFilter2D`` (border replicate) on the same float32
+    image, if installed; and a numpy copy of the image (the bytes' floor)."""
+    from ssskit.screenspace import Camera, GBuffer, separable_sss
     from ssskit.screenspace.separable import filter_arrays
 
     taps = taps_for("skin1")
     plain = np.ascontiguousarray(taps.weights[0][:, 0], dtype=np.float32)  # any 7 weights
+    cv2, cv_status = opencv()
     rows = []
     for size in sizes:
         width, height = (int(v) for v in size.lower().split("x"))
         image, depth = scene(width, height)
         f = FOCAL_1080P * width / 1920
-        m = median_ms({
+        gb = GBuffer(diffuse=image, albedo=np.ones_like(image), depth=depth,
+                     profile_id=np.ones((height, width), np.uint32),
+                     camera=Camera(width, height, f, f, width / 2, height / 2))
+        fns = {
             "numba_ms": lambda: filter_arrays(image, depth, f, f, taps, jitter=0.0, depth_mode="follow"),
             "scipy_two_plain_passes_ms": lambda: convolve1d(convolve1d(image, plain, axis=1, mode="nearest"), plain,
                                                             axis=0, mode="nearest"),
             "numba_jitter10_ms": lambda: filter_arrays(image, depth, f, f, taps, jitter=0.1, depth_mode="follow"),
-        }, repeats)
-        row = {"size": f"{width}x{height}", **m}
+            "api_jitter10_ms": lambda: separable_sss(gb, taps, jitter=0.1, depth_mode="follow", backend="numba"),
+            "numpy_copy_ms": lambda: image.copy(),
+        }
+        if cv2 is not None:
+            fns["opencv_sepfilter2d_ms"] = lambda: cv2.sepFilter2D(image, -1, plain, plain,
+                                                                   borderType=cv2.BORDER_REPLICATE)
+        times = interleaved(fns, repeats)
+        m = {k: 1e3 * statistics.median(v) for k, v in times.items()}
+        row = {"size": f"{width}x{height}", **m, "spread_ms": {k: spread_ms(v) for k, v in times.items()}}
         row["ratio_numba_over_scipy"] = m["numba_ms"] / m["scipy_two_plain_passes_ms"]
         row["ratio_jitter10_over_plain"] = m["numba_jitter10_ms"] / m["numba_ms"]
         row["numba_fps"] = 1e3 / m["numba_ms"]
+        if cv2 is not None:
+            row["ratio_api_jitter10_over_opencv"] = m["api_jitter10_ms"] / m["opencv_sepfilter2d_ms"]
+        row["opencv"] = cv_status
         if width * height <= numpy_max_pixels:
             t0 = time.perf_counter()
             filter_arrays(image, depth, f, f, taps, jitter=0.0, depth_mode="follow", backend="numpy")
@@ -163,11 +214,13 @@ def main() -> None:
                     "threads": numba.get_num_threads(), "ssskit": str(Path(ssskit.__file__).parent)},
         "taps_mm": taps_for("skin1").offsets_mm[0].tolist(),
         "repeats": args.repeats,
+        "load_average_before": os.getloadavg(),
         "results": time_sizes(args.sizes, args.repeats, args.numpy_max_pixels),
         "profile_ids_1080p": time_profile_ids(args.repeats),
     }
     if args.before:
         out["before"] = before(args.before, args.sizes, args.repeats)
+    out["load_average_after"] = os.getloadavg()
     print(json.dumps(out, indent=2))
 
 

@@ -23,6 +23,15 @@ from typing import Any, ClassVar, Self, SupportsIndex
 
 from .errors import SettingsError
 
+#: ranges the settings and the command line share (here, below every layer that checks them, so the CLI's
+#: option types need not import the pipeline): image sides of the built-in scenes (pixels), photons of a
+#: Monte Carlo profile, taps of a 1D pass
+SIZE_RANGE = (8, 8192)
+PHOTONS_RANGE = (1_000, 10_000_000_000)
+#: photons per channel of a Monte Carlo profile by default: the supplement's (section F)
+DEFAULT_PHOTONS = 10_000_000
+TAP_RANGE = (1, 255)
+
 
 class Settings:
     """Mixin for frozen dataclasses: ``to_dict``, ``from_dict``, ``replace``, ``load`` and ``save``."""

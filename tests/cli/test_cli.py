@@ -5,6 +5,7 @@ Bad input of every kind added since is in test_bad_input.py; the README's comman
 """
 
 import json
+import math
 import subprocess
 import sys
 
@@ -230,9 +231,54 @@ def test_simulate_json_and_sweep_identity(capsys, tmp_path, monkeypatch):
         (["simulate", "--material", "skin1,apple", "--out", "x.npz"], "single material"),
         (["simulate", "--material", "skin1,apple", "--threads", "1"], "apply to a single material"),
         (["simulate", "--material", "skin1", "--threads", "999"], "threads must be in"),
+        (["simulate", "--material", "skin1,apple", "--backend", "gl"], "apply to a single material"),
+        (["simulate", "--material", "skin1", "--backend", "cuda"], "--backend"),
     ],
 )
 def test_simulate_bad_input(capsys, tmp_path, monkeypatch, args, fragment):
     monkeypatch.chdir(tmp_path)
     code, out, err = run(capsys, *args)
     assert code == 2 and out == "" and fragment in err and err.count("\n") == 1
+
+
+def test_simulate_backend_gl_selects_the_glsl_engine(capsys, tmp_path, monkeypatch):
+    """``--backend gl``: the GLSL engine's run (its own streams: not numba's numbers; cached apart); with
+    no OpenGL 4.3 context it is one line on stderr and exit status 2, before any work."""
+    from ssskit.profiles.montecarlo import engine_gl
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    args = ("simulate", "--material", "skin1", "--channel", "R", "--photons", "20000", "--json")
+    ok, _ = engine_gl.available()
+    if not ok:
+        code, out, err = run(capsys, *args, "--backend", "gl")
+        assert code == 2 and out == "" and "gl Monte Carlo engine cannot run here" in err and err.count("\n") == 1
+        pytest.skip("gl engine not available: the error path was checked")
+    code, out, _ = run(capsys, *args, "--backend", "gl")
+    assert code == 0
+    gl = json.loads(out)["channels"]["R"]
+    code, out, _ = run(capsys, *args)
+    numba = json.loads(out)["channels"]["R"]
+    assert gl["total_Rd"] != numba["total_Rd"]
+    assert abs(gl["total_Rd"] - numba["total_Rd"]) <= 4 * math.hypot(gl["total_Rd_se"], numba["total_Rd_se"])
+    assert json.loads(run(capsys, *args, "--backend", "gl")[1])["channels"]["R"]["total_Rd"] == gl["total_Rd"]
+
+
+def test_the_group_lists_commands_without_importing_them():
+    """``ssskit --help`` lists every command from ssskit.cli.COMMANDS without importing a command module (no
+    numpy, no pipeline: it starts in a few tens of ms), and the listed texts are the commands' own."""
+    import click
+
+    from ssskit.cli import COMMANDS, LazyCommands
+
+    code = ("import sys; from ssskit.cli import main; main(['--help']); "
+            "print(sorted(m for m in ('numpy', 'ssskit.pipeline', 'ssskit.cli.render', 'numba') if m in sys.modules))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert proc.stdout.strip().splitlines()[-1] == "[]"
+    lazy = LazyCommands(COMMANDS)
+    for name in COMMANDS:
+        cmd = cli.commands[name]
+        assert cmd.name == name
+        for limit in (40, 70, 100):
+            assert lazy.short_help(name, limit) == cmd.get_short_help_str(limit), name
+    ctx = click.Context(cli)
+    assert set(cli.list_commands(ctx)) == set(COMMANDS)

@@ -3,6 +3,7 @@ light inside the grid (what R(r) integrates to) and with the overflow (MCML's Rd
 escaping beyond the grid), for the same run."""
 
 import json
+import math
 
 import pytest
 
@@ -21,8 +22,10 @@ def test_simulate_and_profile_report_the_same_totals(capsys, tmp_path, monkeypat
         assert p["params"]["total_Rd_with_overflow"] == pytest.approx(s["total_Rd"], rel=1e-12)
         assert s["total_Rd_in_grid"] + s["overflow"] == pytest.approx(s["total_Rd"], rel=1e-12)
         assert len(s["Rd"]) == len(sim["r_mm"])
-        # the overflow bin is not in the density: Rd has no jump at the grid's end
-        assert s["Rd"][-1] < 10 * s["Rd"][-3] + 1e-12
+        # the overflow bin is not in the density: the last annulus holds a few photons, not the overflow
+        # (0.2-2% of the light here; each photon of 20000 is < 5e-5)
+        r_mm = sim["r_mm"]
+        assert 2 * math.pi * r_mm[-1] * (r_mm[1] - r_mm[0]) * s["Rd"][-1] < 0.25 * s["overflow"]
     # Marble's 32-MFP grid truncates: light escapes beyond it
     assert sim["channels"]["R"]["overflow"] > 1e-3 * sim["channels"]["R"]["total_Rd"]
     assert main(["profile", "--material", "marble", "--model", "montecarlo", "--photons", "20000"]) == 0

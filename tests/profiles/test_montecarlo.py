@@ -1,6 +1,7 @@
 """MCML engine: published validation values, an independent adding-doubling solver, physical
 properties, reproducibility across threads, caching, interruption and resume."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -23,14 +24,26 @@ def _cache(tmp_path, monkeypatch):
     monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
 
 
+@pytest.fixture(params=["numba", "gl"])
+def mc_backend(request):
+    """Each Monte Carlo engine: numba, and the GLSL one where an OpenGL 4.3 context exists (llvmpipe in CI)."""
+    if request.param == "gl":
+        from ssskit.profiles.montecarlo import engine_gl
+
+        ok, why = engine_gl.available()
+        if not ok:
+            pytest.skip(f"gl engine not available: {why}")
+    return request.param
+
+
 def within_3_se(value, se, ref, ref_err=0.0):
     return abs(value - ref) <= 3.0 * math.hypot(se, ref_err)
 
 
-def test_van_de_hulst_slab():
+def test_van_de_hulst_slab(mc_backend):
     """mu_a = 10, mu_s = 90 cm^-1, g = 0.75, n = 1, d = 0.02 cm: Rd = 0.09739, Tt = 0.66096."""
     cfg = MCConfig((MCLayer(1.0, 9.0, 0.75, 1.0, 0.2),), dr_mm=0.01, nr=50, photons=400_000, seed=11)
-    r = simulate(cfg)
+    r = simulate(cfg, backend=mc_backend)
     assert within_3_se(r.total_rd, r.total_rd_se, 0.09739)
     assert within_3_se(r.tt, r.tt_se, 0.66096)
     # energy balance: what enters is reflected, transmitted or absorbed (roulette is unbiased)
@@ -53,13 +66,13 @@ def _chandrasekhar_h(albedo: float, n: int = 200):
     return hf
 
 
-def test_semi_infinite_albedo_09_h_function():
+def test_semi_infinite_albedo_09_h_function(mc_backend):
     """n = 1, g = 0, albedo 0.9, semi-infinite: Rd = 0.414947 (exact, H-function), and the light per
     exit direction: for normal incidence the reflected intensity is (F a / 4) H(mu) H(1) / (mu + 1)
     (Chandrasekhar 1950, Eq. IV.70 with mu0 = 1), so the fraction leaving with mu in [mu1, mu2] is
     (a / 2) H(1) Int H(mu) mu / (mu + 1) dmu; each exit bin within 4 standard errors."""
     cfg = MCConfig((MCLayer(0.1, 0.9, 0.0, 1.0),), dr_mm=0.05, nr=100, photons=400_000, seed=12)
-    r = simulate(cfg)
+    r = simulate(cfg, backend=mc_backend)
     assert r.rsp == 0.0 and r.tt == 0.0
     assert within_3_se(r.total_rd, r.total_rd_se, 0.414947)
     assert r.exit_rd.sum() == pytest.approx(r.total_rd, rel=1e-12)
@@ -76,13 +89,13 @@ def test_semi_infinite_albedo_09_h_function():
     assert r.radiance_factor()[-1] == pytest.approx(n * expected[-1] / 0.414947, abs=4 * n * r.exit_rd_se[-1] / r.total_rd)
 
 
-def test_oblique_incidence_h_function():
+def test_oblique_incidence_h_function(mc_backend):
     """An oblique beam (60 degrees, n = 1, albedo 0.9, semi-infinite): Rd = 1 - H(mu0) sqrt(1 - a) with
     mu0 = 0.5 (Chandrasekhar 1950, conservation of the reflection function's flux), and the light per
     exit bin (a / 2) H(mu0) Int H(mu) mu / (mu + mu0) dmu (isotropic scattering: no azimuth
     dependence); and the specular part of a beam on n = 1.5 at 60 degrees is Fresnel's 0.0892."""
     cfg = MCConfig((MCLayer(0.1, 0.9, 0.0, 1.0),), dr_mm=0.05, nr=100, photons=200_000, seed=14, incidence_deg=60.0)
-    r = simulate(cfg)
+    r = simulate(cfg, backend=mc_backend)
     hf = _chandrasekhar_h(0.9)
     assert within_3_se(r.total_rd, r.total_rd_se, 1 - hf(0.5) * math.sqrt(0.1))
     from scipy.integrate import quad
@@ -100,17 +113,17 @@ def test_oblique_incidence_h_function():
     assert glass.launch_direction() == pytest.approx((math.sin(math.radians(60)) / 1.5, ct))
 
 
-def test_giovanelli_matched_index_1_5():
+def test_giovanelli_matched_index_1_5(mc_backend):
     """mu_a = 10, mu_s = 90 cm^-1, g = 0, n = 1.5, semi-infinite: Rd + Rsp = 0.2600."""
     cfg = MCConfig((MCLayer(1.0, 9.0, 0.0, 1.5),), dr_mm=0.01, nr=100, photons=400_000, seed=13)
-    r = simulate(cfg)
+    r = simulate(cfg, backend=mc_backend)
     assert r.rsp == pytest.approx(0.04)
     assert within_3_se(r.total_rd + r.rsp, r.total_rd_se, 0.2600, 0.00005)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", MATERIALS.names())
-def test_all_materials_against_adding_doubling(name):
+def test_all_materials_against_adding_doubling(name, mc_backend):
     """Total Rd of 11 materials x RGB vs Prahl's adding-doubling (iadpython), within 3 SE.
 
     The adding-doubling value's own discretisation error is taken as the change from 16 to 32
@@ -122,15 +135,15 @@ def test_all_materials_against_adding_doubling(name):
     for c in range(3):
         ref = [iad.Sample(a=m.albedo[c], b=1e4, g=0.0, n=m.eta, n_above=1.0, n_below=1.0, quad_pts=q).rt()[0] - rsp
                for q in (16, 32)]
-        r = simulate(config_for_material(m, c, photons=100_000, seed=21, batch_size=2_500))
+        r = simulate(config_for_material(m, c, photons=100_000, seed=21, batch_size=2_500), backend=mc_backend)
         assert within_3_se(r.total_rd, r.total_rd_se, ref[1], abs(ref[1] - ref[0])), (c, r.total_rd, r.total_rd_se, ref)
 
 
-def test_profile_properties_skin1():
+def test_profile_properties_skin1(mc_backend):
     from ssskit.profiles.montecarlo import MonteCarloProfile
 
     m = get_material("skin1")
-    r = simulate(config_for_material(m, "R", photons=100_000, seed=3))
+    r = simulate(config_for_material(m, "R", photons=100_000, seed=3), backend=mc_backend)
     prof = MonteCarloProfile(r)
     # the regular radial bins integrate to the total inside the grid; the overflow bin is no density
     assert r.rd.shape == r.r_mm.shape == (r.config.nr - 1,)
@@ -191,6 +204,52 @@ def test_same_seed_bit_identical_for_any_thread_count():
     assert np.array_equal(one.rd, many.rd) and one.total_rd == many.total_rd and one.absorbed == many.absorbed
     other = simulate(MCConfig(cfg.layers, cfg.dr_mm, cfg.nr, cfg.photons, seed=6, batch_size=1_000), use_cache=False)
     assert other.total_rd != one.total_rd
+
+
+def _gl_or_skip():
+    from ssskit.profiles.montecarlo import engine_gl
+
+    ok, why = engine_gl.available()
+    if not ok:
+        pytest.skip(f"gl engine not available: {why}")
+    return engine_gl
+
+
+def test_gl_same_seed_same_tallies_for_any_dispatch(monkeypatch):
+    """The GLSL engine's tallies are integers added by atomics and each photon draws from its own
+    counter-based stream: the same seed gives bit-identical tallies on every run, for any number of
+    invocations, steps per dispatch and batches per call; another seed gives others."""
+    engine_gl = _gl_or_skip()
+    cfg = config_for_material(get_material("ketchup"), 0, photons=12_000, seed=5, batch_size=1_000)
+    a = simulate(cfg, backend="gl", use_cache=False)
+    b = simulate(cfg, backend="gl", use_cache=False)
+    assert np.array_equal(a.rd, b.rd) and a.total_rd == b.total_rd and a.absorbed == b.absorbed
+    monkeypatch.setattr(engine_gl, "INVOCATIONS_CPU", 96)
+    monkeypatch.setattr(engine_gl, "INVOCATIONS_GPU", 96)
+    monkeypatch.setattr(engine_gl, "STEPS_CPU", 700)
+    monkeypatch.setattr(engine_gl, "STEPS_GPU", 700)
+    monkeypatch.setattr(engine_gl, "CHUNK_CPU", 5)
+    monkeypatch.setattr(engine_gl, "CHUNK_GPU", 5)
+    c = simulate(cfg, backend="gl", use_cache=False)
+    assert np.array_equal(a.rd, c.rd) and np.array_equal(a.exit_rd, c.exit_rd) and a.total_rd == c.total_rd
+    assert a.absorbed == c.absorbed and a.total_rd_se == c.total_rd_se
+    other = simulate(dataclasses.replace(cfg, seed=6), backend="gl", use_cache=False)
+    assert other.total_rd != a.total_rd
+    # the two engines: independent streams, the same physics (energy balance within 5 SE)
+    n = simulate(cfg, use_cache=False)
+    assert abs(n.total_rd - a.total_rd) <= 4 * math.hypot(n.total_rd_se, a.total_rd_se)
+    assert a.total_rd + a.tt + a.absorbed + a.rsp == pytest.approx(1.0, abs=5 * a.total_rd_se)
+
+
+def test_gl_results_are_cached_apart(tmp_path):
+    _gl_or_skip()
+    cfg = config_for_material(get_material("skin1"), 0, photons=2_000, seed=2, batch_size=1_000)
+    g = simulate(cfg, backend="gl")
+    n = simulate(cfg)
+    assert g.total_rd != n.total_rd  # not the gl result read back for numba, nor the reverse
+    assert simulate(cfg, backend="gl").total_rd == g.total_rd and simulate(cfg).total_rd == n.total_rd
+    with pytest.raises(ProfileError, match="unknown Monte Carlo backend 'cuda'"):
+        simulate(cfg, backend="cuda")
 
 
 def _interrupt_on_call(monkeypatch, n):
@@ -316,7 +375,7 @@ def test_config_validation(kwargs, fragment):
         MCConfig((MCLayer(0.1, 1.0), MCLayer(0.1, 1.0)), 0.1, 10)
 
 
-def test_layered_file_split_slab_matches_single_slab(tmp_path):
+def test_layered_file_split_slab_matches_single_slab(tmp_path, mc_backend):
     """Two index-matched identical layers of 0.1 mm transport light like one 0.2 mm layer (the
     van de Hulst slab, given in cm^-1 as MCML files are)."""
     f = tmp_path / "split.toml"
@@ -324,7 +383,7 @@ def test_layered_file_split_slab_matches_single_slab(tmp_path):
     f.write_text('name = "split"\nunit = "cm"\n' + layer + layer)
     m = get_material(str(f))
     assert len(m.layers) == 2 and m.layers[0].thickness_mm == pytest.approx(0.1)
-    r = simulate(config_for_material(m, 0, photons=300_000, seed=31))
+    r = simulate(config_for_material(m, 0, photons=300_000, seed=31), backend=mc_backend)
     assert within_3_se(r.total_rd, r.total_rd_se, 0.09739)
     assert within_3_se(r.tt, r.tt_se, 0.66096)
 

@@ -21,6 +21,18 @@ def _cache(tmp_path, monkeypatch):
     monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
 
 
+@pytest.fixture(params=["numba", "gl"])
+def mc_backend(request):
+    """Each Monte Carlo engine: numba, and the GLSL one where an OpenGL 4.3 context exists (llvmpipe in CI)."""
+    if request.param == "gl":
+        from ssskit.profiles.montecarlo import engine_gl
+
+        ok, why = engine_gl.available()
+        if not ok:
+            pytest.skip(f"gl engine not available: {why}")
+    return request.param
+
+
 @pytest.mark.parametrize("mu, inside", [(0.9, True), (0.5, True), (0.3, True), (0.1, True), (0.5, False)])
 def test_interface_albedo_matches_mitsuba_roughdielectric(mu, inside):
     """The engine's surface reflects, transmits and loses what Mitsuba's BSDF does: from inside past
@@ -39,12 +51,12 @@ def test_interface_albedo_matches_mitsuba_roughdielectric(mu, inside):
         assert lost > 0.02  # the loss the path-traced slab shows: not a smooth surface
 
 
-def test_nearly_smooth_surface_is_mcml():
+def test_nearly_smooth_surface_is_mcml(mc_backend):
     """alpha -> 0: the rough surface becomes MCML's smooth Fresnel boundary (independent streams,
     so the totals agree within their standard errors)."""
     cfg = config_for_material(get_material("skin1"), 1, photons=200_000, seed=2)
-    smooth = simulate(cfg, use_cache=False)
-    rough = simulate(dataclasses.replace(cfg, roughness=1e-4, seed=3), use_cache=False)
+    smooth = simulate(cfg, use_cache=False, backend=mc_backend)
+    rough = simulate(dataclasses.replace(cfg, roughness=1e-4, seed=3), use_cache=False, backend=mc_backend)
     for a, b, sa, sb in ((smooth.total_rd, rough.total_rd, smooth.total_rd_se, rough.total_rd_se),
                          (smooth.absorbed, rough.absorbed, smooth.absorbed_se, rough.absorbed_se)):
         assert abs(a - b) <= 4 * math.hypot(sa, sb)
@@ -57,13 +69,13 @@ def test_nearly_smooth_surface_is_mcml():
     assert abs(f_s - f_r) <= 4 * math.hypot(se_s, se_r)
 
 
-def test_rough_surface_loses_energy():
+def test_rough_surface_loses_energy(mc_backend):
     """alpha = 0.15 (the references' boundary): Rd + Tt + A + Rsp < 1 by what the surface loses
     at internal reflections (~1% of the incident light for Skin1's red), the total Rd drops (by less,
     0.4%)."""
     cfg = config_for_material(get_material("skin1"), 0, photons=400_000, seed=5)
-    smooth = simulate(cfg, use_cache=False)
-    rough = simulate(dataclasses.replace(cfg, roughness=ALPHA), use_cache=False)
+    smooth = simulate(cfg, use_cache=False, backend=mc_backend)
+    rough = simulate(dataclasses.replace(cfg, roughness=ALPHA), use_cache=False, backend=mc_backend)
     deficit = 1.0 - (rough.total_rd + rough.tt + rough.absorbed + rough.rsp)
     assert 0.004 < deficit < 0.03
     assert smooth.total_rd + smooth.tt + smooth.absorbed + smooth.rsp == pytest.approx(1.0, abs=5 * smooth.total_rd_se)

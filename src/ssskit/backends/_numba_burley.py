@@ -1,12 +1,27 @@
-"""numba kernel of the Burley Monte Carlo pass (:mod:`ssskit.backends.burley_plan` for the maths).
+"""numba kernels of the Burley Monte Carlo pass (:mod:`ssskit.backends.burley_plan` for the maths).
 
-One function, :func:`burley_rows`, runs the plan's steps 1-8 for every pixel of rows [y0, y1): the
-pixel key, the count, the uniforms, the radius, the nearest-texel fetch, the indicator and the
-Eq. 24 weights. Positions, radii and weights are float64, as in the numpy oracle, so both backends
-fetch the same texel for every sample; the output is float32. The kernel releases the GIL
-(``nogil``) and the backend runs ranges of rows on a thread pool; pixels are independent and every
-random number is a pure function of (pixel, sample index, frame, seed), so the image does not depend
-on the number of threads. Compiled once and cached on disk (``cache=True``).
+:func:`burley_rows` runs the plan's steps 1-8 for every pixel of rows [y0, y1): the pixel key, the
+count, the uniforms, the radius, the texel fetch, the indicator and the Eq. 24 weights.
+
+Without mips (:func:`_vec_rows`) it takes LANES = 8 neighbouring pixels at a time and draws sample j
+of all of them in one branch-free lane loop that LLVM compiles to 8-wide AVX2 float32 code (gathers
+for the texels): uniforms from 32-bit integer hashes, the exact inverse of Eq. 20 or Eq. 21, the
+angle's sine and cosine, the four exponentials of the weights, all by the vectorisable functions of
+:mod:`ssskit.compute.numba_math` instead of libm calls. Only loads and stores of 32-bit values
+occur in that loop (LLVM picks its vector width from the widest), and its scratch lives on the stack
+(:func:`~ssskit.compute.numba_math.stack_empty`), so no alias check stops the vectoriser. The
+texel of a sample must be the oracle's (the parity tests compare the images within 2e-5): a float32
+position within GUARD (sx (r + d_s) + 1) of a texel edge (50 times the float32 error bound measured
+in ``tests/compute/test_numba_math.py``; about 1 sample in 1000) is found again in float64 exactly
+as the oracle does (:func:`_exact_texel`), every other one lies on the oracle's texel. The weights
+are float32 (error ~1e-7 relative), summed in float32 over CHUNK samples, then in float64.
+
+With mips, :func:`burley_rows_f64` draws one sample at a time in float64 (the trilinear fetch's
+weights depend on the exact position).
+
+The kernels release the GIL (``nogil``) and the backend runs ranges of rows on a thread pool; pixels
+are independent and every random number is a pure function of (pixel, sample index, frame, seed), so
+the image does not depend on the number of threads. Compiled once and cached on disk (``cache=True``).
 """
 
 from __future__ import annotations
@@ -16,16 +31,33 @@ import math
 import numpy as np
 from numba import njit
 
+from ..compute.numba_math import (FM32, burley_rho_f32, exp2_f32, i32, i32_madd, load_at, log_f32, mix32_u32,
+                                  sincos_u24, stack_empty, u24_f32, u32_madd, u32_xor)
 from ._numba_separable import _mix32  # lowbias32, shared with the separable kernels
 
 _M32 = np.uint64(0xFFFFFFFF)
+#: pixels per step of the vectorised kernel (8 float32 lanes of an AVX2 register)
+LANES = 8
+_L2, _L3, _L4, _L6 = 2 * LANES, 3 * LANES, 4 * LANES, 6 * LANES
+#: a float32 sample position within GUARD x (sx (r + d_s) + 1) of a texel edge takes the float64 path; the
+#: float32 error is below 1e-6 of that (tests/compute/test_numba_math.py)
+GUARD = np.float32(2.0**-15)
+#: samples summed in float32 before the float64 totals
+CHUNK = 32
+_ONE32 = np.float32(1.0)
+_ZERO32 = np.float32(0.0)
+_HALF32 = np.float32(0.5)
+_TWO32 = np.float32(2.0)
+_U24 = np.float32(2.0**-24)
+_TOP24 = np.float32(2.0**24 - 1.0)
+_LOG2E = 1.4426950408889634
 
 #: sampler and sequence codes of the kernel (index into burley_plan.SAMPLERS / SEQUENCES)
 EXACT, XIE, GOLUBEV = 0, 1, 2
 R2, RANDOM = 0, 1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _unit(u):
     """xi = (float(U >> 8) + 0.5) 2^-24 (step 3)."""
     return (np.float64(u >> np.uint64(8)) + 0.5) * (1.0 / 16777216.0)
@@ -58,7 +90,7 @@ def inverse_cdf_unit(xi):
     return r - resid / ((e * e * e + e) * 0.25)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _bilinear(pyr, off, hh, ww, level, s, px, py, wl, acc):
     """Add wl x the bilinear fetch of level ``level`` of slot s's pyramid at (px, py) (level-0 pixels) to
     acc (4,): premultiplied RGB and coverage (plan step 5b)."""
@@ -89,8 +121,278 @@ def _bilinear(pyr, off, hh, ww, level, s, px, py, wl, acc):
                 acc[c] += b * pyr[k + c]
 
 
-@njit(cache=True, nogil=True)
+# ---- the vectorised kernel (no mips): LANES pixels side by side, float32, one sample of each per step ------
+
+
+@njit(cache=True, inline="always", fastmath=FM32, error_model="numpy")
+def _weights(r, rp, k_s, k0, k1, k2, q0, q1, q2):
+    """Step 7's weights in float32 without underflow: with b = exp(-r/(3 d_s)) and, per channel,
+    g = exp(r/(3 d_s) - r'/(3 d_c)) = a / b (a = exp(-r'/(3 d_c))), w_c = (d_s/d_c) (a^3 + a) / (b^3 + b)
+    = q_c g (a^2 + 1) / (b^2 + 1). The exponent of g is <= 0 (r' >= r, d_c <= d_s). The exponentials
+    are powers of 2: k = log2(e) / (3 d) per channel (the slot table)."""
+    t = r * k_s
+    b = exp2_f32(-t)
+    inv = _ONE32 / (b * b + _ONE32)
+    g0 = exp2_f32(t - rp * k0)
+    g1 = exp2_f32(t - rp * k1)
+    g2 = exp2_f32(t - rp * k2)
+    a0 = g0 * b
+    a1 = g1 * b
+    a2 = g2 * b
+    return (q0 * g0 * (a0 * a0 + _ONE32) * inv, q1 * g1 * (a1 * a1 + _ONE32) * inv,
+            q2 * g2 * (a2 * a2 + _ONE32) * inv)
+
+
+@njit(cache=True)
+def _exact_texel(x, y, j, n, h1, h2, ds, sx, sy, c, sampler, sequence, golden, a1, a2):
+    """The texel of sample j of pixel (x, y) exactly as the float64 oracle finds it (steps 3-5): the
+    fallback of the float32 lanes for samples within their error bound of a texel edge. Returns (r, ix,
+    iy) with r in mm (float64)."""
+    jj = np.uint64(j)
+    if sampler == GOLUBEV:
+        xi1 = (j + 0.5) / n
+        xi2 = _unit((h2 + jj * golden) & _M32)
+    elif sequence == R2:
+        xi1 = _unit((h1 + jj * a1) & _M32)
+        xi2 = _unit((h2 + jj * a2) & _M32)
+    else:
+        kk = (jj * golden) & _M32
+        xi1 = _unit(_mix32(h1 ^ kk))
+        xi2 = _unit(_mix32(h2 ^ kk))
+    if sampler == XIE:
+        r = ds * ((2.0 - c) * xi1 - 2.0) * math.log1p(-xi1)
+    else:
+        r = inverse_cdf_unit(xi1) * ds
+    phi = 2.0 * math.pi * xi2
+    px = x + 0.5 + r * math.cos(phi) * sx
+    py = y + 0.5 + r * math.sin(phi) * sy
+    return r, np.int64(math.floor(px)), np.int64(math.floor(py))
+
+
+@njit(cache=True, inline="always", fastmath=FM32, error_model="numpy")
+def _vec_rows(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, d_mm, chan, r997, sampler, sequence,
+              c, bleed, fx, fy, base, stable, key2, golden, a1, a2, xie):
+    """Steps 1-8 without mips for rows [y0, y1), LANES pixels at a time (module docstring); ``xie`` (a
+    constant at each call site) selects the radius of Eq. 21 instead of the exact inverse."""
+    U = np.uintp
+    h, w = slots.shape
+    srcf = src.reshape(-1)
+    zf = z.reshape(-1)
+    sf = slots.reshape(-1)
+    lz = stack_empty(LANES, np.float32)  # lane data: depth, pixels per mm, d_s, 1/(3 d), d_s/d_c
+    lsx = stack_empty(LANES, np.float32)
+    lsy = stack_empty(LANES, np.float32)
+    lds = stack_empty(LANES, np.float32)
+    li3 = stack_empty(_L4, np.float32)
+    lq = stack_empty(_L3, np.float32)
+    ls = stack_empty(LANES, np.int32)  # slot
+    ln = stack_empty(LANES, np.int32)  # sample count
+    lh = stack_empty(_L2, np.uint32)  # h1, h2
+    acc = stack_empty(_L6, np.float32)  # sum w_c V_c, sum w_c over a chunk of samples
+    tot = stack_empty(_L6, np.float64)  # ... over all samples
+    flag = stack_empty(LANES, np.int32)
+    fc = np.float32(c)
+    fb = np.float32(bleed)
+    fw = np.float32(w)
+    fh = np.float32(h)
+    ns = d_mm.shape[0]
+    tab = np.empty((ns, 8), np.float32)  # per slot: d_s, log2(e) / (3 d_s), log2(e) / (3 d_c), d_s / d_c
+    for si in range(ns):
+        d_s = d_mm[si, chan[si]]
+        tab[si, 0] = d_s
+        tab[si, 1] = _LOG2E / (3.0 * d_s)
+        for ch in range(3):
+            tab[si, 2 + ch] = _LOG2E / (3.0 * d_mm[si, ch])
+            tab[si, 5 + ch] = d_s / d_mm[si, ch]
+    for y in range(y0, y1):
+        hy = np.uint32(_mix32(base ^ np.uint64(y)))
+        fy0 = np.float32(y)
+        for x0 in range(0, w, LANES):
+            nmax = 0
+            for l in range(LANES):  # lane set-up (steps 1-2)
+                lu = U(l)
+                x = x0 + l
+                act = x < w
+                xc = min(x, w - 1)
+                p = U(y * w + xc)
+                s = sf[p] if act else np.int32(0)
+                n = (counts[y, xc] if use_counts else spp) if s > 0 else 0
+                zp = zf[p]
+                hk = mix32_u32(u32_xor(hy, x))
+                hk = mix32_u32(u32_xor(hk, zbits[y, xc])) if stable else hk
+                lh[lu] = hk
+                lh[U(LANES) + lu] = mix32_u32(u32_xor(hk, key2))
+                su = U(s)
+                ln[lu] = np.int32(n)
+                ls[lu] = s
+                lz[lu] = zp
+                lsx[lu] = np.float32(fx / np.float64(zp))
+                lsy[lu] = np.float32(fy / np.float64(zp))
+                lds[lu] = tab[su, 0]
+                for k in range(4):
+                    li3[U(k * LANES) + lu] = tab[su, 1 + k]
+                for ch in range(3):
+                    lq[U(ch * LANES) + lu] = tab[su, 5 + ch]
+            if sampler == GOLUBEV:  # golubev caps the count by the footprint (float64, as the oracle)
+                for l in range(LANES):
+                    n = int(ln[l])
+                    if n > 0:
+                        zp = np.float64(lz[l])
+                        rr = r997[ls[l]]
+                        cap = int(math.floor(math.pi * rr * rr * (fx / zp) * (fy / zp) / 4.0))
+                        ln[l] = np.int32(max(1, min(n, cap)))
+            for l in range(LANES):
+                nmax = max(nmax, int(ln[l]))
+            for i in range(_L6):
+                tot[i] = 0.0
+            for j in range(nmax):
+                if j % CHUNK == 0:
+                    for i in range(_L6):
+                        acc[i] = _ZERO32
+                jj = np.uint64(j)
+                fj = np.float32(j)
+                for l in range(LANES):  # one sample per lane (steps 3-8), no branches, 32-bit loads and stores
+                    lu = U(l)
+                    x = x0 + l
+                    n = ln[lu]
+                    act = j < n
+                    h1 = lh[lu]
+                    h2 = lh[U(LANES) + lu]
+                    if sampler == GOLUBEV:  # step 3
+                        fn = np.float32(max(n, 1))
+                        xi = (fj + _HALF32) / fn
+                        eta = (fn - fj - _HALF32) / fn
+                        u2 = u32_madd(h2, j, golden)
+                    else:
+                        if sequence == R2:
+                            u1 = u32_madd(h1, j, a1)
+                            u2 = u32_madd(h2, j, a2)
+                        else:
+                            kk = u32_madd(0, j, golden)
+                            u1 = mix32_u32(u32_xor(h1, kk))
+                            u2 = mix32_u32(u32_xor(h2, kk))
+                        m1 = u24_f32(u1)
+                        xi = (m1 + _HALF32) * _U24
+                        eta = ((_TOP24 - m1) + _HALF32) * _U24
+                    eta = max(eta, _U24)  # lanes past their count
+                    ds = lds[lu]
+                    if xie:  # step 4
+                        r = ds * ((_TWO32 - fc) * xi - _TWO32) * log_f32(eta)
+                    else:
+                        r = ds * burley_rho_f32(eta)
+                    cs, sn = sincos_u24(u24_f32(u2))
+                    sx = lsx[lu]
+                    sy = lsy[lu]
+                    dx = r * cs * sx  # step 5, relative to the pixel's corner
+                    dy = r * sn * sy
+                    tx = _HALF32 + dx
+                    ty = _HALF32 + dy
+                    flx = np.floor(tx)
+                    fly = np.floor(ty)
+                    frx = tx - flx
+                    fry = ty - fly
+                    ex = GUARD * (sx * (r + ds) + _ONE32)  # > the float32 error of dx (and of dy below)
+                    ey = GUARD * (sy * (r + ds) + _ONE32)
+                    near = (frx < ex) | (frx > _ONE32 - ex) | (fry < ey) | (fry > _ONE32 - ey)
+                    ix = flx + np.float32(x)  # the texel, in float32 (exact: |ix|, |iy| < 2^24)
+                    iy = fly + fy0
+                    inb = (ix >= _ZERO32) & (ix < fw) & (iy >= _ZERO32) & (iy < fh)
+                    ok = act & inb & (not near)
+                    fl = act & near
+                    flag[lu] = np.int32(1) if fl else np.int32(0)
+                    q = i32_madd(i32(iy), w, i32(ix)) if ok else i32(y * w + min(x, w - 1))
+                    s = ls[lu]
+                    qs = load_at(sf, q)  # step 6
+                    ind = _ONE32 if qs == s else (fb if qs > 0 else _ZERO32)
+                    ind = ind if ok else _ZERO32
+                    dz = load_at(zf, q) - lz[lu]
+                    rp = math.sqrt(r * r + dz * dz)
+                    w0, w1, w2 = _weights(r, rp, li3[lu], li3[U(LANES) + lu], li3[U(2 * LANES) + lu],
+                                          li3[U(3 * LANES) + lu], lq[lu], lq[U(LANES) + lu], lq[U(2 * LANES) + lu])
+                    valid = ind > _ZERO32
+                    w0 = w0 * ind if valid else _ZERO32
+                    w1 = w1 * ind if valid else _ZERO32
+                    w2 = w2 * ind if valid else _ZERO32
+                    v0 = load_at(srcf, i32_madd(q, 3, 0))
+                    v1 = load_at(srcf, i32_madd(q, 3, 1))
+                    v2 = load_at(srcf, i32_madd(q, 3, 2))
+                    acc[lu] += w0 * v0 if valid else _ZERO32  # step 8's sums
+                    acc[U(LANES) + lu] += w1 * v1 if valid else _ZERO32
+                    acc[U(2 * LANES) + lu] += w2 * v2 if valid else _ZERO32
+                    acc[U(3 * LANES) + lu] += w0
+                    acc[U(4 * LANES) + lu] += w1
+                    acc[U(5 * LANES) + lu] += w2
+                nfl = 0
+                for l in range(LANES):
+                    nfl |= flag[l]
+                if nfl != 0:  # the rare samples near a texel edge: their texel in float64, as the oracle
+                    for l in range(LANES):
+                        lu = U(l)
+                        if flag[lu] == 0:
+                            continue
+                        x = x0 + l
+                        rr, ix, iy = _exact_texel(x, y, j, ln[lu], np.uint64(lh[lu]), np.uint64(lh[U(LANES) + lu]),
+                                                  np.float64(lds[lu]),
+                                                  fx / np.float64(lz[lu]), fy / np.float64(lz[lu]), c, sampler,
+                                                  sequence, golden, a1, a2)
+                        if ix < 0 or ix >= w or iy < 0 or iy >= h:
+                            continue
+                        q = U(iy * w + ix)
+                        qs = sf[q]
+                        ind = _ONE32 if qs == ls[lu] else (fb if qs > 0 else _ZERO32)
+                        if ind == _ZERO32:
+                            continue
+                        r = np.float32(rr)
+                        dz = zf[q] - lz[lu]
+                        rp = math.sqrt(r * r + dz * dz)
+                        w0, w1, w2 = _weights(r, rp, li3[lu], li3[U(LANES) + lu], li3[U(2 * LANES) + lu],
+                                              li3[U(3 * LANES) + lu], lq[lu], lq[U(LANES) + lu],
+                                              lq[U(2 * LANES) + lu])
+                        w0 *= ind
+                        w1 *= ind
+                        w2 *= ind
+                        acc[lu] += w0 * srcf[U(3) * q]
+                        acc[U(LANES) + lu] += w1 * srcf[U(3) * q + U(1)]
+                        acc[U(2 * LANES) + lu] += w2 * srcf[U(3) * q + U(2)]
+                        acc[U(3 * LANES) + lu] += w0
+                        acc[U(4 * LANES) + lu] += w1
+                        acc[U(5 * LANES) + lu] += w2
+                if j % CHUNK == CHUNK - 1 or j == nmax - 1:  # float32 sums over at most CHUNK samples
+                    for i in range(_L6):
+                        tot[i] += np.float64(acc[i])
+            for l in range(min(LANES, w - x0)):  # step 8
+                lu = U(l)
+                x = x0 + l
+                for ch in range(3):
+                    e = src[y, x, ch]
+                    den = tot[U((3 + ch) * LANES) + lu]
+                    out[y, x, ch] = np.float32(tot[U(ch * LANES) + lu] / den) if (ln[lu] > 0 and den > 0.0) else e
+
+
+@njit(cache=True, nogil=True, fastmath=FM32, error_model="numpy")
 def burley_rows(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, d_mm, chan, r997, sampler, sequence,
+                c, bleed, fx, fy, base, stable, key2, golden, a1, a2, mips, mip_scale, max_mip, pyr, off, hh, ww,
+                ell_max):
+    """Steps 1-8 of the plan for rows [y0, y1). src (H, W, 3) float32, z (H, W) float32 (mm),
+    zbits (H, W) uint32 (the bits of z, for a stable pattern), slots (H, W) int32, counts (H, W) int64
+    (used when use_counts), out (H, W, 3) float32; with ``mips`` the pyramid of step 5b flattened
+    into pyr (level L at off[L], (S, hh[L], ww[L], 4)); ell_max (S,) the slots' largest dmfp (mm) of
+    step 5b. Without mips: the vectorised float32 kernel (two copies: the exact inverse and Eq. 21);
+    with mips: the float64 per-sample kernel :func:`burley_rows_f64`."""
+    if mips:
+        burley_rows_f64(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, d_mm, chan, r997, sampler,
+                        sequence, c, bleed, fx, fy, base, stable, key2, golden, a1, a2, mips, mip_scale, max_mip, pyr,
+                        off, hh, ww, ell_max)
+    elif sampler == XIE:
+        _vec_rows(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, d_mm, chan, r997, sampler, sequence,
+                  c, bleed, fx, fy, base, stable, key2, golden, a1, a2, True)
+    else:
+        _vec_rows(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, d_mm, chan, r997, sampler, sequence,
+                  c, bleed, fx, fy, base, stable, key2, golden, a1, a2, False)
+
+
+@njit(cache=True, nogil=True)
+def burley_rows_f64(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, d_mm, chan, r997, sampler, sequence,
                 c, bleed, fx, fy, base, stable, key2, golden, a1, a2, mips, mip_scale, max_mip, pyr, off, hh, ww,
                 ell_max):
     """Steps 1-8 of the plan for rows [y0, y1). src (H, W, 3) float32, z (H, W) float32 (mm),

@@ -44,7 +44,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 _FM = {"nsz", "arcp", "contract", "afn", "reassoc"}  # no 'nnan'/'ninf': +inf marks empty texels
 LANES = 16
@@ -105,7 +105,7 @@ def _unit(h):
     return neg * (-sp if odd else cp), neg * (cp if odd else sp)
 
 
-# With several profile slots a block checks the block-slot map (``block_slots``) over the rows and blocks
+# With several profile slots a block checks the block-slot map (``block_slot_rows``) over the rows and blocks
 # its taps reach: where no other profile is there it skips the per-texel slot test.
 # Layout of the frame buffer ``buf`` (planes of (H + 2 pad) x wps texels): input colour R, G, B; depth; slot;
 # the horizontal pass's colour R', G', B'. Per-row scratch ``sc``: the accumulators (6 x LANES: A_R, A_G,
@@ -500,49 +500,50 @@ def pass_none(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis,
 PASSES = {"gaussian": pass_gaussian, "follow": pass_follow, "none": pass_none}
 
 
-@njit(cache=True, parallel=True)
-def pack(diffuse, depth_mm, slots, buf, pad, wps, plane):
-    """Copy the frame into buf's input planes (pads were set once: colour 0, depth +inf, slot 0)."""
+@njit(cache=True, nogil=True)
+def pack_rows(diffuse, depth_mm, slots, buf, pad, wps, plane, y0, y1, write, stats):
+    """Rows [y0, y1) of the frame: copied into buf's input planes when ``write`` (pads were set once: colour 0,
+    depth +inf, slot 0), and per row y in stats[y] = (nearest depth with SSS, bad depths (not positive and
+    finite where slot > 0), smallest slot, largest slot): one read of the frame checks it and sizes the pad.
+    No parallel loop (its compilation costs seconds): the backend runs ranges of rows on its thread pool."""
     h, w = slots.shape
-    for y in prange(h):
+    for y in range(y0, y1):
         r = (y + pad) * wps + pad
+        zmin = np.inf
+        bad = 0
+        smin = 0
+        smax = 0
         for x in range(w):
-            i = r + x
-            buf[i] = diffuse[y, x, 0]
-            buf[plane + i] = diffuse[y, x, 1]
-            buf[2 * plane + i] = diffuse[y, x, 2]
             q = slots[y, x]
-            buf[Z_PLANE * plane + i] = depth_mm[y, x] if q > 0 else np.inf
-            buf[S_PLANE * plane + i] = q
-
-
-@njit(cache=True, parallel=True)
-def depth_range(depth_mm, slots):
-    """(nearest depth, number of bad depths) over the pixels with SSS, in one pass: a depth is bad if it
-    is not a positive finite number."""
-    h, w = slots.shape
-    zmin = np.full(h, np.inf)
-    bad = np.zeros(h, np.int64)
-    for y in prange(h):
-        for x in range(w):
-            if slots[y, x] > 0:
-                z = depth_mm[y, x]
+            z = depth_mm[y, x]
+            if q > 0:
                 if not (z > 0 and z < np.inf):
-                    bad[y] += 1
-                elif z < zmin[y]:
-                    zmin[y] = z
-    return zmin.min(), bad.sum()
+                    bad += 1
+                elif z < zmin:
+                    zmin = z
+            smin = min(smin, q)
+            smax = max(smax, q)
+            if write:
+                i = r + x
+                buf[i] = diffuse[y, x, 0]
+                buf[plane + i] = diffuse[y, x, 1]
+                buf[2 * plane + i] = diffuse[y, x, 2]
+                buf[Z_PLANE * plane + i] = z if q > 0 else np.inf
+                buf[S_PLANE * plane + i] = q
+        stats[y, 0] = zmin
+        stats[y, 1] = bad
+        stats[y, 2] = smin
+        stats[y, 3] = smax
 
 
-@njit(cache=True, parallel=True)
-def block_slots(slots):
-    """The block-slot map (H, ceil(W / LANES)) int32: for each row and block of LANES pixels, the one
-    nonzero slot its pixels have (0 if none, -1 if several): with several profiles, a block of the pass
-    reads it to learn whether any other profile lies within its taps' reach."""
+@njit(cache=True, nogil=True)
+def block_slot_rows(slots, out, y0, y1):
+    """Rows [y0, y1) of the block-slot map out (H, ceil(W / LANES)) int32: for each row and block of LANES
+    pixels, the one nonzero slot its pixels have (0 if none, -1 if several): with several profiles, a block
+    of the pass reads it to learn whether any other profile lies within its taps' reach."""
     h, w = slots.shape
-    nbx = (w + _L - 1) // _L
-    out = np.zeros((h, nbx), np.int32)
-    for y in prange(h):
+    nbx = out.shape[1]
+    for y in range(y0, y1):
         for bx in range(nbx):
             v = 0
             for x in range(bx * _L, min(w, bx * _L + _L)):
@@ -550,4 +551,3 @@ def block_slots(slots):
                 if q > 0:
                     v = q if v == 0 or v == q else -1
             out[y, bx] = v
-    return out

@@ -227,9 +227,10 @@ def _checked_counts(counts: ArrayLike, shape: tuple[int, int]) -> NDArray[np.int
 
 
 def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, plan: SlotPlan,
-                values: bool = True) -> None:
+                values: bool = True, slot_range: bool = True) -> None:
     """Shapes and slot range of the separable pass's inputs, or a precise error; with ``values`` also
-    that every pixel with SSS has a positive finite depth (a backend may check that in its own pass)."""
+    that every pixel with SSS has a positive finite depth (a backend may check that, and the slot range
+    with ``slot_range=False``, in its own pass over the frame)."""
     from ..errors import PassError
 
     if np.ndim(depth_mm) != 2 or np.shape(diffuse) != tuple(np.shape(depth_mm)) + (3,):
@@ -237,7 +238,7 @@ def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, pl
                         f"and {np.shape(depth_mm)}")
     if np.shape(slots) != np.shape(depth_mm):
         raise PassError(f"slots must be (H, W) like depth, got {np.shape(slots)}")
-    if slots.size and (int(slots.min()) < 0 or int(slots.max()) >= plan.slots):
+    if slot_range and slots.size and (int(slots.min()) < 0 or int(slots.max()) >= plan.slots):
         raise PassError(f"slots must lie in [0, {plan.slots - 1}]")
     if not values:
         return

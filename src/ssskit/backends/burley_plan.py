@@ -8,9 +8,11 @@ normalized diffusion
 with the bilateral, self-normalised estimator of Eq. 24. A backend (numpy oracle, numba, GLSL) must
 compute the following, in this order, for every pixel p = (x, y) with slot s = slots[y, x] > 0
 (slot 0: no SSS, the diffuse value is copied). Integers are uint32 (all arithmetic mod 2^32); the
-oracle computes positions and weights in float64, the numba backend too (so the texel every sample
-lands on is the same on both); a float32 port (GLSL) may differ in the texel of a sample whose
-position lies within float32 rounding of a texel edge, so its parity test counts pixels, not maxima.
+oracle computes positions and weights in float64; the numba backend computes them in float32 but
+finds the texel of every sample whose float32 position lies near a texel edge again in float64 (so
+the texel every sample lands on is the oracle's); a plain float32 port (GLSL) may differ in the texel
+of a sample whose position lies within float32 rounding of a texel edge, so its parity test counts
+pixels, not maxima.
 
 1. **Pixel key.** ``mix`` is lowbias32 (:func:`ssskit.sampling.hashes.mix32`)::
 

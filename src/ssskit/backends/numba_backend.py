@@ -43,6 +43,7 @@ class NumbaBackend(Backend):
         self._buf: NDArray[np.float32] | None = None
         self._pool: ThreadPoolExecutor | None = None
         self._lock = threading.Lock()
+        self._pads: dict[tuple[int, int], int] = {}  # the pad of the last frame of each size
 
     def availability(self) -> tuple[bool, str]:
         try:
@@ -82,31 +83,50 @@ class NumbaBackend(Backend):
 
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
                   slots: np.ndarray) -> NDArray[np.float32]:
-        check_frame(diffuse, depth_mm, slots, plan, values=False)
+        check_frame(diffuse, depth_mm, slots, plan, values=False, slot_range=False)  # values: in the packing
         with self._lock:  # one frame buffer per backend: one frame at a time
             return self._separable(plan, diffuse, depth_mm, slots)
 
+    def _pack(self, src: np.ndarray, depth: np.ndarray, slots: np.ndarray, pad: int,
+              write: bool) -> tuple[NDArray[np.float32], int, int, NDArray[np.float64]]:
+        """Pack the frame into the buffer of pad ``pad`` (if ``write``), checking it on the way: per-row stats."""
+        from ._numba_separable import pack_rows
+
+        h, w = slots.shape
+        buf, wps, plane = self._buffer(h, w, pad) if write else (np.zeros(1, np.float32), 1, 1)
+        stats = np.empty((h, 4))
+        self._rows(h, lambda y0, y1: pack_rows(src, depth, slots, buf, pad, wps, plane, y0, y1, write, stats))
+        return buf, wps, plane, stats
+
     def _separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
                    slots: np.ndarray) -> NDArray[np.float32]:
-        from ._numba_separable import LANES, PASSES, PLANES, TMP_PLANE, block_slots, depth_range, pack
+        from ._numba_separable import LANES, PASSES, PLANES, TMP_PLANE, block_slot_rows
 
         h, w = slots.shape
         slots = np.ascontiguousarray(slots, dtype=np.int32)
         depth = np.ascontiguousarray(depth_mm, dtype=np.float32)
         src = np.ascontiguousarray(diffuse, dtype=np.float32)
-        z_min, bad = depth_range(depth, slots)
-        if bad:
+        # one read of the frame packs and checks it with the last frame's pad (a frame of another size: a
+        # read-only check first); a nearer surface than the pad allows is packed again with a larger one
+        pad = self._pads.get((h, w))
+        buf, wps, plane, stats = self._pack(src, depth, slots, pad if pad is not None else 0, pad is not None)
+        if stats[:, 1].any():
             raise PassError("depth must be positive and finite on every pixel with SSS")
+        if slots.size and (stats[:, 2].min() < 0 or stats[:, 3].max() >= plan.slots):
+            raise PassError(f"slots must lie in [0, {plan.slots - 1}]")
+        z_min = float(stats[:, 0].min(initial=np.inf))
         if not np.isfinite(z_min):  # no pixel with SSS
             return np.array(src, dtype=np.float32)
-        pad = _pad(plan, float(z_min), h, w)
-        size = PLANES * (h + 2 * pad) * (w + 2 * pad + LANES) * 4
+        need = _pad(plan, z_min, h, w)
+        size = PLANES * (h + 2 * need) * (w + 2 * need + LANES) * 4
         if size > MAX_BUFFER_BYTES:
-            raise PassError(f"the kernel reaches {pad - 3} px at the nearest depth ({z_min:.4g} mm): the numba "
+            raise PassError(f"the kernel reaches {need - 3} px at the nearest depth ({z_min:.4g} mm): the numba "
                             f"backend would need a {size / 2**30:.1f} GiB frame buffer (limit "
                             f"{MAX_BUFFER_BYTES / 2**30:.0f} GiB); use --backend numpy or a smaller footprint")
-        buf, wps, plane = self._buffer(h, w, pad)
-        pack(src, depth, slots, buf, pad, wps, plane)
+        if pad is None or need > pad or need < pad // 2:  # (a pad larger than needed changes nothing)
+            pad = need
+            buf, wps, plane, _ = self._pack(src, depth, slots, pad, True)
+        self._pads[(h, w)] = pad
         run = PASSES[plan.depth_mode]
         base = np.uint64(frame_base(plan.frame, plan.seed))
         cap = np.float32(pad - 3)
@@ -115,7 +135,9 @@ class NumbaBackend(Backend):
         flat = out.reshape(-1)
         tmp = TMP_PLANE * plane
         acc: NDArray[np.float32] | None = None
-        bmap = block_slots(slots) if plan.slots > 2 else np.zeros((h, 1), np.int32)
+        bmap = np.zeros((h, -(-w // LANES)) if plan.slots > 2 else (h, 1), np.int32)
+        if plan.slots > 2:
+            self._rows(h, lambda y0, y1: block_slot_rows(slots, bmap, y0, y1))
         for term in plan.terms:
             t = _tables(term)
             self._rows(h, lambda y0, y1: run(buf, buf, 0, tmp + pad * wps + pad, plane, wps, 1, y0, y1, w, pad, wps,

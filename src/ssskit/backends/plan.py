@@ -82,7 +82,11 @@ class SeparablePlan:
         """(H, W) int32 slots of a profile-id layer: 0 where the id has no SSS or no entry here."""
         pid = np.asarray(profile_id)
         top = max(self.ids, default=0)
-        if top < 1 << 16:  # small ids (the usual case): one table lookup per pixel
+        if self.ids == tuple(range(1, top + 1)) and np.issubdtype(pid.dtype, np.integer) and (
+                pid.size == 0 or (int(pid.max()) <= top and (pid.dtype.kind == "u" or int(pid.min()) >= 0))):
+            # ids 1..n (the usual case): the slots are the ids
+            return pid.astype(np.int32)
+        if top < 1 << 16:  # small ids: one table lookup per pixel
             lut = np.zeros(top + 1, np.int32)
             lut[list(self.ids)] = np.arange(1, len(self.ids) + 1, dtype=np.int32)
             return lut[np.minimum(pid, top)] * (pid <= top)
@@ -96,6 +100,8 @@ def profile_ids(profile_id: np.ndarray) -> list[int]:
     """The distinct ids > 0 of a profile-id layer, ascending (a histogram for small ids, else a sort)."""
     pid = np.asarray(profile_id)
     top = int(pid.max(initial=0))
+    if top <= 1:  # a mask (the usual single material): no histogram
+        return [1] if top == 1 else []
     if top < 1 << 16:
         return [int(i) for i in np.flatnonzero(np.bincount(pid.ravel(), minlength=top + 1)[1:]) + 1]
     return [int(i) for i in np.unique(pid[pid > 0])]

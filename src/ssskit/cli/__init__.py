@@ -18,22 +18,125 @@ One module per command or group of commands:
 from __future__ import annotations
 
 import contextlib
+import importlib
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, MutableMapping
 
 import click
 
 from ..errors import SimulationInterrupted, SsskitError
-from . import backends, export, kernels, materials, profiles, render, report
-from .options import examples
 
 EXIT_USAGE = 2
 
+#: every command: name -> (its module in this package, the click command's attribute, the first paragraph of its
+#: help, or its short_help prefixed "short:"). The group lists and finds commands by this table and imports a
+#: command's module only to run it or show its own help, so ``ssskit --help`` imports neither numpy nor the
+#: pipeline; tests/cli/test_cli.py checks the texts against the commands.
+COMMANDS: dict[str, tuple[str, str, str]] = {
+    "materials": ("materials", "materials", "List the preset materials with their coefficients (mm^-1)."),
+    "backends": ("backends", "backends", "List the backends of the screen-space passes: available here or why not."),
+    "profile": ("profiles", "profile", "Diffuse reflectance profile R(r) of a material, per RGB channel."),
+    "simulate": ("profiles", "simulate", "Monte Carlo (MCML) diffuse reflectance profiles with the supplement's "
+                                         "settings."),
+    "xie-c": ("profiles", "xie_c", "short:Refit c of Xie 2020 Eq. 21; report the CDF errors."),
+    "kernel": ("kernels", "kernel", "A separable kernel approximation of a material's profile."),
+    "evaluate": ("kernels", "evaluate", "Each method's error against the exact 2D convolution on a test signal."),
+    "render": ("render", "render", "Screen-space SSS (separable, or Burley Monte Carlo) of a scene (built-in, generated, a "
+                                   "mesh or a scene file), with errors against the exact 2D convolution; --pass "
+                                   "burley-adaptive: a sequence of frames with adaptive sample counts, each against its "
+                                   "converged reference."),
+    "export": ("export", "export", "Write a kernel or a material's parameters in a format an engine loads."),
+    "figures": ("report", "figures", "Regenerate the papers' figures (NAME: any of the figures listed below; all "
+                                     "by default). The figures that run a screen-space pass run it on --backend; "
+                                     "those that render a scene (xie-fig1) take --scene, --units and --material-map."),
+    "demo": ("report", "demo", "The main job: build the report (figures + index.html) on built-in defaults; --scene "
+                               "adds your model."),
+}
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
-             epilog=examples("ssskit materials", "ssskit profile --material skin1 --model dipole --json",
-                             "ssskit render --scene slab --kernel preintegrated --out slab.png",
-                             "ssskit demo", "ssskit COMMAND --help"))
+
+def _shorten(text: str, limit: int) -> str:
+    """click's own shortening of a help text to a listed line (what Command.get_short_help_str does)."""
+    import click.core
+
+    shorten = getattr(click.core, "_make_default_short_help", None)  # click >= 8.2
+    if shorten is None:  # pragma: no cover - click 8.1
+        shorten = importlib.import_module("click.utils").make_default_short_help
+    return str(shorten(text, limit))
+
+
+class LazyCommands(MutableMapping[str, click.Command]):
+    """The group's commands: those of :data:`COMMANDS`, imported on first access, and any added later."""
+
+    def __init__(self, table: dict[str, tuple[str, str, str]]) -> None:
+        self._table = table
+        self._loaded: dict[str, click.Command] = {}
+
+    def __getitem__(self, name: str) -> click.Command:
+        if name not in self._loaded:
+            if name not in self._table:
+                raise KeyError(name)
+            module, attr, _ = self._table[name]
+            self._loaded[name] = getattr(importlib.import_module(f"{__name__}.{module}"), attr)
+        return self._loaded[name]
+
+    def __setitem__(self, name: str, command: click.Command) -> None:
+        self._loaded[name] = command
+
+    def __delitem__(self, name: str) -> None:
+        found = self._loaded.pop(name, None) is not None
+        if name in self._table:
+            self._table = {k: v for k, v in self._table.items() if k != name}
+        elif not found:
+            raise KeyError(name)
+
+    def __iter__(self) -> Iterator[str]:
+        yield from self._table
+        yield from (n for n in self._loaded if n not in self._table)
+
+    def __len__(self) -> int:
+        return len(set(self._table) | set(self._loaded))
+
+    def short_help(self, name: str, limit: int) -> str | None:
+        """The listed help of a command not imported yet (click's own shortening), else None."""
+        if name in self._loaded or name not in self._table:
+            return None
+        text = self._table[name][2]
+        return text[len("short:"):] if text.startswith("short:") else _shorten(text, limit).strip()
+
+
+class LazyGroup(click.Group):
+    """A click group whose commands come from :class:`LazyCommands`: listing them imports nothing."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self.commands = LazyCommands(COMMANDS)
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        names = self.list_commands(ctx)
+        if not names:
+            return
+        limit = formatter.width - 6 - max(len(n) for n in names)
+        rows = []
+        for name in names:
+            text = self.commands.short_help(name, limit) if isinstance(self.commands, LazyCommands) else None
+            if text is None:
+                cmd = self.get_command(ctx, name)
+                if cmd is None or cmd.hidden:
+                    continue
+                text = cmd.get_short_help_str(limit)
+            rows.append((name, text))
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
+
+def _examples(*lines: str) -> str:
+    return "\b\nExamples:\n" + "\n".join(f"  {line}" for line in lines)  # as cli.options.examples
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
+             epilog=_examples("ssskit materials", "ssskit profile --material skin1 --model dipole --json",
+                              "ssskit render --scene slab --kernel preintegrated --out slab.png",
+                              "ssskit demo", "ssskit COMMAND --help"))
 @click.version_option(package_name="ssskit")
 def cli() -> None:
     """ssskit: diffusion profiles, separable kernels and screen-space subsurface scattering.
@@ -41,22 +144,6 @@ def cli() -> None:
     Every command prints only its result on stdout (--json: exactly one JSON object); bad input prints
     one line 'ssskit: error: ...' on stderr and exits with status 2.
     """
-
-
-for _command in (
-    materials.materials,
-    backends.backends,
-    profiles.profile,
-    profiles.simulate,
-    profiles.xie_c,
-    kernels.kernel,
-    kernels.evaluate,
-    render.render,
-    export.export,
-    report.figures,
-    report.demo,
-):
-    cli.add_command(_command)
 
 
 @contextlib.contextmanager
@@ -82,7 +169,7 @@ def _terminate_as_interrupt() -> Iterator[None]:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point: runs the CLI, turning user errors into one line on stderr and exit status 2."""
-    from ..io import heartbeat, reporting
+    from ..progress import heartbeat, reporting
     from .options import progress
 
     try:
@@ -114,7 +201,7 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-__all__ = ["EXIT_USAGE", "cli", "main"]
+__all__ = ["COMMANDS", "EXIT_USAGE", "LazyCommands", "LazyGroup", "cli", "main"]
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())

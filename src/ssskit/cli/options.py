@@ -2,7 +2,7 @@
 
 Choices come from the registries (profile models, kernel methods, tap methods, depth modes,
 backends, figures, signals, scenes), looked up when a value is converted or help is shown, so a
-newly registered entry is accepted without editing the CLI. Ranges come from the settings modules
+newly registered entry is accepted without editing the CLI. Ranges come from :mod:`ssskit.settings`
 (``PHOTONS_RANGE``, ``SIZE_RANGE``, ``TAP_RANGE``) or from the settings classes themselves, which
 validate when they are made. Every check here runs while the command line is parsed, before any
 work starts; a failure is one ``ssskit: error: ...`` line (see :func:`ssskit.cli.main`).
@@ -26,8 +26,7 @@ if TYPE_CHECKING:
     from click.shell_completion import CompletionItem
 
 from ..errors import OutputError, SsskitError
-from ..pipeline.settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE
-from ..profiles.montecarlo.config import DEFAULT_PHOTONS
+from ..settings import DEFAULT_PHOTONS, PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE
 
 #: the profile model every command defaults to: the supplement's Monte Carlo profiles (shipped for the
 #: 11 measured materials at 10^7 photons, so a preset costs nothing; another material is simulated once
@@ -96,7 +95,7 @@ def echo_json(data: Any) -> None:
 
 def progress(msg: str) -> None:
     """A progress line on stderr (stdout carries only the result)."""
-    from ..io import noted
+    from ..progress import noted
 
     click.echo(f"  {msg}", err=True)
     noted(msg)

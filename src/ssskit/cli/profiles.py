@@ -171,6 +171,8 @@ def _channels():
 @photons_option(10_000_000, help="Photons per channel (supplement F: 10^7).")
 @click.option("--seed", type=int, default=1, show_default=True, help="Random seed (0 <= seed < 2^63).")
 @click.option("--threads", type=click.IntRange(min=1), default=None, help="numba threads [default: all cores].")
+@click.option("--backend", type=click.Choice(["numba", "gl"]), default="numba", show_default=True,
+              help="Monte Carlo engine: numba on the CPU, or gl (GLSL compute through EGL: a GPU, or llvmpipe); single material.")
 @click.option("--jobs", type=click.IntRange(1, 1024), default=1, show_default=True, help="Local processes for a sweep of several materials.")
 @click.option("--scheduler", default=None, metavar="ADDRESS", help="Run a sweep on a dask.distributed cluster (extra: ssskit[cluster]).")
 @click.option("--batch-size", type=click.IntRange(min=1), default=10_000, show_default=True,
@@ -185,7 +187,7 @@ def _channels():
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the on-disk cache.")
 @out_option((".npz",), "Write FILE.npz (one material) with r_mm, Rd, Rd_se per channel.")
 @json_option()
-def simulate(material: list[str], channel: str, photons: int, seed: int, threads: int | None, jobs: int,
+def simulate(material: list[str], channel: str, photons: int, seed: int, threads: int | None, backend: str, jobs: int,
              scheduler: str | None, batch_size: int, grid_fraction: float | None, roughness: float, resume: bool,
              restart: bool, no_cache: bool, out: str | None, as_json: bool) -> None:
     """Monte Carlo (MCML) diffuse reflectance profiles with the supplement's settings.
@@ -212,16 +214,17 @@ def simulate(material: list[str], channel: str, photons: int, seed: int, threads
     single = len(mats) == 1 and scheduler is None
     if out and len(mats) > 1:
         raise SsskitError("--out takes a single material; use --json for a sweep")
-    if not single and (no_cache or threads is not None or grid_fraction is not None):
-        raise SsskitError("--no-cache, --threads and --grid-fraction apply to a single material (a sweep runs one "
-                          "thread per job)")
+    if not single and (no_cache or threads is not None or grid_fraction is not None or backend != "numba"):
+        raise SsskitError("--no-cache, --threads, --backend and --grid-fraction apply to a single material (a sweep "
+                          "runs one numba thread per job)")
     for m in mats:  # photons, seed and batch size checked by the engine's own configuration, before any work
         config_for_material(m, 0, photons, seed, batch_size, roughness=roughness)
     if single:
         runs = {mats[0].name: simulate_material(mats[0], channel, photons=photons, seed=seed, threads=threads,
                                                 progress=True, resume=resume, restart=restart,
                                                 use_cache=not no_cache, batch_size=batch_size,
-                                                grid_fraction=grid_fraction, roughness=roughness)}
+                                                grid_fraction=grid_fraction, roughness=roughness,
+                                                backend=backend)}
     else:
         runs = simulate_many(mats, channel, photons=photons, seed=seed, jobs=jobs, batch_size=batch_size,
                              progress=True, resume=resume, restart=restart, scheduler=scheduler,

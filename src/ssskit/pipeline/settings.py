@@ -35,15 +35,12 @@ from typing import Any, ClassVar
 from ..backends import BACKENDS, DEFAULT_BACKEND
 from ..errors import SettingsError
 from ..registry import Registry
-from ..scenes.scenes import SIZE_RANGE  # image sizes of the built-in scenes (pixels per side)
 from ..screenspace.adaptive import AdaptiveSettings
 from ..screenspace.burley import BurleyParams, BurleySettings
 from ..screenspace.settings import PassSettings
-from ..settings import Settings, check_choice, check_int
+from ..settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, check_choice, check_int
 
 #: photons per channel of Monte Carlo profiles: one range for every command
-PHOTONS_RANGE = (1_000, 10_000_000_000)
-TAP_RANGE = (1, 255)
 #: the samples per pixel of an adaptive run's converged references (moving camera)
 LIMIT_SPP_RANGE = (2, 131072)
 DEFAULT_LIMIT_SPP = 2048

@@ -35,6 +35,7 @@ from ..errors import SceneError
 from ..io import atomic_output
 from ..registry import Registry
 from ..screenspace.camera import Camera
+from ..settings import SIZE_RANGE
 from .meshes import ply_bytes
 from .mitsuba_variant import mitsuba
 
@@ -44,8 +45,7 @@ FLOOR_ALBEDO = 0.5
 #: reference alike; Mitsuba's rough BSDFs default to Beckmann); a smooth boundary would show no
 #: highlight of a point light.
 COAT_ROUGHNESS = 0.15
-#: image sizes the renderers accept (pixels per side)
-SIZE_RANGE = (8, 8192)
+#: image sizes the renderers accept (pixels per side): ssskit.settings.SIZE_RANGE
 
 
 @dataclass(frozen=True)

@@ -18,16 +18,17 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ...errors import ProfileError
+from ...settings import DEFAULT_PHOTONS  # supplement F's 10^7, re-exported here
 from ...materials import CHANNELS, LayeredMaterial, Material
 
 #: bump when the transport or the tallies change: it is part of every cache key
-#: (2: the exit-direction tally, totals of shape (batches, 3 + N_EXIT_BINS))
-ENGINE_VERSION = 2
+#: (2: the exit-direction tally, totals of shape (batches, 3 + N_EXIT_BINS); 3: photons traced in float32
+#: lanes with one xoshiro128+ stream per lane, other random numbers)
+ENGINE_VERSION = 3
 #: bins of the exit-direction tally, uniform in cos^2 of the exit angle outside the medium (each
 #: bin holds the same projected solid angle pi / N_EXIT_BINS); the last one is within 12.9 degrees of
 #: the normal
 N_EXIT_BINS = 20
-DEFAULT_PHOTONS = 10_000_000  # supplement F
 DEFAULT_BATCH = 10_000
 
 

@@ -10,6 +10,7 @@ simulation again needs ``resume=True`` (continue it) or ``restart=True`` (discar
 from __future__ import annotations
 
 import contextlib
+from types import ModuleType
 import math
 import time
 from collections.abc import Iterator
@@ -25,8 +26,10 @@ from .result import MCResult, assemble_result
 
 
 def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None = None, resume: bool = False,
-             restart: bool = False, use_cache: bool = True, label: str = "", shipped: bool = True) -> MCResult:
-    """Run (or load from the cache) one MCML simulation on the numba engine.
+             restart: bool = False, use_cache: bool = True, label: str = "", shipped: bool = True,
+             backend: str = "numba") -> MCResult:
+    """Run (or load from the cache) one MCML simulation on the numba engine (``backend="numba"``) or the
+    GLSL one (``backend="gl"``: :mod:`.engine_gl`, any GPU or llvmpipe; its own cache entries).
 
     A configuration the package ships (the supplement's profiles at 10^7 photons,
     :mod:`.shipped`) is returned from the shipped file at once, unless ``shipped=False`` or
@@ -46,19 +49,21 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
         which = "resume" if resume else "restart"
         raise ProfileError(f"{which} acts on the on-disk cache; it cannot be combined with use_cache=False",
                            cli_message=f"--{which} acts on the on-disk cache; it cannot be combined with --no-cache")
+    if backend not in ENGINES:
+        raise ProfileError(f"unknown Monte Carlo backend {backend!r}; choose from {', '.join(ENGINES)}")
     if threads is not None:  # checked before any answer, the shipped one included
         import numba
 
         most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
         if not (isinstance(threads, int) and 1 <= threads <= most):
             raise ProfileError(f"threads must be in 1..{most}, got {threads!r}")
-    if use_cache and shipped:  # (shipped_result is None inside shipped.recompute(): ssskit demo --full)
+    if use_cache and shipped and backend == "numba":  # (None inside shipped.recompute(): ssskit demo --full)
         from .shipped import shipped_result
 
         found = shipped_result(cfg)
         if found is not None:
             return found
-    key = cfg.key()
+    key = cfg.key() + ("" if backend == "numba" else f"-{backend}")
     cdir = cache_dir("mcml")
     final_path = cdir / f"{key}.npz"
     partial_path = cdir / f"{key}.partial.npz"
@@ -90,8 +95,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
                                    cli_message=f"{what}; {_CLI_AGAIN} and --restart to discard it")
             bins, totals, done, elapsed = partial
 
-    from . import engine_numba
-
+    engine = _engine(backend)
     arrays = layer_arrays(cfg)
     rsp = cfg.specular_reflectance()
     if cfg.roughness > 0:  # the engine launches with weight 1; the entry's reflectance is estimated apart
@@ -105,10 +109,11 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
     bar = _progress_bar(cfg.photons, int(sizes[done].sum()), label) if progress else None
     t0 = time.perf_counter()
     try:
-        with _numba_threads(threads) as nthreads:
-            # two batches per thread for balance; with progress shown, one when a chunk takes longer than
-            # CHUNK_S (progress then advances more often); the result does not depend on the chunks
-            chunk = max(2 * nthreads, 1)
+        with _numba_threads(threads) if backend == "numba" else contextlib.nullcontext(1) as nthreads:
+            # numba: two batches per thread for balance; with progress shown, one when a chunk takes longer
+            # than CHUNK_S (progress then advances more often); gl: the engine's own chunk. The result does not
+            # depend on the chunks
+            chunk = max(2 * nthreads, 1) if backend == "numba" else engine.chunk_batches()
             start = 0
             while start < todo.shape[0]:
                 ids = todo[start : start + chunk]
@@ -116,13 +121,13 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
                 t_chunk = time.perf_counter()
                 b_rows = np.zeros((ids.shape[0], cfg.nr))
                 t_rows = np.zeros((ids.shape[0], 3 + N_EXIT_BINS))
-                engine_numba.run_batches(
+                engine.run_batches(
                     np.uint64(cfg.seed), ids.astype(np.int64), sizes[ids], arrays["mua"], arrays["mus"],
                     arrays["g"], arrays["z_top"], arrays["z_bot"], arrays["n_idx"], arrays["cos_crit_up"],
                     arrays["cos_crit_down"], 0.0 if cfg.roughness > 0 else rsp, ux0, uz0, cfg.dr_mm,
                     float(cfg.roughness), b_rows, t_rows)
                 bins[ids], totals[ids], done[ids] = b_rows, t_rows, True
-                if bar is not None and time.perf_counter() - t_chunk > CHUNK_S:
+                if bar is not None and backend == "numba" and time.perf_counter() - t_chunk > CHUNK_S:
                     chunk = max(nthreads, 1)
                 if bar is not None:
                     bar.update(int(sizes[ids].sum()))
@@ -158,6 +163,23 @@ CHUNK_S = 2.0
 
 #: how a CLI message says to run the simulation again (``simulate`` is the command with --resume/--restart)
 _CLI_AGAIN = "run ssskit simulate with the same material, photons and seed"
+#: the Monte Carlo engines: numba (CPU, the default) and gl (GLSL compute through EGL)
+ENGINES = ("numba", "gl")
+
+
+def _engine(backend: str) -> ModuleType:
+    """The engine module of ``backend`` (imported now: numba compiles, gl makes its context), or a
+    ProfileError saying why the gl engine cannot run here."""
+    if backend == "gl":
+        from . import engine_gl
+
+        ok, why = engine_gl.available()
+        if not ok:
+            raise ProfileError(f"the gl Monte Carlo engine cannot run here: {why}")
+        return engine_gl
+    from . import engine_numba
+
+    return engine_numba
 
 
 #: samples of the entry estimate of a rough surface's specular reflectance (SE ~ 2e-5)
@@ -243,4 +265,4 @@ def _progress_bar(total: int, initial: int, label: str) -> ProgressBar:
                         dynamic_ncols=True, leave=False)
 
 
-__all__ = ["RSP_SAMPLES", "rough_boundary_albedo", "rough_specular", "simulate"]
+__all__ = ["ENGINES", "RSP_SAMPLES", "rough_boundary_albedo", "rough_specular", "simulate"]

@@ -14,7 +14,7 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
                       seed: int = 1, threads: int | None = None, progress: bool | None = None, resume: bool = False,
                       restart: bool = False, use_cache: bool = True, batch_size: int = DEFAULT_BATCH,
                       grid_fraction: float | None = None, roughness: float = 0.0,
-                      shipped: bool = True) -> dict[str, MCResult]:
+                      shipped: bool = True, backend: str = "numba") -> dict[str, MCResult]:
     """Simulate the requested channels ('R', 'G', 'B' or 'all') of a material: {channel: MCResult}.
 
     Each channel uses its own seed stream derived from ``seed`` and the channel index, on the
@@ -29,7 +29,7 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
     ``roughness`` > 0: a rough top surface with that Beckmann alpha (the path-traced references'
     single-scattering rough dielectric, :class:`~ssskit.profiles.montecarlo.MCConfig`) instead of
     the supplement's smooth one. ``shipped=False``: simulate even what the package ships
-    (:mod:`.shipped`).
+    (:mod:`.shipped`). ``backend``: the engine, "numba" or "gl" (:func:`~.run.simulate`).
     """
     wanted = list(CHANNELS) if channels.strip().lower() == "all" else [channels.strip().upper()]
     for ch in wanted:
@@ -44,7 +44,7 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
         while True:
             cfg = config_for_material(material, c, photons, channel_seed(seed, c), batch_size, extent, roughness)
             res = simulate(cfg, threads=threads, progress=progress, resume=resume, restart=restart,
-                           use_cache=use_cache, label=f"{material.name} {ch}", shipped=shipped)
+                           use_cache=use_cache, label=f"{material.name} {ch}", shipped=shipped, backend=backend)
             if grid_fraction is None or res.overflow <= (1.0 - grid_fraction) * res.total_rd or extent >= 64 * 32:
                 break
             extent *= 2.0
