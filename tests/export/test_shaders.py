@@ -108,3 +108,45 @@ def test_whole_hlsl_shader_has_every_pass_and_compiles_back():
     for term in range(taps.rank):
         for vertical in (0, 1):
             assert check_hlsl(hlsl, defines={"VERTICAL": vertical, "TERM": term})[:4] == SPIRV_MAGIC
+
+
+def _constant_layout(hlsl: str, **defines: int) -> dict[str, tuple[int, str]]:
+    """The constant-buffer members of one pass as glslang's HLSL front end lays them out (its reflection,
+    ``-q``): name -> (byte offset, GL type code); the textures and images (offset -1) left out."""
+    import re
+    import subprocess
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as tmp:
+        src = Path(tmp) / "s.hlsl"
+        src.write_text(hlsl)
+        flags = [f"-D{k}={v}" for k, v in defines.items()]
+        out = subprocess.run([shaders.tool_path(shaders.GLSLANG), "-D", "-V", "-l", "-q", "--reflect-all-block-variables",
+                              *flags, "-e", "main", "-S", "comp", str(src), "-o", str(Path(tmp) / "s.spv")],
+                             capture_output=True, text=True, check=True).stdout
+    section = out.split("Uniform reflection:")[1].split("Uniform block reflection:")[0]
+    rows = re.findall(r"^(\w+): offset (-?\d+), type (\w+),", section, re.M)
+    return {name: (int(off), typ) for name, off, typ in rows if int(off) >= 0}
+
+
+@needs_tools
+def test_whole_hlsl_shader_binds_one_constant_buffer_layout_in_every_pass():
+    """Issue 24: each pass compiled alone listed its uniforms in its own order (the horizontal pass
+    u_size, u_f, u_base, u_pitch, u_accumulate; the vertical one u_accumulate second), so one constant
+    buffer could not feed both. Judged by glslang's reflection of the exported HLSL: every pass has the
+    same members at the same offsets, and they are every loose uniform of the GLSL the gl backend runs."""
+    import re
+
+    from ssskit.export.shaders import separable_shader
+
+    taps = _skin_taps("svd:2", "marble", 5)
+    hlsl = separable_shader(taps, "hlsl")
+    layouts = [_constant_layout(hlsl, VERTICAL=v, TERM=t) for t in range(taps.rank) for v in (0, 1)]
+    assert all(layout == layouts[0] for layout in layouts), layouts
+    glsl = separable_shader(taps, "glsl")
+    declared = re.findall(r"^uniform\s+(?:int|uint|float|ivec2)\s+(\w+)\s*;", glsl, re.M)
+    assert sorted(layouts[0]) == sorted(declared) and len(declared) == 5
+    offsets = sorted(off for off, _ in layouts[0].values())
+    assert offsets == sorted(set(offsets))  # no two members share bytes
+    assert hlsl.count("cbuffer SSSParams : register(b0)") == 2 * taps.rank
