@@ -143,6 +143,7 @@ def test_private_modules_are_not_api(tmp_path):
     assert package_annotations(tmp_path / "pkg")[0] == 3
 
 
+@pytest.mark.slow  # 30-70 s on 2 cores: CI runs it after the README's command (.ci/run)
 def test_mypy_is_clean_on_the_package():
     missing = []
     for dist in TYPING_DISTRIBUTIONS:
