@@ -113,6 +113,13 @@ def _unit(h):
     return neg * (-sp if odd else cp), neg * (cp if odd else sp)
 
 
+# Names the mode-dependent helpers below read as globals; :func:`_specialise` binds them in each depth mode's
+# copies (declared here for the type checker only): the depth factor, whether texels take the slot test,
+# and the plain-row kernel with the slot test.
+factor: Callable[[Any, Any], Any]
+MULTI: bool
+_row_block_multi: Callable[..., None]
+
 # With several profile slots a block checks the block-slot map (``block_slot_rows``) over the rows and blocks
 # its taps reach: where no other profile is there it skips the per-texel slot test.
 # Layout of the frame buffer ``buf`` (planes of (H + 2 pad) x wps texels): input colour R, G, B; depth; slot;
