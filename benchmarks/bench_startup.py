@@ -14,6 +14,8 @@ compiled and saved (none, when the cache hits).
 
     python benchmarks/bench_startup.py [--python /path/to/venv/bin/python] [--repeats 7]
                                        [--render "--scene slab --size 320x240"]
+
+NUMBA_THREADING_LAYER is set to 'workqueue' for every child unless given (and recorded in the JSON).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import time
 from pathlib import Path
 
 ENTRY = "import sys; from ssskit.cli import main; sys.exit(main())"
+os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")  # inherited by every child
 
 
 def timed(cmd: list[str], env: dict | None = None) -> tuple[float, float, int]:
@@ -57,7 +60,8 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--render", default="--scene slab --size 320x240", help="the render command's arguments")
     args = ap.parse_args(argv)
     py = args.python
-    out: dict = {"python": py, "load_average_before": os.getloadavg(), "repeats": args.repeats}
+    out: dict = {"python": py, "load_average_before": os.getloadavg(), "repeats": args.repeats,
+                 "threading_layer": os.environ["NUMBA_THREADING_LAYER"]}
     helps, bare = [], []
     timed([py, "-c", ENTRY, "--help"])  # the files into the page cache
     for _ in range(args.repeats):

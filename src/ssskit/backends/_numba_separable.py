@@ -21,18 +21,19 @@ select that blocks vectorisation):
   is exactly the two 2D bilinear fetches, and is swept for all lanes with contiguous loads. The window
   is the set of texels the block's largest footprint rho = max |v| can reach, swept ring by ring
   (``RING_D2``: 8 texels for rho <= 1, 20 for rho <= sqrt 2, 24 for rho <= 2, up to 48 for rho <= 3;
-  a full (2R+1)^2 square would take 9, 25, 25, 49, the centre included, whose term is 0). Each ring's
-  kernel is unrolled over its texels (generated source, :func:`_ring_source`), so the lane loop is its
-  only loop and keeps its sums in registers. Windows wider than rho = RMAX use per-lane 2D bilinear
-  fetches;
+  a full (2R+1)^2 square would take 9, 25, 25, 49, the centre included, whose term is 0), one lane
+  loop per texel pair (:func:`_window`; the sums and hats in stack scratch). Windows wider than
+  rho = RMAX use per-lane 2D bilinear fetches;
 * blocks that straddle two profile slots take a per-lane loop with each lane's own tap table.
 
 The jitter angle comes from the same counter-based hash as the other backends
 (:mod:`ssskit.sampling.hashes`); its cosine and sine are evaluated by a vectorisable float32
 polynomial (error < 2e-7) instead of libm calls.
 
-Every kernel is compiled once per depth mode (the mode's factor function inlined) and cached on
-disk (``cache=True``), so a new process compiles nothing it compiled before. The passes release the
+Every pass is compiled once per depth mode (:func:`_specialise`: the body and its helpers copied with
+the mode's depth factor as a global, i.e. a compile-time constant; plain calls that LLVM inlines, no
+numba-level inlining) and cached on disk (``cache=True``), so a new process compiles nothing it
+compiled before. The passes release the
 GIL and run over ranges of rows; the backend runs the ranges on a thread pool (rows are independent,
 so the result does not depend on the number of threads).
 """
@@ -40,32 +41,39 @@ so the result does not depend on the number of threads).
 from __future__ import annotations
 
 import math
+import types
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 from numba import njit
 
+from ..compute.numba_math import stack_empty
+
 _FM = {"nsz", "arcp", "contract", "afn", "reassoc"}  # no 'nnan'/'ninf': +inf marks empty texels
 LANES = 16
 RMAX = 3  # the widest jitter window: footprints rho <= RMAX pixels
 _L = LANES
 _W = 2 * RMAX + 1
+_WL = _W * _L
+_L3 = 3 * _L
+_L4 = 4 * _L
+_L6 = 6 * _L
 
 
-@njit(cache=True, inline="always", fastmath=_FM)
+@njit(cache=True, fastmath=_FM)
 def f_gaussian(dz, p):
     """Supplement E: exp(-d_z^2 p), p = 1 / (2 tau_max)."""
     return np.float32(math.exp(-dz * dz * p))
 
 
-@njit(cache=True, inline="always", fastmath=_FM)
+@njit(cache=True, fastmath=_FM)
 def f_follow(dz, p):
     """Follow-surface test: max(0, 1 - |d_z| p), p = 1 / width."""
     return max(np.float32(0.0), np.float32(1.0) - abs(dz) * p)
 
 
-@njit(cache=True, inline="always", fastmath=_FM)
+@njit(cache=True, fastmath=_FM)
 def f_none(dz, p):
     """No depth test: 1 unless the texel has no surface (infinite depth)."""
     return np.float32(1.0) if abs(dz) < np.float32(np.inf) else np.float32(0.0)
@@ -81,7 +89,7 @@ def _mix32(h):
     return h ^ (h >> np.uint64(16))
 
 
-@njit(cache=True, inline="always", fastmath=_FM)
+@njit(cache=True, fastmath=_FM)
 def _unit(h):
     """(cos theta, sin theta) in float32 for theta = 2 pi h / 2^32: quadrant q = h >> 30, then the angle
     psi = pi/2 f in the quadrant (f the low 30 bits / 2^30, rounded to float32) as pi/4 + phi with
@@ -105,6 +113,13 @@ def _unit(h):
     return neg * (-sp if odd else cp), neg * (cp if odd else sp)
 
 
+# Names the mode-dependent helpers below read as globals; :func:`_specialise` binds them in each depth mode's
+# copies (declared here for the type checker only): the depth factor, whether texels take the slot test,
+# and the plain-row kernel with the slot test.
+factor: Callable[[Any, Any], Any]
+MULTI: bool
+_row_block_multi: Callable[..., None]
+
 # With several profile slots a block checks the block-slot map (``block_slot_rows``) over the rows and blocks
 # its taps reach: where no other profile is there it skips the per-texel slot test.
 # Layout of the frame buffer ``buf`` (planes of (H + 2 pad) x wps texels): input colour R, G, B; depth; slot;
@@ -116,11 +131,11 @@ PLANES = 8
 Z_PLANE, S_PLANE, TMP_PLANE = 3, 4, 5
 _LN = 6 * _L  # lane data offset in sc
 _HX = 13 * _L  # hat weights offset in sc
-SCRATCH = 13 * _L + 2 * _W * _L
+_WS = 13 * _L + 2 * _W * _L  # the window sums (4 x LANES: g, g E_R, g E_G, g E_B)
+SCRATCH = _WS + 4 * _L
 
 
-@njit(cache=True, inline="always", fastmath=_FM)
-def _tex(factor, buf, zo, so, i, z0, s0, p, multi):
+def _tex(buf, zo, so, i, z0, s0, p, multi):
     """Depth factor x slot test of texel i (flat index) for a centre at depth z0 in slot s0. With a
     single slot (``multi`` False, a constant at every call site) the test is the depth's finiteness,
     which every factor already applies."""
@@ -128,7 +143,6 @@ def _tex(factor, buf, zo, so, i, z0, s0, p, multi):
     return f * np.float32(buf[so + i] == s0) if multi else f
 
 
-@njit(cache=True, inline="always", fastmath=_FM)
 def _accumulate(sc, lu, w, gp, gm, sp0, sp1, sp2, sm0, sm1, sm2, sym):
     """Accumulators += the + and - samples of one row; w = the row's weights (w+_R, w+_G, w+_B, w-_R,
     w-_G, w-_B), scalars; ``sym`` (a constant at every call site): w+ == w- (a symmetric pair)."""
@@ -150,8 +164,7 @@ def _accumulate(sc, lu, w, gp, gm, sp0, sp1, sp2, sm0, sm1, sm2, sym):
     sc[U(5 * _L) + lu] += w[2] * gp + w[5] * gm
 
 
-@njit(cache=True, inline="always", fastmath=_FM)
-def _bilinear(factor, buf, co, zo, so, plane, wps, c, vx, vy, z0, s0, p, multi):
+def _bilinear(buf, co, zo, so, plane, wps, c, vx, vy, z0, s0, p, multi):
     """2D bilinear sample at (vx, vy) pixels from flat index c: (g, S_R, S_G, S_B), each texel with
     its own depth factor and slot test."""
     U = np.uintp
@@ -167,7 +180,7 @@ def _bilinear(factor, buf, co, zo, so, plane, wps, c, vx, vy, z0, s0, p, multi):
         dj = U(k >> 1)
         b = (tx if di else one - tx) * (ty if dj else one - ty)
         t = i + di + dj * U(wps)
-        gt = b * _tex(factor, buf, zo, so, t, z0, s0, p, multi)
+        gt = b * _tex(buf, zo, so, t, z0, s0, p, multi)
         g += gt
         s0_ += gt * buf[co + t]
         s1 += gt * buf[co + U(plane) + t]
@@ -175,16 +188,14 @@ def _bilinear(factor, buf, co, zo, so, plane, wps, c, vx, vy, z0, s0, p, multi):
     return g, s0_, s1, s2
 
 
-@njit(cache=True, inline="always", fastmath=_FM)
-def _lane_row(factor, buf, sc, co, zo, so, plane, wps, c, rho, ux, uy, z0, s0, p, w, l):
+def _lane_row(buf, sc, co, zo, so, plane, wps, c, rho, ux, uy, z0, s0, p, w, l):
     """One row for one lane by 2D bilinear fetches at +-rho (ux, uy) (slot test always on)."""
-    gp, a0, a1, a2 = _bilinear(factor, buf, co, zo, so, plane, wps, c, rho * ux, rho * uy, z0, s0, p, True)
-    gm, b0, b1, b2 = _bilinear(factor, buf, co, zo, so, plane, wps, c, -rho * ux, -rho * uy, z0, s0, p, True)
+    gp, a0, a1, a2 = _bilinear(buf, co, zo, so, plane, wps, c, rho * ux, rho * uy, z0, s0, p, True)
+    gm, b0, b1, b2 = _bilinear(buf, co, zo, so, plane, wps, c, -rho * ux, -rho * uy, z0, s0, p, True)
     _accumulate(sc, np.uintp(l), w, gp, gm, a0, a1, a2, b0, b1, b2, False)
 
 
-@njit(cache=True, inline="always", fastmath=_FM)
-def _row_block(factor, buf, sc, co, zo, so, plane, c0, st, nl, d, mmin, w, p, cap, multi, sym):
+def _row_block(buf, sc, co, zo, so, plane, c0, st, nl, d, mmin, w, p, cap):
     """A plain row for a block of lanes in one slot whose footprints' integer parts lie in
     [mmin, mmin + 1] (module docstring)."""
     U = np.uintp
@@ -197,29 +208,39 @@ def _row_block(factor, buf, sc, co, zo, so, plane, c0, st, nl, d, mmin, w, p, ca
     s2 = U(2 * st)
     c1 = co + U(plane)
     c2 = co + U(2 * plane)
-    for l in range(nl):
+    # the lane data and the accumulators on the stack: LLVM knows they alias no texel, so the lane loop
+    # vectorises without runtime overlap checks (16 lanes: two vector iterations per call)
+    ld = stack_empty(_L3, np.float32)
+    acc = stack_empty(_L6, np.float32)
+    for i in range(_L3):
+        ld[U(i)] = sc[U(_LN + i)]
+    for i in range(_L6):
+        acc[U(i)] = sc[U(i)]
+    for l in range(_L):
         lu = U(l)
-        z0 = sc[U(_LN) + lu]
-        q0 = sc[U(_LN + _L) + lu]
-        tp = min(d * sc[U(_LN + 2 * _L) + lu], cap) - mmin
+        z0 = ld[lu]
+        q0 = ld[U(_L) + lu]
+        tp = min(d * ld[U(2 * _L) + lu], cap) - mmin
         h0 = max(zero, one - tp)
         h1 = max(zero, one - abs(tp - one))
         h2 = max(zero, tp - one)
         a = bp + lu
         b = bm + lu
-        g0 = h0 * _tex(factor, buf, zo, so, a, z0, q0, p, multi)
-        g1 = h1 * _tex(factor, buf, zo, so, a + s1, z0, q0, p, multi)
-        g2 = h2 * _tex(factor, buf, zo, so, a + s2, z0, q0, p, multi)
-        n2 = h2 * _tex(factor, buf, zo, so, b, z0, q0, p, multi)
-        n1 = h1 * _tex(factor, buf, zo, so, b + s1, z0, q0, p, multi)
-        n0 = h0 * _tex(factor, buf, zo, so, b + s2, z0, q0, p, multi)
-        _accumulate(sc, lu, w, g0 + g1 + g2, n0 + n1 + n2,
+        g0 = h0 * _tex(buf, zo, so, a, z0, q0, p, MULTI)
+        g1 = h1 * _tex(buf, zo, so, a + s1, z0, q0, p, MULTI)
+        g2 = h2 * _tex(buf, zo, so, a + s2, z0, q0, p, MULTI)
+        n2 = h2 * _tex(buf, zo, so, b, z0, q0, p, MULTI)
+        n1 = h1 * _tex(buf, zo, so, b + s1, z0, q0, p, MULTI)
+        n0 = h0 * _tex(buf, zo, so, b + s2, z0, q0, p, MULTI)
+        _accumulate(acc, lu, w, g0 + g1 + g2, n0 + n1 + n2,
                     g0 * buf[co + a] + g1 * buf[co + a + s1] + g2 * buf[co + a + s2],
                     g0 * buf[c1 + a] + g1 * buf[c1 + a + s1] + g2 * buf[c1 + a + s2],
                     g0 * buf[c2 + a] + g1 * buf[c2 + a + s1] + g2 * buf[c2 + a + s2],
                     n2 * buf[co + b] + n1 * buf[co + b + s1] + n0 * buf[co + b + s2],
                     n2 * buf[c1 + b] + n1 * buf[c1 + b + s1] + n0 * buf[c1 + b + s2],
-                    n2 * buf[c2 + b] + n1 * buf[c2 + b + s1] + n0 * buf[c2 + b + s2], sym)
+                    n2 * buf[c2 + b] + n1 * buf[c2 + b + s1] + n0 * buf[c2 + b + s2], True)
+    for i in range(_L6):
+        sc[U(i)] = acc[U(i)]
 
 
 #: The jitter window's rings: texels (i, j) grouped by the squared distance d2 = max(0, |i| - 1)^2 +
@@ -239,87 +260,82 @@ def ring_texels(n: int) -> list[tuple[int, int]]:
             if (j > 0 or i > 0) and max(0, abs(i) - 1) ** 2 + max(0, abs(j) - 1) ** 2 == d2]
 
 
-def _ring_source(name: str, n: int) -> str:
-    """Source of the kernel that sweeps ring n of a jittered row for a block: one lane loop (LLVM vectorises
-    it), unrolled over the ring's texels so that every lane keeps its sums in registers (one loop over a
-    whole window would not fit them; loops over i and j would keep the sums in memory: 4x the memory operations).
+#: The window's texel pairs, ring by ring (one of each pair (i, j), (-i, -j)), and the number of pairs in the
+#: first n + 1 rings: a block whose largest footprint needs rings 0..n sweeps pairs [0, RING_PAIRS[n]).
+_PAIRS = [t for n in range(len(RING_D2)) for t in ring_texels(n)]
+_PI = tuple(i for i, _ in _PAIRS)
+_PJ = tuple(j for _, j in _PAIRS)
+RING_PAIRS = tuple(sum(len(ring_texels(m)) for m in range(n + 1)) for n in range(len(RING_D2)))
+
+
+def _window(buf, sc, co, zo, plane, wps, c0, w, p, d, cap, npairs):
+    """A jittered row for a block of lanes in one profile (symmetric rows only: w+ = w-): the first ``npairs``
+    texel pairs of the window (module docstring), one lane loop per pair (LLVM vectorises it).
 
     For lane l with sample offsets +-v, texel (i, j) gets hat(vx - i) hat(vy - j) + hat(vx + i) hat(vy + j),
     the two bilinear weights (hat(t) = max(0, 1 - |t|)), which is also texel (-i, -j)'s weight: computed
-    once per pair. Ring 0 computes each lane's (vx, vy) and the hats of |i|, |j| <= 1 and stores them in the
-    scratch (hx[i + RMAX] = hat(vx - i), so hat(vx + i) = hx[RMAX - i]); :func:`_outer_hats` adds the wider
-    ones; the other rings read them. The sums go to the accumulators times the row's weights (symmetric
-    rows only: w+ = w-)."""
-    pairs = ring_texels(n)
-    hx, hy, c = _HX, _HX + _W * _L, RMAX
-    out = [f"def {name}(factor, buf, sc, co, zo, plane, wps, c0, w, p, d, cap):",
-           "    U = np.uintp", "    zero = np.float32(0.0)", "    one = np.float32(1.0)",
-           f"    b = U(c0 - {c} * wps - {c})",
-           "    zt = buf[zo + b:]", "    cr = buf[co + b:]", "    cg = buf[co + U(plane) + b:]",
-           "    cb = buf[co + U(2 * plane) + b:]"]
-    rows = sorted({j for _, j in pairs})
-    for j in rows:
-        out += [f"    oa{j} = U({c + j} * wps)", f"    ob{j} = U({c - j} * wps)"]
-    out += [f"    for l in range({_L}):", "        lu = U(l)", f"        z0 = sc[U({_LN}) + lu]",
-            "        g_ = s0 = s1 = s2 = zero"]
-    if n == 0:  # the first ring: each lane's offset (vx, vy) and the hats of |i| <= 1, kept for the next rings
-        out += [f"        rho = min(d * sc[U({_LN + 2 * _L}) + lu], cap)",
-                f"        vx = np.float32(rho * sc[U({_LN + 3 * _L}) + lu])",
-                f"        vy = np.float32(rho * sc[U({_LN + 4 * _L}) + lu])",
-                f"        sc[U({_LN + 5 * _L}) + lu] = vx", f"        sc[U({_LN + 6 * _L}) + lu] = vy"]
-        for k in (-1, 0, 1):
-            out += [f"        hx{k + c} = max(zero, one - abs(vx - np.float32({k})))",
-                    f"        hy{k + c} = max(zero, one - abs(vy - np.float32({k})))",
-                    f"        sc[U({hx + (c + k) * _L}) + lu] = hx{k + c}",
-                    f"        sc[U({hy + (c + k) * _L}) + lu] = hy{k + c}"]
-    for i, j in pairs:
-        if n == 0:
-            out.append(f"        wt = hx{c + i} * hy{c + j} + hx{c - i} * hy{c - j}")
-        else:
-            out.append(f"        wt = (sc[U({hx + (c + i) * _L}) + lu] * sc[U({hy + (c + j) * _L}) + lu]"
-                       f" + sc[U({hx + (c - i) * _L}) + lu] * sc[U({hy + (c - j) * _L}) + lu])")
-        for t in (f"oa{j} + U({c + i}) + lu", f"ob{j} + U({c - i}) + lu"):
-            out += [f"        t = {t}", "        g = wt * factor(zt[t] - z0, p)", "        g_ += g",
-                    "        s0 += g * cr[t]", "        s1 += g * cg[t]", "        s2 += g * cb[t]"]
-    out += ["        sc[lu] += w[0] * s0", f"        sc[U({_L}) + lu] += w[1] * s1",
-            f"        sc[U({2 * _L}) + lu] += w[2] * s2", f"        sc[U({3 * _L}) + lu] += w[0] * g_",
-            f"        sc[U({4 * _L}) + lu] += w[1] * g_", f"        sc[U({5 * _L}) + lu] += w[2] * g_"]
-    return "\n".join(out) + "\n"
-
-
-def _make_ring(n: int) -> Callable[..., None]:
-    """Ring n's kernel: :func:`_ring_source` compiled here, njit-ed to be inlined into the cached passes (whose
-    cache entries depend on this module's source, the generator included)."""
-    name = f"_ring{n}"
-    ns: dict[str, Any] = {"np": np}
-    exec(compile(_ring_source(name, n), f"<ssskit jitter window ring {n}>", "exec"), ns)
-    return njit(inline="always", fastmath=_FM)(ns[name])
-
-
-_RING0, _RING1, _RING2, _RING3, _RING4, _RING5 = (_make_ring(n) for n in range(len(RING_D2)))
-
-
-@njit(cache=True, inline="always", fastmath=_FM)
-def _outer_hats(sc, r):
-    """The hats of 2 <= |i|, |j| <= r for the rings past the first (which stored each lane's (vx, vy) and the
-    hats of |i| <= 1): hx[i + RMAX] = hat(vx - i), hy[j + RMAX] = hat(vy - j)."""
+    once per pair. The first lane loop computes each lane's (vx, vy) and the hats hx[i + RMAX] = hat(vx - i),
+    hy[j + RMAX] = hat(vy - j) of the whole window into the scratch; the pair loops sum g and g E per lane
+    in the scratch's window sums; the last loop adds them to the accumulators times the row's weights."""
     U = np.uintp
-    one = np.float32(1.0)
     zero = np.float32(0.0)
-    for k in range(RMAX - r, RMAX + r + 1):
-        if abs(k - RMAX) < 2:
-            continue
-        o = np.float32(k - RMAX)
-        hx = sc[U(_HX + k * _L):]
-        hy = sc[U(_HX + (_W + k) * _L):]
+    one = np.float32(1.0)
+    hx = stack_empty(_WL, np.float32)  # on the stack: LLVM knows it aliases nothing, so the loops vectorise
+    hy = stack_empty(_WL, np.float32)
+    ws = stack_empty(_L4, np.float32)
+    zc = stack_empty(_L, np.float32)
+    for l in range(_L):
+        lu = U(l)
+        rho = min(d * sc[U(_LN + 2 * _L) + lu], cap)
+        vx = np.float32(rho * sc[U(_LN + 3 * _L) + lu])
+        vy = np.float32(rho * sc[U(_LN + 4 * _L) + lu])
+        zc[lu] = sc[U(_LN) + lu]
+        for k in range(_W):
+            o = np.float32(k - RMAX)
+            hx[U(k * _L) + lu] = max(zero, one - abs(vx - o))
+            hy[U(k * _L) + lu] = max(zero, one - abs(vy - o))
+        ws[lu] = zero
+        ws[U(_L) + lu] = zero
+        ws[U(2 * _L) + lu] = zero
+        ws[U(3 * _L) + lu] = zero
+    b = U(c0 - RMAX * wps - RMAX)
+    zb = zo + b
+    rb = co + b
+    gb_ = co + U(plane) + b
+    bb = co + U(2 * plane) + b
+    for q in range(npairs):
+        i = _PI[q]
+        j = _PJ[q]
+        oa = U((RMAX + j) * wps + RMAX + i)
+        ob = U((RMAX - j) * wps + RMAX - i)
+        xa = U((RMAX + i) * _L)
+        ya = U((RMAX + j) * _L)
+        xb = U((RMAX - i) * _L)
+        yb = U((RMAX - j) * _L)
         for l in range(_L):
             lu = U(l)
-            hx[lu] = max(zero, one - abs(sc[U(_LN + 5 * _L) + lu] - o))
-            hy[lu] = max(zero, one - abs(sc[U(_LN + 6 * _L) + lu] - o))
+            z0 = zc[lu]
+            wt = hx[xa + lu] * hy[ya + lu] + hx[xb + lu] * hy[yb + lu]
+            ta = oa + lu
+            tb = ob + lu
+            ga = wt * factor(buf[zb + ta] - z0, p)
+            gb = wt * factor(buf[zb + tb] - z0, p)
+            ws[lu] += ga + gb
+            ws[U(_L) + lu] += ga * buf[rb + ta] + gb * buf[rb + tb]
+            ws[U(2 * _L) + lu] += ga * buf[gb_ + ta] + gb * buf[gb_ + tb]
+            ws[U(3 * _L) + lu] += ga * buf[bb + ta] + gb * buf[bb + tb]
+    for l in range(_L):
+        lu = U(l)
+        g_ = ws[lu]
+        sc[lu] += w[0] * ws[U(_L) + lu]
+        sc[U(_L) + lu] += w[1] * ws[U(2 * _L) + lu]
+        sc[U(2 * _L) + lu] += w[2] * ws[U(3 * _L) + lu]
+        sc[U(3 * _L) + lu] += w[0] * g_
+        sc[U(4 * _L) + lu] += w[1] * g_
+        sc[U(5 * _L) + lu] += w[2] * g_
 
 
-@njit(cache=True, inline="always", fastmath=_FM)
-def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
+def _sep_body(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
               n_rows, centre, param, base, cap, bmap):
     """One 1D pass of one term over the whole image (module docstring), reading colour planes at ``co``
     of ``buf``. ``out`` is flat; pixel (x, y) channel c goes to out[ob + c ocs + y oys + x oxs] (the
@@ -398,7 +414,7 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
                             for ring in range(len(RING_D2)):
                                 nr += 1 if RING_D2[ring] < h2 else 0
                             nr = max(nr, 1)
-                            rwin[k] = nr
+                            rwin[k] = RING_PAIRS[nr - 1]
                             fast = fast and h2 <= (RMAX * RMAX)
                             rjit = max(rjit, RING_R[nr - 1])
                         else:
@@ -426,25 +442,11 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
                         # constant lane counts and window radii (all LANES lanes are computed: the buffer's
                         # right slack makes lanes past the image pad texels) let LLVM vectorise fully
                         if k < n_jit[sb]:
-                            nr = rwin[k]
-                            _RING0(factor, buf, sc, cu, zo, plane, wps, c0, wk, p, offs[sb, k], cap)
-                            if nr > 1:
-                                _outer_hats(sc, RING_R[nr - 1])
-                                _RING1(factor, buf, sc, cu, zo, plane, wps, c0, wk, p, zero, zero)
-                            if nr > 2:
-                                _RING2(factor, buf, sc, cu, zo, plane, wps, c0, wk, p, zero, zero)
-                            if nr > 3:
-                                _RING3(factor, buf, sc, cu, zo, plane, wps, c0, wk, p, zero, zero)
-                            if nr > 4:
-                                _RING4(factor, buf, sc, cu, zo, plane, wps, c0, wk, p, zero, zero)
-                            if nr > 5:
-                                _RING5(factor, buf, sc, cu, zo, plane, wps, c0, wk, p, zero, zero)
+                            _window(buf, sc, cu, zo, plane, wps, c0, wk, p, offs[sb, k], cap, rwin[k])
                         elif not alone:
-                            _row_block(factor, buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap,
-                                       True, True)
+                            _row_block_multi(buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap)
                         else:  # the common case: one profile, symmetric pairs
-                            _row_block(factor, buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap,
-                                       False, True)
+                            _row_block(buf, sc, cu, zo, so, plane, c0, st, _L, offs[sb, k], mlo[k], wk, p, cap)
                 else:  # several slots, asymmetric taps, wide jitter windows or varying footprints
                     for l in range(nl):
                         qi = int(sc[_LN + _L + l])
@@ -456,7 +458,7 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
                             ay = sc[_LN + 4 * _L + l] if jit else (zero if axis == 0 else one)
                             wk = (wts[qi, k, 0], wts[qi, k, 1], wts[qi, k, 2], wts[qi, k, 3], wts[qi, k, 4],
                                   wts[qi, k, 5])
-                            _lane_row(factor, buf, sc, cu, zo, so, plane, wps, c0 + l,
+                            _lane_row(buf, sc, cu, zo, so, plane, wps, c0 + l,
                                       min(offs[qi, k] * sc[_LN + 2 * _L + l], cap), ax, ay, sc[_LN + l],
                                       sc[_LN + _L + l], param[qi], wk, l)
             for c in range(3):
@@ -476,25 +478,36 @@ def _sep_body(factor, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plan
                         out[U(o + l * oxs)] = e if qi == 0 else (centre[qi, c] - sc[(3 + c) * _L + l]) * e + sc[c * _L + l]
 
 
-@njit(cache=True, nogil=True, fastmath=_FM)
-def pass_gaussian(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
-                  centre, param, base, cap, bmap):
-    _sep_body(f_gaussian, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
-              n_rows, centre, param, base, cap, bmap)
+def _copy(fn: Callable[..., Any], namespace: dict[str, Any], name: str) -> Callable[..., Any]:
+    """``fn``'s code under the globals ``namespace`` and the name ``name`` (numba's cache names its files
+    by the qualified name: each copy gets its own)."""
+    out = types.FunctionType(fn.__code__, namespace, name, fn.__defaults__, fn.__closure__)
+    out.__qualname__ = name
+    out.__doc__ = fn.__doc__
+    return out
 
 
-@njit(cache=True, nogil=True, fastmath=_FM)
-def pass_follow(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
-                centre, param, base, cap, bmap):
-    _sep_body(f_follow, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
-              n_rows, centre, param, base, cap, bmap)
+def _specialise(mode: str, factor: Any) -> Any:
+    """The pass of depth mode ``mode``: :func:`_sep_body` and its helpers copied with the mode's depth factor
+    (and, for the helpers that test slots, ``MULTI``) as globals, i.e. compile-time constants, so that numba
+    compiles plain calls (LLVM inlines the small ones) instead of inlining every helper into its caller
+    (numba's IR inlining took half of the first compilation) and the pass is cached on disk
+    (``cache=True``; a depth factor passed as an argument would make it uncacheable)."""
+    ns: dict[str, Any] = dict(globals())
+    ns["factor"] = factor
+    ns["MULTI"] = False
+    multi = dict(ns, MULTI=True)
+    for fn in (_tex, _accumulate, _bilinear, _lane_row, _window):
+        ns[fn.__name__] = njit(fastmath=_FM)(_copy(fn, ns, f"{fn.__name__}_{mode}"))
+    multi.update({k: ns[k] for k in ("_tex", "_accumulate")})
+    ns["_row_block"] = njit(fastmath=_FM)(_copy(_row_block, ns, f"_row_block_{mode}"))
+    ns["_row_block_multi"] = njit(fastmath=_FM)(_copy(_row_block, multi, f"_row_block_multi_{mode}"))
+    return njit(cache=True, nogil=True, fastmath=_FM)(_copy(_sep_body, ns, f"pass_{mode}"))
 
 
-@njit(cache=True, nogil=True, fastmath=_FM)
-def pass_none(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit, n_rows,
-              centre, param, base, cap, bmap):
-    _sep_body(f_none, buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
-              n_rows, centre, param, base, cap, bmap)
+pass_gaussian = _specialise("gaussian", f_gaussian)
+pass_follow = _specialise("follow", f_follow)
+pass_none = _specialise("none", f_none)
 
 
 PASSES = {"gaussian": pass_gaussian, "follow": pass_follow, "none": pass_none}
