@@ -88,9 +88,9 @@ def test_the_fit_is_within_its_reported_error_and_monotone(skin_table):
     f = fit(skin_table.thickness_mm)
     z = np.abs(f - skin_table.tt) / np.maximum(skin_table.tt_se, 1e-300)
     assert np.all(z[ok] <= fit.max_se.max() * (1 + 1e-9))
-    # at 40,000 photons per entry a 4-term fit lies within 6 SE of every resolved entry, its rms within 5 %
+    # at 40,000 photons per entry a 4-term fit lies within 6 SE of every resolved entry, its rms within 6 % (the precise entries have SE up to 10 %)
     assert np.all(fit.max_se < 6.0), fit.max_se
-    assert np.all(fit.rms_rel_error < 0.05), fit.rms_rel_error
+    assert np.all(fit.rms_rel_error < 0.06), fit.rms_rel_error
     dense = fit(np.linspace(0.0, skin_table.thickness_mm[-1], 400))
     assert np.all(np.diff(dense, axis=0) < 0) and np.all(dense > 0)
     assert np.all(fit.amplitudes >= 0) and np.all(fit.rates_per_mm >= 0) and np.all(fit.gauss_per_mm2 >= 0)
