@@ -17,12 +17,12 @@ Two bounds hold for any slab, whatever its scattering, and are what the tests ch
   expectation over a path of length s) T(t) <= (1 - R_sp) exp(-sigma_a t);
 * the unscattered photons alone give T(t) >= T_ballistic(t) = (1 - R)^2 exp(-sigma_t t) / (1 - R^2
   exp(-2 sigma_t t)), the incoherent sum of the multiply reflected beam between two faces of normal
-  Fresnel reflectance R = ((n - 1) / (n + 1))^2 (Born and Wolf's thick-plate sum; for a pure absorber,
+  Fresnel reflectance R = ((n - 1) / (n + 1))^2 ([BW99]: the thick-plate sum; for a pure absorber,
   sigma_s = 0, it is the exact answer with sigma_t = sigma_a: :func:`absorber_transmittance`).
 
 The fit (:func:`fit_transmission`): T(t) ~ sum_k a_k exp(-b_k t - c_k t^2), a_k, b_k, c_k >= 0, a sum of
 exponentials each with a Gaussian factor. Its two limits are the published forms: with c = 0 the exponentials
-of diffusion theory (the multipole model of a slab, Donner and Jensen 2005 [DJ05], Eqs. 8-11, a sum of
+of diffusion theory (the multipole model of a slab, Donner and Jensen 2005 [DJ05], a sum of
 dipole pairs mirrored at both extrapolated boundaries, decays as exp(-sigma_tr t) for thick slabs; the
 ballistic part as exp(-sigma_t t)); with b = 0 Jimenez et al. 2010's Gaussian sum in thickness [JWSG10]
 (:mod:`ssskit.backends.transmission_plan`). A sum of exponentials alone is log-convex in t, but MCML's
@@ -63,7 +63,7 @@ DEFAULT_TERMS = 4
 
 
 def normal_fresnel(eta: float, eta_ambient: float = 1.0) -> float:
-    """The normal-incidence Fresnel reflectance ((n1 - n2) / (n1 + n2))^2 (Born and Wolf, Eq. 1.5.23)."""
+    """The normal-incidence Fresnel reflectance ((n1 - n2) / (n1 + n2))^2 ([BW99], Sec. 1.5, at normal incidence)."""
     return ((eta - eta_ambient) / (eta + eta_ambient)) ** 2
 
 
@@ -153,8 +153,9 @@ def transmission_table(material: Material, photons: int = DEFAULT_PHOTONS, seed:
     else:
         raise ProfileError(f"{material.name}'s transmittance is still {max(rows['tt'][-1]):.3g} at the grid's last "
                            f"thickness {ts[-1]:g} mm, above the floor {floor:g}: extend the grid")
-    return TransmissionTable(material.name, np.asarray(used), *(np.asarray(rows[k]) for k in rows), rsp,
-                             tuple(material.sigma_a), tuple(material.sigma_t), float(material.eta),
+    tt, tt_se, rd, rd_se = (np.asarray(rows[k]) for k in ("tt", "tt_se", "rd", "rd_se"))
+    return TransmissionTable(material.name, np.asarray(used), tt, tt_se, rd, rd_se, rsp,
+                             material.sigma_a, material.sigma_t, float(material.eta),
                              float(material.eta_ambient), int(photons), int(seed))
 
 
@@ -207,9 +208,12 @@ def _fit_channel(t: np.ndarray, y: np.ndarray, se: np.ndarray, starts: Sequence[
         a, _ = nnls(m, y / s)
         return a, m @ a - y / s
 
+    def residual(x: np.ndarray) -> np.ndarray:
+        return amps(x)[1]
+
     best: tuple[float, np.ndarray] | None = None
     for x0 in starts:
-        res = least_squares(lambda x: amps(x)[1], x0, method="trf", max_nfev=300)
+        res = least_squares(residual, x0, method="trf", max_nfev=300)
         cost = float(np.sum(res.fun ** 2))
         if best is None or cost < best[0]:
             best = (cost, res.x)
