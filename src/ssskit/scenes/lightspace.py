@@ -23,7 +23,7 @@ from .scenes import SceneSpec, get_scene, mitsuba, scene_lights
 from .thickness import _seen_points, _sss_only
 
 
-def scene_light_view(scene: str | SceneSpec, resolution: int, frame: int = 0) -> LightView:
+def scene_light_view(scene: str | SceneSpec, resolution: int | tuple[int, int], frame: int = 0) -> LightView:
     """The orthographic view from ``scene``'s first light onto its SSS objects (module docstring)."""
     spec = get_scene(scene)
     sc = _sss_only(spec)
@@ -100,4 +100,22 @@ def seen_truth(scene: str | SceneSpec, view: LightView, width: int, height: int,
             "pixels": np.array(pix, int).reshape(-1, 2)}
 
 
-__all__ = ["depth_map", "scene_light_view", "seen_truth"]
+
+
+def light_layers(scene: str | SceneSpec, width: int, height: int, frame: int = 0) -> tuple[np.ndarray, dict]:
+    """The G-buffer's optional light layers (:mod:`ssskit.screenspace.gbuffer`): the ray-cast map at the
+    frame's size and the projection's JSON with ``irradiance``, the first light's power x 1 / d^2 at the
+    SSS objects' centre (a point light's intensity; a spherical light's radiance x pi r^2), grey."""
+    from .thickness import _light_power
+
+    spec = get_scene(scene)
+    view = scene_light_view(spec, (width, height), frame)
+    light = next(iter(scene_lights(spec, frame).values()))
+    pos, power = _light_power(light)
+    box = _sss_only(spec).bbox()
+    centre = 0.5 * (np.array(box.min, float) + np.array(box.max, float))
+    e = power / float(np.sum((centre - pos) ** 2))
+    return depth_map(spec, view), {**view.to_dict(), "irradiance": [e, e, e]}
+
+
+__all__ = ["depth_map", "light_layers", "scene_light_view", "seen_truth"]

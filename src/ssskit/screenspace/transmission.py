@@ -88,10 +88,10 @@ class LightView:
     size: tuple[int, int]
 
     @classmethod
-    def looking_along(cls, direction: np.ndarray, centre: np.ndarray, extent_mm: float, resolution: int,
+    def looking_along(cls, direction: np.ndarray, centre: np.ndarray, extent_mm: float, resolution: int | tuple[int, int],
                       distance_mm: float = 1000.0) -> LightView:
-        """A square map of ``resolution`` texels covering ``extent_mm`` around ``centre``, the light placed
-        ``distance_mm`` back along ``direction``."""
+        """A map of ``resolution`` texels (n: n x n; or (W, H)) whose shorter side covers ``extent_mm`` around
+        ``centre``, the light placed ``distance_mm`` back along ``direction``."""
         d = np.asarray(direction, float)
         d = d / np.linalg.norm(d)
         up = np.array([0.0, 1.0, 0.0]) if abs(d[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
@@ -99,8 +99,32 @@ class LightView:
         u /= np.linalg.norm(u)
         v = np.cross(d, u)
         origin = np.asarray(centre, float) - distance_mm * d
-        return cls(tuple(d), tuple(origin), tuple(u), tuple(v), float(extent_mm) / resolution,
-                   (int(resolution), int(resolution)))
+        w, h = (resolution, resolution) if isinstance(resolution, int) else resolution
+        def t3(a: np.ndarray) -> tuple[float, float, float]:
+            return float(a[0]), float(a[1]), float(a[2])
+
+        return cls(t3(d), t3(origin), t3(u), t3(v), float(extent_mm) / min(w, h), (int(w), int(h)))
+
+    def to_dict(self) -> dict:
+        """The JSON form (the G-buffer's ``ssskit_light`` header attribute)."""
+        return {"type": "orthographic", "direction": list(self.direction), "origin": list(self.origin),
+                "u": list(self.u), "v": list(self.v), "texel_mm": self.texel_mm, "size": list(self.size)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> LightView:
+        """:meth:`to_dict`'s form back, or a PassError naming what is wrong."""
+        try:
+            if d.get("type", "orthographic") != "orthographic":
+                raise ValueError(f"type {d.get('type')!r} (only 'orthographic')")
+            vecs = [tuple(float(x) for x in d[k]) for k in ("direction", "origin", "u", "v")]
+            size = tuple(int(x) for x in d["size"])
+            texel = float(d["texel_mm"])
+            if any(len(x) != 3 for x in vecs) or len(size) != 2 or not (texel > 0) or min(size) < 1:
+                raise ValueError("vectors need 3 numbers, size 2 positive integers, texel_mm > 0")
+        except (KeyError, TypeError, ValueError, AttributeError) as e:
+            raise PassError(f"the light projection is malformed: {e}") from None
+        t3 = [(x[0], x[1], x[2]) for x in vecs]
+        return cls(t3[0], t3[1], t3[2], t3[3], texel, (size[0], size[1]))
 
     def project(self, points: np.ndarray) -> np.ndarray:
         """(..., 3) world points (mm) -> (..., 3) (x, y) texel coordinates and z the depth along the light (mm)."""
