@@ -59,3 +59,11 @@ def test_light_layers_round_trip_through_the_exr(base, tmp_path):
     m = back.mask & np.isfinite(d)
     assert m.sum() > 10
     assert np.all(uvz[..., 2][m] - d[m] > -3 * LightView.from_dict(light).texel_mm)
+
+
+def test_render_gbuffer_writes_the_light_layers():
+    from ssskit.scenes import render_gbuffer
+
+    gb = render_gbuffer("sphere", (0.5, 0.5, 0.5), width=W, height=H, spp=1, light_layers=True)
+    assert gb.has_light and gb.light_depth.shape == (H, W) and gb.light["size"] == [W, H]
+    assert not render_gbuffer("sphere", (0.5, 0.5, 0.5), width=W, height=H, spp=1).has_light
