@@ -11,7 +11,8 @@ Frame inputs of the separable pass (all pixel-aligned):
 * ``slots`` (H, W) int32, the plan's profile slot of each pixel (0 = no SSS: copied unchanged).
 
 The Burley pass (:mod:`ssskit.backends.burley_plan`) takes the same images and ``spp``, one sample
-count or an (H, W) integer count image. Every backend has the separable pass; a backend that also
+count or an (H, W) integer count image. The transmittance pass (:mod:`ssskit.backends.transmission_plan`, pass name
+"transmission") takes the light's view of the frame. Every backend has the separable pass; a backend that also
 implements the Burley pass names it in ``passes``.
 
 The guiding phase of the adaptive sampler (:mod:`ssskit.backends.adaptive_plan`, pass name
@@ -35,6 +36,7 @@ from .plan import SeparablePlan
 if TYPE_CHECKING:
     from .adaptive_plan import AdaptivePlan
     from .burley_plan import BurleyPlan, MipPyramid, SampleCounts
+    from .transmission_plan import TransmissionPlan
 
 _T = TypeVar("_T")
 
@@ -82,6 +84,15 @@ class Backend(ABC):
         from ..errors import BackendError
 
         raise BackendError(f"backend {self.name!r} has no Burley pass")
+
+    def transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
+                     n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
+        """The transmittance pass (see :mod:`ssskit.backends.transmission_plan`): a new (H, W, 3) array of the
+        light leaving each pixel through the medium. A backend without the pass raises
+        :class:`~ssskit.errors.BackendError`."""
+        from ..errors import BackendError
+
+        raise BackendError(f"backend {self.name!r} has no transmittance pass")
 
     def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
                         valid: ArrayLike | None = None) -> NDArray[np.int64]:

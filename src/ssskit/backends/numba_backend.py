@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 
     from .adaptive_plan import AdaptivePlan
     from .burley_plan import BurleyPlan, MipPyramid, SampleCounts
+    from .transmission_plan import TransmissionPlan
 
 
 #: the largest planar frame buffer the backend allocates (extreme close-ups need a wide pad)
@@ -36,7 +37,7 @@ class NumbaBackend(Backend):
     name = "numba"
     description = "numba on the CPU, float32, parallel over rows and vectorised (the default)"
     dtype = np.float32
-    passes = frozenset({"separable", "burley", "adaptive"})
+    passes = frozenset({"separable", "burley", "adaptive", "transmission"})
 
     def __init__(self) -> None:
         self._key: tuple[int, int, int] | None = None
@@ -80,6 +81,27 @@ class NumbaBackend(Backend):
             self._buf[Z_PLANE * plane:(Z_PLANE + 1) * plane] = np.inf
             self._key = key
         return self._buf, wps, plane
+
+    def transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
+                     n_dot_l: np.ndarray, light_rgb: np.ndarray) -> NDArray[np.float32]:
+        """The transmittance pass (:mod:`ssskit.backends._numba_transmission`), float32, rows on the pool."""
+        from ._numba_transmission import transmission_rows
+        from .transmission_plan import check_transmission_frame
+
+        check_transmission_frame(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
+        f32 = np.float32
+        sl = np.ascontiguousarray(slots, dtype=np.int32)
+        uvz = np.ascontiguousarray(light_uvz, dtype=f32)
+        shadow = np.ascontiguousarray(shadow_mm, dtype=f32)
+        ndl = np.ascontiguousarray(n_dot_l, dtype=f32)
+        light = np.ascontiguousarray(light_rgb, dtype=f32)
+        a, b, c = (np.ascontiguousarray(v, dtype=f32) for v in (plan.a, plan.b, plan.c))
+        scale, wrap = plan.scale.astype(f32), plan.wrap.astype(f32)
+        out = np.empty(sl.shape + (3,), f32)
+        bias = f32(plan.bias_mm)
+        self._rows(sl.shape[0], lambda y0, y1: transmission_rows(sl, uvz, shadow, ndl, light, a, b, c, scale, wrap,
+                                                                 bias, out, y0, y1))
+        return out
 
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
                   slots: np.ndarray) -> NDArray[np.float32]:

@@ -23,6 +23,7 @@ from .adaptive_plan import AdaptivePlan, reference_counts, reference_update_pass
 from .base import Backend, check_burley_frame, check_frame
 from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, BurleyPlan, MipPyramid, SampleCounts, mip_pyramid
 from .plan import SeparablePlan, TermTable
+from .transmission_plan import TransmissionPlan, check_transmission_frame
 
 
 def depth_factor(dz: np.ndarray, mode: str, param: np.ndarray) -> np.ndarray:
@@ -228,7 +229,7 @@ class NumpyBackend(Backend):
     name = "numpy"
     description = "numpy, float64: the reference every other backend is tested against (slow)"
     dtype = np.float64
-    passes = frozenset({"separable", "burley", "adaptive"})
+    passes = frozenset({"separable", "burley", "adaptive", "transmission"})
 
     def availability(self) -> tuple[bool, str]:
         return True, "float64 reference (the oracle)"
@@ -248,6 +249,11 @@ class NumpyBackend(Backend):
         inside = (slots > 0)[..., None]
         return np.where(inside, out, src)
 
+    def transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
+                     n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
+        check_transmission_frame(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
+        return transmission_pass(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
+
     def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
                spp: SampleCounts, pyramid: MipPyramid | None = None) -> np.ndarray:
         spp = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
@@ -264,3 +270,50 @@ class NumpyBackend(Backend):
                         valid: ArrayLike | None = None) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
         """The *update* of :mod:`ssskit.backends.adaptive_plan` (its reference functions)."""
         return reference_update_pass(plan, history, rgb, counts, mask, motion, valid)
+
+
+def shadow_depth(shadow_mm: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Step 1 of :mod:`ssskit.backends.transmission_plan`: the map's bilinear depth at texel coordinates
+    (x, y) over its finite texels (weights renormalised); NaN where no texel with positive weight is left."""
+    hs, ws = shadow_mm.shape
+    px, py = x - 0.5, y - 0.5
+    with np.errstate(invalid="ignore"):
+        i0, j0 = np.floor(px), np.floor(py)
+    fx, fy = px - i0, py - j0
+    acc = np.zeros(x.shape)
+    wsum = np.zeros(x.shape)
+    finite = np.isfinite(px) & np.isfinite(py)
+    i0 = np.where(finite, i0, -2).astype(np.int64)
+    j0 = np.where(finite, j0, -2).astype(np.int64)
+    for di, dj in ((0, 0), (1, 0), (0, 1), (1, 1)):
+        wgt = (fx if di else 1.0 - fx) * (fy if dj else 1.0 - fy)
+        ii, jj = i0 + di, j0 + dj
+        inside = (ii >= 0) & (ii < ws) & (jj >= 0) & (jj < hs)
+        d = shadow_mm[np.clip(jj, 0, hs - 1), np.clip(ii, 0, ws - 1)]
+        ok = inside & np.isfinite(d) & (wgt > 0) & finite
+        acc += np.where(ok, wgt * np.where(ok, d, 0.0), 0.0)
+        wsum += np.where(ok, wgt, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(wsum > 0, acc / wsum, np.nan)
+
+
+def transmission_pass(plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
+                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> NDArray[np.float64]:
+    """Steps 1-5 of :mod:`ssskit.backends.transmission_plan` in float64, vectorised over the pixels."""
+    uvz = np.asarray(light_uvz, np.float64)
+    out = np.zeros(uvz.shape[:2] + (3,))
+    ys, xs = np.nonzero(np.asarray(slots) > 0)
+    if ys.size == 0:
+        return out
+    s = np.asarray(slots)[ys, xs]
+    d = shadow_depth(np.asarray(shadow_mm, np.float64), uvz[ys, xs, 0], uvz[ys, xs, 1])  # step 1
+    with np.errstate(invalid="ignore"):
+        t = uvz[ys, xs, 2] - d  # step 2
+        lit = np.isfinite(t) & (t > plan.bias_mm)
+    t = np.where(lit, t, 0.0)
+    ndl = np.asarray(n_dot_l, np.float64)[ys, xs]
+    e = np.asarray(light_rgb, np.float64)[ys, xs] * np.clip(plan.wrap[s] - ndl, 0.0, 1.0)[:, None]  # step 3
+    u = (plan.scale[s] * t)[:, None, None]
+    tr = np.sum(plan.a[s] * np.exp(-plan.b[s] * u - plan.c[s] * u * u), axis=-1)  # step 4
+    out[ys, xs] = np.where(lit[:, None], tr * e, 0.0)  # step 5
+    return out

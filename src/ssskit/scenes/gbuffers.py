@@ -40,16 +40,27 @@ def _per_shape(name: str, value: ArrayLike, n: int, shape: tuple[int, ...]) -> n
     raise SceneError(f"{name} must have shape {shape or '()'} or one per SSS shape ({n}), got {arr.shape}")
 
 
+def _light_layers(spec: SceneSpec, width: int, height: int, frame: int, wanted: bool) -> dict:
+    if not wanted:
+        return {}
+    from .lightspace import light_layers
+
+    depth, light = light_layers(spec, width, height, frame)
+    return {"light_depth": depth.astype(np.float32), "light": light}
+
+
 def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float | ArrayLike = 1.4, width: int = 256,
                    height: int = 192, spp: int = 32, seed: int = 0, frame: int = 0,
-                   material: str | tuple[str, ...] = "material") -> GBuffer:
+                   material: str | tuple[str, ...] = "material", light_layers: bool = False) -> GBuffer:
     """Render the named scene's G-buffer (module docstring) at ``frame`` with Mitsuba ``scalar_rgb``.
 
     ``albedo``: (3,) diffuse albedo of the SSS objects (the profile's total reflectance), or (n, 3)
     one per SSS shape; ``eta``: their refractive index (specular layer), one or n; ``material``:
     its name, or n names. SSS shape i (``spec.sss_shapes[i]``) gets profile id i + 1, so a scene
     with n SSS shapes has ids 1..n and ``materials`` of length n (one name repeated if one is
-    given); meta holds scene, frame, spp, seed, eta (a list if several).
+    given); meta holds scene, frame, spp, seed, eta (a list if several). ``light_layers``: also the
+    optional light layers of the transmittance pass (:func:`ssskit.scenes.lightspace.light_layers`: the
+    first light's ray-cast translucency shadow map at the frame's size and its projection).
     """
     spec = get_scene(scene)
     check_size(width, height)
@@ -106,7 +117,8 @@ def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float | Array
             "renderer": "mitsuba3 scalar_rgb", "eta": float(etas[0]) if n == 1 or np.ptp(etas) == 0 else etas.tolist()}
     return GBuffer(diffuse=np.maximum(diffuse[..., :3], 0), albedo=albedo_layer, depth=depth,
                    profile_id=pid, camera=cam, specular=np.maximum(specular[..., :3], 0),
-                   normal=np.where(hit[..., None], normal, 0).astype(np.float32), materials=names, meta=meta)
+                   normal=np.where(hit[..., None], normal, 0).astype(np.float32), materials=names, meta=meta,
+                   **_light_layers(spec, width, height, frame, light_layers))
 
 
 def render_sequence(scene: str, albedo: ArrayLike, frames: int, first: int = 0, **kw: Any) -> list[GBuffer]:

@@ -10,6 +10,16 @@ Layers (all pixel-aligned, shape (H, W[, 3])):
 * ``normal``    world-space unit normals (RGB; zero where no surface);
 * ``profile_id`` uint32: 0 = no SSS (stencil culled), k >= 1 = the k-th entry of ``materials``.
 
+Optional, for the transmittance pass (:mod:`ssskit.backends.transmission_plan`), both or neither:
+
+* ``light_depth`` (H, W) float32: the key light's translucency shadow map, the light-space depth (mm along
+  the light) of the first surface it meets per texel (+inf where none), rendered at the frame's size (one
+  EXR data window);
+* the light projection, header attribute ``ssskit_light`` (JSON,
+  :meth:`~ssskit.screenspace.transmission.LightView.to_dict`: an orthographic view, its ``direction``,
+  ``origin``, map axes ``u``, ``v``, ``texel_mm``, ``size`` = [W, H] of ``light_depth``), with
+  ``irradiance`` [r, g, b], the light's irradiance on a surface facing it.
+
 The camera (:class:`~ssskit.screenspace.camera.Camera`) travels with the layers.
 
 EXR files are written and read with the official OpenEXR Python bindings (imageio writes TIFF bytes
@@ -46,6 +56,8 @@ class GBuffer:
     normal: np.ndarray | None = None
     materials: tuple[str, ...] = ()
     meta: dict[str, Any] = field(default_factory=dict)
+    light_depth: np.ndarray | None = None
+    light: dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
         diffuse = _float_layer("diffuse", self.diffuse, rgb=True)
@@ -79,6 +91,56 @@ class GBuffer:
         for name, arr in layers.items():
             object.__setattr__(self, name, arr)
         object.__setattr__(self, "materials", mats)
+        self._check_light(h, w)
+
+    def _check_light(self, h: int, w: int) -> None:
+        """The optional light layers: both or neither, the map the projection's size, finite irradiance."""
+        if self.light_depth is None and self.light is None:
+            return
+        if self.light is None:
+            raise GBufferError("layer 'light_depth' needs the light projection (header 'ssskit_light'), which is missing")
+        if self.light_depth is None:
+            raise GBufferError("the light projection (header 'ssskit_light') is given without a 'light_depth' layer")
+        from ..errors import PassError
+        from .transmission import LightView
+
+        ld = _float_layer("light_depth", self.light_depth, rgb=False, allow_inf=True)
+        if ld.shape != (h, w):
+            raise GBufferError(f"layer 'light_depth' has shape {ld.shape}, but the frame is {(h, w)}")
+        try:
+            view = LightView.from_dict(self.light)
+        except PassError as e:
+            raise GBufferError(str(e)) from None
+        if view.size != (w, h):
+            raise GBufferError(f"the light projection's size {list(view.size)} is not the 'light_depth' layer's "
+                               f"[{w}, {h}]")
+        irr = np.asarray(self.light.get("irradiance", np.nan), float)
+        if irr.shape != (3,) or not np.all(np.isfinite(irr)) or np.any(irr < 0):
+            raise GBufferError(f"the light projection's irradiance must be 3 finite numbers >= 0, got "
+                               f"{self.light.get('irradiance')!r}")
+        object.__setattr__(self, "light_depth", ld)
+
+    @property
+    def has_light(self) -> bool:
+        """Whether the G-buffer carries the transmittance pass's layers."""
+        return self.light_depth is not None
+
+    def transmission_inputs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(light_uvz (H, W, 3), shadow_mm (H, W), n_dot_l (H, W), light_rgb (H, W, 3)): the transmittance pass's
+        frame inputs (:mod:`ssskit.backends.transmission_plan`) from the light layers, the positions (mm) and
+        the normals; a GBufferError without the layers."""
+        from .transmission import LightView
+
+        if self.light_depth is None or self.light is None:
+            raise GBufferError("the G-buffer has no light layers ('light_depth' and header 'ssskit_light')")
+        view = LightView.from_dict(self.light)
+        pos = self.positions() / self.camera.world_units_per_mm
+        uvz = view.project(pos)
+        n = np.zeros(self.shape + (3,)) if self.normal is None else self.normal.astype(np.float64)
+        ndl = n @ (-np.asarray(view.direction))  # L, towards the light, is -direction
+        rgb = np.broadcast_to(np.asarray(self.light["irradiance"], float), self.shape + (3,))
+        shadow = self.light_depth.astype(np.float64) / self.camera.world_units_per_mm
+        return uvz, shadow, ndl, np.array(rgb)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -133,6 +195,9 @@ class GBuffer:
                       "ssskit_materials": json.dumps(list(self.materials)),
                       "ssskit_meta": json.dumps(self.meta, default=str)}
         channels = {name: np.ascontiguousarray(getattr(self, name)) for name in LAYERS}
+        if self.light_depth is not None and self.light is not None:
+            channels["light_depth"] = np.ascontiguousarray(self.light_depth)
+            attributes["ssskit_light"] = json.dumps(self.light)
         write_exr(path, channels, attributes, what="G-buffer file")
 
     @classmethod
@@ -182,10 +247,19 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
             raise GBufferError(f"G-buffer {str(p)!r}: layer 'profile_id' uses id {top} but the header "
                                f"'ssskit_materials' names {len(named)} material(s) {named!r} (id k is the k-th name)")
         materials = tuple(named)
+    light = None
+    if "ssskit_light" in header:
+        try:
+            light = json.loads(header["ssskit_light"])
+        except json.JSONDecodeError:
+            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_light' is not JSON") from None
+        if not isinstance(light, dict):
+            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_light' must be a JSON object")
     try:
         return GBuffer(diffuse=channels["diffuse"], albedo=channels["albedo"], depth=channels["depth"],
                        profile_id=channels["profile_id"], camera=camera, specular=channels.get("specular"),
-                       normal=channels.get("normal"), materials=materials, meta=meta)
+                       normal=channels.get("normal"), materials=materials, meta=meta,
+                       light_depth=channels.get("light_depth"), light=light)
     except GBufferError as exc:  # name the file in the layer's message
         raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None
 

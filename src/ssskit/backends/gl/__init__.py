@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from ..base import AdaptiveRunner
     from ..burley_plan import BurleyPlan, MipPyramid, SampleCounts
     from ..plan import SeparablePlan
+    from ..transmission_plan import TransmissionPlan
 
 
 class _Frame(Protocol):
@@ -43,7 +44,7 @@ class GLBackend(Backend):
     name = "gl"
     description = "GLSL compute shaders through moderngl/EGL, float32: a GPU, or Mesa's llvmpipe on the CPU"
     dtype = np.float32
-    passes = frozenset({"separable", "burley", "adaptive"})
+    passes = frozenset({"separable", "burley", "adaptive", "transmission"})
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
@@ -79,6 +80,23 @@ class GLBackend(Backend):
             return np.array(diffuse, dtype=np.float32, copy=True)
         return self._run(lambda: BurleyFrame(plan, np.asarray(diffuse, np.float32),
                                              np.asarray(depth_mm, np.float32), slots, spp))
+
+    def transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
+                     n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
+        """The transmittance pass (``gl/transmission.py``), host arrays in and out."""
+        from ..transmission_plan import check_transmission_frame
+        from .context import context
+        from .transmission import run_transmission
+
+        check_transmission_frame(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
+        if np.size(slots) == 0:
+            return np.zeros(np.shape(slots) + (3,), np.float32)
+        with self._lock:
+            ctx = context()
+            try:
+                return run_transmission(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
+            finally:
+                ctx.__exit__(None, None, None)
 
     def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
                         valid: ArrayLike | None = None) -> NDArray[np.int64]:

@@ -1,0 +1,144 @@
+"""The transmittance pass: light entering the back of a thin part and leaving through the pixel, from a
+translucency shadow map (Jimenez et al. 2010 [JWSG10], Sec. 3: the thickness a light sees is its own
+depth map's distance between the first surface it meets and the shaded point).
+
+Frame inputs (per camera pixel p, all pixel-aligned (H, W) unless noted):
+
+* ``slots`` int32, the plan's profile slot (0 = no SSS: no transmission);
+* ``light_uvz`` (H, W, 3): the pixel's surface point in the light's view, (x, y) in shadow-map texel
+  coordinates (texel i covers [i, i + 1)) and z its depth along the light's axis in mm (the same
+  measure as the map);
+* ``shadow_mm`` (Hs, Ws): the light-space depth map in mm, the depth of the first surface the light
+  meets (non-finite where it meets none);
+* ``n_dot_l``: N . L with N the pixel's unit normal and L the unit direction towards the light;
+* ``light_rgb`` (H, W, 3): the irradiance the light delivers at p on a surface facing it.
+
+Per pixel p in slot s > 0 and channel c, the pass computes (every backend in this order):
+
+1. D: the map's depth at (x, y), bilinear between the four texel centres around it (weights
+   (1 - fx)(1 - fy) ... of the position x - 1/2, y - 1/2), texels off the map or non-finite left out and
+   the others' weights renormalised; no texel with positive weight left: no transmission (0).
+2. t = z - D, the chord through the medium along the light (mm). **Zero thickness** is no medium between
+   the light and p: p is the first surface the light meets, lit directly (the reflectance pass has it), so
+   t <= ``bias_mm`` (the map's depth precision) or a non-finite t gives 0.
+3. E_c = light_rgb_c clamp(wrap_s - N . L, 0, 1): the back surface's irradiance, its normal taken as the
+   pixel's reversed (N . L of the back side is -N . L; ``wrap`` = 0 is the cosine law, Jimenez 2010's
+   shader wraps it by 0.3).
+4. T_c(t) = sum_k a_sck exp(-b_sck u - c_sck u^2) with u = scale_s t: the slot's transmittance model,
+   either the MCML fit of :mod:`ssskit.profiles.montecarlo.transmission` (scale 1) or Jimenez 2010's
+   Gaussian sum (b = 0, c = 1 / v_k, scale = the effect's thickness scale).
+5. out_c(p) = T_c(t) E_c, the light leaving p through the medium: added to the reflectance SSS result
+   before the albedo multiply. out <= T(t) light_rgb always (E <= light_rgb).
+
+Float32 backends differ from the float64 oracle by the rounding of steps 1 and 4 (a few ulps) and by
+t = z - D, which carries the rounding of D (about one ulp of the depths, not of t) times |dT/dt|.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import PassError
+
+#: the transmittance models a plan can hold (the MCML fit, Jimenez et al. 2010's skin Gaussians)
+MODELS = ("mcml", "jimenez2010")
+
+#: most terms of one slot's T(t)
+MAX_TERMS = 8
+
+
+@dataclass(frozen=True)
+class SlotModel:
+    """One profile id's T(t) = sum_k a_ck exp(-b_ck u - c_ck u^2), u = scale t (mm): ``a``, ``b``, ``c`` (3,
+    K), and the back irradiance's ``wrap`` (step 3)."""
+
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    scale: float = 1.0
+    wrap: float = 0.0
+    model: str = "mcml"
+
+
+@dataclass(frozen=True, eq=False)
+class TransmissionPlan:
+    """What a backend needs besides the frame's images: per slot (slot 0 empty) the model's (S, 3, K)
+    tables, (S,) scale and wrap, and the zero-thickness bias (module docstring)."""
+
+    ids: tuple[int, ...]
+    a: NDArray[np.float64]
+    b: NDArray[np.float64]
+    c: NDArray[np.float64]
+    scale: NDArray[np.float64]
+    wrap: NDArray[np.float64]
+    bias_mm: float
+    models: tuple[str, ...]
+
+    @property
+    def slots(self) -> int:
+        return len(self.ids) + 1
+
+    @property
+    def terms(self) -> int:
+        return int(self.a.shape[2])
+
+    def transmittance(self, slot: int, thickness_mm: np.ndarray) -> np.ndarray:
+        """(..., 3) T(t) of one slot at thicknesses (mm), step 4 in float64 (for tests and tables)."""
+        u = self.scale[slot] * np.asarray(thickness_mm, float)[..., None, None]
+        return np.asarray(np.sum(self.a[slot] * np.exp(-self.b[slot] * u - self.c[slot] * u * u), axis=-1))
+
+
+def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3) -> TransmissionPlan:
+    """The plan of profile ids -> their :class:`SlotModel`; ``bias_mm`` > 0 is step 2's zero thickness."""
+    if not (isinstance(bias_mm, (int, float)) and np.isfinite(bias_mm) and bias_mm >= 0):
+        raise PassError(f"the zero-thickness bias must be a finite number of mm >= 0, got {bias_mm!r}")
+    ids = tuple(sorted(int(i) for i in models))
+    if any(i <= 0 for i in ids):
+        raise PassError(f"profile ids with a transmittance model must be >= 1 (0 means no SSS), got {list(ids)}")
+    k = max((np.shape(models[i].a)[1] for i in ids), default=1)
+    if k > MAX_TERMS:
+        raise PassError(f"a transmittance model holds at most {MAX_TERMS} terms, got {k}")
+    s = len(ids) + 1
+    a, b, c = (np.zeros((s, 3, k)) for _ in range(3))
+    scale, wrap = np.ones(s), np.zeros(s)
+    names = []
+    for slot, pid in enumerate(ids, start=1):
+        m = models[pid]
+        for name, v in (("a", m.a), ("b", m.b), ("c", m.c)):
+            arr = np.asarray(v, float)
+            if arr.ndim != 2 or arr.shape[0] != 3 or not np.all(np.isfinite(arr)) or np.any(arr < 0):
+                raise PassError(f"profile id {pid}: the model's {name} must be a finite (3, K) array >= 0, got "
+                                f"shape {arr.shape}")
+        if m.model not in MODELS:
+            raise PassError(f"unknown transmittance model {m.model!r}; choose from {', '.join(MODELS)}")
+        if not (np.isfinite(m.scale) and m.scale >= 0 and np.isfinite(m.wrap) and 0 <= m.wrap <= 1):
+            raise PassError(f"profile id {pid}: scale must be >= 0 and wrap in [0, 1], got {m.scale!r}, {m.wrap!r}")
+        n = np.shape(m.a)[1]
+        a[slot, :, :n], b[slot, :, :n], c[slot, :, :n] = m.a, m.b, m.c
+        scale[slot], wrap[slot] = m.scale, m.wrap
+        names.append(m.model)
+    return TransmissionPlan(ids, a, b, c, scale, wrap, float(bias_mm), tuple(names))
+
+
+def check_transmission_frame(plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray,
+                             shadow_mm: np.ndarray, n_dot_l: np.ndarray, light_rgb: np.ndarray) -> None:
+    """Shapes and slot range of the pass's inputs, or a PassError naming the input."""
+    h_w = np.shape(slots)
+    if len(h_w) != 2:
+        raise PassError(f"slots must be an (H, W) image, got shape {h_w}")
+    for name, arr, shape in (("light_uvz", light_uvz, h_w + (3,)), ("n_dot_l", n_dot_l, h_w),
+                             ("light_rgb", light_rgb, h_w + (3,))):
+        if np.shape(arr) != shape:
+            raise PassError(f"{name} must have shape {shape} like the frame, got {np.shape(arr)}")
+    if np.ndim(shadow_mm) != 2 or 0 in np.shape(shadow_mm):
+        raise PassError(f"the light-space depth must be a non-empty (H, W) image, got shape {np.shape(shadow_mm)}")
+    s = np.asarray(slots)
+    if s.size and (int(s.min()) < 0 or int(s.max()) >= plan.slots):
+        raise PassError(f"slots must lie in [0, {plan.slots - 1}]")
+
+
+__all__ = ["MAX_TERMS", "MODELS", "SlotModel", "TransmissionPlan", "build_transmission_plan",
+           "check_transmission_frame"]

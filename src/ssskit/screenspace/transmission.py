@@ -1,0 +1,156 @@
+"""Light through thin parts: the transmittance models a plan holds (:mod:`ssskit.backends.transmission_plan`
+has the pass), and the light-space geometry that feeds it.
+
+Models (one per profile id, :data:`~ssskit.backends.transmission_plan.MODELS`):
+
+* ``mcml``: the material's own MCML slab transmittance T(t), through the fit of
+  :func:`ssskit.profiles.montecarlo.transmission.fit_transmission` (t in mm, scale 1, the cosine law at the
+  back: wrap 0);
+* ``jimenez2010``: Jimenez et al. 2010's skin transmittance [JWSG10] as their shader ships it ([Jim12],
+  SeparableSSS.h, ``SSSSTransmittance``): T(d) = sum_i w_i exp(-d^2 / v_i) over d'Eon et al. 2007's six
+  skin Gaussians (variances v_i in mm^2, RGB weights w_i; [dLE07]) with d = scale x thickness, scale =
+  8.25 (1 - translucency) / sssWidth, and the back irradiance wrapped: saturate(0.3 + dot(L, -N)) (wrap 0.3).
+  With ``scale`` = 1 the thickness is in mm, the unit of d'Eon's variances.
+
+Light-space geometry (:class:`LightView`): an orthographic view for a directional light (a translucency
+shadow map of Jimenez 2010, Sec. 3): world point P -> texel coordinates (x, y) and depth z along the light
+(mm); :meth:`LightView.depth_map` renders the map of a set of surface points (the first surface the light
+meets per texel), and :func:`thickness_from_map` evaluates step 1-2 of the pass for given points, for the
+measurement of the map's thickness against the ray-cast chord.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from ..backends.transmission_plan import SlotModel, TransmissionPlan, build_transmission_plan
+from ..errors import PassError
+from ..materials import Material
+from ..profiles.gaussians import DEON2007_SKIN_VARIANCES, DEON2007_SKIN_WEIGHTS
+
+#: Jimenez 2010's wrap of the back irradiance (SeparableSSS.h: saturate(0.3 + dot(light, -normal)))
+JIMENEZ2010_WRAP = 0.3
+
+
+def jimenez2010_model(translucency: float = 0.0, sss_width_mm: float | None = None) -> SlotModel:
+    """Jimenez et al. 2010's skin transmittance (module docstring): scale 8.25 (1 - translucency) /
+    sss_width_mm, or 1 (thickness in mm) when ``sss_width_mm`` is None."""
+    if not (0.0 <= translucency < 1.0):
+        raise PassError(f"translucency must lie in [0, 1), got {translucency!r}")
+    if sss_width_mm is None:
+        scale = 1.0
+    else:
+        if not (math.isfinite(sss_width_mm) and sss_width_mm > 0):
+            raise PassError(f"the SSS width must be a positive number of mm, got {sss_width_mm!r}")
+        scale = 8.25 * (1.0 - translucency) / sss_width_mm
+    w = np.asarray(DEON2007_SKIN_WEIGHTS, float).T  # (3, 6)
+    v = np.asarray(DEON2007_SKIN_VARIANCES, float)
+    return SlotModel(w, np.zeros_like(w), np.broadcast_to(1.0 / v, w.shape).copy(), scale, JIMENEZ2010_WRAP,
+                     "jimenez2010")
+
+
+@lru_cache(maxsize=32)
+def _mcml_fit(material: Material, photons: int, seed: int, terms: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    from ..profiles.montecarlo.transmission import fit_transmission, transmission_table
+
+    fit = fit_transmission(transmission_table(material, photons=photons, seed=seed), terms=terms)
+    return fit.amplitudes, fit.rates_per_mm, fit.gauss_per_mm2
+
+
+def mcml_model(material: Material, photons: int = 200_000, seed: int = 101, terms: int = 4) -> SlotModel:
+    """The material's MCML slab transmittance as a model (module docstring); the table's simulations are
+    cached on disk, the fit in memory."""
+    a, b, c = _mcml_fit(material, int(photons), int(seed), int(terms))
+    return SlotModel(a.copy(), b.copy(), c.copy(), 1.0, 0.0, "mcml")
+
+
+def transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3) -> TransmissionPlan:
+    """:func:`~ssskit.backends.transmission_plan.build_transmission_plan` (re-exported for the pipeline)."""
+    return build_transmission_plan(models, bias_mm)
+
+
+@dataclass(frozen=True)
+class LightView:
+    """An orthographic light view: ``direction`` the unit vector the light travels along (from the light
+    into the scene), ``origin`` a world point (mm) on the map's plane, (``u``, ``v``) the map's unit axes,
+    ``texel_mm`` the texel size and ``size`` (W, H) the map's texels; texel (0, 0)'s corner at the origin
+    minus half the map."""
+
+    direction: tuple[float, float, float]
+    origin: tuple[float, float, float]
+    u: tuple[float, float, float]
+    v: tuple[float, float, float]
+    texel_mm: float
+    size: tuple[int, int]
+
+    @classmethod
+    def looking_along(cls, direction: np.ndarray, centre: np.ndarray, extent_mm: float, resolution: int | tuple[int, int],
+                      distance_mm: float = 1000.0) -> LightView:
+        """A map of ``resolution`` texels (n: n x n; or (W, H)) whose shorter side covers ``extent_mm`` around
+        ``centre``, the light placed ``distance_mm`` back along ``direction``."""
+        d = np.asarray(direction, float)
+        d = d / np.linalg.norm(d)
+        up = np.array([0.0, 1.0, 0.0]) if abs(d[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+        u = np.cross(up, d)
+        u /= np.linalg.norm(u)
+        v = np.cross(d, u)
+        origin = np.asarray(centre, float) - distance_mm * d
+        w, h = (resolution, resolution) if isinstance(resolution, int) else resolution
+        def t3(a: np.ndarray) -> tuple[float, float, float]:
+            return float(a[0]), float(a[1]), float(a[2])
+
+        return cls(t3(d), t3(origin), t3(u), t3(v), float(extent_mm) / min(w, h), (int(w), int(h)))
+
+    def to_dict(self) -> dict:
+        """The JSON form (the G-buffer's ``ssskit_light`` header attribute)."""
+        return {"type": "orthographic", "direction": list(self.direction), "origin": list(self.origin),
+                "u": list(self.u), "v": list(self.v), "texel_mm": self.texel_mm, "size": list(self.size)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> LightView:
+        """:meth:`to_dict`'s form back, or a PassError naming what is wrong."""
+        try:
+            if d.get("type", "orthographic") != "orthographic":
+                raise ValueError(f"type {d.get('type')!r} (only 'orthographic')")
+            vecs = [tuple(float(x) for x in d[k]) for k in ("direction", "origin", "u", "v")]
+            size = tuple(int(x) for x in d["size"])
+            texel = float(d["texel_mm"])
+            if any(len(x) != 3 for x in vecs) or len(size) != 2 or not (texel > 0) or min(size) < 1:
+                raise ValueError("vectors need 3 numbers, size 2 positive integers, texel_mm > 0")
+        except (KeyError, TypeError, ValueError, AttributeError) as e:
+            raise PassError(f"the light projection is malformed: {e}") from None
+        t3 = [(x[0], x[1], x[2]) for x in vecs]
+        return cls(t3[0], t3[1], t3[2], t3[3], texel, (size[0], size[1]))
+
+    def project(self, points: np.ndarray) -> np.ndarray:
+        """(..., 3) world points (mm) -> (..., 3) (x, y) texel coordinates and z the depth along the light (mm)."""
+        p = np.asarray(points, float) - np.asarray(self.origin)
+        w, h = self.size
+        x = p @ np.asarray(self.u) / self.texel_mm + 0.5 * w
+        y = p @ np.asarray(self.v) / self.texel_mm + 0.5 * h
+        return np.stack([x, y, p @ np.asarray(self.direction)], axis=-1)
+
+    def texel_rays(self) -> tuple[np.ndarray, np.ndarray]:
+        """(H, W, 3) origins and the direction of the rays through the texel centres (for a ray-cast map)."""
+        w, h = self.size
+        ys, xs = np.mgrid[0:h, 0:w].astype(float)
+        o = (np.asarray(self.origin) + ((xs + 0.5 - 0.5 * w) * self.texel_mm)[..., None] * np.asarray(self.u)
+             + ((ys + 0.5 - 0.5 * h) * self.texel_mm)[..., None] * np.asarray(self.v))
+        return o, np.asarray(self.direction)
+
+
+def thickness_from_map(view: LightView, shadow_mm: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(N,) thickness (mm) at world points (N, 3) from a light-space depth map: steps 1-2 of the pass
+    (the oracle's bilinear lookup, NaN where the map has no finite texel around the point)."""
+    from ..backends.numpy_backend import shadow_depth
+
+    uvz = view.project(points)
+    return np.asarray(uvz[..., 2] - shadow_depth(np.asarray(shadow_mm, float), uvz[..., 0], uvz[..., 1]))
+
+
+__all__ = ["JIMENEZ2010_WRAP", "LightView", "jimenez2010_model", "mcml_model", "thickness_from_map",
+           "transmission_plan"]

@@ -1,0 +1,61 @@
+"""HDRP transmission parameters from MCML tables (export.transmission): HDRP's formula as its shader writes
+it, the pass model equal to it, and the tint the least-squares optimum of the relative error."""
+
+import numpy as np
+import pytest
+
+from ssskit.backends.transmission_plan import build_transmission_plan
+from ssskit.export.transmission import hdrp_model, hdrp_shape, hdrp_transmission
+from ssskit.materials import get_material
+from ssskit.profiles.montecarlo.transmission import transmission_table
+
+D = np.array([1.2, 0.5, 0.23])
+
+
+def _hdrp_shader(s, volume_albedo, thickness):
+    """ComputeTransmittanceDisney (HDRP DiffusionProfile.hlsl) written out: exp_13 = exp2(LOG2_E (-1/3) t S);
+    volumeAlbedo (premultiplied by 1/4) * (exp_13 * (exp_13 * exp_13 + 3))."""
+    exp_13 = np.exp2(1.4426950408889634 * (-1.0 / 3.0) * thickness * s)
+    return volume_albedo * (exp_13 * (exp_13 * exp_13 + 3))
+
+
+def test_the_pass_model_is_hdrps_formula():
+    tint = np.array([0.9, 0.6, 0.3])
+    t = np.linspace(0, 10, 41)
+    plan = build_transmission_plan({1: hdrp_model(tint, D)})
+    expect = np.stack([_hdrp_shader(1 / D[c], tint[c] / 4, t) for c in range(3)], -1)
+    np.testing.assert_allclose(plan.transmittance(1, t), expect, rtol=1e-12)
+    np.testing.assert_allclose(hdrp_shape(D, t) * tint, expect, rtol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def table(tmp_path_factory):
+    import os
+
+    old = os.environ.get("SSSKIT_CACHE_DIR")
+    os.environ["SSSKIT_CACHE_DIR"] = str(tmp_path_factory.mktemp("cache"))
+    try:
+        yield transmission_table(get_material("skin1"), photons=20_000, seed=3)
+    finally:
+        if old is None:
+            del os.environ["SSSKIT_CACHE_DIR"]
+        else:
+            os.environ["SSSKIT_CACHE_DIR"] = old
+
+
+def test_the_tint_minimises_the_relative_error(table):
+    d = np.array([4.0, 2.0, 1.0])  # wide enough that the unclamped tints stay below 1
+    out = hdrp_transmission(table, d)
+    tint = np.array(out["tint_unclamped"])
+    m = table.tt > 1e-3
+
+    def cost(a, c):
+        g = hdrp_shape(d, table.thickness_mm[m[:, c]])[:, c]
+        y = table.tt[m[:, c], c]
+        return float(np.sum(((a * g - y) / y) ** 2))
+
+    for c in range(3):
+        best = cost(tint[c], c)
+        assert best <= cost(tint[c] * 1.01, c) and best <= cost(tint[c] * 0.99, c)
+    assert out["thicknessRemap"][0] == 0.0 and out["thicknessRemap"][1] == table.thickness_mm[m.any(axis=1)].max()
+    assert all(0 <= v <= 1 for v in out["transmissionTint"])
