@@ -19,11 +19,15 @@ from ssskit.screenspace import BurleySettings, PassSettings
                                     AdaptivePass(sigma0_sq=1e-4, kappa=0.6, b_min=4, b_max=32, frames=5,
                                                  limit_spp=256, disocclusion_spp=16, taa=False)])
 def test_round_trip_holds_one_pass_table(tmp_path, suffix, member):
-    s = RenderSettings(width=64, height=48, seed=5, frame=2, backend="numpy", pass_=member)
+    # the transmittance pass runs with the separable and the Burley pass, not with the adaptive run
+    light = ({"transmission": "off"} if isinstance(member, AdaptivePass)
+             else {"transmission": "on", "transmission_model": "jimenez2010"})
+    s = RenderSettings(width=64, height=48, seed=5, frame=2, backend="numpy", pass_=member, **light)
     path = tmp_path / f"frame{suffix}"
     s.save(path)
     back = RenderSettings.load(path)
     assert back == s and back.pass_name == member.name
+    assert (back.transmission, back.transmission_model) == (s.transmission, s.transmission_model)
     if suffix == ".toml":
         text = path.read_text()
         tables = [line for line in text.splitlines() if line.startswith("[")]
@@ -42,6 +46,14 @@ def test_the_pass_level_settings_take_frame_seed_and_backend_from_the_tree():
         sep.burley_settings()
     with pytest.raises(SettingsError, match="not the separable one"):
         s.pass_settings()
+
+
+def test_transmission_settings_are_canonical_and_default_to_auto():
+    s = RenderSettings()
+    assert (s.transmission, s.transmission_model) == ("auto", "mcml")
+    t = RenderSettings(transmission=" ON ", transmission_model="Jimenez2010", pass_=BurleyPass())
+    assert (t.transmission, t.transmission_model) == ("on", "jimenez2010")
+    assert RenderSettings.from_dict(t.to_dict()) == t
 
 
 def test_defaults_run_the_separable_pass():
@@ -68,6 +80,11 @@ def test_defaults_run_the_separable_pass():
     ({"frame": -1}, "frame"),
     ({"backend": "cuda"}, "backend"),
     ({"nonsense": 1}, "nonsense"),
+    ({"transmission": "yes"}, "transmission must be one of auto, on, off"),
+    ({"transmission": True}, "transmission must be one of"),
+    ({"transmission_model": "unreal"}, "transmission_model must be one of mcml, jimenez2010"),
+    ({"transmission": "off", "transmission_model": "jimenez2010"}, "transmission_model 'jimenez2010' applies when"),
+    ({"transmission": "on", "adaptive": {}}, "transmission on applies to the separable and burley passes"),
 ])
 def test_bad_settings_name_their_key(data, key):
     with pytest.raises(SettingsError, match=key):

@@ -18,7 +18,7 @@ import click
 
 from ..backends.burley_plan import C_RANGE, SAMPLERS, XIE_C
 from ..errors import SsskitError
-from ..pipeline.settings import PASSES, TAP_RANGE, AdaptivePass, RenderSettings
+from ..pipeline.settings import PASSES, TAP_RANGE, TRANSMISSION, TRANSMISSION_MODELS, AdaptivePass, RenderSettings
 from ..screenspace.adaptive import CORRECTIONS
 from .options import (
     OutputDir,
@@ -58,7 +58,8 @@ _PASS = RegistryName(lambda: PASSES)
     "ssskit render --scene my_gbuffer.exr --kernel svd:2 --json",
     "ssskit render --scene head.glb --units m --material-map skin=skin1,lips=skin2 --view ear --out head.png",
     "ssskit render --scene bust --view close --pass burley --reference --save-gbuffer bust-gbuffer.exr",
-    "ssskit render --scene slab --settings frame.toml --taps 11 --backend numpy"))
+    "ssskit render --scene slab --settings frame.toml --taps 11 --backend numpy",
+    "ssskit render --scene ear --transmission on --save-gbuffer ear-light.exr --out ear.exr"))
 @scene_option()
 @scene_mesh_options()
 @click.option("--pass", "pass_name", type=_PASS, default=None,
@@ -133,6 +134,16 @@ _PASS = RegistryName(lambda: PASSES)
               help="Sample budget of the reference: it renders until --reference-rel-se is reached or this is spent.")
 @click.option("--reference-rel-se", type=float, default=_D.reference_rel_se, show_default=True,
               help="Target relative standard error of the reference's mean over the SSS mask.")
+@click.option("--transmission", type=click.Choice(TRANSMISSION, case_sensitive=False), default=_D.transmission,
+              show_default=True,
+              help="The transmittance pass (light through thin parts, lit from behind; docs/transmission.md), added to "
+                   "the separable or Burley pass: auto runs it where the G-buffer has the light layers (a G-buffer file "
+                   "that carries them; a scene renders without them), on renders a scene's G-buffer with them (a "
+                   "G-buffer file without them is an error), off never.")
+@click.option("--transmission-model", type=click.Choice(TRANSMISSION_MODELS, case_sensitive=False),
+              default=_D.transmission_model, show_default=True,
+              help="The transmittance T(t): mcml (the fit of the material's MCML slab tables) or jimenez2010 "
+                   "(Jimenez et al. 2010's skin Gaussians, thickness in mm).")
 @click.option("--no-exact", is_flag=True, help="Skip the exact 2D convolution.")
 @click.option("--no-perceptual", is_flag=True, help="Skip FLIP in the metrics.")
 @out_option((".exr",), "Also write the G-buffer as a multi-layer EXR.", name="--save-gbuffer", dest="save_gbuffer")

@@ -48,6 +48,8 @@ FIELDS: dict[str, tuple[str, ...]] = {
     "reference_rel_se": ("reference_rel_se",),
     "no_exact": ("exact",),
     "no_perceptual": ("perceptual",),
+    "transmission": ("transmission",),
+    "transmission_model": ("transmission_model",),
 }
 #: the options each pass owns: with another pass they are refused
 OWN: dict[str, tuple[str, ...]] = {
@@ -236,6 +238,10 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
             raise SsskitError(f"{option_name(ctx, opt)} applies to a built-in scene; the G-buffer file "
                               f"{str(scene)!r} has its own")
     if name == "burley-adaptive":
+        for opt in ("transmission", "transmission_model"):
+            if given(ctx, opt) and not (opt == "transmission" and s.transmission == "off"):
+                raise SsskitError(f"{option_name(ctx, opt)} applies to --pass separable or burley (one frame); the "
+                                  "burley-adaptive run has no transmittance pass")
         _check_adaptive(ctx, s, still, save_gbuffer)
     if gbuffer_file and s.reference:
         raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")

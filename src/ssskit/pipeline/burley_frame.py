@@ -45,6 +45,7 @@ from ..screenspace.burley import burley_backend
 from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
                     metric_lines, per_id, plan_scene, reference_line)
 from .settings import AdaptivePass, BurleyPass, RenderSettings
+from .transmission import TransmissionInfo, with_transmission
 
 
 def burley_exact(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, BurleyParams]) -> np.ndarray | None:
@@ -138,13 +139,15 @@ class BurleyResult(ImageLayers):
     reference_info: Any = None  # the path trace's ssskit.scenes.Reference (standard errors, spp, convergence)
     metrics: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
+    transmitted: np.ndarray | None = None  # the transmitted radiance in the image (H, W, 3), when the pass ran
+    transmission: TransmissionInfo = field(default_factory=lambda: TransmissionInfo("off", False))
 
     def to_dict(self) -> dict[str, Any]:
         h, w = self.gbuffer.shape
         return {"scene": self.scene, "pass": "burley", "material": getattr(self.material, "name", str(self.material)),
                 "size": [int(w), int(h)], "burley_params": _params_dict(self.params),
                 "settings": self.settings.replace(width=int(w), height=int(h)).to_dict(), "burley": self.burley.to_dict(),
-                "metrics": finite(self.metrics)}
+                "transmission": self.transmission.to_dict(), "metrics": finite(self.metrics)}
 
     def lines(self) -> list[str]:
         """The human-readable summary ``ssskit render`` prints."""
@@ -154,6 +157,7 @@ class BurleyResult(ImageLayers):
         d = "; ".join(", ".join(f"{x:.3g}" for x in p.d_mm) for p in by_id.values())
         out = [f"# {self.scene}: Burley d = {d} mm, {b.sampler} sampler, "
                f"{b.spp} spp, {'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend"]
+        out.append(self.transmission.line())
         out += metric_lines(self.metrics)
         if self.reference_info is not None:
             out.append(reference_line(self.reference_info))
@@ -215,9 +219,14 @@ def render_burley(scene: SceneInput = "slab", settings: RenderSettings | None = 
     gb = frame_gbuffer(plan, settings, _on_params(params, lambda p: p.albedo), say)
     say(f"Burley pass: {b.sampler} sampler, {b.spp} spp, {b.backend} backend")
     sss = burley_sss(gb, params, b)
-    res = BurleyResult(plan.label, settings, b, plan.material, params, gb, sss, gb.composite(sss), source=plan.source)
-    ground_truths(res, settings, plan, _on_params(params, lambda p: p.profile()), lambda: burley_exact(gb, params),
-                  say, progress is not None)
+    exact: Callable[[], np.ndarray | None] = lambda: burley_exact(gb, params)  # noqa: E731
+    transmitted, info = None, TransmissionInfo(settings.transmission, False)
+    if plan.transmission:
+        sss, transmitted, info, exact = with_transmission(gb, sss, settings, plan.materials, plan.material,
+                                                              exact, say)
+    res = BurleyResult(plan.label, settings, b, plan.material, params, gb, sss, gb.composite(sss), source=plan.source,
+                       transmitted=transmitted, transmission=info)
+    ground_truths(res, settings, plan, _on_params(params, lambda p: p.profile()), exact, say, progress is not None)
     return res
 
 

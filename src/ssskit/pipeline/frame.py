@@ -16,6 +16,7 @@ G-buffer, the ground truths and their metrics, and the image layers a result wri
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from collections.abc import Callable, Mapping
@@ -40,6 +41,7 @@ from ..profiles.base import RGBProfile
 from ..scenes.reference import Reference
 from .regions import compare_regions
 from .settings import RenderSettings
+from .transmission import transmission_runs
 
 Progress = Callable[[str], None]
 #: what a frame renders: a built-in scene name, a generated mesh, a mesh or scene .toml file, a G-buffer .exr
@@ -59,11 +61,15 @@ class ImageLayers:
     exact: np.ndarray | None
     reference: np.ndarray | None
     source: Path | None
+    transmitted: np.ndarray | None
 
     def layers(self) -> dict[str, np.ndarray]:
-        """The extra EXR layers of :meth:`save`: ``sss``, ``diffuse``, and ``exact`` (composited) and
-        ``reference`` when computed."""
+        """The extra EXR layers of :meth:`save`: ``sss``, ``diffuse``, ``transmission`` (the transmitted
+        radiance the composite holds, :mod:`ssskit.pipeline.transmission`) when the pass ran, and ``exact``
+        (composited) and ``reference`` when computed."""
         out = {"sss": self.sss, "diffuse": self.gbuffer.diffuse}
+        if self.transmitted is not None:
+            out["transmission"] = self.transmitted
         if self.exact is not None:
             out["exact"] = self.gbuffer.composite(self.exact)
         if self.reference is not None:
@@ -131,6 +137,8 @@ class ScenePlan:
     spec: SceneSpec | None = None
     materials: tuple[Any, ...] = ()
     notes: tuple[str, ...] = ()
+    #: whether the frame runs the transmittance pass (:func:`ssskit.pipeline.transmission.transmission_runs`)
+    transmission: bool = False
 
     @property
     def per_id(self) -> bool:
@@ -207,7 +215,9 @@ def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
     for mat in plan.materials:  # a scene's own materials (a material map) are held to the model's domain too
         if mat is not material:
             check_model_domain(mat, settings.model)
-    return plan
+    runs = transmission_runs(settings, plan.gbuffer, plan.label, plan.spec is not None,
+                             len(plan.spec.lights()) if plan.spec is not None else 0, plan.materials or (material,))
+    return dataclasses.replace(plan, transmission=runs)
 
 
 def _check_named_materials(gb: GBuffer, material: Any, label: str) -> None:
@@ -257,7 +267,7 @@ def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo: ArrayLike |
         alb = np.clip(albedo, 0.0, 1.0)
     return render_gbuffer(plan.spec, alb, eta=[m.eta for m in mats], width=settings.width, height=settings.height,
                           spp=settings.spp, seed=settings.seed, frame=settings.frame,
-                          material=tuple(m.name for m in mats))
+                          material=tuple(m.name for m in mats), light_layers=plan.transmission)
 
 
 def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, profile: RGBProfile,
@@ -296,5 +306,5 @@ def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, p
         res.metrics["regions"] = compare_regions(gb, profile, res.sss, res.exact, res.reference_info)
 
 
-__all__ = ["BurleyInput", "ImageLayers", "SceneInput", "ScenePlan", "finite", "frame_gbuffer", "ground_truths", "metric_lines", "per_id", "plan_scene",
-           "reference_line"]
+__all__ = ["BurleyInput", "ImageLayers", "SceneInput", "ScenePlan", "finite", "frame_gbuffer", "ground_truths",
+           "metric_lines", "per_id", "plan_scene", "reference_line"]

@@ -82,6 +82,7 @@ from .burley_frame import BurleyResult, render_burley
 from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
                     metric_lines, per_id, plan_scene, reference_line)
 from .settings import RenderSettings
+from .transmission import TransmissionInfo, with_transmission
 
 
 def _default(name: str) -> Any:
@@ -107,6 +108,8 @@ class RenderResult(ImageLayers):
     reference_info: Any = None  # the path trace's ssskit.scenes.Reference (standard errors, spp, convergence)
     metrics: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None  # the G-buffer file read, if any
+    transmitted: np.ndarray | None = None  # the transmitted radiance in the image (H, W, 3), when the pass ran
+    transmission: TransmissionInfo = field(default_factory=lambda: TransmissionInfo("off", False))
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary: scene, material, size [W, H], tap count, settings, taps and metrics
@@ -114,7 +117,8 @@ class RenderResult(ImageLayers):
         h, w = self.gbuffer.shape
         return {"scene": self.scene, "pass": "separable", "material": getattr(self.material, "name", str(self.material)),
                 "size": [int(w), int(h)], "taps": int(self.taps.taps), "settings": self.settings.replace(width=int(w), height=int(h)).to_dict(),
-                "tap_table": self.taps.to_dict(), "metrics": finite(self.metrics)}
+                "tap_table": self.taps.to_dict(), "transmission": self.transmission.to_dict(),
+                "metrics": finite(self.metrics)}
 
     def lines(self) -> list[str]:
         """The human-readable summary ``ssskit render`` prints: the set-up, the metrics against each ground
@@ -125,6 +129,7 @@ class RenderResult(ImageLayers):
         h, w = self.gbuffer.shape
         out = [f"# {self.scene}: {self.material.name} ({s.model}), {s.kernel} with {self.taps.taps} taps, "
                f"jitter {s.pass_settings().jitter:g}, {w}x{h}, {s.backend} backend"]
+        out.append(self.transmission.line())
         out += metric_lines(self.metrics)
         out += format_regions(self.metrics.get("regions"))
         if self.reference_info is not None:
@@ -206,10 +211,14 @@ def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None
     say(f"separable pass: {settings.kernel}, {taps.taps} {placement} taps, jitter {sss_settings.jitter:g}, "
         f"{settings.backend} backend")
     sss = separable_sss(gb, pass_taps, sss_settings)
+    exact = lambda: exact_screen_space(gb, profile)  # noqa: E731
+    transmitted, info = None, TransmissionInfo(settings.transmission, False)
+    if plan.scene.transmission:
+        sss, transmitted, info, exact = with_transmission(gb, sss, settings, plan.scene.materials,
+                                                              plan.scene.material, exact, say)
     res = RenderResult(plan.scene.label, settings, mat, profile, kernel, taps, gb, sss, gb.composite(sss),
-                       source=plan.scene.source)
-    ground_truths(res, settings, plan.scene, profile, lambda: exact_screen_space(gb, profile), say,
-                  progress is not None)
+                       source=plan.scene.source, transmitted=transmitted, transmission=info)
+    ground_truths(res, settings, plan.scene, profile, exact, say, progress is not None)
     return res
 
 

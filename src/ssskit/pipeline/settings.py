@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from ..backends import BACKENDS, DEFAULT_BACKEND
+from ..backends.transmission_plan import MODELS as TRANSMISSION_MODELS
 from ..errors import SettingsError
 from ..registry import Registry
 from ..screenspace.adaptive import AdaptiveSettings
@@ -47,6 +48,8 @@ DEFAULT_LIMIT_SPP = 2048
 FRAMES_RANGE = (1, 100_000)
 #: the values the tree holds once, which the layout before it kept per pass
 SHARED = ("frame", "seed", "backend")
+#: when the transmittance pass runs: auto (where the G-buffer has the light layers), on, off
+TRANSMISSION = ("auto", "on", "off")
 
 
 class SettingsMigrated(UserWarning):
@@ -236,7 +239,12 @@ class RenderSettings(Settings):
     ``reference``: also a volumetric path trace with at least ``reference_spp`` samples per pixel,
     continued until the relative standard error of its mean over the SSS mask is at most
     ``reference_rel_se`` or ``reference_max_spp`` is spent (:func:`ssskit.scenes.render_reference`);
-    ``perceptual``: FLIP in the metrics; ``pass_``: the pass (:data:`PASSES`: :class:`SeparablePass`,
+    ``perceptual``: FLIP in the metrics; ``transmission``: the transmittance pass (light through thin parts,
+    docs/transmission.md) added to the reflectance SSS of the separable and the Burley pass: ``auto`` (where
+    the G-buffer has the light layers: a G-buffer file or GBuffer that carries them; a scene's own G-buffer
+    is rendered without them), ``on`` (a scene's G-buffer is rendered with them; a G-buffer without them is
+    an error), ``off``; ``transmission_model``: its T(t), ``mcml`` (the fit of the material's MCML slab
+    transmittance) or ``jimenez2010`` (Jimenez et al. 2010's skin Gaussians, [JWSG10]); ``pass_``: the pass (:data:`PASSES`: :class:`SeparablePass`,
     :class:`BurleyPass` or :class:`AdaptivePass`), which :func:`ssskit.pipeline.render` runs. The kernel
     fields apply to the separable pass only: with another pass they must keep their defaults.
     """
@@ -259,6 +267,8 @@ class RenderSettings(Settings):
     reference_max_spp: int = 1024
     reference_rel_se: float = 0.01
     perceptual: bool = True
+    transmission: str = "auto"
+    transmission_model: str = "mcml"
     pass_: PassMember = field(default_factory=SeparablePass)
 
     def __post_init__(self) -> None:
@@ -295,6 +305,12 @@ class RenderSettings(Settings):
         for name in ("exact", "reference", "perceptual"):
             if not isinstance(getattr(self, name), bool):
                 raise SettingsError(f"{name} must be true or false, got {getattr(self, name)!r}")
+        object.__setattr__(self, "transmission", check_choice("transmission", self.transmission, TRANSMISSION))
+        object.__setattr__(self, "transmission_model", check_choice("transmission_model", self.transmission_model,
+                                                                    TRANSMISSION_MODELS))
+        if self.transmission == "off" and self.transmission_model != "mcml":
+            raise SettingsError(f"transmission_model {self.transmission_model!r} applies when the transmittance pass "
+                                "can run (transmission auto or on); transmission is off")
         if not isinstance(self.pass_, (SeparablePass, BurleyPass, AdaptivePass)):
             raise SettingsError(f"pass_ must be one of {', '.join(c.__name__ for _, c in PASSES.items())}, got "
                                 f"{type(self.pass_).__name__}")
@@ -304,6 +320,9 @@ class RenderSettings(Settings):
             if changed:
                 raise SettingsError(f"{', '.join(changed)} appl{'ies' if len(changed) == 1 else 'y'} to the separable "
                                     f"pass (the kernel it filters with); this render runs the {self.pass_name} pass")
+        if self.pass_name == "burley-adaptive" and self.transmission == "on":
+            raise SettingsError("transmission on applies to the separable and burley passes (one frame); the "
+                                "burley-adaptive run has no transmittance pass")
 
     @property
     def pass_name(self) -> str:
@@ -423,4 +442,5 @@ def _migrate(data: dict[str, Any], label: str) -> dict[str, Any]:
 
 
 __all__ = ["AdaptivePass", "BurleyPass", "DEFAULT_LIMIT_SPP", "KERNEL_FIELDS", "PASSES", "PHOTONS_RANGE", "PassMember",
-           "RenderSettings", "SHARED", "SIZE_RANGE", "SeparablePass", "SettingsMigrated", "TAP_RANGE"]
+           "RenderSettings", "SHARED", "SIZE_RANGE", "SeparablePass", "SettingsMigrated", "TAP_RANGE",
+           "TRANSMISSION", "TRANSMISSION_MODELS"]

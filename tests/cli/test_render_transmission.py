@@ -1,0 +1,158 @@
+"""``ssskit render --transmission``: the transmittance pass in a rendered frame (docs/transmission.md), on the
+back-lit ear (its key light behind it), and the bad inputs it refuses (one line, exit status 2, nothing
+written)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from .test_bad_input import one_error_line
+
+SIZE = "32x24"
+QUICK = ("--backend", "numpy", "--no-exact", "--no-perceptual")
+
+
+def _image(path):
+    import OpenEXR
+
+    with OpenEXR.File(str(path)) as f:
+        ch = f.channels()
+        return {name: np.asarray(c.pixels) for name, c in ch.items()}
+
+
+@pytest.fixture(scope="module")
+def ear(tmp_path_factory):
+    """The ear rendered with --transmission on (separable pass, numpy backend): its JSON, image and G-buffer
+    with the light layers."""
+    from ssskit.cli import main
+
+    folder = tmp_path_factory.mktemp("ear")
+    out, gbf = folder / "on.exr", folder / "light.exr"
+    code = main(["render", "--scene", "ear", "--size", SIZE, "--spp", "1", *QUICK, "--transmission", "on",
+                 "--save-gbuffer", str(gbf), "--out", str(out)])
+    assert code == 0 and out.is_file() and gbf.is_file()
+    return folder, out, gbf
+
+
+def _render(run, *args):
+    code, out, err = run("render", *args, "--json")
+    assert code == 0, err
+    return json.loads(out)
+
+
+def test_transmission_on_is_brighter_behind_and_off_is_the_reflectance_pass(run, ear):
+    from ssskit.screenspace import load_gbuffer
+
+    folder, on_exr, gbf = ear
+    gb = load_gbuffer(gbf)
+    assert gb.has_light
+    on = _image(on_exr)
+    # the same G-buffer, transmission off; and with its light layers stripped (what ssskit rendered before the
+    # pass existed: the reflectance pass never reads the layers), under auto and off
+    plain = folder / "plain.exr"
+    gb.with_layers(light_depth=None, light=None).save(plain)
+    outs = {}
+    for name, scene, mode in (("off", gbf, "off"), ("plain_off", plain, "off"), ("plain_auto", plain, "auto"),
+                              ("auto", gbf, "auto")):
+        outs[name] = folder / f"{name}.exr"
+        data = _render(run, "--scene", scene, *QUICK, "--transmission", mode, "--out", outs[name])
+        assert data["transmission"]["ran"] is (name == "auto")
+        assert data["settings"]["transmission"] == mode
+    off, auto = _image(outs["off"]), _image(outs["auto"])
+    np.testing.assert_array_equal(_image(outs["plain_off"])["RGB"], off["RGB"])
+    np.testing.assert_array_equal(_image(outs["plain_auto"])["RGB"], off["RGB"])
+    assert "transmission" not in off and "transmission" in on
+    # auto on the G-buffer with the layers runs the pass: the frame rendered with on
+    np.testing.assert_array_equal(auto["RGB"], on["RGB"])
+    # brighter behind: the transmitted light is >= 0, lit where the back sees the key light, nothing outside the mask
+    mask = gb.mask
+    t = on["transmission"]
+    assert np.all(t >= 0) and not np.any(t[~mask])
+    lit = np.any(t > 0, axis=-1)
+    assert lit.sum() > 0.5 * mask.sum()  # the key light is behind the ear: most of the seen side is lit through
+    gain = on["RGB"] - off["RGB"]
+    assert np.all(gain[~mask] == 0)
+    assert np.all(gain[lit] > 0) and np.all(gain >= -1e-6 * np.abs(off["RGB"]).max())
+    # the composite holds the transmitted radiance on top of the reflectance (float32 rounding)
+    np.testing.assert_allclose(gain, t, rtol=1e-5, atol=1e-7 * float(np.abs(on["RGB"]).max()))
+    # red crosses the most tissue (MCML's skin T(t): R > G > B) and the back-lit ear gains severalfold
+    mean_gain = gain[mask].mean(axis=0)
+    assert mean_gain[0] > mean_gain[1] > mean_gain[2] > 0
+    assert mean_gain[0] > off["RGB"][mask].mean(axis=0)[0]
+
+
+def test_json_reports_the_pass_and_its_model(run, ear):
+    _, _, gbf = ear
+    for model in ("mcml", "jimenez2010"):
+        data = _render(run, "--scene", gbf, *QUICK, "--transmission-model", model)
+        assert data["transmission"]["ran"] and data["transmission"]["model"] == model
+        assert data["transmission"]["lit_pixels"] > 0
+    data = _render(run, "--scene", gbf, *QUICK, "--pass", "burley", "--spp", "4", "--transmission", "on")
+    assert data["pass"] == "burley" and data["transmission"]["ran"] and data["transmission"]["model"] == "mcml"
+    code, out, err = run("render", "--scene", gbf, *QUICK)
+    assert code == 0 and "# transmission: mcml model" in out, err
+
+
+def test_burley_with_transmission_is_brighter_behind(run, ear):
+    folder, _, gbf = ear
+    outs = {}
+    for mode in ("off", "on"):
+        outs[mode] = folder / f"burley_{mode}.exr"
+        _render(run, "--scene", gbf, *QUICK, "--pass", "burley", "--spp", "4", "--transmission", mode,
+                "--out", outs[mode])
+    on, off = _image(outs["on"]), _image(outs["off"])
+    np.testing.assert_allclose(on["RGB"] - off["RGB"], on["transmission"], rtol=1e-5,
+                               atol=1e-7 * float(np.abs(on["RGB"]).max()))
+    assert np.any(on["transmission"] > 0)
+
+
+@pytest.fixture
+def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
+    """An empty folder holding the G-buffers of the bad inputs: without layers, the layers' variants."""
+    from ssskit.io import read_exr, write_exr
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "plain.exr").write_bytes(gbuffer_file.read_bytes())
+    header, channels = read_exr(ear[2], required=("diffuse",))
+    attrs = {k: v for k, v in header.items() if k.startswith("ssskit_")}
+    light = json.loads(attrs["ssskit_light"])
+    ld = channels["light_depth"]
+    variants = {
+        "rgb_depth.exr": ({**channels, "light_depth": np.repeat(ld[..., None], 3, axis=-1)}, attrs),
+        "map_size.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "size": [64, 64]})}),
+        "no_projection.exr": (channels, {k: v for k, v in attrs.items() if k != "ssskit_light"}),
+    }
+    for name, (ch, at) in variants.items():
+        write_exr(tmp_path / name, ch, at)
+    return tmp_path
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["--scene", "plain.exr", "--transmission", "on"], "transmission on (--transmission on) needs the G-buffer's light "
+                                                        "layers"),
+    (["--scene", "plain.exr", "--pass", "burley", "--transmission", "on"], "needs the G-buffer's light layers"),
+    (["--scene", "rgb_depth.exr"], "layer 'light_depth' must have shape (H, W)"),
+    (["--scene", "map_size.exr", "--transmission", "off"], "the light projection's size [64, 64] is not the "
+                                                           "'light_depth' layer's"),
+    (["--scene", "no_projection.exr"], "the light projection (header 'ssskit_light'), which is missing"),
+    (["--scene", "plain.exr", "--transmission-model", "foo"], "Invalid value for '--transmission-model': 'foo'"),
+    (["--scene", "plain.exr", "--transmission", "maybe"], "Invalid value for '--transmission'"),
+    (["--scene", "plain.exr", "--transmission", "off", "--transmission-model", "jimenez2010"],
+     "applies when the transmittance pass can run"),
+    (["--scene", "slab", "--pass", "burley-adaptive", "--transmission", "on"], "transmission on applies to the "
+                                                                                "separable and burley passes"),
+    (["--scene", "slab", "--pass", "burley-adaptive", "--transmission-model", "mcml"], "--transmission-model applies"),
+])
+def test_bad_transmission_input(run, workdir, args, fragment):
+    one_error_line(run, workdir, ["render", *args, "--backend", "numpy", "--out", "o.exr", "--save-gbuffer", "g2.exr"],
+                   fragment)
+
+
+@pytest.mark.parametrize("content, fragment", [
+    ("transmission_model = 'foo'\n", "transmission_model must be one of mcml, jimenez2010, got 'foo'"),
+    ("transmission = 'yes'\n", "transmission must be one of auto, on, off, got 'yes'"),
+])
+def test_bad_transmission_settings_file(run, workdir, content, fragment):
+    (workdir / "s.toml").write_text(content)
+    one_error_line(run, workdir, ["render", "--scene", "plain.exr", "--settings", "s.toml", "--out", "o.exr"], fragment)

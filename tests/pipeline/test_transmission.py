@@ -1,0 +1,89 @@
+"""The transmittance pass in the render pipeline (ssskit.pipeline.transmission): when it runs (auto, on, off),
+the light it adds to the separable and the Burley frame (before the albedo multiply, so the composite holds
+T(t) E / pi), its exact limit carrying the same light, and the checks made before any work."""
+
+import math
+
+import numpy as np
+import pytest
+
+from ssskit.errors import SettingsError
+from ssskit.pipeline import BurleyPass, RenderSettings, SeparablePass, plan, render
+
+#: the numpy backend (the float64 oracle); the dipole profile keeps the kernel cheap
+BASE = dict(backend="numpy", model="dipole", perceptual=False, pass_=SeparablePass(jitter=0.0))
+
+
+@pytest.fixture(scope="module")
+def ear():
+    """The back-lit ear's G-buffer (its key light behind it) with the light layers, and without."""
+    from ssskit.scenes import render_gbuffer
+
+    gb = render_gbuffer("ear", (0.5, 0.4, 0.3), eta=1.4, width=32, height=24, spp=1, material="skin1",
+                        light_layers=True)
+    return gb, gb.with_layers(light_depth=None, light=None)
+
+
+def test_auto_runs_where_the_gbuffer_has_the_layers(ear):
+    lit, plain = ear
+    s = RenderSettings(**BASE)
+    on, off = render(lit, s), render(lit, s.replace(transmission="off"))
+    assert on.transmission.ran and on.transmission.model == "mcml" and not off.transmission.ran
+    assert not render(plain, s).transmission.ran
+    np.testing.assert_array_equal(render(plain, s).image, off.image)
+    mask = lit.mask
+    t = on.transmitted
+    assert t is not None and off.transmitted is None
+    # the composite holds T E / pi on top of the reflectance; the pass's sss holds it demodulated by the albedo
+    np.testing.assert_allclose(on.image - off.image, t, rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose((on.sss - off.sss)[mask], t[mask] / lit.albedo[mask], rtol=1e-5, atol=1e-9)
+    assert not np.any(t[~mask])
+    # energy: the transmitted exitance pi L never exceeds the light's irradiance (T <= 1, E <= light)
+    light = np.asarray(lit.light["irradiance"])
+    assert np.all(math.pi * t <= light * (1 + 1e-6))
+    assert np.any(t > 0)
+    # the exact limit carries the same light: its metric measures the reflectance pass as before
+    np.testing.assert_allclose(on.exact - off.exact, on.sss - off.sss, rtol=1e-5, atol=1e-9)
+    assert on.to_dict()["transmission"] == {"setting": "auto", "ran": True, "model": "mcml",
+                                            "lit_pixels": int(np.count_nonzero(np.any(t > 0, axis=-1)))}
+    assert any(line.startswith("# transmission: mcml model") for line in on.lines())
+
+
+def test_the_burley_pass_adds_the_same_light(ear):
+    lit, _ = ear
+    s = RenderSettings(backend="numpy", perceptual=False, exact=False, pass_=BurleyPass(spp=4))
+    on, off = render(lit, s), render(lit, s.replace(transmission="off"))
+    sep = render(lit, RenderSettings(**BASE, exact=False))
+    assert on.transmission.ran and on.to_dict()["transmission"]["model"] == "mcml"
+    np.testing.assert_allclose(on.image - off.image, on.transmitted, rtol=1e-5, atol=1e-9)
+    # the transmitted light depends on the light layers and the material, not on the reflectance pass
+    np.testing.assert_array_equal(on.transmitted, sep.transmitted)
+
+
+def test_jimenez2010_is_darker_than_mcml_for_skin(ear):
+    """Jimenez 2010's Gaussians at scale 1 are far darker than Skin1's MCML T(t) (docs/transmission.md's table:
+    0.6 to 0.01 of it at 0.5 mm), even with their wrapped back irradiance."""
+    lit, _ = ear
+    s = RenderSettings(**BASE, exact=False, material="skin1")
+    mc = render(lit, s).transmitted
+    jm = render(lit, s.replace(transmission_model="jimenez2010")).transmitted
+    assert mc[lit.mask].sum() > 0 and mc[lit.mask].sum(axis=0)[0] > jm[lit.mask].sum(axis=0)[0]
+
+
+def test_checks_before_any_work(ear, monkeypatch):
+    lit, plain = ear
+    import ssskit.pipeline.transmission as tr
+
+    def no_work(*a, **k):
+        raise AssertionError("the transmittance pass ran")
+
+    monkeypatch.setattr(tr, "add_transmission", no_work)
+    with pytest.raises(SettingsError, match="needs the G-buffer's light layers"):
+        plan(plain, RenderSettings(**BASE, transmission="on"))
+    with pytest.raises(SettingsError, match="needs the G-buffer's light layers"):
+        plan(plain, RenderSettings(backend="numpy", transmission="on", pass_=BurleyPass()))
+    assert plan(lit, RenderSettings(**BASE)).transmission
+    assert not plan(lit, RenderSettings(**BASE, transmission="off")).transmission
+    # a scene renders its own G-buffer: without the layers under auto, with them under on
+    assert not plan("ear", RenderSettings(**BASE)).transmission
+    assert plan("ear", RenderSettings(**BASE, transmission="on")).transmission
