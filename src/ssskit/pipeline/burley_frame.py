@@ -223,7 +223,7 @@ def render_burley(scene: SceneInput = "slab", settings: RenderSettings | None = 
     transmitted, info = None, TransmissionInfo(settings.transmission, False)
     if plan.transmission:
         sss, transmitted, info, exact = with_transmission(gb, sss, settings, plan.materials, plan.material,
-                                                              exact, say)
+                                                  exact, say)
     res = BurleyResult(plan.label, settings, b, plan.material, params, gb, sss, gb.composite(sss), source=plan.source,
                        transmitted=transmitted, transmission=info)
     ground_truths(res, settings, plan, _on_params(params, lambda p: p.profile()), exact, say, progress is not None)

@@ -215,7 +215,7 @@ def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None
     transmitted, info = None, TransmissionInfo(settings.transmission, False)
     if plan.scene.transmission:
         sss, transmitted, info, exact = with_transmission(gb, sss, settings, plan.scene.materials,
-                                                              plan.scene.material, exact, say)
+                                                  plan.scene.material, exact, say)
     res = RenderResult(plan.scene.label, settings, mat, profile, kernel, taps, gb, sss, gb.composite(sss),
                        source=plan.scene.source, transmitted=transmitted, transmission=info)
     ground_truths(res, settings, plan.scene, profile, exact, say, progress is not None)
