@@ -73,7 +73,8 @@ def test_transmission_on_is_brighter_behind_and_off_is_the_reflectance_pass(run,
     assert lit.sum() > 0.5 * mask.sum()  # the key light is behind the ear: most of the seen side is lit through
     gain = on["RGB"] - off["RGB"]
     assert np.all(gain[~mask] == 0)
-    assert np.all(gain[lit] > 0) and np.all(gain >= -1e-6 * np.abs(off["RGB"]).max())
+    # adding light >= 0 never darkens (float32 rounding is monotone); where it is lit it shows
+    assert np.all(gain >= 0) and np.mean(np.any(gain[lit] > 0, axis=-1)) > 0.9
     # the composite holds the transmitted radiance on top of the reflectance (float32 rounding)
     np.testing.assert_allclose(gain, t, rtol=1e-5, atol=1e-7 * float(np.abs(on["RGB"]).max()))
     # red crosses the most tissue (MCML's skin T(t): R > G > B) and the back-lit ear gains severalfold

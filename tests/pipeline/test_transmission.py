@@ -38,6 +38,15 @@ def test_auto_runs_where_the_gbuffer_has_the_layers(ear):
     np.testing.assert_allclose(on.image - off.image, t, rtol=1e-5, atol=1e-9)
     np.testing.assert_allclose((on.sss - off.sss)[mask], t[mask] / lit.albedo[mask], rtol=1e-5, atol=1e-9)
     assert not np.any(t[~mask])
+    # the radiance of the pass's exitance T E taken as a Lambertian exit: T E / pi (the diffuse layer's convention)
+    from ssskit.backends import get_backend
+    from ssskit.materials import get_material
+    from ssskit.screenspace.transmission import mcml_model, transmission_plan
+
+    exitance = get_backend("numpy").transmission(transmission_plan({1: mcml_model(get_material("skin1"))}),
+                                                 (lit.profile_id > 0).astype(np.int32), *lit.transmission_inputs())
+    assert set(np.unique(lit.profile_id)) == {0, 1}
+    np.testing.assert_allclose(t, exitance / math.pi, rtol=1e-6, atol=1e-12)
     # energy: the transmitted exitance pi L never exceeds the light's irradiance (T <= 1, E <= light)
     light = np.asarray(lit.light["irradiance"])
     assert np.all(math.pi * t <= light * (1 + 1e-6))
