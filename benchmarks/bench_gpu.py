@@ -10,7 +10,9 @@ llvmpipe: ``--quick`` for a smoke run of every case at small sizes). The cases:
   prefiltered mips (Xie Eqs. 22-23, the pyramid built on the device inside each frame);
 * the adaptive guiding phase (``bench_adaptive_phases.bench_guide``): 1080p, the history update (static
   and moving camera) and the count estimate, device time;
-* the transmittance pass: not in ssskit yet (the JSON says so);
+* the transmittance pass (``transmission.cost``): 1080p, Skin1's MCML model, a 1024^2 translucency shadow
+  map, against the separable pass on the same backend in the same rounds (wall time of the backend call,
+  upload and readback included), on gl and on numba (the lent machine's CPU);
 * MCML on gl (:mod:`ssskit.profiles.montecarlo.engine_gl`): Skin1 and Marble red on the supplement's grid,
   photons per second of ``simulate(backend="gl")`` (wall time: dispatches, the tallies' readback and
   their reduction included), and its total Rd with standard error.
@@ -75,6 +77,12 @@ def guiding(width: int, height: int, repeats: int) -> dict:
             **bench_guide("gl", width, height, as_plan(settings), repeats)}
 
 
+def transmittance(repeats: int) -> dict:
+    from transmission import cost
+
+    return {"size": "1920x1080", "timing": "wall time of the backend call (upload, dispatch, readback)", **cost(repeats)}
+
+
 def mcml(material: str, photons: int) -> dict:
     from ssskit.materials import get_material
     from ssskit.profiles.montecarlo import config_for_material, simulate
@@ -104,8 +112,7 @@ def main(argv: list[str] | None = None) -> dict:
     status = backend_status()["gl"]
     result: dict = {"benchmark": "every GPU measurement of the gl backend and the GLSL MCML engine",
                     "python": platform.python_version(), "machine": platform.machine(), "cpus": os.cpu_count(),
-                    "load_average_before": os.getloadavg(), "gl": status["details"], "quick": args.quick,
-                    "transmittance": "not measured: ssskit has no transmittance pass yet"}
+                    "load_average_before": os.getloadavg(), "gl": status["details"], "quick": args.quick}
     if not status["available"]:
         result["error"] = f"the gl backend is not available here: {status['details']}"
         print(json.dumps(result, indent=1))
@@ -136,6 +143,7 @@ def main(argv: list[str] | None = None) -> dict:
             _case(cases, f"burley {bw}x{bh} {spp} spp mips {mips}",
                   lambda s=spp, m=mips: burley(bw, bh, s, m, batches), t_start)
     _case(cases, f"adaptive guiding {bw}x{bh}", lambda: guiding(bw, bh, max(3, batches // 2)), t_start)
+    _case(cases, "transmittance 1920x1080", lambda: transmittance(2 if args.quick else 7), t_start)
     for material, default in (("skin1", 200_000_000), ("marble", 50_000_000)):
         photons = args.mcml_photons or (20_000 if args.quick else default)
         _case(cases, f"mcml gl {material}", lambda m=material, n=photons: mcml(m, n), t_start)
