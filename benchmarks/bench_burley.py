@@ -45,7 +45,7 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_separable import FOCAL_1080P, scene  # noqa: E402
+from bench_separable import FOCAL_1080P, interleaved, scene  # noqa: E402
 
 PARAMS = ((0.8, 0.5, 0.3), (2.0, 1.0, 0.5))  # albedo, dmfp (mm)
 
@@ -101,19 +101,6 @@ def gl_device(gb, params, spp: int):
 def stats(values_s: list[float]) -> dict:
     ms = [1e3 * v for v in values_s]
     return {"min_ms": round(min(ms), 3), "median_ms": round(statistics.median(ms), 3), "max_ms": round(max(ms), 3)}
-
-
-def interleaved(fns: dict, repeats: int) -> dict:
-    """Every function once to warm up, then ``repeats`` rounds calling each in turn: {name: [seconds]}."""
-    for fn in fns.values():
-        fn()
-    times: dict = {k: [] for k in fns}
-    for _ in range(repeats):
-        for k, fn in fns.items():
-            t0 = time.perf_counter()
-            fn()
-            times[k].append(time.perf_counter() - t0)
-    return times
 
 
 def main(argv=None) -> dict:

@@ -24,18 +24,6 @@ def _cache(tmp_path, monkeypatch):
     monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
 
 
-@pytest.fixture(params=["numba", "gl"])
-def mc_backend(request):
-    """Each Monte Carlo engine: numba, and the GLSL one where an OpenGL 4.3 context exists (llvmpipe in CI)."""
-    if request.param == "gl":
-        from ssskit.profiles.montecarlo import engine_gl
-
-        ok, why = engine_gl.available()
-        if not ok:
-            pytest.skip(f"gl engine not available: {why}")
-    return request.param
-
-
 def within_3_se(value, se, ref, ref_err=0.0):
     return abs(value - ref) <= 3.0 * math.hypot(se, ref_err)
 

@@ -21,18 +21,6 @@ def _cache(tmp_path, monkeypatch):
     monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
 
 
-@pytest.fixture(params=["numba", "gl"])
-def mc_backend(request):
-    """Each Monte Carlo engine: numba, and the GLSL one where an OpenGL 4.3 context exists (llvmpipe in CI)."""
-    if request.param == "gl":
-        from ssskit.profiles.montecarlo import engine_gl
-
-        ok, why = engine_gl.available()
-        if not ok:
-            pytest.skip(f"gl engine not available: {why}")
-    return request.param
-
-
 @pytest.mark.parametrize("mu, inside", [(0.9, True), (0.5, True), (0.3, True), (0.1, True), (0.5, False)])
 def test_interface_albedo_matches_mitsuba_roughdielectric(mu, inside):
     """The engine's surface reflects, transmits and loses what Mitsuba's BSDF does: from inside past

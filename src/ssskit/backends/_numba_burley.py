@@ -144,21 +144,24 @@ def _weights(r, rp, k_s, k0, k1, k2, q0, q1, q2):
 
 
 @njit(cache=True)
+def _uniforms(j, n, h1, h2, sampler, sequence, golden, a1, a2):
+    """The two uniforms of sample j of a pixel with hashes (h1, h2) (steps 3 of the plan): Golubev's
+    stratified radius uniform and a golden-ratio angle, else the R2 sequence, else hashed white noise."""
+    jj = np.uint64(j)
+    if sampler == GOLUBEV:
+        return (j + 0.5) / n, _unit((h2 + jj * golden) & _M32)
+    if sequence == R2:
+        return _unit((h1 + jj * a1) & _M32), _unit((h2 + jj * a2) & _M32)
+    kk = (jj * golden) & _M32
+    return _unit(_mix32(h1 ^ kk)), _unit(_mix32(h2 ^ kk))
+
+
+@njit(cache=True)
 def _exact_texel(x, y, j, n, h1, h2, ds, sx, sy, c, sampler, sequence, golden, a1, a2):
     """The texel of sample j of pixel (x, y) exactly as the float64 oracle finds it (steps 3-5): the
     fallback of the float32 lanes for samples within their error bound of a texel edge. Returns (r, ix,
     iy) with r in mm (float64)."""
-    jj = np.uint64(j)
-    if sampler == GOLUBEV:
-        xi1 = (j + 0.5) / n
-        xi2 = _unit((h2 + jj * golden) & _M32)
-    elif sequence == R2:
-        xi1 = _unit((h1 + jj * a1) & _M32)
-        xi2 = _unit((h2 + jj * a2) & _M32)
-    else:
-        kk = (jj * golden) & _M32
-        xi1 = _unit(_mix32(h1 ^ kk))
-        xi2 = _unit(_mix32(h2 ^ kk))
+    xi1, xi2 = _uniforms(j, n, h1, h2, sampler, sequence, golden, a1, a2)
     if sampler == XIE:
         r = ds * ((2.0 - c) * xi1 - 2.0) * math.log1p(-xi1)
     else:
@@ -435,17 +438,7 @@ def burley_rows_f64(src, z, zbits, slots, counts, spp, use_counts, out, y0, y1, 
             n0 = n1 = n2 = 0.0
             e0 = e1 = e2 = 0.0
             for j in range(n):
-                jj = np.uint64(j)
-                if sampler == GOLUBEV:  # step 3
-                    xi1 = (j + 0.5) / n
-                    xi2 = _unit((h2 + jj * golden) & _M32)
-                elif sequence == R2:
-                    xi1 = _unit((h1 + jj * a1) & _M32)
-                    xi2 = _unit((h2 + jj * a2) & _M32)
-                else:
-                    kk = (jj * golden) & _M32
-                    xi1 = _unit(_mix32(h1 ^ kk))
-                    xi2 = _unit(_mix32(h2 ^ kk))
+                xi1, xi2 = _uniforms(j, n, h1, h2, sampler, sequence, golden, a1, a2)  # step 3
                 if sampler == XIE:  # step 4
                     r = d_s * ((2.0 - c) * xi1 - 2.0) * math.log1p(-xi1)
                 else:
