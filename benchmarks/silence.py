@@ -2,6 +2,7 @@
 
     python benchmarks/silence.py -- ssskit simulate --material skin1,marble,ketchup --jobs 2
     python benchmarks/silence.py --env SSSKIT_CACHE_DIR=/tmp/empty-cache -- ssskit demo --out /tmp/demo
+    python benchmarks/silence.py --log demo.log -- ssskit demo --out /tmp/demo   # keep the stamped lines
 
 Runs the command with stdout and stderr as pipes and stamps every stderr line as it arrives; prints one
 JSON object: the exit status, the wall time, the number of stderr lines, the longest gap in seconds
@@ -23,6 +24,8 @@ import time
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--env", action="append", default=[], metavar="NAME=VALUE", help="extra environment")
+    ap.add_argument("--log", default=None, metavar="FILE",
+                    help="also write every stderr line to FILE, stamped with its seconds since the start")
     ap.add_argument("command", nargs=argparse.REMAINDER, help="the command, after --")
     args = ap.parse_args(argv)
     cmd = args.command[1:] if args.command[:1] == ["--"] else args.command
@@ -42,8 +45,14 @@ def main(argv: list[str] | None = None) -> int:
     reader = threading.Thread(target=drain_stdout, daemon=True)
     reader.start()
     assert proc.stderr is not None
+    log = open(args.log, "w") if args.log else None  # noqa: SIM115 - closed below
     for line in proc.stderr:
         stamps.append((time.perf_counter() - t0, line.rstrip("\n")))
+        if log is not None:
+            log.write(f"{stamps[-1][0]:8.1f} {stamps[-1][1]}\n")
+            log.flush()
+    if log is not None:
+        log.close()
     code = proc.wait()
     reader.join()
     wall = time.perf_counter() - t0
