@@ -62,7 +62,7 @@ def burley_exact(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, Bur
     diffuse value. Where the region covers the whole kernel this equals
     :func:`ssskit.truth.exact_screen_space`, which keeps the centre value for the uncovered share instead.
     """
-    from scipy.signal import fftconvolve
+    from ..compute.fft import fft_convolve
 
     cam = gbuffer.camera
     if abs(cam.fx - cam.fy) > 1e-6 * cam.fx:
@@ -78,8 +78,8 @@ def burley_exact(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, Bur
         m = region.astype(np.float64)[..., None]
         z = float(np.median(gbuffer.depth_mm[region]))
         k = p.profile().discretize_2d(z / cam.fx, 2 * max(h, w) + 1)
-        num = fftconvolve(m * e, k, mode="same", axes=(0, 1))
-        den = fftconvolve(np.broadcast_to(m, e.shape), k, mode="same", axes=(0, 1))
+        num = fft_convolve(m * e, k, "same", axes=(0, 1))
+        den = fft_convolve(np.broadcast_to(m, e.shape), k, "same", axes=(0, 1))
         out[region] = (num / np.maximum(den, 1e-300))[region]
     return out.astype(np.float32)
 
