@@ -75,7 +75,8 @@ from ..errors import SettingsError
 from ..kernels import KernelMethod, TapKernel, build_kernel, check_params, default_grid, parse_method_spec
 from ..profiles import MATERIAL_FREE_MODELS, profile_for_material
 from ..sampling.taps import SeparableTaps, make_taps
-from ..screenspace import BurleyParams, GBuffer, separable_sss
+from ..backends import warm_up_in_background
+from ..screenspace import BurleyParams, GBuffer, default_depth_mode, separable_sss
 from ..truth import exact_screen_space
 from .adaptive import AdaptiveResult, FrameCallback, render_adaptive
 from .burley_frame import BurleyResult, render_burley
@@ -205,9 +206,11 @@ def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None
     else:
         kernel, taps = taps_of(profile)
         pass_taps, albedo = taps, profile.total_rd()
+    sss_settings = settings.pass_settings()
+    # the pass's kernels compile (a fresh machine: seconds, one thread) while Mitsuba renders the G-buffer
+    warm_up_in_background(settings.backend, [f"separable:{sss_settings.depth_mode or default_depth_mode(pass_taps)}"])
     gb = frame_gbuffer(plan.scene, settings, albedo, say)
     placement = "engine" if isinstance(kernel, TapKernel) else settings.tap_method
-    sss_settings = settings.pass_settings()
     say(f"separable pass: {settings.kernel}, {taps.taps} {placement} taps, jitter {sss_settings.jitter:g}, "
         f"{settings.backend} backend")
     sss = separable_sss(gb, pass_taps, sss_settings)
