@@ -105,3 +105,50 @@ def test_no_template_text_reaches_the_page():
             if isinstance(node, ast.Constant) and isinstance(node.value, str) and pattern.search(node.value):
                 found.append(f"{path.name}:{node.lineno}: {node.value[:60]!r}")
     assert found == []
+
+
+def test_two_processes_build_the_same_report(tmp_path, monkeypatch):
+    """``ssskit demo`` builds the sections on two worker processes: the page and every file are those of the
+    one-process build (but the build time the page states), the sections in report order."""
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(report, "SECTIONS", [("sampling", report._sampling_section),
+                                             ("materials", report._materials_section)])
+    said = []
+    pages = {}
+    for jobs in (1, 2):
+        monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / f"cache{jobs}"))  # each builds its sections
+        index = report.build_report(tmp_path / f"demo{jobs}", said.append, backend="numpy", jobs=jobs)
+        pages[jobs] = {str(p.relative_to(index.parent)): p.read_bytes() for p in index.parent.rglob("*")}
+    import re
+
+    for page in pages.values():
+        page["index.html"] = re.sub(rb"built in [0-9.]+ s", b"", page["index.html"])
+    assert sorted(pages[2]) == ["index.html", "xie_c.png"] and pages[2] == pages[1]
+    assert pages[2]["index.html"].index(b">Burley sampling (Xie") < pages[2]["index.html"].index(b">Materials<")
+    assert "2 sections on 2 processes (starting them takes a few seconds)" in said
+    assert "Burley sampling: refitting c" in said[said.index("2 sections on 2 processes (starting them takes a few "
+                                                              "seconds)"):]  # a worker's line, passed on
+    assert not list(tmp_path.glob(".demo*"))  # no staging folder left
+
+
+def test_an_error_in_a_worker_leaves_no_partial_folder(tmp_path, monkeypatch):
+    from ssskit.errors import MaterialError
+
+    import pytest
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(report, "SECTIONS", [("materials", report._materials_section),
+                                             ("kernels", report._kernels_section)])
+    with pytest.raises(MaterialError, match="NoSuchMaterial"):
+        report.build_report(tmp_path / "demo", backend="numpy", materials=["NoSuchMaterial"], jobs=2)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cache"]
+
+
+def test_jobs_must_be_a_positive_integer(tmp_path):
+    import pytest
+
+    from ssskit.errors import SsskitError
+
+    with pytest.raises(SsskitError, match="jobs must be a positive integer, got 0"):
+        report.build_report(tmp_path / "demo", backend="numpy", jobs=0)
+    assert not (tmp_path / "demo").exists()

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import html
 import json
+import os
 import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
@@ -384,6 +385,21 @@ SECTIONS: list[tuple[str, Section]] = [
     ("adaptive", _adaptive_section),
 ]
 
+#: the screen-space passes each section runs (:data:`ssskit.backends.base.WARM_UP` names): with several
+#: processes (``build_report(jobs=...)``) one of them compiles them all first, while another builds a section
+#: that runs none, so no two processes compile the same kernel and no section waits for its compilation
+SECTION_PASSES: dict[str, tuple[str, ...]] = {
+    "screenspace": ("separable:follow", "separable:gaussian"),
+    "burley": ("separable:follow", "burley"),
+    "adaptive": ("burley", "adaptive"),
+    "model": ("separable:follow", "burley", "adaptive"),
+}
+
+#: the order several processes take the sections in: those that run no pass first (beside the compilation),
+#: then the longest (measured on 2 cores: kernels ~50 s, screen space ~60 s, adaptive ~25 s, Burley ~10 s and
+#: profiles ~11 s of CPU once compiled); a section not named here comes last
+SECTION_ORDER = ("kernels", "screenspace", "model", "adaptive", "burley", "profiles", "sampling", "materials")
+
 
 def _cached_section(name: str, section: Section, out: Path, progress: Progress, ctx: dict) -> str:
     """Run a report section, or copy its HTML and files from the ``demo`` cache when the same settings
@@ -422,6 +438,80 @@ def _cached_section(name: str, section: Section, out: Path, progress: Progress, 
     return text
 
 
+def _section_job(name: str, section: Section, out: Path, ctx: dict[str, Any], label: str) -> tuple[str, float]:
+    """A worker's job (:func:`_build_parallel`): one section into its own folder ``out`` (:func:`_cached_section`),
+    its progress to the parent; returns (its HTML, its seconds)."""
+    import contextlib
+
+    from .compute.workers import line
+    from .profiles.montecarlo.shipped import recompute as no_shipped
+    from .progress import reporting
+
+    line(f"{label} section {name}")
+    t0 = time.perf_counter()
+    out.mkdir(parents=True, exist_ok=True)
+    with reporting(line), (no_shipped() if ctx.get("recompute") else contextlib.nullcontext()):
+        text = _cached_section(name, section, out, line, ctx)
+    return text, time.perf_counter() - t0
+
+
+def _warm_up_job(backend: str, passes: list[str]) -> None:
+    """A worker's job (:func:`_build_parallel`): compile the passes' kernels into numba's disk cache
+    (:meth:`Backend.warm_up`), from which the other workers' sections load them."""
+    from .backends import get_backend
+    from .compute.workers import line
+
+    line(f"compiling the {backend} kernels of {', '.join(passes)} (once: numba caches them on disk)")
+    t0 = time.perf_counter()
+    get_backend(backend).warm_up(passes)
+    line(f"compiled the {backend} kernels in {time.perf_counter() - t0:.1f} s")
+
+
+def _build_parallel(out: Path, sections: list[tuple[str, Section]], progress: Progress, ctx: dict[str, Any],
+                    jobs: int) -> list[str]:
+    """The sections' HTML in report order, built by ``jobs`` worker processes
+    (:func:`ssskit.compute.workers.run_jobs`). The first job compiles the kernels of every pass the sections
+    run (:data:`SECTION_PASSES`, on a backend that compiles them); the sections follow in
+    :data:`SECTION_ORDER`, each into a folder of its own whose files move into ``out`` as it finishes. On an
+    error or Ctrl-C the workers end before the error goes on, so nothing writes into the staging folder
+    when it is removed."""
+    import shutil
+
+    from .backends import get_backend
+    from .compute.workers import run_jobs
+
+    names = [name for name, _ in sections]
+    rank = {name: k for k, name in enumerate(SECTION_ORDER)}
+    order = sorted(range(len(sections)), key=lambda k: (rank.get(names[k], len(rank)), k))
+    backend = ctx.get("backend", DEFAULT_BACKEND)
+    passes = list(dict.fromkeys(p for name in names for p in SECTION_PASSES.get(name, ())))
+    warm = [(_warm_up_job, (backend, passes))] if passes and get_backend(backend).compiles_on_first_use else []
+    parts = out / ".sections"
+    tasks = warm + [(_section_job, (names[k], sections[k][1], parts / names[k], ctx, f"[{k + 1}/{len(sections)}]"))
+                    for k in order]
+    body: dict[int, str] = {}
+
+    def done(index: int, value: Any) -> None:
+        if index < len(warm):
+            return
+        k = order[index - len(warm)]
+        body[k], seconds = value
+        for src in sorted(p for p in (parts / names[k]).rglob("*") if p.is_file()):
+            dst = out / src.relative_to(parts / names[k])
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(src, dst)
+        progress(f"[{k + 1}/{len(sections)}] section {names[k]}: done in {seconds:.1f} s")
+
+    workers = min(jobs, len(sections))
+    progress(f"{len(sections)} sections on {workers} processes (starting them takes a few seconds)")
+    try:
+        # plain progress lines from the workers (redrawn bars of several processes would garble a terminal)
+        run_jobs(tasks, workers, progress, done, env={"SSSKIT_PROGRESS": "lines"})
+    finally:
+        shutil.rmtree(parts, ignore_errors=True)
+    return [body[k] for k in range(len(sections))]
+
+
 def _file_digest(path: str | Path) -> str:
     """sha1 of a file's bytes ("" for a name that is no file, e.g. the generated bust)."""
     import hashlib
@@ -457,7 +547,7 @@ def _with_contents(sections: list[str]) -> tuple[list[str], str]:
 
 def build_report(out_dir: str | Path, progress: Progress | None = None, photons: int = DEMO_PHOTONS,
                  progress_bars: bool = False, backend: str = DEFAULT_BACKEND, recompute: bool = False,
-                 materials: list[str] | None = None, scene: dict | None = None) -> Path:
+                 materials: list[str] | None = None, scene: dict | None = None, jobs: int = 1) -> Path:
     """Run every section into ``out_dir`` and write ``index.html`` last; returns its path. The
     screen-space passes run on ``backend`` (checked before any work: a BackendError if it cannot run
     here). ``recompute``: simulate the Monte Carlo profiles instead of reading the shipped ones;
@@ -465,13 +555,22 @@ def build_report(out_dir: str | Path, progress: Progress | None = None, photons:
     units, material_map: ``ssskit demo --scene``) adds the "Your model" section
     (:func:`ssskit.figures.views.demo_section`), cached by the options and the scene file's content. Each
     section says when it starts and how long it took on ``progress``; the report is built in a staging
-    folder, so an interrupted or failed demo leaves no partial folder."""
+    folder, so an interrupted or failed demo leaves no partial folder.
+
+    ``jobs`` > 1: the sections are built by that many worker processes at once (:func:`_build_parallel`;
+    most of a section's work runs on one core: the optimisations, the metrics, the plots, numba's
+    compilation), each in a folder of its own, their progress passed on to ``progress``; the page is the
+    same as with one process."""
     import contextlib
 
     from .backends import get_backend
     from .io import staged_folder
     from .profiles.montecarlo.shipped import recompute as no_shipped
 
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        from .errors import SsskitError
+
+        raise SsskitError(f"jobs must be a positive integer, got {jobs!r}")
     runner = get_backend(backend)
     sections = list(SECTIONS)
     ctx: dict = {"photons": photons, "progress_bars": progress_bars, "backend": runner.name, "recompute": recompute,
@@ -486,19 +585,22 @@ def build_report(out_dir: str | Path, progress: Progress | None = None, photons:
         sections.append(("model", _model_section))
     progress = progress or (lambda msg: None)
     with staged_folder(out_dir) as stage, (no_shipped() if recompute else contextlib.nullcontext()):
-        _build(stage, progress, ctx, runner)
+        _build(stage, progress, ctx, runner, jobs)
     return Path(out_dir) / "index.html"
 
 
-def _build(out: Path, progress: Progress, ctx: dict[str, Any], runner: Backend) -> None:
+def _build(out: Path, progress: Progress, ctx: dict[str, Any], runner: Backend, jobs: int = 1) -> None:
     t0 = time.perf_counter()
-    body = []
     sections = ctx.pop("sections", SECTIONS)
-    for k, (name, section) in enumerate(sections, 1):
-        progress(f"[{k}/{len(sections)}] section {name}")
-        t_section = time.perf_counter()
-        body.append(_cached_section(name, section, out, progress, ctx))
-        progress(f"[{k}/{len(sections)}] section {name}: done in {time.perf_counter() - t_section:.1f} s")
+    if jobs > 1 and len(sections) > 1:
+        body = _build_parallel(out, sections, progress, ctx, jobs)
+    else:
+        body = []
+        for k, (name, section) in enumerate(sections, 1):
+            progress(f"[{k}/{len(sections)}] section {name}")
+            t_section = time.perf_counter()
+            body.append(_cached_section(name, section, out, progress, ctx))
+            progress(f"[{k}/{len(sections)}] section {name}: done in {time.perf_counter() - t_section:.1f} s")
     from . import __version__
 
     body, toc = _with_contents(body)

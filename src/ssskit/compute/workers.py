@@ -1,0 +1,105 @@
+"""Jobs on a few worker processes, with their progress lines passed back and a clean end.
+
+:func:`run_jobs` runs a list of jobs (a module-level function and its arguments) on ``workers`` spawned
+processes (numba's threading layers are not fork-safe), each worker taking the next job as it finishes
+one, in the list's order. A job says how far it is with :func:`line`; the parent receives those lines and
+each job's result as they come. An error in a job is raised in the parent, with the workers ended first;
+so are Ctrl-C in the parent (the workers ignore SIGINT: the parent ends them) and a worker that dies
+(a crash or the kernel's OOM killer), which ``multiprocessing.Pool`` would silently replace and wait for
+forever. Used by ``ssskit demo`` to build the report's sections side by side.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from typing import Any
+
+_LINES: Any = None  # in a worker: the queue to the parent
+
+#: seconds between the parent's checks that its workers still live
+POLL_S = 0.2
+
+
+def line(message: str) -> None:
+    """A progress line from inside a job, printed by the parent (in the parent itself: nothing)."""
+    if _LINES is not None:
+        _LINES.put(("line", None, message))
+
+
+def _worker(tasks: Any, results: Any, env: dict[str, str]) -> None:
+    import signal
+
+    global _LINES
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle: it ends the workers
+    os.environ.update(env)
+    _LINES = results
+    while True:
+        task = tasks.get()
+        if task is None:
+            return
+        index, fn, args = task
+        try:
+            value = ("done", index, fn(*args))
+        except BaseException as exc:  # noqa: BLE001 - passed to the parent, which raises it
+            value = ("error", index, exc)
+        try:
+            results.put(value)
+        except Exception as exc:  # noqa: BLE001 - an unpicklable result or error: say what it was
+            results.put(("error", index, RuntimeError(f"job {index}: {value[2]!r} ({exc})")))
+
+
+def run_jobs(jobs: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], workers: int,
+             on_line: Callable[[str], None], on_result: Callable[[int, Any], None],
+             env: dict[str, str] | None = None) -> None:
+    """Run ``jobs`` (function, arguments) on ``workers`` processes; the functions must be importable by name
+    (module level). ``on_line`` gets every :func:`line` of a job, ``on_result(index, value)`` each job's
+    return value as it finishes (in the parent). ``env``: set in each worker's environment. The first
+    job error is raised here once every worker has ended."""
+    import multiprocessing as mp
+    import queue
+
+    context = mp.get_context("spawn")
+    tasks, results = context.Queue(), context.Queue()
+    n = max(1, min(int(workers), len(jobs)))
+    for k, (fn, args) in enumerate(jobs):
+        tasks.put((k, fn, args))
+    for _ in range(n):
+        tasks.put(None)
+    procs = [context.Process(target=_worker, args=(tasks, results, dict(env or {})), daemon=True,
+                             name=f"ssskit-worker-{i}") for i in range(n)]
+    left = len(jobs)
+    try:
+        for p in procs:
+            p.start()
+        while left:
+            try:
+                kind, index, value = results.get(timeout=POLL_S)
+            except queue.Empty:
+                # a worker ends with 0 only after the last job was taken; another exit is a crash or a kill
+                dead = [p.exitcode for p in procs if p.exitcode not in (None, 0)]
+                if dead or all(p.exitcode == 0 for p in procs):
+                    raise RuntimeError(f"a worker process ended unexpectedly (exit code {(dead or [0])[0]}) with "
+                                       f"{left} job(s) unfinished")
+                continue
+            if kind == "line":
+                on_line(value)
+            elif kind == "error":
+                raise value
+            else:
+                left -= 1
+                on_result(index, value)
+        for p in procs:
+            p.join()
+    finally:
+        for p in procs:
+            if p.is_alive():
+                p.terminate()
+        for p in procs:
+            if p.pid is not None:
+                p.join()
+        tasks.close()
+        results.close()
+
+
+__all__ = ["POLL_S", "line", "run_jobs"]
