@@ -63,19 +63,20 @@ the mask, per channel, and the number of pixels with a surface).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..backends import warm_up_in_background
 from ..errors import SettingsError
 from ..kernels import KernelMethod, TapKernel, build_kernel, check_params, default_grid, parse_method_spec
 from ..profiles import MATERIAL_FREE_MODELS, profile_for_material
 from ..sampling.taps import SeparableTaps, make_taps
-from ..backends import warm_up_in_background
 from ..screenspace import BurleyParams, GBuffer, default_depth_mode, separable_sss
 from ..truth import exact_screen_space
 from .adaptive import AdaptiveResult, FrameCallback, render_adaptive
@@ -208,13 +209,16 @@ def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None
         pass_taps, albedo = taps, profile.total_rd()
     sss_settings = settings.pass_settings()
     # the pass's kernels compile (a fresh machine: seconds, one thread) while Mitsuba renders the G-buffer
-    warm_up_in_background(settings.backend, [f"separable:{sss_settings.depth_mode or default_depth_mode(pass_taps)}"])
+    warming = warm_up_in_background(settings.backend,
+                                    [f"separable:{sss_settings.depth_mode or default_depth_mode(pass_taps)}"])
     gb = frame_gbuffer(plan.scene, settings, albedo, say)
+    exact: Callable[[], np.ndarray | None] = functools.cache(lambda: exact_screen_space(gb, profile))
+    if warming is not None and warming.is_alive() and settings.exact and gb.mask.any():
+        exact()  # the exact convolution (ground_truths' first step) while the pass still compiles
     placement = "engine" if isinstance(kernel, TapKernel) else settings.tap_method
     say(f"separable pass: {settings.kernel}, {taps.taps} {placement} taps, jitter {sss_settings.jitter:g}, "
         f"{settings.backend} backend")
     sss = separable_sss(gb, pass_taps, sss_settings)
-    exact = lambda: exact_screen_space(gb, profile)  # noqa: E731
     transmitted, info = None, TransmissionInfo(settings.transmission, False)
     if plan.scene.transmission:
         sss, transmitted, info, exact = with_transmission(gb, sss, settings, plan.scene.materials,
