@@ -35,3 +35,11 @@ def test_the_workers_have_ended_when_the_error_is_raised():
     with pytest.raises(ValueError, match="math domain error"):
         run_jobs([(time.sleep, (30.0,)), (math.sqrt, (-1.0,))], 2, print, lambda k, v: None)
     assert multiprocessing.active_children() == []
+
+
+def test_the_workers_environment():
+    """``env`` is set in each worker before any job's imports (the demo's one BLAS thread per worker)."""
+    results = {}
+    run_jobs([(os.getenv, ("SSSKIT_TEST_WORKER_ENV",))], 1, print, results.__setitem__,
+             env={"SSSKIT_TEST_WORKER_ENV": "set"})
+    assert results == {0: "set"} and "SSSKIT_TEST_WORKER_ENV" not in os.environ
