@@ -5,7 +5,9 @@ ray-cast truth on built-in scenes at two map resolutions. Prints one JSON object
 Cost: a 1920x1080 frame, every pixel inside the SSS mask and behind the map's surface (every pixel runs all
 of steps 1-5), the 1024^2 map spread over the frame, Skin1's MCML model (4 terms), against the separable pass of 7 importance-sampled taps of
 Skin1's pre-integrated kernel with 10 % jitter (the paper's set-up), medians of interleaved repeats, per
-backend (numba, gl where available: on llvmpipe without a GPU).
+backend (numba, gl where available: on llvmpipe without a GPU). Besides the wall times, ``cpu_ms`` is the
+process's CPU time per call (all threads; on a loaded machine it moves far less than the wall time, and
+wall ~ cpu / threads on an idle one).
 
 Thickness: scenes/lightspace.py ray-casts the map (orthographic, from the scene's first light) and the
 exact distance towards the light from each point the camera sees (128 x 128 camera pixels); the error of
@@ -68,14 +70,18 @@ def cost(repeats: int) -> dict:
         for fn in fns.values():
             fn()
         times: dict[str, list[float]] = {k: [] for k in fns}
+        cpu: dict[str, list[float]] = {k: [] for k in fns}
         for _ in range(repeats):
             for k, fn in fns.items():
-                t0 = time.perf_counter()
+                c0, t0 = time.process_time(), time.perf_counter()
                 fn()
                 times[k].append(1e3 * (time.perf_counter() - t0))
+                cpu[k].append(1e3 * (time.process_time() - c0))
         med = {k: statistics.median(v) for k, v in times.items()}
         out[name] = {"separable_ms": round(med["separable"], 2), "transmission_ms": round(med["transmission"], 2),
                      "share_of_separable": round(med["transmission"] / med["separable"], 3),
+                     "transmission_min_ms": round(min(times["transmission"]), 2),
+                     "cpu_ms": {k: round(statistics.median(v), 2) for k, v in cpu.items()},
                      "renderer": backend_status()[name]["details"]}
     return out
 

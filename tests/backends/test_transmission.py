@@ -20,9 +20,10 @@ def _model(scale=1.0, wrap=0.0, k=3, seed=0):
                      scale, wrap)
 
 
-def _frame(seed=1):
+def _frame(seed=1, h=H, w=W, hs=HS, ws=WS):
     """Two profile ids, a map at ~100 mm with holes, points behind it (t in [0.01, 9] mm, none within 2x the
     bias of zero) or in front of it, some off the map."""
+    H, W, HS, WS = h, w, hs, ws
     r = np.random.default_rng(seed)
     shadow = (100.0 + r.uniform(0, 5, (HS, WS))).astype(np.float32)
     shadow[r.random((HS, WS)) < 0.05] = np.inf
@@ -61,24 +62,64 @@ def _argument_bound(plan, frame):
     return np.sum(plan.a[slots] * np.exp(x) * (np.abs(x) + 1) * 2.0**-20, axis=-1) * e
 
 
-def test_backend_parity_in_ulps(backend, plan):
-    """|backend - oracle| <= 16 float32 ulps of the result, plus what the rounding of the map's depth (4 ulps
-    of ~100 mm) moves the oracle (t = z - D cancels, so a float32 D carries ulps of the depth, not of t),
-    plus the float32 exponential's error at large |x| (:func:`_argument_bound`), plus float32 denormals
-    (GLSL may flush them to zero)."""
-    frame = _frame()
+def _parity(backend, plan, frame):
+    """(out, oracle, bound): |backend - oracle| <= 16 float32 ulps of the result, plus what the rounding of the
+    map's depth (4 ulps of ~100 mm) moves the oracle (t = z - D cancels, so a float32 D carries ulps of the
+    depth, not of t), plus what the float32 rounding of wrap - N . L (the wrap constant and the difference,
+    half an ulp of 1 each) moves it (it cancels where N . L is near the wrap), plus the float32 exponential's
+    error at large |x| (:func:`_argument_bound`), plus float32 denormals (GLSL may flush them to zero)."""
     out = get_backend(backend).transmission(plan, *frame)
     ref = transmission_pass(plan, *frame)
     slots, uvz, shadow, ndl, light = frame
     eps = 4 * np.spacing(shadow.astype(np.float32)).astype(np.float64)
     hi = transmission_pass(plan, slots, uvz, np.where(np.isfinite(shadow), shadow + eps, shadow), ndl, light)
     lo = transmission_pass(plan, slots, uvz, np.where(np.isfinite(shadow), shadow - eps, shadow), ndl, light)
+    dn = float(np.spacing(np.float32(1.0)))
+    e_hi = transmission_pass(plan, slots, uvz, shadow, ndl.astype(np.float64) - dn, light)
+    e_lo = transmission_pass(plan, slots, uvz, shadow, ndl.astype(np.float64) + dn, light)
     bound = (16 * np.spacing(np.abs(ref).astype(np.float32)).astype(np.float64) + np.abs(hi - lo) / 2
-             + _argument_bound(plan, frame) + 8 * np.finfo(np.float32).tiny)  # GPUs may flush denormals
+             + np.abs(e_hi - e_lo) / 2 + _argument_bound(plan, frame)
+             + 8 * np.finfo(np.float32).tiny)  # GPUs may flush denormals
+    return out, ref, bound
+
+
+def test_backend_parity_in_ulps(backend, plan):
+    """The backend against the float64 oracle within :func:`_parity`'s bound."""
+    out, ref, bound = _parity(backend, plan, _frame())
     err = np.abs(np.asarray(out, np.float64) - ref)
     assert out.shape == (H, W, 3) and out.dtype == get_backend(backend).dtype
     assert np.all(err <= bound), f"{backend}: worst {float((err / np.maximum(bound, 1e-300)).max()):.3g}x the bound"
     assert np.count_nonzero(ref) > 0.2 * ref.size  # the frame exercises the pass
+
+
+@pytest.mark.parametrize("h, w, hs, ws", [(2, 3, 40, 36), (3, 11, 1, 1), (70, 37, 1, 5), (37, 70, 5, 1),
+                                          (64, 97, 40, 36)])
+def test_parity_on_any_frame_and_map_shape(backend, plan, h, w, hs, ws):
+    """Frames of fewer pixels than a lane block, widths no multiple of it, frames split over threads (>= 2048
+    pixels), maps one texel wide or high (the numba kernel reads texels in pairs): the oracle's values
+    within :func:`_parity`'s bound."""
+    frame = _frame(seed=h + w, h=h, w=w, hs=hs, ws=ws)
+    out, ref, bound = _parity(backend, plan, frame)
+    err = np.abs(np.asarray(out, np.float64) - ref)
+    assert out.shape == (h, w, 3)
+    assert np.all(err <= bound), f"{backend}: worst {float((err / np.maximum(bound, 1e-300)).max()):.3g}x the bound"
+    if hs * ws > 1:
+        assert np.count_nonzero(ref) > 0.05 * ref.size
+
+
+def test_numba_result_is_the_same_on_any_thread_count(plan):
+    numba = pytest.importorskip("numba")
+    frame = _frame(seed=11, h=64, w=97)
+    b = get_backend("numba")
+    prev = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = b.transmission(plan, *frame)
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        many = b.transmission(plan, *frame)
+    finally:
+        numba.set_num_threads(prev)
+    np.testing.assert_array_equal(one, many)
 
 
 def test_zero_thickness_and_zero_back_light_give_zero(backend, plan):
