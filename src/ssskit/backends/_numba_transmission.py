@@ -1,8 +1,10 @@
 """numba kernel of the transmittance pass (:mod:`ssskit.backends.transmission_plan` for the maths): steps 1-5
-per pixel of a range of the flattened frame, float32, in the plan's order, LANES contiguous pixels at a time in lane loops that LLVM
-vectorises (no branches: every test of the plan is a select, the map's four texels are read at clamped
-indices and dropped by their weight; scratch on the stack, :func:`~ssskit.compute.numba_math.stack_empty`,
-so no alias check stops the vectoriser; unsigned indices, so numba adds no negative-index wraparound):
+per pixel of a range of the flattened frame, float32, in the plan's order, LANES contiguous pixels at a time
+in lane loops that LLVM vectorises (no branches: every test of the plan is a select; the map's texels are
+read at clamped 32-bit indices, two neighbours per 64-bit load
+(:func:`~ssskit.compute.numba_math.load_pair_at`), and dropped by their weight; scratch on the stack,
+:func:`~ssskit.compute.numba_math.stack_empty`, so no alias check stops the vectoriser; unsigned indices,
+so numba adds no negative-index wraparound):
 
 * lane set-up (steps 1-3): u = scale t and the back irradiance factor e per lane, both 0 where the plan
   gives no transmission (slot 0, off the map, t <= bias or not finite);
@@ -16,8 +18,6 @@ Pixels are independent, so the image does not depend on the number of threads. C
 on disk (``cache=True``)."""
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 from numba import njit
