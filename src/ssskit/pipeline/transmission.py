@@ -96,28 +96,51 @@ def _model(name: str, material: Any) -> Any:
     return mcml_model(material) if name == "mcml" else jimenez2010_model()
 
 
-def add_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, material_of: dict[int, Any],
-                     say: Callable[[str], None]) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
-    """(sss', transmitted radiance T E / pi (H, W, 3) float32, info): the transmittance pass on the settings'
-    backend with the settings' model for every profile id of the mask (``material_of`` id -> material),
-    demodulated and added to ``sss`` (module docstring)."""
+def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[int, Any],
+                       say: Callable[[str], None]) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
+    """(added, radiance, info): the transmittance pass on the settings' backend with the settings' model for
+    every profile id of the mask (``material_of`` id -> material); ``radiance`` = T E / pi (H, W, 3) float32 and
+    ``added`` = radiance / albedo in the backend's float type, the light to add to the reflectance SSS
+    (module docstring), both 0 where the albedo is 0."""
     from ..screenspace.transmission import transmission_plan
 
-    ids = sorted(int(i) for i in np.unique(gb.profile_id[gb.mask]))
+    ids = _mask_ids(gb)
     say(f"transmittance pass: {settings.transmission_model} model, {settings.backend} backend")
     plan = transmission_plan({pid: _model(settings.transmission_model, material_of[pid]) for pid in ids})
     lut = np.zeros(int(gb.profile_id.max(initial=0)) + 1, np.int32)
     lut[ids] = np.arange(1, len(ids) + 1, dtype=np.int32)
     slots = lut[gb.profile_id]
-    out = np.asarray(get_backend(settings.backend).transmission(plan, slots, *gb.transmission_inputs()), np.float64)
-    radiance = out / math.pi
-    albedo = gb.albedo.astype(np.float64)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        demod = np.where(albedo > 0, radiance / albedo, 0.0)
-    lit = int(np.count_nonzero(np.any(out > 0, axis=-1)))
-    total = (np.asarray(sss, np.float64) + demod).astype(np.asarray(sss).dtype)
-    return total, np.where(albedo > 0, radiance, 0.0).astype(np.float32), TransmissionInfo(
-        settings.transmission, True, settings.transmission_model, lit)
+    backend = get_backend(settings.backend)
+    out = np.asarray(backend.transmission(plan, slots, *gb.transmission_inputs(backend.dtype)))
+    flat = out.reshape(-1, 3)
+    lit = int(np.count_nonzero((flat[:, 0] > 0) | (flat[:, 1] > 0) | (flat[:, 2] > 0)))
+    radiance = np.multiply(out, 1.0 / math.pi, dtype=out.dtype)
+    lit_albedo = gb.albedo > 0
+    np.copyto(radiance, 0.0, where=~lit_albedo)
+    added = np.divide(radiance, gb.albedo, out=np.zeros_like(radiance), where=lit_albedo)
+    return added, radiance.astype(np.float32, copy=False), TransmissionInfo(settings.transmission, True,
+                                                                           settings.transmission_model, lit)
+
+
+def add_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, material_of: dict[int, Any],
+                     say: Callable[[str], None]) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
+    """(sss', transmitted radiance T E / pi (H, W, 3) float32, info): :func:`transmission_light` added to
+    ``sss`` (in its float type)."""
+    added, radiance, info = transmission_light(gb, settings, material_of, say)
+    dt = np.asarray(sss).dtype
+    return np.add(sss, added, dtype=dt), radiance, info
+
+
+def _mask_ids(gb: GBuffer) -> list[int]:
+    """The profile ids (>= 1) present in the G-buffer, ascending."""
+    return [int(i) for i in np.flatnonzero(np.bincount(gb.profile_id.reshape(-1))[1:]) + 1]
+
+
+def material_of_ids(gb: GBuffer, materials: tuple[Any, ...], material: Any) -> dict[int, Any]:
+    """Profile id -> material for the ids of ``gb``'s mask: the scene's per id (``materials``), else
+    ``material`` for every id."""
+    ids = _mask_ids(gb)
+    return {pid: materials[min(pid, len(materials)) - 1] if materials else material for pid in ids}
 
 
 def with_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, materials: tuple[Any, ...], material: Any,
@@ -126,16 +149,17 @@ def with_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, ma
     """A frame's pass result with the transmitted light (:func:`add_transmission`; ``materials`` the scene's
     per profile id, else ``material`` for every id), and its exact limit ``exact`` with the same light added,
     so that the metrics against it measure the reflectance pass as before."""
-    ids = [int(i) for i in np.unique(gb.profile_id[gb.mask])]
-    material_of = {pid: materials[min(pid, len(materials)) - 1] if materials else material for pid in ids}
-    total, radiance, info = add_transmission(gb, sss, settings, material_of, say)
-    added = total.astype(np.float64) - np.asarray(sss, np.float64)
+    total, radiance, info = add_transmission(gb, sss, settings, material_of_ids(gb, materials, material), say)
 
     def exact_with() -> np.ndarray | None:
         e = exact()
-        return None if e is None else (np.asarray(e, np.float64) + added).astype(np.asarray(e).dtype)
+        if e is None:
+            return None
+        added = total.astype(np.float64) - np.asarray(sss, np.float64)  # what the frame got, to the last bit
+        return (np.asarray(e, np.float64) + added).astype(np.asarray(e).dtype)
 
     return total, radiance, info, exact_with
 
 
-__all__ = ["TransmissionInfo", "add_transmission", "transmission_runs", "with_transmission"]
+__all__ = ["TransmissionInfo", "add_transmission", "material_of_ids", "transmission_light", "transmission_runs",
+           "with_transmission"]
