@@ -137,7 +137,7 @@ _PASS = RegistryName(lambda: PASSES)
 @click.option("--transmission", type=click.Choice(TRANSMISSION, case_sensitive=False), default=_D.transmission,
               show_default=True,
               help="The transmittance pass (light through thin parts, lit from behind; docs/transmission.md), added to "
-                   "the separable or Burley pass: auto runs it where the G-buffer has the light layers (a G-buffer file "
+                   "the separable or Burley pass (each frame of burley-adaptive): auto runs it where the G-buffer has the light layers (a G-buffer file "
                    "that carries them; a scene renders without them), on renders a scene's G-buffer with them (a "
                    "G-buffer file without them is an error), off never.")
 @click.option("--transmission-model", type=click.Choice(TRANSMISSION_MODELS, case_sensitive=False),

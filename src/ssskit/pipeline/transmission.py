@@ -69,7 +69,7 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
     cannot: ``gbuffer`` the given or loaded G-buffer (None: a scene renders it), ``label`` its name,
     ``has_scene`` whether a scene renders it with ``scene_lights`` lights, ``materials`` those of the
     profile ids (or the one material)."""
-    if settings.transmission == "off" or settings.pass_name == "burley-adaptive":
+    if settings.transmission == "off":
         return False
     if gbuffer is not None:
         if not gbuffer.has_light:
