@@ -181,7 +181,7 @@ def test_bad_transmission_input(run, workdir, args, fragment):
 
 
 @pytest.mark.parametrize("content, fragment", [
-    ("transmission_model = 'foo'\n", "transmission_model must be one of mcml, jimenez2010, got 'foo'"),
+    ("transmission_model = 'foo'\n", "transmission_model must be one of mcml, jimenez2010, unreal, got 'foo'"),
     ("transmission = 'yes'\n", "transmission must be one of auto, on, off, got 'yes'"),
 ])
 def test_bad_transmission_settings_file(run, workdir, content, fragment):

@@ -81,7 +81,7 @@ def test_defaults_run_the_separable_pass():
     ({"nonsense": 1}, "nonsense"),
     ({"transmission": "yes"}, "transmission must be one of auto, on, off"),
     ({"transmission": True}, "transmission must be one of"),
-    ({"transmission_model": "unreal"}, "transmission_model must be one of mcml, jimenez2010"),
+    ({"transmission_model": "unreal2"}, "transmission_model must be one of mcml, jimenez2010, unreal"),
     ({"transmission": "off", "transmission_model": "jimenez2010"}, "transmission_model 'jimenez2010' applies when"),
 ])
 def test_bad_settings_name_their_key(data, key):

@@ -120,6 +120,33 @@ def test_jimenez2010_is_darker_than_mcml_for_skin(ear):
     assert mc[lit.mask].sum() > 0 and mc[lit.mask].sum(axis=0)[0] > jm[lit.mask].sum(axis=0)[0]
 
 
+def test_unreal_model_is_ues_light_in_the_frame(ear):
+    """transmission_model unreal on the back-lit ear: the pass with UE's table for the material's Burley d, the
+    light times UE's phase factor per pixel, and UE's exit (the base colour times the pass's out, not T E / pi):
+    the frame's transmitted layer equals that, computed from the G-buffer's inputs here."""
+    lit, _ = ear
+    s = RenderSettings(**BASE, exact=False, material="skin1")
+    r = render(lit, s.replace(transmission_model="unreal"))
+    assert r.transmission.ran and r.transmission.model == "unreal" and r.transmission.lit_pixels > 0
+    from ssskit.backends import get_backend
+    from ssskit.materials import get_material
+    from ssskit.screenspace.transmission import (LightView, transmission_plan, unreal_material_model, unreal_phase)
+
+    plan_ = transmission_plan({1: unreal_material_model(get_material("skin1"))})
+    uvz, shadow, ndl, light = lit.transmission_inputs()
+    pos = lit.positions()
+    v = np.linalg.inv(lit.camera.world_to_camera)[:3, 3] - pos
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    n = lit.normal.astype(np.float64)
+    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
+    to_light = -np.asarray(LightView.from_dict(lit.light).direction)
+    phase = unreal_phase(n, v, np.broadcast_to(to_light, n.shape), 0.93, 1.55)
+    out = get_backend("numpy").transmission(plan_, (lit.profile_id > 0).astype(np.int32), uvz, shadow, ndl,
+                                            light * phase[..., None])
+    np.testing.assert_allclose(r.transmitted, lit.albedo * out, rtol=1e-6, atol=1e-12)
+    assert np.any(r.transmitted > 0)
+
+
 def test_checks_before_any_work(ear, monkeypatch):
     lit, plain = ear
     import ssskit.pipeline.transmission as tr

@@ -12,6 +12,8 @@ so numba adds no negative-index wraparound):
   (relative error 2.5e-7; clamped to 2^-126, a normal float, where the term underflows); a block whose
   lit lanes share one slot (the usual case) takes one sweep with that slot's coefficients, a block that
   straddles slots one sweep per slot present, each lane keeping its own slot's terms;
+* an ``unreal`` slot (step 4's table): the table coordinate per lane, then per channel the two entries around it
+  (32-bit gathers) and their linear filter;
 * out = T(t) light e where the plan lights the pixel, else exactly 0.
 
 Pixels are independent, so the image does not depend on the number of threads. Compiled once and cached
@@ -23,6 +25,7 @@ import numpy as np
 from numba import njit
 
 from ..compute.numba_math import FM32, exp2_f32, i32, i32_madd, load_at, load_pair_at, stack_empty
+from .transmission_plan import LUT_SIZE, UE_MAX_OPTICAL_DEPTH
 
 #: pixels per lane loop
 LANES = 32
@@ -33,6 +36,10 @@ _HALF = np.float32(0.5)
 _INF = np.float32(np.inf)
 _LOG2E = np.float32(1.4426950408889634)
 _L3 = 3 * LANES
+_OD_MIN = np.float32(0.15)  # UE's CalculateOpticalDepth clamp and offset
+_OD_MAX = np.float32(UE_MAX_OPTICAL_DEPTH)
+_OD_ADD = np.float32(0.25)
+_LUT_LAST = np.float32(LUT_SIZE - 1)
 
 #: exp2_f32 inlined by numba into the kernel (LLVM's inliner leaves a call, which stops the vectoriser, once the
 #: kernel is large)
@@ -45,12 +52,50 @@ def _finite(v):  # pragma: no cover
     return abs(v) < _INF
 
 
+@njit(cache=True, inline="always", fastmath=FM32, error_model="numpy")
+def _slot_terms(lu_, ls, lt, lx, lf, sb, masked, ca, cb, cc, k_terms, kind, lut, odp, odo):  # pragma: no cover
+    """Step 4 of slot ``sb`` into the lanes' T per channel ``lt`` (lanes of other slots untouched where ``masked``):
+    the exponential sum, or an ``unreal`` slot's table lookup (UE's optical depth, its shadow-mask encoding, the
+    linear filter)."""
+    U = np.uintp
+    if kind[sb] == 0:
+        for ch in range(3):
+            for k in range(k_terms):
+                i = U((sb * 3 + ch) * k_terms + k)
+                ak, bk, ck = ca[i], cb[i], cc[i]
+                for l in range(LANES):
+                    lu = U(l)
+                    u = lu_[lu]
+                    v = ak * _exp2((bk + ck * u) * u)
+                    lt[U(ch * LANES) + lu] += (v if ls[lu] == sb else _ZERO) if masked else v
+        return
+    p, o = odp[sb], odo[sb]
+    for l in range(LANES):  # the table coordinate x = (1 - e^2) (N - 1), e = 1 - OD / 5
+        lu = U(l)
+        d = min(max(p * lu_[lu] + o, _OD_MIN), _OD_MAX) + _OD_ADD
+        e = _ONE - d / _OD_MAX
+        x = (_ONE - e * e) * _LUT_LAST
+        fi = min(np.floor(x), _LUT_LAST - _ONE)
+        lx[lu] = i32(fi)
+        lf[lu] = x - fi
+    for ch in range(3):
+        base = (sb * 3 + ch) * LUT_SIZE
+        for l in range(LANES):
+            lu = U(l)
+            l0, l1 = load_pair_at(lut, i32(lx[lu] + base))
+            f = lf[lu]
+            v = (_ONE - f) * l0 + f * l1
+            lt[U(ch * LANES) + lu] += (v if ls[lu] == sb else _ZERO) if masked else v
+
+
 @njit(cache=True, nogil=True, fastmath=FM32, error_model="numpy")
-def transmission_pixels(slots, uvz, shadow, ndl, light, a, b, c, scale, wrap, bias, out, p0, p1):  # pragma: no cover
+def transmission_pixels(slots, uvz, shadow, ndl, light, a, b, c, scale, wrap, bias, kind, lut, odp, odo, out, p0,
+                        p1):  # pragma: no cover
     """Steps 1-5 for the pixels [p0, p1) of the flattened frame (module docstring), p1 - p0 >= LANES: blocks
     of LANES contiguous pixels, the last one moved back to end at p1 (its first pixels computed twice, to
     the same values). ``slots``, ``ndl`` (N,), ``uvz``, ``light``, ``out`` (3 N,) pixel-interleaved, ``shadow``
-    (Hs, Ws >= 2), ``a``, ``b``, ``c`` (S, 3, K)."""
+    (Hs, Ws >= 2), ``a``, ``b``, ``c`` (S, 3, K); ``kind`` (S,) int32 1 for an ``unreal`` slot, whose table is
+    ``lut`` (S 3 LUT_SIZE,) and optical depth ``odp`` t + ``odo``."""
     U = np.uintp
     hs, ws = shadow.shape
     k_terms = a.shape[2]
@@ -71,6 +116,8 @@ def transmission_pixels(slots, uvz, shadow, ndl, light, a, b, c, scale, wrap, bi
     le = stack_empty(LANES, np.float32)
     ls = stack_empty(LANES, np.int32)
     lt = stack_empty(_L3, np.float32)  # T per channel
+    lx = stack_empty(LANES, np.int32)  # an unreal slot's table index and fraction per lane
+    lf = stack_empty(LANES, np.float32)
     fws = np.float32(ws)
     fhs = np.float32(hs)
     fws2 = np.float32(ws - 2)
@@ -129,30 +176,14 @@ def transmission_pixels(slots, uvz, shadow, ndl, light, a, b, c, scale, wrap, bi
             for l in range(LANES):
                 lt[U(ch * LANES + l)] = _ZERO
         if smin == smax:  # one slot for every lit lane (the unlit lanes' terms are masked in step 5)
-            for ch in range(3):
-                for k in range(k_terms):  # step 4
-                    i = U((smax * 3 + ch) * k_terms + k)
-                    ak, bk, ck = ca[i], cb[i], cc[i]
-                    for l in range(LANES):
-                        lu = U(l)
-                        u = lu_[lu]
-                        lt[U(ch * LANES) + lu] += ak * _exp2((bk + ck * u) * u)
-            smax = np.int32(-1)
-        for sb in range(smin, smax + 1):  # a block that straddles slots: each slot present, its own lanes
-            present = False
-            for l in range(LANES):
-                present |= ls[U(l)] == sb
-            if not present:
-                continue
-            for ch in range(3):
-                for k in range(k_terms):  # step 4
-                    i = U((sb * 3 + ch) * k_terms + k)
-                    ak, bk, ck = ca[i], cb[i], cc[i]
-                    for l in range(LANES):
-                        lu = U(l)
-                        u = lu_[lu]
-                        v = ak * _exp2((bk + ck * u) * u)
-                        lt[U(ch * LANES) + lu] += v if ls[lu] == sb else _ZERO
+            _slot_terms(lu_, ls, lt, lx, lf, smax, False, ca, cb, cc, k_terms, kind, lut, odp, odo)
+        else:
+            for sb in range(smin, smax + 1):  # a block that straddles slots: each slot present, its own lanes
+                present = False
+                for l in range(LANES):
+                    present |= ls[U(l)] == sb
+                if present:
+                    _slot_terms(lu_, ls, lt, lx, lf, sb, True, ca, cb, cc, k_terms, kind, lut, odp, odo)
         for l in range(LANES):  # step 5
             lu = U(l)
             q3 = U(3) * (q0 + lu)

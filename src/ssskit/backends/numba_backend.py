@@ -107,9 +107,13 @@ class NumbaBackend(Backend):
         scale, wrap = plan.scale.astype(f32), plan.wrap.astype(f32)
         out = np.empty(3 * m, f32)
         bias = f32(plan.bias_mm)
+        kind = plan.lut_slot.astype(np.int32)
+        lut = np.ascontiguousarray(plan.lut, dtype=f32).reshape(-1)
+        odp, odo = plan.od_per_mm.astype(f32), plan.od_offset.astype(f32)
         blocks = m // LANES  # ranges of whole blocks; the last range also takes the m % LANES pixels left
         self._rows(blocks, lambda i0, i1: transmission_pixels(sl, uvz, shadow, ndl, light, a, b, c, scale, wrap, bias,
-                                                              out, i0 * LANES, m if i1 == blocks else i1 * LANES))
+                                                              kind, lut, odp, odo, out, i0 * LANES,
+                                                              m if i1 == blocks else i1 * LANES))
         return out[: 3 * n].reshape(h, w, 3)
 
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,

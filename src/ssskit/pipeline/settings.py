@@ -245,7 +245,8 @@ class RenderSettings(Settings):
     the G-buffer has the light layers: a G-buffer file or GBuffer that carries them; a scene's own G-buffer
     is rendered without them), ``on`` (a scene's G-buffer is rendered with them; a G-buffer without them is
     an error), ``off``; ``transmission_model``: its T(t), ``mcml`` (the fit of the material's MCML slab
-    transmittance) or ``jimenez2010`` (Jimenez et al. 2010's skin Gaussians, [JWSG10]); ``pass_``: the pass (:data:`PASSES`: :class:`SeparablePass`,
+    transmittance), ``jimenez2010`` (Jimenez et al. 2010's skin Gaussians, [JWSG10]) or ``unreal`` (Unreal Engine
+    5's subsurface-profile transmission, [UE58]); ``pass_``: the pass (:data:`PASSES`: :class:`SeparablePass`,
     :class:`BurleyPass` or :class:`AdaptivePass`), which :func:`ssskit.pipeline.render` runs. The kernel
     fields apply to the separable pass only: with another pass they must keep their defaults.
     """

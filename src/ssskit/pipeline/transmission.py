@@ -25,6 +25,11 @@ the albedo:
 
 (T(t) is already the material's whole transmittance; multiplying it by Rd would take the material's colour
 twice). Pixels whose albedo is 0 get no transmitted light (nothing there to add to).
+
+The ``unreal`` model is Unreal Engine 5's own (:mod:`ssskit.screenspace.transmission`): its light carries UE's
+phase factor per pixel and its exit is UE's, the pass's out times the base colour (UE adds the transmission
+to the diffuse lighting its recombine pass multiplies by the base colour): radiance = albedo out, sss' =
+sss + out.
 """
 
 from __future__ import annotations
@@ -82,18 +87,40 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
         return False
     elif scene_lights < 1:
         raise SettingsError(f"transmission on needs a light behind the object; the scene {label} has no light")
-    if settings.transmission_model == "mcml":
+    if settings.transmission_model in ("mcml", "unreal"):
+        what = "MCML slab transmittance" if settings.transmission_model == "mcml" else "Burley d"
         for m in materials:
             if not isinstance(m, Material):
-                raise SettingsError(f"the mcml transmission model needs homogeneous materials (their MCML slab "
-                                    f"transmittance); {getattr(m, 'name', m)!r} is a {type(m).__name__}")
+                raise SettingsError(f"the {settings.transmission_model} transmission model needs homogeneous materials "
+                                    f"(their {what}); {getattr(m, 'name', m)!r} is a {type(m).__name__}")
     return True
 
 
 def _model(name: str, material: Any) -> Any:
-    from ..screenspace.transmission import jimenez2010_model, mcml_model
+    from ..screenspace.transmission import jimenez2010_model, mcml_model, unreal_material_model
 
+    if name == "unreal":
+        return unreal_material_model(material)
     return mcml_model(material) if name == "mcml" else jimenez2010_model()
+
+
+def _unreal_light(gb: GBuffer, light_rgb: np.ndarray) -> np.ndarray:
+    """The light of the ``unreal`` model: the irradiance times UE's phase factor per pixel
+    (:func:`ssskit.screenspace.transmission.unreal_phase` with UE's default ScatteringDistribution and IOR; V
+    towards the camera, L towards the light)."""
+    from ..screenspace.transmission import UE_TRANSMISSION_DEFAULTS, LightView, unreal_phase
+
+    assert gb.light is not None and gb.normal is not None
+    pos = gb.positions()
+    eye = np.linalg.inv(gb.camera.world_to_camera)[:3, 3]
+    v = eye - pos
+    v /= np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+    n = gb.normal.astype(np.float64)
+    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
+    to_light = -np.asarray(LightView.from_dict(gb.light).direction, float)
+    phase = unreal_phase(n, v, np.broadcast_to(to_light, n.shape), UE_TRANSMISSION_DEFAULTS["ScatteringDistribution"],
+                         UE_TRANSMISSION_DEFAULTS["IOR"])
+    return np.asarray(light_rgb * phase[..., None], light_rgb.dtype)
 
 
 def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[int, Any],
@@ -111,13 +138,21 @@ def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[
     lut[ids] = np.arange(1, len(ids) + 1, dtype=np.int32)
     slots = lut[gb.profile_id]
     backend = get_backend(settings.backend)
-    out = np.asarray(backend.transmission(plan, slots, *gb.transmission_inputs(backend.dtype)))
+    uvz, shadow, ndl, light_rgb = gb.transmission_inputs(backend.dtype)
+    unreal = settings.transmission_model == "unreal"
+    if unreal:
+        light_rgb = _unreal_light(gb, light_rgb)
+    out = np.asarray(backend.transmission(plan, slots, uvz, shadow, ndl, light_rgb))
     flat = out.reshape(-1, 3)
     lit = int(np.count_nonzero((flat[:, 0] > 0) | (flat[:, 1] > 0) | (flat[:, 2] > 0)))
-    radiance = np.multiply(out, 1.0 / math.pi, dtype=out.dtype)
     lit_albedo = gb.albedo > 0
-    np.copyto(radiance, 0.0, where=~lit_albedo)
-    added = np.divide(radiance, gb.albedo, out=np.zeros_like(radiance), where=lit_albedo)
+    if unreal:  # UE's recombine multiplies the transmitted light by the base colour: radiance = albedo out
+        added = np.where(lit_albedo, out, 0.0).astype(out.dtype)
+        radiance = np.multiply(added, gb.albedo, dtype=out.dtype)
+    else:
+        radiance = np.multiply(out, 1.0 / math.pi, dtype=out.dtype)
+        np.copyto(radiance, 0.0, where=~lit_albedo)
+        added = np.divide(radiance, gb.albedo, out=np.zeros_like(radiance), where=lit_albedo)
     return added, radiance.astype(np.float32, copy=False), TransmissionInfo(settings.transmission, True,
                                                                            settings.transmission_model, lit)
 

@@ -1,7 +1,7 @@
 """The transmittance pass (:mod:`ssskit.backends.transmission_plan`) as one GLSL compute shader: the
 frame's images in shader storage buffers (float32; the slots as int32), the plan's per-slot tables baked
-into the source as constants (:func:`transmission_source`), one invocation per camera pixel, steps 1-5 in
-the plan's order."""
+into the source as constants (:func:`transmission_source`; an ``unreal`` slot's table too, when the plan has
+one), one invocation per camera pixel, steps 1-5 in the plan's order."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...errors import PassError
-from ..transmission_plan import TransmissionPlan
+from ..transmission_plan import LUT_SIZE, UE_MAX_OPTICAL_DEPTH, TransmissionPlan
 from .separable import _array, _f
 
 if TYPE_CHECKING:
@@ -62,6 +62,22 @@ void main() {
     if (!(finite(t) && t > BIAS)) return;
     float e = clamp(WRAP[s] - ndl[p], 0.0, 1.0);  // step 3
     float u = SCALE[s] * t;
+#if HAS_LUT
+    if (LUT_SLOT[s] == 1) {  // step 4 of an unreal slot: UE's optical depth, its shadow-mask encoding, the table
+        float od = clamp(OD_PER_MM[s] * u + OD_OFFSET[s], 0.15, OD_MAX) + 0.25;
+        float enc = 1.0 - od / OD_MAX;
+        float x = (1.0 - enc * enc) * float(LUT_N - 1);
+        float fi = min(floor(x), float(LUT_N - 2));
+        int li = int(fi);
+        float f = x - fi;
+        for (int ch = 0; ch < 3; ++ch) {  // steps 4-5
+            int base = (s * 3 + ch) * LUT_N + li;
+            float tr = (1.0 - f) * LUT[base] + f * LUT[base + 1];
+            result[3 * p + ch] = tr * (light[3 * p + ch] * e);
+        }
+        return;
+    }
+#endif
     for (int ch = 0; ch < 3; ++ch) {  // steps 4-5
         float tr = 0.0;
         for (int k = 0; k < NTERMS; ++k) {
@@ -91,8 +107,20 @@ def transmission_source(plan: TransmissionPlan) -> str:
         _array("float", "COEF_C", [_f(v) for v in plan.c.reshape(-1)]),
         _array("float", "SCALE", [_f(v) for v in plan.scale]),
         _array("float", "WRAP", [_f(v) for v in plan.wrap]),
+        *_lut_source(plan),
         _BODY,
     ])
+
+
+def _lut_source(plan: TransmissionPlan) -> list[str]:
+    """The unreal slots' tables (step 4), baked only when the plan has one."""
+    if not plan.has_lut:
+        return ["#define HAS_LUT 0"]
+    return ["#define HAS_LUT 1", f"#define LUT_N {LUT_SIZE}", f"#define OD_MAX {_f(UE_MAX_OPTICAL_DEPTH)}",
+            _array("int", "LUT_SLOT", [str(int(v)) for v in plan.lut_slot]),
+            _array("float", "OD_PER_MM", [_f(v) for v in plan.od_per_mm]),
+            _array("float", "OD_OFFSET", [_f(v) for v in plan.od_offset]),
+            _array("float", "LUT", [_f(v) for v in plan.lut.reshape(-1)])]
 
 
 _PROGRAMS: dict[str, moderngl.ComputeShader] = {}
