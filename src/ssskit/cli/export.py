@@ -256,6 +256,9 @@ def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, materi
 @click.option("--unreal-form", type=click.Choice(("mfp", "dmfp")), default="mfp", show_default=True,
               help="--format unreal with a .py: the Burley form the script writes (mfp: UE 5; dmfp: UE 4.25-4.27).")
 @click.option("--standard-surface", is_flag=True, help="--format materialx: add a standard_surface beside OpenPBR.")
+@click.option("--no-transmission", is_flag=True,
+              help="--format unreal/unity: leave out the transmission fields (by default fitted to the material's MCML "
+                   "slab transmittance T(t), which a material not seen before simulates first: docs/transmission.md).")
 @kernel_spec_option(help="Kernel method name[:value] for hlsl/glsl/bn/json (e.g. jimenez2012, preintegrated, svd:2).")
 @click.option("--taps", type=click.IntRange(*TAP_RANGE), default=None,
               help="Taps per 1D pass (odd): jimenez2012's tap count, or the taps placed on a tabulated kernel "
@@ -273,7 +276,8 @@ def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, materi
 @json_option("Print one JSON object describing what was written.")
 @click.pass_context
 def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo: tuple[float, float, float] | None, mfp: tuple[float, float, float] | None,
-           dmfp: tuple[float, float, float] | None, eta: float, g: float, unreal_form: str, standard_surface: bool, kernel_spec: str | None,
+           dmfp: tuple[float, float, float] | None, eta: float, g: float, unreal_form: str, standard_surface: bool,
+           no_transmission: bool, kernel_spec: str | None,
            taps: int | None, tap_method: str, jitter: float, depth_mode: str | None, model: str, photons: int,
            grid_fraction: float | None, as_json: bool) -> None:
     """Write a kernel or a material's parameters in a format an engine loads."""
@@ -292,6 +296,8 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
         raise SsskitError("--unreal-form applies to --format unreal with a .py output (the editor script)")
     if standard_surface and fmt != "materialx":
         raise SsskitError("--standard-surface applies to --format materialx")
+    if no_transmission and fmt not in ("unreal", "unity"):
+        raise SsskitError("--no-transmission applies to --format unreal or unity (the engines with transmission fields)")
     if prof is None:
         needs_profile = m is None or m.needs_profile
         if material is not None or needs_profile:
@@ -314,7 +320,7 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
     if m is None:
         assert profile is not None  # a parameter export has its material's profile
         text = _engine_file(profile, fmt, suffix, mat, src_name or (mat.name if mat is not None else "ssskit"),
-                            unreal_form, standard_surface, summary)
+                            unreal_form, standard_surface, summary, not no_transmission)
         write_text(out, text)
     else:
         kernel = build_kernel(m.name, profile, **params)
@@ -334,23 +340,34 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
 
 
 def _engine_file(profile: RGBProfile, fmt: str, suffix: str, mat: Material | LayeredMaterial | None, name: str, unreal_form: str,
-                 standard_surface: bool, summary: dict[str, Any]) -> str:
-    """The text of a parameter export (the suffix picks the engine's own file or the JSON)."""
+                 standard_surface: bool, summary: dict[str, Any], transmission: bool = True) -> str:
+    """The text of a parameter export (the suffix picks the engine's own file or the JSON); ``transmission``: the
+    engines' transmission fields fitted to a homogeneous material's MCML T(t)."""
     import json
 
     from ..export import engine_parameters, fit_burley
+    from ..export.engines import TRANSMISSION_ENGINES
+    from ..materials import Material
 
     if fmt == "materialx":
         from ..export.materialx import materialx_document
 
         a, d = fit_burley(profile)
-        from ..materials import Material
-
         g = float(sum(mat.g) / 3.0) if isinstance(mat, Material) else 0.0  # (a layered one has no single g, eta)
         eta = float(mat.eta) if isinstance(mat, Material) else None
         summary["parameters"] = {"subsurface_color": a.tolist(), "d_mm": d.tolist()}
         return materialx_document(a, d, name, g, eta, standard_surface)
-    data = engine_parameters(profile, fmt, mat)
+    table = None
+    if transmission and fmt in TRANSMISSION_ENGINES and isinstance(mat, Material):
+        from ..profiles.montecarlo.transmission import transmission_table
+
+        table = transmission_table(mat)  # the material's MCML slab T(t) (cached like the profiles)
+    data = engine_parameters(profile, fmt, mat, table)
+    if fmt in TRANSMISSION_ENGINES and table is None:
+        why = ("left out (--no-transmission)" if not transmission else
+               "the transmission fields are fitted to a homogeneous material's MCML slab transmittance: give a preset "
+               "or material file, or artists' terms with --model montecarlo")
+        data["transmission"] = {"available": False, "why": why + "; the engine's defaults stay"}
     summary["parameters"] = {k: v for k, v in data.items() if k not in ("sources", "lost")}
     if suffix == "json":
         return json.dumps(data, indent=1) + "\n"
