@@ -236,7 +236,8 @@ def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, materi
     "ssskit export --material skin1 --format materialx --standard-surface --out skin1.mtlx",
     "ssskit export --albedo 0.44,0.22,0.12 --dmfp 4.9,2.4,1.4 --model montecarlo --format blender --out a.py",
     "ssskit export --material skin1_unreal.json --format unity --out Skin1.asset",
-    "ssskit export --material skin1 --kernel preintegrated --taps 7 --format glsl-shader --out sss.comp"))
+    "ssskit export --material skin1 --kernel preintegrated --taps 7 --format glsl-shader --out sss.comp",
+    "ssskit export --material skin1 --format glsl-shader --pass transmission --out transmission.comp"))
 @click.option("--format", "fmt", required=True, type=click.Choice(list(_formats()), case_sensitive=False),
               help="hlsl/glsl: shader arrays (demo layout); bn: pre-integrated kernel file; json: ssskit kernel; "
                    "unreal/unity/blender: engine material parameters (.json) or the engine's file (.py script for Blender "
@@ -256,6 +257,12 @@ def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, materi
 @click.option("--unreal-form", type=click.Choice(("mfp", "dmfp")), default="mfp", show_default=True,
               help="--format unreal with a .py: the Burley form the script writes (mfp: UE 5; dmfp: UE 4.25-4.27).")
 @click.option("--standard-surface", is_flag=True, help="--format materialx: add a standard_surface beside OpenPBR.")
+@click.option("--pass", "pass_", type=click.Choice(("separable", "transmission")), default="separable",
+              show_default=True,
+              help="--format glsl-shader/hlsl-shader: the separable pass (with --kernel) or the transmittance pass (light "
+                   "through thin parts, docs/transmission.md: --material's model baked in).")
+@click.option("--transmission-model", type=click.Choice(("mcml", "jimenez2010", "unreal")), default="mcml",
+              show_default=True, help="--pass transmission: the transmittance model baked into the shader.")
 @click.option("--no-transmission", is_flag=True,
               help="--format unreal/unity: leave out the transmission fields (by default fitted to the material's MCML "
                    "slab transmittance T(t), which a material not seen before simulates first: docs/transmission.md).")
@@ -277,7 +284,7 @@ def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, materi
 @click.pass_context
 def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo: tuple[float, float, float] | None, mfp: tuple[float, float, float] | None,
            dmfp: tuple[float, float, float] | None, eta: float, g: float, unreal_form: str, standard_surface: bool,
-           no_transmission: bool, kernel_spec: str | None,
+           pass_: str, transmission_model: str, no_transmission: bool, kernel_spec: str | None,
            taps: int | None, tap_method: str, jitter: float, depth_mode: str | None, model: str, photons: int,
            grid_fraction: float | None, as_json: bool) -> None:
     """Write a kernel or a material's parameters in a format an engine loads."""
@@ -287,6 +294,13 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
 
     fmt = fmt.lower()
     mat: Material | LayeredMaterial | None
+    if given(ctx, "pass_") and fmt not in SHADERS:
+        raise SsskitError("--pass applies to --format glsl-shader or hlsl-shader (the whole compute shaders)")
+    if given(ctx, "transmission_model") and pass_ != "transmission":
+        raise SsskitError("--transmission-model applies with --pass transmission")
+    if pass_ == "transmission":
+        _transmission_export(ctx, fmt, out, material, albedo, mfp, dmfp, eta, g, model, transmission_model, as_json)
+        return
     prof, mat, src_name, used_model = _material_source(ctx, fmt, material, albedo, mfp, dmfp, eta, g, model)
     have_material = material is not None or prof is not None
     m, params, tap_count = _check_options(ctx, fmt, kernel_spec, "given" if have_material else None, taps, out)
@@ -337,6 +351,63 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
         echo_json(summary)
     else:
         click.echo(f"# wrote {out} ({fmt})")
+
+
+def _transmission_export(ctx: click.Context, fmt: str, out: str, material: str | None,
+                         albedo: tuple[float, float, float] | None, mfp: tuple[float, float, float] | None,
+                         dmfp: tuple[float, float, float] | None, eta: float, g: float, model: str, tmodel: str,
+                         as_json: bool) -> None:
+    """``--pass transmission``: the transmittance pass's compute shader with the material's model baked in
+    (:func:`ssskit.export.shaders.transmission_shader`); every check before any work."""
+    from ..export import FORMATS
+    from ..io import check_distinct, check_suffix, write_text
+    from ..materials import Material
+
+    check_suffix(out, FORMATS[fmt][0], f"--out for --format {fmt}")
+    for name, flag in (("kernel_spec", "--kernel"), ("taps", "--taps"), ("tap_method", "--tap-method"),
+                       ("jitter", "--jitter"), ("depth_mode", "--depth-mode"), ("photons", "--photons"),
+                       ("grid_fraction", "--grid-fraction"), ("unreal_form", "--unreal-form"),
+                       ("standard_surface", "--standard-surface"), ("no_transmission", "--no-transmission")):
+        if given(ctx, name):
+            raise SsskitError(f"{flag} does not apply to --pass transmission (the shader bakes the material's "
+                              "transmittance model)")
+    if fmt == "hlsl-shader":
+        from ..export.shaders import tools_available
+
+        ok, why = tools_available()
+        if not ok:
+            raise SsskitError(f"--format hlsl-shader needs glslangValidator and spirv-cross: {why}")
+    mat: Any = None
+    if tmodel != "jimenez2010":
+        if material is None and albedo is None:
+            raise SsskitError(f"--transmission-model {tmodel} needs --material (its {'MCML slab transmittance' if tmodel == 'mcml' else 'Burley profile'})")
+        _, mat, _, _ = _material_source(ctx, fmt, material, albedo, mfp, dmfp, eta, g, model)
+        if mat is None and material is not None:
+            from ..export.readers import is_engine_file
+            from ..materials import get_material
+
+            mat = None if is_engine_file(material) else get_material(material)
+        if not isinstance(mat, Material):
+            raise SsskitError(f"--transmission-model {tmodel} needs a homogeneous material (a preset, a material file, "
+                              "or artists' terms with --model montecarlo)")
+    elif material is not None or albedo is not None:
+        raise SsskitError("--transmission-model jimenez2010 takes no material (Jimenez et al. 2010's skin Gaussians)")
+    check_distinct(out, material, what="--out")
+    # ---- work starts here
+    from ..export.shaders import transmission_shader
+    from ..pipeline.transmission import slot_model
+    from ..screenspace.transmission import transmission_plan
+
+    plan = transmission_plan({1: slot_model(tmodel, mat)})
+    text = transmission_shader(plan, fmt.split("-")[0])
+    what = f"{tmodel} transmittance of {mat.name}" if mat is not None else f"{tmodel} transmittance"
+    write_text(out, f"// ssskit export: the transmittance pass, {what}\n" + text)
+    if as_json:
+        echo_json({"format": fmt, "out": out, "pass": "transmission", "transmission_model": tmodel,
+                   "material": mat.name if mat is not None else None, "terms": plan.terms,
+                   "table": bool(plan.has_lut)})
+    else:
+        click.echo(f"# wrote {out} ({fmt}, transmittance pass)")
 
 
 def _engine_file(profile: RGBProfile, fmt: str, suffix: str, mat: Material | LayeredMaterial | None, name: str, unreal_form: str,

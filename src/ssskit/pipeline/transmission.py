@@ -96,7 +96,9 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
     return True
 
 
-def _model(name: str, material: Any) -> Any:
+def slot_model(name: str, material: Any) -> Any:
+    """The :class:`~ssskit.backends.transmission_plan.SlotModel` of transmission model ``name`` for ``material``
+    (mcml: its MCML fit; unreal: UE's defaults for its Burley d; jimenez2010: the skin Gaussians, no material)."""
     from ..screenspace.transmission import jimenez2010_model, mcml_model, unreal_material_model
 
     if name == "unreal":
@@ -133,7 +135,7 @@ def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[
 
     ids = _mask_ids(gb)
     say(f"transmittance pass: {settings.transmission_model} model, {settings.backend} backend")
-    plan = transmission_plan({pid: _model(settings.transmission_model, material_of[pid]) for pid in ids})
+    plan = transmission_plan({pid: slot_model(settings.transmission_model, material_of[pid]) for pid in ids})
     lut = np.zeros(int(gb.profile_id.max(initial=0)) + 1, np.int32)
     lut[ids] = np.arange(1, len(ids) + 1, dtype=np.int32)
     slots = lut[gb.profile_id]
@@ -196,5 +198,5 @@ def with_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, ma
     return total, radiance, info, exact_with
 
 
-__all__ = ["TransmissionInfo", "add_transmission", "material_of_ids", "transmission_light", "transmission_runs",
-           "with_transmission"]
+__all__ = ["TransmissionInfo", "add_transmission", "material_of_ids", "slot_model", "transmission_light",
+           "transmission_runs", "with_transmission"]
