@@ -9,6 +9,9 @@ backend (numba, gl where available: on llvmpipe without a GPU). Besides the wall
 process's CPU time per call (all threads; on a loaded machine it moves far less than the wall time, and
 wall ~ cpu / threads on an idle one).
 
+Pipeline: the same frame as a G-buffer through ssskit.pipeline.transmission.add_transmission on numba (the
+frame inputs from the G-buffer, the pass, the demodulation by the albedo), and the inputs alone.
+
 Thickness: scenes/lightspace.py ray-casts the map (orthographic, from the scene's first light) and the
 exact distance towards the light from each point the camera sees (128 x 128 camera pixels); the error of
 the pass's thickness (screenspace.transmission.thickness_from_map) against the chord through the medium
@@ -86,6 +89,46 @@ def cost(repeats: int) -> dict:
     return out
 
 
+def pipeline_cost(repeats: int) -> dict:
+    """The pass inside a render at 1080p on numba: the G-buffer's frame inputs (GBuffer.transmission_inputs in
+    float32) and the whole of pipeline.transmission.add_transmission (inputs, pass, demodulation), ms."""
+    from ssskit.materials import get_material
+    from ssskit.pipeline.settings import RenderSettings
+    from ssskit.pipeline.transmission import add_transmission
+    from ssskit.screenspace import GBuffer
+    from ssskit.screenspace.camera import Camera
+    from ssskit.screenspace.transmission import LightView
+
+    w, h = 1920, 1080
+    rng = np.random.default_rng(0)
+    cam = Camera(w, h, 2000.0, 2000.0, w / 2, h / 2, np.eye(4), 1.0)
+    normal = np.zeros((h, w, 3), np.float32)
+    normal[..., 2] = -1.0
+    view = LightView.looking_along(np.array([0.0, 0.0, -1.0]), np.array([0.0, 0.0, 500.0]), 300.0, (w, h))
+    depth_back = view.project(np.array([[0.0, 0.0, 505.0]]))[0, 2]
+    gb = GBuffer(diffuse=rng.random((h, w, 3), dtype=np.float32), albedo=np.full((h, w, 3), 0.5, np.float32),
+                 depth=np.full((h, w), 500.0, np.float32), profile_id=np.ones((h, w), np.uint32), camera=cam,
+                 normal=normal, materials=("skin1",), light_depth=np.full((h, w), depth_back, np.float32),
+                 light={**view.to_dict(), "irradiance": [1.0, 1.0, 1.0]})
+    sss = rng.random((h, w, 3), dtype=np.float32)
+    settings = RenderSettings(transmission="on", backend="numba")
+    mats = {1: get_material("skin1")}
+    fns = {"inputs": lambda: gb.transmission_inputs(np.float32),
+           "add_transmission": lambda: add_transmission(gb, sss, settings, mats, lambda msg: None)}
+    for fn in fns.values():
+        fn()
+    out = {}
+    for k, fn in fns.items():
+        wall, cpu = [], []
+        for _ in range(repeats):
+            c0, t0 = time.process_time(), time.perf_counter()
+            fn()
+            wall.append(1e3 * (time.perf_counter() - t0))
+            cpu.append(1e3 * (time.process_time() - c0))
+        out[k] = {"ms": round(statistics.median(wall), 2), "cpu_ms": round(statistics.median(cpu), 2)}
+    return out
+
+
 def thickness() -> dict:
     from ssskit.scenes.lightspace import depth_map, scene_light_view, seen_truth
     from ssskit.screenspace.transmission import thickness_from_map
@@ -114,7 +157,7 @@ def main() -> None:
     ap.add_argument("--skip-thickness", action="store_true")
     args = ap.parse_args()
     load0 = os.getloadavg()
-    result = {"cost_1080p": cost(args.repeats)}
+    result = {"cost_1080p": cost(args.repeats), "pipeline_1080p_numba": pipeline_cost(args.repeats)}
     if not args.skip_thickness:
         result["thickness_vs_chord"] = thickness()
     result["loadavg_before_after"] = [round(load0[0], 2), round(os.getloadavg()[0], 2)]
