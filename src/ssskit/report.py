@@ -391,7 +391,8 @@ def _transmission_section(out: Path, progress: Progress, ctx: dict) -> str:
     """Light through thin parts: the back-lit ear with and without the transmittance pass, how much light it adds
     per channel for each model (:mod:`ssskit.pipeline.transmission`)."""
     from .io import save_image
-    from .pipeline import RenderSettings, SeparablePass, render
+    from .pipeline import RenderSettings, SeparablePass
+    from .pipeline.render import render_separable
 
     backend = ctx.get("backend", DEFAULT_BACKEND)
     w, h = TRANSMISSION_SIZE
@@ -399,14 +400,14 @@ def _transmission_section(out: Path, progress: Progress, ctx: dict) -> str:
                           height=h, spp=TRANSMISSION_SPP, backend=backend, exact=False, perceptual=False,
                           pass_=SeparablePass(jitter=0.1))
     progress(f"transmission: the back-lit ear, {w}x{h}, {TRANSMISSION_SPP} spp, light layers ray-cast")
-    on = render("ear", base.replace(transmission="on"))
+    on = render_separable("ear", base.replace(transmission="on"))
     gb = on.gbuffer
-    off = render(gb, base.replace(transmission="off"))
+    off = render_separable(gb, base.replace(transmission="off"))
     mask = gb.mask
     reflect = off.image[mask].mean(axis=0)
     rows = []
     for model in ("mcml", "unreal", "jimenez2010"):
-        r = on if model == "mcml" else render(gb, base.replace(transmission_model=model))
+        r = on if model == "mcml" else render_separable(gb, base.replace(transmission_model=model))
         assert r.transmitted is not None
         added = r.transmitted[mask].mean(axis=0)
         lit = r.transmission.lit_pixels / max(int(mask.sum()), 1)

@@ -130,9 +130,10 @@ def test_unreal_model_is_ues_light_in_the_frame(ear):
     assert r.transmission.ran and r.transmission.model == "unreal" and r.transmission.lit_pixels > 0
     from ssskit.backends import get_backend
     from ssskit.materials import get_material
-    from ssskit.screenspace.transmission import (LightView, transmission_plan, unreal_material_model, unreal_phase)
+    from ssskit.pipeline.transmission import slot_model
+    from ssskit.screenspace.transmission import LightView, transmission_plan, unreal_phase
 
-    plan_ = transmission_plan({1: unreal_material_model(get_material("skin1"))})
+    plan_ = transmission_plan({1: slot_model("unreal", get_material("skin1"))})
     uvz, shadow, ndl, light = lit.transmission_inputs()
     pos = lit.positions()
     v = np.linalg.inv(lit.camera.world_to_camera)[:3, 3] - pos

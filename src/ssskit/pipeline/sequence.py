@@ -47,12 +47,13 @@ def _save_gbuffer(path: Path, gb: GBuffer) -> None:
     with atomic_output(path) as tmp:
         with open(tmp, "wb") as fh:
             assert gb.specular is not None and gb.normal is not None  # the scenes render both
-            light = {} if gb.light_depth is None else {"light_depth": gb.light_depth,
-                                                         "light": np.array(json.dumps(gb.light))}
-            np.savez(fh, diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id,
-                     specular=gb.specular, normal=gb.normal,
-                     camera=np.array(json.dumps(gb.camera.to_dict())), meta=np.array(json.dumps(gb.meta)),
-                     materials=np.array(json.dumps(list(gb.materials))), **light)
+            arrays: dict[str, Any] = dict(
+                diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id, specular=gb.specular,
+                normal=gb.normal, camera=np.array(json.dumps(gb.camera.to_dict())), meta=np.array(json.dumps(gb.meta)),
+                materials=np.array(json.dumps(list(gb.materials))))
+            if gb.light_depth is not None:  # the transmittance pass's light layers
+                arrays.update(light_depth=gb.light_depth, light=np.array(json.dumps(gb.light)))
+            np.savez(fh, **arrays)
 
 
 def _load_gbuffer(path: Path) -> GBuffer | None:

@@ -99,10 +99,11 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
 def slot_model(name: str, material: Any) -> Any:
     """The :class:`~ssskit.backends.transmission_plan.SlotModel` of transmission model ``name`` for ``material``
     (mcml: its MCML fit; unreal: UE's defaults for its Burley d; jimenez2010: the skin Gaussians, no material)."""
-    from ..screenspace.transmission import jimenez2010_model, mcml_model, unreal_material_model
+    from ..screenspace.burley import burley_params_for_material
+    from ..screenspace.transmission import jimenez2010_model, mcml_model, unreal_model
 
-    if name == "unreal":
-        return unreal_material_model(material)
+    if name == "unreal":  # UE's defaults for the material's Burley d (the Burley pass's own parameters)
+        return unreal_model(burley_params_for_material(material).d_mm)
     return mcml_model(material) if name == "mcml" else jimenez2010_model()
 
 
@@ -120,8 +121,8 @@ def _unreal_light(gb: GBuffer, light_rgb: np.ndarray) -> np.ndarray:
     n = gb.normal.astype(np.float64)
     n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
     to_light = -np.asarray(LightView.from_dict(gb.light).direction, float)
-    phase = unreal_phase(n, v, np.broadcast_to(to_light, n.shape), UE_TRANSMISSION_DEFAULTS["ScatteringDistribution"],
-                         UE_TRANSMISSION_DEFAULTS["IOR"])
+    g, ior = float(UE_TRANSMISSION_DEFAULTS["ScatteringDistribution"]), float(UE_TRANSMISSION_DEFAULTS["IOR"])
+    phase = unreal_phase(n, v, np.broadcast_to(to_light, n.shape), g, ior)
     return np.asarray(light_rgb * phase[..., None], light_rgb.dtype)
 
 

@@ -79,7 +79,7 @@ def mcml_model(material: Material, photons: int = 200_000, seed: int = 101, term
 #: UE's ProfileRadiusOffset (BurleyNormalizedSSS.cpp), cm
 UE_PROFILE_RADIUS_OFFSET_CM = 0.06
 #: FSubsurfaceProfileStruct's transmission defaults (Classes/Engine/SubsurfaceProfile.h, UE 5.8)
-UE_TRANSMISSION_DEFAULTS = {"ExtinctionScale": 1.0, "NormalScale": 0.08, "ScatteringDistribution": 0.93, "IOR": 1.55,
+UE_TRANSMISSION_DEFAULTS: dict[str, Any] = {"ExtinctionScale": 1.0, "NormalScale": 0.08, "ScatteringDistribution": 0.93, "IOR": 1.55,
                             "TransmissionTintColor": (1.0, 1.0, 1.0), "WorldUnitScale": 0.1, "DistanceScale": 1.0}
 
 
@@ -127,14 +127,6 @@ def unreal_model(d_mm: Any, tint: Any = (1.0, 1.0, 1.0), extinction_scale: float
     zero = np.zeros((3, 1))
     return SlotModel(zero, zero, zero, 1.0, 2.0, "unreal", lut=table, od_per_mm=extinction_scale / 10.0,
                      od_offset=normal_scale / 2.0)
-
-
-def unreal_material_model(material: Material) -> SlotModel:
-    """:func:`unreal_model` with UE's defaults for the material's Burley d (the Burley pass's own parameters,
-    :func:`ssskit.screenspace.burley.burley_params_for_material`)."""
-    from .burley import burley_params_for_material
-
-    return unreal_model(burley_params_for_material(material).d_mm)
 
 
 def approximate_hg(cos_theta: Any, g: float) -> np.ndarray:
@@ -246,5 +238,5 @@ def thickness_from_map(view: LightView, shadow_mm: np.ndarray, points: np.ndarra
 
 
 __all__ = ["JIMENEZ2010_WRAP", "UE_TRANSMISSION_DEFAULTS", "LightView", "approximate_hg", "jimenez2010_model",
-           "mcml_model", "refract", "thickness_from_map", "transmission_plan", "unreal_material_model", "unreal_model",
+           "mcml_model", "refract", "thickness_from_map", "transmission_plan", "unreal_model",
            "unreal_phase", "unreal_profile_distances_mm", "unreal_profile_table"]
