@@ -1,6 +1,6 @@
 """The transmittance pass in a rendered frame (docs/transmission.md): whether it runs, its models per profile
 id, and its light added to the reflectance SSS before the albedo multiply, for the separable and the
-Burley pass alike.
+Burley pass alike, and through :func:`transmission_light` for every frame of the adaptive run.
 
 Whether it runs (:func:`transmission_runs`, checked before any work with the scene's plan):
 
@@ -129,9 +129,10 @@ def _unreal_light(gb: GBuffer, light_rgb: np.ndarray) -> np.ndarray:
 def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[int, Any],
                        say: Callable[[str], None]) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
     """(added, radiance, info): the transmittance pass on the settings' backend with the settings' model for
-    every profile id of the mask (``material_of`` id -> material); ``radiance`` = T E / pi (H, W, 3) float32 and
-    ``added`` = radiance / albedo in the backend's float type, the light to add to the reflectance SSS
-    (module docstring), both 0 where the albedo is 0."""
+    every profile id of the mask (``material_of`` id -> material); ``radiance`` (H, W, 3) float32, the transmitted
+    radiance in the image (T E / pi; ``unreal``: albedo times UE's light) and ``added`` = radiance / albedo in the
+    backend's float type, the light to add to the reflectance SSS (module docstring), both 0 where the albedo
+    is 0."""
     from ..screenspace.transmission import transmission_plan
 
     ids = _mask_ids(gb)
@@ -162,8 +163,8 @@ def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[
 
 def add_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, material_of: dict[int, Any],
                      say: Callable[[str], None]) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
-    """(sss', transmitted radiance T E / pi (H, W, 3) float32, info): :func:`transmission_light` added to
-    ``sss`` (in its float type)."""
+    """(sss', the transmitted radiance (H, W, 3) float32, info): :func:`transmission_light` added to ``sss`` (in
+    its float type)."""
     added, radiance, info = transmission_light(gb, settings, material_of, say)
     dt = np.asarray(sss).dtype
     return np.add(sss, added, dtype=dt), radiance, info
