@@ -152,3 +152,21 @@ def test_jobs_must_be_a_positive_integer(tmp_path):
     with pytest.raises(SsskitError, match="jobs must be a positive integer, got 0"):
         report.build_report(tmp_path / "demo", backend="numpy", jobs=0)
     assert not (tmp_path / "demo").exists()
+
+
+@__import__("pytest").mark.slow
+def test_transmission_section_shows_the_light_each_model_adds(tmp_path):
+    """The demo's transmission section on the back-lit ear: a row per model (mcml, unreal, jimenez2010) whose
+    added light is >= 0, so the brightness ratio with / without is >= 1 in every channel (adding light never
+    darkens), the mcml model visibly brighter than the reflectance pass alone; the figure written; a link to
+    docs/transmission.md."""
+    import re
+
+    text = report._transmission_section(tmp_path, lambda msg: None, {"backend": "numba"})
+    assert (tmp_path / "figures" / "transmission_ear.png").stat().st_size > 1000
+    assert "transmission.md" in text and "<h2 id=transmission>" in text
+    rows = dict(re.findall(r"<td class=name>(\w+)</td><td>[^<]*</td><td>([^<]*)</td>", text))
+    assert set(rows) == {"mcml", "unreal", "jimenez2010"}
+    ratios = {m: [float(v) for v in r.split(",")] for m, r in rows.items()}
+    assert all(v >= 1.0 for r in ratios.values() for v in r)
+    assert min(ratios["mcml"]) > 1.5
