@@ -141,7 +141,7 @@ def test_an_error_in_a_worker_leaves_no_partial_folder(tmp_path, monkeypatch):
                                              ("kernels", report._kernels_section)])
     with pytest.raises(MaterialError, match="NoSuchMaterial"):
         report.build_report(tmp_path / "demo", backend="numpy", materials=["NoSuchMaterial"], jobs=2)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["cache"]
+    assert [p.name for p in tmp_path.iterdir() if p.name != "cache"] == []  # (the other section may have cached)
 
 
 def test_jobs_must_be_a_positive_integer(tmp_path):
