@@ -7,8 +7,9 @@ every kernel, matplotlib builds its font cache and no section comes from the dem
 not timed. The trees (``--src``: a folder put first on ``PYTHONPATH``, e.g. ``src`` of this checkout and of
 main, the competitor) run interleaved, ``--repeats`` rounds, with the load average before and after each
 run (the machine is shared). Per run: the wall and CPU seconds of the command (CPU: user + system of it and
-its worker processes), the report's own time (``built in ... s`` on its page), each section's time as its
-progress line states it, and the longest stderr silence (``benchmarks/silence.py``).
+its worker processes), the report's own time (``built in ... s`` on its page), each section's wall and CPU
+time as its progress line states it (and the workers' compilation, if any), and the longest stderr silence
+(``benchmarks/silence.py``).
 
     NUMBA_THREADING_LAYER=workqueue python benchmarks/bench_demo.py --src /path/to/main/src --src src --repeats 2
     python benchmarks/bench_demo.py --src src --demo-args "--jobs 1"   # the sections one after another
@@ -50,8 +51,12 @@ def fresh_demo(src: str, python: str, demo_args: list[str]) -> dict:
     built = re.search(r"built in ([0-9.]+) s", page)
     sections = {m.group(1): float(m.group(2)) for _, text in lines
                 if (m := re.search(r"section (\w+): done in ([0-9.]+) s", text))}
+    cpu = {m.group(1): float(m.group(2)) for _, text in lines
+           if (m := re.search(r"section (\w+): done in [0-9.]+ s \(CPU ([0-9.]+) s\)", text))}
+    compiled = [float(m.group(1)) for _, text in lines if (m := re.search(r"compiled the \w+ kernels in ([0-9.]+) s", text))]
     run.pop("command")
-    return {**run, "report_own_s": float(built.group(1)) if built else None, "sections_s": sections}
+    return {**run, "report_own_s": float(built.group(1)) if built else None, "sections_s": sections,
+            "sections_cpu_s": cpu, "warm_up_s": compiled[0] if compiled else None}
 
 
 def main(argv: list[str] | None = None) -> dict:

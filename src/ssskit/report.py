@@ -507,9 +507,10 @@ def _cached_section(name: str, section: Section, out: Path, progress: Progress, 
     return text
 
 
-def _section_job(name: str, section: Section, out: Path, ctx: dict[str, Any], label: str) -> tuple[str, float]:
+def _section_job(name: str, section: Section, out: Path, ctx: dict[str, Any],
+                 label: str) -> tuple[str, float, float]:
     """A worker's job (:func:`_build_parallel`): one section into its own folder ``out`` (:func:`_cached_section`),
-    its progress to the parent; returns (its HTML, its seconds)."""
+    its progress to the parent; returns (its HTML, its seconds, its CPU seconds)."""
     import contextlib
 
     from .compute.workers import line
@@ -517,11 +518,19 @@ def _section_job(name: str, section: Section, out: Path, ctx: dict[str, Any], la
     from .progress import reporting
 
     line(f"{label} section {name}")
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), _cpu_s()
     out.mkdir(parents=True, exist_ok=True)
     with reporting(line), (no_shipped() if ctx.get("recompute") else contextlib.nullcontext()):
         text = _cached_section(name, section, out, line, ctx)
-    return text, time.perf_counter() - t0
+    return text, time.perf_counter() - t0, _cpu_s() - c0
+
+
+def _cpu_s() -> float:
+    """This process's CPU seconds so far (user + system, every thread)."""
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
 
 
 def _warm_up_job(backend: str, passes: list[str]) -> None:
@@ -531,9 +540,9 @@ def _warm_up_job(backend: str, passes: list[str]) -> None:
     from .compute.workers import line
 
     line(f"compiling the {backend} kernels of {', '.join(passes)} (once: numba caches them on disk)")
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), _cpu_s()
     get_backend(backend).warm_up(passes)
-    line(f"compiled the {backend} kernels in {time.perf_counter() - t0:.1f} s")
+    line(f"compiled the {backend} kernels in {time.perf_counter() - t0:.1f} s (CPU {_cpu_s() - c0:.1f} s)")
 
 
 def _build_parallel(out: Path, sections: list[tuple[str, Section]], progress: Progress, ctx: dict[str, Any],
@@ -564,12 +573,12 @@ def _build_parallel(out: Path, sections: list[tuple[str, Section]], progress: Pr
         if index < len(warm):
             return
         k = order[index - len(warm)]
-        body[k], seconds = value
+        body[k], seconds, cpu = value
         for src in sorted(p for p in (parts / names[k]).rglob("*") if p.is_file()):
             dst = out / src.relative_to(parts / names[k])
             dst.parent.mkdir(parents=True, exist_ok=True)
             os.replace(src, dst)
-        progress(f"[{k + 1}/{len(sections)}] section {names[k]}: done in {seconds:.1f} s")
+        progress(f"[{k + 1}/{len(sections)}] section {names[k]}: done in {seconds:.1f} s (CPU {cpu:.1f} s)")
 
     workers = min(jobs, len(sections))
     progress(f"{len(sections)} sections on {workers} processes (starting them takes a few seconds)")
@@ -670,9 +679,10 @@ def _build(out: Path, progress: Progress, ctx: dict[str, Any], runner: Backend, 
         body = []
         for k, (name, section) in enumerate(sections, 1):
             progress(f"[{k}/{len(sections)}] section {name}")
-            t_section = time.perf_counter()
+            t_section, c_section = time.perf_counter(), _cpu_s()
             body.append(_cached_section(name, section, out, progress, ctx))
-            progress(f"[{k}/{len(sections)}] section {name}: done in {time.perf_counter() - t_section:.1f} s")
+            progress(f"[{k}/{len(sections)}] section {name}: done in {time.perf_counter() - t_section:.1f} s "
+                     f"(CPU {_cpu_s() - c_section:.1f} s)")
     from . import __version__
 
     body, toc = _with_contents(body)
