@@ -44,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from ..backends import warm_up_in_background
 from ..errors import SettingsError
 from ..io import check_distinct, save_image
 from ..metrics import region_metrics
@@ -278,6 +279,8 @@ def render_adaptive(scene: SceneInput = "slab", settings: RenderSettings | None 
     a = p.adaptive_settings()
     b = settings.burley_settings()
     taa = TAASettings() if p.taa else None
+    # the passes' kernels compile (a fresh machine: seconds, one thread) while Mitsuba renders the G-buffers
+    warm_up_in_background(b.backend, ["burley", "adaptive"] + (["transmission"] if plan.transmission else []))
     if static:
         return _static(scene, plan, settings, p, a, b, params, taa, progress, on_frame)
     assert plan.builtin is not None  # a moving run has a built-in scene (plan_adaptive)

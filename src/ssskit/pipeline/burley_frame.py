@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from ..backends import warm_up_in_background
 from ..errors import SettingsError, SignalError
 from ..screenspace import BurleyParams, BurleySettings, GBuffer, burley_sss
 from ..screenspace.burley import burley_backend
@@ -216,6 +217,8 @@ def render_burley(scene: SceneInput = "slab", settings: RenderSettings | None = 
     plan, params = plan_burley(scene, settings, params)
     b = settings.burley_settings()
     say = progress or (lambda msg: None)
+    # the pass's kernels compile (a fresh machine: seconds, one thread) while Mitsuba renders the G-buffer
+    warm_up_in_background(b.backend, ["burley"] + (["transmission"] if plan.transmission else []))
     gb = frame_gbuffer(plan, settings, _on_params(params, lambda p: p.albedo), say)
     say(f"Burley pass: {b.sampler} sampler, {b.spp} spp, {b.backend} backend")
     sss = burley_sss(gb, params, b)
