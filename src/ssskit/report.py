@@ -460,9 +460,6 @@ SECTION_PASSES: dict[str, tuple[str, ...]] = {
     "model": ("separable:follow", "burley", "adaptive"),
 }
 
-#: the environment variables that set the BLAS libraries' thread counts (numpy's and scipy's OpenBLAS, MKL)
-BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-
 #: the order several processes take the sections in: those that run no pass first (beside the compilation),
 #: then the longest (measured on 2 cores: kernels ~50 s, screen space ~60 s, adaptive ~25 s, transmission ~13 s,
 #: profiles ~11 s and Burley ~10 s of CPU once compiled); a section not named here comes last
@@ -556,7 +553,7 @@ def _build_parallel(out: Path, sections: list[tuple[str, Section]], progress: Pr
     import shutil
 
     from .backends import get_backend
-    from .compute.workers import run_jobs
+    from .compute.workers import one_blas_thread, run_jobs
 
     names = [name for name, _ in sections]
     rank = {name: k for k, name in enumerate(SECTION_ORDER)}
@@ -583,9 +580,9 @@ def _build_parallel(out: Path, sections: list[tuple[str, Section]], progress: Pr
     workers = min(jobs, len(sections))
     progress(f"{len(sections)} sections on {workers} processes (starting them takes a few seconds)")
     # plain progress lines from the workers (redrawn bars of several processes would garble a terminal); one
-    # BLAS thread each (unless the user chose): the sections' small matrices gain nothing from more, and two
-    # workers' idle BLAS threads spinning beside each other doubled the kernel ranking's CPU time (measured)
-    env = {"SSSKIT_PROGRESS": "lines", **{name: os.environ.get(name, "1") for name in BLAS_THREADS}}
+    # BLAS thread each unless the user chose (ssskit.compute.workers.one_blas_thread: two workers' idle BLAS
+    # threads spinning beside each other doubled the kernel ranking's CPU time)
+    env = {"SSSKIT_PROGRESS": "lines", **one_blas_thread()}
     try:
         run_jobs(tasks, workers, progress, done, env=env)
     finally:
