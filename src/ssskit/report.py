@@ -580,9 +580,9 @@ def _build_parallel(out: Path, sections: list[tuple[str, Section]], progress: Pr
     workers = min(jobs, len(sections))
     progress(f"{len(sections)} sections on {workers} processes (starting them takes a few seconds)")
     # plain progress lines from the workers (redrawn bars of several processes would garble a terminal); one
-    # BLAS thread each unless the user chose (ssskit.compute.workers.one_blas_thread: two workers' idle BLAS
-    # threads spinning beside each other doubled the kernel ranking's CPU time)
-    env = {"SSSKIT_PROGRESS": "lines", **one_blas_thread()}
+    # BLAS thread (ssskit.compute.workers.one_blas_thread) and one OpenMP thread (FLIP's) each unless the user
+    # chose: beside another busy worker a second thread only spins on the cores the other one needs
+    env = {"SSSKIT_PROGRESS": "lines", **one_blas_thread(), "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "1")}
     try:
         run_jobs(tasks, workers, progress, done, env=env)
     finally:
