@@ -53,7 +53,8 @@ def fresh_demo(src: str, python: str, demo_args: list[str]) -> dict:
                 if (m := re.search(r"section (\w+): done in ([0-9.]+) s", text))}
     cpu = {m.group(1): float(m.group(2)) for _, text in lines
            if (m := re.search(r"section (\w+): done in [0-9.]+ s \(CPU ([0-9.]+) s\)", text))}
-    compiled = [float(m.group(1)) for _, text in lines if (m := re.search(r"compiled the \w+ kernels in ([0-9.]+) s", text))]
+    compiled = [float(m.group(1)) for _, text in lines
+                if (m := re.search(r"compiled the \w+ kernels in ([0-9.]+) s", text))]
     run.pop("command")
     return {**run, "report_own_s": float(built.group(1)) if built else None, "sections_s": sections,
             "sections_cpu_s": cpu, "warm_up_s": compiled[0] if compiled else None}

@@ -553,7 +553,7 @@ def _build_parallel(out: Path, sections: list[tuple[str, Section]], progress: Pr
     import shutil
 
     from .backends import get_backend
-    from .compute.workers import one_blas_thread, run_jobs
+    from .compute.workers import one_library_thread, run_jobs
 
     names = [name for name, _ in sections]
     rank = {name: k for k, name in enumerate(SECTION_ORDER)}
@@ -580,9 +580,9 @@ def _build_parallel(out: Path, sections: list[tuple[str, Section]], progress: Pr
     workers = min(jobs, len(sections))
     progress(f"{len(sections)} sections on {workers} processes (starting them takes a few seconds)")
     # plain progress lines from the workers (redrawn bars of several processes would garble a terminal); one
-    # BLAS thread (ssskit.compute.workers.one_blas_thread) and one OpenMP thread (FLIP's) each unless the user
-    # chose: beside another busy worker a second thread only spins on the cores the other one needs
-    env = {"SSSKIT_PROGRESS": "lines", **one_blas_thread(), "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "1")}
+    # BLAS and one OpenMP thread each unless the user chose (ssskit.compute.workers.one_library_thread; the CLI
+    # has set it already): beside another busy worker a second thread only spins on the core the other needs
+    env = {"SSSKIT_PROGRESS": "lines", **one_library_thread()}
     try:
         run_jobs(tasks, workers, progress, done, env=env)
     finally:

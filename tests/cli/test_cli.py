@@ -285,10 +285,11 @@ def test_the_group_lists_commands_without_importing_them():
 
 
 @pytest.mark.parametrize("preset", [None, "2"])
-def test_commands_run_one_blas_thread_unless_told(preset):
-    """The CLI sets OpenBLAS (and MKL) to one thread before numpy loads, unless the user set a count: the
-    small matrices of ssskit ran 2-3x slower on two threads (ssskit.compute.workers.one_blas_thread). Where
-    numpy's bundled OpenBLAS names its thread count, the loaded library says so too."""
+def test_commands_run_one_library_thread_unless_told(preset):
+    """The CLI sets OpenBLAS, MKL and OpenMP to one thread before numpy loads, unless the user set a count:
+    ssskit's small matrices and FLIP's test signals ran 1.7-2.4x slower on two threads
+    (ssskit.compute.workers.one_library_thread). Where numpy's bundled OpenBLAS names its thread count, the
+    loaded library says so too."""
     import ast
     import os
 
@@ -300,12 +301,15 @@ def test_commands_run_one_blas_thread_unless_told(preset):
             "if os.path.exists('/proc/self/maps') else set()\n"
             "found = [getattr(ctypes.CDLL(p), n)() for p in libs for n in ('scipy_openblas_get_num_threads64_',"
             " 'openblas_get_num_threads') if hasattr(ctypes.CDLL(p), n)]\n"
-            "print(os.environ['OPENBLAS_NUM_THREADS'], os.environ['MKL_NUM_THREADS'], found)\n")
-    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
+            "print(os.environ['OPENBLAS_NUM_THREADS'], os.environ['MKL_NUM_THREADS'], os.environ['OMP_NUM_THREADS'],"
+            " found)\n")
+    from ssskit.compute.workers import LIBRARY_THREADS
+
+    env = {k: v for k, v in os.environ.items() if k not in LIBRARY_THREADS}
     if preset is not None:
         env["OPENBLAS_NUM_THREADS"] = preset
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
-    blas, mkl, found = out.strip().splitlines()[-1].split(" ", 2)
-    assert (blas, mkl) == (preset or "1", "1")
+    blas, mkl, omp, found = out.strip().splitlines()[-1].split(" ", 3)
+    assert (blas, mkl, omp) == (preset or "1", "1", "1")
     if preset is None and found != "[]":
         assert set(ast.literal_eval(found)) == {1}  # the loaded OpenBLAS runs one thread

@@ -169,15 +169,15 @@ def _terminate_as_interrupt() -> Iterator[None]:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point: runs the CLI, turning user errors into one line on stderr and exit status 2. Before any
-    command imports numpy, BLAS is set to one thread unless the user chose a count
-    (:func:`ssskit.compute.workers.one_blas_thread`)."""
+    command imports numpy, BLAS and OpenMP are set to one thread unless the user chose a count
+    (:func:`ssskit.compute.workers.one_library_thread`)."""
     import os
 
-    from ..compute.workers import one_blas_thread
+    from ..compute.workers import one_library_thread
     from ..progress import heartbeat, reporting
     from .options import progress
 
-    os.environ.update(one_blas_thread())
+    os.environ.update(one_library_thread())
 
     try:
         # progress from deep in the library in every mode; no silence longer than a few seconds in a log

@@ -17,20 +17,23 @@ from typing import Any
 
 _LINES: Any = None  # in a worker: the queue to the parent
 
-#: the environment variables of the BLAS libraries' thread counts (numpy's and scipy's OpenBLAS, MKL), read
-#: once when the library loads
-BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+#: the environment variables of the numeric libraries' own thread counts, read once when a library loads: numpy's
+#: and scipy's BLAS (OpenBLAS, or MKL) and OpenMP (FLIP's flip-evaluator)
+LIBRARY_THREADS = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OMP_NUM_THREADS")
 
 
-def one_blas_thread() -> dict[str, str]:
-    """The environment for one BLAS thread, keeping a count the user set: {variable: value} of
-    :data:`BLAS_THREADS`. ssskit's matrices are small (kernel grids up to ~200 cells, SLSQP's ~100 variables),
-    where OpenBLAS's threads cost more than they bring: measured on 2 cores, 2 threads took the guided kernel
-    (Ketchup, k = 2) 3.4 s of CPU against 1.4 s, the demo's kernel ranking twice the CPU (their idle threads
-    spin), and two processes side by side (``ssskit demo``'s workers) fight over them; one thread also makes
-    the results independent of the machine's core count (2 threads changed the last bit of that kernel).
-    The CLI sets it before any command imports numpy; it has no effect in a process whose numpy is loaded."""
-    return {name: os.environ.get(name, "1") for name in BLAS_THREADS}
+def one_library_thread() -> dict[str, str]:
+    """The environment for one thread in each library of :data:`LIBRARY_THREADS`, keeping a count the user set:
+    {variable: value}. ssskit's work in them is small (kernel grids up to ~200 cells, SLSQP's ~100 variables,
+    FLIP on 256 x 256 test signals), where their threads cost more than they bring, measured on 2 cores:
+    two BLAS threads took the guided kernel (Ketchup, k = 2) 3.4 s of CPU against 1.4 s; two OpenMP threads
+    took FLIP 0.17 s per 256 x 256 pair against 0.10 s, wall and CPU (beside one other busy process); the demo's
+    kernel ranking's CPU fell from ~50 s to 27 s with both at one. Idle threads of these pools spin, so
+    two processes side by side (``ssskit demo``'s workers) lose most. One thread also makes the results
+    independent of the machine's core count (two BLAS threads changed the last bit of that kernel). The
+    passes, the path tracer and the Monte Carlo engine keep their own threads. The CLI sets this before any
+    command imports numpy; it has no effect on a library already loaded."""
+    return {name: os.environ.get(name, "1") for name in LIBRARY_THREADS}
 
 #: seconds between the parent's checks that its workers still live
 POLL_S = 0.2
@@ -117,4 +120,4 @@ def run_jobs(jobs: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], workers
         results.close()
 
 
-__all__ = ["BLAS_THREADS", "POLL_S", "line", "one_blas_thread", "run_jobs"]
+__all__ = ["LIBRARY_THREADS", "POLL_S", "line", "one_library_thread", "run_jobs"]
