@@ -453,11 +453,11 @@ SECTIONS: list[tuple[str, Section]] = [
 #: processes (``build_report(jobs=...)``) one of them compiles them all first, while another builds a section
 #: that runs none, so no two processes compile the same kernel and no section waits for its compilation
 SECTION_PASSES: dict[str, tuple[str, ...]] = {
-    "screenspace": ("separable:follow", "separable:gaussian"),
+    "screenspace": ("separable:follow", "separable:gaussian", "separable:ids"),
     "transmission": ("separable:follow", "transmission"),
     "burley": ("separable:follow", "burley"),
     "adaptive": ("burley", "adaptive"),
-    "model": ("separable:follow", "burley", "adaptive"),
+    "model": ("separable:follow", "separable:ids", "burley", "adaptive"),
 }
 
 #: the order several processes take the sections in: those that run no pass first (beside the compilation),

@@ -50,9 +50,11 @@ class SlotPlan(Protocol):
 #: the phases an AdaptiveRunner times, in frame order (Xie 2020 Fig. 8 and Table 1)
 PHASES = ("estimate", "prefilter", "sampling", "update")
 
-#: what :meth:`Backend.warm_up` gets ready: the separable pass in each depth mode (:data:`DEPTH_MODES`), the
-#: Burley pass, the adaptive sampler's guiding phase and the transmittance pass
-WARM_UP = tuple(f"separable:{mode}" for mode in DEPTH_MODES) + ("burley", "adaptive", "transmission")
+#: what :meth:`Backend.warm_up` gets ready: the separable pass in each depth mode (:data:`DEPTH_MODES`) on a frame
+#: of one profile id, what it adds for several ids (``separable:ids``), the Burley pass, the adaptive sampler's
+#: guiding phase and the transmittance pass
+WARM_UP = tuple(f"separable:{mode}" for mode in DEPTH_MODES) + ("separable:ids", "burley", "adaptive",
+                                                                 "transmission")
 
 
 class Backend(ABC):
@@ -251,10 +253,11 @@ def check_warm_up(passes: Iterable[str]) -> list[str]:
 
 
 def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
-    """Run each of ``passes`` (:data:`WARM_UP`) once on ``backend`` on a tiny synthetic 8 x 8 frame with two
-    profile ids, through the backend's own entry points: what a backend that compiles on first use calls
-    to compile, since the argument types (hence the compiled specialisations) are those of a real frame of
-    any size. The results are thrown away."""
+    """Run each of ``passes`` (:data:`WARM_UP`) once on ``backend`` on a tiny synthetic 8 x 8 frame (two profile
+    ids; one for ``separable:<mode>``, whose first real frame rarely has more), through the backend's own
+    entry points: what a backend that compiles on first use calls to compile, since the argument types (hence
+    the compiled specialisations) are those of a real frame of any size. ``separable:ids`` runs the pass in the
+    depth mode named before it (else ``follow``) on two ids. The results are thrown away."""
     from .adaptive_plan import AdaptivePlan
     from .burley_plan import BurleyParams, build_burley_plan
     from .plan import TermTable
@@ -267,15 +270,19 @@ def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
     slots[:, n // 2:] = 2
     slots[0] = 0
     ids = (1, 2)
-    for name in check_warm_up(passes):
+    names = check_warm_up(passes)
+    modes = [name.partition(":")[2] for name in names if name.startswith("separable:") and name != "separable:ids"]
+    for name in names:
         kind, _, mode = name.partition(":")
         if kind == "separable":
-            rows = np.array([[0.0, 0.0], [0.5, 1.0], [0.5, 1.0]])
-            weights = np.full((3, 2, 3), 0.1)
-            term = TermTable(rows, weights, weights, np.array([0, 1, 1]), np.array([0, 2, 2]),
-                             np.full((3, 3), 0.6), np.ones((3, 3)))
-            plan = SeparablePlan(ids, (term,), mode, np.array([0.0, 1.0, 1.0]), 100.0, 100.0, 0, 0)
-            backend.separable(plan, diffuse, depth, slots)
+            k = 2 if mode == "ids" else 1  # profile ids
+            rows = np.array([[0.0, 0.0]] + [[0.5, 1.0]] * k)
+            weights = np.full((k + 1, 2, 3), 0.1)
+            term = TermTable(rows, weights, weights, np.array([0] + [1] * k), np.array([0] + [2] * k),
+                             np.full((k + 1, 3), 0.6), np.ones((k + 1, 3)))
+            plan = SeparablePlan(ids[:k], (term,), (modes or ["follow"])[0] if mode == "ids" else mode,
+                                 np.array([0.0] + [1.0] * k), 100.0, 100.0, 0, 0)
+            backend.separable(plan, diffuse, depth, slots if k == 2 else np.minimum(slots, 1))
         elif kind == "burley":
             params = BurleyParams.from_dmfp((0.5, 0.5, 0.5), (1.0, 0.5, 0.25))
             for mips in (True, False):
