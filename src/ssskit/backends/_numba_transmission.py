@@ -23,7 +23,7 @@ _LOG2E = np.float32(1.4426950408889634)
 
 
 @njit(cache=True, nogil=True, fastmath=False)
-def _row_geometry(slots, uvz, shadow, ndl, wrap, scale, bias, y, u_row, e_row):  # pragma: no cover
+def _row_geometry(slots, uvz, shadow, ndl, wrap, scale, normal, bias, y, u_row, e_row):  # pragma: no cover
     """Steps 1-3 of row y: u = scale t and the back irradiance factor e (0 where no transmission)."""
     hs, ws = shadow.shape
     w = slots.shape[1]
@@ -63,6 +63,8 @@ def _row_geometry(slots, uvz, shadow, ndl, wrap, scale, bias, y, u_row, e_row): 
         t = uvz[y, x, 2] - acc / wsum  # step 2
         if not (math.isfinite(t) and t > bias):
             continue
+        if normal[s] > _ZERO:  # step 2: along the surface normal
+            t = t * min(max(-ndl[y, x], _ZERO), _ONE)
         e = wrap[s] - ndl[y, x]  # step 3
         e_row[x] = min(max(e, _ZERO), _ONE)
         u_row[x] = scale[s] * t
@@ -87,10 +89,11 @@ def _row_terms(slots, light, a, b, c, y, u_row, e_row, out):  # pragma: no cover
 
 
 @njit(cache=True, nogil=True)
-def transmission_rows(slots, uvz, shadow, ndl, light, a, b, c, scale, wrap, bias, out, y0, y1):  # pragma: no cover
+def transmission_rows(slots, uvz, shadow, ndl, light, a, b, c, scale, wrap, normal, bias, out, y0,
+                      y1):  # pragma: no cover
     w = slots.shape[1]
     u_row = np.empty(w, np.float32)
     e_row = np.empty(w, np.float32)
     for y in range(y0, y1):
-        _row_geometry(slots, uvz, shadow, ndl, wrap, scale, bias, y, u_row, e_row)
+        _row_geometry(slots, uvz, shadow, ndl, wrap, scale, normal, bias, y, u_row, e_row)
         _row_terms(slots, light, a, b, c, y, u_row, e_row, out)

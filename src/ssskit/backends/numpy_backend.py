@@ -23,6 +23,7 @@ from .adaptive_plan import AdaptivePlan, reference_counts, reference_update_pass
 from .base import Backend, check_burley_frame, check_frame
 from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, BurleyPlan, MipPyramid, SampleCounts, mip_pyramid
 from .plan import SeparablePlan, TermTable
+from .spread_plan import SpreadPlan
 from .transmission_plan import TransmissionPlan, check_transmission_frame
 
 
@@ -229,7 +230,7 @@ class NumpyBackend(Backend):
     name = "numpy"
     description = "numpy, float64: the reference every other backend is tested against (slow)"
     dtype = np.float64
-    passes = frozenset({"separable", "burley", "adaptive", "transmission"})
+    passes = frozenset({"separable", "burley", "adaptive", "transmission", "spread"})
 
     def availability(self) -> tuple[bool, str]:
         return True, "float64 reference (the oracle)"
@@ -253,6 +254,14 @@ class NumpyBackend(Backend):
                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
         check_transmission_frame(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
         return transmission_pass(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
+
+    def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                            light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float64]:
+        from .numpy_spread import spread_pass
+        from .spread_plan import check_spread_frame
+
+        check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
+        return spread_pass(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
 
     def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
                spp: SampleCounts, pyramid: MipPyramid | None = None) -> np.ndarray:
@@ -312,6 +321,7 @@ def transmission_pass(plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.n
         lit = np.isfinite(t) & (t > plan.bias_mm)
     t = np.where(lit, t, 0.0)
     ndl = np.asarray(n_dot_l, np.float64)[ys, xs]
+    t = np.where(plan.normal[s] > 0, t * np.clip(-ndl, 0.0, 1.0), t)  # step 2: along the surface normal
     e = np.asarray(light_rgb, np.float64)[ys, xs] * np.clip(plan.wrap[s] - ndl, 0.0, 1.0)[:, None]  # step 3
     u = (plan.scale[s] * t)[:, None, None]
     tr = np.sum(plan.a[s] * np.exp(-plan.b[s] * u - plan.c[s] * u * u), axis=-1)  # step 4

@@ -50,6 +50,7 @@ FIELDS: dict[str, tuple[str, ...]] = {
     "no_perceptual": ("perceptual",),
     "transmission": ("transmission",),
     "transmission_model": ("transmission_model",),
+    "transmission_spread": ("transmission_spread",),
 }
 #: the options each pass owns: with another pass they are refused
 OWN: dict[str, tuple[str, ...]] = {
@@ -238,7 +239,7 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
             raise SsskitError(f"{option_name(ctx, opt)} applies to a built-in scene; the G-buffer file "
                               f"{str(scene)!r} has its own")
     if name == "burley-adaptive":
-        for opt in ("transmission", "transmission_model"):
+        for opt in ("transmission", "transmission_model", "transmission_spread"):
             if given(ctx, opt) and not (opt == "transmission" and s.transmission == "off"):
                 raise SsskitError(f"{option_name(ctx, opt)} applies to --pass separable or burley (one frame); the "
                                   "burley-adaptive run has no transmittance pass")

@@ -45,22 +45,25 @@ from .settings import RenderSettings
 
 @dataclass(frozen=True)
 class TransmissionInfo:
-    """What a frame's transmission did: the setting, whether the pass ran, its model, and the share of SSS
-    pixels it lit (out > 0 in some channel)."""
+    """What a frame's transmission did: the setting, whether the pass ran, its model, the share of SSS
+    pixels it lit (out > 0 in some channel), and its lateral spread (``mcml`` or ``off``)."""
 
     setting: str
     ran: bool
     model: str | None = None
     lit_pixels: int = 0
+    spread: str = "off"
 
     def to_dict(self) -> dict[str, Any]:
-        return {"setting": self.setting, "ran": self.ran, "model": self.model, "lit_pixels": int(self.lit_pixels)}
+        return {"setting": self.setting, "ran": self.ran, "model": self.model, "lit_pixels": int(self.lit_pixels),
+                "spread": self.spread}
 
     def line(self) -> str:
         """One line for the human-readable summary."""
         if not self.ran:
             return f"# transmission: off (setting {self.setting})"
-        return f"# transmission: {self.model} model, {self.lit_pixels} SSS pixels lit from behind (setting {self.setting})"
+        return (f"# transmission: {self.model} model, {self.lit_pixels} SSS pixels lit from behind, lateral spread "
+                f"{self.spread} (setting {self.setting})")
 
 
 def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: str, has_scene: bool,
@@ -109,7 +112,19 @@ def add_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, mat
     lut = np.zeros(int(gb.profile_id.max(initial=0)) + 1, np.int32)
     lut[ids] = np.arange(1, len(ids) + 1, dtype=np.int32)
     slots = lut[gb.profile_id]
-    out = np.asarray(get_backend(settings.backend).transmission(plan, slots, *gb.transmission_inputs()), np.float64)
+    backend = get_backend(settings.backend)
+    uvz, shadow, ndl, light = gb.transmission_inputs()
+    # >= 0: a model whose terms subtract (the scattered part) may round a hair below 0 in float32
+    out = np.maximum(np.asarray(backend.transmission(plan, slots, uvz, shadow, ndl, light), np.float64), 0.0)
+    spread = settings.transmission_spread == "mcml" and all(isinstance(material_of[pid], Material) for pid in ids)
+    if spread:
+        from ..backends.spread_plan import build_spread_plan
+        from ..screenspace.transmission import mcml_spread
+
+        say(f"lateral spread of the transmitted light (MCML's Tt(r)), {settings.backend} backend")
+        splan = build_spread_plan({pid: mcml_spread(material_of[pid]) for pid in ids}, gb.camera.fx, gb.camera.fy,
+                                  plan.bias_mm)
+        out = np.asarray(backend.transmission_spread(splan, out, gb.depth_mm, slots, uvz, shadow), np.float64)
     radiance = out / math.pi
     albedo = gb.albedo.astype(np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -117,7 +132,7 @@ def add_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, mat
     lit = int(np.count_nonzero(np.any(out > 0, axis=-1)))
     total = (np.asarray(sss, np.float64) + demod).astype(np.asarray(sss).dtype)
     return total, np.where(albedo > 0, radiance, 0.0).astype(np.float32), TransmissionInfo(
-        settings.transmission, True, settings.transmission_model, lit)
+        settings.transmission, True, settings.transmission_model, lit, "mcml" if spread else "off")
 
 
 def with_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, materials: tuple[Any, ...], material: Any,
