@@ -5,7 +5,9 @@ ray-cast truth on built-in scenes at two map resolutions. Prints one JSON object
 Cost: a 1920x1080 frame, every pixel inside the SSS mask and behind the map's surface (every pixel runs all
 of steps 1-5), the 1024^2 map spread over the frame, Skin1's MCML model (4 terms), against the separable pass of 7 importance-sampled taps of
 Skin1's pre-integrated kernel with 10 % jitter (the paper's set-up), medians of interleaved repeats, per
-backend (numba, gl where available: on llvmpipe without a GPU).
+backend (numba, gl where available: on llvmpipe without a GPU); and the lateral spread of the pass's result
+(backends.spread_plan: Skin1's MCML widths, 4-6 mm of medium behind every pixel, 2 pixels per mm: 5-8 pixels
+in red).
 
 Thickness: scenes/lightspace.py ray-casts the map (orthographic, from the scene's first light) and the
 exact distance towards the light from each point the camera sees (128 x 128 camera pixels); the error of
@@ -36,7 +38,8 @@ def cost(repeats: int) -> dict:
     from ssskit.materials import get_material
     from ssskit.profiles import profile_for_material
     from ssskit.sampling.taps import make_taps
-    from ssskit.screenspace.transmission import mcml_model, transmission_plan
+    from ssskit.backends.spread_plan import build_spread_plan
+    from ssskit.screenspace.transmission import mcml_model, mcml_spread, transmission_plan
 
     w, h = 1920, 1080
     rng = np.random.default_rng(0)
@@ -50,6 +53,7 @@ def cost(repeats: int) -> dict:
     taps = make_taps(build_kernel("preintegrated", profile, cell, size), 7, "importance")
     sep = build_separable_plan({1: taps}, 1000.0, 1000.0, jitter=0.1, depth_mode="follow")
     tplan = transmission_plan({1: mcml_model(get_material("skin1"))})
+    splan = build_spread_plan({1: mcml_spread(get_material("skin1"))}, 1000.0, 1000.0)
     hs, ws = 1024, 1024
     shadow = (100.0 + rng.uniform(0, 2, (hs, ws))).astype(np.float32)
     # neighbouring pixels see neighbouring texels (the map covers the frame's object, as a light's map does)
@@ -63,8 +67,10 @@ def cost(repeats: int) -> dict:
             out[name] = {"available": False}
             continue
         b = get_backend(name)
+        exitance = np.ascontiguousarray(b.transmission(tplan, slots, uvz, shadow, ndl, light), np.float32)
         fns = {"separable": lambda: b.separable(sep, image, depth, slots),
-               "transmission": lambda: b.transmission(tplan, slots, uvz, shadow, ndl, light)}
+               "transmission": lambda: b.transmission(tplan, slots, uvz, shadow, ndl, light),
+               "spread": lambda: b.transmission_spread(splan, exitance, depth, slots, uvz, shadow)}
         for fn in fns.values():
             fn()
         times: dict[str, list[float]] = {k: [] for k in fns}
@@ -76,6 +82,8 @@ def cost(repeats: int) -> dict:
         med = {k: statistics.median(v) for k, v in times.items()}
         out[name] = {"separable_ms": round(med["separable"], 2), "transmission_ms": round(med["transmission"], 2),
                      "share_of_separable": round(med["transmission"] / med["separable"], 3),
+                     "spread_ms": round(med["spread"], 2),
+                     "spread_share_of_separable": round(med["spread"] / med["separable"], 3),
                      "renderer": backend_status()[name]["details"]}
     return out
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from ssskit.backends import get_backend
-from ssskit.backends.numpy_spread import spread_pass
+from ssskit.backends.numpy_backend import spread_pass
 from ssskit.backends.spread_plan import SlotSpread, build_spread_plan, taps
 from ssskit.errors import PassError
 

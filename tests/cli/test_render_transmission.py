@@ -144,6 +144,9 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
     (["--scene", "slab", "--pass", "burley-adaptive", "--transmission", "on"], "transmission on applies to the "
                                                                                 "separable and burley passes"),
     (["--scene", "slab", "--pass", "burley-adaptive", "--transmission-model", "mcml"], "--transmission-model applies"),
+    (["--scene", "plain.exr", "--transmission-spread", "wide"], "Invalid value for '--transmission-spread': 'wide'"),
+    (["--scene", "slab", "--pass", "burley-adaptive", "--transmission-spread", "off"],
+     "--transmission-spread applies"),
 ])
 def test_bad_transmission_input(run, workdir, args, fragment):
     one_error_line(run, workdir, ["render", *args, "--backend", "numpy", "--out", "o.exr", "--save-gbuffer", "g2.exr"],
@@ -153,6 +156,7 @@ def test_bad_transmission_input(run, workdir, args, fragment):
 @pytest.mark.parametrize("content, fragment", [
     ("transmission_model = 'foo'\n", "transmission_model must be one of mcml, jimenez2010, got 'foo'"),
     ("transmission = 'yes'\n", "transmission must be one of auto, on, off, got 'yes'"),
+    ("transmission_spread = 'wide'\n", "transmission_spread must be one of mcml, off, got 'wide'"),
 ])
 def test_bad_transmission_settings_file(run, workdir, content, fragment):
     (workdir / "s.toml").write_text(content)

@@ -257,7 +257,6 @@ class NumpyBackend(Backend):
 
     def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float64]:
-        from .numpy_spread import spread_pass
         from .spread_plan import check_spread_frame
 
         check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
@@ -327,3 +326,80 @@ def transmission_pass(plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.n
     tr = np.sum(plan.a[s] * np.exp(-plan.b[s] * u - plan.c[s] * u * u), axis=-1)  # step 4
     out[ys, xs] = np.where(lit[:, None], tr * e, 0.0)  # step 5
     return out
+
+
+def spread_sigma(plan: SpreadPlan, slots: np.ndarray, light_uvz: np.ndarray,
+                 shadow_mm: np.ndarray) -> NDArray[np.float64]:
+    """Steps 0-1 of :mod:`ssskit.backends.spread_plan`: (H, W, 3) sigma (mm) of every pixel in a slot, 0
+    elsewhere."""
+    sl = np.asarray(slots)
+    uvz = np.asarray(light_uvz, np.float64)
+    out = np.zeros(sl.shape + (3,))
+    ys, xs = np.nonzero(sl > 0)
+    if ys.size == 0:
+        return out
+    with np.errstate(invalid="ignore"):
+        t = uvz[ys, xs, 2] - shadow_depth(np.asarray(shadow_mm, np.float64), uvz[ys, xs, 0], uvz[ys, xs, 1])
+        t = np.where(np.isfinite(t) & (t > plan.bias_mm), t, 0.0)
+    s = sl[ys, xs]
+    for slot in np.unique(s):
+        m = s == slot
+        out[ys[m], xs[m]] = plan.sigma(int(slot), t[m])
+    return out
+
+
+def spread_axis(plan: SpreadPlan, v: np.ndarray, depth: np.ndarray, slots: np.ndarray, sigma: np.ndarray,
+                horizontal: bool) -> NDArray[np.float64]:
+    """Step 2 of :mod:`ssskit.backends.spread_plan` along one axis, float64."""
+    h, w = slots.shape
+    out = np.array(v, np.float64, copy=True)
+    ys, xs = np.nonzero(slots > 0)
+    if ys.size == 0:
+        return out
+    z = depth[ys, xs].astype(np.float64)
+    sig = sigma[ys, xs]  # (N, 3) mm
+    f = plan.fx if horizontal else plan.fy
+    spx = sig * (f / z)[:, None]
+    m = spx.max(axis=1)
+    act = m >= plan.min_px
+    ys, xs, z, sig, spx, m = ys[act], xs[act], z[act], sig[act], spx[act], m[act]
+    if ys.size == 0:
+        return out
+    step = np.maximum(1, np.ceil(3.0 * m / plan.max_taps)).astype(np.int64)
+    k = np.ceil(3.0 * m / step).astype(np.int64)
+    inv2 = 1.0 / (2.0 * np.maximum(spx, 1e-30) ** 2)
+    total = np.zeros_like(spx)
+    for j in range(-int(k.max()), int(k.max()) + 1):
+        on = np.abs(j) <= k
+        d = (j * step).astype(np.float64)
+        total += np.where(on[:, None], np.exp(-(d * d)[:, None] * inv2), 0.0)
+    s = slots[ys, xs]
+    vp = np.asarray(v, np.float64)[ys, xs]
+    acc = np.zeros_like(spx)
+    zinv2 = 1.0 / (2.0 * np.maximum(sig, 1e-30) ** 2)
+    for j in range(-int(k.max()), int(k.max()) + 1):
+        if j == 0:
+            continue
+        d = j * step
+        qy, qx = (ys, xs + d) if horizontal else (ys + d, xs)
+        ok = (np.abs(j) <= k) & (qx >= 0) & (qx < w) & (qy >= 0) & (qy < h)
+        qyc, qxc = np.clip(qy, 0, h - 1), np.clip(qx, 0, w - 1)
+        ok &= slots[qyc, qxc] == s
+        dz = depth[qyc, qxc].astype(np.float64) - z
+        with np.errstate(invalid="ignore"):
+            wgt = np.exp(-(d.astype(np.float64) ** 2)[:, None] * inv2) / total * np.exp(-(dz * dz)[:, None] * zinv2)
+        vq = np.asarray(v, np.float64)[qyc, qxc]
+        acc += np.where(ok[:, None], wgt * (vq - vp), 0.0)
+    out[ys, xs] = vp + acc
+    return out
+
+
+def spread_pass(plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float64]:
+    """The float64 oracle of the transmitted light's lateral spread (:mod:`ssskit.backends.spread_plan`): steps 0-1,
+    the horizontal pass, then the vertical one on its result, vectorised over the pixels."""
+    sl = np.asarray(slots)
+    depth = np.asarray(depth_mm, np.float64)
+    sigma = spread_sigma(plan, sl, light_uvz, shadow_mm)
+    tmp = spread_axis(plan, np.asarray(exitance, np.float64), depth, sl, sigma, True)
+    return spread_axis(plan, tmp, depth, sl, sigma, False)

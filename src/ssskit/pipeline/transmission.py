@@ -30,13 +30,14 @@ twice). Pixels whose albedo is 0 get no transmitted light (nothing there to add 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..backends import get_backend
+from ..backends.transmission_plan import SlotModel
 from ..errors import SettingsError
 from ..materials import Material
 from ..screenspace import GBuffer
@@ -100,15 +101,19 @@ def _model(name: str, material: Any) -> Any:
 
 
 def add_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, material_of: dict[int, Any],
-                     say: Callable[[str], None]) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
+                     say: Callable[[str], None], models: Mapping[int, SlotModel] | None = None,
+                     ) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
     """(sss', transmitted radiance T E / pi (H, W, 3) float32, info): the transmittance pass on the settings'
-    backend with the settings' model for every profile id of the mask (``material_of`` id -> material),
-    demodulated and added to ``sss`` (module docstring)."""
+    backend with the settings' model for every profile id of the mask (``material_of`` id -> material), or
+    ``models`` (profile id -> :class:`~ssskit.backends.transmission_plan.SlotModel`, e.g. an engine's exported
+    parameters), spread (``settings.transmission_spread``), demodulated and added to ``sss`` (module docstring)."""
     from ..screenspace.transmission import transmission_plan
 
     ids = sorted(int(i) for i in np.unique(gb.profile_id[gb.mask]))
-    say(f"transmittance pass: {settings.transmission_model} model, {settings.backend} backend")
-    plan = transmission_plan({pid: _model(settings.transmission_model, material_of[pid]) for pid in ids})
+    name = settings.transmission_model if models is None else "given"
+    say(f"transmittance pass: {name} model, {settings.backend} backend")
+    plan = transmission_plan({pid: _model(settings.transmission_model, material_of[pid]) if models is None
+                              else models[pid] for pid in ids})
     lut = np.zeros(int(gb.profile_id.max(initial=0)) + 1, np.int32)
     lut[ids] = np.arange(1, len(ids) + 1, dtype=np.int32)
     slots = lut[gb.profile_id]
@@ -132,7 +137,7 @@ def add_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, mat
     lit = int(np.count_nonzero(np.any(out > 0, axis=-1)))
     total = (np.asarray(sss, np.float64) + demod).astype(np.asarray(sss).dtype)
     return total, np.where(albedo > 0, radiance, 0.0).astype(np.float32), TransmissionInfo(
-        settings.transmission, True, settings.transmission_model, lit, "mcml" if spread else "off")
+        settings.transmission, True, name, lit, "mcml" if spread else "off")
 
 
 def with_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, materials: tuple[Any, ...], material: Any,
