@@ -127,3 +127,24 @@ def test_taps_and_checks(plan):
         build_spread_plan({1: _spread([1.0] * 3)}, math.nan, FY)
     with pytest.raises(PassError, match="profile ids"):
         build_spread_plan({0: _spread([1.0] * 3)}, FX, FY)
+
+
+def test_a_noisy_width_moves_light_without_losing_it(backend):
+    """Each pixel's thickness (so its width, 0.8 to 4.8 pixels) drawn at random, and the light brighter where
+    thicker, as a G-buffer's noisy depth makes it: the pair weights give back what they take, so the frame's
+    light changes by 0.6 % (where each receiver used its own width alone: 5.1 % lost); a smooth width loses none."""
+    n = 80
+    plan = build_spread_plan({1: SlotSpread(np.array([0.0, 4.0]), np.array([[0.4, 2.4]] * 3))}, FX, FY)
+    z = np.full((n, n), 100.0, np.float32)
+    slots = np.ones((n, n), np.int32)
+    shadow = np.full((8, 8), 100.0, np.float32)
+    b = get_backend(backend)
+    noisy = np.random.default_rng(3).uniform(0.0, 4.0, (n, n))
+    smooth = np.broadcast_to(np.linspace(0.0, 4.0, n), (n, n))
+    for t, bound, moved in ((noisy, 0.01, 0.05), (smooth, 1e-5, 0.005)):
+        uvz = np.stack([np.full((n, n), 4.0), np.full((n, n), 4.0), 100.0 + t], -1).astype(np.float32)
+        v = np.repeat((0.1 + 0.2 * t)[..., None], 3, -1).astype(np.float32)
+        out = np.asarray(b.transmission_spread(plan, v, z, slots, uvz, shadow), np.float64)
+        change = out.sum() / v.astype(np.float64).sum() - 1.0
+        assert abs(change) < bound, change
+        assert np.abs(out - v).max() > moved

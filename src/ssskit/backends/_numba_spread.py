@@ -14,7 +14,7 @@ _ZERO = np.float32(0.0)
 _ONE = np.float32(1.0)
 _HALF = np.float32(0.5)
 _THREE = np.float32(3.0)
-_TINY = np.float32(1e-30)
+_SQRT2PI = np.float32(2.5066282746310002)
 
 
 @njit(cache=True, nogil=True)
@@ -83,9 +83,7 @@ def sigma_rows(slots, uvz, shadow, knots, table, n_knots, bias, out, y0, y1):  #
 def spread_rows(src, depth, slots, sig, focal, horizontal, min_px, max_taps, dst, y0, y1):  # pragma: no cover
     """Step 2 along one axis for rows [y0, y1): ``src`` (H, W, 3) -> ``dst``."""
     h, w = slots.shape
-    tot = np.empty(3, np.float32)
-    inv2 = np.empty(3, np.float32)
-    zinv2 = np.empty(3, np.float32)
+    spx = np.empty(3, np.float32)
     acc = np.empty(3, np.float32)
     for y in range(y0, y1):
         for x in range(w):
@@ -98,20 +96,14 @@ def spread_rows(src, depth, slots, sig, focal, horizontal, min_px, max_taps, dst
             k_px = focal / zp
             m = _ZERO
             for c in range(3):
-                spx = sig[y, x, c] * k_px
-                m = max(m, spx)
-                inv2[c] = _ONE / (np.float32(2.0) * max(spx, _TINY) * max(spx, _TINY))
-                zinv2[c] = _ONE / (np.float32(2.0) * max(sig[y, x, c], _TINY) * max(sig[y, x, c], _TINY))
-                tot[c] = _ZERO
+                spx[c] = sig[y, x, c] * k_px
+                m = max(m, spx[c])
                 acc[c] = _ZERO
             if m < min_px:
                 continue
             step = max(1, int(math.ceil(_THREE * m / np.float32(max_taps))))
             kk = int(math.ceil(_THREE * m / np.float32(step)))
-            for j in range(-kk, kk + 1):
-                d = np.float32(j * step)
-                for c in range(3):
-                    tot[c] += math.exp(-(d * d) * inv2[c])
+            fstep = np.float32(step)
             for j in range(-kk, kk + 1):
                 if j == 0:
                     continue
@@ -120,9 +112,16 @@ def spread_rows(src, depth, slots, sig, focal, horizontal, min_px, max_taps, dst
                 if qx < 0 or qx >= w or qy < 0 or qy >= h or slots[qy, qx] != s:
                     continue
                 d = np.float32(j * step)
-                dz = depth[qy, qx] - zp
+                zq = depth[qy, qx]
+                dz = zq - zp
+                kq = focal / zq
                 for c in range(3):
-                    wgt = math.exp(-(d * d) * inv2[c]) / tot[c] * math.exp(-(dz * dz) * zinv2[c])
+                    pair_px = math.sqrt(spx[c] * (sig[qy, qx, c] * kq))
+                    if not (pair_px > _ZERO and abs(d) <= _THREE * pair_px):
+                        continue
+                    pair_mm = math.sqrt(sig[y, x, c] * sig[qy, qx, c])
+                    wgt = (fstep * math.exp(-(d * d) / (np.float32(2.0) * pair_px * pair_px)) / (_SQRT2PI * pair_px)
+                           * math.exp(-(dz * dz) / (np.float32(2.0) * pair_mm * pair_mm)))
                     acc[c] += wgt * (src[qy, qx, c] - src[y, x, c])
             for c in range(3):
                 dst[y, x, c] = src[y, x, c] + acc[c]

@@ -11,6 +11,7 @@ looped over the sample index.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -367,16 +368,9 @@ def spread_axis(plan: SpreadPlan, v: np.ndarray, depth: np.ndarray, slots: np.nd
         return out
     step = np.maximum(1, np.ceil(3.0 * m / plan.max_taps)).astype(np.int64)
     k = np.ceil(3.0 * m / step).astype(np.int64)
-    inv2 = 1.0 / (2.0 * np.maximum(spx, 1e-30) ** 2)
-    total = np.zeros_like(spx)
-    for j in range(-int(k.max()), int(k.max()) + 1):
-        on = np.abs(j) <= k
-        d = (j * step).astype(np.float64)
-        total += np.where(on[:, None], np.exp(-(d * d)[:, None] * inv2), 0.0)
     s = slots[ys, xs]
     vp = np.asarray(v, np.float64)[ys, xs]
     acc = np.zeros_like(spx)
-    zinv2 = 1.0 / (2.0 * np.maximum(sig, 1e-30) ** 2)
     for j in range(-int(k.max()), int(k.max()) + 1):
         if j == 0:
             continue
@@ -385,9 +379,15 @@ def spread_axis(plan: SpreadPlan, v: np.ndarray, depth: np.ndarray, slots: np.nd
         ok = (np.abs(j) <= k) & (qx >= 0) & (qx < w) & (qy >= 0) & (qy < h)
         qyc, qxc = np.clip(qy, 0, h - 1), np.clip(qx, 0, w - 1)
         ok &= slots[qyc, qxc] == s
-        dz = depth[qyc, qxc].astype(np.float64) - z
-        with np.errstate(invalid="ignore"):
-            wgt = np.exp(-(d.astype(np.float64) ** 2)[:, None] * inv2) / total * np.exp(-(dz * dz)[:, None] * zinv2)
+        zq = depth[qyc, qxc].astype(np.float64)
+        sq = sigma[qyc, qxc]
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            pair_px = np.sqrt(spx * sq * (f / zq)[:, None])  # S_c
+            pair_mm = np.sqrt(sig * sq)  # s_c
+            dz = zq - z
+            wgt = (step[:, None] * np.exp(-(d.astype(np.float64) ** 2)[:, None] / (2.0 * pair_px ** 2))
+                   / (math.sqrt(2.0 * math.pi) * pair_px) * np.exp(-(dz * dz)[:, None] / (2.0 * pair_mm ** 2)))
+        wgt = np.where((pair_px > 0) & (np.abs(d)[:, None] <= 3.0 * pair_px), wgt, 0.0)
         vq = np.asarray(v, np.float64)[qyc, qxc]
         acc += np.where(ok[:, None], wgt * (vq - vp), 0.0)
     out[ys, xs] = vp + acc

@@ -20,13 +20,19 @@ Per pixel p in slot s > 0 (every backend in this order):
 1. sigma_c = sigma_s,c(t) (mm); the pixel's scale k = f / depth_p (pixels per mm: ``fx`` for the horizontal
    pass, ``fy`` for the vertical), sigma_px,c = k sigma_c, m = max_c sigma_px,c.
 2. One 1D pass along the axis (horizontal on ``exitance``, then vertical on its result): if m < ``min_px``
-   the pixel keeps its value. Else taps at d = j step, j = -K..K, with step = ceil(3 m / max_taps) pixels and
-   K = ceil(3 m / step) (at most ``max_taps``); g_c(j) = exp(-(j step)^2 / (2 sigma_px,c^2)), W_c = sum_j
-   g_c(j); for j != 0 the texel q = p + d (along the axis) counts if it lies in the image and in slot s, with
-   weight w_c = g_c(j) / W_c exp(-(z_q - z_p)^2 / (2 sigma_c^2)) (the Gaussian of the 3D distance); out_c(p) =
-   v_c(p) + sum_q w_c (v_c(q) - v_c(p)). Taps off the image, off the slot or lost to the depth factor leave
-   their share at p (as the separable pass, :mod:`ssskit.backends.plan`): a uniform exitance stays uniform,
-   and nothing crosses profile ids.
+   the pixel keeps its value. Else taps at d = j step, j = -K..K, j != 0, with step = ceil(3 m / max_taps)
+   pixels and K = ceil(3 m / step) (at most ``max_taps``); the texel q = p + d (along the axis) counts if it
+   lies in the image and in slot s. Its weight is the pair's, the same seen from p and from q: with the
+   geometric means S_c = sqrt(sigma_px,c(p) sigma_px,c(q)) (pixels, each at its own depth) and s_c =
+   sqrt(sigma_c(p) sigma_c(q)) (mm), w_c = step exp(-d^2 / (2 S_c^2)) / (sqrt(2 pi) S_c) exp(-(z_q - z_p)^2 /
+   (2 s_c^2)) (the Gaussian of the 3D distance) where |d| <= 3 S_c, 0 beyond (and where S_c = 0); out_c(p) =
+   v_c(p) + sum_q w_c (v_c(q) - v_c(p)). What p gives q, q gives back in the same measure, so the light is
+   moved, not made or lost: exactly where the two see each other with the same step (a smooth width); when
+   each pixel's width is drawn at random between 0.8 and 4.8 pixels, 0.6 % of it is lost (a width taken from
+   the receiver alone lost 7 % of a 0.5 mm slab's red light to the G-buffer's noisy thickness, draining the
+   thicker, brighter pixels). Taps off the image, off the slot or lost to the depth factor leave their share
+   at p (as the separable pass, :mod:`ssskit.backends.plan`): a uniform exitance stays uniform, and nothing
+   crosses profile ids.
 """
 
 from __future__ import annotations

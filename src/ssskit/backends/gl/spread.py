@@ -82,22 +82,14 @@ void spread_axis(int p, int s, bool horizontal) {  // step 2
     int x = p % u_w, y = p / u_w;
     float zp = depth[p];
     float kpx = u_focal / zp;
-    float m = 0.0;
-    vec3 inv2, zinv2, tot = vec3(0.0), acc = vec3(0.0);
-    for (int c = 0; c < 3; ++c) {
-        float spx = sig[3 * p + c] * kpx;
-        m = max(m, spx);
-        inv2[c] = 1.0 / (2.0 * max(spx, 1e-30) * max(spx, 1e-30));
-        zinv2[c] = 1.0 / (2.0 * max(sig[3 * p + c], 1e-30) * max(sig[3 * p + c], 1e-30));
-    }
+    vec3 sp = vec3(sig[3 * p], sig[3 * p + 1], sig[3 * p + 2]);
+    vec3 spx = sp * kpx;
+    float m = max(spx.x, max(spx.y, spx.z));
+    vec3 acc = vec3(0.0);
     vec3 vp = vec3(src[3 * p], src[3 * p + 1], src[3 * p + 2]);
     if (m < MIN_PX) { dst[3 * p] = vp.x; dst[3 * p + 1] = vp.y; dst[3 * p + 2] = vp.z; return; }
     int step = max(1, int(ceil(3.0 * m / float(MAX_TAPS))));
     int kk = int(ceil(3.0 * m / float(step)));
-    for (int j = -kk; j <= kk; ++j) {
-        float d = float(j * step);
-        tot += exp(-(d * d) * inv2);
-    }
     for (int j = -kk; j <= kk; ++j) {
         if (j == 0) continue;
         int qx = horizontal ? x + j * step : x;
@@ -106,9 +98,17 @@ void spread_axis(int p, int s, bool horizontal) {  // step 2
         int q = qy * u_w + qx;
         if (slots[q] != s) continue;
         float d = float(j * step);
-        float dz = depth[q] - zp;
-        vec3 wgt = exp(-(d * d) * inv2) / tot * exp(-(dz * dz) * zinv2);
-        acc += wgt * (vec3(src[3 * q], src[3 * q + 1], src[3 * q + 2]) - vp);
+        float zq = depth[q];
+        float dz = zq - zp;
+        vec3 sq = vec3(sig[3 * q], sig[3 * q + 1], sig[3 * q + 2]);
+        vec3 pair_px = sqrt(spx * sq * (u_focal / zq));
+        vec3 pair_mm = sqrt(sp * sq);
+        for (int c = 0; c < 3; ++c) {
+            if (!(pair_px[c] > 0.0 && abs(d) <= 3.0 * pair_px[c])) continue;
+            float wgt = float(step) * exp(-(d * d) / (2.0 * pair_px[c] * pair_px[c])) / (2.5066282746310002 * pair_px[c])
+                        * exp(-(dz * dz) / (2.0 * pair_mm[c] * pair_mm[c]));
+            acc[c] += wgt * (src[3 * q + c] - vp[c]);
+        }
     }
     vec3 o = vp + acc;
     dst[3 * p] = o.x; dst[3 * p + 1] = o.y; dst[3 * p + 2] = o.z;
