@@ -7,7 +7,9 @@ reference as rendered less the reference with a black backing behind the unseen 
 demo's regions) for the MCML model as it was (whole Tt along the light's chord), with the unscattered beam
 taken out, along the surface normal, and with the lateral spread; ``map_resolution``, the same with the
 light-space depth ray-cast at 1, 2 and 4 times the frame's size; ``oblique``, MCML's scattered transmittance
-of Skin1 slabs lit at 0-60 degrees against the pass's two thicknesses (lab.transmitted.oblique_table). The
+of Skin1 slabs lit at 0-60 degrees against the pass's two thicknesses (lab.transmitted.oblique_table);
+``slab_faces``, the back-lit 0.5 and 1 mm slabs path-traced with MCML's smooth faces and with the references'
+rough ones, against MCML at the camera's 45 degrees (lab.transmitted.slab_face_levels). The
 references are cached (the as-rendered one is ``ssskit render --scene ear --size 160x120 --spp 16
 --transmission on --reference --reference-spp 4096 --reference-max-spp 4096``'s).
 """
@@ -33,10 +35,11 @@ def main() -> None:
     ap.add_argument("--size", default="160x120")
     ap.add_argument("--spp", type=int, default=4096)
     ap.add_argument("--skip-oblique", action="store_true")
+    ap.add_argument("--skip-faces", action="store_true")
     args = ap.parse_args()
     w, h = (int(v) for v in args.size.split("x"))
 
-    from lab.transmitted import map_resolution_pass, oblique_table, transmitted_table
+    from lab.transmitted import map_resolution_pass, oblique_table, slab_face_levels, transmitted_table
     from lab.variants import backed_scene
     from ssskit.backends.spread_plan import build_spread_plan
     from ssskit.backends import get_backend
@@ -87,6 +90,17 @@ def main() -> None:
                                                            backed.pixel_se, e, masks)
     if not args.skip_oblique:
         out["oblique"] = oblique_table(mat, (1.0, 2.0, 3.0), (0.0, 30.0, 45.0, 60.0))
+    if not args.skip_faces:
+        out["slab_faces"] = []
+        from ssskit.profiles.montecarlo import simulate
+        from ssskit.profiles.montecarlo.slab import slab_config
+
+        for i, t in enumerate((0.5, 1.0)):
+            mc = [simulate(slab_config(mat, c, t, 400_000, 5000 + i)).tt_level_at(math.sqrt(0.5)) for c in range(3)]
+            for faces in ("smooth", "rough"):
+                row = slab_face_levels(t, faces, mat)
+                row["mcml_at_45"] = [v[0] for v in mc]
+                out["slab_faces"].append(row)
     out["seconds"] = round(time.perf_counter() - t0, 1)
     out["load_after"] = os.getloadavg()
     print(json.dumps(out, indent=1))

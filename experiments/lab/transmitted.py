@@ -7,6 +7,8 @@
   (the thin ear's red light lost through its back, docs/regions.md);
 * the **shadow map's resolution** (:func:`map_resolution_pass`): the pass with the light-space depth ray-cast
   at k times the frame's size (the G-buffer's layer is at the frame's: an EXR part has one data window);
+* the **reference's rough faces** (:func:`slab_face_levels`): the back-lit slab path-traced with smooth faces
+  (MCML's) and with the references' rough dielectric;
 * **oblique incidence** (:func:`oblique_table`): MCML's scattered transmittance of a slab lit at theta against
   the same slab at normal incidence (the pass's thickness along the surface normal) and against a slab as thick
   as the light's chord t / cos theta (the translucency shadow map's thickness).
@@ -73,6 +75,36 @@ def map_resolution_pass(scene: Any, gb: Any, plan: Any, factor: int, backend: st
     return np.asarray(get_backend(backend).transmission(plan, slots, uvz, shadow, ndl, light), np.float64)
 
 
+def slab_face_levels(thickness_mm: float, faces: str, material: Material, view_deg: float = 45.0, size: int = 16,
+                     chunks: int = 1280, chunk_spp: int = 64, seed: int = 7) -> dict[str, Any]:
+    """pi L / E of the back-lit slab (:func:`ssskit.scenes.backlit.backlit_slab`) path-traced with ``faces``
+    ``"smooth"`` (Mitsuba ``dielectric``, MCML's smooth Fresnel faces) or ``"rough"`` (the references'
+    ``roughdielectric``, Beckmann alpha 0.15), over a ``size`` x ``size`` * 3/4 image of the slab's middle:
+    the mean and the standard error of ``chunks`` renders of ``chunk_spp`` samples (seeds ``chunk_seed(seed, i)``).
+    E is the light's irradiance at the lit face, pi (the scene's)."""
+    from ssskit.scenes.backlit import backlit_slab
+    from ssskit.scenes.reference import _interior, chunk_seed
+    from ssskit.scenes.scenes import mitsuba, scene_dict
+
+    mi = mitsuba()
+    spec = backlit_slab(thickness_mm, view_deg)
+    inner = _interior(material, "rough-dielectric")
+    if faces == "smooth":
+        inner = {"type": "dielectric", "int_ior": float(material.eta), "ext_ior": float(material.eta_ambient),
+                 "__medium": inner["__medium"]}
+    elif faces != "rough":
+        raise ValueError(f"faces must be smooth or rough, got {faces!r}")
+    black = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.0}}
+    d = scene_dict(spec, size, size * 3 // 4, 1, 0, 0, {"type": "volpathmis", "max_depth": 1024},
+                   lambda sid: inner if sid in spec.sss_shapes else black)
+    scene = mi.load_dict(d)
+    means = np.array([np.array(mi.render(scene, seed=chunk_seed(seed, i), spp=chunk_spp))[..., :3].mean(axis=(0, 1))
+                      for i in range(chunks)])
+    e = math.pi * 400.0 * (250.0 / (5000.0 - thickness_mm)) ** 2  # the sphere light at the lit face
+    return {"thickness_mm": thickness_mm, "faces": faces, "level": (math.pi * means.mean(0) / e).tolist(),
+            "se": (math.pi * means.std(0, ddof=1) / math.sqrt(chunks) / e).tolist(), "spp": chunks * chunk_spp}
+
+
 def oblique_table(material: Material, thicknesses: Sequence[float], angles: Sequence[float], photons: int = 100_000,
                   seed: int = 900) -> list[dict[str, Any]]:
     """MCML's scattered transmittance T_s(t, theta) (Tt less the unscattered beam, whose Fresnel at theta and
@@ -108,4 +140,4 @@ def oblique_table(material: Material, thicknesses: Sequence[float], angles: Sequ
     return rows
 
 
-__all__ = ["map_resolution_pass", "oblique_table", "region_levels", "transmitted_table"]
+__all__ = ["map_resolution_pass", "oblique_table", "region_levels", "slab_face_levels", "transmitted_table"]

@@ -31,16 +31,23 @@ def _view(doc: dict, view_deg: float | None) -> str:
     return f"-view{view_deg:g}"
 
 
-def backlit_slab(thickness_mm: float, view_deg: float | None = None) -> SceneSpec:
+def backlit_slab(thickness_mm: float, view_deg: float | None = None, fov_deg: float | None = None) -> SceneSpec:
     """The built-in ``backlit`` scene with its slab ``thickness_mm`` thick (its seen face stays at z = 0) and,
-    if given, the camera ``view_deg`` off the slab's normal."""
+    if given, the camera ``view_deg`` off the slab's normal and its horizontal field of view ``fov_deg`` (a
+    narrower one sees the slab's middle only, in finer pixels)."""
     if isinstance(thickness_mm, bool) or not (isinstance(thickness_mm, (int, float)) and 0 < thickness_mm <= 40):
         raise SceneError(f"the slab's thickness must lie in (0, 40] mm, got {thickness_mm!r}")
     doc = copy.deepcopy(_document("backlit"))
     slab = doc["shapes"]["slab"]
     slab["translate"] = [0.0, 0.0, -thickness_mm / 2.0]
     slab["scale"] = [slab["scale"][0], slab["scale"][1], thickness_mm / 2.0]
-    doc["name"] = f"backlit-{thickness_mm:g}mm" + _view(doc, view_deg)
+    suffix = ""
+    if fov_deg is not None:
+        if not (isinstance(fov_deg, (int, float)) and 1.0 <= fov_deg <= 30.0):
+            raise SceneError(f"the field of view must lie in [1, 30] degrees, got {fov_deg!r}")
+        doc["camera"]["fov"] = float(fov_deg)
+        suffix = f"-fov{fov_deg:g}"
+    doc["name"] = f"backlit-{thickness_mm:g}mm" + _view(doc, view_deg) + suffix
     doc["description"] = f"the backlit slab {thickness_mm:g} mm thick"
     return scene_from_document(doc, BUILTIN_DIR, doc["name"]).spec
 
