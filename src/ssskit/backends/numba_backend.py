@@ -108,7 +108,7 @@ class NumbaBackend(Backend):
                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float32]:
         """The transmitted light's lateral spread (:mod:`ssskit.backends._numba_spread`), float32, rows on the pool:
         the widths, then the horizontal and the vertical pass."""
-        from ._numba_spread import sigma_rows, spread_rows
+        from ._numba_spread import root_rows, sigma_rows, spread_rows
         from .spread_plan import check_spread_frame
 
         check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
@@ -123,11 +123,15 @@ class NumbaBackend(Backend):
         h = sl.shape[0]
         sig = np.empty(sl.shape + (3,), f32)
         self._rows(h, lambda y0, y1: sigma_rows(sl, uvz, shadow, knots, table, n_knots, f32(plan.bias_mm), sig, y0, y1))
+        root = np.empty_like(sig)
+        self._rows(h, lambda y0, y1: root_rows(sig, depth, sl, root, y0, y1))
         tmp = np.empty_like(src)
         out = np.empty_like(src)
         min_px, taps = f32(plan.min_px), int(plan.max_taps)
-        self._rows(h, lambda y0, y1: spread_rows(src, depth, sl, sig, f32(plan.fx), True, min_px, taps, tmp, y0, y1))
-        self._rows(h, lambda y0, y1: spread_rows(tmp, depth, sl, sig, f32(plan.fy), False, min_px, taps, out, y0, y1))
+        self._rows(h, lambda y0, y1: spread_rows(src, depth, sl, sig, root, f32(plan.fx), True, min_px, taps, tmp, y0,
+                                                 y1))
+        self._rows(h, lambda y0, y1: spread_rows(tmp, depth, sl, sig, root, f32(plan.fy), False, min_px, taps, out, y0,
+                                                 y1))
         return out
 
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
