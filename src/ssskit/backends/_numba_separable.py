@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from ..compute.numba_math import stack_empty
+from ..compute.numba_math import bits_f32, f32_bits, mix32_u32, stack_empty, u32_xor
 
 _FM = {"nsz", "arcp", "contract", "afn", "reassoc"}  # no 'nnan'/'ninf': +inf marks empty texels
 LANES = 16
@@ -59,6 +59,7 @@ _WL = _W * _L
 _L3 = 3 * _L
 _L4 = 4 * _L
 _L6 = 6 * _L
+_IMAX = 0x7FFFFFFF  # the largest int32, above the bits of every float32 >= 0 (+inf included)
 
 
 @njit(cache=True, fastmath=_FM)
@@ -111,6 +112,52 @@ def _unit(h):
     odd = (q & np.int32(1)) != np.int32(0)  # rotate by q quarter turns, without branches
     neg = one - np.float32(2.0) * np.float32(q >> np.int32(1))
     return neg * (-sp if odd else cp), neg * (cp if odd else sp)
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy")
+def _lane_data(buf, sc, zo, so, c0, fa, lanes):
+    """The lane data of the block at flat index c0 (depth, slot, pixels per mm fa / z where the slot is > 0)
+    into ``sc``; returns the bits of its (smallest, largest) slot and depth among the lanes with SSS (_IMAX and
+    0 if none). Slots and depths are >= 0, so their bits sort as the values do: integer min/max reductions,
+    which LLVM vectorises (float ones need 'nnan', which +inf texels rule out). ``lanes`` = LANES, passed at
+    run time: with a constant trip count LLVM unrolls the loop into scalar code."""
+    U = np.uintp
+    imax = np.int32(_IMAX)
+    izero = np.int32(0)
+    zero = np.float32(0.0)
+    qlo = imax
+    qhi = izero
+    zlo = imax
+    zhi = izero
+    for l in range(lanes):
+        lu = U(l)
+        z = buf[zo + U(c0) + lu]
+        q = buf[so + U(c0) + lu]
+        sc[U(_LN) + lu] = z
+        sc[U(_LN + _L) + lu] = q
+        sc[U(_LN + 2 * _L) + lu] = fa / z if q > zero else zero
+        qi = f32_bits(q)
+        zi = f32_bits(z)
+        ok = qi > izero
+        qhi = max(qhi, qi)
+        qlo = min(qlo, qi if ok else imax)
+        zlo = min(zlo, zi if ok else imax)
+        zhi = max(zhi, zi if ok else izero)
+    return qlo, qhi, zlo, zhi
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy")
+def _jitter_axes(sc, hrow, x0, axis, lanes):
+    """The jitter axes of the block at x0 into its lane data: the unit vector at the angle theta(x, y) of
+    :mod:`ssskit.sampling.hashes` (lowbias32 in 32-bit arithmetic), (cos, sin) horizontally, (-sin, cos)
+    vertically. ``lanes`` = LANES, passed at run time: with a constant trip count LLVM unrolls the loop into
+    scalar code (one hash and one polynomial sine and cosine per pixel); with it, one 16-lane vector step."""
+    U = np.uintp
+    for l in range(lanes):
+        lu = U(l)
+        c, s = _unit(mix32_u32(u32_xor(hrow, x0 + l)))
+        sc[U(_LN + 3 * _L) + lu] = c if axis == 0 else -s
+        sc[U(_LN + 4 * _L) + lu] = s if axis == 0 else c
 
 
 # Names the mode-dependent helpers below read as globals; :func:`_specialise` binds them in each depth mode's
@@ -336,7 +383,7 @@ def _window(buf, sc, co, zo, plane, wps, c0, w, p, d, cap, npairs):
 
 
 def _sep_body(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis, f_axis, offs, wts, n_jit,
-              n_rows, centre, param, base, cap, bmap):
+              n_rows, centre, param, base, cap, bmap, lanes):
     """One 1D pass of one term over the whole image (module docstring), reading colour planes at ``co``
     of ``buf``. ``out`` is flat; pixel (x, y) channel c goes to out[ob + c ocs + y oys + x oxs] (the
     horizontal pass writes buf's TMP planes, the vertical one the (H, W, 3) result).
@@ -361,7 +408,7 @@ def _sep_body(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis,
             sym[i, k] = (wts[i, k, 0] == wts[i, k, 3] and wts[i, k, 1] == wts[i, k, 4]
                          and wts[i, k, 2] == wts[i, k, 5])
     for y in range(y0, y1):
-        hrow = _mix32(base ^ np.uint64(y))
+        hrow = mix32_u32(u32_xor(base, y))
         sc = np.empty(SCRATCH, np.float32)
         mlo = np.empty(kmax, np.float32)
         rwin = np.empty(kmax, np.int64)
@@ -369,24 +416,14 @@ def _sep_body(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis,
         for x0 in range(0, w, _L):
             nl = min(_L, w - x0)
             c0 = row0 + x0
-            qlo = np.float32(1e30)
-            qhi = np.float32(0.0)
-            for l in range(_L):  # lane data (lanes past the image read pad texels: slot 0); slot range
-                lu = U(l)
-                z = buf[zo + U(c0) + lu]
-                q = buf[so + U(c0) + lu]
-                sc[U(_LN) + lu] = z
-                sc[U(_LN + _L) + lu] = q
-                sc[U(_LN + 2 * _L) + lu] = fa / z if q > zero else zero
-                qhi = max(qhi, q)
-                qlo = min(qlo, q if q > zero else np.float32(1e30))
-            sb = int(qhi)
+            # lane data (lanes past the image read pad texels: slot 0), the block's slots and pixels-per-mm range
+            qlo, qhi, zlo, zhi = _lane_data(buf, sc, zo, so, c0, fa, lanes)
+            sb = int(bits_f32(qhi))
             mixed = qlo != qhi
+            smin = fa / bits_f32(zhi)  # pixels per mm fa / z of the lanes with SSS (division rounds monotonically)
+            smax = fa / bits_f32(zlo)
             if sb > 0 and n_jits > 0:
-                for l in range(_L):  # the jitter axis: (cos, sin) horizontally, (-sin, cos) vertically
-                    c, s = _unit(_mix32(hrow ^ np.uint64(x0 + l)))
-                    sc[_LN + 3 * _L + l] = np.float32(c) if axis == 0 else np.float32(-s)
-                    sc[_LN + 4 * _L + l] = np.float32(s) if axis == 0 else np.float32(c)
+                _jitter_axes(sc, hrow, x0, axis, lanes)
             if sb > 0:
                 for i in range(6 * _L):
                     sc[i] = 0.0
@@ -401,12 +438,8 @@ def _sep_body(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis,
                     rjit = 0
                     for k in range(n_rows[sb]):
                         d = offs[sb, k]
-                        lo = np.float32(1e30)
-                        hi = np.float32(-1e30)
-                        for l in range(_L):
-                            r = min(d * sc[_LN + 2 * _L + l], cap)
-                            lo = min(lo, np.floor(r))
-                            hi = max(hi, r)
+                        lo = np.floor(min(d * smin, cap))  # every lane's footprint o s lies in [lo, hi]
+                        hi = min(d * smax, cap)
                         fast = fast and sym[sb, k]
                         if k < nj:
                             h2 = float(hi) * float(hi)
@@ -497,12 +530,13 @@ def _specialise(mode: str, factor: Any) -> Any:
     ns["factor"] = factor
     ns["MULTI"] = False
     multi = dict(ns, MULTI=True)
+    jit = njit(fastmath=_FM, error_model="numpy")  # no ZeroDivisionError checks: they block vectorisation
     for fn in (_tex, _accumulate, _bilinear, _lane_row, _window):
-        ns[fn.__name__] = njit(fastmath=_FM)(_copy(fn, ns, f"{fn.__name__}_{mode}"))
+        ns[fn.__name__] = jit(_copy(fn, ns, f"{fn.__name__}_{mode}"))
     multi.update({k: ns[k] for k in ("_tex", "_accumulate")})
-    ns["_row_block"] = njit(fastmath=_FM)(_copy(_row_block, ns, f"_row_block_{mode}"))
-    ns["_row_block_multi"] = njit(fastmath=_FM)(_copy(_row_block, multi, f"_row_block_multi_{mode}"))
-    return njit(cache=True, nogil=True, fastmath=_FM)(_copy(_sep_body, ns, f"pass_{mode}"))
+    ns["_row_block"] = jit(_copy(_row_block, ns, f"_row_block_{mode}"))
+    ns["_row_block_multi"] = jit(_copy(_row_block, multi, f"_row_block_multi_{mode}"))
+    return njit(cache=True, nogil=True, fastmath=_FM, error_model="numpy")(_copy(_sep_body, ns, f"pass_{mode}"))
 
 
 pass_gaussian = _specialise("gaussian", f_gaussian)

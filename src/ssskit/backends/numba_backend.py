@@ -163,9 +163,9 @@ class NumbaBackend(Backend):
         for term in plan.terms:
             t = _tables(term)
             self._rows(h, lambda y0, y1: run(buf, buf, 0, tmp + pad * wps + pad, plane, wps, 1, y0, y1, w, pad, wps,
-                                             plane, 0, plan.fx, *t, param, base, cap, bmap))
+                                             plane, 0, plan.fx, *t, param, base, cap, bmap, LANES))
             self._rows(h, lambda y0, y1: run(buf, flat, tmp, 0, 1, 3 * w, 3, y0, y1, w, pad, wps, plane, 1, plan.fy,
-                                             *t, param, base, cap, bmap))
+                                             *t, param, base, cap, bmap, LANES))
             if len(plan.terms) == 1 and np.all(term.sign == 1):
                 return out
             contribution = term.sign[slots].astype(np.float32) * out
