@@ -115,10 +115,10 @@ def _unit(h):
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
-def _lane_data(buf, sc, zo, so, c0, fa, lanes):
+def _lane_data(buf, sc, zo, so, c0, fa, lanes, multi):
     """The lane data of the block at flat index c0 (depth, slot, pixels per mm fa / z where the slot is > 0)
-    into ``sc``; returns the bits of its (smallest, largest) slot and depth among the lanes with SSS (_IMAX and
-    0 if none). Slots and depths are >= 0, so their bits sort as the values do: integer min/max reductions,
+    into ``sc`` (one profile, ``multi`` False: the slot is 1 where the depth is finite, the slot plane unread);
+    returns the bits of its (smallest, largest) slot and depth among the lanes with SSS (_IMAX and 0 if none). Slots and depths are >= 0, so their bits sort as the values do: integer min/max reductions,
     which LLVM vectorises (float ones need 'nnan', which +inf texels rule out). ``lanes`` = LANES, passed at
     run time: with a constant trip count LLVM unrolls the loop into scalar code."""
     U = np.uintp
@@ -132,7 +132,7 @@ def _lane_data(buf, sc, zo, so, c0, fa, lanes):
     for l in range(lanes):
         lu = U(l)
         z = buf[zo + U(c0) + lu]
-        q = buf[so + U(c0) + lu]
+        q = buf[so + U(c0) + lu] if multi else (np.float32(1.0) if z < np.float32(np.inf) else zero)
         sc[U(_LN) + lu] = z
         sc[U(_LN + _L) + lu] = q
         sc[U(_LN + 2 * _L) + lu] = fa / z if q > zero else zero
@@ -235,10 +235,10 @@ def _bilinear(buf, co, zo, so, plane, wps, c, vx, vy, z0, s0, p, multi):
     return g, s0_, s1, s2
 
 
-def _lane_row(buf, sc, co, zo, so, plane, wps, c, rho, ux, uy, z0, s0, p, w, l):
-    """One row for one lane by 2D bilinear fetches at +-rho (ux, uy) (slot test always on)."""
-    gp, a0, a1, a2 = _bilinear(buf, co, zo, so, plane, wps, c, rho * ux, rho * uy, z0, s0, p, True)
-    gm, b0, b1, b2 = _bilinear(buf, co, zo, so, plane, wps, c, -rho * ux, -rho * uy, z0, s0, p, True)
+def _lane_row(buf, sc, co, zo, so, plane, wps, c, rho, ux, uy, z0, s0, p, w, l, multi):
+    """One row for one lane by 2D bilinear fetches at +-rho (ux, uy) (the slot test with several profiles)."""
+    gp, a0, a1, a2 = _bilinear(buf, co, zo, so, plane, wps, c, rho * ux, rho * uy, z0, s0, p, multi)
+    gm, b0, b1, b2 = _bilinear(buf, co, zo, so, plane, wps, c, -rho * ux, -rho * uy, z0, s0, p, multi)
     _accumulate(sc, np.uintp(l), w, gp, gm, a0, a1, a2, b0, b1, b2, False)
 
 
@@ -424,7 +424,7 @@ def _sep_body(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis,
             nl = min(_L, w - x0)
             c0 = row0 + x0
             # lane data (lanes past the image read pad texels: slot 0), the block's slots and pixels-per-mm range
-            qlo, qhi, zlo, zhi = _lane_data(buf, sc, zo, so, c0, fa, lanes)
+            qlo, qhi, zlo, zhi = _lane_data(buf, sc, zo, so, c0, fa, lanes, multi)
             sb = int(bits_f32(qhi))
             mixed = qlo != qhi
             smin = fa / bits_f32(zhi)  # pixels per mm fa / z of the lanes with SSS (division rounds monotonically)
@@ -501,7 +501,7 @@ def _sep_body(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis,
                                   wts[qi, k, 5])
                             _lane_row(buf, sc, cu, zo, so, plane, wps, c0 + l,
                                       min(offs[qi, k] * sc[_LN + 2 * _L + l], cap), ax, ay, sc[_LN + l],
-                                      sc[_LN + _L + l], param[qi], wk, l)
+                                      sc[_LN + _L + l], param[qi], wk, l, multi)
             for c in range(3):  # the block's result, into its accumulators A_c
                 ci = cu + U(c * plane + c0)
                 if sb > 0 and not mixed:
@@ -571,27 +571,31 @@ pass_none = _specialise("none", f_none)
 PASSES = {"gaussian": pass_gaussian, "follow": pass_follow, "none": pass_none}
 
 
-@njit(cache=True, nogil=True)
-def pack_rows(diffuse, depth_mm, slots, buf, pad, wps, plane, y0, y1, write, stats):
+@njit(cache=True, nogil=True, error_model="numpy")
+def pack_rows(diffuse, depth_mm, slots, buf, pad, wps, plane, y0, y1, write, slot_plane, stats):
     """Rows [y0, y1) of the frame: copied into buf's input planes when ``write`` (pads were set once: colour 0,
-    depth +inf, slot 0), and per row y in stats[y] = (nearest depth with SSS, bad depths (not positive and
+    depth +inf, slot 0; the slot plane only if ``slot_plane``: with one profile the passes read a texel's
+    validity from its depth), and per row y in stats[y] = (nearest depth with SSS, bad depths (not positive and
     finite where slot > 0), smallest slot, largest slot): one read of the frame checks it and sizes the pad.
-    No parallel loop (its compilation costs seconds): the backend runs ranges of rows on its thread pool."""
+    Branch-free, the nearest depth as an integer reduction over its bits (:func:`_lane_data`): LLVM vectorises
+    the loop. No parallel loop (its compilation costs seconds): the backend runs ranges of rows on its pool."""
     h, w = slots.shape
+    imax = np.int32(_IMAX)
+    inf = np.float32(np.inf)
+    zero = np.float32(0.0)
     for y in range(y0, y1):
         r = (y + pad) * wps + pad
-        zmin = np.inf
+        zlo = imax
         bad = 0
-        smin = 0
-        smax = 0
+        smin = np.int32(0)
+        smax = np.int32(0)
         for x in range(w):
             q = slots[y, x]
             z = depth_mm[y, x]
-            if q > 0:
-                if not (z > 0 and z < np.inf):
-                    bad += 1
-                elif z < zmin:
-                    zmin = z
+            inside = q > 0
+            ok = (z > zero) & (z < inf)
+            bad += np.int32(inside) - np.int32(inside & ok)
+            zlo = min(zlo, f32_bits(z) if inside & ok else imax)
             smin = min(smin, q)
             smax = max(smax, q)
             if write:
@@ -599,9 +603,10 @@ def pack_rows(diffuse, depth_mm, slots, buf, pad, wps, plane, y0, y1, write, sta
                 buf[i] = diffuse[y, x, 0]
                 buf[plane + i] = diffuse[y, x, 1]
                 buf[2 * plane + i] = diffuse[y, x, 2]
-                buf[Z_PLANE * plane + i] = z if q > 0 else np.inf
-                buf[S_PLANE * plane + i] = q
-        stats[y, 0] = zmin
+                buf[Z_PLANE * plane + i] = z if inside else inf
+                if slot_plane:
+                    buf[S_PLANE * plane + i] = q
+        stats[y, 0] = bits_f32(zlo) if zlo != imax else np.inf
         stats[y, 1] = bad
         stats[y, 2] = smin
         stats[y, 3] = smax
