@@ -3,17 +3,27 @@
 Layout. Both 1D passes read *planar, padded* buffers: colour planes R, G, B (``col``) and a depth
 plane and a slot plane (``zs``), each (H + 2 pad) rows of ``wps`` = W + 2 pad + LANES texels. Pads
 hold depth +inf and slot 0, so a texel is valid exactly when its slot equals the centre's: no
-bounds tests. Tap distances are clamped to ``cap`` = pad - 3 pixels; pad covers the largest tap
+bounds tests. With one profile the slot plane is neither written nor read: a texel is valid exactly
+when its depth is finite, which every depth factor already tests (f(+inf) = 0). Tap distances are clamped to ``cap`` = pad - 3 pixels; pad covers the largest tap
 reach or, for taps reaching past the image diagonal, the diagonal (a clamped tap still lands off
 the image, where it is invalid anyway).
 
 Work is done in blocks of LANES pixels along a row, written so that LLVM vectorises the lane loops
 (contiguous loads, unsigned indices: numba's negative-index wraparound makes every address a
-select that blocks vectorisation):
+select that blocks vectorisation). A block starts with its lane data and the range of its slots
+and depths (:func:`_lane_data`: integer min/max reductions over the float bits, one vector step);
+the footprint o s = o f / z of every tap row then lies between o f / z_max and o f / z_min (division
+rounds monotonically), so a block is classified per tap row by two scalar products, not a loop over
+its lanes. Small lane loops whose trip count LLVM sees as the constant LANES are unrolled into
+scalar code before the vectoriser runs (reductions and selects are then never vectorised), so those
+helpers take LANES as a run-time argument (``lanes``).
 
 * plain rows (unjittered taps): the integer part m of a tap's footprint o s(x) changes by at most 1
   across a block (depth is smooth), so with m0 = min m the three texels m0, m0+1, m0+2 on each side,
   weighted by the hat function of o s - m0, give every lane's bilinear sample from contiguous loads;
+  where every lane's m is m0 (most blocks) the third texel's weight is exactly 0 and its loads read
+  the second texel again, so the vertical pass reads 4 image rows per tap, not 6 (the rows are the
+  vertical pass's cost: more concurrent streams than the hardware prefetcher follows);
   blocks where m spans more take a per-lane loop;
 * jittered rows (paper section 6: axes rotated by a per-pixel angle): every lane's two samples
   p +- v lie in a window of texels around it; each texel (i, j) is weighted by the separable hat
@@ -27,8 +37,8 @@ select that blocks vectorisation):
 * blocks that straddle two profile slots take a per-lane loop with each lane's own tap table.
 
 The jitter angle comes from the same counter-based hash as the other backends
-(:mod:`ssskit.sampling.hashes`); its cosine and sine are evaluated by a vectorisable float32
-polynomial (error < 2e-7) instead of libm calls.
+(:mod:`ssskit.sampling.hashes`, in 32-bit arithmetic: :func:`_jitter_axes`); its cosine and sine are
+evaluated by a vectorisable float32 polynomial (error < 2e-7) instead of libm calls.
 
 Every pass is compiled once per depth mode (:func:`_specialise`: the body and its helpers copied with
 the mode's depth factor as a global, i.e. a compile-time constant; plain calls that LLVM inlines, no
