@@ -587,19 +587,30 @@ def pack_rows(diffuse, depth_mm, slots, buf, pad, wps, plane, y0, y1, write, slo
     depth +inf, slot 0; the slot plane only if ``slot_plane``: with one profile the passes read a texel's
     validity from its depth), and per row y in stats[y] = (nearest depth with SSS, bad depths (not positive and
     finite where slot > 0), smallest slot, largest slot): one read of the frame checks it and sizes the pad.
-    Branch-free, the nearest depth as an integer reduction over its bits (:func:`_lane_data`): LLVM vectorises
-    the loop. No parallel loop (its compilation costs seconds): the backend runs ranges of rows on its pool."""
+    One loop per task, each of which LLVM vectorises: the colours (stride-3 loads, permutes), the checks
+    (branch-free, the nearest depth as an integer reduction over its bits, as in :func:`_lane_data`), the
+    depth plane, the slot plane: 3 ms of one core at 1080p where one loop doing everything took 9. No
+    parallel loop (its compilation costs seconds): the backend runs ranges of rows on its thread pool."""
     h, w = slots.shape
     imax = np.int32(_IMAX)
     inf = np.float32(np.inf)
     zero = np.float32(0.0)
+    U = np.uintp
+    d = diffuse.reshape(diffuse.size)  # (C-contiguous) flat: the colour loop is one interleaved vector load
     for y in range(y0, y1):
-        r = (y + pad) * wps + pad
+        r = U((y + pad) * wps + pad)
+        if write:  # the colour planes (its own loop: LLVM vectorises the stride-3 loads with permutes)
+            s = U(3 * w * y)
+            for x in range(w):
+                xu = U(x)
+                buf[r + xu] = d[s + U(3) * xu]
+                buf[U(plane) + r + xu] = d[s + U(3) * xu + U(1)]
+                buf[U(2 * plane) + r + xu] = d[s + U(3) * xu + U(2)]
         zlo = imax
         bad = 0
         smin = np.int32(0)
         smax = np.int32(0)
-        for x in range(w):
+        for x in range(w):  # the checks
             q = slots[y, x]
             z = depth_mm[y, x]
             inside = q > 0
@@ -608,14 +619,13 @@ def pack_rows(diffuse, depth_mm, slots, buf, pad, wps, plane, y0, y1, write, slo
             zlo = min(zlo, f32_bits(z) if inside & ok else imax)
             smin = min(smin, q)
             smax = max(smax, q)
-            if write:
-                i = r + x
-                buf[i] = diffuse[y, x, 0]
-                buf[plane + i] = diffuse[y, x, 1]
-                buf[2 * plane + i] = diffuse[y, x, 2]
-                buf[Z_PLANE * plane + i] = z if inside else inf
-                if slot_plane:
-                    buf[S_PLANE * plane + i] = q
+        if write:
+            for x in range(w):
+                xu = U(x)
+                buf[U(Z_PLANE * plane) + r + xu] = depth_mm[y, x] if slots[y, x] > 0 else inf
+            if slot_plane:
+                for x in range(w):
+                    buf[U(S_PLANE * plane) + r + U(x)] = slots[y, x]
         stats[y, 0] = bits_f32(zlo) if zlo != imax else np.inf
         stats[y, 1] = bad
         stats[y, 2] = smin
