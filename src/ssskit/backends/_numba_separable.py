@@ -607,7 +607,7 @@ def pack_rows(diffuse, depth_mm, slots, buf, pad, wps, plane, y0, y1, write, slo
                 buf[U(plane) + r + xu] = d[s + U(3) * xu + U(1)]
                 buf[U(2 * plane) + r + xu] = d[s + U(3) * xu + U(2)]
         zlo = imax
-        bad = 0
+        bad = np.int32(0)
         smin = np.int32(0)
         smax = np.int32(0)
         for x in range(w):  # the checks
