@@ -37,7 +37,7 @@ helpers take LANES as a run-time argument (``lanes``).
 * blocks that straddle two profile slots take a per-lane loop with each lane's own tap table.
 
 The jitter angle comes from the same counter-based hash as the other backends
-(:mod:`ssskit.sampling.hashes`, in 32-bit arithmetic: :func:`_jitter_axes`); its cosine and sine are
+(:mod:`ssskit.sampling.hashes`, in 32-bit arithmetic, in :func:`_lane_data`); its cosine and sine are
 evaluated by a vectorisable float32 polynomial (error < 2e-7) instead of libm calls.
 
 Every pass is compiled once per depth mode (:func:`_specialise`: the body and its helpers copied with
@@ -125,12 +125,16 @@ def _unit(h):
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
-def _lane_data(buf, sc, zo, so, c0, fa, lanes, multi):
-    """The lane data of the block at flat index c0 (depth, slot, pixels per mm fa / z where the slot is > 0)
-    into ``sc`` (one profile, ``multi`` False: the slot is 1 where the depth is finite, the slot plane unread);
-    returns the bits of its (smallest, largest) slot and depth among the lanes with SSS (_IMAX and 0 if none). Slots and depths are >= 0, so their bits sort as the values do: integer min/max reductions,
-    which LLVM vectorises (float ones need 'nnan', which +inf texels rule out). ``lanes`` = LANES, passed at
-    run time: with a constant trip count LLVM unrolls the loop into scalar code."""
+def _lane_data(buf, sc, zo, so, c0, fa, multi, jit, hrow, x0, axis, lanes):
+    """The lane data of the block at flat index c0 (x0 in the image) into ``sc``: depth, slot, pixels per mm
+    fa / z where the slot is > 0 (one profile, ``multi`` False: the slot is 1 where the depth is finite, the
+    slot plane unread) and, if ``jit``, the jitter axis: the unit vector at the angle theta(x, y) of
+    :mod:`ssskit.sampling.hashes` (lowbias32 in 32-bit arithmetic; row hash ``hrow``), (cos, sin) horizontally
+    (``axis`` 0), (-sin, cos) vertically. Returns the bits of the block's (smallest, largest) slot and depth
+    among the lanes with SSS (_IMAX and 0 if none): slots and depths are >= 0, so their bits sort as the
+    values do, and integer min/max reductions vectorise (float ones need 'nnan', which +inf texels rule out).
+    ``lanes`` = LANES, passed at run time: with a constant trip count LLVM unrolls the loops into scalar code
+    (one hash and one polynomial sine and cosine per pixel); with it, one 16-lane vector step each."""
     U = np.uintp
     imax = np.int32(_IMAX)
     izero = np.int32(0)
@@ -153,21 +157,13 @@ def _lane_data(buf, sc, zo, so, c0, fa, lanes, multi):
         qlo = min(qlo, qi if ok else imax)
         zlo = min(zlo, zi if ok else imax)
         zhi = max(zhi, zi if ok else izero)
+    if jit:
+        for l in range(lanes):
+            lu = U(l)
+            c, s = _unit(mix32_u32(u32_xor(hrow, x0 + l)))
+            sc[U(_LN + 3 * _L) + lu] = c if axis == 0 else -s
+            sc[U(_LN + 4 * _L) + lu] = s if axis == 0 else c
     return qlo, qhi, zlo, zhi
-
-
-@njit(cache=True, fastmath=_FM, error_model="numpy")
-def _jitter_axes(sc, hrow, x0, axis, lanes):
-    """The jitter axes of the block at x0 into its lane data: the unit vector at the angle theta(x, y) of
-    :mod:`ssskit.sampling.hashes` (lowbias32 in 32-bit arithmetic), (cos, sin) horizontally, (-sin, cos)
-    vertically. ``lanes`` = LANES, passed at run time: with a constant trip count LLVM unrolls the loop into
-    scalar code (one hash and one polynomial sine and cosine per pixel); with it, one 16-lane vector step."""
-    U = np.uintp
-    for l in range(lanes):
-        lu = U(l)
-        c, s = _unit(mix32_u32(u32_xor(hrow, x0 + l)))
-        sc[U(_LN + 3 * _L) + lu] = c if axis == 0 else -s
-        sc[U(_LN + 4 * _L) + lu] = s if axis == 0 else c
 
 
 # Names the mode-dependent helpers below read as globals; :func:`_specialise` binds them in each depth mode's
@@ -434,13 +430,11 @@ def _sep_body(buf, out, co, ob, ocs, oys, oxs, y0, y1, w, pad, wps, plane, axis,
             nl = min(_L, w - x0)
             c0 = row0 + x0
             # lane data (lanes past the image read pad texels: slot 0), the block's slots and pixels-per-mm range
-            qlo, qhi, zlo, zhi = _lane_data(buf, sc, zo, so, c0, fa, lanes, multi)
+            qlo, qhi, zlo, zhi = _lane_data(buf, sc, zo, so, c0, fa, multi, n_jits > 0, hrow, x0, axis, lanes)
             sb = int(bits_f32(qhi))
             mixed = qlo != qhi
             smin = fa / bits_f32(zhi)  # pixels per mm fa / z of the lanes with SSS (division rounds monotonically)
             smax = fa / bits_f32(zlo)
-            if sb > 0 and n_jits > 0:
-                _jitter_axes(sc, hrow, x0, axis, lanes)
             if sb > 0:
                 for i in range(6 * _L):
                     sc[i] = 0.0
