@@ -1,11 +1,12 @@
-"""HDRP transmission parameters from MCML tables (export.transmission): HDRP's formula as its shader writes
-it, the pass model equal to it, and the tint the least-squares optimum of the relative error."""
+"""Engine transmission parameters from MCML tables (export.transmission): HDRP's formula as its shader writes
+it, the pass model equal to it, the tint the least-squares optimum of the relative error and an HDR colour;
+Unreal's fields the fit of UE's own computation, their error what UE renders with them."""
 
 import numpy as np
 import pytest
 
 from ssskit.backends.transmission_plan import build_transmission_plan
-from ssskit.export.transmission import hdrp_model, hdrp_shape, hdrp_transmission
+from ssskit.export.transmission import UE_EXPORT_G, hdrp_model, hdrp_shape, hdrp_transmission, unreal_shape, unreal_transmission
 from ssskit.materials import get_material
 from ssskit.profiles.montecarlo.transmission import transmission_table
 
@@ -58,4 +59,40 @@ def test_the_tint_minimises_the_relative_error(table):
         best = cost(tint[c], c)
         assert best <= cost(tint[c] * 1.01, c) and best <= cost(tint[c] * 0.99, c)
     assert out["thicknessRemap"][0] == 0.0 and out["thicknessRemap"][1] == table.thickness_mm[m.any(axis=1)].max()
-    assert all(0 <= v <= 1 for v in out["transmissionTint"])
+    assert all(v >= 0 for v in out["transmissionTint"])
+
+
+def test_the_hdrp_tint_is_an_hdr_colour(table):
+    """HDRP declares transmissionTint [ColorUsage(false, true)] (DiffusionProfileSettings.cs: an HDR colour) and
+    Validate does not clamp it: a tint above 1 (skin's blue with the narrow reflectance d) is written as fitted."""
+    out = hdrp_transmission(table, D)
+    assert max(out["tint_unclamped"]) > 1
+    assert out["transmissionTint"] == out["tint_unclamped"]
+
+
+A = np.array([0.8, 0.6, 0.45])
+
+
+def test_the_unreal_fields_are_what_ue_renders(table):
+    """The reported error is UE's radiance with the exported fields (UE's own table at UE's optical depth,
+    the pass's unreal model, times the base colour and ApproximateHG ~ 0.5 (1 - g^2)) against MCML's T E / pi,
+    recomputed here; every field lies in UE's clamps; the search beats UE's defaults."""
+    out = unreal_transmission(table, A, D)
+    assert 0.01 <= out["ExtinctionScale"] <= 100 and 0.1 <= out["DistanceScale"] <= 10
+    assert all(0.009 <= v <= 1 for v in out["TransmissionTintColor"]) and out["ScatteringDistribution"] == UE_EXPORT_G
+    t = table.thickness_mm
+    phase = 0.5 * (1 - UE_EXPORT_G ** 2)
+
+    def errors(ext, ds, tint):
+        ue = A * np.asarray(tint) * unreal_shape(D, t, ext, 0.08, ds) * phase
+        rel = []
+        for c in range(3):
+            m = table.tt[:, c] > 1e-3
+            rel.append(np.abs(ue[m, c] - table.tt[m, c] / np.pi) / (table.tt[m, c] / np.pi))
+        return rel
+
+    rel = errors(out["ExtinctionScale"], out["DistanceScale"], out["TransmissionTintColor"])
+    np.testing.assert_allclose([r.max() for r in rel], out["max_rel_error"], rtol=1e-9)
+    np.testing.assert_allclose([np.sqrt(np.mean(r ** 2)) for r in rel], out["rms_rel_error"], rtol=1e-9)
+    default = errors(1.0, 1.0, (1.0, 1.0, 1.0))
+    assert sum(float(np.sum(r ** 2)) for r in rel) < sum(float(np.sum(r ** 2)) for r in default)

@@ -85,23 +85,36 @@ class NumbaBackend(Backend):
     def transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> NDArray[np.float32]:
         """The transmittance pass (:mod:`ssskit.backends._numba_transmission`), float32, rows on the pool."""
-        from ._numba_transmission import transmission_rows
+        from ._numba_transmission import LANES, transmission_pixels
         from .transmission_plan import check_transmission_frame
 
         check_transmission_frame(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
         f32 = np.float32
-        sl = np.ascontiguousarray(slots, dtype=np.int32)
-        uvz = np.ascontiguousarray(light_uvz, dtype=f32)
+        h, w = np.shape(slots)
+        n = h * w
+        flat = [np.ascontiguousarray(slots, dtype=np.int32).reshape(-1),
+                np.ascontiguousarray(light_uvz, dtype=f32).reshape(-1),
+                np.ascontiguousarray(n_dot_l, dtype=f32).reshape(-1),
+                np.ascontiguousarray(light_rgb, dtype=f32).reshape(-1)]
+        m = max(n, LANES)  # the kernel works on whole blocks of LANES pixels: a smaller frame is padded (slot 0)
+        if m > n:
+            flat = [np.concatenate([v, np.zeros((m - n) * k, v.dtype)]) for v, k in zip(flat, (1, 3, 1, 3))]
+        sl, uvz, ndl, light = flat
         shadow = np.ascontiguousarray(shadow_mm, dtype=f32)
-        ndl = np.ascontiguousarray(n_dot_l, dtype=f32)
-        light = np.ascontiguousarray(light_rgb, dtype=f32)
+        if shadow.shape[1] < 2:  # the kernel reads texels in pairs: a column of +inf (no surface) beside it
+            shadow = np.concatenate([shadow, np.full_like(shadow, np.inf)], axis=1)
         a, b, c = (np.ascontiguousarray(v, dtype=f32) for v in (plan.a, plan.b, plan.c))
         scale, wrap = plan.scale.astype(f32), plan.wrap.astype(f32)
-        out = np.empty(sl.shape + (3,), f32)
+        out = np.empty(3 * m, f32)
         bias = f32(plan.bias_mm)
-        self._rows(sl.shape[0], lambda y0, y1: transmission_rows(sl, uvz, shadow, ndl, light, a, b, c, scale, wrap,
-                                                                 bias, out, y0, y1))
-        return out
+        kind = plan.lut_slot.astype(np.int32)
+        lut = np.ascontiguousarray(plan.lut, dtype=f32).reshape(-1)
+        odp, odo = plan.od_per_mm.astype(f32), plan.od_offset.astype(f32)
+        blocks = m // LANES  # ranges of whole blocks; the last range also takes the m % LANES pixels left
+        self._rows(blocks, lambda i0, i1: transmission_pixels(sl, uvz, shadow, ndl, light, a, b, c, scale, wrap, bias,
+                                                              kind, lut, odp, odo, out, i0 * LANES,
+                                                              m if i1 == blocks else i1 * LANES))
+        return out[: 3 * n].reshape(h, w, 3)
 
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
                   slots: np.ndarray) -> NDArray[np.float32]:
