@@ -122,15 +122,17 @@ class NumbaBackend(Backend):
         with self._lock:  # one frame buffer per backend: one frame at a time
             return self._separable(plan, diffuse, depth_mm, slots)
 
-    def _pack(self, src: np.ndarray, depth: np.ndarray, slots: np.ndarray, pad: int,
-              write: bool) -> tuple[NDArray[np.float32], int, int, NDArray[np.float64]]:
-        """Pack the frame into the buffer of pad ``pad`` (if ``write``), checking it on the way: per-row stats."""
+    def _pack(self, src: np.ndarray, depth: np.ndarray, slots: np.ndarray, pad: int, write: bool,
+              slot_plane: bool) -> tuple[NDArray[np.float32], int, int, NDArray[np.float64]]:
+        """Pack the frame into the buffer of pad ``pad`` (if ``write``; its slot plane if ``slot_plane``), checking
+        it on the way: per-row stats."""
         from ._numba_separable import pack_rows
 
         h, w = slots.shape
         buf, wps, plane = self._buffer(h, w, pad) if write else (np.zeros(1, np.float32), 1, 1)
         stats = np.empty((h, 4))
-        self._rows(h, lambda y0, y1: pack_rows(src, depth, slots, buf, pad, wps, plane, y0, y1, write, stats))
+        self._rows(h, lambda y0, y1: pack_rows(src, depth, slots, buf, pad, wps, plane, y0, y1, write, slot_plane,
+                                                   stats))
         return buf, wps, plane, stats
 
     def _separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
@@ -144,7 +146,8 @@ class NumbaBackend(Backend):
         # one read of the frame packs and checks it with the last frame's pad (a frame of another size: a
         # read-only check first); a nearer surface than the pad allows is packed again with a larger one
         pad = self._pads.get((h, w))
-        buf, wps, plane, stats = self._pack(src, depth, slots, pad if pad is not None else 0, pad is not None)
+        multi = plan.slots > 2  # several profiles: the passes test slots (one: a texel's depth tells)
+        buf, wps, plane, stats = self._pack(src, depth, slots, pad if pad is not None else 0, pad is not None, multi)
         if stats[:, 1].any():
             raise PassError("depth must be positive and finite on every pixel with SSS")
         if slots.size and (stats[:, 2].min() < 0 or stats[:, 3].max() >= plan.slots):
@@ -160,7 +163,7 @@ class NumbaBackend(Backend):
                             f"{MAX_BUFFER_BYTES / 2**30:.0f} GiB); use --backend numpy or a smaller footprint")
         if pad is None or need > pad or need < pad // 2:  # (a pad larger than needed changes nothing)
             pad = need
-            buf, wps, plane, _ = self._pack(src, depth, slots, pad, True)
+            buf, wps, plane, _ = self._pack(src, depth, slots, pad, True, multi)
         self._pads[(h, w)] = pad
         run = PASSES[plan.depth_mode]
         base = np.uint64(frame_base(plan.frame, plan.seed))
@@ -176,9 +179,9 @@ class NumbaBackend(Backend):
         for term in plan.terms:
             t = _tables(term)
             self._rows(h, lambda y0, y1: run(buf, buf, 0, tmp + pad * wps + pad, plane, wps, 1, y0, y1, w, pad, wps,
-                                             plane, 0, plan.fx, *t, param, base, cap, bmap))
+                                             plane, 0, plan.fx, *t, param, base, cap, bmap, LANES))
             self._rows(h, lambda y0, y1: run(buf, flat, tmp, 0, 1, 3 * w, 3, y0, y1, w, pad, wps, plane, 1, plan.fy,
-                                             *t, param, base, cap, bmap))
+                                             *t, param, base, cap, bmap, LANES))
             if len(plan.terms) == 1 and np.all(term.sign == 1):
                 return out
             contribution = term.sign[slots].astype(np.float32) * out
