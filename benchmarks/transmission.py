@@ -7,7 +7,11 @@ of steps 1-5), the 1024^2 map spread over the frame, Skin1's MCML model (4 terms
 Skin1's pre-integrated kernel with 10 % jitter (the paper's set-up), medians of interleaved repeats, per
 backend (numba, gl where available: on llvmpipe without a GPU); and the lateral spread of the pass's result
 (backends.spread_plan: Skin1's MCML widths, 4-6 mm of medium behind every pixel, 2 pixels per mm: 5-8 pixels
-in red).
+in red). Besides the wall times, ``cpu_ms`` is the process's CPU time per call (all threads; on a loaded
+machine it moves far less than the wall time, and wall ~ cpu / threads on an idle one).
+
+Pipeline: the same frame as a G-buffer through ssskit.pipeline.transmission.add_transmission on numba (the
+frame inputs from the G-buffer, the pass, the demodulation by the albedo), and the inputs alone.
 
 Thickness: scenes/lightspace.py ray-casts the map (orthographic, from the scene's first light) and the
 exact distance towards the light from each point the camera sees (128 x 128 camera pixels); the error of
@@ -74,17 +78,61 @@ def cost(repeats: int) -> dict:
         for fn in fns.values():
             fn()
         times: dict[str, list[float]] = {k: [] for k in fns}
+        cpu: dict[str, list[float]] = {k: [] for k in fns}
         for _ in range(repeats):
             for k, fn in fns.items():
-                t0 = time.perf_counter()
+                c0, t0 = time.process_time(), time.perf_counter()
                 fn()
                 times[k].append(1e3 * (time.perf_counter() - t0))
+                cpu[k].append(1e3 * (time.process_time() - c0))
         med = {k: statistics.median(v) for k, v in times.items()}
         out[name] = {"separable_ms": round(med["separable"], 2), "transmission_ms": round(med["transmission"], 2),
                      "share_of_separable": round(med["transmission"] / med["separable"], 3),
                      "spread_ms": round(med["spread"], 2),
                      "spread_share_of_separable": round(med["spread"] / med["separable"], 3),
+                     "transmission_min_ms": round(min(times["transmission"]), 2),
+                     "cpu_ms": {k: round(statistics.median(v), 2) for k, v in cpu.items()},
                      "renderer": backend_status()[name]["details"]}
+    return out
+
+
+def pipeline_cost(repeats: int) -> dict:
+    """The pass inside a render at 1080p on numba: the G-buffer's frame inputs (GBuffer.transmission_inputs in
+    float32) and the whole of pipeline.transmission.add_transmission (inputs, pass, demodulation), ms."""
+    from ssskit.materials import get_material
+    from ssskit.pipeline.settings import RenderSettings
+    from ssskit.pipeline.transmission import add_transmission
+    from ssskit.screenspace import GBuffer
+    from ssskit.screenspace.camera import Camera
+    from ssskit.screenspace.transmission import LightView
+
+    w, h = 1920, 1080
+    rng = np.random.default_rng(0)
+    cam = Camera(w, h, 2000.0, 2000.0, w / 2, h / 2, np.eye(4), 1.0)
+    normal = np.zeros((h, w, 3), np.float32)
+    normal[..., 2] = -1.0
+    view = LightView.looking_along(np.array([0.0, 0.0, -1.0]), np.array([0.0, 0.0, 500.0]), 300.0, (w, h))
+    depth_back = view.project(np.array([[0.0, 0.0, 505.0]]))[0, 2]
+    gb = GBuffer(diffuse=rng.random((h, w, 3), dtype=np.float32), albedo=np.full((h, w, 3), 0.5, np.float32),
+                 depth=np.full((h, w), 500.0, np.float32), profile_id=np.ones((h, w), np.uint32), camera=cam,
+                 normal=normal, materials=("skin1",), light_depth=np.full((h, w), depth_back, np.float32),
+                 light={**view.to_dict(), "irradiance": [1.0, 1.0, 1.0]})
+    sss = rng.random((h, w, 3), dtype=np.float32)
+    settings = RenderSettings(transmission="on", backend="numba")
+    mats = {1: get_material("skin1")}
+    fns = {"inputs": lambda: gb.transmission_inputs(np.float32),
+           "add_transmission": lambda: add_transmission(gb, sss, settings, mats, lambda msg: None)}
+    for fn in fns.values():
+        fn()
+    out = {}
+    for k, fn in fns.items():
+        wall, cpu = [], []
+        for _ in range(repeats):
+            c0, t0 = time.process_time(), time.perf_counter()
+            fn()
+            wall.append(1e3 * (time.perf_counter() - t0))
+            cpu.append(1e3 * (time.process_time() - c0))
+        out[k] = {"ms": round(statistics.median(wall), 2), "cpu_ms": round(statistics.median(cpu), 2)}
     return out
 
 
@@ -116,7 +164,7 @@ def main() -> None:
     ap.add_argument("--skip-thickness", action="store_true")
     args = ap.parse_args()
     load0 = os.getloadavg()
-    result = {"cost_1080p": cost(args.repeats)}
+    result = {"cost_1080p": cost(args.repeats), "pipeline_1080p_numba": pipeline_cost(args.repeats)}
     if not args.skip_thickness:
         result["thickness_vs_chord"] = thickness()
     result["loadavg_before_after"] = [round(load0[0], 2), round(os.getloadavg()[0], 2)]

@@ -20,9 +20,10 @@ def _model(scale=1.0, wrap=0.0, k=3, seed=0):
                      scale, wrap)
 
 
-def _frame(seed=1):
+def _frame(seed=1, h=H, w=W, hs=HS, ws=WS):
     """Two profile ids, a map at ~100 mm with holes, points behind it (t in [0.01, 9] mm, none within 2x the
     bias of zero) or in front of it, some off the map."""
+    H, W, HS, WS = h, w, hs, ws
     r = np.random.default_rng(seed)
     shadow = (100.0 + r.uniform(0, 5, (HS, WS))).astype(np.float32)
     shadow[r.random((HS, WS)) < 0.05] = np.inf
@@ -61,24 +62,64 @@ def _argument_bound(plan, frame):
     return np.sum(plan.a[slots] * np.exp(x) * (np.abs(x) + 1) * 2.0**-20, axis=-1) * e
 
 
-def test_backend_parity_in_ulps(backend, plan):
-    """|backend - oracle| <= 16 float32 ulps of the result, plus what the rounding of the map's depth (4 ulps
-    of ~100 mm) moves the oracle (t = z - D cancels, so a float32 D carries ulps of the depth, not of t),
-    plus the float32 exponential's error at large |x| (:func:`_argument_bound`), plus float32 denormals
-    (GLSL may flush them to zero)."""
-    frame = _frame()
+def _parity(backend, plan, frame):
+    """(out, oracle, bound): |backend - oracle| <= 16 float32 ulps of the result, plus what the rounding of the
+    map's depth (4 ulps of ~100 mm) moves the oracle (t = z - D cancels, so a float32 D carries ulps of the
+    depth, not of t), plus what the float32 rounding of wrap - N . L (the wrap constant and the difference,
+    half an ulp of 1 each) moves it (it cancels where N . L is near the wrap), plus the float32 exponential's
+    error at large |x| (:func:`_argument_bound`), plus float32 denormals (GLSL may flush them to zero)."""
     out = get_backend(backend).transmission(plan, *frame)
     ref = transmission_pass(plan, *frame)
     slots, uvz, shadow, ndl, light = frame
     eps = 4 * np.spacing(shadow.astype(np.float32)).astype(np.float64)
     hi = transmission_pass(plan, slots, uvz, np.where(np.isfinite(shadow), shadow + eps, shadow), ndl, light)
     lo = transmission_pass(plan, slots, uvz, np.where(np.isfinite(shadow), shadow - eps, shadow), ndl, light)
+    dn = float(np.spacing(np.float32(1.0)))
+    e_hi = transmission_pass(plan, slots, uvz, shadow, ndl.astype(np.float64) - dn, light)
+    e_lo = transmission_pass(plan, slots, uvz, shadow, ndl.astype(np.float64) + dn, light)
     bound = (16 * np.spacing(np.abs(ref).astype(np.float32)).astype(np.float64) + np.abs(hi - lo) / 2
-             + _argument_bound(plan, frame) + 8 * np.finfo(np.float32).tiny)  # GPUs may flush denormals
+             + np.abs(e_hi - e_lo) / 2 + _argument_bound(plan, frame)
+             + 8 * np.finfo(np.float32).tiny)  # GPUs may flush denormals
+    return out, ref, bound
+
+
+def test_backend_parity_in_ulps(backend, plan):
+    """The backend against the float64 oracle within :func:`_parity`'s bound."""
+    out, ref, bound = _parity(backend, plan, _frame())
     err = np.abs(np.asarray(out, np.float64) - ref)
     assert out.shape == (H, W, 3) and out.dtype == get_backend(backend).dtype
     assert np.all(err <= bound), f"{backend}: worst {float((err / np.maximum(bound, 1e-300)).max()):.3g}x the bound"
     assert np.count_nonzero(ref) > 0.2 * ref.size  # the frame exercises the pass
+
+
+@pytest.mark.parametrize("h, w, hs, ws", [(2, 3, 40, 36), (3, 11, 1, 1), (70, 37, 1, 5), (37, 70, 5, 1),
+                                          (64, 97, 40, 36)])
+def test_parity_on_any_frame_and_map_shape(backend, plan, h, w, hs, ws):
+    """Frames of fewer pixels than a lane block, widths no multiple of it, frames split over threads (>= 2048
+    pixels), maps one texel wide or high (the numba kernel reads texels in pairs): the oracle's values
+    within :func:`_parity`'s bound."""
+    frame = _frame(seed=h + w, h=h, w=w, hs=hs, ws=ws)
+    out, ref, bound = _parity(backend, plan, frame)
+    err = np.abs(np.asarray(out, np.float64) - ref)
+    assert out.shape == (h, w, 3)
+    assert np.all(err <= bound), f"{backend}: worst {float((err / np.maximum(bound, 1e-300)).max()):.3g}x the bound"
+    if hs * ws > 1:
+        assert np.count_nonzero(ref) > 0.05 * ref.size
+
+
+def test_numba_result_is_the_same_on_any_thread_count(plan):
+    numba = pytest.importorskip("numba")
+    frame = _frame(seed=11, h=64, w=97)
+    b = get_backend("numba")
+    prev = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = b.transmission(plan, *frame)
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        many = b.transmission(plan, *frame)
+    finally:
+        numba.set_num_threads(prev)
+    np.testing.assert_array_equal(one, many)
 
 
 def test_zero_thickness_and_zero_back_light_give_zero(backend, plan):
@@ -211,3 +252,132 @@ def test_thickness_along_the_normal(backend):
     bound = np.abs(hi - lo) / 2 + terms + 8 * np.finfo(np.float32).tiny
     err = np.abs(out - ref)
     assert np.all(err <= bound), f"{backend}: worst {float((err / np.maximum(bound, 1e-300)).max()):.3g}x the bound"
+
+
+# ---- Unreal Engine 5's transmission (model "unreal") ---------------------------------------------------------
+
+
+def _ue_table_written_out(surface_albedo, dmfp_mm, tint, world_unit_scale=0.1, distance_scale=1.0):
+    """BurleyNormalizedSSS.cpp (UE 5.8), ComputeTransmissionProfileBurley, line by line: 32 entries, the profile
+    0.25 A (exp(-S r / L) + 3 exp(-S r / (3 L))) with A = white, S = GetSearchLightDiffuseScalingFactor(albedo),
+    L the DMFP in mm, tinted, the last entry black."""
+    unit_scale = world_unit_scale * distance_scale / 0.1  # SubsurfaceScatteringUnitInCm = 0.1
+    inv_unit_scale = 1.0 / unit_scale
+    out = np.zeros((32, 3))
+    for i in range(32):
+        distance_mm = i * (1.0 / 32) * (5.0 * 10.0) * inv_unit_scale  # MaxTransmissionProfileDistance * CmToMm
+        offset_mm = (0.06 * 10.0) * inv_unit_scale  # ProfileRadiusOffset * CmToMm
+        r = distance_mm + offset_mm
+        for c in range(3):
+            s = 3.5 + 100 * (surface_albedo[c] - 0.33) ** 4
+            ell = dmfp_mm[c]
+            out[i, c] = 0.25 * 1.0 * (np.exp(-s * r / ell) + 3 * np.exp(-s * r / (3 * ell))) * tint[c]
+    out[31] = 0.0
+    return out
+
+
+def _ue_transmission_written_out(table, thickness_mm, extinction_scale, normal_scale):
+    """The shaders (UE 5.8): CalculateOpticalDepth (TransmissionThickness.ush, NoL = 1, thickness in cm), the shadow
+    mask's EncodeOpticalDepthToShadowMask squared by ApplyPCFOverBlurCorrection (ShadowProjectionPixelShader.usf),
+    DecodeOpticalDepthFromShadowMask and GetTransmissionProfile's uv (TransmissionCommon.ush) through a GPU linear
+    filter with clamp-to-edge addressing (texel k centred at k + 0.5)."""
+    out = []
+    for t in thickness_mm:
+        od = (t / 10.0) * extinction_scale
+        ns = normal_scale * 0.5
+        od = np.clip(abs(od + ns if od > 0 else max(0.0, od * 1.0 + ns)), 0.15, 5) + 0.25
+        encoded = (1 - od / 5.0) ** 2
+        decoded = (1 - encoded) * 5.0
+        coord = decoded / 5.0 * (32 - 1) + 0.5  # texel units along the table
+        k = int(np.floor(coord - 0.5))
+        f = coord - 0.5 - k
+        k0, k1 = min(max(k, 0), 31), min(max(k + 1, 0), 31)
+        out.append((1 - f) * table[k0] + f * table[k1])
+    return np.array(out)
+
+
+def test_unreal_model_is_ues_computation_written_out():
+    """The unreal slot's T(t) is UE 5.8's profile table read at UE's optical depth, written out from the files
+    (helpers above), for a skin-like profile with a tint, ExtinctionScale and NormalScale away from their defaults,
+    at thicknesses across the clamps; UE's table from SurfaceAlbedo and DMFP equals ssskit's from d = DMFP / S."""
+    from ssskit.screenspace.transmission import unreal_model, unreal_profile_table
+
+    albedo, d = np.array([0.8, 0.5, 0.3]), np.array([1.2, 0.5, 0.23])
+    dmfp = d * (3.5 + 100 * (albedo - 0.33) ** 4)
+    tint, ext, ns = np.array([1.0, 0.8, 0.6]), 2.5, 0.3
+    table = _ue_table_written_out(albedo, dmfp, tint)
+    np.testing.assert_allclose(unreal_profile_table(d, tint).T, table, rtol=1e-12, atol=1e-300)
+    wide = _ue_table_written_out(albedo, dmfp, tint, world_unit_scale=0.5, distance_scale=2.0)
+    np.testing.assert_allclose(unreal_profile_table(d, tint, 0.5, 2.0).T, wide, rtol=1e-12, atol=1e-300)
+    plan = build_transmission_plan({1: unreal_model(d, tint, ext, ns)}, bias_mm=0.0)
+    thick = np.concatenate([np.linspace(0.001, 3.0, 97), np.linspace(3.0, 400.0, 101)])
+    np.testing.assert_allclose(plan.transmittance(1, thick), _ue_transmission_written_out(table, thick, ext, ns),
+                               rtol=1e-12, atol=1e-300)
+    assert plan.wrap[1] == 2.0 and plan.models == ("unreal",)
+    # no cosine at the back (wrap 2): the same light whatever N . L, unlike the other models
+    shadow = np.full((4, 4), 10.0)
+    uvz = np.array([[[2.0, 2.0, 10.0 + thick[10]]] * 3])
+    out = transmission_pass(plan, np.ones((1, 3), np.int32), uvz, shadow, np.array([[0.9, 0.0, -0.5]]),
+                            np.ones((1, 3, 3)))
+    np.testing.assert_allclose(out[0], np.broadcast_to(plan.transmittance(1, thick[10:11])[0], (3, 3)), rtol=1e-13)
+
+
+def test_unreal_phase_is_ues_approximate_hg():
+    """ShadingModels.ush: ApproximateHG(dot(-L, refract(V, -N, 1 / IOR)), g). Straight through (V = N, the light
+    behind along -N) the refracted ray is V and the phase is its peak 0.5 (1 + g) / (1 - g); g = 0 is the
+    constant 0.5; refract is HLSL's (zero on total internal reflection)."""
+    from ssskit.screenspace.transmission import approximate_hg, refract, unreal_phase
+
+    n = np.array([0.0, 0.0, 1.0])
+    for g in (0.0, 0.5, 0.93):
+        assert unreal_phase(n, n, -n, g, 1.55) == pytest.approx(0.5 * (1 + g) / (1 - g), rel=1e-12)
+    v = np.array([np.sin(0.7), 0.0, np.cos(0.7)])
+    assert unreal_phase(n, v, -n, 0.0, 1.3) == pytest.approx(0.5, rel=1e-12)
+    # refract(i, n, eta) = eta i - (eta (n.i) + sqrt(k)) n, k = 1 - eta^2 (1 - (n.i)^2): Snell's law for i pointing in
+    i = -v
+    r = refract(i, n, 1.0 / 1.5)
+    assert np.linalg.norm(r) == pytest.approx(1.0)
+    assert np.hypot(r[0], r[1]) == pytest.approx(np.sin(0.7) / 1.5)  # n1 sin(theta1) = n2 sin(theta2)
+    assert not np.any(refract(np.array([np.sin(1.2), 0.0, -np.cos(1.2)]), n, 1.5))  # beyond the critical angle
+    assert approximate_hg(1.0, 1.0) == pytest.approx(0.0)  # the max(1e-5, ...) guards g cos = 1
+
+
+def _unreal_plan():
+    from ssskit.screenspace.transmission import unreal_model
+
+    return build_transmission_plan({1: unreal_model((2.5, 1.0, 0.5), (1.0, 0.7, 0.5), 8.0, 0.08),
+                                    2: _model(seed=3)}, bias_mm=1e-3)
+
+
+def test_unreal_slots_on_every_backend(backend):
+    """An unreal slot beside an exponential one (blocks that straddle both) on each backend: the oracle's values
+    within :func:`_parity`'s bound plus the float32 rounding of the table coordinate x (about 8 roundings, each
+    amplified at most 6.5x by 1 - e^2 >= 0.154: 64 ulps of 31) times the table's slope."""
+    plan = _unreal_plan()
+    frame = _frame(seed=21, h=64, w=97)
+    out, ref, bound = _parity(backend, plan, frame)
+    slots, uvz, shadow, ndl, light = frame
+    from ssskit.backends.numpy_backend import shadow_depth
+
+    t = uvz[..., 2] - shadow_depth(shadow.astype(np.float64), uvz[..., 0].astype(np.float64),
+                                   uvz[..., 1].astype(np.float64))
+    t = np.where(np.isfinite(t), np.maximum(t, 0.0), 0.0)
+    from ssskit.backends.transmission_plan import unreal_lut_coordinate
+
+    x = unreal_lut_coordinate(plan.od_per_mm[1] * t + plan.od_offset[1])
+    i = np.minimum(np.floor(x), 30).astype(int)
+    slope = np.abs(plan.lut[1][:, i + 1] - plan.lut[1][:, i]).transpose(1, 2, 0)
+    e = np.clip(plan.wrap[slots] - ndl, 0, 1)[..., None] * light
+    bound = bound + np.where((slots == 1)[..., None], slope * 64 * float(np.spacing(np.float32(31.0))) * e, 0.0)
+    err = np.abs(np.asarray(out, np.float64) - ref)
+    assert np.all(err <= bound), f"{backend}: worst {float((err / np.maximum(bound, 1e-300)).max()):.3g}x the bound"
+    assert np.count_nonzero(ref[slots == 1]) > 0.3 * ref[slots == 1].size
+    changed = get_backend(backend).transmission(build_transmission_plan(
+        {1: _other_unreal(), 2: _model(seed=3)}, bias_mm=1e-3), *frame)
+    np.testing.assert_array_equal(changed[slots == 2], out[slots == 2])  # nothing crosses profile ids
+
+
+def _other_unreal():
+    from ssskit.screenspace.transmission import unreal_model
+
+    return unreal_model((1.0, 0.4, 0.2), extinction_scale=1.0)

@@ -96,6 +96,22 @@ BAD = [
     (["export", "--format", "glsl-shader", "--out", "k.comp", "--kernel", "jimenez2012", "--jitter", "1.5"],
      "--jitter"),
     (["export", "--format", "glsl-shader", "--out", "k.hlsl", "--kernel", "jimenez2012"], "must end in"),
+    (["export", "--format", "glsl-shader", "--pass", "transmission", "--material", "skin1", "--kernel",
+      "jimenez2012", "--out", "t.comp"], "--kernel does not apply to --pass transmission"),
+    (["export", "--format", "glsl-shader", "--pass", "transmission", "--out", "t.comp"],
+     "--transmission-model mcml needs --material"),
+    (["export", "--format", "glsl-shader", "--pass", "transmission", "--transmission-model", "jimenez2010",
+      "--material", "skin1", "--out", "t.comp"], "jimenez2010 takes no material"),
+    (["export", "--format", "glsl-shader", "--pass", "transmission", "--transmission-model", "unreal",
+      "--albedo", "0.5", "--mfp", "1", "--out", "t.comp"], "needs a homogeneous material"),
+    (["export", "--format", "unity", "--pass", "transmission", "--material", "skin1", "--out", "u.json"],
+     "--pass applies to --format glsl-shader or hlsl-shader"),
+    (["export", "--format", "glsl-shader", "--transmission-model", "unreal", "--kernel", "jimenez2012",
+      "--out", "k.comp"], "--transmission-model applies with --pass transmission"),
+    (["export", "--format", "glsl-shader", "--pass", "transmission", "--material", "skin1", "--out", "t.hlsl"],
+     "must end in"),
+    (["export", "--format", "glsl-shader", "--pass", "bogus", "--material", "skin1", "--out", "t.comp"],
+     "Invalid value for '--pass'"),
 ]
 
 
@@ -111,6 +127,25 @@ def test_whole_shader_export(run, tmp_path):
     text = out.read_text()
     assert "#version 430" in text and "#ifndef VERTICAL" in text and "#define DEPTH_MODE 1  // follow" in text
     assert "ROW_PLUS[10]" in text  # 11 taps: 5 mirror pairs per slot (slot 0, no SSS, and the one id)
+
+
+def test_transmission_shader_export(run, tmp_path):
+    """``--pass transmission``: the transmittance shader with the material's model baked in (the gl backend's
+    source for that plan), jimenez2010 without a material."""
+    from ssskit.backends.gl.transmission import transmission_export_source
+    from ssskit.materials import get_material
+    from ssskit.screenspace.transmission import mcml_model, transmission_plan
+
+    out = tmp_path / "t.comp"
+    code, stdout, err = run("export", "--material", "skin1", "--format", "glsl-shader", "--pass", "transmission",
+                            "--out", out, "--json")
+    assert code == 0, err
+    assert json.loads(stdout)["transmission_model"] == "mcml" and json.loads(stdout)["material"] == "Skin1"
+    text = out.read_text()
+    assert text.split("\n", 1)[1] == transmission_export_source(transmission_plan({1: mcml_model(get_material("skin1"))}))
+    code, _, err = run("export", "--format", "glsl-shader", "--pass", "transmission", "--transmission-model",
+                       "jimenez2010", "--out", tmp_path / "j.comp")
+    assert code == 0 and "COEF_C" in (tmp_path / "j.comp").read_text(), err
 
 
 @pytest.mark.parametrize("args, fragment", BAD, ids=[" ".join(a[1:]) for a, _ in BAD])

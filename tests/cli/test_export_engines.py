@@ -51,10 +51,22 @@ def test_round_trip_through_monte_carlo(run, tmp_path, fmt, suffix):
     again = tmp_path / f"b.{suffix}"
     _ok(run, "export", "--material", "skin1", "--format", fmt, "--out", first)
     _ok(run, "export", "--material", first, "--model", "montecarlo", "--photons", "100000", "--format", fmt,
-        "--out", again)
+        "--out", again, *(("--no-transmission",) if fmt in ("unreal", "unity") else ()))
     a, b = read_engine_file(first), read_engine_file(again)
     np.testing.assert_allclose(b.albedo, a.albedo, rtol=0.01)
     np.testing.assert_allclose(b.d_mm, a.d_mm, rtol=0.05)
+
+
+def test_transmission_fields_need_a_physical_material(run, tmp_path):
+    """A preset's export carries the fitted transmission fields; artists' terms through the Burley inversion (no
+    coefficients, no MCML table) and --no-transmission say why they are left out."""
+    _ok(run, "export", "--material", "skin1", "--format", "unreal", "--out", tmp_path / "u.json")
+    tr = json.loads((tmp_path / "u.json").read_text())["transmission"]
+    assert {"ExtinctionScale", "TransmissionTintColor", "DistanceScale", "max_rel_error"} <= set(tr)
+    _ok(run, "export", "--albedo", "0.5", "--mfp", "1", "--format", "unity", "--out", tmp_path / "a.json")
+    assert json.loads((tmp_path / "a.json").read_text())["transmission"]["available"] is False
+    _ok(run, "export", "--material", "skin1", "--format", "unity", "--no-transmission", "--out", tmp_path / "n.json")
+    assert "--no-transmission" in json.loads((tmp_path / "n.json").read_text())["transmission"]["why"]
 
 
 def test_unity_asset_reads_back_with_an_albedo(run, tmp_path):
@@ -96,6 +108,7 @@ BAD_EXPORT = [
     (["--material", "good.asset", "--format", "blender", "--out", "o.json"], "holds no albedo"),
     (["--material", "skin1", "--unreal-form", "dmfp", "--format", "unreal", "--out", "o.json"], "--unreal-form"),
     (["--material", "skin1", "--standard-surface", "--format", "unity", "--out", "o.json"], "--standard-surface"),
+    (["--material", "skin1", "--no-transmission", "--format", "blender", "--out", "o.json"], "--no-transmission"),
     (["--material", "skin1", "--model", "dipole", "--grid-fraction", "0.999", "--format", "unity", "--out", "o.json"],
      "--grid-fraction does not apply"),
 ]

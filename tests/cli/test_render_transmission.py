@@ -1,6 +1,6 @@
-"""``ssskit render --transmission``: the transmittance pass in a rendered frame (docs/transmission.md), on the
-back-lit ear (its key light behind it), and the bad inputs it refuses (one line, exit status 2, nothing
-written)."""
+"""``ssskit render --transmission``: the transmittance pass in a rendered frame and in every frame of
+``--pass burley-adaptive`` (docs/transmission.md), on the back-lit ear (its key light behind it), and the bad
+inputs it refuses (one line, exit status 2, nothing written)."""
 
 import json
 
@@ -108,6 +108,33 @@ def test_burley_with_transmission_is_brighter_behind(run, ear):
     assert np.any(on["transmission"] > 0)
 
 
+def test_adaptive_run_adds_the_light_to_every_frame(run, ear):
+    """--pass burley-adaptive --transmission on along the ear's camera and light paths (moving, its G-buffers
+    rendered with the light layers of each frame's light): the same sample counts as with it off (the guiding
+    phase sees the reflectance pass), the JSON and the summary name the pass, the EXR holds the last frame's
+    transmitted light; on the G-buffer file (static), the same light as the one-frame Burley pass."""
+    folder, _, gbf = ear
+    moving = ("--scene", "ear", "--pass", "burley-adaptive", "--size", "24x16", "--limit-spp", "64", "--frames", "2",
+              "--budget", "2:8", "--backend", "numpy", "--no-perceptual")
+    out = folder / "adaptive_on.exr"
+    on = _render(run, *moving, "--transmission", "on", "--out", out)
+    off = _render(run, *moving, "--transmission", "off")
+    assert on["transmission"]["ran"] and on["transmission"]["model"] == "mcml" and not off["transmission"]["ran"]
+    assert on["transmission"]["lit_pixels"] > 0
+    assert [r["mean_spp"] for r in on["frames"]] == [r["mean_spp"] for r in off["frames"]]
+    layers = _image(out)
+    assert "transmission" in layers and np.any(layers["transmission"] > 0)
+    code, text, err = run("render", *moving, "--transmission", "on")
+    assert code == 0 and "# transmission: mcml model" in text, err
+    static = folder / "adaptive_static.exr"
+    one = folder / "burley_one.exr"
+    data = _render(run, "--scene", gbf, *QUICK, "--pass", "burley-adaptive", "--frames", "2", "--budget", "2:4",
+                   "--out", static)
+    assert data["static"] and data["transmission"]["ran"]
+    _render(run, "--scene", gbf, *QUICK, "--pass", "burley", "--spp", "4", "--out", one)
+    np.testing.assert_array_equal(_image(static)["transmission"], _image(one)["transmission"])
+
+
 @pytest.fixture
 def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
     """An empty folder holding the G-buffers of the bad inputs: without layers, the layers' variants."""
@@ -141,12 +168,13 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
     (["--scene", "plain.exr", "--transmission", "maybe"], "Invalid value for '--transmission'"),
     (["--scene", "plain.exr", "--transmission", "off", "--transmission-model", "jimenez2010"],
      "applies when the transmittance pass can run"),
-    (["--scene", "slab", "--pass", "burley-adaptive", "--transmission", "on"], "transmission on applies to the "
-                                                                                "separable and burley passes"),
-    (["--scene", "slab", "--pass", "burley-adaptive", "--transmission-model", "mcml"], "--transmission-model applies"),
+    (["--scene", "plain.exr", "--pass", "burley-adaptive", "--transmission", "on"], "needs the G-buffer's light layers"),
+    (["--scene", "rgb_depth.exr", "--pass", "burley-adaptive"], "layer 'light_depth' must have shape (H, W)"),
+    (["--scene", "plain.exr", "--pass", "burley-adaptive", "--transmission-model", "unreal2"],
+     "Invalid value for '--transmission-model': 'unreal2'"),
+    (["--scene", "plain.exr", "--pass", "burley-adaptive", "--transmission", "off", "--transmission-model",
+      "jimenez2010"], "applies when the transmittance pass can run"),
     (["--scene", "plain.exr", "--transmission-spread", "wide"], "Invalid value for '--transmission-spread': 'wide'"),
-    (["--scene", "slab", "--pass", "burley-adaptive", "--transmission-spread", "off"],
-     "--transmission-spread applies"),
 ])
 def test_bad_transmission_input(run, workdir, args, fragment):
     one_error_line(run, workdir, ["render", *args, "--backend", "numpy", "--out", "o.exr", "--save-gbuffer", "g2.exr"],
@@ -154,7 +182,7 @@ def test_bad_transmission_input(run, workdir, args, fragment):
 
 
 @pytest.mark.parametrize("content, fragment", [
-    ("transmission_model = 'foo'\n", "transmission_model must be one of mcml, jimenez2010, got 'foo'"),
+    ("transmission_model = 'foo'\n", "transmission_model must be one of mcml, jimenez2010, unreal, got 'foo'"),
     ("transmission = 'yes'\n", "transmission must be one of auto, on, off, got 'yes'"),
     ("transmission_spread = 'wide'\n", "transmission_spread must be one of mcml, off, got 'wide'"),
 ])

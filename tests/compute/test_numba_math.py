@@ -155,3 +155,19 @@ def _exp2(y):
     for i in range(y.size):
         out[i] = nm.exp2_f32(y[i])
     return out
+
+
+@njit
+def _pairs(arr, idx):
+    out = np.empty((idx.size, 2), np.float32)
+    for k in range(idx.size):
+        out[k, 0], out[k, 1] = nm.load_pair_at(arr, idx[k])
+    return out
+
+
+def test_load_pair_at_reads_two_neighbours_at_any_offset():
+    """One 64-bit load gives (arr[i], arr[i + 1]) in that order, also at odd (8-byte unaligned) i and on the last
+    pair of the array."""
+    arr = np.arange(1, 12, dtype=np.float32) * np.float32(1.5)
+    idx = np.array([0, 1, 4, 9], np.int32)
+    np.testing.assert_array_equal(_pairs(arr, idx), np.stack([arr[idx], arr[idx + 1]], -1))

@@ -26,10 +26,11 @@ HDRP_PROFILE_FIELDS = ["scatteringDistance", "scatteringDistanceMultiplier", "tr
                        "smoothnessMultipliers", "lobeMix", "diffuseShadingPower", "transmissionMode", "thicknessRemap",
                        "worldScale", "ior", "hash"]
 HDRP_SCRIPT_GUID = "b2686e09ec7aef44bad2843e4416f057"
-# Written out from UE 5's Engine/Classes/Engine/SubsurfaceProfile.h, struct FSubsurfaceProfileStruct
+# Written out from UE 5's Engine/Classes/Engine/SubsurfaceProfile.h, struct FSubsurfaceProfileStruct (DistanceScale:
+# UE 5.8's)
 UE_SETTINGS_FIELDS = ["SurfaceAlbedo", "MeanFreePathColor", "MeanFreePathDistance", "WorldUnitScale", "bEnableBurley",
                       "bEnableMeanFreePath", "Tint", "ScatterRadius", "SubsurfaceColor", "FalloffColor",
-                      "BoundaryColorBleed", "Implementation", "ExtinctionScale", "NormalScale",
+                      "BoundaryColorBleed", "Implementation", "ExtinctionScale", "NormalScale", "DistanceScale",
                       "ScatteringDistribution", "IOR", "Roughness0", "Roughness1", "LobeMix", "TransmissionTintColor"]
 
 
@@ -108,7 +109,8 @@ def test_unreal_script_parses_and_sets_struct_fields(skin1, form):
     create = next(n for c, n in calls if c.endswith(".create_asset"))
     assert ast.unparse(create.args[2]) == "unreal.SubsurfaceProfile"
     assert "unreal.EditorAssetLibrary.save_loaded_asset" in names
-    set_props = [n.args[0].value for c, n in calls if c == "settings.set_editor_property"]
+    set_props = [n.args[0].value for c, n in calls  # (the transmission fields go through a loop: tested below)
+                 if c == "settings.set_editor_property" and isinstance(n.args[0], ast.Constant)]
     # UE Python names a UPROPERTY in snake_case, dropping a bool's 'b' prefix
     ue_python = {}
     for f in UE_SETTINGS_FIELDS:
@@ -124,6 +126,40 @@ def test_unreal_script_parses_and_sets_struct_fields(skin1, form):
     assert settings["bEnableMeanFreePath"] is (form == "mfp")
     for k, v in settings.items():
         assert v == p[form][k]
+
+
+def _ue_python_name(field):
+    base = field[1:] if field.startswith("b") and field[1].isupper() else field
+    return "".join("_" + ch.lower() if ch.isupper() and i and not base[i - 1].isupper() else ch.lower()
+                   for i, ch in enumerate(base))
+
+
+def test_unreal_script_and_asset_carry_the_transmission_fit(skin1):
+    """With the material's MCML table the editor script sets UE's transmission fields (names from
+    FSubsurfaceProfileStruct, UE Python's snake_case), the details-panel text carries them, and the HDRP .asset
+    writes transmissionTint, transmissionMode 0 (Thick Object) and thicknessRemap as the YAML parser reads them."""
+    from ssskit.export.unity import _unity_loader
+    from ssskit.profiles.montecarlo.transmission import transmission_table
+
+    m, prof = skin1
+    table = transmission_table(m)
+    p = engine_parameters(prof, "unreal", m, table)
+    tree = ast.parse(unreal_script(p, "SP_Skin1"))
+    consts = {n.targets[0].id: ast.literal_eval(n.value) for n in ast.walk(tree)
+              if isinstance(n, ast.Assign) and getattr(n.targets[0], "id", "") in ("TRANSMISSION", "PROPERTY")}
+    tr = consts["TRANSMISSION"]
+    assert set(tr) == {"ExtinctionScale", "NormalScale", "ScatteringDistribution", "TransmissionTintColor",
+                       "DistanceScale"} and set(tr) <= set(UE_SETTINGS_FIELDS)
+    assert all(consts["PROPERTY"][k] == _ue_python_name(k) for k in tr)
+    assert all(tr[k] == p["transmission"][k] for k in tr)
+    assert f"ExtinctionScale={tr['ExtinctionScale']:.6f}" in p["details_panel"]["mfp"]
+    u = engine_parameters(prof, "unity", m, table)
+    doc = yaml.load(unity_asset(u, "Skin1"), Loader=_unity_loader())["MonoBehaviour"]["profile"]
+    assert set(doc) == set(HDRP_PROFILE_FIELDS)
+    np.testing.assert_allclose([doc["transmissionTint"][k] for k in "rgb"], u["transmission"]["transmissionTint"],
+                               rtol=1e-8)
+    assert doc["transmissionMode"] == 0
+    assert [doc["thicknessRemap"]["x"], doc["thicknessRemap"]["y"]] == u["transmission"]["thicknessRemap"]
 
 
 @needs_mx

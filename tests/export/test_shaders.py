@@ -2,6 +2,7 @@
 front end, and the exported kernel arrays compiled in both languages. Skipped (with the reason)
 where glslangValidator or spirv-cross is not installed; the missing-tool error is tested anywhere."""
 
+import numpy as np
 import pytest
 
 from ssskit.export import format_shader_arrays, kernel_arrays
@@ -150,3 +151,88 @@ def test_whole_hlsl_shader_binds_one_constant_buffer_layout_in_every_pass():
     offsets = sorted(off for off, _ in layouts[0].values())
     assert offsets == sorted(set(offsets))  # no two members share bytes
     assert hlsl.count("cbuffer SSSParams : register(b0)") == 2 * taps.rank
+
+
+# ---- the transmittance pass (--pass transmission) --------------------------------------------------------------
+
+
+def _arrays(text, pattern):
+    """name -> float64 array of every baked table matching ``pattern`` (groups: name, comma-separated values)."""
+    import re
+
+    out = {}
+    for name, body in re.findall(pattern, text, re.S):
+        vals = [v.strip().rstrip("f") for v in body.replace("\n", " ").split(",") if v.strip()]
+        out[name] = np.array([float(v) for v in vals])
+    return out
+
+
+GLSL_TABLE = r"const (?:float|int) (\w+)\[\d+\] = (?:float|int)\[\]\(\s*(.*?)\);"
+HLSL_TABLE = r"static const (?:float|int) (\w+)_VALUES\[\d+\] = \{\s*(.*?)\};"
+
+
+def _shader_transmittance(tables, slot, t, terms):
+    """T(t) of one slot evaluated from the shader's baked tables as its main() does (steps 4 of both kinds)."""
+    if "LUT_SLOT" in tables and tables["LUT_SLOT"][slot] == 1:
+        od = np.clip(tables["OD_PER_MM"][slot] * t + tables["OD_OFFSET"][slot], 0.15, 5.0) + 0.25
+        enc = 1.0 - od / 5.0
+        x = (1.0 - enc * enc) * 31
+        fi = np.minimum(np.floor(x), 30).astype(int)
+        f = x - fi
+        lut = tables["LUT"].reshape(-1, 3, 32)[slot]
+        return np.stack([(1 - f) * lut[c, fi] + f * lut[c, fi + 1] for c in range(3)], -1)
+    u = tables["SCALE"][slot] * t
+    a, b, c = (tables[k].reshape(-1, 3, terms)[slot] for k in ("COEF_A", "COEF_B", "COEF_C"))
+    return np.stack([np.sum(a[ch] * np.exp(-b[ch] * u[:, None] - c[ch] * (u * u)[:, None]), -1) for ch in range(3)], -1)
+
+
+@pytest.fixture(scope="module")
+def transmission_plan_():
+    from ssskit.materials import get_material
+    from ssskit.screenspace.transmission import mcml_model, transmission_plan, unreal_model
+
+    return transmission_plan({1: mcml_model(get_material("skin1")), 2: unreal_model((2.0, 0.8, 0.4), (1, 0.9, 0.7), 3.0)})
+
+
+def test_transmission_glsl_is_the_backends_source_and_computes_the_pass(transmission_plan_):
+    """The exported GLSL is the gl backend's transmittance shader (run against the oracle in
+    tests/backends/test_transmission.py); glslangValidator compiles it; its baked parameter arrays, evaluated by
+    the shader's formula, give the plan's T(t) within float32 rounding (an MCML slot and an Unreal table slot)."""
+    from ssskit.backends.gl.transmission import transmission_export_source
+    from ssskit.export.shaders import transmission_shader
+
+    plan = transmission_plan_
+    glsl = transmission_shader(plan, "glsl")
+    assert glsl == transmission_export_source(plan) and "// ---- how to run it" in glsl
+    if OK:
+        assert glsl_to_spirv(glsl)[:4] == SPIRV_MAGIC
+    tables = _arrays(glsl, GLSL_TABLE)
+    assert {"COEF_A", "COEF_B", "COEF_C", "SCALE", "WRAP", "LUT", "OD_PER_MM", "OD_OFFSET"} <= set(tables)
+    t = np.concatenate([np.linspace(0.01, 5, 60), np.linspace(5, 60, 40)])
+    for slot in (1, 2):
+        got, want = _shader_transmittance(tables, slot, t, plan.terms), plan.transmittance(slot, t)
+        # the baked coefficients are float32: a term a exp(x) moves by 2^-24 (1 + |x|) of itself (|x| up to ~100);
+        # the MCML model's terms may subtract (its scattered part is 0 at t = 0), so the bound is the sum of the
+        # terms' magnitudes, not of T
+        x = -plan.b[slot][None] * t[:, None, None] - plan.c[slot][None] * (t * t)[:, None, None]
+        terms = np.sum(np.abs(plan.a[slot][None]) * np.exp(x) * (1.0 + np.abs(x)), axis=-1)
+        bound = 2.0 * 2.0**-24 * (terms if slot == 1 else 101 * np.abs(want)) + 1e-12
+        assert np.all(np.abs(got - want) <= bound), f"slot {slot}: worst {np.max(np.abs(got - want) / bound):.3g}x"
+
+
+@needs_tools
+def test_transmission_hlsl_compiles_back_and_bakes_the_same_numbers(transmission_plan_):
+    """The HLSL translation compiles with glslang's HLSL front end, binds its two uniforms in one constant
+    buffer, and its baked tables (static const NAME_VALUES) are the GLSL's, number for number."""
+    from ssskit.export.shaders import transmission_shader
+
+    plan = transmission_plan_
+    hlsl = transmission_shader(plan, "hlsl")
+    assert check_hlsl(hlsl)[:4] == SPIRV_MAGIC
+    assert hlsl.count("cbuffer SSSParams : register(b0)") == 1
+    assert sorted(_constant_layout(hlsl)) == ["u_n", "u_shadow_size"]
+    glsl_tables = _arrays(transmission_shader(plan, "glsl"), GLSL_TABLE)
+    hlsl_tables = _arrays(hlsl, HLSL_TABLE)
+    assert set(hlsl_tables) == set(glsl_tables)
+    for name, values in glsl_tables.items():
+        np.testing.assert_array_equal(hlsl_tables[name].astype(np.float32), values.astype(np.float32))

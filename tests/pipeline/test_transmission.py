@@ -1,6 +1,7 @@
 """The transmittance pass in the render pipeline (ssskit.pipeline.transmission): when it runs (auto, on, off),
-the light it adds to the separable and the Burley frame (before the albedo multiply, so the composite holds
-T(t) E / pi), its exact limit carrying the same light, and the checks made before any work."""
+the light it adds to the separable and the Burley frame and to every frame of the adaptive run (before the
+albedo multiply, so the composite holds T(t) E / pi), its exact limit carrying the same light, and the checks
+made before any work."""
 
 import math
 
@@ -8,7 +9,7 @@ import numpy as np
 import pytest
 
 from ssskit.errors import SettingsError
-from ssskit.pipeline import BurleyPass, RenderSettings, SeparablePass, plan, render
+from ssskit.pipeline import AdaptivePass, BurleyPass, RenderSettings, SeparablePass, plan, render
 
 #: the numpy backend (the float64 oracle); the dipole profile keeps the kernel cheap
 BASE = dict(backend="numpy", model="dipole", perceptual=False, pass_=SeparablePass(jitter=0.0))
@@ -82,6 +83,46 @@ def test_the_burley_pass_adds_the_same_light(ear):
     np.testing.assert_array_equal(on.transmitted, sep.transmitted)
 
 
+def test_every_adaptive_frame_adds_the_same_light(ear, backend):
+    """burley-adaptive (static, on the G-buffer with the layers) on each backend: the frames add the one-frame
+    Burley pass's transmitted light (the same pass on the same G-buffer), the guiding phase does not see it
+    (the same sample counts with it on or off), and the exact limit the frames are compared with carries it."""
+    lit, _ = ear
+    s = RenderSettings(backend=backend, perceptual=False,
+                       pass_=AdaptivePass(frames=3, static=True, b_min=2, b_max=8, taa=False))
+    on, off = render(lit, s), render(lit, s.replace(transmission="off"))
+    assert on.transmission.ran and not off.transmission.ran and on.transmission.model == "mcml"
+    assert on.to_dict()["transmission"]["ran"] and not off.to_dict()["transmission"]["ran"]
+    assert any(line.startswith("# transmission: mcml model") for line in on.lines())
+    assert [r["mean_spp"] for r in on.rows] == [r["mean_spp"] for r in off.rows]
+    np.testing.assert_array_equal(on.run.counts if on.run.counts is not None else 0,
+                                  off.run.counts if off.run.counts is not None else 0)
+    t = on.layers["transmission"]
+    one = render(lit, RenderSettings(backend=backend, perceptual=False, exact=False, pass_=BurleyPass(spp=8)))
+    np.testing.assert_array_equal(t, one.transmitted)
+    assert "transmission" not in off.layers and np.any(t > 0)
+    scale = float(np.abs(on.image).max())
+    np.testing.assert_allclose(on.image - off.image, t, rtol=1e-5, atol=1e-6 * scale)
+    # the exact limit got the same light: the frames' error against it is the reflectance pass's
+    np.testing.assert_allclose(on.fixed.exact - off.fixed.exact, on.fixed.sss - off.fixed.sss, rtol=1e-5,
+                               atol=1e-6 * scale)
+    for key in ("exact_2d", "average_exact_2d"):  # the same error (the PSNR's peak is the brighter image's)
+        assert on.metrics[key]["rmse"] == pytest.approx(off.metrics[key]["rmse"], rel=1e-3)
+
+
+def test_the_frame_loop_refuses_a_transmitted_light_of_the_wrong_shape(ear):
+    from ssskit.errors import PassError
+    from ssskit.screenspace import BurleyParams, BurleySettings, run_frames
+
+    lit, _ = ear
+    params = BurleyParams.from_dmfp((0.5, 0.4, 0.3), (1.0, 0.5, 0.25))
+    with pytest.raises(PassError, match="transmitted light must have shape"):
+        run_frames([lit], params, BurleySettings(backend="numpy"), spp=1, transmission=lambda g: np.zeros((2, 2, 3)))
+    with pytest.raises(PassError, match="finite and >= 0"):
+        run_frames([lit], params, BurleySettings(backend="numpy"), spp=1,
+                   transmission=lambda g: np.full(g.shape + (3,), -1.0))
+
+
 def test_jimenez2010_is_darker_than_mcml_for_skin(ear):
     """Jimenez 2010's Gaussians at scale 1 are far darker than Skin1's MCML T(t) (docs/transmission.md's table:
     0.6 to 0.01 of it at 0.5 mm), even with their wrapped back irradiance."""
@@ -90,6 +131,35 @@ def test_jimenez2010_is_darker_than_mcml_for_skin(ear):
     mc = render(lit, s).transmitted
     jm = render(lit, s.replace(transmission_model="jimenez2010")).transmitted
     assert mc[lit.mask].sum() > 0 and mc[lit.mask].sum(axis=0)[0] > jm[lit.mask].sum(axis=0)[0]
+
+
+def test_unreal_model_is_ues_light_in_the_frame(ear):
+    """transmission_model unreal on the back-lit ear: the pass with UE's table for the material's Burley d, the
+    light times UE's phase factor per pixel, and UE's exit (the base colour times the pass's out, not T E / pi):
+    the frame's transmitted layer equals that, computed from the G-buffer's inputs here (the lateral spread, a
+    step of its own for any model, off)."""
+    lit, _ = ear
+    s = RenderSettings(**BASE, exact=False, material="skin1")
+    r = render(lit, s.replace(transmission_model="unreal", transmission_spread="off"))
+    assert r.transmission.ran and r.transmission.model == "unreal" and r.transmission.lit_pixels > 0
+    from ssskit.backends import get_backend
+    from ssskit.materials import get_material
+    from ssskit.pipeline.transmission import slot_model
+    from ssskit.screenspace.transmission import LightView, transmission_plan, unreal_phase
+
+    plan_ = transmission_plan({1: slot_model("unreal", get_material("skin1"))})
+    uvz, shadow, ndl, light = lit.transmission_inputs()
+    pos = lit.positions()
+    v = np.linalg.inv(lit.camera.world_to_camera)[:3, 3] - pos
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    n = lit.normal.astype(np.float64)
+    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
+    to_light = -np.asarray(LightView.from_dict(lit.light).direction)
+    phase = unreal_phase(n, v, np.broadcast_to(to_light, n.shape), 0.93, 1.55)
+    out = get_backend("numpy").transmission(plan_, (lit.profile_id > 0).astype(np.int32), uvz, shadow, ndl,
+                                            light * phase[..., None])
+    np.testing.assert_allclose(r.transmitted, lit.albedo * out, rtol=1e-6, atol=1e-12)
+    assert np.any(r.transmitted > 0)
 
 
 def test_checks_before_any_work(ear, monkeypatch):

@@ -67,3 +67,31 @@ def test_render_gbuffer_writes_the_light_layers():
     gb = render_gbuffer("sphere", (0.5, 0.5, 0.5), width=W, height=H, spp=1, light_layers=True)
     assert gb.has_light and gb.light_depth.shape == (H, W) and gb.light["size"] == [W, H]
     assert not render_gbuffer("sphere", (0.5, 0.5, 0.5), width=W, height=H, spp=1).has_light
+
+
+def test_the_pass_inputs_are_the_light_views_projection_of_the_positions(base):
+    """transmission_inputs' row and column terms equal the direct route: the pixels' world positions (mm)
+    projected by the light view, N . L from the normal layer, within float64 rounding; in float32 the same
+    numbers rounded once."""
+    cam = base.camera
+    turned = np.array([[0.0, -1.0, 0.0, 3.0], [1.0, 0.0, 0.0, -2.0], [0.0, 0.0, 1.0, 0.5], [0, 0, 0, 1.0]])
+    from dataclasses import replace
+
+    light = {**LightView.looking_along(np.array([0.3, -0.2, -1.0]), np.array([1.0, 2.0, 0.0]), 30.0, (W, H)).to_dict(),
+             "irradiance": [1.0, 2.0, 3.0]}
+    for scale in (1.0, 0.1):  # a scene in mm and one in cm (world units per mm 0.1)
+        c = replace(cam, world_to_camera=turned @ cam.world_to_camera, world_units_per_mm=scale)
+        gb = base.with_layers(light_depth=np.full((H, W), 7.0, np.float32), light=light)
+        gb = type(gb)(**{**{f: getattr(gb, f) for f in ("diffuse", "albedo", "depth", "profile_id", "specular",
+                                                            "normal", "materials", "meta", "light_depth", "light")},
+                         "camera": c})
+        uvz, shadow, ndl, rgb = gb.transmission_inputs()
+        view = LightView.from_dict(light)
+        direct = view.project(gb.positions() / scale)
+        np.testing.assert_allclose(uvz, direct, rtol=0, atol=1e-9 * np.abs(direct).max())
+        np.testing.assert_allclose(ndl, gb.normal.astype(np.float64) @ -np.asarray(view.direction), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(shadow, 7.0 / scale)
+        np.testing.assert_array_equal(rgb, np.broadcast_to([1.0, 2.0, 3.0], (H, W, 3)))
+        f32 = gb.transmission_inputs(np.float32)
+        assert all(a.dtype == np.float32 for a in f32)
+        np.testing.assert_array_equal(f32[0], uvz.astype(np.float32))

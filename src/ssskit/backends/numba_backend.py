@@ -86,23 +86,36 @@ class NumbaBackend(Backend):
     def transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> NDArray[np.float32]:
         """The transmittance pass (:mod:`ssskit.backends._numba_transmission`), float32, rows on the pool."""
-        from ._numba_transmission import transmission_rows
+        from ._numba_transmission import LANES, transmission_pixels
         from .transmission_plan import check_transmission_frame
 
         check_transmission_frame(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
         f32 = np.float32
-        sl = np.ascontiguousarray(slots, dtype=np.int32)
-        uvz = np.ascontiguousarray(light_uvz, dtype=f32)
+        h, w = np.shape(slots)
+        n = h * w
+        flat = [np.ascontiguousarray(slots, dtype=np.int32).reshape(-1),
+                np.ascontiguousarray(light_uvz, dtype=f32).reshape(-1),
+                np.ascontiguousarray(n_dot_l, dtype=f32).reshape(-1),
+                np.ascontiguousarray(light_rgb, dtype=f32).reshape(-1)]
+        m = max(n, LANES)  # the kernel works on whole blocks of LANES pixels: a smaller frame is padded (slot 0)
+        if m > n:
+            flat = [np.concatenate([v, np.zeros((m - n) * k, v.dtype)]) for v, k in zip(flat, (1, 3, 1, 3))]
+        sl, uvz, ndl, light = flat
         shadow = np.ascontiguousarray(shadow_mm, dtype=f32)
-        ndl = np.ascontiguousarray(n_dot_l, dtype=f32)
-        light = np.ascontiguousarray(light_rgb, dtype=f32)
+        if shadow.shape[1] < 2:  # the kernel reads texels in pairs: a column of +inf (no surface) beside it
+            shadow = np.concatenate([shadow, np.full_like(shadow, np.inf)], axis=1)
         a, b, c = (np.ascontiguousarray(v, dtype=f32) for v in (plan.a, plan.b, plan.c))
         scale, wrap, normal = plan.scale.astype(f32), plan.wrap.astype(f32), plan.normal.astype(f32)
-        out = np.empty(sl.shape + (3,), f32)
+        out = np.empty(3 * m, f32)
         bias = f32(plan.bias_mm)
-        self._rows(sl.shape[0], lambda y0, y1: transmission_rows(sl, uvz, shadow, ndl, light, a, b, c, scale, wrap,
-                                                                 normal, bias, out, y0, y1))
-        return out
+        kind = plan.lut_slot.astype(np.int32)
+        lut = np.ascontiguousarray(plan.lut, dtype=f32).reshape(-1)
+        odp, odo = plan.od_per_mm.astype(f32), plan.od_offset.astype(f32)
+        blocks = m // LANES  # ranges of whole blocks; the last range also takes the m % LANES pixels left
+        self._rows(blocks, lambda i0, i1: transmission_pixels(sl, uvz, shadow, ndl, light, a, b, c, scale, wrap, normal,
+                                                              bias, kind, lut, odp, odo, out, i0 * LANES,
+                                                              m if i1 == blocks else i1 * LANES))
+        return out[: 3 * n].reshape(h, w, 3)
 
     def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float32]:
@@ -140,15 +153,17 @@ class NumbaBackend(Backend):
         with self._lock:  # one frame buffer per backend: one frame at a time
             return self._separable(plan, diffuse, depth_mm, slots)
 
-    def _pack(self, src: np.ndarray, depth: np.ndarray, slots: np.ndarray, pad: int,
-              write: bool) -> tuple[NDArray[np.float32], int, int, NDArray[np.float64]]:
-        """Pack the frame into the buffer of pad ``pad`` (if ``write``), checking it on the way: per-row stats."""
+    def _pack(self, src: np.ndarray, depth: np.ndarray, slots: np.ndarray, pad: int, write: bool,
+              slot_plane: bool) -> tuple[NDArray[np.float32], int, int, NDArray[np.float64]]:
+        """Pack the frame into the buffer of pad ``pad`` (if ``write``; its slot plane if ``slot_plane``), checking
+        it on the way: per-row stats."""
         from ._numba_separable import pack_rows
 
         h, w = slots.shape
         buf, wps, plane = self._buffer(h, w, pad) if write else (np.zeros(1, np.float32), 1, 1)
         stats = np.empty((h, 4))
-        self._rows(h, lambda y0, y1: pack_rows(src, depth, slots, buf, pad, wps, plane, y0, y1, write, stats))
+        self._rows(h, lambda y0, y1: pack_rows(src, depth, slots, buf, pad, wps, plane, y0, y1, write, slot_plane,
+                                                   stats))
         return buf, wps, plane, stats
 
     def _separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
@@ -162,7 +177,8 @@ class NumbaBackend(Backend):
         # one read of the frame packs and checks it with the last frame's pad (a frame of another size: a
         # read-only check first); a nearer surface than the pad allows is packed again with a larger one
         pad = self._pads.get((h, w))
-        buf, wps, plane, stats = self._pack(src, depth, slots, pad if pad is not None else 0, pad is not None)
+        multi = plan.slots > 2  # several profiles: the passes test slots (one: a texel's depth tells)
+        buf, wps, plane, stats = self._pack(src, depth, slots, pad if pad is not None else 0, pad is not None, multi)
         if stats[:, 1].any():
             raise PassError("depth must be positive and finite on every pixel with SSS")
         if slots.size and (stats[:, 2].min() < 0 or stats[:, 3].max() >= plan.slots):
@@ -178,7 +194,7 @@ class NumbaBackend(Backend):
                             f"{MAX_BUFFER_BYTES / 2**30:.0f} GiB); use --backend numpy or a smaller footprint")
         if pad is None or need > pad or need < pad // 2:  # (a pad larger than needed changes nothing)
             pad = need
-            buf, wps, plane, _ = self._pack(src, depth, slots, pad, True)
+            buf, wps, plane, _ = self._pack(src, depth, slots, pad, True, multi)
         self._pads[(h, w)] = pad
         run = PASSES[plan.depth_mode]
         base = np.uint64(frame_base(plan.frame, plan.seed))
@@ -194,9 +210,9 @@ class NumbaBackend(Backend):
         for term in plan.terms:
             t = _tables(term)
             self._rows(h, lambda y0, y1: run(buf, buf, 0, tmp + pad * wps + pad, plane, wps, 1, y0, y1, w, pad, wps,
-                                             plane, 0, plan.fx, *t, param, base, cap, bmap))
+                                             plane, 0, plan.fx, *t, param, base, cap, bmap, LANES))
             self._rows(h, lambda y0, y1: run(buf, flat, tmp, 0, 1, 3 * w, 3, y0, y1, w, pad, wps, plane, 1, plan.fy,
-                                             *t, param, base, cap, bmap))
+                                             *t, param, base, cap, bmap, LANES))
             if len(plan.terms) == 1 and np.all(term.sign == 1):
                 return out
             contribution = term.sign[slots].astype(np.float32) * out

@@ -25,7 +25,7 @@ from .base import Backend, check_burley_frame, check_frame
 from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, BurleyPlan, MipPyramid, SampleCounts, mip_pyramid
 from .plan import SeparablePlan, TermTable
 from .spread_plan import SpreadPlan
-from .transmission_plan import TransmissionPlan, check_transmission_frame
+from .transmission_plan import LUT_SIZE, TransmissionPlan, check_transmission_frame, unreal_lut_coordinate
 
 
 def depth_factor(dz: np.ndarray, mode: str, param: np.ndarray) -> np.ndarray:
@@ -325,6 +325,13 @@ def transmission_pass(plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.n
     e = np.asarray(light_rgb, np.float64)[ys, xs] * np.clip(plan.wrap[s] - ndl, 0.0, 1.0)[:, None]  # step 3
     u = (plan.scale[s] * t)[:, None, None]
     tr = np.sum(plan.a[s] * np.exp(-plan.b[s] * u - plan.c[s] * u * u), axis=-1)  # step 4
+    if plan.has_lut:  # step 4 of the unreal slots: UE's optical depth into the profile table
+        q = plan.lut_slot[s]
+        sq = s[q]
+        x = unreal_lut_coordinate(plan.od_per_mm[sq] * t[q] + plan.od_offset[sq])
+        i = np.minimum(np.floor(x), LUT_SIZE - 2).astype(np.int64)
+        f = (x - i)[:, None]
+        tr[q] = (1.0 - f) * plan.lut[sq, :, i] + f * plan.lut[sq, :, i + 1]
     out[ys, xs] = np.where(lit[:, None], tr * e, 0.0)  # step 5
     return out
 

@@ -28,10 +28,25 @@ Per pixel p in slot s > 0 and channel c, the pass computes (every backend in thi
    al. 2010's translucency shadow map as their shader uses it).
 3. E_c = light_rgb_c clamp(wrap_s - N . L, 0, 1): the back surface's irradiance, its normal taken as the
    pixel's reversed (N . L of the back side is -N . L; ``wrap`` = 0 is the cosine law, Jimenez 2010's
-   shader wraps it by 0.3).
+   shader wraps it by 0.3, and ``wrap`` = 2 drops the cosine: E = light_rgb, as Unreal's transmission).
 4. T_c(t) = sum_k a_sck exp(-b_sck u - c_sck u^2) with u = scale_s t: the slot's transmittance model,
    either the MCML fit of :mod:`ssskit.profiles.montecarlo.transmission` (scale 1) or Jimenez 2010's
-   Gaussian sum (b = 0, c = 1 / v_k, scale = the effect's thickness scale).
+   Gaussian sum (b = 0, c = 1 / v_k, scale = the effect's thickness scale); or, for a slot of model
+   ``unreal`` (Unreal Engine 5's subsurface-profile transmission, [UE5]), a lookup in the slot's profile
+   table L (3, ``LUT_SIZE``) of :func:`ssskit.screenspace.transmission.unreal_profile_table`:
+
+   * the optical depth OD = clamp(od_per_mm_s t + od_offset_s, 0.15, 5) + 0.25 (UE's
+     ``CalculateOpticalDepth``, TransmissionThickness.ush: thickness in cm times ExtinctionScale, plus
+     NormalScale / 2; od_per_mm = ExtinctionScale / 10);
+   * stored in the shadow mask as e = 1 - OD / 5 and squared there (``ApplyPCFOverBlurCorrection``,
+     ShadowProjectionPixelShader.usf), read back as OD' = 5 (1 - e^2) (``DecodeOpticalDepthFromShadowMask``,
+     TransmissionCommon.ush);
+   * the texture's linear filter at x = OD' / 5 (``LUT_SIZE`` - 1) (``GetTransmissionProfile``): with
+     i = min(floor(x), LUT_SIZE - 2) and f = x - i, T_c = (1 - f) L_c[i] + f L_c[i + 1].
+
+   UE's shader averages OD over 31 Poisson taps of the map and shades with the profile at t = 0 too (its
+   OD never drops below 0.4); here one bilinear depth (step 1) and step 2's zero thickness, as for every
+   model.
 5. out_c(p) = T_c(t) E_c, the light leaving p through the medium: added to the reflectance SSS result
    before the albedo multiply. out <= T(t) light_rgb always (E <= light_rgb).
 
@@ -41,18 +56,26 @@ t = z - D, which carries the rounding of D (about one ulp of the depths, not of 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PassError
 
-#: the transmittance models a plan can hold (the MCML fit, Jimenez et al. 2010's skin Gaussians)
-MODELS = ("mcml", "jimenez2010")
+#: the transmittance models a plan can hold (the MCML fit, Jimenez et al. 2010's skin Gaussians, Unreal Engine 5's
+#: subsurface-profile transmission)
+MODELS = ("mcml", "jimenez2010", "unreal")
 
 #: most terms of one slot's T(t)
 MAX_TERMS = 8
+
+#: entries of an ``unreal`` slot's profile table (UE's BSSS_TRANSMISSION_PROFILE_SIZE)
+LUT_SIZE = 32
+
+#: the largest optical depth of UE's transmission table (SSSS_MAX_TRANSMISSION_PROFILE_DISTANCE)
+UE_MAX_OPTICAL_DEPTH = 5.0
 
 
 @dataclass(frozen=True)
@@ -60,7 +83,8 @@ class SlotModel:
     """One profile id's T(t) = sum_k a_ck exp(-b_ck u - c_ck u^2), u = scale t (mm): ``a``, ``b``, ``c`` (3,
     K; b, c >= 0, a of either sign: a term may subtract, but T(t) itself must be >= 0, which the model's maker
     checks), the back irradiance's ``wrap`` (step 3) and ``along_normal``: the thickness along the surface
-    normal rather than the light (step 2)."""
+    normal rather than the light (step 2); a model ``unreal`` holds instead its profile table ``lut`` (3,
+    LUT_SIZE) and the optical depth's ``od_per_mm`` and ``od_offset`` (step 4)."""
 
     a: np.ndarray
     b: np.ndarray
@@ -69,13 +93,17 @@ class SlotModel:
     wrap: float = 0.0
     model: str = "mcml"
     along_normal: bool = False
+    lut: np.ndarray | None = None
+    od_per_mm: float = 0.0
+    od_offset: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
 class TransmissionPlan:
     """What a backend needs besides the frame's images: per slot (slot 0 empty) the model's (S, 3, K)
-    tables, (S,) scale, wrap and normal (1: step 2's thickness along the surface normal, 0: along the light;
-    zeros when not given), and the zero-thickness bias (module docstring)."""
+    tables, (S,) scale, wrap and normal (1: step 2's thickness along the surface normal, 0: along the light),
+    the zero-thickness bias (module docstring), and for ``unreal`` slots (``lut_slot`` (S,) true) their
+    (S, 3, LUT_SIZE) profile tables and (S,) optical-depth scale and offset (zeros elsewhere)."""
 
     ids: tuple[int, ...]
     a: NDArray[np.float64]
@@ -85,11 +113,11 @@ class TransmissionPlan:
     wrap: NDArray[np.float64]
     bias_mm: float
     models: tuple[str, ...]
-    normal: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
-
-    def __post_init__(self) -> None:
-        if np.shape(self.normal) != np.shape(self.scale):
-            object.__setattr__(self, "normal", np.zeros(np.shape(self.scale)))
+    lut_slot: NDArray[np.bool_]
+    lut: NDArray[np.float64]
+    od_per_mm: NDArray[np.float64]
+    od_offset: NDArray[np.float64]
+    normal: NDArray[np.float64]
 
     @property
     def slots(self) -> int:
@@ -99,10 +127,30 @@ class TransmissionPlan:
     def terms(self) -> int:
         return int(self.a.shape[2])
 
+    @property
+    def has_lut(self) -> bool:
+        """Whether some slot is an ``unreal`` table."""
+        return bool(self.lut_slot.any())
+
     def transmittance(self, slot: int, thickness_mm: np.ndarray) -> np.ndarray:
         """(..., 3) T(t) of one slot at thicknesses (mm), step 4 in float64 (for tests and tables)."""
-        u = self.scale[slot] * np.asarray(thickness_mm, float)[..., None, None]
+        t = np.asarray(thickness_mm, float)
+        if self.lut_slot[slot]:
+            x = unreal_lut_coordinate(self.od_per_mm[slot] * t + self.od_offset[slot])
+            i = np.minimum(np.floor(x), LUT_SIZE - 2).astype(int)
+            f = (x - i)[..., None]
+            return np.asarray((1.0 - f) * self.lut[slot].T[i] + f * self.lut[slot].T[i + 1])
+        u = self.scale[slot] * t[..., None, None]
         return np.asarray(np.sum(self.a[slot] * np.exp(-self.b[slot] * u - self.c[slot] * u * u), axis=-1))
+
+
+def unreal_lut_coordinate(od: Any) -> np.ndarray:
+    """Step 4 (``unreal``): the profile table's coordinate x in [0, LUT_SIZE - 1] of the optical depth
+    od_per_mm t + od_offset, through UE's clamp, its shadow-mask encoding squared and its decoding (module
+    docstring), float64."""
+    d = np.clip(np.asarray(od, float), 0.15, UE_MAX_OPTICAL_DEPTH) + 0.25
+    e = 1.0 - d / UE_MAX_OPTICAL_DEPTH
+    return np.asarray((1.0 - e * e) * (LUT_SIZE - 1))
 
 
 def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3) -> TransmissionPlan:
@@ -118,6 +166,9 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3)
     s = len(ids) + 1
     a, b, c = (np.zeros((s, 3, k)) for _ in range(3))
     scale, wrap, normal = np.ones(s), np.zeros(s), np.zeros(s)
+    lut_slot = np.zeros(s, bool)
+    lut = np.zeros((s, 3, LUT_SIZE))
+    od_per_mm, od_offset = np.zeros(s), np.zeros(s)
     names = []
     for slot, pid in enumerate(ids, start=1):
         m = models[pid]
@@ -129,13 +180,26 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3)
                                 f"{'' if signed else ' >= 0'}, got shape {arr.shape}")
         if m.model not in MODELS:
             raise PassError(f"unknown transmittance model {m.model!r}; choose from {', '.join(MODELS)}")
-        if not (np.isfinite(m.scale) and m.scale >= 0 and np.isfinite(m.wrap) and 0 <= m.wrap <= 1):
-            raise PassError(f"profile id {pid}: scale must be >= 0 and wrap in [0, 1], got {m.scale!r}, {m.wrap!r}")
+        if not (np.isfinite(m.scale) and m.scale >= 0 and np.isfinite(m.wrap) and 0 <= m.wrap <= 2):
+            raise PassError(f"profile id {pid}: scale must be >= 0 and wrap in [0, 2], got {m.scale!r}, {m.wrap!r}")
+        if (m.model == "unreal") != (m.lut is not None):
+            raise PassError(f"profile id {pid}: the unreal model, and only it, holds a profile table (lut)")
+        if m.lut is not None:
+            table = np.asarray(m.lut, float)
+            if table.shape != (3, LUT_SIZE) or not np.all(np.isfinite(table)) or np.any(table < 0):
+                raise PassError(f"profile id {pid}: the unreal profile table must be a finite (3, {LUT_SIZE}) array "
+                                f">= 0, got shape {table.shape}")
+            if not (np.isfinite(m.od_per_mm) and m.od_per_mm > 0 and np.isfinite(m.od_offset) and m.od_offset >= 0):
+                raise PassError(f"profile id {pid}: od_per_mm must be > 0 and od_offset >= 0, got {m.od_per_mm!r}, "
+                                f"{m.od_offset!r}")
+            lut_slot[slot], lut[slot] = True, table
+            od_per_mm[slot], od_offset[slot] = m.od_per_mm, m.od_offset
         n = np.shape(m.a)[1]
         a[slot, :, :n], b[slot, :, :n], c[slot, :, :n] = m.a, m.b, m.c
         scale[slot], wrap[slot], normal[slot] = m.scale, m.wrap, 1.0 if m.along_normal else 0.0
         names.append(m.model)
-    return TransmissionPlan(ids, a, b, c, scale, wrap, float(bias_mm), tuple(names), normal)
+    return TransmissionPlan(ids, a, b, c, scale, wrap, float(bias_mm), tuple(names), lut_slot, lut, od_per_mm,
+                            od_offset, normal)
 
 
 def check_transmission_frame(plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray,
@@ -155,5 +219,5 @@ def check_transmission_frame(plan: TransmissionPlan, slots: np.ndarray, light_uv
         raise PassError(f"slots must lie in [0, {plan.slots - 1}]")
 
 
-__all__ = ["MAX_TERMS", "MODELS", "SlotModel", "TransmissionPlan", "build_transmission_plan",
-           "check_transmission_frame"]
+__all__ = ["LUT_SIZE", "MAX_TERMS", "MODELS", "SlotModel", "TransmissionPlan", "UE_MAX_OPTICAL_DEPTH",
+           "build_transmission_plan", "check_transmission_frame", "unreal_lut_coordinate"]

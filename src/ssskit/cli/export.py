@@ -236,7 +236,8 @@ def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, materi
     "ssskit export --material skin1 --format materialx --standard-surface --out skin1.mtlx",
     "ssskit export --albedo 0.44,0.22,0.12 --dmfp 4.9,2.4,1.4 --model montecarlo --format blender --out a.py",
     "ssskit export --material skin1_unreal.json --format unity --out Skin1.asset",
-    "ssskit export --material skin1 --kernel preintegrated --taps 7 --format glsl-shader --out sss.comp"))
+    "ssskit export --material skin1 --kernel preintegrated --taps 7 --format glsl-shader --out sss.comp",
+    "ssskit export --material skin1 --format glsl-shader --pass transmission --out transmission.comp"))
 @click.option("--format", "fmt", required=True, type=click.Choice(list(_formats()), case_sensitive=False),
               help="hlsl/glsl: shader arrays (demo layout); bn: pre-integrated kernel file; json: ssskit kernel; "
                    "unreal/unity/blender: engine material parameters (.json) or the engine's file (.py script for Blender "
@@ -256,6 +257,15 @@ def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, materi
 @click.option("--unreal-form", type=click.Choice(("mfp", "dmfp")), default="mfp", show_default=True,
               help="--format unreal with a .py: the Burley form the script writes (mfp: UE 5; dmfp: UE 4.25-4.27).")
 @click.option("--standard-surface", is_flag=True, help="--format materialx: add a standard_surface beside OpenPBR.")
+@click.option("--pass", "pass_", type=click.Choice(("separable", "transmission")), default="separable",
+              show_default=True,
+              help="--format glsl-shader/hlsl-shader: the separable pass (with --kernel) or the transmittance pass (light "
+                   "through thin parts, docs/transmission.md: --material's model baked in).")
+@click.option("--transmission-model", type=click.Choice(("mcml", "jimenez2010", "unreal")), default="mcml",
+              show_default=True, help="--pass transmission: the transmittance model baked into the shader.")
+@click.option("--no-transmission", is_flag=True,
+              help="--format unreal/unity: leave out the transmission fields (by default fitted to the material's MCML "
+                   "slab transmittance T(t), which a material not seen before simulates first: docs/transmission.md).")
 @kernel_spec_option(help="Kernel method name[:value] for hlsl/glsl/bn/json (e.g. jimenez2012, preintegrated, svd:2).")
 @click.option("--taps", type=click.IntRange(*TAP_RANGE), default=None,
               help="Taps per 1D pass (odd): jimenez2012's tap count, or the taps placed on a tabulated kernel "
@@ -273,7 +283,8 @@ def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, materi
 @json_option("Print one JSON object describing what was written.")
 @click.pass_context
 def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo: tuple[float, float, float] | None, mfp: tuple[float, float, float] | None,
-           dmfp: tuple[float, float, float] | None, eta: float, g: float, unreal_form: str, standard_surface: bool, kernel_spec: str | None,
+           dmfp: tuple[float, float, float] | None, eta: float, g: float, unreal_form: str, standard_surface: bool,
+           pass_: str, transmission_model: str, no_transmission: bool, kernel_spec: str | None,
            taps: int | None, tap_method: str, jitter: float, depth_mode: str | None, model: str, photons: int,
            grid_fraction: float | None, as_json: bool) -> None:
     """Write a kernel or a material's parameters in a format an engine loads."""
@@ -283,6 +294,13 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
 
     fmt = fmt.lower()
     mat: Material | LayeredMaterial | None
+    if given(ctx, "pass_") and fmt not in SHADERS:
+        raise SsskitError("--pass applies to --format glsl-shader or hlsl-shader (the whole compute shaders)")
+    if given(ctx, "transmission_model") and pass_ != "transmission":
+        raise SsskitError("--transmission-model applies with --pass transmission")
+    if pass_ == "transmission":
+        _transmission_export(ctx, fmt, out, material, albedo, mfp, dmfp, eta, g, model, transmission_model, as_json)
+        return
     prof, mat, src_name, used_model = _material_source(ctx, fmt, material, albedo, mfp, dmfp, eta, g, model)
     have_material = material is not None or prof is not None
     m, params, tap_count = _check_options(ctx, fmt, kernel_spec, "given" if have_material else None, taps, out)
@@ -292,6 +310,8 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
         raise SsskitError("--unreal-form applies to --format unreal with a .py output (the editor script)")
     if standard_surface and fmt != "materialx":
         raise SsskitError("--standard-surface applies to --format materialx")
+    if no_transmission and fmt not in ("unreal", "unity"):
+        raise SsskitError("--no-transmission applies to --format unreal or unity (the engines with transmission fields)")
     if prof is None:
         needs_profile = m is None or m.needs_profile
         if material is not None or needs_profile:
@@ -314,7 +334,7 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
     if m is None:
         assert profile is not None  # a parameter export has its material's profile
         text = _engine_file(profile, fmt, suffix, mat, src_name or (mat.name if mat is not None else "ssskit"),
-                            unreal_form, standard_surface, summary)
+                            unreal_form, standard_surface, summary, not no_transmission)
         write_text(out, text)
     else:
         kernel = build_kernel(m.name, profile, **params)
@@ -333,24 +353,92 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
         click.echo(f"# wrote {out} ({fmt})")
 
 
+def _transmission_export(ctx: click.Context, fmt: str, out: str, material: str | None,
+                         albedo: tuple[float, float, float] | None, mfp: tuple[float, float, float] | None,
+                         dmfp: tuple[float, float, float] | None, eta: float, g: float, model: str, tmodel: str,
+                         as_json: bool) -> None:
+    """``--pass transmission``: the transmittance pass's compute shader with the material's model baked in
+    (:func:`ssskit.export.shaders.transmission_shader`); every check before any work."""
+    from ..export import FORMATS
+    from ..io import check_distinct, check_suffix, write_text
+    from ..materials import Material
+
+    check_suffix(out, FORMATS[fmt][0], f"--out for --format {fmt}")
+    for name, flag in (("kernel_spec", "--kernel"), ("taps", "--taps"), ("tap_method", "--tap-method"),
+                       ("jitter", "--jitter"), ("depth_mode", "--depth-mode"), ("photons", "--photons"),
+                       ("grid_fraction", "--grid-fraction"), ("unreal_form", "--unreal-form"),
+                       ("standard_surface", "--standard-surface"), ("no_transmission", "--no-transmission")):
+        if given(ctx, name):
+            raise SsskitError(f"{flag} does not apply to --pass transmission (the shader bakes the material's "
+                              "transmittance model)")
+    if fmt == "hlsl-shader":
+        from ..export.shaders import tools_available
+
+        ok, why = tools_available()
+        if not ok:
+            raise SsskitError(f"--format hlsl-shader needs glslangValidator and spirv-cross: {why}")
+    mat: Any = None
+    if tmodel != "jimenez2010":
+        if material is None and albedo is None:
+            raise SsskitError(f"--transmission-model {tmodel} needs --material (its {'MCML slab transmittance' if tmodel == 'mcml' else 'Burley profile'})")
+        _, mat, _, _ = _material_source(ctx, fmt, material, albedo, mfp, dmfp, eta, g, model)
+        if mat is None and material is not None:
+            from ..export.readers import is_engine_file
+            from ..materials import get_material
+
+            mat = None if is_engine_file(material) else get_material(material)
+        if not isinstance(mat, Material):
+            raise SsskitError(f"--transmission-model {tmodel} needs a homogeneous material (a preset, a material file, "
+                              "or artists' terms with --model montecarlo)")
+    elif material is not None or albedo is not None:
+        raise SsskitError("--transmission-model jimenez2010 takes no material (Jimenez et al. 2010's skin Gaussians)")
+    check_distinct(out, material, what="--out")
+    # ---- work starts here
+    from ..export.shaders import transmission_shader
+    from ..pipeline.transmission import slot_model
+    from ..screenspace.transmission import transmission_plan
+
+    plan = transmission_plan({1: slot_model(tmodel, mat)})
+    text = transmission_shader(plan, fmt.split("-")[0])
+    what = f"{tmodel} transmittance of {mat.name}" if mat is not None else f"{tmodel} transmittance"
+    write_text(out, f"// ssskit export: the transmittance pass, {what}\n" + text)
+    if as_json:
+        echo_json({"format": fmt, "out": out, "pass": "transmission", "transmission_model": tmodel,
+                   "material": mat.name if mat is not None else None, "terms": plan.terms,
+                   "table": bool(plan.has_lut)})
+    else:
+        click.echo(f"# wrote {out} ({fmt}, transmittance pass)")
+
+
 def _engine_file(profile: RGBProfile, fmt: str, suffix: str, mat: Material | LayeredMaterial | None, name: str, unreal_form: str,
-                 standard_surface: bool, summary: dict[str, Any]) -> str:
-    """The text of a parameter export (the suffix picks the engine's own file or the JSON)."""
+                 standard_surface: bool, summary: dict[str, Any], transmission: bool = True) -> str:
+    """The text of a parameter export (the suffix picks the engine's own file or the JSON); ``transmission``: the
+    engines' transmission fields fitted to a homogeneous material's MCML T(t)."""
     import json
 
     from ..export import engine_parameters, fit_burley
+    from ..export.engines import TRANSMISSION_ENGINES
+    from ..materials import Material
 
     if fmt == "materialx":
         from ..export.materialx import materialx_document
 
         a, d = fit_burley(profile)
-        from ..materials import Material
-
         g = float(sum(mat.g) / 3.0) if isinstance(mat, Material) else 0.0  # (a layered one has no single g, eta)
         eta = float(mat.eta) if isinstance(mat, Material) else None
         summary["parameters"] = {"subsurface_color": a.tolist(), "d_mm": d.tolist()}
         return materialx_document(a, d, name, g, eta, standard_surface)
-    data = engine_parameters(profile, fmt, mat)
+    table = None
+    if transmission and fmt in TRANSMISSION_ENGINES and isinstance(mat, Material):
+        from ..profiles.montecarlo.transmission import transmission_table
+
+        table = transmission_table(mat)  # the material's MCML slab T(t) (cached like the profiles)
+    data = engine_parameters(profile, fmt, mat, table)
+    if fmt in TRANSMISSION_ENGINES and table is None:
+        why = ("left out (--no-transmission)" if not transmission else
+               "the transmission fields are fitted to a homogeneous material's MCML slab transmittance: give a preset "
+               "or material file, or artists' terms with --model montecarlo")
+        data["transmission"] = {"available": False, "why": why + "; the engine's defaults stay"}
     summary["parameters"] = {k: v for k, v in data.items() if k not in ("sources", "lost")}
     if suffix == "json":
         return json.dumps(data, indent=1) + "\n"

@@ -138,13 +138,14 @@ _PASS = RegistryName(lambda: PASSES)
 @click.option("--transmission", type=click.Choice(TRANSMISSION, case_sensitive=False), default=_D.transmission,
               show_default=True,
               help="The transmittance pass (light through thin parts, lit from behind; docs/transmission.md), added to "
-                   "the separable or Burley pass: auto runs it where the G-buffer has the light layers (a G-buffer file "
+                   "the separable or Burley pass (each frame of burley-adaptive): auto runs it where the G-buffer has the light layers (a G-buffer file "
                    "that carries them; a scene renders without them), on renders a scene's G-buffer with them (a "
                    "G-buffer file without them is an error), off never.")
 @click.option("--transmission-model", type=click.Choice(TRANSMISSION_MODELS, case_sensitive=False),
               default=_D.transmission_model, show_default=True,
-              help="The transmittance T(t): mcml (the fit of the material's MCML slab tables) or jimenez2010 "
-                   "(Jimenez et al. 2010's skin Gaussians, thickness in mm).")
+              help="The transmittance T(t): mcml (the fit of the material's MCML slab tables), jimenez2010 "
+                   "(Jimenez et al. 2010's skin Gaussians, thickness in mm) or unreal (Unreal Engine 5's "
+                   "subsurface-profile transmission with its defaults for the material's Burley profile).")
 @click.option("--transmission-spread", type=click.Choice(TRANSMISSION_SPREADS, case_sensitive=False),
               default=_D.transmission_spread, show_default=True,
               help="The lateral spread of the transmitted light: mcml (a Gaussian per pixel as wide as MCML's Tt(r) at "

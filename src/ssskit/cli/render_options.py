@@ -239,10 +239,6 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
             raise SsskitError(f"{option_name(ctx, opt)} applies to a built-in scene; the G-buffer file "
                               f"{str(scene)!r} has its own")
     if name == "burley-adaptive":
-        for opt in ("transmission", "transmission_model", "transmission_spread"):
-            if given(ctx, opt) and not (opt == "transmission" and s.transmission == "off"):
-                raise SsskitError(f"{option_name(ctx, opt)} applies to --pass separable or burley (one frame); the "
-                                  "burley-adaptive run has no transmittance pass")
         _check_adaptive(ctx, s, still, save_gbuffer)
     if gbuffer_file and s.reference:
         raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")

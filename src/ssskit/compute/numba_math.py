@@ -22,7 +22,9 @@ numpy's float64 functions (``tests/compute/test_numba_math.py``).
 Small LLVM intrinsics do the bit work in 32-bit arithmetic (numba widens integer arithmetic to 64
 bits, which halves the lanes per register): a float32's mantissa and exponent, 2^n, and the uint32
 operations of the counter-based hashes (:func:`u32_madd`, :func:`u32_xor`, :func:`mix32_u32`,
-:func:`u24_f32`). :func:`stack_empty` gives a lane loop scratch arrays that alias nothing.
+:func:`u24_f32`), a float32's bits as an int32 and back for integer min/max reductions (:func:`f32_bits`,
+:func:`bits_f32`), loads without numba's negative-index wraparound (:func:`load_at`, :func:`load_pair_at`: two
+neighbours in one 64-bit load). :func:`stack_empty` gives a lane loop scratch arrays that alias nothing.
 """
 
 from __future__ import annotations
@@ -218,6 +220,32 @@ def i32(typingctx: object, v: types.Type) -> _Typed:
 
 
 @intrinsic
+def f32_bits(typingctx: object, x: types.Type) -> _Typed:
+    """The bits of a float32 as an int32. For non-negative floats (+inf included) the order of the bits is the
+    order of the values, so min/max reductions over them vectorise as integer reductions (LLVM vectorises
+    float min/max reductions only under 'nnan', which kernels that mark empty texels with +inf cannot use)."""
+    if x != types.float32:
+        return None
+
+    def codegen(context, builder, sig, args):
+        return _bits(builder, args[0])
+
+    return types.int32(x), codegen
+
+
+@intrinsic
+def bits_f32(typingctx: object, i: types.Type) -> _Typed:
+    """The float32 whose bits are the low 32 bits of integer i (the inverse of :func:`f32_bits`)."""
+    if not isinstance(i, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        return builder.bitcast(_i32(builder, args[0], i), ir.FloatType())
+
+    return types.float32(i), codegen
+
+
+@intrinsic
 def i32_madd(typingctx: object, a: types.Type, b: types.Type, c: types.Type) -> _Typed:
     """a b + c in 32-bit signed arithmetic (no overflow: an index into an array of < 2^31 elements)."""
     if not all(isinstance(t, types.Integer) for t in (a, b, c)):
@@ -244,6 +272,27 @@ def load_at(typingctx: object, arr: types.Type, i: types.Type) -> _Typed:
         return builder.load(ptr)
 
     return arr.dtype(arr, i), codegen
+
+
+@intrinsic
+def load_pair_at(typingctx: object, arr: types.Type, i: types.Type) -> _Typed:
+    """(arr[i], arr[i + 1]) of a 1D C-contiguous float32 array and a non-negative int32 index i < size - 1, as
+    one 64-bit load: a vectorised loop gathers both with one 64-bit element per lane (half the elements of
+    two 32-bit gathers)."""
+    if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.dtype == types.float32 and i == types.int32):
+        return None
+    pair = types.UniTuple(types.float32, 2)
+
+    def codegen(context, builder, sig, args):
+        ary = context.make_array(arr)(context, builder, value=args[0])
+        ptr = builder.gep(ary.data, [builder.sext(args[1], ir.IntType(64))], inbounds=True)
+        bits = builder.load(builder.bitcast(ptr, ir.IntType(64).as_pointer()), align=4)
+        i32t, f32t = ir.IntType(32), ir.FloatType()
+        lo = builder.bitcast(builder.trunc(bits, i32t), f32t)
+        hi = builder.bitcast(builder.trunc(builder.lshr(bits, ir.Constant(ir.IntType(64), 32)), i32t), f32t)
+        return context.make_tuple(builder, pair, (lo, hi))
+
+    return pair(arr, i), codegen
 
 
 @intrinsic

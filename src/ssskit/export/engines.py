@@ -277,11 +277,28 @@ ENGINE_BUILDERS.register("unity", _unity)
 ENGINE_BUILDERS.register("blender", _blender)
 
 
-def engine_parameters(profile: RGBProfile, engine: str, material: Any = None) -> dict[str, Any]:
+#: engines with transmission fields (:mod:`ssskit.export.transmission`)
+TRANSMISSION_ENGINES = ("unreal", "unity")
+
+
+def engine_parameters(profile: RGBProfile, engine: str, material: Any = None, transmission: Any = None) -> dict[str, Any]:
     """The engine's material parameters for ``profile`` (module docstring), with units, formulas,
-    sources and what is lost. ``material`` (optional) gives the IOR and anisotropy."""
+    sources and what is lost. ``material`` (optional) gives the IOR and anisotropy; ``transmission`` (optional,
+    a :class:`~ssskit.profiles.montecarlo.transmission.TransmissionTable` of the material) adds Unreal's or
+    HDRP's transmission fields fitted to it under ``"transmission"`` (:mod:`ssskit.export.transmission`)."""
     key = engine.strip().lower()
     params = ENGINE_BUILDERS.get(key)(profile, material)
+    if transmission is not None and key in TRANSMISSION_ENGINES:
+        from .transmission import hdrp_transmission, unreal_transmission
+
+        a, d = fit_burley(profile)
+        params["transmission"] = (unreal_transmission(transmission, a, d) if key == "unreal"
+                                  else hdrp_transmission(transmission, d))
+        if key == "unreal":
+            from .unreal import details_text
+
+            params["details_panel"] = {form: details_text(params[form], params["transmission"])
+                                       for form in ("mfp", "dmfp")}
     params["source_profile"] = {"model": profile.model, "name": profile.name}
     models = [m for e, m in ENGINE_MODELS if e == key]
     params["sources"] = {m: ENGINE_SOURCES[f"{key}-{m}" if key == "unreal" else key] for m in models}

@@ -11,7 +11,11 @@ MaterialSamples diffusion profiles, whose ``m_Script`` names the script GUID bel
 * ``profile``: ``scatteringDistance`` (Color, ``[ColorUsage(false, false)]``: an LDR colour, stored
   linear), ``scatteringDistanceMultiplier``, ``transmissionTint``, ``texturingMode``,
   ``smoothnessMultipliers``, ``lobeMix``, ``diffuseShadingPower``, ``transmissionMode``,
-  ``thicknessRemap``, ``worldScale``, ``ior``, ``hash``.
+  ``thicknessRemap``, ``worldScale``, ``ior``, ``hash``;
+* transmission: ``transmissionMode`` 0 (``TransmissionMode.Regular``, shown as "Thick Object": the shadow-map
+  thickness), ``transmissionTint`` (``[ColorUsage(false, true)]``: an HDR colour, stored linear) and
+  ``thicknessRemap`` (x = min, y = max, mm) fitted to the material's MCML T(t) when the parameters carry them
+  (:func:`ssskit.export.transmission.hdrp_transmission`), else HDRP's defaults (white, (0, 5)).
 
 The shape: ``UpdateKernel``: S = 1 / (scatteringDistance x scatteringDistanceMultiplier) and
 R(r) = S (e^{-Sr} + e^{-Sr/3}) / (8 pi r): Burley (Xie 2020 Eq. 4) with d = scatteringDistance x
@@ -65,6 +69,9 @@ def _g(v: float) -> str:
 def unity_asset(params: dict[str, Any], name: str) -> str:
     """The ``DiffusionProfileSettings`` .asset text for the parameters of ``engine_parameters(..., "unity")``."""
     sd = params["scatteringDistance"]
+    tr = params.get("transmission") or {}
+    tint = tr.get("transmissionTint", (1.0, 1.0, 1.0))  # HDRP's defaults without the MCML fit (ResetToDefault)
+    remap = tr.get("thicknessRemap", (0.0, 5.0))
     if not re.fullmatch(r"[^\n:#{}\[\],&*!|>'\"%@`]+", name.strip() or "?"):
         raise SsskitError(f"the asset name {name!r} has characters a Unity asset name cannot hold")
     return "\n".join([
@@ -85,13 +92,13 @@ def unity_asset(params: dict[str, Any], name: str) -> str:
         "  profile:",
         f"    scatteringDistance: {{r: {_g(sd[0])}, g: {_g(sd[1])}, b: {_g(sd[2])}, a: 1}}",
         f"    scatteringDistanceMultiplier: {_g(params['scatteringDistanceMultiplier'])}",
-        "    transmissionTint: {r: 1, g: 1, b: 1, a: 1}",
+        f"    transmissionTint: {{r: {_g(tint[0])}, g: {_g(tint[1])}, b: {_g(tint[2])}, a: 1}}",
         "    texturingMode: 0",
         "    smoothnessMultipliers: {x: 1, y: 1}",
         "    lobeMix: 0.5",
         "    diffuseShadingPower: 1",
         "    transmissionMode: 0",
-        "    thicknessRemap: {x: 0, y: 5}",
+        f"    thicknessRemap: {{x: {_g(remap[0])}, y: {_g(remap[1])}}}",
         f"    worldScale: {_g(params['worldScale'])}",
         f"    ior: {_g(params['ior'])}",
         "    hash: 0",

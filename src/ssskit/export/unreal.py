@@ -31,11 +31,14 @@ from typing import Any
 
 import numpy as np
 
-#: FSubsurfaceProfileStruct's fields (Classes/Engine/SubsurfaceProfile.h, UE 5)
+#: FSubsurfaceProfileStruct's fields (Classes/Engine/SubsurfaceProfile.h, UE 5; DistanceScale from UE 5.8)
 SETTINGS_FIELDS = ("SurfaceAlbedo", "MeanFreePathColor", "MeanFreePathDistance", "WorldUnitScale", "bEnableBurley",
                    "bEnableMeanFreePath", "Tint", "ScatterRadius", "SubsurfaceColor", "FalloffColor",
                    "BoundaryColorBleed", "Implementation", "ExtinctionScale", "NormalScale", "ScatteringDistribution",
-                   "IOR", "Roughness0", "Roughness1", "LobeMix", "TransmissionTintColor")
+                   "IOR", "Roughness0", "Roughness1", "LobeMix", "TransmissionTintColor", "DistanceScale")
+#: the transmission fields the editor script sets when the export carries them (UE 5.8; DistanceScale is new there)
+TRANSMISSION_FIELDS = ("ExtinctionScale", "NormalScale", "ScatteringDistribution", "TransmissionTintColor",
+                       "DistanceScale")
 #: SubsurfaceProfile.cpp CreateTexture: the Bias clamp of colours and albedo
 COLOR_BIAS = 0.009
 #: SubsurfaceProfile.cpp: Dmfp2MfpMagicNumber
@@ -138,13 +141,17 @@ def _snake(field: str) -> str:
     return out
 
 
-def details_text(block: dict[str, Any]) -> str:
-    """The Settings struct as Unreal's details panel copies and pastes it (right-click > Paste on Settings)."""
+def details_text(block: dict[str, Any], transmission: dict[str, Any] | None = None) -> str:
+    """The Settings struct as Unreal's details panel copies and pastes it (right-click > Paste on Settings), with
+    the fitted transmission fields when given."""
     col = lambda v: f"(R={v[0]:.6f},G={v[1]:.6f},B={v[2]:.6f},A=1.000000)"  # noqa: E731
     parts = [f"SurfaceAlbedo={col(block['SurfaceAlbedo'])}", f"MeanFreePathColor={col(block['MeanFreePathColor'])}",
              f"MeanFreePathDistance={block['MeanFreePathDistance']:.6f}", f"WorldUnitScale={block['WorldUnitScale']:.6f}",
              f"bEnableBurley={block['bEnableBurley']}", f"bEnableMeanFreePath={block['bEnableMeanFreePath']}",
              f"IOR={block['IOR']:.6f}"]
+    for k in TRANSMISSION_FIELDS if transmission else ():
+        v = transmission[k]  # type: ignore[index]
+        parts.append(f"{k}={col(v)}" if isinstance(v, list) else f"{k}={float(v):.6f}")
     return "(" + ",".join(parts) + ")"
 
 
@@ -160,6 +167,8 @@ import unreal
 PACKAGE = {package!r}
 NAME = {name!r}
 SETTINGS = {settings}
+TRANSMISSION = {transmission}
+PROPERTY = {properties}
 
 
 def _colour(v):
@@ -181,6 +190,12 @@ def main():
     settings.set_editor_property("enable_burley", bool(SETTINGS["bEnableBurley"]))
     settings.set_editor_property("enable_mean_free_path", bool(SETTINGS["bEnableMeanFreePath"]))
     settings.set_editor_property("ior", float(SETTINGS["IOR"]))
+    for field, value in TRANSMISSION.items():  # fitted to the material's Monte Carlo transmittance (ssskit)
+        prop = PROPERTY[field]
+        try:
+            settings.set_editor_property(prop, _colour(value) if isinstance(value, list) else float(value))
+        except Exception as exc:  # DistanceScale exists from UE 5.8 on
+            unreal.log_warning("ssskit: " + prop + " not set (" + str(exc) + ")")
     asset.set_editor_property("settings", settings)
     unreal.EditorAssetLibrary.save_loaded_asset(asset)
     unreal.log("ssskit: wrote " + path)
@@ -199,10 +214,13 @@ def unreal_script(params: dict[str, Any], name: str, form: str = "mfp", package:
     block = params[form]
     settings = {k: block[k] for k in SCRIPT_FIELDS}
     clamps = "".join(f"Clamp: {c}\n" for c in params.get("clamps", []))
+    tr = params.get("transmission") or {}
+    transmission = {k: tr[k] for k in TRANSMISSION_FIELDS if k in tr}
     return _SCRIPT.format(versions=block["unreal_versions"], name=name, package=package,
                           settings=json.dumps(settings, indent=4).replace("true", "True").replace("false", "False"),
-                          clamps=clamps)
+                          transmission=json.dumps(transmission, indent=4),
+                          properties=json.dumps({k: _snake(k) for k in TRANSMISSION_FIELDS}, indent=4), clamps=clamps)
 
 
-__all__ = ["COLOR_BIAS", "SCRIPT_FIELDS", "SETTINGS_FIELDS", "details_text", "scaling_perpendicular",
+__all__ = ["COLOR_BIAS", "SCRIPT_FIELDS", "SETTINGS_FIELDS", "TRANSMISSION_FIELDS", "details_text", "scaling_perpendicular",
            "scaling_searchlight", "unreal_d_mm", "unreal_parameters", "unreal_script", "_snake"]

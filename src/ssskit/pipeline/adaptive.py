@@ -20,6 +20,13 @@ Sec. 4.1, beside the same loop at a fixed b_max spp, through the library's one f
   comparison (:func:`ssskit.pipeline.burley_frame.render_burley`, with the path-traced reference when
   asked); then every frame of the adaptive loop, and their average, against the limit.
 
+With the transmittance pass (``settings.transmission``, as for one frame: ``auto`` where the G-buffer has
+the light layers, ``on`` renders the scene's G-buffers with them), every frame's blurred diffuse layer
+gets its G-buffer's transmitted light before the albedo multiply (:func:`ssskit.screenspace.frames.run_frames`
+step 4; computed once per G-buffer), and the comparisons carry the same light: the static run's exact
+limit (as :func:`~ssskit.pipeline.burley_frame.render_burley` adds it), the moving run's converged
+references. The sample counts are those without it (the guiding phase sees the reflectance pass).
+
 ``on_frame`` receives every adaptive frame (:class:`AdaptiveFrame`: the frame number, the composite
 before and after TAA, the counts, and the sequence's tone-map peak) so a caller can write it
 (``ssskit render --frames-dir``).
@@ -47,6 +54,7 @@ from .burley_frame import plan_burley, render_burley
 from .frame import BurleyInput, Progress, SceneInput, ScenePlan, finite, metric_lines
 from .sequence import sequence_gbuffers, sequence_references
 from .settings import AdaptivePass, BurleyPass, RenderSettings
+from .transmission import TransmissionInfo, material_of_ids, transmission_light
 
 #: the history's format, as the JSON states it
 HISTORY_FORMAT = "(H, W, 4) float32: n_bar, mu, sigma^2, available"
@@ -94,6 +102,7 @@ class AdaptiveResult:
     metrics: dict[str, Any] = field(default_factory=dict)
     reference: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
+    transmission: TransmissionInfo = field(default_factory=lambda: TransmissionInfo("off", False))
 
     @property
     def pass_(self) -> AdaptivePass:
@@ -144,6 +153,7 @@ class AdaptiveResult:
                        "material": getattr(self.material, "name", str(self.material)), "size": [int(w), int(h)],
                        "settings": self.settings.to_dict(), "burley": burley, "adaptive": self._adaptive_dict(),
                        "taa": taa, "reference": self.reference, "final_frames": min(FINAL_FRAMES, self.pass_.frames),
+                       "transmission": self.transmission.to_dict(),
                        "frames": self.rows, **self._finals(self.run),
                        "fixed": {"spp": b_max, **self._finals(self.fixed), "frames": fixed_rows},
                        "sample_ratio": self.fixed.samples / self.run.samples if self.run.samples else None})
@@ -164,6 +174,7 @@ class AdaptiveResult:
                        f"update {np.median(self.run.ms_update):.3g}")
             out += metric_lines(self.metrics, width=16)
             out += metric_lines(self.fixed.metrics, prefix=f"fixed {a.b_max} spp vs ")
+            out.append(self.transmission.line())
             return out
         last = min(FINAL_FRAMES, p.frames)
         out = [f"# {self.scene}: Burley adaptive along the camera/light path, frames "
@@ -179,6 +190,7 @@ class AdaptiveResult:
                        f"guiding {np.median(r.ms_update):.3g}, whole loop {np.median(r.ms_frame):.3g}")
         ratio = self.fixed.samples / self.run.samples if self.run.samples else float("nan")
         out.append(f"samples: fixed / adaptive = {ratio:.2f}x")
+        out.append(self.transmission.line())
         return out
 
 
@@ -199,6 +211,27 @@ def _writer(on_frame: FrameCallback | None, peak: float, b_max: int) -> Callable
     if on_frame is None:
         return None
     return lambda fr: on_frame(AdaptiveFrame(fr.number, fr.image, fr.image_taa, fr.counts, peak, b_max))
+
+
+class _Through:
+    """The transmitted light of each G-buffer of a run (:func:`~ssskit.pipeline.transmission.transmission_light`),
+    computed once per G-buffer object and kept: the last one's radiance and info."""
+
+    def __init__(self, plan: ScenePlan, settings: RenderSettings, say: Progress | None) -> None:
+        self.plan, self.settings = plan, settings
+        self.say: Progress = say or (lambda msg: None)
+        self.done: dict[int, tuple[GBuffer, np.ndarray]] = {}
+        self.radiance: np.ndarray | None = None
+        self.info = TransmissionInfo(settings.transmission, False)
+
+    def __call__(self, gb: GBuffer) -> np.ndarray:
+        hit = self.done.get(id(gb))
+        if hit is not None and hit[0] is gb:
+            return hit[1]
+        added, self.radiance, self.info = transmission_light(
+            gb, self.settings, material_of_ids(gb, self.plan.materials, self.plan.material), self.say)
+        self.done[id(gb)] = (gb, added)
+        return added
 
 
 def plan_adaptive(scene: SceneInput, settings: RenderSettings,
@@ -246,17 +279,20 @@ def render_adaptive(scene: SceneInput = "slab", settings: RenderSettings | None 
     b = settings.burley_settings()
     taa = TAASettings() if p.taa else None
     if static:
-        return _static(scene, settings, p, a, b, params, taa, progress, on_frame)
+        return _static(scene, plan, settings, p, a, b, params, taa, progress, on_frame)
     assert plan.builtin is not None  # a moving run has a built-in scene (plan_adaptive)
     gbs = sequence_gbuffers(plan.builtin, plan.material, p.frames, settings.frame, width=settings.width,
-                            height=settings.height, spp=settings.spp, seed=settings.seed, progress=progress)
+                            height=settings.height, spp=settings.spp, seed=settings.seed, progress=progress,
+                            light_layers=plan.transmission)
     refs = sequence_references(gbs, params, spp=p.reference_spp, backend=b.backend, progress=progress)
-    peak = _peak(gbs[0].composite(refs[0].sss))
-    ref_sss = [r.sss for r in refs]
+    through = _Through(plan, settings, progress) if plan.transmission else None
+    ref_sss = [r.sss if through is None else np.add(r.sss, through(g), dtype=r.sss.dtype) for g, r in zip(gbs, refs)]
+    peak = _peak(gbs[0].composite(ref_sss[0]))
     run = run_frames(gbs, params, b, adaptive=a, taa=taa, references=ref_sss, disocclusion_spp=p.disocclusion_spp,
-                     progress=_some(progress, p.frames, "adaptive"), on_frame=_writer(on_frame, peak, a.b_max))
+                     progress=_some(progress, p.frames, "adaptive"), on_frame=_writer(on_frame, peak, a.b_max),
+                     transmission=through)
     fixed = run_frames(gbs, params, b, spp=a.b_max, taa=taa, references=ref_sss,
-                       progress=_some(progress, p.frames, f"fixed {a.b_max} spp"))
+                       progress=_some(progress, p.frames, f"fixed {a.b_max} spp"), transmission=through)
     rows = run.rows()
     for row in rows:
         row["frame"] += settings.frame
@@ -264,13 +300,19 @@ def render_adaptive(scene: SceneInput = "slab", settings: RenderSettings | None 
                  for g, r in zip(gbs, refs)]
     image = run.last_taa if run.last_taa is not None else run.last
     assert image is not None and run.last is not None
-    return AdaptiveResult(plan.label, settings, plan.material, False, run, fixed, rows, image,
-                          {"frame": run.last, "reference": gbs[-1].composite(refs[-1].sss)}, gbs[-1], gbuffers=gbs,
-                          reference={"spp": refs[0].spp, "sampler": "exact", "mips": False,
-                                     "noise_rms_max": max(ref_noise)})
+    layers = {"frame": run.last, "reference": gbs[-1].composite(ref_sss[-1])}
+    if through is not None:
+        through(gbs[-1])  # (kept: the last frame's radiance and info)
+        assert through.radiance is not None
+        layers["transmission"] = through.radiance
+    return AdaptiveResult(plan.label, settings, plan.material, False, run, fixed, rows, image, layers, gbs[-1],
+                          gbuffers=gbs, reference={"spp": refs[0].spp, "sampler": "exact", "mips": False,
+                                                   "noise_rms_max": max(ref_noise)},
+                          transmission=through.info if through is not None else TransmissionInfo(settings.transmission,
+                                                                                                   False))
 
 
-def _static(scene: SceneInput, settings: RenderSettings, p: AdaptivePass, a: AdaptiveSettings,
+def _static(scene: SceneInput, plan: ScenePlan, settings: RenderSettings, p: AdaptivePass, a: AdaptiveSettings,
             b: BurleySettings, params: BurleyInput, taa: TAASettings | None, progress: Progress | None,
             on_frame: FrameCallback | None) -> AdaptiveResult:
     """The static run (module docstring): one fixed b_max frame with the ground truths, then the adaptive
@@ -295,8 +337,9 @@ def _static(scene: SceneInput, settings: RenderSettings, p: AdaptivePass, a: Ada
         if write is not None:
             write(fr)
 
+    through = _Through(plan, settings, progress) if fixed.transmission.ran else None
     run = run_frames([gb] * p.frames, fixed.params, b, adaptive=a, taa=taa, accumulate=True, on_frame=record,
-                     progress=_some(progress, p.frames, "adaptive"))
+                     progress=_some(progress, p.frames, "adaptive"), transmission=through)
     for row, ms, ms_update in zip(rows, run.ms, run.ms_update):
         row["ms"], row["ms_update"] = ms, ms_update
     assert run.last_sss is not None and run.mean is not None
@@ -309,7 +352,7 @@ def _static(scene: SceneInput, settings: RenderSettings, p: AdaptivePass, a: Ada
         metrics["path_traced"] = region_metrics(fixed.reference, image, mask, settings.perceptual)
     final = dataclasses.replace(fixed, sss=run.last_sss, image=image)
     return AdaptiveResult(fixed.scene, settings, fixed.material, True, run, fixed, rows, image, final.layers(), gb,
-                          metrics=metrics, source=fixed.source)
+                          metrics=metrics, source=fixed.source, transmission=fixed.transmission)
 
 
 __all__ = ["AdaptiveFrame", "AdaptiveResult", "FrameCallback", "plan_adaptive", "render_adaptive"]

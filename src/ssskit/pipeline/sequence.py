@@ -47,30 +47,36 @@ def _save_gbuffer(path: Path, gb: GBuffer) -> None:
     with atomic_output(path) as tmp:
         with open(tmp, "wb") as fh:
             assert gb.specular is not None and gb.normal is not None  # the scenes render both
-            np.savez(fh, diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id,
-                     specular=gb.specular, normal=gb.normal,
-                     camera=np.array(json.dumps(gb.camera.to_dict())), meta=np.array(json.dumps(gb.meta)),
-                     materials=np.array(json.dumps(list(gb.materials))))
+            arrays: dict[str, Any] = dict(
+                diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id, specular=gb.specular,
+                normal=gb.normal, camera=np.array(json.dumps(gb.camera.to_dict())), meta=np.array(json.dumps(gb.meta)),
+                materials=np.array(json.dumps(list(gb.materials))))
+            if gb.light_depth is not None:  # the transmittance pass's light layers
+                arrays.update(light_depth=gb.light_depth, light=np.array(json.dumps(gb.light)))
+            np.savez(fh, **arrays)
 
 
 def _load_gbuffer(path: Path) -> GBuffer | None:
     try:
         with np.load(path) as z:
+            light = {} if "light_depth" not in z else {"light_depth": z["light_depth"],
+                                                       "light": json.loads(str(z["light"]))}
             return GBuffer(diffuse=z["diffuse"], albedo=z["albedo"], depth=z["depth"], profile_id=z["profile_id"],
                            camera=Camera.from_dict(json.loads(str(z["camera"]))), specular=z["specular"],
                            normal=z["normal"], materials=tuple(json.loads(str(z["materials"]))),
-                           meta=json.loads(str(z["meta"])))
+                           meta=json.loads(str(z["meta"])), **light)
     except (OSError, ValueError, KeyError):  # a damaged cache entry is rendered again
         return None
 
 
 def sequence_gbuffers(scene: str, material: str | Material, frames: int, first: int = 0, *, width: int = 160, height: int = 120,
                       spp: int = 64, seed: int = 0, static: bool = False, use_cache: bool = True,
-                      progress: Callable[[str], None] | None = None) -> list[GBuffer]:
+                      progress: Callable[[str], None] | None = None, light_layers: bool = False) -> list[GBuffer]:
     """G-buffers of frames ``first .. first + frames - 1`` of the built-in ``scene`` along its camera and
     light paths (:func:`ssskit.scenes.render_sequence`), each rendered once and cached as ``.npz``
     keyed by everything that shapes it. ``material``: a material name or object (its Burley albedo
-    and eta); ``static``: every frame is frame ``first`` (a still camera and light)."""
+    and eta); ``static``: every frame is frame ``first`` (a still camera and light); ``light_layers``: with
+    the transmittance pass's light layers of each frame's light (:func:`ssskit.scenes.render_gbuffer`)."""
     from ..materials import MATERIALS
     from ..scenes import render_gbuffer
     from ..scenes.scenes import SCENES, check_size, check_spp
@@ -94,13 +100,15 @@ def sequence_gbuffers(scene: str, material: str | Material, frames: int, first: 
             continue
         key = {"scene": scene, "frame": int(frame), "albedo": [float(a) for a in albedo], "eta": float(mat.eta),
                "size": [int(width), int(height)], "spp": int(spp), "seed": int(seed), "material": mat.name}
+        if light_layers:  # (only then: the keys of the G-buffers cached before the layers existed stay)
+            key["light_layers"] = True
         path = _gbuffer_path(key)
         gb = _load_gbuffer(path) if use_cache and path.is_file() else None
         if gb is None:
             if progress is not None:
                 progress(f"G-buffer {scene} frame {frame} ({width}x{height}, {spp} spp, Mitsuba)")
             gb = render_gbuffer(scene, albedo, eta=mat.eta, width=width, height=height, spp=spp, seed=seed,
-                                frame=frame, material=mat.name)
+                                frame=frame, material=mat.name, light_layers=light_layers)
             if use_cache:
                 _save_gbuffer(path, gb)
         cache[frame] = gb

@@ -242,14 +242,16 @@ class RenderSettings(Settings):
     continued until the relative standard error of its mean over the SSS mask is at most
     ``reference_rel_se`` or ``reference_max_spp`` is spent (:func:`ssskit.scenes.render_reference`);
     ``perceptual``: FLIP in the metrics; ``transmission``: the transmittance pass (light through thin parts,
-    docs/transmission.md) added to the reflectance SSS of the separable and the Burley pass: ``auto`` (where
+    docs/transmission.md) added to the reflectance SSS of every pass (separable, Burley, and each frame of
+    burley-adaptive): ``auto`` (where
     the G-buffer has the light layers: a G-buffer file or GBuffer that carries them; a scene's own G-buffer
     is rendered without them), ``on`` (a scene's G-buffer is rendered with them; a G-buffer without them is
     an error), ``off``; ``transmission_model``: its T(t), ``mcml`` (the fit of the material's MCML slab
-    transmittance's scattered part) or ``jimenez2010`` (Jimenez et al. 2010's skin Gaussians, [JWSG10]);
-    ``transmission_spread``: the lateral spread of the transmitted light, ``mcml`` (a Gaussian per pixel as wide
-    as MCML's Tt(r) at its thickness, :mod:`ssskit.backends.spread_plan`; homogeneous materials) or ``off``;
-    ``pass_``: the pass (:data:`PASSES`: :class:`SeparablePass`,
+    transmittance's scattered part), ``jimenez2010`` (Jimenez et al. 2010's skin Gaussians, [JWSG10]) or ``unreal``
+    (Unreal Engine 5's subsurface-profile transmission, [UE58]); ``transmission_spread``: the lateral spread of
+    the transmitted light, ``mcml`` (a Gaussian per pixel as wide as MCML's Tt(r) at its thickness,
+    :mod:`ssskit.backends.spread_plan`; homogeneous materials) or ``off``; ``pass_``: the pass (:data:`PASSES`:
+    :class:`SeparablePass`,
     :class:`BurleyPass` or :class:`AdaptivePass`), which :func:`ssskit.pipeline.render` runs. The kernel
     fields apply to the separable pass only: with another pass they must keep their defaults.
     """
@@ -328,9 +330,6 @@ class RenderSettings(Settings):
             if changed:
                 raise SettingsError(f"{', '.join(changed)} appl{'ies' if len(changed) == 1 else 'y'} to the separable "
                                     f"pass (the kernel it filters with); this render runs the {self.pass_name} pass")
-        if self.pass_name == "burley-adaptive" and self.transmission == "on":
-            raise SettingsError("transmission on applies to the separable and burley passes (one frame); the "
-                                "burley-adaptive run has no transmittance pass")
 
     @property
     def pass_name(self) -> str:

@@ -1,6 +1,6 @@
 """The transmittance pass in a rendered frame (docs/transmission.md): whether it runs, its models per profile
 id, and its light added to the reflectance SSS before the albedo multiply, for the separable and the
-Burley pass alike.
+Burley pass alike, and through :func:`transmission_light` for every frame of the adaptive run.
 
 Whether it runs (:func:`transmission_runs`, checked before any work with the scene's plan):
 
@@ -27,6 +27,11 @@ the albedo:
 
 (T(t) is already the material's whole transmittance; multiplying it by Rd would take the material's colour
 twice). Pixels whose albedo is 0 get no transmitted light (nothing there to add to).
+
+The ``unreal`` model is Unreal Engine 5's own (:mod:`ssskit.screenspace.transmission`): its light carries UE's
+phase factor per pixel and its exit is UE's, the pass's out times the base colour (UE adds the transmission
+to the diffuse lighting its recombine pass multiplies by the base colour): radiance = albedo out, sss' =
+sss + out.
 """
 
 from __future__ import annotations
@@ -75,7 +80,7 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
     cannot: ``gbuffer`` the given or loaded G-buffer (None: a scene renders it), ``label`` its name,
     ``has_scene`` whether a scene renders it with ``scene_lights`` lights, ``materials`` those of the
     profile ids (or the one material)."""
-    if settings.transmission == "off" or settings.pass_name == "burley-adaptive":
+    if settings.transmission == "off":
         return False
     if gbuffer is not None:
         if not gbuffer.has_light:
@@ -88,41 +93,73 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
         return False
     elif scene_lights < 1:
         raise SettingsError(f"transmission on needs a light behind the object; the scene {label} has no light")
-    if settings.transmission_model == "mcml":
+    if settings.transmission_model in ("mcml", "unreal"):
+        what = "MCML slab transmittance" if settings.transmission_model == "mcml" else "Burley d"
         for m in materials:
             if not isinstance(m, Material):
-                raise SettingsError(f"the mcml transmission model needs homogeneous materials (their MCML slab "
-                                    f"transmittance); {getattr(m, 'name', m)!r} is a {type(m).__name__}")
+                raise SettingsError(f"the {settings.transmission_model} transmission model needs homogeneous materials "
+                                    f"(their {what}); {getattr(m, 'name', m)!r} is a {type(m).__name__}")
     return True
 
 
-def _model(name: str, material: Any) -> Any:
-    from ..screenspace.transmission import jimenez2010_model, mcml_model
+def slot_model(name: str, material: Any) -> Any:
+    """The :class:`~ssskit.backends.transmission_plan.SlotModel` of transmission model ``name`` for ``material``
+    (mcml: its MCML fit; unreal: UE's defaults for its Burley d; jimenez2010: the skin Gaussians, no material)."""
+    from ..screenspace.burley import burley_params_for_material
+    from ..screenspace.transmission import jimenez2010_model, mcml_model, unreal_model
 
+    if name == "unreal":  # UE's defaults for the material's Burley d (the Burley pass's own parameters)
+        return unreal_model(burley_params_for_material(material).d_mm)
     return mcml_model(material) if name == "mcml" else jimenez2010_model()
 
 
-def add_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, material_of: dict[int, Any],
-                     say: Callable[[str], None], models: Mapping[int, SlotModel] | None = None,
-                     ) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
-    """(sss', transmitted radiance T E / pi (H, W, 3) float32, info): the transmittance pass on the settings'
-    backend with the settings' model for every profile id of the mask (``material_of`` id -> material), or
-    ``models`` (profile id -> :class:`~ssskit.backends.transmission_plan.SlotModel`, e.g. an engine's exported
-    parameters), spread (``settings.transmission_spread``), demodulated and added to ``sss`` (module docstring)."""
+def _unreal_light(gb: GBuffer, light_rgb: np.ndarray) -> np.ndarray:
+    """The light of the ``unreal`` model: the irradiance times UE's phase factor per pixel
+    (:func:`ssskit.screenspace.transmission.unreal_phase` with UE's default ScatteringDistribution and IOR; V
+    towards the camera, L towards the light)."""
+    from ..screenspace.transmission import UE_TRANSMISSION_DEFAULTS, LightView, unreal_phase
+
+    assert gb.light is not None and gb.normal is not None
+    pos = gb.positions()
+    eye = np.linalg.inv(gb.camera.world_to_camera)[:3, 3]
+    v = eye - pos
+    v /= np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+    n = gb.normal.astype(np.float64)
+    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
+    to_light = -np.asarray(LightView.from_dict(gb.light).direction, float)
+    g, ior = float(UE_TRANSMISSION_DEFAULTS["ScatteringDistribution"]), float(UE_TRANSMISSION_DEFAULTS["IOR"])
+    phase = unreal_phase(n, v, np.broadcast_to(to_light, n.shape), g, ior)
+    return np.asarray(light_rgb * phase[..., None], light_rgb.dtype)
+
+
+def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[int, Any],
+                       say: Callable[[str], None], models: Mapping[int, SlotModel] | None = None,
+                       ) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
+    """(added, radiance, info): the transmittance pass on the settings' backend with the settings' model for
+    every profile id of the mask (``material_of`` id -> material), or ``models`` (profile id ->
+    :class:`~ssskit.backends.transmission_plan.SlotModel`, e.g. an engine's exported parameters), then its
+    lateral spread (``settings.transmission_spread``); ``radiance`` (H, W, 3) float32, the transmitted radiance
+    in the image (T E / pi; ``unreal``: albedo times UE's light) and ``added`` = radiance / albedo in the
+    backend's float type, the light to add to the reflectance SSS (module docstring), both 0 where the albedo
+    is 0."""
     from ..screenspace.transmission import transmission_plan
 
-    ids = sorted(int(i) for i in np.unique(gb.profile_id[gb.mask]))
+    ids = _mask_ids(gb)
     name = settings.transmission_model if models is None else "given"
     say(f"transmittance pass: {name} model, {settings.backend} backend")
-    plan = transmission_plan({pid: _model(settings.transmission_model, material_of[pid]) if models is None
+    plan = transmission_plan({pid: slot_model(settings.transmission_model, material_of[pid]) if models is None
                               else models[pid] for pid in ids})
     lut = np.zeros(int(gb.profile_id.max(initial=0)) + 1, np.int32)
     lut[ids] = np.arange(1, len(ids) + 1, dtype=np.int32)
     slots = lut[gb.profile_id]
     backend = get_backend(settings.backend)
-    uvz, shadow, ndl, light = gb.transmission_inputs()
+    uvz, shadow, ndl, light_rgb = gb.transmission_inputs(backend.dtype)
+    unreal = models is None and settings.transmission_model == "unreal"
+    if unreal:
+        light_rgb = _unreal_light(gb, light_rgb)
+    out = np.asarray(backend.transmission(plan, slots, uvz, shadow, ndl, light_rgb))
     # >= 0: a model whose terms subtract (the scattered part) may round a hair below 0 in float32
-    out = np.maximum(np.asarray(backend.transmission(plan, slots, uvz, shadow, ndl, light), np.float64), 0.0)
+    out = np.maximum(out, 0.0, dtype=out.dtype)
     spread = settings.transmission_spread == "mcml" and all(isinstance(material_of[pid], Material) for pid in ids)
     if spread:
         from ..backends.spread_plan import build_spread_plan
@@ -131,15 +168,41 @@ def add_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, mat
         say(f"lateral spread of the transmitted light (MCML's Tt(r)), {settings.backend} backend")
         splan = build_spread_plan({pid: mcml_spread(material_of[pid]) for pid in ids}, gb.camera.fx, gb.camera.fy,
                                   plan.bias_mm)
-        out = np.asarray(backend.transmission_spread(splan, out, gb.depth_mm, slots, uvz, shadow), np.float64)
-    radiance = out / math.pi
-    albedo = gb.albedo.astype(np.float64)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        demod = np.where(albedo > 0, radiance / albedo, 0.0)
-    lit = int(np.count_nonzero(np.any(out > 0, axis=-1)))
-    total = (np.asarray(sss, np.float64) + demod).astype(np.asarray(sss).dtype)
-    return total, np.where(albedo > 0, radiance, 0.0).astype(np.float32), TransmissionInfo(
+        out = np.asarray(backend.transmission_spread(splan, out, gb.depth_mm, slots, uvz, shadow), out.dtype)
+    flat = out.reshape(-1, 3)
+    lit = int(np.count_nonzero((flat[:, 0] > 0) | (flat[:, 1] > 0) | (flat[:, 2] > 0)))
+    lit_albedo = gb.albedo > 0
+    if unreal:  # UE's recombine multiplies the transmitted light by the base colour: radiance = albedo out
+        added = np.where(lit_albedo, out, 0.0).astype(out.dtype)
+        radiance = np.multiply(added, gb.albedo, dtype=out.dtype)
+    else:
+        radiance = np.multiply(out, 1.0 / math.pi, dtype=out.dtype)
+        np.copyto(radiance, 0.0, where=~lit_albedo)
+        added = np.divide(radiance, gb.albedo, out=np.zeros_like(radiance), where=lit_albedo)
+    return added, radiance.astype(np.float32, copy=False), TransmissionInfo(
         settings.transmission, True, name, lit, "mcml" if spread else "off")
+
+
+def add_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, material_of: dict[int, Any],
+                     say: Callable[[str], None], models: Mapping[int, SlotModel] | None = None,
+                     ) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
+    """(sss', the transmitted radiance (H, W, 3) float32, info): :func:`transmission_light` (with ``models`` if
+    given) added to ``sss`` (in its float type)."""
+    added, radiance, info = transmission_light(gb, settings, material_of, say, models)
+    dt = np.asarray(sss).dtype
+    return np.add(sss, added, dtype=dt), radiance, info
+
+
+def _mask_ids(gb: GBuffer) -> list[int]:
+    """The profile ids (>= 1) present in the G-buffer, ascending."""
+    return [int(i) for i in np.flatnonzero(np.bincount(gb.profile_id.reshape(-1))[1:]) + 1]
+
+
+def material_of_ids(gb: GBuffer, materials: tuple[Any, ...], material: Any) -> dict[int, Any]:
+    """Profile id -> material for the ids of ``gb``'s mask: the scene's per id (``materials``), else
+    ``material`` for every id."""
+    ids = _mask_ids(gb)
+    return {pid: materials[min(pid, len(materials)) - 1] if materials else material for pid in ids}
 
 
 def with_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, materials: tuple[Any, ...], material: Any,
@@ -148,16 +211,17 @@ def with_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, ma
     """A frame's pass result with the transmitted light (:func:`add_transmission`; ``materials`` the scene's
     per profile id, else ``material`` for every id), and its exact limit ``exact`` with the same light added,
     so that the metrics against it measure the reflectance pass as before."""
-    ids = [int(i) for i in np.unique(gb.profile_id[gb.mask])]
-    material_of = {pid: materials[min(pid, len(materials)) - 1] if materials else material for pid in ids}
-    total, radiance, info = add_transmission(gb, sss, settings, material_of, say)
-    added = total.astype(np.float64) - np.asarray(sss, np.float64)
+    total, radiance, info = add_transmission(gb, sss, settings, material_of_ids(gb, materials, material), say)
 
     def exact_with() -> np.ndarray | None:
         e = exact()
-        return None if e is None else (np.asarray(e, np.float64) + added).astype(np.asarray(e).dtype)
+        if e is None:
+            return None
+        added = total.astype(np.float64) - np.asarray(sss, np.float64)  # what the frame got, to the last bit
+        return (np.asarray(e, np.float64) + added).astype(np.asarray(e).dtype)
 
     return total, radiance, info, exact_with
 
 
-__all__ = ["TransmissionInfo", "add_transmission", "transmission_runs", "with_transmission"]
+__all__ = ["TransmissionInfo", "add_transmission", "material_of_ids", "slot_model", "transmission_light",
+           "transmission_runs", "with_transmission"]

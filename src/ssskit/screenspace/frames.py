@@ -19,7 +19,9 @@ the counts stay with the backend, on the device for gl):
 2. ``runner.sample(plan_f)``: the Burley pass with those counts (the frame number keys the random numbers);
 3. adaptive: ``runner.update()``, the history update (Eqs. 8, 6, 9) on the pre-TAA output, so the sampler
    is the same with TAA on or off (it never reads the TAA's state);
-4. ``sss_f = runner.result()``; ``image_f = g_f.composite(sss_f)``; with TAA, ``taa_f =
+4. ``sss_f = runner.result()``, plus the light ``transmission(g_f)`` adds (the transmittance pass's, computed
+   once per G-buffer; it is deterministic, so the guiding phase of step 3 never sees it, as it never sees
+   the TAA); ``image_f = g_f.composite(sss_f)``; with TAA, ``taa_f =
    TemporalAA.resolve(image_f, m_f, valid_f)``, ``valid_f`` the depth test
    :func:`~ssskit.screenspace.taa.reprojection_valid` when a new G-buffer was loaded (None on a still one);
 5. with ``references`` (one converged blurred diffuse layer per frame), the frame's PSNR inside the SSS
@@ -53,8 +55,9 @@ from .camera import motion_vectors
 from .gbuffer import GBuffer
 from .taa import TAASettings, TemporalAA, reprojection_valid
 
-#: the per-frame times :attr:`FrameRun.phases` holds: the runner's phases and the result's readback
-TIMED = (*PHASES, "readback")
+#: the per-frame times :attr:`FrameRun.phases` holds: the runner's phases, the result's readback and the
+#: transmitted light of a new G-buffer
+TIMED = (*PHASES, "readback", "transmission")
 
 
 @dataclass
@@ -85,7 +88,8 @@ class FrameRun:
     and after TAA; None without a reference or TAA), ``psnr_gray`` / ``psnr_gray_taa`` (the same as
     :func:`~ssskit.metrics.display_psnr`), ``ms`` (the Burley pass: prefilter + sampling), ``ms_update`` (the
     guiding phase: estimate + update; 0 for a fixed count), ``ms_frame`` (the wall time of the whole loop:
-    load with its upload and estimate, pass, update, the result's readback; not the counts' readback for the
+    load with its upload and estimate, pass, update, the result's readback, the transmitted light of a new
+    G-buffer; not the counts' readback for the
     statistics, the fixed count's upload, motion vectors, TAA or metrics), ``phases`` (ms per frame of each
     of :data:`TIMED`; on gl GPU time, or wall time around glFinish on llvmpipe). ``samples``: the total
     samples taken; ``last`` / ``last_taa``: the last frame's composite images, ``last_sss`` its blurred
@@ -194,7 +198,8 @@ def run_frames(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, 
                references: Sequence[np.ndarray] | None = None, disocclusion_spp: int | None = None,
                history: ArrayLike | None = None, guide: str | None = None, keep_counts: bool = False, accumulate: bool = False,
                on_frame: Callable[[Frame], None] | None = None,
-               progress: Callable[[str], None] | None = None) -> FrameRun:
+               progress: Callable[[str], None] | None = None,
+               transmission: Callable[[GBuffer], np.ndarray] | None = None) -> FrameRun:
     """The Burley pass over ``gbuffers`` (module docstring; the same G-buffer object twice in a row is a
     still frame) with ``adaptive`` counts or a fixed ``spp`` (exactly one), ``params`` the Burley parameters
     (one :class:`~ssskit.screenspace.BurleyParams` or a mapping profile id -> params), ``burley`` the
@@ -210,7 +215,10 @@ def run_frames(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, 
     disocclusion initialisation). ``guide``: the backend of the guiding phase (default: the Burley pass's).
     ``keep_counts``: keep every frame's counts; ``accumulate``: the average of the frames and its standard
     error. ``on_frame(frame)`` is called after every frame with a :class:`Frame`; ``progress`` gets
-    ``"frame k/N"`` before each.
+    ``"frame k/N"`` before each. ``transmission(gbuffer)``: the light added to the pass's blurred diffuse
+    layer of each G-buffer, (H, W, 3) (the transmittance pass demodulated by the albedo,
+    :func:`ssskit.pipeline.transmission.transmission_light`), called once per new G-buffer (module
+    docstring, step 4); ``references`` are compared as given (add the same light to them).
     """
     b, spp, disocclusion_spp, gbs, shape = _check(gbuffers, burley, adaptive, spp, taa, references,
                                                   disocclusion_spp)
@@ -224,6 +232,7 @@ def run_frames(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, 
     prev_inside: np.ndarray | None = None
     plan: BurleyPlan | None = None
     slots: np.ndarray | None = None
+    added: np.ndarray | None = None
     try:
         for f, gb in enumerate(gbs):
             if progress is not None:
@@ -260,11 +269,18 @@ def run_frames(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, 
                 runner.update()
             t_read = time.perf_counter()
             sss = runner.result()
+            t4 = time.perf_counter()
+            if transmission is not None:
+                if new:
+                    added = _check_added(transmission(gb), shape)
+                assert added is not None  # (computed on the first frame, which is new)
+                sss = np.add(sss, added, dtype=sss.dtype)
             t3 = time.perf_counter()
             phase = {p: sum(v[before[p]:]) for p, v in runner.times.items()}
             for p in PHASES:
                 run.phases[p].append(phase[p])
-            run.phases["readback"].append(1e3 * (t3 - t_read))
+            run.phases["readback"].append(1e3 * (t4 - t_read))
+            run.phases["transmission"].append(1e3 * (t3 - t4))
             image = gb.composite(sss)
             ref = None if references is None else gb.composite(references[f])
             run.mean_spp.append(float(counts[mask].mean()) if mask.any() else 0.0)
@@ -305,6 +321,16 @@ def run_frames(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, 
         var = np.maximum(total_sq / n - run.mean * run.mean, 0.0) * (n / max(n - 1, 1))
         run.stderr = np.sqrt(var / n)
     return run
+
+
+def _check_added(added: Any, shape: tuple[int, int]) -> np.ndarray:
+    """The transmitted light of a G-buffer as an (H, W, 3) array of finite numbers >= 0, or a PassError."""
+    a = np.asarray(added)
+    if a.shape != (*shape, 3):
+        raise PassError(f"the transmitted light must have shape {(*shape, 3)} like the frame, got {a.shape}")
+    if not np.all(np.isfinite(a)) or np.any(a < 0):
+        raise PassError("the transmitted light must be finite and >= 0")
+    return a
 
 
 def _had_history(prev_inside: np.ndarray | None, motion: np.ndarray | None, shape: tuple[int, int],

@@ -125,22 +125,57 @@ class GBuffer:
         """Whether the G-buffer carries the transmittance pass's layers."""
         return self.light_depth is not None
 
-    def transmission_inputs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def transmission_inputs(self, dtype: Any = np.float64) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(light_uvz (H, W, 3), shadow_mm (H, W), n_dot_l (H, W), light_rgb (H, W, 3)): the transmittance pass's
         frame inputs (:mod:`ssskit.backends.transmission_plan`) from the light layers, the positions (mm) and
-        the normals; a GBufferError without the layers."""
+        the normals, computed in float64 and stored as ``dtype`` (a float32 backend's inputs: no second
+        conversion); a GBufferError without the layers.
+
+        Each pixel's point in the light's view is affine in the camera-space point, itself z times the pixel's
+        ray (:meth:`Camera.unproject`): a light coordinate is z (r_k(y) + c_k(x)) + o_k, one row and one
+        column term per coordinate, the same numbers as ``view.project(positions())`` (tests/screenspace/
+        test_gbuffer_light.py) without the (H, W, 3) float64 temporaries."""
         from .transmission import LightView
 
         if self.light_depth is None or self.light is None:
             raise GBufferError("the G-buffer has no light layers ('light_depth' and header 'ssskit_light')")
         view = LightView.from_dict(self.light)
-        pos = self.positions() / self.camera.world_units_per_mm
-        uvz = view.project(pos)
-        n = np.zeros(self.shape + (3,)) if self.normal is None else self.normal.astype(np.float64)
-        ndl = n @ (-np.asarray(view.direction))  # L, towards the light, is -direction
-        rgb = np.broadcast_to(np.asarray(self.light["irradiance"], float), self.shape + (3,))
-        shadow = self.light_depth.astype(np.float64) / self.camera.world_units_per_mm
-        return uvz, shadow, ndl, np.array(rgb)
+        cam = self.camera
+        h, w = self.shape
+        k = cam.world_units_per_mm
+        inv = np.linalg.inv(cam.world_to_camera)
+        rot, shift = inv[:3, :3], inv[:3, 3]
+        xs = (np.arange(w) + 0.5 - cam.cx) / cam.fx
+        ys = (np.arange(h) + 0.5 - cam.cy) / cam.fy
+        origin = np.asarray(view.origin)
+        terms = []  # per light coordinate: row and column terms and the offset
+        for axis, half in ((np.asarray(view.u) / view.texel_mm, 0.5 * view.size[0]),
+                           (np.asarray(view.v) / view.texel_mm, 0.5 * view.size[1]), (np.asarray(view.direction), 0.0)):
+            g = rot.T @ axis / k  # world = rot (z ray) + shift, in world units; / k: mm
+            terms.append((ys * g[1] + g[2], xs * g[0], shift @ axis / k - origin @ axis + half))
+        to_light = -np.asarray(view.direction, np.float64)  # L, towards the light, is -direction
+        uvz = np.empty((h, w, 3), dtype)
+        ndl = np.zeros((h, w), dtype)
+        step = max(1, (1 << 16) // max(w, 1))  # rows per chunk: float64 temporaries of 512 kB stay in the cache
+        for y0 in range(0, h, step):
+            rows = slice(y0, min(h, y0 + step))
+            d = self.depth[rows]
+            z = np.where(np.isfinite(d), d, np.float32(1.0)).astype(np.float64)
+            for i, (row, col, off) in enumerate(terms):
+                acc = np.add.outer(row[rows], col)
+                acc *= z
+                acc += off
+                uvz[rows, :, i] = acc
+            if self.normal is not None:
+                n = self.normal[rows]
+                acc = np.multiply(n[..., 0], to_light[0], dtype=np.float64)
+                for j in (1, 2):
+                    acc += np.multiply(n[..., j], to_light[j], dtype=np.float64)
+                ndl[rows] = acc
+        rgb = np.empty((h, w, 3), dtype)
+        rgb[...] = np.asarray(self.light["irradiance"], float)
+        shadow = self.light_depth if k == 1.0 else self.light_depth.astype(np.float64) / k
+        return uvz, np.asarray(shadow, dtype), ndl, rgb
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -14,7 +14,14 @@ Models (one per profile id, :data:`~ssskit.backends.transmission_plan.MODELS`):
   SeparableSSS.h, ``SSSSTransmittance``): T(d) = sum_i w_i exp(-d^2 / v_i) over d'Eon et al. 2007's six
   skin Gaussians (variances v_i in mm^2, RGB weights w_i; [dLE07]) with d = scale x thickness, scale =
   8.25 (1 - translucency) / sssWidth, and the back irradiance wrapped: saturate(0.3 + dot(L, -N)) (wrap 0.3).
-  With ``scale`` = 1 the thickness is in mm, the unit of d'Eon's variances.
+  With ``scale`` = 1 the thickness is in mm, the unit of d'Eon's variances;
+* ``unreal``: Unreal Engine 5's subsurface-profile transmission as the engine computes it ([UE58]):
+  the profile table of ``ComputeTransmissionProfileBurley`` (BurleyNormalizedSSS.cpp, :func:`unreal_profile_table`),
+  read at the optical depth of ``CalculateOpticalDepth`` (TransmissionThickness.ush) through the shadow mask's
+  encoding (:mod:`ssskit.backends.transmission_plan` step 4), no cosine at the back (wrap 2; UE's
+  ``SubsurfaceProfileBxDF`` has none), the light scaled per pixel by UE's phase function
+  (:func:`unreal_phase`, applied by the pipeline) and the exit multiplied by the base colour (UE's
+  recombine pass), not Lambertian.
 
 Light-space geometry (:class:`LightView`): an orthographic view for a directional light (a translucency
 shadow map of Jimenez 2010, Sec. 3): world point P -> texel coordinates (x, y) and depth z along the light
@@ -28,12 +35,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..backends.spread_plan import SlotSpread
-from ..backends.transmission_plan import SlotModel, TransmissionPlan, build_transmission_plan
+from ..backends.transmission_plan import LUT_SIZE, UE_MAX_OPTICAL_DEPTH, SlotModel, TransmissionPlan, build_transmission_plan
 from ..errors import PassError
 from ..materials import Material
 from ..profiles.gaussians import DEON2007_SKIN_VARIANCES, DEON2007_SKIN_WEIGHTS
@@ -106,6 +113,83 @@ def mcml_spread(material: Material, photons: int = 200_000, seed: int = 101) -> 
             if not np.isfinite(w[c, i]):
                 w[c, i] = w[c, i - 1]
     return SlotSpread(np.asarray(tab.thickness_mm, float).copy(), w)
+
+
+#: UE's ProfileRadiusOffset (BurleyNormalizedSSS.cpp), cm
+UE_PROFILE_RADIUS_OFFSET_CM = 0.06
+#: FSubsurfaceProfileStruct's transmission defaults (Classes/Engine/SubsurfaceProfile.h, UE 5.8)
+UE_TRANSMISSION_DEFAULTS: dict[str, Any] = {"ExtinctionScale": 1.0, "NormalScale": 0.08, "ScatteringDistribution": 0.93, "IOR": 1.55,
+                            "TransmissionTintColor": (1.0, 1.0, 1.0), "WorldUnitScale": 0.1, "DistanceScale": 1.0}
+
+
+def unreal_profile_distances_mm(world_unit_scale: float = 0.1, distance_scale: float = 1.0) -> np.ndarray:
+    """(LUT_SIZE,) the radii (mm) at which UE tabulates its transmission profile: r_i = (i / N 5 cm + 0.06 cm) 10
+    mm/cm / u, u = WorldUnitScale DistanceScale / 0.1 ([UE58] BurleyNormalizedSSS.cpp, ComputeTransmissionProfileBurley,
+    called with WorldUnitScale x DistanceScale by SubsurfaceProfile.cpp)."""
+    if not (world_unit_scale > 0 and distance_scale > 0 and math.isfinite(world_unit_scale * distance_scale)):
+        raise PassError(f"WorldUnitScale and DistanceScale must be positive, got {world_unit_scale!r}, {distance_scale!r}")
+    inv_unit = 0.1 / (world_unit_scale * distance_scale)
+    i = np.arange(LUT_SIZE)
+    return (i / LUT_SIZE * UE_MAX_OPTICAL_DEPTH + UE_PROFILE_RADIUS_OFFSET_CM) * 10.0 * inv_unit
+
+
+def unreal_profile_table(d_mm: Any, tint: Any = (1.0, 1.0, 1.0), world_unit_scale: float = 0.1,
+                         distance_scale: float = 1.0) -> np.ndarray:
+    """(3, LUT_SIZE) UE's transmission profile table ([UE58] ComputeTransmissionProfileBurley): per channel
+    tint_c (e^(-r / d_c) + 3 e^(-r / (3 d_c))) / 4 at the radii of :func:`unreal_profile_distances_mm`, the last
+    entry black. UE writes it as 0.25 A (e^(-S r / L) + 3 e^(-S r / (3 L))) with A = 1 (UE 5.8: white; the base
+    colour comes in the recombine pass), S = s_sl(SurfaceAlbedo) and L = DMFP = d s_sl (SubsurfaceScatteringMath.h),
+    so S / L = 1 / d, the Burley profile's d (Christensen and Burley 2015, [CB15])."""
+    d = np.asarray(d_mm, float)
+    w = np.asarray(tint, float)
+    if d.shape != (3,) or not np.all(np.isfinite(d)) or np.any(d <= 0):
+        raise PassError(f"the Burley d must be 3 positive numbers of mm, got {d_mm!r}")
+    if w.shape != (3,) or not np.all(np.isfinite(w)) or np.any(w < 0):
+        raise PassError(f"TransmissionTintColor must be 3 numbers >= 0, got {tint!r}")
+    r = unreal_profile_distances_mm(world_unit_scale, distance_scale)[None, :]
+    table = w[:, None] * 0.25 * (np.exp(-r / d[:, None]) + 3.0 * np.exp(-r / (3.0 * d[:, None])))
+    table[:, -1] = 0.0  # bMakeLastPixelBlack
+    return np.asarray(table)
+
+
+def unreal_model(d_mm: Any, tint: Any = (1.0, 1.0, 1.0), extinction_scale: float = 1.0, normal_scale: float = 0.08,
+                 world_unit_scale: float = 0.1, distance_scale: float = 1.0) -> SlotModel:
+    """UE 5's transmission of a subsurface profile with Burley ``d_mm`` (3,) as a pass model (module docstring):
+    its profile table, od_per_mm = ExtinctionScale / 10 (the thickness in cm, UE's world unit), od_offset =
+    NormalScale / 2 ([UE58] TransmissionThickness.ush, CalculateEncodedOpticalDepth), wrap 2 (no cosine).
+    Defaults: FSubsurfaceProfileStruct's (:data:`UE_TRANSMISSION_DEFAULTS`)."""
+    if not (math.isfinite(extinction_scale) and extinction_scale > 0):
+        raise PassError(f"ExtinctionScale must be positive, got {extinction_scale!r}")
+    if not (math.isfinite(normal_scale) and normal_scale >= 0):
+        raise PassError(f"NormalScale must be >= 0, got {normal_scale!r}")
+    table = unreal_profile_table(d_mm, tint, world_unit_scale, distance_scale)
+    zero = np.zeros((3, 1))
+    return SlotModel(zero, zero, zero, 1.0, 2.0, "unreal", lut=table, od_per_mm=extinction_scale / 10.0,
+                     od_offset=normal_scale / 2.0)
+
+
+def approximate_hg(cos_theta: Any, g: float) -> np.ndarray:
+    """UE's ``ApproximateHG`` (ShadingModels.ush, [UE58]): 0.5 (1 - g^2) / max(1e-5, (1 - g cos)^2)."""
+    c = np.asarray(cos_theta, float)
+    return np.asarray(0.5 * (1.0 - g * g) / np.maximum(1e-5, (1.0 - g * c) ** 2))
+
+
+def refract(i: np.ndarray, n: np.ndarray, eta: float) -> np.ndarray:
+    """HLSL's ``refract(i, n, eta)`` on (..., 3) unit vectors: eta i - (eta (n . i) + sqrt(k)) n with k = 1 - eta^2
+    (1 - (n . i)^2), the zero vector where k < 0 (total internal reflection)."""
+    ni = np.sum(n * i, axis=-1, keepdims=True)
+    k = 1.0 - eta * eta * (1.0 - ni * ni)
+    out = eta * i - (eta * ni + np.sqrt(np.maximum(k, 0.0))) * n
+    return np.asarray(np.where(k < 0, 0.0, out))
+
+
+def unreal_phase(normal: np.ndarray, to_camera: np.ndarray, to_light: np.ndarray, g: float = 0.93,
+                 ior: float = 1.55) -> np.ndarray:
+    """(...,) UE's phase factor of the transmitted light ([UE58] ShadingModels.ush, SubsurfaceProfileBxDF):
+    ApproximateHG(dot(-L, refract(V, -N, 1 / IOR)), ScatteringDistribution), with V (``to_camera``) and L
+    (``to_light``) unit vectors from the surface point and N its unit normal, written as UE writes it."""
+    r = refract(np.asarray(to_camera, float), -np.asarray(normal, float), 1.0 / ior)
+    return approximate_hg(np.sum(-np.asarray(to_light, float) * r, axis=-1), g)
 
 
 def transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3) -> TransmissionPlan:
@@ -192,5 +276,6 @@ def thickness_from_map(view: LightView, shadow_mm: np.ndarray, points: np.ndarra
     return np.asarray(uvz[..., 2] - shadow_depth(np.asarray(shadow_mm, float), uvz[..., 0], uvz[..., 1]))
 
 
-__all__ = ["JIMENEZ2010_WRAP", "LightView", "jimenez2010_model", "mcml_model", "mcml_spread", "thickness_from_map",
-           "transmission_plan"]
+__all__ = ["JIMENEZ2010_WRAP", "UE_TRANSMISSION_DEFAULTS", "LightView", "approximate_hg", "jimenez2010_model",
+           "mcml_model", "mcml_spread", "refract", "thickness_from_map", "transmission_plan", "unreal_model",
+           "unreal_phase", "unreal_profile_distances_mm", "unreal_profile_table"]
