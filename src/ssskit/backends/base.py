@@ -12,7 +12,8 @@ Frame inputs of the separable pass (all pixel-aligned):
 
 The Burley pass (:mod:`ssskit.backends.burley_plan`) takes the same images and ``spp``, one sample
 count or an (H, W) integer count image. The transmittance pass (:mod:`ssskit.backends.transmission_plan`, pass name
-"transmission") takes the light's view of the frame. Every backend has the separable pass; a backend that also
+"transmission") takes the light's view of the frame, and the lateral spread of its light
+(:mod:`ssskit.backends.spread_plan`, pass name "spread") its result. Every backend has the separable pass; a backend that also
 implements the Burley pass names it in ``passes``.
 
 The guiding phase of the adaptive sampler (:mod:`ssskit.backends.adaptive_plan`, pass name
@@ -36,6 +37,7 @@ from .plan import SeparablePlan
 if TYPE_CHECKING:
     from .adaptive_plan import AdaptivePlan
     from .burley_plan import BurleyPlan, MipPyramid, SampleCounts
+    from .spread_plan import SpreadPlan
     from .transmission_plan import TransmissionPlan
 
 _T = TypeVar("_T")
@@ -93,6 +95,15 @@ class Backend(ABC):
         from ..errors import BackendError
 
         raise BackendError(f"backend {self.name!r} has no transmittance pass")
+
+    def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                            light_uvz: np.ndarray, shadow_mm: np.ndarray) -> np.ndarray:
+        """The transmitted light's lateral spread (see :mod:`ssskit.backends.spread_plan`, pass name "spread"): a
+        new (H, W, 3) array, ``exitance`` (the transmittance pass's result) spread by each pixel's thickness. A
+        backend without the step raises :class:`~ssskit.errors.BackendError`."""
+        from ..errors import BackendError
+
+        raise BackendError(f"backend {self.name!r} has no spread of the transmitted light")
 
     def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
                         valid: ArrayLike | None = None) -> NDArray[np.int64]:

@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 
     from .adaptive_plan import AdaptivePlan
     from .burley_plan import BurleyPlan, MipPyramid, SampleCounts
+    from .spread_plan import SpreadPlan
     from .transmission_plan import TransmissionPlan
 
 
@@ -37,7 +38,7 @@ class NumbaBackend(Backend):
     name = "numba"
     description = "numba on the CPU, float32, parallel over rows and vectorised (the default)"
     dtype = np.float32
-    passes = frozenset({"separable", "burley", "adaptive", "transmission"})
+    passes = frozenset({"separable", "burley", "adaptive", "transmission", "spread"})
 
     def __init__(self) -> None:
         self._key: tuple[int, int, int] | None = None
@@ -104,17 +105,47 @@ class NumbaBackend(Backend):
         if shadow.shape[1] < 2:  # the kernel reads texels in pairs: a column of +inf (no surface) beside it
             shadow = np.concatenate([shadow, np.full_like(shadow, np.inf)], axis=1)
         a, b, c = (np.ascontiguousarray(v, dtype=f32) for v in (plan.a, plan.b, plan.c))
-        scale, wrap = plan.scale.astype(f32), plan.wrap.astype(f32)
+        scale, wrap, normal = plan.scale.astype(f32), plan.wrap.astype(f32), plan.normal.astype(f32)
         out = np.empty(3 * m, f32)
         bias = f32(plan.bias_mm)
         kind = plan.lut_slot.astype(np.int32)
         lut = np.ascontiguousarray(plan.lut, dtype=f32).reshape(-1)
         odp, odo = plan.od_per_mm.astype(f32), plan.od_offset.astype(f32)
         blocks = m // LANES  # ranges of whole blocks; the last range also takes the m % LANES pixels left
-        self._rows(blocks, lambda i0, i1: transmission_pixels(sl, uvz, shadow, ndl, light, a, b, c, scale, wrap, bias,
-                                                              kind, lut, odp, odo, out, i0 * LANES,
+        self._rows(blocks, lambda i0, i1: transmission_pixels(sl, uvz, shadow, ndl, light, a, b, c, scale, wrap, normal,
+                                                              bias, kind, lut, odp, odo, out, i0 * LANES,
                                                               m if i1 == blocks else i1 * LANES))
         return out[: 3 * n].reshape(h, w, 3)
+
+    def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                            light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float32]:
+        """The transmitted light's lateral spread (:mod:`ssskit.backends._numba_spread`), float32, rows on the pool:
+        the widths, then the horizontal and the vertical pass."""
+        from ._numba_spread import root_rows, sigma_rows, spread_rows
+        from .spread_plan import check_spread_frame
+
+        check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
+        f32 = np.float32
+        sl = np.ascontiguousarray(slots, dtype=np.int32)
+        uvz = np.ascontiguousarray(light_uvz, dtype=f32)
+        shadow = np.ascontiguousarray(shadow_mm, dtype=f32)
+        depth = np.ascontiguousarray(depth_mm, dtype=f32)
+        src = np.ascontiguousarray(exitance, dtype=f32)
+        knots, table = plan.knots_mm.astype(f32), plan.sigma_mm.astype(f32)
+        n_knots = plan.n_knots.astype(np.int64)
+        h = sl.shape[0]
+        sig = np.empty(sl.shape + (3,), f32)
+        self._rows(h, lambda y0, y1: sigma_rows(sl, uvz, shadow, knots, table, n_knots, f32(plan.bias_mm), sig, y0, y1))
+        root = np.empty_like(sig)
+        self._rows(h, lambda y0, y1: root_rows(sig, depth, sl, root, y0, y1))
+        tmp = np.empty_like(src)
+        out = np.empty_like(src)
+        min_px, taps = f32(plan.min_px), int(plan.max_taps)
+        self._rows(h, lambda y0, y1: spread_rows(src, depth, sl, sig, root, f32(plan.fx), True, min_px, taps, tmp, y0,
+                                                 y1))
+        self._rows(h, lambda y0, y1: spread_rows(tmp, depth, sl, sig, root, f32(plan.fy), False, min_px, taps, out, y0,
+                                                 y1))
+        return out
 
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
                   slots: np.ndarray) -> NDArray[np.float32]:
