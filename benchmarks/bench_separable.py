@@ -16,10 +16,15 @@ median and max of each; the load average before and after. Prints one JSON objec
 
 ``--before REV`` also times the same cases with the code of git revision REV (checked out into
 the git-ignored ``benchmarks/.before-<rev>/`` and run in a subprocess, in the same run), so a
-change is judged by its ratio to scipy before and after.
+change is judged by its ratio to scipy before and after. ``--ab REV --rounds N`` instead alternates
+the two versions round by round (this checkout, REV, this checkout, ...; each round a new process that
+times every case ``--repeats`` times), so that both see the same machine load; it reports each round's
+medians and, per version, the min / median / max over the rounds of the API's time, OpenCV's time and
+their ratio (each round's ratio from one process).
 
     NUMBA_THREADING_LAYER is set to 'workqueue' unless given.
     python benchmarks/bench_separable.py [--sizes 960x540 1920x1080 3840x2160] [--repeats 9] [--before 11c9ea3]
+    python benchmarks/bench_separable.py --sizes 960x540 1920x1080 --repeats 5 --ab c1d0039 --rounds 5
 """
 
 from __future__ import annotations
@@ -180,17 +185,52 @@ def time_profile_ids(repeats: int) -> dict:
     return m
 
 
-def before(rev: str, sizes, repeats: int) -> dict:
-    """Run this script's size table with the code of git revision ``rev`` in a subprocess."""
+def _checkout(rev: str) -> Path:
+    """The git-ignored worktree ``benchmarks/.before-<rev>/`` of revision ``rev`` (made once)."""
     root = Path(__file__).resolve().parent.parent
     where = root / "benchmarks" / f".before-{rev}"
     if not where.exists():
         subprocess.run(["git", "-C", str(root), "worktree", "add", "--detach", str(where), rev], check=True,
                        capture_output=True)
-    env = dict(os.environ, PYTHONPATH=str(where / "src"))
+    return where
+
+
+def _sizes_run(src: Path, sizes, repeats: int) -> list:
+    """This script's size table in a new process with the package at ``src`` (on PYTHONPATH)."""
+    env = dict(os.environ, PYTHONPATH=str(src))
     out = subprocess.run([sys.executable, __file__, "--only-sizes", "--repeats", str(repeats), "--sizes", *sizes],
                          env=env, check=True, capture_output=True, text=True).stdout
-    return {"revision": rev, "results": json.loads(out)["results"]}
+    return json.loads(out)["results"]
+
+
+def before(rev: str, sizes, repeats: int) -> dict:
+    """Run this script's size table with the code of git revision ``rev`` in a subprocess."""
+    return {"revision": rev, "results": _sizes_run(_checkout(rev) / "src", sizes, repeats)}
+
+
+def ab(rev: str, sizes, repeats: int, rounds: int) -> dict:
+    """This checkout and revision ``rev`` alternately, ``rounds`` rounds of one process each (module docstring)."""
+    versions = {"after": Path(__file__).resolve().parent.parent / "src", "before": _checkout(rev) / "src"}
+    runs: dict = {k: [] for k in versions}
+    for _ in range(rounds):
+        for k, src in versions.items():
+            runs[k].append({"load_average": os.getloadavg()[0], "results": _sizes_run(src, sizes, repeats)})
+    summary: dict = {}
+    for k, rs in runs.items():
+        for i, size in enumerate(sizes):
+            rows = [r["results"][i] for r in rs]
+            api = [row["api_jitter10_ms"] for row in rows]
+            entry = {"api_jitter10_ms": _spread(api)}
+            if "opencv_sepfilter2d_ms" in rows[0]:
+                cv = [row["opencv_sepfilter2d_ms"] for row in rows]
+                entry["opencv_sepfilter2d_ms"] = _spread(cv)
+                entry["ratio_api_jitter10_over_opencv"] = _spread([a / c for a, c in zip(api, cv)])
+            summary.setdefault(size, {})[k] = entry
+    return {"revision": rev, "rounds": rounds, "summary": summary, "runs": runs}
+
+
+def _spread(values: list) -> dict:
+    return {"min": round(min(values), 3), "median": round(statistics.median(values), 3), "max": round(max(values), 3)}
 
 
 def main() -> None:
@@ -200,6 +240,8 @@ def main() -> None:
     ap.add_argument("--numpy-max-pixels", type=int, default=1_000_000,
                     help="time the numpy reference only up to this many pixels (it is slow)")
     ap.add_argument("--before", metavar="REV", help="also time git revision REV in the same run")
+    ap.add_argument("--ab", metavar="REV", help="time this checkout and git revision REV alternately (no other tables)")
+    ap.add_argument("--rounds", type=int, default=5, help="rounds of --ab (one process per version and round)")
     ap.add_argument("--only-sizes", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.only_sizes:  # the --before subprocess: this checkout's size table only
@@ -207,6 +249,14 @@ def main() -> None:
         return
     import ssskit
 
+    if args.ab:
+        out = {"benchmark": "separable pass, A/B: this checkout against --ab's revision, alternating rounds",
+               "machine": {"cpus": os.cpu_count(), "python": platform.python_version(), "numba": numba.__version__,
+                           "threading_layer": os.environ["NUMBA_THREADING_LAYER"], "threads": numba.get_num_threads()},
+               "repeats": args.repeats, "load_average_before": os.getloadavg(),
+               **ab(args.ab, args.sizes, args.repeats, args.rounds), "load_average_after": os.getloadavg()}
+        print(json.dumps(out, indent=2))
+        return
     out = {
         "benchmark": "separable screen-space SSS pass, 7 taps, both passes, depth-aware, float32 RGB",
         "machine": {"cpus": os.cpu_count(), "python": platform.python_version(), "numba": numba.__version__,

@@ -5,9 +5,10 @@ ray-cast truth on built-in scenes at two map resolutions. Prints one JSON object
 Cost: a 1920x1080 frame, every pixel inside the SSS mask and behind the map's surface (every pixel runs all
 of steps 1-5), the 1024^2 map spread over the frame, Skin1's MCML model (4 terms), against the separable pass of 7 importance-sampled taps of
 Skin1's pre-integrated kernel with 10 % jitter (the paper's set-up), medians of interleaved repeats, per
-backend (numba, gl where available: on llvmpipe without a GPU). Besides the wall times, ``cpu_ms`` is the
-process's CPU time per call (all threads; on a loaded machine it moves far less than the wall time, and
-wall ~ cpu / threads on an idle one).
+backend (numba, gl where available: on llvmpipe without a GPU); and the lateral spread of the pass's result
+(backends.spread_plan: Skin1's MCML widths, 4-6 mm of medium behind every pixel, 2 pixels per mm: 5-8 pixels
+in red). Besides the wall times, ``cpu_ms`` is the process's CPU time per call (all threads; on a loaded
+machine it moves far less than the wall time, and wall ~ cpu / threads on an idle one).
 
 Pipeline: the same frame as a G-buffer through ssskit.pipeline.transmission.add_transmission on numba (the
 frame inputs from the G-buffer, the pass, the demodulation by the albedo), and the inputs alone.
@@ -41,7 +42,8 @@ def cost(repeats: int) -> dict:
     from ssskit.materials import get_material
     from ssskit.profiles import profile_for_material
     from ssskit.sampling.taps import make_taps
-    from ssskit.screenspace.transmission import mcml_model, transmission_plan
+    from ssskit.backends.spread_plan import build_spread_plan
+    from ssskit.screenspace.transmission import mcml_model, mcml_spread, transmission_plan
 
     w, h = 1920, 1080
     rng = np.random.default_rng(0)
@@ -55,6 +57,7 @@ def cost(repeats: int) -> dict:
     taps = make_taps(build_kernel("preintegrated", profile, cell, size), 7, "importance")
     sep = build_separable_plan({1: taps}, 1000.0, 1000.0, jitter=0.1, depth_mode="follow")
     tplan = transmission_plan({1: mcml_model(get_material("skin1"))})
+    splan = build_spread_plan({1: mcml_spread(get_material("skin1"))}, 1000.0, 1000.0)
     hs, ws = 1024, 1024
     shadow = (100.0 + rng.uniform(0, 2, (hs, ws))).astype(np.float32)
     # neighbouring pixels see neighbouring texels (the map covers the frame's object, as a light's map does)
@@ -68,8 +71,10 @@ def cost(repeats: int) -> dict:
             out[name] = {"available": False}
             continue
         b = get_backend(name)
+        exitance = np.ascontiguousarray(b.transmission(tplan, slots, uvz, shadow, ndl, light), np.float32)
         fns = {"separable": lambda: b.separable(sep, image, depth, slots),
-               "transmission": lambda: b.transmission(tplan, slots, uvz, shadow, ndl, light)}
+               "transmission": lambda: b.transmission(tplan, slots, uvz, shadow, ndl, light),
+               "spread": lambda: b.transmission_spread(splan, exitance, depth, slots, uvz, shadow)}
         for fn in fns.values():
             fn()
         times: dict[str, list[float]] = {k: [] for k in fns}
@@ -83,6 +88,8 @@ def cost(repeats: int) -> dict:
         med = {k: statistics.median(v) for k, v in times.items()}
         out[name] = {"separable_ms": round(med["separable"], 2), "transmission_ms": round(med["transmission"], 2),
                      "share_of_separable": round(med["transmission"] / med["separable"], 3),
+                     "spread_ms": round(med["spread"], 2),
+                     "spread_share_of_separable": round(med["spread"] / med["separable"], 3),
                      "transmission_min_ms": round(min(times["transmission"]), 2),
                      "cpu_ms": {k: round(statistics.median(v), 2) for k, v in cpu.items()},
                      "renderer": backend_status()[name]["details"]}

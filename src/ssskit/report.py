@@ -454,7 +454,7 @@ SECTIONS: list[tuple[str, Section]] = [
 #: that runs none, so no two processes compile the same kernel and no section waits for its compilation
 SECTION_PASSES: dict[str, tuple[str, ...]] = {
     "screenspace": ("separable:follow", "separable:gaussian", "separable:ids"),
-    "transmission": ("separable:follow", "transmission"),
+    "transmission": ("separable:follow", "transmission", "spread"),
     "burley": ("separable:follow", "burley"),
     "adaptive": ("burley", "adaptive"),
     "model": ("separable:follow", "separable:ids", "burley", "adaptive"),

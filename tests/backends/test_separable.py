@@ -298,6 +298,38 @@ def test_narrow_images_unused_slots_and_empty_frames(width, backend, rng):
     np.testing.assert_array_equal(none, e)
 
 
+def test_bad_depths_and_slots_are_refused(taps7, backend, rng):
+    """A pixel with SSS needs a positive finite depth and a slot of the plan, on the first frame of a size and on
+    later ones (the numba backend checks while it packs the frame, with or without the last frame's pad);
+    a pixel without SSS may hold any depth and keeps its value."""
+    from ssskit.errors import PassError
+
+    plan = build_separable_plan({1: taps7, 2: taps7}, 400.0, 400.0, jitter=0.1, depth_mode="follow")
+    be = get_backend(backend)
+    for h, w, warm in ((13, 21, False), (13, 22, True)):  # sizes no other test uses
+        e = rng.random((h, w, 3)).astype(np.float32)
+        slots = np.ones((h, w), np.int32)
+        slots[:, 12:] = 2
+        good = np.full((h, w), 300.0, np.float32)
+        if warm:  # a good frame first: the frames below reuse its pad
+            be.separable(plan, e, good, slots)
+        for bad in (np.nan, -1.0, 0.0, np.inf):
+            d = good.copy()
+            d[5, 7] = bad
+            with pytest.raises(PassError, match="depth must be positive and finite"):
+                be.separable(plan, e, d, slots)
+        for slot in (-1, 3):
+            q = slots.copy()
+            q[2, 3] = slot
+            with pytest.raises(PassError, match=r"slots must lie in \[0, 2\]"):
+                be.separable(plan, e, good, q)
+        q, d = slots.copy(), good.copy()
+        q[4, 4], d[4, 4] = 0, np.nan
+        out = be.separable(plan, e, d, q)
+        np.testing.assert_array_equal(out[4, 4], e[4, 4])
+        assert np.all(np.isfinite(out))
+
+
 def test_backend_instances_are_keyed_by_name():
     from ssskit.backends import BACKENDS, Backend
 

@@ -201,6 +201,59 @@ def test_bad_inputs_are_refused(plan):
         jimenez2010_model(1.0)
 
 
+def _signed_model(along_normal):
+    """A model with a subtracting term, 0 at t = 0 (the MCML model's scattered part has this form):
+    0.5 (e^-0.3t - e^-2t) + 0.2 (e^(-0.8t - 0.01t^2) - e^-2t) >= 0 for t < 120 mm."""
+    a = np.tile([0.5, 0.2, -0.7], (3, 1)) * np.array([[1.0], [0.8], [0.6]])
+    b = np.tile([0.3, 0.8, 2.0], (3, 1))
+    c = np.tile([0.0, 0.01, 0.0], (3, 1))
+    return SlotModel(a, b, c, 1.0, 0.0, "mcml", along_normal)
+
+
+def _at_normal_thickness(frame):
+    """The frame with every point moved along the light to the thickness t clamp(-N . L, 0, 1)."""
+    from ssskit.backends.numpy_backend import shadow_depth
+
+    slots, uvz, shadow, ndl, light = frame
+    d = shadow_depth(shadow.astype(np.float64), uvz[..., 0].astype(np.float64), uvz[..., 1].astype(np.float64))
+    t = uvz[..., 2].astype(np.float64) - d
+    moved = uvz.astype(np.float64).copy()
+    moved[..., 2] = np.where(np.isfinite(t) & (t > 1e-3), d + t * np.clip(-ndl, 0.0, 1.0), moved[..., 2])
+    return slots, moved, shadow, ndl, light
+
+
+def test_thickness_along_the_normal(backend):
+    """A slot with ``along_normal`` (step 2) evaluates T at t clamp(-N . L, 0, 1): the oracle equals the same
+    model along the light at that thickness, and every backend equals the oracle within 16 float32 ulps of the
+    terms' magnitudes (they subtract) plus the map's depth rounding, as the parity test bounds it."""
+    frame = _frame(seed=11)
+    plan_n = build_transmission_plan({1: _signed_model(True), 2: _signed_model(True)}, bias_mm=1e-3)
+    plan_l = build_transmission_plan({1: _signed_model(False), 2: _signed_model(False)}, bias_mm=1e-3)
+    assert list(plan_n.normal) == [0.0, 1.0, 1.0] and not plan_l.normal.any()
+    ref = transmission_pass(plan_n, *frame)
+    moved = _at_normal_thickness(frame)
+    want = transmission_pass(plan_l, *moved)
+    lit = want > 0  # a point moved to t <= bias is unlit either way
+    np.testing.assert_allclose(ref[lit], want[lit], rtol=1e-9, atol=1e-15)
+    assert np.all(ref >= 0) and np.count_nonzero(ref) > 0.2 * ref.size
+    out = np.asarray(get_backend(backend).transmission(plan_n, *frame), np.float64)
+    slots, uvz, shadow, ndl, light = frame
+    eps = 4 * np.spacing(shadow.astype(np.float32)).astype(np.float64)
+    hi = transmission_pass(plan_n, slots, uvz, np.where(np.isfinite(shadow), shadow + eps, shadow), ndl, light)
+    lo = transmission_pass(plan_n, slots, uvz, np.where(np.isfinite(shadow), shadow - eps, shadow), ndl, light)
+    from ssskit.backends.numpy_backend import shadow_depth
+
+    t = uvz[..., 2] - shadow_depth(shadow.astype(np.float64), uvz[..., 0].astype(np.float64),
+                                   uvz[..., 1].astype(np.float64))
+    t = np.where(np.isfinite(t), np.maximum(t, 0.0), 0.0) * np.clip(-ndl, 0.0, 1.0)
+    x = -plan_n.b[slots] * t[..., None, None] - plan_n.c[slots] * (t * t)[..., None, None]
+    e = np.clip(-ndl, 0, 1)[..., None] * light
+    terms = np.sum(np.abs(plan_n.a[slots]) * np.exp(x) * (np.abs(x) + 1) * 2.0**-20, axis=-1) * e
+    bound = np.abs(hi - lo) / 2 + terms + 8 * np.finfo(np.float32).tiny
+    err = np.abs(out - ref)
+    assert np.all(err <= bound), f"{backend}: worst {float((err / np.maximum(bound, 1e-300)).max()):.3g}x the bound"
+
+
 # ---- Unreal Engine 5's transmission (model "unreal") ---------------------------------------------------------
 
 

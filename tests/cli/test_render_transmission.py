@@ -174,6 +174,7 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
      "Invalid value for '--transmission-model': 'unreal2'"),
     (["--scene", "plain.exr", "--pass", "burley-adaptive", "--transmission", "off", "--transmission-model",
       "jimenez2010"], "applies when the transmittance pass can run"),
+    (["--scene", "plain.exr", "--transmission-spread", "wide"], "Invalid value for '--transmission-spread': 'wide'"),
 ])
 def test_bad_transmission_input(run, workdir, args, fragment):
     one_error_line(run, workdir, ["render", *args, "--backend", "numpy", "--out", "o.exr", "--save-gbuffer", "g2.exr"],
@@ -183,6 +184,7 @@ def test_bad_transmission_input(run, workdir, args, fragment):
 @pytest.mark.parametrize("content, fragment", [
     ("transmission_model = 'foo'\n", "transmission_model must be one of mcml, jimenez2010, unreal, got 'foo'"),
     ("transmission = 'yes'\n", "transmission must be one of auto, on, off, got 'yes'"),
+    ("transmission_spread = 'wide'\n", "transmission_spread must be one of mcml, off, got 'wide'"),
 ])
 def test_bad_transmission_settings_file(run, workdir, content, fragment):
     (workdir / "s.toml").write_text(content)

@@ -44,15 +44,36 @@ def table(tmp_path_factory):
             os.environ["SSSKIT_CACHE_DIR"] = old
 
 
+def _scattered(table):
+    """MCML's scattered transmittance T_s = Tt - the unscattered beam (the thick-plate sum with sigma_t), and per
+    channel the thicknesses from T_s's maximum on where T_s > 1e-3: what the engines' falling shapes are fitted to."""
+    from ssskit.profiles.montecarlo.transmission import absorber_transmittance
+
+    ball = np.stack([absorber_transmittance(table.sigma_t[c], table.thickness_mm, table.eta) for c in range(3)], -1)
+    ts = table.tt - ball
+    t = np.asarray(table.thickness_mm)
+    return ts, (ts > 1e-3) & (t[:, None] >= t[np.argmax(ts, axis=0)][None, :])
+
+
+def test_the_engines_are_fitted_to_the_scattered_part_past_its_maximum(table):
+    """T_s rises from 0 at t = 0 (no medium, nothing scattered) to a maximum and falls after; the fit range starts
+    there, is reported, and T_s is below Tt everywhere (the beam's share is positive)."""
+    ts, m = _scattered(table)
+    assert np.all(ts < table.tt) and np.all(ts[0] < ts.max(axis=0))
+    out = hdrp_transmission(table, D)
+    t = np.asarray(table.thickness_mm)
+    assert out["thinner_than_fit_mm"] == [float(t[m[:, c]].min()) for c in range(3)]
+
+
 def test_the_tint_minimises_the_relative_error(table):
     d = np.array([4.0, 2.0, 1.0])  # wide enough that the unclamped tints stay below 1
     out = hdrp_transmission(table, d)
     tint = np.array(out["tint_unclamped"])
-    m = table.tt > 1e-3
+    ts, m = _scattered(table)
 
     def cost(a, c):
         g = hdrp_shape(d, table.thickness_mm[m[:, c]])[:, c]
-        y = table.tt[m[:, c], c]
+        y = ts[m[:, c], c]
         return float(np.sum(((a * g - y) / y) ** 2))
 
     for c in range(3):
@@ -64,8 +85,9 @@ def test_the_tint_minimises_the_relative_error(table):
 
 def test_the_hdrp_tint_is_an_hdr_colour(table):
     """HDRP declares transmissionTint [ColorUsage(false, true)] (DiffusionProfileSettings.cs: an HDR colour) and
-    Validate does not clamp it: a tint above 1 (skin's blue with the narrow reflectance d) is written as fitted."""
-    out = hdrp_transmission(table, D)
+    Validate does not clamp it: a tint above 1 (skin's blue with a reflectance d narrower than its transmitted light
+    falls, 0.1 mm) is written as fitted."""
+    out = hdrp_transmission(table, np.array([1.2, 0.5, 0.1]))
     assert max(out["tint_unclamped"]) > 1
     assert out["transmissionTint"] == out["tint_unclamped"]
 
@@ -75,20 +97,22 @@ A = np.array([0.8, 0.6, 0.45])
 
 def test_the_unreal_fields_are_what_ue_renders(table):
     """The reported error is UE's radiance with the exported fields (UE's own table at UE's optical depth,
-    the pass's unreal model, times the base colour and ApproximateHG ~ 0.5 (1 - g^2)) against MCML's T E / pi,
-    recomputed here; every field lies in UE's clamps; the search beats UE's defaults."""
+    the pass's unreal model, times the base colour and ApproximateHG ~ 0.5 (1 - g^2)) against MCML's scattered
+    T_s E / pi, recomputed here; every field lies in UE's clamps; the search beats UE's defaults."""
     out = unreal_transmission(table, A, D)
     assert 0.01 <= out["ExtinctionScale"] <= 100 and 0.1 <= out["DistanceScale"] <= 10
     assert all(0.009 <= v <= 1 for v in out["TransmissionTintColor"]) and out["ScatteringDistribution"] == UE_EXPORT_G
     t = table.thickness_mm
     phase = 0.5 * (1 - UE_EXPORT_G ** 2)
 
+    ts, fit = _scattered(table)
+
     def errors(ext, ds, tint):
         ue = A * np.asarray(tint) * unreal_shape(D, t, ext, 0.08, ds) * phase
         rel = []
         for c in range(3):
-            m = table.tt[:, c] > 1e-3
-            rel.append(np.abs(ue[m, c] - table.tt[m, c] / np.pi) / (table.tt[m, c] / np.pi))
+            m = fit[:, c]
+            rel.append(np.abs(ue[m, c] - ts[m, c] / np.pi) / (ts[m, c] / np.pi))
         return rel
 
     rel = errors(out["ExtinctionScale"], out["DistanceScale"], out["TransmissionTintColor"])

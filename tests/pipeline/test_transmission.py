@@ -27,7 +27,7 @@ def ear():
 
 def test_auto_runs_where_the_gbuffer_has_the_layers(ear):
     lit, plain = ear
-    s = RenderSettings(**BASE)
+    s = RenderSettings(**BASE, transmission_spread="off")
     on, off = render(lit, s), render(lit, s.replace(transmission="off"))
     assert on.transmission.ran and on.transmission.model == "mcml" and not off.transmission.ran
     assert not render(plain, s).transmission.ran
@@ -55,8 +55,21 @@ def test_auto_runs_where_the_gbuffer_has_the_layers(ear):
     # the exact limit carries the same light: its metric measures the reflectance pass as before
     np.testing.assert_allclose(on.exact - off.exact, on.sss - off.sss, rtol=1e-5, atol=1e-9)
     assert on.to_dict()["transmission"] == {"setting": "auto", "ran": True, "model": "mcml",
-                                            "lit_pixels": int(np.count_nonzero(np.any(t > 0, axis=-1)))}
+                                            "lit_pixels": int(np.count_nonzero(np.any(t > 0, axis=-1))),
+                                            "spread": "off"}
     assert any(line.startswith("# transmission: mcml model") for line in on.lines())
+    # the lateral spread (the default) is the spread step on the pass's exitance, the same light convention
+    from ssskit.backends.spread_plan import build_spread_plan
+    from ssskit.screenspace.transmission import mcml_spread
+
+    spread = render(lit, s.replace(transmission_spread="mcml"))
+    assert spread.transmission.spread == "mcml"
+    uvz, shadow, _, _ = lit.transmission_inputs()
+    splan = build_spread_plan({1: mcml_spread(get_material("skin1"))}, lit.camera.fx, lit.camera.fy)
+    want = get_backend("numpy").transmission_spread(splan, exitance, lit.depth_mm, (lit.profile_id > 0).astype(np.int32),
+                                                    uvz, shadow) / math.pi
+    np.testing.assert_allclose(spread.transmitted, want, rtol=1e-6, atol=1e-12)
+    assert not np.allclose(spread.transmitted, t, rtol=1e-3)  # the ear's thin parts are wider than a pixel
 
 
 def test_the_burley_pass_adds_the_same_light(ear):
@@ -123,10 +136,11 @@ def test_jimenez2010_is_darker_than_mcml_for_skin(ear):
 def test_unreal_model_is_ues_light_in_the_frame(ear):
     """transmission_model unreal on the back-lit ear: the pass with UE's table for the material's Burley d, the
     light times UE's phase factor per pixel, and UE's exit (the base colour times the pass's out, not T E / pi):
-    the frame's transmitted layer equals that, computed from the G-buffer's inputs here."""
+    the frame's transmitted layer equals that, computed from the G-buffer's inputs here (the lateral spread, a
+    step of its own for any model, off)."""
     lit, _ = ear
     s = RenderSettings(**BASE, exact=False, material="skin1")
-    r = render(lit, s.replace(transmission_model="unreal"))
+    r = render(lit, s.replace(transmission_model="unreal", transmission_spread="off"))
     assert r.transmission.ran and r.transmission.model == "unreal" and r.transmission.lit_pixels > 0
     from ssskit.backends import get_backend
     from ssskit.materials import get_material

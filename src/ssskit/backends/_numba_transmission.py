@@ -89,12 +89,13 @@ def _slot_terms(lu_, ls, lt, lx, lf, sb, masked, ca, cb, cc, k_terms, kind, lut,
 
 
 @njit(cache=True, nogil=True, fastmath=FM32, error_model="numpy")
-def transmission_pixels(slots, uvz, shadow, ndl, light, a, b, c, scale, wrap, bias, kind, lut, odp, odo, out, p0,
-                        p1):  # pragma: no cover
+def transmission_pixels(slots, uvz, shadow, ndl, light, a, b, c, scale, wrap, normal, bias, kind, lut, odp, odo, out,
+                        p0, p1):  # pragma: no cover
     """Steps 1-5 for the pixels [p0, p1) of the flattened frame (module docstring), p1 - p0 >= LANES: blocks
     of LANES contiguous pixels, the last one moved back to end at p1 (its first pixels computed twice, to
     the same values). ``slots``, ``ndl`` (N,), ``uvz``, ``light``, ``out`` (3 N,) pixel-interleaved, ``shadow``
-    (Hs, Ws >= 2), ``a``, ``b``, ``c`` (S, 3, K); ``kind`` (S,) int32 1 for an ``unreal`` slot, whose table is
+    (Hs, Ws >= 2), ``a``, ``b``, ``c`` (S, 3, K); ``normal`` (S,) 1 where step 2 takes the thickness along the
+    surface normal; ``kind`` (S,) int32 1 for an ``unreal`` slot, whose table is
     ``lut`` (S 3 LUT_SIZE,) and optical depth ``odp`` t + ``odo``."""
     U = np.uintp
     hs, ws = shadow.shape
@@ -161,6 +162,8 @@ def transmission_pixels(slots, uvz, shadow, ndl, light, a, b, c, scale, wrap, bi
                     wsum += wgt if use else _ZERO
             t = uvz[U(3) * p + U(2)] - acc / wsum  # step 2 (NaN where wsum = 0: not lit)
             lit = ok & (wsum > _ZERO) & _finite(t) & (t > bias)
+            tn = t * min(max(-ndl[p], _ZERO), _ONE)  # step 2: along the surface normal where the slot asks
+            t = tn if load_at(normal, s) > _ZERO else t
             e = min(max(load_at(wrap, s) - ndl[p], _ZERO), _ONE)  # step 3
             lu_[lu] = load_at(scale, s) * t if lit else _ZERO
             le[lu] = e if lit else _ZERO

@@ -12,7 +12,8 @@ Frame inputs of the separable pass (all pixel-aligned):
 
 The Burley pass (:mod:`ssskit.backends.burley_plan`) takes the same images and ``spp``, one sample
 count or an (H, W) integer count image. The transmittance pass (:mod:`ssskit.backends.transmission_plan`, pass name
-"transmission") takes the light's view of the frame. Every backend has the separable pass; a backend that also
+"transmission") takes the light's view of the frame, and the lateral spread of its light
+(:mod:`ssskit.backends.spread_plan`, pass name "spread") its result. Every backend has the separable pass; a backend that also
 implements the Burley pass names it in ``passes``.
 
 The guiding phase of the adaptive sampler (:mod:`ssskit.backends.adaptive_plan`, pass name
@@ -36,6 +37,7 @@ from .plan import DEPTH_MODES, SeparablePlan
 if TYPE_CHECKING:
     from .adaptive_plan import AdaptivePlan
     from .burley_plan import BurleyPlan, MipPyramid, SampleCounts
+    from .spread_plan import SpreadPlan
     from .transmission_plan import TransmissionPlan
 
 _T = TypeVar("_T")
@@ -52,9 +54,9 @@ PHASES = ("estimate", "prefilter", "sampling", "update")
 
 #: what :meth:`Backend.warm_up` gets ready: the separable pass in each depth mode (:data:`DEPTH_MODES`) on a frame
 #: of one profile id, what it adds for several ids (``separable:ids``), the Burley pass, the adaptive sampler's
-#: guiding phase and the transmittance pass
+#: guiding phase, the transmittance pass and its lateral spread
 WARM_UP = tuple(f"separable:{mode}" for mode in DEPTH_MODES) + ("separable:ids", "burley", "adaptive",
-                                                                 "transmission")
+                                                                 "transmission", "spread")
 
 
 class Backend(ABC):
@@ -107,6 +109,15 @@ class Backend(ABC):
         from ..errors import BackendError
 
         raise BackendError(f"backend {self.name!r} has no transmittance pass")
+
+    def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                            light_uvz: np.ndarray, shadow_mm: np.ndarray) -> np.ndarray:
+        """The transmitted light's lateral spread (see :mod:`ssskit.backends.spread_plan`, pass name "spread"): a
+        new (H, W, 3) array, ``exitance`` (the transmittance pass's result) spread by each pixel's thickness. A
+        backend without the step raises :class:`~ssskit.errors.BackendError`."""
+        from ..errors import BackendError
+
+        raise BackendError(f"backend {self.name!r} has no spread of the transmitted light")
 
     def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
                         valid: ArrayLike | None = None) -> NDArray[np.int64]:
@@ -261,6 +272,7 @@ def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
     from .adaptive_plan import AdaptivePlan
     from .burley_plan import BurleyParams, build_burley_plan
     from .plan import TermTable
+    from .spread_plan import SlotSpread, build_spread_plan
     from .transmission_plan import SlotModel, build_transmission_plan
 
     n = 8
@@ -270,6 +282,8 @@ def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
     slots[:, n // 2:] = 2
     slots[0] = 0
     ids = (1, 2)
+    uvz = np.zeros((n, n, 3), np.float32)  # the light's view: each pixel 1 mm behind a shadow map of 1 mm
+    uvz[..., 2] = 2.0
     names = check_warm_up(passes)
     modes = [name.partition(":")[2] for name in names if name.startswith("separable:") and name != "separable:ids"]
     for name in names:
@@ -299,10 +313,12 @@ def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
         elif kind == "transmission":
             model = SlotModel(np.full((3, 2), 0.5), np.ones((3, 2)), np.zeros((3, 2)))
             tplan = build_transmission_plan({i: model for i in ids})
-            uvz = np.zeros((n, n, 3), np.float32)
-            uvz[..., 2] = 1.0
             backend.transmission(tplan, slots, uvz, np.ones((n, n), np.float32), np.ones((n, n), np.float32),
                                  diffuse)
+        elif kind == "spread":
+            spread = SlotSpread(np.array([0.0, 2.0]), np.ones((3, 2)))
+            splan = build_spread_plan({i: spread for i in ids}, 100.0, 100.0)
+            backend.transmission_spread(splan, diffuse, depth, slots, uvz, np.ones((n, n), np.float32))
 
 
 def _checked_counts(counts: ArrayLike, shape: tuple[int, int]) -> NDArray[np.int64]:

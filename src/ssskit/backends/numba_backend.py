@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 
     from .adaptive_plan import AdaptivePlan
     from .burley_plan import BurleyPlan, MipPyramid, SampleCounts
+    from .spread_plan import SpreadPlan
     from .transmission_plan import TransmissionPlan
 
 
@@ -37,7 +38,7 @@ class NumbaBackend(Backend):
     name = "numba"
     description = "numba on the CPU, float32, parallel over rows and vectorised (the default)"
     dtype = np.float32
-    passes = frozenset({"separable", "burley", "adaptive", "transmission"})
+    passes = frozenset({"separable", "burley", "adaptive", "transmission", "spread"})
     compiles_on_first_use = True
 
     def __init__(self) -> None:
@@ -114,17 +115,47 @@ class NumbaBackend(Backend):
         if shadow.shape[1] < 2:  # the kernel reads texels in pairs: a column of +inf (no surface) beside it
             shadow = np.concatenate([shadow, np.full_like(shadow, np.inf)], axis=1)
         a, b, c = (np.ascontiguousarray(v, dtype=f32) for v in (plan.a, plan.b, plan.c))
-        scale, wrap = plan.scale.astype(f32), plan.wrap.astype(f32)
+        scale, wrap, normal = plan.scale.astype(f32), plan.wrap.astype(f32), plan.normal.astype(f32)
         out = np.empty(3 * m, f32)
         bias = f32(plan.bias_mm)
         kind = plan.lut_slot.astype(np.int32)
         lut = np.ascontiguousarray(plan.lut, dtype=f32).reshape(-1)
         odp, odo = plan.od_per_mm.astype(f32), plan.od_offset.astype(f32)
         blocks = m // LANES  # ranges of whole blocks; the last range also takes the m % LANES pixels left
-        self._rows(blocks, lambda i0, i1: transmission_pixels(sl, uvz, shadow, ndl, light, a, b, c, scale, wrap, bias,
-                                                              kind, lut, odp, odo, out, i0 * LANES,
+        self._rows(blocks, lambda i0, i1: transmission_pixels(sl, uvz, shadow, ndl, light, a, b, c, scale, wrap, normal,
+                                                              bias, kind, lut, odp, odo, out, i0 * LANES,
                                                               m if i1 == blocks else i1 * LANES))
         return out[: 3 * n].reshape(h, w, 3)
+
+    def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                            light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float32]:
+        """The transmitted light's lateral spread (:mod:`ssskit.backends._numba_spread`), float32, rows on the pool:
+        the widths, then the horizontal and the vertical pass."""
+        from ._numba_spread import root_rows, sigma_rows, spread_rows
+        from .spread_plan import check_spread_frame
+
+        check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
+        f32 = np.float32
+        sl = np.ascontiguousarray(slots, dtype=np.int32)
+        uvz = np.ascontiguousarray(light_uvz, dtype=f32)
+        shadow = np.ascontiguousarray(shadow_mm, dtype=f32)
+        depth = np.ascontiguousarray(depth_mm, dtype=f32)
+        src = np.ascontiguousarray(exitance, dtype=f32)
+        knots, table = plan.knots_mm.astype(f32), plan.sigma_mm.astype(f32)
+        n_knots = plan.n_knots.astype(np.int64)
+        h = sl.shape[0]
+        sig = np.empty(sl.shape + (3,), f32)
+        self._rows(h, lambda y0, y1: sigma_rows(sl, uvz, shadow, knots, table, n_knots, f32(plan.bias_mm), sig, y0, y1))
+        root = np.empty_like(sig)
+        self._rows(h, lambda y0, y1: root_rows(sig, depth, sl, root, y0, y1))
+        tmp = np.empty_like(src)
+        out = np.empty_like(src)
+        min_px, taps = f32(plan.min_px), int(plan.max_taps)
+        self._rows(h, lambda y0, y1: spread_rows(src, depth, sl, sig, root, f32(plan.fx), True, min_px, taps, tmp, y0,
+                                                 y1))
+        self._rows(h, lambda y0, y1: spread_rows(tmp, depth, sl, sig, root, f32(plan.fy), False, min_px, taps, out, y0,
+                                                 y1))
+        return out
 
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
                   slots: np.ndarray) -> NDArray[np.float32]:
@@ -132,15 +163,17 @@ class NumbaBackend(Backend):
         with self._lock:  # one frame buffer per backend: one frame at a time
             return self._separable(plan, diffuse, depth_mm, slots)
 
-    def _pack(self, src: np.ndarray, depth: np.ndarray, slots: np.ndarray, pad: int,
-              write: bool) -> tuple[NDArray[np.float32], int, int, NDArray[np.float64]]:
-        """Pack the frame into the buffer of pad ``pad`` (if ``write``), checking it on the way: per-row stats."""
+    def _pack(self, src: np.ndarray, depth: np.ndarray, slots: np.ndarray, pad: int, write: bool,
+              slot_plane: bool) -> tuple[NDArray[np.float32], int, int, NDArray[np.float64]]:
+        """Pack the frame into the buffer of pad ``pad`` (if ``write``; its slot plane if ``slot_plane``), checking
+        it on the way: per-row stats."""
         from ._numba_separable import pack_rows
 
         h, w = slots.shape
         buf, wps, plane = self._buffer(h, w, pad) if write else (np.zeros(1, np.float32), 1, 1)
         stats = np.empty((h, 4))
-        self._rows(h, lambda y0, y1: pack_rows(src, depth, slots, buf, pad, wps, plane, y0, y1, write, stats))
+        self._rows(h, lambda y0, y1: pack_rows(src, depth, slots, buf, pad, wps, plane, y0, y1, write, slot_plane,
+                                                   stats))
         return buf, wps, plane, stats
 
     def _separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
@@ -154,7 +187,8 @@ class NumbaBackend(Backend):
         # one read of the frame packs and checks it with the last frame's pad (a frame of another size: a
         # read-only check first); a nearer surface than the pad allows is packed again with a larger one
         pad = self._pads.get((h, w))
-        buf, wps, plane, stats = self._pack(src, depth, slots, pad if pad is not None else 0, pad is not None)
+        multi = plan.slots > 2  # several profiles: the passes test slots (one: a texel's depth tells)
+        buf, wps, plane, stats = self._pack(src, depth, slots, pad if pad is not None else 0, pad is not None, multi)
         if stats[:, 1].any():
             raise PassError("depth must be positive and finite on every pixel with SSS")
         if slots.size and (stats[:, 2].min() < 0 or stats[:, 3].max() >= plan.slots):
@@ -170,7 +204,7 @@ class NumbaBackend(Backend):
                             f"{MAX_BUFFER_BYTES / 2**30:.0f} GiB); use --backend numpy or a smaller footprint")
         if pad is None or need > pad or need < pad // 2:  # (a pad larger than needed changes nothing)
             pad = need
-            buf, wps, plane, _ = self._pack(src, depth, slots, pad, True)
+            buf, wps, plane, _ = self._pack(src, depth, slots, pad, True, multi)
         self._pads[(h, w)] = pad
         run = PASSES[plan.depth_mode]
         base = np.uint64(frame_base(plan.frame, plan.seed))
@@ -186,9 +220,9 @@ class NumbaBackend(Backend):
         for term in plan.terms:
             t = _tables(term)
             self._rows(h, lambda y0, y1: run(buf, buf, 0, tmp + pad * wps + pad, plane, wps, 1, y0, y1, w, pad, wps,
-                                             plane, 0, plan.fx, *t, param, base, cap, bmap))
+                                             plane, 0, plan.fx, *t, param, base, cap, bmap, LANES))
             self._rows(h, lambda y0, y1: run(buf, flat, tmp, 0, 1, 3 * w, 3, y0, y1, w, pad, wps, plane, 1, plan.fy,
-                                             *t, param, base, cap, bmap))
+                                             *t, param, base, cap, bmap, LANES))
             if len(plan.terms) == 1 and np.all(term.sign == 1):
                 return out
             contribution = term.sign[slots].astype(np.float32) * out

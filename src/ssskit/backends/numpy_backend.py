@@ -11,6 +11,7 @@ looped over the sample index.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -23,6 +24,7 @@ from .adaptive_plan import AdaptivePlan, reference_counts, reference_update_pass
 from .base import Backend, check_burley_frame, check_frame
 from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, BurleyPlan, MipPyramid, SampleCounts, mip_pyramid
 from .plan import SeparablePlan, TermTable
+from .spread_plan import SpreadPlan
 from .transmission_plan import LUT_SIZE, TransmissionPlan, check_transmission_frame, unreal_lut_coordinate
 
 
@@ -229,7 +231,7 @@ class NumpyBackend(Backend):
     name = "numpy"
     description = "numpy, float64: the reference every other backend is tested against (slow)"
     dtype = np.float64
-    passes = frozenset({"separable", "burley", "adaptive", "transmission"})
+    passes = frozenset({"separable", "burley", "adaptive", "transmission", "spread"})
 
     def availability(self) -> tuple[bool, str]:
         return True, "float64 reference (the oracle)"
@@ -253,6 +255,13 @@ class NumpyBackend(Backend):
                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
         check_transmission_frame(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
         return transmission_pass(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
+
+    def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                            light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float64]:
+        from .spread_plan import check_spread_frame
+
+        check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
+        return spread_pass(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
 
     def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
                spp: SampleCounts, pyramid: MipPyramid | None = None) -> np.ndarray:
@@ -312,6 +321,7 @@ def transmission_pass(plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.n
         lit = np.isfinite(t) & (t > plan.bias_mm)
     t = np.where(lit, t, 0.0)
     ndl = np.asarray(n_dot_l, np.float64)[ys, xs]
+    t = np.where(plan.normal[s] > 0, t * np.clip(-ndl, 0.0, 1.0), t)  # step 2: along the surface normal
     e = np.asarray(light_rgb, np.float64)[ys, xs] * np.clip(plan.wrap[s] - ndl, 0.0, 1.0)[:, None]  # step 3
     u = (plan.scale[s] * t)[:, None, None]
     tr = np.sum(plan.a[s] * np.exp(-plan.b[s] * u - plan.c[s] * u * u), axis=-1)  # step 4
@@ -324,3 +334,79 @@ def transmission_pass(plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.n
         tr[q] = (1.0 - f) * plan.lut[sq, :, i] + f * plan.lut[sq, :, i + 1]
     out[ys, xs] = np.where(lit[:, None], tr * e, 0.0)  # step 5
     return out
+
+
+def spread_sigma(plan: SpreadPlan, slots: np.ndarray, light_uvz: np.ndarray,
+                 shadow_mm: np.ndarray) -> NDArray[np.float64]:
+    """Steps 0-1 of :mod:`ssskit.backends.spread_plan`: (H, W, 3) sigma (mm) of every pixel in a slot, 0
+    elsewhere."""
+    sl = np.asarray(slots)
+    uvz = np.asarray(light_uvz, np.float64)
+    out = np.zeros(sl.shape + (3,))
+    ys, xs = np.nonzero(sl > 0)
+    if ys.size == 0:
+        return out
+    with np.errstate(invalid="ignore"):
+        t = uvz[ys, xs, 2] - shadow_depth(np.asarray(shadow_mm, np.float64), uvz[ys, xs, 0], uvz[ys, xs, 1])
+        t = np.where(np.isfinite(t) & (t > plan.bias_mm), t, 0.0)
+    s = sl[ys, xs]
+    for slot in np.unique(s):
+        m = s == slot
+        out[ys[m], xs[m]] = plan.sigma(int(slot), t[m])
+    return out
+
+
+def spread_axis(plan: SpreadPlan, v: np.ndarray, depth: np.ndarray, slots: np.ndarray, sigma: np.ndarray,
+                horizontal: bool) -> NDArray[np.float64]:
+    """Step 2 of :mod:`ssskit.backends.spread_plan` along one axis, float64."""
+    h, w = slots.shape
+    out = np.array(v, np.float64, copy=True)
+    ys, xs = np.nonzero(slots > 0)
+    if ys.size == 0:
+        return out
+    z = depth[ys, xs].astype(np.float64)
+    sig = sigma[ys, xs]  # (N, 3) mm
+    f = plan.fx if horizontal else plan.fy
+    spx = sig * (f / z)[:, None]
+    m = spx.max(axis=1)
+    act = m >= plan.min_px
+    ys, xs, z, sig, spx, m = ys[act], xs[act], z[act], sig[act], spx[act], m[act]
+    if ys.size == 0:
+        return out
+    step = np.maximum(1, np.ceil(3.0 * m / plan.max_taps)).astype(np.int64)
+    k = np.ceil(3.0 * m / step).astype(np.int64)
+    s = slots[ys, xs]
+    vp = np.asarray(v, np.float64)[ys, xs]
+    acc = np.zeros_like(spx)
+    for j in range(-int(k.max()), int(k.max()) + 1):
+        if j == 0:
+            continue
+        d = j * step
+        qy, qx = (ys, xs + d) if horizontal else (ys + d, xs)
+        ok = (np.abs(j) <= k) & (qx >= 0) & (qx < w) & (qy >= 0) & (qy < h)
+        qyc, qxc = np.clip(qy, 0, h - 1), np.clip(qx, 0, w - 1)
+        ok &= slots[qyc, qxc] == s
+        zq = depth[qyc, qxc].astype(np.float64)
+        sq = sigma[qyc, qxc]
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            pair_px = np.sqrt(spx * sq * (f / zq)[:, None])  # S_c
+            pair_mm = np.sqrt(sig * sq)  # s_c
+            dz = zq - z
+            wgt = (step[:, None] * np.exp(-(d.astype(np.float64) ** 2)[:, None] / (2.0 * pair_px ** 2))
+                   / (math.sqrt(2.0 * math.pi) * pair_px) * np.exp(-(dz * dz)[:, None] / (2.0 * pair_mm ** 2)))
+        wgt = np.where((pair_px > 0) & (np.abs(d)[:, None] <= 3.0 * pair_px), wgt, 0.0)
+        vq = np.asarray(v, np.float64)[qyc, qxc]
+        acc += np.where(ok[:, None], wgt * (vq - vp), 0.0)
+    out[ys, xs] = vp + acc
+    return out
+
+
+def spread_pass(plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float64]:
+    """The float64 oracle of the transmitted light's lateral spread (:mod:`ssskit.backends.spread_plan`): steps 0-1,
+    the horizontal pass, then the vertical one on its result, vectorised over the pixels."""
+    sl = np.asarray(slots)
+    depth = np.asarray(depth_mm, np.float64)
+    sigma = spread_sigma(plan, sl, light_uvz, shadow_mm)
+    tmp = spread_axis(plan, np.asarray(exitance, np.float64), depth, sl, sigma, True)
+    return spread_axis(plan, tmp, depth, sl, sigma, False)

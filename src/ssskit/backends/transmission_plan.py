@@ -20,7 +20,12 @@ Per pixel p in slot s > 0 and channel c, the pass computes (every backend in thi
    the others' weights renormalised; no texel with positive weight left: no transmission (0).
 2. t = z - D, the chord through the medium along the light (mm). **Zero thickness** is no medium between
    the light and p: p is the first surface the light meets, lit directly (the reflectance pass has it), so
-   t <= ``bias_mm`` (the map's depth precision) or a non-finite t gives 0.
+   t <= ``bias_mm`` (the map's depth precision) or a non-finite t gives 0. A slot whose ``normal`` is 1 then
+   takes the thickness along the surface normal, t <- t clamp(-N . L, 0, 1) (a slab's, the back face parallel
+   to the seen one): the light the medium scattered forgets its way in, and a slab lit at incidence theta
+   transmits nearly what it transmits at normal incidence through its own thickness, not through the light's
+   chord t / cos theta (MCML, docs/transmission.md "Against the path trace"); 0 keeps the chord (Jimenez et
+   al. 2010's translucency shadow map as their shader uses it).
 3. E_c = light_rgb_c clamp(wrap_s - N . L, 0, 1): the back surface's irradiance, its normal taken as the
    pixel's reversed (N . L of the back side is -N . L; ``wrap`` = 0 is the cosine law, Jimenez 2010's
    shader wraps it by 0.3, and ``wrap`` = 2 drops the cosine: E = light_rgb, as Unreal's transmission).
@@ -76,8 +81,10 @@ UE_MAX_OPTICAL_DEPTH = 5.0
 @dataclass(frozen=True)
 class SlotModel:
     """One profile id's T(t) = sum_k a_ck exp(-b_ck u - c_ck u^2), u = scale t (mm): ``a``, ``b``, ``c`` (3,
-    K), and the back irradiance's ``wrap`` (step 3); a model ``unreal`` holds instead its profile table
-    ``lut`` (3, LUT_SIZE) and the optical depth's ``od_per_mm`` and ``od_offset`` (step 4)."""
+    K; b, c >= 0, a of either sign: a term may subtract, but T(t) itself must be >= 0, which the model's maker
+    checks), the back irradiance's ``wrap`` (step 3) and ``along_normal``: the thickness along the surface
+    normal rather than the light (step 2); a model ``unreal`` holds instead its profile table ``lut`` (3,
+    LUT_SIZE) and the optical depth's ``od_per_mm`` and ``od_offset`` (step 4)."""
 
     a: np.ndarray
     b: np.ndarray
@@ -85,6 +92,7 @@ class SlotModel:
     scale: float = 1.0
     wrap: float = 0.0
     model: str = "mcml"
+    along_normal: bool = False
     lut: np.ndarray | None = None
     od_per_mm: float = 0.0
     od_offset: float = 0.0
@@ -93,9 +101,9 @@ class SlotModel:
 @dataclass(frozen=True, eq=False)
 class TransmissionPlan:
     """What a backend needs besides the frame's images: per slot (slot 0 empty) the model's (S, 3, K)
-    tables, (S,) scale and wrap, the zero-thickness bias (module docstring), and for ``unreal`` slots
-    (``lut_slot`` (S,) true) their (S, 3, LUT_SIZE) profile tables and (S,) optical-depth scale and offset
-    (zeros elsewhere)."""
+    tables, (S,) scale, wrap and normal (1: step 2's thickness along the surface normal, 0: along the light),
+    the zero-thickness bias (module docstring), and for ``unreal`` slots (``lut_slot`` (S,) true) their
+    (S, 3, LUT_SIZE) profile tables and (S,) optical-depth scale and offset (zeros elsewhere)."""
 
     ids: tuple[int, ...]
     a: NDArray[np.float64]
@@ -109,6 +117,7 @@ class TransmissionPlan:
     lut: NDArray[np.float64]
     od_per_mm: NDArray[np.float64]
     od_offset: NDArray[np.float64]
+    normal: NDArray[np.float64]
 
     @property
     def slots(self) -> int:
@@ -156,7 +165,7 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3)
         raise PassError(f"a transmittance model holds at most {MAX_TERMS} terms, got {k}")
     s = len(ids) + 1
     a, b, c = (np.zeros((s, 3, k)) for _ in range(3))
-    scale, wrap = np.ones(s), np.zeros(s)
+    scale, wrap, normal = np.ones(s), np.zeros(s), np.zeros(s)
     lut_slot = np.zeros(s, bool)
     lut = np.zeros((s, 3, LUT_SIZE))
     od_per_mm, od_offset = np.zeros(s), np.zeros(s)
@@ -165,9 +174,10 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3)
         m = models[pid]
         for name, v in (("a", m.a), ("b", m.b), ("c", m.c)):
             arr = np.asarray(v, float)
-            if arr.ndim != 2 or arr.shape[0] != 3 or not np.all(np.isfinite(arr)) or np.any(arr < 0):
-                raise PassError(f"profile id {pid}: the model's {name} must be a finite (3, K) array >= 0, got "
-                                f"shape {arr.shape}")
+            signed = name == "a"  # a term may subtract (the MCML model's scattered part is 0 at t = 0)
+            if arr.ndim != 2 or arr.shape[0] != 3 or not np.all(np.isfinite(arr)) or (not signed and np.any(arr < 0)):
+                raise PassError(f"profile id {pid}: the model's {name} must be a finite (3, K) array"
+                                f"{'' if signed else ' >= 0'}, got shape {arr.shape}")
         if m.model not in MODELS:
             raise PassError(f"unknown transmittance model {m.model!r}; choose from {', '.join(MODELS)}")
         if not (np.isfinite(m.scale) and m.scale >= 0 and np.isfinite(m.wrap) and 0 <= m.wrap <= 2):
@@ -186,10 +196,10 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3)
             od_per_mm[slot], od_offset[slot] = m.od_per_mm, m.od_offset
         n = np.shape(m.a)[1]
         a[slot, :, :n], b[slot, :, :n], c[slot, :, :n] = m.a, m.b, m.c
-        scale[slot], wrap[slot] = m.scale, m.wrap
+        scale[slot], wrap[slot], normal[slot] = m.scale, m.wrap, 1.0 if m.along_normal else 0.0
         names.append(m.model)
     return TransmissionPlan(ids, a, b, c, scale, wrap, float(bias_mm), tuple(names), lut_slot, lut, od_per_mm,
-                            od_offset)
+                            od_offset, normal)
 
 
 def check_transmission_frame(plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray,

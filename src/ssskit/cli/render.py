@@ -18,7 +18,8 @@ import click
 
 from ..backends.burley_plan import C_RANGE, SAMPLERS, XIE_C
 from ..errors import SsskitError
-from ..pipeline.settings import PASSES, TAP_RANGE, TRANSMISSION, TRANSMISSION_MODELS, AdaptivePass, RenderSettings
+from ..pipeline.settings import (PASSES, TAP_RANGE, TRANSMISSION, TRANSMISSION_MODELS, TRANSMISSION_SPREADS, AdaptivePass,
+                                 RenderSettings)
 from ..screenspace.adaptive import CORRECTIONS
 from .options import (
     OutputDir,
@@ -145,6 +146,10 @@ _PASS = RegistryName(lambda: PASSES)
               help="The transmittance T(t): mcml (the fit of the material's MCML slab tables), jimenez2010 "
                    "(Jimenez et al. 2010's skin Gaussians, thickness in mm) or unreal (Unreal Engine 5's "
                    "subsurface-profile transmission with its defaults for the material's Burley profile).")
+@click.option("--transmission-spread", type=click.Choice(TRANSMISSION_SPREADS, case_sensitive=False),
+              default=_D.transmission_spread, show_default=True,
+              help="The lateral spread of the transmitted light: mcml (a Gaussian per pixel as wide as MCML's Tt(r) at "
+                   "its thickness, where wider than a pixel) or off.")
 @click.option("--no-exact", is_flag=True, help="Skip the exact 2D convolution.")
 @click.option("--no-perceptual", is_flag=True, help="Skip FLIP in the metrics.")
 @out_option((".exr",), "Also write the G-buffer as a multi-layer EXR.", name="--save-gbuffer", dest="save_gbuffer")

@@ -50,6 +50,7 @@ FIELDS: dict[str, tuple[str, ...]] = {
     "no_perceptual": ("perceptual",),
     "transmission": ("transmission",),
     "transmission_model": ("transmission_model",),
+    "transmission_spread": ("transmission_spread",),
 }
 #: the options each pass owns: with another pass they are refused
 OWN: dict[str, tuple[str, ...]] = {

@@ -22,7 +22,8 @@ numpy's float64 functions (``tests/compute/test_numba_math.py``).
 Small LLVM intrinsics do the bit work in 32-bit arithmetic (numba widens integer arithmetic to 64
 bits, which halves the lanes per register): a float32's mantissa and exponent, 2^n, and the uint32
 operations of the counter-based hashes (:func:`u32_madd`, :func:`u32_xor`, :func:`mix32_u32`,
-:func:`u24_f32`), loads without numba's negative-index wraparound (:func:`load_at`, :func:`load_pair_at`: two
+:func:`u24_f32`), a float32's bits as an int32 and back for integer min/max reductions (:func:`f32_bits`,
+:func:`bits_f32`), loads without numba's negative-index wraparound (:func:`load_at`, :func:`load_pair_at`: two
 neighbours in one 64-bit load). :func:`stack_empty` gives a lane loop scratch arrays that alias nothing.
 """
 
@@ -216,6 +217,32 @@ def i32(typingctx: object, v: types.Type) -> _Typed:
     else:
         return None
     return types.int32(v), codegen
+
+
+@intrinsic
+def f32_bits(typingctx: object, x: types.Type) -> _Typed:
+    """The bits of a float32 as an int32. For non-negative floats (+inf included) the order of the bits is the
+    order of the values, so min/max reductions over them vectorise as integer reductions (LLVM vectorises
+    float min/max reductions only under 'nnan', which kernels that mark empty texels with +inf cannot use)."""
+    if x != types.float32:
+        return None
+
+    def codegen(context, builder, sig, args):
+        return _bits(builder, args[0])
+
+    return types.int32(x), codegen
+
+
+@intrinsic
+def bits_f32(typingctx: object, i: types.Type) -> _Typed:
+    """The float32 whose bits are the low 32 bits of integer i (the inverse of :func:`f32_bits`)."""
+    if not isinstance(i, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        return builder.bitcast(_i32(builder, args[0], i), ir.FloatType())
+
+    return types.float32(i), codegen
 
 
 @intrinsic

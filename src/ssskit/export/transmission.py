@@ -10,8 +10,11 @@ Graphics; the Christensen-Burley profile integrated over the plane at depth t, [
 with A the ``transmissionTint`` (HDRP premultiplies it by 1/4 on the CPU) and d the profile's scattering
 distance (``scatteringDistance`` x multiplier, mm at worldScale 1: :mod:`ssskit.export.unity`). The shape
 S is the reflectance profile's, shared by both: only the tint is free. :func:`hdrp_transmission` chooses
-the tint per channel that minimises the relative error against MCML's T(t) over the thicknesses where T >
-``visible`` (weighted least squares, closed form: A = sum(g T / T^2) / sum(g^2 / T^2), g = T / A the shape),
+the tint per channel that minimises the relative error against MCML's scattered transmittance T_s(t) (Tt less
+the unscattered beam, which leaves along the light and which a camera elsewhere never sees: the pass's ``mcml``
+model, :attr:`~ssskit.profiles.montecarlo.transmission.TransmissionTable.diffuse`) over the thicknesses where T_s >
+``visible`` and t at or past T_s's maximum (:func:`fitted_thicknesses`: HDRP's shape falls from t = 0, T_s rises
+from 0 first) (weighted least squares, closed form: A = sum(g T / T^2) / sum(g^2 / T^2), g = T / A the shape),
 clamped to >= 0 only (``transmissionTint`` is an HDR colour: ``[ColorUsage(false, true)]`` in HDRP's
 DiffusionProfileSettings.cs, which ``Validate`` leaves unclamped), and reports what is lost: the relative error over
 those thicknesses.
@@ -44,6 +47,17 @@ def hdrp_model(tint: Any, d_mm: Any) -> SlotModel:
     return SlotModel(np.stack([a / 4, 3 * a / 4], -1), np.stack([s, s / 3], -1), np.zeros((3, 2)), 1.0, 0.0, "mcml")
 
 
+def fitted_thicknesses(table: TransmissionTable, visible: float = 1e-3) -> np.ndarray:
+    """(N, 3) bool: per channel, the thicknesses an engine's transmission is fitted over: T_s > ``visible`` and t at
+    or past T_s's maximum. The scattered part rises from 0 at t = 0 to its maximum (for Skin1 at a few tenths of a
+    mm) and falls after; the engines' shapes fall from t = 0, so only the falling part can be followed, and thinner
+    than that the export overestimates (reported as ``thinner_than_fit_mm``)."""
+    ts = table.diffuse
+    t = np.asarray(table.thickness_mm, float)
+    peak = t[np.argmax(ts, axis=0)]  # (3,)
+    return np.asarray((ts > visible) & (t[:, None] >= peak[None, :]))
+
+
 def hdrp_transmission(table: TransmissionTable, d_mm: Any, visible: float = 1e-3) -> dict[str, Any]:
     """HDRP's ``transmissionTint`` and ``thicknessRemap`` fitted to ``table`` with the profile's scattering
     distance ``d_mm`` (3,) (module docstring), and the error left."""
@@ -53,9 +67,10 @@ def hdrp_transmission(table: TransmissionTable, d_mm: Any, visible: float = 1e-3
     rel_max = np.zeros(3)
     rel_rms = np.zeros(3)
     t_hi = 0.0
+    fit = fitted_thicknesses(table, visible)
     for c in range(3):
-        y = table.tt[:, c]
-        m = y > visible
+        y = table.diffuse[:, c]  # T_s: the scattered light the pass's mcml model holds (not the unscattered beam)
+        m = fit[:, c]
         g = hdrp_shape(d_mm, t[m])[:, c]
         w = 1.0 / y[m] ** 2
         a = float(np.sum(w * g * y[m]) / np.sum(w * g * g))
@@ -68,10 +83,10 @@ def hdrp_transmission(table: TransmissionTable, d_mm: Any, visible: float = 1e-3
             "transmissionTint": tint.tolist(), "tint_unclamped": free.tolist(), "thicknessRemap": [0.0, t_hi],
             "scattering_distance_mm": np.asarray(d_mm, float).tolist(),
             "max_rel_error": rel_max.tolist(), "rms_rel_error": rel_rms.tolist(),
-            "fitted_where_T_above": visible,
+            "fitted_where_T_above": visible, "thinner_than_fit_mm": _thin(table, fit),
             "formula": "T_c(t) = (transmissionTint_c / 4) (e^(-t / d_c) + 3 e^(-t / (3 d_c))); tint_c the weighted "
-                       "least-squares fit (relative error) to MCML's T(t) where T > fitted_where_T_above (an HDR colour, "
-                       "clamped to >= 0); d the reflectance profile's scattering distance (not free)"}
+                       "least-squares fit (relative error) to MCML's scattered T_s(t) where T_s > "
+                       "fitted_where_T_above and t >= thinner_than_fit_mm (an HDR colour, clamped to >= 0); d the reflectance profile's scattering distance (not free)"}
 
 
 #: UE's ClampMin/ClampMax of ExtinctionScale (SubsurfaceProfile.h) and the grid searched between them
@@ -101,7 +116,8 @@ def unreal_shape(d_mm: Any, thickness_mm: Any, extinction_scale: float, normal_s
 def unreal_transmission(table: TransmissionTable, surface_albedo: Any, d_mm: Any, visible: float = 1e-3,
                         normal_scale: float = 0.08) -> dict[str, Any]:
     """Unreal Engine 5's transmission fields for a SubsurfaceProfile with Burley ``d_mm`` and ``surface_albedo``
-    fitted to MCML's T(t) of ``table`` ([UE58]; the pass's ``unreal`` model is the engine's computation).
+    fitted to MCML's scattered transmittance T_s(t) of ``table`` (its ``diffuse``, what the pass's ``mcml`` model
+    holds; [UE58]; the pass's ``unreal`` model is the engine's computation).
 
     UE's transmitted radiance is BaseColor x TransmissionTintColor x P(t) x ApproximateHG(cos, g) x E (the profile P
     of the tabulated Burley transmission at UE's optical depth; the recombine pass multiplies by the base colour);
@@ -109,12 +125,13 @@ def unreal_transmission(table: TransmissionTable, surface_albedo: Any, d_mm: Any
     ApproximateHG = 0.5 (1 - g^2) within 2 % at every angle) the two agree where tint_c P_c(t) = T_c(t) / (pi A_c
     0.5 (1 - g^2)). ExtinctionScale and DistanceScale (which scales only the transmission table's distances) are
     searched on log grids over UE's ranges, and for each pair the tint per channel is the weighted least-squares fit
-    in relative error where T > ``visible`` (closed form), clamped to UE's [0.009, 1]; NormalScale and
+    in relative error over :func:`fitted_thicknesses` (closed form), clamped to UE's [0.009, 1]; NormalScale and
     WorldUnitScale (which also scales the reflectance) stay UE's defaults. Returns the fields and what is lost
     (relative error of UE's radiance against MCML's over those thicknesses)."""
     a = np.asarray(surface_albedo, float)
     t = table.thickness_mm
     phase = 0.5 * (1.0 - UE_EXPORT_G ** 2)
+    fit = fitted_thicknesses(table, visible)
     best: dict[str, Any] | None = None
     grid = [(float(e), float(ds)) for e in np.geomspace(*UE_EXTINCTION_RANGE, 81)
             for ds in np.geomspace(*UE_DISTANCE_RANGE, 41)]
@@ -124,8 +141,9 @@ def unreal_transmission(table: TransmissionTable, surface_albedo: Any, d_mm: Any
         rel_max, rel_rms = np.zeros(3), np.zeros(3)
         cost = 0.0
         for c in range(3):
-            m = table.tt[:, c] > visible
-            y = table.tt[m, c] / (math.pi * a[c] * phase)
+            ts = table.diffuse[:, c]  # T_s, the scattered part (the pass's mcml model)
+            m = fit[:, c]
+            y = ts[m] / (math.pi * a[c] * phase)
             gc = g[m, c]
             w = 1.0 / y ** 2
             den = float(np.sum(w * gc * gc))
@@ -142,13 +160,19 @@ def unreal_transmission(table: TransmissionTable, surface_albedo: Any, d_mm: Any
             "TransmissionTintColor": best["tint"].tolist(), "tint_unclamped": best["free"].tolist(),
             "DistanceScale": best["ds"], "WorldUnitScale": 0.1, "scattering_distance_mm": np.asarray(d_mm, float).tolist(),
             "max_rel_error": best["max"].tolist(), "rms_rel_error": best["rms"].tolist(),
-            "fitted_where_T_above": visible,
+            "fitted_where_T_above": visible, "thinner_than_fit_mm": _thin(table, fit),
             "formula": "UE radiance = BaseColor_c TransmissionTintColor_c P_c(x(t)) ApproximateHG(cos, g) E with P the "
                        "32-entry Burley transmission table (d_c) read at UE's optical depth x(ExtinctionScale t / 10 + "
-                       "NormalScale / 2), its distances r_i / DistanceScale; fitted to MCML's T(t) E / pi: g = 0.01, "
+                       "NormalScale / 2), its distances r_i / DistanceScale; fitted to MCML's T_s(t) E / pi: g = 0.01, "
                        "ExtinctionScale and DistanceScale by a log-grid search over [0.01, 100] x [0.1, 10], "
-                       "TransmissionTintColor_c by weighted least squares in relative error where T > "
-                       "fitted_where_T_above, clamped to UE's [0.009, 1]"}
+                       "TransmissionTintColor_c by weighted least squares in relative error where T_s > "
+                       "fitted_where_T_above and t >= thinner_than_fit_mm, clamped to UE's [0.009, 1]"}
 
 
-__all__ = ["UE_EXPORT_G", "hdrp_model", "hdrp_shape", "hdrp_transmission", "unreal_shape", "unreal_transmission"]
+def _thin(table: TransmissionTable, fit: np.ndarray) -> list[float]:
+    """Per channel the thinnest thickness fitted (T_s's maximum, :func:`fitted_thicknesses`)."""
+    t = np.asarray(table.thickness_mm, float)
+    return [float(t[fit[:, c]].min()) if fit[:, c].any() else float("nan") for c in range(3)]
+
+
+__all__ = ["UE_EXPORT_G", "fitted_thicknesses", "hdrp_model", "hdrp_shape", "hdrp_transmission", "unreal_shape", "unreal_transmission"]

@@ -210,7 +210,8 @@ def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None
     sss_settings = settings.pass_settings()
     # the pass's kernels compile (a fresh machine: seconds, one thread) while Mitsuba renders the G-buffer
     warming = warm_up_in_background(settings.backend, [  # several ids' slot map after the pass: not waited for
-        f"separable:{sss_settings.depth_mode or default_depth_mode(pass_taps)}", "separable:ids"])
+        f"separable:{sss_settings.depth_mode or default_depth_mode(pass_taps)}", "separable:ids"]
+        + (["transmission", "spread"] if plan.scene.transmission else []))
     gb = frame_gbuffer(plan.scene, settings, albedo, say)
     exact: Callable[[], np.ndarray | None] = functools.cache(lambda: exact_screen_space(gb, profile))
     if warming is not None and warming.is_alive() and settings.exact and gb.mask.any():

@@ -50,6 +50,8 @@ FRAMES_RANGE = (1, 100_000)
 SHARED = ("frame", "seed", "backend")
 #: when the transmittance pass runs: auto (where the G-buffer has the light layers), on, off
 TRANSMISSION = ("auto", "on", "off")
+#: the lateral spread of the transmitted light: MCML's Tt(r) widths per thickness (backends.spread_plan), or none
+TRANSMISSION_SPREADS = ("mcml", "off")
 
 
 class SettingsMigrated(UserWarning):
@@ -245,8 +247,11 @@ class RenderSettings(Settings):
     the G-buffer has the light layers: a G-buffer file or GBuffer that carries them; a scene's own G-buffer
     is rendered without them), ``on`` (a scene's G-buffer is rendered with them; a G-buffer without them is
     an error), ``off``; ``transmission_model``: its T(t), ``mcml`` (the fit of the material's MCML slab
-    transmittance), ``jimenez2010`` (Jimenez et al. 2010's skin Gaussians, [JWSG10]) or ``unreal`` (Unreal Engine
-    5's subsurface-profile transmission, [UE58]); ``pass_``: the pass (:data:`PASSES`: :class:`SeparablePass`,
+    transmittance's scattered part), ``jimenez2010`` (Jimenez et al. 2010's skin Gaussians, [JWSG10]) or ``unreal``
+    (Unreal Engine 5's subsurface-profile transmission, [UE58]); ``transmission_spread``: the lateral spread of
+    the transmitted light, ``mcml`` (a Gaussian per pixel as wide as MCML's Tt(r) at its thickness,
+    :mod:`ssskit.backends.spread_plan`; homogeneous materials) or ``off``; ``pass_``: the pass (:data:`PASSES`:
+    :class:`SeparablePass`,
     :class:`BurleyPass` or :class:`AdaptivePass`), which :func:`ssskit.pipeline.render` runs. The kernel
     fields apply to the separable pass only: with another pass they must keep their defaults.
     """
@@ -271,6 +276,7 @@ class RenderSettings(Settings):
     perceptual: bool = True
     transmission: str = "auto"
     transmission_model: str = "mcml"
+    transmission_spread: str = "mcml"
     pass_: PassMember = field(default_factory=SeparablePass)
 
     def __post_init__(self) -> None:
@@ -310,6 +316,8 @@ class RenderSettings(Settings):
         object.__setattr__(self, "transmission", check_choice("transmission", self.transmission, TRANSMISSION))
         object.__setattr__(self, "transmission_model", check_choice("transmission_model", self.transmission_model,
                                                                     TRANSMISSION_MODELS))
+        object.__setattr__(self, "transmission_spread", check_choice("transmission_spread", self.transmission_spread,
+                                                                     TRANSMISSION_SPREADS))
         if self.transmission == "off" and self.transmission_model != "mcml":
             raise SettingsError(f"transmission_model {self.transmission_model!r} applies when the transmittance pass "
                                 "can run (transmission auto or on); transmission is off")
@@ -442,4 +450,4 @@ def _migrate(data: dict[str, Any], label: str) -> dict[str, Any]:
 
 __all__ = ["AdaptivePass", "BurleyPass", "DEFAULT_LIMIT_SPP", "KERNEL_FIELDS", "PASSES", "PHOTONS_RANGE", "PassMember",
            "RenderSettings", "SHARED", "SIZE_RANGE", "SeparablePass", "SettingsMigrated", "TAP_RANGE",
-           "TRANSMISSION", "TRANSMISSION_MODELS"]
+           "TRANSMISSION", "TRANSMISSION_MODELS", "TRANSMISSION_SPREADS"]

@@ -15,7 +15,9 @@ Whether it runs (:func:`transmission_runs`, checked before any work with the sce
 
 The light added (:func:`add_transmission`). The pass gives per pixel out = T(t) E, the exitance of the light
 that crossed the medium from the back (E the back surface's irradiance,
-:mod:`ssskit.backends.transmission_plan` step 5). The G-buffer's ``diffuse`` layer is the radiance of a
+:mod:`ssskit.backends.transmission_plan` step 5); with ``transmission_spread = "mcml"`` (the default) the
+spread step (:mod:`ssskit.backends.spread_plan`) spreads it as wide as MCML's Tt(r) at each pixel's thickness
+(homogeneous materials; for any other the frame keeps the unspread light and says ``spread: off``). The G-buffer's ``diffuse`` layer is the radiance of a
 white Lambertian surface, and the composite multiplies the reflectance SSS by ``albedo`` (the profile's
 total diffuse reflectance Rd). Taking the transmitted light's exit as Lambertian (radiance = exitance / pi;
 MCML's Tt [WJZ95] is tallied over the whole exit hemisphere), it enters the reflectance SSS demodulated by
@@ -35,13 +37,14 @@ sss + out.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..backends import get_backend
+from ..backends.transmission_plan import SlotModel
 from ..errors import SettingsError
 from ..materials import Material
 from ..screenspace import GBuffer
@@ -50,22 +53,25 @@ from .settings import RenderSettings
 
 @dataclass(frozen=True)
 class TransmissionInfo:
-    """What a frame's transmission did: the setting, whether the pass ran, its model, and the share of SSS
-    pixels it lit (out > 0 in some channel)."""
+    """What a frame's transmission did: the setting, whether the pass ran, its model, the share of SSS
+    pixels it lit (out > 0 in some channel), and its lateral spread (``mcml`` or ``off``)."""
 
     setting: str
     ran: bool
     model: str | None = None
     lit_pixels: int = 0
+    spread: str = "off"
 
     def to_dict(self) -> dict[str, Any]:
-        return {"setting": self.setting, "ran": self.ran, "model": self.model, "lit_pixels": int(self.lit_pixels)}
+        return {"setting": self.setting, "ran": self.ran, "model": self.model, "lit_pixels": int(self.lit_pixels),
+                "spread": self.spread}
 
     def line(self) -> str:
         """One line for the human-readable summary."""
         if not self.ran:
             return f"# transmission: off (setting {self.setting})"
-        return f"# transmission: {self.model} model, {self.lit_pixels} SSS pixels lit from behind (setting {self.setting})"
+        return (f"# transmission: {self.model} model, {self.lit_pixels} SSS pixels lit from behind, lateral spread "
+                f"{self.spread} (setting {self.setting})")
 
 
 def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: str, has_scene: bool,
@@ -127,26 +133,42 @@ def _unreal_light(gb: GBuffer, light_rgb: np.ndarray) -> np.ndarray:
 
 
 def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[int, Any],
-                       say: Callable[[str], None]) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
+                       say: Callable[[str], None], models: Mapping[int, SlotModel] | None = None,
+                       ) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
     """(added, radiance, info): the transmittance pass on the settings' backend with the settings' model for
-    every profile id of the mask (``material_of`` id -> material); ``radiance`` (H, W, 3) float32, the transmitted
-    radiance in the image (T E / pi; ``unreal``: albedo times UE's light) and ``added`` = radiance / albedo in the
+    every profile id of the mask (``material_of`` id -> material), or ``models`` (profile id ->
+    :class:`~ssskit.backends.transmission_plan.SlotModel`, e.g. an engine's exported parameters), then its
+    lateral spread (``settings.transmission_spread``); ``radiance`` (H, W, 3) float32, the transmitted radiance
+    in the image (T E / pi; ``unreal``: albedo times UE's light) and ``added`` = radiance / albedo in the
     backend's float type, the light to add to the reflectance SSS (module docstring), both 0 where the albedo
     is 0."""
     from ..screenspace.transmission import transmission_plan
 
     ids = _mask_ids(gb)
-    say(f"transmittance pass: {settings.transmission_model} model, {settings.backend} backend")
-    plan = transmission_plan({pid: slot_model(settings.transmission_model, material_of[pid]) for pid in ids})
+    name = settings.transmission_model if models is None else "given"
+    say(f"transmittance pass: {name} model, {settings.backend} backend")
+    plan = transmission_plan({pid: slot_model(settings.transmission_model, material_of[pid]) if models is None
+                              else models[pid] for pid in ids})
     lut = np.zeros(int(gb.profile_id.max(initial=0)) + 1, np.int32)
     lut[ids] = np.arange(1, len(ids) + 1, dtype=np.int32)
     slots = lut[gb.profile_id]
     backend = get_backend(settings.backend)
     uvz, shadow, ndl, light_rgb = gb.transmission_inputs(backend.dtype)
-    unreal = settings.transmission_model == "unreal"
+    unreal = models is None and settings.transmission_model == "unreal"
     if unreal:
         light_rgb = _unreal_light(gb, light_rgb)
     out = np.asarray(backend.transmission(plan, slots, uvz, shadow, ndl, light_rgb))
+    # >= 0: a model whose terms subtract (the scattered part) may round a hair below 0 in float32
+    out = np.maximum(out, 0.0, dtype=out.dtype)
+    spread = settings.transmission_spread == "mcml" and all(isinstance(material_of[pid], Material) for pid in ids)
+    if spread:
+        from ..backends.spread_plan import build_spread_plan
+        from ..screenspace.transmission import mcml_spread
+
+        say(f"lateral spread of the transmitted light (MCML's Tt(r)), {settings.backend} backend")
+        splan = build_spread_plan({pid: mcml_spread(material_of[pid]) for pid in ids}, gb.camera.fx, gb.camera.fy,
+                                  plan.bias_mm)
+        out = np.asarray(backend.transmission_spread(splan, out, gb.depth_mm, slots, uvz, shadow), out.dtype)
     flat = out.reshape(-1, 3)
     lit = int(np.count_nonzero((flat[:, 0] > 0) | (flat[:, 1] > 0) | (flat[:, 2] > 0)))
     lit_albedo = gb.albedo > 0
@@ -157,15 +179,16 @@ def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[
         radiance = np.multiply(out, 1.0 / math.pi, dtype=out.dtype)
         np.copyto(radiance, 0.0, where=~lit_albedo)
         added = np.divide(radiance, gb.albedo, out=np.zeros_like(radiance), where=lit_albedo)
-    return added, radiance.astype(np.float32, copy=False), TransmissionInfo(settings.transmission, True,
-                                                                           settings.transmission_model, lit)
+    return added, radiance.astype(np.float32, copy=False), TransmissionInfo(
+        settings.transmission, True, name, lit, "mcml" if spread else "off")
 
 
 def add_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, material_of: dict[int, Any],
-                     say: Callable[[str], None]) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
-    """(sss', the transmitted radiance (H, W, 3) float32, info): :func:`transmission_light` added to ``sss`` (in
-    its float type)."""
-    added, radiance, info = transmission_light(gb, settings, material_of, say)
+                     say: Callable[[str], None], models: Mapping[int, SlotModel] | None = None,
+                     ) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
+    """(sss', the transmitted radiance (H, W, 3) float32, info): :func:`transmission_light` (with ``models`` if
+    given) added to ``sss`` (in its float type)."""
+    added, radiance, info = transmission_light(gb, settings, material_of, say, models)
     dt = np.asarray(sss).dtype
     return np.add(sss, added, dtype=dt), radiance, info
 

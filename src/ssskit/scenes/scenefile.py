@@ -541,7 +541,7 @@ def _primitive(where: str, kind: Any, table: Mapping[str, Any]) -> dict:
 
 def builtin_scene_files() -> list[Path]:
     """The built-in scenes' TOML files, in registration order."""
-    order = ("sphere", "slab", "ear", "bumpy")
+    order = ("sphere", "slab", "ear", "bumpy", "backlit", "leaf")
     return [BUILTIN_DIR / f"{name}.toml" for name in order]
 
 

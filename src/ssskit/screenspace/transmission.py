@@ -3,9 +3,13 @@ has the pass), and the light-space geometry that feeds it.
 
 Models (one per profile id, :data:`~ssskit.backends.transmission_plan.MODELS`):
 
-* ``mcml``: the material's own MCML slab transmittance T(t), through the fit of
+* ``mcml``: the material's own MCML slab transmittance, through the fit of
   :func:`ssskit.profiles.montecarlo.transmission.fit_transmission` (t in mm, scale 1, the cosine law at the
-  back: wrap 0);
+  back: wrap 0) of its scattered part T_s(t) = Tt(t) - T_ballistic(t) by default: the unscattered beam leaves
+  along the light's own direction (the light source seen through the part), which a camera away from it never
+  sees and a path tracer renders only there; ``part="total"`` keeps MCML's whole Tt (the model before). Its
+  thickness is the one along the surface normal (the pass's step 2 with ``along_normal``): a slab lit at an
+  angle transmits the light it scatters nearly as at normal incidence through its own thickness;
 * ``jimenez2010``: Jimenez et al. 2010's skin transmittance [JWSG10] as their shader ships it ([Jim12],
   SeparableSSS.h, ``SSSSTransmittance``): T(d) = sum_i w_i exp(-d^2 / v_i) over d'Eon et al. 2007's six
   skin Gaussians (variances v_i in mm^2, RGB weights w_i; [dLE07]) with d = scale x thickness, scale =
@@ -31,14 +35,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..backends.spread_plan import SlotSpread
 from ..backends.transmission_plan import LUT_SIZE, UE_MAX_OPTICAL_DEPTH, SlotModel, TransmissionPlan, build_transmission_plan
 from ..errors import PassError
 from ..materials import Material
 from ..profiles.gaussians import DEON2007_SKIN_VARIANCES, DEON2007_SKIN_WEIGHTS
+
+if TYPE_CHECKING:
+    from ..profiles.montecarlo.transmission import TransmissionTable
 
 #: Jimenez 2010's wrap of the back irradiance (SeparableSSS.h: saturate(0.3 + dot(light, -normal)))
 JIMENEZ2010_WRAP = 0.3
@@ -62,18 +70,49 @@ def jimenez2010_model(translucency: float = 0.0, sss_width_mm: float | None = No
 
 
 @lru_cache(maxsize=32)
-def _mcml_fit(material: Material, photons: int, seed: int, terms: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    from ..profiles.montecarlo.transmission import fit_transmission, transmission_table
+def _mcml_table(material: Material, photons: int, seed: int) -> TransmissionTable:
+    from ..profiles.montecarlo.transmission import transmission_table
 
-    fit = fit_transmission(transmission_table(material, photons=photons, seed=seed), terms=terms)
+    return transmission_table(material, photons=photons, seed=seed)
+
+
+@lru_cache(maxsize=32)
+def _mcml_fit(material: Material, photons: int, seed: int, terms: int | None,
+              part: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    from ..profiles.montecarlo.transmission import fit_transmission
+
+    fit = fit_transmission(_mcml_table(material, photons, seed), terms=terms, part=part)
     return fit.amplitudes, fit.rates_per_mm, fit.gauss_per_mm2
 
 
-def mcml_model(material: Material, photons: int = 200_000, seed: int = 101, terms: int = 4) -> SlotModel:
-    """The material's MCML slab transmittance as a model (module docstring); the table's simulations are
-    cached on disk, the fit in memory."""
-    a, b, c = _mcml_fit(material, int(photons), int(seed), int(terms))
-    return SlotModel(a.copy(), b.copy(), c.copy(), 1.0, 0.0, "mcml")
+def mcml_model(material: Material, photons: int = 200_000, seed: int = 101, terms: int | None = None,
+               part: str = "diffuse", along_normal: bool = True) -> SlotModel:
+    """The material's MCML slab transmittance as a model (module docstring): the fit of its ``part`` (the
+    scattered light by default, or MCML's whole Tt) with ``terms`` terms (the fit's default), at the thickness
+    along the surface normal (``along_normal``, the default) or along the light; the table's simulations are
+    cached on disk, the table and the fit in memory."""
+    a, b, c = _mcml_fit(material, int(photons), int(seed), None if terms is None else int(terms), part)
+    return SlotModel(a.copy(), b.copy(), c.copy(), 1.0, 0.0, "mcml", along_normal=along_normal)
+
+
+def mcml_spread(material: Material, photons: int = 200_000, seed: int = 101) -> SlotSpread:
+    """The lateral spread of the material's scattered transmitted light (:mod:`ssskit.backends.spread_plan`):
+    the MCML table's widths (:attr:`~ssskit.profiles.montecarlo.transmission.TransmissionTable.spread_mm`) at its
+    thicknesses; where a channel's is not resolved (its light below 3 SE, deep in the tail) it keeps the last
+    resolved width."""
+    tab = _mcml_table(material, int(photons), int(seed))
+    assert tab.spread_mm is not None
+    w = np.array(tab.spread_mm, float).T  # (3, N)
+    for c in range(3):
+        ok = np.isfinite(w[c])
+        if not ok.any():
+            raise PassError(f"{material.name}: no resolved spread of the transmitted light in channel {c}")
+        first = int(np.argmax(ok))
+        w[c, :first] = w[c, first]
+        for i in range(first + 1, w.shape[1]):
+            if not np.isfinite(w[c, i]):
+                w[c, i] = w[c, i - 1]
+    return SlotSpread(np.asarray(tab.thickness_mm, float).copy(), w)
 
 
 #: UE's ProfileRadiusOffset (BurleyNormalizedSSS.cpp), cm
@@ -238,5 +277,5 @@ def thickness_from_map(view: LightView, shadow_mm: np.ndarray, points: np.ndarra
 
 
 __all__ = ["JIMENEZ2010_WRAP", "UE_TRANSMISSION_DEFAULTS", "LightView", "approximate_hg", "jimenez2010_model",
-           "mcml_model", "refract", "thickness_from_map", "transmission_plan", "unreal_model",
+           "mcml_model", "mcml_spread", "refract", "thickness_from_map", "transmission_plan", "unreal_model",
            "unreal_phase", "unreal_profile_distances_mm", "unreal_profile_table"]

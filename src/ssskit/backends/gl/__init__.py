@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from ..base import AdaptiveRunner
     from ..burley_plan import BurleyPlan, MipPyramid, SampleCounts
     from ..plan import SeparablePlan
+    from ..spread_plan import SpreadPlan
     from ..transmission_plan import TransmissionPlan
 
 
@@ -44,7 +45,7 @@ class GLBackend(Backend):
     name = "gl"
     description = "GLSL compute shaders through moderngl/EGL, float32: a GPU, or Mesa's llvmpipe on the CPU"
     dtype = np.float32
-    passes = frozenset({"separable", "burley", "adaptive", "transmission"})
+    passes = frozenset({"separable", "burley", "adaptive", "transmission", "spread"})
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
@@ -95,6 +96,23 @@ class GLBackend(Backend):
             ctx = context()
             try:
                 return run_transmission(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
+            finally:
+                ctx.__exit__(None, None, None)
+
+    def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                            light_uvz: np.ndarray, shadow_mm: np.ndarray) -> np.ndarray:
+        """The transmitted light's lateral spread (``gl/spread.py``), host arrays in and out."""
+        from ..spread_plan import check_spread_frame
+        from .context import context
+        from .spread import run_spread
+
+        check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
+        if np.size(slots) == 0:
+            return np.array(exitance, np.float32, copy=True)
+        with self._lock:
+            ctx = context()
+            try:
+                return run_spread(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
             finally:
                 ctx.__exit__(None, None, None)
 

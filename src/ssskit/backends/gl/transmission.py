@@ -60,6 +60,7 @@ void main() {
     if (!(wsum > 0.0)) return;
     float t = uvz[3 * p + 2] - acc / wsum;  // step 2
     if (!(finite(t) && t > BIAS)) return;
+    if (NORMAL[s] > 0.0) t *= clamp(-ndl[p], 0.0, 1.0);  // step 2: along the surface normal
     float e = clamp(WRAP[s] - ndl[p], 0.0, 1.0);  // step 3
     float u = SCALE[s] * t;
 #if HAS_LUT
@@ -107,6 +108,7 @@ def transmission_source(plan: TransmissionPlan) -> str:
         _array("float", "COEF_C", [_f(v) for v in plan.c.reshape(-1)]),
         _array("float", "SCALE", [_f(v) for v in plan.scale]),
         _array("float", "WRAP", [_f(v) for v in plan.wrap]),
+        _array("float", "NORMAL", [_f(v) for v in plan.normal]),
         *_lut_source(plan),
         _BODY,
     ])

@@ -23,7 +23,9 @@ from ...materials import CHANNELS, LayeredMaterial, Material
 
 #: bump when the transport or the tallies change: it is part of every cache key
 #: (2: the exit-direction tally, totals of shape (batches, 3 + N_EXIT_BINS); 3: photons traced in float32
-#: lanes with one xoshiro128+ stream per lane, other random numbers)
+#: lanes with one xoshiro128+ stream per lane, other random numbers). The transmitted light's radial and
+#: exit-direction tallies (Tt_r, Tt_a) came without a bump: the transport and its random numbers are the same,
+#: and :mod:`.run` reads a finished result stored before them (a finite slab's is simulated again)
 ENGINE_VERSION = 3
 #: bins of the exit-direction tally, uniform in cos^2 of the exit angle outside the medium (each
 #: bin holds the same projected solid angle pi / N_EXIT_BINS); the last one is within 12.9 degrees of

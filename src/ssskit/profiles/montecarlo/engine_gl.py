@@ -126,10 +126,10 @@ def _program(source: str) -> moderngl.ComputeShader:
 def run_batches(seed: int | np.integer, batch_ids: ArrayLike, batch_sizes: ArrayLike, mua: np.ndarray, mus: np.ndarray,
                 g: np.ndarray, z_top: np.ndarray, z_bot: np.ndarray, n_idx: np.ndarray, cos_crit_up: np.ndarray,
                 cos_crit_down: np.ndarray, rsp: float, ux0: float, uz0: float, dr: float, alpha: float,
-                rd_bins: np.ndarray, totals: np.ndarray) -> None:
-    """Trace the given batches on the GL device; row k of rd_bins / totals receives batch batch_ids[k]
-    (the contract of :func:`.engine_numba.run_batches`: rd_bins (K, nr) and totals (K, 3 + N_EXIT_BINS),
-    [diffuse reflectance, transmittance, absorbed, exit-direction bins], added to)."""
+                rd_bins: np.ndarray, tt_bins: np.ndarray, totals: np.ndarray) -> None:
+    """Trace the given batches on the GL device; row k of rd_bins / tt_bins / totals receives batch batch_ids[k]
+    (the contract of :func:`.engine_numba.run_batches`: rd_bins and tt_bins (K, nr), totals (K, 3 + 2 N_EXIT_BINS),
+    [diffuse reflectance, transmittance, absorbed, reflected and transmitted exit-direction bins], added to)."""
     from ...compute.gl import context
 
     ids = np.asarray(batch_ids, np.int64)
@@ -143,7 +143,7 @@ def run_batches(seed: int | np.integer, batch_ids: ArrayLike, batch_sizes: Array
     prog = _program(mcml_source(mua, mus, g, z_top, z_bot, n_idx, cos_crit_up, cos_crit_down, float(rsp), float(ux0),
                                 float(uz0), float(dr), nr, float(alpha)))
     ctx = context()
-    row = nr + 3 + N_EXIT_BINS
+    row = 2 * nr + 3 + 2 * N_EXIT_BINS  # mcml.comp's ROW
     key = int(seed) & (2**64 - 1)
     prog["u_key"] = (key & 0xFFFFFFFF, key >> 32)
     from ...compute.gl import is_software
@@ -181,6 +181,9 @@ def run_batches(seed: int | np.integer, batch_ids: ArrayLike, batch_sizes: Array
             for buf in bufs:
                 buf.release()
         values = words[..., 1] + words[..., 0] * 2.0**-32  # 32.32 fixed point: high word + low word / 2^32
+        e = nr + 3 + N_EXIT_BINS
         rd_bins[sub] += values[:, :nr]
-        totals[sub] += values[:, nr:]
+        totals[sub, :3 + N_EXIT_BINS] += values[:, nr:e]
+        tt_bins[sub] += values[:, e:e + nr]
+        totals[sub, 3 + N_EXIT_BINS:] += values[:, e + nr:]
         k0 += n_sub

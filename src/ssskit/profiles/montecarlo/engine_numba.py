@@ -13,10 +13,11 @@ Per photon (MCML 1.2.2 semantics):
 * step s = -ln(xi) / mu_t, or the optical depth left over from a boundary hit (StepSizeInTissue, HitBoundary);
 * a step that crosses a boundary stops on it, keeps the unused optical depth, and the photon is
   reflected (total internal reflection, or with probability R(theta_i), the unpolarised Fresnel
-  reflectance) or transmitted, all-or-none (CrossUpOrNot / CrossDnOrNot, RFresnel); an escaping photon scores its whole weight
-  at its exit radius (the last radial bin collects every radius beyond the grid) and in the bin of
-  its exit direction (:data:`N_EXIT_BINS` bins uniform in cos^2 of the angle to the normal
-  outside the medium, i.e. of equal projected solid angle; MCML's Rd_a with other bins);
+  reflectance) or transmitted, all-or-none (CrossUpOrNot / CrossDnOrNot, RFresnel); a photon escaping
+  through the top (reflected) or the bottom (transmitted) scores its whole weight at its exit radius (the
+  last radial bin collects every radius beyond the grid; MCML's RecordR / RecordT into Rd_r and Tt_r) and in
+  the bin of its exit direction (:data:`N_EXIT_BINS` bins uniform in cos^2 of the angle to the normal
+  outside the medium, i.e. of equal projected solid angle; MCML's Rd_a and Tt_a with other bins);
 * otherwise implicit capture: deposit w mu_a / mu_t, keep the rest (Drop); Henyey-Greenstein
   scattering, the isotropic case exact (SpinTheta, Spin);
 * Russian roulette below weight 1e-4 with survival chance 0.1 (Roulette).
@@ -262,18 +263,20 @@ def rough_interface_albedo(cos_theta: float, n1: float, n2: float, alpha: float,
 
 
 @njit(cache=True)
-def _score_exit(x, y, w, cos_out, dr, rd_bins, totals):
+def _score_exit(x, y, w, cos_out, dr, bins, totals, exit0):
     """Score a photon of weight w escaping at (x, y) with exit cosine cos_out outside: its radial
-    bin (the last one collects every radius beyond the grid) and its exit-direction bin; returns w."""
-    nr = rd_bins.shape[0]
+    bin in ``bins`` (the last one collects every radius beyond the grid; MCML's RecordR / RecordT) and
+    its exit-direction bin, totals[exit0 + k] (exit0 = 3: reflected, 3 + N_EXIT_BINS: transmitted);
+    returns w."""
+    nr = bins.shape[0]
     ir = int(math.sqrt(x * x + y * y) / dr)
     if ir > nr - 1:
         ir = nr - 1
-    rd_bins[ir] += w
+    bins[ir] += w
     ia = int(cos_out * cos_out * N_EXIT_BINS)
     if ia > N_EXIT_BINS - 1:
         ia = N_EXIT_BINS - 1
-    totals[3 + ia] += w
+    totals[exit0 + ia] += w
     return w
 
 
@@ -321,14 +324,17 @@ def _set_layer(lu, layer, mua, mus, g, z_top, z_bot, lf):
 
 @njit(cache=True, nogil=True, fastmath=FM32, error_model="numpy")
 def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_crit_up, cos_crit_down,
-               rsp, ux0, uz0, dr, alpha, rd_bins, totals):
-    """Simulate ``n_photons`` photons of stream (seed, batch); add tallies into rd_bins / totals.
+               rsp, ux0, uz0, dr, alpha, rd_bins, tt_bins, totals):
+    """Simulate ``n_photons`` photons of stream (seed, batch); add tallies into rd_bins / tt_bins / totals.
 
     Layers are 1..L in the arrays ``mua``, ``mus``, ``g``, ``z_top``, ``z_bot`` (index 0 and L + 1
     unused); ``n_idx[0]`` is the ambient index above, ``n_idx[L + 1]`` the one below. ``alpha`` > 0:
     the top surface is rough (module docstring); (ux0, 0, uz0) is then the beam outside the medium.
-    totals: [diffuse reflectance, transmittance, absorbed] weight sums, then the diffusely reflected
-    weight per exit-direction bin (:data:`N_EXIT_BINS` bins uniform in cos^2 theta outside).
+    rd_bins / tt_bins: the diffusely reflected / transmitted weight per radial bin of the exit point
+    (MCML's Rd_r and Tt_r; the last bin collects every radius beyond the grid). totals: [diffuse
+    reflectance, transmittance, absorbed] weight sums, then the reflected and then the transmitted weight
+    per exit-direction bin (:data:`N_EXIT_BINS` bins each, uniform in cos^2 theta outside; MCML's Rd_a and
+    Tt_a with other bins).
 
     LANES photons are traced side by side (module docstring): one branch-free float32 lane loop takes
     every lane's next step inside its layer (the step length, the hop, the absorption, the scattering),
@@ -479,7 +485,7 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
                                                                    _lane_uniform(rs, lu), _lane_uniform(rs, lu))
                         w *= f
                         if out:
-                            rd_sum += _score_exit(x, y, w, -nuz, dr, rd_bins, totals)
+                            rd_sum += _score_exit(x, y, w, -nuz, dr, rd_bins, totals, 3)
                             alive = False
                         else:
                             ux = nux
@@ -493,7 +499,7 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
                             r, ca2 = _fresnel(ni, nt, -uz)
                         if _lane_uniform(rs, lu) > r:  # transmitted
                             if layer == 1:
-                                rd_sum += _score_exit(x, y, w, ca2, dr, rd_bins, totals)
+                                rd_sum += _score_exit(x, y, w, ca2, dr, rd_bins, totals, 3)
                                 alive = False
                             else:
                                 layer -= 1
@@ -513,7 +519,7 @@ def _run_batch(seed, batch, n_photons, mua, mus, g, z_top, z_bot, n_idx, cos_cri
                         r, ca2 = _fresnel(ni, nt, uz)
                     if _lane_uniform(rs, lu) > r:
                         if layer == n_layers:
-                            tt_sum += w
+                            tt_sum += _score_exit(x, y, w, ca2, dr, tt_bins, totals, 3 + N_EXIT_BINS)
                             alive = False
                         else:
                             layer += 1
@@ -587,15 +593,17 @@ def run_batches(seed: np.uint64, batch_ids: NDArray[np.int64], batch_sizes: NDAr
                 mua: NDArray[np.float64], mus: NDArray[np.float64], g: NDArray[np.float64],
                 z_top: NDArray[np.float64], z_bot: NDArray[np.float64], n_idx: NDArray[np.float64],
                 cos_crit_up: NDArray[np.float64], cos_crit_down: NDArray[np.float64], rsp: float, ux0: float,
-                uz0: float, dr: float, alpha: float, rd_bins: NDArray[np.float64], totals: NDArray[np.float64]) -> None:
+                uz0: float, dr: float, alpha: float, rd_bins: NDArray[np.float64], tt_bins: NDArray[np.float64],
+                totals: NDArray[np.float64]) -> None:
     """Run the given batches on numba.get_num_threads() threads (the kernel releases the GIL; a thread
-    pool instead of a parallel loop: nothing to compile or load for it); row k of rd_bins / totals
-    receives batch batch_ids[k]. Each batch is its own stream and row: any thread count, the same rows."""
+    pool instead of a parallel loop: nothing to compile or load for it); row k of rd_bins / tt_bins (K, nr)
+    and totals (K, 3 + 2 N_EXIT_BINS) receives batch batch_ids[k] (:func:`_run_batch` for the layout).
+    Each batch is its own stream and row: any thread count, the same rows."""
     import numba
 
     def one(k: int) -> None:
         _run_batch(seed, batch_ids[k], batch_sizes[k], mua, mus, g, z_top, z_bot, n_idx, cos_crit_up,
-                   cos_crit_down, rsp, ux0, uz0, dr, alpha, rd_bins[k], totals[k])
+                   cos_crit_down, rsp, ux0, uz0, dr, alpha, rd_bins[k], tt_bins[k], totals[k])
 
     n = int(batch_ids.shape[0])
     threads = min(numba.get_num_threads(), n)

@@ -17,7 +17,7 @@ import numpy as np
 from ...errors import ProfileError
 from .config import N_EXIT_BINS, MCConfig, layer_arrays
 from .engine_numba import COS_90D, COS_ZERO, ROULETTE_CHANCE, WEIGHT_THRESHOLD
-from .result import MCResult, assemble_result
+from .result import N_TOTALS, MCResult, assemble_result
 
 
 def _fresnel(n1, n2, ca1):
@@ -67,8 +67,10 @@ def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> MCResult:
     sleft = np.zeros(n)
     idx = np.arange(n)
     bins = np.zeros((n_b, cfg.nr))
-    # per batch: [reflected, transmitted, absorbed] weight sums, then reflected weight per exit-direction bin
-    totals = np.zeros((n_b, 3 + N_EXIT_BINS))
+    tt_bins = np.zeros((n_b, cfg.nr))
+    # per batch: [reflected, transmitted, absorbed] weight sums, then the reflected and the transmitted weight
+    # per exit-direction bin
+    totals = np.zeros((n_b, N_TOTALS))
     while idx.size:
         lay = layer[idx]
         mut = a["mua"][lay] + a["mus"][lay]
@@ -108,6 +110,10 @@ def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> MCResult:
             np.add.at(totals, (batch[e], 3 + ia), w[e])
             eb = h[escape_bot]
             totals[:, 1] += np.bincount(batch[eb], weights=w[eb], minlength=n_b)
+            ir = np.minimum((np.sqrt(x[eb] ** 2 + y[eb] ** 2) / cfg.dr_mm).astype(np.int64), cfg.nr - 1)
+            np.add.at(tt_bins, (batch[eb], ir), w[eb])
+            ia = np.minimum((ca2[escape_bot] ** 2 * N_EXIT_BINS).astype(np.int64), N_EXIT_BINS - 1)
+            np.add.at(totals, (batch[eb], 3 + N_EXIT_BINS + ia), w[eb])
             w[h[escape_top | escape_bot]] = 0.0
             mv = h[move]
             ratio = (ni / nt)[move]
@@ -149,4 +155,4 @@ def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> MCResult:
         w[low[survive]] /= ROULETTE_CHANCE
         w[low[~survive]] = 0.0
         idx = idx[w[idx] > 0.0]
-    return assemble_result(cfg, bins, totals, time.perf_counter() - t0, {"engine": "numpy"})
+    return assemble_result(cfg, bins, totals, time.perf_counter() - t0, {"engine": "numpy"}, tt_bins=tt_bins)

@@ -13,10 +13,17 @@ The exit-direction tally (``exit_rd``, :data:`N_EXIT_BINS` bins uniform in cos^2
 equal projected solid angle pi / N): the radiance leaving a uniformly lit surface in bin k, for
 irradiance E, is L_k = E N exit_rd[k] / pi, so ``radiance_factor()`` = N exit_rd / total_rd is 1
 for a Lambertian exit and says how far the material's exit is from one (MCML's Rd_a, other bins).
+
+The transmitted light of a finite slab has the same two tallies (MCML's Tt_r and Tt_a [WJZ95]): ``tt_r``
+(mm^-2, Tt(r_i) = W_i / (2 pi r_i dr N) over the regular annuli, the light leaving the bottom face at
+radius r from the beam's axis; ``tt_overflow`` beyond the grid) and ``exit_tt`` (the transmitted
+light per exit-direction bin, the same bins as ``exit_rd``). A semi-infinite medium transmits nothing:
+both are zero.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -31,7 +38,9 @@ class MCResult:
     (centres of the regular bins), ``rd`` and ``rd_se``; totals are fractions of the incident light:
     ``total_rd`` all diffusely reflected light, ``overflow`` the part escaping beyond the grid
     (MCML's last bin), ``total_rd_in_grid`` the rest; ``exit_rd`` (N_EXIT_BINS,) the reflected
-    light per exit-direction bin (module docstring)."""
+    light per exit-direction bin; ``tt_r``, ``tt_r_se`` (nr - 1,), ``tt_overflow`` and ``exit_tt`` the
+    same tallies of the transmitted light (module docstring; empty arrays where a stored result predates
+    them)."""
 
     config: MCConfig
     r_mm: np.ndarray
@@ -51,6 +60,23 @@ class MCResult:
     exit_rd: np.ndarray = field(default_factory=lambda: np.full(N_EXIT_BINS, np.nan))
     exit_rd_se: np.ndarray = field(default_factory=lambda: np.full(N_EXIT_BINS, np.nan))
     extra: dict[str, Any] = field(default_factory=dict)
+    tt_r: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    tt_r_se: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    tt_overflow: float = 0.0
+    tt_overflow_se: float = 0.0
+    exit_tt: np.ndarray = field(default_factory=lambda: np.full(N_EXIT_BINS, np.nan))
+    exit_tt_se: np.ndarray = field(default_factory=lambda: np.full(N_EXIT_BINS, np.nan))
+
+    @property
+    def has_transmitted_tallies(self) -> bool:
+        """Whether ``tt_r`` and ``exit_tt`` hold the run's tallies (a stored result may predate them)."""
+        return self.tt_r.shape == self.rd.shape and bool(np.all(np.isfinite(self.exit_tt)))
+
+    def tt_radiance_factor(self) -> np.ndarray:
+        """(N_EXIT_BINS,): the transmitted radiance per exit-direction bin relative to a Lambertian exit of
+        the same total, N exit_tt / tt (as :meth:`radiance_factor` for the reflected light). The unscattered
+        beam of a normally incident run leaves along the normal: it is in the last bin."""
+        return N_EXIT_BINS * self.exit_tt / self.tt
 
     @property
     def total_rd_in_grid(self) -> float:
@@ -76,15 +102,20 @@ class MCResult:
         """
         if not (0.0 < mu <= 1.0) or not (2 <= bins <= N_EXIT_BINS):
             raise ValueError(f"need 0 < mu <= 1 and 2 <= bins <= {N_EXIT_BINS}, got {mu!r}, {bins!r}")
-        f = self.radiance_factor()[-bins:]
-        se = (N_EXIT_BINS * self.exit_rd_se / self.total_rd)[-bins:]
-        c = ((np.arange(N_EXIT_BINS) + 0.5) / N_EXIT_BINS)[-bins:]
-        w = 1.0 / np.maximum(se, 1e-300) ** 2
-        a = np.stack([np.ones(bins), c], axis=1)
-        cov = np.linalg.inv(a.T @ (a * w[:, None]))
-        coef = cov @ (a.T @ (w * f))
-        x = np.array([1.0, mu * mu])
-        return float(x @ coef), float(np.sqrt(x @ cov @ x))
+        idx = np.arange(N_EXIT_BINS - bins, N_EXIT_BINS)
+        return _line_at(self.radiance_factor(), N_EXIT_BINS * self.exit_rd_se / self.total_rd, idx, mu)
+
+    def tt_level_at(self, mu: float, bins: int = 4) -> tuple[float, float]:
+        """(level, standard error): the transmitted light's radiance L at exit cosine ``mu`` as pi L / E (E the
+        irradiance of the lit face; a Lambertian exit of the whole Tt gives Tt), N exit_tt per bin, from a
+        straight line in cos^2 fitted (weighted by the standard errors) through the ``bins`` bins whose centres
+        are nearest mu^2, the last bin left out (a normally incident run's unscattered beam leaves along the
+        normal, into it): what a camera at exit cosine ``mu`` sees of the light the slab scattered."""
+        if not (0.0 < mu < 1.0) or not (2 <= bins < N_EXIT_BINS):
+            raise ValueError(f"need 0 < mu < 1 and 2 <= bins < {N_EXIT_BINS}, got {mu!r}, {bins!r}")
+        centres = (np.arange(N_EXIT_BINS - 1) + 0.5) / N_EXIT_BINS
+        idx = np.sort(np.argsort(np.abs(centres - mu * mu), kind="stable")[:bins])
+        return _line_at(N_EXIT_BINS * self.exit_tt, N_EXIT_BINS * self.exit_tt_se, idx, mu)
 
     @property
     def photons_per_second(self) -> float:
@@ -104,10 +135,33 @@ class MCResult:
             "radiance_factor_normal": float(self.radiance_factor()[-1]),
             "Tt": self.tt,
             "Tt_se": self.tt_se,
+            "Tt_r": self.tt_r.tolist(),
+            "Tt_r_se": self.tt_r_se.tolist(),
+            "Tt_overflow": self.tt_overflow,
+            "exit_Tt": self.exit_tt.tolist(),
             "absorbed": self.absorbed,
             "absorbed_se": self.absorbed_se,
             "Rsp": self.rsp,
         }
+
+
+def ring_sums(density: np.ndarray, dr: float, edges: Any, density_se: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray | None]:
+    """The fraction of light in each ring [edges[k], edges[k + 1]) mm of a radial density (mm^-2) over
+    annuli of width ``dr`` (Rd(r) or Tt(r): bin i covers [i dr, (i + 1) dr), counted in the ring of its
+    centre): sum 2 pi r_i dr density_i; with ``density_se``, each ring's standard error from its annuli's in
+    quadrature (a photon lands in one annulus: their batch errors are nearly independent)."""
+    d = np.asarray(density, float)
+    e = np.asarray(edges, float)
+    r = (np.arange(d.shape[0]) + 0.5) * dr
+    area = 2.0 * np.pi * r * dr
+    k = np.searchsorted(e, r, side="right") - 1
+    ok = (k >= 0) & (k < e.shape[0] - 1)
+    sums = np.bincount(k[ok], weights=(d * area)[ok], minlength=e.shape[0] - 1)
+    if density_se is None:
+        return sums, None
+    var = (np.asarray(density_se, float) * area) ** 2
+    return sums, np.sqrt(np.bincount(k[ok], weights=var[ok], minlength=e.shape[0] - 1))
 
 
 def batch_stats(values: np.ndarray, sizes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -129,32 +183,61 @@ def batch_stats(values: np.ndarray, sizes: np.ndarray) -> tuple[np.ndarray, np.n
     return mean, np.sqrt(var)
 
 
+def _line_at(values: np.ndarray, ses: np.ndarray, idx: np.ndarray, mu: float) -> tuple[float, float]:
+    """(value, standard error) at cos^2 = mu^2 of the straight line in cos^2 through exit bins ``idx`` (at their
+    centres), weighted by their standard errors."""
+    f, se = values[idx], ses[idx]
+    c = (idx + 0.5) / N_EXIT_BINS
+    w = 1.0 / np.maximum(se, 1e-300) ** 2
+    a = np.stack([np.ones(idx.shape[0]), c], axis=1)
+    cov = np.linalg.inv(a.T @ (a * w[:, None]))
+    coef = cov @ (a.T @ (w * f))
+    x = np.array([1.0, mu * mu])
+    return float(x @ coef), float(np.sqrt(x @ cov @ x))
+
+
+#: values per batch row of ``totals``: [diffusely reflected, transmitted, absorbed], the reflected and the
+#: transmitted weight per exit-direction bin
+N_TOTALS = 3 + 2 * N_EXIT_BINS
+
+
 def assemble_result(cfg: MCConfig, bins: np.ndarray, totals: np.ndarray, seconds: float,
-                    extra: dict[str, Any] | None = None, rsp: float | None = None) -> MCResult:
+                    extra: dict[str, Any] | None = None, rsp: float | None = None,
+                    tt_bins: np.ndarray | None = None) -> MCResult:
     """An :class:`MCResult` from an engine's per-batch tallies over all of ``cfg``'s batches.
 
-    bins: (cfg.n_batches, cfg.nr) escaping weight per radial bin, the last one for every radius beyond
-    the grid; totals: (cfg.n_batches, 3 + N_EXIT_BINS) weight sums [diffusely reflected, transmitted,
-    absorbed, reflected per exit-direction bin...]; seconds: the simulation's run time; rsp: the
-    specular reflectance if not the smooth surface's ``cfg.specular_reflectance()``.
+    bins, tt_bins: (cfg.n_batches, cfg.nr) diffusely reflected / transmitted weight per radial bin, the
+    last one for every radius beyond the grid (``tt_bins`` None: a semi-infinite medium's, all zero);
+    totals: (cfg.n_batches, :data:`N_TOTALS`) weight sums [diffusely reflected, transmitted, absorbed,
+    reflected per exit-direction bin..., transmitted per exit-direction bin...]; seconds: the simulation's
+    run time; rsp: the specular reflectance if not the smooth surface's ``cfg.specular_reflectance()``.
     """
     sizes = cfg.batch_sizes()
-    if bins.shape != (sizes.shape[0], cfg.nr) or totals.shape != (sizes.shape[0], 3 + N_EXIT_BINS):
-        raise ValueError(f"tallies of shape {bins.shape} and {totals.shape} do not match the configuration's "
-                         f"{sizes.shape[0]} batches, {cfg.nr} bins and {N_EXIT_BINS} exit bins")
+    if tt_bins is None:
+        if math.isfinite(cfg.layers[-1].thickness_mm):
+            raise ValueError("a finite slab's result needs its transmitted radial tally (tt_bins)")
+        tt_bins = np.zeros_like(bins)
+    if (bins.shape != (sizes.shape[0], cfg.nr) or tt_bins.shape != bins.shape
+            or totals.shape != (sizes.shape[0], N_TOTALS)):
+        raise ValueError(f"tallies of shape {bins.shape}, {tt_bins.shape} and {totals.shape} do not match the "
+                         f"configuration's {sizes.shape[0]} batches, {cfg.nr} bins and {N_EXIT_BINS} exit bins")
     n = cfg.nr - 1  # the regular bins; bin n collects everything beyond them
     r_mm = (np.arange(n) + 0.5) * cfg.dr_mm
     area = 2.0 * np.pi * r_mm * cfg.dr_mm
     mean_bins, se_bins = batch_stats(bins, sizes)
+    mean_tt, se_tt = batch_stats(tt_bins, sizes)
     mean_tot, se_tot = batch_stats(totals, sizes)
+    e = 3 + N_EXIT_BINS
     return MCResult(
         config=cfg, r_mm=r_mm, rd=mean_bins[:n] / area, rd_se=se_bins[:n] / area,
         total_rd=float(mean_tot[0]), total_rd_se=float(se_tot[0]), tt=float(mean_tot[1]), tt_se=float(se_tot[1]),
         absorbed=float(mean_tot[2]), absorbed_se=float(se_tot[2]), rsp=cfg.specular_reflectance() if rsp is None else float(rsp),
         seconds=seconds,
         photons=cfg.photons, overflow=float(mean_bins[n]), overflow_se=float(se_bins[n]),
-        exit_rd=mean_tot[3:].copy(), exit_rd_se=se_tot[3:].copy(), extra=dict(extra or {}),
+        exit_rd=mean_tot[3:e].copy(), exit_rd_se=se_tot[3:e].copy(), extra=dict(extra or {}),
+        tt_r=mean_tt[:n] / area, tt_r_se=se_tt[:n] / area, tt_overflow=float(mean_tt[n]),
+        tt_overflow_se=float(se_tt[n]), exit_tt=mean_tot[e:].copy(), exit_tt_se=se_tot[e:].copy(),
     )
 
 
-__all__ = ["MCResult", "assemble_result", "batch_stats"]
+__all__ = ["MCResult", "N_TOTALS", "assemble_result", "batch_stats", "ring_sums"]

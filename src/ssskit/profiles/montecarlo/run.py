@@ -22,7 +22,7 @@ from ...cache import cache_dir
 from ...errors import ProfileError, SimulationInterrupted
 from ...io import ProgressBar, progress_bar, save_arrays
 from .config import N_EXIT_BINS, MCConfig, layer_arrays
-from .result import MCResult, assemble_result
+from .result import N_TOTALS, MCResult, assemble_result
 
 
 def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None = None, resume: bool = False,
@@ -74,7 +74,8 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
     sizes = cfg.batch_sizes()
     n_b = sizes.shape[0]
     bins = np.zeros((n_b, cfg.nr))
-    totals = np.zeros((n_b, 3 + N_EXIT_BINS))
+    tt_bins = np.zeros((n_b, cfg.nr))
+    totals = np.zeros((n_b, N_TOTALS))
     done = np.zeros(n_b, dtype=bool)
     elapsed = 0.0
     prefix = f"{label}: " if label else ""
@@ -84,7 +85,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
         else:
             partial = _load_partial(cfg, partial_path)
             if not resume:
-                held = "an unknown number of" if partial is None else f"{int(sizes[partial[2]].sum())} of {cfg.photons}"
+                held = "an unknown number of" if partial is None else f"{int(sizes[partial[3]].sum())} of {cfg.photons}"
                 what = f"{prefix}a partial result of an interrupted run exists ({held} photons)"
                 raise ProfileError(f"{what}; pass resume=True to continue it or restart=True to discard it",
                                    cli_message=f"{what}; {_CLI_AGAIN} and --resume to continue it, or --restart to "
@@ -93,7 +94,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
                 what = f"{prefix}the partial result of an interrupted run ({partial_path}) cannot be read"
                 raise ProfileError(f"{what}; pass restart=True to discard it",
                                    cli_message=f"{what}; {_CLI_AGAIN} and --restart to discard it")
-            bins, totals, done, elapsed = partial
+            bins, tt_bins, totals, done, elapsed = partial
 
     engine = _engine(backend)
     arrays = layer_arrays(cfg)
@@ -120,20 +121,21 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
                 start += ids.shape[0]
                 t_chunk = time.perf_counter()
                 b_rows = np.zeros((ids.shape[0], cfg.nr))
-                t_rows = np.zeros((ids.shape[0], 3 + N_EXIT_BINS))
+                tt_rows = np.zeros((ids.shape[0], cfg.nr))
+                t_rows = np.zeros((ids.shape[0], N_TOTALS))
                 engine.run_batches(
                     np.uint64(cfg.seed), ids.astype(np.int64), sizes[ids], arrays["mua"], arrays["mus"],
                     arrays["g"], arrays["z_top"], arrays["z_bot"], arrays["n_idx"], arrays["cos_crit_up"],
                     arrays["cos_crit_down"], 0.0 if cfg.roughness > 0 else rsp, ux0, uz0, cfg.dr_mm,
-                    float(cfg.roughness), b_rows, t_rows)
-                bins[ids], totals[ids], done[ids] = b_rows, t_rows, True
+                    float(cfg.roughness), b_rows, tt_rows, t_rows)
+                bins[ids], tt_bins[ids], totals[ids], done[ids] = b_rows, tt_rows, t_rows, True
                 if bar is not None and backend == "numba" and time.perf_counter() - t_chunk > CHUNK_S:
                     chunk = max(nthreads, 1)
                 if bar is not None:
                     bar.update(int(sizes[ids].sum()))
     except KeyboardInterrupt:
         if use_cache:
-            save_arrays(partial_path, bins=bins, totals=totals, done=done,
+            save_arrays(partial_path, bins=bins, tt_bins=tt_bins, totals=totals, done=done,
                         seconds=np.array(elapsed + time.perf_counter() - t0))
         n_done = int(sizes[done].sum())
         what = f"{prefix}simulation interrupted after {n_done} of {cfg.photons} photons; "
@@ -146,13 +148,15 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
     finally:
         if bar is not None:
             bar.close()
-    result = assemble_result(cfg, bins, totals, elapsed + time.perf_counter() - t0, rsp=rsp)
+    result = assemble_result(cfg, bins, totals, elapsed + time.perf_counter() - t0, rsp=rsp, tt_bins=tt_bins)
     if use_cache:
         save_arrays(final_path, r_mm=result.r_mm, rd=result.rd, rd_se=result.rd_se, exit_rd=result.exit_rd,
-                    exit_rd_se=result.exit_rd_se,
+                    exit_rd_se=result.exit_rd_se, tt_r=result.tt_r, tt_r_se=result.tt_r_se, exit_tt=result.exit_tt,
+                    exit_tt_se=result.exit_tt_se,
                     scalars=np.array([result.total_rd, result.total_rd_se, result.tt, result.tt_se,
                                       result.absorbed, result.absorbed_se, result.rsp, result.seconds,
-                                      result.overflow, result.overflow_se]))
+                                      result.overflow, result.overflow_se, result.tt_overflow,
+                                      result.tt_overflow_se]))
         with contextlib.suppress(OSError):
             partial_path.unlink()
     return result
@@ -215,29 +219,54 @@ def rough_specular(cfg: MCConfig) -> float:
                                  seed=cfg.seed)["reflected"][0]
 
 
-def _load_partial(cfg: MCConfig, path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, float] | None:
-    """(bins, totals, done, seconds) of an interrupted run, or None if the file cannot be used."""
+def _load_partial(cfg: MCConfig, path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float] | None:
+    """(bins, tt_bins, totals, done, seconds) of an interrupted run, or None if the file cannot be used (a
+    file from before the transmitted tallies is used for a semi-infinite medium, whose are all zero)."""
     n_b = cfg.n_batches
     try:
         with np.load(path) as z:
             bins, totals, done = z["bins"].copy(), z["totals"].copy(), z["done"].copy()
+            tt_bins = z["tt_bins"].copy() if "tt_bins" in z.files else None
             seconds = float(z["seconds"])
     except Exception:  # a truncated or foreign file: the caller reports it
         return None
-    if bins.shape != (n_b, cfg.nr) or totals.shape != (n_b, 3 + N_EXIT_BINS) or done.shape != (n_b,) or done.dtype != bool:
+    if tt_bins is None and not math.isfinite(cfg.layers[-1].thickness_mm) and totals.shape == (n_b, OLD_TOTALS):
+        tt_bins = np.zeros_like(bins)
+        totals = np.concatenate([totals, np.zeros((n_b, N_TOTALS - OLD_TOTALS))], axis=1)
+    if (tt_bins is None or bins.shape != (n_b, cfg.nr) or tt_bins.shape != bins.shape or totals.shape != (n_b, N_TOTALS)
+            or done.shape != (n_b,) or done.dtype != bool):
         return None
-    return bins, totals, done, seconds
+    return bins, tt_bins, totals, done, seconds
+
+
+#: values per batch row of ``totals`` in a file from before the transmitted tallies
+OLD_TOTALS = 3 + N_EXIT_BINS
 
 
 def _load_result(cfg: MCConfig, path: Path) -> MCResult:
+    """A finished result from the cache. A file written before the transmitted tallies (Tt_r, Tt_a) has
+    none: for a semi-infinite medium they are zero (it transmits nothing) and the file serves; for a finite
+    slab it raises, and :func:`simulate` runs the simulation again (the same streams: the same other
+    tallies, bit for bit, and the transmitted ones)."""
     with np.load(path) as z:
         s = z["scalars"]
+        rd = z["rd"].copy()
+        if "tt_r" in z.files:
+            tt_r, tt_r_se, exit_tt, exit_tt_se = (z[k].copy() for k in ("tt_r", "tt_r_se", "exit_tt", "exit_tt_se"))
+            tt_over = (float(s[10]), float(s[11]))
+        elif not math.isfinite(cfg.layers[-1].thickness_mm):
+            tt_r, tt_r_se, exit_tt, exit_tt_se = (np.zeros_like(rd), np.zeros_like(rd), np.zeros(N_EXIT_BINS),
+                                                  np.zeros(N_EXIT_BINS))
+            tt_over = (0.0, 0.0)
+        else:
+            raise KeyError("the cached result predates the transmitted tallies")
         return MCResult(
-            config=cfg, r_mm=z["r_mm"].copy(), rd=z["rd"].copy(), rd_se=z["rd_se"].copy(),
+            config=cfg, r_mm=z["r_mm"].copy(), rd=rd, rd_se=z["rd_se"].copy(),
             total_rd=float(s[0]), total_rd_se=float(s[1]), tt=float(s[2]), tt_se=float(s[3]),
             absorbed=float(s[4]), absorbed_se=float(s[5]), rsp=float(s[6]), seconds=float(s[7]),
             photons=cfg.photons, overflow=float(s[8]), overflow_se=float(s[9]), exit_rd=z["exit_rd"].copy(),
-            exit_rd_se=z["exit_rd_se"].copy(), extra={"cached": True},
+            exit_rd_se=z["exit_rd_se"].copy(), extra={"cached": True}, tt_r=tt_r, tt_r_se=tt_r_se,
+            tt_overflow=tt_over[0], tt_overflow_se=tt_over[1], exit_tt=exit_tt, exit_tt_se=exit_tt_se,
         )
 
 

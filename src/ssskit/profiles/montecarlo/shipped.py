@@ -128,7 +128,8 @@ def shipped_result(cfg: MCConfig) -> MCResult | None:
                     total_rd=s["total_rd"], total_rd_se=s["total_rd_se"], tt=s["tt"], tt_se=s["tt_se"],
                     absorbed=s["absorbed"], absorbed_se=s["absorbed_se"], rsp=s["rsp"], seconds=s["seconds"],
                     photons=cfg.photons, overflow=s["overflow"], overflow_se=s["overflow_se"], exit_rd=exit_rd,
-                    exit_rd_se=exit_rd_se, extra={"shipped": True})
+                    exit_rd_se=exit_rd_se, extra={"shipped": True}, tt_r=np.zeros(n_reg), tt_r_se=np.zeros(n_reg),
+                    exit_tt=np.zeros_like(exit_rd), exit_tt_se=np.zeros_like(exit_rd))  # semi-infinite: no Tt
 
 
 def write_shipped(entries: list[tuple[str, str, MCResult]], path: Path = SHIPPED_FILE,

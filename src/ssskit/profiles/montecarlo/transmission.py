@@ -20,6 +20,14 @@ Two bounds hold for any slab, whatever its scattering, and are what the tests ch
   Fresnel reflectance R = ((n - 1) / (n + 1))^2 ([BW99]: the thick-plate sum; for a pure absorber,
   sigma_s = 0, it is the exact answer with sigma_t = sigma_a: :func:`absorber_transmittance`).
 
+What a camera sees of it (:attr:`TransmissionTable.diffuse`): the unscattered beam (the ballistic part,
+:func:`absorber_transmittance` with sigma_t, exact in expectation for MCML's smooth faces) leaves along the
+light's own direction: it is the light seen *through* the slab (the light source's image), which a camera
+away from that direction never sees. The rest, T_s(t) = Tt(t) - T_ballistic(t), the light the medium
+scattered, leaves in every direction: the transmittance pass's ``mcml`` model is its fit. MCML's Tt_r [WJZ95]
+gives its lateral spread (:attr:`TransmissionTable.spread_mm`, the width of a Gaussian with the same median
+radius as the scattered light's Tt(r), the unscattered beam taken out of the first annulus).
+
 The fit (:func:`fit_transmission`): T(t) ~ sum_k a_k exp(-b_k t - c_k t^2), a_k, b_k, c_k >= 0, a sum of
 exponentials each with a Gaussian factor. Its two limits are the published forms: with c = 0 the exponentials
 of diffusion theory (the multipole model of a slab, Donner and Jensen 2005 [DJ05], a sum of
@@ -29,7 +37,11 @@ ballistic part as exp(-sigma_t t)); with b = 0 Jimenez et al. 2010's Gaussian su
 T(t) of skin's green and blue is log-concave over the first millimetres (the ballistic beam gives way to
 the diffuse light), which the Gaussian factors follow. The parameters are found by variable projection
 (the amplitudes, linear, by non-negative least squares for each trial set of b, c), weighted by each
-entry's error; the fit's error is reported in standard errors and relative terms.
+entry's error; the fit's error is reported in standard errors and relative terms. The scattered part
+T_s(t) (``part="diffuse"``) is 0 at t = 0 and rises before it falls, which no sum of decreasing terms
+follows: its fit is T_s(t) ~ sum_k a_k (exp(-b_k t - c_k t^2) - exp(-B t)), a_k >= 0, one shared B (0 at t =
+0 by construction; as a sum of terms, the K above and one of amplitude -sum a_k, rate B), checked >= 0 on a
+dense grid.
 """
 
 from __future__ import annotations
@@ -44,6 +56,7 @@ import numpy as np
 
 from ...errors import ProfileError
 from ...materials import Material
+from .result import MCResult
 from .run import simulate
 from .slab import slab_config
 
@@ -58,8 +71,10 @@ GRID_MM = (0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8
 #: photons per simulation of a table (each entry: one run per channel)
 DEFAULT_PHOTONS = 200_000
 
-#: terms of the exponential fit
+#: terms of the exponential fit of MCML's Tt, and of its scattered part (each with its share of the last
+#: term's -sum a_k exp(-B t))
 DEFAULT_TERMS = 4
+DIFFUSE_TERMS = 3
 
 
 def normal_fresnel(eta: float, eta_ambient: float = 1.0) -> float:
@@ -97,6 +112,20 @@ class TransmissionTable:
     eta_ambient: float
     photons: int
     seed: int
+    spread_mm: np.ndarray | None = None
+
+    @property
+    def ballistic(self) -> np.ndarray:
+        """(N, 3) the unscattered beam's share of ``tt``: :func:`absorber_transmittance` with sigma_t (module
+        docstring)."""
+        return np.stack([absorber_transmittance(self.sigma_t[c], self.thickness_mm, self.eta, self.eta_ambient)
+                         for c in range(3)], axis=-1)
+
+    @property
+    def diffuse(self) -> np.ndarray:
+        """(N, 3) T_s = tt - ballistic: the light the slab scattered, what a camera away from the light's own
+        direction sees (module docstring); its standard error is ``tt_se`` (the ballistic part is exact)."""
+        return self.tt - self.ballistic
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {}
@@ -107,10 +136,12 @@ class TransmissionTable:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> TransmissionTable:
-        arrays = {"thickness_mm", "tt", "tt_se", "rd", "rd_se", "rsp"}
+        arrays = {"thickness_mm", "tt", "tt_se", "rd", "rd_se", "rsp", "spread_mm"}
         kw: dict[str, Any] = {}
         for f in dataclasses.fields(cls):
-            v = d[f.name]
+            v = d.get(f.name)
+            if v is None:
+                continue
             if f.name in arrays:
                 kw[f.name] = np.asarray(v, float)
             elif f.name in ("sigma_a", "sigma_t"):
@@ -135,7 +166,7 @@ def transmission_table(material: Material, photons: int = DEFAULT_PHOTONS, seed:
         raise ProfileError(f"thicknesses must be finite, positive and ascending, got {list(grid)!r}")
     if not (0 < floor < 1):
         raise ProfileError(f"the transmittance floor must lie in (0, 1), got {floor!r}")
-    rows: dict[str, list[list[float]]] = {k: [] for k in ("tt", "tt_se", "rd", "rd_se")}
+    rows: dict[str, list[list[float]]] = {k: [] for k in ("tt", "tt_se", "rd", "rd_se", "spread")}
     rsp = np.zeros(3)
     used: list[float] = []
     for i, t in enumerate(ts):
@@ -144,6 +175,8 @@ def transmission_table(material: Material, photons: int = DEFAULT_PHOTONS, seed:
             r = simulate(slab_config(material, c, t, photons, seed + i), threads=threads)
             vals["tt"][c], vals["tt_se"][c] = r.tt, r.tt_se
             vals["rd"][c], vals["rd_se"][c] = r.total_rd, r.total_rd_se
+            vals["spread"][c] = diffuse_spread(r, float(absorber_transmittance(material.sigma_t[c], t, material.eta,
+                                                                                material.eta_ambient)))
             rsp[c] = r.rsp
         for k in rows:
             rows[k].append(vals[k])
@@ -153,18 +186,48 @@ def transmission_table(material: Material, photons: int = DEFAULT_PHOTONS, seed:
     else:
         raise ProfileError(f"{material.name}'s transmittance is still {max(rows['tt'][-1]):.3g} at the grid's last "
                            f"thickness {ts[-1]:g} mm, above the floor {floor:g}: extend the grid")
-    tt, tt_se, rd, rd_se = (np.asarray(rows[k]) for k in ("tt", "tt_se", "rd", "rd_se"))
+    tt, tt_se, rd, rd_se, spread = (np.asarray(rows[k]) for k in ("tt", "tt_se", "rd", "rd_se", "spread"))
     return TransmissionTable(material.name, np.asarray(used), tt, tt_se, rd, rd_se, rsp,
                              material.sigma_a, material.sigma_t, float(material.eta),
-                             float(material.eta_ambient), int(photons), int(seed))
+                             float(material.eta_ambient), int(photons), int(seed), spread)
+
+
+#: the width of a Gaussian (its sigma) over its median radius: a 2D Gaussian holds half its light within
+#: sigma sqrt(2 ln 2)
+GAUSS_MEDIAN = math.sqrt(2.0 * math.log(2.0))
+
+
+def diffuse_spread(result: MCResult, ballistic: float) -> float:
+    """The lateral spread of the scattered transmitted light of one slab run (normal incidence): sigma (mm) of
+    the Gaussian with the same median radius as Tt(r) [WJZ95] less the unscattered beam ``ballistic`` (which
+    leaves on the axis: the first annulus), r_50 / sqrt(2 ln 2); NaN where the scattered part is not resolved
+    (below 3 SE) or the run has no Tt(r) tally. The median, not the second moment: light guided along a thin
+    slab by total internal reflection gives Tt(r) a long tail (Skin1 at 0.05 mm: median 0.5 mm, rms radius
+    2.2 mm) that a blur of the seen surface could not follow anyway."""
+    if not result.has_transmitted_tallies:
+        return math.nan
+    w = result.tt_r * 2.0 * np.pi * result.r_mm * result.config.dr_mm
+    w = np.append(w, result.tt_overflow)
+    w[0] -= ballistic
+    total = float(w.sum())
+    if not total > 3.0 * result.tt_se:
+        return math.nan
+    edges = np.arange(w.shape[0] + 1) * result.config.dr_mm  # the overflow bin ends one bin past the grid
+    cdf = np.concatenate([[0.0], np.cumsum(w)]) / total
+    k = int(np.searchsorted(cdf, 0.5))
+    lo, hi = cdf[k - 1], cdf[k]
+    r50 = edges[k - 1] + (0.5 - lo) / (hi - lo) * (edges[k] - edges[k - 1]) if hi > lo else edges[k]
+    return float(r50 / GAUSS_MEDIAN)
 
 
 @dataclass(frozen=True, eq=False)
 class TransmissionFit:
     """T(t) ~ sum_k a_k exp(-b_k t - c_k t^2) per channel (module docstring): ``amplitudes`` a, ``rates_per_mm``
-    b and ``gauss_per_mm2`` c, each (3, K), all >= 0. The fit's errors on the table's resolved entries (T > 3
-    SE): ``max_se`` (3,) max |fit - T| / SE; on the precise ones (SE < 10 % of T) ``max_rel_error`` and
-    ``rms_rel_error`` (3,) of |fit - T| / T; the thickness range it was fitted on."""
+    b and ``gauss_per_mm2`` c, each (3, K), b, c >= 0; a >= 0 for ``part`` "total" (MCML's Tt), and for
+    "diffuse" (the scattered part T_s) but for the last term, whose amplitude is minus the others' sum (0 at t =
+    0). The fit's errors on the table's resolved entries (T > 3 SE): ``max_se`` (3,) max |fit - T| / SE; on the
+    precise ones (SE < 10 % of T) ``max_rel_error`` and ``rms_rel_error`` (3,) of |fit - T| / T; the
+    thickness range it was fitted on."""
 
     material: str
     amplitudes: np.ndarray
@@ -174,6 +237,7 @@ class TransmissionFit:
     rms_rel_error: np.ndarray
     max_se: np.ndarray
     fitted_mm: tuple[float, float]
+    part: str = "total"
 
     def __call__(self, thickness_mm: float | np.ndarray) -> np.ndarray:
         """(..., 3) fitted T at the thicknesses (mm)."""
@@ -182,29 +246,34 @@ class TransmissionFit:
 
     def to_dict(self) -> dict[str, Any]:
         return {"material": self.material, "form": "T(t) = sum_k a_k exp(-b_k t - c_k t^2), t in mm",
-                "amplitudes": self.amplitudes.tolist(), "rates_per_mm": self.rates_per_mm.tolist(),
+                "part": self.part, "amplitudes": self.amplitudes.tolist(), "rates_per_mm": self.rates_per_mm.tolist(),
                 "gauss_per_mm2": self.gauss_per_mm2.tolist(),
                 "max_rel_error": self.max_rel_error.tolist(), "rms_rel_error": self.rms_rel_error.tolist(),
                 "max_se": self.max_se.tolist(), "fitted_mm": list(self.fitted_mm)}
 
 
+#: the parts of MCML's transmittance a fit follows: Tt, or its scattered part T_s (module docstring)
+PARTS = ("total", "diffuse")
+
+
 def _fit_channel(t: np.ndarray, y: np.ndarray, se: np.ndarray, starts: Sequence[np.ndarray], terms: int,
-                 rel_floor: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 rel_floor: float, diffuse: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(a, b, c) of sum_k a_k exp(-b_k t - c_k t^2) minimising sum ((fit - y) / s)^2 with s = sqrt(se^2 +
     (rel_floor y)^2) (each entry's error, floored relative to it so that no precise entry dominates):
     variable projection, the amplitudes by non-negative least squares for each trial (b, c) (b = e^x, c =
-    x'^2), from each start; the best."""
+    x'^2), from each start; the best. ``diffuse``: each basis function is exp(-b_k t - c_k t^2) - exp(-B t)
+    with one more parameter B = e^x (the last of x), and the result has K + 1 terms, the last (-sum a, B, 0)."""
     from scipy.optimize import least_squares, nnls
 
     s = np.sqrt(se ** 2 + (rel_floor * y) ** 2)
     k = terms
 
-    def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return np.exp(x[:k]), x[k:] ** 2
+    def basis(x: np.ndarray, tt: np.ndarray) -> np.ndarray:
+        m = np.exp(-np.outer(tt, np.exp(x[:k])) - np.outer(tt * tt, x[k:2 * k] ** 2))
+        return m - np.exp(-np.exp(x[2 * k]) * tt)[:, None] if diffuse else m
 
     def amps(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        b, c = unpack(x)
-        m = np.exp(-np.outer(t, b) - np.outer(t * t, c)) / s[:, None]
+        m = basis(x, t) / s[:, None]
         a, _ = nnls(m, y / s)
         return a, m @ a - y / s
 
@@ -213,38 +282,54 @@ def _fit_channel(t: np.ndarray, y: np.ndarray, se: np.ndarray, starts: Sequence[
 
     best: tuple[float, np.ndarray] | None = None
     for x0 in starts:
-        res = least_squares(residual, x0, method="trf", max_nfev=300)
+        res = least_squares(residual, x0, method="trf", max_nfev=400 if diffuse else 300)
         cost = float(np.sum(res.fun ** 2))
         if best is None or cost < best[0]:
             best = (cost, res.x)
     assert best is not None
-    a, _ = amps(best[1])
-    b, c = unpack(best[1])
+    x = best[1]
+    a, _ = amps(x)
+    b, c = np.exp(x[:k]), x[k:2 * k] ** 2
     order = np.argsort(b)
-    return a[order], b[order], c[order]
+    a, b, c = a[order], b[order], c[order]
+    if diffuse:
+        a, b, c = np.append(a, -a.sum()), np.append(b, np.exp(x[2 * k])), np.append(c, 0.0)
+    return a, b, c
 
 
-def fit_transmission(table: TransmissionTable, terms: int = DEFAULT_TERMS, rel_floor: float = 0.01) -> TransmissionFit:
-    """The fit of a table (module docstring), per channel on its entries with T > 3 SE, each weighted by its
-    error sqrt(SE^2 + (rel_floor T)^2). Deterministic starts: rates spanning the channel's diffusion rate
-    sigma_tr = sqrt(3 sigma_a sigma_t') (g = 0) to a few times its extinction sigma_t, with small and
-    moderate Gaussian terms."""
+def fit_transmission(table: TransmissionTable, terms: int | None = None, rel_floor: float = 0.01,
+                     part: str = "total") -> TransmissionFit:
+    """The fit of a table's ``part`` (:data:`PARTS`: MCML's Tt, or its scattered part T_s, ``table.diffuse``;
+    module docstring), per channel on its entries with T > 3 SE, each weighted by its error sqrt(SE^2 +
+    (rel_floor T)^2); ``terms`` (default 4 for the total, 3 + the one of -sum a for the scattered part).
+    Deterministic starts: rates spanning the channel's diffusion rate sigma_tr = sqrt(3 sigma_a sigma_t') (g =
+    0) to a few times its extinction sigma_t, with small and moderate Gaussian terms (and B = 2 sigma_t). A
+    scattered-part fit negative anywhere on [0, 2 x the table's last thickness] is a ProfileError."""
+    if part not in PARTS:
+        raise ProfileError(f"the fit follows one of {', '.join(PARTS)}, got {part!r}")
+    diffuse = part == "diffuse"
+    terms = (DIFFUSE_TERMS if diffuse else DEFAULT_TERMS) if terms is None else terms
     if not (isinstance(terms, int) and 1 <= terms <= 6):
         raise ProfileError(f"the fit takes 1 to 6 terms, got {terms!r}")
-    out = np.zeros((3, 3, terms))
+    n_out = terms + 1 if diffuse else terms
+    out = np.zeros((3, 3, n_out))
     errs = np.zeros((3, 3))
     lo, hi = math.inf, 0.0
+    values = table.diffuse if diffuse else table.tt
     for c in range(3):
-        y, se, t = table.tt[:, c], table.tt_se[:, c], table.thickness_mm
+        y, se, t = values[:, c], table.tt_se[:, c], table.thickness_mm
         ok = (y > 0) & (y > 3 * se)
-        if ok.sum() < 2 * terms:
+        need = 2 * terms + (1 if diffuse else 0)
+        if ok.sum() < need:
             raise ProfileError(f"{table.material}: channel {c} has {int(ok.sum())} resolved entries, fewer than the "
-                               f"{2 * terms} a {terms}-term fit needs")
+                               f"{need} a {terms}-term fit needs")
         sa, st = table.sigma_a[c], table.sigma_t[c]
         sig_tr = math.sqrt(3.0 * sa * st) if sa > 0 else 1.0 / float(t[ok].max())
-        starts = [np.r_[np.log(np.geomspace(f_lo * sig_tr, f_hi * max(st, sig_tr), terms)), np.full(terms, math.sqrt(c0))]
+        tail = [math.log(2.0 * st)] if diffuse else []
+        starts = [np.r_[np.log(np.geomspace(f_lo * sig_tr, f_hi * max(st, sig_tr), terms)), np.full(terms, math.sqrt(c0)),
+                        tail]
                   for f_lo, f_hi, c0 in ((0.9, 2.0, 1e-3), (0.5, 4.0, 0.03 * sig_tr), (0.95, 8.0, 1e-3))]
-        a, b, g = _fit_channel(t[ok], y[ok], se[ok], starts, terms, rel_floor)
+        a, b, g = _fit_channel(t[ok], y[ok], se[ok], starts, terms, rel_floor, diffuse)
         out[:, c] = a, b, g
         f = np.sum(a * np.exp(-b * t[ok, None] - g * t[ok, None] ** 2), axis=-1)
         rel = np.abs(f - y[ok]) / y[ok]
@@ -252,8 +337,15 @@ def fit_transmission(table: TransmissionTable, terms: int = DEFAULT_TERMS, rel_f
         errs[:, c] = (rel[precise].max(), math.sqrt(float(np.mean(rel[precise] ** 2))),
                       float(np.max(np.abs(f - y[ok]) / np.maximum(se[ok], 1e-300))))
         lo, hi = min(lo, float(t[ok].min())), max(hi, float(t[ok].max()))
-    return TransmissionFit(table.material, out[0], out[1], out[2], errs[0], errs[1], errs[2], (lo, hi))
+        if diffuse:
+            dense = np.linspace(0.0, 2.0 * float(t.max()), 20_001)[:, None]
+            low = float(np.min(np.sum(a * np.exp(-b * dense - g * dense ** 2), axis=-1)))
+            if low < -1e-9:
+                raise ProfileError(f"{table.material}: channel {c}'s fit of the scattered transmittance falls to "
+                                   f"{low:.3g} < 0; try another number of terms")
+    return TransmissionFit(table.material, out[0], out[1], out[2], errs[0], errs[1], errs[2], (lo, hi), part)
 
 
-__all__ = ["DEFAULT_PHOTONS", "DEFAULT_TERMS", "GRID_MM", "T_FLOOR", "TransmissionFit", "TransmissionTable",
-           "absorber_transmittance", "fit_transmission", "normal_fresnel", "transmission_table"]
+__all__ = ["DEFAULT_PHOTONS", "DEFAULT_TERMS", "DIFFUSE_TERMS", "GAUSS_MEDIAN", "GRID_MM", "PARTS", "T_FLOOR",
+           "TransmissionFit", "TransmissionTable", "absorber_transmittance", "diffuse_spread", "fit_transmission",
+           "normal_fresnel", "transmission_table"]

@@ -1,0 +1,154 @@
+"""The lateral spread of the transmitted light (docs/transmission.md, "Lateral spread"): the light that enters the
+back of a thin part at one point leaves its front spread around it, MCML's Tt(r; t) [WJZ95]; the transmittance
+pass (:mod:`ssskit.backends.transmission_plan`) puts it all at the point behind, and this step spreads it in
+screen space where the spread is wider than a pixel: a separable, depth-aware Gaussian whose width follows each
+pixel's thickness.
+
+The width: per profile slot and channel, sigma(t) (mm) at thickness knots t_0 < ... < t_n-1, the sigma of the
+Gaussian with the same median radius as MCML's scattered Tt(r; t)
+(:func:`ssskit.profiles.montecarlo.transmission.diffuse_spread`), linear between the knots, the end values
+beyond them.
+
+Frame inputs (pixel-aligned (H, W) unless noted): ``exitance`` (H, W, 3) the transmittance pass's output;
+``depth_mm`` the camera depth (finite where ``slots`` > 0); ``slots`` int32 (0 = no SSS: copied unchanged);
+``light_uvz`` (H, W, 3) and ``shadow_mm`` (Hs, Ws) the light layers as the pass takes them.
+
+Per pixel p in slot s > 0 (every backend in this order):
+
+0. t = the pass's steps 1-2 (the map's bilinear depth D at p's light-space position, t = z - D); where there is
+   none (no finite texel, t not finite, t <= ``bias_mm``) t = 0: the pixel still gathers its neighbours' light.
+1. sigma_c = sigma_s,c(t) (mm); the pixel's scale k = f / depth_p (pixels per mm: ``fx`` for the horizontal
+   pass, ``fy`` for the vertical), sigma_px,c = k sigma_c, m = max_c sigma_px,c.
+2. One 1D pass along the axis (horizontal on ``exitance``, then vertical on its result): if m < ``min_px``
+   the pixel keeps its value. Else taps at d = j step, j = -K..K, j != 0, with step = ceil(3 m / max_taps)
+   pixels and K = ceil(3 m / step) (at most ``max_taps``); the texel q = p + d (along the axis) counts if it
+   lies in the image and in slot s. Its weight is the pair's, the same seen from p and from q: with the
+   geometric means S_c = sqrt(sigma_px,c(p) sigma_px,c(q)) (pixels, each at its own depth) and s_c =
+   sqrt(sigma_c(p) sigma_c(q)) (mm), w_c = step exp(-d^2 / (2 S_c^2)) / (sqrt(2 pi) S_c) exp(-(z_q - z_p)^2 /
+   (2 s_c^2)) (the Gaussian of the 3D distance) where |d| <= 3 S_c, 0 beyond (and where S_c = 0); out_c(p) =
+   v_c(p) + sum_q w_c (v_c(q) - v_c(p)). What p gives q, q gives back in the same measure, so the light is
+   moved, not made or lost: exactly where the two see each other with the same step (a smooth width); when
+   each pixel's width is drawn at random between 0.8 and 4.8 pixels, 0.6 % of it is lost (a width taken from
+   the receiver alone lost 7 % of a 0.5 mm slab's red light to the G-buffer's noisy thickness, draining the
+   thicker, brighter pixels). Taps off the image, off the slot or lost to the depth factor leave their share
+   at p (as the separable pass, :mod:`ssskit.backends.plan`): a uniform exitance stays uniform, and nothing
+   crosses profile ids.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import PassError
+
+#: the most taps on each side of a pixel per 1D pass (a wider Gaussian is sampled with a stride)
+MAX_TAPS = 16
+#: below this width in pixels (the widest channel's sigma) a pixel is left as it is
+MIN_PX = 0.5
+#: the most thickness knots of one slot's width table
+MAX_KNOTS = 64
+
+
+@dataclass(frozen=True)
+class SlotSpread:
+    """One profile id's spread width: ``knots_mm`` (N,) ascending thicknesses and ``sigma_mm`` (3, N) >= 0."""
+
+    knots_mm: np.ndarray
+    sigma_mm: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class SpreadPlan:
+    """What a backend needs besides the frame's images (module docstring): per slot (slot 0 empty) the knots
+    (S, N) padded with their last value, the widths (S, 3, N), ``n_knots`` (S,); the focal lengths in pixels,
+    the zero-thickness bias, ``min_px`` and ``max_taps``."""
+
+    ids: tuple[int, ...]
+    knots_mm: NDArray[np.float64]
+    sigma_mm: NDArray[np.float64]
+    n_knots: NDArray[np.int64]
+    fx: float
+    fy: float
+    bias_mm: float = 1e-3
+    min_px: float = MIN_PX
+    max_taps: int = MAX_TAPS
+
+    @property
+    def slots(self) -> int:
+        return len(self.ids) + 1
+
+    def sigma(self, slot: int, thickness_mm: np.ndarray) -> NDArray[np.float64]:
+        """(..., 3) step 1's sigma (mm) of one slot at thicknesses (mm), in float64."""
+        n = int(self.n_knots[slot])
+        t = np.asarray(thickness_mm, float)
+        return np.stack([np.interp(t, self.knots_mm[slot, :n], self.sigma_mm[slot, c, :n]) for c in range(3)], axis=-1)
+
+
+def build_spread_plan(spreads: dict[int, SlotSpread], fx: float, fy: float, bias_mm: float = 1e-3,
+                      min_px: float = MIN_PX, max_taps: int = MAX_TAPS) -> SpreadPlan:
+    """The plan of profile ids -> their :class:`SlotSpread` for a camera of focal lengths ``fx``, ``fy``
+    (pixels), or a PassError naming what is wrong."""
+    for name, v in (("fx", fx), ("fy", fy)):
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise PassError(f"the spread's focal length {name} must be a positive number of pixels, got {v!r}")
+    if not (isinstance(bias_mm, (int, float)) and math.isfinite(bias_mm) and bias_mm >= 0):
+        raise PassError(f"the zero-thickness bias must be a finite number of mm >= 0, got {bias_mm!r}")
+    if not (isinstance(min_px, (int, float)) and math.isfinite(min_px) and min_px > 0):
+        raise PassError(f"min_px must be a positive number of pixels, got {min_px!r}")
+    if isinstance(max_taps, bool) or not (isinstance(max_taps, int) and 1 <= max_taps <= 64):
+        raise PassError(f"max_taps must be an integer in [1, 64], got {max_taps!r}")
+    ids = tuple(sorted(int(i) for i in spreads))
+    if any(i <= 0 for i in ids):
+        raise PassError(f"profile ids with a spread must be >= 1 (0 means no SSS), got {list(ids)}")
+    n = max((np.size(spreads[i].knots_mm) for i in ids), default=1)
+    if n > MAX_KNOTS:
+        raise PassError(f"a spread table holds at most {MAX_KNOTS} thicknesses, got {n}")
+    s = len(ids) + 1
+    knots, sigma = np.zeros((s, n)), np.zeros((s, 3, n))
+    counts = np.ones(s, np.int64)
+    for slot, pid in enumerate(ids, start=1):
+        t = np.asarray(spreads[pid].knots_mm, float)
+        w = np.asarray(spreads[pid].sigma_mm, float)
+        if (t.ndim != 1 or t.size < 1 or w.shape != (3, t.size) or not np.all(np.isfinite(t)) or np.any(t < 0)
+                or np.any(np.diff(t) <= 0) or not np.all(np.isfinite(w)) or np.any(w < 0)):
+            raise PassError(f"profile id {pid}: the spread needs ascending finite thicknesses >= 0 and (3, N) finite "
+                            f"widths >= 0, got shapes {t.shape} and {w.shape}")
+        k = t.size
+        knots[slot, :k], knots[slot, k:] = t, t[-1]
+        sigma[slot, :, :k], sigma[slot, :, k:] = w, w[:, -1:]
+        counts[slot] = k
+    return SpreadPlan(ids, knots, sigma, counts, float(fx), float(fy), float(bias_mm), float(min_px), int(max_taps))
+
+
+def taps(m: float, max_taps: int) -> tuple[int, int]:
+    """(step, K) of step 2 for the widest channel's width ``m`` (pixels)."""
+    step = max(1, math.ceil(3.0 * m / max_taps))
+    return step, math.ceil(3.0 * m / step)
+
+
+def check_spread_frame(plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                       light_uvz: np.ndarray, shadow_mm: np.ndarray) -> None:
+    """Shapes and slot range of the step's inputs, or a PassError naming the input."""
+    h_w = np.shape(slots)
+    if len(h_w) != 2:
+        raise PassError(f"slots must be an (H, W) image, got shape {h_w}")
+    for name, arr, shape in (("exitance", exitance, h_w + (3,)), ("depth_mm", depth_mm, h_w),
+                             ("light_uvz", light_uvz, h_w + (3,))):
+        if np.shape(arr) != shape:
+            raise PassError(f"{name} must have shape {shape} like the frame, got {np.shape(arr)}")
+    if np.ndim(shadow_mm) != 2 or 0 in np.shape(shadow_mm):
+        raise PassError(f"the light-space depth must be a non-empty (H, W) image, got shape {np.shape(shadow_mm)}")
+    s = np.asarray(slots)
+    if s.size and (int(s.min()) < 0 or int(s.max()) >= plan.slots):
+        raise PassError(f"slots must lie in [0, {plan.slots - 1}]")
+    z = np.asarray(depth_mm)[s > 0]
+    if z.size and not (np.all(np.isfinite(z)) and np.all(z > 0)):
+        raise PassError("depth must be positive and finite on every pixel with SSS")
+
+
+__all__ = ["MAX_KNOTS", "MAX_TAPS", "MIN_PX", "SlotSpread", "SpreadPlan", "build_spread_plan", "check_spread_frame",
+           "taps"]
