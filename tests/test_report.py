@@ -170,3 +170,23 @@ def test_transmission_section_shows_the_light_each_model_adds(tmp_path):
     ratios = {m: [float(v) for v in r.split(",")] for m, r in rows.items()}
     assert all(v >= 1.0 for r in ratios.values() for v in r)
     assert min(ratios["mcml"]) > 1.5
+
+
+def test_the_workers_compile_each_kernel_once_before_the_sections_that_run_it():
+    """The demo's jobs on two processes: first the screen-space section's kernels, beside the kernel ranking
+    (which runs no pass); every other pass compiled by one job just before the first section that runs it;
+    every section waits for the jobs that compile its passes; a backend that compiles nothing: sections only."""
+    names = [name for name, _ in report.SECTIONS]
+    jobs, after = report.section_jobs(names, compiles=True)
+    assert jobs[:3] == [("compile", list(report.SECTION_PASSES["screenspace"])), ("section", names.index("kernels")),
+                        ("section", names.index("screenspace"))]
+    compiled = [p for kind, what in jobs if kind == "compile" for p in what]
+    assert len(compiled) == len(set(compiled))  # each pass once
+    assert set(compiled) == {p for n in names for p in report.SECTION_PASSES.get(n, ())}
+    assert sorted(what for kind, what in jobs if kind == "section") == list(range(len(names)))
+    for j, (kind, what) in enumerate(jobs):
+        if kind == "section":
+            needed = set(report.SECTION_PASSES.get(names[what], ()))
+            assert needed <= {p for d in after[j] for p in jobs[d][1]} and all(d < j for d in after[j])
+    assert report.section_jobs(names, compiles=False) == ([("section", names.index(n)) for n in report.SECTION_ORDER
+                                                          if n in names], {k: set() for k in range(len(names))})

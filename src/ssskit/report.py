@@ -542,34 +542,63 @@ def _warm_up_job(backend: str, passes: list[str]) -> None:
     line(f"compiled the {backend} kernels in {time.perf_counter() - t0:.1f} s (CPU {_cpu_s() - c0:.1f} s)")
 
 
+def section_jobs(names: list[str], compiles: bool) -> tuple[list[tuple[str, Any]], dict[int, set[int]]]:
+    """The jobs that build the sections ``names`` on several processes, in the order free workers take them, and
+    which must finish before which: (jobs, after). A job is ("section", index into ``names``) or, where the
+    backend ``compiles`` its kernels, ("compile", [passes]): each pass a section runs (:data:`SECTION_PASSES`)
+    is compiled by one job, placed just before the first section that runs it (the first such job before
+    everything, beside the sections that run none), and every section waits for the jobs compiling its
+    passes (``after``: job index -> job indices). Sections in :data:`SECTION_ORDER`, the others last."""
+    rank = {name: k for k, name in enumerate(SECTION_ORDER)}
+    order = sorted(range(len(names)), key=lambda k: (rank.get(names[k], len(rank)), k))
+    needs = {k: list(SECTION_PASSES.get(names[k], ())) if compiles else [] for k in order}
+    jobs: list[tuple[str, Any]] = []
+    after: dict[int, set[int]] = {}
+    warmed: dict[str, int] = {}  # pass -> the job compiling it
+
+    def compile_job(passes: list[str]) -> None:
+        warmed.update(dict.fromkeys(passes, len(jobs)))
+        jobs.append(("compile", passes))
+
+    first = next((k for k in order if needs[k]), None)
+    if first is not None:
+        compile_job(needs[first])
+    for k in order:
+        new = [p for p in needs[k] if p not in warmed]
+        if new:
+            compile_job(new)
+        after[len(jobs)] = {warmed[p] for p in needs[k]}
+        jobs.append(("section", k))
+    return jobs, after
+
+
 def _build_parallel(out: Path, sections: list[tuple[str, Section]], progress: Progress, ctx: dict[str, Any],
                     jobs: int) -> list[str]:
     """The sections' HTML in report order, built by ``jobs`` worker processes
-    (:func:`ssskit.compute.workers.run_jobs`). The first job compiles the kernels of every pass the sections
-    run (:data:`SECTION_PASSES`, on a backend that compiles them); the sections follow in
-    :data:`SECTION_ORDER`, each into a folder of its own whose files move into ``out`` as it finishes. On an
-    error or Ctrl-C the workers end before the error goes on, so nothing writes into the staging folder
-    when it is removed."""
+    (:func:`ssskit.compute.workers.run_jobs`) as :func:`section_jobs` plans them (the kernels of the passes
+    compiled once, beside the sections that run none), each section into a folder of its own whose files
+    move into ``out`` as it finishes. On an error or Ctrl-C the workers end before the error goes on, so
+    nothing writes into the staging folder when it is removed."""
     import shutil
 
     from .backends import get_backend
     from .compute.workers import one_library_thread, run_jobs
 
     names = [name for name, _ in sections]
-    rank = {name: k for k, name in enumerate(SECTION_ORDER)}
-    order = sorted(range(len(sections)), key=lambda k: (rank.get(names[k], len(rank)), k))
     backend = ctx.get("backend", DEFAULT_BACKEND)
-    passes = list(dict.fromkeys(p for name in names for p in SECTION_PASSES.get(name, ())))
-    warm = [(_warm_up_job, (backend, passes))] if passes and get_backend(backend).compiles_on_first_use else []
     parts = out / ".sections"
-    tasks = warm + [(_section_job, (names[k], sections[k][1], parts / names[k], ctx, f"[{k + 1}/{len(sections)}]"))
-                    for k in order]
+    plan, after = section_jobs(names, get_backend(backend).compiles_on_first_use)
+    tasks: list[tuple[Callable[..., Any], tuple[Any, ...]]] = [
+        (_warm_up_job, (backend, what)) if kind == "compile" else
+        (_section_job, (names[what], sections[what][1], parts / names[what], ctx, f"[{what + 1}/{len(sections)}]"))
+        for kind, what in plan]
+    section_of = {j: what for j, (kind, what) in enumerate(plan) if kind == "section"}  # job -> section index
     body: dict[int, str] = {}
 
     def done(index: int, value: Any) -> None:
-        if index < len(warm):
+        if index not in section_of:
             return
-        k = order[index - len(warm)]
+        k = section_of[index]
         body[k], seconds, cpu = value
         for src in sorted(p for p in (parts / names[k]).rglob("*") if p.is_file()):
             dst = out / src.relative_to(parts / names[k])
@@ -584,7 +613,7 @@ def _build_parallel(out: Path, sections: list[tuple[str, Section]], progress: Pr
     # has set it already): beside another busy worker a second thread only spins on the core the other needs
     env = {"SSSKIT_PROGRESS": "lines", **one_library_thread()}
     try:
-        run_jobs(tasks, workers, progress, done, env=env)
+        run_jobs(tasks, workers, progress, done, env=env, after=after)
     finally:
         shutil.rmtree(parts, ignore_errors=True)
     return [body[k] for k in range(len(sections))]

@@ -43,3 +43,18 @@ def test_the_workers_environment():
     run_jobs([(os.getenv, ("SSSKIT_TEST_WORKER_ENV",))], 1, print, results.__setitem__,
              env={"SSSKIT_TEST_WORKER_ENV": "set"})
     assert results == {0: "set"} and "SSSKIT_TEST_WORKER_ENV" not in os.environ
+
+
+def test_a_job_starts_after_its_prerequisites():
+    """Job 1 (instant) waits for job 0 (half a second) on another free worker: its result comes second; a job
+    list whose jobs wait for each other is refused before any starts."""
+    import time
+
+    finished = []
+    run_jobs([(time.sleep, (0.5,)), (math.sqrt, (4.0,)), (math.sqrt, (9.0,))], 2, print,
+             lambda k, v: finished.append(k), after={1: [0]})
+    assert finished.index(0) < finished.index(1) and finished[0] == 2
+    with pytest.raises(ValueError, match=r"jobs \[0, 1\] wait for each other"):
+        run_jobs([(math.sqrt, (1.0,)), (math.sqrt, (1.0,))], 2, print, lambda k, v: None, after={0: [1], 1: [0]})
+    with pytest.raises(ValueError, match=r"jobs \[0\] wait for each other or for jobs not in the list"):
+        run_jobs([(math.sqrt, (1.0,))], 1, print, lambda k, v: None, after={0: [5]})

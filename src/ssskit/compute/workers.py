@@ -1,9 +1,9 @@
 """Jobs on a few worker processes, with their progress lines passed back and a clean end.
 
 :func:`run_jobs` runs a list of jobs (a module-level function and its arguments) on ``workers`` spawned
-processes (numba's threading layers are not fork-safe), each worker taking the next job as it finishes
-one, in the list's order. A job says how far it is with :func:`line`; the parent receives those lines and
-each job's result as they come. An error in a job is raised in the parent, with the workers ended first;
+processes (numba's threading layers are not fork-safe), each worker taking, as it finishes one, the first
+job in the list's order whose prerequisites have finished. A job says how far it is with :func:`line`; the
+parent receives those lines and each job's result as they come. An error in a job is raised in the parent, with the workers ended first;
 so are Ctrl-C in the parent (the workers ignore SIGINT: the parent ends them) and a worker that dies
 (a crash or the kernel's OOM killer), which ``multiprocessing.Pool`` would silently replace and wait for
 forever. Used by ``ssskit demo`` to build the report's sections side by side.
@@ -12,7 +12,7 @@ forever. Used by ``ssskit demo`` to build the report's sections side by side.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from typing import Any
 
 _LINES: Any = None  # in a worker: the queue to the parent
@@ -69,28 +69,51 @@ def _worker(tasks: Any, results: Any, env: dict[str, str]) -> None:
 
 def run_jobs(jobs: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], workers: int,
              on_line: Callable[[str], None], on_result: Callable[[int, Any], None],
-             env: dict[str, str] | None = None) -> None:
+             env: dict[str, str] | None = None, after: Mapping[int, Collection[int]] | None = None) -> None:
     """Run ``jobs`` (function, arguments) on ``workers`` processes; the functions must be importable by name
-    (module level). ``on_line`` gets every :func:`line` of a job, ``on_result(index, value)`` each job's
-    return value as it finishes (in the parent). ``env``: set in each worker's environment. The first
-    job error is raised here once every worker has ended."""
+    (module level). A worker that is free takes the first job in the list whose prerequisites are done:
+    ``after`` maps a job's index to the indices of the jobs that must finish before it starts (e.g. the
+    compilation of the kernels it runs, so that no two workers compile the same kernel). ``on_line`` gets
+    every :func:`line` of a job, ``on_result(index, value)`` each job's return value as it finishes (in the
+    parent). ``env``: set in each worker's environment. The first job error is raised here once every
+    worker has ended."""
     import multiprocessing as mp
     import queue
 
+    needs = {k: set(after.get(k, ())) if after else set() for k in range(len(jobs))}
+    order: set[int] = set()
+    while len(order) < len(jobs):  # every job can start once the ones before it in some order have finished
+        ready = {k for k, ds in needs.items() if k not in order and ds <= order}
+        if not ready:
+            raise ValueError(f"jobs {sorted(set(needs) - order)} wait for each other or for jobs not in the list")
+        order |= ready
     context = mp.get_context("spawn")
     tasks, results = context.Queue(), context.Queue()
     n = max(1, min(int(workers), len(jobs)))
-    for k, (fn, args) in enumerate(jobs):
-        tasks.put((k, fn, args))
-    for _ in range(n):
-        tasks.put(None)
     procs = [context.Process(target=_worker, args=(tasks, results, dict(env or {})), daemon=True,
                              name=f"ssskit-worker-{i}") for i in range(n)]
-    left = len(jobs)
+    waiting, idle = list(range(len(jobs))), n
+    finished: set[int] = set()
+
+    def dispatch() -> None:
+        nonlocal idle
+        while idle and waiting:
+            ready = next((k for k in waiting if needs[k] <= finished), None)
+            if ready is None:  # (a job that runs now is a prerequisite: the check above)
+                return
+            waiting.remove(ready)
+            tasks.put((ready, *jobs[ready]))
+            idle -= 1
+        if not waiting:
+            for _ in range(n):
+                tasks.put(None)
+            waiting.append(-1)  # (the end is sent once)
+
     try:
         for p in procs:
             p.start()
-        while left:
+        dispatch()
+        while len(finished) < len(jobs):
             try:
                 kind, index, value = results.get(timeout=POLL_S)
             except queue.Empty:
@@ -98,15 +121,18 @@ def run_jobs(jobs: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], workers
                 dead = [p.exitcode for p in procs if p.exitcode not in (None, 0)]
                 if dead or all(p.exitcode == 0 for p in procs):
                     raise RuntimeError(f"a worker process ended unexpectedly (exit code {(dead or [0])[0]}) with "
-                                       f"{left} job(s) unfinished")
+                                       f"{len(jobs) - len(finished)} job(s) unfinished")
                 continue
             if kind == "line":
                 on_line(value)
             elif kind == "error":
                 raise value
             else:
-                left -= 1
+                finished.add(index)
+                idle += 1
                 on_result(index, value)
+                if -1 not in waiting:
+                    dispatch()
         for p in procs:
             p.join()
     finally:
