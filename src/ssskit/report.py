@@ -450,8 +450,8 @@ SECTIONS: list[tuple[str, Section]] = [
 ]
 
 #: the screen-space passes each section runs (:data:`ssskit.backends.base.WARM_UP` names): with several
-#: processes (``build_report(jobs=...)``) one of them compiles them all first, while another builds a section
-#: that runs none, so no two processes compile the same kernel and no section waits for its compilation
+#: processes (``build_report(jobs=...)``) their kernels are compiled once, by jobs of their own that the
+#: sections wait for (:func:`section_jobs`), the first beside the kernel ranking, which runs none
 SECTION_PASSES: dict[str, tuple[str, ...]] = {
     "screenspace": ("separable:follow", "separable:gaussian", "separable:ids"),
     "transmission": ("separable:follow", "transmission", "spread"),
@@ -460,9 +460,10 @@ SECTION_PASSES: dict[str, tuple[str, ...]] = {
     "model": ("separable:follow", "separable:ids", "burley", "adaptive"),
 }
 
-#: the order several processes take the sections in: those that run no pass first (beside the compilation),
-#: then the longest (measured on 2 cores: kernels ~50 s, screen space ~60 s, adaptive ~25 s, transmission ~13 s,
-#: profiles ~11 s and Burley ~10 s of CPU once compiled); a section not named here comes last
+#: the order several processes take the sections in: the kernel ranking first (it runs no pass: beside the first
+#: compilation), then the longest (CPU seconds on this project's 2 cores once compiled: screen space ~85 with its
+#: six scenes, kernels ~27, adaptive ~16, profiles ~10, transmission ~9, Burley ~11); a section not named here
+#: comes last
 SECTION_ORDER = ("kernels", "screenspace", "model", "adaptive", "transmission", "profiles", "burley", "sampling",
                  "materials")
 

@@ -280,7 +280,8 @@ def render_adaptive(scene: SceneInput = "slab", settings: RenderSettings | None 
     b = settings.burley_settings()
     taa = TAASettings() if p.taa else None
     # the passes' kernels compile (a fresh machine: seconds, one thread) while Mitsuba renders the G-buffers
-    warm_up_in_background(b.backend, ["burley", "adaptive"] + (["transmission", "spread"] if plan.transmission else []))
+    warm_up_in_background(b.backend,
+                          ["burley", "adaptive"] + (["transmission", "spread"] if plan.transmission else []))
     if static:
         return _static(scene, plan, settings, p, a, b, params, taa, progress, on_frame)
     assert plan.builtin is not None  # a moving run has a built-in scene (plan_adaptive)
