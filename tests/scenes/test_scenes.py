@@ -164,3 +164,22 @@ def test_docs_name_the_boundary_the_code_uses():
         doc = mod.__doc__ or ""
         assert "smooth dielectric" not in doc and "``plastic``" not in doc and "later" not in doc
     assert "Beckmann" in specs.__doc__ and "roughdielectric" in reference.render_reference.__doc__
+
+
+def test_a_gbuffer_is_the_same_on_any_number_of_mitsuba_threads():
+    """A first render gives Mitsuba one core less while a thread compiles the pass's kernels
+    (ssskit.pipeline.frame.frame_gbuffer): every layer is the same, bit for bit; the count is restored."""
+    import drjit as dr
+
+    from ssskit.scenes.mitsuba_variant import mitsuba_threads
+
+    before = dr.thread_count()
+    layers = []
+    for n in (1, 2):
+        with mitsuba_threads(n):
+            assert dr.thread_count() == n
+            gb = render_gbuffer("sphere", (0.5, 0.4, 0.3), width=48, height=36, spp=4)
+        layers.append([getattr(gb, k) for k in ("diffuse", "specular", "albedo", "depth", "normal", "profile_id")])
+        assert dr.thread_count() == before
+    for one, two in zip(*layers):
+        np.testing.assert_array_equal(one, two)

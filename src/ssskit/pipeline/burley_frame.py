@@ -218,8 +218,8 @@ def render_burley(scene: SceneInput = "slab", settings: RenderSettings | None = 
     b = settings.burley_settings()
     say = progress or (lambda msg: None)
     # the pass's kernels compile (a fresh machine: seconds, one thread) while Mitsuba renders the G-buffer
-    warm_up_in_background(b.backend, ["burley"] + (["transmission", "spread"] if plan.transmission else []))
-    gb = frame_gbuffer(plan, settings, _on_params(params, lambda p: p.albedo), say)
+    warming = warm_up_in_background(b.backend, ["burley"] + (["transmission", "spread"] if plan.transmission else []))
+    gb = frame_gbuffer(plan, settings, _on_params(params, lambda p: p.albedo), say, beside=warming)
     say(f"Burley pass: {b.sampler} sampler, {b.spp} spp, {b.backend} backend")
     sss = burley_sss(gb, params, b)
     exact: Callable[[], np.ndarray | None] = lambda: burley_exact(gb, params)  # noqa: E731

@@ -212,7 +212,7 @@ def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None
     warming = warm_up_in_background(settings.backend, [  # several ids' slot map after the pass: not waited for
         f"separable:{sss_settings.depth_mode or default_depth_mode(pass_taps)}", "separable:ids"]
         + (["transmission", "spread"] if plan.scene.transmission else []))
-    gb = frame_gbuffer(plan.scene, settings, albedo, say)
+    gb = frame_gbuffer(plan.scene, settings, albedo, say, beside=warming)
     exact: Callable[[], np.ndarray | None] = functools.cache(lambda: exact_screen_space(gb, profile))
     if warming is not None and warming.is_alive() and settings.exact and gb.mask.any():
         exact()  # the exact convolution (ground_truths' first step) while the pass still compiles

@@ -3,6 +3,8 @@ variant every scene and reference of ssskit renders in (CPU, any machine)."""
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from types import ModuleType
 
 from ..errors import SceneError
@@ -19,4 +21,20 @@ def mitsuba() -> ModuleType:
     return mi
 
 
-__all__ = ["mitsuba"]
+@contextlib.contextmanager
+def mitsuba_threads(n: int) -> Iterator[None]:
+    """Within the block Mitsuba renders on ``n`` threads (Dr.Jit's pool; at least 1), then on as many as before.
+    Its images do not depend on the count (each pixel's samples are seeded by the pixel: tested), so a caller
+    can leave a core to other work, e.g. a thread compiling the pass's kernels meanwhile."""
+    import drjit as dr
+
+    mitsuba()
+    before = dr.thread_count()
+    dr.set_thread_count(max(1, int(n)))
+    try:
+        yield
+    finally:
+        dr.set_thread_count(before)
+
+
+__all__ = ["mitsuba", "mitsuba_threads"]
