@@ -27,32 +27,18 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-ENTRY = "import sys; from ssskit.cli import main; sys.exit(main())"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_startup import ENTRY, spread, timed  # noqa: E402  (timed: wall and CPU seconds of a child, raises if it fails)
+
 SECTION = ("import sys; from pathlib import Path; from ssskit import report; "
            "report._transmission_section(Path(sys.argv[1]), lambda m: print(m, file=sys.stderr), "
            "{'backend': 'numba', 'photons': report.DEMO_PHOTONS})")
 os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")  # inherited by every child
-
-
-def timed(cmd: list[str], env: dict) -> tuple[float, float]:
-    """(wall seconds, CPU seconds of the child); a RuntimeError if it fails."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    p = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                       text=True)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if p.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)[:120]} failed (rc {p.returncode}): {p.stderr.strip()[-400:]}")
-    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def first_run(src: Path, what: str) -> dict:
@@ -65,15 +51,11 @@ def first_run(src: Path, what: str) -> dict:
                    str(t / "x.json")]
         else:
             cmd = [sys.executable, "-c", SECTION, str(t / "demo")]
-        wall, cpu = timed(cmd, env)
+        wall, cpu, _ = timed(cmd, env)
         mcml = t / "ssskit" / "mcml"
         return {"wall_s": round(wall, 2), "cpu_s": round(cpu, 2),
                 "mcml_runs": len(list(mcml.glob("*.npz"))) if mcml.is_dir() else 0,
                 "mcml_compiled": any((t / "numba").rglob("engine_numba*.nbi"))}
-
-
-def spread(values: list[float]) -> dict:
-    return {"min": round(min(values), 2), "median": round(statistics.median(values), 2), "max": round(max(values), 2)}
 
 
 def main(argv: list[str] | None = None) -> dict:

@@ -30,10 +30,7 @@ from ssskit.profiles.montecarlo.shipped import TABLES_FILE, table_materials, wri
 
 
 def main(argv: list[str] | None = None) -> int:
-    def interrupt(signum, frame):  # kill (SIGTERM) like Ctrl-C: the running simulation keeps its batches
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGTERM, interrupt)
+    signal.signal(signal.SIGTERM, signal.default_int_handler)  # kill like Ctrl-C: the running simulation keeps its batches
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=TABLES_FILE, help="the file to write (default: the package's)")
     ap.add_argument("--only", default="", help="comma-separated material names (a trial file: the tests want all 11)")

@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 
+from ssskit.errors import ProfileError
 from ssskit.materials import MATERIALS, get_material
 from ssskit.profiles.montecarlo import config as mc_config
 from ssskit.profiles.montecarlo import run as mc_run
@@ -89,6 +90,8 @@ def test_the_product_uses_the_shipped_tables_without_simulating(no_engine, tmp_p
     entries = _shipped_entries()
     for label, m in sh.table_materials():
         _same(tr.transmission_table(m), entries[label]["table"])
+    with pytest.raises(ProfileError, match="threads must be"):  # bad input is refused before the shipped answer
+        tr.transmission_table(get_material("skin1"), threads=0)
     mine = dataclasses.replace(get_material("skin1"), name="MySkin")
     table = tr.transmission_table(mine)
     assert table.material == "MySkin"

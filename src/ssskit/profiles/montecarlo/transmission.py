@@ -61,7 +61,7 @@ from ...errors import ProfileError
 from ...materials import Material
 from .config import MCConfig
 from .result import MCResult
-from .run import simulate
+from .run import check_threads, simulate
 from .slab import slab_config
 
 #: T below which the table stops (the issue's "for skin, up to where T falls below 1e-4")
@@ -212,6 +212,7 @@ def transmission_table(material: Material, photons: int = DEFAULT_PHOTONS, seed:
     ``material``; ``shipped=False``, or a :func:`~.shipped.recompute` block (``ssskit demo --full``),
     simulates instead. The result does not depend on ``threads``."""
     ts = _check_request(material, floor, grid)
+    check_threads(threads)  # before any answer, the shipped one included
     if shipped:
         from .shipped import shipped_table
 
