@@ -7,7 +7,8 @@ ambient half-spaces, Wang, Jacques, Zheng 1995 [WJZ95], section 2.1), lit at nor
 MCML's Tt: every photon weight leaving through the bottom face, the unscattered (ballistic) part
 included. Each (thickness, channel) is one cached :func:`~ssskit.profiles.montecarlo.simulate` run with
 its own seed, so the table's entries are independent and their standard errors are the batch method's
-(:mod:`.result`).
+(:mod:`.result`). The tables of the 11 measured materials at the defaults are shipped with the package
+(:mod:`.shipped`): :func:`transmission_table` answers them without simulating when :func:`table_key` matches.
 
 Two bounds hold for any slab, whatever its scattering, and are what the tests check the tables against
 (independent of MCML's transport):
@@ -47,6 +48,8 @@ dense grid.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -56,20 +59,29 @@ import numpy as np
 
 from ...errors import ProfileError
 from ...materials import Material
+from .config import MCConfig
 from .result import MCResult
-from .run import simulate
+from .run import check_threads, simulate
 from .slab import slab_config
 
 #: T below which the table stops (the issue's "for skin, up to where T falls below 1e-4")
 T_FLOOR = 1e-4
 
 #: the candidate thicknesses (mm) of a table: dense below 1 mm (the ballistic part and thin skin), then
-#: wider steps; a table stops at the first entry where every channel's T is below its floor
+#: wider steps; a table stops at the first entry where every channel's T is below its floor. The last four let the
+#: measured materials with the least absorption reach the floor (their shipped tables' red: Skimmilk's T = 4.8e-4
+#: at 120 mm, 1.5e-4 at 140 mm, 3.2e-5 at 170 mm; Potato's 3.6e-4 and Chicken1's 2.3e-4 at 100 mm, below 1e-4 at
+#: 120 mm)
 GRID_MM = (0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 14.0, 17.0, 20.0,
-           24.0, 28.0, 33.0, 38.0, 45.0, 52.0, 60.0, 70.0, 80.0, 100.0)
+           24.0, 28.0, 33.0, 38.0, 45.0, 52.0, 60.0, 70.0, 80.0, 100.0, 120.0, 140.0, 170.0, 200.0)
 
 #: photons per simulation of a table (each entry: one run per channel)
 DEFAULT_PHOTONS = 200_000
+#: the base seed of a table (thickness i runs with seed ``DEFAULT_SEED + i``)
+DEFAULT_SEED = 101
+#: bump when what a table derives from its simulations changes (its fields, :func:`diffuse_spread`, the stopping
+#: rule): part of :func:`table_key`, so the shipped tables (:mod:`.shipped`) of an older derivation are not used
+TABLE_VERSION = 1
 
 #: terms of the exponential fit of MCML's Tt, and of its scattered part (each with its share of the last
 #: term's -sum a_k exp(-B t))
@@ -151,14 +163,8 @@ class TransmissionTable:
         return cls(**kw)
 
 
-def transmission_table(material: Material, photons: int = DEFAULT_PHOTONS, seed: int = 101,
-                       floor: float = T_FLOOR, grid: Sequence[float] = GRID_MM,
-                       threads: int | None = None) -> TransmissionTable:
-    """T(t) of ``material``'s slab over ``grid`` (mm, ascending), stopping after the first thickness at
-    which every channel's T is below ``floor`` (so the table reaches the floor; a ProfileError if the grid
-    ends first). Thickness i, channel c runs with seed ``seed + i`` (the channel's stream is mixed in by
-    :func:`~ssskit.profiles.montecarlo.config.config_for_material`); every run is cached by
-    :func:`~ssskit.profiles.montecarlo.simulate`."""
+def _check_request(material: Material, floor: float, grid: Sequence[float]) -> list[float]:
+    """The grid as floats, after the checks of a table's request (ProfileError for a bad one)."""
     if not isinstance(material, Material):
         raise ProfileError(f"a transmission table needs a homogeneous material, got {type(material).__name__}")
     ts = [float(t) for t in grid]
@@ -166,13 +172,61 @@ def transmission_table(material: Material, photons: int = DEFAULT_PHOTONS, seed:
         raise ProfileError(f"thicknesses must be finite, positive and ascending, got {list(grid)!r}")
     if not (0 < floor < 1):
         raise ProfileError(f"the transmittance floor must lie in (0, 1), got {floor!r}")
+    return ts
+
+
+def table_runs(material: Material, photons: int = DEFAULT_PHOTONS, seed: int = DEFAULT_SEED,
+               grid: Sequence[float] = GRID_MM) -> list[list[MCConfig]]:
+    """The simulations a table may run: per thickness i of ``grid`` the three channels' slab configurations
+    (:func:`~ssskit.profiles.montecarlo.slab.slab_config`, seed ``seed + i``); :func:`transmission_table` runs
+    a prefix of them, up to the floor."""
+    return [[slab_config(material, c, float(t), photons, seed + i) for c in range(3)] for i, t in enumerate(grid)]
+
+
+def table_key(material: Material, photons: int = DEFAULT_PHOTONS, seed: int = DEFAULT_SEED, floor: float = T_FLOOR,
+              grid: Sequence[float] = GRID_MM) -> str:
+    """Every input of a table, hashed: the cache key (:meth:`~ssskit.profiles.montecarlo.MCConfig.key`: the
+    material's coefficients, eta, the radial grid, photons, seed, batches and the engine version) of each
+    simulation it may run (:func:`table_runs`), the floor and :data:`TABLE_VERSION`. The material's name is
+    not an input: equal coefficients give the same table. A shipped table (:mod:`.shipped`) answers a request
+    of the same key."""
+    ts = _check_request(material, floor, grid)
+    runs = [cfg.key() for row in table_runs(material, photons, seed, ts) for cfg in row]
+    text = json.dumps({"runs": runs, "floor": float(floor), "table_version": TABLE_VERSION}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def transmission_table(material: Material, photons: int = DEFAULT_PHOTONS, seed: int = DEFAULT_SEED,
+                       floor: float = T_FLOOR, grid: Sequence[float] = GRID_MM,
+                       threads: int | None = None, *, shipped: bool = True, resume: bool = False,
+                       progress: bool | None = None) -> TransmissionTable:
+    """T(t) of ``material``'s slab over ``grid`` (mm, ascending), stopping after the first thickness at
+    which every channel's T is below ``floor`` (so the table reaches the floor; a ProfileError if the grid
+    ends first). Thickness i, channel c runs with seed ``seed + i`` (the channel's stream is mixed in by
+    :func:`~ssskit.profiles.montecarlo.config.config_for_material`); every run is cached by
+    :func:`~ssskit.profiles.montecarlo.simulate` (``resume``: continue a run interrupted before; ``progress``:
+    its progress bar, as there).
+
+    A request the package ships (the 11 measured materials at the defaults, :func:`~.shipped.shipped_table`:
+    the same :func:`table_key`) is answered from the shipped file without simulating, named after
+    ``material``; ``shipped=False``, or a :func:`~.shipped.recompute` block (``ssskit demo --full``),
+    simulates instead. The result does not depend on ``threads``."""
+    ts = _check_request(material, floor, grid)
+    check_threads(threads)  # before any answer, the shipped one included
+    if shipped:
+        from .shipped import shipped_table
+
+        found = shipped_table(table_key(material, photons, seed, floor, ts))
+        if found is not None:
+            return dataclasses.replace(TransmissionTable.from_dict(found), material=material.name)
     rows: dict[str, list[list[float]]] = {k: [] for k in ("tt", "tt_se", "rd", "rd_se", "spread")}
     rsp = np.zeros(3)
     used: list[float] = []
-    for i, t in enumerate(ts):
+    for t, cfgs in zip(ts, table_runs(material, photons, seed, ts)):
         vals = {k: [0.0, 0.0, 0.0] for k in rows}
-        for c in range(3):
-            r = simulate(slab_config(material, c, t, photons, seed + i), threads=threads)
+        for c, cfg in enumerate(cfgs):
+            r = simulate(cfg, threads=threads, resume=resume, progress=progress,
+                         label=f"{material.name} {t:g} mm {'RGB'[c]}")
             vals["tt"][c], vals["tt_se"][c] = r.tt, r.tt_se
             vals["rd"][c], vals["rd_se"][c] = r.total_rd, r.total_rd_se
             vals["spread"][c] = diffuse_spread(r, float(absorber_transmittance(material.sigma_t[c], t, material.eta,
@@ -346,6 +400,6 @@ def fit_transmission(table: TransmissionTable, terms: int | None = None, rel_flo
     return TransmissionFit(table.material, out[0], out[1], out[2], errs[0], errs[1], errs[2], (lo, hi), part)
 
 
-__all__ = ["DEFAULT_PHOTONS", "DEFAULT_TERMS", "DIFFUSE_TERMS", "GAUSS_MEDIAN", "GRID_MM", "PARTS", "T_FLOOR",
-           "TransmissionFit", "TransmissionTable", "absorber_transmittance", "diffuse_spread", "fit_transmission",
-           "normal_fresnel", "transmission_table"]
+__all__ = ["DEFAULT_PHOTONS", "DEFAULT_SEED", "DEFAULT_TERMS", "DIFFUSE_TERMS", "GAUSS_MEDIAN", "GRID_MM", "PARTS",
+           "TABLE_VERSION", "T_FLOOR", "TransmissionFit", "TransmissionTable", "absorber_transmittance", "diffuse_spread",
+           "fit_transmission", "normal_fresnel", "table_key", "table_runs", "transmission_table"]
