@@ -311,20 +311,21 @@ PARTS = ("total", "diffuse")
 
 
 def _fit_channel(t: np.ndarray, y: np.ndarray, se: np.ndarray, starts: Sequence[np.ndarray], terms: int,
-                 rel_floor: float, diffuse: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 rel_floor: float, diffuse: bool = False, gauss: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(a, b, c) of sum_k a_k exp(-b_k t - c_k t^2) minimising sum ((fit - y) / s)^2 with s = sqrt(se^2 +
     (rel_floor y)^2) (each entry's error, floored relative to it so that no precise entry dominates):
     variable projection, the amplitudes by non-negative least squares for each trial (b, c) (b = e^x, c =
     x'^2), from each start; the best. ``diffuse``: each basis function is exp(-b_k t - c_k t^2) - exp(-B t)
-    with one more parameter B = e^x (the last of x), and the result has K + 1 terms, the last (-sum a, B, 0)."""
+    with one more parameter B = e^x (the last of x), and the result has K + 1 terms, the last (-sum a, B, 0).
+    ``gauss`` False: c = 0 (pure exponentials; the starts carry no c)."""
     from scipy.optimize import least_squares, nnls
 
     s = np.sqrt(se ** 2 + (rel_floor * y) ** 2)
     k = terms
 
     def basis(x: np.ndarray, tt: np.ndarray) -> np.ndarray:
-        m = np.exp(-np.outer(tt, np.exp(x[:k])) - np.outer(tt * tt, x[k:2 * k] ** 2))
-        return m - np.exp(-np.exp(x[2 * k]) * tt)[:, None] if diffuse else m
+        m = np.exp(-np.outer(tt, np.exp(x[:k])) - (np.outer(tt * tt, x[k:2 * k] ** 2) if gauss else 0.0))
+        return m - np.exp(-np.exp(x[-1]) * tt)[:, None] if diffuse else m
 
     def amps(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         m = basis(x, t) / s[:, None]
@@ -343,19 +344,27 @@ def _fit_channel(t: np.ndarray, y: np.ndarray, se: np.ndarray, starts: Sequence[
     assert best is not None
     x = best[1]
     a, _ = amps(x)
-    b, c = np.exp(x[:k]), x[k:2 * k] ** 2
+    b, c = np.exp(x[:k]), (x[k:2 * k] ** 2 if gauss else np.zeros(k))
     order = np.argsort(b)
     a, b, c = a[order], b[order], c[order]
     if diffuse:
-        a, b, c = np.append(a, -a.sum()), np.append(b, np.exp(x[2 * k])), np.append(c, 0.0)
+        a, b, c = np.append(a, -a.sum()), np.append(b, np.exp(x[-1])), np.append(c, 0.0)
     return a, b, c
+
+
+def _lowest(a: np.ndarray, b: np.ndarray, c: np.ndarray, t_max: float) -> float:
+    """The fit's least value on [0, 2 t_max] (20,001 points)."""
+    dense = np.linspace(0.0, 2.0 * t_max, 20_001)[:, None]
+    return float(np.min(np.sum(a * np.exp(-b * dense - c * dense ** 2), axis=-1)))
 
 
 def fit_transmission(table: TransmissionTable, terms: int | None = None, rel_floor: float = 0.01,
                      part: str = "total") -> TransmissionFit:
     """The fit of a table's ``part`` (:data:`PARTS`: MCML's Tt, or its scattered part T_s, ``table.diffuse``;
     module docstring), per channel on its entries with T > 3 SE, each weighted by its error sqrt(SE^2 +
-    (rel_floor T)^2); ``terms`` (default 4 for the total, 3 + the one of -sum a for the scattered part).
+    (rel_floor T)^2); ``terms`` (default 4 for the total, 3 + the one of -sum a for the scattered part; a channel
+    with too few resolved entries for them takes as many as it can, one with none is 0: its light is below 3 SE
+    at every thickness).
     Deterministic starts: rates spanning the channel's diffusion rate sigma_tr = sqrt(3 sigma_a sigma_t') (g =
     0) to a few times its extinction sigma_t, with small and moderate Gaussian terms (and B = 2 sigma_t). A
     scattered-part fit negative anywhere on [0, 2 x the table's last thickness] is a ProfileError."""
@@ -373,30 +382,41 @@ def fit_transmission(table: TransmissionTable, terms: int | None = None, rel_flo
     for c in range(3):
         y, se, t = values[:, c], table.tt_se[:, c], table.thickness_mm
         ok = (y > 0) & (y > 3 * se)
-        need = 2 * terms + (1 if diffuse else 0)
-        if ok.sum() < need:
-            raise ProfileError(f"{table.material}: channel {c} has {int(ok.sum())} resolved entries, fewer than the "
-                               f"{need} a {terms}-term fit needs")
+        # a channel with fewer resolved entries than the terms need takes fewer terms (each term costs two
+        # parameters, the scattered part's beam one more): Ketchup's green, nearly a pure absorber, has three; a
+        # channel with none resolved (its light below 3 SE at every thickness) is 0
+        k_c = min(terms, (int(ok.sum()) - (1 if diffuse else 0)) // 2)
+        if k_c < 1:
+            errs[:, c] = (0.0, 0.0, float(np.max(np.abs(y) / np.maximum(se, 1e-300), initial=0.0)))
+            continue
         sa, st = table.sigma_a[c], table.sigma_t[c]
         sig_tr = math.sqrt(3.0 * sa * st) if sa > 0 else 1.0 / float(t[ok].max())
         tail = [math.log(2.0 * st)] if diffuse else []
-        starts = [np.r_[np.log(np.geomspace(f_lo * sig_tr, f_hi * max(st, sig_tr), terms)), np.full(terms, math.sqrt(c0)),
+        starts = [np.r_[np.log(np.geomspace(f_lo * sig_tr, f_hi * max(st, sig_tr), k_c)), np.full(k_c, math.sqrt(c0)),
                         tail]
                   for f_lo, f_hi, c0 in ((0.9, 2.0, 1e-3), (0.5, 4.0, 0.03 * sig_tr), (0.95, 8.0, 1e-3))]
-        a, b, g = _fit_channel(t[ok], y[ok], se[ok], starts, terms, rel_floor, diffuse)
-        out[:, c] = a, b, g
+        a, b, g = _fit_channel(t[ok], y[ok], se[ok], starts, k_c, rel_floor, diffuse)
+        if diffuse and k_c < terms and _lowest(a, b, g, float(t.max())) < -1e-9:
+            # few entries: the Gaussian factors' extrapolation may dip below 0 beyond them (a term's e^(-c t^2)
+            # falling under the beam's e^(-B t)); pure exponentials there
+            a, b, g = _fit_channel(t[ok], y[ok], se[ok], [np.r_[x0[:k_c], x0[-1]] for x0 in starts], k_c, rel_floor,
+                                   diffuse, gauss=False)
+        n_c = len(a)  # k_c, or k_c + 1 for the scattered part; the rest of the row stays 0 (no light)
+        out[0, c, :n_c], out[1, c, :n_c], out[2, c, :n_c] = a, b, g
         f = np.sum(a * np.exp(-b * t[ok, None] - g * t[ok, None] ** 2), axis=-1)
         rel = np.abs(f - y[ok]) / y[ok]
         precise = se[ok] < 0.1 * y[ok]
-        errs[:, c] = (rel[precise].max(), math.sqrt(float(np.mean(rel[precise] ** 2))),
+        errs[:, c] = (float(rel[precise].max(initial=0.0)),
+                      math.sqrt(float(np.mean(rel[precise] ** 2))) if precise.any() else 0.0,
                       float(np.max(np.abs(f - y[ok]) / np.maximum(se[ok], 1e-300))))
         lo, hi = min(lo, float(t[ok].min())), max(hi, float(t[ok].max()))
         if diffuse:
-            dense = np.linspace(0.0, 2.0 * float(t.max()), 20_001)[:, None]
-            low = float(np.min(np.sum(a * np.exp(-b * dense - g * dense ** 2), axis=-1)))
+            low = _lowest(a, b, g, float(t.max()))
             if low < -1e-9:
                 raise ProfileError(f"{table.material}: channel {c}'s fit of the scattered transmittance falls to "
                                    f"{low:.3g} < 0; try another number of terms")
+    if lo > hi:  # no channel resolved anywhere
+        lo = hi = 0.0
     return TransmissionFit(table.material, out[0], out[1], out[2], errs[0], errs[1], errs[2], (lo, hi), part)
 
 
