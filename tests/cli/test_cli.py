@@ -188,6 +188,20 @@ def test_console_script_error_has_no_traceback():
     assert "Traceback" not in proc.stderr and proc.stderr.startswith("ssskit: error:")
 
 
+def test_only_the_process_own_command_line_freezes_its_objects(monkeypatch, capsys):
+    """main() without argv (the ssskit script, python -m ssskit: the process exits next) moves its objects to the
+    collector's permanent generation, so the shutdown does not walk them; main(argv) (a caller that goes on)
+    leaves the collector alone, errors and all."""
+    import gc
+
+    frozen = []
+    monkeypatch.setattr(gc, "freeze", lambda: frozen.append(True))
+    assert main(["materials"]) == 0 and main(["profile", "--material", "nope"]) == 2 and frozen == []
+    monkeypatch.setattr(sys, "argv", ["ssskit", "profile", "--material", "nope"])
+    assert main() == 2 and frozen == [True]
+    capsys.readouterr()
+
+
 def test_import_is_light():
     """import ssskit loads no heavy dependency (scipy, matplotlib, numba) and compiles nothing."""
     code = "import sys, ssskit; print(sorted(m for m in ('scipy', 'matplotlib', 'numba', 'click') if m in sys.modules))"
