@@ -227,6 +227,8 @@ def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None
     res = RenderResult(plan.scene.label, settings, mat, profile, kernel, taps, gb, sss, gb.composite(sss),
                        source=plan.scene.source, transmitted=transmitted, transmission=info)
     ground_truths(res, settings, plan.scene, profile, exact, say, progress is not None)
+    if warming is not None:  # the several ids' slot map (a fraction of a second): a process that exits next must
+        warming.join()  # not leave a daemon thread inside LLVM while the interpreter shuts down
     return res
 
 
