@@ -130,9 +130,9 @@ def slot_model(name: str, material: Any) -> Any:
     return mcml_model(material) if name == "mcml" else jimenez2010_model()
 
 
-def _unreal_light(gb: GBuffer, light_rgb: np.ndarray, phase: tuple[float, float] | None = None) -> np.ndarray:
+def _unreal_light(gb: GBuffer, light_rgb: np.ndarray, ue_phase: tuple[float, float] | None = None) -> np.ndarray:
     """The light of the ``unreal`` model: the irradiance times UE's phase factor per pixel
-    (:func:`ssskit.screenspace.transmission.unreal_phase` with ``phase`` = (ScatteringDistribution, IOR), UE's
+    (:func:`ssskit.screenspace.transmission.unreal_phase` with ``ue_phase`` = (ScatteringDistribution, IOR), UE's
     defaults if None; V towards the camera, L towards the light)."""
     from ..screenspace.transmission import UE_TRANSMISSION_DEFAULTS, LightView, unreal_phase
 
@@ -145,7 +145,7 @@ def _unreal_light(gb: GBuffer, light_rgb: np.ndarray, phase: tuple[float, float]
     n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
     to_light = -np.asarray(LightView.from_dict(gb.light).direction, float)
     g, ior = ((float(UE_TRANSMISSION_DEFAULTS["ScatteringDistribution"]), float(UE_TRANSMISSION_DEFAULTS["IOR"]))
-              if phase is None else (float(phase[0]), float(phase[1])))
+              if ue_phase is None else (float(ue_phase[0]), float(ue_phase[1])))
     phase = unreal_phase(n, v, np.broadcast_to(to_light, n.shape), g, ior)
     return np.asarray(light_rgb * phase[..., None], light_rgb.dtype)
 
