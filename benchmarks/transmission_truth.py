@@ -20,7 +20,8 @@ the transmittance pass of each model against the converged reference (4096 spp),
 the models are the registry's (:data:`ssskit.pipeline.settings.TRANSMISSION_MODELS`, so an engine model added
 there is measured too) and HDRP's shape (:func:`ssskit.export.transmission.hdrp_model`, the tint fitted to the
 material's MCML table, d that of the diffusion profile ``ssskit export`` writes for Unity), each with and without the lateral spread, and the MCML model
-as it was before (MCML's whole Tt along the light's chord, no spread).
+as it was before (MCML's whole Tt along the light's chord, no spread), and UE's model with the transmission fields
+``ssskit export --format unreal`` writes (fitted to MCML's scattered T_s; its ScatteringDistribution and IOR).
 
 Everything is cached (the MCML runs, the references): a second run takes seconds.
 """
@@ -170,7 +171,7 @@ def run_leaf(args: argparse.Namespace) -> dict[str, Any]:
 
 def run_ear(args: argparse.Namespace) -> dict[str, Any]:
     from ssskit.errors import SsskitError
-    from ssskit.export.engines import fit_burley
+    from ssskit.export.engines import engine_parameters, fit_burley
     from ssskit.export.transmission import hdrp_model, hdrp_transmission
     from ssskit.materials import get_material
     from ssskit.pipeline import BurleyPass, RenderSettings, render
@@ -179,15 +180,23 @@ def run_ear(args: argparse.Namespace) -> dict[str, Any]:
     from ssskit.pipeline.transmission import add_transmission
     from ssskit.profiles import profile_for_material
     from ssskit.screenspace.burley import burley_params_for_material
-    from ssskit.screenspace.transmission import _mcml_table, mcml_model
+    from ssskit.screenspace.transmission import _mcml_table, mcml_model, unreal_model
 
     mat = get_material("skin1")
     w, h = _size(args.size)
     models = list(args.models or TRANSMISSION_MODELS) + (["hdrp-shape"] if "hdrp" not in TRANSMISSION_MODELS else [])
     d_hdrp = np.asarray(fit_burley(profile_for_material(mat, "montecarlo"))[1])  # ssskit export unity's profile
     hdrp = hdrp_transmission(_mcml_table(mat, 200_000, 101), d_hdrp)
+    ue = engine_parameters(profile_for_material(mat, "montecarlo"), "unreal", mat, _mcml_table(mat, 200_000, 101))
+    ue_t = ue["transmission"]  # ssskit export --format unreal's transmission fields
+    ue_model = unreal_model(ue_t["scattering_distance_mm"], ue_t["TransmissionTintColor"], ue_t["ExtinctionScale"],
+                            ue_t["NormalScale"], ue_t["WorldUnitScale"], ue_t["DistanceScale"])
+    ue_phase = (float(ue_t["ScatteringDistribution"]), float(ue["IOR"]))
     out: dict[str, Any] = {"models": models, "hdrp": {k: hdrp[k] for k in ("transmissionTint", "thicknessRemap",
-                                                                          "scattering_distance_mm")}, "tables": []}
+                                                                          "scattering_distance_mm")},
+                           "unreal_export": {k: ue_t[k] for k in ("ExtinctionScale", "DistanceScale",
+                                                                 "TransmissionTintColor", "ScatteringDistribution",
+                                                                 "NormalScale")} | {"IOR": ue["IOR"]}, "tables": []}
     for pass_name in args.passes:
         base = dict(width=w, height=h, spp=args.gbuffer_spp, transmission="on", reference=True,
                     reference_spp=args.ear_spp, reference_max_spp=args.ear_spp, perceptual=False, backend=args.backend)
@@ -204,6 +213,7 @@ def run_ear(args: argparse.Namespace) -> dict[str, Any]:
         variants: list[tuple[str, str, Any]] = [(m, spread, None) for m in models for spread in ("mcml", "off")]
         variants.append(("mcml (before: whole Tt, light's chord)", "off",
                          {1: mcml_model(mat, part="total", along_normal=False)}))
+        variants += [("unreal (exported fields)", spread, {1: ue_model}) for spread in ("mcml", "off")]
         variants.append(("none (reflectance alone)", "off", "none"))
         for label, spread, given in variants:
             if given == "none":
@@ -214,7 +224,8 @@ def run_ear(args: argparse.Namespace) -> dict[str, Any]:
                 settings = RenderSettings(**{**base, "transmission_model": label if given is None else "mcml",
                                              "transmission_spread": spread})
                 try:
-                    sss, _, _ = add_transmission(gb, refl, settings, {1: mat}, lambda s: None, given)
+                    sss, _, _ = add_transmission(gb, refl, settings, {1: mat}, lambda s: None, given,
+                                                 ue_phase if label.startswith("unreal (exported") else None)
                 except SsskitError as e:
                     out["tables"].append({"pass": pass_name, "model": label, "spread": spread, "error": str(e)})
                     continue

@@ -162,6 +162,49 @@ def test_unreal_model_is_ues_light_in_the_frame(ear):
     assert np.any(r.transmitted > 0)
 
 
+def test_exported_unreal_fields_take_ues_light_with_their_phase(ear):
+    """An engine's exported UE profile given as ``models`` (kind unreal) takes UE's light and recombine like the
+    ``unreal`` setting: with UE's defaults it is that setting's frame, to the last bit; with the export's
+    ScatteringDistribution (``ue_phase``) the light is the irradiance times ApproximateHG of that g ([UE58]),
+    computed here from the G-buffer as in the test above. Mixing unreal with other kinds is refused."""
+    from ssskit.backends import get_backend
+    from ssskit.errors import PassError
+    from ssskit.materials import get_material
+    from ssskit.pipeline.transmission import slot_model, transmission_light
+    from ssskit.screenspace.burley import burley_params_for_material
+    from ssskit.screenspace.transmission import LightView, mcml_model, transmission_plan, unreal_model, unreal_phase
+
+    lit, _ = ear
+    mat = get_material("skin1")
+    s = RenderSettings(**BASE, material="skin1", transmission="on", transmission_spread="off")
+    by_setting = transmission_light(lit, s.replace(transmission_model="unreal"), {1: mat}, lambda m: None)
+    given = transmission_light(lit, s, {1: mat}, lambda m: None, {1: slot_model("unreal", mat)})
+    for x, y in zip(by_setting[:2], given[:2]):
+        np.testing.assert_array_equal(x, y)
+
+    model = unreal_model(burley_params_for_material(mat).d_mm, tint=(0.5, 0.25, 1.0), extinction_scale=2.0)
+    got = transmission_light(lit, s, {1: mat}, lambda m: None, {1: model}, ue_phase=(0.01, 1.3))[1]
+    uvz, shadow, ndl, light = lit.transmission_inputs()
+    v = np.linalg.inv(lit.camera.world_to_camera)[:3, 3] - lit.positions()
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    n = lit.normal.astype(np.float64)
+    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
+    to_light = -np.asarray(LightView.from_dict(lit.light).direction)
+    phase = unreal_phase(n, v, np.broadcast_to(to_light, n.shape), 0.01, 1.3)
+    assert np.all((phase > 0.49) & (phase < 0.51))  # g = 0.01: 0.5 (1 - g^2) / (1 - g cos)^2 within 2 %
+    out = get_backend("numpy").transmission(transmission_plan({1: model}), (lit.profile_id > 0).astype(np.int32), uvz,
+                                            shadow, ndl, light * phase[..., None])
+    np.testing.assert_allclose(got, lit.albedo * out, rtol=1e-6, atol=1e-12)
+    assert np.any(got > 0)
+
+    two = lit.profile_id.copy()
+    two[:, : two.shape[1] // 2] *= 2  # ids 1 and 2
+    with pytest.raises(PassError, match="mix unreal and other kinds"):
+        transmission_light(lit.with_layers(profile_id=two, materials=("skin1", "skin1")), s, {1: mat, 2: mat},
+                           lambda m: None,
+                           {1: model, 2: mcml_model(mat)})
+
+
 def test_checks_before_any_work(ear, monkeypatch):
     lit, plain = ear
     import ssskit.pipeline.transmission as tr

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from ssskit.errors import ProfileError
-from ssskit.materials import get_material
+from ssskit.materials import Material, get_material
 from ssskit.profiles.montecarlo import MCConfig, MCLayer, simulate
 from ssskit.profiles.montecarlo.transmission import (
     GAUSS_MEDIAN,
@@ -180,5 +180,10 @@ def test_bad_inputs_are_refused():
         transmission_table(SKIN, grid=(1.0, 0.5))
     with pytest.raises(ProfileError, match="floor"):
         transmission_table(SKIN, floor=0.0)
-    with pytest.raises(ProfileError, match="extend the grid"):
+    with pytest.raises(ProfileError, match="unscattered alone is 0.447.*extend the grid"):  # the ballistic bound
         transmission_table(SKIN, photons=2_000, grid=(0.5, 1.0))
+    with pytest.raises(ProfileError, match="still .* at the grid's last thickness 5 mm.*extend the grid"):
+        transmission_table(get_material("marble"), photons=2_000, grid=(4.0, 5.0))  # scattered light: simulated
+    clear = Material("clear", (0.01,) * 3, (0.01,) * 3, eta=1.4)  # even 200 mm leaves 0.945 e^-4 unscattered
+    with pytest.raises(ProfileError, match=r"unscattered alone is 0.0173.*domain is sigma_t above about 0.0461 /mm"):
+        transmission_table(clear)

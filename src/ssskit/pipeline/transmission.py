@@ -45,7 +45,7 @@ import numpy as np
 
 from ..backends import get_backend
 from ..backends.transmission_plan import SlotModel
-from ..errors import SettingsError
+from ..errors import PassError, SettingsError
 from ..materials import Material
 from ..screenspace import GBuffer
 from .settings import RenderSettings
@@ -99,7 +99,24 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
             if not isinstance(m, Material):
                 raise SettingsError(f"the {settings.transmission_model} transmission model needs homogeneous materials "
                                     f"(their {what}); {getattr(m, 'name', m)!r} is a {type(m).__name__}")
+    _models_before_the_frame(settings, materials)
     return True
+
+
+def _models_before_the_frame(settings: RenderSettings, materials: tuple[Any, ...]) -> None:
+    """Build every material's transmission model (and its lateral spread) now, before the G-buffer renders:
+    a material outside the model's domain (a ProfileError: e.g. a table that cannot reach its floor) fails
+    before any frame work; the pass later takes them from memory (:func:`slot_model`'s caches)."""
+    from ..screenspace.transmission import mcml_spread
+
+    done: set[int] = set()
+    for m in materials:
+        if id(m) in done:
+            continue
+        done.add(id(m))
+        slot_model(settings.transmission_model, m)
+        if settings.transmission_spread == "mcml" and isinstance(m, Material):
+            mcml_spread(m)
 
 
 def slot_model(name: str, material: Any) -> Any:
@@ -113,10 +130,10 @@ def slot_model(name: str, material: Any) -> Any:
     return mcml_model(material) if name == "mcml" else jimenez2010_model()
 
 
-def _unreal_light(gb: GBuffer, light_rgb: np.ndarray) -> np.ndarray:
+def _unreal_light(gb: GBuffer, light_rgb: np.ndarray, ue_phase: tuple[float, float] | None = None) -> np.ndarray:
     """The light of the ``unreal`` model: the irradiance times UE's phase factor per pixel
-    (:func:`ssskit.screenspace.transmission.unreal_phase` with UE's default ScatteringDistribution and IOR; V
-    towards the camera, L towards the light)."""
+    (:func:`ssskit.screenspace.transmission.unreal_phase` with ``ue_phase`` = (ScatteringDistribution, IOR), UE's
+    defaults if None; V towards the camera, L towards the light)."""
     from ..screenspace.transmission import UE_TRANSMISSION_DEFAULTS, LightView, unreal_phase
 
     assert gb.light is not None and gb.normal is not None
@@ -127,17 +144,20 @@ def _unreal_light(gb: GBuffer, light_rgb: np.ndarray) -> np.ndarray:
     n = gb.normal.astype(np.float64)
     n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
     to_light = -np.asarray(LightView.from_dict(gb.light).direction, float)
-    g, ior = float(UE_TRANSMISSION_DEFAULTS["ScatteringDistribution"]), float(UE_TRANSMISSION_DEFAULTS["IOR"])
+    g, ior = ((float(UE_TRANSMISSION_DEFAULTS["ScatteringDistribution"]), float(UE_TRANSMISSION_DEFAULTS["IOR"]))
+              if ue_phase is None else (float(ue_phase[0]), float(ue_phase[1])))
     phase = unreal_phase(n, v, np.broadcast_to(to_light, n.shape), g, ior)
     return np.asarray(light_rgb * phase[..., None], light_rgb.dtype)
 
 
 def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[int, Any],
                        say: Callable[[str], None], models: Mapping[int, SlotModel] | None = None,
-                       ) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
+                       ue_phase: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
     """(added, radiance, info): the transmittance pass on the settings' backend with the settings' model for
     every profile id of the mask (``material_of`` id -> material), or ``models`` (profile id ->
-    :class:`~ssskit.backends.transmission_plan.SlotModel`, e.g. an engine's exported parameters), then its
+    :class:`~ssskit.backends.transmission_plan.SlotModel`, e.g. an engine's exported parameters: models of kind
+    ``unreal`` for every id take UE's light and recombine, with ``ue_phase`` = (ScatteringDistribution, IOR) of
+    the exported profile, UE's defaults if None), then its
     lateral spread (``settings.transmission_spread``); ``radiance`` (H, W, 3) float32, the transmitted radiance
     in the image (T E / pi; ``unreal``: albedo times UE's light) and ``added`` = radiance / albedo in the
     backend's float type, the light to add to the reflectance SSS (module docstring), both 0 where the albedo
@@ -154,9 +174,16 @@ def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[
     slots = lut[gb.profile_id]
     backend = get_backend(settings.backend)
     uvz, shadow, ndl, light_rgb = gb.transmission_inputs(backend.dtype)
-    unreal = models is None and settings.transmission_model == "unreal"
+    if models is None:
+        unreal = settings.transmission_model == "unreal"
+    else:
+        kinds = {models[pid].model == "unreal" for pid in ids}
+        if len(kinds) > 1:
+            raise PassError("given transmission models mix unreal and other kinds in one frame: their light and "
+                            "recombine differ (UE's phase and base colour against T E / pi)")
+        unreal = kinds == {True}
     if unreal:
-        light_rgb = _unreal_light(gb, light_rgb)
+        light_rgb = _unreal_light(gb, light_rgb, ue_phase)
     out = np.asarray(backend.transmission(plan, slots, uvz, shadow, ndl, light_rgb))
     # >= 0: a model whose terms subtract (the scattered part) may round a hair below 0 in float32
     out = np.maximum(out, 0.0, dtype=out.dtype)
@@ -185,10 +212,10 @@ def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[
 
 def add_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, material_of: dict[int, Any],
                      say: Callable[[str], None], models: Mapping[int, SlotModel] | None = None,
-                     ) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
-    """(sss', the transmitted radiance (H, W, 3) float32, info): :func:`transmission_light` (with ``models`` if
-    given) added to ``sss`` (in its float type)."""
-    added, radiance, info = transmission_light(gb, settings, material_of, say, models)
+                     ue_phase: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray, TransmissionInfo]:
+    """(sss', the transmitted radiance (H, W, 3) float32, info): :func:`transmission_light` (with ``models`` and
+    ``ue_phase`` if given) added to ``sss`` (in its float type)."""
+    added, radiance, info = transmission_light(gb, settings, material_of, say, models, ue_phase)
     dt = np.asarray(sss).dtype
     return np.add(sss, added, dtype=dt), radiance, info
 

@@ -172,6 +172,16 @@ def _check_request(material: Material, floor: float, grid: Sequence[float]) -> l
         raise ProfileError(f"thicknesses must be finite, positive and ascending, got {list(grid)!r}")
     if not (0 < floor < 1):
         raise ProfileError(f"the transmittance floor must lie in (0, 1), got {floor!r}")
+    # the unscattered part alone, a lower bound of T (absorber_transmittance), decides before any simulation
+    # that the table cannot reach the floor within the grid
+    ballistic = absorber_transmittance(np.asarray(material.sigma_t, float), ts[-1], material.eta, material.eta_ambient)
+    if float(np.max(ballistic)) >= floor:
+        need = -math.log(floor) / ts[-1]
+        fix = ("extend the grid" if ts[-1] < GRID_MM[-1] else
+               f"the transmission model's domain is sigma_t above about {need:.3g} /mm in every channel")
+        raise ProfileError(f"{material.name}'s transmission table cannot reach its floor {floor:g}: the light crossing a "
+                           f"{ts[-1]:g} mm slab unscattered alone is {float(np.max(ballistic)):.3g} (sigma_t "
+                           f"{', '.join(f'{x:g}' for x in material.sigma_t)} /mm); {fix}")
     return ts
 
 
