@@ -189,3 +189,26 @@ def test_bad_transmission_input(run, workdir, args, fragment):
 def test_bad_transmission_settings_file(run, workdir, content, fragment):
     (workdir / "s.toml").write_text(content)
     one_error_line(run, workdir, ["render", "--scene", "plain.exr", "--settings", "s.toml", "--out", "o.exr"], fragment)
+
+
+def test_a_material_outside_the_transmission_domain_fails_before_the_frame(run, tmp_path, monkeypatch):
+    """A material so clear that the light crossing 200 mm unscattered is above the table's floor
+    (0.945 exp(-0.02 * 200) = 1.7e-2 > 1e-4, the exact bound of absorber_transmittance) cannot get an MCML
+    transmission table: refused in one line before the G-buffer renders and before MCML runs (it used to run
+    every grid thickness, then fail after the frame's G-buffer and its pass)."""
+    import ssskit.pipeline.frame as frame
+    import ssskit.profiles.montecarlo.transmission as tr
+
+    def must_not_run(*args, **kwargs):
+        raise AssertionError("work ran before the material's domain was checked")
+
+    monkeypatch.setattr(tr, "simulate", must_not_run)
+    monkeypatch.setattr(frame, "render_gbuffer", must_not_run)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "clear.json").write_text('{"sigma_a": 0.01, "sigma_s": 0.01, "eta": 1.4, "name": "clear"}')
+    for extra in ([], ["--pass", "burley"], ["--transmission-model", "unreal"]):
+        err = one_error_line(run, tmp_path, ["render", "--scene", "backlit", "--material", "clear.json",
+                                             "--transmission", "on", "--size", SIZE, "--backend", "numpy",
+                                             "--out", "o.exr", *extra],
+                             "clear's transmission table cannot reach its floor 0.0001")
+        assert "sigma_t above about 0.0461 /mm in every channel" in err  # ln(1e4) / 200 mm

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from ssskit.errors import ProfileError
-from ssskit.materials import get_material
+from ssskit.materials import Material, get_material
 from ssskit.profiles.montecarlo import MCConfig, MCLayer, simulate
 from ssskit.profiles.montecarlo.transmission import (
     GAUSS_MEDIAN,
@@ -119,6 +119,25 @@ def test_the_scattered_part_rises_from_zero_and_its_fit_follows(skin_table):
     assert np.all(z[ok] <= fit.max_se.max() * (1 + 1e-9)) and np.all(fit.max_se < 6.0), fit.max_se
 
 
+def test_a_nearly_pure_absorbers_scattered_part_takes_fewer_terms():
+    """Ketchup's green scatters little (sigma_s 0.07 against sigma_a 0.97 per mm): its scattered part T_s is above 3
+    SE at three thicknesses only, fewer than the default fit's seven parameters, and its blue at one, fewer than
+    any fit's three. The fit takes the terms the entries allow (green: one and the beam's, 0 at t = 0, >= 0
+    everywhere, within 3 SE of each resolved entry; blue: 0), so the pass can run for Ketchup (it raised before)."""
+    table = transmission_table(get_material("ketchup"))  # the shipped table
+    ts, se = table.diffuse, table.tt_se
+    ok = (ts > 3 * se) & (ts > 0)
+    assert ok[:, 1].sum() == 3 and ok[:, 2].sum() == 1 and ok[:, 0].sum() >= 7
+    fit = fit_transmission(table, part="diffuse")
+    used = np.count_nonzero(fit.amplitudes, axis=1)
+    assert used[0] == 4 and used[1] == 2 and used[2] == 0
+    np.testing.assert_allclose(fit(0.0), 0.0, atol=1e-12)
+    assert np.all(fit(np.linspace(0.0, 2 * table.thickness_mm[-1], 4000)) >= -1e-9)
+    z = np.abs(fit(table.thickness_mm)[:, 1] - ts[:, 1])[ok[:, 1]] / se[ok[:, 1], 1]
+    assert np.all(z <= 3.0), z
+    assert np.all(fit(table.thickness_mm)[:, 2] == 0.0)
+
+
 def test_the_spread_is_the_gaussian_of_the_scattered_lights_median_radius():
     """A run whose Tt(r) is a 2D Gaussian of sigma 1.3 mm plus the unscattered beam on the axis gives sigma back
     (to a tenth of a bin); without the Tt(r) tally (a result stored before it), NaN."""
@@ -161,5 +180,10 @@ def test_bad_inputs_are_refused():
         transmission_table(SKIN, grid=(1.0, 0.5))
     with pytest.raises(ProfileError, match="floor"):
         transmission_table(SKIN, floor=0.0)
-    with pytest.raises(ProfileError, match="extend the grid"):
+    with pytest.raises(ProfileError, match="unscattered alone is 0.447.*extend the grid"):  # the ballistic bound
         transmission_table(SKIN, photons=2_000, grid=(0.5, 1.0))
+    with pytest.raises(ProfileError, match="still .* at the grid's last thickness 5 mm.*extend the grid"):
+        transmission_table(get_material("marble"), photons=2_000, grid=(4.0, 5.0))  # scattered light: simulated
+    clear = Material("clear", (0.01,) * 3, (0.01,) * 3, eta=1.4)  # even 200 mm leaves 0.945 e^-4 unscattered
+    with pytest.raises(ProfileError, match=r"unscattered alone is 0.0173.*domain is sigma_t above about 0.0461 /mm"):
+        transmission_table(clear)

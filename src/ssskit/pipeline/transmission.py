@@ -99,7 +99,24 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
             if not isinstance(m, Material):
                 raise SettingsError(f"the {settings.transmission_model} transmission model needs homogeneous materials "
                                     f"(their {what}); {getattr(m, 'name', m)!r} is a {type(m).__name__}")
+    _models_before_the_frame(settings, materials)
     return True
+
+
+def _models_before_the_frame(settings: RenderSettings, materials: tuple[Any, ...]) -> None:
+    """Build every material's transmission model (and its lateral spread) now, before the G-buffer renders:
+    a material outside the model's domain (a ProfileError: e.g. a table that cannot reach its floor) fails
+    before any frame work; the pass later takes them from memory (:func:`slot_model`'s caches)."""
+    from ..screenspace.transmission import mcml_spread
+
+    done: set[int] = set()
+    for m in materials:
+        if id(m) in done:
+            continue
+        done.add(id(m))
+        slot_model(settings.transmission_model, m)
+        if settings.transmission_spread == "mcml" and isinstance(m, Material):
+            mcml_spread(m)
 
 
 def slot_model(name: str, material: Any) -> Any:

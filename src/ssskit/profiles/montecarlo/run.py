@@ -51,12 +51,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
                            cli_message=f"--{which} acts on the on-disk cache; it cannot be combined with --no-cache")
     if backend not in ENGINES:
         raise ProfileError(f"unknown Monte Carlo backend {backend!r}; choose from {', '.join(ENGINES)}")
-    if threads is not None:  # checked before any answer, the shipped one included
-        import numba
-
-        most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
-        if not (isinstance(threads, int) and 1 <= threads <= most):
-            raise ProfileError(f"threads must be in 1..{most}, got {threads!r}")
+    check_threads(threads)  # before any answer, the shipped one included
     if use_cache and shipped and backend == "numba":  # (None inside shipped.recompute(): ssskit demo --full)
         from .shipped import shipped_result
 
@@ -160,6 +155,16 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
         with contextlib.suppress(OSError):
             partial_path.unlink()
     return result
+
+
+def check_threads(threads: int | None) -> None:
+    """A ProfileError unless ``threads`` is None or an int in 1..numba's thread count."""
+    if threads is not None:
+        import numba
+
+        most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
+        if not (isinstance(threads, int) and 1 <= threads <= most):
+            raise ProfileError(f"threads must be in 1..{most}, got {threads!r}")
 
 
 #: a chunk of batches (one engine call) that takes longer than this is halved for the next (seconds)
@@ -294,4 +299,4 @@ def _progress_bar(total: int, initial: int, label: str) -> ProgressBar:
                         dynamic_ncols=True, leave=False)
 
 
-__all__ = ["ENGINES", "RSP_SAMPLES", "rough_boundary_albedo", "rough_specular", "simulate"]
+__all__ = ["ENGINES", "RSP_SAMPLES", "check_threads", "rough_boundary_albedo", "rough_specular", "simulate"]

@@ -15,6 +15,16 @@ The file is ``data/supplement_profiles.npz`` beside this module, written by
 two within their standard errors. Stored: per configuration the regular bins' R(r) and its standard
 error as float32 (trailing empty bins dropped: R = 0 there), the totals, the exit-direction tally,
 the engine version and the run time that made it.
+
+The transmission tables (:func:`~ssskit.profiles.montecarlo.transmission.transmission_table`: MCML's T(t) of a
+slab per channel with its batch standard errors, the diffuse reflectance, the spread of Tt(r)) of the same 11
+materials are shipped too, at the product's defaults (2 x 10^5 photons per run, seed 101, the default grid and
+floor): ``data/transmission_tables.json``, written by ``python docs/transmission_tables.py`` and checked by
+``tests/profiles/test_shipped_tables.py``. A table request answers from it when its
+:func:`~ssskit.profiles.montecarlo.transmission.table_key` matches, i.e. when every simulation it would run has
+the same cache key (engine version included) and the floor and the table's derivation are the same; so ``ssskit
+export --format unreal|unity``, ``ssskit render --transmission on`` and the demo simulate no slab for these
+materials. :func:`recompute` turns it off as it does the profiles.
 """
 
 from __future__ import annotations
@@ -162,5 +172,76 @@ def write_shipped(entries: list[tuple[str, str, MCResult]], path: Path = SHIPPED
     return path
 
 
-__all__ = ["SHIPPED_FILE", "SHIPPED_SEED", "config_id", "manifest", "recompute", "shipped_configs", "shipped_materials",
-           "shipped_result", "write_shipped"]
+# ---- the transmission tables ----------------------------------------------------------------------------------
+
+#: the shipped transmission tables (package data)
+TABLES_FILE = Path(__file__).parent / "data" / "transmission_tables.json"
+
+
+def table_materials() -> list[tuple[str, Material]]:
+    """(label, material) of every shipped transmission table: the 11 measured materials of supplement G."""
+    return list(MATERIALS.items())
+
+
+@functools.lru_cache(maxsize=1)
+def _tables() -> dict[str, dict[str, Any]]:
+    """{table key: entry} of the shipped tables file ({} when the file is absent)."""
+    if not TABLES_FILE.is_file():
+        return {}
+    data = json.loads(TABLES_FILE.read_text())
+    return {e["key"]: e for e in data["tables"]}
+
+
+def shipped_table(key: str) -> dict[str, Any] | None:
+    """The shipped transmission table of ``key`` (:func:`~.transmission.table_key`) as
+    :meth:`~.transmission.TransmissionTable.to_dict` wrote it (NaN as None), or None if no table of that key is
+    shipped (or inside a :func:`recompute` block)."""
+    if not _ENABLED.get():
+        return None
+    entry = _tables().get(key)
+    return None if entry is None else dict(entry["table"])
+
+
+def tables_manifest() -> dict[str, Any]:
+    """What the shipped tables file holds: ``made`` (where and when), ``defaults`` (the request the tables answer)
+    and ``tables``, per table its label, key, engine version, number of thicknesses, photons, seed and the seconds
+    its simulations took ({} when the file is absent)."""
+    if not TABLES_FILE.is_file():
+        return {}
+    data = json.loads(TABLES_FILE.read_text())
+    tables = [{"label": e["label"], "key": e["key"], "engine_version": e["engine_version"], "seconds": e["seconds"],
+               "thicknesses": len(e["table"]["thickness_mm"]), "photons": e["table"]["photons"],
+               "seed": e["table"]["seed"]} for e in data["tables"]]
+    return {"made": data.get("made", {}), "defaults": data.get("defaults", {}), "tables": tables}
+
+
+def write_tables(entries: list[tuple[str, str, dict[str, Any], float]], path: Path = TABLES_FILE,
+                 made: dict[str, Any] | None = None, defaults: dict[str, Any] | None = None) -> Path:
+    """Write ``(label, key, table.to_dict(), seconds simulated)`` entries as the shipped tables file (atomically,
+    one table a line, floats exact: JSON keeps every float's shortest repr; NaN as null); ``made``: where and
+    when they were simulated; ``defaults``: the request they answer."""
+    import math
+
+    from ...io import atomic_output
+
+    def plain(v: Any) -> Any:
+        if isinstance(v, float):
+            return v if math.isfinite(v) else None
+        if isinstance(v, list):
+            return [plain(x) for x in v]
+        return v
+
+    lines = [json.dumps({"label": label, "key": key, "engine_version": ENGINE_VERSION, "seconds": round(float(sec), 1),
+                         "table": {k: plain(v) for k, v in table.items()}}, allow_nan=False)
+             for label, key, table, sec in entries]
+    head = json.dumps({"made": made or {}, "defaults": defaults or {}}, allow_nan=False)[:-1]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_output(path) as tmp:
+        Path(tmp).write_text(head + ',\n"tables": [\n' + ",\n".join(lines) + "\n]}\n")
+    _tables.cache_clear()
+    return path
+
+
+__all__ = ["SHIPPED_FILE", "SHIPPED_SEED", "TABLES_FILE", "config_id", "manifest", "recompute", "shipped_configs",
+           "shipped_materials", "shipped_result", "shipped_table", "table_materials", "tables_manifest", "write_shipped",
+           "write_tables"]

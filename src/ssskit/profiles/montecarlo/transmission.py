@@ -7,7 +7,8 @@ ambient half-spaces, Wang, Jacques, Zheng 1995 [WJZ95], section 2.1), lit at nor
 MCML's Tt: every photon weight leaving through the bottom face, the unscattered (ballistic) part
 included. Each (thickness, channel) is one cached :func:`~ssskit.profiles.montecarlo.simulate` run with
 its own seed, so the table's entries are independent and their standard errors are the batch method's
-(:mod:`.result`).
+(:mod:`.result`). The tables of the 11 measured materials at the defaults are shipped with the package
+(:mod:`.shipped`): :func:`transmission_table` answers them without simulating when :func:`table_key` matches.
 
 Two bounds hold for any slab, whatever its scattering, and are what the tests check the tables against
 (independent of MCML's transport):
@@ -47,6 +48,8 @@ dense grid.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -56,20 +59,29 @@ import numpy as np
 
 from ...errors import ProfileError
 from ...materials import Material
+from .config import MCConfig
 from .result import MCResult
-from .run import simulate
+from .run import check_threads, simulate
 from .slab import slab_config
 
 #: T below which the table stops (the issue's "for skin, up to where T falls below 1e-4")
 T_FLOOR = 1e-4
 
 #: the candidate thicknesses (mm) of a table: dense below 1 mm (the ballistic part and thin skin), then
-#: wider steps; a table stops at the first entry where every channel's T is below its floor
+#: wider steps; a table stops at the first entry where every channel's T is below its floor. The last four let the
+#: measured materials with the least absorption reach the floor (their shipped tables' red: Skimmilk's T = 4.8e-4
+#: at 120 mm, 1.5e-4 at 140 mm, 3.2e-5 at 170 mm; Potato's 3.6e-4 and Chicken1's 2.3e-4 at 100 mm, below 1e-4 at
+#: 120 mm)
 GRID_MM = (0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 14.0, 17.0, 20.0,
-           24.0, 28.0, 33.0, 38.0, 45.0, 52.0, 60.0, 70.0, 80.0, 100.0)
+           24.0, 28.0, 33.0, 38.0, 45.0, 52.0, 60.0, 70.0, 80.0, 100.0, 120.0, 140.0, 170.0, 200.0)
 
 #: photons per simulation of a table (each entry: one run per channel)
 DEFAULT_PHOTONS = 200_000
+#: the base seed of a table (thickness i runs with seed ``DEFAULT_SEED + i``)
+DEFAULT_SEED = 101
+#: bump when what a table derives from its simulations changes (its fields, :func:`diffuse_spread`, the stopping
+#: rule): part of :func:`table_key`, so the shipped tables (:mod:`.shipped`) of an older derivation are not used
+TABLE_VERSION = 1
 
 #: terms of the exponential fit of MCML's Tt, and of its scattered part (each with its share of the last
 #: term's -sum a_k exp(-B t))
@@ -151,14 +163,8 @@ class TransmissionTable:
         return cls(**kw)
 
 
-def transmission_table(material: Material, photons: int = DEFAULT_PHOTONS, seed: int = 101,
-                       floor: float = T_FLOOR, grid: Sequence[float] = GRID_MM,
-                       threads: int | None = None) -> TransmissionTable:
-    """T(t) of ``material``'s slab over ``grid`` (mm, ascending), stopping after the first thickness at
-    which every channel's T is below ``floor`` (so the table reaches the floor; a ProfileError if the grid
-    ends first). Thickness i, channel c runs with seed ``seed + i`` (the channel's stream is mixed in by
-    :func:`~ssskit.profiles.montecarlo.config.config_for_material`); every run is cached by
-    :func:`~ssskit.profiles.montecarlo.simulate`."""
+def _check_request(material: Material, floor: float, grid: Sequence[float]) -> list[float]:
+    """The grid as floats, after the checks of a table's request (ProfileError for a bad one)."""
     if not isinstance(material, Material):
         raise ProfileError(f"a transmission table needs a homogeneous material, got {type(material).__name__}")
     ts = [float(t) for t in grid]
@@ -166,13 +172,71 @@ def transmission_table(material: Material, photons: int = DEFAULT_PHOTONS, seed:
         raise ProfileError(f"thicknesses must be finite, positive and ascending, got {list(grid)!r}")
     if not (0 < floor < 1):
         raise ProfileError(f"the transmittance floor must lie in (0, 1), got {floor!r}")
+    # the unscattered part alone, a lower bound of T (absorber_transmittance), decides before any simulation
+    # that the table cannot reach the floor within the grid
+    ballistic = absorber_transmittance(np.asarray(material.sigma_t, float), ts[-1], material.eta, material.eta_ambient)
+    if float(np.max(ballistic)) >= floor:
+        need = -math.log(floor) / ts[-1]
+        fix = ("extend the grid" if ts[-1] < GRID_MM[-1] else
+               f"the transmission model's domain is sigma_t above about {need:.3g} /mm in every channel")
+        raise ProfileError(f"{material.name}'s transmission table cannot reach its floor {floor:g}: the light crossing a "
+                           f"{ts[-1]:g} mm slab unscattered alone is {float(np.max(ballistic)):.3g} (sigma_t "
+                           f"{', '.join(f'{x:g}' for x in material.sigma_t)} /mm); {fix}")
+    return ts
+
+
+def table_runs(material: Material, photons: int = DEFAULT_PHOTONS, seed: int = DEFAULT_SEED,
+               grid: Sequence[float] = GRID_MM) -> list[list[MCConfig]]:
+    """The simulations a table may run: per thickness i of ``grid`` the three channels' slab configurations
+    (:func:`~ssskit.profiles.montecarlo.slab.slab_config`, seed ``seed + i``); :func:`transmission_table` runs
+    a prefix of them, up to the floor."""
+    return [[slab_config(material, c, float(t), photons, seed + i) for c in range(3)] for i, t in enumerate(grid)]
+
+
+def table_key(material: Material, photons: int = DEFAULT_PHOTONS, seed: int = DEFAULT_SEED, floor: float = T_FLOOR,
+              grid: Sequence[float] = GRID_MM) -> str:
+    """Every input of a table, hashed: the cache key (:meth:`~ssskit.profiles.montecarlo.MCConfig.key`: the
+    material's coefficients, eta, the radial grid, photons, seed, batches and the engine version) of each
+    simulation it may run (:func:`table_runs`), the floor and :data:`TABLE_VERSION`. The material's name is
+    not an input: equal coefficients give the same table. A shipped table (:mod:`.shipped`) answers a request
+    of the same key."""
+    ts = _check_request(material, floor, grid)
+    runs = [cfg.key() for row in table_runs(material, photons, seed, ts) for cfg in row]
+    text = json.dumps({"runs": runs, "floor": float(floor), "table_version": TABLE_VERSION}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def transmission_table(material: Material, photons: int = DEFAULT_PHOTONS, seed: int = DEFAULT_SEED,
+                       floor: float = T_FLOOR, grid: Sequence[float] = GRID_MM,
+                       threads: int | None = None, *, shipped: bool = True, resume: bool = False,
+                       progress: bool | None = None) -> TransmissionTable:
+    """T(t) of ``material``'s slab over ``grid`` (mm, ascending), stopping after the first thickness at
+    which every channel's T is below ``floor`` (so the table reaches the floor; a ProfileError if the grid
+    ends first). Thickness i, channel c runs with seed ``seed + i`` (the channel's stream is mixed in by
+    :func:`~ssskit.profiles.montecarlo.config.config_for_material`); every run is cached by
+    :func:`~ssskit.profiles.montecarlo.simulate` (``resume``: continue a run interrupted before; ``progress``:
+    its progress bar, as there).
+
+    A request the package ships (the 11 measured materials at the defaults, :func:`~.shipped.shipped_table`:
+    the same :func:`table_key`) is answered from the shipped file without simulating, named after
+    ``material``; ``shipped=False``, or a :func:`~.shipped.recompute` block (``ssskit demo --full``),
+    simulates instead. The result does not depend on ``threads``."""
+    ts = _check_request(material, floor, grid)
+    check_threads(threads)  # before any answer, the shipped one included
+    if shipped:
+        from .shipped import shipped_table
+
+        found = shipped_table(table_key(material, photons, seed, floor, ts))
+        if found is not None:
+            return dataclasses.replace(TransmissionTable.from_dict(found), material=material.name)
     rows: dict[str, list[list[float]]] = {k: [] for k in ("tt", "tt_se", "rd", "rd_se", "spread")}
     rsp = np.zeros(3)
     used: list[float] = []
-    for i, t in enumerate(ts):
+    for t, cfgs in zip(ts, table_runs(material, photons, seed, ts)):
         vals = {k: [0.0, 0.0, 0.0] for k in rows}
-        for c in range(3):
-            r = simulate(slab_config(material, c, t, photons, seed + i), threads=threads)
+        for c, cfg in enumerate(cfgs):
+            r = simulate(cfg, threads=threads, resume=resume, progress=progress,
+                         label=f"{material.name} {t:g} mm {'RGB'[c]}")
             vals["tt"][c], vals["tt_se"][c] = r.tt, r.tt_se
             vals["rd"][c], vals["rd_se"][c] = r.total_rd, r.total_rd_se
             vals["spread"][c] = diffuse_spread(r, float(absorber_transmittance(material.sigma_t[c], t, material.eta,
@@ -257,20 +321,21 @@ PARTS = ("total", "diffuse")
 
 
 def _fit_channel(t: np.ndarray, y: np.ndarray, se: np.ndarray, starts: Sequence[np.ndarray], terms: int,
-                 rel_floor: float, diffuse: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 rel_floor: float, diffuse: bool = False, gauss: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(a, b, c) of sum_k a_k exp(-b_k t - c_k t^2) minimising sum ((fit - y) / s)^2 with s = sqrt(se^2 +
     (rel_floor y)^2) (each entry's error, floored relative to it so that no precise entry dominates):
     variable projection, the amplitudes by non-negative least squares for each trial (b, c) (b = e^x, c =
     x'^2), from each start; the best. ``diffuse``: each basis function is exp(-b_k t - c_k t^2) - exp(-B t)
-    with one more parameter B = e^x (the last of x), and the result has K + 1 terms, the last (-sum a, B, 0)."""
+    with one more parameter B = e^x (the last of x), and the result has K + 1 terms, the last (-sum a, B, 0).
+    ``gauss`` False: c = 0 (pure exponentials; the starts carry no c)."""
     from scipy.optimize import least_squares, nnls
 
     s = np.sqrt(se ** 2 + (rel_floor * y) ** 2)
     k = terms
 
     def basis(x: np.ndarray, tt: np.ndarray) -> np.ndarray:
-        m = np.exp(-np.outer(tt, np.exp(x[:k])) - np.outer(tt * tt, x[k:2 * k] ** 2))
-        return m - np.exp(-np.exp(x[2 * k]) * tt)[:, None] if diffuse else m
+        m = np.exp(-np.outer(tt, np.exp(x[:k])) - (np.outer(tt * tt, x[k:2 * k] ** 2) if gauss else 0.0))
+        return m - np.exp(-np.exp(x[-1]) * tt)[:, None] if diffuse else m
 
     def amps(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         m = basis(x, t) / s[:, None]
@@ -289,19 +354,27 @@ def _fit_channel(t: np.ndarray, y: np.ndarray, se: np.ndarray, starts: Sequence[
     assert best is not None
     x = best[1]
     a, _ = amps(x)
-    b, c = np.exp(x[:k]), x[k:2 * k] ** 2
+    b, c = np.exp(x[:k]), (x[k:2 * k] ** 2 if gauss else np.zeros(k))
     order = np.argsort(b)
     a, b, c = a[order], b[order], c[order]
     if diffuse:
-        a, b, c = np.append(a, -a.sum()), np.append(b, np.exp(x[2 * k])), np.append(c, 0.0)
+        a, b, c = np.append(a, -a.sum()), np.append(b, np.exp(x[-1])), np.append(c, 0.0)
     return a, b, c
+
+
+def _lowest(a: np.ndarray, b: np.ndarray, c: np.ndarray, t_max: float) -> float:
+    """The fit's least value on [0, 2 t_max] (20,001 points)."""
+    dense = np.linspace(0.0, 2.0 * t_max, 20_001)[:, None]
+    return float(np.min(np.sum(a * np.exp(-b * dense - c * dense ** 2), axis=-1)))
 
 
 def fit_transmission(table: TransmissionTable, terms: int | None = None, rel_floor: float = 0.01,
                      part: str = "total") -> TransmissionFit:
     """The fit of a table's ``part`` (:data:`PARTS`: MCML's Tt, or its scattered part T_s, ``table.diffuse``;
     module docstring), per channel on its entries with T > 3 SE, each weighted by its error sqrt(SE^2 +
-    (rel_floor T)^2); ``terms`` (default 4 for the total, 3 + the one of -sum a for the scattered part).
+    (rel_floor T)^2); ``terms`` (default 4 for the total, 3 + the one of -sum a for the scattered part; a channel
+    with too few resolved entries for them takes as many as it can, one with none is 0: its light is below 3 SE
+    at every thickness).
     Deterministic starts: rates spanning the channel's diffusion rate sigma_tr = sqrt(3 sigma_a sigma_t') (g =
     0) to a few times its extinction sigma_t, with small and moderate Gaussian terms (and B = 2 sigma_t). A
     scattered-part fit negative anywhere on [0, 2 x the table's last thickness] is a ProfileError."""
@@ -319,33 +392,44 @@ def fit_transmission(table: TransmissionTable, terms: int | None = None, rel_flo
     for c in range(3):
         y, se, t = values[:, c], table.tt_se[:, c], table.thickness_mm
         ok = (y > 0) & (y > 3 * se)
-        need = 2 * terms + (1 if diffuse else 0)
-        if ok.sum() < need:
-            raise ProfileError(f"{table.material}: channel {c} has {int(ok.sum())} resolved entries, fewer than the "
-                               f"{need} a {terms}-term fit needs")
+        # a channel with fewer resolved entries than the terms need takes fewer terms (each term costs two
+        # parameters, the scattered part's beam one more): Ketchup's green, nearly a pure absorber, has three; a
+        # channel with none resolved (its light below 3 SE at every thickness) is 0
+        k_c = min(terms, (int(ok.sum()) - (1 if diffuse else 0)) // 2)
+        if k_c < 1:
+            errs[:, c] = (0.0, 0.0, float(np.max(np.abs(y) / np.maximum(se, 1e-300), initial=0.0)))
+            continue
         sa, st = table.sigma_a[c], table.sigma_t[c]
         sig_tr = math.sqrt(3.0 * sa * st) if sa > 0 else 1.0 / float(t[ok].max())
         tail = [math.log(2.0 * st)] if diffuse else []
-        starts = [np.r_[np.log(np.geomspace(f_lo * sig_tr, f_hi * max(st, sig_tr), terms)), np.full(terms, math.sqrt(c0)),
+        starts = [np.r_[np.log(np.geomspace(f_lo * sig_tr, f_hi * max(st, sig_tr), k_c)), np.full(k_c, math.sqrt(c0)),
                         tail]
                   for f_lo, f_hi, c0 in ((0.9, 2.0, 1e-3), (0.5, 4.0, 0.03 * sig_tr), (0.95, 8.0, 1e-3))]
-        a, b, g = _fit_channel(t[ok], y[ok], se[ok], starts, terms, rel_floor, diffuse)
-        out[:, c] = a, b, g
+        a, b, g = _fit_channel(t[ok], y[ok], se[ok], starts, k_c, rel_floor, diffuse)
+        if diffuse and k_c < terms and _lowest(a, b, g, float(t.max())) < -1e-9:
+            # few entries: the Gaussian factors' extrapolation may dip below 0 beyond them (a term's e^(-c t^2)
+            # falling under the beam's e^(-B t)); pure exponentials there
+            a, b, g = _fit_channel(t[ok], y[ok], se[ok], [np.r_[x0[:k_c], x0[-1]] for x0 in starts], k_c, rel_floor,
+                                   diffuse, gauss=False)
+        n_c = len(a)  # k_c, or k_c + 1 for the scattered part; the rest of the row stays 0 (no light)
+        out[0, c, :n_c], out[1, c, :n_c], out[2, c, :n_c] = a, b, g
         f = np.sum(a * np.exp(-b * t[ok, None] - g * t[ok, None] ** 2), axis=-1)
         rel = np.abs(f - y[ok]) / y[ok]
         precise = se[ok] < 0.1 * y[ok]
-        errs[:, c] = (rel[precise].max(), math.sqrt(float(np.mean(rel[precise] ** 2))),
+        errs[:, c] = (float(rel[precise].max(initial=0.0)),
+                      math.sqrt(float(np.mean(rel[precise] ** 2))) if precise.any() else 0.0,
                       float(np.max(np.abs(f - y[ok]) / np.maximum(se[ok], 1e-300))))
         lo, hi = min(lo, float(t[ok].min())), max(hi, float(t[ok].max()))
         if diffuse:
-            dense = np.linspace(0.0, 2.0 * float(t.max()), 20_001)[:, None]
-            low = float(np.min(np.sum(a * np.exp(-b * dense - g * dense ** 2), axis=-1)))
+            low = _lowest(a, b, g, float(t.max()))
             if low < -1e-9:
                 raise ProfileError(f"{table.material}: channel {c}'s fit of the scattered transmittance falls to "
                                    f"{low:.3g} < 0; try another number of terms")
+    if lo > hi:  # no channel resolved anywhere
+        lo = hi = 0.0
     return TransmissionFit(table.material, out[0], out[1], out[2], errs[0], errs[1], errs[2], (lo, hi), part)
 
 
-__all__ = ["DEFAULT_PHOTONS", "DEFAULT_TERMS", "DIFFUSE_TERMS", "GAUSS_MEDIAN", "GRID_MM", "PARTS", "T_FLOOR",
-           "TransmissionFit", "TransmissionTable", "absorber_transmittance", "diffuse_spread", "fit_transmission",
-           "normal_fresnel", "transmission_table"]
+__all__ = ["DEFAULT_PHOTONS", "DEFAULT_SEED", "DEFAULT_TERMS", "DIFFUSE_TERMS", "GAUSS_MEDIAN", "GRID_MM", "PARTS",
+           "TABLE_VERSION", "T_FLOOR", "TransmissionFit", "TransmissionTable", "absorber_transmittance", "diffuse_spread",
+           "fit_transmission", "normal_fresnel", "table_key", "table_runs", "transmission_table"]
