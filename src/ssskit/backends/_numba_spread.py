@@ -6,8 +6,8 @@ the stack, :func:`~ssskit.compute.numba_math.stack_empty`).
 Layout: one float32 array of planar (H, W) planes (``PLANES``, :func:`plane_stride` apart): the depth, the slot
 (as a float), per channel a_c = 1 / sigma_c and g_c = sqrt(z / sigma_c) (both 0 where sigma_c = 0), the widest
 sigma and the horizontal pass's result (the vertical pass reads them); the horizontal pass reads the same planes
-and the frame's exitance from a padded copy of its row. With them the pair's terms need no root and no division per tap: S_c = f /
-(g_p g_q) and
+and the frame's exitance from a padded copy of its row. With them the pair's terms need no root and no division
+per tap: S_c = f / (g_p g_q) and
 
     w_c = step g_p g_q / (sqrt(2 pi) f) 2^(-log2(e) a_p a_q (d^2 z_p z_q / f^2 + dz^2) / 2),
 
