@@ -15,10 +15,11 @@ the support |d| <= 3 S_c as |d| g_p g_q <= 3 f, one exponential (:func:`~ssskit.
 relative error 2.5e-7, inlined so that the lane loops vectorise) per tap and channel.
 
 * :func:`spread_h`, per row: steps 0-1 (:func:`_row_terms`: the map's bilinear depth as the transmittance pass
-  reads it, :func:`~ssskit.backends._numba_transmission.map_bilinear`, the thickness, the widths interpolated in
-  the slot's table, the planes; the row's smallest g_c > 0 and largest sigma_max / z), written both into the
-  planes and into a scratch copy of the row padded by W on each side (pad texels are slot 0, so no bounds
-  tests), then step 2 along x from that copy while it is in cache, the blocks' taps as contiguous loads;
+  reads it, :func:`~ssskit.backends._numba_transmission.transmission_pixels`' steps 1-2, the thickness, the
+  widths interpolated in the slot's table, the planes; the row's smallest g_c > 0 and largest sigma_max / z),
+  written both into the planes and into a scratch copy of the row padded by W on each side (pad texels are
+  slot 0, so no bounds tests), then step 2 along x from that copy while it is in cache, the blocks' taps as
+  contiguous loads;
 * :func:`spread_v` (step 2 along y): out[y, x0:x0+LANES] from rows y + d of the planes, contiguous loads, the
   frame in column strips of ``STRIP`` pixels so that a strip's rows within the taps' reach stay in cache.
 
@@ -148,7 +149,9 @@ def _row_terms(slots, uvz, shadow, hs, ws, src, depth, knots, table, n_knots, nk
             ok = _finite(px) & _finite(py) & (s > 0)
             px = px if ok else _ZERO
             py = py if ok else _ZERO
-            fi = np.floor(px)  # the transmittance pass's step 1 (_numba_transmission.transmission_pixels)
+            # the transmittance pass's steps 1-2 (_numba_transmission.transmission_pixels), the same lines: shared as
+            # an inline function (numba 0.68) they made that pass 2-3 times slower, so each kernel has its copy
+            fi = np.floor(px)
             fj = np.floor(py)
             fx = px - fi
             fy = py - fj
