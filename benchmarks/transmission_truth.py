@@ -8,9 +8,10 @@ prints one JSON object per run.
 ``slab``: Skin1 slabs (the built-in ``backlit`` scene cut to each thickness, :func:`ssskit.scenes.backlit
 .backlit_slab`) lit from behind at normal incidence; per thickness and channel the *level* pi L / E (L the
 radiance leaving the seen face, E the lit face's irradiance: the G-buffer's back irradiance, light x -N . L)
-over the pixels within 15 mm of the slab's centre, of the pass (``ssskit render --transmission on``: the MCML
-model, its lateral spread) and of the path-traced reference (:func:`ssskit.scenes.render_reference`, rendered
-until its relative standard error there is 1 % or ``--max-spp`` is spent), with MCML's scattered transmittance
+over the pixels within 15 mm of the slab's centre, of the pass (``ssskit render --transmission on
+--transmission-spread mcml``: the MCML model, its lateral spread) and of the path-traced reference
+(:func:`ssskit.scenes.render_reference`, rendered until its relative standard error there is 1 % or
+``--max-spp`` is spent), with MCML's scattered transmittance
 T_s(t) (independent runs: other seeds) and MCML's radiance at the camera's exit angle (Tt_a: what the
 reference should see); each cell within 5 % or 3 standard errors or not. ``leaf``: the built-in ``leaf`` scene
 (Apple), its pixels by the pass's thickness along the normal (rim < 0.4 mm, flank, middle >= 1 mm), the pass's
@@ -92,7 +93,8 @@ def _pass(spec: Any, material: str, args: argparse.Namespace) -> Any:
 
     w, h = _size(args.size)
     return render(spec, RenderSettings(material=material, width=w, height=h, spp=args.gbuffer_spp, transmission="on",
-                                       backend=args.backend, exact=False, perceptual=False))
+                                       transmission_spread="mcml", backend=args.backend, exact=False,
+                                       perceptual=False))
 
 
 def run_slab(args: argparse.Namespace) -> dict[str, Any]:

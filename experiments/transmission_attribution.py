@@ -72,7 +72,7 @@ def main() -> None:
     variants = {"whole Tt, light's chord (before)": (dict(part="total", along_normal=False), False),
                 "scattered part, light's chord": (dict(part="diffuse", along_normal=False), False),
                 "scattered part, along the normal": (dict(part="diffuse", along_normal=True), False),
-                "scattered part, along the normal, spread (the product)": (dict(part="diffuse", along_normal=True), True)}
+                "scattered part, along the normal, spread (--transmission-spread mcml)": (dict(part="diffuse", along_normal=True), True)}
     out: dict = {"size": [w, h], "spp": args.spp, "transmitted": {}, "map_resolution": {}}
     for label, (kw, spread) in variants.items():
         ex = np.maximum(np.asarray(numpy.transmission(transmission_plan({1: mcml_model(mat, **kw)}), slots, uvz, shadow,

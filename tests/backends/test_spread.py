@@ -21,24 +21,26 @@ def _spread(sigma_mm, knots=(0.0,)):
     return SlotSpread(np.asarray(knots, float), w)
 
 
-def _frame(seed=1, depth=None):
-    """Two profile ids in blocks with a depth step, a map at ~100 mm, points 0-5 mm behind it; exitance random."""
+def _frame(seed=1, depth=None, h=H, w=W, ids=2):
+    """Two profile ids in blocks (or one) with a depth step, a map at ~100 mm, points 0-5 mm behind it; exitance
+    random."""
     r = np.random.default_rng(seed)
-    slots = np.ones((H, W), np.int32)
-    slots[:, W // 2:] = 2
+    slots = np.ones((h, w), np.int32)
+    if ids == 2:
+        slots[:, w // 2:] = 2
     slots[:3] = 0
-    z = np.full((H, W), 100.0) if depth is None else np.asarray(depth, float)
+    z = np.full((h, w), 100.0) if depth is None else np.asarray(depth, float)
     if depth is None:
-        z[H // 2:, :] += 6.0  # a depth step inside both ids
-        z += r.uniform(0, 0.3, (H, W))
+        z[h // 2:, :] += 6.0  # a depth step inside both ids
+        z += r.uniform(0, 0.3, (h, w))
     shadow = (100.0 + r.uniform(0, 1, (HS, WS))).astype(np.float32)
-    x = r.uniform(0.0, WS, (H, W))
-    y = r.uniform(0.0, HS, (H, W))
+    x = r.uniform(0.0, WS, (h, w))
+    y = r.uniform(0.0, HS, (h, w))
     from ssskit.backends.numpy_backend import shadow_depth
 
     d = shadow_depth(shadow.astype(np.float64), x, y)
-    uvz = np.stack([x, y, d + r.uniform(0.0, 5.0, (H, W))], -1).astype(np.float32)
-    ex = r.uniform(0.0, 1.0, (H, W, 3)).astype(np.float32)
+    uvz = np.stack([x, y, d + r.uniform(0.0, 5.0, (h, w))], -1).astype(np.float32)
+    ex = r.uniform(0.0, 1.0, (h, w, 3)).astype(np.float32)
     ex[slots == 0] = 0.0
     return ex, z.astype(np.float32), slots, uvz, shadow
 
@@ -51,13 +53,16 @@ def plan():
                               2: _spread([[0.3, 0.8, 1.2, 2.0]] * 3, knots)}, FX, FY)
 
 
-def test_backend_parity(backend, plan):
+@pytest.mark.parametrize("shape", [(H, W, 2), (24, 70, 1), (20, 13, 2)], ids=["two-ids", "one-id", "narrow"])
+def test_backend_parity(backend, plan, shape):
     """|backend - oracle| <= 3e-5 of the frame's largest exitance: float32 weights rounded to ~1e-7 relative,
-    summed over at most 2 x 33 taps in two passes."""
-    frame = _frame()
+    summed over at most 2 x 33 taps in two passes. Frames with two ids side by side, with one (blocks of one id:
+    the numba kernel's sweep over the knots), and narrower than the numba kernel's blocks of pixels."""
+    h, w, ids = shape
+    frame = _frame(h=h, w=w, ids=ids)
     out = np.asarray(get_backend(backend).transmission_spread(plan, *frame), np.float64)
     ref = spread_pass(plan, *frame)
-    assert out.shape == (H, W, 3)
+    assert out.shape == (h, w, 3)
     assert np.max(np.abs(out - ref)) <= 3e-5 * float(np.max(frame[0]))
     assert np.max(np.abs(ref - frame[0])) > 0.05  # the frame is spread
 
@@ -149,3 +154,28 @@ def test_a_noisy_width_moves_light_without_losing_it(backend):
         change = out.sum() / v.astype(np.float64).sum() - 1.0
         assert abs(change) < bound, change
         assert np.abs(out - v).max() > moved
+
+
+def test_numba_result_is_the_same_on_any_thread_count(plan):
+    """Rows split among threads (frames of 64 rows or more) give the image of one thread, bit for bit."""
+    numba = pytest.importorskip("numba")
+    r = np.random.default_rng(5)
+    h, w = 70, 97
+    slots = np.where(r.uniform(size=(h, w)) < 0.9, 1, 2).astype(np.int32)
+    slots[:, :5] = 0
+    z = (100.0 + r.uniform(0, 3, (h, w))).astype(np.float32)
+    shadow = (100.0 + r.uniform(0, 1, (HS, WS))).astype(np.float32)
+    uvz = np.stack([r.uniform(0, WS, (h, w)), r.uniform(0, HS, (h, w)), 101.0 + r.uniform(0, 4, (h, w))],
+                   -1).astype(np.float32)
+    ex = r.uniform(0.0, 1.0, (h, w, 3)).astype(np.float32)
+    b = get_backend("numba")
+    prev = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = b.transmission_spread(plan, ex, z, slots, uvz, shadow)
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        many = b.transmission_spread(plan, ex, z, slots, uvz, shadow)
+    finally:
+        numba.set_num_threads(prev)
+    np.testing.assert_array_equal(one, many)
+    assert np.max(np.abs(one - ex)) > 0.05

@@ -175,6 +175,8 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
     (["--scene", "plain.exr", "--pass", "burley-adaptive", "--transmission", "off", "--transmission-model",
       "jimenez2010"], "applies when the transmittance pass can run"),
     (["--scene", "plain.exr", "--transmission-spread", "wide"], "Invalid value for '--transmission-spread': 'wide'"),
+    (["--scene", "plain.exr", "--transmission", "off", "--transmission-spread", "mcml"],
+     "transmission_spread 'mcml' applies when the transmittance pass can run"),
 ])
 def test_bad_transmission_input(run, workdir, args, fragment):
     one_error_line(run, workdir, ["render", *args, "--backend", "numpy", "--out", "o.exr", "--save-gbuffer", "g2.exr"],
@@ -185,6 +187,7 @@ def test_bad_transmission_input(run, workdir, args, fragment):
     ("transmission_model = 'foo'\n", "transmission_model must be one of mcml, jimenez2010, unreal, got 'foo'"),
     ("transmission = 'yes'\n", "transmission must be one of auto, on, off, got 'yes'"),
     ("transmission_spread = 'wide'\n", "transmission_spread must be one of mcml, off, got 'wide'"),
+    ("transmission = 'off'\ntransmission_spread = 'mcml'\n", "transmission_spread 'mcml' applies when the"),
 ])
 def test_bad_transmission_settings_file(run, workdir, content, fragment):
     (workdir / "s.toml").write_text(content)
@@ -206,7 +209,8 @@ def test_a_material_outside_the_transmission_domain_fails_before_the_frame(run, 
     monkeypatch.setattr(frame, "render_gbuffer", must_not_run)
     monkeypatch.chdir(tmp_path)
     (tmp_path / "clear.json").write_text('{"sigma_a": 0.01, "sigma_s": 0.01, "eta": 1.4, "name": "clear"}')
-    for extra in ([], ["--pass", "burley"], ["--transmission-model", "unreal"]):
+    # unreal's T(t) needs no MCML table; its lateral spread's widths do
+    for extra in ([], ["--pass", "burley"], ["--transmission-model", "unreal", "--transmission-spread", "mcml"]):
         err = one_error_line(run, tmp_path, ["render", "--scene", "backlit", "--material", "clear.json",
                                              "--transmission", "on", "--size", SIZE, "--backend", "numpy",
                                              "--out", "o.exr", *extra],

@@ -27,7 +27,7 @@ def ear():
 
 def test_auto_runs_where_the_gbuffer_has_the_layers(ear):
     lit, plain = ear
-    s = RenderSettings(**BASE, transmission_spread="off")
+    s = RenderSettings(**BASE)  # the lateral spread is off by default (its cost: docs/transmission.md)
     on, off = render(lit, s), render(lit, s.replace(transmission="off"))
     assert on.transmission.ran and on.transmission.model == "mcml" and not off.transmission.ran
     assert not render(plain, s).transmission.ran
@@ -58,7 +58,8 @@ def test_auto_runs_where_the_gbuffer_has_the_layers(ear):
                                             "lit_pixels": int(np.count_nonzero(np.any(t > 0, axis=-1))),
                                             "spread": "off"}
     assert any(line.startswith("# transmission: mcml model") for line in on.lines())
-    # the lateral spread (the default) is the spread step on the pass's exitance, the same light convention
+    # the lateral spread (transmission_spread mcml) is the spread step on the pass's exitance, the same light
+    # convention
     from ssskit.backends.spread_plan import build_spread_plan
     from ssskit.screenspace.transmission import mcml_spread
 
@@ -219,6 +220,8 @@ def test_checks_before_any_work(ear, monkeypatch):
         plan(plain, RenderSettings(backend="numpy", transmission="on", pass_=BurleyPass()))
     assert plan(lit, RenderSettings(**BASE)).transmission
     assert not plan(lit, RenderSettings(**BASE, transmission="off")).transmission
+    with pytest.raises(SettingsError, match="transmission_spread 'mcml' applies when the transmittance pass can run"):
+        RenderSettings(**BASE, transmission="off", transmission_spread="mcml")
     # a scene renders its own G-buffer: without the layers under auto, with them under on
     assert not plan("ear", RenderSettings(**BASE)).transmission
     assert plan("ear", RenderSettings(**BASE, transmission="on")).transmission

@@ -130,32 +130,47 @@ class NumbaBackend(Backend):
     def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float32]:
         """The transmitted light's lateral spread (:mod:`ssskit.backends._numba_spread`), float32, rows on the pool:
-        the widths, then the horizontal and the vertical pass."""
-        from ._numba_spread import root_rows, sigma_rows, spread_rows
+        per row the widths and planes and the horizontal pass (``spread_h``), then the vertical pass."""
+        from ._numba_spread import LANES, PLANES, plane_stride, spread_h, spread_v
         from .spread_plan import check_spread_frame
 
         check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
         f32 = np.float32
+        h, w = np.shape(slots)
+        if h * w == 0:
+            return np.ascontiguousarray(exitance, dtype=f32).copy()
+        pad = max(0, LANES - w)  # the kernels work on whole blocks of LANES pixels: a narrower frame is padded
         sl = np.ascontiguousarray(slots, dtype=np.int32)
         uvz = np.ascontiguousarray(light_uvz, dtype=f32)
-        shadow = np.ascontiguousarray(shadow_mm, dtype=f32)
         depth = np.ascontiguousarray(depth_mm, dtype=f32)
         src = np.ascontiguousarray(exitance, dtype=f32)
-        knots, table = plan.knots_mm.astype(f32), plan.sigma_mm.astype(f32)
-        n_knots = plan.n_knots.astype(np.int64)
-        h = sl.shape[0]
-        sig = np.empty(sl.shape + (3,), f32)
-        self._rows(h, lambda y0, y1: sigma_rows(sl, uvz, shadow, knots, table, n_knots, f32(plan.bias_mm), sig, y0, y1))
-        root = np.empty_like(sig)
-        self._rows(h, lambda y0, y1: root_rows(sig, depth, sl, root, y0, y1))
-        tmp = np.empty_like(src)
-        out = np.empty_like(src)
+        if pad:  # slot 0 beside the frame: off the image for every tap
+            sl = np.pad(sl, [(0, 0), (0, pad)])
+            depth = np.pad(depth, [(0, 0), (0, pad)])
+            uvz = np.pad(uvz, [(0, 0), (0, pad), (0, 0)])
+            src = np.pad(src, [(0, 0), (0, pad), (0, 0)])
+        wp = w + pad
+        shadow = np.ascontiguousarray(shadow_mm, dtype=f32)
+        if shadow.shape[1] < 2:  # the map is read in pairs of texels: a column of +inf (no surface) beside it
+            shadow = np.concatenate([shadow, np.full_like(shadow, np.inf)], axis=1)
+        nk = plan.knots_mm.shape[1]
+        knots = np.append(plan.knots_mm.astype(f32).reshape(-1), f32(0))  # one element past the last slot's
+        table = np.append(plan.sigma_mm.astype(f32).reshape(-1), f32(0))
+        n_knots = plan.n_knots.astype(np.int32)
+        pl = np.empty(PLANES * plane_stride(h, wp), f32)
+        stats = np.empty(4 * h, f32)
+        hs, ws = shadow.shape
+        flat = [a.reshape(-1) for a in (sl, uvz, shadow, src, depth)]
         min_px, taps = f32(plan.min_px), int(plan.max_taps)
-        self._rows(h, lambda y0, y1: spread_rows(src, depth, sl, sig, root, f32(plan.fx), True, min_px, taps, tmp, y0,
-                                                 y1))
-        self._rows(h, lambda y0, y1: spread_rows(tmp, depth, sl, sig, root, f32(plan.fy), False, min_px, taps, out, y0,
-                                                 y1))
-        return out
+        self._rows(h, lambda y0, y1: spread_h(flat[0], flat[1], flat[2], hs, ws, flat[3], flat[4], knots, table,
+                                              n_knots, nk, f32(plan.bias_mm), pl, stats, wp, float(plan.fx), min_px,
+                                              taps, LANES, y0, y1))
+        gmf = stats.reshape(h, 4)[:, :3].min(axis=0).astype(f32)
+        out = np.empty(3 * h * wp, f32)
+        self._rows(h, lambda y0, y1: spread_v(pl, stats, gmf, wp, float(plan.fy), min_px, taps, out, LANES,
+                                              y0, y1))
+        res = out.reshape(h, wp, 3)
+        return res[:, :w].copy() if pad else res
 
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
                   slots: np.ndarray) -> NDArray[np.float32]:

@@ -149,7 +149,8 @@ _PASS = RegistryName(lambda: PASSES)
 @click.option("--transmission-spread", type=click.Choice(TRANSMISSION_SPREADS, case_sensitive=False),
               default=_D.transmission_spread, show_default=True,
               help="The lateral spread of the transmitted light: mcml (a Gaussian per pixel as wide as MCML's Tt(r) at "
-                   "its thickness, where wider than a pixel) or off.")
+                   "its thickness, where wider than half a pixel; several times the separable pass's cost on the CPU) or "
+                   "off (each pixel keeps the light that crossed the medium behind it).")
 @click.option("--no-exact", is_flag=True, help="Skip the exact 2D convolution.")
 @click.option("--no-perceptual", is_flag=True, help="Skip FLIP in the metrics.")
 @out_option((".exr",), "Also write the G-buffer as a multi-layer EXR.", name="--save-gbuffer", dest="save_gbuffer")

@@ -250,10 +250,12 @@ class RenderSettings(Settings):
     transmittance's scattered part), ``jimenez2010`` (Jimenez et al. 2010's skin Gaussians, [JWSG10]) or ``unreal``
     (Unreal Engine 5's subsurface-profile transmission, [UE58]); ``transmission_spread``: the lateral spread of
     the transmitted light, ``mcml`` (a Gaussian per pixel as wide as MCML's Tt(r) at its thickness,
-    :mod:`ssskit.backends.spread_plan`; homogeneous materials) or ``off``; ``pass_``: the pass (:data:`PASSES`:
-    :class:`SeparablePass`,
-    :class:`BurleyPass` or :class:`AdaptivePass`), which :func:`ssskit.pipeline.render` runs. The kernel
-    fields apply to the separable pass only: with another pass they must keep their defaults.
+    :mod:`ssskit.backends.spread_plan`; homogeneous materials) or ``off`` (the default: on the CPU the spread
+    costs several times the separable pass per frame and moved the ear's region levels by <= 1.4 %,
+    docs/transmission.md "Lateral spread"); ``mcml`` needs the transmittance pass (transmission auto or on);
+    ``pass_``: the pass (:data:`PASSES`: :class:`SeparablePass`, :class:`BurleyPass` or :class:`AdaptivePass`),
+    which :func:`ssskit.pipeline.render` runs. The kernel fields apply to the separable pass only: with another
+    pass they must keep their defaults.
     """
 
     material: str = "skin1"
@@ -276,7 +278,7 @@ class RenderSettings(Settings):
     perceptual: bool = True
     transmission: str = "auto"
     transmission_model: str = "mcml"
-    transmission_spread: str = "mcml"
+    transmission_spread: str = "off"
     pass_: PassMember = field(default_factory=SeparablePass)
 
     def __post_init__(self) -> None:
@@ -320,6 +322,9 @@ class RenderSettings(Settings):
                                                                      TRANSMISSION_SPREADS))
         if self.transmission == "off" and self.transmission_model != "mcml":
             raise SettingsError(f"transmission_model {self.transmission_model!r} applies when the transmittance pass "
+                                "can run (transmission auto or on); transmission is off")
+        if self.transmission == "off" and self.transmission_spread != "off":
+            raise SettingsError(f"transmission_spread {self.transmission_spread!r} applies when the transmittance pass "
                                 "can run (transmission auto or on); transmission is off")
         if not isinstance(self.pass_, (SeparablePass, BurleyPass, AdaptivePass)):
             raise SettingsError(f"pass_ must be one of {', '.join(c.__name__ for _, c in PASSES.items())}, got "

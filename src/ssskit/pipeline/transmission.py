@@ -15,9 +15,9 @@ Whether it runs (:func:`transmission_runs`, checked before any work with the sce
 
 The light added (:func:`add_transmission`). The pass gives per pixel out = T(t) E, the exitance of the light
 that crossed the medium from the back (E the back surface's irradiance,
-:mod:`ssskit.backends.transmission_plan` step 5); with ``transmission_spread = "mcml"`` (the default) the
-spread step (:mod:`ssskit.backends.spread_plan`) spreads it as wide as MCML's Tt(r) at each pixel's thickness
-(homogeneous materials; for any other the frame keeps the unspread light and says ``spread: off``). The G-buffer's ``diffuse`` layer is the radiance of a
+:mod:`ssskit.backends.transmission_plan` step 5); with ``transmission_spread = "mcml"`` (not the default: its
+cost, docs/transmission.md) the spread step (:mod:`ssskit.backends.spread_plan`) spreads it as wide as MCML's
+Tt(r) at each pixel's thickness (homogeneous materials; for any other the frame keeps the unspread light and says ``spread: off``). The G-buffer's ``diffuse`` layer is the radiance of a
 white Lambertian surface, and the composite multiplies the reflectance SSS by ``albedo`` (the profile's
 total diffuse reflectance Rd). Taking the transmitted light's exit as Lambertian (radiance = exitance / pi;
 MCML's Tt [WJZ95] is tallied over the whole exit hemisphere), it enters the reflectance SSS demodulated by

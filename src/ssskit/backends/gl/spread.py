@@ -1,11 +1,14 @@
 """The transmitted light's lateral spread (:mod:`ssskit.backends.spread_plan`) as GLSL compute shaders: the
 frame's images in shader storage buffers (float32; the slots as int32), the plan's width tables baked into the
-source as constants (:func:`spread_source`), one invocation per camera pixel: steps 0-1 (the widths), then step
-2 horizontally and vertically, the images staying on the device between the three dispatches."""
+source as constants (:func:`spread_source`), one invocation per camera pixel: steps 0-1 (per pixel a_c = 1 /
+sigma_c, g_c = sqrt(z / sigma_c), the widest sigma and the depth, two vec4s), then step 2 horizontally and
+vertically with the pair's terms from them (one exp2 per tap and channel, no root or division; the weight's
+form is :mod:`ssskit.backends._numba_spread`'s), the images staying on the device between the three
+dispatches."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,15 +30,24 @@ layout(std430, binding = 0) readonly buffer Slots { int slots[]; };
 layout(std430, binding = 1) readonly buffer Uvz { float uvz[]; };
 layout(std430, binding = 2) readonly buffer Shadow { float shadow[]; };
 layout(std430, binding = 3) readonly buffer Depth { float depth[]; };
-layout(std430, binding = 4) buffer Sigma { float sig[]; };
-layout(std430, binding = 5) readonly buffer Src { float src[]; };
-layout(std430, binding = 6) writeonly buffer Dst { float dst[]; };
+layout(std430, binding = 4) readonly buffer Src { float src[]; };
+layout(std430, binding = 5) writeonly buffer Dst { float dst[]; };
+// the pixel's terms and values as RGBA32F textures (texelFetch: on llvmpipe 4x faster than storage buffers):
+// (a_c, z), (g_c, the widest sigma), (the exitance, the slot), (the horizontal pass, the slot)
+layout(rgba32f, binding = 0) uniform writeonly image2D i_a;
+layout(rgba32f, binding = 1) uniform writeonly image2D i_g;
+layout(rgba32f, binding = 2) uniform writeonly image2D i_v;
+layout(binding = 0) uniform sampler2D t_a;
+layout(binding = 1) uniform sampler2D t_g;
+layout(binding = 2) uniform sampler2D t_v;
 uniform int u_n;
 uniform int u_w;
 uniform int u_h;
-uniform int u_stage;      // 0: steps 0-1 (the widths into sig); 1: step 2 horizontally; 2: vertically
+uniform int u_stage;      // 0: steps 0-1 (the pixel's terms); 1: step 2 horizontally; 2: vertically
 uniform float u_focal;
 uniform ivec2 u_shadow_size;
+
+const float NLOG2E_2 = -0.72134752044448170;  // -log2(e) / 2
 
 bool finite(float v) { return !(isinf(v) || isnan(v)); }
 
@@ -58,13 +70,14 @@ float map_depth(float px, float py) {  // the transmittance pass's step 1; NaN-f
     return wsum > 0.0 ? acc / wsum : -1.0;
 }
 
-void widths(int p, int s) {  // steps 0-1
+void terms(int p, int s) {  // steps 0-1, then a_c = 1 / sigma_c, g_c = sqrt(z / sigma_c) (0 where sigma_c = 0)
     float d = map_depth(uvz[3 * p], uvz[3 * p + 1]);
     float t = d >= 0.0 ? uvz[3 * p + 2] - d : 0.0;
     if (!(finite(t) && t > BIAS)) t = 0.0;
     int n = N_KNOTS[s];
     int k = 0;
     while (k < n - 1 && KNOTS[s * NK + k + 1] < t) ++k;
+    vec3 sig;
     for (int c = 0; c < 3; ++c) {
         int row = (s * 3 + c) * NK;
         float v;
@@ -74,57 +87,61 @@ void widths(int p, int s) {  // steps 0-1
             float f = (t - KNOTS[s * NK + k]) / (KNOTS[s * NK + k + 1] - KNOTS[s * NK + k]);
             v = TABLE[row + k] + f * (TABLE[row + k + 1] - TABLE[row + k]);
         }
-        sig[3 * p + c] = v;
+        sig[c] = v;
     }
+    float z = depth[p];
+    vec3 a = vec3(sig.x > 0.0 ? 1.0 / sig.x : 0.0, sig.y > 0.0 ? 1.0 / sig.y : 0.0, sig.z > 0.0 ? 1.0 / sig.z : 0.0);
+    ivec2 xy = ivec2(p % u_w, p / u_w);
+    imageStore(i_a, xy, vec4(a, z));
+    imageStore(i_g, xy, vec4(sqrt(z * a), max(sig.x, max(sig.y, sig.z))));
 }
 
-void spread_axis(int p, int s, bool horizontal) {  // step 2
-    int x = p % u_w, y = p / u_w;
-    float zp = depth[p];
-    float kpx = u_focal / zp;
-    vec3 sp = vec3(sig[3 * p], sig[3 * p + 1], sig[3 * p + 2]);
-    vec3 spx = sp * kpx;
-    float m = max(spx.x, max(spx.y, spx.z));
+/* step 2 along one axis: the pair's terms with a_c = 1 / sigma_c and g_c = sqrt(z / sigma_c), S_c = f / (g_p g_q):
+   w_c = step g_p g_q / (sqrt(2 pi) f) 2^(-log2(e) a_p a_q (d^2 z_p z_q / f^2 + dz^2) / 2), |d| g_p g_q <= 3 f */
+vec3 spread_axis(ivec2 xy, float s, bool horizontal, vec3 vp) {
+    vec4 p0 = texelFetch(t_a, xy, 0), p1 = texelFetch(t_g, xy, 0);
+    float zp = p0.w;
+    float m = p1.w * (u_focal / zp);
+    if (m < MIN_PX) return vp;
+    int stride = max(1, int(ceil(3.0 * m / float(MAX_TAPS))));
+    int kk = int(ceil(3.0 * m / float(stride)));
+    float cst = float(stride) / (2.5066282746310002 * u_focal);
+    float kz = NLOG2E_2 / (u_focal * u_focal);
+    float f3 = 3.0 * u_focal;
+    ivec2 axis = horizontal ? ivec2(stride, 0) : ivec2(0, stride);
     vec3 acc = vec3(0.0);
-    vec3 vp = vec3(src[3 * p], src[3 * p + 1], src[3 * p + 2]);
-    if (m < MIN_PX) { dst[3 * p] = vp.x; dst[3 * p + 1] = vp.y; dst[3 * p + 2] = vp.z; return; }
-    int step = max(1, int(ceil(3.0 * m / float(MAX_TAPS))));
-    int kk = int(ceil(3.0 * m / float(step)));
     for (int j = -kk; j <= kk; ++j) {
         if (j == 0) continue;
-        int qx = horizontal ? x + j * step : x;
-        int qy = horizontal ? y : y + j * step;
-        if (qx < 0 || qx >= u_w || qy < 0 || qy >= u_h) continue;
-        int q = qy * u_w + qx;
-        if (slots[q] != s) continue;
-        float d = float(j * step);
-        float zq = depth[q];
-        float dz = zq - zp;
-        vec3 sq = vec3(sig[3 * q], sig[3 * q + 1], sig[3 * q + 2]);
-        vec3 pair_px = sqrt(spx * sq * (u_focal / zq));
-        vec3 pair_mm = sqrt(sp * sq);
-        for (int c = 0; c < 3; ++c) {
-            if (!(pair_px[c] > 0.0 && abs(d) <= 3.0 * pair_px[c])) continue;
-            float wgt = float(step) * exp(-(d * d) / (2.0 * pair_px[c] * pair_px[c])) / (2.5066282746310002 * pair_px[c])
-                        * exp(-(dz * dz) / (2.0 * pair_mm[c] * pair_mm[c]));
-            acc[c] += wgt * (src[3 * q + c] - vp[c]);
-        }
+        ivec2 q = xy + j * axis;
+        if (q.x < 0 || q.x >= u_w || q.y < 0 || q.y >= u_h) continue;
+        vec4 vq = texelFetch(t_v, q, 0);
+        if (vq.w != s) continue;
+        vec4 q0 = texelFetch(t_a, q, 0), q1 = texelFetch(t_g, q, 0);
+        float d = float(j * stride);
+        float dz = q0.w - zp;
+        float num = (d * d * kz) * (zp * q0.w) + NLOG2E_2 * (dz * dz);
+        vec3 gg = p1.xyz * q1.xyz;
+        vec3 w = (cst * gg) * exp2(max(num * (p0.xyz * q0.xyz), vec3(-100.0)));
+        acc += step(abs(d) * gg, vec3(f3)) * w * (vq.xyz - vp);
     }
-    vec3 o = vp + acc;
-    dst[3 * p] = o.x; dst[3 * p + 1] = o.y; dst[3 * p + 2] = o.z;
+    return vp + acc;
 }
 
 void main() {
     int p = int(gl_GlobalInvocationID.x);
     if (p >= u_n) return;
-    int s = slots[p];
+    ivec2 xy = ivec2(p % u_w, p / u_w);
     if (u_stage == 0) {
-        if (s > 0) widths(p, s);
-        else { sig[3 * p] = 0.0; sig[3 * p + 1] = 0.0; sig[3 * p + 2] = 0.0; }
+        int s = slots[p];
+        imageStore(i_v, xy, vec4(src[3 * p], src[3 * p + 1], src[3 * p + 2], float(s)));
+        if (s > 0) terms(p, s);
+        else { imageStore(i_a, xy, vec4(0.0)); imageStore(i_g, xy, vec4(0.0)); }
         return;
     }
-    if (s <= 0) { dst[3 * p] = src[3 * p]; dst[3 * p + 1] = src[3 * p + 1]; dst[3 * p + 2] = src[3 * p + 2]; return; }
-    spread_axis(p, s, u_stage == 1);
+    vec4 v = texelFetch(t_v, xy, 0);  // stage 1: the exitance; stage 2: the horizontal pass
+    vec3 o = v.w > 0.0 ? spread_axis(xy, v.w, u_stage == 1, v.xyz) : v.xyz;
+    if (u_stage == 1) imageStore(i_v, xy, vec4(o, v.w));
+    else { dst[3 * p] = o.x; dst[3 * p + 1] = o.y; dst[3 * p + 2] = o.z; }
 }
 """
 
@@ -163,35 +180,48 @@ def run_spread(plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slo
         if len(_PROGRAMS) > 64:
             _PROGRAMS.clear()
         prog = _PROGRAMS[src_text] = compile_compute(src_text, "spread")
+    import moderngl
+
     h, w = np.shape(slots)
     n = h * w
     f32 = np.float32
     inputs = [np.ascontiguousarray(slots, np.int32), np.ascontiguousarray(light_uvz, f32),
-              np.ascontiguousarray(shadow_mm, f32), np.ascontiguousarray(depth_mm, f32)]
-    bufs = [ctx.buffer(a.tobytes()) for a in inputs]
-    sigma = ctx.buffer(reserve=max(4, 12 * n))
-    images = [ctx.buffer(np.ascontiguousarray(exitance, f32).tobytes()), ctx.buffer(reserve=max(4, 12 * n)),
-              ctx.buffer(reserve=max(4, 12 * n))]
+              np.ascontiguousarray(shadow_mm, f32), np.ascontiguousarray(depth_mm, f32),
+              np.ascontiguousarray(exitance, f32)]
+    bufs = [ctx.buffer(a.tobytes()) for a in inputs] + [ctx.buffer(reserve=max(4, 12 * n))]
+    texs = []
+    for _ in range(4):  # (a, z), (g, widest sigma), the exitance and the horizontal pass (with the slot)
+        tex = ctx.texture((w, h), 4, dtype="f4")
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        texs.append(tex)
+    t_a, t_g, t_src, t_tmp = texs
     try:
-        for i, buf in enumerate(bufs + [sigma]):
+        for i, buf in enumerate(bufs):
             buf.bind_to_storage_buffer(i)
         prog["u_n"], prog["u_w"], prog["u_h"] = n, w, h
-        for name, value in (("u_shadow_size", (int(np.shape(shadow_mm)[1]), int(np.shape(shadow_mm)[0]))),):
-            if name in prog:
-                prog[name] = value
+        if "u_shadow_size" in prog:
+            prog["u_shadow_size"] = (int(np.shape(shadow_mm)[1]), int(np.shape(shadow_mm)[0]))
         groups = max(1, -(-n // LOCAL))
-        for stage, (a, b, focal) in enumerate(((0, 1, plan.fx), (0, 1, plan.fx), (1, 2, plan.fy))):
-            images[a].bind_to_storage_buffer(5)
-            images[b].bind_to_storage_buffer(6)
+        # stage 0 writes (a, g, the exitance); 1 reads them and writes the horizontal pass; 2 reads that
+        # (image unit, texture) written; textures read, by sampler unit
+        stages: tuple[tuple[int, float, tuple[tuple[int, Any], ...], tuple[Any, ...]], ...] = (
+            (0, plan.fx, ((0, t_a), (1, t_g), (2, t_src)), ()),
+            (1, plan.fx, ((2, t_tmp),), (t_a, t_g, t_src)),
+            (2, plan.fy, (), (t_a, t_g, t_tmp)))
+        for stage, focal, images, samplers in stages:
+            for unit, tex in images:
+                tex.bind_to_image(unit, read=False, write=True)
+            for unit, tex in enumerate(samplers):
+                tex.use(unit)
             prog["u_stage"] = stage
             if "u_focal" in prog:
                 prog["u_focal"] = float(focal)
             prog.run(groups, 1, 1)
             ctx.memory_barrier()
-        return np.frombuffer(images[2].read(), f32)[: 3 * n].reshape(h, w, 3).copy()
+        return np.frombuffer(bufs[5].read(), f32)[: 3 * n].reshape(h, w, 3).copy()
     finally:
-        for buf in bufs + [sigma] + images:
-            buf.release()
+        for obj in bufs + texs:
+            obj.release()
 
 
 __all__ = ["run_spread", "spread_source"]
