@@ -454,7 +454,7 @@ SECTIONS: list[tuple[str, Section]] = [
 #: sections wait for (:func:`section_jobs`), the first beside the kernel ranking, which runs none
 SECTION_PASSES: dict[str, tuple[str, ...]] = {
     "screenspace": ("separable:follow", "separable:gaussian", "separable:ids"),
-    "transmission": ("separable:follow", "transmission", "spread"),
+    "transmission": ("separable:follow", "transmission"),  # the default settings: no lateral spread
     "burley": ("separable:follow", "burley"),
     "adaptive": ("burley", "adaptive"),
     "model": ("separable:follow", "separable:ids", "burley", "adaptive"),

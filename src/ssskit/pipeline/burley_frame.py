@@ -46,7 +46,7 @@ from ..screenspace.burley import burley_backend
 from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
                     metric_lines, per_id, plan_scene, reference_line)
 from .settings import AdaptivePass, BurleyPass, RenderSettings
-from .transmission import TransmissionInfo, with_transmission
+from .transmission import TransmissionInfo, transmission_passes, with_transmission
 
 
 def burley_exact(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, BurleyParams]) -> np.ndarray | None:
@@ -218,7 +218,7 @@ def render_burley(scene: SceneInput = "slab", settings: RenderSettings | None = 
     b = settings.burley_settings()
     say = progress or (lambda msg: None)
     # the pass's kernels compile (a fresh machine: seconds, one thread) while Mitsuba renders the G-buffer
-    warming = warm_up_in_background(b.backend, ["burley"] + (["transmission", "spread"] if plan.transmission else []))
+    warming = warm_up_in_background(b.backend, ["burley"] + transmission_passes(settings, plan.transmission))
     gb = frame_gbuffer(plan, settings, _on_params(params, lambda p: p.albedo), say, beside=warming)
     say(f"Burley pass: {b.sampler} sampler, {b.spp} spp, {b.backend} backend")
     sss = burley_sss(gb, params, b)

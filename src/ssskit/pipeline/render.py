@@ -84,7 +84,7 @@ from .burley_frame import BurleyResult, render_burley
 from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
                     metric_lines, per_id, plan_scene, reference_line)
 from .settings import RenderSettings
-from .transmission import TransmissionInfo, with_transmission
+from .transmission import TransmissionInfo, transmission_passes, with_transmission
 
 
 def _default(name: str) -> Any:
@@ -211,7 +211,7 @@ def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None
     # the pass's kernels compile (a fresh machine: seconds, one thread) while Mitsuba renders the G-buffer
     warming = warm_up_in_background(settings.backend, [  # several ids' slot map after the pass: not waited for
         f"separable:{sss_settings.depth_mode or default_depth_mode(pass_taps)}", "separable:ids"]
-        + (["transmission", "spread"] if plan.scene.transmission else []))
+        + transmission_passes(settings, plan.scene.transmission))
     gb = frame_gbuffer(plan.scene, settings, albedo, say, beside=warming)
     exact: Callable[[], np.ndarray | None] = functools.cache(lambda: exact_screen_space(gb, profile))
     if warming is not None and warming.is_alive() and settings.exact and gb.mask.any():
