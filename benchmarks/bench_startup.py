@@ -14,6 +14,11 @@ compiled and saved (none, when the cache hits).
 
     python benchmarks/bench_startup.py [--python /path/to/venv/bin/python] [--repeats 7]
                                        [--render "--scene slab --size 320x240"]
+    python benchmarks/bench_startup.py --src src --src /path/to/main/src --rounds 5   # first renders only
+
+With ``--src`` (repeatable: a code tree's package folder, put first on ``PYTHONPATH``) only the first render is
+timed, for each tree in turn, ``--rounds`` rounds interleaved (the machine is shared: the trees meet the same
+load), each in new empty numba and ssskit caches and an empty home, with the load average before each run.
 
 NUMBA_THREADING_LAYER is set to 'workqueue' for every child unless given (and recorded in the JSON).
 """
@@ -53,13 +58,45 @@ def spread(values: list[float]) -> dict:
     return {"min": round(min(values), 4), "median": round(statistics.median(values), 4), "max": round(max(values), 4)}
 
 
+def first_renders(py: str, trees: list[str], rounds: int, render_args: str) -> dict:
+    """The first render of each tree (module docstring), ``rounds`` interleaved rounds: per tree its runs
+    (wall s, CPU s, load average before) and the median wall and CPU seconds."""
+    runs: dict[str, list[dict]] = {t: [] for t in trees}
+    for _ in range(rounds):
+        for tree in trees:
+            with tempfile.TemporaryDirectory() as tmp:
+                home = Path(tmp) / "home"
+                home.mkdir()
+                env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(Path(tree).resolve()),
+                                                                    os.environ.get("PYTHONPATH", "")]),
+                           NUMBA_CACHE_DIR=str(Path(tmp) / "numba"), SSSKIT_CACHE_DIR=str(Path(tmp) / "ssskit"),
+                           HOME=str(home), XDG_CACHE_HOME=str(home / ".cache"))
+                load = os.getloadavg()[0]
+                wall, cpu, _ = timed([py, "-c", ENTRY, "render", *shlex.split(render_args), "--out",
+                                      str(Path(tmp) / "r.png")], env)
+                runs[tree].append({"wall_s": round(wall, 2), "cpu_s": round(cpu, 2), "load_before": round(load, 2)})
+                print(f"{tree}: {runs[tree][-1]}", file=sys.stderr, flush=True)
+    return {t: {"runs": v, "median_wall_s": statistics.median(r["wall_s"] for r in v),
+                "median_cpu_s": statistics.median(r["cpu_s"] for r in v)} for t, v in runs.items()}
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--python", default=sys.executable, help="the interpreter whose ssskit is timed")
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--render", default="--scene slab --size 320x240", help="the render command's arguments")
+    ap.add_argument("--src", action="append", default=None,
+                    help="a code tree's package folder (repeatable): time only first renders, trees interleaved")
+    ap.add_argument("--rounds", type=int, default=5, help="with --src: rounds of first renders")
     args = ap.parse_args(argv)
     py = args.python
+    if args.src:
+        out = {"python": py, "render_args": args.render, "rounds": args.rounds,
+               "threading_layer": os.environ["NUMBA_THREADING_LAYER"], "load_average_before": os.getloadavg(),
+               "first_render": first_renders(py, args.src, args.rounds, args.render),
+               "load_average_after": os.getloadavg()}
+        print(json.dumps(out, indent=1))
+        return out
     out: dict = {"python": py, "load_average_before": os.getloadavg(), "repeats": args.repeats,
                  "threading_layer": os.environ["NUMBA_THREADING_LAYER"]}
     helps, bare = [], []

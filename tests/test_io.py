@@ -88,6 +88,13 @@ def test_save_image_exr_layers_and_png(tmp_path):
         np.testing.assert_array_equal(ch["sss"].pixels, img * 2)
     save_image(tmp_path / "a.png", img)
     assert (tmp_path / "a.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    from PIL import Image
+
+    from ssskit.io import tonemap
+
+    with Image.open(tmp_path / "a.png") as png:  # 8-bit sRGB of the image tone-mapped to its 99.5th percentile
+        assert png.mode == "RGB" and png.size == (8, 6)
+        np.testing.assert_array_equal(np.asarray(png), np.round(255 * tonemap(img, np.percentile(img, 99.5))))
     with pytest.raises(OutputError, match=".exr or .png"):
         save_image(tmp_path / "a.tif", img)
     with pytest.raises(OutputError, match=r"\(H, W, 3\)"):

@@ -107,6 +107,53 @@ def test_no_template_text_reaches_the_page():
     assert found == []
 
 
+def test_two_processes_build_the_same_report(tmp_path, monkeypatch):
+    """``ssskit demo`` builds the sections on two worker processes: the page and every file are those of the
+    one-process build (but the build time the page states), the sections in report order."""
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(report, "SECTIONS", [("sampling", report._sampling_section),
+                                             ("materials", report._materials_section)])
+    said = []
+    pages = {}
+    for jobs in (1, 2):
+        monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / f"cache{jobs}"))  # each builds its sections
+        index = report.build_report(tmp_path / f"demo{jobs}", said.append, backend="numpy", jobs=jobs)
+        pages[jobs] = {str(p.relative_to(index.parent)): p.read_bytes() for p in index.parent.rglob("*")}
+    import re
+
+    for page in pages.values():
+        page["index.html"] = re.sub(rb"built in [0-9.]+ s", b"", page["index.html"])
+    assert sorted(pages[2]) == ["index.html", "xie_c.png"] and pages[2] == pages[1]
+    assert pages[2]["index.html"].index(b">Burley sampling (Xie") < pages[2]["index.html"].index(b">Materials<")
+    assert "2 sections on 2 processes (starting them takes a few seconds)" in said
+    assert "Burley sampling: refitting c" in said[said.index("2 sections on 2 processes (starting them takes a few "
+                                                              "seconds)"):]  # a worker's line, passed on
+    assert not list(tmp_path.glob(".demo*"))  # no staging folder left
+
+
+def test_an_error_in_a_worker_leaves_no_partial_folder(tmp_path, monkeypatch):
+    from ssskit.errors import MaterialError
+
+    import pytest
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(report, "SECTIONS", [("materials", report._materials_section),
+                                             ("kernels", report._kernels_section)])
+    with pytest.raises(MaterialError, match="NoSuchMaterial"):
+        report.build_report(tmp_path / "demo", backend="numpy", materials=["NoSuchMaterial"], jobs=2)
+    assert [p.name for p in tmp_path.iterdir() if p.name != "cache"] == []  # (the other section may have cached)
+
+
+def test_jobs_must_be_a_positive_integer(tmp_path):
+    import pytest
+
+    from ssskit.errors import SsskitError
+
+    with pytest.raises(SsskitError, match="jobs must be a positive integer, got 0"):
+        report.build_report(tmp_path / "demo", backend="numpy", jobs=0)
+    assert not (tmp_path / "demo").exists()
+
+
 @__import__("pytest").mark.slow
 def test_transmission_section_shows_the_light_each_model_adds(tmp_path):
     """The demo's transmission section on the back-lit ear: a row per model (mcml, unreal, jimenez2010) whose
@@ -123,3 +170,23 @@ def test_transmission_section_shows_the_light_each_model_adds(tmp_path):
     ratios = {m: [float(v) for v in r.split(",")] for m, r in rows.items()}
     assert all(v >= 1.0 for r in ratios.values() for v in r)
     assert min(ratios["mcml"]) > 1.5
+
+
+def test_the_workers_compile_each_kernel_once_before_the_sections_that_run_it():
+    """The demo's jobs on two processes: first the screen-space section's kernels, beside the kernel ranking
+    (which runs no pass); every other pass compiled by one job just before the first section that runs it;
+    every section waits for the jobs that compile its passes; a backend that compiles nothing: sections only."""
+    names = [name for name, _ in report.SECTIONS]
+    jobs, after = report.section_jobs(names, compiles=True)
+    assert jobs[:3] == [("compile", list(report.SECTION_PASSES["screenspace"])), ("section", names.index("kernels")),
+                        ("section", names.index("screenspace"))]
+    compiled = [p for kind, what in jobs if kind == "compile" for p in what]
+    assert len(compiled) == len(set(compiled))  # each pass once
+    assert set(compiled) == {p for n in names for p in report.SECTION_PASSES.get(n, ())}
+    assert sorted(what for kind, what in jobs if kind == "section") == list(range(len(names)))
+    for j, (kind, what) in enumerate(jobs):
+        if kind == "section":
+            needed = set(report.SECTION_PASSES.get(names[what], ()))
+            assert needed <= {p for d in after[j] for p in jobs[d][1]} and all(d < j for d in after[j])
+    assert report.section_jobs(names, compiles=False) == ([("section", names.index(n)) for n in report.SECTION_ORDER
+                                                          if n in names], {k: set() for k in range(len(names))})

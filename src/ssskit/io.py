@@ -206,13 +206,19 @@ def save_image(path: str | Path, image: np.ndarray, layers: dict[str, np.ndarray
             channels[name] = np.ascontiguousarray(arr, dtype=np.float32)
         write_exr(path, channels, what=what)
         return
-    from matplotlib.image import imsave
-
     finite = img[np.isfinite(img)]
     peak = float(np.percentile(finite, 99.5)) if finite.size else 1.0
-    ldr = np.round(255.0 * tonemap(np.nan_to_num(img), peak if peak > 0 else 1.0)).astype(np.uint8)
+    write_png(path, np.round(255.0 * tonemap(np.nan_to_num(img), peak if peak > 0 else 1.0)).astype(np.uint8))
+
+
+def write_png(path: str | Path, rgb8: np.ndarray) -> None:
+    """Write an 8-bit RGB image (H, W, 3) uint8 as PNG, atomically, with Pillow (which matplotlib's image
+    writer uses too: importing matplotlib for it costs a first render a second or more)."""
+    from PIL import Image
+
+    arr = np.ascontiguousarray(rgb8, dtype=np.uint8)
     with atomic_output(path) as tmp:
-        imsave(tmp, ldr, format="png")
+        Image.fromarray(arr, "RGB").save(tmp, format="PNG")
 
 
 # ---- OpenEXR ----------------------------------------------------------------------------------------

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import html
 import json
+import os
 import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
@@ -448,6 +449,24 @@ SECTIONS: list[tuple[str, Section]] = [
     ("adaptive", _adaptive_section),
 ]
 
+#: the screen-space passes each section runs (:data:`ssskit.backends.base.WARM_UP` names): with several
+#: processes (``build_report(jobs=...)``) their kernels are compiled once, by jobs of their own that the
+#: sections wait for (:func:`section_jobs`), the first beside the kernel ranking, which runs none
+SECTION_PASSES: dict[str, tuple[str, ...]] = {
+    "screenspace": ("separable:follow", "separable:gaussian", "separable:ids"),
+    "transmission": ("separable:follow", "transmission"),  # the default settings: no lateral spread
+    "burley": ("separable:follow", "burley"),
+    "adaptive": ("burley", "adaptive"),
+    "model": ("separable:follow", "separable:ids", "burley", "adaptive"),
+}
+
+#: the order several processes take the sections in: the kernel ranking first (it runs no pass: beside the first
+#: compilation), then the longest (CPU seconds on this project's 2 cores once compiled: screen space ~85 with its
+#: six scenes, kernels ~28, adaptive ~17, profiles ~10, Burley ~11; transmission ~3 since the shipped tables: small,
+#: its place matters little); a section not named here comes last
+SECTION_ORDER = ("kernels", "screenspace", "model", "adaptive", "transmission", "profiles", "burley", "sampling",
+                 "materials")
+
 
 def _cached_section(name: str, section: Section, out: Path, progress: Progress, ctx: dict) -> str:
     """Run a report section, or copy its HTML and files from the ``demo`` cache when the same settings
@@ -486,6 +505,121 @@ def _cached_section(name: str, section: Section, out: Path, progress: Progress, 
     return text
 
 
+def _section_job(name: str, section: Section, out: Path, ctx: dict[str, Any],
+                 label: str) -> tuple[str, float, float]:
+    """A worker's job (:func:`_build_parallel`): one section into its own folder ``out`` (:func:`_cached_section`),
+    its progress to the parent; returns (its HTML, its seconds, its CPU seconds)."""
+    import contextlib
+
+    from .compute.workers import line
+    from .profiles.montecarlo.shipped import recompute as no_shipped
+    from .progress import reporting
+
+    line(f"{label} section {name}")
+    t0, c0 = time.perf_counter(), _cpu_s()
+    out.mkdir(parents=True, exist_ok=True)
+    with reporting(line), (no_shipped() if ctx.get("recompute") else contextlib.nullcontext()):
+        text = _cached_section(name, section, out, line, ctx)
+    return text, time.perf_counter() - t0, _cpu_s() - c0
+
+
+def _cpu_s() -> float:
+    """This process's CPU seconds so far (user + system, every thread)."""
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _warm_up_job(backend: str, passes: list[str]) -> None:
+    """A worker's job (:func:`_build_parallel`): compile the passes' kernels into numba's disk cache
+    (:meth:`Backend.warm_up`), from which the other workers' sections load them."""
+    from .backends import get_backend
+    from .compute.workers import line
+
+    line(f"compiling the {backend} kernels of {', '.join(passes)} (once: numba caches them on disk)")
+    t0, c0 = time.perf_counter(), _cpu_s()
+    get_backend(backend).warm_up(passes)
+    line(f"compiled the {backend} kernels in {time.perf_counter() - t0:.1f} s (CPU {_cpu_s() - c0:.1f} s)")
+
+
+def section_jobs(names: list[str], compiles: bool) -> tuple[list[tuple[str, Any]], dict[int, set[int]]]:
+    """The jobs that build the sections ``names`` on several processes, in the order free workers take them, and
+    which must finish before which: (jobs, after). A job is ("section", index into ``names``) or, where the
+    backend ``compiles`` its kernels, ("compile", [passes]): each pass a section runs (:data:`SECTION_PASSES`)
+    is compiled by one job, placed just before the first section that runs it (the first such job before
+    everything, beside the sections that run none), and every section waits for the jobs compiling its
+    passes (``after``: job index -> job indices). Sections in :data:`SECTION_ORDER`, the others last."""
+    rank = {name: k for k, name in enumerate(SECTION_ORDER)}
+    order = sorted(range(len(names)), key=lambda k: (rank.get(names[k], len(rank)), k))
+    needs = {k: list(SECTION_PASSES.get(names[k], ())) if compiles else [] for k in order}
+    jobs: list[tuple[str, Any]] = []
+    after: dict[int, set[int]] = {}
+    warmed: dict[str, int] = {}  # pass -> the job compiling it
+
+    def compile_job(passes: list[str]) -> None:
+        warmed.update(dict.fromkeys(passes, len(jobs)))
+        jobs.append(("compile", passes))
+
+    first = next((k for k in order if needs[k]), None)
+    if first is not None:
+        compile_job(needs[first])
+    for k in order:
+        new = [p for p in needs[k] if p not in warmed]
+        if new:
+            compile_job(new)
+        after[len(jobs)] = {warmed[p] for p in needs[k]}
+        jobs.append(("section", k))
+    return jobs, after
+
+
+def _build_parallel(out: Path, sections: list[tuple[str, Section]], progress: Progress, ctx: dict[str, Any],
+                    jobs: int) -> list[str]:
+    """The sections' HTML in report order, built by ``jobs`` worker processes
+    (:func:`ssskit.compute.workers.run_jobs`) as :func:`section_jobs` plans them (the kernels of the passes
+    compiled once, beside the sections that run none), each section into a folder of its own whose files
+    move into ``out`` as it finishes. On an error or Ctrl-C the workers end before the error goes on, so
+    nothing writes into the staging folder when it is removed."""
+    import shutil
+
+    from .backends import get_backend
+    from .compute.workers import one_library_thread, run_jobs
+
+    names = [name for name, _ in sections]
+    backend = ctx.get("backend", DEFAULT_BACKEND)
+    parts = out / ".sections"
+    plan, after = section_jobs(names, get_backend(backend).compiles_on_first_use)
+    tasks: list[tuple[Callable[..., Any], tuple[Any, ...]]] = [
+        (_warm_up_job, (backend, what)) if kind == "compile" else
+        (_section_job, (names[what], sections[what][1], parts / names[what], ctx, f"[{what + 1}/{len(sections)}]"))
+        for kind, what in plan]
+    section_of = {j: what for j, (kind, what) in enumerate(plan) if kind == "section"}  # job -> section index
+    body: dict[int, str] = {}
+
+    def done(index: int, value: Any) -> None:
+        if index not in section_of:
+            return
+        k = section_of[index]
+        body[k], seconds, cpu = value
+        for src in sorted(p for p in (parts / names[k]).rglob("*") if p.is_file()):
+            dst = out / src.relative_to(parts / names[k])
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(src, dst)
+        progress(f"[{k + 1}/{len(sections)}] section {names[k]}: done in {seconds:.1f} s (CPU {cpu:.1f} s)")
+
+    workers = min(jobs, len(sections))
+    progress(f"{len(sections)} sections on {workers} processes (starting them takes a few seconds)")
+    # plain progress lines from the workers (redrawn bars of several processes would garble a terminal); one
+    # BLAS and one OpenMP thread each unless the user chose (ssskit.compute.workers.one_library_thread; the CLI
+    # has set it already): beside another busy worker a second thread only spins on the core the other needs
+    env = {"SSSKIT_PROGRESS": "lines", **one_library_thread()}
+    try:
+        run_jobs(tasks, workers, progress, done, env=env, after=after)
+    finally:
+        shutil.rmtree(parts, ignore_errors=True)
+    return [body[k] for k in range(len(sections))]
+
+
 def _file_digest(path: str | Path) -> str:
     """sha1 of a file's bytes ("" for a name that is no file, e.g. the generated bust)."""
     import hashlib
@@ -521,7 +655,7 @@ def _with_contents(sections: list[str]) -> tuple[list[str], str]:
 
 def build_report(out_dir: str | Path, progress: Progress | None = None, photons: int = DEMO_PHOTONS,
                  progress_bars: bool = False, backend: str = DEFAULT_BACKEND, recompute: bool = False,
-                 materials: list[str] | None = None, scene: dict | None = None) -> Path:
+                 materials: list[str] | None = None, scene: dict | None = None, jobs: int = 1) -> Path:
     """Run every section into ``out_dir`` and write ``index.html`` last; returns its path. The
     screen-space passes run on ``backend`` (checked before any work: a BackendError if it cannot run
     here). ``recompute``: simulate the Monte Carlo profiles instead of reading the shipped ones;
@@ -529,13 +663,22 @@ def build_report(out_dir: str | Path, progress: Progress | None = None, photons:
     units, material_map: ``ssskit demo --scene``) adds the "Your model" section
     (:func:`ssskit.figures.views.demo_section`), cached by the options and the scene file's content. Each
     section says when it starts and how long it took on ``progress``; the report is built in a staging
-    folder, so an interrupted or failed demo leaves no partial folder."""
+    folder, so an interrupted or failed demo leaves no partial folder.
+
+    ``jobs`` > 1: the sections are built by that many worker processes at once (:func:`_build_parallel`;
+    most of a section's work runs on one core: the optimisations, the metrics, the plots, numba's
+    compilation), each in a folder of its own, their progress passed on to ``progress``; the page is the
+    same as with one process."""
     import contextlib
 
     from .backends import get_backend
     from .io import staged_folder
     from .profiles.montecarlo.shipped import recompute as no_shipped
 
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        from .errors import SsskitError
+
+        raise SsskitError(f"jobs must be a positive integer, got {jobs!r}")
     runner = get_backend(backend)
     sections = list(SECTIONS)
     ctx: dict = {"photons": photons, "progress_bars": progress_bars, "backend": runner.name, "recompute": recompute,
@@ -550,19 +693,23 @@ def build_report(out_dir: str | Path, progress: Progress | None = None, photons:
         sections.append(("model", _model_section))
     progress = progress or (lambda msg: None)
     with staged_folder(out_dir) as stage, (no_shipped() if recompute else contextlib.nullcontext()):
-        _build(stage, progress, ctx, runner)
+        _build(stage, progress, ctx, runner, jobs)
     return Path(out_dir) / "index.html"
 
 
-def _build(out: Path, progress: Progress, ctx: dict[str, Any], runner: Backend) -> None:
+def _build(out: Path, progress: Progress, ctx: dict[str, Any], runner: Backend, jobs: int = 1) -> None:
     t0 = time.perf_counter()
-    body = []
     sections = ctx.pop("sections", SECTIONS)
-    for k, (name, section) in enumerate(sections, 1):
-        progress(f"[{k}/{len(sections)}] section {name}")
-        t_section = time.perf_counter()
-        body.append(_cached_section(name, section, out, progress, ctx))
-        progress(f"[{k}/{len(sections)}] section {name}: done in {time.perf_counter() - t_section:.1f} s")
+    if jobs > 1 and len(sections) > 1:
+        body = _build_parallel(out, sections, progress, ctx, jobs)
+    else:
+        body = []
+        for k, (name, section) in enumerate(sections, 1):
+            progress(f"[{k}/{len(sections)}] section {name}")
+            t_section, c_section = time.perf_counter(), _cpu_s()
+            body.append(_cached_section(name, section, out, progress, ctx))
+            progress(f"[{k}/{len(sections)}] section {name}: done in {time.perf_counter() - t_section:.1f} s "
+                     f"(CPU {_cpu_s() - c_section:.1f} s)")
     from . import __version__
 
     body, toc = _with_contents(body)

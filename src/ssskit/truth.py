@@ -41,7 +41,7 @@ def check_image(image: np.ndarray, what: str = "image") -> np.ndarray:
 
 def convolve_2d(image: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """E * K per channel by FFT with border replication; cells (n, n, 3), n odd; returns (H, W, 3)."""
-    from scipy.signal import fftconvolve
+    from .compute.fft import fft_convolve
 
     img = check_image(image)
     k = np.asarray(cells, dtype=float)
@@ -49,7 +49,7 @@ def convolve_2d(image: np.ndarray, cells: np.ndarray) -> np.ndarray:
         raise SignalError(f"2D kernel must have shape (n, n, 3) with n odd, got {k.shape}")
     pad = k.shape[0] // 2
     padded = np.pad(img, ((pad, pad), (pad, pad), (0, 0)), mode="edge")
-    return np.stack([fftconvolve(padded[..., c], k[..., c], mode="valid") for c in range(3)], axis=-1)
+    return np.stack([fft_convolve(padded[..., c], k[..., c], "valid") for c in range(3)], axis=-1)
 
 
 def kernel_on_pixels(kernel: AnyKernel, pixel_mm: float) -> Kernel:
@@ -98,7 +98,7 @@ def exact_screen_space(gbuffer: GBuffer, profile: RGBProfile | Mapping[int, RGBP
     fronto-parallel surface (the slab scene); on curved surfaces it ignores the footprint's change with
     depth, which the pass does not. Pixels without SSS keep their diffuse value.
     """
-    from scipy.signal import fftconvolve
+    from .compute.fft import fft_convolve
 
     cam = gbuffer.camera
     if abs(cam.fx - cam.fy) > 1e-6 * cam.fx:
@@ -117,8 +117,8 @@ def exact_screen_space(gbuffer: GBuffer, profile: RGBProfile | Mapping[int, RGBP
         half = int(min(np.ceil(radius / pixel_mm), max(gbuffer.shape)))
         cells = prof.discretize_2d(pixel_mm, 2 * half + 1)
         cells = cells / cells.sum(axis=(0, 1))
-        spread = fftconvolve(np.broadcast_to(m[..., None], e.shape), cells, mode="same", axes=(0, 1))
-        res = fftconvolve(m[..., None] * e, cells, mode="same", axes=(0, 1)) + e * (1.0 - spread)
+        spread = fft_convolve(np.broadcast_to(m[..., None], e.shape), cells, "same", axes=(0, 1))
+        res = fft_convolve(m[..., None] * e, cells, "same", axes=(0, 1)) + e * (1.0 - spread)
         out[m > 0] = res[m > 0]
     return out.astype(np.float32)
 

@@ -382,20 +382,36 @@ def test_render_json_keeps_its_progress(run, gbuffer_file):
 
 
 @pytest.mark.skipif(os.name != "posix", reason="signals")
-def test_a_terminated_demo_leaves_no_partial_folder(tmp_path):
+@pytest.mark.parametrize("how", ["SIGTERM to the process", "SIGINT to its group"])
+def test_a_terminated_demo_leaves_no_partial_folder(tmp_path, how):
     """kill (SIGTERM) in the middle of ``ssskit demo``: handled as Ctrl-C, so the staging folder goes too
-    (a trial's Ctrl-C left 23-26 PNGs and no index.html)."""
+    (a trial's Ctrl-C left 23-26 PNGs and no index.html); and Ctrl-C in a terminal (SIGINT to the whole
+    process group). The demo's worker processes (two by default) end with it: none is left writing."""
     import signal
     import time
 
     env = dict(os.environ, SSSKIT_CACHE_DIR=str(tmp_path / "cache"))
     proc = subprocess.Popen([sys.executable, "-m", "ssskit.cli", "demo", "--photons", "5000", "--out", "d"],
-                            cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                            cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
     deadline = time.monotonic() + 120
     while not any(p.name.startswith(".d.partial-") for p in tmp_path.iterdir()) and time.monotonic() < deadline:
         time.sleep(0.2)
-    time.sleep(1.0)
-    proc.send_signal(signal.SIGTERM)
+    time.sleep(3.0)  # the workers run their first sections
+    if how.startswith("SIGTERM"):
+        proc.send_signal(signal.SIGTERM)
+    else:
+        os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode != 0 and ("interrupted" in err or "aborted" in err), err
+    assert "Traceback" not in err, err
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        try:
+            os.killpg(proc.pid, 0)  # a process of the demo's group still runs
+        except ProcessLookupError:
+            break
+        time.sleep(0.2)
+    else:
+        pytest.fail("a worker process of the demo outlived it")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cache"], err

@@ -188,6 +188,20 @@ def test_console_script_error_has_no_traceback():
     assert "Traceback" not in proc.stderr and proc.stderr.startswith("ssskit: error:")
 
 
+def test_only_the_process_own_command_line_freezes_its_objects(monkeypatch, capsys):
+    """main() without argv (the ssskit script, python -m ssskit: the process exits next) moves its objects to the
+    collector's permanent generation, so the shutdown does not walk them; main(argv) (a caller that goes on)
+    leaves the collector alone, errors and all."""
+    import gc
+
+    frozen = []
+    monkeypatch.setattr(gc, "freeze", lambda: frozen.append(True))
+    assert main(["materials"]) == 0 and main(["profile", "--material", "nope"]) == 2 and frozen == []
+    monkeypatch.setattr(sys, "argv", ["ssskit", "profile", "--material", "nope"])
+    assert main() == 2 and frozen == [True]
+    capsys.readouterr()
+
+
 def test_import_is_light():
     """import ssskit loads no heavy dependency (scipy, matplotlib, numba) and compiles nothing."""
     code = "import sys, ssskit; print(sorted(m for m in ('scipy', 'matplotlib', 'numba', 'click') if m in sys.modules))"
@@ -282,3 +296,34 @@ def test_the_group_lists_commands_without_importing_them():
             assert lazy.short_help(name, limit) == cmd.get_short_help_str(limit), name
     ctx = click.Context(cli)
     assert set(cli.list_commands(ctx)) == set(COMMANDS)
+
+
+@pytest.mark.parametrize("preset", [None, "2"])
+def test_commands_run_one_library_thread_unless_told(preset):
+    """The CLI sets OpenBLAS, MKL and OpenMP to one thread before numpy loads, unless the user set a count:
+    ssskit's small matrices and FLIP's test signals ran 1.7-2.4x slower on two threads
+    (ssskit.compute.workers.one_library_thread). Where numpy's bundled OpenBLAS names its thread count, the
+    loaded library says so too."""
+    import ast
+    import os
+
+    code = ("import ctypes, os\n"
+            "from ssskit.cli import main\n"
+            "main(['materials', '--json'])\n"
+            "import numpy\n"
+            "libs = {l.split()[-1] for l in open('/proc/self/maps') if 'openblas' in l.lower()} "
+            "if os.path.exists('/proc/self/maps') else set()\n"
+            "found = [getattr(ctypes.CDLL(p), n)() for p in libs for n in ('scipy_openblas_get_num_threads64_',"
+            " 'openblas_get_num_threads') if hasattr(ctypes.CDLL(p), n)]\n"
+            "print(os.environ['OPENBLAS_NUM_THREADS'], os.environ['MKL_NUM_THREADS'], os.environ['OMP_NUM_THREADS'],"
+            " found)\n")
+    from ssskit.compute.workers import LIBRARY_THREADS
+
+    env = {k: v for k, v in os.environ.items() if k not in LIBRARY_THREADS}
+    if preset is not None:
+        env["OPENBLAS_NUM_THREADS"] = preset
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    blas, mkl, omp, found = out.strip().splitlines()[-1].split(" ", 3)
+    assert (blas, mkl, omp) == (preset or "1", "1", "1")
+    if preset is None and found != "[]":
+        assert set(ast.literal_eval(found)) == {1}  # the loaded OpenBLAS runs one thread

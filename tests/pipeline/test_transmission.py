@@ -10,6 +10,7 @@ import pytest
 
 from ssskit.errors import SettingsError
 from ssskit.pipeline import AdaptivePass, BurleyPass, RenderSettings, SeparablePass, plan, render
+from ssskit.pipeline.transmission import transmission_passes
 
 #: the numpy backend (the float64 oracle); the dipole profile keeps the kernel cheap
 BASE = dict(backend="numpy", model="dipole", perceptual=False, pass_=SeparablePass(jitter=0.0))
@@ -225,3 +226,30 @@ def test_checks_before_any_work(ear, monkeypatch):
     # a scene renders its own G-buffer: without the layers under auto, with them under on
     assert not plan("ear", RenderSettings(**BASE)).transmission
     assert plan("ear", RenderSettings(**BASE, transmission="on")).transmission
+
+
+@pytest.mark.parametrize("spread", ["off", "mcml"])
+def test_a_first_frame_compiles_the_transmission_passes_it_runs(ear, monkeypatch, spread):
+    """The warm-up thread of a render (separable and Burley frames) is asked for the transmittance pass and, only
+    where the frame spreads the light (transmission_spread mcml; off by default), for the spread's kernels (~6.5 s
+    of one core on a fresh machine): the passes the frame then runs, no more; the demo's transmission section
+    (default settings) the same."""
+    import importlib
+
+    from ssskit import report
+
+    render_module, burley_frame = (importlib.import_module(f"ssskit.pipeline.{m}") for m in ("render", "burley_frame"))
+
+    lit, _ = ear
+    asked = []
+    for module in (render_module, burley_frame):
+        monkeypatch.setattr(module, "warm_up_in_background", lambda backend, names: asked.append(list(names)))
+    burley = RenderSettings(backend="numpy", perceptual=False, pass_=BurleyPass(spp=4))
+    for settings in (RenderSettings(**BASE), burley):
+        res = render(lit, settings.replace(exact=False, transmission_spread=spread))
+        assert res.transmission.ran and res.transmission.spread == spread
+        assert ("spread" in asked[-1]) == (spread == "mcml") and "transmission" in asked[-1]
+    assert len(asked) == 2
+    default = RenderSettings(transmission="on")
+    assert set(transmission_passes(default, True)) <= set(report.SECTION_PASSES["transmission"])
+    assert "spread" not in report.SECTION_PASSES["transmission"] and transmission_passes(default, False) == []

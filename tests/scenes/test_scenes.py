@@ -164,3 +164,53 @@ def test_docs_name_the_boundary_the_code_uses():
         doc = mod.__doc__ or ""
         assert "smooth dielectric" not in doc and "``plastic``" not in doc and "later" not in doc
     assert "Beckmann" in specs.__doc__ and "roughdielectric" in reference.render_reference.__doc__
+
+
+def test_a_gbuffer_is_the_same_on_any_number_of_mitsuba_threads():
+    """A first render gives Mitsuba one core less while a thread compiles the pass's kernels
+    (ssskit.pipeline.frame.frame_gbuffer): every layer is the same, bit for bit; the count is restored."""
+    import drjit as dr
+
+    from ssskit.scenes.mitsuba_variant import mitsuba_threads
+
+    before = dr.thread_count()
+    layers = []
+    for n in (1, 2):
+        with mitsuba_threads(n):
+            assert dr.thread_count() == n
+            gb = render_gbuffer("sphere", (0.5, 0.4, 0.3), width=48, height=36, spp=4)
+        layers.append([getattr(gb, k) for k in ("diffuse", "specular", "albedo", "depth", "normal", "profile_id")])
+        assert dr.thread_count() == before
+    for one, two in zip(*layers):
+        np.testing.assert_array_equal(one, two)
+
+
+def test_mitsuba_leaves_a_core_only_while_the_thread_beside_it_runs(monkeypatch):
+    """leaving_a_core_to: each render that starts while the given thread is alive runs on one thread less
+    (at least 1), one after it ended on the whole pool; the count is restored after each render and the block."""
+    import threading
+
+    import drjit as dr
+
+    from ssskit.scenes import scenes as sc
+    from ssskit.scenes.mitsuba_variant import leaving_a_core_to, mitsuba
+
+    mi = mitsuba()
+    before = dr.thread_count()
+    seen = []
+    real = mi.render
+    monkeypatch.setattr(mi, "render", lambda *a, **k: (seen.append(dr.thread_count()), real(*a, **k))[1])
+    release = threading.Event()
+    busy = threading.Thread(target=release.wait)
+    busy.start()
+    try:
+        with leaving_a_core_to(busy):
+            render_gbuffer("sphere", (0.5, 0.4, 0.3), width=16, height=12, spp=1)
+            release.set()
+            busy.join()
+            sc.render_dict(sc.scene_dict(sc.get_scene("sphere"), 16, 12, 1, 0, 0, {"type": "direct"},
+                                         lambda sid: {"type": "diffuse"}))
+    finally:
+        release.set()
+    assert seen == [max(1, before - 1)] * 3 + [before]
+    assert dr.thread_count() == before

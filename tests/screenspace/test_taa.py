@@ -42,6 +42,17 @@ def test_fetch_is_exact_at_pixel_centres_and_reproduces_a_linear_ramp(filt):
 
 
 @pytest.mark.parametrize("filt", FETCHES)
+def test_a_static_camera_skips_the_fetch_with_the_same_bits(filt, rng):
+    """motion None (a static camera) takes the history at the pixel centres without a fetch: the very numbers
+    of the fetch with zero motion, where each filter's weights are 0, 1, 0..."""
+    cur, hist = rng.random((9, 13, 3)), rng.random((9, 13, 3))
+    valid = rng.random((9, 13)) > 0.2
+    s = TAASettings(fetch=filt)
+    still = taa_resolve(cur, hist, None, valid, s)
+    np.testing.assert_array_equal(still, taa_resolve(cur, hist, np.zeros((9, 13, 2)), valid, s))
+
+
+@pytest.mark.parametrize("filt", FETCHES)
 @pytest.mark.parametrize("kind", ("minmax", "variance", "none"))
 def test_constant_image_stays_constant_under_camera_motion(filt, kind):
     h, w = 24, 32

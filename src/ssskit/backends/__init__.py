@@ -18,7 +18,8 @@ it can run here (otherwise a :class:`~ssskit.errors.BackendError` saying why). H
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterable
 
 from ..errors import BackendError
 from ..registry import Registry
@@ -72,6 +73,33 @@ def get_backend(name: str = DEFAULT_BACKEND) -> Backend:
     return backend
 
 
+def warm_up_in_background(name: str, passes: Iterable[str]) -> threading.Thread | None:
+    """Start :meth:`Backend.warm_up` of ``passes`` on the named backend on a daemon thread and return the thread,
+    or None where the backend compiles nothing on first use. The thread works on an instance of its own (the
+    shared one keeps its scratch buffers for the real frames); numba compiles under one lock, so a real frame
+    that needs a kernel the thread is compiling waits for it instead of compiling it again. Meant to overlap
+    a first frame's compilation (one thread) with the work before the pass: Mitsuba's G-buffer, which releases
+    the GIL. Errors are dropped here: the real frame meets and reports them."""
+    backend = get_backend(name)
+    if not backend.compiles_on_first_use:
+        return None
+    names = list(passes)
+    from .base import check_warm_up
+
+    check_warm_up(names)
+    fresh = type(backend)()
+
+    def run() -> None:
+        try:
+            fresh.warm_up(names)
+        except Exception:  # noqa: BLE001 - the real frame reports what goes wrong
+            pass
+
+    thread = threading.Thread(target=run, name="ssskit-warm-up", daemon=True)
+    thread.start()
+    return thread
+
+
 def backend_status() -> dict[str, dict]:
     """Every registered backend: {name: {"available": bool, "details": str, "description": str}}."""
     out = {}
@@ -94,4 +122,5 @@ __all__ = [
     "check_frame",
     "get_backend",
     "term_rows",
+    "warm_up_in_background",
 ]

@@ -26,13 +26,13 @@ images on ``gl``).
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING, Protocol, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .plan import SeparablePlan
+from .plan import DEPTH_MODES, SeparablePlan
 
 if TYPE_CHECKING:
     from .adaptive_plan import AdaptivePlan
@@ -52,6 +52,12 @@ class SlotPlan(Protocol):
 #: the phases an AdaptiveRunner times, in frame order (Xie 2020 Fig. 8 and Table 1)
 PHASES = ("estimate", "prefilter", "sampling", "update")
 
+#: what :meth:`Backend.warm_up` gets ready: the separable pass in each depth mode (:data:`DEPTH_MODES`) on a frame
+#: of one profile id, what it adds for several ids (``separable:ids``), the Burley pass, the adaptive sampler's
+#: guiding phase, the transmittance pass and its lateral spread
+WARM_UP = tuple(f"separable:{mode}" for mode in DEPTH_MODES) + ("separable:ids", "burley", "adaptive",
+                                                                 "transmission", "spread")
+
 
 class Backend(ABC):
     """A way to run the screen-space passes (numpy reference, numba CPU, ...)."""
@@ -64,10 +70,18 @@ class Backend(ABC):
     dtype: type = np.float64
     #: the passes this backend implements ("separable" always; "burley" where :meth:`burley` is overridden)
     passes: frozenset[str] = frozenset({"separable"})
+    #: whether the first frame of a pass compiles its kernels (numba), which :meth:`warm_up` can do ahead
+    compiles_on_first_use: bool = False
 
     def availability(self) -> tuple[bool, str]:
         """(True, details) if the backend can run on this machine, else (False, why not)."""
         return True, ""
+
+    def warm_up(self, passes: Iterable[str]) -> None:
+        """Get ``passes`` (names from :data:`WARM_UP`) ready, so that their first real frame runs at full speed:
+        the numba backend compiles their kernels (or loads them from numba's disk cache, which then serves
+        every later process too). This backend has nothing to prepare. An unknown name: a BackendError."""
+        check_warm_up(passes)
 
     @abstractmethod
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
@@ -236,6 +250,75 @@ class AdaptiveRunner:
 
     def release(self) -> None:
         """Free what the runner holds (device images on gl)."""
+
+
+def check_warm_up(passes: Iterable[str]) -> list[str]:
+    """The names of :meth:`Backend.warm_up` as a list, or a BackendError naming the unknown one."""
+    from ..errors import BackendError
+
+    names = [passes] if isinstance(passes, str) else list(passes)
+    for name in names:
+        if name not in WARM_UP:
+            raise BackendError(f"cannot warm up {name!r}; choose from {', '.join(WARM_UP)}")
+    return names
+
+
+def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
+    """Run each of ``passes`` (:data:`WARM_UP`) once on ``backend`` on a tiny synthetic 8 x 8 frame (two profile
+    ids; one for ``separable:<mode>``, whose first real frame rarely has more), through the backend's own
+    entry points: what a backend that compiles on first use calls to compile, since the argument types (hence
+    the compiled specialisations) are those of a real frame of any size. ``separable:ids`` runs the pass in the
+    depth mode named before it (else ``follow``) on two ids. The results are thrown away."""
+    from .adaptive_plan import AdaptivePlan
+    from .burley_plan import BurleyParams, build_burley_plan
+    from .plan import TermTable
+    from .spread_plan import SlotSpread, build_spread_plan
+    from .transmission_plan import SlotModel, build_transmission_plan
+
+    n = 8
+    diffuse = np.ones((n, n, 3), np.float32)
+    depth = np.full((n, n), 100.0, np.float32)
+    slots = np.ones((n, n), np.int32)
+    slots[:, n // 2:] = 2
+    slots[0] = 0
+    ids = (1, 2)
+    uvz = np.zeros((n, n, 3), np.float32)  # the light's view: each pixel 1 mm behind a shadow map of 1 mm
+    uvz[..., 2] = 2.0
+    names = check_warm_up(passes)
+    modes = [name.partition(":")[2] for name in names if name.startswith("separable:") and name != "separable:ids"]
+    for name in names:
+        kind, _, mode = name.partition(":")
+        if kind == "separable":
+            k = 2 if mode == "ids" else 1  # profile ids
+            rows = np.array([[0.0, 0.0]] + [[0.5, 1.0]] * k)
+            weights = np.full((k + 1, 2, 3), 0.1)
+            term = TermTable(rows, weights, weights, np.array([0] + [1] * k), np.array([0] + [2] * k),
+                             np.full((k + 1, 3), 0.6), np.ones((k + 1, 3)))
+            plan = SeparablePlan(ids[:k], (term,), (modes or ["follow"])[0] if mode == "ids" else mode,
+                                 np.array([0.0] + [1.0] * k), 100.0, 100.0, 0, 0)
+            backend.separable(plan, diffuse, depth, slots if k == 2 else np.minimum(slots, 1))
+        elif kind == "burley":
+            params = BurleyParams.from_dmfp((0.5, 0.5, 0.5), (1.0, 0.5, 0.25))
+            for mips in (True, False):
+                bplan = build_burley_plan({i: params for i in ids}, 100.0, 100.0, sampler="xie", mips=mips)
+                backend.burley(bplan, diffuse, depth, slots, 2)
+                backend.burley(bplan, diffuse, depth, slots, np.full((n, n), 2, np.int64))
+        elif kind == "adaptive":
+            aplan = AdaptivePlan(sigma0_sq=1e-3, kappa=0.2, b_min=1, b_max=64, alpha=0.2, correction="variance",
+                                 gamma=1.0)
+            history = np.zeros((n, n, 4), np.float32)
+            counts = backend.adaptive_counts(aplan, history, slots > 0)
+            backend.adaptive_update(aplan, history, diffuse, counts, slots > 0)
+            backend.adaptive_counts(aplan, history, slots > 0, np.zeros((n, n, 2)), np.ones((n, n), bool))
+        elif kind == "transmission":
+            model = SlotModel(np.full((3, 2), 0.5), np.ones((3, 2)), np.zeros((3, 2)))
+            tplan = build_transmission_plan({i: model for i in ids})
+            backend.transmission(tplan, slots, uvz, np.ones((n, n), np.float32), np.ones((n, n), np.float32),
+                                 diffuse)
+        elif kind == "spread":
+            spread = SlotSpread(np.array([0.0, 2.0]), np.ones((3, 2)))
+            splan = build_spread_plan({i: spread for i in ids}, 100.0, 100.0)
+            backend.transmission_spread(splan, diffuse, depth, slots, uvz, np.ones((n, n), np.float32))
 
 
 def _checked_counts(counts: ArrayLike, shape: tuple[int, int]) -> NDArray[np.int64]:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
 from ..sampling.hashes import frame_base
-from .base import Backend, check_frame
+from .base import Backend, check_frame, run_tiny_frames
 from .plan import SeparablePlan, TermTable
 
 if TYPE_CHECKING:
@@ -39,6 +39,7 @@ class NumbaBackend(Backend):
     description = "numba on the CPU, float32, parallel over rows and vectorised (the default)"
     dtype = np.float32
     passes = frozenset({"separable", "burley", "adaptive", "transmission", "spread"})
+    compiles_on_first_use = True
 
     def __init__(self) -> None:
         self._key: tuple[int, int, int] | None = None
@@ -53,6 +54,15 @@ class NumbaBackend(Backend):
         except ImportError as exc:  # pragma: no cover - numba is a dependency
             return False, f"numba cannot be imported ({exc})"
         return True, f"numba {numba.__version__}, {numba.get_num_threads()} threads"
+
+    def warm_up(self, passes: Iterable[str]) -> None:
+        """Compile the kernels of ``passes`` (:data:`~ssskit.backends.base.WARM_UP`), or load them from numba's disk
+        cache: each pass runs once on a tiny synthetic frame through this backend's own entry points
+        (:func:`~ssskit.backends.base.run_tiny_frames`), so numba compiles the very specialisations a real
+        frame of any size calls, and the first real frame compiles nothing. On a fresh machine this is
+        most of a first frame's time (seconds per kernel, one thread), so a caller can overlap it with other
+        work: a thread while Mitsuba renders the G-buffer, or a process beside another demo section."""
+        run_tiny_frames(self, passes)
 
     def _rows(self, h: int, fn: Callable[[int, int], object]) -> None:
         """fn(y0, y1) over row ranges covering [0, h), on numba.get_num_threads() threads (the kernels

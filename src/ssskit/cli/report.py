@@ -91,7 +91,7 @@ def figures(ctx: click.Context, names: tuple[str, ...], material: str | None, mo
 
 
 @click.command(epilog=examples("ssskit demo", "ssskit demo --material skin2,apple", "ssskit demo --full",
-                               "ssskit demo --backend gl"))
+                               "ssskit demo --backend gl", "ssskit demo --jobs 1"))
 @out_dir_option("ssskit-out/demo")
 @photons_option(None, help="Monte Carlo photons per channel, simulated [default: the shipped profiles, 10^7].")
 @click.option("--full", is_flag=True, help="Simulate the Monte Carlo profiles at the supplement's 10^7 photons instead "
@@ -103,8 +103,10 @@ def figures(ctx: click.Context, names: tuple[str, ...], material: str | None, mo
               help="Add a section on your model (a mesh file, scene .toml or generated mesh): the three views of "
                    "Xie 2020 Fig. 1 with every Burley method and the separable pass.")
 @scene_mesh_options(view=False)
+@click.option("--jobs", type=click.IntRange(1, 64), default=None,
+              help="Processes building the report's sections at once [default: 2, or 1 on a single core].")
 def demo(out: str, photons: int | None, full: bool, backend: str, material: tuple[list[str], ...],
-         scene: str | Path | None, units: tuple[str, ...], material_map: str | None) -> None:
+         scene: str | Path | None, units: tuple[str, ...], material_map: str | None, jobs: int | None) -> None:
     """The main job: build the report (figures + index.html) on built-in defaults; --scene adds your model."""
     from ..backends import get_backend
     from ..materials import get_material
@@ -124,6 +126,10 @@ def demo(out: str, photons: int | None, full: bool, backend: str, material: tupl
         resolve_scene_value(scene, units, material_map, view="front")  # every check before any work
         scene_kw = {"scene": str(scene), "units": units[0] if units else None, "material_map": material_map}
     click.echo(f"ssskit demo: writing the report to {out}/", err=True)
+    if jobs is None:
+        import os
+
+        jobs = min(2, os.cpu_count() or 1)
     index = build_report(Path(out), progress=progress, photons=photons or DEMO_PHOTONS, progress_bars=True,
-                         backend=backend, recompute=full, materials=names, scene=scene_kw)
+                         backend=backend, recompute=full, materials=names, scene=scene_kw, jobs=jobs)
     click.echo(str(index))

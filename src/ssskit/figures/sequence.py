@@ -8,18 +8,15 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..io import atomic_output, tonemap
+from ..io import atomic_output, tonemap, write_png
 
 
 def save_frame_png(path: str | Path, image: ArrayLike, peak: float) -> Path:
     """A linear RGB frame (H, W, 3) as 8-bit sRGB PNG, tone-mapped by :func:`ssskit.io.tonemap` with one
     fixed ``peak`` for the whole sequence (so frames do not flicker in brightness)."""
-    from matplotlib.image import imsave
-
     p = Path(path)
     ldr = np.round(255.0 * tonemap(np.nan_to_num(np.asarray(image, np.float64)), peak if peak > 0 else 1.0))
-    with atomic_output(p) as tmp:
-        imsave(tmp, ldr.astype(np.uint8), format="png")
+    write_png(p, ldr.astype(np.uint8))
     return p
 
 

@@ -44,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from ..backends import warm_up_in_background
 from ..errors import SettingsError
 from ..io import check_distinct, save_image
 from ..metrics import region_metrics
@@ -54,7 +55,7 @@ from .burley_frame import plan_burley, render_burley
 from .frame import BurleyInput, Progress, SceneInput, ScenePlan, finite, metric_lines
 from .sequence import sequence_gbuffers, sequence_references
 from .settings import AdaptivePass, BurleyPass, RenderSettings
-from .transmission import TransmissionInfo, material_of_ids, transmission_light
+from .transmission import TransmissionInfo, material_of_ids, transmission_light, transmission_passes
 
 #: the history's format, as the JSON states it
 HISTORY_FORMAT = "(H, W, 4) float32: n_bar, mu, sigma^2, available"
@@ -278,6 +279,8 @@ def render_adaptive(scene: SceneInput = "slab", settings: RenderSettings | None 
     a = p.adaptive_settings()
     b = settings.burley_settings()
     taa = TAASettings() if p.taa else None
+    # the passes' kernels compile (a fresh machine: seconds, one thread) while Mitsuba renders the G-buffers
+    warm_up_in_background(b.backend, ["burley", "adaptive"] + transmission_passes(settings, plan.transmission))
     if static:
         return _static(scene, plan, settings, p, a, b, params, taa, progress, on_frame)
     assert plan.builtin is not None  # a moving run has a built-in scene (plan_adaptive)

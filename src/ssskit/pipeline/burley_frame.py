@@ -39,13 +39,14 @@ from typing import Any
 
 import numpy as np
 
+from ..backends import warm_up_in_background
 from ..errors import SettingsError, SignalError
 from ..screenspace import BurleyParams, BurleySettings, GBuffer, burley_sss
 from ..screenspace.burley import burley_backend
 from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
                     metric_lines, per_id, plan_scene, reference_line)
 from .settings import AdaptivePass, BurleyPass, RenderSettings
-from .transmission import TransmissionInfo, with_transmission
+from .transmission import TransmissionInfo, transmission_passes, with_transmission
 
 
 def burley_exact(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, BurleyParams]) -> np.ndarray | None:
@@ -62,7 +63,7 @@ def burley_exact(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, Bur
     diffuse value. Where the region covers the whole kernel this equals
     :func:`ssskit.truth.exact_screen_space`, which keeps the centre value for the uncovered share instead.
     """
-    from scipy.signal import fftconvolve
+    from ..compute.fft import fft_convolve
 
     cam = gbuffer.camera
     if abs(cam.fx - cam.fy) > 1e-6 * cam.fx:
@@ -78,8 +79,8 @@ def burley_exact(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, Bur
         m = region.astype(np.float64)[..., None]
         z = float(np.median(gbuffer.depth_mm[region]))
         k = p.profile().discretize_2d(z / cam.fx, 2 * max(h, w) + 1)
-        num = fftconvolve(m * e, k, mode="same", axes=(0, 1))
-        den = fftconvolve(np.broadcast_to(m, e.shape), k, mode="same", axes=(0, 1))
+        num = fft_convolve(m * e, k, "same", axes=(0, 1))
+        den = fft_convolve(np.broadcast_to(m, e.shape), k, "same", axes=(0, 1))
         out[region] = (num / np.maximum(den, 1e-300))[region]
     return out.astype(np.float32)
 
@@ -216,7 +217,9 @@ def render_burley(scene: SceneInput = "slab", settings: RenderSettings | None = 
     plan, params = plan_burley(scene, settings, params)
     b = settings.burley_settings()
     say = progress or (lambda msg: None)
-    gb = frame_gbuffer(plan, settings, _on_params(params, lambda p: p.albedo), say)
+    # the pass's kernels compile (a fresh machine: seconds, one thread) while Mitsuba renders the G-buffer
+    warming = warm_up_in_background(b.backend, ["burley"] + transmission_passes(settings, plan.transmission))
+    gb = frame_gbuffer(plan, settings, _on_params(params, lambda p: p.albedo), say, beside=warming)
     say(f"Burley pass: {b.sampler} sampler, {b.spp} spp, {b.backend} backend")
     sss = burley_sss(gb, params, b)
     exact: Callable[[], np.ndarray | None] = lambda: burley_exact(gb, params)  # noqa: E731

@@ -19,6 +19,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import threading
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +34,7 @@ from ..io import check_distinct, save_image
 from ..materials import LayeredMaterial, Material, get_material
 from ..metrics import region_metrics
 from ..scenes import SCENES, ResolvedScene, SceneSpec, reference_phase_g, render_gbuffer, render_reference, resolve_scene
+from ..scenes.mitsuba_variant import leaving_a_core_to
 from ..scenes.reference import check_reference_scene
 from ..scenes.scenes import mitsuba
 from ..profiles import check_model_domain
@@ -251,12 +253,18 @@ def per_id(plan: ScenePlan, make: Callable[[Any], Any]) -> Any:
 
 
 def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo: ArrayLike | Mapping[int, ArrayLike],
-                  say: Progress) -> GBuffer:
+                  say: Progress, beside: threading.Thread | None = None) -> GBuffer:
     """The frame's G-buffer: the one given, or the scene rendered by Mitsuba with ``albedo`` (per channel,
     clipped to [0, 1]; or a mapping profile id -> albedo, :func:`per_id`) at the settings' size, samples,
-    seed and frame, each profile id with its material's eta and name."""
+    seed and frame, each profile id with its material's eta and name. ``beside``: a thread compiling the pass's
+    kernels (:func:`ssskit.backends.warm_up_in_background`, one core): each of Mitsuba's images that starts
+    while it runs leaves it a core (:func:`ssskit.scenes.mitsuba_variant.leaving_a_core_to`; the same image on
+    any thread count), so on 2 cores the compilation, the longer of the two, is not slowed."""
     if plan.gbuffer is not None:
         return plan.gbuffer
+    if beside is not None:
+        with leaving_a_core_to(beside):
+            return frame_gbuffer(plan, settings, albedo, say)
     assert plan.spec is not None
     say(f"rendering the {plan.label} G-buffer ({settings.width}x{settings.height}, {settings.spp} spp, "
         "Mitsuba scalar_rgb)")

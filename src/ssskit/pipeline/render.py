@@ -63,26 +63,28 @@ the mask, per channel, and the number of pixels with a surface).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..backends import warm_up_in_background
 from ..errors import SettingsError
 from ..kernels import KernelMethod, TapKernel, build_kernel, check_params, default_grid, parse_method_spec
 from ..profiles import MATERIAL_FREE_MODELS, profile_for_material
 from ..sampling.taps import SeparableTaps, make_taps
-from ..screenspace import BurleyParams, GBuffer, separable_sss
+from ..screenspace import BurleyParams, GBuffer, default_depth_mode, separable_sss
 from ..truth import exact_screen_space
 from .adaptive import AdaptiveResult, FrameCallback, render_adaptive
 from .burley_frame import BurleyResult, render_burley
 from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
                     metric_lines, per_id, plan_scene, reference_line)
 from .settings import RenderSettings
-from .transmission import TransmissionInfo, with_transmission
+from .transmission import TransmissionInfo, transmission_passes, with_transmission
 
 
 def _default(name: str) -> Any:
@@ -205,13 +207,19 @@ def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None
     else:
         kernel, taps = taps_of(profile)
         pass_taps, albedo = taps, profile.total_rd()
-    gb = frame_gbuffer(plan.scene, settings, albedo, say)
-    placement = "engine" if isinstance(kernel, TapKernel) else settings.tap_method
     sss_settings = settings.pass_settings()
+    # the pass's kernels compile (a fresh machine: seconds, one thread) while Mitsuba renders the G-buffer
+    warming = warm_up_in_background(settings.backend, [  # several ids' slot map after the pass: not waited for
+        f"separable:{sss_settings.depth_mode or default_depth_mode(pass_taps)}", "separable:ids"]
+        + transmission_passes(settings, plan.scene.transmission))
+    gb = frame_gbuffer(plan.scene, settings, albedo, say, beside=warming)
+    exact: Callable[[], np.ndarray | None] = functools.cache(lambda: exact_screen_space(gb, profile))
+    if warming is not None and warming.is_alive() and settings.exact and gb.mask.any():
+        exact()  # the exact convolution (ground_truths' first step) while the pass still compiles
+    placement = "engine" if isinstance(kernel, TapKernel) else settings.tap_method
     say(f"separable pass: {settings.kernel}, {taps.taps} {placement} taps, jitter {sss_settings.jitter:g}, "
         f"{settings.backend} backend")
     sss = separable_sss(gb, pass_taps, sss_settings)
-    exact = lambda: exact_screen_space(gb, profile)  # noqa: E731
     transmitted, info = None, TransmissionInfo(settings.transmission, False)
     if plan.scene.transmission:
         sss, transmitted, info, exact = with_transmission(gb, sss, settings, plan.scene.materials,
@@ -219,6 +227,8 @@ def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None
     res = RenderResult(plan.scene.label, settings, mat, profile, kernel, taps, gb, sss, gb.composite(sss),
                        source=plan.scene.source, transmitted=transmitted, transmission=info)
     ground_truths(res, settings, plan.scene, profile, exact, say, progress is not None)
+    if warming is not None:  # the several ids' slot map (a fraction of a second): a process that exits next must
+        warming.join()  # not leave a daemon thread inside LLVM while the interpreter shuts down
     return res
 
 

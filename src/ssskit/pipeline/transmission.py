@@ -119,6 +119,16 @@ def _models_before_the_frame(settings: RenderSettings, materials: tuple[Any, ...
             mcml_spread(m)
 
 
+def transmission_passes(settings: RenderSettings, transmission: bool) -> list[str]:
+    """The backend passes (:data:`ssskit.backends.base.WARM_UP` names) the transmitted light of a frame runs under
+    ``settings``: none without the transmittance pass (``transmission`` False: the plan's decision), else
+    ``transmission``, and ``spread`` where the lateral spread is asked for (``transmission_spread = "mcml"``; off
+    by default). What a first frame's warm-up compiles: the spread's kernels alone take ~6.5 s of one core."""
+    if not transmission:
+        return []
+    return ["transmission"] + (["spread"] if settings.transmission_spread == "mcml" else [])
+
+
 def slot_model(name: str, material: Any) -> Any:
     """The :class:`~ssskit.backends.transmission_plan.SlotModel` of transmission model ``name`` for ``material``
     (mcml: its MCML fit; unreal: UE's defaults for its Burley d; jimenez2010: the skin Gaussians, no material)."""
@@ -251,4 +261,4 @@ def with_transmission(gb: GBuffer, sss: np.ndarray, settings: RenderSettings, ma
 
 
 __all__ = ["TransmissionInfo", "add_transmission", "material_of_ids", "slot_model", "transmission_light",
-           "transmission_runs", "with_transmission"]
+           "transmission_passes", "transmission_runs", "with_transmission"]

@@ -3,6 +3,9 @@ variant every scene and reference of ssskit renders in (CPU, any machine)."""
 
 from __future__ import annotations
 
+import contextlib
+import threading
+from collections.abc import Iterator
 from types import ModuleType
 
 from ..errors import SceneError
@@ -19,4 +22,54 @@ def mitsuba() -> ModuleType:
     return mi
 
 
-__all__ = ["mitsuba"]
+@contextlib.contextmanager
+def mitsuba_threads(n: int) -> Iterator[None]:
+    """Within the block Mitsuba renders on ``n`` threads (Dr.Jit's pool; at least 1), then on as many as before.
+    Its images do not depend on the count (each pixel's samples are seeded by the pixel: tested), so a caller
+    can leave a core to other work, e.g. a thread compiling the pass's kernels meanwhile."""
+    import drjit as dr
+
+    mitsuba()
+    before = dr.thread_count()
+    dr.set_thread_count(max(1, int(n)))
+    try:
+        yield
+    finally:
+        dr.set_thread_count(before)
+
+
+_BESIDE: list[threading.Thread] = []  # the threads leaving_a_core_to was given, innermost last
+
+
+@contextlib.contextmanager
+def leaving_a_core_to(thread: threading.Thread | None) -> Iterator[None]:
+    """Within the block each Mitsuba render (:func:`render_threads`) that starts while ``thread`` is alive runs
+    on one thread less than Mitsuba's pool has (at least 1); one that starts after it ended, on all of them.
+    For a thread compiling a pass's kernels while Mitsuba renders the G-buffer (one core, the longer of the two
+    on a fresh machine): on 2 cores a first ``ssskit render`` took 10.5 s instead of 11.5 (medians of 4,
+    benchmarks/RESULTS.md). None: nothing changes."""
+    if thread is None:
+        yield
+        return
+    _BESIDE.append(thread)
+    try:
+        yield
+    finally:
+        _BESIDE.remove(thread)
+
+
+@contextlib.contextmanager
+def render_threads() -> Iterator[None]:
+    """Around one Mitsuba render: one thread less while a thread given to :func:`leaving_a_core_to` is alive,
+    else nothing changes."""
+    if not any(t.is_alive() for t in _BESIDE):
+        yield
+        return
+    import drjit as dr
+
+    mitsuba()
+    with mitsuba_threads(dr.thread_count() - 1):
+        yield
+
+
+__all__ = ["leaving_a_core_to", "mitsuba", "mitsuba_threads", "render_threads"]

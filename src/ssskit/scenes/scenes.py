@@ -37,7 +37,7 @@ from ..registry import Registry
 from ..screenspace.camera import Camera
 from ..settings import SIZE_RANGE
 from .meshes import ply_bytes
-from .mitsuba_variant import mitsuba
+from .mitsuba_variant import mitsuba, render_threads
 
 #: diffuse albedo of everything that is not an SSS object (floors, occluders)
 FLOOR_ALBEDO = 0.5
@@ -269,4 +269,5 @@ def render_dict(scene: dict) -> np.ndarray:
         loaded = mi.load_dict(scene)
     except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
         raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
-    return np.array(mi.render(loaded), dtype=np.float32)
+    with render_threads():
+        return np.array(mi.render(loaded), dtype=np.float32)

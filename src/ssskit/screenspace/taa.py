@@ -265,7 +265,9 @@ def taa_resolve(current: ArrayLike, history: ArrayLike | None = None, motion: Ar
         u = u + mv[..., 0]
         v = v + mv[..., 1]
         ok &= (u >= 0) & (u < ww) & (v >= 0) & (v < hh)  # off-screen: no history
-    prev = fetch(rgb_to_ycocg(hist), u, v, s.fetch)
+    # a static camera fetches at the pixel centres, where every filter returns the texel itself (its weights are
+    # 0, 1, 0...: the same numbers, bit for bit): no fetch
+    prev = rgb_to_ycocg(hist) if motion is None else fetch(rgb_to_ycocg(hist), u, v, s.fetch)
     cur_y = rgb_to_ycocg(cur)
     if s.neighbourhood != "none":
         low, high = neighbourhood_box(cur_y, s.neighbourhood, s.gamma)
