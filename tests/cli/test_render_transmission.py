@@ -194,7 +194,8 @@ def test_bad_transmission_settings_file(run, workdir, content, fragment):
     one_error_line(run, workdir, ["render", "--scene", "plain.exr", "--settings", "s.toml", "--out", "o.exr"], fragment)
 
 
-def test_a_material_outside_the_transmission_domain_fails_before_the_frame(run, tmp_path, monkeypatch):
+def test_a_material_outside_the_transmission_domain_fails_before_the_frame(run, tmp_path, tmp_path_factory,
+                                                                            monkeypatch):
     """A material so clear that the light crossing 200 mm unscattered is above the table's floor
     (0.945 exp(-0.02 * 200) = 1.7e-2 > 1e-4, the exact bound of absorber_transmittance) cannot get an MCML
     transmission table: refused in one line before the G-buffer renders and before MCML runs (it used to run
@@ -207,6 +208,8 @@ def test_a_material_outside_the_transmission_domain_fails_before_the_frame(run, 
 
     monkeypatch.setattr(tr, "simulate", must_not_run)
     monkeypatch.setattr(frame, "render_gbuffer", must_not_run)
+    # an empty cache: no reflectance profile of clear either (its 10^7-photon MCML is work too)
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
     monkeypatch.chdir(tmp_path)
     (tmp_path / "clear.json").write_text('{"sigma_a": 0.01, "sigma_s": 0.01, "eta": 1.4, "name": "clear"}')
     # unreal's T(t) needs no MCML table; its lateral spread's widths do

@@ -114,9 +114,9 @@ def _models_before_the_frame(settings: RenderSettings, materials: tuple[Any, ...
         if id(m) in done:
             continue
         done.add(id(m))
-        slot_model(settings.transmission_model, m)
         if settings.transmission_spread == "mcml" and isinstance(m, Material):
-            mcml_spread(m)
+            mcml_spread(m)  # first: the MCML table (its domain is checked from sigma_t before any simulation)
+        slot_model(settings.transmission_model, m)  # unreal: the Burley d, from the reflectance profile
 
 
 def transmission_passes(settings: RenderSettings, transmission: bool) -> list[str]:
