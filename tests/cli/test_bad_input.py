@@ -14,7 +14,8 @@ SETUP = {"f.txt": "not a folder", "g.exr": "not read", "m.json": '{"sigma_a": 0.
          "eta4.json": '{"sigma_a": 0.1, "sigma_s": 1.0, "eta": 4}',
          "eta1e6.json": '{"sigma_a": 0.1, "sigma_s": 1.0, "eta": 1e6}',
          "huge.json": '{"sigma_a": 1e300, "sigma_s": 1e300}',
-         "tiny.json": '{"sigma_a": 1e-300, "sigma_s": 1e-300}'}
+         "tiny.json": '{"sigma_a": 1e-300, "sigma_s": 1e-300}',
+         "absorber.json": '{"sigma_a": [0.5, 0.6, 0.7], "sigma_s": 0, "name": "absorber"}'}
 
 
 @pytest.fixture
@@ -77,6 +78,14 @@ BAD = [
     (["demo", "--photons", "999"], "1000<=x<=10000000000"),
     # kernel methods and their parameters
     (["kernel", "--material", "skin1", "--method", "gaussians", "--rank", "3"], "its parameter is --count"),
+    # click >= 8.3 took an explicit default=None for a value: the missing --method became 'None'
+    (["kernel", "--material", "skin1", "--out", "k.json"], "Missing option '--method'"),
+    # a material that does not scatter has no profile (it failed late with NaN kernels, or exited 0)
+    (["kernel", "--material", "absorber.json", "--method", "svd"], "needs a scattering material: sigma_s is 0"),
+    (["render", "--scene", "slab", "--material", "absorber.json", "--pass", "burley"], "needs a scattering material"),
+    (["export", "--material", "absorber.json", "--format", "glsl-shader", "--pass", "transmission", "--out", "t.comp"],
+     "the mcml transmission model needs a scattering material"),
+    (["profile", "--material", "absorber.json", "--model", "dipole"], "the dipole model needs a scattering material"),
     (["kernel", "--material", "skin1", "--method", "preintegrated", "--rank", "3"], "takes no parameter"),
     (["kernel", "--material", "skin1", "--method", "svd:3", "--rank", "2"], "give the rank once"),
     (["kernel", "--material", "skin1", "--method", "guided", "--k", "9"], "--k: guide exponent"),

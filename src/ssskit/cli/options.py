@@ -541,8 +541,11 @@ def out_dir_option(default: str, help: str = "Output folder.") -> Callable:
 def kernel_spec_option(name: str = "--kernel", dest: str = "kernel_spec", default: str | None = None,
                        many: bool = False, required: bool = False,
                        help: str = "Kernel method spec name[:value].") -> Callable:
-    return click.option(name, dest, type=KernelSpec(many=many), default=default, show_default=default is not None,
-                        required=required, help=help)
+    # no default given: none passed, so that click (>= 8.3, whose sentinel for "not given" is not None) still
+    # reports a required option as missing
+    extra = {} if default is None else {"default": default}
+    return click.option(name, dest, type=KernelSpec(many=many), show_default=default is not None,
+                        required=required, help=help, **extra)
 
 
 def signal_option(default: str = "edge") -> Callable:

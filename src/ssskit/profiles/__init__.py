@@ -139,8 +139,10 @@ def montecarlo_profile(material: Material | LayeredMaterial, photons: int = DEFA
     mm, the longest at most 31 times the shortest. ``options`` go to :func:`ssskit.profiles.montecarlo.simulate_material`
     (threads, progress, resume, restart, use_cache, batch_size).
     """
+    from .domain import check_scatters
     from .montecarlo import montecarlo_rgb
 
+    check_scatters("montecarlo", material)
     return montecarlo_rgb(material, photons=photons, seed=seed, grid_fraction=grid_fraction, roughness=roughness,
                           **options)
 
@@ -153,7 +155,7 @@ def check_model_domain(material: Material | LayeredMaterial | str, model: str) -
     """Refuse a material outside ``model``'s valid domain (:mod:`ssskit.profiles.domain`) without
     computing anything: the check :func:`profile_for_material` makes, for callers that build the
     profile later (a render plans every input first)."""
-    from .domain import check_montecarlo
+    from .domain import check_montecarlo, check_scatters
 
     MODELS.get(model)  # an unknown model fails here with the list of models
     key = model.strip().lower()
@@ -161,6 +163,7 @@ def check_model_domain(material: Material | LayeredMaterial | str, model: str) -
         return
     mat = get_material(material)
     if key == "montecarlo":
+        check_scatters(key, mat)
         check_montecarlo(mat)
     elif isinstance(mat, LayeredMaterial):
         raise ProfileError(f"layered material {mat.name!r} is only supported by the montecarlo model")

@@ -22,6 +22,11 @@ of a translucent material is left. Per model (``eta``: the index relative to the
 * ``burley``: A (MCML's total R_d unless given: the montecarlo domain) in [0, 1] and d > 0 from Xie
   2020 Eq. 5, whose fits are stated for A in [0, 1].
 * ``deon2007``: a fixed preset, no material.
+
+Every model of a material needs it to scatter: sigma_s > 0 in every channel (for a layered material, in some
+layer per channel). Without scattering there is no subsurface profile: the light that enters is absorbed or
+leaves through the far side (R(r) = 0, so a kernel normalised by it is 0/0; a zero-albedo Burley fit, an
+all-zero transmission fit).
 """
 
 from __future__ import annotations
@@ -64,11 +69,22 @@ def check_eta(model: str, eta: float, eta_max: float, why: str) -> None:
         raise ProfileError(f"the {model} model takes a relative index eta in [1, {eta_max:g}] ({why}), got {eta:g}")
 
 
+def check_scatters(model: str, material: Material | LayeredMaterial) -> None:
+    """sigma_s > 0 in every channel (in some layer of a layered material): module docstring."""
+    layers = _layers(material)
+    for c, channel in enumerate(CHANNELS):
+        if not any(float(layer.sigma_s[c]) > 0 for layer in layers):
+            raise ProfileError(f"the {model} model needs a scattering material: sigma_s is 0 in channel {channel} of "
+                               f"{material.name!r} (without scattering there is no subsurface profile: the light is "
+                               "absorbed or leaves through the far side); give sigma_s > 0")
+
+
 _DIPOLE_WHY = "its diffuse Fresnel fit F_dr of [JMLH01] is within 5% there and passes 1 at eta = 3.85"
 
 
 def check_dipole(material: Material, model: str = "dipole") -> None:
     """The domain of the [JMLH01] dipole (and of what is fitted to it): module docstring."""
+    check_scatters(model, material)
     check_mfp(model, material.mfp_reduced_mm)
     check_eta(model, material.eta / material.eta_ambient, DIPOLE_ETA_MAX, _DIPOLE_WHY)
 
@@ -94,10 +110,11 @@ def check_montecarlo(material: Material | LayeredMaterial, model: str = "monteca
 def check_burley_material(material: Material, albedo_given: bool) -> None:
     """The domain of Burley's profile matched to a material: its mean free paths, and the montecarlo
     domain where A comes from MCML (``albedo_given`` False)."""
+    check_scatters("burley", material)
     check_mfp("burley", material.mfp_reduced_mm)
     if not albedo_given:
         check_montecarlo(material, "burley (A from MCML)")
 
 
 __all__ = ["DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM", "OPTICAL_ETA_MAX", "check_burley_material",
-           "check_dipole", "check_eta", "check_mfp", "check_montecarlo"]
+           "check_dipole", "check_eta", "check_mfp", "check_montecarlo", "check_scatters"]

@@ -90,7 +90,11 @@ def mcml_model(material: Material, photons: int = 200_000, seed: int = 101, term
     """The material's MCML slab transmittance as a model (module docstring): the fit of its ``part`` (the
     scattered light by default, or MCML's whole Tt) with ``terms`` terms (the fit's default), at the thickness
     along the surface normal (``along_normal``, the default) or along the light; the table's simulations are
-    cached on disk, the table and the fit in memory."""
+    cached on disk, the table and the fit in memory. A material that does not scatter has no scattered part
+    (:func:`~ssskit.profiles.domain.check_scatters`, before any simulation)."""
+    from ..profiles.domain import check_scatters
+
+    check_scatters("mcml transmission", material)
     a, b, c = _mcml_fit(material, int(photons), int(seed), None if terms is None else int(terms), part)
     return SlotModel(a.copy(), b.copy(), c.copy(), 1.0, 0.0, "mcml", along_normal=along_normal)
 
@@ -100,6 +104,9 @@ def mcml_spread(material: Material, photons: int = 200_000, seed: int = 101) -> 
     the MCML table's widths (:attr:`~ssskit.profiles.montecarlo.transmission.TransmissionTable.spread_mm`) at its
     thicknesses; where a channel's is not resolved (its light below 3 SE, deep in the tail) it keeps the last
     resolved width."""
+    from ..profiles.domain import check_scatters
+
+    check_scatters("mcml transmission spread", material)
     tab = _mcml_table(material, int(photons), int(seed))
     assert tab.spread_mm is not None
     w = np.array(tab.spread_mm, float).T  # (3, N)
