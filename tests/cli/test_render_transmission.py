@@ -219,3 +219,8 @@ def test_a_material_outside_the_transmission_domain_fails_before_the_frame(run, 
                                              "--out", "o.exr", *extra],
                              "clear's transmission table cannot reach its floor 0.0001")
         assert "sigma_t above about 0.0461 /mm in every channel" in err  # ln(1e4) / 200 mm
+    # the engines' transmission fields need the table: refused before the reflectance profile's MCML (its
+    # progress lines on an empty cache would break the one line)
+    for fmt, out in (("unreal", "u.json"), ("unity", "u.asset")):
+        one_error_line(run, tmp_path, ["export", "--material", "clear.json", "--format", fmt, "--out", out],
+                       "clear's transmission table cannot reach its floor 0.0001")

@@ -323,12 +323,18 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
             assert m is not None  # only a kernel method may need no profile
             raise SsskitError(f"--model, --photons and --grid-fraction need a --material (--kernel {m.name} "
                               "without one uses no profile)")
-    # ---- work starts here: every check above has passed
-    profile = prof() if prof is not None else None
     if mat is None and material is not None and src_name is None:
         from ..materials import get_material
 
         mat = get_material(material)
+    from ..materials import Material
+
+    if m is None and not no_transmission and fmt in ("unreal", "unity") and isinstance(mat, Material):
+        from ..profiles.montecarlo.transmission import check_table_request
+
+        check_table_request(mat)  # the transmission table's domain, from sigma_t, before the profile's MCML
+    # ---- work starts here: every check above has passed
+    profile = prof() if prof is not None else None
     summary: dict[str, Any] = {"format": fmt, "out": out, "material": material if material is not None else src_name,
                "model": used_model if profile is not None else None}
     if m is None:

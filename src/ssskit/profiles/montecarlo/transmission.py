@@ -185,6 +185,13 @@ def _check_request(material: Material, floor: float, grid: Sequence[float]) -> l
     return ts
 
 
+def check_table_request(material: Material, floor: float = T_FLOOR, grid: Sequence[float] = GRID_MM) -> None:
+    """The checks :func:`transmission_table` makes before simulating (a ProfileError for a request outside its
+    domain: not homogeneous, a bad grid or floor, a material whose unscattered light alone stays above the floor
+    at the grid's end), for a caller that does other work first."""
+    _check_request(material, floor, grid)
+
+
 def table_runs(material: Material, photons: int = DEFAULT_PHOTONS, seed: int = DEFAULT_SEED,
                grid: Sequence[float] = GRID_MM) -> list[list[MCConfig]]:
     """The simulations a table may run: per thickness i of ``grid`` the three channels' slab configurations
@@ -431,5 +438,6 @@ def fit_transmission(table: TransmissionTable, terms: int | None = None, rel_flo
 
 
 __all__ = ["DEFAULT_PHOTONS", "DEFAULT_SEED", "DEFAULT_TERMS", "DIFFUSE_TERMS", "GAUSS_MEDIAN", "GRID_MM", "PARTS",
-           "TABLE_VERSION", "T_FLOOR", "TransmissionFit", "TransmissionTable", "absorber_transmittance", "diffuse_spread",
+           "TABLE_VERSION", "T_FLOOR", "TransmissionFit", "TransmissionTable", "absorber_transmittance",
+           "check_table_request", "diffuse_spread",
            "fit_transmission", "normal_fresnel", "table_key", "table_runs", "transmission_table"]
