@@ -224,3 +224,15 @@ def test_a_material_outside_the_transmission_domain_fails_before_the_frame(run, 
     for fmt, out in (("unreal", "u.json"), ("unity", "u.asset")):
         one_error_line(run, tmp_path, ["export", "--material", "clear.json", "--format", fmt, "--out", out],
                        "clear's transmission table cannot reach its floor 0.0001")
+
+
+@pytest.mark.parametrize("model", ["mcml", "unreal"])
+def test_burley_parameters_without_a_material_have_no_transmission_table(run, tmp_path, monkeypatch, model):
+    """--albedo/--dmfp give the Burley pass its parameters and no material: the mcml (and unreal) transmission
+    took the default material's table (Skin1's) without a word; now one line before any work, naming the ways
+    out. jimenez2010 (no material) still runs."""
+    monkeypatch.chdir(tmp_path)
+    one_error_line(run, tmp_path, ["render", "--scene", "ear", "--pass", "burley", "--albedo", "0.8,0.5,0.3", "--dmfp",
+                                   "8,4,2", "--transmission", "on", "--transmission-model", model, "--size", SIZE,
+                                   "--backend", "numpy", "--out", "o.exr"],
+                   f"the {model} transmission model reads a material's MCML slab table")

@@ -28,6 +28,7 @@ from .options import (
     backend_option,
     depth_mode_option,
     echo_json,
+    given,
     examples,
     json_option,
     kernel_spec_option,
@@ -177,7 +178,13 @@ def render(ctx: click.Context, scene: str | Path, settings_file: str | None, sav
 
     # a mesh or scene file is read and checked once; its notes go to stderr when every check has passed
     resolved = resolve_scene_value(scene, units, material_map, view, s.width, s.height, say=False)
-    say_notes(plan(resolved, s).notes)
+    planned = plan(resolved, s)
+    if (planned.transmission and s.transmission_model in ("mcml", "unreal") and given(ctx, "albedo")
+            and not given(ctx, "material") and not (base is not None and base.material != RenderSettings().material)):
+        raise SsskitError(f"the {s.transmission_model} transmission model reads a material's MCML slab table (unreal: its "
+                          "Burley fit); --albedo/--dmfp give Burley parameters and no material: give --material for "
+                          "the light through thin parts, --transmission-model jimenez2010, or --transmission off")
+    say_notes(planned.notes)
     writer = FrameWriter(frames_dir) if frames_dir is not None else None
     res = run(resolved, s, progress=progress, on_frame=writer)  # checks everything first; progress on stderr, --json too
     if save_gbuffer:
