@@ -150,6 +150,13 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
         "rgb_depth.exr": ({**channels, "light_depth": np.repeat(ld[..., None], 3, axis=-1)}, attrs),
         "map_size.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "size": [64, 64]})}),
         "no_projection.exr": (channels, {k: v for k, v in attrs.items() if k != "ssskit_light"}),
+        "dir_word.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "direction": "down"})}),
+        "dir_long.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "direction": [
+            10 * x for x in light["direction"]]})}),
+        "u_is_v.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "u": light["v"]})}),
+        "size_half.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "size": [
+            light["size"][0] + 0.5, light["size"][1]]})}),
+        "irr_huge.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "irradiance": [1e39, 1, 1]})}),
     }
     for name, (ch, at) in variants.items():
         write_exr(tmp_path / name, ch, at)
@@ -164,6 +171,11 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
     (["--scene", "map_size.exr", "--transmission", "off"], "the light projection's size [64, 64] is not the "
                                                            "'light_depth' layer's"),
     (["--scene", "no_projection.exr"], "the light projection (header 'ssskit_light'), which is missing"),
+    (["--scene", "dir_word.exr"], "'direction' must be 3 numbers [x, y, z], got 'down'"),
+    (["--scene", "dir_long.exr", "--transmission", "off"], "'direction' must be a unit vector (length within 0.001"),
+    (["--scene", "u_is_v.exr"], "'u' and 'v' must be orthogonal (|dot| <= 0.001)"),
+    (["--scene", "size_half.exr"], "'size' must be 2 positive integers [W, H]"),
+    (["--scene", "irr_huge.exr"], "'irradiance' must be 3 finite numbers >= 0 and at most float32's max"),
     (["--scene", "plain.exr", "--transmission-model", "foo"], "Invalid value for '--transmission-model': 'foo'"),
     (["--scene", "plain.exr", "--transmission", "maybe"], "Invalid value for '--transmission'"),
     (["--scene", "plain.exr", "--transmission", "off", "--transmission-model", "jimenez2010"],

@@ -29,6 +29,8 @@ into .exr files). The camera and material list travel as string attributes of th
 from __future__ import annotations
 
 import json
+import math
+from numbers import Real
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -114,10 +116,13 @@ class GBuffer:
         if view.size != (w, h):
             raise GBufferError(f"the light projection's size {list(view.size)} is not the 'light_depth' layer's "
                                f"[{w}, {h}]")
-        irr = np.asarray(self.light.get("irradiance", np.nan), float)
-        if irr.shape != (3,) or not np.all(np.isfinite(irr)) or np.any(irr < 0):
-            raise GBufferError(f"the light projection's irradiance must be 3 finite numbers >= 0, got "
-                               f"{self.light.get('irradiance')!r}")
+        raw = self.light.get("irradiance")
+        top = float(np.finfo(np.float32).max)  # the pass's inputs are float32 (transmission_inputs)
+        ok = (isinstance(raw, (list, tuple)) and len(raw) == 3
+              and all(isinstance(x, Real) and not isinstance(x, bool) for x in raw))
+        if not ok or not all(math.isfinite(x) and 0 <= x <= top for x in raw):
+            raise GBufferError(f"the light projection's 'irradiance' must be 3 finite numbers >= 0 and at most "
+                               f"float32's max {top:.6g}, got {raw!r}")
         object.__setattr__(self, "light_depth", ld)
 
     @property
