@@ -118,9 +118,9 @@ class GBuffer:
                                f"[{w}, {h}]")
         raw = self.light.get("irradiance")
         top = float(np.finfo(np.float32).max)  # the pass's inputs are float32 (transmission_inputs)
-        ok = (isinstance(raw, (list, tuple)) and len(raw) == 3
-              and all(isinstance(x, Real) and not isinstance(x, bool) for x in raw))
-        if not ok or not all(math.isfinite(x) and 0 <= x <= top for x in raw):
+        items = list(raw) if isinstance(raw, (list, tuple)) else []
+        nums = [float(x) for x in items if isinstance(x, Real) and not isinstance(x, bool)]
+        if not (len(items) == len(nums) == 3 and all(math.isfinite(x) and 0 <= x <= top for x in nums)):
             raise GBufferError(f"the light projection's 'irradiance' must be 3 finite numbers >= 0 and at most "
                                f"float32's max {top:.6g}, got {raw!r}")
         object.__setattr__(self, "light_depth", ld)
