@@ -371,6 +371,10 @@ def _transmission_export(ctx: click.Context, fmt: str, out: str, material: str |
         if given(ctx, name):
             raise SsskitError(f"{flag} does not apply to --pass transmission (the shader bakes the material's "
                               "transmittance model)")
+    if given(ctx, "model") and model.lower() != "montecarlo":  # the models read the material's MCML transport
+        raise SsskitError(f"--model {model} does not apply to --pass transmission (the shader bakes the material's "
+                          "transmittance model from its MCML transport; artists' terms take --model montecarlo, "
+                          "the Monte Carlo inversion)")
     if fmt == "hlsl-shader":
         from ..export.shaders import tools_available
 
