@@ -93,6 +93,9 @@ def test_json_reports_the_pass_and_its_model(run, ear):
     assert data["pass"] == "burley" and data["transmission"]["ran"] and data["transmission"]["model"] == "mcml"
     code, out, err = run("render", "--scene", gbf, *QUICK)
     assert code == 0 and "# transmission: mcml model" in out, err
+    # the spread and the setting apart: "lateral spread off (setting on)" read as a contradiction
+    line = next(x for x in out.splitlines() if x.startswith("# transmission:"))
+    assert line.endswith(", lateral spread off; transmission setting auto"), line
 
 
 def test_burley_with_transmission_is_brighter_behind(run, ear):
@@ -231,3 +234,17 @@ def test_a_material_outside_the_transmission_domain_fails_before_the_frame(run, 
                                              "--out", "o.exr", *extra],
                              "clear's transmission table cannot reach its floor 0.0001")
         assert "sigma_t above about 0.0461 /mm in every channel" in err  # ln(1e4) / 200 mm
+
+
+def test_the_docs_table_lists_every_transmission_model():
+    """docs/transmission.md's "What is built" row of the render options names every --transmission-model choice
+    (it listed mcml|jimenez2010 without unreal)."""
+    from pathlib import Path
+
+    from ssskit.cli import cli
+
+    choices = next(p.type.choices for p in cli.commands["render"].params if p.name == "transmission_model")
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "transmission.md").read_text()
+    row = next(line for line in doc.splitlines() if line.startswith("| `ssskit render --transmission auto"))
+    listed = "\\|".join(choices)  # a table cell escapes its pipes
+    assert f"--transmission-model {listed}`" in row, row
