@@ -30,8 +30,8 @@ from __future__ import annotations
 
 import json
 import math
-from numbers import Real
 from dataclasses import dataclass, field, replace
+from numbers import Real
 from pathlib import Path
 from typing import Any
 

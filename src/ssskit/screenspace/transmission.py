@@ -198,6 +198,7 @@ def transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3) -> Tr
     """:func:`~ssskit.backends.transmission_plan.build_transmission_plan` (re-exported for the pipeline)."""
     return build_transmission_plan(models, bias_mm)
 
+
 UNIT_TOL = 1e-3
 """How far the light projection's axes may be from an orthonormal frame (|length - 1| and |dot|): a file's
 frame written in float32 or rounded to 6 digits passes, a meaningless one (a zero or an unnormalised vector,
