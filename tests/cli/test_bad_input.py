@@ -223,6 +223,16 @@ def test_unwritable_folder(run, workdir, command):
     one_error_line(run, workdir, [*command, "--out", "/sys/kernel/ssskit-out"], "cannot write --out")
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux") or not os.path.isdir("/proc/self"),
+                    reason="needs Linux's procfs, where creating a file fails with ENOENT")
+def test_a_folder_that_exists_but_takes_no_files_is_named(run, workdir):
+    """/proc exists, yet a file created in it fails with "No such file or directory": the message says the
+    folder cannot be written, not that it is missing."""
+    err = one_error_line(run, workdir, ["render", "--scene", "slab", "--backend", "numpy", "--out", "/proc/x.exr"],
+                         "cannot write --out '/proc/x.exr': the folder '/proc' cannot be written")
+    assert "No such file" not in err
+
+
 def test_truncated_gbuffer_is_one_line(gbuffer_file, tmp_path, capfd):
     """A truncated EXR: one line, and none from OpenEXR's C++ library either (hence capfd)."""
     from ssskit.cli import main

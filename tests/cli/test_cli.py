@@ -327,3 +327,30 @@ def test_commands_run_one_library_thread_unless_told(preset):
     assert (blas, mkl, omp) == (preset or "1", "1", "1")
     if preset is None and found != "[]":
         assert set(ast.literal_eval(found)) == {1}  # the loaded OpenBLAS runs one thread
+
+
+def _option_helps():
+    for name, command in sorted(cli.commands.items()):
+        for param in command.params:
+            yield name, param.name, getattr(param, "help", None) or ""
+
+
+def test_help_pointers_resolve():
+    """An option's help that sends the reader to a section names the file that holds it: ``docs/X.md, 'text'``
+    where docs/X.md has that text, ``'Section' in the README`` where the README has that heading (render's
+    --scene pointed at a README section 'G-buffer EXR' that lives in docs/commands.md; kernel's --method at a
+    README section 'Methods' that does not exist)."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    readme_headings = {line.lstrip("#").strip() for line in (root / "README.md").read_text().splitlines()
+                       if line.startswith("#")}
+    seen = 0
+    for command, option, text in _option_helps():
+        for doc, quoted in re.findall(r"(docs/[\w.-]+\.md), '([^']+)'", text):
+            seen += 1
+            assert (root / doc).is_file() and quoted in (root / doc).read_text(), (command, option, doc, quoted)
+        for quoted in re.findall(r"'([^']+)' in the README", text):
+            assert quoted in readme_headings, (command, option, quoted)
+    assert seen >= 2  # render's --scene and kernel's --method

@@ -63,9 +63,17 @@ def test_transmission_fields_need_a_physical_material(run, tmp_path):
     _ok(run, "export", "--material", "skin1", "--format", "unreal", "--out", tmp_path / "u.json")
     tr = json.loads((tmp_path / "u.json").read_text())["transmission"]
     assert {"ExtinctionScale", "TransmissionTintColor", "DistanceScale", "max_rel_error"} <= set(tr)
-    _ok(run, "export", "--albedo", "0.5", "--mfp", "1", "--format", "unity", "--out", tmp_path / "a.json")
-    assert json.loads((tmp_path / "a.json").read_text())["transmission"]["available"] is False
-    _ok(run, "export", "--material", "skin1", "--format", "unity", "--no-transmission", "--out", tmp_path / "n.json")
+    for fmt in ("unity", "unreal"):  # the fields left out silently: one note on stderr says why, exit 0
+        code, out, err = run("export", "--albedo", "0.8,0.5,0.3", "--mfp", "1,0.5,0.2", "--format", fmt,
+                             "--out", tmp_path / "a.json")
+        assert code == 0 and out.startswith("# wrote"), err
+        assert json.loads((tmp_path / "a.json").read_text())["transmission"]["available"] is False
+        assert err.count("\n") == 1 and err.startswith(f"ssskit: note: --format {fmt}: the transmission fields are "
+                                                      "left out, the engine's defaults stay: artists' terms"), err
+        assert "no slab transmittance" in err and "give --material" in err
+    code, _, err = run("export", "--material", "skin1", "--format", "unity", "--no-transmission",
+                       "--out", tmp_path / "n.json")
+    assert code == 0 and err == ""  # asked to leave them out: no note
     assert "--no-transmission" in json.loads((tmp_path / "n.json").read_text())["transmission"]["why"]
 
 

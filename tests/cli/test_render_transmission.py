@@ -93,6 +93,9 @@ def test_json_reports_the_pass_and_its_model(run, ear):
     assert data["pass"] == "burley" and data["transmission"]["ran"] and data["transmission"]["model"] == "mcml"
     code, out, err = run("render", "--scene", gbf, *QUICK)
     assert code == 0 and "# transmission: mcml model" in out, err
+    # the spread and the setting apart: "lateral spread off (setting on)" read as a contradiction
+    line = next(x for x in out.splitlines() if x.startswith("# transmission:"))
+    assert line.endswith(", lateral spread off; transmission setting auto"), line
 
 
 def test_burley_with_transmission_is_brighter_behind(run, ear):
@@ -150,6 +153,13 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
         "rgb_depth.exr": ({**channels, "light_depth": np.repeat(ld[..., None], 3, axis=-1)}, attrs),
         "map_size.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "size": [64, 64]})}),
         "no_projection.exr": (channels, {k: v for k, v in attrs.items() if k != "ssskit_light"}),
+        "dir_word.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "direction": "down"})}),
+        "dir_long.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "direction": [
+            10 * x for x in light["direction"]]})}),
+        "u_is_v.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "u": light["v"]})}),
+        "size_half.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "size": [
+            light["size"][0] + 0.5, light["size"][1]]})}),
+        "irr_huge.exr": (channels, {**attrs, "ssskit_light": json.dumps({**light, "irradiance": [1e39, 1, 1]})}),
     }
     for name, (ch, at) in variants.items():
         write_exr(tmp_path / name, ch, at)
@@ -164,6 +174,11 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
     (["--scene", "map_size.exr", "--transmission", "off"], "the light projection's size [64, 64] is not the "
                                                            "'light_depth' layer's"),
     (["--scene", "no_projection.exr"], "the light projection (header 'ssskit_light'), which is missing"),
+    (["--scene", "dir_word.exr"], "'direction' must be 3 numbers [x, y, z], got 'down'"),
+    (["--scene", "dir_long.exr", "--transmission", "off"], "'direction' must be a unit vector (length within 0.001"),
+    (["--scene", "u_is_v.exr"], "'u' and 'v' must be orthogonal (|dot| <= 0.001)"),
+    (["--scene", "size_half.exr"], "'size' must be 2 positive integers [W, H]"),
+    (["--scene", "irr_huge.exr"], "'irradiance' must be 3 finite numbers >= 0 and at most float32's max"),
     (["--scene", "plain.exr", "--transmission-model", "foo"], "Invalid value for '--transmission-model': 'foo'"),
     (["--scene", "plain.exr", "--transmission", "maybe"], "Invalid value for '--transmission'"),
     (["--scene", "plain.exr", "--transmission", "off", "--transmission-model", "jimenez2010"],
@@ -236,3 +251,17 @@ def test_burley_parameters_without_a_material_have_no_transmission_table(run, tm
                                    "8,4,2", "--transmission", "on", "--transmission-model", model, "--size", SIZE,
                                    "--backend", "numpy", "--out", "o.exr"],
                    f"the {model} transmission model reads a material's MCML slab table")
+
+
+def test_the_docs_table_lists_every_transmission_model():
+    """docs/transmission.md's "What is built" row of the render options names every --transmission-model choice
+    (it listed mcml|jimenez2010 without unreal)."""
+    from pathlib import Path
+
+    from ssskit.cli import cli
+
+    choices = next(p.type.choices for p in cli.commands["render"].params if p.name == "transmission_model")
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "transmission.md").read_text()
+    row = next(line for line in doc.splitlines() if line.startswith("| `ssskit render --transmission auto"))
+    listed = "\\|".join(choices)  # a table cell escapes its pipes
+    assert f"--transmission-model {listed}`" in row, row

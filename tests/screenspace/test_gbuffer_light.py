@@ -40,6 +40,50 @@ def test_both_or_neither_and_the_right_shape(base):
     assert not base.has_light and base.with_layers(light_depth=ld, light=_light()).has_light
 
 
+_SKEW = float(np.sqrt(0.5))
+
+
+@pytest.mark.parametrize("change, fragment", [
+    ({"direction": "down"}, "'direction' must be 3 numbers [x, y, z], got 'down'"),
+    ({"direction": ["d", 0, 1]}, "'direction' must be 3 numbers"),
+    ({"u": [1.0, 0.0]}, "'u' must be 3 numbers"),
+    ({"v": [0.0, float("inf"), 0.0]}, "'v' must be 3 finite numbers"),
+    ({"origin": [0.0, float("nan"), 0.0]}, "'origin' must be 3 finite numbers"),
+    ({"direction": [0.0, 0.0, 0.0]}, "'direction' must be a unit vector (length within 0.001 of 1)"),
+    ({"direction": [0.0, 0.0, -10.0]}, "'direction' must be a unit vector"),
+    ({"u": [1.002, 0.0, 0.0]}, "'u' must be a unit vector"),
+    ({"u": [_SKEW, _SKEW, 0.0]}, "'u' and 'v' must be orthogonal (|dot| <= 0.001)"),
+    ({"v": [0.0, 0.0, -1.0]}, "'direction' and 'v' must be orthogonal"),
+    ({"size": [W + 0.5, H]}, "'size' must be 2 positive integers [W, H], got [16.5, 12]"),
+    ({"size": [W, 0]}, "'size' must be 2 positive integers"),
+    ({"size": [True, H]}, "'size' must be 2 positive integers"),
+    ({"texel_mm": float("nan")}, "'texel_mm' must be a finite number > 0"),
+    ({"irradiance": [1e39, 1.0, 1.0]}, "'irradiance' must be 3 finite numbers >= 0 and at most float32's max"),
+    ({"irradiance": [1.0, float("inf"), 1.0]}, "'irradiance' must be 3 finite numbers"),
+    ({"irradiance": ["1", 1.0, 1.0]}, "'irradiance' must be 3 finite numbers"),
+])
+def test_a_meaningless_light_projection_is_refused_naming_the_field(base, change, fragment):
+    """The projection's axes must be an orthonormal frame (what LightView.project assumes: u, v the map's axes in
+    mm, direction the depth), the size whole texels, the irradiance a float32 the pass can hold (3.4e38)."""
+    ld = np.full((H, W), 100.0, np.float32)
+    with pytest.raises(GBufferError) as exc:
+        base.with_layers(light_depth=ld, light={**_light(), **change})
+    assert fragment in str(exc.value)
+
+
+def test_a_light_frame_within_the_tolerance_passes(base):
+    """A frame rounded to 4 digits (|length - 1| and |dot| ~ 1e-4, under 1e-3) and a float32 max irradiance load;
+    an integral float size reads as the integer."""
+    light = {**LightView.looking_along(np.array([0.3, -0.2, -1.0]), np.zeros(3), 40.0, (W, H)).to_dict(),
+             "irradiance": [1.0, 1.0, 1.0]}
+    rounded = {k: [round(x, 4) for x in light[k]] for k in ("direction", "u", "v")}
+    assert rounded["direction"] != light["direction"]  # the rounding moved the frame
+    top = float(np.finfo(np.float32).max)
+    gb = base.with_layers(light_depth=np.full((H, W), 100.0, np.float32),
+                          light={**light, **rounded, "size": [float(W), float(H)], "irradiance": [top, 0.0, 1.0]})
+    assert LightView.from_dict(gb.light).size == (W, H)
+
+
 def test_light_layers_round_trip_through_the_exr(base, tmp_path):
     from ssskit.scenes.lightspace import light_layers
 

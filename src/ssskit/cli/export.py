@@ -377,6 +377,10 @@ def _transmission_export(ctx: click.Context, fmt: str, out: str, material: str |
         if given(ctx, name):
             raise SsskitError(f"{flag} does not apply to --pass transmission (the shader bakes the material's "
                               "transmittance model)")
+    if given(ctx, "model") and model.lower() != "montecarlo":  # the models read the material's MCML transport
+        raise SsskitError(f"--model {model} does not apply to --pass transmission (the shader bakes the material's "
+                          "transmittance model from its MCML transport; artists' terms take --model montecarlo, "
+                          "the Monte Carlo inversion)")
     if fmt == "hlsl-shader":
         from ..export.shaders import tools_available
 
@@ -445,6 +449,13 @@ def _engine_file(profile: RGBProfile, fmt: str, suffix: str, mat: Material | Lay
                "the transmission fields are fitted to a homogeneous material's MCML slab transmittance: give a preset "
                "or material file, or artists' terms with --model montecarlo")
         data["transmission"] = {"available": False, "why": why + "; the engine's defaults stay"}
+        if transmission:  # asked for (no --no-transmission) but not there: say so where the user looks
+            what = ("artists' terms and engine files under --model burley (their default, the Burley-fit inversion) "
+                    "have no coefficients, so no slab transmittance" if mat is None else
+                    "a layered material has no single slab transmittance")
+            click.echo(f"ssskit: note: --format {fmt}: the transmission fields are left out, the engine's defaults "
+                       f"stay: {what}; give --material (a preset or material file)"
+                       + (" or --model montecarlo" if mat is None else "") + " for them", err=True)
     summary["parameters"] = {k: v for k, v in data.items() if k not in ("sources", "lost")}
     if suffix == "json":
         return json.dumps(data, indent=1) + "\n"

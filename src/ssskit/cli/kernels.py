@@ -119,7 +119,7 @@ def _dest_of(param: str) -> str:
     "ssskit kernel --material marble --method svd:3 --model dipole",
     "ssskit kernel --material skin1 --method artist --preset fit"))
 @material_option(help="Preset name or material file (not needed by methods without a profile: jimenez2012, artist presets).")
-@kernel_spec_option("--method", "method_spec", required=True, help="Kernel method name[:value] (see 'Methods' in the README).")
+@kernel_spec_option("--method", "method_spec", required=True, help="Kernel method name[:value] (the methods: docs/commands.md, 'Methods:').")
 @model_option(DEFAULT_MODEL, help="Profile the kernel approximates.")
 @photons_option(DEFAULT_PHOTONS, help="--model montecarlo: photons per channel (shipped for the presets at 10^7, else cached).")
 @_method_parameter_options

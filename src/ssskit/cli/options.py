@@ -11,6 +11,7 @@ work starts; a failure is one ``ssskit: error: ...`` line (see :func:`ssskit.cli
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import tempfile
@@ -153,8 +154,9 @@ def check_writable(target: str | Path, opt: str, folder: bool = False) -> None:
         raise OutputError(f"cannot write {opt} {str(t)!r}: {str(probe)!r} is not a folder")
     try:
         fd, name = tempfile.mkstemp(prefix=".ssskit-write-test-", dir=probe)
-    except OSError as exc:
-        raise OutputError(f"cannot write {opt} {str(t)!r}: {exc.strerror or exc} ({str(probe)!r})") from None
+    except OSError as exc:  # ENOENT in a folder that exists (/proc, a vanished mount) would read "no such file"
+        why = "" if exc.errno == errno.ENOENT else f" ({exc.strerror or exc})"
+        raise OutputError(f"cannot write {opt} {str(t)!r}: the folder {str(probe)!r} cannot be written{why}") from None
     os.close(fd)
     with contextlib.suppress(OSError):
         os.unlink(name)
@@ -555,7 +557,7 @@ def signal_option(default: str = "edge") -> Callable:
 def scene_option() -> Callable:
     return click.option("--scene", type=SceneRef(), required=True,
                         help="Built-in scene, generated mesh (bust, icosphere, torus), mesh file (.obj, .ply, .glb, "
-                             ".gltf), scene .toml, or a G-buffer EXR (see 'G-buffer EXR' in the README).")
+                             ".gltf), scene .toml, or a G-buffer EXR (its layers: docs/commands.md, 'A G-buffer EXR').")
 
 
 def backend_option(default: str | None) -> Callable:

@@ -71,7 +71,7 @@ class TransmissionInfo:
         if not self.ran:
             return f"# transmission: off (setting {self.setting})"
         return (f"# transmission: {self.model} model, {self.lit_pixels} SSS pixels lit from behind, lateral spread "
-                f"{self.spread} (setting {self.setting})")
+                f"{self.spread}; transmission setting {self.setting}")
 
 
 def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: str, has_scene: bool,

@@ -29,7 +29,9 @@ into .exr files). The camera and material list travel as string attributes of th
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field, replace
+from numbers import Real
 from pathlib import Path
 from typing import Any
 
@@ -114,10 +116,13 @@ class GBuffer:
         if view.size != (w, h):
             raise GBufferError(f"the light projection's size {list(view.size)} is not the 'light_depth' layer's "
                                f"[{w}, {h}]")
-        irr = np.asarray(self.light.get("irradiance", np.nan), float)
-        if irr.shape != (3,) or not np.all(np.isfinite(irr)) or np.any(irr < 0):
-            raise GBufferError(f"the light projection's irradiance must be 3 finite numbers >= 0, got "
-                               f"{self.light.get('irradiance')!r}")
+        raw = self.light.get("irradiance")
+        top = float(np.finfo(np.float32).max)  # the pass's inputs are float32 (transmission_inputs)
+        items = list(raw) if isinstance(raw, (list, tuple)) else []
+        nums = [float(x) for x in items if isinstance(x, Real) and not isinstance(x, bool)]
+        if not (len(items) == len(nums) == 3 and all(math.isfinite(x) and 0 <= x <= top for x in nums)):
+            raise GBufferError(f"the light projection's 'irradiance' must be 3 finite numbers >= 0 and at most "
+                               f"float32's max {top:.6g}, got {raw!r}")
         object.__setattr__(self, "light_depth", ld)
 
     @property

@@ -33,8 +33,10 @@ measurement of the map's thickness against the ray-cast chord.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
+from numbers import Real
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -204,6 +206,29 @@ def transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3) -> Tr
     return build_transmission_plan(models, bias_mm)
 
 
+UNIT_TOL = 1e-3
+"""How far the light projection's axes may be from an orthonormal frame (|length - 1| and |dot|): a file's
+frame written in float32 or rounded to 6 digits passes, a meaningless one (a zero or an unnormalised vector,
+skewed axes) does not."""
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, Real) and not isinstance(x, bool)
+
+
+def _is_integral(x: Any) -> bool:
+    return _is_number(x) and math.isfinite(x) and float(x).is_integer()
+
+
+def _three_finite(name: str, value: Any, fail: Callable[[str], PassError]) -> tuple[float, float, float]:
+    """A projection field of 3 finite numbers, or ``fail``'s error naming it."""
+    if not (isinstance(value, (list, tuple)) and len(value) == 3 and all(_is_number(x) for x in value)):
+        raise fail(f"{name!r} must be 3 numbers [x, y, z], got {value!r}")
+    if not all(math.isfinite(x) for x in value):
+        raise fail(f"{name!r} must be 3 finite numbers, got {value!r}")
+    return float(value[0]), float(value[1]), float(value[2])
+
+
 @dataclass(frozen=True)
 class LightView:
     """An orthographic light view: ``direction`` the unit vector the light travels along (from the light
@@ -243,19 +268,41 @@ class LightView:
 
     @classmethod
     def from_dict(cls, d: dict) -> LightView:
-        """:meth:`to_dict`'s form back, or a PassError naming what is wrong."""
-        try:
-            if d.get("type", "orthographic") != "orthographic":
-                raise ValueError(f"type {d.get('type')!r} (only 'orthographic')")
-            vecs = [tuple(float(x) for x in d[k]) for k in ("direction", "origin", "u", "v")]
-            size = tuple(int(x) for x in d["size"])
-            texel = float(d["texel_mm"])
-            if any(len(x) != 3 for x in vecs) or len(size) != 2 or not (texel > 0) or min(size) < 1:
-                raise ValueError("vectors need 3 numbers, size 2 positive integers, texel_mm > 0")
-        except (KeyError, TypeError, ValueError, AttributeError) as e:
-            raise PassError(f"the light projection is malformed: {e}") from None
+        """:meth:`to_dict`'s form back, or a PassError naming the field that is wrong and its valid domain:
+        ``direction``, ``u``, ``v`` 3 finite numbers each, unit vectors (|x| within :data:`UNIT_TOL` of 1) and
+        mutually orthogonal (|dot| <= :data:`UNIT_TOL`: an orthonormal frame, what :meth:`looking_along` writes
+        and what :meth:`project` assumes); ``origin`` 3 finite numbers; ``size`` 2 positive integers;
+        ``texel_mm`` a finite number > 0."""
+        def fail(msg: str) -> PassError:
+            return PassError(f"the light projection is malformed: {msg}")
+
+        if not isinstance(d, dict):
+            raise fail(f"it must be a JSON object, got {type(d).__name__}")
+        if d.get("type", "orthographic") != "orthographic":
+            raise fail(f"type {d.get('type')!r} (only 'orthographic')")
+        missing = [k for k in ("direction", "origin", "u", "v", "texel_mm", "size") if k not in d]
+        if missing:
+            raise fail(f"missing field(s) {', '.join(repr(k) for k in missing)}")
+        vecs = [_three_finite(k, d[k], fail) for k in ("direction", "origin", "u", "v")]
+        axes = {"direction": vecs[0], "u": vecs[2], "v": vecs[3]}
+        for k, x in axes.items():
+            norm = math.sqrt(sum(c * c for c in x))
+            if not abs(norm - 1.0) <= UNIT_TOL:
+                raise fail(f"{k!r} must be a unit vector (length within {UNIT_TOL:g} of 1), got {list(x)!r} "
+                           f"of length {norm:.6g}")
+        for a, b in (("direction", "u"), ("direction", "v"), ("u", "v")):
+            dot = sum(p * q for p, q in zip(axes[a], axes[b], strict=True))
+            if not abs(dot) <= UNIT_TOL:
+                raise fail(f"{a!r} and {b!r} must be orthogonal (|dot| <= {UNIT_TOL:g}), got dot {dot:.6g}")
+        size = d["size"]
+        if not (isinstance(size, (list, tuple)) and len(size) == 2
+                and all(_is_integral(x) and x >= 1 for x in size)):
+            raise fail(f"'size' must be 2 positive integers [W, H], got {size!r}")
+        texel = d["texel_mm"]
+        if not (_is_number(texel) and math.isfinite(texel) and texel > 0):
+            raise fail(f"'texel_mm' must be a finite number > 0, got {texel!r}")
         t3 = [(x[0], x[1], x[2]) for x in vecs]
-        return cls(t3[0], t3[1], t3[2], t3[3], texel, (size[0], size[1]))
+        return cls(t3[0], t3[1], t3[2], t3[3], float(texel), (int(size[0]), int(size[1])))
 
     def project(self, points: np.ndarray) -> np.ndarray:
         """(..., 3) world points (mm) -> (..., 3) (x, y) texel coordinates and z the depth along the light (mm)."""
