@@ -138,14 +138,14 @@ def scene_table(args) -> list[dict]:
     against the reference). The reference's own error: ``ref_se`` = RMS difference of two
     references with seeds 0 and 1 over sqrt(2)."""
     from ssskit.pipeline.burley_frame import burley_reference
-    from ssskit.scenes import SCENES, render_gbuffer
+    from ssskit.scenes import front_lit_scenes, render_gbuffer
     from ssskit.screenspace import burley_sss
     from ssskit.screenspace.burley import burley_params_for_material
 
     w, h = (int(v) for v in args.size.split("x"))
     params = burley_params_for_material("skin1")
     out = []
-    for scene in SCENES.names():
+    for scene in front_lit_scenes():  # a scene lit only from behind is black here (no transmittance pass)
         gb = render_gbuffer(scene, params.albedo, width=w, height=h, spp=16)
         m = gb.mask
         ref = burley_reference(gb, params, spp=args.converged_spp, backend=args.backend).astype(np.float64)

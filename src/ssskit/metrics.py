@@ -37,15 +37,21 @@ def rmse(reference: ArrayLike, test: ArrayLike) -> float:
 
 
 def relative_rmse(reference: ArrayLike, test: ArrayLike) -> float:
-    """RMSE divided by the reference's RMS value."""
+    """RMSE divided by the reference's RMS value; NaN (undefined, no warning) for an all-black reference."""
     ref, tst = _pair(reference, test)
-    return float(np.sqrt(np.mean((ref - tst) ** 2) / np.mean(ref**2)))
+    power = float(np.mean(ref**2))
+    if power == 0.0:
+        return float("nan")
+    return float(np.sqrt(np.mean((ref - tst) ** 2) / power))
 
 
 def psnr(reference: ArrayLike, test: ArrayLike, peak: float | None = None) -> float:
-    """Peak signal-to-noise ratio in dB, 20 log10(peak / RMSE); peak defaults to the reference's maximum."""
+    """Peak signal-to-noise ratio in dB, 20 log10(peak / RMSE); peak defaults to the reference's maximum.
+    NaN (undefined, no warning) when the peak is not positive (an all-black reference: no light)."""
     ref, tst = _pair(reference, test)
     peak = float(ref.max()) if peak is None else float(peak)
+    if not peak > 0:
+        return float("nan")
     err = rmse(ref, tst)
     return float("inf") if err == 0 else float(20.0 * np.log10(peak / err))
 
@@ -78,8 +84,11 @@ EXACT_PSNR_DB = 150.0
 
 
 def psnr_text(value: float | None, digits: int = 1) -> str:
-    """A PSNR for people: "exact" for an infinite one or one at float64 rounding level
-    (>= :data:`EXACT_PSNR_DB`), else the dB value."""
+    """A PSNR for people: "exact" for an infinite one (None: an infinite one made JSON-ready) or one at
+    float64 rounding level (>= :data:`EXACT_PSNR_DB`), "no light" for NaN (the reference is black:
+    :func:`region_metrics`), else the dB value."""
+    if value is not None and np.isnan(value):
+        return "no light"
     if value is None or not np.isfinite(value) or value >= EXACT_PSNR_DB:
         return "exact"
     return f"{value:.{digits}f}"
@@ -110,7 +119,9 @@ def region_metrics(reference: ArrayLike, test: ArrayLike, mask: ArrayLike, perce
     """Errors of ``test`` against ``reference`` (both (H, W, 3), linear) inside ``mask`` (H, W) bool:
     ``rmse``, ``relative_rmse`` and ``psnr`` (peak = the reference's maximum inside the mask) over the
     masked pixels, and with ``perceptual`` ``flip`` over the whole image (FLIP needs the image
-    context). An empty mask gives NaN errors (and the FLIP of the whole image)."""
+    context). An empty mask gives NaN errors (and the FLIP of the whole image). A reference black inside
+    the mask (no light reached it: e.g. a back-lit scene without the transmittance pass) has no relative
+    error and no PSNR: both NaN, and ``no_light`` is True (:func:`no_light`)."""
     ref, tst = _pair(reference, test)
     m = np.asarray(mask, dtype=bool)
     if m.shape != ref.shape[:2]:
@@ -118,11 +129,24 @@ def region_metrics(reference: ArrayLike, test: ArrayLike, mask: ArrayLike, perce
     if m.any():
         r, t = ref[m][None], tst[m][None]  # the masked pixels as a (1, N, 3) image
         out = {"rmse": rmse(r, t), "relative_rmse": relative_rmse(r, t), "psnr": psnr(r, t)}
+        if not r.max() > 0:
+            out["no_light"] = True
     else:
         out = {"rmse": float("nan"), "relative_rmse": float("nan"), "psnr": float("nan")}
     if perceptual:
         out["flip"] = flip(ref, tst)
     return out
+
+
+def no_light(metrics: dict[str, float]) -> bool:
+    """Whether ``metrics`` (:func:`region_metrics`') say ``no_light``: the reference is black inside a non-empty
+    mask, so the relative error and the PSNR are undefined (NaN) and the rest measures nothing to be shown as a
+    match."""
+    return bool(metrics.get("no_light", False))
+
+
+#: what :func:`no_light` metrics are, for people
+NO_LIGHT_TEXT = "no light: no front light reaches the SSS mask, so this comparison measures nothing, no relative error or PSNR"
 
 
 # ---- region-wise comparison of diffuse parts -----------------------------------------------------------

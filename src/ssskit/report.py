@@ -301,7 +301,9 @@ def _screenspace_section(out: Path, progress: Progress, ctx: dict) -> str:
                          ("screen space vs path traced", "rmse_screen_space_vs_path_traced")) if k in shape)
     return (
         "<h2 id=screenspace>Screen-space separable SSS on 3D scenes (paper section 6, supplement E)</h2>"
-        f"<p class=note>Skin1, Monte Carlo profile ({photons:,} photons per channel). G-buffers rendered by "
+        f"<p class=note>Skin1, Monte Carlo profile ({photons:,} photons per channel), on the scenes lit from the "
+        f"front ({html.escape(', '.join(regions))}; the scenes lit only from behind, black without the transmittance pass, "
+        "are left out: the transmission section measures that pass). G-buffers rendered by "
         "Mitsuba 3 (scalar_rgb, CPU): diffuse light E/&pi; (direct light only), specular, albedo, depth, normals, "
         "SSS mask. Horizontal then vertical pass inside the mask, footprint from depth and projection, "
         f"follow-surface depth test, 10% jitter, on the {html.escape(backend)} backend. Errors inside the SSS mask: PSNR (dB) / FLIP against the exact "

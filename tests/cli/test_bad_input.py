@@ -146,6 +146,9 @@ BAD = [
     (["render", "--scene", "slab", "--kernel", "nope"], "unknown kernel method 'nope'"),
     (["render", "--scene", "slab", "--out", "x.tif"], "must end in .exr or .png"),
     (["render", "--scene", "slab", "--save-gbuffer", "x.png"], "must end in .exr"),
+    # a material the built-in leaf (Apple, named by its file) would ignore: it rendered Apple labelled Marble
+    (["render", "--scene", "leaf", "--material", "marble", "--size", "16x12", "--out", "leaf.exr"],
+     "--material marble applies to no object of the scene 'leaf'"),
 ]
 
 

@@ -173,7 +173,8 @@ def burley_comparison(out: Path, material: str = "skin1", scenes: Iterable[str] 
                       burley: BurleySettings | None = None, backend: str | None = None,
                       progress: Callable[[str], None] | None = None) -> tuple[Path, list[dict[str, Any]],
                                                                              dict[str, Any]]:
-    """Every scene with the Burley pass at ``spps`` samples per pixel beside its converged reference
+    """Every scene (default: the built-in ones lit from the front, :func:`ssskit.scenes.front_lit_scenes`;
+    a back-lit one is black without the transmittance pass) with the Burley pass at ``spps`` samples per pixel beside its converged reference
     (:func:`ssskit.pipeline.burley_frame.burley_reference`: exact sampler, ``reference_spp``, no mips) and the
     separable pass with the ``burley_fit`` kernel (Xie 2020 appendix A.1); writes ``burley.png``.
 
@@ -192,7 +193,7 @@ def burley_comparison(out: Path, material: str = "skin1", scenes: Iterable[str] 
     from ..metrics import region_metrics, tonemap
     from ..pipeline import RenderSettings, render
     from ..pipeline.burley_frame import burley_reference
-    from ..scenes import SCENES
+    from ..scenes import front_lit_scenes
     from ..screenspace import BurleySettings, burley_sss
     from ..screenspace.burley import burley_params_for_material
 
@@ -204,7 +205,7 @@ def burley_comparison(out: Path, material: str = "skin1", scenes: Iterable[str] 
     rows: list[dict[str, Any]] = []
     grid: list[Any] = []
     refs: dict[str, Any] = {}
-    for scene in list(scenes or SCENES.names()):
+    for scene in list(scenes or front_lit_scenes()):
         say(f"Burley pass: {scene}, G-buffer and separable burley_fit")
         sep = render(scene, RenderSettings(material=material, model="burley", kernel="burley_fit", width=width,
                                            height=height, spp=spp, exact=False, perceptual=False,
@@ -283,7 +284,10 @@ def demo_section(out: Path, progress: Callable[[str], None] | None, ctx: dict[st
     spp = next(iter(refs.values()))["spp"] if refs else 0
     return (
         "<h2>Screen-space Burley SSS by Monte Carlo sampling (Xie et al. 2020)</h2>"
-        "<p class=note>Skin1's Burley profile, the four scenes at 160x120 (Mitsuba G-buffers). Per pixel, radii "
+        f"<p class=note>Skin1's Burley profile, the scenes lit from the front ({html.escape(', '.join(refs))}; the "
+        "scenes lit only from behind, black without the transmittance pass, are left out: the transmission section "
+        "measures that pass) at 160x120 (Mitsuba "
+        "G-buffers). Per pixel, radii "
         "from Eq. 21 (c = 2.5715) in the channel with the largest d, the bilateral self-normalised estimator "
         "(Eq. 24), prefiltered mips (Eqs. 22-23, a = 1/16 in Xie's units), at 8, 16 and 64 samples per pixel, "
         f"on the {html.escape(backend)} backend. Errors of the composited image inside the SSS mask against "

@@ -18,7 +18,7 @@ import numpy as np
 from ..backends import DEFAULT_BACKEND
 from ..metrics import region_metrics, tonemap
 from ..pipeline import RenderResult, RenderSettings, SeparablePass, render
-from ..scenes import SCENES
+from ..scenes import front_lit_scenes
 from ..screenspace import GBuffer, PassSettings
 from .plots import CHANNEL_COLORS, pyplot, save_figure
 from .stored import stored
@@ -47,7 +47,8 @@ def screen_space_comparison(out: Path, material: str = "skin1", scenes: Iterable
                             model: str = "montecarlo", photons: int = 10_000_000,
                             progress: Callable[[str], None] | None = None,
                             sss: PassSettings | None = None) -> tuple[Path, list[dict[str, Any]], dict[str, Any]]:
-    """Render every scene with :data:`SCREEN_SPACE_METHODS`; write ``screenspace.png``.
+    """Render every scene (default: the built-in ones lit from the front, :func:`ssskit.scenes.front_lit_scenes`)
+    with :data:`SCREEN_SPACE_METHODS`; write ``screenspace.png``.
 
     ``model``: the profile of the kernels and the exact 2D convolution (the Monte Carlo profile by
     default, ``photons`` per channel). Each scene's G-buffer, exact 2D convolution and path trace
@@ -58,7 +59,7 @@ def screen_space_comparison(out: Path, material: str = "skin1", scenes: Iterable
     (:func:`ssskit.pipeline.regions.compare_regions`) and its reference's summary}. Cached.
     """
     sss = PassSettings(jitter=0.1) if sss is None else sss
-    scenes = list(scenes or SCENES.names())
+    scenes = list(scenes or front_lit_scenes())
     key = dict(material=material, scenes=scenes, width=width, height=height, spp=spp, ref=reference_spp,
                ref_max=reference_max_spp, model=model, photons=photons, sss=sss.to_dict())
     grid, rows, regions = _cached("screenspace", key, lambda: _render_scenes(

@@ -32,10 +32,11 @@ from ..backends import get_backend
 from ..errors import SceneError, SettingsError
 from ..io import check_distinct, save_image
 from ..materials import LayeredMaterial, Material, get_material
-from ..metrics import region_metrics
+from ..metrics import NO_LIGHT_TEXT, no_light, region_metrics
 from ..scenes import SCENES, ResolvedScene, SceneSpec, reference_phase_g, render_gbuffer, render_reference, resolve_scene
 from ..scenes.mitsuba_variant import leaving_a_core_to
 from ..scenes.reference import check_reference_scene
+from ..scenes.scenefile import BUILTIN_DIR
 from ..scenes.scenes import mitsuba
 from ..profiles import check_model_domain
 from ..screenspace import BurleyParams, GBuffer, load_gbuffer
@@ -99,10 +100,15 @@ class TruthResult(Protocol):
 
 
 def metric_lines(metrics: dict[str, Any], prefix: str = "vs ", width: int = 12) -> list[str]:
-    """One line per ground truth (``exact_2d``, ``path_traced``...): its float metrics; the per-region table
-    is left to :func:`ssskit.pipeline.regions.format_regions`."""
-    return [f"{prefix}{against:{width}s} " + "  ".join(f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float))
-            for against, m in metrics.items() if against != "regions"]
+    """One line per ground truth (``exact_2d``, ``path_traced``...): its float metrics, or where the ground
+    truth is black inside the SSS mask (:func:`ssskit.metrics.no_light`) its absolute ones and the reason the
+    others are missing; the per-region table is left to :func:`ssskit.pipeline.regions.format_regions`."""
+    def line(m: dict[str, Any]) -> str:
+        dark = no_light(m)
+        return "  ".join([f"{k} {v:.4g}" for k, v in m.items() if isinstance(v, float) and not (dark and math.isnan(v))]
+                         + ([f"({NO_LIGHT_TEXT})"] if dark else []))
+
+    return [f"{prefix}{against:{width}s} " + line(m) for against, m in metrics.items() if against != "regions"]
 
 
 def reference_line(ref: Reference) -> str:
@@ -126,7 +132,8 @@ def finite(value: Any) -> Any:
 
 @dataclass(frozen=True)
 class ScenePlan:
-    """What a frame renders, resolved and checked before any work: the ``material`` (the settings'), the
+    """What a frame renders, resolved and checked before any work: the ``material`` (the settings', or the
+    scene's own where it names one for every SSS object: :func:`_scene_material`), the
     scene's ``label``, a built-in scene's canonical name (``builtin``), the ``spec`` of a built-in or mesh
     scene (:func:`ssskit.scenes.resolve_scene`) with one material per profile id (``materials``) and what
     resolving it assumed (``notes``), or the ``gbuffer`` given or read from the file ``source``."""
@@ -176,6 +183,7 @@ def _scene(scene: SceneInput, settings: RenderSettings, material: Material | Lay
                                 f"{m.name!r} is a {type(m).__name__}")
         mats.append(m)
     mats = mats[1:]
+    material = _scene_material(spec, resolved.kind, settings, material, mats)
     if settings.reference:
         check_reference_scene(spec)
         for m in mats:
@@ -183,6 +191,28 @@ def _scene(scene: SceneInput, settings: RenderSettings, material: Material | Lay
     mitsuba()  # the renderer must be importable
     builtin = spec.name if resolved.kind == "builtin" and spec.name in SCENES else None
     return ScenePlan(material, spec.name, builtin, None, None, spec, tuple(mats), resolved.notes)
+
+
+def _scene_material(spec: SceneSpec, kind: str, settings: RenderSettings, material: Material | LayeredMaterial,
+                    mats: list[Material]) -> Material | LayeredMaterial:
+    """The frame's material (its labels, and the adaptive run's G-buffers) for a scene that names a material for
+    every SSS object (the built-in ``leaf``: Apple): that material where all name the same one, the settings'
+    otherwise. The settings' material then applies to no object: one that is not the default (an explicit
+    ``--material``) and not the scene's own is refused rather than ignored (a scene file's ``material`` wins over
+    ``--material``, which is the material of the objects naming none; ``--material-map`` overrides a mesh or
+    scene file's, and a built-in scene's are fixed)."""
+    own = spec.sss_materials
+    if not own or not all(own):
+        return material
+    names = sorted({m.name for m in mats})
+    default = get_material(RenderSettings().material)
+    if material.name != default.name and names != [material.name]:
+        held = ", ".join(f"{sid} = {m.name}" for sid, m in zip(spec.sss_shapes, mats))
+        how = (f"a built-in scene's are fixed (its scene file {BUILTIN_DIR / (spec.name + '.toml')} takes --material-map "
+               f"{spec.sss_shapes[0]}=MATERIAL)" if kind == "builtin" else "--material-map NAME=MATERIAL changes an object's")
+        raise SettingsError(f"--material {settings.material} applies to no object of the scene {spec.name!r}: each names "
+                            f"its own material ({held}); {how}")
+    return mats[0] if len(names) == 1 else material
 
 
 def _default_size() -> tuple[int, int]:
@@ -218,7 +248,8 @@ def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
         if mat is not material:
             check_model_domain(mat, settings.model)
     runs = transmission_runs(settings, plan.gbuffer, plan.label, plan.spec is not None,
-                             len(plan.spec.lights()) if plan.spec is not None else 0, plan.materials or (material,))
+                             len(plan.spec.lights()) if plan.spec is not None else 0, plan.materials or (material,),
+                             plan.spec is not None and plan.spec.lit_from_behind)
     return dataclasses.replace(plan, transmission=runs)
 
 
@@ -290,7 +321,12 @@ def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, p
         say("exact 2D convolution (FFT)")
         res.exact = exact()
         if res.exact is not None:
-            res.metrics["exact_2d"] = region_metrics(gb.composite(res.exact), res.image, mask, settings.perceptual)
+            m_exact = region_metrics(gb.composite(res.exact), res.image, mask, settings.perceptual)
+            if not np.any(gb.diffuse[mask]):  # no front light: the pass and its exact limit blur nothing, and
+                # match (the transmitted light, if any, is added to both alike): no relative error, PSNR or FLIP
+                m_exact = {**{k: (math.nan if k in ("relative_rmse", "psnr", "flip") else v) for k, v in m_exact.items()},
+                           "no_light": True}
+            res.metrics["exact_2d"] = m_exact
     if settings.reference:
         say(f"path tracing {plan.label} (Mitsuba volpathmis, {settings.reference_spp} to {settings.reference_max_spp} "
             f"spp until the SSS mask's relative standard error is {settings.reference_rel_se:.1%}; cached)")

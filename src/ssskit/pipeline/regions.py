@@ -121,9 +121,14 @@ def _edge_shape(masks: dict[str, np.ndarray], parts: dict[str, np.ndarray], e: n
 
 def format_regions(table: dict[str, Any] | None) -> list[str]:
     """Text lines of :func:`compare_regions`' table: per region its level (R, G, B) per image, the
-    reference's with its standard error, and the edge shape's RMSEs."""
+    reference's with its standard error, and the edge shape's RMSEs; a table whose regions are all empty
+    (no lit level inside the SSS mask, :func:`ssskit.metrics.region_masks`: a frame lit from behind) is one line
+    with that reason."""
     if not table:
         return []
+    if not any(row["pixels"] for row in table["regions"].values()):
+        return ["# regions: none (they are cut from the front light E/pi's lit level, its 98th percentile inside the "
+                "SSS mask, which is 0: the frame is lit from behind)"]
     fmt = lambda v: ", ".join("nan" if v is None or v != v else f"{x:.4f}" for x in v)  # noqa: E731
     lines = [f"# regions (level = mean diffuse part / mean E/pi; reach {table['radius_px']:.1f} px)"]
     for name, row in table["regions"].items():

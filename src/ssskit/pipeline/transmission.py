@@ -7,7 +7,9 @@ Whether it runs (:func:`transmission_runs`, checked before any work with the sce
 * ``transmission = "off"``: never; the frame is the reflectance pass's alone, bit for bit;
 * ``"auto"`` (the default): where the G-buffer has the light layers (``light_depth`` and the header
   ``ssskit_light``, :mod:`ssskit.screenspace.gbuffer`): a G-buffer file or :class:`GBuffer` that carries
-  them; a scene's own G-buffer is rendered without them, so a scene renders as before;
+  them; a scene's own G-buffer is rendered without them, so a scene renders as before, except a scene lit
+  only from behind (:attr:`ssskit.scenes.SceneSpec.lit_from_behind`: the built-in ``backlit`` and ``leaf``),
+  whose front is unlit (without the pass its frame is black): as under ``"on"``;
 * ``"on"``: a built-in or mesh scene's G-buffer is rendered with them (the first light's ray-cast
   translucency shadow map, :func:`ssskit.scenes.lightspace.light_layers`); a G-buffer without them, or a
   scene without a light, is an error; a ``transmission_model = "mcml"`` needs homogeneous materials (their
@@ -75,11 +77,12 @@ class TransmissionInfo:
 
 
 def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: str, has_scene: bool,
-                      scene_lights: int, materials: tuple[Any, ...]) -> bool:
+                      scene_lights: int, materials: tuple[Any, ...], lit_from_behind: bool = False) -> bool:
     """Whether the frame runs the transmittance pass (module docstring), or a SettingsError naming why it
     cannot: ``gbuffer`` the given or loaded G-buffer (None: a scene renders it), ``label`` its name,
     ``has_scene`` whether a scene renders it with ``scene_lights`` lights, ``materials`` those of the
-    profile ids (or the one material)."""
+    profile ids (or the one material), ``lit_from_behind`` whether that scene's only light is behind its
+    object (``auto`` then runs the pass)."""
     if settings.transmission == "off":
         return False
     if gbuffer is not None:
@@ -89,7 +92,7 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
                                     f"and header 'ssskit_light'); {label} has none (render a scene with transmission "
                                     "on and save its G-buffer, or use transmission auto)")
             return False
-    elif not has_scene or settings.transmission != "on":
+    elif not has_scene or not (settings.transmission == "on" or lit_from_behind):
         return False
     elif scene_lights < 1:
         raise SettingsError(f"transmission on needs a light behind the object; the scene {label} has no light")

@@ -19,7 +19,8 @@ from ..errors import SceneError
 from .gbuffers import render_gbuffer, render_sequence
 from .reference import Reference, reference_cache_dir, reference_phase_g, render_reference, sss_region
 from .scenefile import GENERATED_SCENES, ResolvedScene, load_scene_file, resolve_scene
-from .scenes import COAT_ROUGHNESS, FLOOR_ALBEDO, SCENES, SceneSpec, camera_pose, scene_camera, scene_lights
+from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, SCENES, SceneSpec, camera_pose, front_lit_scenes, scene_camera,
+                     scene_lights)
 from .signals import SIGNALS, make_signal
 
 __all__ = [
@@ -33,6 +34,7 @@ __all__ = [
     "SceneError",
     "SceneSpec",
     "camera_pose",
+    "front_lit_scenes",
     "load_scene_file",
     "make_signal",
     "reference_cache_dir",

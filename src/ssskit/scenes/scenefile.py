@@ -7,6 +7,8 @@ A scene file::
 
     name = "head"                 # optional (default: the file's stem)
     units = "m"                   # of every mesh file (mm, cm, m), unless a shape names its own
+    lit_from_behind = false       # true: every light is behind the SSS objects (--transmission auto runs
+                                  # the transmittance pass; default false)
 
     [camera]                      # explicit: origin, target, up (world mm), fov (degrees, horizontal)
     view = "front"                # or automatic framing: view = front | profile | close, or
@@ -348,7 +350,9 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     check (:func:`ssskit.scenes.meshes.check_memory`) is made for.
     """
     _keys(source, doc, {"name", "description", "units", "camera", "shapes", "lights", "orbit_deg_per_frame",
-                        "light_orbit_deg_per_frame"}, {"shapes"})
+                        "light_orbit_deg_per_frame", "lit_from_behind"}, {"shapes"})
+    if not isinstance(doc.get("lit_from_behind", False), bool):
+        raise SceneError(f"{source}: lit_from_behind must be true or false, got {doc['lit_from_behind']!r}")
     check_size(width, height)
     cli_units = check_units(units)
     doc_units = check_units(doc.get("units"))
@@ -398,7 +402,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                 taken.add(sid)
                 if is_sss:
                     sss.append(sid)
-                    sss_materials.append(str(table.get("material", "")))
+                    sss_materials.append(_shape_material(sid, table, material_map, claimed))
                 continue
             mesh, _ = _generated(gen, params)
             meshes = (mesh,)  # type: ignore[assignment]
@@ -408,7 +412,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             taken.add(sid)
             if is_sss:
                 sss.append(sid)
-                sss_materials.append(str(table.get("material", "")))
+                sss_materials.append(_shape_material(sid, table, material_map, claimed))
             continue
         assert meshes is not None
         if len(meshes) == 1 and meshes[0].name != sid:
@@ -497,8 +501,18 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                      orbit_deg_per_frame=float(doc.get("orbit_deg_per_frame", 2.0)),
                      light_orbit_deg_per_frame=float(doc.get("light_orbit_deg_per_frame", 0.0)),
                      sss_materials=tuple(sss_materials) if any(sss_materials) else (),
-                     reference_problem="; ".join(problems) or None)
+                     reference_problem="; ".join(problems) or None,
+                     lit_from_behind=bool(doc.get("lit_from_behind", False)))
     return LoadedScene(spec, tuple(notes), tuple(objects), not explicit, dict(doc), base)
+
+
+def _shape_material(sid: str, table: Mapping[str, Any], material_map: Mapping[str, str], claimed: set[str]) -> str:
+    """The material of a one-object SSS shape (a primitive or a built-in generator's): the material map's entry
+    for its id (claimed) over the shape's ``material`` ("" = the render's)."""
+    if sid in material_map:
+        claimed.add(sid)
+        return str(material_map[sid])
+    return str(table.get("material", ""))
 
 
 def _frozen_dicts(d: dict[str, dict]) -> Callable[[], dict[str, dict]]:

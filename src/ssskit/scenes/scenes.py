@@ -68,6 +68,10 @@ class SceneSpec:
     sss_materials: tuple[str, ...] = ()
     #: why the path-traced reference cannot render this scene (an open or non-manifold SSS mesh), or None
     reference_problem: str | None = None
+    #: whether the scene's only light is behind its SSS object (seen from the camera): its front is unlit,
+    #: so its frame shows nothing but the light the transmittance pass adds (``--transmission auto`` runs
+    #: that pass for such a scene: :func:`ssskit.pipeline.transmission.transmission_runs`)
+    lit_from_behind: bool = False
 
     def shape_materials(self, default: str) -> tuple[str, ...]:
         """The material of each SSS shape (profile id i + 1 is ``sss_shapes[i]``), ``default`` where the
@@ -83,6 +87,13 @@ def get_scene(scene: str | SceneSpec) -> SceneSpec:
     """A built-in scene by name (:data:`SCENES`), or ``scene`` itself when it already is a
     :class:`SceneSpec` (a variant such as :func:`ssskit.scenes.thickness.thin_scene`'s)."""
     return scene if isinstance(scene, SceneSpec) else SCENES.get(scene)
+
+
+def front_lit_scenes() -> list[str]:
+    """The built-in scenes a reflectance pass is measured on: all but those lit only from behind
+    (:attr:`SceneSpec.lit_from_behind`), whose front is black without the transmittance pass (the demo's
+    screen-space and Burley tables; the back-lit ones are the transmission section's)."""
+    return [name for name in SCENES.names() if not SCENES.get(name).lit_from_behind]
 
 
 def _T():
