@@ -190,6 +190,11 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
     (["--scene", "plain.exr", "--pass", "burley-adaptive", "--transmission", "off", "--transmission-model",
       "jimenez2010"], "applies when the transmittance pass can run"),
     (["--scene", "plain.exr", "--transmission-spread", "wide"], "Invalid value for '--transmission-spread': 'wide'"),
+    # auto with no light layers: the pass does not run, so a model or spread asked for would be dropped silently
+    (["--scene", "plain.exr", "--transmission-model", "jimenez2010"], "applies when the transmittance pass runs; under "
+                                                                      "transmission auto it does not run here"),
+    (["--scene", "plain.exr", "--transmission-spread", "mcml"], "transmission_spread 'mcml' applies when"),
+    (["--scene", "slab", "--transmission-model", "unreal"], "the scene slab is not lit from behind alone"),
     (["--scene", "plain.exr", "--transmission", "off", "--transmission-spread", "mcml"],
      "transmission_spread 'mcml' applies when the transmittance pass can run"),
 ])

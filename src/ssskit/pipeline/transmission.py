@@ -91,9 +91,9 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
                 raise SettingsError(f"transmission on (--transmission on) needs the G-buffer's light layers ('light_depth' "
                                     f"and header 'ssskit_light'); {label} has none (render a scene with transmission "
                                     "on and save its G-buffer, or use transmission auto)")
-            return False
+            return _not_run(settings, f"the G-buffer {label} has no light layers")
     elif not has_scene or not (settings.transmission == "on" or lit_from_behind):
-        return False
+        return _not_run(settings, f"the scene {label} is not lit from behind alone (transmission on runs it)")
     elif scene_lights < 1:
         raise SettingsError(f"transmission on needs a light behind the object; the scene {label} has no light")
     if settings.transmission_model in ("mcml", "unreal"):
@@ -104,6 +104,17 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
                                     f"(their {what}); {getattr(m, 'name', m)!r} is a {type(m).__name__}")
     _models_before_the_frame(settings, materials)
     return True
+
+
+def _not_run(settings: RenderSettings, why: str) -> bool:
+    """False (transmission auto does not run the pass, ``why``), or a SettingsError where the settings ask for a
+    transmission model or spread other than the defaults: they would be dropped without a word."""
+    for name, value, default in (("transmission_model", settings.transmission_model, "mcml"),
+                                 ("transmission_spread", settings.transmission_spread, "off")):
+        if value != default:
+            raise SettingsError(f"{name} {value!r} applies when the transmittance pass runs; under transmission auto "
+                                f"it does not run here: {why}")
+    return False
 
 
 def _models_before_the_frame(settings: RenderSettings, materials: tuple[Any, ...]) -> None:
