@@ -545,9 +545,10 @@ def kernel_spec_option(name: str = "--kernel", dest: str = "kernel_spec", defaul
                        help: str = "Kernel method spec name[:value].") -> Callable:
     # no default given: none passed, so that click (>= 8.3, whose sentinel for "not given" is not None) still
     # reports a required option as missing
-    extra = {} if default is None else {"default": default}
-    return click.option(name, dest, type=KernelSpec(many=many), show_default=default is not None,
-                        required=required, help=help, **extra)
+    if default is None:
+        return click.option(name, dest, type=KernelSpec(many=many), required=required, help=help)
+    return click.option(name, dest, type=KernelSpec(many=many), default=default, show_default=True,
+                        required=required, help=help)
 
 
 def signal_option(default: str = "edge") -> Callable:
