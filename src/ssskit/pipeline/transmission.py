@@ -9,7 +9,9 @@ Whether it runs (:func:`transmission_runs`, checked before any work with the sce
   ``ssskit_light``, :mod:`ssskit.screenspace.gbuffer`): a G-buffer file or :class:`GBuffer` that carries
   them; a scene's own G-buffer is rendered without them, so a scene renders as before, except a scene lit
   only from behind (:attr:`ssskit.scenes.SceneSpec.lit_from_behind`: the built-in ``backlit`` and ``leaf``),
-  whose front is unlit (without the pass its frame is black): as under ``"on"``;
+  whose front is unlit (without the pass its frame is black): as under ``"on"``; where ``"auto"`` leaves a
+  frame alone, a ``transmission_model`` or ``transmission_spread`` other than the default is an error (it would
+  be dropped without a word), as under ``"off"``;
 * ``"on"``: a built-in or mesh scene's G-buffer is rendered with them (the first light's ray-cast
   translucency shadow map, :func:`ssskit.scenes.lightspace.light_layers`); a G-buffer without them, or a
   scene without a light, is an error; a ``transmission_model = "mcml"`` needs homogeneous materials (their
