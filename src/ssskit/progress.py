@@ -33,6 +33,7 @@ class _LineProgress:
 
     def __init__(self, total: int, desc: str, unit: str, initial: int = 0) -> None:
         self.total, self.desc, self.unit, self.n = max(int(total), 1), desc, unit, int(initial)
+        self.initial = int(initial)
         self.postfix, self._next = "", self._step(self.n)
         self._t0 = self._last = time.perf_counter()
 
@@ -53,7 +54,12 @@ class _LineProgress:
 
     def _say(self) -> None:
         extra = f", {self.postfix}" if self.postfix else ""
-        line = f"{self.desc}: {self.n:,}/{self.total:,} {self.unit}{extra} ({time.perf_counter() - self._t0:.0f} s)"
+        elapsed = time.perf_counter() - self._t0
+        done = self.n - self.initial
+        left = ""
+        if done > 0 and self.n < self.total and elapsed >= ETA_AFTER_S:  # the rate so far, carried to the end
+            left = f", about {duration_text(elapsed * (self.total - self.n) / done)} left"
+        line = f"{self.desc}: {self.n:,}/{self.total:,} {self.unit}{extra} ({elapsed:.0f} s{left})"
         print(f"  {line}", file=sys.stderr, flush=True)
         noted(line)
 
@@ -63,6 +69,17 @@ class _LineProgress:
 
 #: the longest a plain-line progress report stays silent while its work advances (seconds)
 LINE_INTERVAL_S = 5.0
+#: a plain line estimates the time left once its work has run this long (seconds; before, the rate is noise)
+ETA_AFTER_S = 2.0
+
+
+def duration_text(seconds: float) -> str:
+    """A duration for people: "40 s", "12 min", "3.5 h"."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 90 * 60:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
 
 
 # ---- progress -------------------------------------------------------------------------------------
