@@ -82,6 +82,9 @@ def test_a_light_frame_within_the_tolerance_passes(base):
     gb = base.with_layers(light_depth=np.full((H, W), 100.0, np.float32),
                           light={**light, **rounded, "size": [float(W), float(H)], "irradiance": [top, 0.0, 1.0]})
     assert LightView.from_dict(gb.light).size == (W, H)
+    # the irradiance as an array (a light dict built in Python, not read from JSON) is the same 3 numbers
+    base.with_layers(light_depth=np.full((H, W), 100.0, np.float32),
+                     light={**light, "irradiance": np.array([1.0, 0.5, 0.25], np.float32)})
 
 
 def test_light_layers_round_trip_through_the_exr(base, tmp_path):

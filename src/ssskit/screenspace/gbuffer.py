@@ -118,7 +118,8 @@ class GBuffer:
                                f"[{w}, {h}]")
         raw = self.light.get("irradiance")
         top = float(np.finfo(np.float32).max)  # the pass's inputs are float32 (transmission_inputs)
-        items = list(raw) if isinstance(raw, (list, tuple)) else []
+        items = (list(raw) if isinstance(raw, (list, tuple)) else
+                 list(raw.reshape(-1)) if isinstance(raw, np.ndarray) and raw.ndim == 1 else [])
         nums = [float(x) for x in items if isinstance(x, Real) and not isinstance(x, bool)]
         if not (len(items) == len(nums) == 3 and all(math.isfinite(x) and 0 <= x <= top for x in nums)):
             raise GBufferError(f"the light projection's 'irradiance' must be 3 finite numbers >= 0 and at most "
