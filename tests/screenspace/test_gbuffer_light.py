@@ -82,9 +82,11 @@ def test_a_light_frame_within_the_tolerance_passes(base):
     gb = base.with_layers(light_depth=np.full((H, W), 100.0, np.float32),
                           light={**light, **rounded, "size": [float(W), float(H)], "irradiance": [top, 0.0, 1.0]})
     assert LightView.from_dict(gb.light).size == (W, H)
-    # the irradiance as an array (a light dict built in Python, not read from JSON) is the same 3 numbers
+    # arrays (a light dict built in Python, not read from JSON) are the same numbers as lists
+    arrays = {k: (np.asarray(v) if isinstance(v, list) else v) for k, v in light.items()}
     base.with_layers(light_depth=np.full((H, W), 100.0, np.float32),
-                     light={**light, "irradiance": np.array([1.0, 0.5, 0.25], np.float32)})
+                     light={**arrays, "irradiance": np.array([1.0, 0.5, 0.25], np.float32)})
+    assert LightView.from_dict(arrays).size == (W, H)
 
 
 def test_light_layers_round_trip_through_the_exr(base, tmp_path):

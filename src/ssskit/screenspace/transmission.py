@@ -221,7 +221,9 @@ def _is_integral(x: Any) -> bool:
 
 
 def _three_finite(name: str, value: Any, fail: Callable[[str], PassError]) -> tuple[float, float, float]:
-    """A projection field of 3 finite numbers, or ``fail``'s error naming it."""
+    """A projection field of 3 finite numbers (a list, tuple or 1D array), or ``fail``'s error naming it."""
+    if isinstance(value, np.ndarray) and value.ndim == 1:
+        value = value.tolist()
     if not (isinstance(value, (list, tuple)) and len(value) == 3 and all(_is_number(x) for x in value)):
         raise fail(f"{name!r} must be 3 numbers [x, y, z], got {value!r}")
     if not all(math.isfinite(x) for x in value):
@@ -295,6 +297,8 @@ class LightView:
             if not abs(dot) <= UNIT_TOL:
                 raise fail(f"{a!r} and {b!r} must be orthogonal (|dot| <= {UNIT_TOL:g}), got dot {dot:.6g}")
         size = d["size"]
+        if isinstance(size, np.ndarray) and size.ndim == 1:
+            size = size.tolist()
         if not (isinstance(size, (list, tuple)) and len(size) == 2
                 and all(_is_integral(x) and x >= 1 for x in size)):
             raise fail(f"'size' must be 2 positive integers [W, H], got {size!r}")
