@@ -463,9 +463,9 @@ SECTION_PASSES: dict[str, tuple[str, ...]] = {
 }
 
 #: the order several processes take the sections in: the kernel ranking first (it runs no pass: beside the first
-#: compilation), then the longest (CPU seconds on this project's 2 cores once compiled: screen space ~85 with its
-#: six scenes, kernels ~28, adaptive ~17, profiles ~10, Burley ~11; transmission ~3 since the shipped tables: small,
-#: its place matters little); a section not named here comes last
+#: compilation), then the longest (CPU seconds on this project's 2 cores, a fresh machine's demo of 2026-12-05:
+#: screen space ~54 with its four front-lit scenes, kernels ~27, adaptive ~16, profiles ~9, Burley ~8; transmission
+#: ~2 since the shipped tables: small, its place matters little); a section not named here comes last
 SECTION_ORDER = ("kernels", "screenspace", "model", "adaptive", "transmission", "profiles", "burley", "sampling",
                  "materials")
 

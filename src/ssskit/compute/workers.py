@@ -27,8 +27,8 @@ def one_library_thread() -> dict[str, str]:
     {variable: value}. ssskit's work in them is small (kernel grids up to ~200 cells, SLSQP's ~100 variables,
     FLIP on 256 x 256 test signals), where their threads cost more than they bring, measured on 2 cores:
     two BLAS threads took the guided kernel (Ketchup, k = 2) 3.4 s of CPU against 1.4 s; two OpenMP threads
-    took FLIP 0.17 s per 256 x 256 pair against 0.10 s, wall and CPU (beside one other busy process); the demo's
-    kernel ranking's CPU fell from ~50 s to 27 s with both at one. Idle threads of these pools spin, so
+    took FLIP 0.17 s per 256 x 256 pair against 0.10 s, wall and CPU (beside one other busy process); one BLAS
+    thread halved the demo's kernel ranking's CPU, and one OpenMP thread then took it from 39 s to 27 s. Idle threads of these pools spin, so
     two processes side by side (``ssskit demo``'s workers) lose most. One thread also makes the results
     independent of the machine's core count (two BLAS threads changed the last bit of that kernel). The
     passes, the path tracer and the Monte Carlo engine keep their own threads. The CLI sets this before any
@@ -92,11 +92,11 @@ def run_jobs(jobs: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], workers
     n = max(1, min(int(workers), len(jobs)))
     procs = [context.Process(target=_worker, args=(tasks, results, dict(env or {})), daemon=True,
                              name=f"ssskit-worker-{i}") for i in range(n)]
-    waiting, idle = list(range(len(jobs))), n
+    waiting, idle, ended = list(range(len(jobs))), n, False
     finished: set[int] = set()
 
     def dispatch() -> None:
-        nonlocal idle
+        nonlocal idle, ended
         while idle and waiting:
             ready = next((k for k in waiting if needs[k] <= finished), None)
             if ready is None:  # (a job that runs now is a prerequisite: the check above)
@@ -104,10 +104,10 @@ def run_jobs(jobs: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], workers
             waiting.remove(ready)
             tasks.put((ready, *jobs[ready]))
             idle -= 1
-        if not waiting:
+        if not waiting and not ended:  # every job handed out: each worker's end, sent once
             for _ in range(n):
                 tasks.put(None)
-            waiting.append(-1)  # (the end is sent once)
+            ended = True
 
     try:
         for p in procs:
@@ -131,8 +131,7 @@ def run_jobs(jobs: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], workers
                 finished.add(index)
                 idle += 1
                 on_result(index, value)
-                if -1 not in waiting:
-                    dispatch()
+                dispatch()
         for p in procs:
             p.join()
     finally:
