@@ -127,7 +127,17 @@ def test_render_two_materials_and_reference_checks(run, meshes):
     assert code == 0, err
     import json
 
-    assert set(json.loads(out)["burley_params"]) == {"1", "2"}
+    data = json.loads(out)
+    assert set(data["burley_params"]) == {"1", "2"}
+    # skinA takes the default material: the summary names each id's material, not the settings' alone
+    assert data["material"] == "Skin1 (id 1), Marble (id 2)" and data["materials"] == {"1": "Skin1", "2": "Marble"}
+    code, out, err = run(*RENDER, "--scene", "two.glb", "--units", "mm", "--material-map", "skinB=marble")
+    assert code == 0, err
+    assert "# two: Skin1 (id 1), Marble (id 2); montecarlo profiles, preintegrated" in out
+    assert "profile: montecarlo of Skin1 (id 1), Marble (id 2) (" in err
+    code, out, err = run(*RENDER, "--scene", "two.glb", "--units", "mm", "--material-map", "skinA=marble,skinB=marble")
+    assert code == 0, err
+    assert "# two: Marble (montecarlo), preintegrated" in out and "profile: montecarlo of Marble (" in err
     s = icosphere(2, 30.0, name="cup")
     write_mesh(meshes / "cup.ply", Mesh("cup", s.vertices, s.faces[8:], s.normals))
     code, out, err = run(*RENDER, "--scene", "cup.ply", "--reference")

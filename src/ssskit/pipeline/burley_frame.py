@@ -44,7 +44,7 @@ from ..errors import SettingsError, SignalError
 from ..screenspace import BurleyParams, BurleySettings, GBuffer, burley_sss
 from ..screenspace.burley import burley_backend
 from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
-                    metric_lines, per_id, plan_scene, reference_line)
+                    material_label, metric_lines, per_id, plan_scene, reference_line)
 from .settings import AdaptivePass, BurleyPass, RenderSettings
 from .transmission import TransmissionInfo, transmission_passes, with_transmission
 
@@ -142,10 +142,14 @@ class BurleyResult(ImageLayers):
     source: Path | None = None
     transmitted: np.ndarray | None = None  # the transmitted radiance in the image (H, W, 3), when the pass ran
     transmission: TransmissionInfo = field(default_factory=lambda: TransmissionInfo("off", False))
+    #: profile id -> material name where a material map gives the ids different materials (else empty)
+    id_materials: dict[int, str] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (the keys of :meth:`ssskit.pipeline.render.RenderResult.to_dict` where they apply)."""
         h, w = self.gbuffer.shape
-        return {"scene": self.scene, "pass": "burley", "material": getattr(self.material, "name", str(self.material)),
+        return {"scene": self.scene, "pass": "burley", "material": material_label(self.material, self.id_materials),
+                **({"materials": {str(k): v for k, v in self.id_materials.items()}} if self.id_materials else {}),
                 "size": [int(w), int(h)], "burley_params": _params_dict(self.params),
                 "settings": self.settings.replace(width=int(w), height=int(h)).to_dict(), "burley": self.burley.to_dict(),
                 "transmission": self.transmission.to_dict(), "metrics": finite(self.metrics)}
@@ -155,8 +159,9 @@ class BurleyResult(ImageLayers):
         b = self.burley
         h, w = self.gbuffer.shape
         by_id = self.params if isinstance(self.params, Mapping) else {1: self.params}
-        d = "; ".join(", ".join(f"{x:.3g}" for x in p.d_mm) for p in by_id.values())
-        out = [f"# {self.scene}: Burley d = {d} mm, {b.sampler} sampler, "
+        d = "; ".join(", ".join(f"{x:.3g}" for x in p.d_mm) + " mm" + (f" ({self.id_materials[k]}, id {k})" if k in
+                                                                        self.id_materials else "") for k, p in by_id.items())
+        out = [f"# {self.scene}: Burley d = {d}, {b.sampler} sampler, "
                f"{b.spp} spp, {'mips' if b.mips else 'no mips'}, {w}x{h}, {b.backend} backend"]
         out.append(self.transmission.line())
         out += metric_lines(self.metrics)
@@ -214,6 +219,7 @@ def render_burley(scene: SceneInput = "slab", settings: RenderSettings | None = 
     with its defaults); ``params`` (every profile id) instead of the settings' or the material's Burley
     parameters; ``progress`` receives one message per step."""
     settings = RenderSettings(pass_=BurleyPass()) if settings is None else settings
+    own = params is not None
     plan, params = plan_burley(scene, settings, params)
     b = settings.burley_settings()
     say = progress or (lambda msg: None)
@@ -228,6 +234,7 @@ def render_burley(scene: SceneInput = "slab", settings: RenderSettings | None = 
         sss, transmitted, info, exact = with_transmission(gb, sss, settings, plan.materials, plan.material,
                                                   exact, say)
     res = BurleyResult(plan.label, settings, b, plan.material, params, gb, sss, gb.composite(sss), source=plan.source,
+                       id_materials=plan.id_materials if isinstance(params, Mapping) and not own else {},
                        transmitted=transmitted, transmission=info)
     ground_truths(res, settings, plan, _on_params(params, lambda p: p.profile()), exact, say, progress is not None)
     return res

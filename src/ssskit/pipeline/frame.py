@@ -154,6 +154,23 @@ class ScenePlan:
         """Whether the scene's profile ids carry different materials (a material map)."""
         return len({getattr(m, "name", m) for m in self.materials}) > 1
 
+    @property
+    def id_materials(self) -> dict[int, str]:
+        """Profile id -> material name where the ids carry different materials (:attr:`per_id`), else empty."""
+        return {i: str(getattr(m, "name", m)) for i, m in enumerate(self.materials, 1)} if self.per_id else {}
+
+
+def material_label(material: Any, id_materials: Mapping[int, str]) -> str:
+    """The frame's material in a summary: its name, or where a material map gives the profile ids different
+    materials, each material with its ids (``Skin1 (id 1), Marble (ids 2, 3)``): the settings' material then
+    names no object, so it must not stand for the frame."""
+    if not id_materials:
+        return str(getattr(material, "name", material))
+    ids: dict[str, list[int]] = {}
+    for pid, name in sorted(id_materials.items()):
+        ids.setdefault(name, []).append(pid)
+    return ", ".join(f"{name} ({'id' if len(v) == 1 else 'ids'} {', '.join(map(str, v))})" for name, v in ids.items())
+
 
 def _scene(scene: SceneInput, settings: RenderSettings, material: Material | LayeredMaterial) -> ScenePlan:
     if isinstance(scene, GBuffer):
@@ -351,4 +368,4 @@ def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, p
 
 
 __all__ = ["BurleyInput", "ImageLayers", "SceneInput", "ScenePlan", "finite", "frame_gbuffer", "ground_truths",
-           "metric_lines", "per_id", "plan_scene", "reference_line"]
+           "material_label", "metric_lines", "per_id", "plan_scene", "reference_line"]

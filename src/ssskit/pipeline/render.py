@@ -82,7 +82,7 @@ from ..truth import exact_screen_space
 from .adaptive import AdaptiveResult, FrameCallback, render_adaptive
 from .burley_frame import BurleyResult, render_burley
 from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
-                    metric_lines, per_id, plan_scene, reference_line)
+                    material_label, metric_lines, per_id, plan_scene, reference_line)
 from .settings import RenderSettings
 from .transmission import TransmissionInfo, transmission_passes, with_transmission
 
@@ -112,12 +112,16 @@ class RenderResult(ImageLayers):
     source: Path | None = None  # the G-buffer file read, if any
     transmitted: np.ndarray | None = None  # the transmitted radiance in the image (H, W, 3), when the pass ran
     transmission: TransmissionInfo = field(default_factory=lambda: TransmissionInfo("off", False))
+    #: profile id -> material name where a material map gives the ids different materials (else empty)
+    id_materials: dict[int, str] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary: scene, material, size [W, H], tap count, settings, taps and metrics
-        (non-finite numbers, e.g. the PSNR of an exact match, become None)."""
+        """JSON-ready summary: scene, material (:func:`~ssskit.pipeline.frame.material_label`; ``materials``:
+        profile id -> name where the ids differ), size [W, H], tap count (profile id 1's), settings, taps and
+        metrics (non-finite numbers, e.g. the PSNR of an exact match, become None)."""
         h, w = self.gbuffer.shape
-        return {"scene": self.scene, "pass": "separable", "material": getattr(self.material, "name", str(self.material)),
+        return {"scene": self.scene, "pass": "separable", "material": material_label(self.material, self.id_materials),
+                **({"materials": {str(k): v for k, v in self.id_materials.items()}} if self.id_materials else {}),
                 "size": [int(w), int(h)], "taps": int(self.taps.taps), "settings": self.settings.replace(width=int(w), height=int(h)).to_dict(),
                 "tap_table": self.taps.to_dict(), "transmission": self.transmission.to_dict(),
                 "metrics": finite(self.metrics)}
@@ -129,7 +133,9 @@ class RenderResult(ImageLayers):
 
         s = self.settings
         h, w = self.gbuffer.shape
-        out = [f"# {self.scene}: {self.material.name} ({s.model}), {s.kernel} with {self.taps.taps} taps, "
+        what = (f"{material_label(self.material, self.id_materials)}; {s.model} profiles" if self.id_materials
+                else f"{self.material.name} ({s.model})")
+        out = [f"# {self.scene}: {what}, {s.kernel} with {self.taps.taps} taps, "
                f"jitter {s.pass_settings().jitter:g}, {w}x{h}, {s.backend} backend"]
         out.append(self.transmission.line())
         out += metric_lines(self.metrics)
@@ -187,7 +193,8 @@ def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None
     mat = plan.scene.material
     model = settings.model.strip().lower()
     opts = {"photons": settings.photons} if model == "montecarlo" else {}
-    say(f"profile: {settings.model}" + ("" if model in MATERIAL_FREE_MODELS else f" of {mat.name}")
+    say(f"profile: {settings.model}" + ("" if model in MATERIAL_FREE_MODELS else
+                                        f" of {material_label(mat, plan.scene.id_materials)}")
         + (f" ({settings.photons:,} photons per channel)" if opts else ""))
     # one profile, kernel and taps, or one per profile id where a material map gives ids their own materials
     profile = per_id(plan.scene, lambda m: profile_for_material(None if model in MATERIAL_FREE_MODELS else m,
@@ -225,7 +232,8 @@ def render_separable(scene: SceneInput = "slab", settings: RenderSettings | None
         sss, transmitted, info, exact = with_transmission(gb, sss, settings, plan.scene.materials,
                                                   plan.scene.material, exact, say)
     res = RenderResult(plan.scene.label, settings, mat, profile, kernel, taps, gb, sss, gb.composite(sss),
-                       source=plan.scene.source, transmitted=transmitted, transmission=info)
+                       source=plan.scene.source, transmitted=transmitted, transmission=info,
+                       id_materials=plan.scene.id_materials)
     ground_truths(res, settings, plan.scene, profile, exact, say, progress is not None)
     if warming is not None:  # the several ids' slot map (a fraction of a second): a process that exits next must
         warming.join()  # not leave a daemon thread inside LLVM while the interpreter shuts down
