@@ -219,6 +219,38 @@ def test_read_only_folder(run, workdir, command):
         ro.chmod(0o700)
 
 
+def _locked(path):
+    """Make the existing file ``path`` one that cannot be replaced: read-only for a user, immutable (chattr +i) for
+    root, who writes read-only files; returns how to undo it, or skips where neither can be done here."""
+    if os.name != "posix":
+        pytest.skip("POSIX permissions")
+    if os.geteuid() != 0:
+        path.chmod(0o444)
+        return lambda: path.chmod(0o644)
+    import shutil
+    import subprocess
+
+    if shutil.which("chattr") is None or subprocess.run(["chattr", "+i", str(path)], capture_output=True).returncode:
+        pytest.skip("root, and chattr +i is not available on this filesystem")
+    return lambda: subprocess.run(["chattr", "-i", str(path)], check=True)
+
+
+@pytest.mark.parametrize("command, target", [(["profile", "--material", "skin1", "--model", "dipole"], "p.csv"),
+                                             (["render", "--scene", "slab", "--backend", "numpy", "--size", "16x12"],
+                                              "r.png")])
+def test_an_existing_output_that_cannot_be_replaced_is_refused_before_any_work(run, workdir, command, target):
+    """The trial's immutable render output was found only after the render: now before it, in one line."""
+    path = workdir / target
+    path.write_bytes(b"old")
+    undo = _locked(path)
+    try:
+        one_error_line(run, workdir, [*command, "--out", target], f"cannot write --out '{target}': the existing file "
+                       "cannot be replaced")
+        assert path.read_bytes() == b"old"
+    finally:
+        undo()
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux") or not os.path.isdir("/sys/kernel"),
                     reason="needs Linux's sysfs, where nobody (root included) may create files")
 @pytest.mark.parametrize("command", [["figures", "fig2", "--model", "dipole"], ["demo", "--photons", "5000"]])

@@ -160,6 +160,12 @@ def check_writable(target: str | Path, opt: str, folder: bool = False) -> None:
     os.close(fd)
     with contextlib.suppress(OSError):
         os.unlink(name)
+    if not folder and t.is_file():  # an existing file the write would replace: read-only or immutable (chattr +i)
+        try:
+            os.close(os.open(t, os.O_WRONLY | os.O_APPEND))  # opened, not changed
+        except OSError as exc:
+            raise OutputError(f"cannot write {opt} {str(t)!r}: the existing file cannot be replaced "
+                              f"({exc.strerror or exc})") from None
 
 
 # ---------------------------------------------------------------------------------------------- types
