@@ -11,7 +11,8 @@ from scipy.integrate import quad
 from ssskit.errors import ProfileError
 from ssskit.materials import MATERIALS, Material
 from ssskit.profiles import DipoleProfile, fresnel_diffuse_reflectance, profile_for_material
-from ssskit.profiles.domain import DIPOLE_ETA_MAX, MAX_GRID_BINS, MFP_RANGE_MM, OPTICAL_ETA_MAX, check_montecarlo
+from ssskit.profiles.domain import (DIPOLE_ETA_MAX, MAX_GRID_BINS, MFP_RANGE_MM, MIN_ABSORBED_FRACTION, OPTICAL_ETA_MAX,
+                                   check_montecarlo)
 from ssskit.profiles.montecarlo import supplement_grid
 
 
@@ -91,3 +92,20 @@ def test_montecarlo_refuses_a_grid_it_cannot_hold():
     """dr = shortest MFP / 20 out to 32 longest: a 100:1 spread needs 64,000 bins per batch row."""
     with pytest.raises(ProfileError, match="would need 64,000 bins"):
         check_montecarlo(Material("x", (0.0, 0.0, 0.0), (1.0, 1.0, 100.0)))
+
+
+def test_montecarlo_refuses_a_half_space_that_absorbs_nothing():
+    """sigma_a = 0 in a semi-infinite medium: the trial's run of 10^4 photons never ended (a walk in a half-space
+    has no finite mean length). Refused in one line, in the API and before any photon; a finite slab without
+    absorption (its photons leave through the far side) and the smallest absorbed fraction are taken."""
+    clear = Material("clear", (0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+    with pytest.raises(ProfileError, match=r"needs absorption in a semi-infinite medium: sigma_a / sigma_t is 0 in "
+                                           r"channel R of 'clear', below 1e-07"):
+        profile_for_material(clear, "montecarlo", photons=10**4)
+    with pytest.raises(ProfileError, match="channel B"):
+        check_montecarlo(Material("x", (0.01, 0.01, 1e-9), (1.0, 1.0, 1.0)))
+    check_montecarlo(Material("x", (MIN_ABSORBED_FRACTION,) * 3, (1.0 - MIN_ABSORBED_FRACTION,) * 3))
+    slab = Material("slab", (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), thickness_mm=2.0)
+    check_montecarlo(slab)
+    rd = profile_for_material(slab, "montecarlo", photons=2000).total_rd()
+    assert np.all((rd > 0.3) & (rd < 1.0))  # a 2 mm slab of 1 mm mean free paths reflects part, transmits the rest

@@ -18,7 +18,12 @@ of a translucent material is left. Per model (``eta``: the index relative to the
   path at most 31 times the shortest over the channels and layers (Ketchup, the widest preset: 6.1).
   MCML's transport holds for any eta >= 1; beyond 4, which no optical medium reaches in the visible
   (water 1.33, glass 1.5, diamond 2.42, rutile 2.9), the critical angle is under 14.5 degrees and the
-  photons spend their time in total internal reflection.
+  photons spend their time in total internal reflection. A semi-infinite medium (the last layer) must
+  absorb: sigma_a / sigma_t >= :data:`MIN_ABSORBED_FRACTION` per channel. Without absorption a photon
+  in a half-space returns to the surface with probability 1 but after a number of steps with no finite
+  mean (a random walk's return time), and MCML's roulette never starts (its weight never falls): a run of
+  10^4 photons at sigma_a = 0 did not end; below about 1e-7 the float32 weight rounds the loss away and
+  behaves the same. A finite slab needs no absorption (its photons leave through the far side).
 * ``burley``: A (MCML's total R_d unless given: the montecarlo domain) in [0, 1] and d > 0 from Xie
   2020 Eq. 5, whose fits are stated for A in [0, 1].
 * ``deon2007``: a fixed preset, no material.
@@ -45,6 +50,11 @@ DIPOLE_ETA_MAX = 2.5
 OPTICAL_ETA_MAX = 4.0
 #: the most radial bins of the supplement's Monte Carlo grid (its tallies hold one row per batch)
 MAX_GRID_BINS = 20_000
+#: the smallest absorbed fraction sigma_a / sigma_t per interaction the Monte Carlo model takes in a semi-infinite
+#: medium (module docstring): 1e-7, about the float32 rounding of a photon's weight (2^-23 = 1.2e-7 relative).
+#: Measured (numba engine, sigma_s = 1 mm^-1, 10^4 photons per channel, 2026-12-05): 1e-6 in 2.3 s, 3e-7 in 4.1 s,
+#: 1e-7 in 9 s (10^7 photons: hours, which the progress line's estimate says); 1e-14, like 0, did not end in 60 s
+MIN_ABSORBED_FRACTION = 1e-7
 
 
 def _layers(material: Material | LayeredMaterial) -> tuple[Material, ...]:
@@ -105,6 +115,18 @@ def check_montecarlo(material: Material | LayeredMaterial, model: str = "monteca
             f"the {model} model's grid (supplement F: dr = shortest mean free path / 20, out to 32 longest) would need "
             f"{bins:,} bins, more than {MAX_GRID_BINS:,}: the longest transport mean free path is {ratio:.3g} times the "
             f"shortest (at most {MAX_GRID_BINS / 640:.3g}; Ketchup, the widest preset, 6.1)")
+    last = layers[-1]
+    if last.is_semi_infinite:
+        where = " of the semi-infinite last layer" if len(layers) > 1 else ""
+        for c, channel in enumerate(CHANNELS):
+            a, t = float(last.sigma_a[c]), float(last.sigma_a[c]) + float(last.sigma_s[c])
+            if a < MIN_ABSORBED_FRACTION * t:
+                raise ProfileError(
+                    f"the {model} model needs absorption in a semi-infinite medium: sigma_a / sigma_t is {a / t:.3g} in "
+                    f"channel {channel}{where} of {material.name!r}, below {MIN_ABSORBED_FRACTION:g} (a photon's float32 "
+                    "weight then loses nothing at an interaction, and a walk in a half-space that nothing ends has no "
+                    "finite mean length: the run would not finish); give sigma_a >= "
+                    f"{MIN_ABSORBED_FRACTION:g} x (sigma_a + sigma_s), or a finite thickness_mm")
 
 
 def check_burley_material(material: Material, albedo_given: bool) -> None:
@@ -116,5 +138,5 @@ def check_burley_material(material: Material, albedo_given: bool) -> None:
         check_montecarlo(material, "burley (A from MCML)")
 
 
-__all__ = ["DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM", "OPTICAL_ETA_MAX", "check_burley_material",
+__all__ = ["DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM", "MIN_ABSORBED_FRACTION", "OPTICAL_ETA_MAX", "check_burley_material",
            "check_dipole", "check_eta", "check_mfp", "check_montecarlo", "check_scatters"]
