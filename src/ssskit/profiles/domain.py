@@ -90,7 +90,8 @@ def check_dipole(material: Material, model: str = "dipole") -> None:
 
 
 def check_montecarlo(material: Material | LayeredMaterial, model: str = "montecarlo") -> None:
-    """The domain of the MCML model on the supplement's grid: module docstring."""
+    """The domain of the MCML model on the supplement's grid (a scattering material among it): module docstring."""
+    check_scatters(model, material)
     layers = _layers(material)
     for k, layer in enumerate(layers):
         where = f" of layer {k + 1}" if len(layers) > 1 else ""
