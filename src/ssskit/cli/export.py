@@ -248,7 +248,7 @@ def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, materi
               help="Preset name, material file, or an engine file to read back (an ssskit engine .json, an HDRP "
                    ".asset with --albedo, a .mtlx); not needed by jimenez2012 or artist presets.")
 @click.option("--albedo", type=Triple(), default=None,
-              help="Artists' terms: surface albedo R,G,B in (0, 1) (with --mfp or --dmfp).")
+              help="Artists' terms: surface albedo R,G,B in (0, 1] (with --mfp or --dmfp, mm, in [1e-6, 1e6]).")
 @click.option("--mfp", type=Triple(), default=None, help="Artists' terms: volume mean free path 1/sigma_t, mm.")
 @click.option("--dmfp", type=Triple(), default=None,
               help="Artists' terms: diffuse mean free path, mm (Burley's convention: d = dmfp / (3.5 + 100 (A - 0.33)^4)).")

@@ -19,8 +19,14 @@ of a translucent material is left. Per model (``eta``: the index relative to the
   MCML's transport holds for any eta >= 1; beyond 4, which no optical medium reaches in the visible
   (water 1.33, glass 1.5, diamond 2.42, rutile 2.9), the critical angle is under 14.5 degrees and the
   photons spend their time in total internal reflection.
-* ``burley``: A (MCML's total R_d unless given: the montecarlo domain) in [0, 1] and d > 0 from Xie
-  2020 Eq. 5, whose fits are stated for A in [0, 1].
+* ``burley``: A (MCML's total R_d unless given: the montecarlo domain) in (0, 1] and d > 0 from Xie
+  2020 Eq. 5, whose fits are stated for A in [0, 1]; A = 0 is refused like sigma_s = 0 below (Eq. 4's
+  R(r) is 0: no subsurface light, and a kernel normalised by it is 0/0). Given in artists' terms (an
+  albedo with a diffuse or volume mean free path: ``render --albedo --dmfp``, ``export --albedo --dmfp``,
+  :class:`~ssskit.backends.burley_plan.BurleyParams`), the mean free path lies in :data:`MFP_RANGE_MM`
+  and Burley's d in :data:`BURLEY_D_RANGE_MM`, what Eq. 5 gives from such paths: its scalings s(A) = ell / d
+  lie in [0.906, 23.65] over A in [0, 1] (searchlight 1.85 - A + 7 |A - 0.8|^3 is least at A = 1, 0.906;
+  dmfp 3.5 + 100 (A - 0.33)^4 largest at A = 1, 23.65).
 * ``deon2007``: a fixed preset, no material.
 
 Every model of a material needs it to scatter: sigma_s > 0 in every channel (for a layered material, in some
@@ -39,6 +45,10 @@ from ..materials import CHANNELS, LayeredMaterial, Material
 
 #: transport mean free paths 1/sigma_t' every model takes (mm)
 MFP_RANGE_MM = (1e-6, 1e6)
+#: Xie 2020 Eq. 5's scalings s(A) = ell / d over A in [0, 1], all three configurations (module docstring)
+BURLEY_EQ5_SCALING_RANGE = (0.906, 3.5 + 100.0 * 0.67**4)
+#: Burley's d (mm) that Eq. 5 gives from mean free paths in MFP_RANGE_MM (module docstring)
+BURLEY_D_RANGE_MM = (MFP_RANGE_MM[0] / BURLEY_EQ5_SCALING_RANGE[1], MFP_RANGE_MM[1] / BURLEY_EQ5_SCALING_RANGE[0])
 #: the largest relative index of the [JMLH01] dipole's F_dr fit (its A within 5% of the exact one)
 DIPOLE_ETA_MAX = 2.5
 #: the largest relative index the Monte Carlo model takes (no optical medium in the visible beyond it)
@@ -117,5 +127,5 @@ def check_burley_material(material: Material, albedo_given: bool) -> None:
         check_montecarlo(material, "burley (A from MCML)")
 
 
-__all__ = ["DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM", "OPTICAL_ETA_MAX", "check_burley_material",
+__all__ = ["BURLEY_D_RANGE_MM", "BURLEY_EQ5_SCALING_RANGE", "DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM", "OPTICAL_ETA_MAX", "check_burley_material",
            "check_dipole", "check_eta", "check_mfp", "check_montecarlo", "check_scatters"]
