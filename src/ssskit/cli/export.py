@@ -180,7 +180,7 @@ def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, materi
         import importlib.util
 
         if importlib.util.find_spec("MaterialX") is None:
-            raise SsskitError("--format materialx needs the materialx package (pip install 'materialx>=1.39,<1.40')")
+            raise SsskitError("--format materialx needs the materialx package (pip install 'materialx>=1.39,<1.40', the extra \".[materialx]\")")
     if fmt == "hlsl-shader":
         from ..export.shaders import tools_available
 
