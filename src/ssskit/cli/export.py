@@ -118,6 +118,11 @@ def _material_source(ctx: click.Context, fmt: str, material: str | None, albedo:
             raise SsskitError(f"{flag} belongs to artists' terms (--albedo with --mfp or --dmfp)")
     if artist and material is not None and not (engine_file and str(material).lower().endswith(".asset")):
         raise SsskitError("give the material once: --material or artists' terms (--albedo with --mfp or --dmfp)")
+    if engine_file:  # an HDRP .asset takes --albedo only: the file holds the distances and the index
+        for name, flag in (("mfp", "--mfp"), ("dmfp", "--dmfp"), ("eta", "--eta"), ("g", "--g")):
+            if given(ctx, name):
+                raise SsskitError(f"give the material once: {flag} does not apply to an engine file ({material}), "
+                                  "which holds its own parameters (an HDRP .asset takes only --albedo)")
     model_given = given(ctx, "model")
     if engine_file or artist:
         used = model.lower() if model_given else "burley"
@@ -133,6 +138,8 @@ def _material_source(ctx: click.Context, fmt: str, material: str | None, albedo:
         src = read_engine_file(material, albedo=albedo)
         if albedo is not None:
             check_artist(albedo, src.d_mm, "dmfp", 1.0, 0.0)
+        for clamp in src.clamps:  # read the way the engine reads it: say which of its clamps fired
+            click.echo(f"ssskit: note: {material}: read as {src.engine} reads it: {clamp}", err=True)
         if used == "burley":
             return src.profile, None, src.name, used
         mat = src.material()
