@@ -311,6 +311,12 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
     prof, mat, src_name, used_model = _material_source(ctx, fmt, material, albedo, mfp, dmfp, eta, g, model)
     have_material = material is not None or prof is not None
     m, params, tap_count = _check_options(ctx, fmt, kernel_spec, "given" if have_material else None, taps, out)
+    if m is not None and not m.uses_profile:  # as `ssskit kernel` refuses it: the header named an unused material
+        for name, flag in (("material", "--material"), ("albedo", "--albedo"), ("model", "--model"),
+                           ("photons", "--photons"), ("grid_fraction", "--grid-fraction")):
+            if given(ctx, name):
+                raise SsskitError(f"--kernel {m.name} is a fixed engine kernel that reads no profile; drop {flag} "
+                                  "(its fit to a material's profile is --kernel burley_fit)")
     check_distinct(out, material, what="--out")
     suffix = str(out).lower().rsplit(".", 1)[-1]
     if given(ctx, "unreal_form") and not (fmt == "unreal" and suffix == "py"):
