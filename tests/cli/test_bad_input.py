@@ -62,6 +62,10 @@ BAD = [
     (["profile", "--material", "skin1", "--model", "burley", "--gaussians", "3"], "--gaussians does not apply"),
     (["profile", "--material", "skin1", "--model", "dipole", "--albedo-source", "dipole"], "--albedo-source does not apply"),
     (["profile", "--material", "skin1", "--model", "dipole", "--grid-fraction", "0.999"], "--grid-fraction does not apply"),
+    # accepted silently: the dipole's A runs no Monte Carlo, the GLSL engine no numba threads
+    (["profile", "--material", "skin1", "--model", "burley", "--albedo-source", "dipole", "--photons", "5000"],
+     "--photons does not apply to --albedo-source dipole"),
+    (["simulate", "--material", "skin1", "--backend", "gl", "--threads", "2"], "--threads does not apply to --backend gl"),
     (["render", "--scene", "slab", "--reference", "--reference-rel-se", "0"], "--reference-rel-se"),
     (["render", "--scene", "slab", "--reference", "--reference-max-spp", "0"], "--reference-max-spp"),
     (["simulate", "--material", "skin1,marble", "--grid-fraction", "0.999"], "single material"),
