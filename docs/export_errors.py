@@ -2,7 +2,7 @@
 or separable (Gaussian-sum) model, against the source profile, per material and engine.
 
     PYTHONPATH=src python docs/export_errors.py                      # dipole sources, markdown
-    PYTHONPATH=src python docs/export_errors.py --model montecarlo   # MCML sources (cached, 200k photons)
+    PYTHONPATH=src python docs/export_errors.py --model montecarlo   # MCML sources (the shipped 10^7 photons)
     PYTHONPATH=src python docs/export_errors.py --full               # one row per engine and model
     PYTHONPATH=src python docs/export_errors.py --json               # one JSON object
 

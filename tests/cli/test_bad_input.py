@@ -15,7 +15,8 @@ SETUP = {"f.txt": "not a folder", "g.exr": "not read", "m.json": '{"sigma_a": 0.
          "eta1e6.json": '{"sigma_a": 0.1, "sigma_s": 1.0, "eta": 1e6}',
          "huge.json": '{"sigma_a": 1e300, "sigma_s": 1e300}',
          "tiny.json": '{"sigma_a": 1e-300, "sigma_s": 1e-300}',
-         "absorber.json": '{"sigma_a": [0.5, 0.6, 0.7], "sigma_s": 0, "name": "absorber"}'}
+         "absorber.json": '{"sigma_a": [0.5, 0.6, 0.7], "sigma_s": 0, "name": "absorber"}',
+         "absorbers.toml": "[[layers]]\nsigma_a = 0.1\nsigma_s = 0\nthickness_mm = 0.5\n[[layers]]\nsigma_a = 0.1\nsigma_s = 0\n"}
 
 
 @pytest.fixture
@@ -61,6 +62,10 @@ BAD = [
     (["profile", "--material", "skin1", "--model", "burley", "--gaussians", "3"], "--gaussians does not apply"),
     (["profile", "--material", "skin1", "--model", "dipole", "--albedo-source", "dipole"], "--albedo-source does not apply"),
     (["profile", "--material", "skin1", "--model", "dipole", "--grid-fraction", "0.999"], "--grid-fraction does not apply"),
+    # accepted silently: the dipole's A runs no Monte Carlo, the GLSL engine no numba threads
+    (["profile", "--material", "skin1", "--model", "burley", "--albedo-source", "dipole", "--photons", "5000"],
+     "--photons does not apply to --albedo-source dipole"),
+    (["simulate", "--material", "skin1", "--backend", "gl", "--threads", "2"], "--threads does not apply to --backend gl"),
     (["render", "--scene", "slab", "--reference", "--reference-rel-se", "0"], "--reference-rel-se"),
     (["render", "--scene", "slab", "--reference", "--reference-max-spp", "0"], "--reference-max-spp"),
     (["simulate", "--material", "skin1,marble", "--grid-fraction", "0.999"], "single material"),
@@ -86,6 +91,13 @@ BAD = [
     (["export", "--material", "absorber.json", "--format", "glsl-shader", "--pass", "transmission", "--out", "t.comp"],
      "the mcml transmission model needs a scattering material"),
     (["profile", "--material", "absorber.json", "--model", "dipole"], "the dipole model needs a scattering material"),
+    # simulate exited 0 with 'total Rd = 0.00000 +- nan' and wrote the file (every backend, and in a sweep)
+    (["simulate", "--material", "absorber.json", "--photons", "1000", "--out", "o.npz"],
+     "the montecarlo model needs a scattering material: sigma_s is 0 in channel R of 'absorber'"),
+    (["simulate", "--material", "absorbers.toml", "--photons", "1000", "--backend", "gl"],
+     "the montecarlo model needs a scattering material"),
+    (["simulate", "--material", "skin1,absorber.json", "--photons", "1000", "--jobs", "2"],
+     "the montecarlo model needs a scattering material"),
     (["kernel", "--material", "skin1", "--method", "preintegrated", "--rank", "3"], "takes no parameter"),
     (["kernel", "--material", "skin1", "--method", "svd:3", "--rank", "2"], "give the rank once"),
     (["kernel", "--material", "skin1", "--method", "guided", "--k", "9"], "--k: guide exponent"),

@@ -235,6 +235,17 @@ def test_simulate_json_and_sweep_identity(capsys, tmp_path, monkeypatch):
         assert z["total_Rd"][1] == pytest.approx(single["channels"]["G"]["total_Rd"])
 
 
+def test_simulate_of_one_batch_says_it_has_no_standard_error(capsys, tmp_path, monkeypatch):
+    """1,000 photons in batches of 10,000: one batch, no spread between batches: the text said '± nan'."""
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    code, out, _ = run(capsys, "simulate", "--material", "skin1", "--channel", "R", "--photons", "1000")
+    assert code == 0 and "nan" not in out
+    assert "± n/a (one batch: give --photons >= 2 x --batch-size)" in out
+    code, out, _ = run(capsys, "simulate", "--material", "skin1", "--channel", "R", "--photons", "2000",
+                       "--batch-size", "1000", "--json")
+    assert json.loads(out)["channels"]["R"]["total_Rd_se"] > 0  # two batches: a standard error
+
+
 @pytest.mark.parametrize(
     "args, fragment",
     [

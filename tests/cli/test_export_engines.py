@@ -96,8 +96,18 @@ def test_artists_terms(run, tmp_path):
 
 
 BAD_EXPORT = [
-    (["--albedo", "1.2,0.5,0.3", "--dmfp", "1", "--format", "blender", "--out", "o.json"], "must lie in (0, 1)"),
-    (["--albedo", "0,0.5,0.3", "--mfp", "1", "--format", "unity", "--out", "o.json"], "must lie in (0, 1)"),
+    (["--albedo", "1.2,0.5,0.3", "--dmfp", "1", "--format", "blender", "--out", "o.json"], "must lie in (0, 1]"),
+    (["--albedo", "0,0.5,0.3", "--mfp", "1", "--format", "unity", "--out", "o.json"], "must lie in (0, 1]"),
+    # an engine without a cited clamp: its albedo outside Burley's (0, 1] was clamped silently to 1
+    (["--material", "alb2_blender.json", "--format", "unity", "--out", "o.json"],
+     "'alb2_blender.json': the blender albedo must lie in (0, 1]"),
+    (["--material", "alb0_unity.json", "--format", "blender", "--out", "o.json"],
+     "'alb0_unity.json': the unity albedo must lie in (0, 1]"),
+    # an HDRP .asset takes --albedo; its distances came from the file and --dmfp was ignored silently
+    (["--material", "good.asset", "--albedo", "0.5", "--dmfp", "1", "--format", "blender", "--out", "o.json"],
+     "--dmfp does not apply to an engine file"),
+    (["--material", "good.asset", "--albedo", "0.5", "--g", "0.5", "--format", "blender", "--out", "o.json"],
+     "--g does not apply to an engine file"),
     (["--albedo", "0.5", "--dmfp", "0,1,1", "--format", "blender", "--out", "o.json"], "must be > 0 mm"),
     (["--albedo", "0.5", "--mfp", "1,-1,1", "--format", "unreal", "--out", "o.json"], "must be > 0 mm"),
     (["--albedo", "0.5", "--format", "unreal", "--out", "o.json"], "need --albedo and one of --mfp"),
@@ -136,6 +146,9 @@ def engine_files(workdir):  # noqa: F811
     (workdir / "other.asset").write_text(asset.replace("b2686e09ec7aef44bad2843e4416f057",
                                                        "0123456789abcdef0123456789abcdef"))
     (workdir / "other.json").write_text(json.dumps({"engine": "godot", "albedo": [0.5, 0.5, 0.5]}))
+    for engine, a in (("blender", 2.0), ("unity", 0.0)):
+        params = engine_parameters(prof, engine, get_material("skin1"))
+        (workdir / f"alb{a:g}_{engine}.json").write_text(json.dumps(params | {"base_color": [a, 0.5, 0.5]}))
     if HAVE_MX:
         from ssskit.export.materialx import materialx_document
 
@@ -157,3 +170,18 @@ def test_grid_fraction_widens_the_monte_carlo_grid(run, tmp_path):
     _ok(run, *common, "--grid-fraction", "0.999", "--out", tmp_path / "b.json")
     a, b = (json.loads((tmp_path / f).read_text())["base_color"] for f in ("a.json", "b.json"))
     assert b[0] > a[0] * 1.01  # the issue measured 2.3 % in red
+
+
+def test_an_unreal_albedo_past_the_engines_clamp_is_read_as_ue_reads_it(run, tmp_path):
+    """UE clamps SurfaceAlbedo to [0.009, 1] (SubsurfaceProfile.cpp CreateTexture): an albedo of 2 reads as 1,
+    as the engine would render it, and stderr says which clamps fired (it was silent)."""
+    _ok(run, "export", "--material", "marble", "--model", "dipole", "--format", "unreal", "--out", tmp_path / "u.json")
+    data = json.loads((tmp_path / "u.json").read_text())
+    data["mfp"]["SurfaceAlbedo"] = [2.0, 0.5, 0.004]
+    (tmp_path / "alb2.json").write_text(json.dumps(data))
+    code, out, err = run("export", "--material", tmp_path / "alb2.json", "--format", "blender", "--out", tmp_path / "b.json")
+    assert code == 0, err
+    assert "SurfaceAlbedo[R] 2 -> 1 (UE clamps to [0.009, 1])" in err
+    assert "SurfaceAlbedo[B] 0.004 -> 0.009 (UE clamps to [0.009, 1])" in err
+    assert "SurfaceAlbedo[G]" not in err
+    np.testing.assert_allclose(json.loads((tmp_path / "b.json").read_text())["base_color"], [1.0, 0.5, 0.009], rtol=1e-6)

@@ -58,8 +58,13 @@ BAD = [
     (["--c", "2"], "--c: c must lie in the open interval (2, 3)"),
     (["--c", "2.6"], "--c: c is the xie sampler's constant (Xie 2020 Eq. 21), unused by the exact sampler"),
     (["--sampler", "golubev", "--c", "2.6"], "--c: c is the xie sampler's constant (Xie 2020 Eq. 21), unused by the golubev sampler"),
-    (["--albedo", "-0.2", "--dmfp", "1"], "--albedo/--dmfp: Burley albedo must lie in [0, 1]"),
+    (["--albedo", "-0.2", "--dmfp", "1"], "--albedo/--dmfp: Burley albedo must lie in (0, 1]"),
+    # A = 0 (R(r) = 0) was rendered while export --albedo refused it
+    (["--albedo", "0", "--dmfp", "1"], "--albedo/--dmfp: Burley albedo must lie in (0, 1]"),
     (["--albedo", "0.5", "--dmfp", "1,-2,3"], "--albedo/--dmfp: diffuse mean free path must be > 0 mm"),
+    # 1e12 mm (d = 2.79e11 mm) and 1e-9 mm rendered: the mean free paths every model takes
+    (["--albedo", "0.5", "--dmfp", "1e12"], "diffuse mean free path must be > 0 mm, in [1e-06, 1e+06] mm"),
+    (["--albedo", "0.5", "--dmfp", "1,1,1e-9"], "diffuse mean free path must be > 0 mm, in [1e-06, 1e+06] mm"),
     (["--albedo", "0.5,0.5", "--dmfp", "1"], "give one number or three"),
     (["--albedo", "0.5"], "--albedo and --dmfp go together"),
     (["--taps", "5"], "--taps applies to --pass separable"),

@@ -114,10 +114,13 @@ def test_burley_fit_inversion():
 
 
 @pytest.mark.parametrize("kw,fragment", [
-    (dict(albedo=(1.2, 0.5, 0.3)), "must lie in (0, 1)"),
-    (dict(albedo=(0.0, 0.5, 0.3)), "must lie in (0, 1)"),
+    (dict(albedo=(1.2, 0.5, 0.3)), "must lie in (0, 1]"),
+    (dict(albedo=(0.0, 0.5, 0.3)), "must lie in (0, 1]"),  # A = 0: R(r) = 0, as render's Burley pass refuses it
     (dict(distance_mm=(1.0, 0.0, 1.0)), "must be > 0 mm"),
     (dict(distance_mm=(1.0, -2.0, 1.0)), "must be > 0 mm"),
+    # the export wrote subsurface_scale 3.6e6 from --dmfp 1e9: the mean free paths every model takes
+    (dict(distance_mm=(1e9, 1.0, 1.0)), "in [1e-06, 1e+06] mm"),
+    (dict(distance_mm=(1.0, 1e-9, 1.0), kind="mfp"), "the mfp distance must be > 0 mm, in [1e-06, 1e+06] mm"),
     (dict(eta=0.9), "eta must be >= 1"),
     (dict(g=1.0), "|g| < 1"),
     (dict(kind="radius"), "distance kind"),
@@ -127,3 +130,9 @@ def test_domain(kw, fragment):
     with pytest.raises(MaterialError, match=None) as info:
         ArtistMaterial(**{**base, **kw})
     assert fragment in str(info.value)
+
+
+def test_the_domain_ends_are_taken():
+    """A = 1 (no absorption: Burley's R(r) integrates to 1) and the range's ends are inside."""
+    a, d = burley_from_artist(ArtistMaterial("x", (1.0, 0.5, 0.1), (1e-6, 1.0, 1e6), "dmfp"))
+    np.testing.assert_allclose(d[0], 1e-6 / 23.6512, rtol=1e-5)  # 3.5 + 100 (1 - 0.33)^4 = 23.6512

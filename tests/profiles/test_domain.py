@@ -109,3 +109,20 @@ def test_montecarlo_refuses_a_half_space_that_absorbs_nothing():
     check_montecarlo(slab)
     rd = profile_for_material(slab, "montecarlo", photons=2000).total_rd()
     assert np.all((rd > 0.3) & (rd < 1.0))  # a 2 mm slab of 1 mm mean free paths reflects part, transmits the rest
+
+
+def test_the_simulation_entry_points_refuse_a_material_that_does_not_scatter():
+    """sigma_s = 0 gave total Rd 0 +- NaN from simulate_material (a layered material: in every layer);
+    simulate_many refuses before starting any job."""
+    from ssskit.materials import LayeredMaterial
+    from ssskit.profiles.montecarlo import config_for_material, simulate_many, simulate_material
+
+    absorber = _mat(sigma_s=0.0)
+    layered = LayeredMaterial("two", (_mat(sigma_s=(0.0, 1.0, 1.0), thickness_mm=0.5), _mat(sigma_s=(0.0, 0.0, 1.0))))
+    for call in (lambda: check_montecarlo(absorber), lambda: config_for_material(absorber, 0, 1000),
+                 lambda: simulate_material(absorber, photons=1000, use_cache=False),
+                 lambda: simulate_material(layered, photons=1000, use_cache=False, backend="gl"),
+                 lambda: simulate_many([MATERIALS.get("skin1"), absorber], photons=1000, jobs=2)):
+        with pytest.raises(ProfileError, match="the montecarlo model needs a scattering material: sigma_s is 0 in channel R"):
+            call()
+    check_montecarlo(LayeredMaterial("one", (_mat(sigma_s=(0.0, 1.0, 1.0), thickness_mm=0.5), _mat(sigma_s=(1.0, 0.0, 0.0)))))

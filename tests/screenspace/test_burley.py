@@ -52,6 +52,28 @@ def test_bad_params(albedo, dmfp, match):
         BurleyParams.from_dmfp(albedo, dmfp)
 
 
+def test_params_take_what_eq5_gives_from_the_mean_free_paths_every_model_takes():
+    """docs/models.md: A in (0, 1], dmfp in [1e-6, 1e6] mm, d in that range over Eq. 5's scalings,
+    whose extremes over A in [0, 1] are computed here from the three configurations."""
+    from ssskit.profiles import burley_d
+    from ssskit.profiles.domain import BURLEY_D_RANGE_MM, BURLEY_EQ5_SCALING_RANGE, MFP_RANGE_MM
+
+    a = np.linspace(0.0, 1.0, 100_001)
+    s = np.concatenate([1.0 / burley_d(a, 1.0, c) for c in ("searchlight", "diffuse-transmission", "dmfp")])
+    assert BURLEY_EQ5_SCALING_RANGE[0] == pytest.approx(s.min(), rel=1e-9)
+    assert BURLEY_EQ5_SCALING_RANGE[1] == pytest.approx(s.max(), rel=1e-9)
+    np.testing.assert_allclose(BURLEY_D_RANGE_MM, (MFP_RANGE_MM[0] / s.max(), MFP_RANGE_MM[1] / s.min()), rtol=1e-9)
+    for albedo, dmfp in ((0.0, 1.0), (0.5, 1e12), (0.5, 1e-9), (0.5, (1.0, 1.0, 1.5e6))):
+        with pytest.raises(PassError, match=r"albedo must lie in \(0, 1\]|in \[1e-06, 1e\+06\] mm"):
+            BurleyParams.from_dmfp(albedo, dmfp)
+    for d in (BURLEY_D_RANGE_MM[0] / 2, BURLEY_D_RANGE_MM[1] * 2):
+        with pytest.raises(PassError, match="Burley length d must be > 0 mm, in"):
+            BurleyParams((0.5, 0.5, 0.5), (1.0, d, 1.0))
+    BurleyParams.from_dmfp(1.0, MFP_RANGE_MM[0])
+    BurleyParams.from_dmfp(1.0, MFP_RANGE_MM[1])
+    BurleyParams((0.5, 0.5, 0.5), (BURLEY_D_RANGE_MM[0], 1.0, BURLEY_D_RANGE_MM[1]))
+
+
 def test_profile_that_is_not_burley_is_refused():
     from ssskit.profiles import profile_for_material
 

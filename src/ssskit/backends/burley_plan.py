@@ -168,6 +168,14 @@ R2_A1 = 0xC13FA9A9  # round(2^32 / g), g the plastic number
 R2_A2 = 0x91E10DA6  # round(2^32 / g^2)
 
 
+def _check_albedo(a: NDArray[np.float64]) -> None:
+    """Burley's surface albedo A in (0, 1] per channel (:mod:`ssskit.profiles.domain`): A = 0 gives R(r) = 0
+    (Xie 2020 Eq. 4), no subsurface light, refused like a material that does not scatter."""
+    if np.any(a <= 0) or np.any(a > 1):
+        raise PassError(f"Burley albedo must lie in (0, 1] per channel (A = 0 reflects no light beneath the surface: "
+                        f"R(r) = 0), got {tuple(a.tolist())}")
+
+
 @dataclass(frozen=True, eq=False)
 class BurleyParams:
     """One profile id's Burley parameters per RGB channel: surface albedo A and length d (mm).
@@ -182,24 +190,31 @@ class BurleyParams:
     d_mm: tuple[float, float, float]
 
     def __post_init__(self) -> None:
+        from ..profiles.domain import BURLEY_D_RANGE_MM
+
         a = _rgb("albedo", self.albedo)
         d = _rgb("d", self.d_mm)
-        if np.any(a < 0) or np.any(a > 1):
-            raise PassError(f"Burley albedo must lie in [0, 1] per channel, got {tuple(a.tolist())}")
-        if np.any(d <= 0):
-            raise PassError(f"Burley length d must be > 0 mm per channel, got {tuple(d.tolist())}")
+        _check_albedo(a)
+        lo, hi = BURLEY_D_RANGE_MM
+        if np.any(d < lo) or np.any(d > hi):
+            raise PassError(f"Burley length d must be > 0 mm, in [{lo:.3g}, {hi:.3g}] mm (what Xie 2020 Eq. 5 gives from "
+                            f"mean free paths in the [1e-06, 1e+06] mm every model takes, docs/models.md) per channel, "
+                            f"got {tuple(d.tolist())}")
         object.__setattr__(self, "albedo", tuple(float(v) for v in a))
         object.__setattr__(self, "d_mm", tuple(float(v) for v in d))
 
     @classmethod
     def from_dmfp(cls, albedo: ArrayLike, dmfp_mm: ArrayLike) -> "BurleyParams":
         """d = dmfp / (3.5 + 100 (A - 0.33)^4) per channel (Xie 2020, Eq. 5, configuration 3)."""
+        from ..profiles.domain import MFP_RANGE_MM
+
         a = _rgb("albedo", albedo)
         ell = _rgb("dmfp", dmfp_mm)
-        if np.any(a < 0) or np.any(a > 1):
-            raise PassError(f"Burley albedo must lie in [0, 1] per channel, got {tuple(a.tolist())}")
-        if np.any(ell <= 0):
-            raise PassError(f"diffuse mean free path must be > 0 mm per channel, got {tuple(ell.tolist())}")
+        _check_albedo(a)
+        lo, hi = MFP_RANGE_MM
+        if np.any(ell < lo) or np.any(ell > hi):
+            raise PassError(f"diffuse mean free path must be > 0 mm, in [{lo:g}, {hi:g}] mm (the mean free paths every "
+                            f"model takes, docs/models.md) per channel, got {tuple(ell.tolist())}")
         d = ell / (3.5 + 100.0 * (a - 0.33) ** 4)
         return cls((a[0], a[1], a[2]), (d[0], d[1], d[2]))
 

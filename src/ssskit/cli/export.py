@@ -118,6 +118,11 @@ def _material_source(ctx: click.Context, fmt: str, material: str | None, albedo:
             raise SsskitError(f"{flag} belongs to artists' terms (--albedo with --mfp or --dmfp)")
     if artist and material is not None and not (engine_file and str(material).lower().endswith(".asset")):
         raise SsskitError("give the material once: --material or artists' terms (--albedo with --mfp or --dmfp)")
+    if engine_file:  # an HDRP .asset takes --albedo only: the file holds the distances and the index
+        for name, flag in (("mfp", "--mfp"), ("dmfp", "--dmfp"), ("eta", "--eta"), ("g", "--g")):
+            if given(ctx, name):
+                raise SsskitError(f"give the material once: {flag} does not apply to an engine file ({material}), "
+                                  "which holds its own parameters (an HDRP .asset takes only --albedo)")
     model_given = given(ctx, "model")
     if engine_file or artist:
         used = model.lower() if model_given else "burley"
@@ -133,6 +138,8 @@ def _material_source(ctx: click.Context, fmt: str, material: str | None, albedo:
         src = read_engine_file(material, albedo=albedo)
         if albedo is not None:
             check_artist(albedo, src.d_mm, "dmfp", 1.0, 0.0)
+        for clamp in src.clamps:  # read the way the engine reads it: say which of its clamps fired
+            click.echo(f"ssskit: note: {material}: read as {src.engine} reads it: {clamp}", err=True)
         if used == "burley":
             return src.profile, None, src.name, used
         mat = src.material()
@@ -180,7 +187,7 @@ def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, materi
         import importlib.util
 
         if importlib.util.find_spec("MaterialX") is None:
-            raise SsskitError("--format materialx needs the materialx package (pip install 'materialx>=1.39,<1.40')")
+            raise SsskitError("--format materialx needs the materialx package (pip install 'materialx>=1.39,<1.40', the extra \".[materialx]\")")
     if fmt == "hlsl-shader":
         from ..export.shaders import tools_available
 
@@ -248,7 +255,7 @@ def _check_options(ctx: click.Context, fmt: str, kernel_spec: str | None, materi
               help="Preset name, material file, or an engine file to read back (an ssskit engine .json, an HDRP "
                    ".asset with --albedo, a .mtlx); not needed by jimenez2012 or artist presets.")
 @click.option("--albedo", type=Triple(), default=None,
-              help="Artists' terms: surface albedo R,G,B in (0, 1) (with --mfp or --dmfp).")
+              help="Artists' terms: surface albedo R,G,B in (0, 1] (with --mfp or --dmfp, mm, in [1e-6, 1e6]).")
 @click.option("--mfp", type=Triple(), default=None, help="Artists' terms: volume mean free path 1/sigma_t, mm.")
 @click.option("--dmfp", type=Triple(), default=None,
               help="Artists' terms: diffuse mean free path, mm (Burley's convention: d = dmfp / (3.5 + 100 (A - 0.33)^4)).")
@@ -304,6 +311,12 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
     prof, mat, src_name, used_model = _material_source(ctx, fmt, material, albedo, mfp, dmfp, eta, g, model)
     have_material = material is not None or prof is not None
     m, params, tap_count = _check_options(ctx, fmt, kernel_spec, "given" if have_material else None, taps, out)
+    if m is not None and not m.uses_profile:  # as `ssskit kernel` refuses it: the header named an unused material
+        for name, flag in (("material", "--material"), ("albedo", "--albedo"), ("model", "--model"),
+                           ("photons", "--photons"), ("grid_fraction", "--grid-fraction")):
+            if given(ctx, name):
+                raise SsskitError(f"--kernel {m.name} is a fixed engine kernel that reads no profile; drop {flag} "
+                                  "(its fit to a material's profile is --kernel burley_fit)")
     check_distinct(out, material, what="--out")
     suffix = str(out).lower().rsplit(".", 1)[-1]
     if given(ctx, "unreal_form") and not (fmt == "unreal" and suffix == "py"):

@@ -109,6 +109,9 @@ def profile(ctx: click.Context, material: str | None, model: str, configuration:
     from ..io import save_profile_table
 
     check_material_for_model(ctx, material, model)
+    if albedo_source == "dipole" and model.lower() == "burley" and given(ctx, "photons"):
+        raise SsskitError("--photons does not apply to --albedo-source dipole (A from the dipole's closed form, no "
+                          "Monte Carlo run)")
     if r_max is not None and not (0 < r_max <= R_MAX_MM):
         raise SsskitError(f"--r-max must be a positive number of mm up to {R_MAX_MM:g} (10 times the longest mean free "
                           f"path a model takes), got {r_max:g}")
@@ -217,6 +220,9 @@ def simulate(material: list[str], channel: str, photons: int, seed: int, threads
     if not single and (no_cache or threads is not None or grid_fraction is not None or backend != "numba"):
         raise SsskitError("--no-cache, --threads, --backend and --grid-fraction apply to a single material (a sweep "
                           "runs one numba thread per job)")
+    if backend == "gl" and threads is not None:
+        raise SsskitError("--threads does not apply to --backend gl (the GLSL engine runs on the GPU or llvmpipe, "
+                          "not on numba's threads)")
     for m in mats:  # photons, seed and batch size checked by the engine's own configuration, before any work
         config_for_material(m, 0, photons, seed, batch_size, roughness=roughness)
     if single:
@@ -260,7 +266,10 @@ def simulate(material: list[str], channel: str, photons: int, seed: int, threads
         return
     for name, d in data.items():
         for ch, c in d["channels"].items():
-            click.echo(f"{name:<10} {ch}  total Rd with overflow = {c['total_Rd']:.5f} ± {c['total_Rd_se']:.5f}, "
+            se = c["total_Rd_se"]  # the batches' spread: none from a single batch (JSON null)
+            se_text = (f"{se:.5f}" if se is not None and math.isfinite(se) else
+                       "n/a (one batch: give --photons >= 2 x --batch-size)")
+            click.echo(f"{name:<10} {ch}  total Rd with overflow = {c['total_Rd']:.5f} ± {se_text}, "
                        f"in grid = {c['total_Rd_in_grid']:.5f}, beyond {c['grid_mm']:.4g} mm = {c['overflow']:.2e}   "
                        f"Rsp = {c['Rsp']:.4f}")
         rate = d["photons_per_second"]

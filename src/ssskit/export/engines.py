@@ -318,8 +318,9 @@ def _rgb(channels: Any, model: str, name: str, prov: dict) -> RGBProfile:
 def _burley_rgb(a: Any, d: Any, name: str, engine: str) -> RGBProfile:
     from ..profiles.burley import BurleyProfile
 
-    return _rgb([BurleyProfile(float(min(max(a[c], 0.0), 1.0)), float(d[c])) for c in range(3)], "burley", name,
-                {"engine": engine})
+    # no clamp here: Unreal's reader clamps SurfaceAlbedo as UE does; another engine's albedo outside Burley's
+    # (0, 1] is refused (ssskit.export.readers)
+    return _rgb([BurleyProfile(float(a[c]), float(d[c])) for c in range(3)], "burley", name, {"engine": engine})
 
 
 def reimport(params: dict[str, Any], model: str = "burley", albedo: Any = None) -> RGBProfile:

@@ -133,8 +133,9 @@ def read_materialx(path: str | Path) -> dict[str, Any]:
         radius = float(inputs[rad_name].getValue()) * length(inputs[rad_name])
         rel = np.array(list(inputs[scl_name].getValue()), dtype=float) * length(inputs[scl_name])
         ell = radius * rel
-        if np.any(~np.isfinite(ell)) or np.any(ell <= 0) or np.any(a <= 0) or np.any(a >= 1):
-            raise SsskitError(f"{str(path)!r}: the {cat} needs 0 < subsurface_color < 1 and a positive radius")
+        if np.any(~np.isfinite(ell)) or np.any(ell <= 0) or np.any(~np.isfinite(a)) or np.any(a <= 0) or np.any(a > 1):
+            raise SsskitError(f"{str(path)!r}: the {cat} needs 0 < subsurface_color <= 1 (Burley's albedo A) and a "
+                              "positive radius")
         return {"albedo": a, "d_mm": ell / searchlight_scaling(a), "name": node.getName(), "shader": cat}
     raise SsskitError(f"{str(path)!r} has no open_pbr_surface or standard_surface node")
 

@@ -4,6 +4,14 @@ engine reads them (:func:`ssskit.export.reimport`, :func:`~ssskit.export.unity.r
 :func:`~ssskit.export.materialx.read_materialx`), and from there a physical :class:`~ssskit.materials.Material`
 through the Monte Carlo inversion of :mod:`ssskit.profiles.artist` (as a diffuse mean free path,
 l_d = d (3.5 + 100 (A - 0.33)^4), Xie 2020 Eq. 5 Theta_3).
+
+Values outside Burley's domain: an Unreal file is read the way UE reads it, its clamps included
+(``SubsurfaceProfile.cpp`` ``CreateTexture``: SurfaceAlbedo to [0.009, 1], MeanFreePathColor to >= 0.009;
+:mod:`ssskit.export.unreal`), and each clamp that fires is listed in :attr:`EngineSource.clamps` (the CLI
+says so on stderr, as the export lists them under ``clamps``). No clamp of the other engines' readers is
+cited here (Unity's albedo is the material's base colour, given with ``--albedo``; Blender's and
+MaterialX's are node inputs), so there an albedo outside (0, 1] (A = 0 reflects no light beneath the
+surface) or a length d that is not a positive finite number is refused, naming the file and the channel.
 """
 
 from __future__ import annotations
@@ -32,6 +40,8 @@ class EngineSource:
     albedo: np.ndarray
     d_mm: np.ndarray
     eta: float | None = None
+    #: the engine clamps that fired reading the file (Unreal's: module docstring)
+    clamps: tuple[str, ...] = ()
 
     def profile(self) -> Any:
         from ..profiles import BurleyProfile, RGBProfile
@@ -105,13 +115,19 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
         if albedo is None:
             raise SsskitError(f"{str(p)!r}: a DiffusionProfileSettings asset holds no albedo (HDRP takes it from "
                               "the material's base colour): give --albedo R,G,B, or read ssskit's JSON export")
+        _check_burley_inputs(p, engine, np.asarray(albedo, dtype=float), d)
         return EngineSource("unity", u["name"], np.asarray(albedo, dtype=float), d, u["ior"])
     if engine == "materialx":
         from .materialx import read_materialx
 
         m = read_materialx(p)
         return EngineSource("materialx", str(m["name"]), m["albedo"], m["d_mm"])
+    clamps: tuple[str, ...] = ()
     try:
+        if engine == "unreal":
+            clamps = _unreal_clamps(data["mfp"])
+        else:
+            _check_burley_inputs(p, engine, np.asarray(data["base_color"], dtype=float))
         prof = reimport(data, "burley")
     except (KeyError, TypeError, ValueError) as exc:
         raise SsskitError(f"{str(p)!r} lacks the {engine} parameters ssskit writes ({exc})") from None
@@ -120,10 +136,42 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
     chans = [ch for ch in prof.channels if isinstance(ch, BurleyProfile)]  # reimport gives Burley channels
     a = np.array([ch.albedo for ch in chans])
     d = np.array([ch.d for ch in chans])
+    _check_burley_inputs(p, engine, a, d)
     eta = data.get("IOR", data.get("ior"))
     name = str(data.get("source_profile", {}).get("name", p.stem)) if isinstance(data.get("source_profile"), dict) \
         else p.stem
-    return EngineSource(engine, name, a, d, float(eta) if isinstance(eta, (int, float)) else None)
+    return EngineSource(engine, name, a, d, float(eta) if isinstance(eta, (int, float)) else None, clamps)
+
+
+def _unreal_clamps(block: dict[str, Any]) -> tuple[str, ...]:
+    """The clamps UE applies reading a Burley block (module docstring), as the export words them."""
+    from .unreal import COLOR_BIAS
+
+    out = []
+    for field, hi in (("SurfaceAlbedo", 1.0), ("MeanFreePathColor", None)):
+        v = np.asarray(block[field], dtype=np.float32).astype(float)
+        if v.shape != (3,) or not np.all(np.isfinite(v)):
+            raise ValueError(f"{field} must be 3 finite numbers, got {block[field]!r}")
+        for c in range(3):
+            eng = min(max(v[c], COLOR_BIAS), hi) if hi is not None else max(v[c], COLOR_BIAS)
+            if eng != v[c]:
+                rng = f"[{COLOR_BIAS:g}, {hi:g}]" if hi is not None else f">= {COLOR_BIAS:g}"
+                out.append(f"{field}[{'RGB'[c]}] {v[c]:.4g} -> {eng:.4g} (UE clamps to {rng})")
+    return tuple(out)
+
+
+def _check_burley_inputs(path: Path, engine: str, albedo: np.ndarray, d_mm: np.ndarray | None = None) -> None:
+    """Burley's domain for an engine without a cited clamp (module docstring): A in (0, 1], d > 0 finite."""
+    for c, v in enumerate(np.asarray(albedo, dtype=float).reshape(-1)[:3]):
+        if not (np.isfinite(v) and 0.0 < v <= 1.0):
+            raise SsskitError(f"{str(path)!r}: the {engine} albedo must lie in (0, 1] (Burley's A; 0 reflects no light "
+                              f"beneath the surface, and {engine}'s reader has no clamp ssskit could apply), got {v:g} "
+                              f"in channel {'RGB'[c]}")
+    if d_mm is not None:
+        for c, v in enumerate(d_mm):
+            if not (np.isfinite(v) and v > 0.0):
+                raise SsskitError(f"{str(path)!r}: Burley's d must be a positive number of mm, got {v:g} in channel "
+                                  f"{'RGB'[c]}")
 
 
 __all__ = ["ENGINE_NAMES", "ENGINE_SUFFIXES", "EngineSource", "is_engine_file", "read_engine_file"]

@@ -155,7 +155,7 @@ def check_model_domain(material: Material | LayeredMaterial | str, model: str) -
     """Refuse a material outside ``model``'s valid domain (:mod:`ssskit.profiles.domain`) without
     computing anything: the check :func:`profile_for_material` makes, for callers that build the
     profile later (a render plans every input first)."""
-    from .domain import check_montecarlo, check_scatters
+    from .domain import check_montecarlo
 
     MODELS.get(model)  # an unknown model fails here with the list of models
     key = model.strip().lower()
@@ -163,7 +163,6 @@ def check_model_domain(material: Material | LayeredMaterial | str, model: str) -
         return
     mat = get_material(material)
     if key == "montecarlo":
-        check_scatters(key, mat)
         check_montecarlo(mat)
     elif isinstance(mat, LayeredMaterial):
         raise ProfileError(f"layered material {mat.name!r} is only supported by the montecarlo model")

@@ -45,7 +45,7 @@ DISTANCE_KINDS = ("mfp", "dmfp")
 
 @dataclass(frozen=True)
 class ArtistMaterial:
-    """An artist's description: surface albedo A (0 < A < 1), a length per channel (mm) of ``kind``
+    """An artist's description: surface albedo A (0 < A <= 1), a length per channel (mm) of ``kind``
     (``mfp``: volume mean free path 1/sigma_t; ``dmfp``: diffuse mean free path, Burley's convention),
     relative index eta (>= 1) and anisotropy g (|g| < 1)."""
 
@@ -71,17 +71,23 @@ def _triple(name: str, v: Any) -> tuple[float, float, float]:
 
 
 def check_artist(albedo: Any, distance_mm: Any, kind: str, eta: float, g: float) -> None:
-    """The model's valid domain, naming the offending value: 0 < A < 1, distance > 0 (finite), eta >= 1,
-    |g| < 1, kind mfp or dmfp."""
+    """The model's valid domain, naming the offending value: 0 < A <= 1 (Burley's albedo,
+    :mod:`ssskit.profiles.domain`: A = 0 reflects no light beneath the surface), distance in the mean
+    free paths every model takes (:data:`~ssskit.profiles.domain.MFP_RANGE_MM`), eta >= 1, |g| < 1,
+    kind mfp or dmfp."""
+    from .domain import MFP_RANGE_MM
+
     a = _triple("albedo", albedo)
     d = _triple("distance", distance_mm)
     for c, v in enumerate(a):
-        if not (math.isfinite(v) and 0.0 < v < 1.0):
-            raise MaterialError(f"surface albedo must lie in (0, 1) (a reflectance of a scattering medium), got "
-                                f"{v} in channel {'RGB'[c]}")
+        if not (math.isfinite(v) and 0.0 < v <= 1.0):
+            raise MaterialError(f"surface albedo must lie in (0, 1] (a reflectance of a scattering medium; A = 0 "
+                                f"reflects no light beneath the surface), got {v} in channel {'RGB'[c]}")
+    lo, hi = MFP_RANGE_MM
     for c, v in enumerate(d):
-        if not (math.isfinite(v) and v > 0.0):
-            raise MaterialError(f"the {kind} distance must be > 0 mm, got {v} in channel {'RGB'[c]}")
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise MaterialError(f"the {kind} distance must be > 0 mm, in [{lo:g}, {hi:g}] mm (the mean free paths "
+                                f"every model takes, docs/models.md), got {v:g} in channel {'RGB'[c]}")
     if kind not in DISTANCE_KINDS:
         raise MaterialError(f"distance kind must be one of {', '.join(DISTANCE_KINDS)}, got {kind!r}")
     if not (math.isfinite(eta) and eta >= 1.0):

@@ -24,8 +24,14 @@ of a translucent material is left. Per model (``eta``: the index relative to the
   mean (a random walk's return time), and MCML's roulette never starts (its weight never falls): a run of
   10^4 photons at sigma_a = 0 did not end; below about 1e-7 the float32 weight rounds the loss away and
   behaves the same. A finite slab needs no absorption (its photons leave through the far side).
-* ``burley``: A (MCML's total R_d unless given: the montecarlo domain) in [0, 1] and d > 0 from Xie
-  2020 Eq. 5, whose fits are stated for A in [0, 1].
+* ``burley``: A (MCML's total R_d unless given: the montecarlo domain) in (0, 1] and d > 0 from Xie
+  2020 Eq. 5, whose fits are stated for A in [0, 1]; A = 0 is refused like sigma_s = 0 below (Eq. 4's
+  R(r) is 0: no subsurface light, and a kernel normalised by it is 0/0). Given in artists' terms (an
+  albedo with a diffuse or volume mean free path: ``render --albedo --dmfp``, ``export --albedo --dmfp``,
+  :class:`~ssskit.backends.burley_plan.BurleyParams`), the mean free path lies in :data:`MFP_RANGE_MM`
+  and Burley's d in :data:`BURLEY_D_RANGE_MM`, what Eq. 5 gives from such paths: its scalings s(A) = ell / d
+  lie in [0.906, 23.65] over A in [0, 1] (searchlight 1.85 - A + 7 |A - 0.8|^3 is least at A = 1, 0.906;
+  dmfp 3.5 + 100 (A - 0.33)^4 largest at A = 1, 23.65).
 * ``deon2007``: a fixed preset, no material.
 
 Every model of a material needs it to scatter: sigma_s > 0 in every channel (for a layered material, in some
@@ -44,6 +50,10 @@ from ..materials import CHANNELS, LayeredMaterial, Material
 
 #: transport mean free paths 1/sigma_t' every model takes (mm)
 MFP_RANGE_MM = (1e-6, 1e6)
+#: Xie 2020 Eq. 5's scalings s(A) = ell / d over A in [0, 1], all three configurations (module docstring)
+BURLEY_EQ5_SCALING_RANGE = (0.906, 3.5 + 100.0 * 0.67**4)
+#: Burley's d (mm) that Eq. 5 gives from mean free paths in MFP_RANGE_MM (module docstring)
+BURLEY_D_RANGE_MM = (MFP_RANGE_MM[0] / BURLEY_EQ5_SCALING_RANGE[1], MFP_RANGE_MM[1] / BURLEY_EQ5_SCALING_RANGE[0])
 #: the largest relative index of the [JMLH01] dipole's F_dr fit (its A within 5% of the exact one)
 DIPOLE_ETA_MAX = 2.5
 #: the largest relative index the Monte Carlo model takes (no optical medium in the visible beyond it)
@@ -100,7 +110,8 @@ def check_dipole(material: Material, model: str = "dipole") -> None:
 
 
 def check_montecarlo(material: Material | LayeredMaterial, model: str = "montecarlo") -> None:
-    """The domain of the MCML model on the supplement's grid: module docstring."""
+    """The domain of the MCML model on the supplement's grid (a scattering material among it): module docstring."""
+    check_scatters(model, material)
     layers = _layers(material)
     for k, layer in enumerate(layers):
         where = f" of layer {k + 1}" if len(layers) > 1 else ""
@@ -138,5 +149,6 @@ def check_burley_material(material: Material, albedo_given: bool) -> None:
         check_montecarlo(material, "burley (A from MCML)")
 
 
-__all__ = ["DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM", "MIN_ABSORBED_FRACTION", "OPTICAL_ETA_MAX", "check_burley_material",
+__all__ = ["BURLEY_D_RANGE_MM", "BURLEY_EQ5_SCALING_RANGE", "DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM",
+           "MIN_ABSORBED_FRACTION", "OPTICAL_ETA_MAX", "check_burley_material",
            "check_dipole", "check_eta", "check_mfp", "check_montecarlo", "check_scatters"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from ...errors import ProfileError
 from ...materials import CHANNELS, LayeredMaterial, Material
+from ..domain import check_montecarlo
 from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, SUPPLEMENT_GRID_MFP, channel_seed, config_for_material
 from .result import MCResult
 from .run import simulate
@@ -114,6 +115,8 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
     names = [m.name for m in materials]
     if len(set(names)) != len(names):
         raise ProfileError("material names in a sweep must be distinct")
+    for m in materials:  # every material in the model's domain (scattering among it) before any work
+        check_montecarlo(m)
     tasks = [(m, channels, photons, seed, batch_size, resume, restart, roughness, progress) for m in materials]
     if scheduler is not None:
         try:
