@@ -103,10 +103,10 @@ _PASS = RegistryName(lambda: PASSES)
 @click.option("--no-mips", is_flag=True,
               help="--pass burley: fetch every sample at full resolution (no prefiltered pyramid, Xie Eqs. 22-23).")
 @click.option("--albedo", type=RGBFloats(), default=None,
-              help="--pass burley: surface albedo A in [0, 1] (one or R,G,B), with --dmfp: parameters instead of "
+              help="--pass burley: surface albedo A in (0, 1] (one or R,G,B), with --dmfp: parameters instead of "
                    "the material's Burley profile (the material still gives a built-in scene its eta).")
 @click.option("--dmfp", type=RGBFloats(), default=None,
-              help="--pass burley: diffuse mean free path in mm (> 0; one or R,G,B), with --albedo.")
+              help="--pass burley: diffuse mean free path in mm (in [1e-6, 1e6]; one or R,G,B), with --albedo.")
 @click.option("--settings", "settings_file", type=click.Path(exists=True, dir_okay=False), default=None,
               metavar="FILE.toml|json", help="Render settings file (RenderSettings); options given here override it.")
 @material_option(default=_D.material, help="Preset name or material file.")
