@@ -145,3 +145,24 @@ def test_render_two_materials_and_reference_checks(run, meshes):
     assert "mesh 'cup.ply' is open" in err and "path-traced reference needs a closed surface" in err
     code, _, err = run(*RENDER, "--scene", "slab", "--view", "front")
     assert code == 2 and "--view does not apply to the built-in scene 'slab'" in err
+
+
+def test_mitsuba_log_goes_to_stderr_and_json_stays_parseable(meshes, capfd):
+    """A mesh whose extra face has zero area makes Mitsuba warn (invalid vertex normals): the warning goes to
+    stderr (file descriptor level: Mitsuba's default appender writes C++'s stdout), stdout is one JSON object."""
+    import json
+
+    from ssskit.cli import main
+
+    ball = icosphere(2, 30.0, name="ball")
+    lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in ball.vertices]
+    lines += ["v 100 0 0", "v 110 0 0", "v 120 0 0"]  # three collinear vertices: a face of zero area
+    n = len(ball.vertices)
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in ball.faces] + [f"f {n + 1} {n + 2} {n + 3}"]
+    (meshes / "ball_degen.obj").write_text("\n".join(lines) + "\n")
+    capfd.readouterr()
+    code = main([*RENDER, "--scene", "ball_degen.obj", "--units", "mm", "--json"])
+    out, err = capfd.readouterr()
+    assert code == 0, err
+    assert "invalid vertices" in err  # the warning reached the user, on stderr
+    assert json.loads(out)["scene"] == "ball_degen"

@@ -1,9 +1,11 @@
 """Mitsuba 3, imported when a scene is first rendered (never at ``import ssskit``), with the ``scalar_rgb``
-variant every scene and reference of ssskit renders in (CPU, any machine)."""
+variant every scene and reference of ssskit renders in (CPU, any machine), and its log on stderr (stdout
+carries only a command's result: ``--json`` is one JSON object)."""
 
 from __future__ import annotations
 
 import contextlib
+import sys
 import threading
 from collections.abc import Iterator
 from types import ModuleType
@@ -12,14 +14,46 @@ from ..errors import SceneError
 
 
 def mitsuba() -> ModuleType:
-    """The ``mitsuba`` module with the ``scalar_rgb`` variant set, or a SceneError saying how to get it."""
+    """The ``mitsuba`` module with the ``scalar_rgb`` variant set and its log on stderr
+    (:func:`_log_to_stderr`), or a SceneError saying how to get it."""
     try:
         import mitsuba as mi
     except ImportError:  # pragma: no cover - mitsuba is a core dependency
         raise SceneError("the 3D scenes need Mitsuba 3: pip install mitsuba") from None
     if mi.variant() != "scalar_rgb":
         mi.set_variant("scalar_rgb")
+    _log_to_stderr(mi)
     return mi
+
+
+_STDERR_APPENDER: list[object] = []  # the appender installed, kept alive with its Python object
+
+
+def _log_to_stderr(mi: ModuleType) -> None:
+    """Mitsuba's log (its warnings: a mesh's invalid normals, a non-uniform scale, an invalid sample value) on
+    ``sys.stderr`` instead of its default appender's stdout, once per process. Mitsuba's logger is one for
+    the whole process (``mi.logger()``; the threads it renders on log through it), so replacing its
+    appenders covers them; a worker process (spawned) installs its own when it first calls :func:`mitsuba`.
+    Progress messages are dropped: ssskit reports its own progress."""
+    if _STDERR_APPENDER:
+        return
+
+    class StderrAppender(mi.Appender):  # type: ignore[name-defined,misc]
+        def append(self, level: object, text: str) -> None:
+            try:
+                sys.stderr.write(text if text.endswith("\n") else text + "\n")
+                sys.stderr.flush()
+            except (OSError, ValueError):  # a closed stderr: the message is lost, the render goes on
+                pass
+
+        def log_progress(self, progress: float, name: str, formatted: str, eta: str, ptr: object = None) -> None:
+            pass
+
+    logger = mi.logger() if hasattr(mi, "logger") else mi.Thread.thread().logger()
+    appender = StderrAppender()
+    logger.clear_appenders()
+    logger.add_appender(appender)
+    _STDERR_APPENDER.append(appender)
 
 
 @contextlib.contextmanager
