@@ -166,3 +166,18 @@ def test_mitsuba_log_goes_to_stderr_and_json_stays_parseable(meshes, capfd):
     assert code == 0, err
     assert "invalid vertices" in err  # the warning reached the user, on stderr
     assert json.loads(out)["scene"] == "ball_degen"
+
+
+def test_model_size_does_not_change_the_framing(run, meshes):
+    """The camera frames any model the same way (docs/meshes.md "Camera and lights"): a sphere of radius 20 m
+    (seen from 112 m, beyond Mitsuba's default far clip plane of 10 m: it rendered black) and one of radius
+    0.2 micrometres (seen from 1.1 micrometres, all of it nearer than the default near plane of 10
+    micrometres) give the same SSS pixel mask as the sphere of radius 20 mm."""
+    ball = icosphere(2, 20.0, name="ball")
+    write_mesh(meshes / "ball20.obj", ball)
+    write_mesh(meshes / "speck.obj", Mesh("ball", ball.vertices * np.float32(1e-5), ball.faces, ball.normals))
+    ref, _ = _saved(run, "--scene", "ball20.obj", "--units", "mm", "--save-gbuffer", "mm.exr")
+    assert ref.mask.sum() > 0.3 * ref.mask.size
+    for args in (["--scene", "ball20.obj", "--units", "m"], ["--scene", "speck.obj", "--units", "mm"]):
+        gb, _ = _saved(run, *args, "--save-gbuffer", "big.exr")
+        np.testing.assert_array_equal(gb.mask, ref.mask)

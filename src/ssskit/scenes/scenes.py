@@ -247,9 +247,25 @@ def check_spp(spp: int) -> None:
         raise SceneError(f"samples per pixel must be a positive integer, got {spp!r}")
 
 
+#: Mitsuba's perspective sensor's default clip planes (world units: mm), kept wherever they hold the scene
+NEAR_CLIP, FAR_CLIP = 1e-2, 1e4
+
+
+def clip_planes(distance: float) -> tuple[float, float]:
+    """(near_clip, far_clip) of a camera ``distance`` (world mm) from its target: Mitsuba's defaults
+    (:data:`NEAR_CLIP`, :data:`FAR_CLIP`) unless the scene's size needs more, then scaled with the distance
+    (near 1e-3 d, far 10 d). An automatically framed model of radius R is seen from d = 5.6 k R (docs/meshes.md
+    "Camera and lights") and lies between d - R and d + R, so a model of 40 m (d = 112 m, beyond the default
+    far plane of 10 m) no longer renders black, nor a 4 m one clipped; the built-in scenes (d < 1 m) keep
+    the defaults, hence their images."""
+    d = float(distance)
+    return min(NEAR_CLIP, 1e-3 * d), max(FAR_CLIP, 10.0 * d)
+
+
 def _sensor(spec: SceneSpec, width: int, height: int, spp: int, seed: int, frame: int) -> dict:
     origin, target, up = camera_pose(spec, frame)
-    return {"type": "perspective", "fov": spec.fov_x_deg, "fov_axis": "x",
+    near, far = clip_planes(float(np.linalg.norm(target - origin)))
+    return {"type": "perspective", "fov": spec.fov_x_deg, "fov_axis": "x", "near_clip": near, "far_clip": far,
             "to_world": _T()().look_at(origin=origin.tolist(), target=target.tolist(), up=up.tolist()),
             "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
                      "pixel_format": "rgb"},
