@@ -181,3 +181,22 @@ def test_model_size_does_not_change_the_framing(run, meshes):
     for args in (["--scene", "ball20.obj", "--units", "m"], ["--scene", "speck.obj", "--units", "mm"]):
         gb, _ = _saved(run, *args, "--save-gbuffer", "big.exr")
         np.testing.assert_array_equal(gb.mask, ref.mask)
+
+
+@pytest.mark.parametrize("scene, what", [("slab", "built-in scene 'slab'"), ("bust", "generated scene 'bust'"),
+                                         ("ball.ply", "mesh 'ball.ply' has 320 faces")])
+def test_every_scene_kind_is_refused_when_its_render_needs_more_memory_than_available(run, meshes, monkeypatch,
+                                                                                       scene, what):
+    """The memory estimate (512 B per pixel + 400 B per face) is checked for built-in and generated scenes as for a
+    mesh file, before any work: 2048x2048 needs 2.0 GiB for its pixels (the bust's faces add 0.1), more than 1 GiB
+    made the available memory here."""
+    import ssskit.scenes.meshes as meshes_module
+
+    monkeypatch.setattr(meshes_module, "available_memory", lambda: 1 << 30)
+    before = sorted(p.name for p in meshes.rglob("*"))
+    code, out, err = run("render", "--scene", scene, "--size", "2048x2048", "--out", "x.png", "--save-gbuffer", "g.exr")
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith(f"ssskit: error: {what}: rendering it at 2048x2048 needs about "
+                                                   "2."), err
+    assert "more than the 1.0 GiB of memory available" in err
+    assert sorted(p.name for p in meshes.rglob("*")) == before

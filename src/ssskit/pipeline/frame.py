@@ -36,6 +36,7 @@ from ..metrics import NO_LIGHT_TEXT, no_light, region_metrics
 from ..scenes import SCENES, ResolvedScene, SceneSpec, reference_phase_g, render_gbuffer, render_reference, resolve_scene
 from ..scenes.mitsuba_variant import leaving_a_core_to
 from ..scenes.reference import check_reference_scene
+from ..scenes.meshes import check_render_memory, shape_counts
 from ..scenes.scenefile import BUILTIN_DIR
 from ..scenes.scenes import mitsuba
 from ..profiles import check_model_domain
@@ -205,6 +206,10 @@ def _scene(scene: SceneInput, settings: RenderSettings, material: Material | Lay
         check_reference_scene(spec)
         for m in mats:
             reference_phase_g(m)
+    # the memory a render of this size needs, for every scene kind (a mesh file was checked before it was read)
+    kind = {"builtin": "built-in scene", "generated": "generated scene", "file": "scene file"}.get(resolved.kind, "scene")
+    check_render_memory(f"{kind} {spec.name!r}",
+                        shape_counts([o.shape for o in resolved.objects]), settings.width, settings.height)
     mitsuba()  # the renderer must be importable
     builtin = spec.name if resolved.kind == "builtin" and spec.name in SCENES else None
     return ScenePlan(material, spec.name, builtin, None, None, spec, tuple(mats), resolved.notes)

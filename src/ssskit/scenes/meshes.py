@@ -272,13 +272,30 @@ def _gb(n: float) -> str:
 def check_memory(path: str | os.PathLike[str], counts: MeshCounts, width: int, height: int,
                  available: int | None = None) -> int:
     """The :func:`memory_estimate`, or a SceneError saying it exceeds the memory available."""
+    return check_render_memory(f"mesh {str(path)!r} has {counts.faces:,} faces", counts, width, height, available)
+
+
+def check_render_memory(what: str, counts: MeshCounts, width: int, height: int, available: int | None = None) -> int:
+    """The :func:`memory_estimate` of rendering ``what`` (a mesh, a built-in, generated or file scene with the
+    ``counts`` of its triangle meshes) at ``width`` x ``height``, or a SceneError saying it exceeds the memory
+    available (:func:`available_memory`): the same check for every scene kind, before any work."""
     need = memory_estimate(counts, width, height)
     have = available_memory() if available is None else int(available)
     if need > have:
-        raise SceneError(f"mesh {str(path)!r} has {counts.faces:,} faces: rendering it at {width}x{height} needs "
-                         f"about {_gb(need)} ({BYTES_PER_FACE} B per face, {BYTES_PER_PIXEL} B per pixel), more than "
-                         f"the {_gb(have)} of memory available")
+        raise SceneError(f"{what}: rendering it at {width}x{height} needs about {_gb(need)} ({BYTES_PER_FACE} B per "
+                         f"face, {BYTES_PER_PIXEL} B per pixel), more than the {_gb(have)} of memory available")
     return need
+
+
+def shape_counts(shapes: Sequence[dict]) -> MeshCounts:
+    """Vertex and face counts of Mitsuba shape dicts: a ``ply`` shape's from its header (the meshes ssskit
+    writes to its cache); analytic shapes (spheres, rectangles) count none."""
+    nv = nf = 0
+    for shape in shapes:
+        if shape.get("type") == "ply" and "filename" in shape:
+            c = _ply_counts(Path(shape["filename"]))
+            nv, nf = nv + c.vertices, nf + c.faces
+    return MeshCounts(nv, nf)
 
 
 def inspect_mesh_file(path: str | os.PathLike[str], width: int, height: int) -> MeshCounts:
@@ -528,5 +545,5 @@ def write_mesh(path: str | os.PathLike[str], meshes: Mesh | Sequence[Mesh]) -> P
 
 __all__ = ["BYTES_PER_FACE", "BYTES_PER_PIXEL", "FORMATS", "Mesh", "MeshCounts", "Topology", "UNITS_MM",
            "available_memory", "bounding_sphere", "check_memory", "check_mesh", "check_mesh_path",
-           "inspect_mesh_file", "memory_estimate", "mesh_counts", "ply_bytes", "read_mesh", "topology",
-           "write_mesh"]
+           "check_render_memory", "inspect_mesh_file", "memory_estimate", "mesh_counts", "ply_bytes", "read_mesh",
+           "shape_counts", "topology", "write_mesh"]
