@@ -9,6 +9,7 @@ import sys
 import threading
 from collections.abc import Iterator
 from types import ModuleType
+from typing import Any
 
 from ..errors import SceneError
 
@@ -54,6 +55,47 @@ def _log_to_stderr(mi: ModuleType) -> None:
     logger.clear_appenders()
     logger.add_appender(appender)
     _STDERR_APPENDER.append(appender)
+
+
+def interruptible_render(scene: Any, **kwargs: Any) -> Any:
+    """``mi.render(scene, **kwargs)`` that Ctrl-C or SIGTERM (handled as Ctrl-C by the CLI) stops within a
+    fraction of a second: in the main thread the render runs on a helper thread (Mitsuba releases the GIL)
+    that the main thread joins in short waits, so Python's signal handler runs; on the interrupt the scene's
+    integrator is cancelled (``Integrator.cancel``: its render ends at the next image block, 0.04 s measured
+    on a 1024x1024 image, 0.004 s at 4096 spp) and the KeyboardInterrupt goes on. A direct call from the main thread ran to the
+    end of the render first (minutes on a large image). Elsewhere (a worker thread): ``mi.render`` itself."""
+    mi = mitsuba()
+    if threading.current_thread() is not threading.main_thread():
+        return mi.render(scene, **kwargs)
+    out: list[Any] = []
+    failed: list[BaseException] = []
+    done = threading.Event()  # not Thread.join: an interrupted join can report the thread ended (CPython 3.11)
+
+    def work() -> None:
+        try:
+            out.append(mi.render(scene, **kwargs))
+        except BaseException as exc:  # noqa: BLE001 - handed to the main thread
+            failed.append(exc)
+        finally:
+            done.set()
+
+    threading.Thread(target=work, name="ssskit-mitsuba-render", daemon=True).start()
+    try:
+        while not done.wait(_WAIT_S):
+            pass
+    except BaseException:
+        integrator = kwargs.get("integrator") or scene.integrator()
+        if integrator is not None:
+            integrator.cancel()
+        done.wait(_CANCEL_WAIT_S)
+        raise
+    if failed:
+        raise failed[0]
+    return out[0]
+
+
+_WAIT_S = 0.05  # the main thread's wait between checks for a signal
+_CANCEL_WAIT_S = 5.0  # the most a cancelled render is waited for before the interrupt goes on
 
 
 @contextlib.contextmanager
@@ -106,4 +148,4 @@ def render_threads() -> Iterator[None]:
         yield
 
 
-__all__ = ["leaving_a_core_to", "mitsuba", "mitsuba_threads", "render_threads"]
+__all__ = ["interruptible_render", "leaving_a_core_to", "mitsuba", "mitsuba_threads", "render_threads"]

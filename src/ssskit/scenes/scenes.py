@@ -37,7 +37,7 @@ from ..registry import Registry
 from ..screenspace.camera import Camera
 from ..settings import SIZE_RANGE
 from .meshes import ply_bytes
-from .mitsuba_variant import mitsuba, render_threads
+from .mitsuba_variant import interruptible_render, mitsuba, render_threads
 
 #: diffuse albedo of everything that is not an SSS object (floors, occluders)
 FLOOR_ALBEDO = 0.5
@@ -297,4 +297,4 @@ def render_dict(scene: dict) -> np.ndarray:
     except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
         raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
     with render_threads():
-        return np.array(mi.render(loaded), dtype=np.float32)
+        return np.array(interruptible_render(loaded), dtype=np.float32)
