@@ -26,6 +26,7 @@ def meshes(tmp_path, monkeypatch):
     v[3, 0] = np.nan
     write_mesh(work / "nan.obj", Mesh("ball", v, ball.faces, ball.normals))
     write_mesh(work / "nan.glb", Mesh("ball", v, ball.faces, ball.normals))
+    (work / "degen.obj").write_text("v 0 0 0\nv 10 0 0\nv 20 0 0\nf 1 2 3\n")  # one face of zero area
     (work / "empty.obj").write_bytes(b"")
     (work / "model.stl").write_bytes(b"solid x\n")
     (work / "huge.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\n"
@@ -40,6 +41,7 @@ BAD = [
     (["--scene", "model.stl"], "unknown format '.stl'"),
     (["--scene", "nan.obj"], "has NaN or infinite vertex positions"),
     (["--scene", "nan.glb"], "has NaN or infinite vertex positions (1 of"),
+    (["--scene", "degen.obj"], "mesh 'degen.obj' is degenerate: its 1 face has zero area"),
     (["--scene", "two.glb", "--material-map", "skinC=skin1"], "material map names 'skinC', which 'two.glb' does not "
                                                               "have (its objects: skinA, skinB)"),
     (["--scene", "two.glb", "--material-map", "skinA=unobtainium"], "unobtainium"),
@@ -147,12 +149,17 @@ def test_render_two_materials_and_reference_checks(run, meshes):
     assert code == 2 and "--view does not apply to the built-in scene 'slab'" in err
 
 
-def test_mitsuba_log_goes_to_stderr_and_json_stays_parseable(meshes, capfd):
-    """A mesh whose extra face has zero area makes Mitsuba warn (invalid vertex normals): the warning goes to
-    stderr (file descriptor level: Mitsuba's default appender writes C++'s stdout), stdout is one JSON object."""
+def test_mitsuba_log_goes_to_stderr_and_json_stays_parseable(meshes, capfd, monkeypatch):
+    """Mitsuba's log (its default appender writes C++'s stdout: a trial's --json began with "WARN [Mesh] ...
+    invalid vertices") goes to stderr, from any thread: a mesh with an extra zero-area face (whose read warned)
+    renders with a warning logged from another thread during each of Mitsuba's renders; stdout is one JSON
+    object, the warnings are on stderr (file descriptor level)."""
     import json
+    import threading
 
+    import ssskit.scenes.scenes as scenes_module
     from ssskit.cli import main
+    from ssskit.scenes.mitsuba_variant import mitsuba
 
     ball = icosphere(2, 30.0, name="ball")
     lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in ball.vertices]
@@ -160,11 +167,21 @@ def test_mitsuba_log_goes_to_stderr_and_json_stays_parseable(meshes, capfd):
     n = len(ball.vertices)
     lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in ball.faces] + [f"f {n + 1} {n + 2} {n + 3}"]
     (meshes / "ball_degen.obj").write_text("\n".join(lines) + "\n")
+    render = scenes_module.interruptible_render
+
+    def warn_meanwhile(scene, **kwargs):
+        mi = mitsuba()
+        t = threading.Thread(target=mi.Log, args=(mi.LogLevel.Warn, "a warning from another thread"))
+        t.start()
+        t.join()
+        return render(scene, **kwargs)
+
+    monkeypatch.setattr(scenes_module, "interruptible_render", warn_meanwhile)
     capfd.readouterr()
     code = main([*RENDER, "--scene", "ball_degen.obj", "--units", "mm", "--json"])
     out, err = capfd.readouterr()
     assert code == 0, err
-    assert "invalid vertices" in err  # the warning reached the user, on stderr
+    assert "a warning from another thread" in err  # the warning reached the user, on stderr
     assert json.loads(out)["scene"] == "ball_degen"
 
 
@@ -199,4 +216,17 @@ def test_every_scene_kind_is_refused_when_its_render_needs_more_memory_than_avai
     assert err.count("\n") == 1 and err.startswith(f"ssskit: error: {what}: rendering it at 2048x2048 needs about "
                                                    "2."), err
     assert "more than the 1.0 GiB of memory available" in err
+    assert sorted(p.name for p in meshes.rglob("*")) == before
+
+
+def test_a_render_whose_gbuffer_has_no_sss_pixel_is_refused(run, meshes):
+    """A plane seen edge-on (the default front view looks along it) has no SSS pixel: one line naming why, exit 2,
+    nothing written (it rendered with exit 0, no metrics and no message), as for a G-buffer file without one."""
+    (meshes / "flat.obj").write_text("v -10 0 -10\nv 10 0 -10\nv 10 0 10\nv -10 0 10\nf 1 2 3\nf 1 3 4\n")
+    before = sorted(p.name for p in meshes.rglob("*"))
+    code, out, err = run(*RENDER, "--scene", "flat.obj", "--units", "mm", "--out", "flat.png", "--json")
+    assert code == 2 and out == ""
+    assert err.count("ssskit: error: ") == 1 and err.rstrip().split("\n")[-1].startswith(
+        "ssskit: error: the flat G-buffer (40x30) has no SSS pixel: the camera sees no surface of an SSS object "
+        "(a flat model seen edge-on, or one outside the frame)"), err
     assert sorted(p.name for p in meshes.rglob("*")) == before

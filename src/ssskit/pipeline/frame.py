@@ -326,9 +326,14 @@ def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo: ArrayLike |
         alb = np.clip([albedo[pid] for pid in range(1, len(mats) + 1)], 0.0, 1.0)
     else:
         alb = np.clip(albedo, 0.0, 1.0)
-    return render_gbuffer(plan.spec, alb, eta=[m.eta for m in mats], width=settings.width, height=settings.height,
-                          spp=settings.spp, seed=settings.seed, frame=settings.frame,
-                          material=tuple(m.name for m in mats), light_layers=plan.transmission)
+    gb = render_gbuffer(plan.spec, alb, eta=[m.eta for m in mats], width=settings.width, height=settings.height,
+                        spp=settings.spp, seed=settings.seed, frame=settings.frame,
+                        material=tuple(m.name for m in mats), light_layers=plan.transmission)
+    if not gb.mask.any():  # as a G-buffer file without an SSS pixel is refused (plan_scene)
+        raise SceneError(f"the {plan.label} G-buffer ({settings.width}x{settings.height}) has no SSS pixel: the camera "
+                         "sees no surface of an SSS object (a flat model seen edge-on, or one outside the frame), "
+                         "so there is nothing for the pass to blur and nothing to measure")
+    return gb
 
 
 def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, profile: RGBProfile,

@@ -57,6 +57,20 @@ def _log_to_stderr(mi: ModuleType) -> None:
     _STDERR_APPENDER.append(appender)
 
 
+@contextlib.contextmanager
+def warnings_dropped() -> Iterator[None]:
+    """Within the block Mitsuba logs errors only: for reading a mesh file, whose problems ssskit's own checks
+    report as one ``ssskit: error: ...`` line (a zero-area face's "invalid vertex normals" warning came first)."""
+    mi = mitsuba()
+    logger = mi.logger() if hasattr(mi, "logger") else mi.Thread.thread().logger()
+    before = logger.log_level()
+    logger.set_log_level(mi.LogLevel.Error)
+    try:
+        yield
+    finally:
+        logger.set_log_level(before)
+
+
 def interruptible_render(scene: Any, **kwargs: Any) -> Any:
     """``mi.render(scene, **kwargs)`` that Ctrl-C or SIGTERM (handled as Ctrl-C by the CLI) stops within a
     fraction of a second: in the main thread the render runs on a helper thread (Mitsuba releases the GIL)
@@ -148,4 +162,4 @@ def render_threads() -> Iterator[None]:
         yield
 
 
-__all__ = ["interruptible_render", "leaving_a_core_to", "mitsuba", "mitsuba_threads", "render_threads"]
+__all__ = ["interruptible_render", "leaving_a_core_to", "mitsuba", "mitsuba_threads", "render_threads", "warnings_dropped"]
