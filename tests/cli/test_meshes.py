@@ -230,3 +230,21 @@ def test_a_render_whose_gbuffer_has_no_sss_pixel_is_refused(run, meshes):
         "ssskit: error: the flat G-buffer (40x30) has no SSS pixel: the camera sees no surface of an SSS object "
         "(a flat model seen edge-on, or one outside the frame)"), err
     assert sorted(p.name for p in meshes.rglob("*")) == before
+
+
+def test_an_unknown_scene_lists_every_scene_name_and_the_files_taken(run, meshes):
+    """--scene nosuch listed only the built-in scene files' names; now every name (the generated meshes too) and
+    every kind of file --scene takes, from the CLI and from the library (resolve_scene)."""
+    from ssskit.errors import SceneError
+    from ssskit.scenes import GENERATED_SCENES, SCENES, resolve_scene
+
+    code, out, err = run("render", "--scene", "nosuch")
+    assert code == 2 and out == "" and err.count("\n") == 1
+    with pytest.raises(SceneError) as raised:
+        resolve_scene("nosuch")
+    for text in (err, str(raised.value)):
+        assert "unknown scene 'nosuch'" in text
+        for name in [*SCENES.names(), *GENERATED_SCENES]:
+            assert name in text, text
+        for kind in (".obj", ".ply", ".glb", ".gltf", "scene .toml", "G-buffer .exr"):
+            assert kind in text, text

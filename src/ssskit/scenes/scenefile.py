@@ -646,6 +646,12 @@ def parse_material_map(text: str | Mapping[str, str] | None) -> dict[str, str]:
     return out
 
 
+def unknown_scene_message(name: str) -> str:
+    """The error of a ``--scene`` value that names no scene: every name it could be and the files it takes."""
+    return (f"unknown scene {name!r} (built-in: {', '.join(SCENES.names())}; generated meshes: "
+            f"{', '.join(GENERATED_SCENES)}; or a file: a mesh {', '.join(FORMATS)}, a scene .toml or a G-buffer .exr)")
+
+
 def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
                   material_map: str | Mapping[str, str] | None = None, view: str | Sequence[float] | None = None,
                   width: int = 256, height: int = 192) -> ResolvedScene:
@@ -706,8 +712,7 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
         if Path(text).suffix or os.sep in text or Path(text).exists():
             raise SceneError(f"scene {text!r}: unknown format {suffix or '(no suffix)'!r} (a mesh "
                              f"{', '.join(FORMATS)}, a scene .toml or a G-buffer .exr)")
-        known = [*SCENES.names(), *GENERATED_SCENES]
-        raise SceneError(f"unknown scene {text!r} (built-in: {', '.join(known)}; or a mesh, scene .toml or .exr file)")
+        raise SceneError(unknown_scene_message(text))
     for mat in {m for m in loaded.spec.sss_materials if m}:
         get_material(mat)
     return ResolvedScene(kind, loaded.spec.name, spec=loaded.spec, notes=loaded.notes, objects=loaded.objects)
@@ -715,4 +720,5 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
 
 __all__ = ["BUILTIN_DIR", "DEFAULT_LIGHTS", "GENERATED_SCENES", "GENERATORS", "LoadedScene", "MeshObject", "OTHER_LIGHT",
            "ResolvedScene", "VIEWS", "builtin_scene_files", "check_units", "direction", "framing",
-           "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document"]
+           "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document",
+           "unknown_scene_message"]
