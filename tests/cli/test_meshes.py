@@ -248,3 +248,13 @@ def test_an_unknown_scene_lists_every_scene_name_and_the_files_taken(run, meshes
             assert name in text, text
         for kind in (".obj", ".ply", ".glb", ".gltf", "scene .toml", "G-buffer .exr"):
             assert kind in text, text
+
+
+@pytest.mark.parametrize("option", [["--limit-spp", "64"], ["--disocclusion-spp", "8"]])
+def test_adaptive_options_of_a_moving_camera_say_a_mesh_scene_is_static(run, meshes, option):
+    """A mesh scene is always static under --pass burley-adaptive: the refusal of a moving camera's option says
+    so (the user never passed --static)."""
+    code, out, err = run("render", "--scene", "ball.ply", "--pass", "burley-adaptive", *option)
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert f"{option[0]} applies to a moving camera; this run is static (a mesh, scene file or generated mesh is " \
+           "always static under --pass burley-adaptive" in err, err
