@@ -39,7 +39,7 @@ def _log_to_stderr(mi: ModuleType) -> None:
     if _STDERR_APPENDER:
         return
 
-    class StderrAppender(mi.Appender):  # type: ignore[name-defined,misc]
+    class StderrAppender(mi.Appender):  # type: ignore[name-defined]
         def append(self, level: object, text: str) -> None:
             try:
                 sys.stderr.write(text if text.endswith("\n") else text + "\n")
