@@ -207,7 +207,8 @@ def _scene(scene: SceneInput, settings: RenderSettings, material: Material | Lay
         for m in mats:
             reference_phase_g(m)
     # the memory a render of this size needs, for every scene kind (a mesh file was checked before it was read)
-    kind = {"builtin": "built-in scene", "generated": "generated scene", "file": "scene file"}.get(resolved.kind, "scene")
+    kinds = {"builtin": "built-in scene", "generated": "generated scene", "file": "scene file"}
+    kind = kinds.get(resolved.kind, "scene")
     check_render_memory(f"{kind} {spec.name!r}",
                         shape_counts([o.shape for o in resolved.objects]), settings.width, settings.height)
     mitsuba()  # the renderer must be importable

@@ -75,9 +75,9 @@ def interruptible_render(scene: Any, **kwargs: Any) -> Any:
     """``mi.render(scene, **kwargs)`` that Ctrl-C or SIGTERM (handled as Ctrl-C by the CLI) stops within a
     fraction of a second: in the main thread the render runs on a helper thread (Mitsuba releases the GIL)
     that the main thread joins in short waits, so Python's signal handler runs; on the interrupt the scene's
-    integrator is cancelled (``Integrator.cancel``: its render ends at the next image block, 0.04 s measured
-    on a 1024x1024 image, 0.004 s at 4096 spp) and the KeyboardInterrupt goes on. A direct call from the main thread ran to the
-    end of the render first (minutes on a large image). Elsewhere (a worker thread): ``mi.render`` itself."""
+    integrator is cancelled (``Integrator.cancel``: its render ended 0.04 s later on a 1024x1024 image, 0.004 s
+    at 4096 spp) and the KeyboardInterrupt goes on. A direct call from the main thread ran to the end of the
+    render first (minutes on a large image). Elsewhere (a worker thread): ``mi.render`` itself."""
     mi = mitsuba()
     if threading.current_thread() is not threading.main_thread():
         return mi.render(scene, **kwargs)
@@ -162,4 +162,5 @@ def render_threads() -> Iterator[None]:
         yield
 
 
-__all__ = ["interruptible_render", "leaving_a_core_to", "mitsuba", "mitsuba_threads", "render_threads", "warnings_dropped"]
+__all__ = ["interruptible_render", "leaving_a_core_to", "mitsuba", "mitsuba_threads", "render_threads",
+           "warnings_dropped"]

@@ -718,7 +718,7 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
     return ResolvedScene(kind, loaded.spec.name, spec=loaded.spec, notes=loaded.notes, objects=loaded.objects)
 
 
-__all__ = ["BUILTIN_DIR", "DEFAULT_LIGHTS", "GENERATED_SCENES", "GENERATORS", "LoadedScene", "MeshObject", "OTHER_LIGHT",
-           "ResolvedScene", "VIEWS", "builtin_scene_files", "check_units", "direction", "framing",
+__all__ = ["BUILTIN_DIR", "DEFAULT_LIGHTS", "GENERATED_SCENES", "GENERATORS", "LoadedScene", "MeshObject",
+           "OTHER_LIGHT", "ResolvedScene", "VIEWS", "builtin_scene_files", "check_units", "direction", "framing",
            "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document",
            "unknown_scene_message"]
