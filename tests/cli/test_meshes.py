@@ -26,6 +26,7 @@ def meshes(tmp_path, monkeypatch):
     v[3, 0] = np.nan
     write_mesh(work / "nan.obj", Mesh("ball", v, ball.faces, ball.normals))
     write_mesh(work / "nan.glb", Mesh("ball", v, ball.faces, ball.normals))
+    (work / "degen.obj").write_text("v 0 0 0\nv 10 0 0\nv 20 0 0\nf 1 2 3\n")  # one face of zero area
     (work / "empty.obj").write_bytes(b"")
     (work / "model.stl").write_bytes(b"solid x\n")
     (work / "huge.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\n"
@@ -40,6 +41,7 @@ BAD = [
     (["--scene", "model.stl"], "unknown format '.stl'"),
     (["--scene", "nan.obj"], "has NaN or infinite vertex positions"),
     (["--scene", "nan.glb"], "has NaN or infinite vertex positions (1 of"),
+    (["--scene", "degen.obj"], "mesh 'degen.obj' is degenerate: its 1 face has zero area"),
     (["--scene", "two.glb", "--material-map", "skinC=skin1"], "material map names 'skinC', which 'two.glb' does not "
                                                               "have (its objects: skinA, skinB)"),
     (["--scene", "two.glb", "--material-map", "skinA=unobtainium"], "unobtainium"),
@@ -145,3 +147,114 @@ def test_render_two_materials_and_reference_checks(run, meshes):
     assert "mesh 'cup.ply' is open" in err and "path-traced reference needs a closed surface" in err
     code, _, err = run(*RENDER, "--scene", "slab", "--view", "front")
     assert code == 2 and "--view does not apply to the built-in scene 'slab'" in err
+
+
+def test_mitsuba_log_goes_to_stderr_and_json_stays_parseable(meshes, capfd, monkeypatch):
+    """Mitsuba's log (its default appender writes C++'s stdout: a trial's --json began with "WARN [Mesh] ...
+    invalid vertices") goes to stderr, from any thread: a mesh with an extra zero-area face (whose read warned)
+    renders with a warning logged from another thread during each of Mitsuba's renders; stdout is one JSON
+    object, the warnings are on stderr (file descriptor level)."""
+    import json
+    import threading
+
+    import ssskit.scenes.scenes as scenes_module
+    from ssskit.cli import main
+    from ssskit.scenes.mitsuba_variant import mitsuba
+
+    ball = icosphere(2, 30.0, name="ball")
+    lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in ball.vertices]
+    lines += ["v 100 0 0", "v 110 0 0", "v 120 0 0"]  # three collinear vertices: a face of zero area
+    n = len(ball.vertices)
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in ball.faces] + [f"f {n + 1} {n + 2} {n + 3}"]
+    (meshes / "ball_degen.obj").write_text("\n".join(lines) + "\n")
+    render = scenes_module.interruptible_render
+
+    def warn_meanwhile(scene, **kwargs):
+        mi = mitsuba()
+        t = threading.Thread(target=mi.Log, args=(mi.LogLevel.Warn, "a warning from another thread"))
+        t.start()
+        t.join()
+        return render(scene, **kwargs)
+
+    monkeypatch.setattr(scenes_module, "interruptible_render", warn_meanwhile)
+    capfd.readouterr()
+    code = main([*RENDER, "--scene", "ball_degen.obj", "--units", "mm", "--json"])
+    out, err = capfd.readouterr()
+    assert code == 0, err
+    assert "a warning from another thread" in err  # the warning reached the user, on stderr
+    assert json.loads(out)["scene"] == "ball_degen"
+
+
+def test_model_size_does_not_change_the_framing(run, meshes):
+    """The camera frames any model the same way (docs/meshes.md "Camera and lights"): a sphere of radius 20 m
+    (seen from 112 m, beyond Mitsuba's default far clip plane of 10 m: it rendered black) and one of radius
+    0.2 micrometres (seen from 1.1 micrometres, all of it nearer than the default near plane of 10
+    micrometres) give the same SSS pixel mask as the sphere of radius 20 mm."""
+    ball = icosphere(2, 20.0, name="ball")
+    write_mesh(meshes / "ball20.obj", ball)
+    write_mesh(meshes / "speck.obj", Mesh("ball", ball.vertices * np.float32(1e-5), ball.faces, ball.normals))
+    ref, _ = _saved(run, "--scene", "ball20.obj", "--units", "mm", "--save-gbuffer", "mm.exr")
+    assert ref.mask.sum() > 0.3 * ref.mask.size
+    for args in (["--scene", "ball20.obj", "--units", "m"], ["--scene", "speck.obj", "--units", "mm"]):
+        gb, _ = _saved(run, *args, "--save-gbuffer", "big.exr")
+        np.testing.assert_array_equal(gb.mask, ref.mask)
+
+
+@pytest.mark.parametrize("scene, what", [("slab", "built-in scene 'slab'"), ("bust", "generated scene 'bust'"),
+                                         ("ball.ply", "mesh 'ball.ply' has 320 faces")])
+def test_every_scene_kind_is_refused_when_its_render_needs_more_memory_than_available(run, meshes, monkeypatch,
+                                                                                       scene, what):
+    """The memory estimate (512 B per pixel + 400 B per face) is checked for built-in and generated scenes as for a
+    mesh file, before any work: 2048x2048 needs 2.0 GiB for its pixels (the bust's faces add 0.1), more than 1 GiB
+    made the available memory here."""
+    import ssskit.scenes.meshes as meshes_module
+
+    monkeypatch.setattr(meshes_module, "available_memory", lambda: 1 << 30)
+    before = sorted(p.name for p in meshes.rglob("*"))
+    code, out, err = run("render", "--scene", scene, "--size", "2048x2048", "--out", "x.png", "--save-gbuffer", "g.exr")
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith(f"ssskit: error: {what}: rendering it at 2048x2048 needs about "
+                                                   "2."), err
+    assert "more than the 1.0 GiB of memory available" in err
+    assert sorted(p.name for p in meshes.rglob("*")) == before
+
+
+def test_a_render_whose_gbuffer_has_no_sss_pixel_is_refused(run, meshes):
+    """A plane seen edge-on (the default front view looks along it) has no SSS pixel: one line naming why, exit 2,
+    nothing written (it rendered with exit 0, no metrics and no message), as for a G-buffer file without one."""
+    (meshes / "flat.obj").write_text("v -10 0 -10\nv 10 0 -10\nv 10 0 10\nv -10 0 10\nf 1 2 3\nf 1 3 4\n")
+    before = sorted(p.name for p in meshes.rglob("*"))
+    code, out, err = run(*RENDER, "--scene", "flat.obj", "--units", "mm", "--out", "flat.png", "--json")
+    assert code == 2 and out == ""
+    assert err.count("ssskit: error: ") == 1 and err.rstrip().split("\n")[-1].startswith(
+        "ssskit: error: the flat G-buffer (40x30) has no SSS pixel: the camera sees no surface of an SSS object "
+        "(a flat model seen edge-on, or one outside the frame)"), err
+    assert sorted(p.name for p in meshes.rglob("*")) == before
+
+
+def test_an_unknown_scene_lists_every_scene_name_and_the_files_taken(run, meshes):
+    """--scene nosuch listed only the built-in scene files' names; now every name (the generated meshes too) and
+    every kind of file --scene takes, from the CLI and from the library (resolve_scene)."""
+    from ssskit.errors import SceneError
+    from ssskit.scenes import GENERATED_SCENES, SCENES, resolve_scene
+
+    code, out, err = run("render", "--scene", "nosuch")
+    assert code == 2 and out == "" and err.count("\n") == 1
+    with pytest.raises(SceneError) as raised:
+        resolve_scene("nosuch")
+    for text in (err, str(raised.value)):
+        assert "unknown scene 'nosuch'" in text
+        for name in [*SCENES.names(), *GENERATED_SCENES]:
+            assert name in text, text
+        for kind in (".obj", ".ply", ".glb", ".gltf", "scene .toml", "G-buffer .exr"):
+            assert kind in text, text
+
+
+@pytest.mark.parametrize("option", [["--limit-spp", "64"], ["--disocclusion-spp", "8"]])
+def test_adaptive_options_of_a_moving_camera_say_a_mesh_scene_is_static(run, meshes, option):
+    """A mesh scene is always static under --pass burley-adaptive: the refusal of a moving camera's option says
+    so (the user never passed --static)."""
+    code, out, err = run("render", "--scene", "ball.ply", "--pass", "burley-adaptive", *option)
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert f"{option[0]} applies to a moving camera; this run is static (a mesh, scene file or generated mesh is " \
+           "always static under --pass burley-adaptive" in err, err

@@ -1,6 +1,10 @@
 """``ssskit render``: outputs, G-buffer files, engine tap kernels and settings files (small sizes)."""
 
 import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -92,3 +96,48 @@ def test_an_old_settings_file_runs_as_the_tree_says_so_once(run, gbuffer_file, t
     assert code2 == 0 and "warning" not in err2
     assert json.loads(out)["metrics"] == json.loads(out2)["metrics"]
     assert json.loads(out)["settings"] == json.loads(out2)["settings"]
+
+
+@pytest.mark.slow  # ~4 s each (a process's start)
+@pytest.mark.skipif(os.name != "posix", reason="signals")
+@pytest.mark.parametrize("reference", [False, True], ids=["gbuffer", "reference"])
+def test_sigterm_while_mitsuba_renders_ends_the_process_at_once(tmp_path, reference):
+    """SIGTERM (kill, a CI timeout) while Mitsuba renders a large image: the process ends within a second or
+    two with 'ssskit: aborted' and status 130, writing nothing (a trial's render kept on for 8.5 minutes after
+    SIGTERM: Python's handler waited for the C++ render to return). The G-buffer's render and the path-traced
+    reference's chunks (after the G-buffer at 1 spp)."""
+    import signal
+    import threading
+    import time
+
+    import ssskit
+
+    env = dict(os.environ, SSSKIT_CACHE_DIR=str(tmp_path / "cache"),
+               PYTHONPATH=str(Path(ssskit.__file__).resolve().parents[1]))
+    args = ["--spp", "1", "--reference", "--reference-spp", "4096"] if reference else ["--spp", "4096"]
+    proc = subprocess.Popen([sys.executable, "-m", "ssskit", "render", "--scene", "sphere", "--size", "512x384",
+                             "--backend", "numpy", "--out", "x.png", *args], cwd=tmp_path, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(iter(proc.stderr.readline, "")), daemon=True)
+    reader.start()
+    started = "path tracing" if reference else "rendering the sphere G-buffer"
+    deadline = time.monotonic() + 120
+    while not any(started in line for line in lines) and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert proc.poll() is None, "".join(lines)
+    time.sleep(1.0)  # into the render
+    proc.send_signal(signal.SIGTERM)
+    sent = time.monotonic()
+    try:
+        proc.wait(timeout=30)
+    finally:
+        proc.kill()  # (when it did not end)
+    took = time.monotonic() - sent
+    out = proc.stdout.read()
+    reader.join(5)
+    err = "".join(lines)
+    assert proc.returncode == 130 and err.rstrip().endswith("ssskit: aborted"), err
+    assert "Traceback" not in err and out == ""
+    assert took < 3.0, f"{took:.1f} s after SIGTERM"
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name != "cache") == []

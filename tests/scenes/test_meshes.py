@@ -237,6 +237,48 @@ def test_light_intensity_is_the_diffuse_radiance_at_the_centre(tmp_path, size):
     np.testing.assert_allclose(gb.diffuse[y - 1:y + 2, x - 1:x + 2].mean(axis=(0, 1)), 1.5**2, rtol=0.03)
 
 
+BAD_LIGHTS = [
+    ({"type": "point", "position": [0, 400, -600], "intensity": -2.0e5}, "intensity must be"),
+    ({"type": "point", "position": [0, 400, -600], "intensity": [1.0, float("nan"), 1.0]}, "intensity must be"),
+    ({"type": "point", "position": [0, float("inf"), -600], "intensity": 1.0}, "position must be 3 numbers"),
+    ({"type": "sphere", "center": [0, 0, 100], "radius": 5, "radiance": float("inf")}, "radiance must be"),
+    ({"type": "sphere", "center": [0, 0, 100], "radius": 5, "radiance": [1.0, -1.0, 1.0]}, "radiance must be"),
+    ({"type": "sphere", "center": [0, 0, 100], "radius": -5, "radiance": 1.0},
+     "radius must be a number, finite and > 0"),
+    ({"intensity": float("inf")}, "intensity must be a non-negative number"),
+    ({"azimuth": float("nan")}, "azimuth and elevation must be finite"),
+    ({"size": "big"}, "size must be a number"),
+]
+
+
+@pytest.mark.parametrize("light, fragment", BAD_LIGHTS, ids=[f"{i}" for i in range(len(BAD_LIGHTS))])
+def test_a_negative_or_non_finite_light_is_refused_before_any_work(tmp_path, light, fragment):
+    """Every light's intensity, radiance, position and size are checked when the scene is read: a negative
+    explicit intensity was accepted (a black image), as a relative light's was refused."""
+    doc = {"shapes": {"ball": {"type": "mesh", "file": str(write_mesh(tmp_path / "ball.ply", _sphere(30.0)))}},
+           "lights": {"rim": light}}
+    with pytest.raises(SceneError, match=f"light 'rim': {fragment}"):
+        scene_from_document(doc, units="mm", width=W, height=H)
+
+
+def test_a_partly_given_default_light_takes_that_lights_defaults(tmp_path):
+    """[lights.key] with only size and intensity sits where the default key light does (azimuth 50, elevation
+    40, 6 R: docs/meshes.md), not at azimuth 0, elevation 0, 4 R (in front of the model, before the camera);
+    a light with another name takes OTHER_LIGHT's fields."""
+    from ssskit.scenes.scenefile import DEFAULT_LIGHTS, OTHER_LIGHT
+
+    ball = {"ball": {"type": "mesh", "file": str(write_mesh(tmp_path / "ball.ply", _sphere(30.0)))}}
+    full = scene_from_document({"shapes": ball, "lights": {"key": DEFAULT_LIGHTS["key"]}}, units="mm",
+                               width=W, height=H).spec.lights()["key"]
+    part = scene_from_document({"shapes": ball, "lights": {"key": {"size": 0.2, "intensity": 1.0}}}, units="mm",
+                               width=W, height=H).spec.lights()["key"]
+    assert part == full
+    np.testing.assert_allclose(np.linalg.norm(part["center"]), 6.0 * 30.0, rtol=1e-6)  # 6 R from the centre
+    other = scene_from_document({"shapes": ball, "lights": {"rim": {"intensity": 1.0}}}, units="mm",
+                                width=W, height=H).spec.lights()["rim"]
+    np.testing.assert_allclose(np.linalg.norm(other["center"]), OTHER_LIGHT["distance"] * 30.0, rtol=1e-6)
+
+
 def test_scene_file_with_meshes_materials_and_units(tmp_path):
     _two_material_gltf(tmp_path, ".gltf")
     (tmp_path / "scene.toml").write_text('units = "mm"\n[camera]\nview = "front"\n'

@@ -358,6 +358,7 @@ class SceneRef(click.ParamType):
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from ..scenes import GENERATED_SCENES
         from ..scenes.meshes import FORMATS
+        from ..scenes.scenefile import unknown_scene_message
 
         if isinstance(value, Path):
             return value
@@ -382,7 +383,10 @@ class SceneRef(click.ParamType):
                 self.fail(f"G-buffer file {text!r} does not exist", param, ctx)
             self._regular(p, "G-buffer file", param, ctx)
             return p
-        return RegistryName(_scenes).convert(text, param, ctx)
+        try:
+            return scenes.get(text).name  # the registry's matching (case, '-' for '_')
+        except SsskitError:
+            self.fail(unknown_scene_message(text), param, ctx)
 
 
 def scene_mesh_options(view: bool = True) -> Callable[[Callable[..., Any]], Callable[..., Any]]:

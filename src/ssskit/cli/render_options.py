@@ -239,7 +239,7 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
             raise SsskitError(f"{option_name(ctx, opt)} applies to a built-in scene; the G-buffer file "
                               f"{str(scene)!r} has its own")
     if name == "burley-adaptive":
-        _check_adaptive(ctx, s, still, save_gbuffer)
+        _check_adaptive(ctx, s, still, save_gbuffer, gbuffer_file)
     if gbuffer_file and s.reference:
         raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
     _check_ignored(ctx, s)
@@ -280,17 +280,23 @@ def _mesh_scene(scene: Any) -> bool:
     return isinstance(scene, str) and scene in GENERATED_SCENES
 
 
-def _check_adaptive(ctx: click.Context, s: RenderSettings, still: bool, save_gbuffer: str | None) -> None:
+def _check_adaptive(ctx: click.Context, s: RenderSettings, still: bool, save_gbuffer: str | None,
+                    gbuffer_file: bool = False) -> None:
     p = s.pass_
     assert isinstance(p, AdaptivePass)
     if given(ctx, "spp"):
         raise SsskitError("--spp: the adaptive pass chooses its samples per pixel; give --budget B_MIN:B_MAX")
     if p.static or still:
+        # why the run is static, when the user did not say --static (a mesh scene's camera does not move)
+        why = ("" if p.static else " (a G-buffer file is always static)" if gbuffer_file else
+               " (a mesh, scene file or generated mesh is always static under --pass burley-adaptive: its camera "
+               "and lights stay at --frame; only the built-in scenes move)")
         if given(ctx, "disocclusion_spp"):
-            raise SsskitError("--disocclusion-spp applies to a moving camera (a static run has no new pixels)")
+            raise SsskitError(f"--disocclusion-spp applies to a moving camera; this run is static{why} and has no "
+                              "new pixels")
         if given(ctx, "limit_spp"):
-            raise SsskitError("--limit-spp applies to a moving camera; a static run compares with the exact limit "
-                              "(burley_exact)")
+            raise SsskitError(f"--limit-spp applies to a moving camera; this run is static{why} and compares with the "
+                              "exact limit (burley_exact)")
         return
     if save_gbuffer:
         raise SsskitError("--save-gbuffer applies to one frame; add --static")

@@ -36,6 +36,7 @@ from ..metrics import NO_LIGHT_TEXT, no_light, region_metrics
 from ..scenes import SCENES, ResolvedScene, SceneSpec, reference_phase_g, render_gbuffer, render_reference, resolve_scene
 from ..scenes.mitsuba_variant import leaving_a_core_to
 from ..scenes.reference import check_reference_scene
+from ..scenes.meshes import check_render_memory, shape_counts
 from ..scenes.scenefile import BUILTIN_DIR
 from ..scenes.scenes import mitsuba
 from ..profiles import check_model_domain
@@ -205,6 +206,11 @@ def _scene(scene: SceneInput, settings: RenderSettings, material: Material | Lay
         check_reference_scene(spec)
         for m in mats:
             reference_phase_g(m)
+    # the memory a render of this size needs, for every scene kind (a mesh file was checked before it was read)
+    kinds = {"builtin": "built-in scene", "generated": "generated scene", "file": "scene file"}
+    kind = kinds.get(resolved.kind, "scene")
+    check_render_memory(f"{kind} {spec.name!r}",
+                        shape_counts([o.shape for o in resolved.objects]), settings.width, settings.height)
     mitsuba()  # the renderer must be importable
     builtin = spec.name if resolved.kind == "builtin" and spec.name in SCENES else None
     return ScenePlan(material, spec.name, builtin, None, None, spec, tuple(mats), resolved.notes)
@@ -321,9 +327,14 @@ def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo: ArrayLike |
         alb = np.clip([albedo[pid] for pid in range(1, len(mats) + 1)], 0.0, 1.0)
     else:
         alb = np.clip(albedo, 0.0, 1.0)
-    return render_gbuffer(plan.spec, alb, eta=[m.eta for m in mats], width=settings.width, height=settings.height,
-                          spp=settings.spp, seed=settings.seed, frame=settings.frame,
-                          material=tuple(m.name for m in mats), light_layers=plan.transmission)
+    gb = render_gbuffer(plan.spec, alb, eta=[m.eta for m in mats], width=settings.width, height=settings.height,
+                        spp=settings.spp, seed=settings.seed, frame=settings.frame,
+                        material=tuple(m.name for m in mats), light_layers=plan.transmission)
+    if not gb.mask.any():  # as a G-buffer file without an SSS pixel is refused (plan_scene)
+        raise SceneError(f"the {plan.label} G-buffer ({settings.width}x{settings.height}) has no SSS pixel: the camera "
+                         "sees no surface of an SSS object (a flat model seen edge-on, or one outside the frame), "
+                         "so there is nothing for the pass to blur and nothing to measure")
+    return gb
 
 
 def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, profile: RGBProfile,

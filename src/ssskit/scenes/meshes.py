@@ -272,13 +272,30 @@ def _gb(n: float) -> str:
 def check_memory(path: str | os.PathLike[str], counts: MeshCounts, width: int, height: int,
                  available: int | None = None) -> int:
     """The :func:`memory_estimate`, or a SceneError saying it exceeds the memory available."""
+    return check_render_memory(f"mesh {str(path)!r} has {counts.faces:,} faces", counts, width, height, available)
+
+
+def check_render_memory(what: str, counts: MeshCounts, width: int, height: int, available: int | None = None) -> int:
+    """The :func:`memory_estimate` of rendering ``what`` (a mesh, a built-in, generated or file scene with the
+    ``counts`` of its triangle meshes) at ``width`` x ``height``, or a SceneError saying it exceeds the memory
+    available (:func:`available_memory`): the same check for every scene kind, before any work."""
     need = memory_estimate(counts, width, height)
     have = available_memory() if available is None else int(available)
     if need > have:
-        raise SceneError(f"mesh {str(path)!r} has {counts.faces:,} faces: rendering it at {width}x{height} needs "
-                         f"about {_gb(need)} ({BYTES_PER_FACE} B per face, {BYTES_PER_PIXEL} B per pixel), more than "
-                         f"the {_gb(have)} of memory available")
+        raise SceneError(f"{what}: rendering it at {width}x{height} needs about {_gb(need)} ({BYTES_PER_FACE} B per "
+                         f"face, {BYTES_PER_PIXEL} B per pixel), more than the {_gb(have)} of memory available")
     return need
+
+
+def shape_counts(shapes: Sequence[dict]) -> MeshCounts:
+    """Vertex and face counts of Mitsuba shape dicts: a ``ply`` shape's from its header (the meshes ssskit
+    writes to its cache); analytic shapes (spheres, rectangles) count none."""
+    nv = nf = 0
+    for shape in shapes:
+        if shape.get("type") == "ply" and "filename" in shape:
+            c = _ply_counts(Path(shape["filename"]))
+            nv, nf = nv + c.vertices, nf + c.faces
+    return MeshCounts(nv, nf)
 
 
 def inspect_mesh_file(path: str | os.PathLike[str], width: int, height: int) -> MeshCounts:
@@ -299,11 +316,12 @@ def _mitsuba_message(exc: Exception) -> str:
 
 
 def _read_mitsuba(p: Path, kind: str) -> tuple[Mesh, ...]:
-    from .mitsuba_variant import mitsuba
+    from .mitsuba_variant import mitsuba, warnings_dropped
 
     mi = mitsuba()
     try:
-        shape = mi.load_dict({"type": kind, "filename": str(p)})
+        with warnings_dropped():  # the checks of read_mesh report a degenerate mesh
+            shape = mi.load_dict({"type": kind, "filename": str(p)})
     except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
         msg = _mitsuba_message(exc)
         if "invalid vertex position" in msg:
@@ -370,7 +388,29 @@ def read_mesh(path: str | os.PathLike[str]) -> tuple[Mesh, ...]:
         raise SceneError(f"mesh {str(p)!r} holds no triangle mesh")
     for m in meshes:
         check_mesh(m, str(p))
+    check_area(meshes, str(p))
     return meshes
+
+
+def surface_area(mesh: Mesh) -> float:
+    """The total area of the mesh's triangles (float64; half the norm of each edge cross product)."""
+    v = mesh.vertices.astype(np.float64)
+    a, b, c = (v[mesh.faces[:, k]] for k in range(3))
+    return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
+
+
+def check_area(meshes: Sequence[Mesh], source: str) -> None:
+    """A SceneError if the meshes' faces have no area (each one a line or a point: e.g. collinear vertices):
+    nothing of them can be seen, so a render would have no SSS pixel to measure. "No area": at most 1e-12
+    of the squared bounding-box diagonal (rounding leaves collinear float vertices a sliver)."""
+    area = sum(surface_area(m) for m in meshes)
+    v = np.concatenate([m.vertices.astype(np.float64) for m in meshes])
+    diag2 = float(np.sum((v.max(axis=0) - v.min(axis=0)) ** 2))
+    if not area > 1e-12 * diag2:
+        faces = sum(len(m.faces) for m in meshes)
+        raise SceneError(f"mesh {source!r} is degenerate: its {faces:,} face{'s' if faces != 1 else ''} "
+                         f"{'have' if faces != 1 else 'has'} zero area (collinear or coincident vertices), so no "
+                         "surface can be seen and there is nothing to render or measure")
 
 
 def check_mesh(mesh: Mesh, source: str = "") -> None:
@@ -527,6 +567,6 @@ def write_mesh(path: str | os.PathLike[str], meshes: Mesh | Sequence[Mesh]) -> P
 
 
 __all__ = ["BYTES_PER_FACE", "BYTES_PER_PIXEL", "FORMATS", "Mesh", "MeshCounts", "Topology", "UNITS_MM",
-           "available_memory", "bounding_sphere", "check_memory", "check_mesh", "check_mesh_path",
-           "inspect_mesh_file", "memory_estimate", "mesh_counts", "ply_bytes", "read_mesh", "topology",
-           "write_mesh"]
+           "available_memory", "bounding_sphere", "check_area", "check_memory", "check_mesh", "check_mesh_path",
+           "check_render_memory", "inspect_mesh_file", "memory_estimate", "mesh_counts", "ply_bytes", "read_mesh",
+           "shape_counts", "surface_area", "topology", "write_mesh"]

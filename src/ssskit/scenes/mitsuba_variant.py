@@ -1,25 +1,115 @@
 """Mitsuba 3, imported when a scene is first rendered (never at ``import ssskit``), with the ``scalar_rgb``
-variant every scene and reference of ssskit renders in (CPU, any machine)."""
+variant every scene and reference of ssskit renders in (CPU, any machine), and its log on stderr (stdout
+carries only a command's result: ``--json`` is one JSON object)."""
 
 from __future__ import annotations
 
 import contextlib
+import sys
 import threading
 from collections.abc import Iterator
 from types import ModuleType
+from typing import Any
 
 from ..errors import SceneError
 
 
 def mitsuba() -> ModuleType:
-    """The ``mitsuba`` module with the ``scalar_rgb`` variant set, or a SceneError saying how to get it."""
+    """The ``mitsuba`` module with the ``scalar_rgb`` variant set and its log on stderr
+    (:func:`_log_to_stderr`), or a SceneError saying how to get it."""
     try:
         import mitsuba as mi
     except ImportError:  # pragma: no cover - mitsuba is a core dependency
         raise SceneError("the 3D scenes need Mitsuba 3: pip install mitsuba") from None
     if mi.variant() != "scalar_rgb":
         mi.set_variant("scalar_rgb")
+    _log_to_stderr(mi)
     return mi
+
+
+_STDERR_APPENDER: list[object] = []  # the appender installed, kept alive with its Python object
+
+
+def _log_to_stderr(mi: ModuleType) -> None:
+    """Mitsuba's log (its warnings: a mesh's invalid normals, a non-uniform scale, an invalid sample value) on
+    ``sys.stderr`` instead of its default appender's stdout, once per process. Mitsuba's logger is one for
+    the whole process (``mi.logger()``; the threads it renders on log through it), so replacing its
+    appenders covers them; a worker process (spawned) installs its own when it first calls :func:`mitsuba`.
+    Progress messages are dropped: ssskit reports its own progress."""
+    if _STDERR_APPENDER:
+        return
+
+    class StderrAppender(mi.Appender):  # type: ignore[name-defined]
+        def append(self, level: object, text: str) -> None:
+            try:
+                sys.stderr.write(text if text.endswith("\n") else text + "\n")
+                sys.stderr.flush()
+            except (OSError, ValueError):  # a closed stderr: the message is lost, the render goes on
+                pass
+
+        def log_progress(self, progress: float, name: str, formatted: str, eta: str, ptr: object = None) -> None:
+            pass
+
+    logger = mi.logger() if hasattr(mi, "logger") else mi.Thread.thread().logger()
+    appender = StderrAppender()
+    logger.clear_appenders()
+    logger.add_appender(appender)
+    _STDERR_APPENDER.append(appender)
+
+
+@contextlib.contextmanager
+def warnings_dropped() -> Iterator[None]:
+    """Within the block Mitsuba logs errors only: for reading a mesh file, whose problems ssskit's own checks
+    report as one ``ssskit: error: ...`` line (a zero-area face's "invalid vertex normals" warning came first)."""
+    mi = mitsuba()
+    logger = mi.logger() if hasattr(mi, "logger") else mi.Thread.thread().logger()
+    before = logger.log_level()
+    logger.set_log_level(mi.LogLevel.Error)
+    try:
+        yield
+    finally:
+        logger.set_log_level(before)
+
+
+def interruptible_render(scene: Any, **kwargs: Any) -> Any:
+    """``mi.render(scene, **kwargs)`` that Ctrl-C or SIGTERM (handled as Ctrl-C by the CLI) stops within a
+    fraction of a second: in the main thread the render runs on a helper thread (Mitsuba releases the GIL)
+    that the main thread joins in short waits, so Python's signal handler runs; on the interrupt the scene's
+    integrator is cancelled (``Integrator.cancel``: its render ended 0.04 s later on a 1024x1024 image, 0.004 s
+    at 4096 spp) and the KeyboardInterrupt goes on. A direct call from the main thread ran to the end of the
+    render first (minutes on a large image). Elsewhere (a worker thread): ``mi.render`` itself."""
+    mi = mitsuba()
+    if threading.current_thread() is not threading.main_thread():
+        return mi.render(scene, **kwargs)
+    out: list[Any] = []
+    failed: list[BaseException] = []
+    done = threading.Event()  # not Thread.join: an interrupted join can report the thread ended (CPython 3.11)
+
+    def work() -> None:
+        try:
+            out.append(mi.render(scene, **kwargs))
+        except BaseException as exc:  # noqa: BLE001 - handed to the main thread
+            failed.append(exc)
+        finally:
+            done.set()
+
+    threading.Thread(target=work, name="ssskit-mitsuba-render", daemon=True).start()
+    try:
+        while not done.wait(_WAIT_S):
+            pass
+    except BaseException:
+        integrator = kwargs.get("integrator") or scene.integrator()
+        if integrator is not None:
+            integrator.cancel()
+        done.wait(_CANCEL_WAIT_S)
+        raise
+    if failed:
+        raise failed[0]
+    return out[0]
+
+
+_WAIT_S = 0.05  # the main thread's wait between checks for a signal
+_CANCEL_WAIT_S = 5.0  # the most a cancelled render is waited for before the interrupt goes on
 
 
 @contextlib.contextmanager
@@ -72,4 +162,5 @@ def render_threads() -> Iterator[None]:
         yield
 
 
-__all__ = ["leaving_a_core_to", "mitsuba", "mitsuba_threads", "render_threads"]
+__all__ = ["interruptible_render", "leaving_a_core_to", "mitsuba", "mitsuba_threads", "render_threads",
+           "warnings_dropped"]

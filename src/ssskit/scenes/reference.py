@@ -46,6 +46,7 @@ from ..errors import SceneError
 from ..io import atomic_output, progress_bar
 from ..materials import Material
 from .scenes import COAT_ROUGHNESS, SceneSpec, check_size, check_spp, get_scene, mitsuba, scene_dict
+from .mitsuba_variant import interruptible_render
 
 #: bumped when the reference renders change (invalidates the cache). 3: a unique seed per mi.render
 #: call (before, chunks replayed each other shifted by a pixel), black surroundings, chunk statistics
@@ -219,7 +220,7 @@ class ReferenceRenderer:
 
     def chunk(self, index: int, spp: int) -> np.ndarray:
         """Chunk ``index`` with ``spp`` samples per pixel, seeded by :func:`chunk_seed`; (H, W, 3) float64."""
-        img = self._mi.render(self._scene, seed=chunk_seed(self.seed, index), spp=int(spp))
+        img = interruptible_render(self._scene, seed=chunk_seed(self.seed, index), spp=int(spp))
         return np.array(img, dtype=np.float64)[..., :3]
 
 
@@ -284,7 +285,7 @@ def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) 
     aov = {"type": "aov", "aovs": "alb:albedo"}
     d = scene_dict(spec, width, height, 1, 0, frame, aov, lambda sid: white if sid in spec.sss_shapes else tagged)
     try:
-        img = np.array(mi.render(mi.load_dict(d), seed=0))
+        img = np.array(interruptible_render(mi.load_dict(d), seed=0))
     except Exception as exc:  # noqa: BLE001
         raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
     return img[..., 0] > 0.6

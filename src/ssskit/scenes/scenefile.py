@@ -30,7 +30,9 @@ one SSS shape per object of the file: :mod:`ssskit.scenes.meshes`), ``generated`
 :data:`GENERATORS`, ``params``), ``sphere`` (``center``, ``radius``), ``rectangle`` / ``cube``
 (``translate``, ``scale``: to_world = translate x scale). Lights: relative ones as above, or
 explicit Mitsuba ones (``type = "point"``, ``position``, ``intensity``; ``type = "sphere"``,
-``center``, ``radius``, ``radiance``).
+``center``, ``radius``, ``radiance``). A relative light named key, fill or back takes each field it omits
+from :data:`DEFAULT_LIGHTS`, one of another name from :data:`OTHER_LIGHT`; every light's numbers must be
+finite, intensities and radiances not negative.
 
 Framing (:func:`framing`): the camera looks at the centre of the bounding sphere (radius R) from
 the view's direction at distance k * R / sin(fov_v / 2) * 1.1, fov_v the vertical field of view of
@@ -74,6 +76,8 @@ DEFAULT_LIGHTS: dict[str, dict[str, float]] = {
     "fill": {"azimuth": -70.0, "elevation": 15.0, "distance": 6.0, "size": 0.4, "intensity": 0.3},
     "back": {"azimuth": 150.0, "elevation": 35.0, "distance": 6.0, "size": 0.2, "intensity": 0.5},
 }
+#: the omitted fields of a relative light named other than key, fill or back
+OTHER_LIGHT: dict[str, float] = {"azimuth": 0.0, "elevation": 0.0, "distance": 4.0, "size": 0.15, "intensity": 1.0}
 DEFAULT_FOV = 30.0
 #: the model's axes when a scene names none: glTF's (+Y up, facing +Z)
 DEFAULT_UP = (0.0, 1.0, 0.0)
@@ -267,16 +271,24 @@ def _relative_light(name: str, spec: Mapping[str, Any], centre: np.ndarray, radi
     if unknown:
         raise SceneError(f"light {name!r}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(known))}; "
                          "or an explicit Mitsuba light with type = point | sphere)")
-    d = float(spec.get("distance", 4.0))
-    size = float(spec.get("size", 0.15))
-    inten = float(spec.get("intensity", 1.0))
+    # an omitted field: the named default light's (key, fill, back: docs/meshes.md), else OTHER_LIGHT's
+    spec = {**DEFAULT_LIGHTS.get(name, OTHER_LIGHT), **spec}
+    for k in sorted(known):
+        if isinstance(spec[k], bool) or not isinstance(spec[k], (int, float)):
+            raise SceneError(f"light {name!r}: {k} must be a number, got {spec[k]!r}")
+    d = float(spec["distance"])
+    size = float(spec["size"])
+    inten = float(spec["intensity"])
     if not (d > 1.0 and 0.0 <= size < d - 1.0):
         raise SceneError(f"light {name!r}: distance must exceed 1 bounding radius and size lie in [0, distance - 1), "
                          f"got distance {d:g}, size {size:g}")
     if not (math.isfinite(inten) and inten >= 0):
         raise SceneError(f"light {name!r}: intensity must be a non-negative number, got {inten!r}")
-    el = float(np.clip(cam_el + float(spec.get("elevation", 0.0)), -89.0, 89.0))
-    pos = centre + d * radius * direction(cam_dir_az + float(spec.get("azimuth", 0.0)), el, up, front)
+    if not (math.isfinite(float(spec["azimuth"])) and math.isfinite(float(spec["elevation"]))):
+        raise SceneError(f"light {name!r}: azimuth and elevation must be finite, got {spec['azimuth']!r}, "
+                         f"{spec['elevation']!r}")
+    el = float(np.clip(cam_el + float(spec["elevation"]), -89.0, 89.0))
+    pos = centre + d * radius * direction(cam_dir_az + float(spec["azimuth"]), el, up, front)
     e = math.pi * inten  # irradiance at the centre (intensity = E / pi)
     if size == 0:
         return {"type": "point", "position": pos.tolist(),
@@ -286,13 +298,33 @@ def _relative_light(name: str, spec: Mapping[str, Any], centre: np.ndarray, radi
             "emitter": {"type": "area", "radiance": {"type": "rgb", "value": e / (math.pi * (a / (d * radius)) ** 2)}}}
 
 
+def _light_numbers(name: str, key: str, value: Any, count: tuple[int, ...], positive: bool = False,
+                   signed: bool = False) -> None:
+    """A SceneError unless ``value`` is a number (count 1) or a list of ``count`` numbers, each finite and
+    non-negative (``positive``: > 0; ``signed``: any sign), checked before any work (a negative intensity
+    rendered a black image)."""
+    items = value if isinstance(value, (list, tuple)) else [value]
+    ok = (len(items) in count if isinstance(value, (list, tuple)) else 1 in count) and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+        and (signed or (v > 0 if positive else v >= 0)) for v in items)
+    if not ok:
+        what = {(1,): "a number", (3,): "3 numbers", (1, 3): "a number or 3 numbers (R, G, B)"}[count]
+        sign = "" if signed else " > 0" if positive else " >= 0"
+        raise SceneError(f"light {name!r}: {key} must be {what}, finite{sign and ' and' + sign}, got {value!r}")
+
+
 def _explicit_light(name: str, spec: Mapping[str, Any]) -> dict:
     kind = spec.get("type")
     if kind == "point":
         _keys(f"light {name!r}", spec, {"type", "position", "intensity"}, {"position", "intensity"})
+        _light_numbers(name, "position", spec["position"], (3,), signed=True)
+        _light_numbers(name, "intensity", spec["intensity"], (1, 3))
         return {"type": "point", "position": spec["position"], "intensity": {"type": "rgb", "value": spec["intensity"]}}
     if kind == "sphere":
         _keys(f"light {name!r}", spec, {"type", "center", "radius", "radiance"}, {"center", "radius", "radiance"})
+        _light_numbers(name, "center", spec["center"], (3,), signed=True)
+        _light_numbers(name, "radius", spec["radius"], (1,), positive=True)
+        _light_numbers(name, "radiance", spec["radiance"], (1, 3))
         return {"type": "sphere", "center": list(spec["center"]), "radius": spec["radius"],
                 "emitter": {"type": "area", "radiance": {"type": "rgb", "value": spec["radiance"]}}}
     raise SceneError(f"light {name!r}: type must be point or sphere, got {kind!r}")
@@ -614,6 +646,12 @@ def parse_material_map(text: str | Mapping[str, str] | None) -> dict[str, str]:
     return out
 
 
+def unknown_scene_message(name: str) -> str:
+    """The error of a ``--scene`` value that names no scene: every name it could be and the files it takes."""
+    return (f"unknown scene {name!r} (built-in: {', '.join(SCENES.names())}; generated meshes: "
+            f"{', '.join(GENERATED_SCENES)}; or a file: a mesh {', '.join(FORMATS)}, a scene .toml or a G-buffer .exr)")
+
+
 def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
                   material_map: str | Mapping[str, str] | None = None, view: str | Sequence[float] | None = None,
                   width: int = 256, height: int = 192) -> ResolvedScene:
@@ -674,13 +712,13 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
         if Path(text).suffix or os.sep in text or Path(text).exists():
             raise SceneError(f"scene {text!r}: unknown format {suffix or '(no suffix)'!r} (a mesh "
                              f"{', '.join(FORMATS)}, a scene .toml or a G-buffer .exr)")
-        known = [*SCENES.names(), *GENERATED_SCENES]
-        raise SceneError(f"unknown scene {text!r} (built-in: {', '.join(known)}; or a mesh, scene .toml or .exr file)")
+        raise SceneError(unknown_scene_message(text))
     for mat in {m for m in loaded.spec.sss_materials if m}:
         get_material(mat)
     return ResolvedScene(kind, loaded.spec.name, spec=loaded.spec, notes=loaded.notes, objects=loaded.objects)
 
 
 __all__ = ["BUILTIN_DIR", "DEFAULT_LIGHTS", "GENERATED_SCENES", "GENERATORS", "LoadedScene", "MeshObject",
-           "ResolvedScene", "VIEWS", "builtin_scene_files", "check_units", "direction", "framing",
-           "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document"]
+           "OTHER_LIGHT", "ResolvedScene", "VIEWS", "builtin_scene_files", "check_units", "direction", "framing",
+           "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document",
+           "unknown_scene_message"]

@@ -37,7 +37,7 @@ from ..registry import Registry
 from ..screenspace.camera import Camera
 from ..settings import SIZE_RANGE
 from .meshes import ply_bytes
-from .mitsuba_variant import mitsuba, render_threads
+from .mitsuba_variant import interruptible_render, mitsuba, render_threads
 
 #: diffuse albedo of everything that is not an SSS object (floors, occluders)
 FLOOR_ALBEDO = 0.5
@@ -247,9 +247,25 @@ def check_spp(spp: int) -> None:
         raise SceneError(f"samples per pixel must be a positive integer, got {spp!r}")
 
 
+#: Mitsuba's perspective sensor's default clip planes (world units: mm), kept wherever they hold the scene
+NEAR_CLIP, FAR_CLIP = 1e-2, 1e4
+
+
+def clip_planes(distance: float) -> tuple[float, float]:
+    """(near_clip, far_clip) of a camera ``distance`` (world mm) from its target: Mitsuba's defaults
+    (:data:`NEAR_CLIP`, :data:`FAR_CLIP`) unless the scene's size needs more, then scaled with the distance
+    (near 1e-3 d, far 10 d). An automatically framed model of radius R is seen from d = 5.6 k R (docs/meshes.md
+    "Camera and lights") and lies between d - R and d + R, so a model of 40 m (d = 112 m, beyond the default
+    far plane of 10 m) no longer renders black, nor a 4 m one clipped; the built-in scenes (d < 1 m) keep
+    the defaults, hence their images."""
+    d = float(distance)
+    return min(NEAR_CLIP, 1e-3 * d), max(FAR_CLIP, 10.0 * d)
+
+
 def _sensor(spec: SceneSpec, width: int, height: int, spp: int, seed: int, frame: int) -> dict:
     origin, target, up = camera_pose(spec, frame)
-    return {"type": "perspective", "fov": spec.fov_x_deg, "fov_axis": "x",
+    near, far = clip_planes(float(np.linalg.norm(target - origin)))
+    return {"type": "perspective", "fov": spec.fov_x_deg, "fov_axis": "x", "near_clip": near, "far_clip": far,
             "to_world": _T()().look_at(origin=origin.tolist(), target=target.tolist(), up=up.tolist()),
             "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
                      "pixel_format": "rgb"},
@@ -281,4 +297,4 @@ def render_dict(scene: dict) -> np.ndarray:
     except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
         raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
     with render_threads():
-        return np.array(mi.render(loaded), dtype=np.float32)
+        return np.array(interruptible_render(loaded), dtype=np.float32)
