@@ -28,6 +28,7 @@ def meshes(tmp_path, monkeypatch):
     write_mesh(work / "nan.glb", Mesh("ball", v, ball.faces, ball.normals))
     (work / "degen.obj").write_text("v 0 0 0\nv 10 0 0\nv 20 0 0\nf 1 2 3\n")  # one face of zero area
     (work / "empty.obj").write_bytes(b"")
+    (work / "huge.obj").write_text("v 0 0 0\nv 1e30 0 0\nv 0 1e30 0\nf 1 2 3\n")  # the trial's: Mitsuba's lights overflow
     (work / "model.stl").write_bytes(b"solid x\n")
     (work / "huge.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\n"
                                     b"property float x\nproperty float y\nproperty float z\nelement face 2000000000\n"
@@ -38,6 +39,8 @@ def meshes(tmp_path, monkeypatch):
 BAD = [
     (["--scene", "nope.obj"], "mesh 'nope.obj' does not exist"),
     (["--scene", "empty.obj"], "mesh 'empty.obj' is empty (0 bytes)"),
+    (["--scene", "huge.obj"], "huge.obj: the model is 1.414e+30 mm across (bounding-sphere diameter, units mm); a "
+                              "scene takes models 1e-06 to 1e+09 mm across"),
     (["--scene", "model.stl"], "unknown format '.stl'"),
     (["--scene", "nan.obj"], "has NaN or infinite vertex positions"),
     (["--scene", "nan.glb"], "has NaN or infinite vertex positions (1 of"),

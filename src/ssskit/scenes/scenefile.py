@@ -87,6 +87,12 @@ DEFAULT_FRONT = (0.0, 0.0, 1.0)
 DEFAULT_UNITS = {"gltf": "m", "obj": "mm", "ply": "mm"}
 #: a plausible size of a translucent object (bounding-sphere diameter, mm), for the units hint
 PLAUSIBLE_MM = (5.0, 3000.0)
+#: the model sizes (bounding-sphere diameter, mm) a scene takes at all: 1 nm (the shortest transport mean free path
+#: any profile model takes, ssskit.profiles.domain.MFP_RANGE_MM) to 1000 km (1000 x the longest). Beyond, the
+#: renderer's float32 fails first: the framing lights' intensities grow as the distance squared (a 1e30 mm model's
+#: point light, ~1e61, overflows float32; the trial's render of one gave Mitsuba's "Invalid sample value" and a
+#: frame with no SSS pixel)
+MODEL_SIZE_MM = (1e-6, 1e9)
 
 
 def _generated(kind: str, params: Mapping[str, Any]) -> tuple[Mesh | None, dict | None]:
@@ -460,6 +466,12 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         scale = UNITS_MM[unit]
         objs = _mesh_objects(meshes, scale, own, str(table.get("material", "")), label, taken)
         centre, r = bounding_sphere(meshes, scale)
+        lo, hi = MODEL_SIZE_MM
+        if not lo <= 2 * r <= hi:
+            raise SceneError(f"{label}: the model is {2 * r:.4g} mm across (bounding-sphere diameter, units {unit}); a "
+                             f"scene takes models {lo:g} to {hi:g} mm across (1 nm to 1000 km: the mean free paths any "
+                             "profile takes start at 1 nm, and the renderer's float32 lights overflow far beyond "
+                             "1000 km)")
         if kind == "mesh":
             notes.append(_units_note(label, unit, assumed, 2 * r))
         for o in objs:
