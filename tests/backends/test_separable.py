@@ -330,6 +330,32 @@ def test_bad_depths_and_slots_are_refused(taps7, backend, rng):
         assert np.all(np.isfinite(out))
 
 
+def test_non_finite_colours_and_float_slots_are_refused(taps7, backend, rng):
+    """A NaN or inf colour on any pixel (with SSS or not: the pass reads its neighbours' colours) is refused on
+    the first frame of a size and on later ones (numba: counted while it packs the frame); slots must be an
+    integer image (float slots are refused, never truncated); a colour or depth given as a nested list is
+    converted and gives the array's result."""
+    from ssskit.errors import PassError
+
+    plan = build_separable_plan({1: taps7}, 400.0, 400.0, jitter=0.0, depth_mode="follow")
+    be = get_backend(backend)
+    for h, w, warm in ((11, 19, False), (11, 20, True)):  # sizes no other test uses
+        e = rng.random((h, w, 3)).astype(np.float32)
+        slots = np.ones((h, w), np.int32)
+        slots[:, 15:] = 0
+        depth = np.full((h, w), 300.0, np.float32)
+        good = be.separable(plan, e, depth, slots) if warm else None
+        for bad, pixel in ((np.nan, (5, 7, 0)), (np.inf, (0, 0, 2)), (-np.inf, (3, 17, 1))):
+            f = e.copy()
+            f[pixel] = bad
+            with pytest.raises(PassError, match="diffuse must be finite on every pixel"):
+                be.separable(plan, f, depth, slots)
+        with pytest.raises(PassError, match="slots must be an integer image, got dtype float32"):
+            be.separable(plan, e, depth, slots.astype(np.float32))
+        if good is not None:
+            np.testing.assert_array_equal(be.separable(plan, e.tolist(), depth.tolist(), slots), good)
+
+
 def test_backend_instances_are_keyed_by_name():
     from ssskit.backends import BACKENDS, Backend
 
