@@ -191,3 +191,16 @@ def test_render_dispatches_on_the_pass(monkeypatch):
     assert render("slab", RenderSettings(pass_=AdaptivePass())) == "adaptive result"
     with pytest.raises(SettingsError, match="on_frame applies to the burley-adaptive pass"):
         render("slab", RenderSettings(), on_frame=print)
+
+
+def test_unknown_keywords_and_materials_are_settings_errors():
+    """A misspelt keyword is a SettingsError in from_dict's wording (not Python's TypeError), for every settings
+    class; a material that is neither a preset nor a material file is refused when the settings are made (a
+    file path is kept for the render to read)."""
+    for make, bad in ((RenderSettings, "kernal"), (PassSettings, "jiter"), (BurleySettings, "spps")):
+        with pytest.raises(SettingsError, match=rf"{make.__name__}: unknown setting\(s\) {bad} \(known: "):
+            make(**{bad: 1})
+    with pytest.raises(SettingsError, match="material 'skin9' is neither a preset"):
+        RenderSettings(material="skin9")
+    assert RenderSettings(material="Skin2").material == "Skin2"
+    assert RenderSettings(material="my/own.toml").material == "my/own.toml"

@@ -226,6 +226,19 @@ _BY_TABLE = {cls.table: cls for _, cls in PASSES.items()}
 KERNEL_FIELDS = ("model", "photons", "kernel", "taps", "tap_method")
 
 
+def _check_material_name(name: str) -> None:
+    """A SettingsError unless ``name`` is a preset or names a material file (.toml / .json, or an existing path;
+    the file is read, and checked, when the render loads it: making settings reads no file)."""
+    from pathlib import Path
+
+    from ..materials import MATERIALS
+
+    if name in MATERIALS or name.strip().lower().endswith((".toml", ".json")) or Path(name).exists():
+        return
+    raise SettingsError(f"material {name!r} is neither a preset ({', '.join(MATERIALS.names())}) nor a material "
+                        f"file (.toml / .json)")
+
+
 @dataclass(frozen=True)
 class RenderSettings(Settings):
     """One render and its comparison with ground truth (module docstring for the file layout).
@@ -288,6 +301,7 @@ class RenderSettings(Settings):
 
         if not isinstance(self.material, str) or not self.material.strip():
             raise SettingsError(f"material must be a preset name or a material file, got {self.material!r}")
+        _check_material_name(self.material)
         object.__setattr__(self, "model", check_choice("model", self.model, MODELS.names()))
         object.__setattr__(self, "photons", check_int("photons", self.photons, *PHOTONS_RANGE))
         if not isinstance(self.kernel, str):
