@@ -356,6 +356,15 @@ def test_non_finite_colours_and_float_slots_are_refused(taps7, backend, rng):
             np.testing.assert_array_equal(be.separable(plan, e.tolist(), depth.tolist(), slots), good)
 
 
+def test_a_backend_is_named_by_a_string():
+    """get_backend(3) is the registry's BackendError listing the backends, not an AttributeError."""
+    from ssskit.errors import BackendError
+
+    for wrong in (3, None, b"numba"):
+        with pytest.raises(BackendError, match="a backend is named by a string, got .* \\(known: numba"):
+            get_backend(wrong)
+
+
 def test_backend_instances_are_keyed_by_name():
     from ssskit.backends import BACKENDS, Backend
 
