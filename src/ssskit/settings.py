@@ -31,6 +31,8 @@ PHOTONS_RANGE = (1_000, 10_000_000_000)
 #: photons per channel of a Monte Carlo profile by default: the supplement's (section F)
 DEFAULT_PHOTONS = 10_000_000
 TAP_RANGE = (1, 255)
+#: frames of one adaptive run or sequence (RenderSettings' AdaptivePass, adaptive_frames, sequence_gbuffers)
+FRAMES_RANGE = (1, 100_000)
 
 
 class Settings:

@@ -39,13 +39,12 @@ from ..registry import Registry
 from ..screenspace.adaptive import AdaptiveSettings
 from ..screenspace.burley import BurleyParams, BurleySettings
 from ..screenspace.settings import PassSettings
-from ..settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, check_choice, check_int
+from ..settings import FRAMES_RANGE, PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, check_choice, check_int
 
 #: photons per channel of Monte Carlo profiles: one range for every command
 #: the samples per pixel of an adaptive run's converged references (moving camera)
 LIMIT_SPP_RANGE = (2, 131072)
 DEFAULT_LIMIT_SPP = 2048
-FRAMES_RANGE = (1, 100_000)
 #: the values the tree holds once, which the layout before it kept per pass
 SHARED = ("frame", "seed", "backend")
 #: when the transmittance pass runs: auto (where the G-buffer has the light layers), on, off
