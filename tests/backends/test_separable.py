@@ -298,10 +298,12 @@ def test_narrow_images_unused_slots_and_empty_frames(width, backend, rng):
     np.testing.assert_array_equal(none, e)
 
 
-def test_bad_depths_and_slots_are_refused(taps7, backend, rng):
+def test_bad_depths_colours_and_slots_are_refused(taps7, backend, rng):
     """A pixel with SSS needs a positive finite depth and a slot of the plan, on the first frame of a size and on
     later ones (the numba backend checks while it packs the frame, with or without the last frame's pad);
-    a pixel without SSS may hold any depth and keeps its value."""
+    a pixel without SSS may hold any depth and keeps its value. Every pixel needs a finite colour (with SSS or
+    not: the pass reads its neighbours' colours); slots must be an integer image (float slots are refused,
+    never truncated); a colour and depth given as nested lists are converted and give the arrays' result."""
     from ssskit.errors import PassError
 
     plan = build_separable_plan({1: taps7, 2: taps7}, 400.0, 400.0, jitter=0.1, depth_mode="follow")
@@ -328,32 +330,16 @@ def test_bad_depths_and_slots_are_refused(taps7, backend, rng):
         out = be.separable(plan, e, d, q)
         np.testing.assert_array_equal(out[4, 4], e[4, 4])
         assert np.all(np.isfinite(out))
-
-
-def test_non_finite_colours_and_float_slots_are_refused(taps7, backend, rng):
-    """A NaN or inf colour on any pixel (with SSS or not: the pass reads its neighbours' colours) is refused on
-    the first frame of a size and on later ones (numba: counted while it packs the frame); slots must be an
-    integer image (float slots are refused, never truncated); a colour or depth given as a nested list is
-    converted and gives the array's result."""
-    from ssskit.errors import PassError
-
-    plan = build_separable_plan({1: taps7}, 400.0, 400.0, jitter=0.0, depth_mode="follow")
-    be = get_backend(backend)
-    for h, w, warm in ((11, 19, False), (11, 20, True)):  # sizes no other test uses
-        e = rng.random((h, w, 3)).astype(np.float32)
-        slots = np.ones((h, w), np.int32)
-        slots[:, 15:] = 0
-        depth = np.full((h, w), 300.0, np.float32)
-        good = be.separable(plan, e, depth, slots) if warm else None
-        for bad, pixel in ((np.nan, (5, 7, 0)), (np.inf, (0, 0, 2)), (-np.inf, (3, 17, 1))):
+        for bad, pixel in ((np.nan, (5, 7, 0)), (np.inf, (0, 0, 2)), (-np.inf, (4, 4, 1))):  # (4, 4): no SSS in q
             f = e.copy()
             f[pixel] = bad
             with pytest.raises(PassError, match="diffuse must be finite on every pixel"):
-                be.separable(plan, f, depth, slots)
+                be.separable(plan, f, good, q)
         with pytest.raises(PassError, match="slots must be an integer image, got dtype float32"):
-            be.separable(plan, e, depth, slots.astype(np.float32))
-        if good is not None:
-            np.testing.assert_array_equal(be.separable(plan, e.tolist(), depth.tolist(), slots), good)
+            be.separable(plan, e, good, slots.astype(np.float32))
+        if warm:
+            np.testing.assert_array_equal(be.separable(plan, e.tolist(), good.tolist(), slots),
+                                          be.separable(plan, e, good, slots))
 
 
 def test_a_backend_is_named_by_a_string():
