@@ -258,5 +258,5 @@ def check_transmission_frame(plan: TransmissionPlan, slots: np.ndarray, light_uv
         raise PassError("light_rgb (an irradiance) must be finite and >= 0 on every pixel with SSS")
 
 
-__all__ = ["LUT_SIZE", "MAX_TERMS", "MODELS", "N_DOT_L_TOLERANCE", "SlotModel", "TransmissionPlan", "UE_MAX_OPTICAL_DEPTH",
-           "build_transmission_plan", "check_transmission_frame", "unreal_lut_coordinate"]
+__all__ = ["LUT_SIZE", "MAX_TERMS", "MODELS", "N_DOT_L_TOLERANCE", "SlotModel", "TransmissionPlan",
+           "UE_MAX_OPTICAL_DEPTH", "build_transmission_plan", "check_transmission_frame", "unreal_lut_coordinate"]
