@@ -89,8 +89,7 @@ class BurleySettings(Settings):
         except SettingsError:  # not a finite number: the message names c's own domain, not (-inf, inf)
             c = math.nan
         if not C_RANGE[0] < c < C_RANGE[1]:
-            raise SettingsError(f"c must be a finite number in the open interval ({C_RANGE[0]:g}, {C_RANGE[1]:g}), "
-                                f"got {self.c!r}")
+            raise SettingsError(f"c must lie in the open interval ({C_RANGE[0]:g}, {C_RANGE[1]:g}), got {self.c!r}")
         object.__setattr__(self, "c", c)
         object.__setattr__(self, "sequence", check_choice("sequence", self.sequence, SEQUENCES))
         object.__setattr__(self, "bleed", check_float("bleed", self.bleed, 0.0, 1.0))
