@@ -150,3 +150,21 @@ def test_docs_name_files_that_exist():
     assert paths, "docs/architecture.md names no files"
     missing = sorted(p for p in paths if not (ROOT / p).exists())
     assert not missing, f"docs/architecture.md names files that do not exist: {missing}"
+
+
+def test_star_imports_give_the_public_names_only():
+    """``from ssskit import *`` gives the pipeline's entry points (not annotations, importlib, Any); the modules a
+    user imports from directly (materials, truth, metrics, errors) declare __all__, each name defined there and
+    every public function and class of the module listed."""
+    import importlib
+    import inspect
+
+    names: dict[str, object] = {}
+    exec("from ssskit import *", names)
+    assert sorted(k for k in names if k != "__builtins__") == ["RenderResult", "RenderSettings", "render"]
+    for mod_name in ("materials", "truth", "metrics", "errors"):
+        module = importlib.import_module(f"ssskit.{mod_name}")
+        assert all(hasattr(module, n) for n in module.__all__), mod_name
+        own = {n for n, v in vars(module).items() if not n.startswith("_") and (inspect.isfunction(v) or inspect.isclass(v))
+               and v.__module__ == module.__name__}
+        assert own <= set(module.__all__), (mod_name, own - set(module.__all__))

@@ -128,3 +128,14 @@ def test_profile_rmse_separates_a_difference_from_the_reference_noise():
     off = profile_rmse(truth + 0.1, noisy, s)
     assert off["resolved"] and off["rmse"] == pytest.approx(0.1, rel=0.1)
     assert off["rmse_se"] == pytest.approx(0.02 / np.sqrt(200), rel=0.3)
+
+
+def test_ssim_refuses_images_smaller_than_its_window():
+    """Wang et al.'s 11 x 11 Gaussian window (sigma 1.5): a smaller image is a SignalError saying so, not
+    scikit-image's ValueError; an 11 x 11 image has an SSIM, 1 against itself."""
+    a = np.random.default_rng(0).random((12, 12, 3))
+    for h, w in ((3, 3), (10, 12), (12, 7)):
+        with pytest.raises(SignalError, match="SSIM needs images of at least 11 x 11 pixels"):
+            metrics.ssim(a[:h, :w], a[:h, :w])
+    assert metrics.SSIM_MIN_SIDE == 11
+    assert metrics.ssim(a[:11, :11], a[:11, :11]) == pytest.approx(1.0)

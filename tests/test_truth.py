@@ -68,3 +68,25 @@ def test_non_square_pixels_and_missing_profiles(skin):
     assert exact_screen_space(_gbuffer(pid, fy=450.0), skin) is None
     with pytest.raises(SignalError, match="profile id 1"):
         exact_screen_space(_gbuffer(pid), {2: skin})
+
+
+def test_wrong_profile_fraction_and_pixel_size_are_refused(skin):
+    """A material or a name where a profile is expected, a fraction outside (0, 1), a pixel size that is not
+    a finite positive number: each a precise SsskitError, not an AttributeError, a ZeroDivisionError or the
+    input returned unchanged."""
+    from ssskit.errors import ProfileError
+    from ssskit.kernels import build_kernel
+    from ssskit.materials import get_material
+    from ssskit.truth import apply_separable
+
+    gb = _gbuffer(np.ones((16, 16), np.uint32))
+    for wrong in (get_material("skin1"), "skin1", {1: "skin1"}):
+        with pytest.raises(ProfileError, match="needs an RGBProfile"):
+            exact_screen_space(gb, wrong)
+    for fraction in (0.0, -0.5, 1.0, float("nan")):
+        with pytest.raises(SignalError, match=r"fraction .* must lie in \(0, 1\)"):
+            exact_screen_space(gb, skin, fraction=fraction)
+    k = build_kernel("svd", skin, 0.1, 21)
+    for pixel_mm in (0.0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(SignalError, match="pixel_mm"):
+            apply_separable(np.ones((8, 8, 3)), k, pixel_mm)

@@ -21,6 +21,9 @@ _SUBMODULES = ("errors", "progress", "registry", "cache", "io", "compute", "sett
                "report", "cli")
 #: names re-exported from a submodule: name -> submodule
 _API = {"render": "pipeline", "RenderSettings": "pipeline", "RenderResult": "pipeline"}
+#: what ``from ssskit import *`` gives: the pipeline's entry points (loading the pipeline), not this module's
+#: helpers; the submodules stay attributes (``ssskit.materials``), loaded on first use
+__all__ = sorted(_API)
 
 
 def __getattr__(name: str) -> Any:

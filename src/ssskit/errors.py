@@ -72,3 +72,36 @@ class SceneError(SsskitError):
 
 class SettingsError(SsskitError):
     """Invalid render or pass settings, or a malformed settings file."""
+
+
+def unknown_names_message(where: str, unknown: list[str], known: list[str], what: str = "setting") -> str:
+    """The one wording of "a name that is not known": ``{where}: unknown {what}(s) a, b (known: c, d)`` (the
+    settings files' and :meth:`ssskit.settings.Settings.from_dict`'s, reused by functions that take keywords)."""
+    return f"{where}: unknown {what}(s) {', '.join(unknown)} (known: {', '.join(known) or 'none'})"
+
+
+def check_keywords(where: str, given: dict[str, object], known: list[str], error: type[SsskitError]) -> None:
+    """Raise ``error`` naming every keyword of ``given`` not in ``known`` (and the known ones), so a misspelt
+    keyword argument is the module's SsskitError rather than Python's TypeError."""
+    unknown = sorted(k for k in given if k not in known)
+    if unknown:
+        raise error(unknown_names_message(where, unknown, list(known), "keyword argument"))
+
+
+__all__ = [
+    "BackendError",
+    "GBufferError",
+    "KernelError",
+    "MaterialError",
+    "OutputError",
+    "PassError",
+    "ProfileError",
+    "SamplingError",
+    "SceneError",
+    "SettingsError",
+    "SignalError",
+    "SimulationInterrupted",
+    "SsskitError",
+    "check_keywords",
+    "unknown_names_message",
+]

@@ -434,3 +434,17 @@ def get_material(name_or_path: str | Path | Material | LayeredMaterial) -> Mater
         return load_material(text)
     return MATERIALS.get(text)  # raises with the list of known names
 
+
+__all__ = [
+    "ARTIST_PRESETS",
+    "ArtistPreset",
+    "CHANNELS",
+    "LayeredMaterial",
+    "MATERIALS",
+    "MM_PER_CM",
+    "Material",
+    "Triple",
+    "get_material",
+    "load_material",
+    "material_from_dict",
+]

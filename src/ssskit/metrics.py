@@ -56,14 +56,25 @@ def psnr(reference: ArrayLike, test: ArrayLike, peak: float | None = None) -> fl
     return float("inf") if err == 0 else float(20.0 * np.log10(peak / err))
 
 
+#: SSIM's Gaussian window (sigma 1.5 px): Wang et al.'s 11 x 11 window, scikit-image's 2 int(3.5 sigma + 0.5) + 1;
+#: an image with a side shorter than it has no SSIM
+SSIM_SIGMA_PX = 1.5
+SSIM_MIN_SIDE = 2 * int(3.5 * SSIM_SIGMA_PX + 0.5) + 1
+
+
 def ssim(reference: ArrayLike, test: ArrayLike) -> float:
-    """Mean SSIM (scikit-image, Gaussian-weighted as in Wang et al.) of the tone-mapped images."""
+    """Mean SSIM (scikit-image, Gaussian-weighted as in Wang et al.) of the tone-mapped images; a SignalError
+    for an image smaller than the window (:data:`SSIM_MIN_SIDE` pixels a side)."""
     from skimage.metrics import structural_similarity
 
     ref, tst = _pair(reference, test)
+    if min(ref.shape[:2]) < SSIM_MIN_SIDE:
+        raise SignalError(f"SSIM needs images of at least {SSIM_MIN_SIDE} x {SSIM_MIN_SIDE} pixels (its Gaussian "
+                          f"window, sigma {SSIM_SIGMA_PX} px), got {ref.shape[1]} x {ref.shape[0]}")
     peak = float(ref.max()) or 1.0
     return float(structural_similarity(tonemap(ref, peak), tonemap(tst, peak), channel_axis=2, data_range=1.0,
-                                       gaussian_weights=True, sigma=1.5, use_sample_covariance=False))
+                                       gaussian_weights=True, sigma=SSIM_SIGMA_PX,
+                                       use_sample_covariance=False))
 
 
 def flip(reference: ArrayLike, test: ArrayLike, ppd: float = 67.0) -> float:
@@ -302,3 +313,26 @@ def display_psnr(reference: ArrayLike | None, image: ArrayLike, mask: ArrayLike,
     return float("inf") if err == 0 else float(-20.0 * np.log10(err))
 
 
+__all__ = [
+    "BT709_LUMA",
+    "EXACT_PSNR_DB",
+    "NO_LIGHT_TEXT",
+    "PERCEPTUAL",
+    "REGIONS",
+    "SSIM_MIN_SIDE",
+    "SSIM_SIGMA_PX",
+    "all_metrics",
+    "display_psnr",
+    "edge_profile",
+    "flip",
+    "no_light",
+    "profile_rmse",
+    "psnr",
+    "psnr_text",
+    "region_level",
+    "region_masks",
+    "region_metrics",
+    "relative_rmse",
+    "rmse",
+    "ssim",
+]

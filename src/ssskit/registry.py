@@ -33,6 +33,9 @@ class Registry(Generic[T]):
         return lambda entry: self.register(name, entry)
 
     def get(self, name: str) -> T:
+        if not isinstance(name, str):
+            raise self._error(f"a {self.kind} is named by a string, got {type(name).__name__} {name!r} "
+                              f"(known: {', '.join(self.names())})")
         try:
             return self._entries[_key(name)][1]
         except KeyError:

@@ -21,7 +21,7 @@ from pathlib import Path
 from collections.abc import Collection
 from typing import Any, ClassVar, Self, SupportsIndex
 
-from .errors import SettingsError
+from .errors import SettingsError, unknown_names_message
 
 #: ranges the settings and the command line share (here, below every layer that checks them, so the CLI's
 #: option types need not import the pipeline): image sides of the built-in scenes (pixels), photons of a
@@ -31,6 +31,8 @@ PHOTONS_RANGE = (1_000, 10_000_000_000)
 #: photons per channel of a Monte Carlo profile by default: the supplement's (section F)
 DEFAULT_PHOTONS = 10_000_000
 TAP_RANGE = (1, 255)
+#: frames of one adaptive run or sequence (RenderSettings' AdaptivePass, adaptive_frames, sequence_gbuffers)
+FRAMES_RANGE = (1, 100_000)
 
 
 class Settings:
@@ -39,6 +41,16 @@ class Settings:
     # what @dataclass gives every subclass (declared, not set: the mixin itself is no dataclass), so the
     # type checker sees a Settings as the dataclass instance that dataclasses.fields/replace take
     __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[Any]]]
+
+    def __new__(cls, *args: Any, **kwargs: Any) -> Self:
+        """Refuse keywords that name no field with a SettingsError (the dataclass's own __init__ would raise a
+        TypeError), in :meth:`from_dict`'s wording."""
+        if kwargs and dataclasses.is_dataclass(cls):
+            names = [f.name for f in dataclasses.fields(cls)]
+            unknown = sorted(set(kwargs) - set(names))
+            if unknown:
+                raise SettingsError(unknown_names_message(cls.__name__, unknown, names))
+        return super().__new__(cls)
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {}
@@ -55,8 +67,7 @@ class Settings:
         names = {f.name: f for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - set(names))
         if unknown:
-            raise SettingsError(f"{where or cls.__name__}: unknown setting(s) {', '.join(unknown)} "
-                                f"(known: {', '.join(names)})")
+            raise SettingsError(unknown_names_message(where or cls.__name__, unknown, list(names)))
         hints = typing.get_type_hints(cls)
         kwargs: dict[str, Any] = {}
         for key, value in data.items():

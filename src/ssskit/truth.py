@@ -13,8 +13,8 @@ convolution on each SSS region, with the pass's own boundary rule.
 from __future__ import annotations
 
 import math
-
 from collections.abc import Mapping
+from numbers import Real
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -25,6 +25,11 @@ if TYPE_CHECKING:  # imported where used: truth loads without them
     from .kernels.base import AnyKernel, Kernel
     from .profiles.base import RGBProfile
     from .screenspace.gbuffer import GBuffer
+
+
+def _is_number(value: object) -> bool:
+    """A real number (int, float or numpy scalar), not a bool."""
+    return isinstance(value, Real) and not isinstance(value, bool)
 
 
 def check_image(image: np.ndarray, what: str = "image") -> np.ndarray:
@@ -56,6 +61,8 @@ def kernel_on_pixels(kernel: AnyKernel, pixel_mm: float) -> Kernel:
     """The kernel as a tabulated :class:`Kernel` on the pixel grid (resampled or tap-deposited)."""
     from .kernels.base import TapKernel
 
+    if not (_is_number(pixel_mm) and math.isfinite(pixel_mm) and pixel_mm > 0):
+        raise SignalError(f"pixel_mm (the pixel's size in mm) must be a finite number > 0, got {pixel_mm!r}")
     if isinstance(kernel, TapKernel):
         return kernel.to_kernel(pixel_mm)
     if abs(kernel.cell_mm - pixel_mm) <= 1e-12 * pixel_mm:
@@ -99,7 +106,16 @@ def exact_screen_space(gbuffer: GBuffer, profile: RGBProfile | Mapping[int, RGBP
     depth, which the pass does not. Pixels without SSS keep their diffuse value.
     """
     from .compute.fft import fft_convolve
+    from .errors import ProfileError
+    from .profiles.base import RGBProfile
 
+    expected = "an RGBProfile (profile_for_material(material, model) makes one) or a mapping profile id -> RGBProfile"
+    given = list(profile.values()) if isinstance(profile, Mapping) else [profile]
+    bad = [type(p).__name__ for p in given if not isinstance(p, RGBProfile)]
+    if bad:
+        raise ProfileError(f"exact_screen_space needs {expected}, got {bad[0]}")
+    if not (_is_number(fraction) and 0.0 < fraction < 1.0):
+        raise SignalError(f"fraction (of the energy the kernel's radius holds) must lie in (0, 1), got {fraction!r}")
     cam = gbuffer.camera
     if abs(cam.fx - cam.fy) > 1e-6 * cam.fx:
         return None
@@ -123,3 +139,10 @@ def exact_screen_space(gbuffer: GBuffer, profile: RGBProfile | Mapping[int, RGBP
     return out.astype(np.float32)
 
 
+__all__ = [
+    "apply_separable",
+    "check_image",
+    "convolve_2d",
+    "exact_screen_space",
+    "kernel_on_pixels",
+]

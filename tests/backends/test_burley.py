@@ -209,6 +209,13 @@ def test_bad_frames_and_counts(burley_backend):
         b.burley(plan, gb.diffuse, bad, slots, 4)
     with pytest.raises(PassError, match="slots must"):
         b.burley(plan, gb.diffuse, gb.depth_mm, slots[:, :-1], 4)
+    for bad_value, pixel in ((np.nan, (20, 16)), (np.inf, (0, 0))):  # inside a disk; background, no SSS
+        e = gb.diffuse.copy()
+        e[pixel + (1,)] = bad_value
+        with pytest.raises(PassError, match="diffuse must be finite on every pixel"):
+            b.burley(plan, e, gb.depth_mm, slots, 4)
+    with pytest.raises(PassError, match="slots must be an integer image, got dtype float32"):
+        b.burley(plan, gb.diffuse, gb.depth_mm, slots.astype(np.float32), 4)
 
 
 def test_numba_exact_inverse_is_the_oracles_root():

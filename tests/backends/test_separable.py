@@ -298,10 +298,12 @@ def test_narrow_images_unused_slots_and_empty_frames(width, backend, rng):
     np.testing.assert_array_equal(none, e)
 
 
-def test_bad_depths_and_slots_are_refused(taps7, backend, rng):
+def test_bad_depths_colours_and_slots_are_refused(taps7, backend, rng):
     """A pixel with SSS needs a positive finite depth and a slot of the plan, on the first frame of a size and on
     later ones (the numba backend checks while it packs the frame, with or without the last frame's pad);
-    a pixel without SSS may hold any depth and keeps its value."""
+    a pixel without SSS may hold any depth and keeps its value. Every pixel needs a finite colour (with SSS or
+    not: the pass reads its neighbours' colours); slots must be an integer image (float slots are refused,
+    never truncated); a colour and depth given as nested lists are converted and give the arrays' result."""
     from ssskit.errors import PassError
 
     plan = build_separable_plan({1: taps7, 2: taps7}, 400.0, 400.0, jitter=0.1, depth_mode="follow")
@@ -328,6 +330,25 @@ def test_bad_depths_and_slots_are_refused(taps7, backend, rng):
         out = be.separable(plan, e, d, q)
         np.testing.assert_array_equal(out[4, 4], e[4, 4])
         assert np.all(np.isfinite(out))
+        for bad, pixel in ((np.nan, (5, 7, 0)), (np.inf, (0, 0, 2)), (-np.inf, (4, 4, 1))):  # (4, 4): no SSS in q
+            f = e.copy()
+            f[pixel] = bad
+            with pytest.raises(PassError, match="diffuse must be finite on every pixel"):
+                be.separable(plan, f, good, q)
+        with pytest.raises(PassError, match="slots must be an integer image, got dtype float32"):
+            be.separable(plan, e, good, slots.astype(np.float32))
+        if warm:
+            np.testing.assert_array_equal(be.separable(plan, e.tolist(), good.tolist(), slots),
+                                          be.separable(plan, e, good, slots))
+
+
+def test_a_backend_is_named_by_a_string():
+    """get_backend(3) is the registry's BackendError listing the backends, not an AttributeError."""
+    from ssskit.errors import BackendError
+
+    for wrong in (3, None, b"numba"):
+        with pytest.raises(BackendError, match="a backend is named by a string, got .* \\(known: numba"):
+            get_backend(wrong)
 
 
 def test_backend_instances_are_keyed_by_name():

@@ -197,6 +197,41 @@ def test_bad_inputs_are_refused(plan):
         b.transmission(plan, slots + 5, uvz, shadow, ndl, light)
     with pytest.raises(PassError, match="profile ids"):
         build_transmission_plan({0: _model()})
+    with pytest.raises(PassError, match="profile ids with a transmittance model must be integers >= 1, got 'a'"):
+        build_transmission_plan({"a": _model()})
+    with pytest.raises(PassError, match="profile id 1: a transmittance model must be a SlotModel"):
+        build_transmission_plan({1: 3.0})
+    with pytest.raises(PassError, match="empty mapping"):
+        build_transmission_plan({})
+    assert build_transmission_plan({}, allow_empty=True).slots == 1  # a frame without SSS pixels (the pipeline's)
+
+
+def test_bad_values_are_refused(plan, backend):
+    """Values outside the spec (module docstring of transmission_plan) on a pixel with SSS: NaN or negative
+    irradiance, a cosine beyond [-1, 1], a NaN point; NaN in the light-space depth (+inf marks no surface and
+    passes); float slots: a PassError on every backend, never NaN or negative output."""
+    slots, uvz, shadow, ndl, light = _frame()
+    b = get_backend(backend)
+    y, x = np.argwhere(slots > 0)[0]
+    for name, arr, value, match in (("light", light, np.nan, "light_rgb"), ("light", light, -1.0, "light_rgb"),
+                                    ("ndl", ndl, 5.0, "n_dot_l"), ("ndl", ndl, np.nan, "n_dot_l"),
+                                    ("ndl", ndl, -1.02, "n_dot_l"), ("uvz", uvz, np.nan, "light_uvz"),
+                                    ("shadow", shadow, np.nan, "shadow_mm")):
+        args = {"uvz": uvz, "shadow": shadow, "ndl": ndl, "light": light}
+        bad = arr.copy()
+        bad[(y, x) if arr.ndim == 2 else (y, x, 1)] = value
+        args[name] = bad
+        with pytest.raises(PassError, match=match):
+            b.transmission(plan, slots, args["uvz"], args["shadow"], args["ndl"], args["light"])
+    with pytest.raises(PassError, match="slots must be an integer image"):
+        b.transmission(plan, slots.astype(np.float32), uvz, shadow, ndl, light)
+    edge = ndl.copy()
+    edge[y, x] = 1.0 + 1e-6  # a rounded cosine passes and is clamped
+    outside = np.argwhere(slots == 0)[0]
+    far = light.copy()
+    far[tuple(outside)] = np.nan  # a pixel without SSS is not read
+    out = b.transmission(plan, slots, uvz, shadow, edge, far)
+    assert np.all(np.isfinite(out)) and np.all(out >= 0)
     with pytest.raises(PassError, match="translucency"):
         jimenez2010_model(1.0)
 

@@ -122,3 +122,18 @@ def test_array_errors(kernels):
     with pytest.raises(KernelError, match="one term"):
         arrays_to_tap_kernel(parse_shader_arrays(format_shader_arrays(
             kernel_arrays(kernels["svd"], 5), "glsl")))
+
+
+def test_options_a_format_does_not_take_are_refused_before_writing(tmp_path):
+    """jitter and depth_mode belong to the whole shaders (glsl-shader, hlsl-shader), taps not to bn / json: given
+    to another format they are a KernelError and no file is written (the shaders check their values)."""
+    k = kernel_jimenez2012(11)
+    for fmt, suffix, opts in (("glsl", "glsl", {"jitter": 2.0, "depth_mode": "bogus"}), ("hlsl", "hlsl", {"jitter": 0.3}),
+                              ("glsl", "glsl", {"depth_mode": "follow"}), ("json", "json", {"taps": 9}),
+                              ("bn", "bn", {"taps": 9})):
+        path = tmp_path / f"kernel.{suffix}"
+        with pytest.raises(KernelError, match="apply to the whole shaders only|do not apply to the"):
+            export_kernel(k, fmt, path, **opts)
+        assert not path.exists()
+    export_kernel(k, "glsl", tmp_path / "ok.glsl")  # the defaults pass
+    assert (tmp_path / "ok.glsl").exists()

@@ -407,3 +407,31 @@ def test_truth_rejects_bad_images():
         convolve_2d(np.ones((4, 4)), np.ones((3, 3, 3)))
     with pytest.raises(SignalError, match="NaN"):
         convolve_2d(np.full((4, 4, 3), np.nan), np.ones((3, 3, 3)))
+
+
+def test_build_kernel_refuses_what_it_cannot_use(skin):
+    """A zero grid is refused (not silently replaced by the default grid); an unknown keyword is a KernelError
+    naming the method's keywords; a material or a name where the profile is expected is a KernelError saying
+    what is expected; the SVD rank has one limit, MAX_SVD_RANK, in the API and in method specs alike."""
+    from ssskit.kernels import MAX_SVD_RANK
+    from ssskit.materials import get_material
+
+    with pytest.raises(KernelError, match="kernel cell size must be a positive number of mm, got 0.0"):
+        build_kernel("svd", skin, cell_mm=0.0)
+    with pytest.raises(KernelError, match="kernel grid size must be an odd integer >= 3.*got 0"):
+        build_kernel("svd", skin, n=0)
+    with pytest.raises(KernelError, match=r"kernel method 'svd': unknown keyword argument\(s\) rnk "
+                                          r"\(known: rank, renormalise\)"):
+        build_kernel("svd", skin, rnk=2)
+    with pytest.raises(KernelError, match=r"unknown keyword argument\(s\) sigmanear \(known: preset, sigma_near"):
+        build_kernel("artist", skin, sigmanear=1.0)
+    for wrong in (get_material("skin1"), "skin1"):
+        with pytest.raises(KernelError, match="needs a profile \\(an RGBProfile: profile_for_material"):
+            build_kernel("svd", wrong)
+    assert MAX_SVD_RANK == 64
+    h, n = default_grid(skin, 201)
+    for method in ("svd", "svd_l1", "preintegrated_svd"):
+        with pytest.raises(KernelError, match=f"rank must .*1..{MAX_SVD_RANK}, got {MAX_SVD_RANK + 1}"):
+            build_kernel(method, skin, h, n, rank=MAX_SVD_RANK + 1)
+        with pytest.raises(KernelError, match=f"rank must lie in 1..{MAX_SVD_RANK}, got {MAX_SVD_RANK + 1}"):
+            parse_method_spec(f"{method}:{MAX_SVD_RANK + 1}")

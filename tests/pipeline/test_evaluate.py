@@ -78,3 +78,17 @@ def test_repeated_evaluations_reuse_kernels_and_results(skin):
     assert again.results["svd:2"]["rmse"] > 0 and set(again.images) == {"svd:2", "jimenez2012"}
     third = evaluate(skin, "disk", ["svd:2"], size=64, perceptual=False)
     assert third.results["svd:2"] == again.results["svd:2"]
+
+
+def test_one_spec_string_and_a_wrong_profile(skin):
+    """A single spec given as a string is that one method (not its characters); a material or a name where the
+    profile is expected is a ProfileError naming what is expected."""
+    from ssskit.errors import ProfileError
+    from ssskit.materials import get_material
+
+    one = evaluate(skin, "disk", "svd:1", size=32, perceptual=False)
+    assert list(one.results) == ["svd:1"]
+    assert one.results == evaluate(skin, "disk", ["svd:1"], size=32, perceptual=False).results
+    for wrong in (get_material("skin1"), "skin1"):
+        with pytest.raises(ProfileError, match="evaluate needs a profile"):
+            evaluate(wrong, "disk", ["svd:1"], size=32)

@@ -232,3 +232,25 @@ def test_sequence_runs_the_guiding_phase_on_the_backend(setup, backend, disocclu
     fixed = run_frames(gbs, params, b, spp=8, references=[r.sss for r in refs])
     assert fixed.ms_update == [0.0] * FRAMES and all(w > 0 for w in fixed.ms_frame)
     assert {"ms", "ms_update", "ms_frame"} <= set(run.rows()[0])
+
+
+def _run_docstring_examples(obj, globs):
+    """Run ``obj``'s docstring examples with doctest, their ``+SKIP`` lifted: (failed, attempted)."""
+    import doctest
+
+    test = doctest.DocTestFinder(recurse=False).find(obj, globs=globs)[0]
+    for example in test.examples:
+        example.options.pop(doctest.SKIP, None)
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS)
+    runner.run(test)
+    return runner.summarize(verbose=False)
+
+
+def test_module_example_runs(setup, cache, monkeypatch):
+    """The module docstring's example (every line +SKIP under doctest: it path traces on a first run) runs as
+    written and gives what it shows, with the G-buffers the fixture cached."""
+    import ssskit.pipeline.sequence as module
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(cache))
+    failed, attempted = _run_docstring_examples(module, {})
+    assert attempted >= 10 and failed == 0

@@ -4,6 +4,7 @@ files of the layout before the tree (method, [sss], frame/seed/backend per pass)
 
 import warnings
 
+import numpy as np
 import pytest
 
 from ssskit.errors import SettingsError
@@ -191,3 +192,37 @@ def test_render_dispatches_on_the_pass(monkeypatch):
     assert render("slab", RenderSettings(pass_=AdaptivePass())) == "adaptive result"
     with pytest.raises(SettingsError, match="on_frame applies to the burley-adaptive pass"):
         render("slab", RenderSettings(), on_frame=print)
+
+
+def test_unknown_keywords_and_materials_are_settings_errors():
+    """A misspelt keyword is a SettingsError in from_dict's wording (not Python's TypeError), for every settings
+    class; a material that is neither a preset nor a material file is refused when the settings are made (a
+    file path is kept for the render to read)."""
+    for make, bad in ((RenderSettings, "kernal"), (PassSettings, "jiter"), (BurleySettings, "spps")):
+        with pytest.raises(SettingsError, match=rf"{make.__name__}: unknown setting\(s\) {bad} \(known: "):
+            make(**{bad: 1})
+    with pytest.raises(SettingsError, match="material 'skin9' is neither a preset"):
+        RenderSettings(material="skin9")
+    assert RenderSettings(material="Skin2").material == "Skin2"
+    assert RenderSettings(material="my/own.toml").material == "my/own.toml"
+
+
+def test_frames_have_one_limit():
+    """An adaptive run's frames have one limit, ssskit.settings.FRAMES_RANGE, in the render settings
+    (AdaptivePass), adaptive_frames and sequence_gbuffers alike (both checked before any work)."""
+    from ssskit.pipeline.sequence import sequence_gbuffers
+    from ssskit.screenspace import BurleyParams, Camera, GBuffer
+    from ssskit.screenspace.frames import adaptive_frames
+    from ssskit.settings import FRAMES_RANGE
+
+    top = FRAMES_RANGE[1]
+    assert AdaptivePass(frames=top).frames == top
+    gb = GBuffer(diffuse=np.zeros((4, 4, 3), np.float32), albedo=np.ones((4, 4, 3), np.float32),
+                 depth=np.full((4, 4), 400.0, np.float32), profile_id=np.ones((4, 4), np.uint32),
+                 camera=Camera(4, 4, 100.0, 100.0, 2.0, 2.0))
+    for call in (lambda: AdaptivePass(frames=top + 1),
+                 lambda: adaptive_frames(gb, BurleyParams.from_dmfp(0.6, (1.0, 1.0, 1.0)), frames=top + 1,
+                                         history=np.zeros((1, 1, 4), np.float32)),  # (wrong: checked after frames)
+                 lambda: sequence_gbuffers("sphere", "skin1", top + 1)):
+        with pytest.raises(SettingsError, match=rf"frames must lie in \[1, {top}\], got {top + 1}"):
+            call()

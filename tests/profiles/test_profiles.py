@@ -10,6 +10,8 @@ from ssskit.materials import MATERIALS
 from ssskit.profiles import (
     BurleyProfile,
     DipoleProfile,
+    GaussianSumProfile,
+    RGBProfile,
     burley_d,
     burley_d_diffuse_transmission,
     burley_d_dmfp,
@@ -185,6 +187,39 @@ def test_gaussian_fit_keeps_l1_and_fits_energy(name):
 def test_unknown_model():
     with pytest.raises(ProfileError, match="unknown profile model 'multipole'"):
         profile_for_material("skin1", "multipole")
+
+
+def test_unknown_keywords_are_profile_errors():
+    """A keyword a model does not take is a ProfileError naming the model's keywords (for montecarlo those it
+    passes on to simulate_material too), not Python's TypeError; checked before any simulation."""
+    with pytest.raises(ProfileError, match=r"profile model 'montecarlo': unknown keyword argument\(s\) photonz "
+                                           r"\(known: photons, seed, grid_fraction, roughness, threads"):
+        profile_for_material("skin1", "montecarlo", photonz=1)
+    with pytest.raises(ProfileError, match=r"profile model 'dipole': unknown keyword argument\(s\) photons "
+                                           r"\(known: none\)"):
+        profile_for_material("skin1", "dipole", photons=10**5)
+    with pytest.raises(ProfileError, match=r"unknown keyword argument\(s\) albedo_src \(known: configuration"):
+        profile_for_material("skin1", "burley", albedo_src="dipole")
+
+
+def test_eval_refuses_radii_that_are_no_distance():
+    """R(r) is defined for distances 0 <= r < inf: a NaN, infinite or negative radius is a ProfileError on every
+    profile type (no silent 0, no cast warning), on the RGB profile too; r = 0 and an empty array pass."""
+    import warnings
+
+    profiles = [profile_for_material("skin1", "dipole"), profile_for_material("skin1", "burley", albedo_source="dipole"),
+                GaussianSumProfile((0.5, 0.5), (1.0, 4.0))]
+    for prof in profiles:
+        channel = prof.channels[0] if isinstance(prof, RGBProfile) else prof
+        for bad in ([np.nan], [1.0, -0.5], [np.inf], -np.inf):
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                with pytest.raises(ProfileError, match="radii must be finite distances >= 0 mm"):
+                    channel.eval(np.array(bad))
+        assert channel.eval(np.array([])).shape == (0,)
+        assert np.all(np.isfinite(channel.eval([0.0, 1.0]))) or channel.model == "burley"  # Burley: 1/r at 0
+    with pytest.raises(ProfileError, match="radii"):
+        profiles[0].eval([np.nan])
 
 
 def test_bad_profile_parameters():

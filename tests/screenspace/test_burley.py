@@ -94,6 +94,13 @@ def test_bad_settings(field, value, match):
         BurleySettings(**{field: value})
 
 
+def test_c_names_its_domain():
+    """A non-finite c is refused naming c's own domain (2, 3), not [-inf, inf]."""
+    for c in (float("nan"), float("inf"), "x"):
+        with pytest.raises(SettingsError, match=r"c must lie in the open interval \(2, 3\), got "):
+            BurleySettings(sampler="xie", c=c)
+
+
 def test_settings_round_trip(tmp_path):
     s = BurleySettings(sampler="xie", spp=8, c=2.6, stable=True, backend="numpy")
     s.save(tmp_path / "b.toml")
@@ -245,3 +252,9 @@ def test_mips_blur_more_at_low_counts():
     a = burley_sss(gb, p, spp=4, mips=True, seed=1, backend="numpy")
     b = burley_sss(gb, p, spp=4, mips=False, seed=1, backend="numpy")
     assert a[8:24, 8:24].std() < 0.5 * b[8:24, 8:24].std()
+
+
+def test_unknown_keyword_is_a_settings_error():
+    """A misspelt override (spps for spp) is a SettingsError naming the known fields, not a TypeError."""
+    with pytest.raises(SettingsError, match=r"BurleySettings: unknown setting\(s\) spps \(known: sampler, spp, "):
+        burley_sss(_gb(), BurleyParams.from_dmfp(0.6, (8.0, 4.0, 2.0)), spps=4)

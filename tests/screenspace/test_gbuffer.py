@@ -76,3 +76,17 @@ def test_camera_unproject_project_and_motion_vectors():
     mv = motion_vectors(depth, cam, prev)
     np.testing.assert_allclose(mv[..., 0], cam.fx * 5.0 / 200.0)
     np.testing.assert_allclose(mv[..., 1], 0.0, atol=1e-12)
+
+
+def test_one_material_name_is_one_material():
+    """materials="skin1" names one material (not the characters s, k, i, n, 1)."""
+    gb = _gbuffer()
+    one = GBuffer(diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id,
+                  camera=gb.camera, materials="skin1")
+    assert one.materials == ("skin1",)
+    two = GBuffer(diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id * 2,
+                  camera=gb.camera, materials=("skin1", "marble"))
+    assert two.materials == ("skin1", "marble")
+    with pytest.raises(GBufferError, match="uses id 2 but only 1 materials are named"):
+        GBuffer(diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id * 2,
+                camera=gb.camera, materials="skin1")

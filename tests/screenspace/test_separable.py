@@ -59,3 +59,13 @@ def test_every_profile_id_needs_taps(taps7):
         separable_sss(gb, {1: taps7})
     out = separable_sss(gb, {1: taps7, 2: taps7}, backend="numpy")
     np.testing.assert_allclose(out, 1.0, rtol=1e-12)
+
+
+def test_unknown_keyword_is_a_settings_error(taps7):
+    """A misspelt override (jiter for jitter) is a SettingsError naming the known fields, not a TypeError."""
+    h, w = 8, 10
+    gb = GBuffer(diffuse=np.full((h, w, 3), 0.5, np.float32), albedo=np.ones((h, w, 3), np.float32),
+                 depth=np.full((h, w), 400.0, np.float32), profile_id=np.ones((h, w), np.uint32),
+                 camera=Camera(w, h, 1200.0, 1200.0, w / 2, h / 2))
+    with pytest.raises(SettingsError, match=r"PassSettings: unknown setting\(s\) jiter \(known: jitter, "):
+        separable_sss(gb, taps7, jiter=0.2)

@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Protocol, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .plan import DEPTH_MODES, SeparablePlan
+from .plan import DEPTH_MODES, SeparablePlan, check_integer_slots, check_real
 
 if TYPE_CHECKING:
     from .adaptive_plan import AdaptivePlan
@@ -333,9 +333,11 @@ def _checked_counts(counts: ArrayLike, shape: tuple[int, int]) -> NDArray[np.int
 
 def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, plan: SlotPlan,
                 values: bool = True, slot_range: bool = True) -> None:
-    """Shapes and slot range of the separable pass's inputs, or a precise error; with ``values`` also
-    that every pixel with SSS has a positive finite depth (a backend may check that, and the slot range
-    with ``slot_range=False``, in its own pass over the frame)."""
+    """Shapes, types and slot range of the separable (or Burley) pass's inputs, or a precise error; with
+    ``values`` also that every colour is finite and every pixel with SSS has a positive finite depth (a
+    backend may check those, and the slot range with ``slot_range=False``, in its own pass over the frame).
+    ``diffuse`` and ``depth_mm`` may be any real array-like (the backend converts them); ``slots`` must be an
+    integer image (a float image is refused, never rounded)."""
     from ..errors import PassError
 
     if np.ndim(depth_mm) != 2 or np.shape(diffuse) != tuple(np.shape(depth_mm)) + (3,):
@@ -343,10 +345,17 @@ def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, pl
                         f"and {np.shape(depth_mm)}")
     if np.shape(slots) != np.shape(depth_mm):
         raise PassError(f"slots must be (H, W) like depth, got {np.shape(slots)}")
+    check_integer_slots(slots)
+    slots = np.asarray(slots)
     if slot_range and slots.size and (int(slots.min()) < 0 or int(slots.max()) >= plan.slots):
         raise PassError(f"slots must lie in [0, {plan.slots - 1}]")
     if not values:
         return
+    check_real("diffuse", diffuse)
+    if not np.all(np.isfinite(diffuse)):
+        raise PassError("diffuse must be finite on every pixel (a NaN or inf colour spreads over its neighbours)")
+    check_real("depth", depth_mm)
+    depth_mm = np.asarray(depth_mm)
     inside = slots > 0
     if not np.all(np.isfinite(depth_mm[inside])) or np.any(depth_mm[inside] <= 0):
         raise PassError("depth must be positive and finite on every pixel with SSS")

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import PassError
 from ..sampling.hashes import frame_base
 from .base import Backend, check_frame, run_tiny_frames
-from .plan import SeparablePlan, TermTable
+from .plan import SeparablePlan, TermTable, check_real
 
 if TYPE_CHECKING:
     from concurrent.futures import ThreadPoolExecutor
@@ -175,6 +175,8 @@ class NumbaBackend(Backend):
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
                   slots: np.ndarray) -> NDArray[np.float32]:
         check_frame(diffuse, depth_mm, slots, plan, values=False, slot_range=False)  # values: in the packing
+        check_real("diffuse", diffuse)
+        check_real("depth", depth_mm)
         with self._lock:  # one frame buffer per backend: one frame at a time
             return self._separable(plan, diffuse, depth_mm, slots)
 
@@ -186,7 +188,7 @@ class NumbaBackend(Backend):
 
         h, w = slots.shape
         buf, wps, plane = self._buffer(h, w, pad) if write else (np.zeros(1, np.float32), 1, 1)
-        stats = np.empty((h, 4))
+        stats = np.empty((h, 5))
         self._rows(h, lambda y0, y1: pack_rows(src, depth, slots, buf, pad, wps, plane, y0, y1, write, slot_plane,
                                                    stats))
         return buf, wps, plane, stats
@@ -204,6 +206,8 @@ class NumbaBackend(Backend):
         pad = self._pads.get((h, w))
         multi = plan.slots > 2  # several profiles: the passes test slots (one: a texel's depth tells)
         buf, wps, plane, stats = self._pack(src, depth, slots, pad if pad is not None else 0, pad is not None, multi)
+        if stats[:, 4].any():
+            raise PassError("diffuse must be finite on every pixel (a NaN or inf colour spreads over its neighbours)")
         if stats[:, 1].any():
             raise PassError("depth must be positive and finite on every pixel with SSS")
         if slots.size and (stats[:, 2].min() < 0 or stats[:, 3].max() >= plan.slots):

@@ -28,13 +28,31 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
 
 #: depth factor f(d_z) of the pass: exp(-d_z^2 p) with p = 1 / (2 tau_max) (supplement E),
 #: max(0, 1 - |d_z| p) with p = 1 / width (follow-surface test), or 1 (no depth test)
 DEPTH_MODES = ("gaussian", "follow", "none")
+
+
+def check_integer_slots(slots: ArrayLike) -> None:
+    """A PassError unless ``slots`` holds integers (its dtype signed or unsigned integer): a float or bool
+    image of profile slots is refused, never truncated."""
+    kind = np.asarray(slots).dtype.kind
+    if kind not in "iu" and not (kind == "f" and np.size(slots) == 0):
+        raise PassError(f"slots must be an integer image, got dtype {np.asarray(slots).dtype}")
+
+
+def check_real(name: str, values: ArrayLike) -> None:
+    """A PassError unless ``values`` converts to a real (integer or float, not bool, complex or object) array."""
+    try:
+        kind = np.asarray(values).dtype.kind
+    except (TypeError, ValueError) as e:
+        raise PassError(f"{name} must be an array of real numbers: {e}") from None
+    if kind not in "iuf":
+        raise PassError(f"{name} must be an array of real numbers, got dtype {np.asarray(values).dtype}")
 
 
 @dataclass(frozen=True, eq=False)

@@ -56,6 +56,7 @@ t = z - D, which carries the rounding of D (about one ulp of the depths, not of 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -63,10 +64,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PassError
+from .plan import check_integer_slots, check_real
 
 #: the transmittance models a plan can hold (the MCML fit, Jimenez et al. 2010's skin Gaussians, Unreal Engine 5's
 #: subsurface-profile transmission)
 MODELS = ("mcml", "jimenez2010", "unreal")
+
+#: how far |n_dot_l| may exceed 1 (the pass clamps it): the cosine of normals stored in half floats, whose length
+#: is 1 only to about 1e-3, is still a cosine; a value beyond it is not one
+N_DOT_L_TOLERANCE = 1e-2
 
 #: most terms of one slot's T(t)
 MAX_TERMS = 8
@@ -153,10 +159,23 @@ def unreal_lut_coordinate(od: Any) -> np.ndarray:
     return np.asarray((1.0 - e * e) * (LUT_SIZE - 1))
 
 
-def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3) -> TransmissionPlan:
-    """The plan of profile ids -> their :class:`SlotModel`; ``bias_mm`` > 0 is step 2's zero thickness."""
+def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3, *,
+                            allow_empty: bool = False) -> TransmissionPlan:
+    """The plan of profile ids (integers >= 1) -> their :class:`SlotModel`; ``bias_mm`` > 0 is step 2's zero
+    thickness. An empty mapping is refused unless ``allow_empty`` (a frame without SSS pixels: its plan has
+    no slot but 0, and the pass gives 0 everywhere)."""
     if not (isinstance(bias_mm, (int, float)) and np.isfinite(bias_mm) and bias_mm >= 0):
         raise PassError(f"the zero-thickness bias must be a finite number of mm >= 0, got {bias_mm!r}")
+    if not isinstance(models, Mapping):
+        raise PassError(f"a transmittance plan needs a mapping profile id -> SlotModel, got {type(models).__name__}")
+    if not models and not allow_empty:
+        raise PassError("a transmittance plan needs at least one profile id -> SlotModel, got an empty mapping")
+    for key, value in models.items():
+        if not (isinstance(key, (int, np.integer)) and not isinstance(key, bool)):
+            raise PassError(f"profile ids with a transmittance model must be integers >= 1, got {key!r}")
+        if not isinstance(value, SlotModel):
+            raise PassError(f"profile id {key}: a transmittance model must be a SlotModel (e.g. "
+                            f"ssskit.screenspace.transmission.mcml_model), got {type(value).__name__}")
     ids = tuple(sorted(int(i) for i in models))
     if any(i <= 0 for i in ids):
         raise PassError(f"profile ids with a transmittance model must be >= 1 (0 means no SSS), got {list(ids)}")
@@ -204,7 +223,11 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3)
 
 def check_transmission_frame(plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray,
                              shadow_mm: np.ndarray, n_dot_l: np.ndarray, light_rgb: np.ndarray) -> None:
-    """Shapes and slot range of the pass's inputs, or a PassError naming the input."""
+    """Shapes, types, slot range and values of the pass's inputs (module docstring), or a PassError naming the
+    input: ``slots`` an integer image in the plan's range; on every pixel with SSS (the only ones the pass
+    reads) ``light_uvz`` finite, ``n_dot_l`` finite in [-1, 1] (within :data:`N_DOT_L_TOLERANCE`: a cosine of
+    rounded normals) and ``light_rgb`` finite and >= 0; ``shadow_mm`` without NaN (+-inf: no surface, the
+    spec's non-finite sentinel). Real array-likes are accepted (the backend converts them)."""
     h_w = np.shape(slots)
     if len(h_w) != 2:
         raise PassError(f"slots must be an (H, W) image, got shape {h_w}")
@@ -214,10 +237,26 @@ def check_transmission_frame(plan: TransmissionPlan, slots: np.ndarray, light_uv
             raise PassError(f"{name} must have shape {shape} like the frame, got {np.shape(arr)}")
     if np.ndim(shadow_mm) != 2 or 0 in np.shape(shadow_mm):
         raise PassError(f"the light-space depth must be a non-empty (H, W) image, got shape {np.shape(shadow_mm)}")
+    check_integer_slots(slots)
     s = np.asarray(slots)
     if s.size and (int(s.min()) < 0 or int(s.max()) >= plan.slots):
         raise PassError(f"slots must lie in [0, {plan.slots - 1}]")
+    for name, arr in (("light_uvz", light_uvz), ("n_dot_l", n_dot_l), ("light_rgb", light_rgb),
+                      ("shadow_mm", shadow_mm)):
+        check_real(name, arr)
+    if np.any(np.isnan(shadow_mm)):
+        raise PassError("shadow_mm (the light-space depth) must not hold NaN (+-inf marks a texel without surface)")
+    inside = s > 0
+    if not np.all(np.isfinite(np.asarray(light_uvz)[inside])):
+        raise PassError("light_uvz must be finite on every pixel with SSS")
+    ndl = np.asarray(n_dot_l)[inside]
+    if not np.all(np.abs(ndl) <= 1.0 + N_DOT_L_TOLERANCE):  # (NaN fails too)
+        raise PassError(f"n_dot_l (a cosine) must be finite and in [-1, 1] on every pixel with SSS (within "
+                        f"{N_DOT_L_TOLERANCE:g})")
+    rgb = np.asarray(light_rgb)[inside]
+    if not (np.all(np.isfinite(rgb)) and np.all(rgb >= 0)):
+        raise PassError("light_rgb (an irradiance) must be finite and >= 0 on every pixel with SSS")
 
 
-__all__ = ["LUT_SIZE", "MAX_TERMS", "MODELS", "SlotModel", "TransmissionPlan", "UE_MAX_OPTICAL_DEPTH",
-           "build_transmission_plan", "check_transmission_frame", "unreal_lut_coordinate"]
+__all__ = ["LUT_SIZE", "MAX_TERMS", "MODELS", "N_DOT_L_TOLERANCE", "SlotModel", "TransmissionPlan",
+           "UE_MAX_OPTICAL_DEPTH", "build_transmission_plan", "check_transmission_frame", "unreal_lut_coordinate"]

@@ -53,14 +53,22 @@ FORMATS: dict[str, tuple[tuple[str, ...], bool]] = {
 def export_kernel(kernel: Any, fmt: str, path: str | Path, taps: int | None = None, tap_method: str = "importance",
                   comment: str = "", jitter: float = 0.1, depth_mode: str | None = None) -> None:
     """Write ``kernel`` in a kernel format (``hlsl``, ``glsl``, ``bn``, ``json``, ``glsl-shader``,
-    ``hlsl-shader``) to ``path`` (atomic). The shaders take ``jitter`` and ``depth_mode`` (the pass's)."""
+    ``hlsl-shader``) to ``path`` (atomic). The shaders take ``jitter`` and ``depth_mode`` (the pass's); another
+    format given a jitter other than the default 0.1 or a depth mode, or ``bn`` / ``json`` given ``taps``
+    (they write the tabulated kernel itself), is refused before anything is written."""
     from ..io import check_suffix, write_text
     from ..kernels.base import save_kernel
 
-    key = fmt.strip().lower()
+    key = fmt.strip().lower() if isinstance(fmt, str) else fmt
     if key not in FORMATS or not FORMATS[key][1]:
         raise KernelError(f"{fmt!r} is not a kernel format; choose from "
                           f"{', '.join(k for k, (_, kern) in FORMATS.items() if kern)}")
+    shader = key in ("glsl-shader", "hlsl-shader")
+    if not shader and (jitter != 0.1 or depth_mode is not None):
+        raise KernelError(f"jitter and depth_mode apply to the whole shaders only (glsl-shader, hlsl-shader), not to "
+                          f"the {key} format; got jitter={jitter!r}, depth_mode={depth_mode!r}")
+    if key in ("bn", "json") and taps is not None:
+        raise KernelError(f"taps do not apply to the {key} format (it writes the tabulated kernel itself), got {taps!r}")
     check_suffix(path, FORMATS[key][0], f"{key} output")
     if key in ("glsl-shader", "hlsl-shader"):
         from ..kernels import TapKernel

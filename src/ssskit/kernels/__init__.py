@@ -10,13 +10,14 @@ primary parameter (``svd:3``, ``gaussians:6``, ``guided:0``, ``artist:production
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from ..errors import KernelError
+from ..errors import KernelError, check_keywords
 from ..profiles.base import RGBProfile
 from ..registry import Registry
-from .base import AnyKernel, Kernel, TapKernel, default_grid, load_kernel, save_kernel
+from .base import MAX_SVD_RANK, AnyKernel, Kernel, TapKernel, _check_grid, default_grid, load_kernel, save_kernel
 
 
 @dataclass(frozen=True)
@@ -62,10 +63,11 @@ def _preintegrated_svd(profile, cell_mm, n, rank=1):
     return kernel_preintegrated_svd(profile, cell_mm, n, rank=rank)
 
 
-def _artist(profile, cell_mm, n, preset="close fit", **kw):
+def _artist(profile, cell_mm, n, preset="close fit", sigma_near=None, sigma_far=None, weight=None, match_energy=True):
     from .methods import kernel_artist
 
-    return kernel_artist(profile, cell_mm, n, preset=preset, **kw)
+    return kernel_artist(profile, cell_mm, n, preset=preset, sigma_near=sigma_near, sigma_far=sigma_far,
+                         weight=weight, match_energy=match_energy)
 
 
 def _guided(profile, cell_mm, n, k=2.0, b=50.0):
@@ -149,9 +151,9 @@ def _error_fn(v):
 
 #: range checks of each method's primary parameter, applied when a spec is parsed (before any work)
 PARAM_CHECKS: dict[tuple[str, str], Callable[[Any], None]] = {
-    ("svd", "rank"): _in_range(1, 64, "SVD rank"),
-    ("svd_l1", "rank"): _in_range(1, 64, "SVD rank"),
-    ("preintegrated_svd", "rank"): _in_range(1, 64, "residual rank"),
+    ("svd", "rank"): _in_range(1, MAX_SVD_RANK, "SVD rank"),
+    ("svd_l1", "rank"): _in_range(1, MAX_SVD_RANK, "SVD rank"),
+    ("preintegrated_svd", "rank"): _in_range(1, MAX_SVD_RANK, "residual rank"),
     ("gaussians", "count"): _in_range(1, 12, "number of Gaussians"),
     ("guided", "k"): _in_range(0.0, 8.0, "guide exponent k (paper: 0..4)"),
     ("jimenez2012", "taps"): _odd_taps,
@@ -188,16 +190,24 @@ def parse_method_spec(spec: str) -> tuple[KernelMethod, dict[str, Any], str]:
 
 def build_kernel(method: str, profile: RGBProfile | None = None, cell_mm: float | None = None, n: int | None = None,
                  **params: Any) -> AnyKernel:
-    """Build a kernel by method name for ``profile`` on the grid (cell_mm, n) (default: :func:`default_grid`)."""
+    """Build a kernel by method name for ``profile`` (an :class:`~ssskit.profiles.RGBProfile`) on the grid
+    (cell_mm, n) (each default when None: :func:`default_grid`); ``params`` are the method's keywords (an
+    unknown one is a KernelError naming the known ones)."""
     m = METHODS.get(method)
+    if profile is not None and not isinstance(profile, RGBProfile):
+        raise KernelError(f"kernel method {m.name!r} needs a profile (an RGBProfile: "
+                          f"profile_for_material(material, model) makes one), got {type(profile).__name__}")
     if profile is None and m.needs_profile:
         raise KernelError(f"kernel method {m.name!r} needs a profile")
+    takes = list(inspect.signature(m.builder).parameters)[3:]  # (after profile, cell_mm, n)
+    check_keywords(f"kernel method {m.name!r}", params, takes, KernelError)
     if cell_mm is None or n is None:
         if profile is None:
-            cell_mm, n = (cell_mm or 0.05), (n or 201)
+            cell_mm, n = (0.05 if cell_mm is None else cell_mm), (201 if n is None else n)
         else:
-            dc, dn = default_grid(profile, n or 201)
-            cell_mm, n = (cell_mm or dc), (n or dn)
+            dc, dn = default_grid(profile, 201 if n is None else n)
+            cell_mm, n = (dc if cell_mm is None else cell_mm), (dn if n is None else n)
+    _check_grid(cell_mm, n)
     return m.builder(profile, float(cell_mm), int(n), **params)
 
 
@@ -205,6 +215,7 @@ __all__ = [
     "AnyKernel",
     "Kernel",
     "KernelMethod",
+    "MAX_SVD_RANK",
     "METHODS",
     "TapKernel",
     "build_kernel",

@@ -33,6 +33,10 @@ from ..profiles.discretize import grid_coordinates
 
 CHANNELS = ("R", "G", "B")
 
+#: the largest rank of an SVD kernel (svd, svd_l1) and of preintegrated_svd's residual, for the API and the
+#: method specs alike (``svd:N``); each needs 2 N 1D convolutions, and the grid (n cells) bounds it too
+MAX_SVD_RANK = 64
+
 
 def _check_grid(cell_mm: float, n: int) -> None:
     if not (isinstance(n, (int, np.integer)) and n >= 3 and n % 2 == 1):

@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import KernelError
 from ..materials import ARTIST_PRESETS
 from ..profiles.base import RadialProfile, RGBProfile
-from .base import Kernel
+from .base import MAX_SVD_RANK, Kernel
 
 
 def _source(profile: RGBProfile) -> dict[str, Any]:
@@ -70,8 +70,9 @@ def kernel_svd(profile: RGBProfile, cell_mm: float, n: int, rank: int = 1, renor
     With ``renormalise`` the L1 energy renormalisation of supplement B is applied,
     A~_s = A_s ||Rd||_1 / ||A_s||_1 (||.||_1 the sum of absolute cell values, as written there).
     """
-    if not (isinstance(rank, (int, np.integer)) and 1 <= rank <= n):
-        raise KernelError(f"SVD rank must be an integer in 1..{n}, got {rank!r}")
+    top = min(n, MAX_SVD_RANK)
+    if not (isinstance(rank, (int, np.integer)) and 1 <= rank <= top):
+        raise KernelError(f"SVD rank must be an integer in 1..{top}, got {rank!r}")
     rd = profile.discretize_2d(cell_mm, n)
     comps, signs = np.zeros((3, rank, n)), np.zeros((3, rank))
     for c in range(3):
@@ -178,8 +179,9 @@ def kernel_preintegrated_svd(profile: RGBProfile, cell_mm: float, n: int, rank: 
     A = A_p + sum_{i<=N} s_i r_i r_i^T with the r_i the Eckart-Young terms of Rd - A_p (Eqs. S.2-S.4):
     rank N + 1, 2 (N + 1) 1D convolutions.
     """
-    if not (isinstance(rank, (int, np.integer)) and 1 <= rank < n):
-        raise KernelError(f"residual rank must be an integer in 1..{n - 1}, got {rank!r}")
+    top = min(n - 1, MAX_SVD_RANK)
+    if not (isinstance(rank, (int, np.integer)) and 1 <= rank <= top):
+        raise KernelError(f"residual rank must be an integer in 1..{top}, got {rank!r}")
     base = kernel_preintegrated(profile, cell_mm, n)
     resid = profile.discretize_2d(cell_mm, n) - base.to_2d()
     comps, signs = np.zeros((3, rank + 1, n)), np.ones((3, rank + 1))

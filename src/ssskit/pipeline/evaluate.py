@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SignalError
+from ..errors import ProfileError, SignalError
 from ..kernels import build_kernel, parse_method_spec
 from ..kernels.base import AnyKernel, TapKernel
 from ..profiles.base import RGBProfile
@@ -100,12 +100,16 @@ def _kernel(profile: _Identity, method: str, params: tuple[tuple[str, Any], ...]
 def evaluate(profile: RGBProfile, signal: str | np.ndarray, methods: Iterable[str], size: int = 256,
              perceptual: bool | tuple[str, ...] = True, progress: Callable[[str], object] | None = None,
              keep_images: bool = False) -> Evaluation:
-    """Errors of each method spec (``"svd:3"``...) against E * Rd on ``signal`` (a name or an (H, W, 3) image).
+    """Errors of each method spec (``"svd:3"``...; one spec may be given as a string) against E * Rd on
+    ``signal`` (a name or an (H, W, 3) image).
 
     ``perceptual``: SSIM and FLIP too (True), neither (False), or the named ones (``("flip",)``;
     :func:`ssskit.metrics.all_metrics`).
     """
-    specs = [parse_method_spec(m) for m in methods]
+    if not isinstance(profile, RGBProfile):
+        raise ProfileError(f"evaluate needs a profile (an RGBProfile: profile_for_material(material, model) makes "
+                           f"one), got {type(profile).__name__}")
+    specs = [parse_method_spec(m) for m in ([methods] if isinstance(methods, str) else methods)]
     if not specs:
         raise SignalError("no kernel methods given")
     pixel_mm, n = evaluation_grid(profile, size)

@@ -4,12 +4,21 @@
 through the one frame loop, :func:`ssskit.screenspace.frames.run_frames` (adaptive or fixed counts, TAA,
 per-frame PSNR), which :func:`ssskit.pipeline.adaptive.render_adaptive` drives for ``ssskit render``.
 
+    >>> from ssskit.materials import get_material                                       # doctest: +SKIP
     >>> from ssskit.pipeline.sequence import sequence_gbuffers, sequence_references    # doctest: +SKIP
-    >>> from ssskit.screenspace import run_frames                                      # doctest: +SKIP
-    >>> gbs = sequence_gbuffers("sphere", "skin1", frames=60, width=160, height=120)
-    >>> refs = sequence_references(gbs, params)
-    >>> run = run_frames(gbs, params, burley, adaptive=AdaptiveSettings(), taa=TAASettings(),
-    ...                  references=[r.sss for r in refs])
+    >>> from ssskit.screenspace import AdaptiveSettings, BurleySettings, run_frames    # doctest: +SKIP
+    >>> from ssskit.screenspace.burley import burley_params_for_material              # doctest: +SKIP
+    >>> from ssskit.screenspace.taa import TAASettings                                 # doctest: +SKIP
+    >>> params = burley_params_for_material(get_material("skin1"))                     # doctest: +SKIP
+    >>> gbs = sequence_gbuffers("sphere", "skin1", 2, width=40, height=30, spp=4)      # doctest: +SKIP
+    >>> refs = sequence_references(gbs, params, spp=256)                               # doctest: +SKIP
+    >>> run = run_frames(gbs, params, BurleySettings(), adaptive=AdaptiveSettings(),   # doctest: +SKIP
+    ...                  taa=TAASettings(), references=[r.sss for r in refs])
+    >>> len(run.psnr)                                                                  # doctest: +SKIP
+    2
+
+(Skipped under doctest: the G-buffers are path traced (Mitsuba) on a first run; tests/pipeline/test_sequence.py
+runs the example as written, its G-buffers from the cache the tests fill.)
 
 The G-buffers are cached per frame (``cache_dir("gbuffers")``), the references by
 :func:`ssskit.pipeline.burley_frame.burley_reference` (``cache_dir("reference")``).
@@ -32,7 +41,7 @@ from ..io import atomic_output
 from ..materials import Material
 from ..screenspace.burley import BurleyParams
 from ..screenspace import Camera, GBuffer
-from ..settings import check_int
+from ..settings import FRAMES_RANGE, check_int
 
 #: bumped when the cached G-buffers' contents change
 GBUFFER_VERSION = 1
@@ -85,7 +94,7 @@ def sequence_gbuffers(scene: str, material: str | Material, frames: int, first: 
     SCENES.get(scene)
     check_size(width, height)
     check_spp(spp)
-    frames = check_int("frames", frames, 1, 100_000)
+    frames = check_int("frames", frames, *FRAMES_RANGE)
     first = check_int("first", first, 0, 2**31 - 1 - frames)
     mat = MATERIALS.get(material) if isinstance(material, str) else material
     if not hasattr(mat, "eta"):

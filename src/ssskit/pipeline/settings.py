@@ -39,13 +39,12 @@ from ..registry import Registry
 from ..screenspace.adaptive import AdaptiveSettings
 from ..screenspace.burley import BurleyParams, BurleySettings
 from ..screenspace.settings import PassSettings
-from ..settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, check_choice, check_int
+from ..settings import FRAMES_RANGE, PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, check_choice, check_int
 
 #: photons per channel of Monte Carlo profiles: one range for every command
 #: the samples per pixel of an adaptive run's converged references (moving camera)
 LIMIT_SPP_RANGE = (2, 131072)
 DEFAULT_LIMIT_SPP = 2048
-FRAMES_RANGE = (1, 100_000)
 #: the values the tree holds once, which the layout before it kept per pass
 SHARED = ("frame", "seed", "backend")
 #: when the transmittance pass runs: auto (where the G-buffer has the light layers), on, off
@@ -226,6 +225,19 @@ _BY_TABLE = {cls.table: cls for _, cls in PASSES.items()}
 KERNEL_FIELDS = ("model", "photons", "kernel", "taps", "tap_method")
 
 
+def _check_material_name(name: str) -> None:
+    """A SettingsError unless ``name`` is a preset or names a material file (.toml / .json, or an existing path;
+    the file is read, and checked, when the render loads it: making settings reads no file)."""
+    from pathlib import Path
+
+    from ..materials import MATERIALS
+
+    if name in MATERIALS or name.strip().lower().endswith((".toml", ".json")) or Path(name).exists():
+        return
+    raise SettingsError(f"material {name!r} is neither a preset ({', '.join(MATERIALS.names())}) nor a material "
+                        f"file (.toml / .json)")
+
+
 @dataclass(frozen=True)
 class RenderSettings(Settings):
     """One render and its comparison with ground truth (module docstring for the file layout).
@@ -288,6 +300,7 @@ class RenderSettings(Settings):
 
         if not isinstance(self.material, str) or not self.material.strip():
             raise SettingsError(f"material must be a preset name or a material file, got {self.material!r}")
+        _check_material_name(self.material)
         object.__setattr__(self, "model", check_choice("model", self.model, MODELS.names()))
         object.__setattr__(self, "photons", check_int("photons", self.photons, *PHOTONS_RANGE))
         if not isinstance(self.kernel, str):

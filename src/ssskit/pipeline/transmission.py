@@ -194,7 +194,7 @@ def transmission_light(gb: GBuffer, settings: RenderSettings, material_of: dict[
     name = settings.transmission_model if models is None else "given"
     say(f"transmittance pass: {name} model, {settings.backend} backend")
     plan = transmission_plan({pid: slot_model(settings.transmission_model, material_of[pid]) if models is None
-                              else models[pid] for pid in ids})
+                              else models[pid] for pid in ids}, allow_empty=True)  # (no SSS pixel: 0)
     lut = np.zeros(int(gb.profile_id.max(initial=0)) + 1, np.int32)
     lut[ids] = np.arange(1, len(ids) + 1, dtype=np.int32)
     slots = lut[gb.profile_id]

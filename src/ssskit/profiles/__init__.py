@@ -172,6 +172,24 @@ def check_model_domain(material: Material | LayeredMaterial | str, model: str) -
         check_burley_material(mat, albedo_given=False)
 
 
+def _check_options(factory: ProfileFactory, key: str, options: dict[str, Any]) -> None:
+    """A ProfileError naming each keyword ``factory`` (the model ``key``'s) does not take, and those it takes."""
+    import inspect
+
+    from ..errors import check_keywords
+
+    params = list(inspect.signature(factory).parameters.values())[1:]  # (the first is the material)
+    if any(p.kind is p.VAR_KEYWORD for p in params):
+        if key != "montecarlo":
+            return
+        from .montecarlo.sweep import simulate_material  # the montecarlo model's **options go there
+
+        params += [p for p in inspect.signature(simulate_material).parameters.values()
+                   if p.kind is p.KEYWORD_ONLY and p.name not in {q.name for q in params}]
+    known = [p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+    check_keywords(f"profile model {key!r}", options, known, ProfileError)
+
+
 def profile_for_material(material: Material | LayeredMaterial | str | None, model: str = "dipole",
                          **options: Any) -> RGBProfile:
     """An :class:`RGBProfile` of ``model`` for a material (preset name, file path or Material).
@@ -181,6 +199,7 @@ def profile_for_material(material: Material | LayeredMaterial | str | None, mode
     """
     factory = MODELS.get(model)
     key = model.strip().lower()
+    _check_options(factory, key, options)
     if key in MATERIAL_FREE_MODELS:
         if material is not None:
             raise ProfileError(_DEON2007_NO_MATERIAL if key == "deon2007"

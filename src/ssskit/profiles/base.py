@@ -32,7 +32,17 @@ class RadialProfile(ABC):
 
     @abstractmethod
     def eval(self, r: ArrayLike) -> NDArray[np.float64]:
-        """R(r) in mm^-2 (per unit area), vectorised over r >= 0 (mm)."""
+        """R(r) in mm^-2 (per unit area), vectorised over r >= 0 (mm); a ProfileError for a negative or
+        non-finite radius (:meth:`radii`)."""
+
+    @staticmethod
+    def radii(r: ArrayLike) -> NDArray[np.float64]:
+        """``r`` as a float64 array of radii, or a ProfileError if one is negative, NaN or infinite (R(r) is
+        defined for distances 0 <= r < inf; every :meth:`eval` takes its radii through here)."""
+        arr = np.asarray(r, dtype=float)
+        if arr.size and not (arr.min() >= 0.0 and arr.max() < np.inf):  # (a NaN fails the first: min is NaN)
+            raise ProfileError("a profile's radii must be finite distances >= 0 mm")
+        return arr
 
     @abstractmethod
     def total_rd(self) -> float:

@@ -130,7 +130,7 @@ class BurleyProfile(RadialProfile):
 
     def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         """Xie 2020 Eq. 4 (mm^-2); infinite at r = 0 (the profile's 1/r singularity)."""
-        r = np.asarray(r, dtype=float)
+        r = self.radii(r)
         d = self.d
         with np.errstate(divide="ignore"):
             return self.albedo * (np.exp(-r / d) + np.exp(-r / (3.0 * d))) / (8.0 * np.pi * d * r)

@@ -66,7 +66,7 @@ class DipoleProfile(RadialProfile):
         self.z_v = self.z_r * (1.0 + 4.0 / 3.0 * self.a_boundary)
 
     def eval(self, r: ArrayLike) -> NDArray[np.float64]:
-        r2 = np.square(np.asarray(r, dtype=float))
+        r2 = np.square(self.radii(r))
         out = np.zeros_like(r2)
         for z in (self.z_r, self.z_v):
             d = np.sqrt(r2 + z * z)

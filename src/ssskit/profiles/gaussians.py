@@ -49,7 +49,7 @@ class GaussianSumProfile(RadialProfile):
         self.weights, self.variances = w, v
 
     def eval(self, r: ArrayLike) -> NDArray[np.float64]:
-        r2 = np.square(np.asarray(r, dtype=float))[..., None]
+        r2 = np.square(self.radii(r))[..., None]
         return np.sum(self.weights * np.exp(-r2 / (2.0 * self.variances)) / (2.0 * np.pi * self.variances), axis=-1)
 
     def total_rd(self) -> float:

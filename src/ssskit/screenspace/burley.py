@@ -84,9 +84,12 @@ class BurleySettings(Settings):
     def __post_init__(self) -> None:
         object.__setattr__(self, "sampler", check_choice("sampler", self.sampler, SAMPLERS))
         object.__setattr__(self, "spp", check_int("spp", self.spp, 1, MAX_SPP))
-        c = check_float("c", self.c, -math.inf, math.inf)
+        try:
+            c = check_float("c", self.c, -math.inf, math.inf)
+        except SettingsError:  # not a finite number: the message names c's own domain, not (-inf, inf)
+            c = math.nan
         if not C_RANGE[0] < c < C_RANGE[1]:
-            raise SettingsError(f"c must lie in the open interval ({C_RANGE[0]:g}, {C_RANGE[1]:g}), got {c!r}")
+            raise SettingsError(f"c must lie in the open interval ({C_RANGE[0]:g}, {C_RANGE[1]:g}), got {self.c!r}")
         object.__setattr__(self, "c", c)
         object.__setattr__(self, "sequence", check_choice("sequence", self.sequence, SEQUENCES))
         object.__setattr__(self, "bleed", check_float("bleed", self.bleed, 0.0, 1.0))

@@ -48,7 +48,7 @@ from ..backends.burley_plan import BurleyParams, BurleyPlan
 from ..backends.plan import profile_ids
 from ..errors import BackendError, PassError, SettingsError
 from ..metrics import display_psnr, region_metrics
-from ..settings import check_choice, check_int
+from ..settings import FRAMES_RANGE, check_choice, check_int
 from .adaptive import AdaptiveSettings, check_history, new_history, reproject_history
 from .burley import BurleySettings, burley_backend, burley_plan_for
 from .camera import motion_vectors
@@ -409,7 +409,7 @@ def adaptive_frames(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, 
     b = BurleySettings() if burley is None else burley
     if not isinstance(b, BurleySettings):
         raise PassError(f"burley must be BurleySettings, got {type(b).__name__}")
-    frames = check_int("frames", frames, 1, 1_000_000)
+    frames = check_int("frames", frames, *FRAMES_RANGE)
     hook = None if on_frame is None else (lambda fr: on_frame(fr.index, fr.sss, fr.counts))
     say = None if progress is None else (lambda msg: progress(f"adaptive {msg}"))
     run = run_frames([gbuffer] * frames, params_by_id, b, adaptive=s, history=history, guide=backend,

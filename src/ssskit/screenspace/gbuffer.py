@@ -86,7 +86,8 @@ class GBuffer:
             raise GBufferError(f"camera must be a Camera, got {type(self.camera).__name__}")
         if (self.camera.width, self.camera.height) != (w, h):
             raise GBufferError(f"camera is {self.camera.width}x{self.camera.height} but the layers are {w}x{h}")
-        mats = tuple(str(m) for m in self.materials)
+        mats = (str(self.materials),) if isinstance(self.materials, (str, Path)) else \
+            tuple(str(m) for m in self.materials)  # one name (or file) is one material, not its characters
         top = int(layers["profile_id"].max(initial=0))
         if top > len(mats) and mats:
             raise GBufferError(f"layer 'profile_id' uses id {top} but only {len(mats)} materials are named")

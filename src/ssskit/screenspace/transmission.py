@@ -201,9 +201,10 @@ def unreal_phase(normal: np.ndarray, to_camera: np.ndarray, to_light: np.ndarray
     return approximate_hg(np.sum(-np.asarray(to_light, float) * r, axis=-1), g)
 
 
-def transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3) -> TransmissionPlan:
+def transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3, *,
+                      allow_empty: bool = False) -> TransmissionPlan:
     """:func:`~ssskit.backends.transmission_plan.build_transmission_plan` (re-exported for the pipeline)."""
-    return build_transmission_plan(models, bias_mm)
+    return build_transmission_plan(models, bias_mm, allow_empty=allow_empty)
 
 
 UNIT_TOL = 1e-3

@@ -174,8 +174,12 @@ class SeparableFrame:
     """A frame of the separable pass on the GPU: upload once, run the passes, read back when asked.
 
     >>> f = SeparableFrame(plan, diffuse, depth_mm, slots)      # doctest: +SKIP
-    >>> f.run()                    # 2 passes per separable term, no readback
-    >>> out = f.read()             # (H, W, 3) float32, a new array
+    >>> f.run()                    # 2 passes per separable term, no readback  # doctest: +SKIP
+    >>> out = f.read()             # (H, W, 3) float32, a new array            # doctest: +SKIP
+
+    (Skipped under doctest: it needs a GL context, which the backend holds; ``plan`` is a
+    :class:`~ssskit.backends.plan.SeparablePlan`, the frame arrays as :func:`~ssskit.backends.base.check_frame`
+    takes them. tests/backends/test_gl.py runs it.)
     """
 
     def __init__(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,

@@ -48,7 +48,7 @@ class MonteCarloProfile(RadialProfile):
         return float(self.result.total_rd)
 
     def eval(self, r: ArrayLike) -> NDArray[np.float64]:
-        r = np.asarray(r, dtype=float)
+        r = self.radii(r)
         n = self.rd.shape[0]
         i = np.floor(r / self.dr).astype(np.int64)
         inside = (i >= 0) & (i < n)
