@@ -244,18 +244,23 @@ def check_transmission_frame(plan: TransmissionPlan, slots: np.ndarray, light_uv
     for name, arr in (("light_uvz", light_uvz), ("n_dot_l", n_dot_l), ("light_rgb", light_rgb),
                       ("shadow_mm", shadow_mm)):
         check_real(name, arr)
-    if np.any(np.isnan(shadow_mm)):
+    if np.isnan(np.min(shadow_mm)):  # min and max propagate NaN: one reduction each, no temporaries
         raise PassError("shadow_mm (the light-space depth) must not hold NaN (+-inf marks a texel without surface)")
-    inside = s > 0
-    if not np.all(np.isfinite(np.asarray(light_uvz)[inside])):
-        raise PassError("light_uvz must be finite on every pixel with SSS")
-    ndl = np.asarray(n_dot_l)[inside]
-    if not np.all(np.abs(ndl) <= 1.0 + N_DOT_L_TOLERANCE):  # (NaN fails too)
-        raise PassError(f"n_dot_l (a cosine) must be finite and in [-1, 1] on every pixel with SSS (within "
-                        f"{N_DOT_L_TOLERANCE:g})")
-    rgb = np.asarray(light_rgb)[inside]
-    if not (np.all(np.isfinite(rgb)) and np.all(rgb >= 0)):
-        raise PassError("light_rgb (an irradiance) must be finite and >= 0 on every pixel with SSS")
+    # each value test first over the whole frame by its min and max (what the pipeline's inputs pass: ~3 ms at
+    # 1080p); only where that fails, on the pixels with SSS alone (boolean masks copy: ~90 ms at 1080p)
+    inside: NDArray[np.bool_] | None = None
+    for name, arr, lo, hi, what in (
+            ("light_uvz", light_uvz, -np.inf, np.inf, "finite"),
+            ("n_dot_l", n_dot_l, -1.0 - N_DOT_L_TOLERANCE, 1.0 + N_DOT_L_TOLERANCE,
+             f"(a cosine) finite and in [-1, 1] (within {N_DOT_L_TOLERANCE:g})"),
+            ("light_rgb", light_rgb, 0.0, np.inf, "(an irradiance) finite and >= 0")):
+        a = np.asarray(arr)
+        if a.size == 0 or (lo <= np.min(a) and np.max(a) <= hi and np.isfinite(np.max(a)) and np.isfinite(np.min(a))):
+            continue
+        inside = s > 0 if inside is None else inside
+        v = a[inside]
+        if v.size and not (np.all(np.isfinite(v)) and lo <= np.min(v) and np.max(v) <= hi):
+            raise PassError(f"{name} must be {what} on every pixel with SSS")
 
 
 __all__ = ["LUT_SIZE", "MAX_TERMS", "MODELS", "N_DOT_L_TOLERANCE", "SlotModel", "TransmissionPlan",
