@@ -86,6 +86,9 @@ def test_wrong_profile_fraction_and_pixel_size_are_refused(skin):
     for fraction in (0.0, -0.5, 1.0, float("nan")):
         with pytest.raises(SignalError, match=r"fraction .* must lie in \(0, 1\)"):
             exact_screen_space(gb, skin, fraction=fraction)
+    gb.diffuse[3, 4, 1] = np.nan  # after the G-buffer's own check: every output pixel was NaN, no error
+    with pytest.raises(SignalError, match="diffuse layer must be finite"):
+        exact_screen_space(gb, skin)
     k = build_kernel("svd", skin, 0.1, 21)
     for pixel_mm in (0.0, -1.0, float("nan"), float("inf")):
         with pytest.raises(SignalError, match="pixel_mm"):

@@ -116,6 +116,9 @@ def exact_screen_space(gbuffer: GBuffer, profile: RGBProfile | Mapping[int, RGBP
         raise ProfileError(f"exact_screen_space needs {expected}, got {bad[0]}")
     if not (_is_number(fraction) and 0.0 < fraction < 1.0):
         raise SignalError(f"fraction (of the energy the kernel's radius holds) must lie in (0, 1), got {fraction!r}")
+    if not np.all(np.isfinite(gbuffer.diffuse)):  # a layer changed after the G-buffer checked it: as the passes say
+        raise SignalError("the G-buffer's diffuse layer must be finite on every pixel (a NaN or inf colour spreads "
+                          "over the whole convolution)")
     cam = gbuffer.camera
     if abs(cam.fx - cam.fy) > 1e-6 * cam.fx:
         return None

@@ -28,6 +28,7 @@ def meshes(tmp_path, monkeypatch):
     write_mesh(work / "nan.glb", Mesh("ball", v, ball.faces, ball.normals))
     (work / "degen.obj").write_text("v 0 0 0\nv 10 0 0\nv 20 0 0\nf 1 2 3\n")  # one face of zero area
     (work / "empty.obj").write_bytes(b"")
+    (work / "dust.obj").write_text("v 0 0 0\nv 2e-5 0 0\nv 0 1e-5 0\nf 1 2 3\n")  # 20 nm: lit too dark (0.41)
     (work / "huge.obj").write_text("v 0 0 0\nv 1e30 0 0\nv 0 1e30 0\nf 1 2 3\n")  # the trial's: Mitsuba's lights overflow
     (work / "model.stl").write_bytes(b"solid x\n")
     (work / "huge.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\n"
@@ -39,8 +40,9 @@ def meshes(tmp_path, monkeypatch):
 BAD = [
     (["--scene", "nope.obj"], "mesh 'nope.obj' does not exist"),
     (["--scene", "empty.obj"], "mesh 'empty.obj' is empty (0 bytes)"),
+    (["--scene", "dust.obj"], "a scene takes models 0.0002 to 1e+09 mm across (200 nm to 1000 km"),
     (["--scene", "huge.obj"], "huge.obj: the model is 1.414e+30 mm across (bounding-sphere diameter, units mm); a "
-                              "scene takes models 1e-06 to 1e+09 mm across"),
+                              "scene takes models 0.0002 to 1e+09 mm across"),
     (["--scene", "model.stl"], "unknown format '.stl'"),
     (["--scene", "nan.obj"], "has NaN or infinite vertex positions"),
     (["--scene", "nan.glb"], "has NaN or infinite vertex positions (1 of"),

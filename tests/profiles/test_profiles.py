@@ -238,3 +238,14 @@ def test_rgb_to_dict_shape():
     assert data["channels"]["G"]["total_Rd"] == pytest.approx(prof.total_rd()[1])
     assert data["channels"]["R"]["Rd"][0] is None  # R(0) = inf for Burley: JSON null
     assert math.isfinite(data["channels"]["R"]["Rd"][1])
+
+
+def test_a_given_burley_albedo_lies_in_0_1():
+    """profile_for_material's burley albedo override took A = 0 (R(r) = 0 in that channel) where BurleyParams,
+    render and export refuse it: one domain, (0, 1]; A = 1 is taken and is the channel's total reflectance."""
+    from ssskit.errors import ProfileError
+
+    for albedo in ((0.0, 0.5, 0.5), (0.5, 1.01, 0.5), (0.5, float("nan"), 0.5), 0.5):
+        with pytest.raises(ProfileError, match=r"in \(0, 1\]"):
+            profile_for_material("skin1", "burley", albedo=albedo)
+    assert profile_for_material("skin1", "burley", albedo=(1.0, 0.5, 0.25)).total_rd() == pytest.approx([1.0, 0.5, 0.25])

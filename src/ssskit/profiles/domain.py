@@ -133,7 +133,7 @@ def check_montecarlo(material: Material | LayeredMaterial, model: str = "monteca
             a, t = float(last.sigma_a[c]), float(last.sigma_a[c]) + float(last.sigma_s[c])
             if a < MIN_ABSORBED_FRACTION * t:
                 raise ProfileError(
-                    f"the {model} model needs absorption in a semi-infinite medium: sigma_a / sigma_t is {a / t:.3g} in "
+                    f"the {model} model needs absorption in a semi-infinite medium: sigma_a / sigma_t is {a / t:.6g} in "
                     f"channel {channel}{where} of {material.name!r}, below {MIN_ABSORBED_FRACTION:g} (a photon's float32 "
                     "weight then loses nothing at an interaction, and a walk in a half-space that nothing ends has no "
                     "finite mean length: the run would not finish); give sigma_a >= "

@@ -87,12 +87,11 @@ DEFAULT_FRONT = (0.0, 0.0, 1.0)
 DEFAULT_UNITS = {"gltf": "m", "obj": "mm", "ply": "mm"}
 #: a plausible size of a translucent object (bounding-sphere diameter, mm), for the units hint
 PLAUSIBLE_MM = (5.0, 3000.0)
-#: the model sizes (bounding-sphere diameter, mm) a scene takes at all: 1 nm (the shortest transport mean free path
-#: any profile model takes, ssskit.profiles.domain.MFP_RANGE_MM) to 1000 km (1000 x the longest). Beyond, the
-#: renderer's float32 fails first: the framing lights' intensities grow as the distance squared (a 1e30 mm model's
-#: point light, ~1e61, overflows float32; the trial's render of one gave Mitsuba's "Invalid sample value" and a
-#: frame with no SSS pixel)
-MODEL_SIZE_MM = (1e-6, 1e9)
+#: the model sizes (bounding-sphere diameter, mm) a scene renders right: 200 nm to 1000 km. Below, Mitsuba's lighting
+#: comes out too dark (measured on a sphere against the same sphere in mm: the mean diffuse 0.513 at 1 um and 200
+#: nm, as in mm; 0.211 at 20 nm, 0.142 at 2 nm); beyond, its float32 fails (a 1e30 mm model's point light, ~1e61, overflows:
+#: the trial's render of one gave Mitsuba's "Invalid sample value" and a frame with no SSS pixel)
+MODEL_SIZE_MM = (2e-4, 1e9)
 
 
 def _generated(kind: str, params: Mapping[str, Any]) -> tuple[Mesh | None, dict | None]:
@@ -297,11 +296,25 @@ def _relative_light(name: str, spec: Mapping[str, Any], centre: np.ndarray, radi
     pos = centre + d * radius * direction(cam_dir_az + float(spec["azimuth"]), el, up, front)
     e = math.pi * inten  # irradiance at the centre (intensity = E / pi)
     if size == 0:
-        return {"type": "point", "position": pos.tolist(),
-                "intensity": {"type": "rgb", "value": e * (d * radius) ** 2}}  # E = I / d^2
+        value = _emitter_value(name, "intensity", e * (d * radius) ** 2, "pi intensity x (distance x R)^2")
+        return {"type": "point", "position": pos.tolist(), "intensity": {"type": "rgb", "value": value}}  # E = I / d^2
     a = size * radius
+    value = _emitter_value(name, "radiance", e / (math.pi * (a / (d * radius)) ** 2), "intensity x (distance / size)^2")
     return {"type": "sphere", "center": pos.tolist(), "radius": a,
-            "emitter": {"type": "area", "radiance": {"type": "rgb", "value": e / (math.pi * (a / (d * radius)) ** 2)}}}
+            "emitter": {"type": "area", "radiance": {"type": "rgb", "value": value}}}
+
+
+#: the largest intensity or radiance a light may give Mitsuba: its float32 arithmetic overflows not far beyond
+#: (3.4e38; a key light of intensity 1e36 rendered 64,000 "Invalid sample value" warnings and a NaN diffuse layer)
+EMITTER_MAX = 1e30
+
+
+def _emitter_value(name: str, key: str, value: float, how: str) -> float:
+    """``value`` if it is at most :data:`EMITTER_MAX`, else a SceneError naming the light (before any work)."""
+    if not value <= EMITTER_MAX:
+        raise SceneError(f"light {name!r}: its {key} ({how}) is {value:.3g}, beyond the {EMITTER_MAX:g} the renderer's "
+                         "float32 carries; lower the intensity or raise the size")
+    return value
 
 
 def _light_numbers(name: str, key: str, value: Any, count: tuple[int, ...], positive: bool = False,
@@ -325,12 +338,16 @@ def _explicit_light(name: str, spec: Mapping[str, Any]) -> dict:
         _keys(f"light {name!r}", spec, {"type", "position", "intensity"}, {"position", "intensity"})
         _light_numbers(name, "position", spec["position"], (3,), signed=True)
         _light_numbers(name, "intensity", spec["intensity"], (1, 3))
+        for v in spec["intensity"] if isinstance(spec["intensity"], (list, tuple)) else [spec["intensity"]]:
+            _emitter_value(name, "intensity", float(v), "as given")
         return {"type": "point", "position": spec["position"], "intensity": {"type": "rgb", "value": spec["intensity"]}}
     if kind == "sphere":
         _keys(f"light {name!r}", spec, {"type", "center", "radius", "radiance"}, {"center", "radius", "radiance"})
         _light_numbers(name, "center", spec["center"], (3,), signed=True)
         _light_numbers(name, "radius", spec["radius"], (1,), positive=True)
         _light_numbers(name, "radiance", spec["radiance"], (1, 3))
+        for v in spec["radiance"] if isinstance(spec["radiance"], (list, tuple)) else [spec["radiance"]]:
+            _emitter_value(name, "radiance", float(v), "as given")
         return {"type": "sphere", "center": list(spec["center"]), "radius": spec["radius"],
                 "emitter": {"type": "area", "radiance": {"type": "rgb", "value": spec["radiance"]}}}
     raise SceneError(f"light {name!r}: type must be point or sphere, got {kind!r}")
@@ -469,9 +486,8 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         lo, hi = MODEL_SIZE_MM
         if not lo <= 2 * r <= hi:
             raise SceneError(f"{label}: the model is {2 * r:.4g} mm across (bounding-sphere diameter, units {unit}); a "
-                             f"scene takes models {lo:g} to {hi:g} mm across (1 nm to 1000 km: the mean free paths any "
-                             "profile takes start at 1 nm, and the renderer's float32 lights overflow far beyond "
-                             "1000 km)")
+                             f"scene takes models {lo:g} to {hi:g} mm across (200 nm to 1000 km: the renderer's lighting "
+                             "goes wrong below, its float32 lights overflow far beyond)")
         if kind == "mesh":
             notes.append(_units_note(label, unit, assumed, 2 * r))
         for o in objs:
