@@ -106,6 +106,8 @@ BAD = [
     (["kernel", "--method", "artist:fit"], "needs a profile"),
     (["evaluate", "--material", "skin1", "--methods", ","], "no kernel method given"),
     (["evaluate", "--material", "skin1", "--methods", "svd:0"], "SVD rank"),
+    # SSIM's 11-px window: refused before the profile and the kernels, not after the first method
+    (["evaluate", "--material", "skin1", "--model", "dipole", "--size", "8"], "--size 8: SSIM needs images of at least 11 x 11"),
     # render: G-buffer files
     (["render", "--scene", "g.exr", "--size", "64x64"], "--size applies to a built-in scene"),
     (["render", "--scene", "g.exr", "--spp", "4"], "--spp applies to a built-in scene"),
@@ -231,19 +233,16 @@ def test_read_only_folder(run, workdir, command):
         ro.chmod(0o700)
 
 
-def _locked(path):
-    """Make the existing file ``path`` one that cannot be replaced: read-only for a user, immutable (chattr +i) for
-    root, who writes read-only files; returns how to undo it, or skips where neither can be done here."""
-    if os.name != "posix":
-        pytest.skip("POSIX permissions")
-    if os.geteuid() != 0:
-        path.chmod(0o444)
-        return lambda: path.chmod(0o644)
+def _immutable(path):
+    """Make the existing file ``path`` immutable (chattr +i: nobody, root included, may replace it); returns how
+    to undo it, or skips where that cannot be done here (not root, or a filesystem without the flag)."""
     import shutil
     import subprocess
 
-    if shutil.which("chattr") is None or subprocess.run(["chattr", "+i", str(path)], capture_output=True).returncode:
-        pytest.skip("root, and chattr +i is not available on this filesystem")
+    if os.name != "posix" or os.geteuid() != 0 or shutil.which("chattr") is None:
+        pytest.skip("chattr +i needs root and the chattr tool")
+    if subprocess.run(["chattr", "+i", str(path)], capture_output=True).returncode:
+        pytest.skip("chattr +i is not available on this filesystem")
     return lambda: subprocess.run(["chattr", "-i", str(path)], check=True)
 
 
@@ -254,13 +253,24 @@ def test_an_existing_output_that_cannot_be_replaced_is_refused_before_any_work(r
     """The trial's immutable render output was found only after the render: now before it, in one line."""
     path = workdir / target
     path.write_bytes(b"old")
-    undo = _locked(path)
+    undo = _immutable(path)
     try:
         one_error_line(run, workdir, [*command, "--out", target], f"cannot write --out '{target}': the existing file "
-                       "cannot be replaced")
+                       "cannot be replaced (it is immutable")
         assert path.read_bytes() == b"old"
     finally:
         undo()
+
+
+def test_a_read_only_output_is_replaced(run, workdir):
+    """A read-only (0444) output in a writable folder is replaced, as the atomic write's rename allows: refusing
+    it (an earlier version of the check above did) would refuse what works."""
+    path = workdir / "p.csv"
+    path.write_bytes(b"old")
+    path.chmod(0o444)
+    code, _, err = run("profile", "--material", "skin1", "--model", "dipole", "--out", "p.csv")
+    assert code == 0, err
+    assert path.read_bytes() != b"old"
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux") or not os.path.isdir("/sys/kernel"),

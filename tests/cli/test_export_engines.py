@@ -99,10 +99,13 @@ BAD_EXPORT = [
     (["--albedo", "1.2,0.5,0.3", "--dmfp", "1", "--format", "blender", "--out", "o.json"], "must lie in (0, 1]"),
     (["--albedo", "0,0.5,0.3", "--mfp", "1", "--format", "unity", "--out", "o.json"], "must lie in (0, 1]"),
     # an engine without a cited clamp: its albedo outside Burley's (0, 1] was clamped silently to 1
+    # (the file's values are out of their domain, not missing: not "lacks the parameters ssskit writes")
     (["--material", "alb2_blender.json", "--format", "unity", "--out", "o.json"],
-     "'alb2_blender.json': the blender albedo must lie in (0, 1]"),
+     "error: 'alb2_blender.json': the blender albedo must lie in (0, 1]"),
     (["--material", "alb0_unity.json", "--format", "blender", "--out", "o.json"],
-     "'alb0_unity.json': the unity albedo must lie in (0, 1]"),
+     "error: 'alb0_unity.json': the unity albedo must lie in (0, 1]"),
+    (["--material", "negd_blender.json", "--format", "unity", "--out", "o.json"],
+     "error: 'negd_blender.json': Burley length d must be > 0 mm"),
     # an HDRP .asset takes --albedo; its distances came from the file and --dmfp was ignored silently
     (["--material", "good.asset", "--albedo", "0.5", "--dmfp", "1", "--format", "blender", "--out", "o.json"],
      "--dmfp does not apply to an engine file"),
@@ -149,6 +152,9 @@ def engine_files(workdir):  # noqa: F811
     for engine, a in (("blender", 2.0), ("unity", 0.0)):
         params = engine_parameters(prof, engine, get_material("skin1"))
         (workdir / f"alb{a:g}_{engine}.json").write_text(json.dumps(params | {"base_color": [a, 0.5, 0.5]}))
+    params = engine_parameters(prof, "blender", get_material("skin1"))
+    radius = [-1.0, *params["subsurface_radius"][1:]]
+    (workdir / "negd_blender.json").write_text(json.dumps(params | {"subsurface_radius": radius}))
     if HAVE_MX:
         from ssskit.export.materialx import materialx_document
 

@@ -197,8 +197,8 @@ class NumbaBackend(Backend):
                    slots: np.ndarray) -> NDArray[np.float32]:
         from ._numba_separable import LANES, PASSES, PLANES, TMP_PLANE, block_slot_rows
 
+        slots = np.ascontiguousarray(slots, dtype=np.int32)  # (an array-like: check_frame took its shape and type)
         h, w = slots.shape
-        slots = np.ascontiguousarray(slots, dtype=np.int32)
         depth = np.ascontiguousarray(depth_mm, dtype=np.float32)
         src = np.ascontiguousarray(diffuse, dtype=np.float32)
         # one read of the frame packs and checks it with the last frame's pad (a frame of another size: a

@@ -14,6 +14,7 @@ import contextlib
 import errno
 import json
 import os
+import stat
 import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
@@ -160,12 +161,19 @@ def check_writable(target: str | Path, opt: str, folder: bool = False) -> None:
     os.close(fd)
     with contextlib.suppress(OSError):
         os.unlink(name)
-    if not folder and t.is_file():  # an existing file the write would replace: read-only or immutable (chattr +i)
-        try:
-            os.close(os.open(t, os.O_WRONLY | os.O_APPEND))  # opened, not changed
-        except OSError as exc:
-            raise OutputError(f"cannot write {opt} {str(t)!r}: the existing file cannot be replaced "
-                              f"({exc.strerror or exc})") from None
+    if not folder and t.is_file() and _immutable(t):  # the atomic write's os.replace would fail on it
+        raise OutputError(f"cannot write {opt} {str(t)!r}: the existing file cannot be replaced (it is immutable: "
+                          "chattr -i removes that)")
+
+
+def _immutable(path: Path) -> bool:
+    """Whether the file ``path`` cannot be replaced although its folder takes files: its mode lets its owner write
+    (who we are, or root), yet the kernel refuses writing (Linux's immutable flag, ``chattr +i``, which root too
+    obeys). A read-only mode is no reason: the atomic write (:func:`ssskit.io.atomic_output`) replaces the file by
+    a rename, which a writable folder allows."""
+    st = path.stat()
+    mine = os.geteuid() in (0, st.st_uid) if hasattr(os, "geteuid") else False
+    return bool(mine and st.st_mode & stat.S_IWUSR and not os.access(path, os.W_OK))
 
 
 # ---------------------------------------------------------------------------------------------- types

@@ -268,7 +268,7 @@ def simulate(material: list[str], channel: str, photons: int, seed: int, threads
         for ch, c in d["channels"].items():
             se = c["total_Rd_se"]  # the batches' spread: none from a single batch (JSON null)
             se_text = (f"{se:.5f}" if se is not None and math.isfinite(se) else
-                       "n/a (one batch: give --photons >= 2 x --batch-size)")
+                       "n/a (one batch: give --photons > --batch-size)")
             click.echo(f"{name:<10} {ch}  total Rd with overflow = {c['total_Rd']:.5f} ± {se_text}, "
                        f"in grid = {c['total_Rd_in_grid']:.5f}, beyond {c['grid_mm']:.4g} mm = {c['overflow']:.2e}   "
                        f"Rsp = {c['Rsp']:.4f}")

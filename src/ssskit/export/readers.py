@@ -129,6 +129,10 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
         else:
             _check_burley_inputs(p, engine, np.asarray(data["base_color"], dtype=float))
         prof = reimport(data, "burley")
+    except SsskitError as exc:  # (a ValueError too): a value the file has is out of its domain, not missing
+        if str(p) in str(exc):
+            raise
+        raise SsskitError(f"{str(p)!r}: {exc}") from None
     except (KeyError, TypeError, ValueError) as exc:
         raise SsskitError(f"{str(p)!r} lacks the {engine} parameters ssskit writes ({exc})") from None
     from ..profiles.burley import BurleyProfile

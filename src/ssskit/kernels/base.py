@@ -41,7 +41,8 @@ MAX_SVD_RANK = 64
 def _check_grid(cell_mm: float, n: int) -> None:
     if not (isinstance(n, (int, np.integer)) and n >= 3 and n % 2 == 1):
         raise KernelError(f"kernel grid size must be an odd integer >= 3 (origin at a cell centre), got {n!r}")
-    if not (np.isfinite(cell_mm) and cell_mm > 0):
+    real = isinstance(cell_mm, (int, float, np.integer, np.floating)) and not isinstance(cell_mm, bool)
+    if not (real and np.isfinite(cell_mm) and cell_mm > 0):
         raise KernelError(f"kernel cell size must be a positive number of mm, got {cell_mm!r}")
 
 

@@ -93,15 +93,18 @@ def interruptible_render(scene: Any, **kwargs: Any) -> Any:
         finally:
             done.set()
 
-    threading.Thread(target=work, name="ssskit-mitsuba-render", daemon=True).start()
-    try:
+    try:  # the start too: Thread.start waits for the thread, and a signal can interrupt that wait
+        threading.Thread(target=work, name="ssskit-mitsuba-render", daemon=True).start()
         while not done.wait(_WAIT_S):
             pass
     except BaseException:
         integrator = kwargs.get("integrator") or scene.integrator()
-        if integrator is not None:
+        # cancel until the render has ended: Mitsuba's render clears its stop flag when it starts, so a cancel
+        # that came before the thread entered it is lost (a process that exits with the render alive can crash)
+        deadline = _CANCEL_WAIT_S / _WAIT_S
+        while integrator is not None and not done.wait(_WAIT_S) and deadline > 0:
             integrator.cancel()
-        done.wait(_CANCEL_WAIT_S)
+            deadline -= 1
         raise
     if failed:
         raise failed[0]
