@@ -89,6 +89,10 @@ def test_one_spec_string_and_a_wrong_profile(skin):
     one = evaluate(skin, "disk", "svd:1", size=32, perceptual=False)
     assert list(one.results) == ["svd:1"]
     assert one.results == evaluate(skin, "disk", ["svd:1"], size=32, perceptual=False).results
+    from ssskit.errors import SignalError
+
+    with pytest.raises(SignalError, match="not bytes"):  # was "unknown kernel method '115'"
+        evaluate(skin, "disk", b"svd:1", size=32, perceptual=False)
     for wrong in (get_material("skin1"), "skin1"):
         with pytest.raises(ProfileError, match="evaluate needs a profile"):
             evaluate(wrong, "disk", ["svd:1"], size=32)

@@ -90,3 +90,7 @@ def test_one_material_name_is_one_material():
     with pytest.raises(GBufferError, match="uses id 2 but only 1 materials are named"):
         GBuffer(diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id * 2,
                 camera=gb.camera, materials="skin1")
+    for raw in (b"skin1", [b"skin1"]):  # bytes were split into their codes ('115', '107', ...)
+        with pytest.raises(GBufferError, match="materials must be names"):
+            GBuffer(diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id,
+                    camera=gb.camera, materials=raw)

@@ -109,6 +109,8 @@ def evaluate(profile: RGBProfile, signal: str | np.ndarray, methods: Iterable[st
     if not isinstance(profile, RGBProfile):
         raise ProfileError(f"evaluate needs a profile (an RGBProfile: profile_for_material(material, model) makes "
                            f"one), got {type(profile).__name__}")
+    if isinstance(methods, (bytes, bytearray)):  # (iterated, its codes read as methods '115', ...)
+        raise SignalError(f"methods must be a spec string or a list of them (str), not bytes, got {methods!r}")
     specs = [parse_method_spec(m) for m in ([methods] if isinstance(methods, str) else methods)]
     if not specs:
         raise SignalError("no kernel methods given")

@@ -86,6 +86,10 @@ class GBuffer:
             raise GBufferError(f"camera must be a Camera, got {type(self.camera).__name__}")
         if (self.camera.width, self.camera.height) != (w, h):
             raise GBufferError(f"camera is {self.camera.width}x{self.camera.height} but the layers are {w}x{h}")
+        if isinstance(self.materials, (bytes, bytearray)) or any(isinstance(m, (bytes, bytearray))
+                                                                for m in ([] if isinstance(self.materials, (str, Path))
+                                                                          else self.materials)):
+            raise GBufferError(f"materials must be names (str), not bytes, got {self.materials!r}")
         mats = (str(self.materials),) if isinstance(self.materials, (str, Path)) else \
             tuple(str(m) for m in self.materials)  # one name (or file) is one material, not its characters
         top = int(layers["profile_id"].max(initial=0))
