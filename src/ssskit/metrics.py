@@ -62,15 +62,22 @@ SSIM_SIGMA_PX = 1.5
 SSIM_MIN_SIDE = 2 * int(3.5 * SSIM_SIGMA_PX + 0.5) + 1
 
 
+def check_ssim_size(height: int, width: int, what: str = "", hint: str = "") -> None:
+    """A SignalError if an image of ``height`` x ``width`` is smaller than SSIM's window (:data:`SSIM_MIN_SIDE`
+    pixels a side); ``what`` begins the message (e.g. the option that sized it), ``hint`` ends it. Callers check
+    it before work."""
+    if min(height, width) < SSIM_MIN_SIDE:
+        raise SignalError(f"{what}SSIM needs images of at least {SSIM_MIN_SIDE} x {SSIM_MIN_SIDE} pixels (its Gaussian "
+                          f"window, sigma {SSIM_SIGMA_PX} px), got {width} x {height}{hint}")
+
+
 def ssim(reference: ArrayLike, test: ArrayLike) -> float:
     """Mean SSIM (scikit-image, Gaussian-weighted as in Wang et al.) of the tone-mapped images; a SignalError
     for an image smaller than the window (:data:`SSIM_MIN_SIDE` pixels a side)."""
     from skimage.metrics import structural_similarity
 
     ref, tst = _pair(reference, test)
-    if min(ref.shape[:2]) < SSIM_MIN_SIDE:
-        raise SignalError(f"SSIM needs images of at least {SSIM_MIN_SIDE} x {SSIM_MIN_SIDE} pixels (its Gaussian "
-                          f"window, sigma {SSIM_SIGMA_PX} px), got {ref.shape[1]} x {ref.shape[0]}")
+    check_ssim_size(ref.shape[0], ref.shape[1])
     peak = float(ref.max()) or 1.0
     return float(structural_similarity(tonemap(ref, peak), tonemap(tst, peak), channel_axis=2, data_range=1.0,
                                        gaussian_weights=True, sigma=SSIM_SIGMA_PX,

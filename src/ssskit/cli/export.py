@@ -360,7 +360,8 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
         comment = (f"ssskit export: {kernel_spec} kernel" + (f" of {profile.name} ({profile.model})" if profile else "")
                    + ("" if isinstance(kernel, TapKernel) or fmt not in ("hlsl", "glsl")
                       else f", {tap_count or 7} {tap_method} taps"))
-        export_kernel(kernel, fmt, out, tap_count, tap_method, comment, jitter, depth_mode)
+        export_kernel(kernel, fmt, out, tap_count, tap_method, comment,
+                      jitter if fmt in SHADERS else None, depth_mode)
         with_taps = fmt in ("hlsl", "glsl") + SHADERS
         summary.update(kernel=kernel_spec, rank=kernel.rank,
                        taps=kernel.taps if isinstance(kernel, TapKernel) else (tap_count or 7) if with_taps else None)

@@ -192,13 +192,11 @@ def kernel(ctx: click.Context, material: str | None, method_spec: str, model: st
 def evaluate(ctx: click.Context, material: str | None, signal: str, methods: list[str], model: str, photons: int,
              size: int, no_perceptual: bool, as_json: bool) -> None:
     """Each method's error against the exact 2D convolution on a test signal."""
+    from ..metrics import check_ssim_size
     from ..pipeline import evaluate as run
 
-    from ..metrics import SSIM_MIN_SIDE
-
-    if not no_perceptual and size < SSIM_MIN_SIDE:  # before the profile (an MCML run) and the kernels
-        raise SsskitError(f"--size {size}: SSIM needs images of at least {SSIM_MIN_SIDE} x {SSIM_MIN_SIDE} "
-                               "pixels (its Gaussian window); give a larger --size, or --no-perceptual")
+    if not no_perceptual:  # before the profile (an MCML run) and the kernels
+        check_ssim_size(size, size, f"--size {size}: ", "; give a larger --size, or --no-perceptual")
     check_material_for_model(ctx, material, model)
     prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
     ev = run(prof, signal, methods, size=size, perceptual=not no_perceptual,

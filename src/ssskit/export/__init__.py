@@ -51,11 +51,11 @@ FORMATS: dict[str, tuple[tuple[str, ...], bool]] = {
 
 
 def export_kernel(kernel: Any, fmt: str, path: str | Path, taps: int | None = None, tap_method: str = "importance",
-                  comment: str = "", jitter: float = 0.1, depth_mode: str | None = None) -> None:
+                  comment: str = "", jitter: float | None = None, depth_mode: str | None = None) -> None:
     """Write ``kernel`` in a kernel format (``hlsl``, ``glsl``, ``bn``, ``json``, ``glsl-shader``,
-    ``hlsl-shader``) to ``path`` (atomic). The shaders take ``jitter`` and ``depth_mode`` (the pass's); another
-    format given a jitter other than the default 0.1 or a depth mode, or ``bn`` / ``json`` given ``taps``
-    (they write the tabulated kernel itself), is refused before anything is written."""
+    ``hlsl-shader``) to ``path`` (atomic). The shaders take ``jitter`` (None: :func:`~.shaders.separable_shader`'s default, the pass's 0.1) and
+    ``depth_mode`` (the pass's); another format given either, or ``bn`` / ``json`` given ``taps`` (they write
+    the tabulated kernel itself), is refused before anything is written."""
     from ..io import check_suffix, write_text
     from ..kernels.base import save_kernel
 
@@ -64,7 +64,7 @@ def export_kernel(kernel: Any, fmt: str, path: str | Path, taps: int | None = No
         raise KernelError(f"{fmt!r} is not a kernel format; choose from "
                           f"{', '.join(k for k, (_, kern) in FORMATS.items() if kern)}")
     shader = key in ("glsl-shader", "hlsl-shader")
-    if not shader and (jitter != 0.1 or depth_mode is not None):
+    if not shader and (jitter is not None or depth_mode is not None):
         raise KernelError(f"jitter and depth_mode apply to the whole shaders only (glsl-shader, hlsl-shader), not to "
                           f"the {key} format; got jitter={jitter!r}, depth_mode={depth_mode!r}")
     if key in ("bn", "json") and taps is not None:
@@ -76,7 +76,8 @@ def export_kernel(kernel: Any, fmt: str, path: str | Path, taps: int | None = No
         from .shaders import separable_shader
 
         n = kernel.taps if isinstance(kernel, TapKernel) else (taps or 7)
-        text = separable_shader(make_taps(kernel, n, tap_method), key.split("-")[0], jitter, depth_mode)
+        given = {} if jitter is None else {"jitter": jitter}  # None: the shader's own default
+        text = separable_shader(make_taps(kernel, n, tap_method), key.split("-")[0], depth_mode=depth_mode, **given)
         write_text(path, (f"// {comment}\n" if comment else "") + text)
     elif key in LANGUAGES:
         write_text(path, format_shader_arrays(kernel_arrays(kernel, taps, tap_method), key, comment))

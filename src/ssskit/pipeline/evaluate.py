@@ -28,7 +28,7 @@ from ..errors import ProfileError, SignalError
 from ..kernels import build_kernel, parse_method_spec
 from ..kernels.base import AnyKernel, TapKernel
 from ..profiles.base import RGBProfile
-from ..metrics import SSIM_MIN_SIDE, all_metrics
+from ..metrics import all_metrics, check_ssim_size
 from ..scenes.signals import make_signal
 from ..truth import apply_separable, convolve_2d
 
@@ -120,9 +120,8 @@ def evaluate(profile: RGBProfile, signal: str | np.ndarray, methods: Iterable[st
     else:
         name, image = "image", np.asarray(signal, dtype=float)
     ssim = perceptual is True or (not isinstance(perceptual, bool) and "ssim" in perceptual)
-    if ssim and min(np.shape(image)[:2]) < SSIM_MIN_SIDE:  # before any kernel is built
-        raise SignalError(f"SSIM needs images of at least {SSIM_MIN_SIDE} x {SSIM_MIN_SIDE} pixels (its Gaussian "
-                          f"window), got {np.shape(image)[0]} x {np.shape(image)[1]}: a larger size, or no SSIM")
+    if ssim:  # before any kernel is built
+        check_ssim_size(*np.shape(image)[:2])
     key = _Identity(profile)
     rd = _cells(key, pixel_mm, n)
     truth = convolve_2d(image, rd)

@@ -145,10 +145,9 @@ def montecarlo_profile(material: Material | LayeredMaterial, photons: int = DEFA
     mm, the longest at most 31 times the shortest. ``options`` go to :func:`ssskit.profiles.montecarlo.simulate_material`
     (threads, progress, resume, restart, use_cache, batch_size).
     """
-    from .domain import check_scatters
     from .montecarlo import montecarlo_rgb
 
-    check_scatters("montecarlo", material)
+    # (its domain, scattering included, is checked before any photon: config_for_material's check_montecarlo)
     return montecarlo_rgb(material, photons=photons, seed=seed, grid_fraction=grid_fraction, roughness=roughness,
                           **options)
 

@@ -30,6 +30,11 @@ def mitsuba() -> ModuleType:
 _STDERR_APPENDER: list[object] = []  # the appender installed, kept alive with its Python object
 
 
+def _logger(mi: ModuleType) -> Any:
+    """Mitsuba's logger, one for the whole process (``mi.logger()``; older releases: the thread's)."""
+    return mi.logger() if hasattr(mi, "logger") else mi.Thread.thread().logger()
+
+
 def _log_to_stderr(mi: ModuleType) -> None:
     """Mitsuba's log (its warnings: a mesh's invalid normals, a non-uniform scale, an invalid sample value) on
     ``sys.stderr`` instead of its default appender's stdout, once per process. Mitsuba's logger is one for
@@ -50,7 +55,7 @@ def _log_to_stderr(mi: ModuleType) -> None:
         def log_progress(self, progress: float, name: str, formatted: str, eta: str, ptr: object = None) -> None:
             pass
 
-    logger = mi.logger() if hasattr(mi, "logger") else mi.Thread.thread().logger()
+    logger = _logger(mi)
     appender = StderrAppender()
     logger.clear_appenders()
     logger.add_appender(appender)
@@ -62,7 +67,7 @@ def warnings_dropped() -> Iterator[None]:
     """Within the block Mitsuba logs errors only: for reading a mesh file, whose problems ssskit's own checks
     report as one ``ssskit: error: ...`` line (a zero-area face's "invalid vertex normals" warning came first)."""
     mi = mitsuba()
-    logger = mi.logger() if hasattr(mi, "logger") else mi.Thread.thread().logger()
+    logger = _logger(mi)
     before = logger.log_level()
     logger.set_log_level(mi.LogLevel.Error)
     try:
