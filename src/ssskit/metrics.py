@@ -329,6 +329,7 @@ __all__ = [
     "SSIM_MIN_SIDE",
     "SSIM_SIGMA_PX",
     "all_metrics",
+    "check_ssim_size",
     "display_psnr",
     "edge_profile",
     "flip",
