@@ -17,7 +17,7 @@ __version__ = "0.1.0"
 
 #: every module and subpackage of ssskit, roughly bottom layer first (the layers: docs/architecture.md)
 _SUBMODULES = ("errors", "progress", "registry", "cache", "io", "compute", "settings", "metrics", "materials", "profiles",
-               "kernels", "sampling", "backends", "screenspace", "scenes", "truth", "pipeline", "export", "figures",
+               "kernels", "sampling", "backends", "screenspace", "scenes", "truth", "pipeline", "export", "figures", "view",
                "report", "cli")
 #: names re-exported from a submodule: name -> submodule
 _API = {"render": "pipeline", "RenderSettings": "pipeline", "RenderResult": "pipeline"}
