@@ -27,6 +27,9 @@ from .errors import SettingsError, unknown_names_message
 #: option types need not import the pipeline): image sides of the built-in scenes (pixels), photons of a
 #: Monte Carlo profile, taps of a 1D pass
 SIZE_RANGE = (8, 8192)
+#: the credit the built-in head's licence (CC BY 3.0) asks for (ssskit.scenes.head; here so that --help can name it
+#: without importing the scenes)
+HEAD_ATTRIBUTION = "Head scan: Lee Perry-Smith, Infinite-Realities (CC BY 3.0)"
 PHOTONS_RANGE = (1_000, 10_000_000_000)
 #: photons per channel of a Monte Carlo profile by default: the supplement's (section F)
 DEFAULT_PHOTONS = 10_000_000
