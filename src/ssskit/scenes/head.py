@@ -6,8 +6,8 @@ triangles, unchanged; ``data/HEAD-LICENSE.md``: its licence and credit).
 
 Whoever shows it credits :data:`ATTRIBUTION`. Its file units are not millimetres: :data:`MM_PER_UNIT`
 is the scale ssskit uses, fixed by the head's breadth (euryon-euryon) and length (glabella-opisthocranion)
-against adult male means (docs/head.md, "Scale"; [PH06] Table 2.x: head breadth 155 mm, head length
-195 mm, British men aged 19-65): breadth 0.5824 units gives 266 mm per unit, length 0.7738 units 252 mm
+against adult male means (docs/head.md, "Scale"; [PH06], British men aged 19-65: head breadth 155 mm,
+head length 195 mm): breadth 0.5824 units gives 266 mm per unit, length 0.7738 units 252 mm
 per unit; their geometric mean, 259 mm per unit, puts both within one standard deviation (6 and 8 mm) of
 the means. Axes as stored: +Y up, the face looks toward -Z, the ears at X = +-0.33 units.
 
