@@ -25,12 +25,12 @@ from typing import Any
 
 os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
 
-SECTIONS = ("scale", "fig7", "fig9", "fig1")
+SECTIONS = ("scale", "fig7", "fig9", "fig1", "separable")
 BEGIN, END = "<!-- numbers: docs/head_numbers.py -->", "<!-- end of numbers -->"
 
 
 def compute(sections: list[str], quick: bool, say: Any = print) -> dict[str, Any]:
-    from ssskit.figures.head import fig7_numbers, fig9_numbers, scale_sensitivity
+    from ssskit.figures.head import S2_KERNELS, fig7_numbers, fig9_numbers, scale_sensitivity, separable_numbers
     from ssskit.figures.views import study_json, three_view_study
     from ssskit.scenes.head import ATTRIBUTION, MM_PER_UNIT, head_measures
 
@@ -60,6 +60,11 @@ def compute(sections: list[str], quick: bool, say: Any = print) -> dict[str, Any
                                      repeats=1, views=("front",) if quick else ("close", "ear", "front"),
                                      progress=say)
             out["fig1"] = study_json(study)
+        elif sec == "separable":
+            res = separable_numbers(views=("front",) if quick else ("close", "ear", "front"), width=size[0],
+                                    height=size[1], path_traced=not quick, repeats=1 if quick else 3,
+                                    kernels=("preintegrated", "svd:1") if quick else S2_KERNELS, progress=say)
+            out["separable"] = {k: v for k, v in res.items() if k != "images"}
         out["seconds"][sec] = time.time() - t0
     out["machine"] = {"cpus": os.cpu_count(), "platform": platform.platform(), "load_avg": os.getloadavg()}
     return out
@@ -72,6 +77,22 @@ def _pct(x: float) -> str:
 def tables(n: dict[str, Any]) -> str:
     """The markdown tables of docs/head.md from the numbers."""
     lines: list[str] = []
+    if "references" in n:
+        r0 = n["references"]
+        lines += ["### References", "",
+                  f"`{r0['command'].strip()}`: {r0['seconds']:.0f} s in all on {r0['machine']['cpus']} cores, load average "
+                  f"{r0['machine']['load_avg'][0]:.1f} (the machine shared with other jobs). Level (green) +- standard "
+                  "error (from the per-pixel errors of independent chunks) and relative SE per region.", "",
+                  "| view | spp | seconds | target met | region | pixels | level (R, G, B) | relative SE (G) |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for r in r0["rows"]:
+            for reg, row in r["regions"].items():
+                if not row["pixels"]:
+                    continue
+                lines.append(f"| {r['view']} | {r['spp']} | {r['seconds']:.0f} | {'yes' if r['converged'] else 'no'} "
+                             f"({r['driving_region']}) | {reg} | {row['pixels']} | "
+                             + ", ".join(f"{x:.4f}" for x in row["level"]) + f" | {_pct(row['rel_se'][1])} |")
+        lines.append("")
     if "scale" in n:
         s = n["scale"]
         lines += ["### Scale", "", f"{s['mm_per_unit']:g} mm per unit: head breadth {s['units']['breadth']:.4f} units = "
@@ -134,7 +155,27 @@ def tables(n: dict[str, Any]) -> str:
             lines.append(f"| {r['view']} | {r['method']} | {p} | {pt} | {r['mean_spp']:.1f} | {r['ms']:.1f} |")
         if "limit" in st:
             lines += ["", "Noise floor (a second converged limit of another seed against the first): "
-                      + ", ".join(f"{k} {v:.1f} dB" for k, v in st["limit"].items() if isinstance(v, (int, float)))]
+                      + ", ".join(f"{k} {v['psnr_gray_second_seed']:.1f} dB" for k, v in st["limit"].items()) + "."]
+        if "golubev_minus_eq21" in st:
+            lines += ["", "PSNR(Golubev 64) - PSNR(Eq. 21 at 64), dB, last frame / after TAA, against Xie's: "
+                      + ", ".join(f"{v} {st['golubev_minus_eq21'][v]:+.2f} / {st['golubev_minus_eq21_taa'][v]:+.2f} "
+                                  f"(Xie {st['xie'][v]:+.2f})" for v in st["golubev_minus_eq21"]) + "."]
+        lines.append("")
+    if "separable" in n:
+        sp = n["separable"]
+        lines += ["### The separable-SSS paper on the head (Fig. 1, S.2, S.8)", "",
+                  f"Every kernel ({sp['taps']} importance-sampled taps, Skin1's Monte Carlo profile, {sp['size'][0]} x "
+                  f"{sp['size'][1]}) against the exact 2D convolution of the same profile (relative RMSE over the SSS "
+                  "pixels) and the path trace (level ratio of the largest region, green, +- SE); the views are S.8's "
+                  "close, medium and far shots (camera distance, pixel footprint).", "",
+                  "| view (S.8) | camera mm | pixel mm | kernel | rank | vs exact 2D | shadow edge / path traced | ms |",
+                  "|---|---|---|---|---|---|---|---|"]
+        s8 = {v: k for k, v in sp["s8"].items()}
+        for r in sp["rows"]:
+            reg = (r.get("regions") or {}).get("shadow_edge")
+            ratio = "" if not reg or not reg["ratio"] else f"{reg['ratio']['ratio'][1]:.3f} +- {reg['ratio']['se'][1]:.3f}"
+            lines.append(f"| {r['view']} ({s8.get(r['view'], '')}) | {r['camera_mm']:.0f} | {r['pixel_mm']:.2f} | "
+                         f"{r['kernel']} | {r['rank']} | {_pct(r['rel_rmse_exact'])} | {ratio} | {r['ms']:.2f} |")
         lines.append("")
     return "\n".join(lines)
 
@@ -146,14 +187,22 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--json", default=None)
     ap.add_argument("--md", default=None)
     args = ap.parse_args(argv)
-    n = compute(args.sections, args.quick)
-    n["command"] = "python docs/head_numbers.py " + " ".join(argv or [])
-    if args.json:
-        old = json.loads(Path(args.json).read_text()) if Path(args.json).is_file() else {}
-        old.update({k: v for k, v in n.items() if k != "seconds"})
-        old.setdefault("seconds", {}).update(n["seconds"])
+    n: dict[str, Any] = {}
+    for sec in args.sections:  # each section saved as it completes
+        part = compute([sec], args.quick)
+        part["command"] = "python docs/head_numbers.py " + " ".join(argv or [])
+        if args.json:
+            old = json.loads(Path(args.json).read_text()) if Path(args.json).is_file() else {}
+        else:
+            old = n
+        old.update({k: v for k, v in part.items() if k != "seconds"})
+        old.setdefault("seconds", {}).update(part["seconds"])
         n = old
-        Path(args.json).write_text(json.dumps(n, indent=1) + "\n")
+        if args.json:
+            Path(args.json).write_text(json.dumps(n, indent=1) + "\n")
+    refs = Path(__file__).parent / "head_references.json"
+    if refs.is_file() and not args.quick:
+        n["references"] = json.loads(refs.read_text())
     if args.md:
         md = Path(args.md)
         text = md.read_text()

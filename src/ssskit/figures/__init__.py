@@ -43,6 +43,7 @@ FIGURES.register("xie-fig5", _b.fig5_xie_c)
 FIGURES.register("xie-fig1", _v.xie_fig1)
 FIGURES.register("head-fig7", _h.head_fig7)
 FIGURES.register("head-fig9", _h.head_fig9)
+FIGURES.register("head-separable", _h.head_separable)
 
 
 def runs_a_pass(fn: Figure) -> bool:
