@@ -77,10 +77,16 @@ def test_reference_small_crop_matches_the_recorded_levels():
 
 @pytest.mark.slow
 def test_fig9_transmission_adds_light_and_the_pass_meets_its_limit():
-    res = fig9_numbers("ear", width=32, height=24, frames=4, max_spp=256)
+    """Xie Fig. 9's two runs: the transmittance pass only adds light (a region's level never drops), and on a region
+    of a few hundred pixels the adaptive pass's level is its converged limit's within 3 % (8-64 spp a pixel)."""
+    res = fig9_numbers("ear", width=48, height=36, frames=4, max_spp=256)
+    checked = 0
     for reg, row in res["runs"]["without"]["regions"].items():
         if not row["pixels"]:
             continue
         with_t = res["runs"]["with"]["regions"][reg]
         assert np.all(np.asarray(with_t["screen_space"]["level"]) >= np.asarray(row["screen_space"]["level"]) - 1e-6)
-        np.testing.assert_allclose(row["screen_space"]["level"], row["exact_2d"]["level"], rtol=0.05)
+        if row["pixels"] >= 300:
+            np.testing.assert_allclose(row["screen_space"]["level"], row["exact_2d"]["level"], rtol=0.03)
+            checked += 1
+    assert checked >= 1

@@ -362,19 +362,23 @@ def plot_separable(res: dict[str, Any], path: Path) -> Path:
 def head_separable(out: Path, profile: RGBProfile | None = None, progress: Progress | None = None,
                    backend: str = "numba") -> list[Path]:
     """``ssskit figures head-separable``: :func:`separable_numbers` at 96 x 72 (``head_separable.png``, ``.json``)."""
-    import json
-
-    from ..io import write_text
-
-    res = separable_numbers(backend=backend, progress=progress)
-    png = plot_separable(res, Path(out) / "head_separable.png")
-    js = Path(out) / "head_separable.json"
-    write_text(js, json.dumps(_json_ready(res), indent=1))
-    return [png, js]
+    return _written(out, "head_separable", separable_numbers(backend=backend, progress=progress), plot_separable)
 
 
 def _json_ready(d: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in d.items() if k != "images"}
+
+
+def _written(out: Path, name: str, res: dict[str, Any], plot: Callable[[dict[str, Any], Path], Path]) -> list[Path]:
+    """``name``.png drawn by ``plot`` and ``name``.json (``res`` without its images) in ``out``."""
+    import json
+
+    from ..io import write_text
+
+    png = plot(res, Path(out) / f"{name}.png")
+    js = Path(out) / f"{name}.json"
+    write_text(js, json.dumps(_json_ready(res), indent=1))
+    return [png, js]
 
 
 def _show(ax: Any, img: np.ndarray, title: str, scale: float) -> None:
@@ -426,15 +430,7 @@ def plot_fig9(res: dict[str, Any], path: Path) -> Path:
 def head_fig7(out: Path, profile: RGBProfile | None = None, progress: Progress | None = None,
               backend: str = "numba") -> list[Path]:
     """``ssskit figures head-fig7``: :func:`fig7_numbers` at 192 x 144, 4096 spp (``head_fig7.png``, ``.json``)."""
-    import json
-
-    from ..io import write_text
-
-    res = fig7_numbers(backend=backend, progress=progress)
-    png = plot_fig7(res, Path(out) / "head_fig7.png")
-    js = Path(out) / "head_fig7.json"
-    write_text(js, json.dumps(_json_ready(res), indent=1))
-    return [png, js]
+    return _written(out, "head_fig7", fig7_numbers(backend=backend, progress=progress), plot_fig7)
 
 
 def head_fig9(out: Path, profile: RGBProfile | None = None, progress: Progress | None = None,
