@@ -114,7 +114,7 @@ def head_mesh(mm_per_unit: float = MM_PER_UNIT) -> Mesh:
 
 
 def head_measures(mesh: Mesh | None = None) -> dict[str, float]:
-    """The head's breadth and length in the mesh's units (file units when ``mesh`` is None), measured on
+    """The head's breadth and length in file units, or in ``mesh``'s (a :func:`head_mesh`), measured on
     sections of the surface (trimesh's plane sections): ``breadth``, the widest section across X of the
     horizontal sections above the ears (Y from 0.18 to 0.40 units: euryon-euryon, ears excluded);
     ``length``, in the mid-sagittal section (X = 0) from the glabella (the most anterior point of the
@@ -123,7 +123,7 @@ def head_measures(mesh: Mesh | None = None) -> dict[str, float]:
     import trimesh
 
     a = head_arrays()
-    s = 1.0 if mesh is None else float(mesh.vertices[0, 0] / a["vertices"][0, 0])
+    s = 1.0 if mesh is None else float(np.linalg.norm(mesh.vertices) / np.linalg.norm(a["vertices"]))
     tm = trimesh.Trimesh(a["vertices"].astype(np.float64), a["faces"], process=False)
     tm.merge_vertices()
     breadth = 0.0
