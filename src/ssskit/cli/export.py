@@ -75,7 +75,8 @@ class ExportMaterial(click.ParamType):
         if text and is_engine_file(text):
             return text
         try:
-            get_material(text)
+            for part in text.split(",") if "," in text else [text]:  # several: --format babylon (one scene)
+                get_material(part.strip())
         except SsskitError as exc:
             self.fail(str(exc), param, ctx)
         return text
@@ -305,6 +306,11 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
         raise SsskitError("--pass applies to --format glsl-shader or hlsl-shader (the whole compute shaders)")
     if given(ctx, "transmission_model") and pass_ != "transmission":
         raise SsskitError("--transmission-model applies with --pass transmission")
+    if material is not None and "," in material and fmt != "babylon":
+        raise SsskitError("--material takes several names (a,b,c) only with --format babylon (one scene's profiles)")
+    if fmt == "babylon":
+        _babylon_export(ctx, out, material, albedo, mfp, dmfp, eta, g, model, as_json)
+        return
     if pass_ == "transmission":
         _transmission_export(ctx, fmt, out, material, albedo, mfp, dmfp, eta, g, model, transmission_model, as_json)
         return
@@ -432,6 +438,56 @@ def _transmission_export(ctx: click.Context, fmt: str, out: str, material: str |
                    "table": bool(plan.has_lut)})
     else:
         click.echo(f"# wrote {out} ({fmt}, transmittance pass)")
+
+
+def _babylon_export(ctx: click.Context, out: str, material: str | None, albedo: tuple[float, float, float] | None,
+                    mfp: tuple[float, float, float] | None, dmfp: tuple[float, float, float] | None, eta: float,
+                    g: float, model: str, as_json: bool) -> None:
+    """``--format babylon``: one scene's materials (``--material a,b``, or one material in any form export takes)
+    as Babylon.js subsurface settings (:mod:`ssskit.export.babylon`): every check before any profile is built."""
+    import json
+
+    from ..export import fit_burley
+    from ..export.babylon import MAX_PROFILES, babylon_module, babylon_parameters, check_babylon
+    from ..io import check_distinct, check_suffix, write_text
+
+    suffix = check_suffix(out, (".json", ".js", ".mjs"), "--out for --format babylon")
+    for name, flag in (("kernel_spec", "--kernel"), ("taps", "--taps"), ("pass_", "--pass"),
+                       ("unreal_form", "--unreal-form"), ("standard_surface", "--standard-surface"),
+                       ("no_transmission", "--no-transmission")):
+        if given(ctx, name):
+            raise SsskitError(f"{flag} does not apply to --format babylon (material parameters)")
+    names = [m.strip() for m in material.split(",")] if material is not None and "," in material else None
+    if names is not None:
+        if len(set(n.lower() for n in names)) != len(names):
+            raise SsskitError(f"--material {material}: a name is given twice")
+        if len(names) > MAX_PROFILES - 1:
+            raise SsskitError(f"--format babylon: {len(names)} materials, but a Babylon.js scene holds {MAX_PROFILES} "
+                              f"diffusion profiles and its default white takes one: give at most {MAX_PROFILES - 1}")
+    check_distinct(out, *(names or [material]), what="--out")
+    sources = []
+    for one in names or [material]:
+        prof, mat, src_name, _ = _material_source(ctx, "babylon", one, albedo, mfp, dmfp, eta, g, model)
+        if prof is None:
+            check_material_for_model(ctx, one, model, needed_by="--format babylon")
+            prof = resolve_profile(ctx, one, model, {})
+        sources.append((src_name or one or "ssskit", prof))
+    # ---- work starts here
+    mats = []
+    for name, prof in sources:
+        a, d = fit_burley(prof())
+        mats.append((name, a, d))
+    check_babylon(mats)
+    params = babylon_parameters(mats)
+    title = ", ".join(n for n, _, _ in mats)
+    text = json.dumps(params, indent=1) + "\n" if suffix == ".json" else babylon_module(params, title)
+    write_text(out, text)
+    summary = {"format": "babylon", "out": out, "materials": [n for n, _, _ in mats], "model": model,
+               "parameters": {k: params[k] for k in ("default_variant", "variants", "materials")}}
+    if as_json:
+        echo_json(summary)
+    else:
+        click.echo(f"# wrote {out} (babylon)")
 
 
 def _engine_file(profile: RGBProfile, fmt: str, suffix: str, mat: Material | LayeredMaterial | None, name: str, unreal_form: str,

@@ -44,6 +44,7 @@ FORMATS: dict[str, tuple[tuple[str, ...], bool]] = {
     "unity": ((".json", ".asset"), False),
     "blender": ((".json", ".py"), False),
     "materialx": ((".mtlx",), False),
+    "babylon": ((".json", ".js", ".mjs"), False),
     # whole compute shaders of the separable pass, the taps baked in (the gl backend's source)
     "glsl-shader": ((".comp", ".glsl"), True),
     "hlsl-shader": ((".hlsl", ".fx", ".usf"), True),
