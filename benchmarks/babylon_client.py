@@ -20,22 +20,20 @@ import time
 
 
 def cases(name: str, a, d, params) -> list[tuple[str, dict, list[float]]]:
-    """(label, job overrides, the d (mm) per channel the label's reading predicts)."""
+    """(label, job overrides, the d (mm) per channel that reading predicts): the export's three variants, and
+    the renders that settle the colour's reading (the other reading: colour = d; the other order: r, b, g)."""
     import numpy as np
 
     d = np.asarray(d, dtype=float)
     plain = params["variants"]["plain"]
-    widest = params["variants"]["widest"]
-    mpu = plain["metersPerUnit"]
     return [
-        ("plain (as Babylon documents)", {"variant": "plain"}, list(d)),
-        ("plain, metersPerUnit x 2", {"variant": "plain", "override": {"metersPerUnit": 2 * mpu}}, list(d)),
-        ("widest, metersPerUnit x 2", {"variant": "widest",
-                                       "override": {"metersPerUnit": 2 * widest["metersPerUnit"]}}, list(d)),
-        ("colour = d (the other reading), x 2", {"variant": "plain", "override": {"color": list(d),
-                                                 "metersPerUnit": 2 * mpu}}, list(1.0 / d)),
-        ("colour in r, b, g order, x 2", {"variant": "plain", "override": {"color": [1 / d[0], 1 / d[2], 1 / d[1]],
-                                          "metersPerUnit": 2 * mpu}}, [d[0], d[2], d[1]]),
+        ("documented", {"variant": "documented"}, list(d)),
+        ("plain", {"variant": "plain"}, list(d)),
+        ("widest (default)", {"variant": "widest"}, list(d)),
+        ("colour = d (the other reading), plain", {"variant": "plain", "override": {"color": list(d)}},
+         list(1.0 / d)),
+        ("colour in r, b, g order, plain", {"variant": "plain", "override": {
+            "color": [1 / d[0], 1 / d[2], 1 / d[1]], "metersPerUnit": plain["metersPerUnit"]}}, [d[0], d[2], d[1]]),
     ]
 
 
@@ -47,7 +45,7 @@ def run(materials: list[str], model: str, height: int, max_width: int, labels: l
     from ssskit.export.blender import compare_slab, edge_distances
     from ssskit.materials import get_material
     from ssskit.profiles import profile_for_material
-    from ssskit.view.babylon import babylon_available, render_babylon
+    from ssskit.view.babylon import babylon_available, crop_view, render_babylon
 
     ok, why = babylon_available()
     if not ok:
@@ -62,14 +60,16 @@ def run(materials: list[str], model: str, height: int, max_width: int, labels: l
         # one view per material: wide enough that no sample of any case leaves it (Babylon's samples past the
         # screen's edge read the other side), pixels a quarter of the narrowest d
         reach = max(max(params["variants"][v]["filter_radius_mm"].values()) for v in ("plain", "widest"))
-        ext = 2.0 * reach + 1.6 * float(edge_distances(float(np.max(d)), (0.01,))[0])
+        ext = 2.2 * reach + 1.6 * float(edge_distances(float(np.max(d)), (0.01,))[0])
         width = int(min(max_width, np.ceil(2 * ext / (float(np.min(d)) / 4)) // 8 * 8))
         job = {"width": width, "height": height, "extent": ext, "intensity": 0.5, "shape": "slab", "material": name}
         t0 = time.perf_counter()
         res = render_babylon(text, [dict(job, white=True)] + [dict(job, **c[1]) for c in todo])
-        white = res[0]["image"]
+        margin = 1.05 * 2.0 * reach  # the documented variant's samples reach twice its filter radius
+        white, ext_c = crop_view(res[0]["image"], ext, margin)
         for (label, _, dpred), r in zip(todo, res[1:]):
-            render = {"images": [r["image"]] * 3, "white": [white] * 3, "extent_mm": [ext] * 3}
+            img = crop_view(r["image"], ext, margin)[0]
+            render = {"images": [img] * 3, "white": [white] * 3, "extent_mm": [ext_c] * 3}
             cmp = compare_slab(render, np.asarray(a), np.asarray(dpred))
             rows.append({"material": material.name, "case": label, "width": width, "height": height,
                          "extent_mm": ext, "pixel_mm": 2 * ext / width, "d_predicted_mm": list(map(float, dpred)),

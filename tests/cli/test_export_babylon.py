@@ -35,7 +35,7 @@ def test_json_holds_the_profile_the_pass_weights_with(run, tmp_path):
         np.testing.assert_allclose(m["albedoColor"], a, rtol=1e-12)
         np.testing.assert_allclose(m["translucency"]["diffusionDistance"], d, rtol=1e-12)  # scene in mm
         for v in data["variants"].values():
-            k = v["metersPerUnit"] / data["unit_m"]
+            k = v["metersPerUnit"] / data["unit_m"] / v["pixel_size_fix"]
             # the pass's "mm" are k true mm: weights exp(-(k r) colour / 3) = exp(-r / (3 d))
             np.testing.assert_allclose(1.0 / (k * np.array(v["diffusionProfile"][name])), d, rtol=1e-12)
     w = data["variants"]["widest"]
@@ -72,7 +72,7 @@ def test_module_imports_and_applies(run, tmp_path):
     assert res.returncode == 0, res.stderr
     got = json.loads(res.stdout.strip().splitlines()[-1])
     a, d = fit_burley(profile_for_material(get_material("marble"), "dipole"))
-    assert got["mpu"] == pytest.approx(1e-3) and got["on"] is True and got["f0"] == 0
+    assert got["mpu"] == pytest.approx(2e-3) and got["on"] is True and got["f0"] == 0
     np.testing.assert_allclose([got["color"][c] for c in "rgb"], 1.0 / d, rtol=1e-12)
     np.testing.assert_allclose([got["albedo"][c] for c in "rgb"], a, rtol=1e-12)
 

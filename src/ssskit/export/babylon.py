@@ -33,6 +33,12 @@ profile colour, both with the weighting shape ``d_c`` exact:
 
 * ``"plain"``: ``color_c = 1 / d_c`` (1/mm) and ``metersPerUnit`` = the scene's metres per unit; Babylon then
   samples with the distance ``max(color) = 1 / min(d)`` "mm" and cuts at 16.6 times that.
+* ``"documented"``: ``"plain"`` as Babylon's documentation reads (``metersPerUnit`` the scene's); it renders
+  1.7-2.6 times too wide (docs/exports.md), because the pass takes a pixel for half its size
+  (``cornerPosNDC = vUV + 0.5 texelSize`` with ``viewportSize = tan(fov / 2)``: the UV is used as NDC without
+  ``2 uv - 1``). ``"plain"`` and ``"widest"`` multiply ``metersPerUnit`` by :data:`PIXEL_SIZE_FIX` = 2, which
+  undoes it (the depth difference of the bilateral weight then counts double; a flat or gently curved surface
+  barely notices).
 * ``"widest"`` (the default): the same profile shape with the samples spread over the widest channel. With
   ``metersPerUnit' = k metersPerUnit`` and ``color' = color / k`` the weights are unchanged (the pass's "mm"
   are ``k`` true mm) while the sampling distance becomes ``1 / (k^2 min d)`` true mm; ``k = 1 / sqrt(min d
@@ -59,7 +65,10 @@ FILTER_CDF = 0.997
 #: the pass's sample budget (_SssSampleBudget) and one sample per this many pixels of the filter's area
 SAMPLE_BUDGET = 40
 PIXELS_PER_SAMPLE = 4.0
-VARIANTS = ("widest", "plain")
+VARIANTS = ("widest", "plain", "documented")
+#: the pass takes a pixel for half its size (its NDC is the UV, not 2 UV - 1: docs/engines/babylon-sss-pixel-size.md);
+#: a metersPerUnit this many times the scene's undoes it (measured: docs/exports.md)
+PIXEL_SIZE_FIX = 2.0
 SOURCE = {
     "addDiffusionProfile": "packages/dev/core/src/Rendering/subSurfaceConfiguration.ts: addDiffusionProfile (S = "
                            "color, D = max(r, g, b), filter radius at CDF 0.997; at most 5 profiles, index 0 the "
@@ -79,7 +88,7 @@ SOURCE = {
 
 def filter_radius(distance: float) -> float:
     """Babylon's ``_sampleBurleyDiffusionProfile(0.997, distance)``: Burley's radius (Xie 2020 Eq. 4's CDF
-    ``1 - e^{-x}/4 - 3 e^{-x/3}/4``, inverted in closed form as zero-radiance.github.io does) at CDF
+    ``1 - e^{-x}/4 - 3 e^{-x/3}/4``, inverted in closed form as Golubev [Gol18] does) at CDF
     :data:`FILTER_CDF`, times ``distance``."""
     u = 1.0 - FILTER_CDF
     g = 1.0 + 4.0 * u * (2.0 * u + math.sqrt(1.0 + 4.0 * u * u))
@@ -123,11 +132,12 @@ def babylon_parameters(materials: list[tuple[str, np.ndarray, np.ndarray]],
     dmax = max(float(np.max(d)) for _, _, d in materials)
     k = 1.0 / math.sqrt(dmin * dmax)
     variants: dict[str, Any] = {}
-    for variant, scale in (("plain", 1.0), ("widest", k)):
+    for variant, scale, fix in (("widest", k, PIXEL_SIZE_FIX), ("plain", 1.0, PIXEL_SIZE_FIX), ("documented", 1.0, 1.0)):
         colors = {name: (1.0 / (scale * np.asarray(d, dtype=float))).tolist() for name, _, d in materials}
         sampling = {name: max(c) / scale for name, c in colors.items()}  # the true mm Babylon samples with
         variants[variant] = {
-            "metersPerUnit": unit_m * scale,
+            "metersPerUnit": unit_m * scale * fix,
+            "pixel_size_fix": fix,
             "diffusionProfile": colors,
             "sampling_distance_mm": sampling,
             "filter_radius_mm": {name: filter_radius(s) for name, s in sampling.items()},
@@ -143,8 +153,9 @@ def babylon_parameters(materials: list[tuple[str, np.ndarray, np.ndarray]],
                              "translucency": {"diffusionDistance": (np.asarray(d, dtype=float) * 1e-3 / unit_m).tolist(),
                                               "tintColor": [float(v) for v in a]}}
                       for name, a, d in materials},
-        "formula": "color_c = 1 / (k d_c) per mm, metersPerUnit = unit_m k (k = 1 'plain', 1 / sqrt(min d max d) "
-                   "'widest'); albedoColor = A; translucency diffusionDistance = d in scene units",
+        "formula": "color_c = 1 / (k d_c) per mm, metersPerUnit = unit_m k f (k = 1 'plain' and 'documented', "
+                   "1 / sqrt(min d max d) 'widest'; f = 2 undoes the pass's half-size pixel, 1 'documented'); "
+                   "albedoColor = A; translucency diffusionDistance = d in scene units",
         "sources": SOURCE,
         "notes": ["Babylon reads one colour as the sampling distance d (mm, its maximum) and as the shape S = 1/d "
                   "(1/mm, per channel) when weighting: the weights decide the profile, so the colour is 1/d",

@@ -96,7 +96,7 @@ def blender_parameters(a: np.ndarray, d_mm: np.ndarray, eta: float | None = None
 def eevee_radius_scale(a: np.ndarray) -> np.ndarray:
     """EEVEE Next's per-channel narrowing: its subsurface gather (``eevee_subsurface_convolve_comp.glsl``) weights
     with d = radius / (4 pi s(A')), ``burley_setup``'s s(A') = 1.9 - A' + 3.5 (A' - 0.8)^2 of the albedo scaled to
-    max 1 (A' = A / max A; Burley 2015 Eq. 6, the fit Cycles dropped with Cycles X), where Cycles reads
+    max 1 (A' = A / max A; the searchlight fit of Christensen and Burley 2015 [CB15], which Cycles dropped with Cycles X), where Cycles reads
     d = radius / (4 pi). Multiplying the exported radius by s(A') gives EEVEE's weights Cycles' d (and makes
     Cycles s(A') times too wide: the ``eevee`` variant is for EEVEE only)."""
     ap = np.asarray(a, dtype=float) / max(float(np.max(a)), 1e-6)

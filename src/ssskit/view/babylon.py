@@ -93,4 +93,16 @@ def render_babylon(module_text: str, jobs: list[dict[str, Any]], gl: str = "swif
     return out
 
 
-__all__ = ["PAGE", "babylon_available", "babylon_modules", "render_babylon"]
+def crop_view(image: np.ndarray, extent: float, reach: float) -> tuple[np.ndarray, float]:
+    """The columns of a slab render (half-width ``extent``) more than ``reach`` from both screen edges, and
+    their half-width: Babylon's samples past the screen's edge read the other side (docs/exports.md), so the
+    pixels within a filter radius of an edge are left out of every measurement."""
+    width = image.shape[1]
+    keep = int(round(width * (extent - reach) / (2.0 * extent)))
+    if keep < 8:
+        raise ValueError(f"the view (half-width {extent}) is too narrow for a reach of {reach}")
+    lo = (width - 2 * keep) // 2
+    return image[:, lo:lo + 2 * keep], extent * (2 * keep) / width
+
+
+__all__ = ["PAGE", "crop_view", "babylon_available", "babylon_modules", "render_babylon"]
