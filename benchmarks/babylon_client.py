@@ -80,6 +80,8 @@ def run(materials: list[str], model: str, height: int, max_width: int, labels: l
 
 
 def markdown(data: dict) -> str:
+    from ssskit.export.blender import distance_cells
+
     out = [f"Babylon.js {data['rows'][0]['babylon']} (headless Chromium, SwiftShader WebGL2), source --model "
            f"{data['model']}; the distances at 25 / 10 / 3 / 1 % of the plateau as rendered / predicted - 1 "
            "(+- the scatter over row groups; the pass is deterministic)",
@@ -88,13 +90,7 @@ def markdown(data: dict) -> str:
            "|---|---|---|---|---|---|---|---|---|"]
     for r in data["rows"]:
         for c, ch in enumerate(r["channels"]):
-            cells = []
-            for q in ch["distances"]:
-                if q.get("measured_mm") is None:
-                    cells.append("not reached")
-                else:
-                    se = q["se_mm"] / q["predicted_mm"] if q["se_mm"] != float("inf") else 0.0
-                    cells.append(f"{q['relative_error']:+.1%} ± {se:.1%}")
+            cells = distance_cells(ch, "error")
             out.append(f"| {r['material']} | {r['case']} | {r['pixel_mm']:.3f} | {'RGB'[c]} | "
                        f"{ch['plateau_ratio']:.4f} | " + " | ".join(cells) + " |")
     return "\n".join(out)

@@ -54,6 +54,8 @@ def run(materials: list[str], model: str, width: int, height: int, spp: int, met
 
 
 def markdown(data: dict) -> str:
+    from ssskit.export.blender import distance_cells
+
     out = [f"Cycles {data['rows'][0]['blender']} (CPU), {data['width']}x{data['height']} px per channel view, "
            f"source --model {data['model']}; the distances at 25 / 10 / 3 / 1 % of the plateau as rendered / "
            "predicted - 1, +- the render's noise (one standard error)",
@@ -62,12 +64,7 @@ def markdown(data: dict) -> str:
            "|---|---|---|---|---|---|---|---|---|"]
     for r in data["rows"]:
         for c, ch in enumerate(r["channels"]):
-            cells = []
-            for q in ch["distances"]:
-                if q.get("measured_mm") is None:
-                    cells.append("not reached")
-                else:
-                    cells.append(f"{q['relative_error']:+.1%} ± {q['se_mm'] / q['predicted_mm']:.1%}")
+            cells = distance_cells(ch, "error")
             se = f"{ch['plateau_se']:.4f}" if ch["plateau_se"] >= 5e-5 else "< 0.0001"
             out.append(f"| {r['material']} | {r['method']} ({r['spp']}) | {'RGB'[c]} | {ch['plateau_ratio']:.4f} ± "
                        f"{se} | " + " | ".join(cells) + f" | {ch['mean_abs_edge_error']:.4f} |")

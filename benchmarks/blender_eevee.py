@@ -52,6 +52,8 @@ def run(materials: list[str], model: str, width: int, height: int, samples: int,
 
 
 def markdown(data: dict) -> str:
+    from ssskit.export.blender import distance_cells
+
     out = [f"EEVEE Next {data['rows'][0]['blender']} (Mesa llvmpipe, EGL), {data['width']}x{data['height']} px per "
            f"channel view, {data['samples']} TAA samples (its subsurface gather: 16 samples per pixel per TAA sample), "
            f"source --model {data['model']}; the distances at 25 / 10 / 3 / 1 % of the plateau as EEVEE / predicted "
@@ -61,13 +63,7 @@ def markdown(data: dict) -> str:
            "|---|---|---|---|---|---|---|---|"]
     for r in data["rows"]:
         for c, ch in enumerate(r["channels"]):
-            cells = []
-            for q in ch["distances"]:
-                if q.get("measured_mm") is None:
-                    cells.append("not reached")
-                else:
-                    se = q["se_mm"] / q["predicted_mm"]
-                    cells.append(f"{q['measured_mm'] / q['predicted_mm']:.2f} ± {se:.2f}")
+            cells = distance_cells(ch, "ratio")
             out.append(f"| {r['material']} | {r['variant']} | {'RGB'[c]} | {ch['plateau_ratio']:.4f} ± "
                        f"{ch['plateau_se']:.4f} | " + " | ".join(cells) + " |")
     return "\n".join(out)

@@ -410,5 +410,21 @@ def compare_slab(render: dict[str, Any], a: np.ndarray, d_mm: np.ndarray,
     return out
 
 
-__all__ = ["BLENDER_VERSIONS", "LEVELS", "RADIUS_PER_D", "blender_d_mm", "eevee_radius_scale", "blender_parameters", "blender_script",
+def distance_cells(channel: dict[str, Any], form: str = "error") -> list[str]:
+    """The table cells of one channel of :func:`compare_slab` (the benchmarks' markdown): per level
+    ``"error"``: measured / predicted - 1 +- the noise, or ``"ratio"``: measured / predicted +- the noise."""
+    cells = []
+    for q in channel["distances"]:
+        if q.get("measured_mm") is None:
+            cells.append("not reached")
+            continue
+        se = q["se_mm"] / q["predicted_mm"] if math.isfinite(q["se_mm"]) else 0.0
+        if form == "ratio":
+            cells.append(f"{q['measured_mm'] / q['predicted_mm']:.2f} ± {se:.2f}")
+        else:
+            cells.append(f"{q['relative_error']:+.1%} ± {se:.1%}")
+    return cells
+
+
+__all__ = ["BLENDER_VERSIONS", "distance_cells", "LEVELS", "RADIUS_PER_D", "blender_d_mm", "eevee_radius_scale", "blender_parameters", "blender_script",
            "compare_slab", "edge_distances", "edge_response", "find_blender_python", "render_slab"]
