@@ -4,7 +4,8 @@ Kernel formats (``--kernel`` required): ``hlsl`` / ``glsl`` (``float4 kernel[N]`
 separable-SSS demo layout, offsets in mm), ``bn`` (the 2015 pre-integrated kernel files), ``json``
 (ssskit's own kernel file). Parameter formats (a material required, no kernel): ``unreal``,
 ``unity``, ``blender`` (``.json``: the engine's parameters, with units, formulas, sources and what is
-lost; ``.py``/``.asset``: the engine's own importable file) and ``materialx`` (``.mtlx``).
+lost; ``.py``/``.asset``: the engine's own importable file), ``materialx`` (``.mtlx``) and ``babylon`` (``.js``/``.mjs``
+ES module or ``.json``; ``--material a,b``: one scene's materials, at most 4).
 
 The material: ``--material`` (a preset, a material file, or an engine file ssskit reads back: an ssskit
 engine JSON export, an HDRP .asset with ``--albedo``, a .mtlx), or artists' terms ``--albedo`` with

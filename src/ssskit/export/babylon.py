@@ -1,8 +1,8 @@
 """Babylon.js: the screen-space subsurface settings of a ``PBRMaterial`` for a material's Burley fit, as an
 ES module (``.js``/``.mjs``, with the function that applies it) or JSON.
 
-**What Babylon takes** (``@babylonjs/core`` :data:`BABYLON_VERSION`, the version the client tests render with;
-the same code since the pass landed in 4.2):
+**What Babylon takes** (``@babylonjs/core`` :data:`BABYLON_VERSION`, the version the client tests render with and
+whose files are cited here):
 
 * ``scene.enableSubSurfaceForPrePass()`` makes ``scene.subSurfaceConfiguration``
   (``Rendering/subSurfaceConfiguration.ts``); its constructor adds a default white profile, so a scene holds

@@ -11,6 +11,10 @@ Each render of CONFIG's ``renders`` list (``script``: the exported material scri
 ``width`` x ``height`` pixels, ``samples``, ``seed``, optional ``method`` to override the subsurface
 method) is written as an (H, W, 3) float32 array; ``white`` renders the same view with a white Lambertian
 material (Diffuse BSDF, colour 1): the irradiance reference E / pi of the plateau.
+
+``engine`` "BLENDER_EEVEE_NEXT" renders the same view in EEVEE Next (``samples``: its TAA render samples;
+``variant``: the exported script's "cycles" or "eevee" radius); its edge is then a spot cone's rim
+(``light`` "SPOT", the default; "SUN" keeps the sun, which EEVEE renders without the blocker's shadow).
 """
 
 from __future__ import annotations
@@ -29,9 +33,9 @@ import numpy as np
 
 
 def _eevee(scene: Any, samples: int, job: dict[str, Any]) -> None:
-    """EEVEE Next's render settings: ``samples`` TAA samples, ``sss_samples`` per pixel of its
-    screen-space subsurface gather, a 1-pixel-wide film filter (the narrowest it takes; Cycles' box of
-    width 1 is the same footprint), shadows on with the given resolution scale."""
+    """EEVEE Next's render settings: ``samples`` TAA render samples; ``sss_samples`` is set but EEVEE Next
+    4.2 gathers 16 samples per pixel whatever it says (docs/engines/eevee-sss-albedo-fit.md); film filter
+    ``filter_size`` (0 by default: each pixel its own samples); no raytracing, AO or bloom."""
     eevee = scene.eevee
     eevee.taa_render_samples = samples
     eevee.sss_samples = int(job.get("sss_samples", 7))
@@ -44,8 +48,7 @@ def _eevee(scene: Any, samples: int, job: dict[str, Any]) -> None:
 
 
 def _spot_edge(scene: Any, extent: float, sun: Any, blocker: Any) -> None:
-    """EEVEE Next renders no shadow of the blocker under this sun (docs/exports.md, "EEVEE Next: no sun
-    shadow in the slab scene"), so its edge is the hard rim of a spot cone instead: a point spot
+    """EEVEE Next renders no shadow of the blocker under this sun (docs/engines/eevee-sun-shadow.md), so its edge is the hard rim of a spot cone instead: a point spot
     (radius 0, blend 0) at height H = 1000 extent straight down, its axis at x = R = 100 extent, so the
     cone's rim crosses the view at x = 0 (lit for x > 0). Across the view the rim's curvature moves it by
     (h / 2)^2 / (2 R) < 1e-4 extent and the irradiance varies by 3 R / H^2 < 4e-4 per extent (cos^3 / H^2);
@@ -132,6 +135,8 @@ def _scene(extent: float, width: int, height: int, samples: int, seed: int, thre
         _eevee(scene, samples, job)
         if job.get("light", "SPOT") == "SPOT":
             _spot_edge(scene, extent, sun, blocker)
+        elif "shadow_texel" in job:  # the sun kept (light "SUN"): its virtual shadow map's finest texel
+            sun_data.shadow_maximum_resolution = float(job["shadow_texel"])
     return scene, slab
 
 
