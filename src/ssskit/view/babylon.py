@@ -1,7 +1,7 @@
 """The Babylon.js client: a page (``babylon_page/``) that loads ``@babylonjs/core`` (npm, the pinned
 :data:`ssskit.export.babylon.BABYLON_VERSION`, never committed) and ssskit's Babylon export from a server on
-127.0.0.1, renders a slab with a straight shadow edge (a directional light straight down, a blocker over
-x < 0 seen by the shadow map only, an orthographic camera below the blocker) or a sphere, and hands back
+127.0.0.1, renders a slab with a straight shadow edge (a directional light at 45 degrees, a blocker outside the view
+casting the edge at x = 0, a perspective camera far above with a narrow field of view), and hands back
 the linear float pixels after Babylon's subsurface pass, through :func:`ssskit.view.browser.headless_page`.
 
 Where Babylon is looked for: ``$SSSKIT_BABYLON_MODULES`` (a ``node_modules`` folder), else
@@ -60,7 +60,7 @@ def render_babylon(module_text: str, jobs: list[dict[str, Any]], gl: str = "swif
     """Render each job of ``jobs`` with the exported ES module ``module_text`` (``babylon_module``).
 
     A job: ``width``, ``height`` (pixels), ``extent`` (the view's half-width, scene units), ``intensity``
-    (the light), ``shape`` ("slab" or "sphere", with ``radius``), ``white`` (a white PBR material without
+    (the light), ``white`` (a white PBR material without
     subsurface instead: the irradiance reference), ``material`` (a name in the export), ``variant``,
     optional ``override`` ({"color": [r, g, b], "metersPerUnit": m}: the same export with another colour,
     for the colour-question renders) and ``frames``. Returns per job {"image": (H, W, 4) float32, rows top
@@ -84,7 +84,7 @@ def render_babylon(module_text: str, jobs: list[dict[str, Any]], gl: str = "swif
                 page.wait_for_function("window.ssskitReady === true")
                 for job in jobs:
                     res = page.evaluate("o => window.ssskitRender(o)", {"module": "./export.js", **job})
-                    img = np.asarray(res["pixels"], dtype=np.float32).reshape(job["height"], job["width"], 3) if res["pixels"] else np.zeros((job["height"], job["width"], 3), np.float32)
+                    img = np.asarray(res["pixels"], dtype=np.float32).reshape(job["height"], job["width"], 3)
                     out.append({"image": img[::-1].copy(), "info": res["info"]})
                 log.check()
         finally:

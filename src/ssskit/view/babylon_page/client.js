@@ -1,5 +1,5 @@
 // The Babylon.js client of ssskit's tests: renders ssskit's Babylon export (a module served beside this page)
-// on a slab with a straight shadow edge, or on a sphere, and returns the linear float pixels after
+// on a slab with a straight shadow edge and returns the linear float pixels after
 // Babylon's subsurface pass. Everything is local: @babylonjs/core from ./node_modules (npm, pinned).
 import * as BABYLON from "./node_modules/@babylonjs/core/index.js";
 
@@ -38,18 +38,15 @@ window.ssskitRender = async (o) => {
   cam.setTarget(BABYLON.Vector3.Zero());
   cam.fov = 2 * Math.atan(ext * aspect / far);
   cam.minZ = far - 3 * ext; cam.maxZ = far + 3 * ext;
-  cam.layerMask = 0x0fffffff;
-  // the sun at 45 degrees toward -x; a blocker over x < -1.5 ext at height 1.5 ext (outside the view) casts
+  // the sun at 45 degrees, coming from -x; a blocker over x < -1.5 ext at height 1.5 ext (outside the view) casts
   // the edge at x = 0; the slab's irradiance is the same everywhere on the lit side
-  const light = new BABYLON.DirectionalLight("sun", new BABYLON.Vector3(o.shape === "sphere" ? -1 : 1, -1, 0), scene);
+  const light = new BABYLON.DirectionalLight("sun", new BABYLON.Vector3(1, -1, 0), scene);
   light.intensity = o.intensity;
   light.position = new BABYLON.Vector3(-10 * ext, 10 * ext, 0);
   light.shadowMinZ = 0.01 * ext;  // else the camera's near and far planes, which miss the scene from the light
   light.shadowMaxZ = 40 * ext;
   let receiver;
-  if (o.shape === "sphere") {
-    receiver = BABYLON.MeshBuilder.CreateSphere("sphere", { diameter: 2 * o.radius, segments: 128 }, scene);
-  } else {
+  {
     receiver = BABYLON.MeshBuilder.CreateGround("slab", { width: 6 * ext, height: 6 * ext, subdivisions: 1 }, scene);
     const blocker = BABYLON.MeshBuilder.CreateGround("blocker", { width: 4 * ext, height: 8 * ext }, scene);
     blocker.position = new BABYLON.Vector3(-1.5 * ext - 2 * ext, 1.5 * ext, 0);
