@@ -178,3 +178,30 @@ def test_unreal_mean_free_path_distance_respects_its_clampmin(run, tmp_path):
     _, d = fit_burley(profile_for_material("marble", "montecarlo"))
     back = reimport(data, "burley")
     np.testing.assert_allclose([ch.d for ch in back.channels], d, rtol=1e-5)
+
+
+ENGINE_FILES = [("blender", "b.py"), ("unreal", "u.py"), ("blender", "b.json"), ("unreal", "u.json"),
+                ("unity", "s.json"), pytest.param("materialx", "m.mtlx", marks=needs_mx)]
+
+
+@pytest.mark.parametrize("fmt,name", ENGINE_FILES)
+def test_every_engine_file_is_a_material_of_every_command(run, tmp_path, fmt, name):
+    """render and profile said "must end in .toml or .json"; now every command reads an engine file ssskit wrote
+    through get_material (the one entry point), as the physical material of the Monte Carlo inversion."""
+    extra = ("--no-transmission",) if fmt in ("unreal", "unity") else ()
+    assert run("export", "--material", "skin1", "--format", fmt, *extra, "--out", name)[0] == 0
+    for args in (("profile", "--model", "dipole", "--json"), ("kernel", "--model", "dipole", "--method", "svd:2"),
+                 ("evaluate", "--model", "dipole", "--methods", "svd:1", "--json")):
+        code, _, err = run(*args, "--material", name)
+        assert code == 0, (args, err)
+    if name == "b.py":  # one render (the others share its material option and RenderSettings' loader)
+        code, out, err = run("render", "--scene", "slab", "--material", name, "--model", "dipole", "--size", "32x24",
+                             "--spp", "1", "--backend", "numpy", "--no-exact", "--no-perceptual", "--json")
+        assert code == 0, err
+        assert json.loads(out)["material"] == "Skin1"  # the name the script carries
+
+
+def test_an_hdrp_asset_alone_is_no_material(run, tmp_path):
+    assert run("export", "--material", "skin1", "--format", "unity", "--no-transmission", "--out", "S.asset")[0] == 0
+    err = _one_error(run, tmp_path, "profile", "--material", "S.asset", "--model", "dipole")
+    assert "holds no albedo" in err

@@ -281,15 +281,26 @@ class Source:
     physical: Any = None
 
 
-def load_material(name: str | Path, albedo: Any = None) -> Any:
-    """The one material-loading entry point of every command: a preset, a material file (.toml/.json), or an
-    engine file ssskit wrote (:func:`is_engine_file`: its physical material by the Monte Carlo inversion,
-    :meth:`EngineSource.material`). ``albedo``: an HDRP .asset's (the file holds none)."""
-    from ..materials import get_material
+def engine_material(path: str | Path) -> Material:
+    """The physical material of an engine file ssskit wrote (the Monte Carlo inversion,
+    :meth:`EngineSource.material`): the reader :func:`ssskit.materials.get_material` uses for engine files (it is
+    registered in :data:`ssskit.materials.MATERIAL_READERS` when this module is imported)."""
+    if Path(path).suffix.lower() == ".asset":
+        raise SsskitError(f"{str(path)!r}: an HDRP DiffusionProfileSettings asset holds no albedo (HDRP takes it from "
+                          "the material's base colour), so it is no material by itself: read ssskit's JSON export of "
+                          "the profile (--format unity --out X.json), or give the albedo: ssskit export --material "
+                          f"{path} --albedo R,G,B --format unity --out X.json")
+    return read_engine_file(path).material()
 
-    if is_engine_file(name):
-        return read_engine_file(name, albedo=albedo).material()
-    return get_material(name)
+
+def _register() -> None:
+    from ..materials import MATERIAL_READERS
+
+    if "engine files" not in MATERIAL_READERS:
+        MATERIAL_READERS.register("engine files", (is_engine_file, engine_material))
+
+
+_register()
 
 
 def _model_takes(model: str) -> set[str]:
@@ -492,4 +503,4 @@ def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
 
 
 __all__ = ["ENGINE_NAMES", "ENGINE_SUFFIXES", "EngineSource", "Source", "check_numbers", "is_engine_file",
-           "load_material", "material_source", "read_engine_file"]
+           "engine_material", "material_source", "read_engine_file"]
