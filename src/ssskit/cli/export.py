@@ -128,7 +128,8 @@ class Triple(click.ParamType):
 @depth_mode_option()
 @model_option(None, help="Profile model of the material (the source of the kernel or of the parameters); engine "
                              "files and artists' terms default to burley (Burley-fit inversion), montecarlo or "
-                             "dipole invert them to a physical material first.")
+                             "dipole invert them to a physical material first [default: montecarlo; burley for engine files "
+                             "and artists' terms].")
 @photons_option(None, help="--model montecarlo: photons per channel (shipped for the presets at 10^7, else cached) [default: 10^7].")
 @click.option("--grid-fraction", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=None,
               help="--model montecarlo: lengthen each channel's grid until it holds this fraction of the light.")

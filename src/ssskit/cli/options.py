@@ -542,7 +542,7 @@ def material_option(*, required: bool = False, default: str | None = None, split
                         show_default=default is not None, multiple=split, help=help)
 
 
-def model_option(default: str, help: str = "Profile model.") -> Callable:
+def model_option(default: str | None, help: str = "Profile model.") -> Callable:
     return click.option("--model", type=MODEL, default=default, show_default=True, help=help)
 
 
@@ -591,7 +591,7 @@ def depth_mode_option() -> Callable:
                         help="Depth test [default: gaussian for artist kernels, follow otherwise].")
 
 
-def tap_method_option(default: str) -> Callable:
+def tap_method_option(default: str | None) -> Callable:
     return click.option("--tap-method", type=TAP_METHOD, default=default, show_default=True, help="Tap placement.")
 
 

@@ -8,16 +8,59 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from ..errors import SsskitError
+from pathlib import Path
+
+from ..errors import KernelError, SsskitError
 from .api import FORMATS, KERNEL_OPTIONS, SHADER_OPTIONS, ExportSettings, Format, Job
 
 # ------------------------------------------------------------------------------------------- kernels
+
+#: ``--format bn`` crops the grid to the part holding this fraction of each channel's kernel mass
+BN_SUPPORT = 0.999
+def export_kernel(kernel: Any, fmt: str, path: str | Path, taps: int | None = None, tap_method: str = "importance",
+                  comment: str = "", jitter: float | None = None, depth_mode: str | None = None) -> None:
+    """Write ``kernel`` in a kernel format (``hlsl``, ``glsl``, ``bn``, ``json``, ``glsl-shader``,
+    ``hlsl-shader``) to ``path`` (atomic). The shaders take ``jitter`` (None: :func:`~.shaders.separable_shader`'s default, the pass's 0.1) and
+    ``depth_mode`` (the pass's); another format given either, or ``bn`` / ``json`` given ``taps`` (they write
+    the tabulated kernel itself), is refused before anything is written."""
+    from ..io import check_suffix, write_text
+    from ..kernels.base import save_kernel
+    from .arrays import LANGUAGES, format_shader_arrays, kernel_arrays
+    from .bn import save_bn
+
+    key = fmt.strip().lower() if isinstance(fmt, str) else fmt
+    kernel_formats = [name for name, f in FORMATS.items() if f.kind in ("kernel", "shader")]
+    if key not in kernel_formats:
+        raise KernelError(f"{fmt!r} is not a kernel format; choose from {', '.join(kernel_formats)}")
+    shader = key in ("glsl-shader", "hlsl-shader")
+    if not shader and (jitter is not None or depth_mode is not None):
+        raise KernelError(f"jitter and depth_mode apply to the whole shaders only (glsl-shader, hlsl-shader), not to "
+                          f"the {key} format; got jitter={jitter!r}, depth_mode={depth_mode!r}")
+    if key in ("bn", "json") and taps is not None:
+        raise KernelError(f"taps do not apply to the {key} format (it writes the tabulated kernel itself), got {taps!r}")
+    check_suffix(path, FORMATS.get(key).suffixes, f"{key} output")
+    if key in ("glsl-shader", "hlsl-shader"):
+        from ..kernels import TapKernel
+        from ..sampling.taps import make_taps
+        from .shaders import separable_shader
+
+        n = kernel.taps if isinstance(kernel, TapKernel) else (taps or 7)
+        given = {} if jitter is None else {"jitter": jitter}  # None: the shader's own default
+        text = separable_shader(make_taps(kernel, n, tap_method), key.split("-")[0], depth_mode=depth_mode, **given)
+        write_text(path, (f"// {comment}\n" if comment else "") + text)
+    elif key in LANGUAGES:
+        write_text(path, format_shader_arrays(kernel_arrays(kernel, taps, tap_method), key, comment))
+    elif key == "bn":
+        save_bn(kernel, path, support=BN_SUPPORT)
+    else:
+        save_kernel(kernel, path)
+
+
 
 
 def _kernel(job: Job) -> None:
     """A kernel format: the kernel of the source's profile, written by :func:`ssskit.export.export_kernel`."""
     from ..kernels import TapKernel, build_kernel
-    from . import export_kernel
 
     req, src = job.request, job.source
     m, params, tap_count = src.kernel
@@ -44,9 +87,10 @@ def _shader(job: Job) -> str | None:
     transmittance pass with the material's model baked in (:func:`ssskit.export.shaders.transmission_shader`)."""
     req = job.request
     if req.shader_pass != "transmission":
-        return _kernel(job)
-    from ..pipeline.transmission import slot_model
+        _kernel(job)
+        return None
     from ..screenspace.transmission import transmission_plan
+    from ..screenspace.transmission_slot import slot_model
     from .shaders import transmission_shader
 
     tmodel = req.transmission_model or "mcml"
@@ -214,4 +258,4 @@ FORMATS.register("glsl-shader", Format("glsl-shader", (".comp", ".glsl"), "shade
 FORMATS.register("hlsl-shader", Format("hlsl-shader", (".hlsl", ".fx", ".usf"), "shader", SHADER_OPTIONS, _shader,
                                        "the whole compute shader in HLSL (glslang + spirv-cross)", check=_shader_check))
 
-__all__ = ["asset_name", "engine_data"]
+__all__ = ["BN_SUPPORT", "asset_name", "engine_data", "export_kernel"]

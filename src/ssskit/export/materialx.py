@@ -162,9 +162,9 @@ def read_materialx(path: str | Path) -> dict[str, Any]:
         aniso_in = node.getInput("subsurface_scatter_anisotropy" if cat == "open_pbr_surface" else "subsurface_anisotropy")
         eta = float(ior_in.getValue()) if ior_in is not None else None
         g = float(aniso_in.getValue()) if aniso_in is not None else 0.0
-        for field, v in (("specular_ior", eta), ("anisotropy", g)):
-            if v is not None and not np.isfinite(v):
-                raise SsskitError(f"{str(path)!r}: {cat} {field} must be finite, got {v}")
+        for field, num in (("specular_ior", eta), ("anisotropy", g)):
+            if num is not None and not np.isfinite(num):
+                raise SsskitError(f"{str(path)!r}: {cat} {field} must be finite, got {num}")
         return {"albedo": a, "mfp_mm": ell, "d_mm": ell / searchlight_scaling(a), "eta": eta, "g": g,
                 "name": node.getName(), "shader": cat}
     raise SsskitError(f"{str(path)!r} has no open_pbr_surface or standard_surface node")

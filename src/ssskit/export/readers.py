@@ -407,7 +407,7 @@ def _named_source(req: Any, kernel: Any) -> Source:
                 raise SsskitError(f"--kernel {m.name} is a fixed engine kernel that reads no profile; drop "
                                   f"--{name.replace('_', '-')} (its fit to a material's profile is --kernel burley_fit)")
     needs_profile = m is None or m.needs_profile
-    if req.material is None and not needs_profile:
+    if req.material is None and m is not None and not needs_profile:
         if req.given("model") or req.given("photons") or req.given("grid_fraction"):
             raise SsskitError(f"--model, --photons and --grid-fraction need a --material (--kernel {m.name} "
                               "without one uses no profile)")
