@@ -31,8 +31,35 @@ def _formats() -> Any:
     return FORMATS
 
 
-def _all_suffixes() -> tuple[str, ...]:
-    return tuple(sorted({s for _, f in _formats().items() for s in f.suffixes}))
+class ExportOut(OutputFile):
+    """--out: a suffix of some registered format (looked up when parsed; the format's own suffixes are checked by
+    ExportSettings), not a directory, its folder writable."""
+
+    def __init__(self) -> None:
+        super().__init__(())
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
+        return "FILE"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        self.suffixes = tuple(sorted({s for _, f in _formats().items() for s in f.suffixes}))
+        return super().convert(value, param, ctx)
+
+
+class FormatName(click.ParamType):
+    """A name in the registry of formats (:data:`ssskit.export.FORMATS`), looked up when parsed, so a format
+    registered after this module was imported is taken too."""
+
+    name = "format"
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
+        return "[" + "|".join(_formats().names()) + "]"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        try:
+            return _formats().get(str(value)).name
+        except SsskitError as exc:
+            self.fail(str(exc), param, ctx)
 
 
 class ExportMaterial(click.ParamType):
@@ -92,9 +119,9 @@ class Triple(click.ParamType):
     "ssskit export --material skin1_unreal.json --format unity --out Skin1.asset",
     "ssskit export --material skin1 --kernel preintegrated --taps 7 --format glsl-shader --out sss.comp",
     "ssskit export --material skin1 --format glsl-shader --pass transmission --out transmission.comp"))
-@click.option("--format", "fmt", required=True, type=click.Choice(_formats().names(), case_sensitive=False),
+@click.option("--format", "fmt", required=True, type=FormatName(),
               help="; ".join(f"{f.name}: {f.description}" for _, f in _formats().items()) + ".")
-@click.option("--out", required=True, type=OutputFile(_all_suffixes()), help="Output file (suffix by format).")
+@click.option("--out", required=True, type=ExportOut(), help="Output file (suffix by format).")
 @click.option("--material", type=ExportMaterial(), default=None,
               help="Preset name, material file, or an engine file to read back (an ssskit engine .json, an HDRP "
                    ".asset with --albedo, a .mtlx); not needed by jimenez2012 or artist presets.")

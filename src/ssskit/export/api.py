@@ -13,14 +13,12 @@ given that the request's format does not take (:attr:`Format.options`) is refuse
 
 from __future__ import annotations
 
-import dataclasses
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from ..errors import SsskitError
-from ..registry import Registry
 from ..settings import Settings
+from .registry import FORMATS, Format, get_format
 
 #: the options of ExportSettings and their command-line flags (the wording of every refusal)
 FLAGS = {"material": "--material", "albedo": "--albedo", "mfp": "--mfp", "dmfp": "--dmfp", "eta": "--eta",
@@ -95,30 +93,6 @@ class Job:
     notes: list[str] = field(default_factory=list)
 
 
-@dataclass(frozen=True)
-class Format:
-    """An export format: ``suffixes`` it writes, ``kind`` ("kernel", "shader" or "engine"), ``options`` (the
-    ExportSettings fields beyond :data:`COMMON` it takes), ``write(job) -> text`` (None: it wrote the file
-    itself), ``read(path) -> EngineSource`` for an engine file read back as a material, ``check(request)`` for
-    its own checks before any work, and a one-line ``description`` (the --format help)."""
-
-    name: str
-    suffixes: tuple[str, ...]
-    kind: str
-    options: tuple[str, ...]
-    write: Callable[[Job], str | None]
-    description: str
-    read: Callable[..., Any] | None = None
-    check: Callable[[ExportSettings], None] | None = None
-
-
-FORMATS: Registry[Format] = Registry("export format")
-
-
-def get_format(name: object) -> Format:
-    return FORMATS.get(name)  # type: ignore[arg-type]  # the registry refuses a non-string with the known names
-
-
 def check_applies(req: ExportSettings) -> None:
     """Every option given that the format does not take, refused in one wording naming the formats that take it
     (the unused-option rule, stated once)."""
@@ -153,14 +127,6 @@ def export(request: ExportSettings) -> dict[str, Any]:
     summary.setdefault("material", request.material if request.material is not None else source.name)
     summary["notes"] = job.notes
     return summary
-
-
-def replace_format(name: str, **changes: Any) -> Format:
-    """A registered format with ``changes`` (a test or a plugin adjusting one); returns the new entry."""
-    old = get_format(name)
-    new = dataclasses.replace(old, **changes)
-    FORMATS._entries[name.strip().lower()] = (old.name, new)
-    return new
 
 
 __all__ = ["COMMON", "ExportSettings", "FLAGS", "FORMATS", "Format", "Job", "check_applies", "export", "get_format"]

@@ -29,6 +29,7 @@ import numpy as np
 
 from ..errors import SsskitError
 from ..materials import Material
+from .registry import FORMATS
 
 #: suffixes that hold an engine file (a .json one only when it has an "engine" key, a .py one only when it is an
 #: editor script ssskit wrote)
@@ -81,7 +82,7 @@ def is_engine_file(path: str | Path) -> bool:
     script ssskit wrote)."""
     p = Path(path)
     suffix = p.suffix.lower()
-    if suffix in (".asset", ".mtlx"):
+    if suffix in (".asset", ".mtlx") or _format_reader(suffix) is not None:
         return True
     if suffix not in (".json", ".py") or not p.is_file():
         return False
@@ -93,6 +94,13 @@ def is_engine_file(path: str | Path) -> bool:
     except (OSError, UnicodeDecodeError, ValueError):
         return False
     return isinstance(data, dict) and "engine" in data
+
+
+def _format_reader(suffix: str) -> Any:
+    """The reader of a format registered beside ssskit's own whose file has this (own) suffix, else None."""
+    if suffix in ENGINE_SUFFIXES:
+        return None
+    return next((f.read for _, f in FORMATS.items() if f.read is not None and suffix in f.suffixes), None)
 
 
 def _script_engine(text: str) -> str | None:
@@ -154,6 +162,9 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
     if not p.is_file():
         raise SsskitError(f"cannot read engine file {str(p)!r}: no such file")
     suffix = p.suffix.lower()
+    reader = _format_reader(suffix)
+    if reader is not None:
+        return reader(p)
     if suffix == ".asset":
         engine = "unity"
     elif suffix == ".mtlx":
@@ -174,6 +185,8 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
         except (UnicodeDecodeError, ValueError) as exc:
             raise SsskitError(f"malformed engine file {str(p)!r}: {exc}") from None
         engine = str(data.get("engine", "")) if isinstance(data, dict) else ""
+        if engine not in ENGINE_NAMES and engine in FORMATS and FORMATS.get(engine).read is not None:
+            return FORMATS.get(engine).read(p)  # a format registered beside ssskit's own reads its JSON export
         if engine not in ENGINE_NAMES:
             raise SsskitError(f"{str(p)!r} is an export of engine {engine!r}; ssskit reads {', '.join(ENGINE_NAMES)}")
     if expect is not None and engine != expect:
