@@ -7,17 +7,19 @@ the whole request before any work and writes one file atomically.
 
 An option is a field of :class:`ExportSettings`; None (or False for the flags) means "not given". A field
 given that the request's format does not take (:attr:`Format.options`) is refused here, once, in one wording
-(:func:`check_applies`). The material comes from one entry point, :func:`ssskit.export.readers.material_source`
+(:meth:`ExportSettings.check_applies`). The material comes from one entry point, :func:`ssskit.export.readers.material_source`
 (a preset, a material file, an engine file ssskit wrote, or artists' terms).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..errors import SsskitError
-from ..settings import Settings
+from ..errors import SettingsError
+from ..quantities import ANISOTROPY, BURLEY_ALBEDO, ETA, FRACTION, MFP_MM, PHOTONS, TAPS, Choice, Flag, refuse_unused
+from ..settings import Settings, setting
 from .registry import FORMATS, Format, get_format
 
 #: the options of ExportSettings and their command-line flags (the wording of every refusal)
@@ -34,6 +36,29 @@ SHADER_OPTIONS = KERNEL_OPTIONS + ("jitter", "depth_mode", "shader_pass", "trans
 RGB = tuple[float, float, float]
 
 
+def _models() -> list[str]:
+    from ..profiles import MODELS
+
+    return MODELS.names()
+
+
+def _tap_methods() -> list[str]:
+    from ..sampling.taps import TAP_METHODS
+
+    return list(TAP_METHODS)
+
+
+def _depth_modes() -> list[str]:
+    from ..backends import DEPTH_MODES
+
+    return list(DEPTH_MODES)
+
+
+#: the fraction of the light a Monte Carlo grid holds: in (0, 1)
+GRID_FRACTION = replace(FRACTION, name="grid_fraction", lo_open=True, hi_open=True,
+                        reason="the share of the light the lengthened grid holds")
+
+
 @dataclass(frozen=True)
 class ExportSettings(Settings):
     """One export (module docstring): ``format`` (a name in :data:`FORMATS`) written to ``out``; the material
@@ -41,38 +66,50 @@ class ExportSettings(Settings):
     and ``eta`` (default 1.3) and ``g`` (default 0)); its profile ``model`` (``photons``, ``grid_fraction``); a
     kernel format's ``kernel``, ``taps``, ``tap_method``; a whole shader's ``jitter``, ``depth_mode``,
     ``shader_pass`` (separable or transmission) and ``transmission_model``; ``unreal_form`` (mfp or dmfp, an
-    Unreal .py), ``standard_surface`` (MaterialX) and ``no_transmission`` (Unreal, Unity)."""
+    Unreal .py), ``standard_surface`` (MaterialX) and ``no_transmission`` (Unreal, Unity). Each field is a
+    quantity of :mod:`ssskit.quantities`; which format takes it is the format's (:attr:`Format.options`)."""
 
-    format: str
-    out: str
-    material: str | None = None
-    albedo: RGB | None = None
-    mfp: RGB | None = None
-    dmfp: RGB | None = None
-    eta: float | None = None
-    g: float | None = None
-    model: str | None = None
-    photons: int | None = None
-    grid_fraction: float | None = None
-    kernel: str | None = None
-    taps: int | None = None
-    tap_method: str | None = None
-    jitter: float | None = None
-    depth_mode: str | None = None
-    shader_pass: str | None = None
-    transmission_model: str | None = None
-    unreal_form: str | None = None
-    standard_surface: bool = False
-    no_transmission: bool = False
+    format: str = setting(Choice("format", lambda: FORMATS.names()))
+    out: str = setting(None)
+    material: str | None = setting(None, None)
+    albedo: RGB | None = setting(BURLEY_ALBEDO, None, optional=True, rgb=True)
+    mfp: RGB | None = setting(MFP_MM, None, optional=True, rgb=True)
+    dmfp: RGB | None = setting(MFP_MM, None, optional=True, rgb=True)
+    eta: float | None = setting(ETA, None, optional=True)
+    g: float | None = setting(ANISOTROPY, None, optional=True)
+    model: str | None = setting(Choice("model", _models), None, optional=True)
+    photons: int | None = setting(PHOTONS, None, optional=True)
+    grid_fraction: float | None = setting(GRID_FRACTION, None, optional=True)
+    kernel: str | None = setting(None, None)
+    taps: int | None = setting(TAPS, None, optional=True)
+    tap_method: str | None = setting(Choice("tap_method", _tap_methods), None, optional=True)
+    jitter: float | None = setting(FRACTION, None, optional=True)
+    depth_mode: str | None = setting(Choice("depth_mode", _depth_modes), None, optional=True)
+    shader_pass: str | None = setting(Choice("shader_pass", ("separable", "transmission")), None, optional=True)
+    transmission_model: str | None = setting(Choice("transmission_model", ("mcml", "jimenez2010", "unreal")), None,
+                                             optional=True)
+    unreal_form: str | None = setting(Choice("unreal_form", ("mfp", "dmfp")), None, optional=True)
+    standard_surface: bool = setting(Flag("standard_surface"), False)
+    no_transmission: bool = setting(Flag("no_transmission"), False)
 
     def __post_init__(self) -> None:
         from ..io import check_suffix
 
-        fmt = get_format(self.format)
-        object.__setattr__(self, "format", fmt.name)
+        super().__post_init__()  # every declared quantity, then check_applies
         object.__setattr__(self, "out", str(self.out))
-        check_suffix(self.out, fmt.suffixes, f"--out for --format {fmt.name}")
-        check_applies(self)
+        check_suffix(self.out, get_format(self.format).suffixes, f"--out for --format {self.format}")
+
+    def check_applies(self) -> None:
+        """Every option given that the format does not take (:attr:`Format.options`), refused in the one
+        wording of an unused option (:func:`ssskit.quantities.refuse_unused`), naming the formats that take it."""
+        fmt = get_format(self.format)
+        unused: dict[tuple[str, ...], list[str]] = {}
+        for name, flag in FLAGS.items():
+            if self.given(name) and name not in COMMON and name not in fmt.options:
+                takers = tuple(f.name for _, f in FORMATS.items() if name in f.options)
+                unused.setdefault(takers, []).append(flag)
+        for takers, flags in unused.items():
+            refuse_unused(flags, "--format", takers, fmt.name, SettingsError)
 
     def given(self, name: str) -> bool:
         v = getattr(self, name)
@@ -91,17 +128,6 @@ class Job:
     source: Any  # readers.Source
     summary: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
-
-
-def check_applies(req: ExportSettings) -> None:
-    """Every option given that the format does not take, refused in one wording naming the formats that take it
-    (the unused-option rule, stated once)."""
-    fmt = get_format(req.format)
-    for name, flag in FLAGS.items():
-        if req.given(name) and name not in COMMON and name not in fmt.options:
-            takers = [f.name for _, f in FORMATS.items() if name in f.options]
-            raise SsskitError(f"{flag} does not apply to --format {fmt.name} (it applies to --format "
-                              f"{' or '.join(takers)})")
 
 
 def export(request: ExportSettings) -> dict[str, Any]:
@@ -129,4 +155,4 @@ def export(request: ExportSettings) -> dict[str, Any]:
     return summary
 
 
-__all__ = ["COMMON", "ExportSettings", "FLAGS", "FORMATS", "Format", "Job", "check_applies", "export", "get_format"]
+__all__ = ["COMMON", "ExportSettings", "FLAGS", "FORMATS", "Format", "Job", "export", "get_format"]

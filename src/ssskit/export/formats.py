@@ -11,6 +11,7 @@ from typing import Any
 from pathlib import Path
 
 from ..errors import KernelError, SsskitError
+from ..quantities import refuse_unused
 from .api import FORMATS, KERNEL_OPTIONS, SHADER_OPTIONS, ExportSettings, Format, Job
 
 # ------------------------------------------------------------------------------------------- kernels
@@ -171,9 +172,8 @@ def _unreal(job: Job) -> str:
 
 
 def _unreal_check(req: ExportSettings) -> None:
-    if req.given("unreal_form") and req.suffix != "py":
-        raise SsskitError("--unreal-form does not apply to --format unreal with a .json output (it applies to the "
-                          ".py editor script)")
+    if req.given("unreal_form") and req.suffix != "py":  # the editor script's form: the one unused-option wording
+        refuse_unused(["--unreal-form"], "--out", [".py (the editor script)"], f".{req.suffix}")
 
 
 def _unity(job: Job) -> str:

@@ -185,8 +185,9 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
         except (UnicodeDecodeError, ValueError) as exc:
             raise SsskitError(f"malformed engine file {str(p)!r}: {exc}") from None
         engine = str(data.get("engine", "")) if isinstance(data, dict) else ""
-        if engine not in ENGINE_NAMES and engine in FORMATS and FORMATS.get(engine).read is not None:
-            return FORMATS.get(engine).read(p)  # a format registered beside ssskit's own reads its JSON export
+        other = FORMATS.get(engine).read if engine not in ENGINE_NAMES and engine in FORMATS else None
+        if other is not None:
+            return other(p)  # a format registered beside ssskit's own reads its JSON export
         if engine not in ENGINE_NAMES:
             raise SsskitError(f"{str(p)!r} is an export of engine {engine!r}; ssskit reads {', '.join(ENGINE_NAMES)}")
     if expect is not None and engine != expect:
