@@ -6,8 +6,10 @@ separable-SSS demo layout, offsets in mm), ``bn`` (the 2015 pre-integrated kerne
 ``unity``, ``blender`` (``.json``: the engine's parameters, with units, formulas, sources and what is
 lost; ``.py``/``.asset``: the engine's own importable file) and ``materialx`` (``.mtlx``).
 
+The command maps its options onto one :class:`ssskit.export.ExportSettings` and calls
+:func:`ssskit.export.export`, which checks and writes; the formats are the registry :data:`ssskit.export.FORMATS`.
 The material: ``--material`` (a preset, a material file, or an engine file ssskit reads back: an ssskit
-engine JSON export, an HDRP .asset with ``--albedo``, a .mtlx), or artists' terms ``--albedo`` with
+engine JSON export, a Blender or Unreal .py script, an HDRP .asset with ``--albedo``, a .mtlx), or artists' terms ``--albedo`` with
 ``--mfp`` or ``--dmfp`` (and ``--eta``, ``--g``). Engine files and artists' terms default to ``--model
 burley`` (the Burley-fit inversion, no coefficients); ``--model montecarlo`` or ``dipole`` goes through the
 Monte Carlo inversion of :mod:`ssskit.profiles.artist` to a physical material first. See :mod:`ssskit.export`
@@ -123,8 +125,8 @@ class Triple(click.ParamType):
               help="; ".join(f"{f.name}: {f.description}" for _, f in _formats().items()) + ".")
 @click.option("--out", required=True, type=ExportOut(), help="Output file (suffix by format).")
 @click.option("--material", type=ExportMaterial(), default=None,
-              help="Preset name, material file, or an engine file to read back (an ssskit engine .json, an HDRP "
-                   ".asset with --albedo, a .mtlx); not needed by jimenez2012 or artist presets.")
+              help="Preset name, material file, or an engine file to read back (an ssskit engine .json or .py script, "
+                   "an HDRP .asset with --albedo, a .mtlx); not needed by jimenez2012 or artist presets.")
 @click.option("--albedo", type=Triple(), default=None,
               help="Artists' terms: surface albedo R,G,B in (0, 1] (with --mfp or --dmfp, mm, in [1e-6, 1e6]).")
 @click.option("--mfp", type=Triple(), default=None, help="Artists' terms: volume mean free path 1/sigma_t, mm.")
@@ -161,8 +163,7 @@ class Triple(click.ParamType):
 @click.option("--grid-fraction", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=None,
               help="--model montecarlo: lengthen each channel's grid until it holds this fraction of the light.")
 @json_option("Print one JSON object describing what was written.")
-@click.pass_context
-def export(ctx: click.Context, fmt: str, out: str, as_json: bool, kernel_spec: str | None, **options: Any) -> None:
+def export(fmt: str, out: str, as_json: bool, kernel_spec: str | None, **options: Any) -> None:
     """Write a kernel or a material's parameters in a format an engine loads."""
     from ..export import ExportSettings
     from ..export import export as run

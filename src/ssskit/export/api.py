@@ -16,7 +16,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from ..errors import SsskitError
 from ..errors import SettingsError
 from ..quantities import ANISOTROPY, BURLEY_ALBEDO, ETA, FRACTION, MFP_MM, PHOTONS, TAPS, Choice, Flag, refuse_unused
 from ..settings import Settings, setting
@@ -139,9 +138,9 @@ def export(request: ExportSettings) -> dict[str, Any]:
     from .readers import material_source
 
     fmt = get_format(request.format)
-    if fmt.check is not None:
-        fmt.check(request)
     source = material_source(request, needs=fmt.kind)
+    if fmt.check is not None:
+        fmt.check(request, source)
     check_distinct(request.out, request.material, what="--out")
     job = Job(request, source)
     job.notes.extend(source.notes)

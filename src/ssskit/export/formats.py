@@ -103,7 +103,7 @@ def _shader(job: Job) -> str | None:
     return f"// ssskit export: the transmittance pass, {what}\n" + transmission_shader(plan, req.format.split("-")[0])
 
 
-def _shader_check(req: ExportSettings) -> None:
+def _shader_check(req: ExportSettings, source: Any) -> None:
     if req.given("transmission_model") and req.shader_pass != "transmission":
         raise SsskitError("--transmission-model applies with --pass transmission")
     if req.format == "hlsl-shader":
@@ -128,10 +128,9 @@ def engine_data(job: Job) -> dict[str, Any]:
     fmt, mat = req.format, src.material
     table = None
     if not req.no_transmission and fmt in TRANSMISSION_ENGINES and isinstance(mat, Material):
-        from ..profiles.montecarlo.transmission import check_table_request, transmission_table
+        from ..profiles.montecarlo.transmission import transmission_table
 
-        check_table_request(mat)
-        table = transmission_table(mat)  # the material's MCML slab T(t) (cached like the profiles)
+        table = transmission_table(mat)  # (its domain checked before any work: _transmission_check)  # the material's MCML slab T(t) (cached like the profiles)
     data = engine_parameters(src.profile(), fmt, mat, table, eta=src.eta)
     if fmt in TRANSMISSION_ENGINES and table is None:
         why = ("left out (--no-transmission)" if req.no_transmission else
@@ -171,7 +170,18 @@ def _unreal(job: Job) -> str:
     return unreal_script(data, f"SP_{asset_name(job)}", form)
 
 
-def _unreal_check(req: ExportSettings) -> None:
+def _transmission_check(req: ExportSettings, source: Any) -> None:
+    """The transmission table's domain (from sigma_t), before the profile's MCML."""
+    from ..materials import Material
+
+    if not req.no_transmission and isinstance(source.material, Material):
+        from ..profiles.montecarlo.transmission import check_table_request
+
+        check_table_request(source.material)
+
+
+def _unreal_check(req: ExportSettings, source: Any) -> None:
+    _transmission_check(req, source)
     if req.given("unreal_form") and req.suffix != "py":  # the editor script's form: the one unused-option wording
         refuse_unused(["--unreal-form"], "--out", [".py (the editor script)"], f".{req.suffix}")
 
@@ -195,17 +205,11 @@ def _materialx(job: Job) -> str:
     :mod:`ssskit.export.materialx`): a layered material (no single medium) is refused."""
     import numpy as np
 
-    from ..materials import Material
     from .engines import fit_burley
     from .materialx import materialx_document
 
     src, req = job.source, job.request
-    mat = src.material
-    if mat is None:  # artists' terms or an engine file under Burley: the medium of the Monte Carlo inversion
-        mat = src.physical() if src.physical is not None else None
-    if not isinstance(mat, Material):
-        raise SsskitError("--format materialx writes OpenPBR's one homogeneous subsurface medium; a layered material "
-                          "has none (export its layers' materials)")
+    mat = _medium(src)
     a, _ = fit_burley(src.profile())
     mfp = 1.0 / np.asarray(mat.sigma_t, dtype=float)  # OpenPBR: mu_t = 1 / r ([OPBR24], "Subsurface")
     g = float(np.mean(mat.g))
@@ -214,10 +218,23 @@ def _materialx(job: Job) -> str:
     return materialx_document(a, mfp, src.name or mat.name, g, float(mat.eta), req.standard_surface)
 
 
-def _materialx_check(req: ExportSettings) -> None:
+def _medium(src: Any) -> Any:
+    """The one homogeneous medium OpenPBR describes: the material, or for artists' terms or an engine file under
+    Burley the Monte Carlo inversion's; a layered material has none."""
+    from ..materials import Material
+
+    mat = src.material if src.material is not None else (src.physical() if src.physical is not None else None)
+    if not isinstance(mat, Material):
+        raise SsskitError("--format materialx writes OpenPBR's one homogeneous subsurface medium; a layered material "
+                          "has none (export its layers' materials)")
+    return mat
+
+
+def _materialx_check(req: ExportSettings, source: Any) -> None:
     from .materialx import _mx
 
     _mx()  # the optional package, or one line saying how to install it
+    _medium(source)
 
 
 def _read(engine: str) -> Any:
@@ -245,7 +262,8 @@ FORMATS.register("unreal", Format("unreal", (".json", ".py"), "engine", ("unreal
                                   "Unreal SubsurfaceProfile: parameters (.json) or the editor script (.py)",
                                   _read("unreal"), _unreal_check))
 FORMATS.register("unity", Format("unity", (".json", ".asset"), "engine", ("no_transmission",), _unity,
-                                 "Unity HDRP diffusion profile: parameters (.json) or the .asset", _read("unity")))
+                                 "Unity HDRP diffusion profile: parameters (.json) or the .asset", _read("unity"),
+                                 _transmission_check))
 FORMATS.register("blender", Format("blender", (".json", ".py"), "engine", (), _blender,
                                    "Blender Principled BSDF (Cycles): parameters (.json) or the script (.py)",
                                    _read("blender")))

@@ -16,8 +16,8 @@ from ..registry import Registry
 class Format:
     """An export format: ``suffixes`` it writes, ``kind`` ("kernel", "shader" or "engine"), ``options`` (the
     ExportSettings fields beyond :data:`COMMON` it takes), ``write(job) -> text`` (None: it wrote the file
-    itself), ``read(path) -> EngineSource`` for an engine file read back as a material, ``check(request)`` for
-    its own checks before any work, and a one-line ``description`` (the --format help)."""
+    itself), ``read(path) -> EngineSource`` for an engine file read back as a material, ``check(request,
+    source)`` for its own checks before any work (``source``: the checked material, :class:`~ssskit.export.readers.Source`), and a one-line ``description`` (the --format help)."""
 
     name: str
     suffixes: tuple[str, ...]
@@ -26,7 +26,7 @@ class Format:
     write: Callable[[Any], str | None]
     description: str
     read: Callable[..., Any] | None = None
-    check: Callable[[Any], None] | None = None
+    check: Callable[[Any, Any], None] | None = None
 
 
 FORMATS: Registry[Format] = Registry("export format")
