@@ -209,5 +209,46 @@ def babylon_module(params: dict[str, Any], title: str) -> str:
                           sources="; ".join(params["sources"].values()), params=json.dumps(keep, indent=1))
 
 
-__all__ = ["BABYLON_VERSION", "MAX_PROFILES", "VARIANTS", "babylon_module", "babylon_parameters", "check_babylon",
+def babylon_text(materials: list[tuple[str, np.ndarray, np.ndarray]], suffix: str, summary: dict[str, Any]) -> str:
+    """The file of :func:`babylon_parameters` for ``materials``: JSON for a ``json`` suffix, else the ES module;
+    fills ``summary`` (the export's)."""
+    params = babylon_parameters(materials)
+    summary["parameters"] = {k: params[k] for k in ("default_variant", "variants", "materials")}
+    if suffix.lstrip(".") == "json":
+        return json.dumps(params, indent=1) + "\n"
+    return babylon_module(params, ", ".join(n for n, _, _ in materials))
+
+
+def export_scene(names: list[str], out: str, **options: Any) -> dict[str, Any]:
+    """``ssskit export --format babylon --material a,b,...``: one scene's materials in one file. Every check first
+    (at most :data:`MAX_PROFILES` - 1 distinct names; each material read as :func:`ssskit.export.export` reads
+    one, with the same ``options``), then the profiles, then one atomic write. Returns the export's summary."""
+    from ..io import check_distinct, write_text
+    from .api import ExportSettings, get_format
+    from .engines import fit_burley
+    from .readers import material_source
+
+    if len({n.lower() for n in names}) != len(names):
+        raise SsskitError(f"--material {','.join(names)}: a name is given twice")
+    if len(names) > MAX_PROFILES - 1:
+        raise SsskitError(f"--format babylon: {len(names)} materials, but a Babylon.js scene holds {MAX_PROFILES} "
+                          f"diffusion profiles and its default white takes one: give at most {MAX_PROFILES - 1}")
+    sources = []
+    for name in names:
+        req = ExportSettings(format="babylon", out=out, material=name, **options)
+        sources.append((name, material_source(req, needs=get_format("babylon").kind)))
+        check_distinct(out, name, what="--out")
+    # ---- work starts here
+    mats = []
+    for name, src in sources:
+        a, d = fit_burley(src.profile())
+        mats.append((name, a, d))
+    summary: dict[str, Any] = {"format": "babylon", "out": out, "material": ",".join(names),
+                               "model": sources[0][1].model}
+    write_text(out, babylon_text(mats, req.suffix, summary))
+    summary["notes"] = [n for _, src in sources for n in src.notes]
+    return summary
+
+
+__all__ = ["BABYLON_VERSION", "babylon_text", "export_scene", "MAX_PROFILES", "VARIANTS", "babylon_module", "babylon_parameters", "check_babylon",
            "filter_radius"]
