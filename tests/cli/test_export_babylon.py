@@ -65,7 +65,7 @@ def test_module_imports_and_applies(run, tmp_path):
         "  set scatteringDiffusionProfile(c) { cfg.ssDiffusionProfileColors.push(c); this._c = c; },\n"
         "  get scatteringDiffusionProfile() { return this._c; } }; } }\n"
         "const scene = { subSurfaceConfiguration: cfg, enableSubSurfaceForPrePass() { return true; } };\n"
-        "const m = applySsskit({ Color3, PBRMaterial }, scene, {}, 'plain').marble;\n"
+        "const m = Object.values(applySsskit({ Color3, PBRMaterial }, scene, {}, 'plain'))[0];\n"
         "console.log(JSON.stringify({ mpu: cfg.metersPerUnit, color: m.subSurface.scatteringDiffusionProfile,\n"
         "  on: m.subSurface.isScatteringEnabled, albedo: m.albedoColor, f0: m.metallicF0Factor }));\n")
     res = subprocess.run(["node", str(probe)], capture_output=True, text=True, timeout=60, cwd=tmp_path)
@@ -80,10 +80,12 @@ def test_module_imports_and_applies(run, tmp_path):
 BAD = [
     (["--material", "skin1,skin2,marble,ketchup,apple"], "a Babylon.js scene holds 5 diffusion profiles"),
     (["--material", "skin1,skin1"], "given twice"),
-    (["--albedo", "nan,0.5,0.5", "--dmfp", "1"], "got nan"),
-    (["--albedo", "0.5", "--dmfp", "1,inf,1"], "got inf"),
+    (["--albedo", "nan,0.5,0.5", "--dmfp", "1"], "got (nan, 0.5, 0.5)"),
+    (["--albedo", "0.5", "--dmfp", "1,inf,1"], "got (1, inf, 1)"),
+    (["--material", "skin1,marble", "--albedo", "0.5"], "albedo"),
     (["--albedo", "0.5", "--dmfp", "1", "--eta", "nan"], "eta"),
-    (["--material", "skin1", "--kernel", "svd:1"], "does not apply to --format babylon"),
+    (["--material", "skin1", "--kernel", "svd:1"], "not --format babylon"),
+    (["--material", "skin1,marble", "--kernel", "svd:1"], "not --format babylon"),
 ]
 
 
