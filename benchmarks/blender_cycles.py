@@ -17,17 +17,12 @@ import json
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 
 def run(materials: list[str], model: str, width: int, height: int, spp: int, methods: list[str],
         rw_spp: int) -> dict:
-    import numpy as np
-
-    from ssskit.export import engine_parameters
-    from ssskit.export.blender import blender_d_mm, blender_script, compare_slab, find_blender_python, render_slab
+    from ssskit.export.blender import compare_slab, find_blender_python, render_slab, slab_material
     from ssskit.materials import get_material
-    from ssskit.profiles import profile_for_material
 
     python, why = find_blender_python()
     if python is None:
@@ -36,10 +31,7 @@ def run(materials: list[str], model: str, width: int, height: int, spp: int, met
     with tempfile.TemporaryDirectory() as tmp:
         for name in materials:
             material = get_material(name)
-            params = engine_parameters(profile_for_material(material, model), "blender", material)
-            script = Path(tmp) / f"{name}.py"
-            script.write_text(blender_script(params, name))
-            a, d = np.array(params["base_color"]), blender_d_mm(params)
+            _, script, a, d = slab_material(name, model, tmp)
             for method in methods:
                 t0 = time.perf_counter()
                 n = rw_spp if method.startswith("RANDOM_WALK") else spp

@@ -17,18 +17,13 @@ import argparse
 import json
 import sys
 import tempfile
-from pathlib import Path
 
 TRIM = 0.25
 
 
 def run(materials: list[str], model: str, width: int, height: int, samples: int, variants: list[str]) -> dict:
-    import numpy as np
-
-    from ssskit.export import engine_parameters
-    from ssskit.export.blender import blender_d_mm, blender_script, compare_slab, find_blender_python, render_slab
+    from ssskit.export.blender import compare_slab, find_blender_python, render_slab, slab_material
     from ssskit.materials import get_material
-    from ssskit.profiles import profile_for_material
 
     python, why = find_blender_python()
     if python is None:
@@ -37,10 +32,7 @@ def run(materials: list[str], model: str, width: int, height: int, samples: int,
     with tempfile.TemporaryDirectory() as tmp:
         for name in materials:
             material = get_material(name)
-            params = engine_parameters(profile_for_material(material, model), "blender", material)
-            script = Path(tmp) / f"{name}.py"
-            script.write_text(blender_script(params, name))
-            a, d = np.array(params["base_color"]), blender_d_mm(params)
+            _, script, a, d = slab_material(name, model, tmp)
             for variant in variants:
                 render = render_slab(script, list(d), width, height, samples, seed=11, python=python, timeout=3600.0,
                                      engine="BLENDER_EEVEE_NEXT", variant=variant)

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from ssskit.export import engine_parameters
-from ssskit.export.blender import blender_d_mm, blender_script, compare_slab, eevee_radius_scale, find_blender_python, \
-    render_slab
+from ssskit.export.blender import blender_script, compare_slab, eevee_radius_scale, find_blender_python, render_slab, \
+    slab_material
 from ssskit.materials import get_material
 from ssskit.profiles import profile_for_material
 
@@ -26,11 +26,7 @@ PLATEAU_TOL = 0.03
 
 @pytest.fixture(scope="module")
 def skin1(tmp_path_factory):
-    material = get_material("skin1")
-    params = engine_parameters(profile_for_material(material, "dipole"), "blender", material)
-    script = tmp_path_factory.mktemp("eevee") / "skin1.py"
-    script.write_text(blender_script(params, "skin1"))
-    a, d = np.array(params["base_color"]), blender_d_mm(params)
+    _, script, a, d = slab_material("skin1", "dipole", tmp_path_factory.mktemp("eevee"))
     out = {}
     for variant in ("cycles", "eevee"):
         render = render_slab(script, list(d), WIDTH, HEIGHT, TAA, seed=5, python=PYTHON, timeout=900.0,
