@@ -17,6 +17,7 @@ and docs/exports.md.
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
@@ -306,6 +307,9 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
     if given(ctx, "transmission_model") and pass_ != "transmission":
         raise SsskitError("--transmission-model applies with --pass transmission")
     if pass_ == "transmission":
+        if Path(out).suffix.lower() == ".frag":
+            raise SsskitError("--out .frag (the GLSL ES fragment form) is written for the separable pass only; "
+                              "the transmittance pass is a compute shader (.comp, .glsl)")
         _transmission_export(ctx, fmt, out, material, albedo, mfp, dmfp, eta, g, model, transmission_model, as_json)
         return
     prof, mat, src_name, used_model = _material_source(ctx, fmt, material, albedo, mfp, dmfp, eta, g, model)

@@ -44,8 +44,9 @@ FORMATS: dict[str, tuple[tuple[str, ...], bool]] = {
     "unity": ((".json", ".asset"), False),
     "blender": ((".json", ".py"), False),
     "materialx": ((".mtlx",), False),
-    # whole compute shaders of the separable pass, the taps baked in (the gl backend's source)
-    "glsl-shader": ((".comp", ".glsl"), True),
+    # whole compute shaders of the separable pass, the taps baked in (the gl backend's source); .frag: its
+    # GLSL ES 3.00 fragment form (the same per-pixel body; what ssskit view runs)
+    "glsl-shader": ((".comp", ".glsl", ".frag"), True),
     "hlsl-shader": ((".hlsl", ".fx", ".usf"), True),
 }
 
@@ -77,8 +78,15 @@ def export_kernel(kernel: Any, fmt: str, path: str | Path, taps: int | None = No
 
         n = kernel.taps if isinstance(kernel, TapKernel) else (taps or 7)
         given = {} if jitter is None else {"jitter": jitter}  # None: the shader's own default
-        text = separable_shader(make_taps(kernel, n, tap_method), key.split("-")[0], depth_mode=depth_mode, **given)
-        write_text(path, (f"// {comment}\n" if comment else "") + text)
+        stage = "fragment" if Path(path).suffix.lower() == ".frag" else "compute"
+        text = separable_shader(make_taps(kernel, n, tap_method), key.split("-")[0], depth_mode=depth_mode,
+                                stage=stage, **given)
+        if comment and stage == "fragment":  # GLSL ES: the #version line comes before anything, comments too
+            version, _, rest = text.partition("\n")
+            text = f"{version}\n// {comment}\n{rest}"
+        elif comment:
+            text = f"// {comment}\n{text}"
+        write_text(path, text)
     elif key in LANGUAGES:
         write_text(path, format_shader_arrays(kernel_arrays(kernel, taps, tap_method), key, comment))
     elif key == "bn":
