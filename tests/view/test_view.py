@@ -1,0 +1,162 @@
+"""ssskit view in a real browser (headless Chromium through ssskit.view.browser; skipped without it): the static
+page draws a finite frame with a frame time and no console error; its G-buffer read back as float32 and fed to the
+numpy oracle gives the page's separable and Burley outputs; the page runs the exported shader text; the camera and
+the material change the image."""
+import base64
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from ssskit.view.browser import browser_available, headless_page
+
+ok, why = browser_available()
+pytestmark = pytest.mark.skipif(not ok, reason=why)
+
+#: the page's size in the tests (small: browser time in CI)
+W, H = 192, 144
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    """``ssskit view --scene bust --no-open --out DIR`` run as a user runs it."""
+    out = tmp_path_factory.mktemp("view") / "site"
+    proc = subprocess.run([sys.executable, "-m", "ssskit", "view", "--scene", "bust", "--no-open", "--out", str(out)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+@pytest.fixture(scope="module")
+def page(site):
+    with headless_page(width=W + 320, height=max(H, 500)) as (pg, log):
+        pg.goto((site / "index.html").as_uri() + f"?w={W}&h={H}")
+        pg.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=30_000)
+        yield pg, log
+
+
+def read(pg, name):
+    """A float target of the page, (H, W, 4) float32, rows from the top (ssskit's arrays)."""
+    raw = base64.b64decode(pg.evaluate(f"() => window.ssskit.read('{name}')"))
+    return np.frombuffer(raw, np.float32).reshape(H, W, 4)[::-1]
+
+
+def display(pg):
+    raw = base64.b64decode(pg.evaluate("() => window.ssskit.readDisplay()"))
+    return np.frombuffer(raw, np.uint8).reshape(H, W, 4)[::-1]
+
+
+def render(pg, **state):
+    pg.evaluate(f"() => window.ssskit.set({json.dumps(state)})")
+    return pg.evaluate("() => window.ssskit.render()")
+
+
+def test_static_page_draws_a_finite_frame_with_a_frame_time(page):
+    pg, log = page
+    timing = render(pg, **{"pass": "separable"})
+    assert pg.evaluate("() => document.getElementById('status').textContent") == ""
+    stats = pg.evaluate("() => document.getElementById('stats').textContent")
+    assert "ms" in stats and "separable" in stats and timing["frame_ms"] > 0
+    img = display(pg)[..., :3].astype(float)
+    assert img.std() > 5.0                                  # not blank: the bust against the background
+    assert np.isfinite(read(pg, "result")).all()
+    assert (read(pg, "src")[..., 3] > 0).mean() > 0.05      # the bust covers part of the frame
+    log.check()
+
+
+def _gbuffer(pg):
+    src = read(pg, "src").astype(np.float64)
+    slots = (src[..., 3] > 0).astype(np.int64)
+    depth = np.where(slots > 0, src[..., 3], 1.0)
+    return src[..., :3], depth, slots
+
+
+def test_separable_pass_matches_the_numpy_oracle_on_the_pages_gbuffer(page):
+    """Tolerance: the gl backend's float32 bound (tests/conftest.py TOLERANCES, 1e-5) per unit of the brightest
+    diffuse value, on every pixel."""
+    from ssskit.backends import build_separable_plan
+    from ssskit.backends.numpy_backend import NumpyBackend
+    from ssskit.screenspace.separable import default_depth_mode
+    from ssskit.view.site import MaterialRequest, kernel_taps
+    from tests.conftest import TOLERANCES
+
+    pg, log = page
+    timing = render(pg, **{"pass": "separable", "frame": 0, "seed": 0})
+    e, depth, slots = _gbuffer(pg)
+    got = read(pg, "result")[..., :3]
+    _, _, taps = kernel_taps(MaterialRequest("skin1"))
+    plan = build_separable_plan({1: taps}, timing["fx"], timing["fy"], jitter=0.1, depth_mode=default_depth_mode(taps))
+    want = NumpyBackend().separable(plan, e, depth, slots)
+    scale = max(1.0, float(e.max()))
+    err = np.abs(got - want).max() / scale
+    assert err <= TOLERANCES[("gl", "float32")], err
+    assert np.abs(want - e).max() > 100 * TOLERANCES[("gl", "float32")] * scale   # the pass did change the image
+    log.check()
+
+
+def test_burley_pass_matches_the_numpy_oracle_on_the_pages_gbuffer(page):
+    """Tolerance as the gl backend's Burley test (tests/backends/test_gl.py): at most 0.2% of pixels off by more
+    than 1e-5 per unit of the brightest value (a sample within float32 rounding of a texel edge may land on the
+    neighbouring texel)."""
+    from ssskit.backends.burley_plan import build_burley_plan
+    from ssskit.backends.numpy_backend import NumpyBackend
+    from ssskit.materials import get_material
+    from ssskit.screenspace.burley import burley_params_for_material
+    from tests.conftest import TOLERANCES
+
+    pg, log = page
+    timing = render(pg, **{"pass": "burley", "spp": 8, "frame": 0, "seed": 0})
+    e, depth, slots = _gbuffer(pg)
+    got = read(pg, "result")[..., :3]
+    plan = build_burley_plan({1: burley_params_for_material(get_material("skin1"))}, timing["fx"], timing["fy"])
+    want = NumpyBackend().burley(plan, e, depth, slots, 8)
+    scale = max(1.0, float(e.max()))
+    off = float((np.abs(got - want) > TOLERANCES[("gl", "float32")] * scale).mean())
+    assert off <= 0.002, off
+    log.check()
+
+
+def test_the_page_runs_the_exported_shader_text(page, tmp_path):
+    """`ssskit export --format glsl-shader --out X.frag` writes the text the page runs (less the comment line
+    export adds after #version), and the gl backend's compute shader holds the same per-pixel body."""
+    from importlib import resources
+
+    from ssskit.backends.gl.separable import separable_source
+    from ssskit.backends import build_separable_plan
+    from ssskit.screenspace.separable import default_depth_mode
+    from ssskit.view.site import MaterialRequest, kernel_taps
+
+    pg, _ = page
+    render(pg, **{"material": "skin1"})
+    shader = pg.evaluate("() => window.ssskit.shader('separable')")
+    out = tmp_path / "sss.frag"
+    proc = subprocess.run([sys.executable, "-m", "ssskit", "export", "--material", "skin1", "--model", "dipole",
+                           "--kernel", "preintegrated", "--taps", "7", "--format", "glsl-shader", "--out", str(out)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    lines = out.read_text().splitlines(keepends=True)
+    assert lines[1].startswith("// ssskit export")
+    assert "".join(lines[:1] + lines[2:]) == shader
+    body = resources.files("ssskit.backends.gl").joinpath("separable.glsl").read_text()
+    _, _, taps = kernel_taps(MaterialRequest("skin1"))
+    plan = build_separable_plan({1: taps}, 1.0, 1.0, jitter=0.1, depth_mode=default_depth_mode(taps))
+    assert body.rstrip() in shader and body.rstrip() in separable_source(plan, 0, False)
+
+
+def test_camera_and_material_change_the_image(page):
+    pg, log = page
+    render(pg, **{"pass": "separable", "material": "skin1"})
+    a = display(pg).astype(int)
+    pg.evaluate("() => window.ssskit.orbit(0.4, 0.0)")
+    render(pg)
+    b = display(pg).astype(int)
+    pg.evaluate("() => window.ssskit.orbit(-0.4, 0.0)")
+    render(pg, material="marble")
+    c = display(pg).astype(int)
+    assert np.abs(a - b).mean() > 1.0
+    assert np.abs(a - c).mean() > 1.0
+    render(pg, material="skin1")
+    assert np.array_equal(display(pg).astype(int), a)      # and back: the same frame
+    log.check()
