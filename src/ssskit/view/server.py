@@ -121,17 +121,21 @@ class _Handler(BaseHTTPRequestHandler):
         self.send_header("X-Content-Type-Options", "nosniff")
         self.send_header("Cache-Control", "no-store")
         self.end_headers()
-        if self.command != "HEAD":
+        if getattr(self, "command", None) != "HEAD":
             self.wfile.write(body)
 
     def _refuse(self, status: int, reason: str) -> None:
         with self.server.lock:
-            print(f"ssskit view: refused {self.command} {self.path[:200]!r} from {self.client_address[0]}: "
+            # a malformed request line leaves no command or path (the base class refuses it before parsing them)
+            command, path = getattr(self, "command", None) or "-", getattr(self, "path", "") or ""
+            print(f"ssskit view: refused {command} {path[:200]!r} from {self.client_address[0]}: "
                   f"{status} {reason}", file=self.server.log, flush=True)
         self._send(status, json.dumps({"error": reason}).encode(), "application/json")
 
     def send_error(self, code: int, message: str | None = None, explain: str | None = None) -> None:
-        """The base class's errors (malformed request lines, unsupported methods) as a logged JSON 4xx."""
+        """The base class's errors (malformed request lines, unsupported methods) as a logged JSON 4xx, with a
+        status line even where the request line parsed as HTTP/0.9 (which has none)."""
+        self.request_version = "HTTP/1.0"
         self._refuse(code, message or "bad request")
 
     def _host_ok(self) -> bool:
