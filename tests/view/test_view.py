@@ -160,3 +160,50 @@ def test_camera_and_material_change_the_image(page):
     render(pg, material="skin1")
     assert np.array_equal(display(pg).astype(int), a)      # and back: the same frame
     log.check()
+
+
+def test_adaptive_pass_matches_the_numpy_oracle_over_three_frames(page):
+    """Xie 2020 Sec. 4.1 on a static camera: the page's estimate, three Burley frames at its counts and three
+    history updates against the numpy oracle (ssskit.backends.adaptive_plan's reference functions and the numpy
+    Burley pass, frames 0-2, seed 0). Tolerances: the Burley result as in the Burley test (0.2% of pixels beyond
+    1e-5 of the brightest value); counts and history may differ only where a result or a float32 count estimate
+    did (the module docstring of adaptive_plan), on at most 0.5% of the pixels."""
+    from ssskit.backends.adaptive_plan import as_plan, reference_counts, reference_update_pass
+    from ssskit.backends.burley_plan import build_burley_plan
+    from ssskit.backends.numpy_backend import NumpyBackend
+    from ssskit.materials import get_material
+    from ssskit.screenspace.adaptive import AdaptiveSettings
+    from ssskit.screenspace.burley import burley_params_for_material
+    from tests.conftest import TOLERANCES
+
+    pg, log = page
+    render(pg, **{"auto": False, "pass": "adaptive", "material": "skin1", "seed": 0})   # frame 0 of a new history
+    timing = render(pg)
+    render(pg)
+    assert pg.evaluate("() => window.ssskit.adaptiveFrames()") == 3
+    e, depth, slots = _gbuffer(pg)
+    got = read(pg, "result")[..., :3]
+    got_hist = read(pg, "history")
+    raw = base64.b64decode(pg.evaluate("() => window.ssskit.readCounts('next')"))
+    got_counts = np.frombuffer(raw, np.int32).reshape(H, W)[::-1]
+
+    guide = as_plan(AdaptiveSettings())
+    params = {1: burley_params_for_material(get_material("skin1"))}
+    mask = slots > 0
+    hist = np.zeros((H, W, 4), np.float32)
+    counts = reference_counts(guide, hist, mask)
+    for f in range(3):
+        plan = build_burley_plan(params, timing["fx"], timing["fy"], frame=f)
+        rgb = NumpyBackend().burley(plan, e, depth, slots, counts)
+        hist, counts = reference_update_pass(guide, hist, rgb, counts, mask)
+    scale = max(1.0, float(e.max()))
+    assert float((np.abs(got - rgb) > TOLERANCES[("gl", "float32")] * scale).mean()) <= 0.002
+    assert float((got_counts != counts).mean()) <= 0.005
+    assert counts[mask].max() > guide.b_min                   # the guide did move the counts off the floor
+    close = np.isclose(got_hist, hist, rtol=1e-4, atol=1e-7).all(axis=-1)
+    assert float((~close).mean()) <= 0.005
+    render(pg, **{"heat": True})
+    heat = display(pg)
+    assert heat[mask][:, :3].std() > 1.0                       # the heat map shows the counts
+    render(pg, **{"heat": False, "auto": True, "pass": "separable"})
+    log.check()

@@ -109,10 +109,15 @@ def material_payload(req: MaterialRequest) -> dict[str, Any]:
     from ..screenspace.burley import burley_params_for_material
     from ..screenspace.separable import default_depth_mode
 
+    from ..backends.adaptive_plan import as_plan
+    from ..backends.gl.adaptive import adaptive_fragment_source
+    from ..screenspace.adaptive import AdaptiveSettings
+
     (mat, prof), kernel, taps = kernel_taps(req)
     shader = separable_shader(taps, "glsl", jitter=req.jitter, depth_mode=default_depth_mode(taps), stage="fragment")
     params = burley_params_for_material(mat)
     plan = build_burley_plan({1: params}, 1.0, 1.0)
+    guide = as_plan(AdaptiveSettings())
     return {
         "name": getattr(mat, "name", "material"),
         "albedo": [float(v) for v in prof.total_rd()],
@@ -121,6 +126,11 @@ def material_payload(req: MaterialRequest) -> dict[str, Any]:
                       "weights": np.asarray(taps.weights).tolist()},
         "burley": {"shader": burley_fragment_source(plan), "dmfp_mm": [float(v) for v in params.dmfp_mm],
                    "albedo": [float(v) for v in params.albedo]},
+        # Xie 2020 Sec. 4.1 with ssskit's AdaptiveSettings defaults: the estimate, the update, the Burley pass
+        # reading the count image
+        "adaptive": {"estimate": adaptive_fragment_source(guide, False), "update": adaptive_fragment_source(guide, True),
+                     "burley": burley_fragment_source(plan, count_image=True), "b_min": guide.b_min,
+                     "b_max": guide.b_max},
     }
 
 

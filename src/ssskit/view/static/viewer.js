@@ -79,9 +79,10 @@ uniform vec3 u_eye;
 uniform vec3 u_albedo;
 uniform float u_profile;
 layout(location = 0) out vec4 o_src;     // diffuse irradiance rgb, linear depth mm (-1 without SSS)
-layout(location = 1) out vec4 o_spec;    // specular rgb, profile id
+layout(location = 1) out vec4 o_spec;    // specular rgb
 layout(location = 2) out vec4 o_albedo;  // albedo rgb, 1 on surfaces
 layout(location = 3) out vec4 o_normal;  // world normal, linear depth mm
+layout(location = 4) out vec4 o_id;      // profile id (0: no SSS)
 void main() {
   vec3 n = normalize(v_nrm);
   vec3 v = normalize(u_eye - v_world);
@@ -96,9 +97,10 @@ void main() {
     s += u_light_rgb[i] * nl * 0.028 * 6.0 * pow(max(dot(n, h), 0.0), 40.0);  // a glossy coat (F0 = 0.028)
   }
   o_src = vec4(e, u_profile > 0.0 ? v_z : -1.0);
-  o_spec = vec4(s, u_profile);
+  o_spec = vec4(s, 1.0);
   o_albedo = vec4(u_albedo, 1.0);
   o_normal = vec4(n, v_z);
+  o_id = vec4(u_profile, 0.0, 0.0, 0.0);
 }`;
   const COMPOSITE_FS = `#version 300 es
 precision highp float;
@@ -106,13 +108,21 @@ uniform sampler2D u_src;
 uniform sampler2D u_sss;
 uniform sampler2D u_spec;
 uniform sampler2D u_albedo;
+uniform highp isampler2D u_counts;
 uniform int u_split;
+uniform int u_heat;
+uniform vec2 u_budget;
 uniform float u_exposure;
 out vec4 o_color;
 void main() {
   ivec2 q = ivec2(gl_FragCoord.xy);
   vec4 src = texelFetch(u_src, q, 0);
   if (texelFetch(u_albedo, q, 0).a == 0.0) { o_color = vec4(0.13, 0.13, 0.13, 1.0); return; }
+  if (u_heat == 1) {   // the adaptive sample count: b_min blue, b_max red
+    float t = clamp((float(texelFetch(u_counts, q, 0).r) - u_budget.x) / max(u_budget.y - u_budget.x, 1.0), 0.0, 1.0);
+    o_color = vec4(clamp(vec3(1.5 - abs(4.0 * t - 3.0), 1.5 - abs(4.0 * t - 2.0), 1.5 - abs(4.0 * t - 1.0)), 0.0, 1.0), 1.0);
+    return;
+  }
   vec3 e = (u_split == 1 && q.x < ${W >> 1}) ? src.rgb : texelFetch(u_sss, q, 0).rgb;
   vec3 c = u_exposure * (texelFetch(u_albedo, q, 0).rgb * e + texelFetch(u_spec, q, 0).rgb);
   c = c / (1.0 + c);                                   // Reinhard tone mapping
@@ -143,8 +153,20 @@ void main() {
     if (gl.checkFramebufferStatus(gl.FRAMEBUFFER) !== gl.FRAMEBUFFER_COMPLETE) throw new Error('incomplete framebuffer');
     return fb;
   }
-  const G = { src: floatTexture(), spec: floatTexture(), albedo: floatTexture(), normal: floatTexture() };
-  const gbufFb = framebuffer([G.src, G.spec, G.albedo, G.normal], true);
+  function intTexture() {
+    const t = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, t);
+    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.R32I, W, H);
+    for (const k of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, k, gl.NEAREST);
+    return t;
+  }
+  const G = { src: floatTexture(), spec: floatTexture(), albedo: floatTexture(), normal: floatTexture(), id: floatTexture() };
+  const gbufFb = framebuffer([G.src, G.spec, G.albedo, G.normal, G.id], true);
+  // the adaptive pass: two histories and two count images, read one, write the other, swap
+  const hist = [floatTexture(), floatTexture()], counts = [intTexture(), intTexture()];
+  const updateFb = [0, 1].map((i) => framebuffer([hist[i], counts[i]], false));
+  const countFb = [0, 1].map((i) => framebuffer([counts[i]], false));
+  const histFb = [0, 1].map((i) => framebuffer([hist[i]], false));
   const T = [floatTexture(), floatTexture(), floatTexture()];
   const TF = T.map((t) => framebuffer([t], false));
 
@@ -212,7 +234,7 @@ void main() {
   const frameBase = (frame, seed) => mix32((mix32((seed ^ 0x9E3779B9) >>> 0) ^ frame) >>> 0);
 
   // ---- state and controls --------------------------------------------------------------------------------------
-  const state = { material: D.default_material, pass: 'separable', spp: 16, split: false, frame: 0, seed: 0,
+  const state = { material: D.default_material, pass: 'separable', spp: 16, split: false, heat: false, auto: true, frame: 0, seed: 0,
     light: { az: 0, el: 0, scale: 1 } };
   const composite = link(FULL_VS, COMPOSITE_FS, 'composite');
   const timing = { mode: timerExt ? 'GPU timer queries (EXT_disjoint_timer_query_webgl2)' : 'wall time to a finished readback', passes: {}, frame_ms: 0 };
@@ -282,7 +304,7 @@ void main() {
     gl.viewport(0, 0, W, H);
     gl.enable(gl.DEPTH_TEST);
     gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, -1]);
-    for (let i = 1; i < 4; ++i) gl.clearBufferfv(gl.COLOR, i, [0, 0, 0, 0]);
+    for (let i = 1; i < 5; ++i) gl.clearBufferfv(gl.COLOR, i, [0, 0, 0, 0]);
     gl.clearBufferfv(gl.DEPTH, 0, [1]);
     gl.useProgram(gbuf.p);
     gl.uniformMatrix4fv(gbuf.u.u_view, false, m.view);
@@ -334,6 +356,45 @@ void main() {
     drawPass(prog, 1);
     return T[1];
   }
+  // Xie 2020 Sec. 4.1 with a static camera: any change of the view, light or material starts a new history
+  const ad = { key: '', cur: 0, frame: 0, used: 0 };
+  function adaptive(m, mat) {
+    const A = mat.adaptive;
+    const key = JSON.stringify([state.material, cam, state.light, state.seed, W, H]);
+    setUniforms = (prog) => {
+      setIf(prog, 'u_size', (l) => gl.uniform2i(l, W, H));
+    };
+    if (key !== ad.key) {            // no history: the estimate on an empty one gives b_min inside the mask
+      ad.key = key; ad.cur = 0; ad.frame = 0;
+      gl.bindFramebuffer(gl.FRAMEBUFFER, histFb[0]);
+      gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, 0]);
+      const est = passProgram(A.estimate, '', 'adaptive estimate');
+      gl.useProgram(est.p);
+      bindTextures(est, { u_hist: hist[0], u_mask: G.id });
+      setUniforms(est);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, countFb[0]);
+      gl.drawArrays(gl.TRIANGLES, 0, 3);
+    }
+    const c = ad.cur;
+    const bur = passProgram(A.burley, '', 'Burley pass (count image)');
+    gl.useProgram(bur.p);
+    bindTextures(bur, { u_src: G.src, u_counts: counts[c] });
+    setUniforms(bur);
+    setIf(bur, 'u_fx', (l) => gl.uniform1f(l, m.fx));
+    setIf(bur, 'u_fy', (l) => gl.uniform1f(l, m.fy));
+    setIf(bur, 'u_base', (l) => gl.uniform1ui(l, frameBase(ad.frame, state.seed)));
+    drawPass(bur, 1);
+    const upd = passProgram(A.update, '', 'adaptive update');
+    gl.useProgram(upd.p);
+    bindTextures(upd, { u_hist: hist[c], u_mask: G.id, u_rgb: T[1], u_counts: counts[c] });
+    setUniforms(upd);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, updateFb[1 - c]);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    ad.used = c; ad.cur = 1 - c; ad.frame += 1;
+    return T[1];
+  }
+  let setUniforms = null;
+
   function render() {
     collectQueries();
     const mat = D.materials[state.material];
@@ -345,12 +406,15 @@ void main() {
     gl.viewport(0, 0, W, H);
     if (state.pass === 'separable') timed('separable', () => { result = separable(m, mat); });
     else if (state.pass === 'burley') timed('burley', () => { result = burley(m, mat); });
+    else if (state.pass === 'adaptive') timed('adaptive', () => { result = adaptive(m, mat); });
     else result = G.src;
     timed('composite', () => {
       gl.bindFramebuffer(gl.FRAMEBUFFER, null);
       gl.useProgram(composite.p);
-      bindTextures(composite, { u_src: G.src, u_sss: result, u_spec: G.spec, u_albedo: G.albedo });
+      bindTextures(composite, { u_src: G.src, u_sss: result, u_spec: G.spec, u_albedo: G.albedo, u_counts: counts[ad.used] });
       gl.uniform1i(composite.u.u_split, state.split ? 1 : 0);
+      gl.uniform1i(composite.u.u_heat, state.heat && state.pass === 'adaptive' ? 1 : 0);
+      gl.uniform2f(composite.u.u_budget, mat.adaptive.b_min, mat.adaptive.b_max);
       gl.uniform1f(composite.u.u_exposure, 1.0);
       gl.drawArrays(gl.TRIANGLES, 0, 3);
     });
@@ -366,7 +430,8 @@ void main() {
 
   let frames = 0, dirty = true;
   function loop() {
-    if (dirty) {
+    if (state.pass === 'adaptive' && state.auto && ad.frame < 64) dirty = true;
+    if (dirty && state.auto) {
       dirty = false;
       try { render(); status(''); } catch (e) { status(String(e)); console.error(String(e)); }
     }
@@ -425,6 +490,7 @@ void main() {
   $('pass').addEventListener('change', (e) => { state.pass = e.target.value; redraw(); });
   $('spp').addEventListener('change', (e) => { state.spp = Math.max(1, Math.min(256, parseInt(e.target.value, 10) || 1)); redraw(); });
   $('split').addEventListener('change', (e) => { state.split = e.target.checked; redraw(); });
+  $('heat').addEventListener('change', (e) => { state.heat = e.target.checked; redraw(); });
   $('light_az').addEventListener('input', (e) => { state.light.az = e.target.value * Math.PI / 180; redraw(); });
   $('light_el').addEventListener('input', (e) => { state.light.el = e.target.value * Math.PI / 180; redraw(); });
   $('light_i').addEventListener('input', (e) => { state.light.scale = parseFloat(e.target.value); redraw(); });
@@ -454,9 +520,11 @@ void main() {
     orbit(daz, del) { cam.az += daz; cam.el += del; redraw(); },
     material: requestMaterial,
     shader(kind) { return D.materials[state.material][kind].shader; },
-    // a float target as base64 float32 RGBA, GL's rows (bottom first): src, spec, albedo, normal, result
+    adaptiveFrames: () => ad.frame,
+    // a float target as base64 float32 RGBA, GL's rows (bottom first): src, spec, albedo, normal, id, result,
+    // history (the adaptive history after the last frame)
     read(name) {
-      const tex = name === 'result' ? result : G[name];
+      const tex = name === 'result' ? result : name === 'history' ? hist[ad.cur] : G[name];
       const fb = gl.createFramebuffer();
       gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
       gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, tex, 0);
@@ -464,6 +532,16 @@ void main() {
       gl.readPixels(0, 0, W, H, gl.RGBA, gl.FLOAT, out);
       gl.deleteFramebuffer(fb);
       return toBase64(new Uint8Array(out.buffer));
+    },
+    // the sample counts the last adaptive frame used (used) or the next frame's (next), base64 int32, GL's rows
+    readCounts(which) {
+      const fb = which === 'next' ? countFb[ad.cur] : countFb[ad.used];
+      gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
+      const out = new Int32Array(W * H * 4);
+      gl.readPixels(0, 0, W, H, gl.RGBA_INTEGER, gl.INT, out);
+      const one = new Int32Array(W * H);
+      for (let i = 0; i < W * H; ++i) one[i] = out[4 * i];
+      return toBase64(new Uint8Array(one.buffer));
     },
     // the displayed image as base64 RGBA8, GL's rows
     readDisplay() {
