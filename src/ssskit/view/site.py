@@ -101,8 +101,9 @@ def kernel_taps(req: MaterialRequest) -> tuple[Any, Any, Any]:
 
 def material_payload(req: MaterialRequest) -> dict[str, Any]:
     """The page's data for one material: its name, the composite's albedo (the profile's total diffuse
-    reflectance), the separable pass (the exported fragment shader, its term count, the taps) and the
-    Burley pass (its fragment shader; Burley parameters from the material, Xie 2020 Eq. 5 searchlight)."""
+    reflectance), the separable pass (the exported fragment shader, its term count, the taps), the
+    Burley pass (its fragment shader; Burley parameters from the material, Xie 2020 Eq. 5 searchlight), the
+    adaptive guide (Xie 2020 Sec. 4.1) and the transmittance pass (the material's MCML slab table)."""
     from ..backends.burley_plan import build_burley_plan
     from ..backends.gl.burley import burley_fragment_source
     from ..export.shaders import separable_shader
@@ -111,7 +112,10 @@ def material_payload(req: MaterialRequest) -> dict[str, Any]:
 
     from ..backends.adaptive_plan import as_plan
     from ..backends.gl.adaptive import adaptive_fragment_source
+    from ..backends.gl.transmission import transmission_fragment_source
+    from ..backends.transmission_plan import build_transmission_plan
     from ..screenspace.adaptive import AdaptiveSettings
+    from ..screenspace.transmission import mcml_model
 
     (mat, prof), kernel, taps = kernel_taps(req)
     shader = separable_shader(taps, "glsl", jitter=req.jitter, depth_mode=default_depth_mode(taps), stage="fragment")
@@ -131,6 +135,9 @@ def material_payload(req: MaterialRequest) -> dict[str, Any]:
         "adaptive": {"estimate": adaptive_fragment_source(guide, False), "update": adaptive_fragment_source(guide, True),
                      "burley": burley_fragment_source(plan, count_image=True), "b_min": guide.b_min,
                      "b_max": guide.b_max},
+        # the transmittance pass with the material's MCML slab table (ssskit.screenspace.transmission.mcml_model)
+        "transmission": {"shader": transmission_fragment_source(build_transmission_plan({1: mcml_model(mat)})),
+                         "model": "mcml"},
     }
 
 
@@ -195,7 +202,10 @@ def scene_payload(scene: str) -> dict[str, Any]:
     f = np.concatenate(faces)
     if base >= 2**32:
         raise SsskitError("the mesh has more vertices than 32-bit indices hold")
-    return {"name": spec.name, "positions": _b64(v, np.float32), "normals": _b64(np.concatenate(norms), np.float32),
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    centre = (lo + hi) / 2
+    radius = float(np.linalg.norm(v - centre, axis=1).max())
+    return {"name": spec.name, "positions": _b64(v, np.float32), "bounds": {"centre": centre.tolist(), "radius": radius}, "normals": _b64(np.concatenate(norms), np.float32),
             "indices": _b64(f, np.uint32), "vertices": int(len(v)), "triangles": int(len(f)),
             "camera": {"origin": list(map(float, spec.origin)), "target": list(map(float, spec.target)),
                        "up": list(map(float, spec.up)), "fov_x_deg": float(spec.fov_x_deg)},

@@ -78,11 +78,17 @@ uniform int u_nlights;
 uniform vec3 u_eye;
 uniform vec3 u_albedo;
 uniform float u_profile;
+uniform vec3 u_lo;       // the light map: its corner, axes (texels along u_lu, u_lv), direction to the light
+uniform vec3 u_lu;
+uniform vec3 u_lv;
+uniform vec3 u_ll;
+uniform float u_ltexel;  // mm per map texel
 layout(location = 0) out vec4 o_src;     // diffuse irradiance rgb, linear depth mm (-1 without SSS)
 layout(location = 1) out vec4 o_spec;    // specular rgb
 layout(location = 2) out vec4 o_albedo;  // albedo rgb, 1 on surfaces
 layout(location = 3) out vec4 o_normal;  // world normal, linear depth mm
 layout(location = 4) out vec4 o_id;      // profile id (0: no SSS)
+layout(location = 5) out vec4 o_light;   // the transmittance pass's inputs: map texel x, y, depth along the light (mm), N . L
 void main() {
   vec3 n = normalize(v_nrm);
   vec3 v = normalize(u_eye - v_world);
@@ -101,7 +107,32 @@ void main() {
   o_albedo = vec4(u_albedo, 1.0);
   o_normal = vec4(n, v_z);
   o_id = vec4(u_profile, 0.0, 0.0, 0.0);
+  vec3 d = v_world - u_lo;
+  o_light = vec4(dot(d, u_lu) / u_ltexel, dot(d, u_lv) / u_ltexel, -dot(d, u_ll), dot(n, u_ll));
 }`;
+  // the key light's depth map (orthographic along the light, mm from the map's plane): the translucency shadow
+  // map of Jimenez et al. 2010 that the transmittance pass reads
+  const LMAP = 1024;
+  const LIGHT_VS = `#version 300 es
+in vec3 a_pos;
+uniform vec3 u_lo;
+uniform vec3 u_lu;
+uniform vec3 u_lv;
+uniform vec3 u_ll;
+uniform float u_ltexel;
+uniform float u_lrange;
+out float v_z;
+void main() {
+  vec3 d = a_pos - u_lo;
+  v_z = -dot(d, u_ll);
+  gl_Position = vec4(2.0 * dot(d, u_lu) / (u_ltexel * ${LMAP}.0) - 1.0, 2.0 * dot(d, u_lv) / (u_ltexel * ${LMAP}.0) - 1.0,
+                     2.0 * v_z / u_lrange - 1.0, 1.0);
+}`;
+  const LIGHT_FS = `#version 300 es
+precision highp float;
+in float v_z;
+out vec4 o_depth;
+void main() { o_depth = vec4(v_z, 0.0, 0.0, 1.0); }`;
   const COMPOSITE_FS = `#version 300 es
 precision highp float;
 uniform sampler2D u_src;
@@ -109,6 +140,8 @@ uniform sampler2D u_sss;
 uniform sampler2D u_spec;
 uniform sampler2D u_albedo;
 uniform highp isampler2D u_counts;
+uniform sampler2D u_trans;
+uniform int u_transmission;
 uniform int u_split;
 uniform int u_heat;
 uniform vec2 u_budget;
@@ -124,7 +157,10 @@ void main() {
     return;
   }
   vec3 e = (u_split == 1 && q.x < ${W >> 1}) ? src.rgb : texelFetch(u_sss, q, 0).rgb;
-  vec3 c = u_exposure * (texelFetch(u_albedo, q, 0).rgb * e + texelFetch(u_spec, q, 0).rgb);
+  vec3 c = texelFetch(u_albedo, q, 0).rgb * e + texelFetch(u_spec, q, 0).rgb;
+  // the transmitted light, T E / pi / albedo added to the diffuse layer before the albedo multiply (ssskit's pipeline)
+  if (u_transmission == 1 && !(u_split == 1 && q.x < ${W >> 1})) c += texelFetch(u_trans, q, 0).rgb / 3.14159265358979;
+  c *= u_exposure;
   c = c / (1.0 + c);                                   // Reinhard tone mapping
   c = mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));   // sRGB encoding
   if (u_split == 1 && q.x == ${W >> 1}) c = vec3(1.0);
@@ -160,8 +196,25 @@ void main() {
     for (const k of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, k, gl.NEAREST);
     return t;
   }
-  const G = { src: floatTexture(), spec: floatTexture(), albedo: floatTexture(), normal: floatTexture(), id: floatTexture() };
-  const gbufFb = framebuffer([G.src, G.spec, G.albedo, G.normal, G.id], true);
+  const G = { src: floatTexture(), spec: floatTexture(), albedo: floatTexture(), normal: floatTexture(), id: floatTexture(),
+    light: floatTexture() };
+  const gbufFb = framebuffer([G.src, G.spec, G.albedo, G.normal, G.id, G.light], true);
+  const lightMap = gl.createTexture();
+  gl.bindTexture(gl.TEXTURE_2D, lightMap);
+  gl.texStorage2D(gl.TEXTURE_2D, 1, gl.R32F, LMAP, LMAP);
+  for (const k of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, k, gl.NEAREST);
+  const lightFb = (() => {
+    const fb = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, lightMap, 0);
+    const rb = gl.createRenderbuffer();
+    gl.bindRenderbuffer(gl.RENDERBUFFER, rb);
+    gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT32F, LMAP, LMAP);
+    gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, rb);
+    return fb;
+  })();
+  const trans = floatTexture();
+  const transFb = framebuffer([trans], false);
   // the adaptive pass: two histories and two count images, read one, write the other, swap
   const hist = [floatTexture(), floatTexture()], counts = [intTexture(), intTexture()];
   const updateFb = [0, 1].map((i) => framebuffer([hist[i], counts[i]], false));
@@ -234,7 +287,7 @@ void main() {
   const frameBase = (frame, seed) => mix32((mix32((seed ^ 0x9E3779B9) >>> 0) ^ frame) >>> 0);
 
   // ---- state and controls --------------------------------------------------------------------------------------
-  const state = { material: D.default_material, pass: 'separable', spp: 16, split: false, heat: false, auto: true, frame: 0, seed: 0,
+  const state = { material: D.default_material, pass: 'separable', spp: 16, split: false, heat: false, transmission: true, auto: true, frame: 0, seed: 0,
     light: { az: 0, el: 0, scale: 1 } };
   const composite = link(FULL_VS, COMPOSITE_FS, 'composite');
   const timing = { mode: timerExt ? 'GPU timer queries (EXT_disjoint_timer_query_webgl2)' : 'wall time to a finished readback', passes: {}, frame_ms: 0 };
@@ -298,13 +351,58 @@ void main() {
   }
   const setIf = (prog, name, fn) => { if (name in prog.u && prog.u[name] !== null) fn(prog.u[name]); };
 
+  // the light map's frame: the key light (the first) looking at the mesh's bounding sphere
+  function lightView(L) {
+    const l = L.dirs.slice(0, 3), c = S.bounds.centre, r = S.bounds.radius * 1.02;
+    const a = Math.abs(l[0]) < 0.9 ? [1, 0, 0] : [0, 1, 0];
+    const u = norm(cross(a, l)), v = cross(l, u);
+    const o = [0, 1, 2].map((i) => c[i] - r * u[i] - r * v[i] + r * l[i]);
+    return { o, u, v, l, texel: 2 * r / LMAP, range: 2 * r };
+  }
+  function lightUniforms(prog, L) {
+    const lv = lightView(L);
+    gl.uniform3fv(prog.u.u_lo, lv.o);
+    gl.uniform3fv(prog.u.u_lu, lv.u);
+    gl.uniform3fv(prog.u.u_lv, lv.v);
+    gl.uniform3fv(prog.u.u_ll, lv.l);
+    gl.uniform1f(prog.u.u_ltexel, lv.texel);
+    setIf(prog, 'u_lrange', (loc) => gl.uniform1f(loc, lv.range));
+  }
+  const lightProg = link(LIGHT_VS, LIGHT_FS, 'light map');
+  function drawLightMap() {
+    gl.bindFramebuffer(gl.FRAMEBUFFER, lightFb);
+    gl.viewport(0, 0, LMAP, LMAP);
+    gl.enable(gl.DEPTH_TEST);
+    gl.clearBufferfv(gl.COLOR, 0, [Infinity, 0, 0, 1]);   // no surface: no depth (the pass leaves it out)
+    gl.clearBufferfv(gl.DEPTH, 0, [1]);
+    gl.useProgram(lightProg.p);
+    lightUniforms(lightProg, lights());
+    gl.bindVertexArray(vao);
+    gl.drawElements(gl.TRIANGLES, S.triangles * 3, gl.UNSIGNED_INT, 0);
+    gl.bindVertexArray(emptyVao);
+    gl.disable(gl.DEPTH_TEST);
+    gl.viewport(0, 0, W, H);
+  }
+  function transmission(mat) {
+    drawLightMap();
+    const prog = passProgram(mat.transmission.shader, '', 'transmittance pass');
+    gl.useProgram(prog.p);
+    bindTextures(prog, { u_id: G.id, u_lightspace: G.light, u_shadow: lightMap });
+    setIf(prog, 'u_size', (l) => gl.uniform2i(l, W, H));
+    setIf(prog, 'u_shadow_size', (l) => gl.uniform2i(l, LMAP, LMAP));
+    const L = lights();
+    setIf(prog, 'u_light_rgb', (l) => gl.uniform3fv(l, L.rgb.slice(0, 3).map((x) => Math.PI * x)));   // E = pi (E / pi)
+    gl.bindFramebuffer(gl.FRAMEBUFFER, transFb);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+  }
+
   let result = G.src;   // the texture holding the last pass's output (the diffuse layer)
   function drawGbuffer(m, mat) {
     gl.bindFramebuffer(gl.FRAMEBUFFER, gbufFb);
     gl.viewport(0, 0, W, H);
     gl.enable(gl.DEPTH_TEST);
     gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, -1]);
-    for (let i = 1; i < 5; ++i) gl.clearBufferfv(gl.COLOR, i, [0, 0, 0, 0]);
+    for (let i = 1; i < 6; ++i) gl.clearBufferfv(gl.COLOR, i, [0, 0, 0, 0]);
     gl.clearBufferfv(gl.DEPTH, 0, [1]);
     gl.useProgram(gbuf.p);
     gl.uniformMatrix4fv(gbuf.u.u_view, false, m.view);
@@ -316,6 +414,7 @@ void main() {
     gl.uniform3fv(gbuf.u.u_eye, m.eye);
     gl.uniform3fv(gbuf.u.u_albedo, mat.albedo);
     gl.uniform1f(gbuf.u.u_profile, 1);
+    lightUniforms(gbuf, L);
     gl.bindVertexArray(vao);
     gl.drawElements(gl.TRIANGLES, S.triangles * 3, gl.UNSIGNED_INT, 0);
     gl.bindVertexArray(emptyVao);
@@ -408,10 +507,13 @@ void main() {
     else if (state.pass === 'burley') timed('burley', () => { result = burley(m, mat); });
     else if (state.pass === 'adaptive') timed('adaptive', () => { result = adaptive(m, mat); });
     else result = G.src;
+    if (state.transmission) timed('transmission', () => transmission(mat));
     timed('composite', () => {
       gl.bindFramebuffer(gl.FRAMEBUFFER, null);
       gl.useProgram(composite.p);
-      bindTextures(composite, { u_src: G.src, u_sss: result, u_spec: G.spec, u_albedo: G.albedo, u_counts: counts[ad.used] });
+      bindTextures(composite, { u_src: G.src, u_sss: result, u_spec: G.spec, u_albedo: G.albedo, u_counts: counts[ad.used],
+        u_trans: trans });
+      gl.uniform1i(composite.u.u_transmission, state.transmission ? 1 : 0);
       gl.uniform1i(composite.u.u_split, state.split ? 1 : 0);
       gl.uniform1i(composite.u.u_heat, state.heat && state.pass === 'adaptive' ? 1 : 0);
       gl.uniform2f(composite.u.u_budget, mat.adaptive.b_min, mat.adaptive.b_max);
@@ -491,6 +593,7 @@ void main() {
   $('spp').addEventListener('change', (e) => { state.spp = Math.max(1, Math.min(256, parseInt(e.target.value, 10) || 1)); redraw(); });
   $('split').addEventListener('change', (e) => { state.split = e.target.checked; redraw(); });
   $('heat').addEventListener('change', (e) => { state.heat = e.target.checked; redraw(); });
+  $('transmission').addEventListener('change', (e) => { state.transmission = e.target.checked; redraw(); });
   $('light_az').addEventListener('input', (e) => { state.light.az = e.target.value * Math.PI / 180; redraw(); });
   $('light_el').addEventListener('input', (e) => { state.light.el = e.target.value * Math.PI / 180; redraw(); });
   $('light_i').addEventListener('input', (e) => { state.light.scale = parseFloat(e.target.value); redraw(); });
@@ -521,10 +624,21 @@ void main() {
     material: requestMaterial,
     shader(kind) { return D.materials[state.material][kind].shader; },
     adaptiveFrames: () => ad.frame,
+    // the key light's depth map, base64 float32 (LMAP x LMAP, the map's rows as the pass reads them)
+    readLightMap() {
+      gl.bindFramebuffer(gl.FRAMEBUFFER, lightFb);
+      const out = new Float32Array(LMAP * LMAP * 4);
+      gl.readPixels(0, 0, LMAP, LMAP, gl.RGBA, gl.FLOAT, out);
+      const one = new Float32Array(LMAP * LMAP);
+      for (let i = 0; i < LMAP * LMAP; ++i) one[i] = out[4 * i];
+      return toBase64(new Uint8Array(one.buffer));
+    },
+    lightMapSize: LMAP,
+    lightRgb: () => lights().rgb.slice(0, 3).map((x) => Math.PI * x),
     // a float target as base64 float32 RGBA, GL's rows (bottom first): src, spec, albedo, normal, id, result,
     // history (the adaptive history after the last frame)
     read(name) {
-      const tex = name === 'result' ? result : name === 'history' ? hist[ad.cur] : G[name];
+      const tex = name === 'result' ? result : name === 'history' ? hist[ad.cur] : name === 'transmission' ? trans : G[name];
       const fb = gl.createFramebuffer();
       gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
       gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, tex, 0);
