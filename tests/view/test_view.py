@@ -21,9 +21,10 @@ W, H = 192, 144
 
 @pytest.fixture(scope="module")
 def site(tmp_path_factory):
-    """``ssskit view --scene bust --no-open --out DIR`` run as a user runs it."""
+    """``ssskit view --scene bust --no-open --out DIR`` run as a user runs it (one preset beside Skin1: test time)."""
     out = tmp_path_factory.mktemp("view") / "site"
-    proc = subprocess.run([sys.executable, "-m", "ssskit", "view", "--scene", "bust", "--no-open", "--out", str(out)],
+    proc = subprocess.run([sys.executable, "-m", "ssskit", "view", "--scene", "bust", "--no-open", "--out", str(out),
+                           "--presets", "marble"],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     return out

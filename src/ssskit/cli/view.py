@@ -30,10 +30,14 @@ def _rgb(text: str | None, flag: str) -> tuple[float, float, float] | None:
 @click.option("--no-open", is_flag=True, help="Do not open a browser.")
 @click.option("--out", "out", default=None, type=click.Path(file_okay=False),
               help="Write a static folder (works from file://, presets precomputed) instead of serving.")
+@click.option("--presets", default=None,
+              help="--out: the presets precomputed beside the material, NAME,NAME... (default: "
+                   "skin1,skin2,marble,ketchup,apple; 'none': the material alone).")
 def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, port: int, no_open: bool,
-         out: str | None) -> None:
+         out: str | None, presets: str | None) -> None:
     """A live WebGL2 viewer of a material on a mesh: the G-buffer pass, the separable and Burley passes as the
     fragment shaders ssskit export writes, composite and tone mapping, with per-pass frame times."""
+    from ..materials import MATERIALS
     from ..view.site import PRESETS, MaterialRequest, page_data, write_site
 
     rgb_a, rgb_m = _rgb(albedo, "--albedo"), _rgb(mfp, "--mfp")
@@ -42,12 +46,20 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
     if rgb_a is not None and material is not None:
         raise SsskitError("give the material once: --material or --albedo with --mfp")
     req = MaterialRequest(None, rgb_a, rgb_m) if rgb_a is not None else MaterialRequest(material or "skin1")
+    if presets is not None and out is None:
+        raise SsskitError("--presets applies to --out (a served page asks the server for any preset)")
+    names = PRESETS if presets is None else tuple(n.strip().lower() for n in presets.split(",") if n.strip())
+    if names == ("none",):
+        names = ()
+    for name in names:
+        if name not in MATERIALS:
+            raise SsskitError(f"--presets: unknown preset {name!r} (known: {', '.join(MATERIALS.names())})")
     req.check()
     key = "artist" if rgb_a is not None else str(material or "skin1").lower()
     req.resolve()  # an unknown preset or a bad file fails here, before any work
     mats = {key: req}
     if out is not None:  # the static folder: the presets precomputed beside the chosen material
-        for name in PRESETS:
+        for name in names:
             mats.setdefault(name, MaterialRequest(name))
     data = page_data(scene, mats, key, served=out is None)
     if out is not None:
