@@ -145,6 +145,49 @@ def test_the_page_runs_the_exported_shader_text(page, tmp_path):
     plan = build_separable_plan({1: taps}, 1.0, 1.0, jitter=0.1, depth_mode=default_depth_mode(taps))
     assert body.rstrip() in shader and body.rstrip() in separable_source(plan, 0, False)
 
+    # the transmittance pass: `ssskit export --pass transmission --out X.frag` is the page's text
+    out = tmp_path / "transmission.frag"
+    proc = subprocess.run([sys.executable, "-m", "ssskit", "export", "--material", "skin1", "--pass", "transmission",
+                           "--format", "glsl-shader", "--out", str(out)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    lines = out.read_text().splitlines(keepends=True)
+    assert "".join(lines[:1] + lines[2:]) == pg.evaluate("() => window.ssskit.shader('transmission')")
+
+
+def test_every_pass_of_the_page_shares_its_body_with_the_gl_backend(page):
+    """One source per pass: the page's Burley, adaptive and transmittance shaders and the gl backend's compute
+    shaders for the same plans hold the same per-pixel body file."""
+    from importlib import resources
+
+    from ssskit.backends.adaptive_plan import as_plan
+    from ssskit.backends.burley_plan import build_burley_plan
+    from ssskit.backends.gl.adaptive import adaptive_source
+    from ssskit.backends.gl.burley import burley_source
+    from ssskit.backends.gl.transmission import transmission_source
+    from ssskit.backends.transmission_plan import build_transmission_plan
+    from ssskit.materials import get_material
+    from ssskit.screenspace.adaptive import AdaptiveSettings
+    from ssskit.screenspace.burley import burley_params_for_material
+    from ssskit.screenspace.transmission import mcml_model
+
+    pg, _ = page
+    render(pg, **{"material": "skin1"})
+    mat = pg.evaluate("() => window.SSSKIT_DATA.materials.skin1")
+    skin = get_material("skin1")
+    bplan = build_burley_plan({1: burley_params_for_material(skin)}, 1.0, 1.0)
+    guide = as_plan(AdaptiveSettings())
+    files = resources.files("ssskit.backends.gl")
+    for body, page_text, compute in (
+            ("burley.glsl", mat["burley"]["shader"], burley_source(bplan)),
+            ("burley.glsl", mat["adaptive"]["burley"], burley_source(bplan, count_image=True)),
+            ("adaptive.glsl", mat["adaptive"]["update"], adaptive_source(guide, True)),
+            ("adaptive.glsl", mat["adaptive"]["estimate"], adaptive_source(guide, False)),
+            ("transmission.glsl", mat["transmission"]["shader"],
+             transmission_source(build_transmission_plan({1: mcml_model(skin)})))):
+        text = files.joinpath(body).read_text().rstrip()
+        assert text in page_text and text in compute, body
+        assert page_text.startswith("#version 300 es\n") and compute.count("#version 430") == 1
+
 
 def test_camera_and_material_change_the_image(page):
     pg, log = page

@@ -307,9 +307,6 @@ def export(ctx: click.Context, fmt: str, out: str, material: str | None, albedo:
     if given(ctx, "transmission_model") and pass_ != "transmission":
         raise SsskitError("--transmission-model applies with --pass transmission")
     if pass_ == "transmission":
-        if Path(out).suffix.lower() == ".frag":
-            raise SsskitError("--out .frag (the GLSL ES fragment form) is written for the separable pass only; "
-                              "the transmittance pass is a compute shader (.comp, .glsl)")
         _transmission_export(ctx, fmt, out, material, albedo, mfp, dmfp, eta, g, model, transmission_model, as_json)
         return
     prof, mat, src_name, used_model = _material_source(ctx, fmt, material, albedo, mfp, dmfp, eta, g, model)
@@ -427,9 +424,13 @@ def _transmission_export(ctx: click.Context, fmt: str, out: str, material: str |
     from ..screenspace.transmission import transmission_plan
 
     plan = transmission_plan({1: slot_model(tmodel, mat)})
-    text = transmission_shader(plan, fmt.split("-")[0])
+    stage = "fragment" if Path(out).suffix.lower() == ".frag" else "compute"  # .frag: the GLSL ES 3.00 form
+    text = transmission_shader(plan, fmt.split("-")[0], stage)
     what = f"{tmodel} transmittance of {mat.name}" if mat is not None else f"{tmodel} transmittance"
-    write_text(out, f"// ssskit export: the transmittance pass, {what}\n" + text)
+    version, _, rest = text.partition("\n")  # GLSL ES: the #version line comes first, before any comment
+    text = (f"{version}\n// ssskit export: the transmittance pass, {what}\n{rest}" if stage == "fragment"
+            else f"// ssskit export: the transmittance pass, {what}\n{text}")
+    write_text(out, text)
     if as_json:
         echo_json({"format": fmt, "out": out, "pass": "transmission", "transmission_model": tmodel,
                    "material": mat.name if mat is not None else None, "terms": plan.terms,
