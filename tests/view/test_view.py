@@ -206,6 +206,7 @@ def test_camera_and_material_change_the_image(page):
     log.check()
 
 
+@pytest.mark.slow  # browser time: CI's slow set runs it
 def test_adaptive_pass_matches_the_numpy_oracle_over_three_frames(page):
     """Xie 2020 Sec. 4.1 on a static camera: the page's estimate, three Burley frames at its counts and three
     history updates against the numpy oracle (ssskit.backends.adaptive_plan's reference functions and the numpy
@@ -253,6 +254,7 @@ def test_adaptive_pass_matches_the_numpy_oracle_over_three_frames(page):
     log.check()
 
 
+@pytest.mark.slow  # browser time: CI's slow set runs it
 def test_transmittance_pass_matches_the_numpy_oracle(page):
     """The key light turned behind the bust: the page's transmittance output against the numpy oracle on the page's
     own inputs (its light map, the G-buffer's light-space positions and N . L, the light's irradiance), the material's
@@ -278,4 +280,29 @@ def test_transmittance_pass_matches_the_numpy_oracle(page):
     off = np.abs(got - want).max(axis=-1) > 1e-5 * light.max()
     assert float(off.mean()) <= 0.002, float(off.mean())
     render(pg, **{"light": {"az": 0, "el": 0, "scale": 1}, "pass": "separable"})
+    log.check()
+
+
+def _linear(srgb8):
+    x = srgb8.astype(np.float64) / 255.0
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
+@pytest.mark.slow  # browser time: CI's slow set runs it
+def test_each_pass_matches_its_golden_screenshot_by_flip(page):
+    """Each pass's displayed frame against tests/view/goldens/<pass>.png (regenerate: PYTHONPATH=src python -m
+    tests.view.goldens). Bound: mean FLIP (ssskit.metrics.flip, the sRGB frames linearised) below 1e-3; the passes
+    differ from one another by about 3e-3 at this size, which the test checks too, so it tells them apart."""
+    import imageio.v3 as iio
+
+    from ssskit.metrics import flip
+    from tests.view import goldens
+
+    pg, log = page
+    shots = goldens.frames(pg)
+    golden = {name: iio.imread(goldens.HERE / f"{name}.png") for name in goldens.STATES}
+    for name, img in shots.items():
+        assert img.shape == golden[name].shape, name
+        assert flip(_linear(golden[name]), _linear(img)) < 1e-3, name
+    assert flip(_linear(golden["off"]), _linear(shots["separable"])) > 1e-3
     log.check()

@@ -171,7 +171,7 @@ def scene_payload(scene: str) -> dict[str, Any]:
     """The page's scene: a generated mesh (:data:`SCENE_NAMES`) or a mesh file, read and framed as
     ``ssskit render --scene`` does (:func:`ssskit.scenes.scenefile.resolve_scene`), in mm: merged vertex
     positions and normals, faces, the camera (origin, target, up, horizontal fov) and the lights."""
-    from ..scenes.meshes import read_mesh
+    from ..scenes.meshes import Mesh, read_mesh, topology
     from ..scenes.scenefile import resolve_scene
 
     text = os.fspath(scene)
@@ -200,6 +200,9 @@ def scene_payload(scene: str) -> dict[str, Any]:
         raise SsskitError(f"scene {text!r} holds no mesh")
     v = np.concatenate(verts)
     f = np.concatenate(faces)
+    # a closed, consistently wound mesh hides its back faces: the page culls them (half the triangles to raster)
+    topo = topology(Mesh("scene", v.astype(np.float32), f.astype(np.uint32)))
+    closed = topo.boundary_edges == 0 and topo.nonmanifold_edges == 0 and topo.misoriented_edges == 0
     if base >= 2**32:
         raise SsskitError("the mesh has more vertices than 32-bit indices hold")
     lo, hi = v.min(axis=0), v.max(axis=0)
@@ -207,6 +210,7 @@ def scene_payload(scene: str) -> dict[str, Any]:
     radius = float(np.linalg.norm(v - centre, axis=1).max())
     return {"name": spec.name, "positions": _b64(v, np.float32), "bounds": {"centre": centre.tolist(), "radius": radius}, "normals": _b64(np.concatenate(norms), np.float32),
             "indices": _b64(f, np.uint32), "vertices": int(len(v)), "triangles": int(len(f)),
+            "cull": ("back" if topo.volume > 0 else "front") if closed else "none",
             "camera": {"origin": list(map(float, spec.origin)), "target": list(map(float, spec.target)),
                        "up": list(map(float, spec.up)), "fov_x_deg": float(spec.fov_x_deg)},
             "lights": _light_list(spec)}

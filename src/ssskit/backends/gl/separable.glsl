@@ -67,6 +67,28 @@ vec4 tap2d(ivec2 p, vec2 d, vec4 c, uint slot, float param) {
          + t.y * ((1.0 - t.x) * texel(q + ivec2(0, 1), c, slot, param) + t.x * texel(q + ivec2(1, 1), c, slot, param));
 }
 
+// Row k of the pass: the taps at +- o_k (2D and rotated for the first nj rows, 1D along the axis after), weighted
+// by ROW_PLUS / ROW_MINUS, or one weight for a mirror pair. A macro, so the rows can be written out with constant k.
+#define SSS_ROW(k) \
+    if ((k) < nr) { \
+        int i = t * KMAX + (k); \
+        float reach = ROW_PLUS[i].w * scale; \
+        vec4 sp, sm; \
+        if ((k) < nj) { \
+            sp = tap2d(p, reach * u, c, slot, param); \
+            sm = tap2d(p, -reach * u, c, slot, param); \
+        } else { \
+            sp = tap1d(p, reach, c, slot, param); \
+            sm = tap1d(p, -reach, c, slot, param); \
+        } \
+        if (ROW_SYMMETRIC[i]) { \
+            sp += sm; \
+            acc += ROW_PLUS[i].rgb * (sp.rgb - sp.a * c.rgb); \
+        } else { \
+            acc += ROW_PLUS[i].rgb * (sp.rgb - sp.a * c.rgb) + ROW_MINUS[i] * (sm.rgb - sm.a * c.rgb); \
+        } \
+    }
+
 // The pass's value at pixel p (row 0 at the top of the image, as ssskit's arrays): what the destination
 // holds there after the pass.
 vec4 separable_texel(ivec2 p) {
@@ -86,7 +108,11 @@ vec4 separable_texel(ivec2 p) {
         return c;
 #endif
     }
+#if MULTI_SLOT
     int t = TERM * NSLOTS + s;   // this term's table of slot s
+#else
+    const int t = TERM * NSLOTS + 1;   // one slot: every table index below is a constant
+#endif
     float param = DEPTH_PARAM[s];
     float scale = u_f / c.a;     // pixels per mm at the pixel's depth
     vec3 acc = CENTRE[t] * c.rgb;
@@ -105,25 +131,60 @@ vec4 separable_texel(ivec2 p) {
         u = vec2(cs, sn);
 #endif
     }
+    // the rows, written out for k < 16 (a software rasteriser such as SwiftShader neither unrolls the loop nor
+    // folds a table index it cannot see is constant; measured in benchmarks/RESULTS.md), else a loop
+#if KMAX <= 16
+    SSS_ROW(0)
+#if KMAX > 1
+    SSS_ROW(1)
+#endif
+#if KMAX > 2
+    SSS_ROW(2)
+#endif
+#if KMAX > 3
+    SSS_ROW(3)
+#endif
+#if KMAX > 4
+    SSS_ROW(4)
+#endif
+#if KMAX > 5
+    SSS_ROW(5)
+#endif
+#if KMAX > 6
+    SSS_ROW(6)
+#endif
+#if KMAX > 7
+    SSS_ROW(7)
+#endif
+#if KMAX > 8
+    SSS_ROW(8)
+#endif
+#if KMAX > 9
+    SSS_ROW(9)
+#endif
+#if KMAX > 10
+    SSS_ROW(10)
+#endif
+#if KMAX > 11
+    SSS_ROW(11)
+#endif
+#if KMAX > 12
+    SSS_ROW(12)
+#endif
+#if KMAX > 13
+    SSS_ROW(13)
+#endif
+#if KMAX > 14
+    SSS_ROW(14)
+#endif
+#if KMAX > 15
+    SSS_ROW(15)
+#endif
+#else
     for (int k = 0; k < KMAX; ++k) {
-        if (k >= nr) break;
-        int i = t * KMAX + k;
-        float reach = ROW_PLUS[i].w * scale;
-        vec4 sp, sm;
-        if (k < nj) {
-            sp = tap2d(p, reach * u, c, slot, param);
-            sm = tap2d(p, -reach * u, c, slot, param);
-        } else {
-            sp = tap1d(p, reach, c, slot, param);
-            sm = tap1d(p, -reach, c, slot, param);
-        }
-        if (ROW_SYMMETRIC[i]) {   // a mirror pair: one weight for both sides
-            sp += sm;
-            acc += ROW_PLUS[i].rgb * (sp.rgb - sp.a * c.rgb);
-        } else {
-            acc += ROW_PLUS[i].rgb * (sp.rgb - sp.a * c.rgb) + ROW_MINUS[i] * (sm.rgb - sm.a * c.rgb);
-        }
+        SSS_ROW(k)
     }
+#endif
 #if VERTICAL
     vec3 outc = SIGN[t] * acc;
     if (u_accumulate != 0) outc += load_dst(p).rgb;

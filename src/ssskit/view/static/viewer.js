@@ -168,10 +168,10 @@ void main() {
 }`;
 
   // ---- targets ------------------------------------------------------------------------------------------
-  function floatTexture() {
+  function floatTexture(format) {
     const t = gl.createTexture();
     gl.bindTexture(gl.TEXTURE_2D, t);
-    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, W, H);
+    gl.texStorage2D(gl.TEXTURE_2D, 1, format || gl.RGBA32F, W, H);
     for (const k of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, k, gl.NEAREST);
     return t;
   }
@@ -196,8 +196,10 @@ void main() {
     for (const k of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, k, gl.NEAREST);
     return t;
   }
-  const G = { src: floatTexture(), spec: floatTexture(), albedo: floatTexture(), normal: floatTexture(), id: floatTexture(),
-    light: floatTexture() };
+  // float32 where a pass reads the layer (and the parity tests read it back); half floats for what only the
+  // composite reads (specular, albedo, normal)
+  const G = { src: floatTexture(), spec: floatTexture(gl.RGBA16F), albedo: floatTexture(gl.RGBA16F),
+    normal: floatTexture(gl.RGBA16F), id: floatTexture(gl.R32F), light: floatTexture() };
   const gbufFb = framebuffer([G.src, G.spec, G.albedo, G.normal, G.id, G.light], true);
   const lightMap = gl.createTexture();
   gl.bindTexture(gl.TEXTURE_2D, lightMap);
@@ -247,6 +249,11 @@ void main() {
   gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, decode(S.indices, Uint32Array), gl.STATIC_DRAW);
   gl.bindVertexArray(null);
   const emptyVao = gl.createVertexArray();
+  // a closed mesh wound consistently (ssskit.scenes.meshes.topology): its back faces are hidden, so culled
+  function cull(on) {
+    if (on && S.cull !== 'none') { gl.enable(gl.CULL_FACE); gl.cullFace(S.cull === 'back' ? gl.BACK : gl.FRONT); }
+    else gl.disable(gl.CULL_FACE);
+  }
 
   // ---- camera: the scene's look-at, orbiting its target -------------------------------------------------------
   const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
@@ -315,7 +322,7 @@ void main() {
       gl.beginQuery(timerExt.TIME_ELAPSED_EXT, q);
       fn();
       gl.endQuery(timerExt.TIME_ELAPSED_EXT);
-      pending.push([name, q]);
+      pending.push([name, q, frames]);
     } else {
       const t0 = performance.now();
       fn();
@@ -333,8 +340,10 @@ void main() {
     if (!timerExt || !pending.length) return;
     const last = pending[pending.length - 1][1];
     if (!gl.getQueryParameter(last, gl.QUERY_RESULT_AVAILABLE)) return;
-    if (!gl.getParameter(timerExt.GPU_DISJOINT_EXT)) {
-      for (const [name, q] of pending) timing.passes[name] = gl.getQueryParameter(q, gl.QUERY_RESULT) / 1e6;
+    if (!gl.getParameter(timerExt.GPU_DISJOINT_EXT)) {   // the last frame's passes only (a frame behind)
+      timing.passes = {};
+      const lastFrame = pending[pending.length - 1][2];
+      for (const [name, q, f] of pending) if (f === lastFrame) timing.passes[name] = gl.getQueryParameter(q, gl.QUERY_RESULT) / 1e6;
     }
     pending.forEach(([, q]) => gl.deleteQuery(q));
     pending = [];
@@ -378,7 +387,9 @@ void main() {
     gl.useProgram(lightProg.p);
     lightUniforms(lightProg, lights());
     gl.bindVertexArray(vao);
+    cull(true);
     gl.drawElements(gl.TRIANGLES, S.triangles * 3, gl.UNSIGNED_INT, 0);
+    cull(false);
     gl.bindVertexArray(emptyVao);
     gl.disable(gl.DEPTH_TEST);
     gl.viewport(0, 0, W, H);
@@ -416,7 +427,9 @@ void main() {
     gl.uniform1f(gbuf.u.u_profile, 1);
     lightUniforms(gbuf, L);
     gl.bindVertexArray(vao);
+    cull(true);
     gl.drawElements(gl.TRIANGLES, S.triangles * 3, gl.UNSIGNED_INT, 0);
+    cull(false);
     gl.bindVertexArray(emptyVao);
     gl.disable(gl.DEPTH_TEST);
   }
@@ -493,6 +506,7 @@ void main() {
     return T[1];
   }
   let setUniforms = null;
+  let lastPass = null;
 
   function render() {
     collectQueries();
@@ -505,8 +519,11 @@ void main() {
     gl.viewport(0, 0, W, H);
     if (state.pass === 'separable') timed('separable', () => { result = separable(m, mat); });
     else if (state.pass === 'burley') timed('burley', () => { result = burley(m, mat); });
-    else if (state.pass === 'adaptive') timed('adaptive', () => { result = adaptive(m, mat); });
-    else result = G.src;
+    else if (state.pass === 'adaptive') {
+      if (lastPass !== 'adaptive') ad.key = '';   // switching to the adaptive pass starts a new history
+      timed('adaptive', () => { result = adaptive(m, mat); });
+    } else result = G.src;
+    lastPass = state.pass;
     if (state.transmission) timed('transmission', () => transmission(mat));
     timed('composite', () => {
       gl.bindFramebuffer(gl.FRAMEBUFFER, null);
