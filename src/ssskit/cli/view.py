@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from ..errors import SsskitError
+from .options import examples
 
 
 def _rgb(text: str | None, flag: str) -> tuple[float, float, float] | None:
@@ -19,7 +20,10 @@ def _rgb(text: str | None, flag: str) -> tuple[float, float, float] | None:
     return (vals[0], vals[1], vals[2])
 
 
-@click.command("view", epilog="Example: ssskit view --scene bust --material skin1")
+@click.command("view", epilog=examples(
+    "ssskit view --scene bust --material skin1",
+    "ssskit view --scene my_head.obj --albedo 0.8,0.6,0.5 --mfp 3.7,1.4,0.7",
+    "ssskit view --scene bust --no-open --out site --presets skin1,marble"))
 @click.option("--scene", default="bust", show_default=True,
               help="A generated mesh (bust, icosphere, torus) or a mesh file (.obj, .ply, .glb, .gltf; mm).")
 @click.option("--material", default=None, help="A preset name or a material file (default skin1).")
