@@ -126,14 +126,17 @@ def test_ctrl_c_ends_the_server_with_130():
     proc = subprocess.Popen([sys.executable, "-m", "ssskit", "view", "--scene", "icosphere", "--no-open", "--port", "0"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        line = proc.stderr.readline()
-        assert "ssskit view at http://127.0.0.1:" in line, line
+        line = ""
+        while "ssskit view at http://127.0.0.1:" not in line:   # after any progress lines of the page's data
+            line = proc.stderr.readline()
+            assert line, "the server exited before it listened"
         port = int(line.split("127.0.0.1:")[1].split("/")[0])
         assert request(port, "GET", "/")[0] == 200
         t0 = time.monotonic()
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=10) == 130
         assert time.monotonic() - t0 < 5
+        assert "still working" not in proc.stderr.read()          # no heartbeat while waiting for requests
     finally:
         if proc.poll() is None:
             os.kill(proc.pid, signal.SIGKILL)

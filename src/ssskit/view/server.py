@@ -203,9 +203,13 @@ def _no_constant(name: str) -> Any:
 
 
 def serve(server: ViewServer) -> None:
-    """Serve until Ctrl-C (KeyboardInterrupt propagates at once: request threads are daemons)."""
+    """Serve until Ctrl-C (KeyboardInterrupt propagates at once: request threads are daemons); the CLI's
+    heartbeat is quiet meanwhile (waiting for requests is not work)."""
+    from ..progress import idle
+
     try:
-        server.serve_forever(poll_interval=0.2)
+        with idle():
+            server.serve_forever(poll_interval=0.2)
     finally:
         server.server_close()
 
