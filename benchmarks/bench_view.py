@@ -56,24 +56,12 @@ def page_times(site: Path, gl: str, w: int, h: int, frames: int) -> dict:
     with headless_page(gl=gl, width=w + 320, height=h) as (page, log):
         page.goto((site / "index.html").as_uri() + f"?w={w}&h={h}&timer=wall")
         page.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=120_000)
-        for mode in ("off", "separable", "burley", "adaptive", "transmission"):
-            if mode == "transmission":   # the separable frame with the transmittance pass (light map included)
-                page.evaluate("() => window.ssskit.set({pass: 'separable', transmission: true})")
-                page.evaluate("() => window.ssskit.render()")
-                c0 = cpu_seconds()
-                runs = page.evaluate("(n) => { const r = []; for (let i = 0; i < n; ++i) r.push(window.ssskit.render()); "
-                                     "return r; }", frames)
-                c1 = cpu_seconds()
-                frame = statistics.median(r["frame_ms"] for r in runs)
-                passes = {k: round(statistics.median(r["passes"][k] for r in runs), 2) for k in runs[0]["passes"]}
-                out[mode] = {"frame_ms": round(frame, 2), "fps": round(1000.0 / frame, 2), "passes_ms": passes}
-                if c0 is not None and c1 is not None:
-                    cpu = 1000.0 * (c1 - c0) / frames
-                    out[mode]["cpu_ms_per_frame"] = round(cpu, 1)
-                    out[mode]["fps_2_idle_cores_range"] = [round(1000.0 / cpu, 2), round(2000.0 / cpu, 2)]
-                page.evaluate("() => window.ssskit.set({transmission: false})")
-                continue
-            page.evaluate(f"() => window.ssskit.set({{pass: '{mode}', spp: 16, auto: false, transmission: false}})")
+        modes = {m: {"pass": m, "spp": 16, "auto": False, "transmission": False}
+                 for m in ("off", "separable", "burley", "adaptive")}
+        # the separable frame with the transmittance pass (the light map included)
+        modes["transmission"] = {"pass": "separable", "spp": 16, "auto": False, "transmission": True}
+        for mode, state in modes.items():
+            page.evaluate(f"() => window.ssskit.set({json.dumps(state)})")
             page.evaluate("() => window.ssskit.render()")   # warm-up: shader compilation
             c0 = cpu_seconds()
             runs = page.evaluate("(n) => { const r = []; for (let i = 0; i < n; ++i) r.push(window.ssskit.render()); "

@@ -386,12 +386,7 @@ void main() {
     gl.clearBufferfv(gl.DEPTH, 0, [1]);
     gl.useProgram(lightProg.p);
     lightUniforms(lightProg, lights());
-    gl.bindVertexArray(vao);
-    cull(true);
-    gl.drawElements(gl.TRIANGLES, S.triangles * 3, gl.UNSIGNED_INT, 0);
-    cull(false);
-    gl.bindVertexArray(emptyVao);
-    gl.disable(gl.DEPTH_TEST);
+    drawMesh();
     gl.viewport(0, 0, W, H);
   }
   function transmission(mat) {
@@ -426,6 +421,10 @@ void main() {
     gl.uniform3fv(gbuf.u.u_albedo, mat.albedo);
     gl.uniform1f(gbuf.u.u_profile, 1);
     lightUniforms(gbuf, L);
+    drawMesh();
+  }
+  // the mesh with the bound program and depth test (back faces culled where closed), then the state of the passes
+  function drawMesh() {
     gl.bindVertexArray(vao);
     cull(true);
     gl.drawElements(gl.TRIANGLES, S.triangles * 3, gl.UNSIGNED_INT, 0);
@@ -632,6 +631,15 @@ void main() {
     for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode.apply(null, bytes.subarray(i, i + 0x8000));
     return btoa(s);
   }
+  // the first channel of a framebuffer's colour target, base64 (read as RGBA, the format every driver reads)
+  function readChannel(fb, w, h, Type, format, type) {
+    gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
+    const out = new Type(w * h * 4);
+    gl.readPixels(0, 0, w, h, format, type, out);
+    const one = new Type(w * h);
+    for (let i = 0; i < w * h; ++i) one[i] = out[4 * i];
+    return toBase64(new Uint8Array(one.buffer));
+  }
   window.ssskit = {
     size: [W, H],
     render,
@@ -642,14 +650,7 @@ void main() {
     shader(kind) { return D.materials[state.material][kind].shader; },
     adaptiveFrames: () => ad.frame,
     // the key light's depth map, base64 float32 (LMAP x LMAP, the map's rows as the pass reads them)
-    readLightMap() {
-      gl.bindFramebuffer(gl.FRAMEBUFFER, lightFb);
-      const out = new Float32Array(LMAP * LMAP * 4);
-      gl.readPixels(0, 0, LMAP, LMAP, gl.RGBA, gl.FLOAT, out);
-      const one = new Float32Array(LMAP * LMAP);
-      for (let i = 0; i < LMAP * LMAP; ++i) one[i] = out[4 * i];
-      return toBase64(new Uint8Array(one.buffer));
-    },
+    readLightMap() { return readChannel(lightFb, LMAP, LMAP, Float32Array, gl.RGBA, gl.FLOAT); },
     lightMapSize: LMAP,
     lightRgb: () => lights().rgb.slice(0, 3).map((x) => Math.PI * x),
     // a float target as base64 float32 RGBA, GL's rows (bottom first): src, spec, albedo, normal, id, result,
@@ -666,13 +667,7 @@ void main() {
     },
     // the sample counts the last adaptive frame used (used) or the next frame's (next), base64 int32, GL's rows
     readCounts(which) {
-      const fb = which === 'next' ? countFb[ad.cur] : countFb[ad.used];
-      gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
-      const out = new Int32Array(W * H * 4);
-      gl.readPixels(0, 0, W, H, gl.RGBA_INTEGER, gl.INT, out);
-      const one = new Int32Array(W * H);
-      for (let i = 0; i < W * H; ++i) one[i] = out[4 * i];
-      return toBase64(new Uint8Array(one.buffer));
+      return readChannel(which === 'next' ? countFb[ad.cur] : countFb[ad.used], W, H, Int32Array, gl.RGBA_INTEGER, gl.INT);
     },
     // the displayed image as base64 RGBA8, GL's rows
     readDisplay() {
