@@ -21,7 +21,8 @@ import time
 
 def run(materials: list[str], model: str, width: int, height: int, spp: int, methods: list[str],
         rw_spp: int) -> dict:
-    from ssskit.export.blender import compare_slab, find_blender_python, render_slab, slab_material
+    from ssskit.export.blender import compare_slab, find_blender_python, render_slab
+    from ssskit.export.engines import slab_material
     from ssskit.materials import get_material
 
     python, why = find_blender_python()

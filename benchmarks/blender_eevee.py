@@ -22,7 +22,8 @@ TRIM = 0.25
 
 
 def run(materials: list[str], model: str, width: int, height: int, samples: int, variants: list[str]) -> dict:
-    from ssskit.export.blender import compare_slab, find_blender_python, render_slab, slab_material
+    from ssskit.export.blender import compare_slab, find_blender_python, render_slab
+    from ssskit.export.engines import slab_material
     from ssskit.materials import get_material
 
     python, why = find_blender_python()

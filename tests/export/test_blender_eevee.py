@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from ssskit.export import engine_parameters
-from ssskit.export.blender import blender_script, compare_slab, eevee_radius_scale, find_blender_python, render_slab, \
-    slab_material
+from ssskit.export.blender import blender_script, compare_slab, eevee_radius_scale, find_blender_python, render_slab
+from ssskit.export.engines import slab_material
 from ssskit.materials import get_material
 from ssskit.profiles import profile_for_material
 

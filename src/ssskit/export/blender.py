@@ -231,20 +231,6 @@ def find_blender_python() -> tuple[str | None, str]:
     return None, "the bpy module is not installed (pip install bpy==4.2.0 on Python 3.11, or set SSSKIT_BLENDER_PYTHON)"
 
 
-def slab_material(name: str, model: str, folder: str | Path) -> tuple[dict[str, Any], Path, np.ndarray, np.ndarray]:
-    """A preset's Blender export for the slab renders: (the parameters, the script written in ``folder``, A,
-    d in mm as Cycles reads the script) for the preset ``name`` through the profile ``model``."""
-    from ..materials import get_material
-    from ..profiles import profile_for_material
-    from .engines import engine_parameters
-
-    material = get_material(name)
-    params = engine_parameters(profile_for_material(material, model), "blender", material)
-    script = Path(folder) / f"{name}.py"
-    script.write_text(blender_script(params, name))
-    return params, script, np.array(params["base_color"]), blender_d_mm(params)
-
-
 def slab_extent_mm(d_mm: float, level: float = 0.01, margin: float = 1.6) -> float:
     """Half-width (mm) of the slab view for one channel: ``margin`` times the distance at which the
     normalised edge falls to ``level``."""
@@ -440,5 +426,5 @@ def distance_cells(channel: dict[str, Any], form: str = "error") -> list[str]:
     return cells
 
 
-__all__ = ["BLENDER_VERSIONS", "distance_cells", "slab_material", "LEVELS", "RADIUS_PER_D", "blender_d_mm", "eevee_radius_scale", "blender_parameters", "blender_script",
+__all__ = ["BLENDER_VERSIONS", "distance_cells", "LEVELS", "RADIUS_PER_D", "blender_d_mm", "eevee_radius_scale", "blender_parameters", "blender_script",
            "compare_slab", "edge_distances", "edge_response", "find_blender_python", "render_slab"]
