@@ -140,3 +140,16 @@ def test_ctrl_c_ends_the_server_with_130():
     finally:
         if proc.poll() is None:
             os.kill(proc.pid, signal.SIGKILL)
+
+
+def test_the_head_is_the_viewers_default_scene_with_its_credit():
+    """The papers' scan (70,736 triangles, closed once welded) is what ``ssskit view`` shows by default, credited
+    as its CC BY 3.0 licence asks."""
+    from ssskit.cli.view import view
+    from ssskit.settings import HEAD_ATTRIBUTION
+    from ssskit.view.site import scene_payload
+
+    assert next(p for p in view.params if p.name == "scene").default == "head"
+    head = scene_payload("head")
+    assert head["triangles"] == 70736 and head["cull"] != "none"
+    assert head["about"]["attribution"] == HEAD_ATTRIBUTION

@@ -24,8 +24,9 @@ def _rgb(text: str | None, flag: str) -> tuple[float, float, float] | None:
     "ssskit view --scene bust --material skin1",
     "ssskit view --scene my_head.obj --albedo 0.8,0.6,0.5 --mfp 3.7,1.4,0.7",
     "ssskit view --scene bust --no-open --out site --presets skin1,marble"))
-@click.option("--scene", default="bust", show_default=True,
-              help="A generated mesh (bust, icosphere, torus) or a mesh file (.obj, .ply, .glb, .gltf; mm).")
+@click.option("--scene", default="head", show_default=True,
+              help="The scanned head (head: Lee Perry-Smith, Infinite-Realities, CC BY 3.0), a generated mesh (bust, icosphere, "
+                   "torus) or a mesh file (.obj, .ply, .glb, .gltf; mm).")
 @click.option("--material", default=None, help="A preset name or a material file (default skin1).")
 @click.option("--albedo", default=None, help="Artists' terms: the albedo R,G,B in (0, 1) (with --mfp).")
 @click.option("--mfp", default=None, help="Artists' terms: the mean free path R,G,B in mm (with --albedo).")

@@ -28,7 +28,7 @@ PAGE_FILES = ("index.html", "viewer.js", "viewer.css")
 #: the material presets a static folder precomputes
 PRESETS = ("skin1", "skin2", "marble", "ketchup", "apple")
 #: the scenes ``--scene`` takes by name (generated meshes, mm); a mesh file (.obj, .ply, .glb, .gltf) too
-SCENE_NAMES = ("bust", "icosphere", "torus")
+SCENE_NAMES = ("head", "bust", "icosphere", "torus")
 #: the separable pass's defaults (those of ``ssskit render``: RenderSettings), and the profile model the
 #: viewer uses (the dipole: closed form, so a material change re-renders within a second)
 DEFAULT_KERNEL = "preintegrated"
@@ -213,7 +213,7 @@ def scene_payload(scene: str) -> dict[str, Any]:
             "cull": ("back" if topo.volume > 0 else "front") if closed else "none",
             "camera": {"origin": list(map(float, spec.origin)), "target": list(map(float, spec.target)),
                        "up": list(map(float, spec.up)), "fov_x_deg": float(spec.fov_x_deg)},
-            "lights": _light_list(spec)}
+            "lights": _light_list(spec), "about": dict(getattr(spec, "about", ()) or ())}
 
 
 def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
