@@ -49,7 +49,8 @@ COMMANDS = {
                 "reference": r"path tracing slab: \d+/"},
                ("reference",)),
     "demo": (["demo", "--material", "skin1", "--jobs", "2", "--out", "out/demo"],
-             {"parent": r"writing the report to", "workers": r"\[1/\d+\] section ", "gbuffer": r"rendering the \w+ G-buffer"},
+             {"parent": r"writing the report to", "first section": r"\[1/\d+\] section ",
+              "second section": r"\[\d+/\d+\] section screenspace"},
              ("demo", "figures")),
 }
 
@@ -87,7 +88,7 @@ def _json_untimed(stdout: str) -> str:
     try:
         data = json.loads(stdout)
     except ValueError:
-        return stdout
+        return _untimed(stdout)
 
     def strip(v):
         if isinstance(v, dict):
@@ -156,6 +157,7 @@ def run(command: str, mode: str, stages: list[str], warm: Path, base: Path) -> d
             break
         time.sleep(0.1)
     stderr = "".join(err)
+    (work / "stderr.txt").write_text(stderr)
     result = {"command": command, "mode": mode, "stages": stages, "interrupted_at": sent, "exit": code,
               "seconds": round(seconds, 1), "group_left": left, "traceback": "Traceback" in stderr,
               "wound_down": stderr.count("winding down"), "work": str(work)}

@@ -212,8 +212,9 @@ def _main(argv: list[str] | None) -> int:
     except SimulationInterrupted as exc:
         click.echo(f"ssskit: {' '.join((exc.cli_message or str(exc)).splitlines())}", err=True)
         return 130
-    except click.exceptions.Abort:
-        click.echo("ssskit: aborted", err=True)
+    except click.exceptions.Abort as exc:  # click's form of a KeyboardInterrupt in a command: one word for both
+        interrupted = isinstance(exc.__cause__, KeyboardInterrupt)
+        click.echo(f"ssskit: {'interrupted' if interrupted else 'aborted'}", err=True)
         return 130
     except click.ClickException as exc:
         message = " ".join(exc.format_message().split("\n"))
