@@ -9,8 +9,10 @@ Two ways a process meets SIGINT:
   one: a reference, a G-buffer or a report section of an interrupted render is not cached).
 * ``background``: a script's background job (``ssskit ... &`` in a non-interactive shell starts it with SIGINT
   ignored; here: ``SIG_IGN`` set before ``exec``), SIGINT sent to its group every 0.1 s from each of the three
-  stages' lines on until it ends. Expected: exit status 0 and the same outputs as an uninterrupted run (every
-  output file byte for byte, the demo's index.html up to its timings, the JSON on stdout).
+  stages' lines on until it ends. Expected: exit status 0 and the same outputs as an uninterrupted run: every
+  output file byte for byte, index.html cell for cell and the JSON on stdout, except what two uninterrupted runs
+  (made first) differ in themselves: the demo measures times (the adaptive section's phase table, its
+  equal-time comparison and the sample counts chosen by time), which no two runs share.
 
 Stages are found by the command's own progress lines, not by time, so the matrix means the same on a loaded
 machine; the only time limit is a hang guard. Each run has a cache of its own, copied from a warm one without
@@ -76,12 +78,14 @@ def _untimed(text: str) -> str:
 
 
 def _outputs(work: Path) -> dict[str, str]:
-    """What a run wrote: {path: digest}, index.html and stdout digested without their timings."""
-    out = _files(work / "out")
-    for name in list(out):
-        if name.endswith(".html"):
-            out[name] = hashlib.sha1(_untimed((work / "out" / name).read_text()).encode()).hexdigest()
-    return out
+    """What a run wrote: {path: sha1 of the bytes}."""
+    return _files(work / "out")
+
+
+def _pages(work: Path) -> dict[str, list[str]]:
+    """Each HTML page a run wrote, as its cells (text split after each tag), timings masked."""
+    return {str(p.relative_to(work / "out")): re.split(r"(?<=>)", _untimed(p.read_text()))
+            for p in sorted((work / "out").rglob("*.html"))}
 
 
 def _json_untimed(stdout: str) -> str:
@@ -162,6 +166,7 @@ def run(command: str, mode: str, stages: list[str], warm: Path, base: Path) -> d
               "seconds": round(seconds, 1), "group_left": left, "traceback": "Traceback" in stderr,
               "wound_down": stderr.count("winding down"), "work": str(work)}
     result["outputs"] = _outputs(work)
+    result["pages"] = _pages(work)
     result["staging_left"] = [p.name for p in (work / "out").iterdir() if p.name.startswith(".")]
     result["stdout"] = _json_untimed("".join(stdout))
     result["cache_added"] = sorted(set(_files(cache)) - set(before))
@@ -170,8 +175,23 @@ def run(command: str, mode: str, stages: list[str], warm: Path, base: Path) -> d
     return result
 
 
-def judge(r: dict, baseline: dict) -> list[str]:
-    """What is wrong with run ``r`` (an empty list: it passed)."""
+def stable(a: dict, b: dict) -> dict:
+    """What two uninterrupted runs ``a`` and ``b`` agree on: the demo measures times (the adaptive section's phase
+    table, its equal-time comparison and the sample counts chosen from them), which differ from run to run.
+    {"files": {path: digest} of the files equal in both, "varying": [paths that differ], "pages": {path: [cell
+    or None where the two differ]}, "stdout": the stdout if equal, else None}."""
+    files = {k: v for k, v in a["outputs"].items() if b["outputs"].get(k) == v}
+    pages = {}
+    for name, cells in a["pages"].items():
+        other = b["pages"].get(name, [])
+        pages[name] = ([x if x == y else None for x, y in zip(cells, other)] if len(cells) == len(other)
+                       else [None] * len(cells))
+    return {"files": files, "varying": sorted(set(a["outputs"]) - set(files)), "pages": pages,
+            "names": sorted(a["outputs"]), "stdout": a["stdout"] if a["stdout"] == b["stdout"] else None}
+
+
+def judge(r: dict, base: dict) -> list[str]:
+    """What is wrong with run ``r`` (an empty list: it passed), against :func:`stable` of two uninterrupted runs."""
     bad = []
     if r["traceback"]:
         bad.append("traceback")
@@ -184,7 +204,7 @@ def judge(r: dict, baseline: dict) -> list[str]:
             bad.append(f"wrote {sorted(r['outputs']) + r['staging_left']}")
         if r["stdout"].strip():
             bad.append("printed a result")
-        stray = [f for f in r["cache_added"] if f not in baseline["cache_added"]]
+        stray = [f for f in r["cache_added"] if f not in base["cache_added"]]
         if stray:
             bad.append(f"cached what an uninterrupted run does not: {stray}")
         if len(r["interrupted_at"]) != 1:
@@ -192,11 +212,16 @@ def judge(r: dict, baseline: dict) -> list[str]:
     else:
         if r["exit"] != 0:
             bad.append(f"exit {r['exit']}, not 0")
-        if r["outputs"] != baseline["outputs"]:
-            diff = sorted(k for k in set(r["outputs"]) | set(baseline["outputs"])
-                          if r["outputs"].get(k) != baseline["outputs"].get(k))
+        if sorted(r["outputs"]) != base["names"]:
+            bad.append(f"other files than an uninterrupted run: {sorted(set(r['outputs']) ^ set(base['names']))}")
+        diff = sorted(k for k, v in base["files"].items() if r["outputs"].get(k) != v)
+        if diff:
             bad.append(f"outputs differ from an uninterrupted run: {diff[:10]}")
-        if r["stdout"] != baseline["stdout"]:
+        for name, cells in base["pages"].items():
+            mine = r["pages"].get(name, [])
+            if len(mine) != len(cells) or any(c is not None and c != m for c, m in zip(cells, mine)):
+                bad.append(f"{name} differs from an uninterrupted run beyond what two uninterrupted runs differ in")
+        if base["stdout"] is not None and r["stdout"] != base["stdout"]:
             bad.append("stdout differs from an uninterrupted run")
         if len(r["interrupted_at"]) != len(r["stages"]):
             bad.append(f"stages reached: {r['interrupted_at']}")
@@ -221,12 +246,15 @@ def main() -> int:
     report: dict = {"src": str(SRC[0]), "machine": os.uname().nodename, "cpus": os.cpu_count(), "warm_cache": str(warm), "rounds": []}
     failed = 0
     baselines = {}
-    for c in commands:
-        baselines[c] = run(c, "uninterrupted", [], warm, base)
-        if baselines[c]["exit"] != 0:
-            print(json.dumps({"baseline_failed": baselines[c]}, indent=1))
-            return 1
-    report["baselines"] = {c: {"seconds": b["seconds"], "outputs": len(b["outputs"])} for c, b in baselines.items()}
+    for c in commands:  # two uninterrupted runs: what they agree on is what an interrupted one must give
+        pair = [run(c, "uninterrupted", [], warm, base) for _ in range(2)]
+        for b in pair:
+            if b["exit"] != 0:
+                print(json.dumps({"baseline_failed": {k: v for k, v in b.items() if k != "pages"}}, indent=1))
+                return 1
+        baselines[c] = {**stable(*pair), "cache_added": sorted(set(pair[0]["cache_added"]) | set(pair[1]["cache_added"]))}
+    report["baselines"] = {c: {"outputs": len(b["names"]), "varying_between_two_uninterrupted_runs": b["varying"],
+                               "stdout_equal": b["stdout"] is not None} for c, b in baselines.items()}
     for k in range(a.repeat):
         load_before = os.getloadavg()
         cases = []
