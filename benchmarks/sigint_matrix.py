@@ -10,7 +10,7 @@ Two ways a process meets SIGINT:
 * ``background``: a script's background job (``ssskit ... &`` in a non-interactive shell starts it with SIGINT
   ignored; here: ``SIG_IGN`` set before ``exec``), SIGINT sent to its group every 0.1 s from each of the three
   stages' lines on until it ends. Expected: exit status 0 and the same outputs as an uninterrupted run: every
-  output file byte for byte, index.html cell for cell and the JSON on stdout, except what two uninterrupted runs
+  output file byte for byte, index.html part for part (each table one part) and the JSON on stdout, except what two uninterrupted runs
   (made first) differ in themselves: the demo measures times (the adaptive section's phase table, its
   equal-time comparison and the sample counts chosen by time), which no two runs share.
 
@@ -83,8 +83,9 @@ def _outputs(work: Path) -> dict[str, str]:
 
 
 def _pages(work: Path) -> dict[str, list[str]]:
-    """Each HTML page a run wrote, as its cells (text split after each tag), timings masked."""
-    return {str(p.relative_to(work / "out")): re.split(r"(?<=>)", _untimed(p.read_text()))
+    """Each HTML page a run wrote, as its parts: every table one part, the text between tables the others (a
+    table that holds a measured time differs as a whole between two runs), timings in the text masked."""
+    return {str(p.relative_to(work / "out")): re.split(r"(?=<table)|(?<=</table>)", _untimed(p.read_text()))
             for p in sorted((work / "out").rglob("*.html"))}
 
 
@@ -178,8 +179,8 @@ def run(command: str, mode: str, stages: list[str], warm: Path, base: Path) -> d
 def stable(a: dict, b: dict) -> dict:
     """What two uninterrupted runs ``a`` and ``b`` agree on: the demo measures times (the adaptive section's phase
     table, its equal-time comparison and the sample counts chosen from them), which differ from run to run.
-    {"files": {path: digest} of the files equal in both, "varying": [paths that differ], "pages": {path: [cell
-    or None where the two differ]}, "stdout": the stdout if equal, else None}."""
+    {"files": {path: digest} of the files equal in both, "varying": [paths that differ], "pages": {path: [part
+    (text, or a whole table) or None where the two differ]}, "stdout": the stdout if equal, else None}."""
     files = {k: v for k, v in a["outputs"].items() if b["outputs"].get(k) == v}
     pages = {}
     for name, cells in a["pages"].items():
@@ -228,6 +229,26 @@ def judge(r: dict, base: dict) -> list[str]:
     return bad
 
 
+def recheck_pages(folder: Path) -> int:
+    """The page comparison of :func:`judge` again, on the runs a matrix kept (``--keep``): the first two runs of a
+    command that wrote a page are its uninterrupted ones; every later one that wrote a page is a background run."""
+    report: dict = {}
+    for command in COMMANDS:
+        runs = sorted((d for d in folder.glob(f"sigint-{command}-*") if list((d / "out").rglob("*.html"))),
+                      key=lambda d: (d / "stderr.txt").stat().st_mtime)
+        if len(runs) < 3:
+            continue
+        base = stable({"outputs": {}, "pages": _pages(runs[0]), "stdout": ""},
+                      {"outputs": {}, "pages": _pages(runs[1]), "stdout": ""})
+        report[command] = {d.name: [name for name, parts in base["pages"].items()
+                                    if len(_pages(d).get(name, [])) != len(parts)
+                                    or any(c is not None and c != m for c, m in zip(parts, _pages(d)[name]))]
+                           for d in runs[2:]}
+        report[command]["varying_parts"] = {name: sum(c is None for c in parts) for name, parts in base["pages"].items()}
+    print(json.dumps(report, indent=1))
+    return 1 if any(v for r in report.values() for k, v in r.items() if k != "varying_parts") else 0
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
@@ -236,8 +257,12 @@ def main() -> int:
                     help="a cache to copy for each run [default: $SSSKIT_CACHE_DIR or ~/.cache/ssskit]")
     ap.add_argument("--keep", action="store_true", help="keep each run's folder")
     ap.add_argument("--src", type=Path, default=SRC[0], help="the src folder of the ssskit to run")
+    ap.add_argument("--recheck-pages", type=Path, default=None, metavar="DIR",
+                    help="compare the pages of the runs kept in DIR (--keep) with its first two, uninterrupted, runs")
     a = ap.parse_args()
     SRC[0] = a.src.resolve()
+    if a.recheck_pages:
+        return recheck_pages(a.recheck_pages)
     from ssskit.cache import cache_root
 
     warm = a.warm_cache or cache_root()
