@@ -39,6 +39,7 @@ def one_library_thread() -> dict[str, str]:
     command imports numpy; it has no effect on a library already loaded."""
     return {name: os.environ.get(name, "1") for name in LIBRARY_THREADS}
 
+
 def sigint_ignored() -> bool:
     """Whether this process ignores SIGINT: its parent asked for it (a non-interactive shell starts a background
     job, ``cmd &``, with SIGINT ignored, and Python keeps an inherited SIG_IGN), or a worker set it."""
@@ -157,7 +158,7 @@ def run_jobs(jobs: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], workers
             ended = True
 
     try:
-        with sigint_blocked():  # each worker starts with SIGINT blocked, from its first instruction (_worker)
+        with sigint_blocked():  # each worker process starts with SIGINT blocked (see _worker)
             for p in procs:
                 p.start()
         dispatch()
