@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from click.shell_completion import CompletionItem
 
 from ..errors import OutputError, SsskitError
-from ..settings import DEFAULT_PHOTONS, PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE
+from ..settings import DEFAULT_PHOTONS, HEAD_ATTRIBUTION, PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE
 
 #: the profile model every command defaults to: the supplement's Monte Carlo profiles (shipped for the
 #: 11 measured materials at 10^7 photons, so a preset costs nothing; another material is simulated once
@@ -216,7 +216,8 @@ class RegistryName(click.ParamType):
 
 
 class MaterialRef(click.ParamType):
-    """A preset material name or a .toml/.json material file, checked (loaded) while parsing.
+    """A preset material name, a .toml/.json material file or an engine file ssskit wrote (read by
+    :func:`ssskit.materials.get_material`, the one material entry point), checked (loaded) while parsing.
 
     Returns the text as given (stripped); with ``split=True`` a comma-separated list of them.
     """
@@ -230,6 +231,7 @@ class MaterialRef(click.ParamType):
         return "NAME|FILE" + (",..." if self.split else "")
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        from ..export import readers  # noqa: F401  (registers the engine files as material files)
         from ..materials import get_material
 
         if self.split and isinstance(value, list):
@@ -540,7 +542,7 @@ def material_option(*, required: bool = False, default: str | None = None, split
                         show_default=default is not None, multiple=split, help=help)
 
 
-def model_option(default: str, help: str = "Profile model.") -> Callable:
+def model_option(default: str | None, help: str = "Profile model.") -> Callable:
     return click.option("--model", type=MODEL, default=default, show_default=True, help=help)
 
 
@@ -576,7 +578,9 @@ def signal_option(default: str = "edge") -> Callable:
 def scene_option() -> Callable:
     return click.option("--scene", type=SceneRef(), required=True,
                         help="Built-in scene, generated mesh (bust, icosphere, torus), mesh file (.obj, .ply, .glb, "
-                             ".gltf), scene .toml, or a G-buffer EXR (its layers: docs/commands.md, 'A G-buffer EXR').")
+                             ".gltf), scene .toml, or a G-buffer EXR (its layers: docs/commands.md, 'A G-buffer EXR'). "
+                             "The built-in head (--view front, ear or close; 259 mm per unit, docs/head.md): "
+                             f"{HEAD_ATTRIBUTION}.")
 
 
 def backend_option(default: str | None) -> Callable:
@@ -589,7 +593,7 @@ def depth_mode_option() -> Callable:
                         help="Depth test [default: gaussian for artist kernels, follow otherwise].")
 
 
-def tap_method_option(default: str) -> Callable:
+def tap_method_option(default: str | None) -> Callable:
     return click.option("--tap-method", type=TAP_METHOD, default=default, show_default=True, help="Tap placement.")
 
 
