@@ -94,7 +94,9 @@ def interruptible_render(scene: Any, **kwargs: Any) -> Any:
     * while SIGINT is ignored (inherited as ignored: a non-interactive shell's background job), Mitsuba's
       handler still winds the render down and drops the signal; the render then runs again with the same
       seed, so the image is the one an uninterrupted render gives. (The CLI blocks an ignored SIGINT in every
-      thread, :func:`ssskit.compute.workers.ignored_sigint_blocked`, so Mitsuba's handler never runs there.)
+      thread, :func:`ssskit.compute.workers.ignored_sigint_blocked`, so Mitsuba's handler never runs there: it
+      logs from inside the signal handler, and a flood of signals, one every 0.1 s, left every thread of a
+      background ``ssskit render`` waiting inside it, for good.)
     * Ctrl-C or SIGTERM (handled as Ctrl-C by the CLI) stops it within a fraction of a second: in the main
       thread the render runs on a helper thread (Mitsuba releases the GIL) that the main thread waits for in
       short waits, so Python's signal handler runs; on the interrupt the scene's integrator is cancelled
@@ -200,5 +202,5 @@ def render_threads() -> Iterator[None]:
         yield
 
 
-__all__ = ["RenderInterrupted", "interruptible_render", "leaving_a_core_to", "mitsuba", "mitsuba_threads", "render_threads",
-           "warnings_dropped"]
+__all__ = ["RenderInterrupted", "interruptible_render", "leaving_a_core_to", "mitsuba", "mitsuba_threads",
+           "render_threads", "warnings_dropped"]
