@@ -190,3 +190,38 @@ def test_the_workers_compile_each_kernel_once_before_the_sections_that_run_it():
             assert needed <= {p for d in after[j] for p in jobs[d][1]} and all(d < j for d in after[j])
     assert report.section_jobs(names, compiles=False) == ([("section", names.index(n)) for n in report.SECTION_ORDER
                                                           if n in names], {k: set() for k in range(len(names))})
+
+
+def _kernel_columns(text: str) -> dict[str, list[list[str]]]:
+    """The screen-space table's kernel rows per scene, as lists of cells (the scene's noise-floor row left out)."""
+    import re
+
+    table = text[text.index("<th>kernel / taps</th>"):]
+    table = table[:table.index("</table>")]
+    scenes: dict[str, list[list[str]]] = {}
+    for attrs, row in re.findall(r"<tr([^>]*)>(.*?)</tr>", table):
+        cells = [re.sub(r"<[^>]+>", "", c) for c in re.findall(r"<td[^>]*>(.*?)</td>", row)]
+        if cells and "scene" not in attrs:
+            scenes.setdefault(cells[0], []).append(cells[1:])
+    return scenes
+
+
+def test_no_column_of_the_kernel_table_is_the_same_for_every_kernel(tmp_path, monkeypatch):
+    """The screen-space table on a small slab with a short path trace: the per-pixel PSNR against the path trace
+    was the same for every kernel of a scene (sphere 30.7 dB for all four: the reference's noise, relative RMSE
+    ~0.68); every column of the kernels' rows now differs between at least two kernels of the scene, the noise
+    floor (the reference level's relative SE, the same for all) stated once in the scene's own row; and the
+    path-traced panel is a display copy whose title names its block and its remaining noise."""
+    from ssskit.figures.screenspace import screen_space_comparison
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    png, rows, regions = screen_space_comparison(tmp_path, scenes=["slab"], width=64, height=48, spp=4,
+                                                 reference_spp=8, reference_max_spp=8)
+    text = report._kernel_rows(rows, regions)
+    per_scene = _kernel_columns(text)
+    assert list(per_scene) == ["slab"] and len(per_scene["slab"]) == len(rows) >= 3
+    kernels = per_scene["slab"]
+    for column in zip(*kernels):
+        assert len(set(column)) > 1, column
+    assert "<tr class=scene><td class=name>slab</td><td class=name>noise floor" in text
+    assert png.is_file()

@@ -40,6 +40,7 @@ img { max-width: 100%; border: 1px solid #eee; margin: 0.5em 0; }
 h2 { border-bottom: 2px solid #ddd; padding-bottom: 0.2em; margin-top: 2em; }
 .note { color: #555; font-size: 0.9em; }
 tr.best td { background: #e8f5e9; font-weight: 600; }
+tr.scene td { background: #f7f7f7; font-style: italic; }
 """
 
 
@@ -149,22 +150,26 @@ def _sampling_section(out: Path, progress: Progress, ctx: dict) -> str:
 RANKED_METHODS = ["svd:1", "svd:3", "gaussians:1", "gaussians:6", "preintegrated", "preintegrated_svd:1", "guided:0",
                   "guided:2", "artist:fit", "jimenez2012", "burley_fit"]
 RANK_SIGNALS = ("edge", "edge-rotated", "disk", "texture")
-#: the materials the report ranks the kernels for unless ``ssskit demo --material`` names others
-RANK_MATERIALS = ("Skin1", "Marble", "Ketchup")
+#: the materials the report ranks the kernels for unless ``ssskit demo --material`` names others: all 11
+RANK_MATERIALS = tuple(MATERIALS.names())
+#: the test signals' size (pixels per side) of the demo's ranking: 128 ranks the 11 materials in ~7 CPU s each
+#: (256: ~17 s each; measured 2026-12-06 at load ~18 on 2 cores), the kernel's 99.9% radius still ~21 pixels
+RANK_SIZE = 128
 
 
 def kernel_ranking(profile: RGBProfile, methods: list[str] = RANKED_METHODS, signals: tuple[str, ...] = RANK_SIGNALS,
-                   progress: Progress | None = None) -> list[tuple[str, dict[str, dict[str, Any]], float]]:
+                   progress: Progress | None = None,
+                   size: int = 256) -> list[tuple[str, dict[str, dict[str, Any]], float]]:
     """Each method's error against the exact 2D convolution (the kernel's error, not the model's) on
-    each signal, ranked by the mean relative RMSE over the signals: a list of (method, {signal:
-    metrics}, mean relative RMSE), best first."""
+    each signal of ``size`` x ``size`` pixels, ranked by the mean relative RMSE over the signals: a list of
+    (method, {signal: metrics}, mean relative RMSE), best first."""
     from .pipeline.evaluate import evaluate
 
     res = {}
     for sig in signals:
         if progress is not None:
             progress(f"kernel ranking, {profile.name}: {sig}")
-        res[sig] = evaluate(profile, sig, methods, perceptual=("flip",)).results
+        res[sig] = evaluate(profile, sig, methods, size=size, perceptual=("flip",)).results
     rows = [(m, {sig: res[sig][m] for sig in signals}, float(np.mean([res[sig][m]["relative_rmse"] for sig in signals])))
             for m in methods]
     return sorted(rows, key=lambda row: row[2])
@@ -186,26 +191,53 @@ def _ranking_table(profile: RGBProfile, rows: list[tuple[str, dict[str, dict[str
 
 
 def _kernels_section(out: Path, progress: Progress, ctx: dict) -> str:
+    from .errors import SsskitError
     from .figures import FIGURES, make_figures
     from .profiles import profile_for_material
 
     names = ctx.get("materials") or RANK_MATERIALS
-    profiles = [profile_for_material(n, "montecarlo", photons=ctx["photons"]) for n in names]
-    tables = "".join(_ranking_table(p, kernel_ranking(p, progress=progress)) for p in profiles)
-    # the paper's kernel figures for the first material (the adaptive sampler's have their own section; the
+    ranked: list[tuple[RGBProfile, list[tuple[str, dict[str, dict[str, Any]], float]]]] = []
+    left_out: list[str] = []
+    for name in names:
+        progress(f"kernel ranking: {name}")
+        try:
+            prof = profile_for_material(name, "montecarlo", photons=ctx["photons"])
+        except SsskitError as err:  # e.g. a material of the user's whose profile cannot be simulated
+            left_out.append(f"<li><b>{html.escape(name)}</b> is left out: {html.escape(str(err))}</li>")
+            continue
+        ranked.append((prof, kernel_ranking(prof, progress=progress, size=RANK_SIZE)))
+    if not ranked:
+        return "<h2 id=kernels>Which kernel for my material?</h2><ul>" + "".join(left_out) + "</ul>"
+    summary = "".join(
+        f"<tr><td class=name><a href='#rank-{html.escape(p.name.lower())}'>{html.escape(p.name)}</a></td>"
+        f"<td class=name>{html.escape(rows[0][0])}</td><td>{rows[0][2]:.2e}</td>"
+        f"<td>{rows[0][1][RANK_SIGNALS[0]]['convolutions_1d']}</td>"
+        f"<td class=name>{html.escape(rows[1][0])}</td><td>{rows[1][2]:.2e}</td>"
+        f"<td class=name>{html.escape(rows[-1][0])}</td><td>{rows[-1][2]:.2e}</td></tr>"
+        for p, rows in ranked)
+    tables = "".join(_ranking_table(p, rows) for p, rows in ranked)
+    # the paper's kernel figures for Skin1 (the adaptive sampler's have their own section; the
     # three-view study takes minutes on a life-size bust: ssskit figures xie-fig1, its table in RESULTS.md)
     figs = [n for n, fn in FIGURES.items() if fn.__module__ == "ssskit.figures.kernels"]
-    written = make_figures(figs, out / "figures", profiles[0], progress=progress, backend=ctx.get("backend"))
+    shown = next((p for p, _ in ranked if p.name.lower() == "skin1"), ranked[0][0])  # the papers' skin if ranked
+    written = make_figures(figs, out / "figures", shown, progress=progress, backend=ctx.get("backend"))
     imgs = "".join(f"<img src='figures/{p.name}'>" for paths in written.values() for p in paths)
     return (
         "<h2 id=kernels>Which kernel for my material? (separable-SSS paper Secs. 3-5, supplement B-D)</h2>"
         f"<p class=note>Per material, every kernel method ranked by its error against the exact 2D convolution "
         f"E * Rd of the same Monte Carlo profile (supplement F, {ctx['photons']:,} photons per channel): the "
-        "<b>kernel's</b> error alone, on 256x256 test signals whose kernel radius (99.9% of the energy) spans 1/6 "
-        "of the image; ranked by the mean relative RMSE over the four signals, the best marked ★. How far the "
-        "profile itself is from the light transport is the model's error: next section, per region.</p>"
+        f"<b>kernel's</b> error alone, on {RANK_SIZE}x{RANK_SIZE} test signals ({', '.join(RANK_SIGNALS)}) whose "
+        "kernel radius (99.9% of the energy) spans 1/6 of the image; ranked by the mean relative RMSE over the "
+        f"{len(RANK_SIGNALS)} signals, the best marked ★ (<code>ssskit.report.kernel_ranking</code> at 256x256 "
+        "gives the finer grid). How far the profile itself is from the light transport is the model's error: "
+        "next section, per region.</p>"
+        f"<h3>The answer: the kernel to ship, {len(ranked)} of {len(names)} materials ranked</h3>"
+        "<table><tr><th>material</th><th>recommended kernel</th><th>mean rel. RMSE</th><th>1D conv.</th>"
+        "<th>runner-up</th><th>mean rel. RMSE</th><th>worst</th><th>mean rel. RMSE</th></tr>"
+        + summary + "</table>"
+        + (f"<ul>{''.join(left_out)}</ul>" if left_out else "")
         + tables
-        + f"<h3>The paper's kernel figures, {html.escape(profiles[0].name)}</h3>" + imgs
+        + f"<h3>The paper's kernel figures, {html.escape(shown.name)}</h3>" + imgs
     )
 
 
@@ -275,22 +307,64 @@ def _region_table(regions: dict) -> str:
     return head + "".join(body) + "</table>"
 
 
+def _kernel_rows(rows: list[dict[str, Any]], regions: dict[str, Any]) -> str:
+    """The screen-space kernels per scene: the kernel's error against the exact 2D convolution (PSNR / FLIP, no
+    noise: the kernel alone) and per region its level over the path trace's (R, G, B); above each scene's
+    kernels its reference and the noise floor per region, the relative standard error of the reference's
+    level (the same for every kernel, so stated once)."""
+    from .metrics import REGIONS, psnr_text
+
+    head = ("<table><tr><th>scene</th><th>kernel / taps</th><th>vs exact 2D<br>PSNR / FLIP</th>"
+            + "".join(f"<th>{name.replace('_', ' ')}: level / path traced<br>(R, G, B)</th>" for name in REGIONS)
+            + "</tr>")
+    body = []
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        mine = [r for r in rows if r["scene"] == scene]
+        ref = regions.get(scene, {}).get("reference")
+        floors = []
+        for name in REGIONS:
+            pt = (mine[0].get("regions") or {}).get(name, {}).get("path_traced")
+            if not pt or pt.get("se") is None or not (mine[0]["regions"][name]["pixels"]):
+                floors.append("<td>no pixels</td>")
+                continue
+            rel = np.asarray(pt["se"]) / np.maximum(np.abs(pt["level"]), 1e-300)
+            floors.append("<td>± " + ", ".join(f"{v:.1%}" for v in rel) + "</td>")
+        spp = f"{ref['spp']} spp" if ref else "no reference"
+        body.append(f"<tr class=scene><td class=name>{html.escape(scene)}</td><td class=name>noise floor "
+                    f"(reference's rel. SE, {spp})</td><td>-</td>" + "".join(floors) + "</tr>")
+        for r in mine:
+            cells = []
+            for name in REGIONS:
+                ratio = (r.get("regions") or {}).get(name, {}).get("screen_space_vs_path_traced")
+                cells.append("<td>-</td>" if ratio is None else
+                             "<td>" + ", ".join(f"{v:.3f}" for v in ratio["ratio"]) + "</td>")
+            ex = r.get("exact_2d")
+            body.append(f"<tr><td class=name>{html.escape(scene)}</td><td class=name>{html.escape(r['method'])}</td>"
+                        + (f"<td>{psnr_text(ex['psnr'])} / {ex['flip']:.3f}</td>" if ex else "<td>-</td>")
+                        + "".join(cells) + "</tr>")
+    return head + "".join(body) + "</table>"
+
+
+def _display_note(regions: dict[str, Any]) -> str:
+    """How the path-traced images are shown (:func:`ssskit.figures.screenspace.display_copy`)."""
+    from .figures.screenspace import DISPLAY_BLOCKS, DISPLAY_REL_SE
+
+    return ("The path-traced panels are display copies: where the reference's median per-pixel relative standard "
+            f"error over the SSS mask is above {DISPLAY_REL_SE:.0%}, the panel shows the means of the smallest "
+            f"pixel blocks ({', '.join(f'{b}x{b}' for b in DISPLAY_BLOCKS[1:])}) that bring it to that, each "
+            "panel's title naming its block and its remaining noise; every number above is measured on the "
+            "unfiltered reference.")
+
+
 def _screenspace_section(out: Path, progress: Progress, ctx: dict) -> str:
     from .figures.screenspace import screen_space_comparison, slab_edge_profile
-    from .metrics import psnr_text
     from .screenspace import PassSettings
 
     photons = ctx.get("photons", DEMO_PHOTONS)
     backend = ctx.get("backend", DEFAULT_BACKEND)
     png, rows, regions = screen_space_comparison(out / "figures", photons=photons, progress=progress,
                                                  sss=PassSettings(jitter=0.1, backend=backend))
-    body = "".join(
-        f"<tr><td class=name>{html.escape(r['scene'])}</td><td class=name>{html.escape(r['method'])}</td>"
-        + "".join(f"<td>{psnr_text(r[k]['psnr'])} / {r[k]['flip']:.3f}</td>" if k in r else "<td>-</td>"
-                  for k in ("exact_2d", "path_traced"))
-        + "</tr>"
-        for r in rows
-    )
+    body = _kernel_rows(rows, regions)
     edge_png, edge = slab_edge_profile(out / "figures", photons=photons, progress=progress, backend=backend)
     shape = edge["shape"]
     rmse_rows = "".join(
@@ -310,9 +384,12 @@ def _screenspace_section(out: Path, progress: Progress, ctx: dict) -> str:
         "2D convolution with the same profile and against a volumetric path-traced reference (Mitsuba volpathmis, "
         "homogeneous medium inside a rough dielectric, Beckmann &alpha; = 0.15; every other surface black, so "
         "both sides are lit by the lights alone; independent chunks until the SSS mask's relative standard "
-        "error is 1% or 128 spp are spent).</p>"
-        "<table><tr><th>scene</th><th>kernel / taps</th><th>vs exact 2D<br>PSNR / FLIP</th>"
-        f"<th>vs path traced<br>PSNR / FLIP</th></tr>{body}</table><img src='figures/{png.name}' style='width:100%'>"
+        "error is 1% or 128 spp are spent). Against the path trace each kernel is compared per region (its level "
+        "over the reference's): a per-pixel PSNR against it would measure the reference's own per-pixel noise, "
+        "the same for every kernel; the region levels average that noise away down to the noise floor stated "
+        "in each scene's first row (the reference level's relative standard error). A difference between two "
+        "kernels below about twice that floor is not resolved.</p>"
+        + body + f"<img src='figures/{png.name}' style='width:100%'><p class=note>{_display_note(regions)}</p>"
         "<h3>The model's error per region, against path-traced references</h3><p class=note>Level = mean diffuse "
         "part / mean E/&pi; (R, G, B). Specular subtracted "
         "on every side. On the lit plateau the level is the effective albedo; in the shadow-edge band, at the "

@@ -18,6 +18,7 @@ import numpy as np
 from ..backends import DEFAULT_BACKEND
 from ..metrics import region_metrics, tonemap
 from ..pipeline import RenderResult, RenderSettings, SeparablePass, render
+from ..pipeline.regions import compare_regions
 from ..scenes import front_lit_scenes
 from ..screenspace import GBuffer, PassSettings
 from .plots import CHANNEL_COLORS, pyplot, save_figure
@@ -34,7 +35,13 @@ SCREEN_SPACE_METHODS = (
 )
 
 #: bumped when what the cached figures hold changes
-_FIGURE_VERSION = 4
+_FIGURE_VERSION = 5
+
+#: the largest per-pixel relative standard error (median over the SSS mask) a path-traced image is shown with;
+#: a noisier one is shown as a display copy of block means (:func:`display_copy`), never the numbers' reference
+DISPLAY_REL_SE = 0.1
+#: the block sizes a display copy may average (pixels per side)
+DISPLAY_BLOCKS = (1, 2, 3, 4, 6, 8)
 
 
 def _cached(name: str, key: dict[str, Any], make: Callable[[], _T]) -> _T:
@@ -94,6 +101,32 @@ def screen_space_comparison(out: Path, material: str = "skin1", scenes: Iterable
     return path, rows, regions
 
 
+def display_copy(image: np.ndarray, pixel_se: np.ndarray, mask: np.ndarray,
+                 target: float = DISPLAY_REL_SE) -> tuple[np.ndarray, int, float]:
+    """A path-traced image as shown: (image, block, its median per-pixel relative standard error over ``mask``).
+    Where the image's own noise is above ``target`` the display copy is the mean of ``block`` x ``block``
+    pixel blocks (the smallest of :data:`DISPLAY_BLOCKS` at or below ``target``, else the largest; the standard
+    error of a block mean: sqrt(sum se^2) / block^2 of independent pixels), repeated back to the frame's size.
+    Only for showing: the numbers are measured on the reference itself, never on this copy."""
+    img, se = np.asarray(image, float), np.asarray(pixel_se, float)
+    h, w = img.shape[:2]
+    shown, rel = img, np.inf
+    for b in DISPLAY_BLOCKS:
+        hb, wb = h // b * b, w // b * b
+        if hb == 0 or wb == 0:
+            break
+        mean = img[:hb, :wb].reshape(hb // b, b, wb // b, b, 3).mean(axis=(1, 3))
+        err = np.sqrt((se[:hb, :wb] ** 2).reshape(hb // b, b, wb // b, b, 3).sum(axis=(1, 3))) / b ** 2
+        m = mask[:hb, :wb].reshape(hb // b, b, wb // b, b).any(axis=(1, 3))
+        ratio = (err.mean(axis=-1) / np.maximum(mean.mean(axis=-1), 1e-12))[m & (mean.mean(axis=-1) > 0)]
+        rel = float(np.median(ratio)) if ratio.size else 0.0
+        shown = img.copy()
+        shown[:hb, :wb] = np.repeat(np.repeat(mean, b, axis=0), b, axis=1)
+        if rel <= target:
+            return shown, b, rel
+    return shown, b, rel
+
+
 def _edge_window(gb: GBuffer, table: dict[str, Any] | None) -> tuple[int, int, int, int] | None:
     """(y0, y1, x0, x1): a quarter-size window of the frame centred on its sharpest step of light inside
     the SSS mask (the largest jump of E/pi between two SSS neighbours: a shadow edge where the scene has
@@ -130,8 +163,9 @@ def _render_scenes(material: str, scenes: list[str], width: int, height: int, sp
             first = base is None
             settings = RenderSettings(material=material, model=model, photons=photons, kernel=spec, taps=taps,
                                       tap_method=placement, width=width, height=height, spp=spp, exact=first,
-                                      reference=first, reference_spp=reference_spp,
-                                      reference_max_spp=reference_max_spp, frame=sss.frame, seed=sss.seed,
+                                      reference=first, frame=sss.frame, seed=sss.seed,
+                                      **(dict(reference_spp=reference_spp, reference_max_spp=reference_max_spp)
+                                         if first else {}),
                                       backend=sss.backend,
                                       pass_=SeparablePass(jitter=sss.jitter, depth_mode=sss.depth_mode))
             r = render(scene if base is None else base.gbuffer, settings, progress=say)
@@ -149,6 +183,10 @@ def _render_scenes(material: str, scenes: list[str], width: int, height: int, sp
                 row["exact_2d"] = r.metrics["exact_2d"] if first else region_metrics(
                     r.gbuffer.composite(base.exact), r.image, mask)
             row["path_traced"] = r.metrics["path_traced"] if first else region_metrics(base.reference, r.image, mask)
+            # each kernel's own region levels against the reference's (with its standard errors): unlike the
+            # per-pixel PSNR against the path trace, which its noise sets alike for every kernel
+            row["regions"] = (r.metrics["regions"] if first else
+                              compare_regions(r.gbuffer, r.profile, r.sss, base.exact, base.reference_info))["regions"]
             rows.append(row)
             line.append((label, r.image))
         assert base is not None and base.reference is not None  # SCREEN_SPACE_METHODS is not empty
@@ -156,7 +194,11 @@ def _render_scenes(material: str, scenes: list[str], width: int, height: int, sp
             line.append(("exact 2D convolution", base.gbuffer.composite(base.exact)))
         else:
             line.append(("exact 2D (non-square pixels)", np.zeros_like(base.image)))
-        line.append(("path traced (volpathmis)", base.reference))
+        ref = base.reference_info
+        shown, block, rel = display_copy(np.asarray(base.reference, float), np.asarray(ref.pixel_se, float),
+                                         base.gbuffer.mask)
+        what = "path traced (volpathmis)" if block == 1 else f"path traced, {block}x{block} block means (display)"
+        line.append((f"{what}; pixel rel. SE {rel:.0%}", shown))
         grid.append((scene, line))
     return grid, rows, regions
 
