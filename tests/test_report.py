@@ -206,6 +206,7 @@ def _kernel_columns(text: str) -> dict[str, list[list[str]]]:
     return scenes
 
 
+@__import__("pytest").mark.slow
 def test_no_column_of_the_kernel_table_is_the_same_for_every_kernel(tmp_path, monkeypatch):
     """The screen-space table on a small slab with a short path trace: the per-pixel PSNR against the path trace
     was the same for every kernel of a scene (sphere 30.7 dB for all four: the reference's noise, relative RMSE
@@ -221,7 +222,65 @@ def test_no_column_of_the_kernel_table_is_the_same_for_every_kernel(tmp_path, mo
     per_scene = _kernel_columns(text)
     assert list(per_scene) == ["slab"] and len(per_scene["slab"]) == len(rows) >= 3
     kernels = per_scene["slab"]
-    for column in zip(*kernels):
+    columns = [c for c in zip(*kernels) if set(c) != {"-"}]  # ('-': the scene has no such region)
+    assert len(columns) >= 3  # kernel, vs exact 2D, the shadow edge at least
+    for column in columns:
         assert len(set(column)) > 1, column
     assert "<tr class=scene><td class=name>slab</td><td class=name>noise floor" in text
     assert png.is_file()
+
+
+def test_the_shipped_head_numbers_are_the_docs_numbers():
+    """The demo's head figure reads the package's copy of docs/head_numbers.json's ``separable`` part (an installed
+    ssskit has no docs/): the two agree (after ``python docs/head_numbers.py``, run
+    ``ssskit.figures.screenspace.ship_head_numbers()``), and the copy has a row with region levels and standard
+    errors for each of the head's three views."""
+    import json
+    from pathlib import Path
+
+    from ssskit.figures.screenspace import HEAD_NUMBERS
+
+    docs = json.loads((Path(__file__).parents[1] / "docs" / "head_numbers.json").read_text())["separable"]
+    shipped = json.loads(HEAD_NUMBERS.read_text())
+    assert shipped == docs
+    views = {r["view"] for r in shipped["rows"] if r.get("regions")}
+    assert views == {"front", "ear", "close"}
+    for r in shipped["rows"]:
+        for region in r["regions"].values():
+            assert all(se > 0 for se in region["path_traced_se"])
+
+
+def test_the_demo_opens_with_the_head_and_ranks_every_material():
+    """The report's first section is the head; the kernels are ranked for all 11 measured materials by default."""
+    from ssskit.materials import MATERIALS
+
+    assert report.SECTIONS[0][0] == "head"
+    assert list(report.RANK_MATERIALS) == MATERIALS.names() and len(report.RANK_MATERIALS) == 11
+
+
+@__import__("pytest").mark.slow
+def test_the_head_section_shows_the_recommended_kernel_against_the_path_trace(tmp_path):
+    """The head section renders the head with the kernel ranked first for Skin1 and tabulates, for each of the
+    three views, that kernel's region levels beside the path trace's ± SE, from the shipped numbers; the
+    ratio column is level / path traced and the SE column the shipped one (an independent recomputation)."""
+    import json
+    import re
+
+    from ssskit.figures.screenspace import HEAD_NUMBERS
+    from ssskit.profiles import profile_for_material
+
+    best = report.kernel_ranking(profile_for_material("Skin1", "montecarlo"), size=report.RANK_SIZE)[0][0]
+    text = report._head_section(tmp_path, lambda msg: None, {"backend": "numba"})
+    assert f"recommended kernel ({best})" in text
+    assert (tmp_path / "figures" / "head.png").stat().st_size > 10_000
+    rows = re.findall(r"<tr><td class=name>(\w+)</td><td class=name>([\w ]+)</td><td>(\d+)</td><td>([^<]*)</td>"
+                      r"<td>([^<]*)</td><td>([^<]*)</td>", text)
+    assert {r[0] for r in rows} == {"front", "ear", "close"}
+    shipped = {(r["view"], k.replace("_", " ")): v for r in json.loads(HEAD_NUMBERS.read_text())["rows"]
+               if r["kernel"] == best for k, v in r["regions"].items()}
+    assert len(rows) == len(shipped)
+    for view, region, pixels, level, ref, ratio in rows:
+        want = shipped[(view, region)]
+        assert int(pixels) == want["pixels"]
+        got = [float(v) for v in ratio.split(",")]
+        assert got == [float(f"{a / b:.3g}") for a, b in zip(want["screen_space"], want["path_traced"])]

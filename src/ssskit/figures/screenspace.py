@@ -301,3 +301,83 @@ def region_mask(table: dict[str, Any], gb: GBuffer) -> np.ndarray:
     from ..metrics import region_masks
 
     return region_masks(gb.diffuse, gb.mask, table["radius_px"])["plateau"]
+
+
+#: the head's separable-paper numbers the demo opens with: the ``separable`` part of docs/head_numbers.json
+#: (``python docs/head_numbers.py --sections separable``, 220 s on 2 cores with the path traces cached, each
+#: ~6 min per view), shipped with the package so an installed ssskit shows them (:func:`ship_head_numbers`)
+HEAD_NUMBERS = Path(__file__).resolve().parents[1] / "scenes" / "data" / "head_separable.json"
+
+
+def ship_head_numbers(source: Path | None = None, target: Path = HEAD_NUMBERS) -> dict[str, Any]:
+    """Copy the ``separable`` part of the repository's docs/head_numbers.json (``source``) to the package's
+    :data:`HEAD_NUMBERS` (run after ``docs/head_numbers.py``; a test checks the two agree); returns it."""
+    import json
+
+    from ..io import write_text
+
+    source = source or Path(__file__).resolve().parents[3] / "docs" / "head_numbers.json"
+    part = json.loads(source.read_text(encoding="utf-8"))["separable"]
+    write_text(target, json.dumps(part, indent=1) + "\n")
+    return part
+
+
+def head_opener(out: Path, kernel: str, taps: int = 7, width: int = 192, height: int = 144,
+                backend: str = DEFAULT_BACKEND, progress: Callable[[str], None] | None = None
+                ) -> tuple[Path, dict[str, Any]]:
+    """The demo's first figure: the built-in head (Skin1, the front view) rendered now by the separable pass with
+    ``kernel`` (``taps`` importance-sampled taps of the Monte Carlo profile), beside that kernel's region levels
+    over the converged path trace's, ±2 standard errors, per view and region, from the shipped numbers
+    (:data:`HEAD_NUMBERS`: the path traces take ~6 min per view on 2 cores, too long for the demo). Written to
+    ``head.png``; returns (path, {"rows": the kernel's shipped rows, "shipped": the file's figure, size, taps,
+    attribution}); rows is empty when the shipped numbers have no row for ``kernel``."""
+    import json
+
+    from ..kernels import build_kernel, default_grid, parse_method_spec
+    from ..materials import get_material
+    from ..profiles import profile_for_material
+    from ..sampling.taps import make_taps
+    from ..screenspace import separable_sss
+    from ..settings import HEAD_ATTRIBUTION
+    from .head import head_view
+
+    say = progress or (lambda msg: None)
+    shipped = json.loads(HEAD_NUMBERS.read_text(encoding="utf-8"))
+    rows = [r for r in shipped["rows"] if r["kernel"] == kernel and r.get("regions")]
+    say(f"the head: its front G-buffer, {width}x{height} (Mitsuba), and the separable pass with {kernel}")
+    prof = profile_for_material(get_material("skin1"), "montecarlo")
+    cell, n = default_grid(prof)
+    method, params, label = parse_method_spec(kernel)
+    tp = make_taps(build_kernel(method.name, prof, cell, n, **params), taps)
+    gb = head_view("front", "skin1", width, height, spp=32).gbuffer
+    gb = dataclasses.replace(gb, albedo=np.where(gb.mask[..., None], np.clip(prof.total_rd(), 0, 1),
+                                                 gb.albedo).astype(np.float32))
+    image = gb.composite(separable_sss(gb, {1: tp}, PassSettings(backend=backend)))
+    plt = pyplot()
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.6), gridspec_kw={"width_ratios": [1, 1.25]})
+    left.imshow(tonemap(image, float(np.percentile(image[gb.mask], 99.5)) or 1.0))
+    left.set_title(f"Skin1 on the head, the separable pass with {label}, {tp.taps} taps (rendered now)", fontsize=9)
+    left.axis("off")
+    labels, k = [], 0
+    for row in rows:
+        for region, r in row["regions"].items():
+            level, ref, se = (np.asarray(r[key], float) for key in ("screen_space", "path_traced", "path_traced_se"))
+            for c in range(3):
+                ratio = level[c] / ref[c]
+                right.errorbar(k + (c - 1) * 0.22, ratio, yerr=2 * ratio * se[c] / ref[c], fmt="o",
+                               color=CHANNEL_COLORS[c], ms=5, capsize=3)
+            labels.append(f"{row['view']}\n{region.replace('_', ' ')}\n{r['pixels']} px")
+            k += 1
+    right.axhline(1.0, color="0.3", lw=1)
+    right.set_xticks(range(len(labels)), labels, fontsize=7)
+    right.set_ylabel("kernel's level / path traced (R, G, B; ± 2 SE)")
+    right.set_title("1 = the path-traced truth: a point whose bar crosses 1 agrees within its noise\n"
+                    f"(shipped numbers: {shipped['size'][0]}x{shipped['size'][1]} path traces, docs/head_numbers.json)",
+                    fontsize=9)
+    right.grid(alpha=0.3, axis="y")
+    fig.suptitle(HEAD_ATTRIBUTION, fontsize=8, y=0.02)
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    path = Path(out) / "head.png"
+    save_figure(fig, path)
+    return path, {"rows": rows, "figure": shipped["figure"], "size": shipped["size"], "taps": shipped["taps"],
+                  "attribution": shipped.get("attribution", HEAD_ATTRIBUTION)}
