@@ -211,8 +211,7 @@ def test_no_column_of_the_kernel_table_is_the_same_for_every_kernel(tmp_path, mo
     """The screen-space table on a small slab with a short path trace: the per-pixel PSNR against the path trace
     was the same for every kernel of a scene (sphere 30.7 dB for all four: the reference's noise, relative RMSE
     ~0.68); every column of the kernels' rows now differs between at least two kernels of the scene, the noise
-    floor (the reference level's relative SE, the same for all) stated once in the scene's own row; and the
-    path-traced panel is a display copy whose title names its block and its remaining noise."""
+    floor (the reference level's relative SE, the same for all) stated once in the scene's own row."""
     from ssskit.figures.screenspace import screen_space_comparison
 
     monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
@@ -284,3 +283,26 @@ def test_the_head_section_shows_the_recommended_kernel_against_the_path_trace(tm
         assert int(pixels) == want["pixels"]
         got = [float(v) for v in ratio.split(",")]
         assert got == [float(f"{a / b:.3g}") for a, b in zip(want["screen_space"], want["path_traced"])]
+
+
+def test_a_noisy_path_trace_is_shown_as_block_means_and_left_untouched():
+    """A flat image of level 1 with independent per-pixel noise of SE 0.5 (relative noise 50%): its display copy is
+    the mean of the smallest blocks that bring the noise to 10% (6x6: 0.5 / 6 = 8.3%; 4x4 gives 12.5%), the
+    blocks' actual scatter about 1 is that SE (within 15%), and the image given, the numbers' reference, is not
+    changed; a converged image is shown as it is."""
+    import numpy as np
+
+    from ssskit.figures.screenspace import display_copy
+
+    rng = np.random.default_rng(7)
+    img = 1.0 + 0.5 * rng.standard_normal((120, 160, 3))
+    before = img.copy()
+    se = np.full_like(img, 0.5)
+    mask = np.ones((120, 160), bool)
+    shown, block, rel = display_copy(img, se, mask)
+    assert block == 6 and abs(rel / (0.5 / 6) - 1) < 0.01  # (over the noisy image's own mean level)
+    assert np.array_equal(img, before)
+    blocks = shown[:120 // 6 * 6:6, :160 // 6 * 6:6]  # (the last 4 columns, no whole block, shown as they are)
+    assert abs(float(np.std(blocks)) / (0.5 / 6) - 1) < 0.15
+    quiet, block, rel = display_copy(np.ones((120, 160, 3)), np.full((120, 160, 3), 0.01), mask)
+    assert block == 1 and np.array_equal(quiet, np.ones((120, 160, 3))) and abs(rel - 0.01) < 1e-12

@@ -351,7 +351,7 @@ def _kernel_rows(rows: list[dict[str, Any]], regions: dict[str, Any]) -> str:
     # the lit plateau left out: there every kernel that conserves energy gives the profile's albedo, the same for
     # all by construction (the model's error there is the region table's, below)
     regions_shown = [name for name in REGIONS if name != "plateau"]
-    head = ("<table><tr><th>scene</th><th>kernel / taps</th><th>vs exact 2D<br>PSNR / FLIP</th>"
+    head = ("<table><tr><th>scene</th><th>kernel / taps</th><th>vs exact 2D<br>PSNR / FLIP (no noise)</th>"
             + "".join(f"<th>{name.replace('_', ' ')}: level / path traced<br>(R, G, B)</th>" for name in regions_shown)
             + "</tr>")
     body = []
@@ -367,8 +367,9 @@ def _kernel_rows(rows: list[dict[str, Any]], regions: dict[str, Any]) -> str:
             rel = np.asarray(pt["se"]) / np.maximum(np.abs(pt["level"]), 1e-300)
             floors.append("<td>± " + ", ".join(f"{v:.1%}" for v in rel) + "</td>")
         spp = f"{ref['spp']} spp" if ref else "no reference"
+        resolved = _kernels_resolved(mine, regions_shown)
         body.append(f"<tr class=scene><td class=name>{html.escape(scene)}</td><td class=name>noise floor "
-                    f"(reference's rel. SE, {spp})</td><td>-</td>" + "".join(floors) + "</tr>")
+                    f"(reference's rel. SE, {spp})</td><td>{resolved}</td>" + "".join(floors) + "</tr>")
         for r in mine:
             cells = []
             for name in regions_shown:
@@ -382,12 +383,26 @@ def _kernel_rows(rows: list[dict[str, Any]], regions: dict[str, Any]) -> str:
     return head + "".join(body) + "</table>"
 
 
+def _kernels_resolved(rows: list[dict[str, Any]], regions: list[str]) -> str:
+    """Whether the path trace tells a scene's kernels apart: the regions (of ``regions``) where two kernels' levels
+    differ by more than twice the reference's standard error of their ratio, or that none does."""
+    apart = []
+    for name in regions:
+        ratios = [((r.get("regions") or {}).get(name) or {}).get("screen_space_vs_path_traced") for r in rows]
+        if any(x is None or x["se"] is None for x in ratios) or not ratios:
+            continue
+        spread = np.ptp([x["ratio"] for x in ratios], axis=0)
+        if np.any(spread > 2 * np.asarray(ratios[0]["se"])):
+            apart.append(name.replace("_", " "))
+    return ("kernels apart beyond 2 SE: " + ", ".join(apart)) if apart else "no two kernels apart beyond 2 SE"
+
+
 def _display_note(regions: dict[str, Any]) -> str:
     """How the path-traced images are shown (:func:`ssskit.figures.screenspace.display_copy`)."""
     from .figures.screenspace import DISPLAY_BLOCKS, DISPLAY_REL_SE
 
-    return ("The path-traced panels are display copies: where the reference's median per-pixel relative standard "
-            f"error over the SSS mask is above {DISPLAY_REL_SE:.0%}, the panel shows the means of the smallest "
+    return ("The path-traced panels are display copies: where the reference's relative noise over the SSS mask (the "
+            f"RMS of its pixels' standard errors over their mean) is above {DISPLAY_REL_SE:.0%}, the panel shows the means of the smallest "
             f"pixel blocks ({', '.join(f'{b}x{b}' for b in DISPLAY_BLOCKS[1:])}) that bring it to that, each "
             "panel's title naming its block and its remaining noise; every number above is measured on the "
             "unfiltered reference.")
@@ -425,7 +440,9 @@ def _screenspace_section(out: Path, progress: Progress, ctx: dict) -> str:
         "over the reference's): a per-pixel PSNR against it would measure the reference's own per-pixel noise, "
         "the same for every kernel; the region levels average that noise away down to the noise floor stated "
         "in each scene's first row (the reference level's relative standard error). A difference between two "
-        "kernels below about twice that floor is not resolved. The lit plateau is left out: there every kernel "
+        "kernels below about twice that floor is not resolved (each scene's first row says whether any is). Which "
+        "kernel is closer to the model is the noise-free error against the exact 2D convolution (third column). "
+        "The lit plateau is left out: there every kernel "
         "that conserves energy gives the profile's albedo (its error against the path trace is the model's: "
         "the region table below); '-': the scene has no such region.</p>"
         + body + f"<img src='figures/{png.name}' style='width:100%'><p class=note>{_display_note(regions)}</p>"

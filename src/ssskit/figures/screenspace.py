@@ -35,9 +35,9 @@ SCREEN_SPACE_METHODS = (
 )
 
 #: bumped when what the cached figures hold changes
-_FIGURE_VERSION = 5
+_FIGURE_VERSION = 6
 
-#: the largest per-pixel relative standard error (median over the SSS mask) a path-traced image is shown with;
+#: the largest relative noise (RMS standard error over the mean, over the SSS mask) a path-traced image is shown with;
 #: a noisier one is shown as a display copy of block means (:func:`display_copy`), never the numbers' reference
 DISPLAY_REL_SE = 0.1
 #: the block sizes a display copy may average (pixels per side)
@@ -103,14 +103,15 @@ def screen_space_comparison(out: Path, material: str = "skin1", scenes: Iterable
 
 def display_copy(image: np.ndarray, pixel_se: np.ndarray, mask: np.ndarray,
                  target: float = DISPLAY_REL_SE) -> tuple[np.ndarray, int, float]:
-    """A path-traced image as shown: (image, block, its median per-pixel relative standard error over ``mask``).
-    Where the image's own noise is above ``target`` the display copy is the mean of ``block`` x ``block``
-    pixel blocks (the smallest of :data:`DISPLAY_BLOCKS` at or below ``target``, else the largest; the standard
-    error of a block mean: sqrt(sum se^2) / block^2 of independent pixels), repeated back to the frame's size.
-    Only for showing: the numbers are measured on the reference itself, never on this copy."""
+    """A path-traced image as shown: (image, block, its relative noise over ``mask``: the RMS of the shown pixels'
+    standard errors over their mean, so that fireflies count). Where the image's own noise is above ``target``
+    the display copy is the mean of ``block`` x ``block`` pixel blocks (the smallest of :data:`DISPLAY_BLOCKS`
+    at or below ``target``, else the largest; a block mean's standard error: sqrt(sum se^2) / block^2 of
+    independent pixels), repeated back to the frame's size. Only for showing: the numbers are measured on the
+    reference itself, never on this copy."""
     img, se = np.asarray(image, float), np.asarray(pixel_se, float)
     h, w = img.shape[:2]
-    shown, rel = img, np.inf
+    shown, rel, b = img, float("inf"), 1
     for b in DISPLAY_BLOCKS:
         hb, wb = h // b * b, w // b * b
         if hb == 0 or wb == 0:
@@ -118,12 +119,12 @@ def display_copy(image: np.ndarray, pixel_se: np.ndarray, mask: np.ndarray,
         mean = img[:hb, :wb].reshape(hb // b, b, wb // b, b, 3).mean(axis=(1, 3))
         err = np.sqrt((se[:hb, :wb] ** 2).reshape(hb // b, b, wb // b, b, 3).sum(axis=(1, 3))) / b ** 2
         m = mask[:hb, :wb].reshape(hb // b, b, wb // b, b).any(axis=(1, 3))
-        ratio = (err.mean(axis=-1) / np.maximum(mean.mean(axis=-1), 1e-12))[m & (mean.mean(axis=-1) > 0)]
-        rel = float(np.median(ratio)) if ratio.size else 0.0
+        level = float(mean[m].mean()) if m.any() else 0.0
+        rel = float(np.sqrt(np.mean(err[m] ** 2)) / level) if level > 0 else 0.0
         shown = img.copy()
         shown[:hb, :wb] = np.repeat(np.repeat(mean, b, axis=0), b, axis=1)
         if rel <= target:
-            return shown, b, rel
+            break
     return shown, b, rel
 
 
@@ -198,7 +199,7 @@ def _render_scenes(material: str, scenes: list[str], width: int, height: int, sp
         shown, block, rel = display_copy(np.asarray(base.reference, float), np.asarray(ref.pixel_se, float),
                                          base.gbuffer.mask)
         what = "path traced (volpathmis)" if block == 1 else f"path traced, {block}x{block} block means (display)"
-        line.append((f"{what}; pixel rel. SE {rel:.0%}", shown))
+        line.append((f"{what}; rel. noise {rel:.0%}", shown))
         grid.append((scene, line))
     return grid, rows, regions
 
