@@ -601,7 +601,8 @@ SECTION_PASSES: dict[str, tuple[str, ...]] = {
 #: the order several processes take the sections in: the kernel ranking first (it runs no pass: beside the first
 #: compilation), then the longest (CPU seconds on this project's 2 cores, a fresh machine's demo of 2026-12-05:
 #: screen space ~54 with its four front-lit scenes, kernels ~27, adaptive ~16, profiles ~9, Burley ~8; transmission
-#: ~2 since the shipped tables: small, its place matters little); a section not named here comes last
+#: ~2 since the shipped tables: small, its place matters little; 2026-12-06 at load ~17: kernels 29 with all 11
+#: materials at 128x128, screen space 53 with the head, head 4); a section not named here comes last
 SECTION_ORDER = ("kernels", "screenspace", "model", "adaptive", "head", "transmission", "profiles", "burley",
                  "sampling", "materials")
 
