@@ -83,13 +83,13 @@ def tables(n: dict[str, Any]) -> str:
                   f"`{r0['command'].strip()}`: {r0['seconds']:.0f} s in all on {r0['machine']['cpus']} cores, load average "
                   f"{r0['machine']['load_avg'][0]:.1f} (the machine shared with other jobs). Level (green) +- standard "
                   "error (from the per-pixel errors of independent chunks) and relative SE per region.", "",
-                  "| view | spp | seconds | target met | region | pixels | level (R, G, B) | relative SE (G) |",
+                  "| view, material | spp | seconds | target met | region | pixels | level (R, G, B) | relative SE (G) |",
                   "|---|---|---|---|---|---|---|---|"]
         for r in r0["rows"]:
             for reg, row in r["regions"].items():
                 if not row["pixels"]:
                     continue
-                lines.append(f"| {r['view']} | {r['spp']} | {r['seconds']:.0f} | {'yes' if r['converged'] else 'no'} "
+                lines.append(f"| {r['view']}, {r['material']} | {r['spp']} | {r['seconds']:.0f} | {'yes' if r['converged'] else 'no'} "
                              f"({r['driving_region']}) | {reg} | {row['pixels']} | "
                              + ", ".join(f"{x:.4f}" for x in row["level"]) + f" | {_pct(row['rel_se'][1])} |")
         lines.append("")

@@ -17,7 +17,8 @@ from ssskit.scenes.head import (ATTRIBUTION, DATA_PATH, FACES, MM_PER_UNIT, VERT
 from ssskit.scenes.meshes import topology
 
 ROOT = Path(__file__).resolve().parents[2]
-PLY = Path("/work/shared/data/head/head.ply")
+#: the source scan: shared/ beside the checkout (as on the developers' machines and in CI)
+PLY = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "head" / "head.ply"
 needs_ply = pytest.mark.skipif(not PLY.is_file(), reason=f"the source PLY {PLY} is not on this machine")
 
 
