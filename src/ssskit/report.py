@@ -401,11 +401,13 @@ def _display_note(regions: dict[str, Any]) -> str:
     """How the path-traced images are shown (:func:`ssskit.figures.screenspace.display_copy`)."""
     from .figures.screenspace import DISPLAY_BLOCKS, DISPLAY_REL_SE
 
-    return ("The path-traced panels are display copies: where the reference's relative noise over the SSS mask (the "
-            f"RMS of its pixels' standard errors over their mean) is above {DISPLAY_REL_SE:.0%}, the panel shows the means of the smallest "
-            f"pixel blocks ({', '.join(f'{b}x{b}' for b in DISPLAY_BLOCKS[1:])}) that bring it to that, each "
-            "panel's title naming its block and its remaining noise; every number above is measured on the "
-            "unfiltered reference.")
+    return ("The path-traced panels are display copies: where the reference's relative noise over the SSS mask "
+            f"(the RMS of its pixels' standard errors over their mean) is above {DISPLAY_REL_SE:.0%}, the panel shows "
+            f"the means of the smallest pixel blocks ({', '.join(f'{b}x{b}' for b in DISPLAY_BLOCKS[1:])}) that "
+            "bring it to that, else the largest, each panel's title naming its block and its remaining noise (where "
+            f"that stays far above {DISPLAY_REL_SE:.0%}, the reference's samples, its row above, cannot show the "
+            "scene's detail at any block size that still shows the scene; the region levels, averaged over hundreds "
+            "of pixels, are what it measures); every number above is measured on the unfiltered reference.")
 
 
 def _screenspace_section(out: Path, progress: Progress, ctx: dict) -> str:
