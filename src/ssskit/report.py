@@ -388,8 +388,9 @@ def _kernels_resolved(rows: list[dict[str, Any]], regions: list[str]) -> str:
     differ by more than twice the reference's standard error of their ratio, or that none does."""
     apart = []
     for name in regions:
-        ratios = [((r.get("regions") or {}).get(name) or {}).get("screen_space_vs_path_traced") for r in rows]
-        if any(x is None or x["se"] is None for x in ratios) or not ratios:
+        found = [((r.get("regions") or {}).get(name) or {}).get("screen_space_vs_path_traced") for r in rows]
+        ratios = [x for x in found if x is not None and x["se"] is not None]
+        if not ratios or len(ratios) < len(found):
             continue
         spread = np.ptp([x["ratio"] for x in ratios], axis=0)
         if np.any(spread > 2 * np.asarray(ratios[0]["se"])):

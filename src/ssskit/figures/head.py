@@ -40,7 +40,7 @@ VIEWS = ("front", "ear", "close")
 #: Xie 2020 Fig. 7: RMS error of Eq. 21 against MIS (exact) sampling on the head, PBRT, 2k spp
 XIE_FIG7_RMS = 0.0187
 #: Xie 2020 Fig. 9's settings of the adaptive pass
-XIE_ADAPTIVE = {"sigma0_sq": 1e-3, "kappa": 0.2, "b_min": 8, "b_max": 64}
+XIE_ADAPTIVE: dict[str, Any] = {"sigma0_sq": 1e-3, "kappa": 0.2, "b_min": 8, "b_max": 64}
 
 
 def head_spec(view: str = "front", mm_per_unit: float | None = None) -> Any:
@@ -119,7 +119,7 @@ def head_reference(view: str, material: str = "skin1", width: int = 96, height: 
     sc = head_view(view, material, width, height, mm_per_unit=mm_per_unit)
     name, region = driving_region(sc)
     t0 = time.perf_counter()
-    ref = render_reference(sc.spec, get_material(material), width, height, spp=256, max_spp=max_spp,
+    ref = render_reference(sc.spec, _homogeneous(get_material(material)), width, height, spp=256, max_spp=max_spp,
                            target_rel_se=rel_se, region=region, chunk_spp=16, progress=False)
     row = {"view": view, "material": material, "size": [width, height], "spp": ref.spp, "converged": ref.converged,
            "driving_region": name, "seconds": time.perf_counter() - t0, "regions": reference_levels(sc, ref),
@@ -138,6 +138,29 @@ def head_references(views: Sequence[str] = VIEWS, materials: Sequence[str] = ("s
                 progress(f"path tracing the head, {v} view, {mat}")
             rows.append(head_reference(v, mat, width, height, rel_se, max_spp)[2])
     return rows
+
+
+def _homogeneous(material: Any) -> Any:
+    """The head is one homogeneous medium (docs/head.md): a layered material is refused in one line."""
+    from ..errors import MaterialError
+    from ..materials import Material
+
+    if not isinstance(material, Material):
+        raise MaterialError(f"the head's path-traced references take one homogeneous medium, not the layered "
+                            f"material {getattr(material, 'name', material)!r}")
+    return material
+
+
+def _constant_layer(layer: np.ndarray) -> Callable[[Any], np.ndarray]:
+    """A transmission callback that gives every frame the same light layer (a still camera)."""
+    return lambda gbuffer: layer
+
+
+def _level(row: dict[str, object]) -> list[float]:
+    """The level (R, G, B) of a :func:`ssskit.metrics.region_level` row."""
+    level = row["level"]
+    assert isinstance(level, (list, tuple, np.ndarray))
+    return [float(v) for v in level]
 
 
 def _composite(sc: StudyScene, sss: np.ndarray) -> np.ndarray:
@@ -213,7 +236,7 @@ def fig9_numbers(view: str = "front", material: str = "skin1", width: int = 96, 
         run = run_frames([gb] * frames, sc.params, BurleySettings(sampler="xie", mips=True, backend=backend),
                          adaptive=AdaptiveSettings(**XIE_ADAPTIVE), taa=TAASettings(), keep_counts=True,
                          references=[lim] * frames,
-                         transmission=None if trans is None else (lambda g, t=trans: t))
+                         transmission=None if trans is None else _constant_layer(trans))
         sss = run.last_sss
         assert sss is not None and run.counts is not None
         cmp = compare_regions(gb, sc.profile, sss, lim, ref)
@@ -254,8 +277,8 @@ def scale_sensitivity(factors: Sequence[float] = (0.9, 1.0, 1.1), views: Sequenc
                     continue
                 row["regions"][name] = {
                     "pixels": int(mk.sum()),
-                    "burley": region_level(_composite(sc, burley), e, mk)["level"][1],
-                    "separable": region_level(_composite(sc, sep), e, mk)["level"][1]}
+                    "burley": _level(region_level(_composite(sc, burley), e, mk))[1],
+                    "separable": _level(region_level(_composite(sc, sep), e, mk))[1]}
             rows.append(row)
     return {"factors": list(factors), "material": material, "size": [width, height], "rows": rows}
 

@@ -158,6 +158,7 @@ def _render_scenes(material: str, scenes: list[str], width: int, height: int, sp
     regions: dict[str, Any] = {}
     for scene in scenes:
         line: list[tuple[str, np.ndarray]] = []
+        ref_budget: dict[str, Any] = dict(reference_spp=reference_spp, reference_max_spp=reference_max_spp)
         base: RenderResult | None = None
         for label, spec, taps, placement in SCREEN_SPACE_METHODS:
             say(f"screen space: {scene}, {label}")
@@ -165,8 +166,7 @@ def _render_scenes(material: str, scenes: list[str], width: int, height: int, sp
             settings = RenderSettings(material=material, model=model, photons=photons, kernel=spec, taps=taps,
                                       tap_method=placement, width=width, height=height, spp=spp, exact=first,
                                       reference=first, frame=sss.frame, seed=sss.seed,
-                                      **(dict(reference_spp=reference_spp, reference_max_spp=reference_max_spp)
-                                         if first else {}),
+                                      **(ref_budget if first else {}),
                                       backend=sss.backend,
                                       pass_=SeparablePass(jitter=sss.jitter, depth_mode=sss.depth_mode))
             r = render(scene if base is None else base.gbuffer, settings, progress=say)

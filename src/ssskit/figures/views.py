@@ -88,6 +88,7 @@ def study_gbuffer(view: str | tuple[float, float, float], material: str = "skin1
 
     from ..scenes import SCENES, SceneSpec
 
+    spec: SceneSpec | None
     if isinstance(scene, SceneSpec):  # a scene already seen from its view (ssskit.figures.head)
         spec = scene
     else:
