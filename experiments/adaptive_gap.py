@@ -203,11 +203,13 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
     result = {"experiment": "adaptive (Xie's sigma0^2 = 1e-3, kappa 0.2, [8, 64]) vs fixed 64 spp with TAA: windows, "
                             "start, history weighting, jitter",
-              "adaptive": setting, "size": [w, h], "frames": args.frames, "seeds": args.seeds, "sampler": "exact, r2, no mips",
+              "adaptive": setting, "size": [w, h], "frames": args.frames, "seeds": args.seeds,
+              "sampler": "exact, r2, no mips unless said",
               "reference": "burley_exact (the pass's exact limit) of the unjittered plane",
               "distances": {d: study(d, args.seeds, (w, h), args.frames, setting, args.variants, log)
                             for d in args.distances},
-              "seconds": round(time.perf_counter() - t0, 1), "load_average": {"before": load0, "after": os.getloadavg()}}
+              "seconds": round(time.perf_counter() - t0, 1),
+              "load_average": {"before": load0, "after": os.getloadavg()}}
     print(json.dumps(result, indent=1))
     return result
 

@@ -140,8 +140,9 @@ def test_matches_the_numpy_oracle(sampler, sequence, mips, burley_backend):
 @pytest.mark.parametrize("mip_scale", [1e-6, 1.0 / 16.0, 1e4])
 def test_mips_at_every_level_match_the_oracle(mip_scale, burley_backend):
     """Eq. 22's a moves the samples between level 0 (numba: the float32 lanes' bilinear fetch) and the levels
-    above (numba: the float64 fallback with the float32 pyramid): a = 1e-6 (the smallest allowed) puts nearly every sample above
-    level 0 (up to MAX_MIP), 1e4 every one on level 0, Xie's 1/16 mixes them; each within the tolerance."""
+    above (numba: the float64 fallback with the float32 pyramid): a = 1e-6 (the smallest allowed) puts every
+    sample of this frame at level 4 or above, 1e4 almost every one on level 0, Xie's 1/16 mixes them; each within the
+    tolerance."""
     gb, params = _three_ids()
     counts = np.random.default_rng(5).integers(0, 40, gb.shape)
     kw = dict(sampler="exact", frame=1, seed=2, bleed=0.3, mips=True, mip_scale=mip_scale)

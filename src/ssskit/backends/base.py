@@ -226,7 +226,9 @@ class AdaptiveRunner:
             raise PassError("load a frame (and set its counts, without the estimate) before sampling it")
         diffuse, depth, slots = self._frame
         counts = self._counts
-        pyr = self._timed("prefilter", lambda: self.sampler.burley_prefilter(plan, diffuse, slots)) if plan.mips else None
+        pyr = None
+        if plan.mips:
+            pyr = self._timed("prefilter", lambda: self.sampler.burley_prefilter(plan, diffuse, slots))
         self._out = self._timed("sampling", lambda: self.sampler.burley(plan, diffuse, depth, slots, counts,
                                                                          pyramid=pyr))
 
