@@ -23,13 +23,18 @@ patch 40.26 vs 40.39 dB; Buddha 40.2 vs 40.51 dB at sigma0^2 = 1e-4). ssskit's f
   with TAA from 32.9-36.0 dB single-frame; once with the pattern point-sampled (aliased: a low floor) and
   once anti-aliased (4 x 4 samples per pixel: a higher floor, nearer Xie's).
 
+``--scene NAME`` runs the still variants (window, start, history weighting, mips) on a built-in scene's
+still frame instead (Skin1, 160x120, PSNR of the composite inside the SSS mask against the exact sampler at
+2048 spp without mips): the jittered variants need the scene rendered through a jittered camera, which this
+script does not do.
+
 Every run: ssskit's frame loop (:func:`ssskit.screenspace.frames.run_frames`), numba, the exact sampler,
 R2, no mips unless said (so the pass's limit :func:`ssskit.pipeline.burley_frame.burley_exact` is the reference, exact);
 PSNR over the whole 160x90 plane (albedo 1, no specular). Seeds: the Burley pass's seed. Prints one JSON
 object (per distance and variant: the gap per seed, mean and sample standard deviation).
 
     NUMBA_THREADING_LAYER=workqueue PYTHONPATH=src python experiments/adaptive_gap.py --seeds 0 1 2
-        [--sigma0-sq 1e-4 --kappa 0] [--variants still jittered]
+        [--sigma0-sq 1e-4 --kappa 0] [--variants still jittered] [--scene slab --first 0]
 """
 
 from __future__ import annotations
@@ -94,10 +99,9 @@ def final(values: list[float], window: tuple[int, int]) -> float:
     return float(np.mean(values[window[0] - 1:window[1]]))
 
 
-def run(gbuffers, reference, params, *, adaptive: dict | None, seed: int, taa_alpha: float,
+def run(gbuffers, score, params, *, adaptive: dict | None, seed: int, taa_alpha: float,
         disocclusion_spp: int | None = None, mips: bool = False) -> list[float]:
-    """The per-frame PSNR of the TAA output against ``reference`` (fixed 64 spp, or ``adaptive`` settings)."""
-    from ssskit.metrics import psnr
+    """``score`` (the PSNR of an image) of every frame's TAA output (fixed 64 spp, or ``adaptive`` settings)."""
     from ssskit.screenspace import BurleySettings
     from ssskit.screenspace.adaptive import AdaptiveSettings
     from ssskit.screenspace.frames import run_frames
@@ -108,17 +112,38 @@ def run(gbuffers, reference, params, *, adaptive: dict | None, seed: int, taa_al
     run_frames(gbuffers, params, bs, adaptive=AdaptiveSettings(**adaptive) if adaptive else None,
                spp=None if adaptive else 64, taa=TAASettings(alpha=taa_alpha),
                disocclusion_spp=disocclusion_spp if adaptive else None,
-               on_frame=lambda f: out.append(psnr(reference, f.image_taa)))
+               on_frame=lambda f: out.append(score(f.image_taa)))
     return out
 
 
-def taa_floor(gbuffers, limits, reference, taa_alpha: float) -> list[float]:
+def taa_floor(gbuffers, limits, score, taa_alpha: float) -> list[float]:
     """The TAA run on the frames' exact limits (no Monte Carlo noise): its own error, per frame."""
-    from ssskit.metrics import psnr
     from ssskit.screenspace.taa import TAASettings, TemporalAA
 
     t = TemporalAA(TAASettings(alpha=taa_alpha))
-    return [psnr(reference, t.resolve(gb.composite(lim))) for gb, lim in zip(gbuffers, limits)]
+    return [score(t.resolve(gb.composite(lim))) for gb, lim in zip(gbuffers, limits)]
+
+
+def scene_source(scene: str, first: int, size: tuple[int, int], log):
+    """A built-in scene's still frame ``first`` (Skin1, :func:`ssskit.pipeline.sequence.sequence_gbuffers`), its
+    Burley parameters and the PSNR inside its SSS mask of a composite against the converged reference (the
+    exact sampler at 2048 spp without mips, two cached halves: :func:`~ssskit.pipeline.sequence.sequence_references`)."""
+    from ssskit.materials import MATERIALS
+    from ssskit.pipeline.sequence import sequence_gbuffers, sequence_references
+    from ssskit.screenspace.burley import burley_params_for_material
+
+    params = burley_params_for_material(MATERIALS.get("skin1"))
+    gb = sequence_gbuffers(scene, "skin1", 1, first, width=size[0], height=size[1], static=True,
+                           progress=log)[0]
+    ref = gb.composite(sequence_references([gb], params, spp=2048, progress=log)[0].sss)
+    mask = gb.mask
+    peak = float(ref[mask].max())
+
+    def score(image) -> float:  # 20 log10(peak / RMSE) inside the mask, as ssskit render reports frames
+        err = (np.asarray(image, np.float64) - ref)[mask]
+        return 20.0 * math.log10(peak / math.sqrt(float(np.mean(err * err))))
+
+    return gb, params, score
 
 
 def spread(values: list[float]) -> dict[str, Any]:
@@ -128,22 +153,34 @@ def spread(values: list[float]) -> dict[str, Any]:
 
 
 def study(distance: str, seeds: list[int], size: tuple[int, int], frames: int, setting: dict, names: list[str] | None,
-          log) -> dict[str, Any]:
+          log, scene: str | None = None, first: int = 0) -> dict[str, Any]:
+    """The variants on the shadow plane at ``distance``, or (``scene``) on a built-in scene's still frame
+    ``first`` (no jittered variants: those need the scene rendered through a jittered camera)."""
     from ssskit.figures.adaptive import plane_params, shadow_plane
+    from ssskit.metrics import psnr
     from ssskit.pipeline.burley_frame import burley_exact
 
-    params = plane_params()
-    gb = shadow_plane(*size, distance)
-    ref = burley_exact(gb, params)
+    if scene is not None:
+        gb, params, score = scene_source(scene, first, size, log)
+        names = [n for n in (names or ["still"]) if "jitter" not in n and "anti-aliased" not in n] or ["still"]
+    else:
+        params = plane_params()
+        gb = shadow_plane(*size, distance)
+        ref = burley_exact(gb, params)
+        score = lambda image: psnr(ref, image)  # noqa: E731
     still = [gb] * frames
-    limits = {id(gb): ref}
-    # the jitter repeats every 8 frames: the same 8 G-buffer objects in turn (each new to the loop)
-    jit8 = [jittered_plane(*size, distance, *taa_jitter(f)) for f in range(8)]
-    area8 = [jittered_plane(*size, distance, *taa_jitter(f), area=4) for f in range(8)]
-    for g in jit8 + area8:
-        limits[id(g)] = burley_exact(g, params)
-    jit_gbs = [jit8[f % 8] for f in range(frames)]
-    area_gbs = [area8[f % 8] for f in range(frames)]
+    if scene is not None:
+        jit8 = area8 = []
+        limits = {}
+    else:
+        limits = {id(gb): ref}
+        # the jitter repeats every 8 frames: the same 8 G-buffer objects in turn (each new to the loop)
+        jit8 = [jittered_plane(*size, distance, *taa_jitter(f)) for f in range(8)]
+        area8 = [jittered_plane(*size, distance, *taa_jitter(f), area=4) for f in range(8)]
+        for g in jit8 + area8:
+            limits[id(g)] = burley_exact(g, params)
+    jit_gbs = [jit8[f % 8] for f in range(frames)] if jit8 else []
+    area_gbs = [area8[f % 8] for f in range(frames)] if area8 else []
     variants = {
         "still, TAA alpha 0.1 (the figures)": dict(gbs=still, alpha=0.1),
         "still, TAA alpha 0.1, 64 spp on the first frame": dict(gbs=still, alpha=0.1, disocclusion_spp=64),
@@ -160,11 +197,12 @@ def study(distance: str, seeds: list[int], size: tuple[int, int], frames: int, s
         fixed_runs, adaptive_runs = [], []
         for seed in seeds:
             log(f"{distance}: {name}, seed {seed}")
-            fixed_runs.append(run(v["gbs"], ref, params, adaptive=None, seed=seed, taa_alpha=v["alpha"],
+            fixed_runs.append(run(v["gbs"], score, params, adaptive=None, seed=seed, taa_alpha=v["alpha"],
                                   mips=v.get("mips", False)))
-            adaptive_runs.append(run(v["gbs"], ref, params, adaptive=setting, seed=seed, taa_alpha=v["alpha"],
+            adaptive_runs.append(run(v["gbs"], score, params, adaptive=setting, seed=seed, taa_alpha=v["alpha"],
                                      disocclusion_spp=v.get("disocclusion_spp"), mips=v.get("mips", False)))
-        floor = taa_floor(v["gbs"], [limits[id(g)] for g in v["gbs"]], ref, v["alpha"])
+        floor = (taa_floor(v["gbs"], [limits[id(g)] for g in v["gbs"]], score, v["alpha"]) if scene is None
+                 else [math.nan] * frames)
         row: dict[str, Any] = {}
         for wname, win in WINDOWS.items():
             if win[1] > frames:
@@ -175,7 +213,7 @@ def study(distance: str, seeds: list[int], size: tuple[int, int], frames: int, s
                           "gap_db": spread([x - y for x, y in zip(f, a)]),
                           "taa_floor_db": round(final(floor, win), 3) if math.isfinite(final(floor, win)) else None}
         out[name] = row
-        log(json.dumps({"distance": distance, "variant": name,
+        log(json.dumps({"distance": scene or distance, "variant": name,
                         **{k: {"gap_db": r["gap_db"]["mean"], "sd": r["gap_db"]["sd"],
                                "fixed64_db": r["fixed64_db"]["mean"], "adaptive_db": r["adaptive_db"]["mean"],
                                "taa_floor_db": r["taa_floor_db"]} for k, r in row.items()}}))
@@ -190,11 +228,16 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--frames", type=int, default=FRAMES)
     ap.add_argument("--sigma0-sq", type=float, default=XIE["sigma0_sq"])
     ap.add_argument("--kappa", type=float, default=XIE["kappa"])
+    ap.add_argument("--scene", default=None, help="a built-in scene's still frame instead of the plane (Skin1, "
+                    "160x120 by default; the still variants only)")
+    ap.add_argument("--first", type=int, default=0, help="--scene: the frame of its camera path")
     ap.add_argument("--variants", nargs="+", default=None,
                     help="run only the variants whose name contains one of these words (default: all)")
     args = ap.parse_args(argv)
     setting = {**XIE, "sigma0_sq": args.sigma0_sq, "kappa": args.kappa}
     w, h = (int(v) for v in args.size.lower().split("x"))
+    if args.scene is not None and args.size == "160x90":
+        w, h = 160, 120
     t0 = time.perf_counter()
     load0 = os.getloadavg()
 
@@ -205,9 +248,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                             "start, history weighting, jitter",
               "adaptive": setting, "size": [w, h], "frames": args.frames, "seeds": args.seeds,
               "sampler": "exact, r2, no mips unless said",
-              "reference": "burley_exact (the pass's exact limit) of the unjittered plane",
-              "distances": {d: study(d, args.seeds, (w, h), args.frames, setting, args.variants, log)
-                            for d in args.distances},
+              "reference": ("the exact sampler at 2048 spp, no mips (inside the SSS mask, composite)" if args.scene
+                            else "burley_exact (the pass's exact limit) of the unjittered plane"),
+              "distances": ({args.scene: study(args.scene, args.seeds, (w, h), args.frames, setting, args.variants, log,
+                                                scene=args.scene, first=args.first)} if args.scene is not None
+                            else {d: study(d, args.seeds, (w, h), args.frames, setting, args.variants, log)
+                                  for d in args.distances}),
               "seconds": round(time.perf_counter() - t0, 1),
               "load_average": {"before": load0, "after": os.getloadavg()}}
     print(json.dumps(result, indent=1))
