@@ -276,4 +276,19 @@ FORMATS.register("glsl-shader", Format("glsl-shader", (".comp", ".glsl"), "shade
 FORMATS.register("hlsl-shader", Format("hlsl-shader", (".hlsl", ".fx", ".usf"), "shader", SHADER_OPTIONS, _shader,
                                        "the whole compute shader in HLSL (glslang + spirv-cross)", check=_shader_check))
 
+def _babylon(job: Job) -> str:
+    """Babylon.js's subsurface settings for the job's material (:mod:`ssskit.export.babylon`): an ES module or JSON."""
+    from .babylon import babylon_text
+    from .engines import fit_burley
+
+    a, d = fit_burley(job.source.profile())
+    name = asset_name(job)
+    job.summary.update(model=job.source.model)
+    return babylon_text([(name, a, d)], job.request.suffix, job.summary)
+
+
+FORMATS.register("babylon", Format("babylon", (".json", ".js", ".mjs"), "engine", (), _babylon,
+                                   "Babylon.js PBRMaterial.subSurface and the scene's diffusion profile: an ES module "
+                                   "(.js, .mjs) or .json; several materials of one scene: --material a,b (at most 4)"))
+
 __all__ = ["BN_SUPPORT", "asset_name", "engine_data", "export_kernel"]
