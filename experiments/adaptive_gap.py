@@ -34,7 +34,7 @@ PSNR over the whole 160x90 plane (albedo 1, no specular). Seeds: the Burley pass
 object (per distance and variant: the gap per seed, mean and sample standard deviation).
 
     NUMBA_THREADING_LAYER=workqueue PYTHONPATH=src python experiments/adaptive_gap.py --seeds 0 1 2
-        [--sigma0-sq 1e-4 --kappa 0] [--variants still jittered] [--scene slab --first 0]
+        [--sigma0-sq 1e-4 --kappa 0] [--variants still jittered] [--scene slab --first 0] [--scene head --view close]
 """
 
 from __future__ import annotations
@@ -124,7 +124,7 @@ def taa_floor(gbuffers, limits, score, taa_alpha: float) -> list[float]:
     return [score(t.resolve(gb.composite(lim))) for gb, lim in zip(gbuffers, limits)]
 
 
-def scene_source(scene: str, first: int, size: tuple[int, int], log):
+def scene_source(scene: str, first: int, size: tuple[int, int], log, view: str | None = None):
     """A built-in scene's still frame ``first`` (Skin1, :func:`ssskit.pipeline.sequence.sequence_gbuffers`), its
     Burley parameters and the PSNR inside its SSS mask of a composite against the converged reference (the
     exact sampler at 2048 spp without mips, two cached halves: :func:`~ssskit.pipeline.sequence.sequence_references`)."""
@@ -132,9 +132,17 @@ def scene_source(scene: str, first: int, size: tuple[int, int], log):
     from ssskit.pipeline.sequence import sequence_gbuffers, sequence_references
     from ssskit.screenspace.burley import burley_params_for_material
 
-    params = burley_params_for_material(MATERIALS.get("skin1"))
-    gb = sequence_gbuffers(scene, "skin1", 1, first, width=size[0], height=size[1], static=True,
-                           progress=log)[0]
+    mat = MATERIALS.get("skin1")
+    params = burley_params_for_material(mat)
+    if view is None:
+        gb = sequence_gbuffers(scene, "skin1", 1, first, width=size[0], height=size[1], static=True,
+                               progress=log)[0]
+    else:  # a named view (the head's close, ear, front), rendered here (not cached)
+        from ssskit.scenes import render_gbuffer, resolve_scene
+
+        log(f"G-buffer {scene}, view {view} ({size[0]}x{size[1]}, 64 spp, Mitsuba)")
+        gb = render_gbuffer(resolve_scene(scene, view=view).spec, np.clip(params.albedo, 0.0, 1.0), eta=mat.eta,
+                            width=size[0], height=size[1], spp=64, frame=first, material=mat.name)
     ref = gb.composite(sequence_references([gb], params, spp=2048, progress=log)[0].sss)
     mask = gb.mask
     peak = float(ref[mask].max())
@@ -153,7 +161,7 @@ def spread(values: list[float]) -> dict[str, Any]:
 
 
 def study(distance: str, seeds: list[int], size: tuple[int, int], frames: int, setting: dict, names: list[str] | None,
-          log, scene: str | None = None, first: int = 0) -> dict[str, Any]:
+          log, scene: str | None = None, first: int = 0, view: str | None = None) -> dict[str, Any]:
     """The variants on the shadow plane at ``distance``, or (``scene``) on a built-in scene's still frame
     ``first`` (no jittered variants: those need the scene rendered through a jittered camera)."""
     from ssskit.figures.adaptive import plane_params, shadow_plane
@@ -161,7 +169,7 @@ def study(distance: str, seeds: list[int], size: tuple[int, int], frames: int, s
     from ssskit.pipeline.burley_frame import burley_exact
 
     if scene is not None:
-        gb, params, score = scene_source(scene, first, size, log)
+        gb, params, score = scene_source(scene, first, size, log, view)
         names = [n for n in (names or ["still"]) if "jitter" not in n and "anti-aliased" not in n] or ["still"]
     else:
         params = plane_params()
@@ -231,6 +239,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--scene", default=None, help="a built-in scene's still frame instead of the plane (Skin1, "
                     "160x120 by default; the still variants only)")
     ap.add_argument("--first", type=int, default=0, help="--scene: the frame of its camera path")
+    ap.add_argument("--view", default=None, help="--scene: one of its named views (the head's close, ear, front)")
     ap.add_argument("--variants", nargs="+", default=None,
                     help="run only the variants whose name contains one of these words (default: all)")
     args = ap.parse_args(argv)
@@ -251,7 +260,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
               "reference": ("the exact sampler at 2048 spp, no mips (inside the SSS mask, composite)" if args.scene
                             else "burley_exact (the pass's exact limit) of the unjittered plane"),
               "distances": ({args.scene: study(args.scene, args.seeds, (w, h), args.frames, setting, args.variants, log,
-                                                scene=args.scene, first=args.first)} if args.scene is not None
+                                                scene=args.scene, first=args.first, view=args.view)}
+                            if args.scene is not None
                             else {d: study(d, args.seeds, (w, h), args.frames, setting, args.variants, log)
                                   for d in args.distances}),
               "seconds": round(time.perf_counter() - t0, 1),
