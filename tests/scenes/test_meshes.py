@@ -4,6 +4,7 @@ render (small meshes, tiny images)."""
 
 from __future__ import annotations
 
+import os
 import json
 import math
 from pathlib import Path
@@ -449,3 +450,34 @@ def test_reference_is_cached_per_mesh_digest(tmp_path, monkeypatch):
     assert c.objects[0].digest != a.objects[0].digest
     render_reference(c.spec, mat, **kw)
     assert len(files()) == 2
+
+
+_OOB_HEADER = ("ply\nformat {fmt} 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+               "element face 1\nproperty list uchar int vertex_indices\nend_header\n")
+
+
+@pytest.mark.parametrize("index", [3, 2_000_000_000, -5])
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian"])
+def test_a_ply_face_index_out_of_range_is_one_error_line_not_a_crash(tmp_path, fmt, index):
+    """Mitsuba's PLY loader takes an index beyond the vertices as it is and crashed the process (exit 139, no
+    message) for large ones; the file's indices are checked before any renderer sees them (a subprocess, so the
+    old crash fails the test instead of the suite)."""
+    import subprocess
+    import sys
+
+    head = _OOB_HEADER.format(fmt=fmt).encode()
+    if fmt == "ascii":
+        body = f"0 0 0\n1 0 0\n0 1 0\n3 0 1 {index}\n".encode()
+    else:
+        body = (np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], "<f4").tobytes() + b"\x03"
+                + np.array([0, 1, index], "<i4").tobytes())
+    path = tmp_path / "oob.ply"
+    path.write_bytes(head + body)
+    proc = subprocess.run([sys.executable, "-m", "ssskit.cli", "render", "--scene", str(path), "--out",
+                           str(tmp_path / "o.png")], capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "SSSKIT_CACHE_DIR": str(tmp_path / "cache")})
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.count("\n") == 1 and "face indices must lie in [0, 2]" in proc.stderr
+    assert not (tmp_path / "o.png").exists()
+    with pytest.raises(SceneError, match=rf"face indices must lie in \[0, 2\], found {min(index, 0)} to {max(index, 1)}"):
+        read_mesh(path)

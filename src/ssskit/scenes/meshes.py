@@ -1,4 +1,4 @@
-"""Triangle meshes from files: reading (OBJ and PLY through Mitsuba 3, glTF ``.glb``/``.gltf`` through
+"""Triangle meshes from files: reading (OBJ through Mitsuba 3, PLY and glTF ``.glb``/``.gltf`` through
 trimesh), the checks a mesh passes before anything is rendered, and writers for the four formats.
 
 What is checked, and when (all before any rendering; :func:`inspect_mesh_file` runs the cheap ones
@@ -379,11 +379,46 @@ def _read_gltf(p: Path) -> tuple[Mesh, ...]:
     return tuple(meshes)
 
 
+def _read_ply(p: Path) -> tuple[Mesh, ...]:
+    """A PLY file's arrays through trimesh's PLY parser (ASCII and binary; polygons triangulated), so that its
+    face indices are checked (:class:`Mesh`) before any renderer sees them: Mitsuba's own PLY loader takes an
+    index beyond the vertices as it is and crashes the process (exit 139) building the shape."""
+    import trimesh
+    from trimesh.exchange.ply import load_ply
+
+    try:
+        with open(p, "rb") as fh:
+            kw = load_ply(fh)
+        faces = kw.get("faces")
+        if faces is None or len(faces) == 0:
+            raise SceneError(f"mesh {str(p)!r} has no faces")
+        if isinstance(faces, np.ndarray) and faces.ndim == 2 and faces.shape[1] == 3:
+            tri = np.asarray(faces, dtype=np.int64)
+        else:  # polygons: fan-triangulated by trimesh, indices kept as they are (checked by Mesh)
+            tri = np.asarray(trimesh.geometry.triangulate_quads(faces), dtype=np.int64)
+    except SceneError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - trimesh's parser raises many kinds of errors on a corrupt file
+        raise SceneError(f"mesh {str(p)!r} cannot be read as PLY: {exc}") from None
+    normals = kw.get("vertex_normals")
+    verts = np.asarray(kw.get("vertices", np.zeros((0, 3))), dtype=np.float32).reshape(-1, 3)
+    if normals is not None:
+        normals = np.asarray(normals, dtype=np.float32).reshape(-1, 3)
+        if len(normals) != len(verts):
+            normals = None
+        else:  # unit length, as Mitsuba's loader leaves them (a zero normal stays zero)
+            normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), np.float32(1e-30))
+    return (Mesh(p.stem, verts, tri, normals),)
+
+
 def read_mesh(path: str | os.PathLike[str]) -> tuple[Mesh, ...]:
-    """The objects of a mesh file (module docstring), each checked by :func:`check_mesh`."""
+    """The objects of a mesh file (module docstring), each checked by :class:`Mesh` (face indices within the
+    vertices) and :func:`check_mesh`: OBJ through Mitsuba's loader (which refuses an index out of range), PLY and
+    glTF through trimesh."""
     p = check_mesh_path(path)
     kind = FORMATS[p.suffix.lower()]
-    meshes = _read_gltf(p) if kind == "gltf" else _read_mitsuba(p, kind)
+    reader = {"gltf": _read_gltf, "ply": _read_ply}.get(kind)
+    meshes = reader(p) if reader is not None else _read_mitsuba(p, kind)
     if not meshes:
         raise SceneError(f"mesh {str(p)!r} holds no triangle mesh")
     for m in meshes:
