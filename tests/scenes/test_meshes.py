@@ -481,3 +481,14 @@ def test_a_ply_face_index_out_of_range_is_one_error_line_not_a_crash(tmp_path, f
     assert not (tmp_path / "o.png").exists()
     with pytest.raises(SceneError, match=rf"face indices must lie in \[0, 2\], found {min(index, 0)} to {max(index, 1)}"):
         read_mesh(path)
+
+
+@pytest.mark.parametrize("value", ["5", "true", "{ a = 1 }", "[5]"])
+def test_units_of_a_wrong_type_in_a_scene_file_are_refused(tmp_path, value):
+    """``units = 5`` in a scene file raised a TypeError (a traceback from the CLI); a scene error now."""
+    write_mesh(tmp_path / "ball.ply", _sphere())
+    for doc in (f'units = {value}\n[shapes.ball]\ntype = "mesh"\nfile = "ball.ply"\n',
+                f'[shapes.ball]\ntype = "mesh"\nunits = {value}\nfile = "ball.ply"\n'):
+        (tmp_path / "s.toml").write_text(doc)
+        with pytest.raises(SceneError, match=r"unknown units .* \(known: mm, cm, m\)"):
+            resolve_scene(str(tmp_path / "s.toml"))

@@ -183,12 +183,12 @@ def check_units(units: str | Sequence[str] | None) -> str | None:
     different ones (``--units`` given twice)."""
     if units is None:
         return None
-    values = [units] if isinstance(units, str) else list(units)
+    values = [units] if isinstance(units, str) else list(units) if isinstance(units, (list, tuple)) else [units]
     if not values:
         return None
     norm = []
     for u in values:
-        key = str(u).strip().lower()
+        key = u.strip().lower() if isinstance(u, str) else None  # a TOML number or table is no unit name
         if key not in UNITS_MM:
             raise SceneError(f"unknown units {u!r} (known: {', '.join(UNITS_MM)})")
         norm.append(key)
