@@ -263,6 +263,18 @@ def _library_message(text: str, path: Path) -> str:
     return re.sub(r"^\((EXR_ERR_\w+)\)\s*", r"\1: ", line)
 
 
+def parse_document(text: str, suffix: str) -> Any:
+    """The data of a TOML (``suffix`` ".toml") or JSON document; a ValueError for a malformed one, one nested too
+    deeply for the parsers (both recurse per level: a 100,000-deep JSON raised RecursionError) included, so every
+    reader of a user's file reports it as the malformed file it is."""
+    import tomllib
+
+    try:
+        return tomllib.loads(text) if suffix.lower() == ".toml" else json.loads(text)
+    except RecursionError:
+        raise ValueError("nested too deeply (more levels of arrays or tables than the parser can follow)") from None
+
+
 def check_regular_file(path: str | Path, what: str, error: type[Exception] = OutputError) -> None:
     """Refuse an input ``path`` that exists but is no regular file: a FIFO (reading it would wait for a
     writer forever), a socket or a device. A missing path or a folder is left to the caller's own

@@ -96,13 +96,10 @@ class Settings:
             text = p.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:
             raise SettingsError(f"cannot read settings file {str(p)!r}: {getattr(exc, 'strerror', None) or exc}") from None
-        try:
-            if suffix == ".toml":
-                import tomllib
+        from .io import parse_document
 
-                data = tomllib.loads(text)
-            else:
-                data = json.loads(text)
+        try:
+            data = parse_document(text, suffix)
         except ValueError as exc:
             raise SettingsError(f"malformed settings file {str(p)!r}: {exc}") from None
         try:

@@ -50,7 +50,6 @@ from __future__ import annotations
 import math
 import os
 import re
-import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -60,6 +59,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
+from ..io import parse_document
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
 from .scenes import SCENES, SceneSpec, _T, _ply, check_size
 
@@ -385,8 +385,8 @@ def load_scene_file(path: str | os.PathLike[str], **options: Any) -> LoadedScene
         raise SceneError(f"scene file {str(p)!r} does not exist" if not p.exists() else
                          f"scene file {str(p)!r} is not a file")
     try:
-        doc = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        doc = parse_document(p.read_text(encoding="utf-8"), ".toml")
+    except (ValueError, UnicodeDecodeError) as exc:
         raise SceneError(f"scene file {str(p)!r} is not valid TOML: {exc}") from None
     doc.setdefault("name", p.stem)
     return scene_from_document(doc, base=p.parent, source=str(p), **options)
