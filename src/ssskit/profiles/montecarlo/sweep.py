@@ -94,6 +94,40 @@ def _gather(futures: list, names: list[str], progress: bool, where: str) -> dict
     return {n: out[n] for n in names}
 
 
+def check_scheduler(address: str, timeout_s: float = 20.0) -> None:
+    """A ProfileError unless a dask.distributed scheduler answers at ``address`` within ``timeout_s`` seconds:
+    dask's own ``identity`` call (``distributed.core.rpc``) under one deadline for the connection and the answer.
+    Something else listening there (a web server, any other service) is refused in one line: dask's client read
+    the first bytes of its answer as frame lengths (an HTTP reply asked for 3.07 EiB: MemoryError) or waited for
+    ever on a server that says nothing."""
+    import asyncio
+
+    from distributed.core import rpc
+
+    async def identity() -> object:
+        remote = rpc(address, timeout=timeout_s)
+        try:
+            return await remote.identity()
+        finally:
+            await remote.close_rpc()
+
+    what = f"the dask scheduler address {address!r}"
+    try:
+        answer = asyncio.run(asyncio.wait_for(identity(), timeout_s))
+    except ValueError as exc:  # a malformed address: dask's own words (missing port, unknown scheme)
+        if "address" in str(exc) or "scheme" in str(exc):
+            raise ProfileError(f"{what} is not valid: {exc}") from None
+        answer = None
+    except asyncio.TimeoutError:
+        raise ProfileError(f"no dask scheduler answered at {address!r} within {timeout_s:g} s (connect timeout)") from None
+    except OSError as exc:
+        raise ProfileError(f"cannot reach the dask scheduler at {address!r}: {exc}") from None
+    except Exception:  # noqa: BLE001 - what another protocol's bytes make of dask's decoder (MemoryError, ...)
+        answer = None
+    if not (isinstance(answer, dict) and answer.get("type") == "Scheduler"):
+        raise ProfileError(f"what answers at {address!r} is not a dask scheduler (it does not speak dask's protocol)")
+
+
 def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "all", *,
                   photons: int = DEFAULT_PHOTONS, seed: int = 1, jobs: int = 1, batch_size: int = DEFAULT_BATCH,
                   progress: bool = False, resume: bool = False, restart: bool = False, scheduler: str | None = None,
@@ -123,6 +157,7 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
             from distributed import Client
         except ImportError:
             raise ProfileError("a scheduler address needs dask.distributed: pip install 'ssskit[cluster]'") from None
+        check_scheduler(scheduler, connect_timeout_s)
         try:
             client = Client(scheduler, timeout=f"{connect_timeout_s}s")
         except (OSError, TimeoutError, ValueError) as exc:
@@ -148,4 +183,4 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
         return _gather([pool.submit(_sweep_job, t) for t in tasks], names, progress, f"{jobs} processes")
 
 
-__all__ = ["simulate_many", "simulate_material"]
+__all__ = ["check_scheduler", "simulate_many", "simulate_material"]
