@@ -63,7 +63,10 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
         raise OutputError(f"cannot write {str(target)!r}: it is a directory")
     try:
         parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".tmp{target.suffix}", dir=parent)
+        # the temporary name begins with the target's, cut to 100 bytes: a target name near the file system's
+        # 255 bytes is still written
+        head = target.name.encode()[:100].decode("utf-8", "ignore")
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{head}.", suffix=f".tmp{target.suffix[:20]}", dir=parent)
     except OSError as exc:
         why = exc.strerror
         existing = next((a for a in (parent, *parent.parents) if a.exists()), None)

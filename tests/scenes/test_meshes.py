@@ -492,3 +492,25 @@ def test_units_of_a_wrong_type_in_a_scene_file_are_refused(tmp_path, value):
         (tmp_path / "s.toml").write_text(doc)
         with pytest.raises(SceneError, match=r"unknown units .* \(known: mm, cm, m\)"):
             resolve_scene(str(tmp_path / "s.toml"))
+
+
+def test_a_mesh_with_a_240_character_name_is_rendered(tmp_path, monkeypatch):
+    """The cache's file names held the mesh's whole name: a 240-character one passed the file system's 255 bytes
+    and the mesh could not be rendered. Names are bounded (readable beginning + hash of the whole name)."""
+    from ssskit.cache import NAME_BYTES, cache_file
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    stem = "b" * 240
+    path = write_mesh(tmp_path / f"{stem}.ply", _sphere())
+    scene = resolve_scene(str(path), units="mm", width=16, height=12)
+    (cached,) = (tmp_path / "cache" / "meshes").iterdir()
+    assert len(cached.name.encode()) < 128 and cached.name.startswith("mesh-bbbb")
+    gb = render_gbuffer(scene.spec, ALBEDO, width=16, height=12, spp=1)
+    assert np.isfinite(gb.diffuse).all()
+    # bounded in bytes for any name, readable, and apart for names sharing their beginning
+    for name in ("é" * 300, "x" * 300, "x" * 299 + "y", "a/b\x00c"):
+        p = cache_file("reference", name, "0123456789abcdef", ".npz")
+        assert p.parent == tmp_path / "cache" / "reference"
+        assert len(p.name.encode()) <= NAME_BYTES + 30 and "/" not in p.name and "\x00" not in p.name
+    assert cache_file("meshes", "x" * 300, "k", ".ply") != cache_file("meshes", "x" * 299 + "y", "k", ".ply")
+    assert cache_file("meshes", "head", "k", ".ply").name == "head-k.ply"

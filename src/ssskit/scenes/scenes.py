@@ -30,7 +30,7 @@ from types import ModuleType
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..cache import cache_dir
+from ..cache import cache_file
 from ..errors import SceneError
 from ..io import atomic_output
 from ..registry import Registry
@@ -121,7 +121,7 @@ def _ply(name: str, verts: np.ndarray, faces: np.ndarray, normals: np.ndarray | 
     cols = [verts] if normals is None else [verts, np.ascontiguousarray(normals, dtype="<f4")]
     vdata = np.concatenate(cols, axis=1).astype("<f4")
     digest = hashlib.sha1(vdata.tobytes() + faces.tobytes()).hexdigest()[:16]
-    path = cache_dir("meshes") / f"{name}-{digest}.ply"
+    path = cache_file("meshes", name, digest, ".ply")
     if not path.is_file():
         with atomic_output(path) as tmp:
             tmp.write_bytes(ply_bytes(verts, faces, normals))
