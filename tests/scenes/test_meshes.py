@@ -514,3 +514,22 @@ def test_a_mesh_with_a_240_character_name_is_rendered(tmp_path, monkeypatch):
         assert len(p.name.encode()) <= NAME_BYTES + 30 and "/" not in p.name and "\x00" not in p.name
     assert cache_file("meshes", "x" * 300, "k", ".ply") != cache_file("meshes", "x" * 299 + "y", "k", ".ply")
     assert cache_file("meshes", "head", "k", ".ply").name == "head-k.ply"
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".gltf"])
+def test_a_one_material_gltf_object_is_named_by_its_material(tmp_path, suffix):
+    """docs/meshes.md: glTF objects are named by their material, so ``--material-map skin=skin1`` names the one
+    object of a one-material head.glb (it was named after the file, 'head', and the documented map failed)."""
+    path = str(write_mesh(tmp_path / f"head{suffix}", Mesh("skin", _sphere(0.03).vertices, _sphere(0.03).faces)))
+    scene = resolve_scene(path, units="m", material_map="skin=skin1", width=W, height=H)
+    assert [o.name for o in scene.objects] == ["skin"] and scene.objects[0].material == "skin1"
+    with pytest.raises(SceneError, match=r"material map names 'head'.*its objects: skin"):
+        resolve_scene(path, units="m", material_map="head=skin1", width=W, height=H)
+    # a scene file's shape table: the same names (materials = { skin = ... })
+    (tmp_path / "s.toml").write_text(f'units = "m"\n[shapes.head]\ntype = "mesh"\nfile = "head{suffix}"\n'
+                                     'materials = { skin = "skin2" }\n')
+    scene = resolve_scene(str(tmp_path / "s.toml"), width=W, height=H)
+    assert [(o.name, o.material) for o in scene.objects] == [("skin", "skin2")]
+    # OBJ and PLY: one object named by the file's stem
+    ply = str(write_mesh(tmp_path / "ball.ply", _sphere()))
+    assert [o.name for o in resolve_scene(ply, units="mm", material_map="ball=skin1", width=W, height=H).objects] == ["ball"]

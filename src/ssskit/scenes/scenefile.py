@@ -470,7 +470,10 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                 sss_materials.append(_shape_material(sid, table, material_map, claimed))
             continue
         assert meshes is not None
-        if len(meshes) == 1 and meshes[0].name != sid:
+        # a one-object file named by its stem (OBJ, PLY) or a generator takes the shape's id; glTF objects keep their
+        # materials' names, one material or several (docs/meshes.md: --material-map skin=skin1 names it)
+        by_material = kind == "mesh" and FORMATS[fpath.suffix.lower()] == "gltf"
+        if len(meshes) == 1 and meshes[0].name != sid and not by_material:
             meshes = (Mesh(sid, meshes[0].vertices, meshes[0].faces, meshes[0].normals),)
             own = {sid: material_map[sid]} if sid in material_map else {}
         else:
