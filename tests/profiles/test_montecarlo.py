@@ -468,3 +468,23 @@ def test_an_address_where_no_dask_scheduler_answers_is_one_clear_error(listening
         simulate_many(mats, "G", photons=100, scheduler=silent, connect_timeout_s=1)
     with pytest.raises(ProfileError, match="the dask scheduler address 'nonsense' is not valid: missing port"):
         simulate_many(mats, "G", photons=100, scheduler="nonsense")
+
+
+def test_one_progress_bar_and_time_estimate_across_the_channels(capsys, tmp_path, monkeypatch):
+    """``simulate`` estimated the time left of the running channel only ("about 10 s left" with 37 s to go): one bar
+    now counts every channel's photons, and photons not simulated (a cached channel) leave its total."""
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setenv("SSSKIT_PROGRESS", "lines")
+    from ssskit.profiles.montecarlo import simulate_material
+
+    mat = get_material("ketchup")
+    simulate_material(mat, "all", photons=20_000, batch_size=1_000, progress=True)
+    lines = [line for line in capsys.readouterr().err.splitlines() if "photons" in line]
+    assert lines and all("Ketchup R/G/B: " in line and "/60,000 photons" in line for line in lines), lines
+    assert "60,000/60,000 photons" in lines[-1]
+    assert any("channel R" in line for line in lines) and any("channel B" in line for line in lines)
+    simulate_material(mat, "G", photons=30_000, batch_size=1_000, progress=True)  # G cached at 30,000
+    capsys.readouterr()
+    simulate_material(mat, "all", photons=30_000, batch_size=1_000, progress=True)
+    lines = [line for line in capsys.readouterr().err.splitlines() if "photons" in line]
+    assert "60,000/60,000 photons" in lines[-1], lines  # R and B simulated, G taken from the cache

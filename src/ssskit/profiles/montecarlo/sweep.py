@@ -5,10 +5,11 @@ from __future__ import annotations
 
 from ...errors import ProfileError
 from ...materials import CHANNELS, LayeredMaterial, Material
+from ...progress import add_to_total
 from ..domain import check_montecarlo
 from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, SUPPLEMENT_GRID_MFP, channel_seed, config_for_material
 from .result import MCResult
-from .run import simulate
+from .run import photons_bar, simulate
 
 
 def simulate_material(material: Material | LayeredMaterial, channels: str = "all", *, photons: int = DEFAULT_PHOTONS,
@@ -38,18 +39,34 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
             raise ProfileError(f"channel must be R, G, B or all, got {channels!r}")
     if grid_fraction is not None and not (isinstance(grid_fraction, (int, float)) and 0 < grid_fraction < 1):
         raise ProfileError(f"grid fraction must lie in (0, 1), got {grid_fraction!r}")
+    if progress is None:
+        from ...progress import reporting_active
+
+        progress = reporting_active()
+    # one bar for every channel, so its estimate of the time left covers them all (each run takes out what
+    # it does not simulate; a longer grid adds its photons)
+    bar = photons_bar(photons * len(wanted), 0, f"{material.name} {'/'.join(wanted)}") if progress else None
     out = {}
-    for ch in wanted:
-        c = CHANNELS.index(ch)
-        extent = SUPPLEMENT_GRID_MFP
-        while True:
-            cfg = config_for_material(material, c, photons, channel_seed(seed, c), batch_size, extent, roughness)
-            res = simulate(cfg, threads=threads, progress=progress, resume=resume, restart=restart,
-                           use_cache=use_cache, label=f"{material.name} {ch}", shipped=shipped, backend=backend)
-            if grid_fraction is None or res.overflow <= (1.0 - grid_fraction) * res.total_rd or extent >= 64 * 32:
-                break
-            extent *= 2.0
-        out[ch] = res
+    try:
+        for ch in wanted:
+            c = CHANNELS.index(ch)
+            extent = SUPPLEMENT_GRID_MFP
+            while True:
+                cfg = config_for_material(material, c, photons, channel_seed(seed, c), batch_size, extent, roughness)
+                if bar is not None:
+                    bar.set_postfix_str(f"channel {ch}")
+                res = simulate(cfg, threads=threads, progress=progress, resume=resume, restart=restart,
+                               use_cache=use_cache, label=f"{material.name} {ch}", shipped=shipped, backend=backend,
+                               shared_bar=bar)
+                if grid_fraction is None or res.overflow <= (1.0 - grid_fraction) * res.total_rd or extent >= 64 * 32:
+                    break
+                extent *= 2.0
+                if bar is not None:
+                    add_to_total(bar, photons)
+            out[ch] = res
+    finally:
+        if bar is not None:
+            bar.close()
     return out
 
 
