@@ -16,7 +16,6 @@ surface) or a length d that is not a positive finite number is refused, naming t
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -24,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
+from ..io import parse_document
 from ..materials import Material
 
 #: suffixes that hold an engine file (a .json one only when it has an "engine" key)
@@ -70,7 +70,7 @@ def is_engine_file(path: str | Path) -> bool:
     if suffix != ".json" or not p.is_file():
         return False
     try:
-        data = json.loads(p.read_text(encoding="utf-8"))
+        data = parse_document(p.read_text(encoding="utf-8"), ".json")
     except (OSError, UnicodeDecodeError, ValueError):
         return False
     return isinstance(data, dict) and "engine" in data
@@ -92,7 +92,7 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
         engine = "materialx"
     else:
         try:
-            data = json.loads(p.read_text(encoding="utf-8"))
+            data = parse_document(p.read_text(encoding="utf-8"), ".json")
         except (UnicodeDecodeError, ValueError) as exc:
             raise SsskitError(f"malformed engine file {str(p)!r}: {exc}") from None
         engine = str(data.get("engine", "")) if isinstance(data, dict) else ""

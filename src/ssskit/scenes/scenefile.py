@@ -155,7 +155,7 @@ def _shape_id(name: str, taken: set[str]) -> str:
 
 
 def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[str, str], default: str,
-                  source: str, taken: set[str]) -> list[MeshObject]:
+                  source: str, taken: set[str], deferred: list[Callable[[], None]]) -> list[MeshObject]:
     names = [m.name for m in meshes]
     unknown = sorted(set(materials) - set(names))
     if unknown:
@@ -169,7 +169,7 @@ def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[st
             topo = topology(m)
         mm = m.scaled(scale_mm)
         shape = _ply(f"mesh-{re.sub(r'[^A-Za-z0-9_]', '_', m.name)}", mm.vertices, mm.faces, mm.normals,
-                     face_normals=False)
+                     face_normals=False, deferred=deferred)
         out.append(MeshObject(_shape_id(m.name, taken), m.name, shape, materials.get(m.name, default),
                               topo.reference_problem(f"{source}:{m.name}" if len(meshes) > 1 else source),
                               mm.digest()))
@@ -423,6 +423,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     sss_materials: list[str] = []
     objects: list[MeshObject] = []
     problems: list[str] = []
+    deferred: list[Callable[[], None]] = []  # the meshes' cache files, written once every check has passed
     mesh_vertices: list[np.ndarray] = []
     taken: set[str] = set()
     claimed: set[str] = set()
@@ -484,7 +485,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             own = {**{str(k): str(v) for k, v in table["materials"].items()}, **own}
         claimed.update(own)
         scale = UNITS_MM[unit]
-        objs = _mesh_objects(meshes, scale, own, str(table.get("material", "")), label, taken)
+        objs = _mesh_objects(meshes, scale, own, str(table.get("material", "")), label, taken, deferred)
         centre, r = bounding_sphere(meshes, scale)
         lo, hi = MODEL_SIZE_MM
         if not lo <= 2 * r <= hi:
@@ -566,6 +567,8 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                      sss_materials=tuple(sss_materials) if any(sss_materials) else (),
                      reference_problem="; ".join(problems) or None,
                      lit_from_behind=bool(doc.get("lit_from_behind", False)))
+    for write in deferred:
+        write()
     return LoadedScene(spec, tuple(notes), tuple(objects), not explicit, dict(doc), base)
 
 
