@@ -16,7 +16,7 @@ from typing import Any
 __version__ = "0.1.0"
 
 #: every module and subpackage of ssskit, roughly bottom layer first (the layers: docs/architecture.md)
-_SUBMODULES = ("errors", "progress", "registry", "cache", "io", "compute", "settings", "metrics", "materials", "profiles",
+_SUBMODULES = ("errors", "progress", "registry", "cache", "io", "compute", "quantities", "settings", "metrics", "materials", "profiles",
                "kernels", "sampling", "backends", "screenspace", "scenes", "truth", "pipeline", "export", "figures", "view",
                "report", "cli")
 #: names re-exported from a submodule: name -> submodule

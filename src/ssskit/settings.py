@@ -1,9 +1,13 @@
 """Frozen settings dataclasses that load from and save to TOML or JSON files.
 
-A settings class derives from :class:`Settings`, declares its fields with defaults and checks them
-in ``__post_init__`` (raising :class:`~ssskit.errors.SettingsError` naming the field), so every
-argument is validated when the settings are made, before any work starts. Nested settings
-(a field whose type is another Settings class) become TOML tables / JSON objects.
+A settings class derives from :class:`Settings` and declares each field with :func:`setting`: its default, its
+quantity (:mod:`ssskit.quantities`: range, unit, reason; a :class:`~ssskit.quantities.Choice` or
+:class:`~ssskit.quantities.Flag`) and what it applies to (``applies=("pass", ("separable",))``: the field is
+used only when the settings' ``pass`` is separable). :meth:`Settings.__post_init__` checks every declared
+field (a :class:`~ssskit.errors.SettingsError` naming it, in the quantities' wording) and refuses, once and
+in one wording, every field given (not at its default) that what runs does not use; a class adds only its
+rules between fields. So every argument is validated when the settings are made, before any work starts.
+Nested settings (a field whose type is another Settings class) become TOML tables / JSON objects.
 
     >>> from ssskit.screenspace import PassSettings
     >>> s = PassSettings(jitter=0.1, frame=3)
@@ -22,21 +26,49 @@ from collections.abc import Collection
 from typing import Any, ClassVar, Self, SupportsIndex
 
 from .errors import SettingsError, unknown_names_message
+from .quantities import FRAMES, PHOTONS, SIZE_PX, TAPS, Choice, Flag, Quantity, refuse_unused
+from .quantities import check_choice as _check_choice
 
 #: ranges the settings and the command line share (here, below every layer that checks them, so the CLI's
 #: option types need not import the pipeline): image sides of the built-in scenes (pixels), photons of a
 #: Monte Carlo profile, taps of a 1D pass
-SIZE_RANGE = (8, 8192)
-PHOTONS_RANGE = (1_000, 10_000_000_000)
+SIZE_RANGE = (int(SIZE_PX.lo), int(SIZE_PX.hi))
+PHOTONS_RANGE = (int(PHOTONS.lo), int(PHOTONS.hi))
 #: photons per channel of a Monte Carlo profile by default: the supplement's (section F)
 DEFAULT_PHOTONS = 10_000_000
-TAP_RANGE = (1, 255)
+TAP_RANGE = (int(TAPS.lo), int(TAPS.hi))
 #: frames of one adaptive run or sequence (RenderSettings' AdaptivePass, adaptive_frames, sequence_gbuffers)
-FRAMES_RANGE = (1, 100_000)
+FRAMES_RANGE = (int(FRAMES.lo), int(FRAMES.hi))
+
+
+Checkable = Quantity | Choice | Flag
+
+
+def setting(quantity: Checkable | None, default: Any = dataclasses.MISSING, *,
+            applies: tuple[str, tuple[str, ...]] | None = None, optional: bool = False,
+            default_factory: Any = dataclasses.MISSING, rgb: bool = False) -> Any:
+    """A declared settings field: its ``quantity`` (checked by :meth:`Settings.__post_init__`, None for a field
+    its class checks itself), ``applies`` (``(category, values)``: used only when the settings'
+    :meth:`~Settings.situation` gives ``category`` one of ``values``; given otherwise, it is refused),
+    ``optional`` (None passes: the default is taken elsewhere) and ``rgb`` (one number or three, R, G, B)."""
+    meta = {"quantity": quantity, "applies": applies, "optional": optional, "rgb": rgb}
+    if default_factory is not dataclasses.MISSING:
+        return dataclasses.field(default_factory=default_factory, metadata=meta)
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def like(cls: type, name: str, **changes: Any) -> Any:
+    """A field declared as ``cls``'s field ``name`` (its quantity, default, ``optional``, ``rgb``, ``applies``),
+    with ``changes`` (e.g. ``applies=``): a settings class that holds another's values declares them once."""
+    f = {g.name: g for g in dataclasses.fields(cls)}[name]
+    meta = {**f.metadata, **changes}
+    return setting(meta.get("quantity"), f.default, applies=meta.get("applies"), optional=meta.get("optional", False),
+                   default_factory=f.default_factory, rgb=meta.get("rgb", False))
 
 
 class Settings:
-    """Mixin for frozen dataclasses: ``to_dict``, ``from_dict``, ``replace``, ``load`` and ``save``."""
+    """Mixin for frozen dataclasses: declared fields checked when made (:func:`setting`), ``to_dict``,
+    ``from_dict``, ``replace``, ``load`` and ``save``."""
 
     # what @dataclass gives every subclass (declared, not set: the mixin itself is no dataclass), so the
     # type checker sees a Settings as the dataclass instance that dataclasses.fields/replace take
@@ -51,6 +83,54 @@ class Settings:
             if unknown:
                 raise SettingsError(unknown_names_message(cls.__name__, unknown, names))
         return super().__new__(cls)
+
+    def __post_init__(self) -> None:
+        """Check every field declared with a quantity (setting its canonical value: an int, a float, a name's
+        spelling, three floats), then refuse the fields given that what runs does not use (:meth:`unused`)."""
+        for f in dataclasses.fields(self):
+            q = f.metadata.get("quantity")
+            value = getattr(self, f.name)
+            if q is None or (value is None and f.metadata.get("optional")):
+                continue
+            if f.metadata.get("rgb"):
+                assert isinstance(q, Quantity)
+                value = q.check_rgb(value, f.name, SettingsError)
+            else:
+                value = q.check(value, f.name, SettingsError)
+            object.__setattr__(self, f.name, value)
+        self.check_applies()
+
+    def situation(self) -> dict[str, str]:
+        """What runs, by category (the categories the fields' ``applies`` name): by default each category is
+        a field of the same name. A class whose categories are derived (a pass's name, a moving camera)
+        overrides this."""
+        return {}
+
+    def unused(self) -> dict[tuple[str, tuple[str, ...]], list[str]]:
+        """The fields given (not at their default) whose ``applies`` the :meth:`situation` does not meet,
+        grouped by what they apply to."""
+        situation = self.situation()
+        out: dict[tuple[str, tuple[str, ...]], list[str]] = {}
+        for f in dataclasses.fields(self):
+            applies = f.metadata.get("applies")
+            if applies is None:
+                continue
+            category, values = applies
+            now = situation[category] if category in situation else str(getattr(self, category)).lower()
+            if now in values:
+                continue
+            default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
+            if getattr(self, f.name) != default:
+                out.setdefault(applies, []).append(f.name)
+        return out
+
+    def check_applies(self) -> None:
+        """Refuse, in the one wording (:func:`ssskit.quantities.refuse_unused`), the fields given that what
+        runs does not use."""
+        situation = self.situation()
+        for (category, values), names in self.unused().items():
+            now = situation[category] if category in situation else str(getattr(self, category)).lower()
+            refuse_unused(names, category, values, now, SettingsError)
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {}
@@ -136,34 +216,17 @@ def _drop_none(d: dict[str, Any]) -> dict[str, Any]:
 
 
 def check_int(name: str, value: object, lo: int, hi: int) -> int:
-    """An int in [lo, hi] (bools refused), or a SettingsError naming ``name``."""
-    if isinstance(value, bool) or not isinstance(value, SupportsIndex):  # an int, or what has __index__
-        raise SettingsError(f"{name} must be an integer, got {value!r}")
-    v = int(value)
-    if not lo <= v <= hi:
-        raise SettingsError(f"{name} must lie in [{lo}, {hi}], got {v}")
-    return v
+    """An int in [lo, hi] (bools refused), or a SettingsError naming ``name`` (:class:`~ssskit.quantities.Quantity`'s
+    wording)."""
+    return int(Quantity(name, lo, hi, integer=True).check(value, name, SettingsError))
 
 
 def check_float(name: str, value: Any, lo: float, hi: float, *, open_lo: bool = False) -> float:
-    """A finite float in [lo, hi] (in (lo, hi] with ``open_lo``), or a SettingsError naming ``name``
-    and the interval."""
-    if isinstance(value, bool):
-        raise SettingsError(f"{name} must be a number, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise SettingsError(f"{name} must be a number, got {value!r}") from None
-    if not (math.isfinite(v) and (lo < v if open_lo else lo <= v) and v <= hi):
-        raise SettingsError(f"{name} must be a finite number in {'(' if open_lo else '['}{lo:g}, {hi:g}], "
-                            f"got {value!r}")
-    return v
+    """A finite float in [lo, hi] (in (lo, hi] with ``open_lo``), or a SettingsError naming ``name`` and the
+    interval (:class:`~ssskit.quantities.Quantity`'s wording)."""
+    return float(Quantity(name, lo, hi, lo_open=open_lo, hi_open=math.isinf(hi)).check(value, name, SettingsError))
 
 
 def check_choice(name: str, value: object, choices: Collection[str]) -> str:
     """``value`` (case-insensitive) if it is one of ``choices``, returned in its canonical spelling."""
-    if isinstance(value, str):
-        for c in choices:
-            if c.lower() == value.strip().lower():
-                return c
-    raise SettingsError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
+    return _check_choice(name, value, choices, SettingsError)

@@ -182,13 +182,13 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
     (["--scene", "plain.exr", "--transmission-model", "foo"], "Invalid value for '--transmission-model': 'foo'"),
     (["--scene", "plain.exr", "--transmission", "maybe"], "Invalid value for '--transmission'"),
     (["--scene", "plain.exr", "--transmission", "off", "--transmission-model", "jimenez2010"],
-     "applies when the transmittance pass can run"),
+     "transmission_model applies to transmission auto or on, not transmission off"),
     (["--scene", "plain.exr", "--pass", "burley-adaptive", "--transmission", "on"], "needs the G-buffer's light layers"),
     (["--scene", "rgb_depth.exr", "--pass", "burley-adaptive"], "layer 'light_depth' must have shape (H, W)"),
     (["--scene", "plain.exr", "--pass", "burley-adaptive", "--transmission-model", "unreal2"],
      "Invalid value for '--transmission-model': 'unreal2'"),
     (["--scene", "plain.exr", "--pass", "burley-adaptive", "--transmission", "off", "--transmission-model",
-      "jimenez2010"], "applies when the transmittance pass can run"),
+      "jimenez2010"], "transmission_model applies to transmission auto or on, not transmission off"),
     (["--scene", "plain.exr", "--transmission-spread", "wide"], "Invalid value for '--transmission-spread': 'wide'"),
     # auto with no light layers: the pass does not run, so a model or spread asked for would be dropped silently
     (["--scene", "plain.exr", "--transmission-model", "jimenez2010"], "applies when the transmittance pass runs; under "
@@ -196,7 +196,7 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
     (["--scene", "plain.exr", "--transmission-spread", "mcml"], "transmission_spread 'mcml' applies when"),
     (["--scene", "slab", "--transmission-model", "unreal"], "the scene slab is not lit from behind alone"),
     (["--scene", "plain.exr", "--transmission", "off", "--transmission-spread", "mcml"],
-     "transmission_spread 'mcml' applies when the transmittance pass can run"),
+     "transmission_spread applies to transmission auto or on, not transmission off"),
 ])
 def test_bad_transmission_input(run, workdir, args, fragment):
     one_error_line(run, workdir, ["render", *args, "--backend", "numpy", "--out", "o.exr", "--save-gbuffer", "g2.exr"],
@@ -207,7 +207,7 @@ def test_bad_transmission_input(run, workdir, args, fragment):
     ("transmission_model = 'foo'\n", "transmission_model must be one of mcml, jimenez2010, unreal, got 'foo'"),
     ("transmission = 'yes'\n", "transmission must be one of auto, on, off, got 'yes'"),
     ("transmission_spread = 'wide'\n", "transmission_spread must be one of mcml, off, got 'wide'"),
-    ("transmission = 'off'\ntransmission_spread = 'mcml'\n", "transmission_spread 'mcml' applies when the"),
+    ("transmission = 'off'\ntransmission_spread = 'mcml'\n", "transmission_spread applies to transmission auto or on, not transmission off"),
 ])
 def test_bad_transmission_settings_file(run, workdir, content, fragment):
     (workdir / "s.toml").write_text(content)

@@ -221,7 +221,7 @@ def test_checks_before_any_work(ear, monkeypatch):
         plan(plain, RenderSettings(backend="numpy", transmission="on", pass_=BurleyPass()))
     assert plan(lit, RenderSettings(**BASE)).transmission
     assert not plan(lit, RenderSettings(**BASE, transmission="off")).transmission
-    with pytest.raises(SettingsError, match="transmission_spread 'mcml' applies when the transmittance pass can run"):
+    with pytest.raises(SettingsError, match="transmission_spread applies to transmission auto or on, not transmission off"):
         RenderSettings(**BASE, transmission="off", transmission_spread="mcml")
     # a scene renders its own G-buffer: without the layers under auto, with them under on
     assert not plan("ear", RenderSettings(**BASE)).transmission

@@ -260,14 +260,14 @@ def test_shading_value_is_gamma_corrected_luminance():
 # ---- bad parameters ----------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("kwargs, message", [
-    ({"sigma0_sq": 0.0}, "sigma0_sq (the target variance sigma0^2) must be > 0"),
+    ({"sigma0_sq": 0.0}, "sigma0_sq must lie in (0, inf)"),
     ({"sigma0_sq": -1e-3}, "sigma0_sq"),
     ({"sigma0_sq": float("nan")}, "sigma0_sq"),
-    ({"kappa": 1.5}, "kappa must be a finite number in [0, 1]"),
+    ({"kappa": 1.5}, "kappa must lie in [0, 1]"),
     ({"kappa": -0.1}, "kappa"),
     ({"b_min": 65, "b_max": 64}, "needs b_min <= b_max, got b_min=65 > b_max=64"),
     ({"b_min": 0}, "b_min must lie in [1, 65536]"),
-    ({"alpha": 0.0}, "alpha must be a finite number in (0, 1]"),
+    ({"alpha": 0.0}, "alpha must lie in (0, 1]"),
     ({"alpha": 1.2}, "alpha"),
     ({"correction": "stddev"}, "correction must be one of variance, sigma"),
 ])

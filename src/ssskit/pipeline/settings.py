@@ -28,22 +28,25 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from ..backends import BACKENDS, DEFAULT_BACKEND
+from ..backends import DEFAULT_BACKEND
 from ..backends.transmission_plan import MODELS as TRANSMISSION_MODELS
 from ..errors import SettingsError
 from ..registry import Registry
 from ..screenspace.adaptive import AdaptiveSettings
 from ..screenspace.burley import BurleyParams, BurleySettings
 from ..screenspace.settings import PassSettings
-from ..settings import FRAMES_RANGE, PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, check_choice, check_int
+from ..quantities import (BURLEY_ALBEDO, FRAME, FRAMES, MFP_MM, PHOTONS, REFERENCE_SPP, REL_SE, SEED, SIZE_PX, SPP,
+                          TAPS, Choice, Flag, Quantity)
+from ..screenspace.burley import BACKEND, BURLEY_SPP
+from ..settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, check_choice, like, setting
 
-#: photons per channel of Monte Carlo profiles: one range for every command
 #: the samples per pixel of an adaptive run's converged references (moving camera)
-LIMIT_SPP_RANGE = (2, 131072)
+LIMIT_SPP = Quantity("limit_spp", 2, 131072, "", "samples per pixel of a moving run's converged references",
+                     integer=True)
+LIMIT_SPP_RANGE = (int(LIMIT_SPP.lo), int(LIMIT_SPP.hi))
 DEFAULT_LIMIT_SPP = 2048
 #: the values the tree holds once, which the layout before it kept per pass
 SHARED = ("frame", "seed", "backend")
@@ -57,12 +60,6 @@ class SettingsMigrated(UserWarning):
     """A settings file in the layout before the single tree was read and migrated (the message says how)."""
 
 
-def _copy_checked(target: Settings, checked: Settings, names: Iterable[str]) -> None:
-    """Set ``names`` of the frozen ``target`` to ``checked``'s (canonical) values."""
-    for name in names:
-        object.__setattr__(target, name, getattr(checked, name))
-
-
 @dataclass(frozen=True)
 class SeparablePass(Settings):
     """How the separable pass runs (separable-SSS paper section 6, supplement E): ``jitter`` (a fraction
@@ -73,11 +70,8 @@ class SeparablePass(Settings):
     name: ClassVar[str] = "separable"
     table: ClassVar[str] = "separable"
 
-    jitter: float = 0.1
-    depth_mode: str | None = None
-
-    def __post_init__(self) -> None:
-        _copy_checked(self, PassSettings(jitter=self.jitter, depth_mode=self.depth_mode), ("jitter", "depth_mode"))
+    jitter: float = like(PassSettings, "jitter")
+    depth_mode: str | None = like(PassSettings, "depth_mode")
 
     def settings(self, frame: int, seed: int, backend: str) -> PassSettings:
         """The complete :class:`~ssskit.screenspace.PassSettings` of the pass."""
@@ -89,16 +83,6 @@ _SAMPLING = ("sampler", "c", "sequence", "bleed", "stable", "mips", "mip_scale")
 _B = BurleySettings()
 
 
-def _rgb(name: str, value: object) -> tuple[float, float, float] | None:
-    if value is None:
-        return None
-    vals = tuple(value) if isinstance(value, (list, tuple)) else (value,)
-    if len(vals) not in (1, 3) or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in vals):
-        raise SettingsError(f"{name} must be a number or three numbers [R, G, B], got {value!r}")
-    r, g, b = (float(v) for v in (vals * 3 if len(vals) == 1 else vals))
-    return r, g, b
-
-
 @dataclass(frozen=True)
 class _BurleySampling(Settings):
     """The Burley sampler (Xie 2020 Sec. 4.2, 5; :class:`~ssskit.screenspace.BurleySettings`): ``sampler``
@@ -107,24 +91,18 @@ class _BurleySampling(Settings):
     configuration 3: each a number or [R, G, B]; both or neither) instead of the material's Burley
     profile."""
 
-    sampler: str = _B.sampler
-    c: float = _B.c
-    sequence: str = _B.sequence
-    bleed: float = _B.bleed
-    stable: bool = _B.stable
-    mips: bool = _B.mips
-    mip_scale: float = _B.mip_scale
-    albedo: tuple[float, float, float] | None = None
-    dmfp_mm: tuple[float, float, float] | None = None
+    sampler: str = like(BurleySettings, "sampler")
+    c: float = like(BurleySettings, "c", applies=("sampler", ("xie",)))
+    sequence: str = like(BurleySettings, "sequence")
+    bleed: float = like(BurleySettings, "bleed")
+    stable: bool = like(BurleySettings, "stable")
+    mips: bool = like(BurleySettings, "mips")
+    mip_scale: float = like(BurleySettings, "mip_scale")
+    albedo: tuple[float, float, float] | None = setting(BURLEY_ALBEDO, None, optional=True, rgb=True)
+    dmfp_mm: tuple[float, float, float] | None = setting(MFP_MM, None, optional=True, rgb=True)
 
     def __post_init__(self) -> None:
-        checked = BurleySettings(**{k: getattr(self, k) for k in _SAMPLING})
-        _copy_checked(self, checked, _SAMPLING)
-        if self.c != _B.c and self.sampler != "xie":
-            raise SettingsError(f"c is the xie sampler's constant (Xie 2020 Eq. 21), unused by the {self.sampler} "
-                                "sampler; set sampler = xie")
-        object.__setattr__(self, "albedo", _rgb("albedo", self.albedo))
-        object.__setattr__(self, "dmfp_mm", _rgb("dmfp_mm", self.dmfp_mm))
+        super().__post_init__()
         if (self.albedo is None) != (self.dmfp_mm is None):
             raise SettingsError("albedo and dmfp_mm go together (Burley parameters from albedo and diffuse mean free "
                                 "path, Xie 2020 Eq. 5); give both or neither")
@@ -150,14 +128,9 @@ class BurleyPass(_BurleySampling):
     name: ClassVar[str] = "burley"
     table: ClassVar[str] = "burley"
 
-    spp: int = _B.spp
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        _copy_checked(self, BurleySettings(spp=self.spp), ("spp",))
+    spp: int = like(BurleySettings, "spp")
 
 
-_A = AdaptiveSettings()
 _ADAPTIVE = ("sigma0_sq", "kappa", "b_min", "b_max", "alpha", "correction", "gamma")
 
 
@@ -175,35 +148,28 @@ class AdaptivePass(_BurleySampling):
     name: ClassVar[str] = "burley-adaptive"
     table: ClassVar[str] = "adaptive"
 
-    sigma0_sq: float = _A.sigma0_sq
-    kappa: float = _A.kappa
-    b_min: int = _A.b_min
-    b_max: int = _A.b_max
-    alpha: float = _A.alpha
-    correction: str = _A.correction
-    gamma: float = _A.gamma
-    frames: int = 16
-    static: bool = False
-    taa: bool = True
-    limit_spp: int | None = None
-    disocclusion_spp: int | None = None
+    sigma0_sq: float = like(AdaptiveSettings, "sigma0_sq")
+    kappa: float = like(AdaptiveSettings, "kappa")
+    b_min: int = like(AdaptiveSettings, "b_min")
+    b_max: int = like(AdaptiveSettings, "b_max")
+    alpha: float = like(AdaptiveSettings, "alpha")
+    correction: str = like(AdaptiveSettings, "correction")
+    gamma: float = like(AdaptiveSettings, "gamma")
+    frames: int = setting(FRAMES, 16)
+    static: bool = setting(Flag("static"), False)
+    taa: bool = setting(Flag("taa"), True)
+    limit_spp: int | None = setting(LIMIT_SPP, None, optional=True, applies=("camera", ("moving",)))
+    disocclusion_spp: int | None = setting(BURLEY_SPP, None, optional=True, applies=("camera", ("moving",)))
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        _copy_checked(self, AdaptiveSettings(**{k: getattr(self, k) for k in _ADAPTIVE}), _ADAPTIVE)
-        object.__setattr__(self, "frames", check_int("frames", self.frames, *FRAMES_RANGE))
-        for name in ("static", "taa"):
-            if not isinstance(getattr(self, name), bool):
-                raise SettingsError(f"{name} must be true or false, got {getattr(self, name)!r}")
-        if self.limit_spp is not None:
-            object.__setattr__(self, "limit_spp", check_int("limit_spp", self.limit_spp, *LIMIT_SPP_RANGE))
+        self.adaptive_settings()  # b_min <= b_max
         if self.disocclusion_spp is not None:
-            object.__setattr__(self, "disocclusion_spp",
-                               check_int("disocclusion_spp", self.disocclusion_spp, self.b_min, self.b_max))
-        if self.static and self.limit_spp is not None:
-            raise SettingsError("limit_spp applies to a moving camera; a static run compares with the pass's exact limit")
-        if self.static and self.disocclusion_spp is not None:
-            raise SettingsError("disocclusion_spp applies to a moving camera (a static run has no new pixels)")
+            BURLEY_SPP.within(self.b_min, self.b_max, "inside the budget b_min:b_max").check(
+                self.disocclusion_spp, "disocclusion_spp", SettingsError)
+
+    def situation(self) -> dict[str, str]:
+        return {"camera": "static" if self.static else "moving"}
 
     def adaptive_settings(self) -> AdaptiveSettings:
         """The guiding phase's :class:`~ssskit.screenspace.AdaptiveSettings`."""
@@ -222,7 +188,7 @@ for _cls in (SeparablePass, BurleyPass, AdaptivePass):
     PASSES.register(_cls.name, _cls)
 _BY_TABLE = {cls.table: cls for _, cls in PASSES.items()}
 #: the fields of the tree that describe the separable pass's profile and kernel
-KERNEL_FIELDS = ("model", "photons", "kernel", "taps", "tap_method")
+KERNEL_FIELDS = ("model", "photons", "kernel", "taps", "tap_method")  # declared applies=_SEPARABLE below
 
 
 def _check_material_name(name: str) -> None:
@@ -236,6 +202,24 @@ def _check_material_name(name: str) -> None:
         return
     raise SettingsError(f"material {name!r} is neither a preset ({', '.join(MATERIALS.names())}) nor a material "
                         f"file (.toml / .json)")
+
+
+def _models() -> list[str]:
+    from ..profiles import MODELS
+
+    return MODELS.names()
+
+
+def _tap_methods() -> tuple[str, ...]:
+    from ..sampling.taps import TAP_METHODS
+
+    return tuple(TAP_METHODS)
+
+
+#: what the fields of the tree apply to: the separable pass (its profile and kernel), a reference, a transmittance
+_SEPARABLE = ("pass", ("separable",))
+_REFERENCE = ("reference", ("true",))
+_TRANSMITS = ("transmission", ("auto", "on"))
 
 
 @dataclass(frozen=True)
@@ -270,84 +254,49 @@ class RenderSettings(Settings):
     pass they must keep their defaults.
     """
 
-    material: str = "skin1"
-    model: str = "montecarlo"
-    photons: int = 10_000_000
-    kernel: str = "preintegrated"
-    taps: int = 7
-    tap_method: str = "importance"
-    width: int = 256
-    height: int = 192
-    spp: int = 32
-    seed: int = 0
-    frame: int = 0
-    backend: str = DEFAULT_BACKEND
-    exact: bool = True
-    reference: bool = False
-    reference_spp: int = 64
-    reference_max_spp: int = 1024
-    reference_rel_se: float = 0.01
-    perceptual: bool = True
-    transmission: str = "auto"
-    transmission_model: str = "mcml"
-    transmission_spread: str = "off"
-    pass_: PassMember = field(default_factory=SeparablePass)
+    material: str = setting(None, "skin1")
+    model: str = setting(Choice("model", _models), "montecarlo", applies=_SEPARABLE)
+    photons: int = setting(PHOTONS, 10_000_000, applies=_SEPARABLE)
+    kernel: str = setting(None, "preintegrated", applies=_SEPARABLE)
+    taps: int = setting(TAPS, 7, applies=_SEPARABLE)
+    tap_method: str = setting(Choice("tap_method", _tap_methods), "importance", applies=_SEPARABLE)
+    width: int = setting(SIZE_PX, 256)
+    height: int = setting(SIZE_PX, 192)
+    spp: int = setting(SPP, 32)
+    seed: int = setting(SEED, 0)
+    frame: int = setting(FRAME, 0)
+    backend: str = setting(BACKEND, DEFAULT_BACKEND)
+    exact: bool = setting(Flag("exact"), True)
+    reference: bool = setting(Flag("reference"), False)
+    reference_spp: int = setting(REFERENCE_SPP, 64, applies=_REFERENCE)
+    reference_max_spp: int = setting(REFERENCE_SPP, 1024, applies=_REFERENCE)
+    reference_rel_se: float = setting(REL_SE, 0.01, applies=_REFERENCE)
+    perceptual: bool = setting(Flag("perceptual"), True)
+    transmission: str = setting(Choice("transmission", TRANSMISSION), "auto")
+    transmission_model: str = setting(Choice("transmission_model", TRANSMISSION_MODELS), "mcml", applies=_TRANSMITS)
+    transmission_spread: str = setting(Choice("transmission_spread", TRANSMISSION_SPREADS), "off", applies=_TRANSMITS)
+    pass_: PassMember = setting(None, default_factory=SeparablePass)
 
     def __post_init__(self) -> None:
         from ..kernels import parse_method_spec
-        from ..profiles import MODELS
-        from ..sampling.taps import TAP_METHODS
 
         if not isinstance(self.material, str) or not self.material.strip():
             raise SettingsError(f"material must be a preset name or a material file, got {self.material!r}")
         _check_material_name(self.material)
-        object.__setattr__(self, "model", check_choice("model", self.model, MODELS.names()))
-        object.__setattr__(self, "photons", check_int("photons", self.photons, *PHOTONS_RANGE))
         if not isinstance(self.kernel, str):
             raise SettingsError(f"kernel must be a method spec such as 'svd:2', got {self.kernel!r}")
         parse_method_spec(self.kernel)  # unknown names and out-of-range parameters fail here
-        taps = check_int("taps", self.taps, *TAP_RANGE)
-        if taps % 2 == 0:
-            raise SettingsError(f"taps must be odd (a centre tap), got {taps}")
-        object.__setattr__(self, "taps", taps)
-        object.__setattr__(self, "tap_method", check_choice("tap_method", self.tap_method, TAP_METHODS))
-        object.__setattr__(self, "width", check_int("width", self.width, *SIZE_RANGE))
-        object.__setattr__(self, "height", check_int("height", self.height, *SIZE_RANGE))
-        object.__setattr__(self, "spp", check_int("spp", self.spp, 1, 4096))
-        object.__setattr__(self, "seed", check_int("seed", self.seed, 0, 2**31 - 1))
-        object.__setattr__(self, "frame", check_int("frame", self.frame, 0, 2**31 - 1))
-        object.__setattr__(self, "backend", check_choice("backend", self.backend, BACKENDS.names()))
-        object.__setattr__(self, "reference_spp", check_int("reference_spp", self.reference_spp, 1, 1 << 20))
-        object.__setattr__(self, "reference_max_spp", check_int("reference_max_spp", self.reference_max_spp, 1, 1 << 20))
-        if self.reference_max_spp < self.reference_spp:
-            object.__setattr__(self, "reference_max_spp", self.reference_spp)
-        rel = self.reference_rel_se
-        if isinstance(rel, bool) or not (isinstance(rel, (int, float)) and 0 < rel < 1):
-            raise SettingsError(f"reference_rel_se must be a number in (0, 1), got {rel!r}")
-        object.__setattr__(self, "reference_rel_se", float(rel))
-        for name in ("exact", "reference", "perceptual"):
-            if not isinstance(getattr(self, name), bool):
-                raise SettingsError(f"{name} must be true or false, got {getattr(self, name)!r}")
-        object.__setattr__(self, "transmission", check_choice("transmission", self.transmission, TRANSMISSION))
-        object.__setattr__(self, "transmission_model", check_choice("transmission_model", self.transmission_model,
-                                                                    TRANSMISSION_MODELS))
-        object.__setattr__(self, "transmission_spread", check_choice("transmission_spread", self.transmission_spread,
-                                                                     TRANSMISSION_SPREADS))
-        if self.transmission == "off" and self.transmission_model != "mcml":
-            raise SettingsError(f"transmission_model {self.transmission_model!r} applies when the transmittance pass "
-                                "can run (transmission auto or on); transmission is off")
-        if self.transmission == "off" and self.transmission_spread != "off":
-            raise SettingsError(f"transmission_spread {self.transmission_spread!r} applies when the transmittance pass "
-                                "can run (transmission auto or on); transmission is off")
         if not isinstance(self.pass_, (SeparablePass, BurleyPass, AdaptivePass)):
             raise SettingsError(f"pass_ must be one of {', '.join(c.__name__ for _, c in PASSES.items())}, got "
                                 f"{type(self.pass_).__name__}")
-        if self.pass_name != "separable":
-            defaults = _defaults()
-            changed = [k for k in KERNEL_FIELDS if getattr(self, k) != defaults[k]]
-            if changed:
-                raise SettingsError(f"{', '.join(changed)} appl{'ies' if len(changed) == 1 else 'y'} to the separable "
-                                    f"pass (the kernel it filters with); this render runs the {self.pass_name} pass")
+        super().__post_init__()
+        if self.reference_max_spp < self.reference_spp:
+            raise SettingsError(f"reference_max_spp {self.reference_max_spp} is below reference_spp "
+                                f"{self.reference_spp}: the reference renders at least reference_spp samples and at "
+                                "most reference_max_spp")
+
+    def situation(self) -> dict[str, str]:
+        return {"pass": self.pass_name, "reference": "true" if self.reference else "false"}
 
     @property
     def pass_name(self) -> str:
@@ -409,10 +358,6 @@ class RenderSettings(Settings):
             member = _BY_TABLE[tables[0]]
             kwargs["pass_"] = member.from_dict(data[tables[0]], where=f"{where + '.' if where else ''}{tables[0]}")
         return cls(**kwargs)
-
-
-def _defaults() -> dict[str, Any]:
-    return {f.name: f.default for f in dataclasses.fields(RenderSettings) if f.default is not dataclasses.MISSING}
 
 
 #: the profile fields' defaults of the layout before the single tree (every command now defaults to the

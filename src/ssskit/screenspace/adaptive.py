@@ -60,8 +60,14 @@ from ..backends.adaptive_plan import (
 )
 from ..backends.burley_plan import MAX_SPP
 from ..errors import PassError, SettingsError
-from ..settings import Settings, check_choice, check_float, check_int
+from ..quantities import FRACTION, Choice, Quantity
+from ..settings import Settings, check_float, check_int, setting
+from .burley import BURLEY_SPP
 from .camera import check_motion
+
+
+#: the display gamma of a luminance (1 = linear)
+GAMMA = Quantity("gamma", 0.1, 10.0, "", "a display gamma")
 
 
 @dataclass(frozen=True)
@@ -76,27 +82,18 @@ class AdaptiveSettings(Settings):
     ``gamma``: the display gamma of the luminance the history records (Sec. 4.1.2; 1 = linear).
     """
 
-    sigma0_sq: float = 1e-3
-    kappa: float = 0.2
-    b_min: int = 8
-    b_max: int = 64
-    alpha: float = 0.2
-    correction: str = "variance"
-    gamma: float = 2.2
+    sigma0_sq: float = setting(Quantity("sigma0_sq", 0.0, math.inf, "", "a variance", lo_open=True, hi_open=True), 1e-3)
+    kappa: float = setting(FRACTION, 0.2)
+    b_min: int = setting(BURLEY_SPP, 8)
+    b_max: int = setting(BURLEY_SPP, 64)
+    alpha: float = setting(Quantity("alpha", 0.0, 1.0, "", "an EMA weight", lo_open=True), 0.2)
+    correction: str = setting(Choice("correction", CORRECTIONS), "variance")
+    gamma: float = setting(GAMMA, 2.2)
 
     def __post_init__(self) -> None:
-        s0 = check_float("sigma0_sq", self.sigma0_sq, 0.0, math.inf)
-        if s0 <= 0.0:
-            raise SettingsError(f"sigma0_sq (the target variance sigma0^2) must be > 0, got {self.sigma0_sq!r}")
-        object.__setattr__(self, "sigma0_sq", s0)
-        object.__setattr__(self, "kappa", check_float("kappa", self.kappa, 0.0, 1.0))
-        object.__setattr__(self, "b_min", check_int("b_min", self.b_min, 1, MAX_SPP))
-        object.__setattr__(self, "b_max", check_int("b_max", self.b_max, 1, MAX_SPP))
+        super().__post_init__()
         if self.b_min > self.b_max:
             raise SettingsError(f"the sample budget needs b_min <= b_max, got b_min={self.b_min} > b_max={self.b_max}")
-        object.__setattr__(self, "alpha", check_float("alpha", self.alpha, 0.0, 1.0, open_lo=True))
-        object.__setattr__(self, "correction", check_choice("correction", self.correction, CORRECTIONS))
-        object.__setattr__(self, "gamma", check_float("gamma", self.gamma, 0.1, 10.0))
 
     @property
     def k(self) -> float:
@@ -159,7 +156,7 @@ def shading_value(rgb: ArrayLike, gamma: float = 2.2) -> NDArray[np.float32]:
     a = np.asarray(rgb, dtype=np.float32)
     if a.ndim != 3 or a.shape[2] != 3:
         raise PassError(f"shading_value needs an (H, W, 3) RGB image, got shape {a.shape}")
-    return reference_luminance(a, check_float("gamma", gamma, 0.1, 10.0))
+    return reference_luminance(a, GAMMA.check(gamma, "gamma", SettingsError))
 
 
 def estimate_counts(history: ArrayLike, settings: AdaptiveSettings | None = None) -> NDArray[np.float64]:

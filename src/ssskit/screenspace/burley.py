@@ -46,12 +46,21 @@ from ..backends.burley_plan import (
 )
 from ..backends.plan import profile_ids
 from ..errors import GBufferError, PassError, SettingsError
-from ..settings import Settings, check_choice, check_float, check_int
+from ..quantities import FRACTION, FRAME, SCALE, SEED, Choice, Flag, Quantity
+from ..settings import Settings, setting
 from .gbuffer import GBuffer
 
 if TYPE_CHECKING:
     from ..backends.base import Backend
     from ..materials import Material
+
+
+#: the Burley sampler (Xie 2020 Sec. 4.2), its samples per pixel, Eq. 21's damping c, the backend: quantities
+#: the pipeline's settings declare too
+SAMPLER = Choice("sampler", SAMPLERS)
+BURLEY_SPP = Quantity("spp", 1, MAX_SPP, "", "samples per pixel of the Burley pass", integer=True)
+XIE_C_RANGE = Quantity("c", C_RANGE[0], C_RANGE[1], "", "Eq. 21's damping (Xie 2020)", lo_open=True, hi_open=True)
+BACKEND = Choice("backend", BACKENDS.names)
 
 
 @dataclass(frozen=True)
@@ -69,37 +78,17 @@ class BurleySettings(Settings):
     :data:`ssskit.backends.BACKENDS` whose ``passes`` include "burley".
     """
 
-    sampler: str = "exact"
-    spp: int = 32
-    c: float = XIE_C
-    sequence: str = "r2"
-    bleed: float = 0.0
-    frame: int = 0
-    seed: int = 0
-    stable: bool = False
-    mips: bool = True
-    mip_scale: float = XIE_MIP_SCALE
-    backend: str = DEFAULT_BACKEND
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "sampler", check_choice("sampler", self.sampler, SAMPLERS))
-        object.__setattr__(self, "spp", check_int("spp", self.spp, 1, MAX_SPP))
-        try:
-            c = check_float("c", self.c, -math.inf, math.inf)
-        except SettingsError:  # not a finite number: the message names c's own domain, not (-inf, inf)
-            c = math.nan
-        if not C_RANGE[0] < c < C_RANGE[1]:
-            raise SettingsError(f"c must lie in the open interval ({C_RANGE[0]:g}, {C_RANGE[1]:g}), got {self.c!r}")
-        object.__setattr__(self, "c", c)
-        object.__setattr__(self, "sequence", check_choice("sequence", self.sequence, SEQUENCES))
-        object.__setattr__(self, "bleed", check_float("bleed", self.bleed, 0.0, 1.0))
-        object.__setattr__(self, "frame", check_int("frame", self.frame, 0, 2**31 - 1))
-        object.__setattr__(self, "seed", check_int("seed", self.seed, 0, 2**31 - 1))
-        for name in ("stable", "mips"):
-            if not isinstance(getattr(self, name), bool):
-                raise SettingsError(f"{name} must be true or false, got {getattr(self, name)!r}")
-        object.__setattr__(self, "mip_scale", check_float("mip_scale", self.mip_scale, 1e-6, 1e6))
-        object.__setattr__(self, "backend", check_choice("backend", self.backend, BACKENDS.names()))
+    sampler: str = setting(SAMPLER, "exact")
+    spp: int = setting(BURLEY_SPP, 32)
+    c: float = setting(XIE_C_RANGE, XIE_C)
+    sequence: str = setting(Choice("sequence", SEQUENCES), "r2")
+    bleed: float = setting(FRACTION, 0.0)
+    frame: int = setting(FRAME, 0)
+    seed: int = setting(SEED, 0)
+    stable: bool = setting(Flag("stable"), False)
+    mips: bool = setting(Flag("mips"), True)
+    mip_scale: float = setting(SCALE, XIE_MIP_SCALE)
+    backend: str = setting(BACKEND, DEFAULT_BACKEND)
 
 
 def burley_params_for_material(material: Material | str, configuration: str = "searchlight") -> BurleyParams:

@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..backends import BACKENDS, DEFAULT_BACKEND, DEPTH_MODES
-from ..settings import Settings, check_choice, check_float, check_int
+from ..quantities import FRACTION, FRAME, SEED, Choice
+from ..settings import Settings, setting
 
 
 @dataclass(frozen=True)
@@ -18,16 +19,8 @@ class PassSettings(Settings):
     per-pixel jitter rotation; ``backend``: a name from :data:`ssskit.backends.BACKENDS`.
     """
 
-    jitter: float = 0.1
-    depth_mode: str | None = None
-    frame: int = 0
-    seed: int = 0
-    backend: str = DEFAULT_BACKEND
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "jitter", check_float("jitter", self.jitter, 0.0, 1.0))
-        if self.depth_mode is not None:
-            object.__setattr__(self, "depth_mode", check_choice("depth_mode", self.depth_mode, DEPTH_MODES))
-        object.__setattr__(self, "frame", check_int("frame", self.frame, 0, 2**31 - 1))
-        object.__setattr__(self, "seed", check_int("seed", self.seed, 0, 2**31 - 1))
-        object.__setattr__(self, "backend", check_choice("backend", self.backend, BACKENDS.names()))
+    jitter: float = setting(FRACTION, 0.1)
+    depth_mode: str | None = setting(Choice("depth_mode", DEPTH_MODES), None, optional=True)
+    frame: int = setting(FRAME, 0)
+    seed: int = setting(SEED, 0)
+    backend: str = setting(Choice("backend", BACKENDS.names), DEFAULT_BACKEND)

@@ -48,7 +48,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError, SettingsError
-from ..settings import Settings, check_choice, check_float
+from ..quantities import Choice, Quantity
+from ..settings import Settings, check_float, setting
 from .camera import Camera, check_motion
 
 #: neighbourhood boxes the history is clamped to (module docstring)
@@ -64,23 +65,11 @@ class TAASettings(Settings):
     ``"minmax"``, ``"variance"`` or ``"none"``; ``gamma``: the width of the variance box in standard
     deviations (Salvi 2016: 1; > 0); ``fetch``: ``"bilinear"`` or ``"catmull-rom"``."""
 
-    alpha: float = 0.1
-    neighbourhood: str = "minmax"
-    gamma: float = 1.0
-    fetch: str = "catmull-rom"
-
-    def __post_init__(self) -> None:
-        a = check_float("alpha", self.alpha, 0.0, 1.0)
-        if a <= 0.0:
-            raise SettingsError(f"alpha (the current frame's TAA weight) must lie in (0, 1], got {self.alpha!r}")
-        object.__setattr__(self, "alpha", a)
-        object.__setattr__(self, "neighbourhood", check_choice("neighbourhood", self.neighbourhood, NEIGHBOURHOODS))
-        g = check_float("gamma", self.gamma, 0.0, 100.0)
-        if g <= 0.0:
-            raise SettingsError(f"gamma (the variance box's width in standard deviations) must be > 0, "
-                                f"got {self.gamma!r}")
-        object.__setattr__(self, "gamma", g)
-        object.__setattr__(self, "fetch", check_choice("fetch", self.fetch, FETCHES))
+    alpha: float = setting(Quantity("alpha", 0.0, 1.0, "", "the current frame's TAA weight", lo_open=True), 0.1)
+    neighbourhood: str = setting(Choice("neighbourhood", NEIGHBOURHOODS), "minmax")
+    gamma: float = setting(Quantity("gamma", 0.0, 100.0, "", "the variance box's width in standard deviations",
+                                    lo_open=True), 1.0)
+    fetch: str = setting(Choice("fetch", FETCHES), "catmull-rom")
 
 
 # ---- colour space --------------------------------------------------------------------------------------

@@ -1,0 +1,288 @@
+"""One vocabulary of the quantities ssskit takes: each with its range, unit and the reason for the range, and
+one ``check`` whose wording names the actual and the expected value.
+
+Every entry point (settings classes, material and scene readers, engine readers, the profiles' domains, the
+backends' frame checks, the CLI) states its inputs in these terms, so a rule is written once and refused in
+one wording wherever the value enters (kornia's ``KORNIA_CHECK`` and pydantic/attrs field constraints are the
+models). A check raises the caller's area error (``error=``: :class:`~ssskit.errors.MaterialError`,
+:class:`~ssskit.errors.SettingsError`, ...), so a caller's ``except`` and tests keep working, under the name the
+caller gives (a settings field, ``--spp`` on the command line, ``layer 2: sigma_a`` in a file).
+
+The wordings (the only ones: ``benchmarks/validation_count.py`` counts the phrasings left elsewhere)::
+
+    {name} must be {kind}, got {actual!r}                 a value of the wrong type
+    {name} must be finite, got {actual}                   NaN or infinity in an array (an image, a table)
+    {name} must lie in {interval}[ unit], got {actual}[ (reason)]   a number out of range (NaN included)
+    {name} must be one of {choices}, got {actual!r}       a name that is not among the choices
+
+    >>> BURLEY_ALBEDO.check(0.5, "albedo")
+    0.5
+    >>> SPP.check(0, "spp")
+    Traceback (most recent call last):
+    ...
+    ssskit.errors.SsskitError: spp must lie in [1, 4096], got 0 (samples per pixel of one G-buffer render; more is a reference's job)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Collection, Iterable
+from dataclasses import dataclass, replace
+from typing import Any, SupportsIndex
+
+from .errors import SsskitError
+
+#: the wordings (module docstring); every message below is made from one of them
+TYPE = "{name} must be {kind}, got {actual}"
+FINITE = "{name} must be finite, got {actual}"
+RANGE = "{name} must lie in {interval}{unit}, got {actual}{reason}"
+CHOICE = "{name} must be one of {choices}, got {actual}"
+#: the wording of an option given but not used by what runs (:func:`refuse_unused`)
+UNUSED = "{names} appl{verb} to {category} {values}, not {category} {actual}"
+
+ErrorClass = type[SsskitError]
+
+
+def fail(error: ErrorClass, template: str, **fields: object) -> SsskitError:
+    """The error ``error(template.format(**fields))``: raise what this returns."""
+    return error(template.format(**fields))
+
+
+def _fmt(v: object) -> str:
+    if isinstance(v, float):
+        return f"{v:g}"
+    if isinstance(v, (list, tuple)):
+        return "(" + ", ".join(_fmt(x) for x in v) + ")"
+    return repr(v)
+
+
+def _bound(v: float) -> str:
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A number (or each of three, ``rgb``) with its range ``[lo, hi]`` (``lo_open`` / ``hi_open``: that end
+    excluded), ``unit`` (``mm``, ``mm^-1``, ``px``; empty for none), ``reason`` (why the range: the model's
+    domain, a paper's value, what the arithmetic holds), ``integer`` (an int; bools are refused everywhere) and
+    ``odd`` (an odd integer)."""
+
+    name: str
+    lo: float
+    hi: float
+    unit: str = ""
+    reason: str = ""
+    integer: bool = False
+    lo_open: bool = False
+    hi_open: bool = False
+    odd: bool = False
+
+    def within(self, lo: float | None = None, hi: float | None = None, reason: str | None = None) -> Quantity:
+        """The same quantity on a narrower (or caller-given) range: a model's domain, another's bound."""
+        return replace(self, lo=self.lo if lo is None else lo, hi=self.hi if hi is None else hi,
+                       reason=self.reason if reason is None else reason)
+
+    @property
+    def interval(self) -> str:
+        return f"{'(' if self.lo_open else '['}{_bound(self.lo)}, {_bound(self.hi)}{')' if self.hi_open else ']'}"
+
+    @property
+    def kind(self) -> str:
+        return "an odd integer" if self.odd else "an integer" if self.integer else "a number"
+
+    def contains(self, v: float) -> bool:
+        lo_ok = v > self.lo if self.lo_open else v >= self.lo
+        hi_ok = v < self.hi if self.hi_open else v <= self.hi
+        return lo_ok and hi_ok
+
+    def _scalar(self, value: object, name: str, error: ErrorClass, shown: object = None) -> Any:
+        if self.integer:
+            if isinstance(value, bool) or not isinstance(value, SupportsIndex):
+                raise fail(error, TYPE, name=name, kind=self.kind, actual=repr(value))
+            v: int | float = int(value)
+        else:
+            if isinstance(value, (bool, str, bytes)):
+                raise fail(error, TYPE, name=name, kind=self.kind, actual=repr(value))
+            try:
+                v = float(value)  # type: ignore[arg-type]
+            except (TypeError, ValueError):
+                raise fail(error, TYPE, name=name, kind=self.kind, actual=repr(value)) from None
+            if math.isnan(v) or (math.isinf(v) and not self.contains(v)):  # inf only where the range holds it
+                self.refuse(v if shown is None else shown, name, error)
+        if not self.contains(v):
+            self.refuse(v if shown is None else shown, name, error)
+        if self.odd and int(v) % 2 == 0:
+            raise fail(error, TYPE, name=name, kind=self.kind, actual=repr(v))
+        return v
+
+    def refuse(self, actual: object, name: str | None = None, error: ErrorClass = SsskitError) -> SsskitError:
+        """Raise the range wording for ``actual`` (for callers that test the range themselves, on arrays)."""
+        raise self._range(_fmt(actual), name or self.name, error)
+
+    def _range(self, actual: str, name: str, error: ErrorClass) -> SsskitError:
+        return fail(error, RANGE, name=name, interval=self.interval, unit=f" {self.unit}" if self.unit else "",
+                    actual=actual, reason=f" ({self.reason})" if self.reason else "")
+
+    def check(self, value: object, name: str | None = None, error: ErrorClass = SsskitError) -> Any:
+        """``value`` as an int or float in the range, or ``error`` in the module's wording under ``name``."""
+        return self._scalar(value, name or self.name, error)
+
+    def check_rgb(self, value: object, name: str | None = None, error: ErrorClass = SsskitError,
+                  ) -> tuple[float, float, float]:
+        """One number or three (R, G, B), each in the range: three floats."""
+        label = name or self.name
+        vals = tuple(value) if isinstance(value, (list, tuple)) else (value,)
+        if len(vals) not in (1, 3):
+            raise fail(error, TYPE, name=label, kind=f"{self.kind} or three [R, G, B]", actual=repr(value))
+        if any(isinstance(v, (bool, str, bytes)) or not isinstance(v, (int, float, SupportsIndex)) for v in vals):
+            raise fail(error, TYPE, name=label, kind=f"{self.kind} or three [R, G, B]", actual=repr(value))
+        shown = vals[0] if len(vals) == 1 else vals
+        r, g, b = (float(self._scalar(v, label, error, shown)) for v in (vals * 3 if len(vals) == 1 else vals))
+        return r, g, b
+
+    def check_array(self, values: Any, name: str | None = None, error: ErrorClass = SsskitError,
+                    where: str = "") -> Any:
+        """An array of floats, all finite and in the range (``where``: what the elements are, e.g.
+        ``"pixels"``); returned as a numpy array."""
+        import numpy as np
+
+        label = name or self.name
+        a = np.asarray(values, dtype=np.float64)
+        bad = ~np.isfinite(a)
+        if bad.any():
+            raise fail(error, FINITE, name=label, actual=_count(bad, a, where))
+        lo_bad = a <= self.lo if self.lo_open else a < self.lo
+        hi_bad = a >= self.hi if self.hi_open else a > self.hi
+        out = lo_bad | hi_bad
+        if out.any():
+            raise self._range(f"{a[out].flat[0]:g} in {int(out.sum())} of {a.size} {where or 'values'}", label, error)
+        return a
+
+
+def _count(bad: Any, a: Any, where: str) -> str:
+    import numpy as np
+
+    first = tuple(int(i) for i in np.argwhere(bad)[0]) if a.ndim else ()
+    at = f", the first at {first if len(first) > 1 else first[0]}" if first else ""
+    return f"NaN or inf in {int(bad.sum())} of {a.size} {where or 'values'}{at}"
+
+
+def check_finite(values: Any, name: str, error: ErrorClass = SsskitError, where: str = "") -> Any:
+    """An array (an image, a table) with no NaN or infinity, or ``error`` in the finiteness wording: the count
+    and the first index. Returns it as given."""
+    import numpy as np
+
+    a = np.asarray(values)
+    if a.dtype.kind in "fc":
+        bad = ~np.isfinite(a)
+        if bad.any():
+            raise fail(error, FINITE, name=name, actual=_count(bad, a, where))
+    return values
+
+
+@dataclass(frozen=True)
+class Choice:
+    """A name among ``choices`` (a collection, or a function returning one: a registry's names, read when
+    checked), case-insensitive, returned in its canonical spelling; ``optional``: None passes."""
+
+    name: str
+    choices: Collection[str] | Callable[[], Collection[str]]
+    reason: str = ""
+
+    def names(self) -> Collection[str]:
+        return self.choices() if callable(self.choices) else self.choices
+
+    def check(self, value: object, name: str | None = None, error: ErrorClass = SsskitError) -> str:
+        names = self.names()
+        if isinstance(value, str):
+            for c in names:
+                if c.lower() == value.strip().lower():
+                    return c
+        raise fail(error, CHOICE, name=name or self.name, choices=", ".join(names), actual=repr(value))
+
+
+@dataclass(frozen=True)
+class Flag:
+    """true or false (a bool, nothing else)."""
+
+    name: str
+    reason: str = ""
+
+    def check(self, value: object, name: str | None = None, error: ErrorClass = SsskitError) -> bool:
+        if not isinstance(value, bool):
+            raise fail(error, TYPE, name=name or self.name, kind="true or false", actual=repr(value))
+        return value
+
+
+def check_choice(name: str, value: object, choices: Collection[str], error: ErrorClass = SsskitError) -> str:
+    """``value`` (case-insensitive) among ``choices``, in its canonical spelling: :class:`Choice`'s check."""
+    return Choice(name, choices).check(value, name, error)
+
+
+def refuse_unused(names: Iterable[str], category: str, values: Iterable[str], actual: object,
+                  error: ErrorClass = SsskitError) -> None:
+    """Refuse options given but not used by what runs, in the one wording (Mitsuba's unqueried-property check):
+    ``{names} applies to {category} {values}, not {category} {actual}``, e.g. ``c applies to sampler xie, not
+    sampler exact`` or, in the CLI's terms, ``--c applies to --sampler xie, not --sampler exact``. Nothing when
+    ``names`` is empty."""
+    given = list(names)
+    if given:
+        raise fail(error, UNUSED, names=", ".join(given), verb="ies" if len(given) == 1 else "y", category=category,
+                   values=" or ".join(values), actual=actual)
+
+
+# --- the vocabulary -------------------------------------------------------------------------------------------
+# lengths are millimetres (materials.py); counts are integers; every bound says why it is where it is
+
+#: transport mean free paths 1/sigma_t' (and any mean free path an artist gives) every model takes
+MFP_MM = Quantity("mean free path", 1e-6, 1e6, "mm",
+                  "1 nm to 1 km: profiles are sampled on grids of a fraction of the shortest path up to tens of the "
+                  "longest; outside it the arithmetic overflows or underflows long before a translucent material ends")
+#: Burley's surface albedo A (Xie 2020 Eq. 5, Burley 2015): the total diffuse reflectance of a scattering medium
+BURLEY_ALBEDO = Quantity("Burley albedo A", 0.0, 1.0, "",
+                         "a reflectance; A = 0 reflects no light beneath the surface: R(r) = 0 and a kernel "
+                         "normalised by it is 0/0", lo_open=True)
+#: a reflectance that may be 0 (a surround, a diffuse colour): [0, 1]
+REFLECTANCE = Quantity("albedo", 0.0, 1.0, "", "a reflectance")
+#: absorption and scattering coefficients (mm^-1): >= 0, finite
+COEFFICIENT = Quantity("coefficient", 0.0, math.inf, "mm^-1", "an attenuation per mm", hi_open=True)
+#: the Henyey-Greenstein anisotropy g (mean cosine of the scattering angle)
+ANISOTROPY = Quantity("g", -1.0, 1.0, "", "the mean cosine of the scattering angle; |g| = 1 is a delta phase "
+                      "function that never turns", lo_open=True, hi_open=True)
+#: refractive index (absolute or relative to the outside)
+ETA = Quantity("eta", 1.0, 4.0, "", "no optical medium is denser in the visible (diamond 2.42, rutile 2.9); "
+               "beyond it the photons are trapped by total internal reflection")
+#: a layer's thickness (mm); inf: semi-infinite
+THICKNESS_MM = Quantity("thickness_mm", 0.0, math.inf, "mm", "a slab's depth; inf for a semi-infinite medium",
+                        lo_open=True)
+#: a distance or size in mm that must be positive (pixel size, texel size, kernel cell, Burley's d)
+LENGTH_MM = Quantity("length", 0.0, math.inf, "mm", "a length", lo_open=True, hi_open=True)
+#: photons per channel of a Monte Carlo profile (one range for every command)
+PHOTONS = Quantity("photons", 1_000, 10_000_000_000, "", "below 10^3 the tallies are noise; 10^10 is hours per "
+                   "channel", integer=True)
+#: samples per pixel of one G-buffer or Burley pass
+SPP = Quantity("spp", 1, 4096, "", "samples per pixel of one G-buffer render; more is a reference's job",
+               integer=True)
+#: samples per pixel of a path-traced reference
+REFERENCE_SPP = Quantity("reference_spp", 1, 1 << 20, "", "samples per pixel of a path-traced reference",
+                         integer=True)
+#: frames of one adaptive run or sequence
+FRAMES = Quantity("frames", 1, 100_000, "", "frames of one run; a sequence's G-buffers are kept", integer=True)
+#: taps of one 1D pass (odd: a centre tap)
+TAPS = Quantity("taps", 1, 255, "", "taps of one 1D pass, odd for a centre tap", integer=True, odd=True)
+#: image sides of the built-in scenes (pixels)
+SIZE_PX = Quantity("size", 8, 8192, "px", "image sides of a rendered G-buffer", integer=True)
+#: a seed or a frame index: the counter-based hashes take 31 bits
+SEED = Quantity("seed", 0, 2**31 - 1, "", "the per-pixel hashes take 31 bits", integer=True)
+FRAME = Quantity("frame", 0, 2**31 - 1, "", "the per-pixel hashes take 31 bits", integer=True)
+#: a fraction in [0, 1] (jitter as a fraction of the kernel, bleed, kappa)
+FRACTION = Quantity("fraction", 0.0, 1.0)
+#: a relative standard error a reference is run to
+REL_SE = Quantity("reference_rel_se", 0.0, 1.0, "", "a relative standard error", lo_open=True, hi_open=True)
+#: a scale factor that must be positive and finite
+SCALE = Quantity("scale", 1e-6, 1e6, "", "a positive factor")
+
+__all__ = ["ANISOTROPY", "BURLEY_ALBEDO", "CHOICE", "COEFFICIENT", "Choice", "ETA", "FINITE", "FRACTION", "FRAME",
+           "FRAMES", "Flag", "LENGTH_MM", "MFP_MM", "PHOTONS", "Quantity", "RANGE", "REFERENCE_SPP", "REFLECTANCE",
+           "REL_SE", "SCALE", "SEED", "SIZE_PX", "SPP", "TAPS", "THICKNESS_MM", "TYPE", "UNUSED", "check_choice",
+           "check_finite", "fail", "refuse_unused"]

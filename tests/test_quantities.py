@@ -1,0 +1,106 @@
+"""The vocabulary of quantities (ssskit.quantities): one wording per kind of refusal, naming the actual and the
+expected value, raised as the caller's area error; settings fields declared with it (ssskit.settings.setting)."""
+
+from __future__ import annotations
+
+import dataclasses
+import doctest
+import math
+
+import numpy as np
+import pytest
+
+import ssskit.quantities as q
+from ssskit.errors import MaterialError, PassError, SettingsError, SsskitError
+from ssskit.settings import Settings, setting
+
+
+def test_doctests():
+    assert doctest.testmod(q).failed == 0
+
+
+@pytest.mark.parametrize("name", [n for n in q.__all__ if isinstance(getattr(q, n), q.Quantity)])
+def test_every_quantity_states_its_range(name):
+    quantity = getattr(q, name)
+    assert quantity.lo <= quantity.hi
+    if name not in ("FRACTION",):  # a plain fraction needs no reason beyond its interval
+        assert quantity.reason, f"{name} has no reason for its range"
+
+
+def test_range_wording_names_actual_expected_unit_and_reason():
+    with pytest.raises(MaterialError) as e:
+        q.MFP_MM.check(2e6, "mean free path", MaterialError)
+    msg = str(e.value)
+    assert msg.startswith("mean free path must lie in [1e-06, 1e+06] mm, got 2e+06 (1 nm to 1 km")
+
+
+def test_nan_is_out_of_range_and_inf_only_where_the_range_holds_it():
+    with pytest.raises(SsskitError, match=r"^g must lie in \(-1, 1\), got nan"):
+        q.ANISOTROPY.check(math.nan)
+    with pytest.raises(SsskitError, match=r"^sigma_a must lie in \[0, inf\) mm\^-1, got inf"):
+        q.COEFFICIENT.check(math.inf, "sigma_a")
+    assert q.THICKNESS_MM.check(math.inf) == math.inf  # a semi-infinite layer
+
+
+def test_types_refused_in_one_wording():
+    with pytest.raises(SettingsError, match=r"^spp must be an integer, got True$"):
+        q.SPP.check(True, "spp", SettingsError)
+    with pytest.raises(SettingsError, match=r"^spp must be an integer, got 1.5$"):
+        q.SPP.check(1.5, "spp", SettingsError)
+    with pytest.raises(SettingsError, match=r"^eta must be a number, got '1.3'$"):
+        q.ETA.check("1.3", "eta", SettingsError)
+    with pytest.raises(SettingsError, match=r"^taps must be an odd integer, got 8$"):
+        q.TAPS.check(8, "taps", SettingsError)
+    assert q.TAPS.check(np.int64(7)) == 7 and type(q.TAPS.check(np.int64(7))) is int
+
+
+def test_burley_albedo_refuses_zero_and_names_why():
+    """Xie 2020 Eq. 5 / Burley 2015: A in (0, 1]; A = 0 gives R(r) = 0 (module docstring of profiles.domain)."""
+    assert q.BURLEY_ALBEDO.check_rgb(0.5) == (0.5, 0.5, 0.5)
+    assert q.BURLEY_ALBEDO.check(1.0) == 1.0
+    with pytest.raises(PassError, match=r"albedo must lie in \(0, 1\], got \(0.5, 0, 1\) \(a reflectance; A = 0"):
+        q.BURLEY_ALBEDO.check_rgb([0.5, 0, 1], "albedo", PassError)
+    with pytest.raises(PassError, match=r"albedo must be a number or three \[R, G, B\], got \[1, 2\]"):
+        q.BURLEY_ALBEDO.check_rgb([1, 2], "albedo", PassError)
+
+
+def test_arrays_finite_wording_counts_and_locates():
+    img = np.ones((2, 3))
+    img[1, 2] = np.nan
+    with pytest.raises(SsskitError, match=r"^diffuse must be finite, got NaN or inf in 1 of 6 pixels, the first at "
+                                          r"\(1, 2\)$"):
+        q.check_finite(img, "diffuse", where="pixels")
+    with pytest.raises(SsskitError, match=r"^radii must lie in \[0, inf\) mm, got -1 in 1 of 3 values"):
+        q.Quantity("radii", 0.0, math.inf, "mm", hi_open=True).check_array([0, 1, -1])
+    assert q.check_finite(np.arange(3), "ints") is not None
+
+
+def test_choice_and_flag():
+    assert q.Choice("sampler", ("exact", "xie")).check(" XIE ") == "xie"
+    with pytest.raises(SettingsError, match=r"^sampler must be one of exact, xie, got 'golub'$"):
+        q.Choice("sampler", lambda: ("exact", "xie")).check("golub", error=SettingsError)
+    with pytest.raises(SsskitError, match=r"^mips must be true or false, got 'yes'$"):
+        q.Flag("mips").check("yes")
+
+
+@dataclasses.dataclass(frozen=True)
+class _Toy(Settings):
+    mode: str = setting(q.Choice("mode", ("a", "b")), "a")
+    knob: float = setting(q.FRACTION, 0.5, applies=("mode", ("b",)))
+    spp: int = setting(q.SPP, 4)
+
+
+def test_declared_fields_are_checked_and_canonical():
+    t = _Toy(mode="B", knob=1, spp=np.int32(8))
+    assert (t.mode, t.knob, t.spp) == ("b", 1.0, 8) and type(t.spp) is int
+    with pytest.raises(SettingsError, match=r"^spp must lie in \[1, 4096\], got 0"):
+        _Toy(spp=0)
+
+
+def test_an_option_given_but_unused_is_refused_once():
+    assert _Toy(knob=0.5).knob == 0.5  # at its default: not given
+    with pytest.raises(SettingsError, match=r"^knob applies to mode b, not mode a$"):
+        _Toy(knob=0.25)
+    with pytest.raises(SettingsError, match=r"^x, y apply to sampler xie, not sampler exact$"):
+        q.refuse_unused(["x", "y"], "sampler", ["xie"], "exact", SettingsError)
+    q.refuse_unused([], "sampler", ["xie"], "exact")  # nothing given: nothing refused
