@@ -387,7 +387,10 @@ def run_case(name: str, args: list[str], timeout_s: float = 60.0) -> dict:
     lines = err.splitlines()
     ok = (proc.returncode == 2 and len(lines) == 1 and lines[0].startswith("ssskit: error: ") and not out
           and not written)
-    return {"name": name, "args": args, "exit": proc.returncode, "stderr_lines": len(lines),
+    # the heartbeat ("  ... still working, 8 s since the last step") speaks after 8 s without progress: only a
+    # loaded machine makes a refusal that slow; counted apart so a test can hold the rule on any load
+    beats = sum(line.startswith("  ... still working") for line in lines)
+    return {"name": name, "args": args, "exit": proc.returncode, "stderr_lines": len(lines), "heartbeat_lines": beats,
             "stderr": err.strip()[-300:], "stdout_bytes": len(out), "wall_s": round(wall, 3),
             "written": written, "ok": ok}
 
