@@ -12,7 +12,9 @@ and whether it kept the rule; then a summary with the machine's load average.
     python benchmarks/hostile_inputs.py [--jobs N] [--only SUBSTRING] [--fast]
 
 ``--fast``: the cases of :data:`FAST` (tests/cli/test_hostile_inputs.py runs them); ``--jobs``: cases run at once
-(default: the CPU count). Wall seconds depend on the machine's load: read them with the load average printed.
+(default: the CPU count). Wall seconds depend on the machine's load: read them with the load average printed;
+with ``--jobs 1`` each case's CPU seconds (user + system of its process) are given too, which depend on it much
+less.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import struct
 import subprocess
 import sys
@@ -365,7 +368,12 @@ def setup(folder: Path) -> None:
         (folder / name).mkdir()
 
 
-def run_case(name: str, args: list[str], timeout_s: float = 60.0) -> dict:
+def _children_cpu_s() -> float:
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def run_case(name: str, args: list[str], timeout_s: float = 60.0, cpu: bool = False) -> dict:
     """Run one case in a fresh folder holding the catalogue's files: its exit status, stderr lines, wall and CPU
     seconds, the files it wrote, and whether it kept the rule (exit 2, one line ``ssskit: error: ...``, no stdout,
     nothing written)."""
@@ -374,6 +382,7 @@ def run_case(name: str, args: list[str], timeout_s: float = 60.0) -> dict:
         setup(folder)
         env = {**os.environ, "SSSKIT_CACHE_DIR": str(folder / "cache"), "PYTHONPATH": str(ROOT / "src")}
         before = _listing(folder)
+        cpu0 = _children_cpu_s()
         t0 = time.perf_counter()
         proc = subprocess.Popen([sys.executable, "-m", "ssskit.cli", *args], cwd=folder, env=env, text=True,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE)
@@ -383,6 +392,7 @@ def run_case(name: str, args: list[str], timeout_s: float = 60.0) -> dict:
             proc.kill()
             out, err = proc.communicate()
         wall = time.perf_counter() - t0
+        cpu_s = round(_children_cpu_s() - cpu0, 3) if cpu else None  # exact only when cases run one at a time
         written = sorted(set(_listing(folder)) - set(before))
     lines = err.splitlines()
     ok = (proc.returncode == 2 and len(lines) == 1 and lines[0].startswith("ssskit: error: ") and not out
@@ -391,7 +401,7 @@ def run_case(name: str, args: list[str], timeout_s: float = 60.0) -> dict:
     # loaded machine makes a refusal that slow; counted apart so a test can hold the rule on any load
     beats = sum(line.startswith("  ... still working") for line in lines)
     return {"name": name, "args": args, "exit": proc.returncode, "stderr_lines": len(lines), "heartbeat_lines": beats,
-            "stderr": err.strip()[-300:], "stdout_bytes": len(out), "wall_s": round(wall, 3),
+            "stderr": err.strip()[-300:], "stdout_bytes": len(out), "wall_s": round(wall, 3), "cpu_s": cpu_s,
             "written": written, "ok": ok}
 
 
@@ -405,12 +415,13 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     load_before = os.getloadavg()
     with ThreadPoolExecutor(max_workers=max(a.jobs, 1)) as pool:
-        results = list(pool.map(lambda c: run_case(*c), cases))
+        results = list(pool.map(lambda c: run_case(*c, cpu=a.jobs == 1), cases))
     failed = [r["name"] for r in results if not r["ok"]]
     slow = [r["name"] for r in results if r["wall_s"] > 1.0]
     summary = {"cases": len(results), "ok": len(results) - len(failed), "failed": failed,
                "slower_than_1s_wall": slow, "max_wall_s": max((r["wall_s"] for r in results), default=0),
-               "jobs": a.jobs,
+               "max_cpu_s": max((r["cpu_s"] or 0 for r in results), default=0) if a.jobs == 1 else None,
+               "slower_than_1s_cpu": [r["name"] for r in results if (r["cpu_s"] or 0) > 1.0], "jobs": a.jobs,
                "total_s": round(time.perf_counter() - t0, 1), "load_average_before": load_before,
                "load_average_after": os.getloadavg(), "cpus": os.cpu_count(), "python": sys.version.split()[0]}
     print(json.dumps({"summary": summary, "cases": results}, indent=1))
