@@ -34,6 +34,9 @@ from .quantities import check_choice as _check_choice
 #: Monte Carlo profile, taps of a 1D pass
 SIZE_RANGE = (int(SIZE_PX.lo), int(SIZE_PX.hi))
 PHOTONS_RANGE = (int(PHOTONS.lo), int(PHOTONS.hi))
+#: the credit the built-in head's licence (CC BY 3.0) asks for (ssskit.scenes.head; here so that --help can name it
+#: without importing the scenes)
+HEAD_ATTRIBUTION = "Head scan: Lee Perry-Smith, Infinite-Realities (CC BY 3.0)"
 #: photons per channel of a Monte Carlo profile by default: the supplement's (section F)
 DEFAULT_PHOTONS = 10_000_000
 TAP_RANGE = (int(TAPS.lo), int(TAPS.hi))

@@ -49,6 +49,9 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "figures": ("report", "figures", "Regenerate the papers' figures (NAME: any of the figures listed below; all "
                                      "by default). The figures that run a screen-space pass run it on --backend; "
                                      "those that render a scene (xie-fig1) take --scene, --units and --material-map."),
+    "view": ("view", "view", "A live WebGL2 viewer of a material on a mesh: the G-buffer pass, the separable and "
+                             "Burley passes as the fragment shaders ssskit export writes, composite and tone mapping, "
+                             "with per-pass frame times."),
     "demo": ("report", "demo", "The main job: build the report (figures + index.html) on built-in defaults; --scene "
                                "adds your model."),
 }

@@ -191,11 +191,14 @@ def render(ctx: click.Context, scene: str | Path, settings_file: str | None, sav
         res.gbuffer.save(save_gbuffer)
     if out:
         res.save(out)
+    about = dict(resolved.spec.about) if resolved.spec is not None else {}
     if as_json:
-        echo_json(res.to_dict())
+        echo_json({**res.to_dict(), **({"scene_about": about} if about else {})})
         return
     for line in res.lines():
         click.echo(line)
+    for key, value in about.items():
+        click.echo(f"# {key}: {value}")
     if frames_dir:
         click.echo(f"# wrote frames and sample-count heatmaps to {frames_dir}")
     if out:

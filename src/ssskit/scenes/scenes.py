@@ -23,7 +23,7 @@ import functools
 import hashlib
 import math
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 from types import ModuleType
 
@@ -72,6 +72,11 @@ class SceneSpec:
     #: so its frame shows nothing but the light the transmittance pass adds (``--transmission auto`` runs
     #: that pass for such a scene: :func:`ssskit.pipeline.transmission.transmission_runs`)
     lit_from_behind: bool = False
+    #: what a user must be told of the scene: (key, value) pairs, e.g. the head scan's ``attribution``, ``licence``
+    #: and ``mm_per_unit`` (:mod:`ssskit.scenes.head`); reported beside every result (``ssskit render --json``)
+    about: tuple[tuple[str, Any], ...] = ()
+    #: named cameras (name, (origin, target, up, fov_x_deg)) that ``--view NAME`` picks (the head's close, ear, front)
+    views: tuple[tuple[str, tuple], ...] = ()
 
     def shape_materials(self, default: str) -> tuple[str, ...]:
         """The material of each SSS shape (profile id i + 1 is ``sss_shapes[i]``), ``default`` where the
