@@ -180,6 +180,12 @@ def heartbeat(interval_s: float = 8.0) -> Iterator[None]:
         thread.join()
 
 
+def add_to_total(bar: ProgressBar, n: int) -> None:
+    """Grow (or, n < 0, shrink) the work a bar expects: a bar shared by several runs (the channels of one
+    simulation) counts only the work still to do, so its estimate of the time left covers all of them."""
+    setattr(bar, "total", (getattr(bar, "total", 0) or 0) + int(n))
+
+
 @contextlib.contextmanager
 def idle() -> Iterator[None]:
     """While the block runs the process waits on someone else (a server for its requests), not on work: the

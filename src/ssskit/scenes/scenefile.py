@@ -50,7 +50,6 @@ from __future__ import annotations
 import math
 import os
 import re
-import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -60,6 +59,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
+from ..io import parse_document
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
 from .scenes import SCENES, SceneSpec, _T, _ply, check_size
 
@@ -160,7 +160,7 @@ def _shape_id(name: str, taken: set[str]) -> str:
 
 
 def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[str, str], default: str,
-                  source: str, taken: set[str]) -> list[MeshObject]:
+                  source: str, taken: set[str], deferred: list[Callable[[], None]]) -> list[MeshObject]:
     names = [m.name for m in meshes]
     unknown = sorted(set(materials) - set(names))
     if unknown:
@@ -174,7 +174,7 @@ def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[st
             topo = topology(m)
         mm = m.scaled(scale_mm)
         shape = _ply(f"mesh-{re.sub(r'[^A-Za-z0-9_]', '_', m.name)}", mm.vertices, mm.faces, mm.normals,
-                     face_normals=False)
+                     face_normals=False, deferred=deferred)
         out.append(MeshObject(_shape_id(m.name, taken), m.name, shape, materials.get(m.name, default),
                               topo.reference_problem(f"{source}:{m.name}" if len(meshes) > 1 else source),
                               mm.digest()))
@@ -188,12 +188,12 @@ def check_units(units: str | Sequence[str] | None) -> str | None:
     different ones (``--units`` given twice)."""
     if units is None:
         return None
-    values = [units] if isinstance(units, str) else list(units)
+    values = [units] if isinstance(units, str) else list(units) if isinstance(units, (list, tuple)) else [units]
     if not values:
         return None
     norm = []
     for u in values:
-        key = str(u).strip().lower()
+        key = u.strip().lower() if isinstance(u, str) else None  # a TOML number or table is no unit name
         if key not in UNITS_MM:
             raise SceneError(f"unknown units {u!r} (known: {', '.join(UNITS_MM)})")
         norm.append(key)
@@ -390,8 +390,8 @@ def load_scene_file(path: str | os.PathLike[str], **options: Any) -> LoadedScene
         raise SceneError(f"scene file {str(p)!r} does not exist" if not p.exists() else
                          f"scene file {str(p)!r} is not a file")
     try:
-        doc = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        doc = parse_document(p.read_text(encoding="utf-8"), ".toml")
+    except (ValueError, UnicodeDecodeError) as exc:
         raise SceneError(f"scene file {str(p)!r} is not valid TOML: {exc}") from None
     doc.setdefault("name", p.stem)
     return scene_from_document(doc, base=p.parent, source=str(p), **options)
@@ -428,6 +428,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     sss_materials: list[str] = []
     objects: list[MeshObject] = []
     problems: list[str] = []
+    deferred: list[Callable[[], None]] = []  # the meshes' cache files, written once every check has passed
     mesh_vertices: list[np.ndarray] = []
     about: dict[str, Any] = {}
     taken: set[str] = set()
@@ -484,7 +485,10 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                 sss_materials.append(_shape_material(sid, table, material_map, claimed))
             continue
         assert meshes is not None
-        if len(meshes) == 1 and meshes[0].name != sid:
+        # a one-object file named by its stem (OBJ, PLY) or a generator takes the shape's id; glTF objects keep their
+        # materials' names, one material or several (docs/meshes.md: --material-map skin=skin1 names it)
+        by_material = kind == "mesh" and FORMATS[fpath.suffix.lower()] == "gltf"
+        if len(meshes) == 1 and meshes[0].name != sid and not by_material:
             meshes = (Mesh(sid, meshes[0].vertices, meshes[0].faces, meshes[0].normals),)
             own = {sid: material_map[sid]} if sid in material_map else {}
         else:
@@ -495,7 +499,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             own = {**{str(k): str(v) for k, v in table["materials"].items()}, **own}
         claimed.update(own)
         scale = UNITS_MM[unit]
-        objs = _mesh_objects(meshes, scale, own, str(table.get("material", "")), label, taken)
+        objs = _mesh_objects(meshes, scale, own, str(table.get("material", "")), label, taken, deferred)
         centre, r = bounding_sphere(meshes, scale)
         lo, hi = MODEL_SIZE_MM
         if not lo <= 2 * r <= hi:
@@ -579,6 +583,8 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                      reference_problem="; ".join(problems) or None,
                      lit_from_behind=bool(doc.get("lit_from_behind", False)),
                      about=tuple(about.items()), views=views)
+    for write in deferred:
+        write()
     return LoadedScene(spec, tuple(notes), tuple(objects), not explicit, dict(doc), base)
 
 
