@@ -43,14 +43,17 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
     """A live WebGL2 viewer of a material on a mesh: the G-buffer pass, the separable and Burley passes as the
     fragment shaders ssskit export writes, composite and tone mapping, with per-pass frame times."""
     from ..materials import MATERIALS
-    from ..view.site import PRESETS, MaterialRequest, page_data, write_site
+    from ..view.site import PRESETS, MaterialRequest, check_out, check_scene, page_data, write_site
+    from .options import check_writable
 
     rgb_a, rgb_m = _rgb(albedo, "--albedo"), _rgb(mfp, "--mfp")
     if (rgb_a is None) != (rgb_m is None):
         raise SsskitError("artists' terms need --albedo and --mfp together")
     if rgb_a is not None and material is not None:
         raise SsskitError("give the material once: --material or --albedo with --mfp")
-    req = MaterialRequest(None, rgb_a, rgb_m) if rgb_a is not None else MaterialRequest(material or "skin1")
+    # an empty --material is refused by name (MaterialRequest.resolve), not taken for the default
+    req = (MaterialRequest(None, rgb_a, rgb_m) if rgb_a is not None
+           else MaterialRequest("skin1" if material is None else material))
     if presets is not None and out is None:
         raise SsskitError("--presets applies to --out (a served page asks the server for any preset)")
     names = PRESETS if presets is None else tuple(n.strip().lower() for n in presets.split(",") if n.strip())
@@ -60,7 +63,11 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
         if name not in MATERIALS:
             raise SsskitError(f"--presets: unknown preset {name!r} (known: {', '.join(MATERIALS.names())})")
     req.check()
-    key = "artist" if rgb_a is not None else str(material or "skin1").lower()
+    check_scene(scene)
+    if out is not None:
+        check_out(out)
+        check_writable(out, "--out", folder=True)
+    key = "artist" if rgb_a is not None else str(req.material).lower()
     req.resolve()  # an unknown preset or a bad file fails here, before any work
     mats = {key: req}
     if out is not None:  # the static folder: the presets precomputed beside the chosen material

@@ -29,6 +29,7 @@ PAGE_FILES = ("index.html", "viewer.js", "viewer.css")
 PRESETS = ("skin1", "skin2", "marble", "ketchup", "apple")
 #: the scenes ``--scene`` takes by name (generated meshes, mm); a mesh file (.obj, .ply, .glb, .gltf) too
 SCENE_NAMES = ("head", "bust", "icosphere", "torus")
+MESH_SUFFIXES = (".obj", ".ply", ".glb", ".gltf")
 #: the separable pass's defaults (those of ``ssskit render``: RenderSettings), and the profile model the
 #: viewer uses (the dipole: closed form, so a material change re-renders within a second)
 DEFAULT_KERNEL = "preintegrated"
@@ -167,6 +168,29 @@ def _light_list(spec: Any) -> list[dict[str, Any]]:
     return out
 
 
+def check_scene(scene: str | os.PathLike[str]) -> str:
+    """The viewer's ``--scene``, checked before any work: a name of :data:`SCENE_NAMES` or an existing mesh file
+    (.obj, .ply, .glb, .gltf); returns it as text."""
+    text = os.fspath(scene)
+    if text.lower() not in SCENE_NAMES and Path(text).suffix.lower() not in MESH_SUFFIXES:
+        raise SsskitError(f"scene {text!r}: the viewer shows a generated mesh ({', '.join(SCENE_NAMES)}) or a mesh "
+                          f"file ({', '.join(MESH_SUFFIXES)})")
+    if text.lower() not in SCENE_NAMES and not Path(text).is_file():
+        raise SsskitError(f"scene {text!r}: no such mesh file")
+    return text
+
+
+def check_out(out: str | os.PathLike[str]) -> Path:
+    """The static folder's ``--out``, checked before any work: a new folder, an empty one or an earlier viewer
+    folder (which :func:`write_site` replaces), never a file or a folder holding other files."""
+    dest = Path(out)
+    if dest.exists() and not dest.is_dir():
+        raise SsskitError(f"--out {dest} exists and is not a folder")
+    if dest.is_dir() and any(dest.iterdir()) and not (dest / "data.js").is_file():
+        raise SsskitError(f"--out {dest} is a folder holding other files; give an empty or new folder")
+    return dest
+
+
 def scene_payload(scene: str) -> dict[str, Any]:
     """The page's scene: a generated mesh (:data:`SCENE_NAMES`) or a mesh file, read and framed as
     ``ssskit render --scene`` does (:func:`ssskit.scenes.scenefile.resolve_scene`), in mm: merged vertex
@@ -174,10 +198,7 @@ def scene_payload(scene: str) -> dict[str, Any]:
     from ..scenes.meshes import Mesh, read_mesh, topology
     from ..scenes.scenefile import resolve_scene
 
-    text = os.fspath(scene)
-    if text.lower() not in SCENE_NAMES and Path(text).suffix.lower() not in (".obj", ".ply", ".glb", ".gltf"):
-        raise SsskitError(f"scene {text!r}: the viewer shows a generated mesh ({', '.join(SCENE_NAMES)}) or a mesh "
-                          "file (.obj, .ply, .glb, .gltf)")
+    text = check_scene(scene)
     resolved = resolve_scene(text)
     spec = resolved.spec
     assert spec is not None
@@ -249,11 +270,7 @@ def write_site(out: str | os.PathLike[str], data: dict[str, Any]) -> Path:
     """The static folder: :data:`PAGE_FILES` and ``data.js``, written to a staging folder and moved into place
     (nothing partial is left where a run is interrupted). An existing non-empty folder that is not an earlier
     viewer folder is refused."""
-    dest = Path(out)
-    if dest.exists() and not dest.is_dir():
-        raise SsskitError(f"--out {dest} exists and is not a folder")
-    if dest.is_dir() and any(dest.iterdir()) and not (dest / "data.js").is_file():
-        raise SsskitError(f"--out {dest} is a folder holding other files; give an empty or new folder")
+    dest = check_out(out)
     dest.parent.mkdir(parents=True, exist_ok=True)
     staging = dest.parent / f".{dest.name}.staging-{os.getpid()}"
     if staging.exists():
@@ -272,5 +289,5 @@ def write_site(out: str | os.PathLike[str], data: dict[str, Any]) -> Path:
     return dest
 
 
-__all__ = ["DEFAULT_KERNEL", "DEFAULT_MODEL", "DEFAULT_TAPS", "MaterialRequest", "PAGE_FILES", "PRESETS", "SCENE_NAMES",
-           "data_script", "kernel_taps", "material_payload", "page_data", "page_file", "scene_payload", "write_site"]
+__all__ = ["DEFAULT_KERNEL", "DEFAULT_MODEL", "DEFAULT_TAPS", "MESH_SUFFIXES", "MaterialRequest", "PAGE_FILES", "PRESETS",
+           "SCENE_NAMES", "check_out", "check_scene", "data_script", "kernel_taps", "material_payload", "page_data", "page_file", "scene_payload", "write_site"]

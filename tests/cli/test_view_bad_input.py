@@ -1,0 +1,54 @@
+"""``ssskit view``'s bad input: one stderr line ``ssskit: error: ...``, exit status 2, nothing on stdout, nothing
+written, no traceback, and every check before any work (the scene is not read, no kernel is built)."""
+
+import pytest
+
+from tests.cli.test_bad_input import one_error_line, workdir  # noqa: F401 - the fixture
+
+#: the artists' terms' valid domain: albedo in (0, 1], mean free path in ssskit.profiles.domain.MFP_RANGE_MM
+AL, MFP = "0.8,0.6,0.5", "3.7,1.4,0.7"
+BAD = [
+    (["--scene", "nosuch"], "scene 'nosuch'"),
+    (["--scene", "f.txt"], "scene 'f.txt'"),
+    (["--scene", "missing.obj"], "missing.obj"),
+    (["--material", "nosuch"], "nosuch"),
+    (["--material", ""], "the material name is empty"),
+    (["--material", "missing.json"], "missing.json"),
+    (["--albedo", AL], "--albedo and --mfp together"),
+    (["--mfp", MFP], "--albedo and --mfp together"),
+    (["--material", "skin1", "--albedo", AL, "--mfp", MFP], "give the material once"),
+    (["--albedo", "0.8,0.6", "--mfp", MFP], "three numbers"),
+    (["--albedo", "a,b,c", "--mfp", MFP], "three numbers"),
+    (["--albedo", "nan,0.6,0.5", "--mfp", MFP], "albedo must lie in (0, 1]"),
+    (["--albedo", "-0.1,0.6,0.5", "--mfp", MFP], "albedo must lie in (0, 1]"),
+    (["--albedo", "0,0.6,0.5", "--mfp", MFP], "albedo must lie in (0, 1]"),
+    (["--albedo", "1.5,0.6,0.5", "--mfp", MFP], "albedo must lie in (0, 1]"),
+    (["--albedo", "inf,0.6,0.5", "--mfp", MFP], "albedo must lie in (0, 1]"),
+    (["--albedo", AL, "--mfp", "nan,1.4,0.7"], "mfp distance must be > 0 mm"),
+    (["--albedo", AL, "--mfp", "-3.7,1.4,0.7"], "mfp distance must be > 0 mm"),
+    (["--albedo", AL, "--mfp", "0,1.4,0.7"], "mfp distance must be > 0 mm"),
+    (["--albedo", AL, "--mfp", "1e9,1.4,0.7"], "mfp distance must be > 0 mm"),
+    (["--port", "70000", "--no-open"], "--port"),
+    (["--port", "-1", "--no-open"], "--port"),
+    (["--port", "http", "--no-open"], "--port"),
+    (["--presets", "skin1", "--no-open"], "--presets applies to --out"),
+    (["--out", "site", "--presets", "skin1,nosuch", "--no-open"], "unknown preset 'nosuch'"),
+    (["--out", "f.txt", "--no-open"], "f.txt"),
+    (["--out", "f.txt/site", "--no-open"], "f.txt"),
+    (["--out", "full", "--no-open"], "holding other files"),
+]
+
+
+@pytest.mark.parametrize("args, fragment", BAD, ids=[" ".join(a) for a, _ in BAD])
+def test_view_bad_input(run, workdir, monkeypatch, args, fragment):  # noqa: F811 - the fixture
+    """Every refusal comes before the scene is read or a kernel built: both are replaced by a failure here."""
+    import ssskit.view.site as site
+
+    def no_work(*_a, **_k):
+        raise AssertionError("work started before the input was checked")
+
+    monkeypatch.setattr(site, "scene_payload", no_work)
+    monkeypatch.setattr(site, "material_payload", no_work)
+    (workdir / "full").mkdir()
+    (workdir / "full" / "keep.txt").write_text("a user's file")
+    one_error_line(run, workdir, ["view", *args], fragment)
