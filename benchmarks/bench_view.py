@@ -13,6 +13,7 @@ backend's (moderngl compute on llvmpipe or a GPU, wall time around a readback). 
 load average before and after.
 
     python benchmarks/bench_view.py [--sizes 960x540 1920x1080] [--frames 5] [--renderers swiftshader gl]
+                                    [--scene bust|head]
 """
 
 from __future__ import annotations
@@ -127,11 +128,13 @@ def main() -> None:
     ap.add_argument("--sizes", nargs="+", default=["960x540", "1920x1080"])
     ap.add_argument("--frames", type=int, default=5)
     ap.add_argument("--renderers", nargs="+", default=["swiftshader", "gl"])
+    ap.add_argument("--scene", default="bust", help="the page's scene (ssskit view --scene): bust (248,324 "
+                    "triangles) or head (the viewer's default, the scan: 70,736)")
     args = ap.parse_args()
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="bench-view-") as tmp:
         site = Path(tmp) / "site"
-        subprocess.run([sys.executable, "-m", "ssskit", "view", "--scene", "bust", "--no-open", "--out", str(site)],
+        subprocess.run([sys.executable, "-m", "ssskit", "view", "--scene", args.scene, "--no-open", "--out", str(site)],
                        check=True, capture_output=True)
         results: dict = {}
         for size in args.sizes:
@@ -149,6 +152,7 @@ def main() -> None:
     print(json.dumps({"machine": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
                       "load_before": [round(x, 2) for x in load_before],
                       "load_after": [round(x, 2) for x in os.getloadavg()], "frames": args.frames,
+                      "scene": args.scene,
                       "results": results}, indent=1))
 
 

@@ -306,3 +306,40 @@ def test_a_noisy_path_trace_is_shown_as_block_means_and_left_untouched():
     assert abs(float(np.std(blocks)) / (0.5 / 6) - 1) < 0.15
     quiet, block, rel = display_copy(np.ones((120, 160, 3)), np.full((120, 160, 3), 0.01), mask)
     assert block == 1 and np.array_equal(quiet, np.ones((120, 160, 3))) and abs(rel - 0.01) < 1e-12
+
+
+def test_the_demo_embeds_the_live_viewer_of_the_head_with_skin1(tmp_path):
+    """The viewer section writes the static folder of ``ssskit view --out`` (the head, Skin1 alone) into the report
+    and frames it; opened from file:// in headless Chromium (where it runs; else the files are checked), the framed
+    page draws a non-blank, finite frame of the head with Skin1 and logs no console error."""
+    import json
+    import re
+
+    from ssskit.view.browser import browser_available, headless_page
+    from ssskit.view.site import PAGE_FILES
+
+    text = report._viewer_section(tmp_path, lambda msg: None, {})
+    assert "viewer" in dict(report.SECTIONS)
+    folder = tmp_path / "viewer"
+    assert sorted(p.name for p in folder.iterdir()) == sorted([*PAGE_FILES, "data.js"])
+    data = json.loads(re.fullmatch(r"window\.SSSKIT_DATA = (.*);\n", (folder / "data.js").read_text(), re.S)[1])
+    assert list(data["materials"]) == ["skin1"] and data["default_material"] == "skin1" and not data["served"]
+    assert data["scene"]["name"] == "head" and data["scene"]["triangles"] > 10_000
+    src = re.search(r"<iframe src='([^']+)'", text)[1]
+    assert src.startswith("viewer/index.html")
+    ok, why = browser_available()
+    if not ok:
+        return  # no browser here (why): the files above are what a browser would open
+    (tmp_path / "index.html").write_text(f"<!doctype html><html><body>{text}</body></html>")
+    with headless_page(width=1100, height=500) as (page, log):
+        page.goto((tmp_path / "index.html").as_uri())
+        frame = next(f for f in page.frames if f.url.startswith((folder / "index.html").as_uri()))
+        frame.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=60_000)
+        assert frame.evaluate("() => document.getElementById('status').textContent") == ""
+        pixels = frame.evaluate("() => Array.from(atob(window.ssskit.readDisplay()), (c) => c.charCodeAt(0))")
+        import numpy as np
+
+        img = np.asarray(pixels, float).reshape(-1, 4)[:, :3]
+        assert np.isfinite(img).all() and img.std() > 5.0      # the head against the background, not blank
+        assert "ms" in frame.evaluate("() => document.getElementById('stats').textContent")
+        log.check()

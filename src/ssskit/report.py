@@ -231,6 +231,38 @@ def _head_section(out: Path, progress: Progress, ctx: dict) -> str:
     )
 
 
+#: the live viewer in the report: its scene, its material (``ssskit view --out`` precomputes only it: the demo's time)
+#: and the page's size in the report's frame
+VIEWER_SCENE, VIEWER_MATERIAL, VIEWER_SIZE = "head", "skin1", (640, 360)
+
+
+def _viewer_section(out: Path, progress: Progress, ctx: dict) -> str:
+    """The live viewer of the head with Skin1, embedded: the static folder ``viewer/`` written by the code of
+    ``ssskit view --scene head --material skin1 --presets none --out DIR`` (:func:`ssskit.view.site.write_static`)
+    and shown in a frame (a page opened from ``file://`` may frame a page beside it)."""
+    from .view.site import MaterialRequest, write_static
+
+    progress(f"the live viewer: the {VIEWER_SCENE} with {VIEWER_MATERIAL} (ssskit view --out)")
+    t0 = time.perf_counter()
+    dest = write_static(out / "viewer", VIEWER_SCENE, {VIEWER_MATERIAL: MaterialRequest(VIEWER_MATERIAL)},
+                        VIEWER_MATERIAL)
+    seconds = time.perf_counter() - t0
+    w, h = VIEWER_SIZE
+    src = f"{dest.name}/index.html?w={w}&h={h}"
+    return (
+        "<h2 id=viewer>Live: the head with Skin1 in your browser (WebGL2)</h2>"
+        f"<p class=note>The page of <code>ssskit view --scene {VIEWER_SCENE} --material {VIEWER_MATERIAL} --out DIR"
+        f"</code>, written into <code>{dest.name}/</code> ({seconds:.1f} s): a G-buffer pass, then the separable, "
+        "Burley, adaptive and transmittance passes as the GLSL ES 3.00 fragment shaders <code>ssskit export</code> "
+        "writes, composite and tone mapping, with per-pass frame times. Drag to orbit; the controls change the "
+        "pass, spp, light, split view and transmission. Only Skin1 is precomputed here (<code>ssskit view</code> itself serves any "
+        "material). A browser without WebGL2 shows why in the frame; "
+        f"<a href='{html.escape(src)}'>open it alone</a>.</p>"
+        f"<iframe src='{html.escape(src)}' title='ssskit view: the head with Skin1' width={w + 340} height={h + 40} "
+        "style='border: 1px solid #ccc'></iframe>"
+    )
+
+
 def _kernels_section(out: Path, progress: Progress, ctx: dict) -> str:
     from .figures import FIGURES, make_figures
     from .profiles import profile_for_material
@@ -579,6 +611,7 @@ def _transmission_section(out: Path, progress: Progress, ctx: dict) -> str:
 #: materials and profiles behind the answer, then Xie 2020's passes (``ssskit demo --scene`` adds "model")
 SECTIONS: list[tuple[str, Section]] = [
     ("head", _head_section),
+    ("viewer", _viewer_section),
     ("kernels", _kernels_section),
     ("screenspace", _screenspace_section),
     ("transmission", _transmission_section),
@@ -607,7 +640,7 @@ SECTION_PASSES: dict[str, tuple[str, ...]] = {
 #: ~2 since the shipped tables: small, its place matters little; 2026-12-06 at load ~17: kernels 29 with all 11
 #: materials at 128x128, screen space 53 with the head, head 4); a section not named here comes last
 SECTION_ORDER = ("kernels", "screenspace", "model", "adaptive", "head", "transmission", "profiles", "burley",
-                 "sampling", "materials")
+                 "sampling", "materials", "viewer")
 
 
 def _cached_section(name: str, section: Section, out: Path, progress: Progress, ctx: dict) -> str:

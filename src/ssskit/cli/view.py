@@ -43,7 +43,7 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
     """A live WebGL2 viewer of a material on a mesh: the G-buffer pass, the separable and Burley passes as the
     fragment shaders ssskit export writes, composite and tone mapping, with per-pass frame times."""
     from ..materials import MATERIALS
-    from ..view.site import PRESETS, MaterialRequest, check_out, check_scene, page_data, write_site
+    from ..view.site import PRESETS, MaterialRequest, check_out, check_scene, page_data, write_static
     from .options import check_writable
 
     rgb_a, rgb_m = _rgb(albedo, "--albedo"), _rgb(mfp, "--mfp")
@@ -73,9 +73,7 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
     if out is not None:  # the static folder: the presets precomputed beside the chosen material
         for name in names:
             mats.setdefault(name, MaterialRequest(name))
-    data = page_data(scene, mats, key, served=out is None)
-    if out is not None:
-        dest = write_site(out, data)
+        dest = write_static(out, scene, mats, key)
         click.echo(f"# wrote {dest}/index.html (open it from the file system: file://{dest.resolve()}/index.html)")
         if not no_open:
             import webbrowser
@@ -84,6 +82,7 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
         return
     from ..view.server import ViewServer, serve
 
+    data = page_data(scene, mats, key, served=True)
     try:
         server = ViewServer(data, port)
     except OSError as exc:

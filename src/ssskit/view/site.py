@@ -266,6 +266,14 @@ def page_file(name: str) -> bytes:
     return resources.files(__package__).joinpath("static", name).read_bytes()
 
 
+def write_static(out: str | os.PathLike[str], scene: str, materials: dict[str, MaterialRequest], default: str) -> Path:
+    """``ssskit view --out DIR``: the static folder of ``scene`` with ``materials`` (name -> request; ``default``
+    shown first) precomputed (:func:`page_data`, :func:`write_site`); the demo report embeds one. Returns DIR."""
+    check_scene(scene)
+    check_out(out)
+    return write_site(out, page_data(scene, materials, default, served=False))
+
+
 def write_site(out: str | os.PathLike[str], data: dict[str, Any]) -> Path:
     """The static folder: :data:`PAGE_FILES` and ``data.js``, written to a staging folder and moved into place
     (nothing partial is left where a run is interrupted). An existing non-empty folder that is not an earlier
@@ -290,4 +298,5 @@ def write_site(out: str | os.PathLike[str], data: dict[str, Any]) -> Path:
 
 
 __all__ = ["DEFAULT_KERNEL", "DEFAULT_MODEL", "DEFAULT_TAPS", "MESH_SUFFIXES", "MaterialRequest", "PAGE_FILES", "PRESETS",
-           "SCENE_NAMES", "check_out", "check_scene", "data_script", "kernel_taps", "material_payload", "page_data", "page_file", "scene_payload", "write_site"]
+           "SCENE_NAMES", "check_out", "check_scene", "data_script", "kernel_taps", "material_payload", "page_data", "page_file", "scene_payload", "write_site",
+           "write_static"]
