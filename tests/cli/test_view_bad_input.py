@@ -52,3 +52,35 @@ def test_view_bad_input(run, workdir, monkeypatch, args, fragment):  # noqa: F81
     (workdir / "full").mkdir()
     (workdir / "full" / "keep.txt").write_text("a user's file")
     one_error_line(run, workdir, ["view", *args], fragment)
+
+
+#: ``ssskit export --pass burley`` (the viewer's Burley shader): GLSL only, a homogeneous material, no kernel options
+EXPORT_BAD = [
+    (["--material", "skin1", "--pass", "burley", "--format", "hlsl-shader", "--out", "b.hlsl"], "is written as GLSL"),
+    (["--pass", "burley", "--format", "glsl-shader", "--out", "b.frag"], "needs --material"),
+    (["--material", "skin1", "--pass", "burley", "--taps", "7", "--format", "glsl-shader", "--out", "b.frag"],
+     "--taps does not apply to --pass burley"),
+    (["--material", "skin1", "--pass", "burley", "--model", "dipole", "--format", "glsl-shader", "--out", "b.frag"],
+     "--model does not apply to --pass burley"),
+    (["--material", "skin1", "--pass", "burley", "--transmission-model", "mcml", "--format", "glsl-shader",
+      "--out", "b.frag"], "--transmission-model applies with --pass transmission"),
+    (["--albedo", "nan,0.6,0.5", "--mfp", MFP, "--pass", "burley", "--format", "glsl-shader", "--out", "b.frag"],
+     "albedo must lie in (0, 1]"),
+]
+
+
+@pytest.mark.parametrize("args, fragment", EXPORT_BAD, ids=[" ".join(a) for a, _ in EXPORT_BAD])
+def test_export_burley_pass_bad_input(run, workdir, args, fragment):  # noqa: F811 - the fixture
+    one_error_line(run, workdir, ["export", *args], fragment)
+
+
+def test_export_burley_pass_writes_the_viewers_shader(run, workdir):  # noqa: F811 - the fixture
+    """``--pass burley`` to a .frag writes the Burley shader the viewer's data hold for the material (the page's
+    text: tests/view/test_view.py checks it in the browser), less the comment line after #version."""
+    from ssskit.view.site import MaterialRequest, material_payload
+
+    code, out, err = run("export", "--material", "skin1", "--pass", "burley", "--format", "glsl-shader", "--out",
+                         "b.frag")
+    assert code == 0, err
+    lines = (workdir / "b.frag").read_text().splitlines(keepends=True)
+    assert "".join(lines[:1] + lines[2:]) == material_payload(MaterialRequest("skin1"))["burley"]["shader"]

@@ -153,6 +153,22 @@ def test_the_page_runs_the_exported_shader_text(page, tmp_path):
     lines = out.read_text().splitlines(keepends=True)
     assert "".join(lines[:1] + lines[2:]) == pg.evaluate("() => window.ssskit.shader('transmission')")
 
+    # the Burley pass: `ssskit export --pass burley --out X.frag` is the page's text, and its per-pixel body is
+    # the one the gl backend's compute shader (`--out X.comp`) holds
+    out = tmp_path / "burley.frag"
+    proc = subprocess.run([sys.executable, "-m", "ssskit", "export", "--material", "skin1", "--pass", "burley",
+                           "--format", "glsl-shader", "--out", str(out)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    lines = out.read_text().splitlines(keepends=True)
+    assert lines[1].startswith("// ssskit export: the Burley pass")
+    assert "".join(lines[:1] + lines[2:]) == pg.evaluate("() => window.ssskit.shader('burley')")
+    comp = tmp_path / "burley.comp"
+    proc = subprocess.run([sys.executable, "-m", "ssskit", "export", "--material", "skin1", "--pass", "burley",
+                           "--format", "glsl-shader", "--out", str(comp)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    body = resources.files("ssskit.backends.gl").joinpath("burley.glsl").read_text().rstrip()
+    assert body in out.read_text() and body in comp.read_text() and comp.read_text().count("#version 430") == 1
+
 
 def test_every_pass_of_the_page_shares_its_body_with_the_gl_backend(page):
     """One source per pass: the page's Burley, adaptive and transmittance shaders and the gl backend's compute

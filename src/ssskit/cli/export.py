@@ -140,9 +140,10 @@ class Triple(click.ParamType):
               help="--format unreal with a .py: the Burley form the script writes (mfp: UE 5, the default; dmfp: UE "
                    "4.25-4.27).")
 @click.option("--standard-surface", is_flag=True, help="--format materialx: add a standard_surface beside OpenPBR.")
-@click.option("--pass", "shader_pass", type=click.Choice(("separable", "transmission")), default=None,
+@click.option("--pass", "shader_pass", type=click.Choice(("separable", "transmission", "burley")), default=None,
               help="--format glsl-shader/hlsl-shader: the separable pass (with --kernel) or the transmittance pass (light "
-                   "through thin parts, docs/transmission.md: --material's model baked in).")
+                   "through thin parts, docs/transmission.md: --material's model baked in); --format glsl-shader: "
+                   "the Burley Monte Carlo pass (Xie 2020, --material's Burley parameters baked in).")
 @click.option("--transmission-model", type=click.Choice(("mcml", "jimenez2010", "unreal")), default=None,
               help="--pass transmission: the transmittance model baked into the shader [default: mcml].")
 @click.option("--no-transmission", is_flag=True,
@@ -187,7 +188,8 @@ def export(fmt: str, out: str, as_json: bool, kernel_spec: str | None, **options
     if as_json:
         echo_json(summary)
     else:
-        click.echo(f"# wrote {out} ({summary['format']}" + (", transmittance pass)" if summary.get("pass") else ")"))
+        what = {"transmission": ", transmittance pass", "burley": ", Burley pass"}.get(summary.get("pass") or "", "")
+        click.echo(f"# wrote {out} ({summary['format']}{what})")
 
 
 __all__ = ["export"]

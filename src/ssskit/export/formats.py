@@ -89,6 +89,8 @@ def _shader(job: Job) -> str | None:
     """A whole compute shader: the separable pass (a kernel) or, with ``shader_pass="transmission"``, the
     transmittance pass with the material's model baked in (:func:`ssskit.export.shaders.transmission_shader`)."""
     req = job.request
+    if req.shader_pass == "burley":
+        return _burley_shader(job)
     if req.shader_pass != "transmission":
         _kernel(job)
         return None
@@ -105,6 +107,25 @@ def _shader(job: Job) -> str | None:
     stage = shader_stage(req.out)
     return with_comment(transmission_shader(plan, req.format.split("-")[0], stage),
                         f"ssskit export: the transmittance pass, {what}", stage)
+
+
+def _burley_shader(job: Job) -> str:
+    """The Burley Monte Carlo pass (Xie 2020 Eq. 21's sampler, the plan's sequence and hash) with the material's
+    Burley parameters baked in: the gl backend's compute source (:func:`ssskit.backends.gl.burley.burley_export_source`)
+    or, for a ``.frag``, its GLSL ES 3.00 fragment form (:func:`ssskit.backends.gl.burley.burley_fragment_source`),
+    the text the live viewer runs (:func:`ssskit.view.site.material_payload`: the same plan)."""
+    from ..backends.burley_plan import build_burley_plan
+    from ..backends.gl.burley import burley_export_source, burley_fragment_source
+    from ..screenspace.burley import burley_params_for_material
+
+    mat = job.source.material
+    params = burley_params_for_material(mat)
+    plan = build_burley_plan({1: params}, 1.0, 1.0)  # the focal lengths are uniforms (u_fx, u_fy), not baked in
+    job.summary.update(material=mat.name, model=None, **{"pass": "burley"}, sampler=plan.sampler,
+                       sequence=plan.sequence, dmfp_mm=[float(v) for v in params.dmfp_mm])
+    stage = shader_stage(job.request.out)
+    text = burley_fragment_source(plan) if stage == "fragment" else burley_export_source(plan)
+    return with_comment(text, f"ssskit export: the Burley pass, {mat.name}", stage)
 
 
 def shader_stage(path: str | Path) -> str:
@@ -127,6 +148,9 @@ def with_comment(text: str, comment: str, stage: str) -> str:
 def _shader_check(req: ExportSettings, source: Any) -> None:
     if req.given("transmission_model") and req.shader_pass != "transmission":
         raise SsskitError("--transmission-model applies with --pass transmission")
+    if req.shader_pass == "burley" and req.format != "glsl-shader":
+        raise SsskitError("--pass burley is written as GLSL (--format glsl-shader: .comp, or .frag for the fragment "
+                          "form)")
     if req.format == "hlsl-shader":
         from .shaders import tools_available
 

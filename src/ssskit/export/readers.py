@@ -367,6 +367,8 @@ def material_source(req: Any, needs: str) -> Source:
                                   "which holds its own parameters (an HDRP .asset takes only --albedo)")
     if req.shader_pass == "transmission":
         return _transmission_source(req, engine_file, artist)
+    if req.shader_pass == "burley":
+        return _burley_source(req, engine_file, artist)
     kernel = _kernel_checks(req, material is not None or artist) if needs != "engine" else None
     if needs == "engine" and material is None and not artist:
         raise SsskitError(f"--material is required for --format {req.format}")
@@ -470,6 +472,37 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
             raise SsskitError(f"--format bn holds one separable term; --kernel {req.kernel} has rank "
                               f"{params['rank']} (use a rank-1 method such as preintegrated)")
     return m, params, tap_count
+
+
+def _burley_source(req: Any, engine_file: bool, artist: bool) -> Source:
+    """``shader_pass="burley"``: the material of the Burley pass's shader (a homogeneous one: its Burley
+    parameters, :func:`ssskit.screenspace.burley.burley_params_for_material`, are baked in)."""
+    from ..materials import Material
+
+    for name in ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction", "model"):
+        if req.given(name):
+            raise SsskitError(f"--{name.replace('_', '-')} does not apply to --pass burley (the shader bakes the "
+                              "material's Burley parameters: Xie 2020 Eq. 5, the searchlight configuration)")
+    if engine_file:
+        raise SsskitError("--pass burley takes a preset, a material file or artists' terms, not an engine file")
+    if req.material is None and not artist:
+        raise SsskitError("--pass burley needs --material (or artists' terms: --albedo with --mfp or --dmfp)")
+    if artist:
+        from ..profiles.artist import ArtistMaterial, material_from_artist
+
+        if req.albedo is None or (req.mfp is None) == (req.dmfp is None):
+            raise SsskitError("artists' terms need --albedo and one of --mfp (volume mean free path, mm) or --dmfp "
+                              "(diffuse mean free path, mm)")
+        kind, dist = ("mfp", req.mfp) if req.mfp is not None else ("dmfp", req.dmfp)
+        mat: Any = material_from_artist(ArtistMaterial("artist", req.albedo, dist, kind,
+                                                       1.3 if req.eta is None else req.eta, 0.0 if req.g is None else req.g))
+    else:
+        from ..materials import get_material
+
+        mat = get_material(req.material)
+    if not isinstance(mat, Material):
+        raise SsskitError("--pass burley needs a homogeneous material (a preset, a material file or artists' terms)")
+    return Source(None, mat, mat.name, None)
 
 
 def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
