@@ -1,5 +1,6 @@
 """``ssskit view``'s bad input: one stderr line ``ssskit: error: ...``, exit status 2, nothing on stdout, nothing
-written, no traceback, and every check before any work (the scene is not read, no kernel is built)."""
+written, no traceback, and every check before any work (the scene is not read, no kernel is built); and the
+viewer's Burley shader as ``ssskit export --pass burley`` writes it (its bad input, the page's text, the compute form)."""
 
 import pytest
 
@@ -84,3 +85,23 @@ def test_export_burley_pass_writes_the_viewers_shader(run, workdir):  # noqa: F8
     assert code == 0, err
     lines = (workdir / "b.frag").read_text().splitlines(keepends=True)
     assert "".join(lines[:1] + lines[2:]) == material_payload(MaterialRequest("skin1"))["burley"]["shader"]
+
+
+def test_export_burley_pass_compute_form_compiles(run, workdir):  # noqa: F811 - the fixture
+    """``--pass burley`` to a .comp writes the gl backend's source for the material's plan (which runs against the
+    oracle in tests/backends), and glslangValidator compiles it (where installed)."""
+    from ssskit.backends.burley_plan import build_burley_plan
+    from ssskit.backends.gl.burley import burley_export_source
+    from ssskit.export.shaders import glsl_to_spirv, tools_available
+    from ssskit.screenspace.burley import burley_params_for_material
+
+    code, out, err = run("export", "--material", "skin1", "--pass", "burley", "--format", "glsl-shader", "--out",
+                         "b.comp")
+    assert code == 0, err
+    text = (workdir / "b.comp").read_text()
+    comment, _, rest = text.partition("\n")
+    assert comment.startswith("// ssskit export: the Burley pass")
+    assert rest == burley_export_source(build_burley_plan({1: burley_params_for_material("skin1")}, 1.0, 1.0))
+    ok, why = tools_available()
+    if ok:
+        assert glsl_to_spirv(text)[:4] == b"\x03\x02\x23\x07"  # the SPIR-V magic number
