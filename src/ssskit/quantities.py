@@ -26,6 +26,7 @@ The wordings (the only ones: ``benchmarks/validation_count.py`` counts the phras
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Collection, Iterable
 from dataclasses import dataclass, replace
 from typing import Any, SupportsIndex
@@ -51,8 +52,10 @@ def fail(error: ErrorClass, template: str, **fields: object) -> SsskitError:
 def _fmt(v: object) -> str:
     if isinstance(v, float):
         return f"{v:g}"
-    if isinstance(v, (list, tuple)):
-        return "(" + ", ".join(_fmt(x) for x in v) + ")"
+    if isinstance(v, (list, tuple)) or getattr(v, "ndim", 0) == 1:
+        return "(" + ", ".join(_fmt(x) for x in v) + ")"  # type: ignore[union-attr]
+    if isinstance(v, numbers.Real) and not isinstance(v, (bool, int)):
+        return f"{float(v):g}"
     return repr(v)
 
 
@@ -131,11 +134,11 @@ class Quantity:
                   ) -> tuple[float, float, float]:
         """One number or three (R, G, B), each in the range: three floats."""
         label = name or self.name
-        vals = tuple(value) if isinstance(value, (list, tuple)) else (value,)
-        if len(vals) not in (1, 3):
-            raise fail(error, TYPE, name=label, kind=f"{self.kind} or three [R, G, B]", actual=repr(value))
-        if any(isinstance(v, (bool, str, bytes)) or not isinstance(v, (int, float, SupportsIndex)) for v in vals):
-            raise fail(error, TYPE, name=label, kind=f"{self.kind} or three [R, G, B]", actual=repr(value))
+        seq = isinstance(value, (list, tuple)) or getattr(value, "ndim", 0) == 1  # a list, tuple or 1D array
+        vals = tuple(value) if seq else (value,)  # type: ignore[arg-type]
+        if len(vals) not in (1, 3) or any(isinstance(v, (bool, str, bytes)) or not isinstance(v, numbers.Real)
+                                          for v in vals):
+            raise fail(error, TYPE, name=label, kind=f"{self.kind} or three [R, G, B]", actual=_fmt(value))
         shown = vals[0] if len(vals) == 1 else vals
         r, g, b = (float(self._scalar(v, label, error, shown)) for v in (vals * 3 if len(vals) == 1 else vals))
         return r, g, b
@@ -235,9 +238,8 @@ def refuse_unused(names: Iterable[str], category: str, values: Iterable[str], ac
 # lengths are millimetres (materials.py); counts are integers; every bound says why it is where it is
 
 #: transport mean free paths 1/sigma_t' (and any mean free path an artist gives) every model takes
-MFP_MM = Quantity("mean free path", 1e-6, 1e6, "mm",
-                  "1 nm to 1 km: profiles are sampled on grids of a fraction of the shortest path up to tens of the "
-                  "longest; outside it the arithmetic overflows or underflows long before a translucent material ends")
+MFP_MM = Quantity("mean free path", 1e-6, 1e6, "mm", "1 nm to 1 km: beyond it a profile's grid overflows or "
+                  "underflows, docs/models.md")
 #: Burley's surface albedo A (Xie 2020 Eq. 5, Burley 2015): the total diffuse reflectance of a scattering medium
 BURLEY_ALBEDO = Quantity("Burley albedo A", 0.0, 1.0, "",
                          "a reflectance; A = 0 reflects no light beneath the surface: R(r) = 0 and a kernel "

@@ -260,15 +260,6 @@ def _check_ignored(ctx: click.Context, s: RenderSettings) -> None:
                           f"profile, not {s.material!r}'s)")
     if given(ctx, "photons") and "photons" not in model_parameters(s.model):
         raise SsskitError(f"--photons does not apply to --model {s.model} (only the Monte Carlo profiles are simulated)")
-    if not s.reference:
-        for name in ("reference_spp", "reference_max_spp", "reference_rel_se"):
-            if given(ctx, name):
-                raise SsskitError(f"{option_name(ctx, name)} applies with --reference (no path-traced reference is made)")
-    if given(ctx, "reference_max_spp") and ctx.params["reference_max_spp"] < s.reference_spp:
-        # (RenderSettings would raise the budget to reference_spp without a word)
-        raise SsskitError(f"--reference-max-spp {ctx.params['reference_max_spp']} is below --reference-spp "
-                          f"{s.reference_spp}: the reference renders at least reference_spp samples and at most "
-                          "reference_max_spp")
 
 
 def _mesh_scene(scene: Any) -> bool:
