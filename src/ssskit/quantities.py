@@ -81,8 +81,10 @@ class Quantity:
     odd: bool = False
 
     def within(self, lo: float | None = None, hi: float | None = None, reason: str | None = None) -> Quantity:
-        """The same quantity on a narrower (or caller-given) range: a model's domain, another's bound."""
+        """The same quantity on a narrower (or caller-given) range: a model's domain, another's bound; an end
+        given here is included (closed)."""
         return replace(self, lo=self.lo if lo is None else lo, hi=self.hi if hi is None else hi,
+                       lo_open=self.lo_open and lo is None, hi_open=self.hi_open and hi is None,
                        reason=self.reason if reason is None else reason)
 
     @property
@@ -248,12 +250,14 @@ BURLEY_ALBEDO = Quantity("Burley albedo A", 0.0, 1.0, "",
 REFLECTANCE = Quantity("albedo", 0.0, 1.0, "", "a reflectance")
 #: absorption and scattering coefficients (mm^-1): >= 0, finite
 COEFFICIENT = Quantity("coefficient", 0.0, math.inf, "mm^-1", "an attenuation per mm", hi_open=True)
+#: the extinction sigma_t = sigma_a + sigma_s (mm^-1): > 0
+EXTINCTION = Quantity("sigma_t", 0.0, math.inf, "mm^-1", "a medium that neither absorbs nor scatters holds no "
+                      "light beneath its surface", lo_open=True, hi_open=True)
 #: the Henyey-Greenstein anisotropy g (mean cosine of the scattering angle)
 ANISOTROPY = Quantity("g", -1.0, 1.0, "", "the mean cosine of the scattering angle; |g| = 1 is a delta phase "
                       "function that never turns", lo_open=True, hi_open=True)
-#: refractive index (absolute or relative to the outside)
-ETA = Quantity("eta", 1.0, 4.0, "", "no optical medium is denser in the visible (diamond 2.42, rutile 2.9); "
-               "beyond it the photons are trapped by total internal reflection")
+#: refractive index (absolute or relative to the outside); each model bounds it further (profiles.domain)
+ETA = Quantity("eta", 1.0, math.inf, "", "a refractive index; vacuum is 1", hi_open=True)
 #: a layer's thickness (mm); inf: semi-infinite
 THICKNESS_MM = Quantity("thickness_mm", 0.0, math.inf, "mm", "a slab's depth; inf for a semi-infinite medium",
                         lo_open=True)
@@ -284,7 +288,7 @@ REL_SE = Quantity("reference_rel_se", 0.0, 1.0, "", "a relative standard error",
 #: a scale factor that must be positive and finite
 SCALE = Quantity("scale", 1e-6, 1e6, "", "a positive factor")
 
-__all__ = ["ANISOTROPY", "BURLEY_ALBEDO", "CHOICE", "COEFFICIENT", "Choice", "ETA", "FINITE", "FRACTION", "FRAME",
+__all__ = ["ANISOTROPY", "BURLEY_ALBEDO", "CHOICE", "COEFFICIENT", "Choice", "ETA", "EXTINCTION", "FINITE", "FRACTION", "FRAME",
            "FRAMES", "Flag", "LENGTH_MM", "MFP_MM", "PHOTONS", "Quantity", "RANGE", "REFERENCE_SPP", "REFLECTANCE",
            "REL_SE", "SCALE", "SEED", "SIZE_PX", "SPP", "TAPS", "THICKNESS_MM", "TYPE", "UNUSED", "check_choice",
            "check_finite", "fail", "refuse_unused"]
