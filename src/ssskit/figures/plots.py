@@ -67,8 +67,10 @@ def plot_profiles(profiles: Sequence[RGBProfile], title: str, path: str | Path, 
     for end in sorted(set(round(e, 6) for e in grid_ends)):
         axes[1].axvline(end, color="0.4", lw=0.8, ls=":")
     if grid_ends:
-        axes[1].text(max(grid_ends), axes[1].get_ylim()[1], " Monte Carlo grid ends", rotation=90, va="top",
-                     ha="right", fontsize=8, color="0.3")
+        # x in data, y in axes units: the label stays inside the panel whatever y range is set below (placed
+        # at the autoscaled top, it fell outside once set_ylim narrowed the range: a blank band in the saved figure)
+        axes[1].text(max(grid_ends), 0.98, " Monte Carlo grid ends", rotation=90, va="top", ha="right",
+                     fontsize=8, color="0.3", transform=axes[1].get_xaxis_transform())
     # 1/r profiles (Burley) diverge at the origin: scale the linear panel from r >= r_max / 50, and say
     # so in the panel where a curve runs above it (the log-log panel shows the peaks)
     cap = 1.2 * max(float(p.eval(r[n // 50 :]).max()) for p in profiles)
