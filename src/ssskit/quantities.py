@@ -53,7 +53,7 @@ def _fmt(v: object) -> str:
     if isinstance(v, float):
         return f"{v:g}"
     if isinstance(v, (list, tuple)) or getattr(v, "ndim", 0) == 1:
-        return "(" + ", ".join(_fmt(x) for x in v) + ")"  # type: ignore[union-attr]
+        return "(" + ", ".join(_fmt(x) for x in v) + ")"  # type: ignore[attr-defined]
     if isinstance(v, numbers.Real) and not isinstance(v, (bool, int)):
         return f"{float(v):g}"
     return repr(v)

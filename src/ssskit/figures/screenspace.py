@@ -131,9 +131,9 @@ def _render_scenes(material: str, scenes: list[str], width: int, height: int, sp
             settings = RenderSettings(material=material, model=model, photons=photons, kernel=spec, taps=taps,
                                       tap_method=placement, width=width, height=height, spp=spp, exact=first,
                                       reference=first, frame=sss.frame, seed=sss.seed, backend=sss.backend,
-                                      **(dict(reference_spp=reference_spp, reference_max_spp=reference_max_spp)
-                                         if first else {}),
                                       pass_=SeparablePass(jitter=sss.jitter, depth_mode=sss.depth_mode))
+            if first:  # the reference's budget: asked for where a reference is made (the first method) only
+                settings = settings.replace(reference_spp=reference_spp, reference_max_spp=reference_max_spp)
             r = render(scene if base is None else base.gbuffer, settings, progress=say)
             assert isinstance(r, RenderResult)  # the separable pass
             if base is None:
