@@ -89,3 +89,42 @@ def test_a_command_needs_only_its_module_and_its_place_in_the_group(monkeypatch,
     assert main(["twice", "--n", "21"]) == 0 and json.loads(capsys.readouterr().out) == {"twice": 42}
     assert main(["twice", "--n", "-1"]) == 2
     assert capsys.readouterr().err == "ssskit: error: --n must be >= 0, got -1\n"
+
+
+def test_an_engine_format_needs_only_its_registration(monkeypatch, tmp_path, capsys):
+    """docs/architecture.md, "How to add an engine format", steps 1-3: a toy engine (a JSON holding Burley's A and
+    d in its own .toy file) registered in FORMATS is written by export() and `ssskit export --format toy`, its
+    files are read back as --material by export and profile, and an option it does not take is refused in the
+    one wording."""
+    import numpy as np
+
+    from ssskit.export import FORMATS, ExportSettings, Format, export, fit_burley
+    from ssskit.export.readers import EngineSource
+
+    monkeypatch.setattr(FORMATS, "_entries", dict(FORMATS._entries))
+
+    def write(job):  # step 1: the engine's parameters from Burley's (A, d)
+        a, d = fit_burley(job.source.profile())
+        job.summary["parameters"] = {"A": a.tolist(), "d_mm": d.tolist()}
+        return json.dumps({"toy": 1, "name": job.source.name or job.request.material, "A": a.tolist(),
+                           "d_mm": d.tolist()})
+
+    def read(path):  # and its reader
+        data = json.loads(path.read_text())
+        return EngineSource("toy", data["name"], np.array(data["A"]), np.array(data["d_mm"]))
+
+    FORMATS.register("toy", Format("toy", (".toy",), "engine", (), write, "a toy engine (a recipe test)", read))
+    summary = export(ExportSettings(format="toy", out=str(tmp_path / "a.toy"), material="skin1"))
+    assert summary["format"] == "toy" and len(summary["parameters"]["A"]) == 3
+    monkeypatch.chdir(tmp_path)
+    assert main(["export", "--material", "skin1", "--format", "toy", "--out", "b.toy"]) == 0
+    assert (tmp_path / "a.toy").read_text() == (tmp_path / "b.toy").read_text()
+    assert main(["export", "--material", "b.toy", "--format", "blender", "--out", "b.json"]) == 0
+    a, d = (np.array(json.loads((tmp_path / "b.toy").read_text())[k]) for k in ("A", "d_mm"))
+    blender = json.loads((tmp_path / "b.json").read_text())
+    np.testing.assert_allclose(blender["base_color"], a, rtol=1e-12)  # the toy's A, through its reader
+    assert main(["profile", "--material", "b.toy", "--model", "dipole", "--json"]) == 0
+    capsys.readouterr()
+    assert main(["export", "--material", "skin1", "--format", "toy", "--standard-surface", "--out", "c.toy"]) == 2
+    assert capsys.readouterr().err == "ssskit: error: --standard-surface applies to --format materialx, not --format toy\n"
+    assert not (tmp_path / "c.toy").exists()

@@ -407,9 +407,18 @@ def load_material(path: str | Path) -> Material | LayeredMaterial:
         raise MaterialError(f"{str(p)!r}: {exc}") from None
 
 
+#: readers of the material files this layer does not know, registered by the layer that does: name -> (accepts(path)
+#: -> bool, read(path) -> Material). ``ssskit.export`` registers the engine files it writes (its import does it; the
+#: command line imports it before reading any --material), so every command and :func:`get_material` take them.
+MATERIAL_READERS: Registry[tuple[Callable[[str], bool], Callable[[str], Material]]] = Registry(
+    "material file reader", MaterialError)
+
+
 def get_material(name_or_path: str | Path | Material | LayeredMaterial) -> Material | LayeredMaterial:
-    """A preset by (case-insensitive) name, or a material file path (.toml / .json); a file with
-    a ``layers`` list gives a :class:`LayeredMaterial`. A material passed in is returned as is."""
+    """A preset by (case-insensitive) name, a material file path (.toml / .json; a file with a ``layers`` list
+    gives a :class:`LayeredMaterial`), or a file a registered reader accepts (:data:`MATERIAL_READERS`: the
+    engine files of ``ssskit export`` once ``ssskit.export`` is imported). A material passed in is returned as is:
+    the one material-loading entry point of every command."""
     if isinstance(name_or_path, (Material, LayeredMaterial)):
         return name_or_path
     text = str(name_or_path)
@@ -418,6 +427,9 @@ def get_material(name_or_path: str | Path | Material | LayeredMaterial) -> Mater
                             "or a .toml/.json material file")
     if text in MATERIALS:
         return MATERIALS.get(text)
+    for _, (accepts, read) in MATERIAL_READERS.items():
+        if accepts(text):
+            return read(text)
     if text.lower().endswith((".toml", ".json")) or Path(text).exists():
         return load_material(text)
     return MATERIALS.get(text)  # raises with the list of known names
@@ -429,6 +441,7 @@ __all__ = [
     "CHANNELS",
     "LayeredMaterial",
     "MATERIALS",
+    "MATERIAL_READERS",
     "MM_PER_CM",
     "Material",
     "Triple",

@@ -118,7 +118,7 @@ BAD_EXPORT = [
     (["--material", "skin1", "--albedo", "0.5", "--mfp", "1", "--format", "unreal", "--out", "o.json"],
      "give the material once"),
     (["--material", "skin1", "--eta", "1.4", "--format", "unreal", "--out", "o.json"], "--eta belongs"),
-    (["--material", "skin1", "--format", "godot", "--out", "o.json"], "'godot' is not one of"),
+    (["--material", "skin1", "--format", "godot", "--out", "o.json"], "unknown export format 'godot'"),
     (["--material", "skin1", "--format", "unity", "--out", "o.py"], "--out for --format unity"),
     (["--material", "other.json", "--format", "unity", "--out", "o.json"], "an export of engine 'godot'"),
     (["--material", "other.asset", "--albedo", "0.5", "--format", "blender", "--out", "o.json"],

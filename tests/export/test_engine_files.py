@@ -169,8 +169,9 @@ def test_materialx_document_validates(skin1, tmp_path):
     from ssskit.export.materialx import materialx_document, read_materialx
 
     m, prof = skin1
-    a, d = fit_burley(prof)
-    text = materialx_document(a, d, "Skin1", standard_surface=True)
+    a, _ = fit_burley(prof)
+    mfp = 1.0 / np.asarray(m.sigma_t)
+    text = materialx_document(a, mfp, "Skin1", standard_surface=True)
     doc = mx.createDocument()
     mx.readFromXmlString(doc, text)
     lib = mx.createDocument()
@@ -185,7 +186,7 @@ def test_materialx_document_validates(skin1, tmp_path):
     path = tmp_path / "s.mtlx"
     path.write_text(text)
     back = read_materialx(path)
-    np.testing.assert_allclose(back["d_mm"], d, rtol=1e-4)
+    np.testing.assert_allclose(back["mfp_mm"], mfp, rtol=1e-5)
     np.testing.assert_allclose(back["albedo"], a, rtol=1e-5)
 
 
@@ -194,7 +195,8 @@ def test_materialx_document_validates(skin1, tmp_path):
 def test_truncated_mtlx_is_refused(skin1, tmp_path, cut):
     from ssskit.export.materialx import materialx_document, read_materialx
 
-    a, d = fit_burley(skin1[1])
+    a, _ = fit_burley(skin1[1])
+    d = 1.0 / np.asarray(skin1[0].sigma_t)
     path = tmp_path / "t.mtlx"
     path.write_text(materialx_document(a, d, "Skin1")[:cut])
     with pytest.raises(SsskitError):

@@ -216,7 +216,8 @@ class RegistryName(click.ParamType):
 
 
 class MaterialRef(click.ParamType):
-    """A preset material name or a .toml/.json material file, checked (loaded) while parsing.
+    """A preset material name, a .toml/.json material file or an engine file ssskit wrote (read by
+    :func:`ssskit.materials.get_material`, the one material entry point), checked (loaded) while parsing.
 
     Returns the text as given (stripped); with ``split=True`` a comma-separated list of them.
     """
@@ -230,6 +231,7 @@ class MaterialRef(click.ParamType):
         return "NAME|FILE" + (",..." if self.split else "")
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        from ..export import readers  # noqa: F401  (registers the engine files as material files)
         from ..materials import get_material
 
         if self.split and isinstance(value, list):
@@ -540,7 +542,7 @@ def material_option(*, required: bool = False, default: str | None = None, split
                         show_default=default is not None, multiple=split, help=help)
 
 
-def model_option(default: str, help: str = "Profile model.") -> Callable:
+def model_option(default: str | None, help: str = "Profile model.") -> Callable:
     return click.option("--model", type=MODEL, default=default, show_default=True, help=help)
 
 
@@ -589,7 +591,7 @@ def depth_mode_option() -> Callable:
                         help="Depth test [default: gaussian for artist kernels, follow otherwise].")
 
 
-def tap_method_option(default: str) -> Callable:
+def tap_method_option(default: str | None) -> Callable:
     return click.option("--tap-method", type=TAP_METHOD, default=default, show_default=True, help="Tap placement.")
 
 

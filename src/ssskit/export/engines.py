@@ -207,11 +207,18 @@ def _colour(values: Any) -> tuple[list[float], float]:
     return (v / m).tolist(), m
 
 
-def _unreal(profile: RGBProfile, material: Any) -> dict[str, Any]:
+def _eta(material: Any, eta: float | None) -> float | None:
+    """The index to write: ``eta`` where given (artists' terms, an engine file's), else the material's, else None."""
+    if eta is not None:
+        return float(eta)
+    return float(material.eta) if material is not None and hasattr(material, "eta") else None
+
+
+def _unreal(profile: RGBProfile, material: Any, eta: float | None = None) -> dict[str, Any]:
     from .unreal import details_text, unreal_parameters
 
     a, d = fit_burley(profile)
-    eta = float(material.eta) if material is not None and hasattr(material, "eta") else None
+    eta = _eta(material, eta)
     out = unreal_parameters(a, d, eta)
     out["details_panel"] = {form: details_text(out[form]) for form in ("mfp", "dmfp")}
     # legacy separable: Xie A.1 fit of the demo profile's falloff (mm) to the source, per channel
@@ -238,13 +245,14 @@ def _unreal(profile: RGBProfile, material: Any) -> dict[str, Any]:
     return out
 
 
-def _unity(profile: RGBProfile, material: Any) -> dict[str, Any]:
+def _unity(profile: RGBProfile, material: Any, eta: float | None = None) -> dict[str, Any]:
     from ..profiles.burley import burley_inverse_cdf
     from .unity import srgb_encode
 
     a, d = fit_burley(profile)
     colour, mult = _colour(d)
-    ior = float(getattr(material, "eta", 1.4)) if material is not None else 1.4
+    given = _eta(material, eta)
+    ior = given if given is not None else 1.4
     return {
         "engine": "unity",
         "asset": "DiffusionProfileSettings (HDRP)",
@@ -262,11 +270,11 @@ def _unity(profile: RGBProfile, material: Any) -> dict[str, Any]:
     }
 
 
-def _blender(profile: RGBProfile, material: Any, unit_m: float = 1.0) -> dict[str, Any]:
+def _blender(profile: RGBProfile, material: Any, eta: float | None = None, unit_m: float = 1.0) -> dict[str, Any]:
     from .blender import blender_parameters
 
     a, d = fit_burley(profile)
-    eta = float(material.eta) if material is not None and hasattr(material, "eta") else None
+    eta = _eta(material, eta)
     g = float(np.mean(material.g)) if material is not None and hasattr(material, "g") else None
     return blender_parameters(a, d, eta, g, unit_m)
 
@@ -281,13 +289,15 @@ ENGINE_BUILDERS.register("blender", _blender)
 TRANSMISSION_ENGINES = ("unreal", "unity")
 
 
-def engine_parameters(profile: RGBProfile, engine: str, material: Any = None, transmission: Any = None) -> dict[str, Any]:
+def engine_parameters(profile: RGBProfile, engine: str, material: Any = None, transmission: Any = None,
+                      eta: float | None = None) -> dict[str, Any]:
     """The engine's material parameters for ``profile`` (module docstring), with units, formulas,
-    sources and what is lost. ``material`` (optional) gives the IOR and anisotropy; ``transmission`` (optional,
+    sources and what is lost. ``material`` (optional) gives the IOR and anisotropy, ``eta`` (optional) the IOR
+    where there is no material (artists' terms, an engine file) or another one; ``transmission`` (optional,
     a :class:`~ssskit.profiles.montecarlo.transmission.TransmissionTable` of the material) adds Unreal's or
     HDRP's transmission fields fitted to it under ``"transmission"`` (:mod:`ssskit.export.transmission`)."""
     key = engine.strip().lower()
-    params = ENGINE_BUILDERS.get(key)(profile, material)
+    params = ENGINE_BUILDERS.get(key)(profile, material, eta)
     if transmission is not None and key in TRANSMISSION_ENGINES:
         from .transmission import hdrp_transmission, unreal_transmission
 

@@ -1,18 +1,26 @@
 """MaterialX: an ``.mtlx`` document with an OpenPBR ``open_pbr_surface`` (and, where asked, an Autodesk
 ``standard_surface``) carrying the subsurface settings, validated by MaterialX itself.
 
-OpenPBR Surface 1.1 (the ``open_pbr_surface`` nodedef of MaterialX 1.39) describes subsurface scattering
-by ``subsurface_color`` (the albedo the medium shows, its multiple-scattering reflectance),
-``subsurface_radius`` x ``subsurface_radius_scale`` (the mean free path per channel, a length in scene
-units) and ``subsurface_scatter_anisotropy`` (g). Standard Surface 1.0.1 has the same three as
+OpenPBR Surface 1.1 (the ``open_pbr_surface`` nodedef of MaterialX 1.39; the specification
+[OPBR24], section "Subsurface") describes subsurface scattering by ``subsurface_color`` C, "the
+observed RGB reflection albedo colour taking into account all orders of multiple scattering",
+``subsurface_radius`` x ``subsurface_radius_scale`` = r, "the mean free path (MFP) per RGB channel, i.e. the
+average distance that a ray of light travels through the medium before being absorbed or scattered", with
+"the extinction coefficient simply given by the reciprocal of the MFP per channel: mu_t = 1 / r", and
+``subsurface_scatter_anisotropy`` g. (MaterialX's nodegraph ``NG_open_pbr_surface_surfaceshader`` multiplies
+the two into the ``radius`` of its ``subsurface_bsdf``.) Standard Surface 1.0.1 has the same three as
 ``subsurface_color``, ``subsurface_radius`` (colour) x ``subsurface_scale`` and ``subsurface_anisotropy``.
 
-ssskit's conversion from Burley's (A, d): subsurface_color = A; the mean free path is the volume mean free
-path that Christensen-Burley's searchlight fit assigns to (A, d), l = d (1.85 - A + 7 |A - 0.8|^3)
-(Xie 2020 Eq. 5 Theta_1), written in mm with MaterialX's distance unit (``unit="millimeter"``);
-read back, d = l / (1.85 - A + 7 |A - 0.8|^3). How a renderer turns (colour, mean free path) into its
-coefficients is the renderer's choice (OpenPBR leaves it open), so the document fixes the (A, l) pair,
-not a rendered look.
+ssskit's conversion: ``subsurface_color`` = the profile's total diffuse reflectance A (Burley's albedo, the
+observed multiple-scattering albedo); r = 1 / sigma_t per channel of the material (sigma_t = sigma_a +
+sigma_s, in mm, written with MaterialX's distance unit ``unit="millimeter"``); ``specular_ior`` = eta;
+the anisotropy g. Read back, the file is the artists' terms (C, r = 1 / mu_t, eta, g) of
+:mod:`ssskit.profiles.artist` with ``kind="mfp"``: the physical material has sigma_t = 1 / r and the
+single-scattering albedo whose multiple-scattering reflectance is C (the spec leaves the alpha(C) mapping
+open and asks for the one closest to its constraint; ssskit's accounts for the dielectric boundary), and
+Burley's d = r / (1.85 - C + 7 |C - 0.8|^3) (Christensen-Burley's searchlight fit, Xie 2020 Eq. 5
+Theta_1). The document is written without the standard libraries (validated against them by reference,
+``setDataLibrary``), so it names no path of the machine that wrote it and reads anywhere.
 """
 
 from __future__ import annotations
@@ -26,34 +34,47 @@ from ..errors import SsskitError
 
 
 def searchlight_scaling(a: Any) -> np.ndarray:
-    """s(A) = 1.85 - A + 7 |A - 0.8|^3 (Xie 2020 Eq. 5 Theta_1, searchlight: l the volume mean free path)."""
+    """s(A) = 1.85 - A + 7 |A - 0.8|^3 (Xie 2020 Eq. 5 Theta_1, searchlight: d = l / s(A), l the volume mean free
+    path)."""
     a = np.asarray(a, dtype=float)
     return 1.85 - a + 7.0 * np.abs(a - 0.8) ** 3
 
 
-def _libraries() -> Any:
-    import MaterialX as mx
+def _mx() -> Any:
+    """The MaterialX module, or one SsskitError saying how to install it (an optional dependency)."""
+    try:
+        import MaterialX as mx
+    except ImportError:
+        raise SsskitError('reading or writing a MaterialX .mtlx needs the optional MaterialX package: '
+                          'pip install ".[materialx]" (materialx>=1.39,<1.40)') from None
+    return mx
 
+
+def _libraries() -> Any:
+    mx = _mx()
     lib = mx.createDocument()
     mx.loadLibraries(mx.getDefaultDataLibraryFolders(), mx.getDefaultDataSearchPath(), lib)
     return lib
 
 
-def materialx_document(a: np.ndarray, d_mm: np.ndarray, name: str, g: float = 0.0, eta: float | None = None,
+def materialx_document(a: np.ndarray, mfp_mm: np.ndarray, name: str, g: float = 0.0, eta: float | None = None,
                        standard_surface: bool = False) -> str:
-    """The .mtlx text (module docstring): an ``open_pbr_surface`` and its material, plus a
-    ``standard_surface`` and its material if ``standard_surface``. Raises if MaterialX finds it invalid."""
-    import MaterialX as mx
-
-    ell = np.asarray(d_mm, dtype=float) * searchlight_scaling(a)
+    """The .mtlx text (module docstring): an ``open_pbr_surface`` and its material, plus a ``standard_surface``
+    and its material if ``standard_surface``. ``a`` (3,): ``subsurface_color`` (the observed multiple-scattering
+    albedo); ``mfp_mm`` (3,): the mean free path r = 1 / sigma_t per channel, mm (OpenPBR: mu_t = 1 / r,
+    [OPBR24] "Subsurface"). Raises if MaterialX finds it invalid."""
+    mx = _mx()
+    ell = np.asarray(mfp_mm, dtype=float)
+    if ell.shape != (3,) or not np.all(np.isfinite(ell) & (ell > 0)):
+        raise SsskitError(f"the mean free path must be 3 positive finite lengths (mm), got {ell.tolist()}")
     scale = float(np.max(ell))
     rel = ell / scale
     safe = "".join(ch if ch.isalnum() or ch == "_" else "_" for ch in name) or "ssskit"
     if safe[0].isdigit():
         safe = "m_" + safe
     doc = mx.createDocument()
-    doc.setDocString(f"ssskit export of {name}: subsurface colour = Burley albedo A; mean free path "
-                     f"l = d (1.85 - A + 7 |A - 0.8|^3) (Xie 2020 Eq. 5, searchlight), in mm")
+    doc.setDocString(f"ssskit export of {name}: subsurface_color = the observed albedo A; subsurface_radius x "
+                     "subsurface_radius_scale = the mean free path 1 / sigma_t (OpenPBR 1.1: mu_t = 1 / r), in mm")
     sh = doc.addNode("open_pbr_surface", f"SR_{safe}_openpbr", "surfaceshader")
     sh.setInputValue("base_weight", 1.0)
     sh.setInputValue("base_color", mx.Color3(*[float(v) for v in a]))
@@ -85,31 +106,29 @@ def materialx_document(a: np.ndarray, d_mm: np.ndarray, name: str, g: float = 0.
     return mx.writeToXmlString(doc)
 
 
-def check_document(doc: Any) -> None:
-    """MaterialX's own validation, against the standard libraries (nodedefs, types, units)."""
-    lib = _libraries()
-    doc.importLibrary(lib)
+def check_document(doc: Any, what: str = "the document") -> None:
+    """MaterialX's own validation against the standard libraries (nodedefs, types, units), which the document
+    references (``setDataLibrary``) and does not import: written afterwards, it holds no ``xi:include`` of this
+    machine's library paths."""
+    doc.setDataLibrary(_libraries())
     ok, why = doc.validate()
     if not ok:
-        raise SsskitError(f"MaterialX rejects the document: {why.strip().splitlines()[0] if why else 'invalid'}")
+        raise SsskitError(f"MaterialX rejects {what}: {why.strip().splitlines()[0] if why else 'invalid'}")
 
 
 def read_materialx(path: str | Path) -> dict[str, Any]:
-    """(A (3,), d (3,) mm, name) from an ``.mtlx`` with an ``open_pbr_surface`` or ``standard_surface``
-    (the first found), the inverse of :func:`materialx_document`. Raises :class:`SsskitError` for a
-    truncated or invalid document or one without a subsurface shader."""
-    import MaterialX as mx
-
+    """The subsurface settings of an ``.mtlx`` with an ``open_pbr_surface`` or ``standard_surface`` (the first
+    found): {"albedo": C (3,), "mfp_mm": r (3,), "d_mm": Burley's d (3,) = r / s(C) (Christensen-Burley's
+    searchlight fit), "eta" (or None), "g", "name", "shader"}: the inverse of :func:`materialx_document`.
+    Raises :class:`SsskitError` for a truncated or invalid document, one without a subsurface shader, or a
+    value outside the model's domain (naming the input)."""
+    mx = _mx()
     doc = mx.createDocument()
     try:
         mx.readFromXmlFile(doc, str(path))
     except Exception as exc:  # MaterialX raises its own ExceptionParseError / ExceptionFileMissing
         raise SsskitError(f"{str(path)!r} is not a readable MaterialX document: {str(exc).splitlines()[0]}") from None
-    lib = _libraries()
-    doc.importLibrary(lib)
-    ok, why = doc.validate()
-    if not ok:
-        raise SsskitError(f"{str(path)!r}: MaterialX rejects the document: {why.strip().splitlines()[0]}")
+    check_document(doc, repr(str(path)))
     unit = {"millimeter": 1.0, "centimeter": 10.0, "meter": 1000.0, "inch": 25.4, "foot": 304.8, "": 1.0}
 
     def length(inp: Any) -> float:
@@ -132,23 +151,34 @@ def read_materialx(path: str | Path) -> dict[str, Any]:
         a = np.array(list(inputs[col_name].getValue()), dtype=float)
         radius = float(inputs[rad_name].getValue()) * length(inputs[rad_name])
         rel = np.array(list(inputs[scl_name].getValue()), dtype=float) * length(inputs[scl_name])
+        for field, v in ((col_name, a), (rad_name, radius), (scl_name, rel)):
+            if not np.all(np.isfinite(v)):
+                raise SsskitError(f"{str(path)!r}: {cat} {field} must be finite, got {np.asarray(v).tolist()}")
         ell = radius * rel
-        if np.any(~np.isfinite(ell)) or np.any(ell <= 0) or np.any(~np.isfinite(a)) or np.any(a <= 0) or np.any(a > 1):
-            raise SsskitError(f"{str(path)!r}: the {cat} needs 0 < subsurface_color <= 1 (Burley's albedo A) and a "
-                              "positive radius")
-        return {"albedo": a, "d_mm": ell / searchlight_scaling(a), "name": node.getName(), "shader": cat}
+        if np.any(ell <= 0) or np.any(a <= 0) or np.any(a > 1):
+            raise SsskitError(f"{str(path)!r}: the {cat} needs 0 < subsurface_color <= 1 (the observed albedo) and "
+                              "a positive mean free path (subsurface radius x scale)")
+        ior_in = node.getInput("specular_ior" if cat == "open_pbr_surface" else "specular_IOR")
+        aniso_in = node.getInput("subsurface_scatter_anisotropy" if cat == "open_pbr_surface" else "subsurface_anisotropy")
+        eta = float(ior_in.getValue()) if ior_in is not None else None
+        g = float(aniso_in.getValue()) if aniso_in is not None else 0.0
+        for field, num in (("specular_ior", eta), ("anisotropy", g)):
+            if num is not None and not np.isfinite(num):
+                raise SsskitError(f"{str(path)!r}: {cat} {field} must be finite, got {num}")
+        return {"albedo": a, "mfp_mm": ell, "d_mm": ell / searchlight_scaling(a), "eta": eta, "g": g,
+                "name": node.getName(), "shader": cat}
     raise SsskitError(f"{str(path)!r} has no open_pbr_surface or standard_surface node")
 
 
 def glsl_source(mtlx_text: str) -> dict[str, str]:
     """MaterialX's GLSL shader generator on the document's first material: {"pixel": ..., "vertex": ...}."""
-    import MaterialX as mx
+    mx = _mx()
     import MaterialX.PyMaterialXGenGlsl as mx_glsl
     import MaterialX.PyMaterialXGenShader as mx_gen
 
     doc = mx.createDocument()
     mx.readFromXmlString(doc, mtlx_text)
-    doc.importLibrary(_libraries())
+    doc.setDataLibrary(_libraries())
     material = next(n for n in doc.getNodes() if n.getType() == "material")
     gen = mx_glsl.GlslShaderGenerator.create()
     ctx = mx_gen.GenContext(gen)

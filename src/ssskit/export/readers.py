@@ -1,4 +1,5 @@
 """Engine files read back into a material: the JSON files of ``ssskit export --format unreal|unity|blender``,
+the Blender and Unreal editor scripts (``.py``: their parameter literal, read with Python's ``ast``, never run),
 a Unity HDRP ``DiffusionProfileSettings`` .asset and a MaterialX .mtlx become Burley's (A, d) the way each
 engine reads them (:func:`ssskit.export.reimport`, :func:`~ssskit.export.unity.read_unity_asset`,
 :func:`~ssskit.export.materialx.read_materialx`), and from there a physical :class:`~ssskit.materials.Material`
@@ -12,11 +13,14 @@ says so on stderr, as the export lists them under ``clamps``). No clamp of the o
 cited here (Unity's albedo is the material's base colour, given with ``--albedo``; Blender's and
 MaterialX's are node inputs), so there an albedo outside (0, 1] (A = 0 reflects no light beneath the
 surface) or a length d that is not a positive finite number is refused, naming the file and the channel.
+Every number a reader takes must be finite and fit the float32 the engines store it in: NaN, an infinity or
+an overflow is refused in one line naming the file and the field (never replaced, never a warning).
 """
 
 from __future__ import annotations
 
 import json
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,9 +30,15 @@ import numpy as np
 from ..errors import SsskitError
 from ..materials import Material
 from ..quantities import BURLEY_ALBEDO
+from .registry import FORMATS
 
-#: suffixes that hold an engine file (a .json one only when it has an "engine" key)
-ENGINE_SUFFIXES = (".json", ".asset", ".mtlx")
+#: suffixes that hold an engine file (a .json one only when it has an "engine" key, a .py one only when it is an
+#: editor script ssskit wrote)
+ENGINE_SUFFIXES = (".json", ".asset", ".mtlx", ".py")
+#: the parameter literal of each editor script ssskit writes (ssskit.export.blender / .unreal)
+SCRIPT_LITERALS = {"blender": "PARAMS", "unreal": "SETTINGS"}
+#: the largest finite float32 (the engines store their parameters as float32)
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 ENGINE_NAMES = ("unreal", "unity", "blender")
 
 
@@ -43,6 +53,9 @@ class EngineSource:
     eta: float | None = None
     #: the engine clamps that fired reading the file (Unreal's: module docstring)
     clamps: tuple[str, ...] = ()
+    #: the volume mean free path 1 / sigma_t (3,) mm where the file states it (MaterialX's OpenPBR radius)
+    mfp_mm: np.ndarray | None = None
+    g: float = 0.0
 
     def profile(self) -> Any:
         from ..profiles import BurleyProfile, RGBProfile
@@ -50,31 +63,94 @@ class EngineSource:
         c = [BurleyProfile(float(a), float(d)) for a, d in zip(self.albedo, self.d_mm)]
         return RGBProfile((c[0], c[1], c[2]), "burley", self.name, {"engine": self.engine})
 
-    def material(self, g: float = 0.0) -> Material:
-        """The physical material of the Monte Carlo inversion (module docstring)."""
+    def material(self) -> Material:
+        """The physical material of the Monte Carlo inversion (module docstring): from the file's mean free path
+        1 / sigma_t where it states one (MaterialX), else from its diffuse mean free path; the file's index where
+        it holds one of at least 1 (else the artists' default 1.3)."""
         from ..profiles.artist import ArtistMaterial, material_from_artist
 
-        dmfp = self.d_mm * (3.5 + 100.0 * (self.albedo - 0.33) ** 4)
+        kind, dist = (("mfp", self.mfp_mm) if self.mfp_mm is not None
+                      else ("dmfp", self.d_mm * (3.5 + 100.0 * (self.albedo - 0.33) ** 4)))
         eta = self.eta if self.eta is not None and self.eta >= 1.0 else 1.3
         a_r, a_g, a_b = (float(v) for v in self.albedo)
-        d_r, d_g, d_b = (float(v) for v in dmfp)
-        art = ArtistMaterial(self.name, (a_r, a_g, a_b), (d_r, d_g, d_b), "dmfp", eta, g)
+        d_r, d_g, d_b = (float(v) for v in dist)
+        art = ArtistMaterial(self.name, (a_r, a_g, a_b), (d_r, d_g, d_b), kind, eta, self.g)
         return material_from_artist(art)
 
 
 def is_engine_file(path: str | Path) -> bool:
-    """Whether ``path`` names an engine file (an .asset or .mtlx, or a .json with an "engine" key)."""
+    """Whether ``path`` names an engine file (an .asset or .mtlx, a .json with an "engine" key, or a .py editor
+    script ssskit wrote)."""
     p = Path(path)
     suffix = p.suffix.lower()
-    if suffix in (".asset", ".mtlx"):
+    if suffix in (".asset", ".mtlx") or _format_reader(suffix) is not None:
         return True
-    if suffix != ".json" or not p.is_file():
+    if suffix not in (".json", ".py") or not p.is_file():
         return False
     try:
-        data = json.loads(p.read_text(encoding="utf-8"))
+        text = p.read_text(encoding="utf-8")
+        if suffix == ".py":
+            return _script_engine(text) is not None
+        data = json.loads(text)
     except (OSError, UnicodeDecodeError, ValueError):
         return False
     return isinstance(data, dict) and "engine" in data
+
+
+def _format_reader(suffix: str) -> Any:
+    """The reader of a format registered beside ssskit's own whose file has this (own) suffix, else None."""
+    if suffix in ENGINE_SUFFIXES:
+        return None
+    return next((f.read for _, f in FORMATS.items() if f.read is not None and suffix in f.suffixes), None)
+
+
+def _script_engine(text: str) -> str | None:
+    """The engine of an editor script ssskit wrote (its docstring's first line), else None."""
+    for engine, head in (("blender", '"""ssskit export for Blender'), ("unreal", '"""ssskit export for Unreal Engine')):
+        if text.startswith(head):
+            return engine
+    return None
+
+
+def _script_literal(p: Path, text: str, engine: str) -> dict[str, Any]:
+    """The parameter literal of an editor script (``PARAMS`` / ``SETTINGS``), read with ``ast`` (never run)."""
+    import ast
+
+    name = SCRIPT_LITERALS[engine]
+    try:
+        tree = ast.parse(text)
+    except (SyntaxError, ValueError) as exc:
+        raise SsskitError(f"{str(p)!r} is not a readable {engine} script (truncated?): {exc}") from None
+    values: dict[str, Any] = {}
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and len(node.targets) == 1 and isinstance(node.targets[0], ast.Name):
+            try:
+                values[node.targets[0].id] = ast.literal_eval(node.value)
+            except ValueError:
+                continue
+    if not isinstance(values.get(name), dict):
+        raise SsskitError(f"{str(p)!r} has no {name} literal of the {engine} parameters ssskit writes (truncated?)")
+    out = dict(values[name])
+    if engine == "unreal":  # the script holds the mfp block and its asset name
+        return {"engine": "unreal", "mfp": out, "base_color": out.get("SurfaceAlbedo"), "IOR": out.get("IOR"),
+                "source_profile": {"name": str(values.get("NAME", p.stem))}}
+    return {"engine": "blender", **out, "source_profile": {"name": str(out.get("name", p.stem))}}
+
+
+def check_numbers(path: str | Path, value: Any, field: str) -> None:
+    """Every number under ``value`` (nested lists and dicts) finite and within float32, else one
+    :class:`SsskitError` naming the file and the field (module docstring)."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            check_numbers(path, v, f"{field}.{k}" if field else str(k))
+    elif isinstance(value, (list, tuple)):
+        for i, v in enumerate(value):
+            check_numbers(path, v, f"{field}[{i}]")
+    elif isinstance(value, (int, float)) and not isinstance(value, bool):
+        v = float(value)
+        if not (np.isfinite(v) and abs(v) <= FLOAT32_MAX):
+            raise SsskitError(f"{str(path)!r}: {field} must be a finite number within float32 (|x| <= "
+                              f"{FLOAT32_MAX:.4g}, as the engine stores it), got {v!r}")
 
 
 def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = None) -> EngineSource:
@@ -87,16 +163,32 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
     if not p.is_file():
         raise SsskitError(f"cannot read engine file {str(p)!r}: no such file")
     suffix = p.suffix.lower()
+    reader = _format_reader(suffix)
+    if reader is not None:
+        return reader(p)
     if suffix == ".asset":
         engine = "unity"
     elif suffix == ".mtlx":
         engine = "materialx"
+    elif suffix == ".py":
+        try:
+            text = p.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            raise SsskitError(f"{str(p)!r} is not a text (Python) file") from None
+        script = _script_engine(text)
+        if script is None:
+            raise SsskitError(f"{str(p)!r} is not an editor script ssskit wrote (a Blender or Unreal export)")
+        engine = script
+        data = _script_literal(p, text, engine)
     else:
         try:
             data = json.loads(p.read_text(encoding="utf-8"))
         except (UnicodeDecodeError, ValueError) as exc:
             raise SsskitError(f"malformed engine file {str(p)!r}: {exc}") from None
         engine = str(data.get("engine", "")) if isinstance(data, dict) else ""
+        other = FORMATS.get(engine).read if engine not in ENGINE_NAMES and engine in FORMATS else None
+        if other is not None:
+            return other(p)  # a format registered beside ssskit's own reads its JSON export
         if engine not in ENGINE_NAMES:
             raise SsskitError(f"{str(p)!r} is an export of engine {engine!r}; ssskit reads {', '.join(ENGINE_NAMES)}")
     if expect is not None and engine != expect:
@@ -109,6 +201,7 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
         except UnicodeDecodeError:
             raise SsskitError(f"{str(p)!r} is not a text (YAML) .asset file") from None
         u = read_unity_asset(text, repr(str(p)))
+        check_numbers(p, {k: u[k] for k in ("scatteringDistance", "scatteringDistanceMultiplier", "worldScale", "ior")}, "")
         if u["worldScale"] != 1.0:
             raise SsskitError(f"{str(p)!r}: worldScale {u['worldScale']}: ssskit reads profiles at HDRP's worldScale 1 "
                               "(scattering distances in mm) only")
@@ -122,7 +215,11 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
         from .materialx import read_materialx
 
         m = read_materialx(p)
-        return EngineSource("materialx", str(m["name"]), m["albedo"], m["d_mm"])
+        return EngineSource("materialx", str(m["name"]), m["albedo"], m["d_mm"], m["eta"], mfp_mm=m["mfp_mm"],
+                            g=m["g"])
+    if not isinstance(data, dict):
+        raise SsskitError(f"{str(p)!r} lacks the {engine} parameters ssskit writes (not an object)")
+    check_numbers(p, {k: v for k, v in data.items() if k not in ("sources", "lost")}, "")
     clamps: tuple[str, ...] = ()
     try:
         if engine == "unreal":
@@ -176,4 +273,246 @@ def _check_burley_inputs(path: Path, engine: str, albedo: np.ndarray, d_mm: np.n
                                   f"{'RGB'[c]}")
 
 
-__all__ = ["ENGINE_NAMES", "ENGINE_SUFFIXES", "EngineSource", "is_engine_file", "read_engine_file"]
+# ------------------------------------------------------------------------------------- the one entry point
+
+
+@dataclass
+class Source:
+    """The material of an export request, checked: ``profile()`` computes its profile (None: a kernel that reads
+    none), ``material`` the physical material where there is one, ``name``, the ``model`` used, the ``eta`` to
+    write where no material gives it, and ``notes`` (the engine clamps that fired reading an engine file)."""
+
+    profile: Any
+    material: Any
+    name: str | None
+    model: str | None
+    eta: float | None = None
+    notes: list[str] = dataclasses.field(default_factory=list)
+    kernel: Any = None  # (method, params, tap count) of a kernel format
+    #: the physical material of the Monte Carlo inversion, for a Burley-only source (None: ``material`` is it)
+    physical: Any = None
+
+
+def engine_material(path: str | Path) -> Material:
+    """The physical material of an engine file ssskit wrote (the Monte Carlo inversion,
+    :meth:`EngineSource.material`): the reader :func:`ssskit.materials.get_material` uses for engine files (it is
+    registered in :data:`ssskit.materials.MATERIAL_READERS` when this module is imported)."""
+    if Path(path).suffix.lower() == ".asset":
+        raise SsskitError(f"{str(path)!r}: an HDRP DiffusionProfileSettings asset holds no albedo (HDRP takes it from "
+                          "the material's base colour), so it is no material by itself: read ssskit's JSON export of "
+                          "the profile (--format unity --out X.json), or give the albedo: ssskit export --material "
+                          f"{path} --albedo R,G,B --format unity --out X.json")
+    return read_engine_file(path).material()
+
+
+def _register() -> None:
+    from ..materials import MATERIAL_READERS
+
+    if "engine files" not in MATERIAL_READERS:
+        MATERIAL_READERS.register("engine files", (is_engine_file, engine_material))
+
+
+_register()
+
+
+def _model_takes(model: str) -> set[str]:
+    import inspect
+
+    from ..profiles import MODELS
+
+    sig = inspect.signature(MODELS.get(model))
+    return {n for n, p in list(sig.parameters.items())[1:] if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+
+
+def _physical(req: Any, mat: Any, model: str) -> Any:
+    """The profile factory of a physical material under ``model``, passing the options it takes (refusing the
+    others) after its domain check."""
+    from ..profiles import MATERIAL_FREE_MODELS, check_model_domain, profile_for_material
+
+    takes = _model_takes(model)
+    kwargs = {}
+    for name, flag in (("photons", "--photons"), ("grid_fraction", "--grid-fraction")):
+        if getattr(req, name) is not None:
+            if name not in takes:
+                raise SsskitError(f"{flag} does not apply to --model {model}")
+            kwargs[name] = getattr(req, name)
+    free = model.lower() in MATERIAL_FREE_MODELS
+    if not free:
+        check_model_domain(mat, model)
+    return lambda: profile_for_material(None if free else mat, model, **kwargs)
+
+
+def material_source(req: Any, needs: str) -> Source:
+    """Every material check of an export request (:class:`ssskit.export.ExportSettings`), before any work.
+
+    An engine file or artists' terms default to the Burley-fit inversion (``model`` burley, no coefficients);
+    montecarlo / dipole invert them to a physical material first (:mod:`ssskit.profiles.artist`). A kernel
+    format (``needs`` "kernel" or "shader") checks its kernel here too (:func:`_kernel_checks`)."""
+    from ..profiles.artist import ArtistMaterial, burley_from_artist, check_artist, material_from_artist
+
+    material, albedo = req.material, req.albedo
+    artist = albedo is not None or req.mfp is not None or req.dmfp is not None
+    engine_file = material is not None and is_engine_file(material)
+    for name in ("eta", "g"):
+        if req.given(name) and not artist:
+            raise SsskitError(f"--{name} belongs to artists' terms (--albedo with --mfp or --dmfp)")
+    if artist and material is not None and not (engine_file and str(material).lower().endswith(".asset")):
+        raise SsskitError("give the material once: --material or artists' terms (--albedo with --mfp or --dmfp)")
+    if engine_file:  # an HDRP .asset takes --albedo only: the file holds the distances and the index
+        for name in ("mfp", "dmfp", "eta", "g"):
+            if req.given(name):
+                raise SsskitError(f"give the material once: --{name} does not apply to an engine file ({material}), "
+                                  "which holds its own parameters (an HDRP .asset takes only --albedo)")
+    if req.shader_pass == "transmission":
+        return _transmission_source(req, engine_file, artist)
+    kernel = _kernel_checks(req, material is not None or artist) if needs != "engine" else None
+    if needs == "engine" and material is None and not artist:
+        raise SsskitError(f"--material is required for --format {req.format}")
+    model = req.model
+    if engine_file or artist:
+        used = model.lower() if model is not None else "burley"
+        if used not in ("burley", "montecarlo", "dipole"):
+            raise SsskitError(f"--model {model} does not apply to an engine file or artists' terms (burley, the "
+                              "Burley-fit inversion, or montecarlo / dipole through the Monte Carlo inversion)")
+    if engine_file:
+        if used == "burley":
+            for name in ("photons", "grid_fraction"):
+                if req.given(name):
+                    raise SsskitError(f"--{name.replace('_', '-')} needs --model montecarlo")
+        src = read_engine_file(material, albedo=albedo)
+        if albedo is not None:
+            check_artist(albedo, src.d_mm, "dmfp", 1.0, 0.0)
+        notes = [f"{material}: read as {src.engine} reads it: {c}" for c in src.clamps]
+        if used == "burley":
+            return Source(src.profile, None, src.name, used, src.eta, notes, kernel, src.material)
+        mat = src.material()
+        return Source(_physical(req, mat, used), mat, src.name, used, None, notes, kernel)
+    if artist:
+        if albedo is None or (req.mfp is None) == (req.dmfp is None):
+            raise SsskitError("artists' terms need --albedo and one of --mfp (volume mean free path, mm) or --dmfp "
+                              "(diffuse mean free path, mm)")
+        kind, dist = ("mfp", req.mfp) if req.mfp is not None else ("dmfp", req.dmfp)
+        eta = 1.3 if req.eta is None else req.eta
+        art = ArtistMaterial("artist", albedo, dist, kind, eta, 0.0 if req.g is None else req.g)  # checks the domain
+        if used == "burley":
+            from ..profiles import BurleyProfile, RGBProfile
+
+            a, d = burley_from_artist(art)
+            chans = [BurleyProfile(float(x), float(y)) for x, y in zip(a, d)]
+            prof = RGBProfile((chans[0], chans[1], chans[2]), "burley", "artist", {"inversion": f"Burley fit ({kind})"})
+            return Source(lambda: prof, None, "artist", used, eta, [], kernel, lambda: material_from_artist(art))
+        mat = material_from_artist(art)
+        return Source(_physical(req, mat, used), mat, "artist", used, None, [], kernel)
+    return _named_source(req, kernel)
+
+
+def _named_source(req: Any, kernel: Any) -> Source:
+    """A preset or material file (or none, for a kernel that reads no profile)."""
+    from ..materials import get_material
+    from ..profiles import MATERIAL_FREE_MODELS
+
+    model = req.model or "montecarlo"
+    m = kernel[0] if kernel is not None else None
+    if m is not None and not m.uses_profile:  # as `ssskit kernel` refuses it: the header named an unused material
+        for name in ("material", "albedo", "model", "photons", "grid_fraction"):
+            if req.given(name):
+                raise SsskitError(f"--kernel {m.name} is a fixed engine kernel that reads no profile; drop "
+                                  f"--{name.replace('_', '-')} (its fit to a material's profile is --kernel burley_fit)")
+    needs_profile = m is None or m.needs_profile
+    if req.material is None and m is not None and not needs_profile:
+        if req.given("model") or req.given("photons") or req.given("grid_fraction"):
+            raise SsskitError(f"--model, --photons and --grid-fraction need a --material (--kernel {m.name} "
+                              "without one uses no profile)")
+        return Source(None, None, None, None, None, [], kernel)
+    free = model.lower() in MATERIAL_FREE_MODELS
+    if free:
+        if req.material is not None:
+            raise SsskitError(f"--model {model} is a fixed preset and takes no --material (got {req.material!r})")
+        return Source(_physical(req, None, model), None, None, model, None, [], kernel)
+    if req.material is None:
+        raise SsskitError(f"--material is required for " + (f"--format {req.format}" if m is None else f"--kernel {m.name}"))
+    mat = get_material(req.material)
+    return Source(_physical(req, mat, model), mat, None, model, None, [], kernel)
+
+
+def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], int | None]:
+    """A kernel format's checks: (method, params, tap count for make_taps)."""
+    from ..kernels import parse_method_spec
+
+    fmt = req.format
+    if req.kernel is None:
+        raise SsskitError(f"--kernel is required for --format {fmt}")
+    m, params, _ = parse_method_spec(req.kernel)
+    tap_kernel = m.primary == "taps"  # an engine tap kernel (jimenez2012): built with its taps
+    tap_count = None
+    taps = req.taps
+    if taps is not None:
+        if taps % 2 == 0:
+            raise SsskitError(f"--taps must be odd (a centre tap), got {taps}")
+        if tap_kernel:
+            if params.get("taps", taps) != taps:
+                raise SsskitError(f"--kernel {req.kernel} and --taps {taps} disagree; give the tap count once")
+            params["taps"] = taps
+        elif fmt in ("bn", "json"):
+            raise SsskitError(f"--taps does not apply to --format {fmt} (it writes the tabulated kernel itself)")
+        else:
+            tap_count = taps
+    if req.given("tap_method") and (tap_kernel or fmt in ("bn", "json")):
+        why = f"the {m.name} kernel ships its own taps" if tap_kernel else f"--format {fmt} writes no taps"
+        raise SsskitError(f"--tap-method does not apply: {why}")
+    if fmt == "bn":
+        if tap_kernel:
+            raise SsskitError(f"--format bn holds a tabulated kernel on a uniform grid; {m.name} is a list of taps "
+                              "(export it as hlsl, glsl or json)")
+        if int(params.get("rank", 1)) != 1:
+            raise SsskitError(f"--format bn holds one separable term; --kernel {req.kernel} has rank "
+                              f"{params['rank']} (use a rank-1 method such as preintegrated)")
+    return m, params, tap_count
+
+
+def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
+    """``shader_pass="transmission"``: the material of the transmittance pass's shader (a homogeneous one,
+    except for jimenez2010, which takes none)."""
+    from ..materials import Material
+
+    tmodel = req.transmission_model or "mcml"
+    for name in ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction"):
+        if req.given(name):
+            raise SsskitError(f"--{name.replace('_', '-')} does not apply to --pass transmission (the shader bakes "
+                              "the material's transmittance model)")
+    if req.model is not None and req.model.lower() != "montecarlo":  # the models read the material's MCML transport
+        raise SsskitError(f"--model {req.model} does not apply to --pass transmission (the shader bakes the material's "
+                          "transmittance model from its MCML transport; artists' terms take --model montecarlo, "
+                          "the Monte Carlo inversion)")
+    if tmodel == "jimenez2010":
+        if req.material is not None or req.albedo is not None:
+            raise SsskitError("--transmission-model jimenez2010 takes no material (Jimenez et al. 2010's skin Gaussians)")
+        return Source(None, None, None, None)
+    if req.material is None and req.albedo is None:
+        raise SsskitError(f"--transmission-model {tmodel} needs --material (its "
+                          f"{'MCML slab transmittance' if tmodel == 'mcml' else 'Burley profile'})")
+    mat: Any = None
+    if artist:
+        from ..profiles.artist import ArtistMaterial, material_from_artist
+
+        if req.albedo is None or (req.mfp is None) == (req.dmfp is None):
+            raise SsskitError("artists' terms need --albedo and one of --mfp (volume mean free path, mm) or --dmfp "
+                              "(diffuse mean free path, mm)")
+        kind, dist = ("mfp", req.mfp) if req.mfp is not None else ("dmfp", req.dmfp)
+        art = ArtistMaterial("artist", req.albedo, dist, kind, 1.3 if req.eta is None else req.eta,
+                             0.0 if req.g is None else req.g)
+        mat = material_from_artist(art) if req.model is not None else None
+    elif engine_file:
+        mat = read_engine_file(req.material).material() if req.model is not None else None
+    else:
+        from ..materials import get_material
+
+        mat = get_material(req.material)
+    if not isinstance(mat, Material):
+        raise SsskitError(f"--transmission-model {tmodel} needs a homogeneous material (a preset, a material file, "
+                          "or artists' terms with --model montecarlo)")
+    return Source(None, mat, mat.name, None)
+
+
+__all__ = ["ENGINE_NAMES", "ENGINE_SUFFIXES", "EngineSource", "Source", "check_numbers", "is_engine_file",
+           "engine_material", "material_source", "read_engine_file"]

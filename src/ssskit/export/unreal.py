@@ -17,7 +17,11 @@ From UE's ``Engine/Source/Runtime/Engine/Private/SubsurfaceProfile.cpp`` (UE 5) 
   (``UpgradeDiffuseMeanFreePathToMeanFreePath``: the same DMFP, but WorldUnitScale divided by 0.3), so
   this form is for UE 4 only.
 * **Clamps** (``CreateTexture``): SurfaceAlbedo and MeanFreePathColor to >= 0.009 (``Bias``), DMFP to
-  <= 500 mm (``DEC_UNIT_TO_DIFFUSEMEANFREEPATH_IN_MM``); ssskit applies them and reports each one that fires.
+  <= 500 mm (``DEC_UNIT_TO_DIFFUSEMEANFREEPATH_IN_MM``); and the editor's: ``MeanFreePathDistance`` has
+  ``ClampMin = "0.1"`` (cm; its UPROPERTY in ``Classes/Engine/SubsurfaceProfile.h``), so a smaller distance is
+  folded into the colour the way UE's own ``UpgradeDiffuseMeanFreePathToMeanFreePath`` does ("Support mfp <
+  0.1f": MeanFreePathColor x= distance / 0.1, distance = 0.1; the same MFP). ssskit applies them and reports
+  each one that fires.
 * The legacy separable profile (``bEnableBurley`` = false) is converted by UE 5 on load
   (``UpgradeSeparableToBurley``) and never rendered as written: it is exported for UE 4 only.
 
@@ -41,6 +45,8 @@ TRANSMISSION_FIELDS = ("ExtinctionScale", "NormalScale", "ScatteringDistribution
                        "DistanceScale")
 #: SubsurfaceProfile.cpp CreateTexture: the Bias clamp of colours and albedo
 COLOR_BIAS = 0.009
+#: SubsurfaceProfile.h: MeanFreePathDistance's ClampMin (cm)
+MIN_MFP_DISTANCE_CM = 0.1
 #: SubsurfaceProfile.cpp: Dmfp2MfpMagicNumber
 DMFP_TO_MFP = 0.6
 #: SubsurfaceProfile.cpp: DEC_UNIT_TO_DIFFUSEMEANFREEPATH_IN_MM (1 / (0.01 * 0.2))
@@ -59,8 +65,14 @@ def scaling_perpendicular(a: Any) -> np.ndarray:
     return 1.85 - a + 7.0 * np.abs(a - 0.8) ** 3
 
 
-def _colour(v: np.ndarray) -> tuple[np.ndarray, float]:
+def _colour(v: np.ndarray, label: str, clamps: list[str]) -> tuple[np.ndarray, float]:
+    """(MeanFreePathColor, MeanFreePathDistance) of a length (3,) cm: the colour with max 1 and the distance, a
+    distance below UE's ClampMin folded into the colour as UE's upgrade does (module docstring), and reported."""
     m = float(np.max(v))
+    if m < MIN_MFP_DISTANCE_CM:
+        clamps.append(f"{label} MeanFreePathDistance {m:.4g} -> {MIN_MFP_DISTANCE_CM:g} cm (UE's ClampMin), folded into "
+                      f"MeanFreePathColor x {m / MIN_MFP_DISTANCE_CM:.4g} as UE's upgrade does (the same mean free path)")
+        return v / MIN_MFP_DISTANCE_CM, MIN_MFP_DISTANCE_CM
     return v / m, m
 
 
@@ -77,8 +89,8 @@ def unreal_parameters(a: np.ndarray, d_mm: np.ndarray, eta: float | None) -> dic
         clamps.append(f"DMFP above {MAX_DMFP_MM} mm is clamped by UE")
     # the engine reads d = DMFP / s_sl(A_eng): with A clamped, d keeps its value because DMFP is built from A_eng
     mfp_cm = d * DMFP_TO_MFP * scaling_perpendicular(a_eng) / 10.0
-    mfp_col, mfp_dist = _colour(mfp_cm)
-    dmfp_col, dmfp_dist = _colour(dmfp / 10.0)
+    mfp_col, mfp_dist = _colour(mfp_cm, "MFP", clamps)
+    dmfp_col, dmfp_dist = _colour(dmfp / 10.0, "DMFP", clamps)
     for label, col in (("MFP", mfp_col), ("DMFP", dmfp_col)):
         low = np.nonzero(col < COLOR_BIAS)[0]
         for c in low:

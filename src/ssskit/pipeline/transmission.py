@@ -52,6 +52,7 @@ from ..backends.transmission_plan import SlotModel
 from ..errors import PassError, SettingsError
 from ..materials import Material
 from ..screenspace import GBuffer
+from ..screenspace.transmission_slot import slot_model
 from .settings import RenderSettings
 
 
@@ -143,17 +144,6 @@ def transmission_passes(settings: RenderSettings, transmission: bool) -> list[st
     if not transmission:
         return []
     return ["transmission"] + (["spread"] if settings.transmission_spread == "mcml" else [])
-
-
-def slot_model(name: str, material: Any) -> Any:
-    """The :class:`~ssskit.backends.transmission_plan.SlotModel` of transmission model ``name`` for ``material``
-    (mcml: its MCML fit; unreal: UE's defaults for its Burley d; jimenez2010: the skin Gaussians, no material)."""
-    from ..screenspace.burley import burley_params_for_material
-    from ..screenspace.transmission import jimenez2010_model, mcml_model, unreal_model
-
-    if name == "unreal":  # UE's defaults for the material's Burley d (the Burley pass's own parameters)
-        return unreal_model(burley_params_for_material(material).d_mm)
-    return mcml_model(material) if name == "mcml" else jimenez2010_model()
 
 
 def _unreal_light(gb: GBuffer, light_rgb: np.ndarray, ue_phase: tuple[float, float] | None = None) -> np.ndarray:

@@ -1,0 +1,279 @@
+"""The formats :func:`ssskit.export.export` writes, registered in :data:`ssskit.export.FORMATS`: kernels (shader
+arrays, ``.bn``, ssskit's JSON), whole compute shaders, and engine files (Unreal, Unity HDRP, Blender, MaterialX),
+each with its suffixes, writer, reader and the options that apply to it (docs/architecture.md, "How to add an
+engine format")."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from pathlib import Path
+
+from ..errors import KernelError, SsskitError
+from ..quantities import refuse_unused
+from .api import FORMATS, KERNEL_OPTIONS, SHADER_OPTIONS, ExportSettings, Format, Job
+
+# ------------------------------------------------------------------------------------------- kernels
+
+#: ``--format bn`` crops the grid to the part holding this fraction of each channel's kernel mass
+BN_SUPPORT = 0.999
+def export_kernel(kernel: Any, fmt: str, path: str | Path, taps: int | None = None, tap_method: str = "importance",
+                  comment: str = "", jitter: float | None = None, depth_mode: str | None = None) -> None:
+    """Write ``kernel`` in a kernel format (``hlsl``, ``glsl``, ``bn``, ``json``, ``glsl-shader``,
+    ``hlsl-shader``) to ``path`` (atomic). The shaders take ``jitter`` (None: :func:`~.shaders.separable_shader`'s default, the pass's 0.1) and
+    ``depth_mode`` (the pass's); another format given either, or ``bn`` / ``json`` given ``taps`` (they write
+    the tabulated kernel itself), is refused before anything is written."""
+    from ..io import check_suffix, write_text
+    from ..kernels.base import save_kernel
+    from .arrays import LANGUAGES, format_shader_arrays, kernel_arrays
+    from .bn import save_bn
+
+    key = fmt.strip().lower() if isinstance(fmt, str) else fmt
+    kernel_formats = [name for name, f in FORMATS.items() if f.kind in ("kernel", "shader")]
+    if key not in kernel_formats:
+        raise KernelError(f"{fmt!r} is not a kernel format; choose from {', '.join(kernel_formats)}")
+    shader = key in ("glsl-shader", "hlsl-shader")
+    if not shader and (jitter is not None or depth_mode is not None):
+        raise KernelError(f"jitter and depth_mode apply to the whole shaders only (glsl-shader, hlsl-shader), not to "
+                          f"the {key} format; got jitter={jitter!r}, depth_mode={depth_mode!r}")
+    if key in ("bn", "json") and taps is not None:
+        raise KernelError(f"taps do not apply to the {key} format (it writes the tabulated kernel itself), got {taps!r}")
+    check_suffix(path, FORMATS.get(key).suffixes, f"{key} output")
+    if key in ("glsl-shader", "hlsl-shader"):
+        from ..kernels import TapKernel
+        from ..sampling.taps import make_taps
+        from .shaders import separable_shader
+
+        n = kernel.taps if isinstance(kernel, TapKernel) else (taps or 7)
+        given = {} if jitter is None else {"jitter": jitter}  # None: the shader's own default
+        text = separable_shader(make_taps(kernel, n, tap_method), key.split("-")[0], depth_mode=depth_mode, **given)
+        write_text(path, (f"// {comment}\n" if comment else "") + text)
+    elif key in LANGUAGES:
+        write_text(path, format_shader_arrays(kernel_arrays(kernel, taps, tap_method), key, comment))
+    elif key == "bn":
+        save_bn(kernel, path, support=BN_SUPPORT)
+    else:
+        save_kernel(kernel, path)
+
+
+
+
+def _kernel(job: Job) -> None:
+    """A kernel format: the kernel of the source's profile, written by :func:`ssskit.export.export_kernel`."""
+    from ..kernels import TapKernel, build_kernel
+
+    req, src = job.request, job.source
+    m, params, tap_count = src.kernel
+    profile = src.profile() if src.profile is not None else None
+    kernel = build_kernel(m.name, profile, **params)
+    shader = req.format.endswith("-shader")
+    tap_method = req.tap_method or "importance"
+    comment = (f"ssskit export: {req.kernel} kernel" + (f" of {profile.name} ({profile.model})" if profile else "")
+               + ("" if isinstance(kernel, TapKernel) or req.format not in ("hlsl", "glsl")
+                  else f", {tap_count or 7} {tap_method} taps"))
+    export_kernel(kernel, req.format, req.out, tap_count, tap_method, comment, req.jitter if shader else None,
+                  req.depth_mode)
+    with_taps = req.format in ("hlsl", "glsl") or shader
+    job.summary.update(material=req.material, model=src.model if profile is not None else None, kernel=req.kernel,
+                       rank=kernel.rank,
+                       taps=kernel.taps if isinstance(kernel, TapKernel) else (tap_count or 7) if with_taps else None)
+    if shader:
+        job.summary.update(jitter=0.1 if req.jitter is None else req.jitter, depth_mode=req.depth_mode)
+    return None
+
+
+def _shader(job: Job) -> str | None:
+    """A whole compute shader: the separable pass (a kernel) or, with ``shader_pass="transmission"``, the
+    transmittance pass with the material's model baked in (:func:`ssskit.export.shaders.transmission_shader`)."""
+    req = job.request
+    if req.shader_pass != "transmission":
+        _kernel(job)
+        return None
+    from ..screenspace.transmission import transmission_plan
+    from ..screenspace.transmission_slot import slot_model
+    from .shaders import transmission_shader
+
+    tmodel = req.transmission_model or "mcml"
+    mat = job.source.material
+    plan = transmission_plan({1: slot_model(tmodel, mat)})
+    what = f"{tmodel} transmittance of {mat.name}" if mat is not None else f"{tmodel} transmittance"
+    job.summary.update(material=mat.name if mat is not None else None, model=None, **{"pass": "transmission"},
+                       transmission_model=tmodel, terms=plan.terms, table=bool(plan.has_lut))
+    return f"// ssskit export: the transmittance pass, {what}\n" + transmission_shader(plan, req.format.split("-")[0])
+
+
+def _shader_check(req: ExportSettings, source: Any) -> None:
+    if req.given("transmission_model") and req.shader_pass != "transmission":
+        raise SsskitError("--transmission-model applies with --pass transmission")
+    if req.format == "hlsl-shader":
+        from .shaders import tools_available
+
+        ok, why = tools_available()
+        if not ok:
+            raise SsskitError(f"--format hlsl-shader needs glslangValidator and spirv-cross: {why}")
+
+
+# ------------------------------------------------------------------------------------------ engines
+
+
+def engine_data(job: Job) -> dict[str, Any]:
+    """The engine's parameters (:func:`ssskit.export.engine_parameters`) of the job's source, with the engines'
+    transmission fields fitted to a homogeneous material's MCML T(t) unless ``no_transmission``; fills the summary
+    and says (a note) why transmission fields are left out."""
+    from ..materials import Material
+    from .engines import TRANSMISSION_ENGINES, engine_parameters
+
+    req, src = job.request, job.source
+    fmt, mat = req.format, src.material
+    table = None
+    if not req.no_transmission and fmt in TRANSMISSION_ENGINES and isinstance(mat, Material):
+        from ..profiles.montecarlo.transmission import transmission_table
+
+        table = transmission_table(mat)  # (its domain checked before any work: _transmission_check)  # the material's MCML slab T(t) (cached like the profiles)
+    data = engine_parameters(src.profile(), fmt, mat, table, eta=src.eta)
+    if fmt in TRANSMISSION_ENGINES and table is None:
+        why = ("left out (--no-transmission)" if req.no_transmission else
+               "the transmission fields are fitted to a homogeneous material's MCML slab transmittance: give a preset "
+               "or material file, or artists' terms with --model montecarlo")
+        data["transmission"] = {"available": False, "why": why + "; the engine's defaults stay"}
+        if not req.no_transmission:  # asked for but not there: say so where the user looks
+            what = ("artists' terms and engine files under --model burley (their default, the Burley-fit inversion) "
+                    "have no coefficients, so no slab transmittance" if mat is None else
+                    "a layered material has no single slab transmittance")
+            job.notes.append(f"--format {fmt}: the transmission fields are left out, the engine's defaults stay: "
+                             f"{what}; give --material (a preset or material file)"
+                             + (" or --model montecarlo" if mat is None else "") + " for them")
+    job.summary.update(material=req.material if req.material is not None else src.name, model=src.model,
+                       parameters={k: v for k, v in data.items() if k not in ("sources", "lost")})
+    return data
+
+
+def asset_name(job: Job) -> str:
+    src = job.source
+    name = src.name or (src.material.name if src.material is not None else "ssskit")
+    return "".join(ch if ch.isalnum() or ch in "_-" else "_" for ch in name) or "ssskit"
+
+
+def _json_or(job: Job, data: dict[str, Any]) -> str | None:
+    return json.dumps(data, indent=1) + "\n" if job.request.suffix == "json" else None
+
+
+def _unreal(job: Job) -> str:
+    from .unreal import unreal_script
+
+    data = engine_data(job)
+    form = job.request.unreal_form or "mfp"
+    if job.request.suffix == "json":
+        return json.dumps(data, indent=1) + "\n"
+    job.summary["unreal_form"] = form
+    return unreal_script(data, f"SP_{asset_name(job)}", form)
+
+
+def _transmission_check(req: ExportSettings, source: Any) -> None:
+    """The transmission table's domain (from sigma_t), before the profile's MCML."""
+    from ..materials import Material
+
+    if not req.no_transmission and isinstance(source.material, Material):
+        from ..profiles.montecarlo.transmission import check_table_request
+
+        check_table_request(source.material)
+
+
+def _unreal_check(req: ExportSettings, source: Any) -> None:
+    _transmission_check(req, source)
+    if req.given("unreal_form") and req.suffix != "py":  # the editor script's form: the one unused-option wording
+        refuse_unused(["--unreal-form"], "--out", [".py (the editor script)"], f".{req.suffix}")
+
+
+def _unity(job: Job) -> str:
+    from .unity import unity_asset
+
+    data = engine_data(job)
+    return _json_or(job, data) or unity_asset(data, asset_name(job))
+
+
+def _blender(job: Job) -> str:
+    from .blender import blender_script
+
+    data = engine_data(job)
+    return _json_or(job, data) or blender_script(data, asset_name(job))
+
+
+def _materialx(job: Job) -> str:
+    """OpenPBR's subsurface_color = A and radius = the mean free path 1 / sigma_t ([OPBR24]; module
+    :mod:`ssskit.export.materialx`): a layered material (no single medium) is refused."""
+    import numpy as np
+
+    from .engines import fit_burley
+    from .materialx import materialx_document
+
+    src, req = job.source, job.request
+    mat = _medium(src)
+    a, _ = fit_burley(src.profile())
+    mfp = 1.0 / np.asarray(mat.sigma_t, dtype=float)  # OpenPBR: mu_t = 1 / r ([OPBR24], "Subsurface")
+    g = float(np.mean(mat.g))
+    job.summary.update(material=req.material if req.material is not None else src.name, model=src.model,
+                       parameters={"subsurface_color": a.tolist(), "mfp_mm": mfp.tolist()})
+    return materialx_document(a, mfp, src.name or mat.name, g, float(mat.eta), req.standard_surface)
+
+
+def _medium(src: Any) -> Any:
+    """The one homogeneous medium OpenPBR describes: the material, or for artists' terms or an engine file under
+    Burley the Monte Carlo inversion's; a layered material has none."""
+    from ..materials import Material
+
+    mat = src.material if src.material is not None else (src.physical() if src.physical is not None else None)
+    if not isinstance(mat, Material):
+        raise SsskitError("--format materialx writes OpenPBR's one homogeneous subsurface medium; a layered material "
+                          "has none (export its layers' materials)")
+    return mat
+
+
+def _materialx_check(req: ExportSettings, source: Any) -> None:
+    from .materialx import _mx
+
+    _mx()  # the optional package, or one line saying how to install it
+    _medium(source)
+
+
+def _read(engine: str) -> Any:
+    def read(path: Any, albedo: Any = None) -> Any:
+        from .readers import read_engine_file
+
+        return read_engine_file(path, albedo=albedo)
+
+    read.__doc__ = f"The {engine} file read back (:func:`ssskit.export.readers.read_engine_file`)."
+    return read
+
+
+ENGINE_OPTIONS = ("no_transmission",)
+_KERNEL_SUFFIXES = {
+    "hlsl": (".hlsl", ".hlsli", ".h", ".fx", ".fxh", ".usf", ".ush"),
+    "glsl": (".glsl", ".h", ".comp", ".frag", ".inc"),
+    "bn": (".bn",),
+    "json": (".json",),
+}
+for _name, _suffixes in _KERNEL_SUFFIXES.items():
+    FORMATS.register(_name, Format(_name, _suffixes, "kernel", KERNEL_OPTIONS, _kernel, {
+        "hlsl": "shader arrays (float4 kernel[N], the 2012 demo layout)", "glsl": "shader arrays (the demo layout)",
+        "bn": "the 2015 pre-integrated kernel file", "json": "ssskit's kernel file"}[_name]))
+FORMATS.register("unreal", Format("unreal", (".json", ".py"), "engine", ("unreal_form", "no_transmission"), _unreal,
+                                  "Unreal SubsurfaceProfile: parameters (.json) or the editor script (.py)",
+                                  _read("unreal"), _unreal_check))
+FORMATS.register("unity", Format("unity", (".json", ".asset"), "engine", ("no_transmission",), _unity,
+                                 "Unity HDRP diffusion profile: parameters (.json) or the .asset", _read("unity"),
+                                 _transmission_check))
+FORMATS.register("blender", Format("blender", (".json", ".py"), "engine", (), _blender,
+                                   "Blender Principled BSDF (Cycles): parameters (.json) or the script (.py)",
+                                   _read("blender")))
+FORMATS.register("materialx", Format("materialx", (".mtlx",), "engine", ("standard_surface",), _materialx,
+                                     "MaterialX .mtlx (OpenPBR, optionally Standard Surface)", _read("materialx"),
+                                     _materialx_check))
+FORMATS.register("glsl-shader", Format("glsl-shader", (".comp", ".glsl"), "shader", SHADER_OPTIONS, _shader,
+                                       "the whole separable (or transmittance) compute shader, taps baked in",
+                                       check=_shader_check))
+FORMATS.register("hlsl-shader", Format("hlsl-shader", (".hlsl", ".fx", ".usf"), "shader", SHADER_OPTIONS, _shader,
+                                       "the whole compute shader in HLSL (glslang + spirv-cross)", check=_shader_check))
+
+__all__ = ["BN_SUPPORT", "asset_name", "engine_data", "export_kernel"]
