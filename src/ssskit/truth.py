@@ -12,7 +12,6 @@ convolution on each SSS region, with the pass's own boundary rule.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from numbers import Real
 from typing import TYPE_CHECKING

@@ -58,7 +58,6 @@ from ..backends.adaptive_plan import (
     reference_reproject,
     reference_update,
 )
-from ..backends.burley_plan import MAX_SPP
 from ..errors import PassError, SettingsError
 from ..quantities import FRACTION, Choice, Quantity, check_finite
 from ..settings import Settings, check_float, check_int, setting

@@ -47,7 +47,7 @@ from typing import Literal, overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import PassError, SettingsError
+from ..errors import PassError
 from ..quantities import Choice, Quantity, check_finite
 from ..settings import Settings, check_float, setting
 from .camera import Camera, check_motion
