@@ -303,10 +303,9 @@ def _check_adaptive(ctx: click.Context, s: RenderSettings, still: bool, save_gbu
     if s.reference:
         raise SsskitError("--reference applies to one frame; add --static (a moving sequence compares each frame "
                           "with its converged Burley reference)")
-    for name in ("reference_spp", "reference_max_spp", "reference_rel_se", "no_exact"):  # else silently unused
-        if given(ctx, name):
-            raise SsskitError(f"{option_name(ctx, name)} applies to one frame; add --static (a moving sequence "
-                              "compares each frame with its converged Burley reference of --limit-spp spp)")
+    if given(ctx, "no_exact"):  # (the reference's options need --reference, refused above: RenderSettings)
+        raise SsskitError("--no-exact applies to one frame; add --static (a moving sequence compares each frame "
+                          "with its converged Burley reference of --limit-spp spp)")
 
 
 #: the files :class:`FrameWriter` writes into --frames-dir
