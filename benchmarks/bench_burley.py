@@ -14,6 +14,8 @@ machine state; min, median and max over ``--repeats`` rounds):
 * ``gl_api``: the same call with ``backend="gl"`` (upload, shader, readback);
 * ``gl_device``: the gl shader alone on a frame already on the device (``BurleyFrame.run`` and glFinish:
   on Mesa's llvmpipe that is the shader's CPU time on all cores), the emulated GPU's best case;
+* with ``--mips``, every case again with prefiltered mips (Xie Eqs. 22-23, a = 1/16; numba builds its pyramid
+  in the call, gl_device runs the pyramid pass and the shader), ratio numba / gl_device per mips setting;
 * ``fft``: the exact 2D convolution of the diffuse layer with R(r)'s cell integrals per channel (kernel
   radius: the largest channel's 0.999-energy radius) by ``scipy.signal.fftconvolve``: depth- and
   mask-unaware, the cheapest exact answer.
@@ -25,7 +27,7 @@ pixel count). ``--no-gl`` (or no EGL here) leaves the gl cases out, saying why. 
 printed before and after. Prints one JSON object.
 
     NUMBA_THREADING_LAYER is set to 'workqueue' unless given.
-    python benchmarks/bench_burley.py [--sizes 480x270 1920x1080] [--spp 8 64] [--repeats 5]
+    python benchmarks/bench_burley.py [--sizes 480x270 1920x1080] [--spp 8 64] [--repeats 5] [--mips]
 """
 
 from __future__ import annotations
@@ -79,15 +81,16 @@ def gl_status() -> tuple[bool, str]:
     return bool(st["available"]), str(st["details"])
 
 
-def gl_device(gb, params, spp: int):
-    """The gl shader on a frame kept on the device: returns (run-and-finish, release)."""
+def gl_device(gb, params, spp: int, mips: bool = False):
+    """The gl shader on a frame kept on the device (with ``mips``: the pyramid pass too): returns (run-and-finish,
+    release)."""
     from ssskit.backends.gl.burley import BurleyFrame
     from ssskit.backends.gl.context import context
     from ssskit.screenspace.burley import BurleySettings, burley_plan_for
     from ssskit.backends.plan import profile_ids
 
     cam = gb.camera
-    plan = burley_plan_for(params, profile_ids(gb.profile_id), cam.fx, cam.fy, BurleySettings(spp=spp, mips=False))
+    plan = burley_plan_for(params, profile_ids(gb.profile_id), cam.fx, cam.fy, BurleySettings(spp=spp, mips=mips))
     frame = BurleyFrame(plan, gb.diffuse, gb.depth_mm, plan.slot_map(gb.profile_id), spp)
     ctx = context()
 
@@ -111,6 +114,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--numpy-size", default="192x108", help="the numpy oracle's (small) frame")
     ap.add_argument("--no-gl", action="store_true", help="leave the gl backend out")
     ap.add_argument("--no-extras", action="store_true", help="leave out the samplers, mips and numpy rows")
+    ap.add_argument("--mips", action="store_true",
+                    help="every case also with prefiltered mips (Xie Eqs. 22-23, a = 1/16; the pyramid timed with it)")
     args = ap.parse_args(argv)
     import ssskit
     from ssskit.screenspace import BurleyParams, burley_sss
@@ -124,35 +129,41 @@ def main(argv=None) -> dict:
                     "numpy": np.__version__, "threading_layer": os.environ["NUMBA_THREADING_LAYER"],
                     "threads": numba.get_num_threads(), "ssskit": str(Path(ssskit.__file__).parent)},
         "gl": gl_why, "params": {"albedo": list(params.albedo), "d_mm": list(params.d_mm)},
-        "repeats": args.repeats, "sampler": "exact", "sequence": "r2", "mips": False, "cases": [],
+        "repeats": args.repeats, "sampler": "exact", "sequence": "r2", "cases": [],
     }
     for text in args.sizes:
         w, h = (int(v) for v in text.lower().split("x"))
         gb = gbuffer(w, h)
         fns = {"fft": fft_exact(gb, params)}
         releases = []
+        mipses = (False, True) if args.mips else (False,)
         for n in args.spp:
-            fns[f"numba_{n}"] = lambda n=n: burley_sss(gb, params, spp=n, mips=False, backend="numba")
-            if gl_ok:
-                fns[f"gl_api_{n}"] = lambda n=n: burley_sss(gb, params, spp=n, mips=False, backend="gl")
-                fns[f"gl_device_{n}"], rel = gl_device(gb, params, n)
-                releases.append(rel)
+            for mips in mipses:
+                k = f"{n}_mips" if mips else f"{n}"
+                fns[f"numba_{k}"] = lambda n=n, mips=mips: burley_sss(gb, params, spp=n, mips=mips, backend="numba")
+                if gl_ok:
+                    fns[f"gl_api_{k}"] = lambda n=n, mips=mips: burley_sss(gb, params, spp=n, mips=mips, backend="gl")
+                    fns[f"gl_device_{k}"], rel = gl_device(gb, params, n, mips)
+                    releases.append(rel)
         times = interleaved(fns, args.repeats)
         for rel in releases:
             rel()
         fft = stats(times["fft"])
         for n in args.spp:
-            case: dict = {"size": f"{w}x{h}", "spp": n, "numba": stats(times[f"numba_{n}"]), "fft": fft}
-            med = case["numba"]["median_ms"]
-            case["numba_gsamples_per_s"] = round(w * h * n / med / 1e6, 4)
-            case["numba_over_fft"] = round(med / fft["median_ms"], 3)
-            if gl_ok:
-                case["gl_api"] = stats(times[f"gl_api_{n}"])
-                case["gl_device"] = stats(times[f"gl_device_{n}"])
-                case["numba_over_gl_device"] = round(med / case["gl_device"]["median_ms"], 3)
-                case["numba_over_gl_api"] = round(med / case["gl_api"]["median_ms"], 3)
-            out["cases"].append(case)
-            print(json.dumps(case), file=sys.stderr, flush=True)
+            for mips in mipses:
+                k = f"{n}_mips" if mips else f"{n}"
+                case: dict = {"size": f"{w}x{h}", "spp": n, "mips": mips, "numba": stats(times[f"numba_{k}"]),
+                              "fft": fft}
+                med = case["numba"]["median_ms"]
+                case["numba_gsamples_per_s"] = round(w * h * n / med / 1e6, 4)
+                case["numba_over_fft"] = round(med / fft["median_ms"], 3)
+                if gl_ok:
+                    case["gl_api"] = stats(times[f"gl_api_{k}"])
+                    case["gl_device"] = stats(times[f"gl_device_{k}"])
+                    case["numba_over_gl_device"] = round(med / case["gl_device"]["median_ms"], 3)
+                    case["numba_over_gl_api"] = round(med / case["gl_api"]["median_ms"], 3)
+                out["cases"].append(case)
+                print(json.dumps(case), file=sys.stderr, flush=True)
     if not args.no_extras:
         w, h = max((tuple(int(v) for v in t.lower().split("x")) for t in args.sizes), key=lambda s: s[0] * s[1])
         gb = gbuffer(w, h)

@@ -17,17 +17,13 @@ import json
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 
 def run(materials: list[str], model: str, width: int, height: int, spp: int, methods: list[str],
         rw_spp: int) -> dict:
-    import numpy as np
-
-    from ssskit.export import engine_parameters
-    from ssskit.export.blender import blender_d_mm, blender_script, compare_slab, find_blender_python, render_slab
+    from ssskit.export.blender import compare_slab, find_blender_python, render_slab
+    from ssskit.export.engines import slab_material
     from ssskit.materials import get_material
-    from ssskit.profiles import profile_for_material
 
     python, why = find_blender_python()
     if python is None:
@@ -36,10 +32,7 @@ def run(materials: list[str], model: str, width: int, height: int, spp: int, met
     with tempfile.TemporaryDirectory() as tmp:
         for name in materials:
             material = get_material(name)
-            params = engine_parameters(profile_for_material(material, model), "blender", material)
-            script = Path(tmp) / f"{name}.py"
-            script.write_text(blender_script(params, name))
-            a, d = np.array(params["base_color"]), blender_d_mm(params)
+            _, script, a, d = slab_material(name, model, tmp)
             for method in methods:
                 t0 = time.perf_counter()
                 n = rw_spp if method.startswith("RANDOM_WALK") else spp
@@ -54,6 +47,8 @@ def run(materials: list[str], model: str, width: int, height: int, spp: int, met
 
 
 def markdown(data: dict) -> str:
+    from ssskit.export.blender import distance_cells
+
     out = [f"Cycles {data['rows'][0]['blender']} (CPU), {data['width']}x{data['height']} px per channel view, "
            f"source --model {data['model']}; the distances at 25 / 10 / 3 / 1 % of the plateau as rendered / "
            "predicted - 1, +- the render's noise (one standard error)",
@@ -62,12 +57,7 @@ def markdown(data: dict) -> str:
            "|---|---|---|---|---|---|---|---|---|"]
     for r in data["rows"]:
         for c, ch in enumerate(r["channels"]):
-            cells = []
-            for q in ch["distances"]:
-                if q.get("measured_mm") is None:
-                    cells.append("not reached")
-                else:
-                    cells.append(f"{q['relative_error']:+.1%} ± {q['se_mm'] / q['predicted_mm']:.1%}")
+            cells = distance_cells(ch, "error")
             se = f"{ch['plateau_se']:.4f}" if ch["plateau_se"] >= 5e-5 else "< 0.0001"
             out.append(f"| {r['material']} | {r['method']} ({r['spp']}) | {'RGB'[c]} | {ch['plateau_ratio']:.4f} ± "
                        f"{se} | " + " | ".join(cells) + f" | {ch['mean_abs_edge_error']:.4f} |")

@@ -251,3 +251,29 @@ def test_heartbeat_fills_a_silence_in_plain_lines(capsys, monkeypatch):
     assert err[0] == "  a long step"
     assert len(err) >= 2 and all(line.startswith("  ... still working, ") and line.endswith(": a long step")
                                  for line in err[1:])
+
+
+DEEP = {".json": "[" * 100_000 + "]" * 100_000, ".toml": "a = " + "[" * 100_000 + "]" * 100_000}
+
+
+@pytest.mark.parametrize("suffix", [".json", ".toml"])
+def test_a_document_nested_too_deeply_is_malformed_in_every_reader(tmp_path, suffix):
+    """A 100,000-deep nested JSON (or TOML) raised RecursionError from the parsers (a traceback from the CLI);
+    every reader of a user's TOML/JSON file (material, settings, scene) now calls it malformed."""
+    from ssskit.errors import MaterialError, SceneError, SettingsError
+    from ssskit.io import parse_document
+    from ssskit.materials import load_material
+    from ssskit.pipeline.settings import RenderSettings
+    from ssskit.scenes import resolve_scene
+
+    with pytest.raises(ValueError, match="nested too deeply"):
+        parse_document(DEEP[suffix], suffix)
+    path = tmp_path / f"deep{suffix}"
+    path.write_text(DEEP[suffix])
+    with pytest.raises(MaterialError, match="malformed material file .* nested too deeply"):
+        load_material(path)
+    with pytest.raises(SettingsError, match="malformed settings file .* nested too deeply"):
+        RenderSettings.load(path)
+    if suffix == ".toml":
+        with pytest.raises(SceneError, match="is not valid TOML: nested too deeply"):
+            resolve_scene(str(path))

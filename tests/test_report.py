@@ -190,3 +190,119 @@ def test_the_workers_compile_each_kernel_once_before_the_sections_that_run_it():
             assert needed <= {p for d in after[j] for p in jobs[d][1]} and all(d < j for d in after[j])
     assert report.section_jobs(names, compiles=False) == ([("section", names.index(n)) for n in report.SECTION_ORDER
                                                           if n in names], {k: set() for k in range(len(names))})
+
+
+def _kernel_columns(text: str) -> dict[str, list[list[str]]]:
+    """The screen-space table's kernel rows per scene, as lists of cells (the scene's noise-floor row left out)."""
+    import re
+
+    table = text[text.index("<th>kernel / taps</th>"):]
+    table = table[:table.index("</table>")]
+    scenes: dict[str, list[list[str]]] = {}
+    for attrs, row in re.findall(r"<tr([^>]*)>(.*?)</tr>", table):
+        cells = [re.sub(r"<[^>]+>", "", c) for c in re.findall(r"<td[^>]*>(.*?)</td>", row)]
+        if cells and "scene" not in attrs:
+            scenes.setdefault(cells[0], []).append(cells[1:])
+    return scenes
+
+
+@__import__("pytest").mark.slow
+def test_no_column_of_the_kernel_table_is_the_same_for_every_kernel(tmp_path, monkeypatch):
+    """The screen-space table on a small slab with a short path trace: the per-pixel PSNR against the path trace
+    was the same for every kernel of a scene (sphere 30.7 dB for all four: the reference's noise, relative RMSE
+    ~0.68); every column of the kernels' rows now differs between at least two kernels of the scene, the noise
+    floor (the reference level's relative SE, the same for all) stated once in the scene's own row."""
+    from ssskit.figures.screenspace import screen_space_comparison
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    png, rows, regions = screen_space_comparison(tmp_path, scenes=["slab"], width=64, height=48, spp=4,
+                                                 reference_spp=8, reference_max_spp=8)
+    text = report._kernel_rows(rows, regions)
+    per_scene = _kernel_columns(text)
+    assert list(per_scene) == ["slab"] and len(per_scene["slab"]) == len(rows) >= 3
+    kernels = per_scene["slab"]
+    columns = [c for c in zip(*kernels) if set(c) != {"-"}]  # ('-': the scene has no such region)
+    assert len(columns) >= 3  # kernel, vs exact 2D, the shadow edge at least
+    for column in columns:
+        assert len(set(column)) > 1, column
+    assert "<tr class=scene><td class=name>slab</td><td class=name>noise floor" in text
+    assert png.is_file()
+
+
+def test_the_shipped_head_numbers_are_the_docs_numbers():
+    """The demo's head figure reads the package's copy of docs/head_numbers.json's ``separable`` part (an installed
+    ssskit has no docs/): the two agree (after ``python docs/head_numbers.py``, run
+    ``ssskit.figures.screenspace.ship_head_numbers()``), and the copy has a row with region levels and standard
+    errors for each of the head's three views."""
+    import json
+    from pathlib import Path
+
+    from ssskit.figures.screenspace import HEAD_NUMBERS
+
+    docs = json.loads((Path(__file__).parents[1] / "docs" / "head_numbers.json").read_text())["separable"]
+    shipped = json.loads(HEAD_NUMBERS.read_text())
+    assert shipped == docs
+    views = {r["view"] for r in shipped["rows"] if r.get("regions")}
+    assert views == {"front", "ear", "close"}
+    for r in shipped["rows"]:
+        for region in r["regions"].values():
+            assert all(se > 0 for se in region["path_traced_se"])
+
+
+def test_the_demo_opens_with_the_head_and_ranks_every_material():
+    """The report's first section is the head; the kernels are ranked for all 11 measured materials by default."""
+    from ssskit.materials import MATERIALS
+
+    assert report.SECTIONS[0][0] == "head"
+    assert list(report.RANK_MATERIALS) == MATERIALS.names() and len(report.RANK_MATERIALS) == 11
+
+
+@__import__("pytest").mark.slow
+def test_the_head_section_shows_the_recommended_kernel_against_the_path_trace(tmp_path):
+    """The head section renders the head with the kernel ranked first for Skin1 and tabulates, for each of the
+    three views, that kernel's region levels beside the path trace's ± SE, from the shipped numbers; the
+    ratio column is level / path traced and the SE column the shipped one (an independent recomputation)."""
+    import json
+    import re
+
+    from ssskit.figures.screenspace import HEAD_NUMBERS
+    from ssskit.profiles import profile_for_material
+
+    best = report.kernel_ranking(profile_for_material("Skin1", "montecarlo"), size=report.RANK_SIZE)[0][0]
+    text = report._head_section(tmp_path, lambda msg: None, {"backend": "numba"})
+    assert f"recommended kernel ({best})" in text
+    assert (tmp_path / "figures" / "head.png").stat().st_size > 10_000
+    rows = re.findall(r"<tr><td class=name>(\w+)</td><td class=name>([\w ]+)</td><td>(\d+)</td><td>([^<]*)</td>"
+                      r"<td>([^<]*)</td><td>([^<]*)</td>", text)
+    assert {r[0] for r in rows} == {"front", "ear", "close"}
+    shipped = {(r["view"], k.replace("_", " ")): v for r in json.loads(HEAD_NUMBERS.read_text())["rows"]
+               if r["kernel"] == best for k, v in r["regions"].items()}
+    assert len(rows) == len(shipped)
+    for view, region, pixels, level, ref, ratio in rows:
+        want = shipped[(view, region)]
+        assert int(pixels) == want["pixels"]
+        got = [float(v) for v in ratio.split(",")]
+        assert got == [float(f"{a / b:.3g}") for a, b in zip(want["screen_space"], want["path_traced"])]
+
+
+def test_a_noisy_path_trace_is_shown_as_block_means_and_left_untouched():
+    """A flat image of level 1 with independent per-pixel noise of SE 0.5 (relative noise 50%): its display copy is
+    the mean of the smallest blocks that bring the noise to 10% (6x6: 0.5 / 6 = 8.3%; 4x4 gives 12.5%), the
+    blocks' actual scatter about 1 is that SE (within 15%), and the image given, the numbers' reference, is not
+    changed; a converged image is shown as it is."""
+    import numpy as np
+
+    from ssskit.figures.screenspace import display_copy
+
+    rng = np.random.default_rng(7)
+    img = 1.0 + 0.5 * rng.standard_normal((120, 160, 3))
+    before = img.copy()
+    se = np.full_like(img, 0.5)
+    mask = np.ones((120, 160), bool)
+    shown, block, rel = display_copy(img, se, mask)
+    assert block == 6 and abs(rel / (0.5 / 6) - 1) < 0.01  # (over the noisy image's own mean level)
+    assert np.array_equal(img, before)
+    blocks = shown[:120 // 6 * 6:6, :160 // 6 * 6:6]  # (the last 4 columns, no whole block, shown as they are)
+    assert abs(float(np.std(blocks)) / (0.5 / 6) - 1) < 0.15
+    quiet, block, rel = display_copy(np.ones((120, 160, 3)), np.full((120, 160, 3), 0.01), mask)
+    assert block == 1 and np.array_equal(quiet, np.ones((120, 160, 3))) and abs(rel - 0.01) < 1e-12

@@ -10,11 +10,16 @@ by their settings and the package's source, so a second ``ssskit demo`` copies t
 
 from __future__ import annotations
 
+import hashlib
 import os
+import re
 from pathlib import Path
 
 #: sub-folders of the cache root, one per kind of cached result
 KINDS = ("mcml", "reference", "meshes", "demo", "gbuffers", "figures")
+#: the longest readable part of a cache file's name (bytes of UTF-8): with the key, the suffix and the atomic
+#: writer's temporary prefix and suffix a name stays far below the 255 bytes most file systems allow
+NAME_BYTES = 80
 
 
 def cache_root() -> Path:
@@ -44,3 +49,15 @@ def cache_dir(kind: str) -> Path:
     if kind not in KINDS:
         raise ValueError(f"unknown cache kind {kind!r}; known: {', '.join(KINDS)}")
     return cache_root() / kind
+
+
+def cache_file(kind: str, name: str, key: str, suffix: str) -> Path:
+    """``cache_dir(kind) / "{name}-{key}{suffix}"`` with a bounded, readable ``name`` (a scene's or a mesh's, which
+    come from a user's file names): characters other than letters, digits, ``.``, ``_`` and ``-`` become ``_`` (no
+    separator or NUL reaches the path), and a name longer than :data:`NAME_BYTES` keeps its beginning and ends in
+    ``~`` and 8 hex digits of the whole name's sha1, so two long names with the same beginning stay apart. (A
+    240-character mesh name made a name over the file system's 255 bytes: the mesh could not be rendered.)"""
+    readable = re.sub(r"[^A-Za-z0-9._-]", "_", name) or "_"
+    if len(readable.encode()) > NAME_BYTES:
+        readable = f"{readable[:NAME_BYTES - 9]}~{hashlib.sha1(name.encode()).hexdigest()[:8]}"
+    return cache_dir(kind) / f"{readable}-{key}{suffix}"

@@ -63,7 +63,10 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
         raise OutputError(f"cannot write {str(target)!r}: it is a directory")
     try:
         parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".tmp{target.suffix}", dir=parent)
+        # the temporary name begins with the target's, cut to 100 bytes: a target name near the file system's
+        # 255 bytes is still written
+        head = target.name.encode()[:100].decode("utf-8", "ignore")
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{head}.", suffix=f".tmp{target.suffix[:20]}", dir=parent)
     except OSError as exc:
         why = exc.strerror
         existing = next((a for a in (parent, *parent.parents) if a.exists()), None)
@@ -261,6 +264,18 @@ def _library_message(text: str, path: Path) -> str:
         if line.startswith(prefix):
             line = line[len(prefix):]
     return re.sub(r"^\((EXR_ERR_\w+)\)\s*", r"\1: ", line)
+
+
+def parse_document(text: str, suffix: str) -> Any:
+    """The data of a TOML (``suffix`` ".toml") or JSON document; a ValueError for a malformed one, one nested too
+    deeply for the parsers (both recurse per level: a 100,000-deep JSON raised RecursionError) included, so every
+    reader of a user's file reports it as the malformed file it is."""
+    import tomllib
+
+    try:
+        return tomllib.loads(text) if suffix.lower() == ".toml" else json.loads(text)
+    except RecursionError:
+        raise ValueError("nested too deeply (more levels of arrays or tables than the parser can follow)") from None
 
 
 def check_regular_file(path: str | Path, what: str, error: type[Exception] = OutputError) -> None:

@@ -12,7 +12,6 @@ Sources
 
 from __future__ import annotations
 
-import json
 import math
 import numbers
 from collections.abc import Callable, Mapping, Sequence
@@ -388,18 +387,13 @@ def load_material(path: str | Path) -> Material | LayeredMaterial:
     except OSError as exc:
         raise MaterialError(f"cannot read material file {str(p)!r}: {exc.strerror}") from None
     suffix = p.suffix.lower()
-    try:
-        if suffix == ".toml":
-            import tomllib
+    if suffix not in (".toml", ".json"):
+        raise MaterialError(f"material file {str(p)!r} must end in .toml or .json")
+    from .io import parse_document
 
-            data = tomllib.loads(raw.decode("utf-8"))
-        elif suffix == ".json":
-            data = json.loads(raw.decode("utf-8"))
-        else:
-            raise MaterialError(f"material file {str(p)!r} must end in .toml or .json")
+    try:
+        data = parse_document(raw.decode("utf-8"), suffix)
     except (UnicodeDecodeError, ValueError) as exc:
-        if isinstance(exc, MaterialError):
-            raise
         raise MaterialError(f"malformed material file {str(p)!r}: {exc}") from None
     try:
         return material_from_dict(data, default_name=p.stem)

@@ -164,7 +164,7 @@ def heartbeat(interval_s: float = 8.0) -> Iterator[None]:
         said = 0.0
         while not stop.wait(0.5):
             now = time.perf_counter()
-            if now - max(_LAST["t"], said) >= interval_s:
+            if not _LAST.get("idle") and now - max(_LAST["t"], said) >= interval_s:
                 last = f": {_LAST['msg'][:90]}" if _LAST["msg"] else ""
                 print(f"  ... still working, {now - _LAST['t']:.0f} s since the last step{last}", file=sys.stderr,
                       flush=True)
@@ -178,6 +178,24 @@ def heartbeat(interval_s: float = 8.0) -> Iterator[None]:
     finally:
         stop.set()
         thread.join()
+
+
+def add_to_total(bar: ProgressBar, n: int) -> None:
+    """Grow (or, n < 0, shrink) the work a bar expects: a bar shared by several runs (the channels of one
+    simulation) counts only the work still to do, so its estimate of the time left covers all of them."""
+    setattr(bar, "total", (getattr(bar, "total", 0) or 0) + int(n))
+
+
+@contextlib.contextmanager
+def idle() -> Iterator[None]:
+    """While the block runs the process waits on someone else (a server for its requests), not on work: the
+    heartbeat says nothing."""
+    _LAST["idle"] = True
+    try:
+        yield
+    finally:
+        _LAST["idle"] = False
+        _LAST["t"] = time.perf_counter()
 
 
 def progress_bar(total: int, desc: str, unit: str = "it", enabled: bool = True, initial: int = 0,

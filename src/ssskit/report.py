@@ -40,6 +40,7 @@ img { max-width: 100%; border: 1px solid #eee; margin: 0.5em 0; }
 h2 { border-bottom: 2px solid #ddd; padding-bottom: 0.2em; margin-top: 2em; }
 .note { color: #555; font-size: 0.9em; }
 tr.best td { background: #e8f5e9; font-weight: 600; }
+tr.scene td { background: #f7f7f7; font-style: italic; }
 """
 
 
@@ -149,22 +150,26 @@ def _sampling_section(out: Path, progress: Progress, ctx: dict) -> str:
 RANKED_METHODS = ["svd:1", "svd:3", "gaussians:1", "gaussians:6", "preintegrated", "preintegrated_svd:1", "guided:0",
                   "guided:2", "artist:fit", "jimenez2012", "burley_fit"]
 RANK_SIGNALS = ("edge", "edge-rotated", "disk", "texture")
-#: the materials the report ranks the kernels for unless ``ssskit demo --material`` names others
-RANK_MATERIALS = ("Skin1", "Marble", "Ketchup")
+#: the materials the report ranks the kernels for unless ``ssskit demo --material`` names others: all 11
+RANK_MATERIALS = tuple(MATERIALS.names())
+#: the test signals' size (pixels per side) of the demo's ranking: 128 ranks the 11 materials in ~7 CPU s each
+#: (256: ~17 s each; measured 2026-12-06 at load ~18 on 2 cores), the kernel's 99.9% radius still ~21 pixels
+RANK_SIZE = 128
 
 
 def kernel_ranking(profile: RGBProfile, methods: list[str] = RANKED_METHODS, signals: tuple[str, ...] = RANK_SIGNALS,
-                   progress: Progress | None = None) -> list[tuple[str, dict[str, dict[str, Any]], float]]:
+                   progress: Progress | None = None,
+                   size: int = 256) -> list[tuple[str, dict[str, dict[str, Any]], float]]:
     """Each method's error against the exact 2D convolution (the kernel's error, not the model's) on
-    each signal, ranked by the mean relative RMSE over the signals: a list of (method, {signal:
-    metrics}, mean relative RMSE), best first."""
+    each signal of ``size`` x ``size`` pixels, ranked by the mean relative RMSE over the signals: a list of
+    (method, {signal: metrics}, mean relative RMSE), best first."""
     from .pipeline.evaluate import evaluate
 
     res = {}
     for sig in signals:
         if progress is not None:
             progress(f"kernel ranking, {profile.name}: {sig}")
-        res[sig] = evaluate(profile, sig, methods, perceptual=("flip",)).results
+        res[sig] = evaluate(profile, sig, methods, size=size, perceptual=("flip",)).results
     rows = [(m, {sig: res[sig][m] for sig in signals}, float(np.mean([res[sig][m]["relative_rmse"] for sig in signals])))
             for m in methods]
     return sorted(rows, key=lambda row: row[2])
@@ -185,27 +190,88 @@ def _ranking_table(profile: RGBProfile, rows: list[tuple[str, dict[str, dict[str
             + "".join(body) + "</table>")
 
 
+def _head_section(out: Path, progress: Progress, ctx: dict) -> str:
+    """The report's opening: Skin1 on the scanned head with the kernel the ranking recommends for it, against
+    the path trace per region (:func:`ssskit.figures.screenspace.head_opener`; the path traces' numbers shipped)."""
+    from .figures.screenspace import HEAD_NUMBERS, head_opener
+    from .profiles import profile_for_material
+
+    backend = ctx.get("backend", DEFAULT_BACKEND)
+    progress("the head: ranking the kernels for Skin1")
+    ranking = kernel_ranking(profile_for_material("Skin1", "montecarlo", photons=ctx.get("photons", DEMO_PHOTONS)),
+                             progress=progress, size=RANK_SIZE)
+    best = ranking[0][0]
+    png, data = head_opener(out / "figures", best, backend=backend, progress=progress)
+    body = []
+    for row in data["rows"]:
+        for region, r in row["regions"].items():
+            lev, ref, se = (np.asarray(r[k], float) for k in ("screen_space", "path_traced", "path_traced_se"))
+            z = (lev - ref) / se
+            body.append(f"<tr><td class=name>{html.escape(row['view'])}</td><td class=name>"
+                        f"{html.escape(region.replace('_', ' '))}</td><td>{r['pixels']}</td><td>{_fmt(lev, 3)}</td>"
+                        "<td>" + ", ".join(f"{a:.3f} ± {e:.3f}" for a, e in zip(ref, se)) + "</td>"
+                        f"<td>{_fmt(lev / ref, 3)}</td><td>{', '.join(f'{v:+.1f}' for v in z)}</td></tr>")
+    table = ("<table><tr><th>view</th><th>region</th><th>pixels</th><th>kernel's level (R, G, B)</th>"
+             "<th>path traced ± SE</th><th>kernel / path traced</th><th>difference in SE</th></tr>"
+             + "".join(body) + "</table>") if body else (
+        f"<p class=note>The shipped head numbers have no row for {html.escape(best)}: the figure shows the "
+        "render alone.</p>")
+    return (
+        f"<h2 id=head>The head: Skin1 with the recommended kernel ({html.escape(best)}) against the path trace</h2>"
+        f"<p class=note>Left: the scanned head (front view, Skin1, the Monte Carlo profile), rendered now by the "
+        f"separable pass with the kernel the ranking below recommends for Skin1 ({html.escape(best)}, 7 "
+        f"importance-sampled taps, on the {html.escape(backend)} backend). Right: per view and region, that "
+        "kernel's level (mean diffuse part over E/&pi;) over the volumetric path trace's, with ± 2 standard "
+        "errors of the path trace: a point whose bar crosses 1 agrees with the truth within its noise. These "
+        f"numbers are <b>shipped, not computed by this demo</b>: the path traces ({data['size'][0]}x"
+        f"{data['size'][1]}, ~3000 spp, ~6 min per view on 2 cores) are made by <code>python docs/head_numbers.py "
+        f"--sections separable</code> (<code>ssskit figures head-separable</code> shows their images), copied to "
+        f"the package's <code>{html.escape(HEAD_NUMBERS.name)}</code>. {html.escape(data['attribution'])}.</p>"
+        f"<img src='figures/{png.name}'>" + table
+    )
+
+
 def _kernels_section(out: Path, progress: Progress, ctx: dict) -> str:
     from .figures import FIGURES, make_figures
     from .profiles import profile_for_material
 
     names = ctx.get("materials") or RANK_MATERIALS
-    profiles = [profile_for_material(n, "montecarlo", photons=ctx["photons"]) for n in names]
-    tables = "".join(_ranking_table(p, kernel_ranking(p, progress=progress)) for p in profiles)
-    # the paper's kernel figures for the first material (the adaptive sampler's have their own section; the
+    ranked: list[tuple[RGBProfile, list[tuple[str, dict[str, dict[str, Any]], float]]]] = []
+    for name in names:  # (every material checked by the CLI before any work: none is left out)
+        progress(f"kernel ranking: {name}")
+        prof = profile_for_material(name, "montecarlo", photons=ctx["photons"])
+        ranked.append((prof, kernel_ranking(prof, progress=progress, size=RANK_SIZE)))
+    summary = "".join(
+        f"<tr><td class=name><a href='#rank-{html.escape(p.name.lower())}'>{html.escape(p.name)}</a></td>"
+        f"<td class=name>{html.escape(rows[0][0])}</td><td>{rows[0][2]:.2e}</td>"
+        f"<td>{rows[0][1][RANK_SIGNALS[0]]['convolutions_1d']}</td>"
+        f"<td class=name>{html.escape(rows[1][0])}</td><td>{rows[1][2]:.2e}</td>"
+        f"<td class=name>{html.escape(rows[-1][0])}</td><td>{rows[-1][2]:.2e}</td></tr>"
+        for p, rows in ranked)
+    tables = "".join(_ranking_table(p, rows) for p, rows in ranked)
+    # the paper's kernel figures for Skin1 (the adaptive sampler's have their own section; the
     # three-view study takes minutes on a life-size bust: ssskit figures xie-fig1, its table in RESULTS.md)
     figs = [n for n, fn in FIGURES.items() if fn.__module__ == "ssskit.figures.kernels"]
-    written = make_figures(figs, out / "figures", profiles[0], progress=progress, backend=ctx.get("backend"))
+    shown = next((p for p, _ in ranked if p.name.lower() == "skin1"), ranked[0][0])  # the papers' skin if ranked
+    written = make_figures(figs, out / "figures", shown, progress=progress, backend=ctx.get("backend"))
     imgs = "".join(f"<img src='figures/{p.name}'>" for paths in written.values() for p in paths)
     return (
         "<h2 id=kernels>Which kernel for my material? (separable-SSS paper Secs. 3-5, supplement B-D)</h2>"
         f"<p class=note>Per material, every kernel method ranked by its error against the exact 2D convolution "
         f"E * Rd of the same Monte Carlo profile (supplement F, {ctx['photons']:,} photons per channel): the "
-        "<b>kernel's</b> error alone, on 256x256 test signals whose kernel radius (99.9% of the energy) spans 1/6 "
-        "of the image; ranked by the mean relative RMSE over the four signals, the best marked ★. How far the "
-        "profile itself is from the light transport is the model's error: next section, per region.</p>"
+        f"<b>kernel's</b> error alone, on {RANK_SIZE}x{RANK_SIZE} test signals ({', '.join(RANK_SIGNALS)}) whose "
+        "kernel radius (99.9% of the energy) spans 1/6 of the image; ranked by the mean relative RMSE over the "
+        f"{len(RANK_SIGNALS)} signals, the best marked ★. The grid matters where two kernels are close: at "
+        "256x256 (<code>ssskit.report.kernel_ranking(profile, size=256)</code>, ~2.5x the time) Skin1's first two "
+        "swap (gaussians:6 4.4e-3, preintegrated_svd:1 6.0e-3; at 128: 4.6e-3 and 4.0e-3; measured 2026-12-06). "
+        "How far the profile itself is from the light transport is the model's error: next section, per "
+        "region.</p>"
+        f"<h3>The answer: the kernel to ship, {len(ranked)} of {len(names)} materials ranked</h3>"
+        "<table><tr><th>material</th><th>recommended kernel</th><th>mean rel. RMSE</th><th>1D conv.</th>"
+        "<th>runner-up</th><th>mean rel. RMSE</th><th>worst</th><th>mean rel. RMSE</th></tr>"
+        + summary + "</table>"
         + tables
-        + f"<h3>The paper's kernel figures, {html.escape(profiles[0].name)}</h3>" + imgs
+        + f"<h3>The paper's kernel figures, {html.escape(shown.name)}</h3>" + imgs
     )
 
 
@@ -275,22 +341,85 @@ def _region_table(regions: dict) -> str:
     return head + "".join(body) + "</table>"
 
 
+def _kernel_rows(rows: list[dict[str, Any]], regions: dict[str, Any]) -> str:
+    """The screen-space kernels per scene: the kernel's error against the exact 2D convolution (PSNR / FLIP, no
+    noise: the kernel alone) and per region its level over the path trace's (R, G, B); above each scene's
+    kernels its reference and the noise floor per region, the relative standard error of the reference's
+    level (the same for every kernel, so stated once)."""
+    from .metrics import REGIONS, psnr_text
+
+    # the lit plateau left out: there every kernel that conserves energy gives the profile's albedo, the same for
+    # all by construction (the model's error there is the region table's, below)
+    regions_shown = [name for name in REGIONS if name != "plateau"]
+    head = ("<table><tr><th>scene</th><th>kernel / taps</th><th>vs exact 2D<br>PSNR / FLIP (no noise)</th>"
+            + "".join(f"<th>{name.replace('_', ' ')}: level / path traced<br>(R, G, B)</th>" for name in regions_shown)
+            + "</tr>")
+    body = []
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        mine = [r for r in rows if r["scene"] == scene]
+        ref = regions.get(scene, {}).get("reference")
+        floors = []
+        for name in regions_shown:
+            pt = (mine[0].get("regions") or {}).get(name, {}).get("path_traced")
+            if not pt or pt.get("se") is None or not (mine[0]["regions"][name]["pixels"]):
+                floors.append("<td>no pixels</td>")
+                continue
+            rel = np.asarray(pt["se"]) / np.maximum(np.abs(pt["level"]), 1e-300)
+            floors.append("<td>± " + ", ".join(f"{v:.1%}" for v in rel) + "</td>")
+        spp = f"{ref['spp']} spp" if ref else "no reference"
+        resolved = _kernels_resolved(mine, regions_shown)
+        body.append(f"<tr class=scene><td class=name>{html.escape(scene)}</td><td class=name>noise floor "
+                    f"(reference's rel. SE, {spp})</td><td>{resolved}</td>" + "".join(floors) + "</tr>")
+        for r in mine:
+            cells = []
+            for name in regions_shown:
+                ratio = (r.get("regions") or {}).get(name, {}).get("screen_space_vs_path_traced")
+                cells.append("<td>-</td>" if ratio is None else
+                             "<td>" + ", ".join(f"{v:.4f}" for v in ratio["ratio"]) + "</td>")
+            ex = r.get("exact_2d")
+            body.append(f"<tr><td class=name>{html.escape(scene)}</td><td class=name>{html.escape(r['method'])}</td>"
+                        + (f"<td>{psnr_text(ex['psnr'])} / {ex['flip']:.3f}</td>" if ex else "<td>-</td>")
+                        + "".join(cells) + "</tr>")
+    return head + "".join(body) + "</table>"
+
+
+def _kernels_resolved(rows: list[dict[str, Any]], regions: list[str]) -> str:
+    """Whether the path trace tells a scene's kernels apart: the regions (of ``regions``) where two kernels' levels
+    differ by more than twice the reference's standard error of their ratio, or that none does."""
+    apart = []
+    for name in regions:
+        found = [((r.get("regions") or {}).get(name) or {}).get("screen_space_vs_path_traced") for r in rows]
+        ratios = [x for x in found if x is not None and x["se"] is not None]
+        if not ratios or len(ratios) < len(found):
+            continue
+        spread = np.ptp([x["ratio"] for x in ratios], axis=0)
+        if np.any(spread > 2 * np.asarray(ratios[0]["se"])):
+            apart.append(name.replace("_", " "))
+    return ("kernels apart beyond 2 SE: " + ", ".join(apart)) if apart else "no two kernels apart beyond 2 SE"
+
+
+def _display_note(regions: dict[str, Any]) -> str:
+    """How the path-traced images are shown (:func:`ssskit.figures.screenspace.display_copy`)."""
+    from .figures.screenspace import DISPLAY_BLOCKS, DISPLAY_REL_SE
+
+    return ("The path-traced panels are display copies: where the reference's relative noise over the SSS mask "
+            f"(the RMS of its pixels' standard errors over their mean) is above {DISPLAY_REL_SE:.0%}, the panel shows "
+            f"the means of the smallest pixel blocks ({', '.join(f'{b}x{b}' for b in DISPLAY_BLOCKS[1:])}) that "
+            "bring it to that, else the largest, each panel's title naming its block and its remaining noise (where "
+            f"that stays far above {DISPLAY_REL_SE:.0%}, the reference's samples, its row above, cannot show the "
+            "scene's detail at any block size that still shows the scene; the region levels, averaged over hundreds "
+            "of pixels, are what it measures); every number above is measured on the unfiltered reference.")
+
+
 def _screenspace_section(out: Path, progress: Progress, ctx: dict) -> str:
     from .figures.screenspace import screen_space_comparison, slab_edge_profile
-    from .metrics import psnr_text
     from .screenspace import PassSettings
 
     photons = ctx.get("photons", DEMO_PHOTONS)
     backend = ctx.get("backend", DEFAULT_BACKEND)
     png, rows, regions = screen_space_comparison(out / "figures", photons=photons, progress=progress,
                                                  sss=PassSettings(jitter=0.1, backend=backend))
-    body = "".join(
-        f"<tr><td class=name>{html.escape(r['scene'])}</td><td class=name>{html.escape(r['method'])}</td>"
-        + "".join(f"<td>{psnr_text(r[k]['psnr'])} / {r[k]['flip']:.3f}</td>" if k in r else "<td>-</td>"
-                  for k in ("exact_2d", "path_traced"))
-        + "</tr>"
-        for r in rows
-    )
+    body = _kernel_rows(rows, regions)
     edge_png, edge = slab_edge_profile(out / "figures", photons=photons, progress=progress, backend=backend)
     shape = edge["shape"]
     rmse_rows = "".join(
@@ -310,9 +439,16 @@ def _screenspace_section(out: Path, progress: Progress, ctx: dict) -> str:
         "2D convolution with the same profile and against a volumetric path-traced reference (Mitsuba volpathmis, "
         "homogeneous medium inside a rough dielectric, Beckmann &alpha; = 0.15; every other surface black, so "
         "both sides are lit by the lights alone; independent chunks until the SSS mask's relative standard "
-        "error is 1% or 128 spp are spent).</p>"
-        "<table><tr><th>scene</th><th>kernel / taps</th><th>vs exact 2D<br>PSNR / FLIP</th>"
-        f"<th>vs path traced<br>PSNR / FLIP</th></tr>{body}</table><img src='figures/{png.name}' style='width:100%'>"
+        "error is 1% or 128 spp are spent). Against the path trace each kernel is compared per region (its level "
+        "over the reference's): a per-pixel PSNR against it would measure the reference's own per-pixel noise, "
+        "the same for every kernel; the region levels average that noise away down to the noise floor stated "
+        "in each scene's first row (the reference level's relative standard error). A difference between two "
+        "kernels below about twice that floor is not resolved (each scene's first row says whether any is). Which "
+        "kernel is closer to the model is the noise-free error against the exact 2D convolution (third column). "
+        "The lit plateau is left out: there every kernel "
+        "that conserves energy gives the profile's albedo (its error against the path trace is the model's: "
+        "the region table below); '-': the scene has no such region.</p>"
+        + body + f"<img src='figures/{png.name}' style='width:100%'><p class=note>{_display_note(regions)}</p>"
         "<h3>The model's error per region, against path-traced references</h3><p class=note>Level = mean diffuse "
         "part / mean E/&pi; (R, G, B). Specular subtracted "
         "on every side. On the lit plateau the level is the effective albedo; in the shadow-edge band, at the "
@@ -438,9 +574,11 @@ def _transmission_section(out: Path, progress: Progress, ctx: dict) -> str:
     )
 
 
-#: the report's sections in order: the user's question first (which kernel, how close to truth), then the
+#: the report's sections in order: the head first (the answer on a face), the user's question (which kernel, how
+#: close to truth), then the
 #: materials and profiles behind the answer, then Xie 2020's passes (``ssskit demo --scene`` adds "model")
 SECTIONS: list[tuple[str, Section]] = [
+    ("head", _head_section),
     ("kernels", _kernels_section),
     ("screenspace", _screenspace_section),
     ("transmission", _transmission_section),
@@ -460,14 +598,16 @@ SECTION_PASSES: dict[str, tuple[str, ...]] = {
     "burley": ("separable:follow", "burley"),
     "adaptive": ("burley", "adaptive"),
     "model": ("separable:follow", "separable:ids", "burley", "adaptive"),
+    "head": ("separable:follow",),
 }
 
 #: the order several processes take the sections in: the kernel ranking first (it runs no pass: beside the first
 #: compilation), then the longest (CPU seconds on this project's 2 cores, a fresh machine's demo of 2026-12-05:
 #: screen space ~54 with its four front-lit scenes, kernels ~27, adaptive ~16, profiles ~9, Burley ~8; transmission
-#: ~2 since the shipped tables: small, its place matters little); a section not named here comes last
-SECTION_ORDER = ("kernels", "screenspace", "model", "adaptive", "transmission", "profiles", "burley", "sampling",
-                 "materials")
+#: ~2 since the shipped tables: small, its place matters little; 2026-12-06 at load ~17: kernels 29 with all 11
+#: materials at 128x128, screen space 53 with the head, head 4); a section not named here comes last
+SECTION_ORDER = ("kernels", "screenspace", "model", "adaptive", "head", "transmission", "profiles", "burley",
+                 "sampling", "materials")
 
 
 def _cached_section(name: str, section: Section, out: Path, progress: Progress, ctx: dict) -> str:

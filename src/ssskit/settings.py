@@ -34,6 +34,9 @@ from .quantities import check_choice as _check_choice
 #: Monte Carlo profile, taps of a 1D pass
 SIZE_RANGE = (int(SIZE_PX.lo), int(SIZE_PX.hi))
 PHOTONS_RANGE = (int(PHOTONS.lo), int(PHOTONS.hi))
+#: the credit the built-in head's licence (CC BY 3.0) asks for (ssskit.scenes.head; here so that --help can name it
+#: without importing the scenes)
+HEAD_ATTRIBUTION = "Head scan: Lee Perry-Smith, Infinite-Realities (CC BY 3.0)"
 #: photons per channel of a Monte Carlo profile by default: the supplement's (section F)
 DEFAULT_PHOTONS = 10_000_000
 TAP_RANGE = (int(TAPS.lo), int(TAPS.hi))
@@ -176,13 +179,10 @@ class Settings:
             text = p.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:
             raise SettingsError(f"cannot read settings file {str(p)!r}: {getattr(exc, 'strerror', None) or exc}") from None
-        try:
-            if suffix == ".toml":
-                import tomllib
+        from .io import parse_document
 
-                data = tomllib.loads(text)
-            else:
-                data = json.loads(text)
+        try:
+            data = parse_document(text, suffix)
         except ValueError as exc:
             raise SettingsError(f"malformed settings file {str(p)!r}: {exc}") from None
         try:
@@ -196,7 +196,15 @@ class Settings:
 
         suffix = check_suffix(path, (".toml", ".json"), "settings file")
         data = _drop_none(self.to_dict())
-        write_text(path, json.dumps(data, indent=2) + "\n" if suffix == ".json" else _to_toml(data))
+        if suffix == ".json":
+            write_text(path, json.dumps(data, indent=2) + "\n")
+        else:
+            import tomli_w  # the maintained writer of TOML (tomllib, its reader, is in the standard library)
+
+            try:
+                write_text(path, tomli_w.dumps(data))
+            except TypeError as exc:  # a value TOML cannot hold (tomli_w names its type)
+                raise SettingsError(f"cannot write settings file {str(path)!r} as TOML: {exc}") from None
 
 
 def _settings_class(hint: Any) -> type[Settings] | None:
@@ -208,28 +216,6 @@ def _settings_class(hint: Any) -> type[Settings] | None:
 
 def _drop_none(d: dict[str, Any]) -> dict[str, Any]:
     return {k: (_drop_none(v) if isinstance(v, dict) else v) for k, v in d.items() if v is not None}
-
-
-def _toml_value(v: object) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, float)):
-        if isinstance(v, float) and not math.isfinite(v):
-            return "inf" if v > 0 else ("-inf" if v < 0 else "nan")
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise SettingsError(f"cannot write {type(v).__name__} to TOML")
-
-
-def _to_toml(data: dict[str, Any]) -> str:
-    lines = [f"{k} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
-    for k, v in data.items():
-        if isinstance(v, dict):
-            lines += ["", f"[{k}]"] + [f"{kk} = {_toml_value(vv)}" for kk, vv in v.items()]
-    return "\n".join(lines) + "\n"
 
 
 def check_int(name: str, value: object, lo: int, hi: int) -> int:

@@ -137,6 +137,42 @@ def test_matches_the_numpy_oracle(sampler, sequence, mips, burley_backend):
     assert_matches_oracle(a, b, burley_backend, 24)
 
 
+@pytest.mark.parametrize("mip_scale", [1e-6, 1.0 / 16.0, 1e4])
+def test_mips_at_every_level_match_the_oracle(mip_scale, burley_backend):
+    """Eq. 22's a moves the samples between level 0 (numba: the float32 lanes' bilinear fetch) and the levels
+    above (numba: the float64 fallback with the float32 pyramid): a = 1e-6 (the smallest allowed) puts every
+    sample of this frame at level 4 or above, 1e4 almost every one on level 0, Xie's 1/16 mixes them; each within the
+    tolerance."""
+    gb, params = _three_ids()
+    counts = np.random.default_rng(5).integers(0, 40, gb.shape)
+    kw = dict(sampler="exact", frame=1, seed=2, bleed=0.3, mips=True, mip_scale=mip_scale)
+    assert_matches_oracle(burley_sss(gb, params, counts=counts, backend=burley_backend, **kw),
+                          burley_sss(gb, params, counts=counts, backend="numpy", **kw), burley_backend,
+                          np.maximum(counts, 1))
+
+
+def test_numba_pyramid_is_the_oracles():
+    """The numba backend's float32 pyramid (levels 1..MAX_MIP, slot s at plane s - 1) holds the oracle's
+    mip_pyramid (float64) to float32 rounding, on a frame with odd sizes and three ids; the pass gives the
+    same image with either."""
+    from ssskit.backends.burley_plan import MAX_MIP, mip_pyramid
+    from ssskit.backends.numba_backend import NumbaBackend, NumbaMips
+
+    gb, params = _three_ids(h=37, w=53)
+    b = NumbaBackend()
+    plan = build_burley_plan(params, 900.0, 700.0, mips=True)
+    slots = plan.slot_map(gb.profile_id)
+    mine = b.burley_prefilter(plan, gb.diffuse, slots)
+    want = NumbaMips.from_levels(mip_pyramid(gb.diffuse, slots, plan.slots))
+    np.testing.assert_array_equal(mine.off, want.off)
+    np.testing.assert_array_equal(mine.hh, [-(-37 // 2**k) for k in range(MAX_MIP + 1)])
+    np.testing.assert_array_equal(mine.ww, want.ww)
+    np.testing.assert_allclose(mine.pyr, want.pyr, rtol=1e-6, atol=1e-7)
+    a = b.burley(plan, gb.diffuse, gb.depth_mm, slots, 16, pyramid=mine)
+    np.testing.assert_allclose(b.burley(plan, gb.diffuse, gb.depth_mm, slots, 16,
+                                        pyramid=mip_pyramid(gb.diffuse, slots, plan.slots)), a, atol=1e-6)
+
+
 def test_count_image(burley_backend):
     gb, params = _three_ids()
     h, w = gb.shape

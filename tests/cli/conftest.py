@@ -3,6 +3,7 @@
 import pytest
 
 from ssskit.cli import main
+from tests.conftest import without_heartbeats
 
 
 @pytest.fixture
@@ -12,7 +13,7 @@ def run(capsys):
     def go(*args):
         code = main([str(a) for a in args])
         out, err = capsys.readouterr()
-        return code, out, err
+        return code, out, without_heartbeats(err)
 
     return go
 

@@ -1,6 +1,6 @@
-"""``ssskit simulate`` and ``ssskit profile --model montecarlo`` report the same named totals: the
-light inside the grid (what R(r) integrates to) and with the overflow (MCML's Rd, incl. the light
-escaping beyond the grid), for the same run."""
+"""``ssskit simulate`` and ``ssskit profile --model montecarlo`` report the same named totals: ``total_Rd`` with
+the overflow (MCML's Rd, incl. the light escaping beyond the grid: one meaning in every JSON) and
+``total_Rd_in_grid`` (what R(r) integrates to), for the same run."""
 
 import json
 import math
@@ -18,9 +18,17 @@ def test_simulate_and_profile_report_the_same_totals(capsys, tmp_path, monkeypat
     prof = json.loads(capsys.readouterr().out)
     for ch in "RGB":
         s, p = sim["channels"][ch], prof["channels"][ch]
-        assert p["total_Rd"] == pytest.approx(s["total_Rd_in_grid"], rel=1e-12)
-        assert p["params"]["total_Rd_with_overflow"] == pytest.approx(s["total_Rd"], rel=1e-12)
+        # one key, one meaning: total_Rd held the light in the grid in profile's JSON (0.7873 for Marble R) and
+        # the light with the overflow in simulate's (0.8046)
+        assert p["total_Rd"] == pytest.approx(s["total_Rd"], rel=1e-12)
+        assert p["total_Rd_in_grid"] == pytest.approx(s["total_Rd_in_grid"], rel=1e-12)
+        assert p["overflow"] == pytest.approx(s["overflow"], rel=1e-12)
+        assert not {"total_Rd", "total_Rd_in_grid", "total_Rd_with_overflow"} & set(p["params"])
         assert s["total_Rd_in_grid"] + s["overflow"] == pytest.approx(s["total_Rd"], rel=1e-12)
+        # the grid's total is what the profile's R(r) integrates to: 2 pi sum R(r_i) r_i dr
+        dr = sim["r_mm"][1] - sim["r_mm"][0]
+        assert 2 * math.pi * sum(r * v for r, v in zip(sim["r_mm"], s["Rd"])) * dr == pytest.approx(
+            s["total_Rd_in_grid"], rel=1e-9)
         assert len(s["Rd"]) == len(sim["r_mm"])
         # the overflow bin is not in the density: the last annulus holds a few photons, not the overflow
         # (0.2-2% of the light here; each photon of 20000 is < 5e-5)
@@ -50,7 +58,7 @@ def test_rough_surface_through_simulate_and_profile(capsys, tmp_path, monkeypatc
     assert rough["roughness"] == 0.15 and smooth["roughness"] == 0.0
     for ch in "RGB":
         r, s = rough["channels"][ch], smooth["channels"][ch]
-        assert prof["channels"][ch]["params"]["total_Rd_with_overflow"] == pytest.approx(r["total_Rd"], rel=1e-12)
+        assert prof["channels"][ch]["total_Rd"] == pytest.approx(r["total_Rd"], rel=1e-12)
         assert r["Rsp"] == pytest.approx(s["Rsp"], abs=6e-4)
         assert r["Rsp"] != s["Rsp"]
     assert main(["simulate", *args, "--roughness", "0.15"]) == 0

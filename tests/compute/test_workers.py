@@ -58,3 +58,23 @@ def test_a_job_starts_after_its_prerequisites():
         run_jobs([(math.sqrt, (1.0,)), (math.sqrt, (1.0,))], 2, print, lambda k, v: None, after={0: [1], 1: [0]})
     with pytest.raises(ValueError, match=r"jobs \[0\] wait for each other or for jobs not in the list"):
         run_jobs([(math.sqrt, (1.0,))], 1, print, lambda k, v: None, after={0: [5]})
+
+
+def _sigint_state():
+    import signal
+
+    return signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, []), signal.getsignal(signal.SIGINT)
+
+
+@pytest.mark.skipif(not hasattr(__import__("signal"), "pthread_sigmask"), reason="POSIX signal masks")
+def test_a_worker_never_takes_sigint_and_the_parent_still_does():
+    """A terminal's Ctrl-C reaches the workers too (the whole process group): a worker runs with SIGINT blocked
+    (so neither Python nor Mitsuba's own handler, which Mitsuba installs during each render whatever the
+    disposition, ever sees it) and ignored; the parent ends the workers. The parent's mask is as before."""
+    import signal
+
+    before = _sigint_state()
+    results = {}
+    run_jobs([(_sigint_state, ())], 1, print, results.__setitem__)
+    assert results == {0: (True, signal.SIG_IGN)}
+    assert _sigint_state() == before and not before[0]

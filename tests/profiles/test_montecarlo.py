@@ -417,3 +417,74 @@ def test_unreachable_scheduler_is_a_clear_error():
     with pytest.raises(ProfileError, match="cannot reach the dask scheduler"):
         simulate_many([get_material("ketchup"), get_material("skin1")], "G", photons=100,
                       scheduler="tcp://127.0.0.1:1", connect_timeout_s=2)
+
+
+@pytest.fixture
+def listening_socket():
+    """start(reply) -> 'tcp://127.0.0.1:PORT' of a local TCP server that is no dask scheduler: it sends ``reply``
+    to each connection (b"" says nothing) and keeps it open."""
+    import socket
+    import threading
+
+    servers, held = [], []
+
+    def start(reply: bytes) -> str:
+        srv = socket.socket()
+        srv.bind(("127.0.0.1", 0))
+        srv.listen(8)
+        servers.append(srv)
+
+        def serve():
+            while True:
+                try:
+                    conn, _ = srv.accept()
+                except OSError:
+                    return
+                held.append(conn)
+                if reply:
+                    conn.sendall(reply)
+
+        threading.Thread(target=serve, daemon=True).start()
+        return f"tcp://127.0.0.1:{srv.getsockname()[1]}"
+
+    yield start
+    for s in servers + held:
+        s.close()
+
+
+def test_an_address_where_no_dask_scheduler_answers_is_one_clear_error(listening_socket):
+    """An HTTP server's reply read as dask's frame lengths asked for 3.07 EiB (a MemoryError traceback); a server
+    that says nothing hung the sweep for ever. Both are refused in one ProfileError, the silent one after the
+    connect timeout."""
+    pytest.importorskip("distributed")
+    from ssskit.profiles.montecarlo import simulate_many
+
+    mats = [get_material("ketchup"), get_material("skin1")]
+    web = listening_socket(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+    with pytest.raises(ProfileError, match=f"what answers at '{web}' is not a dask scheduler"):
+        simulate_many(mats, "G", photons=100, scheduler=web, connect_timeout_s=5)
+    silent = listening_socket(b"")
+    with pytest.raises(ProfileError, match=f"no dask scheduler answered at '{silent}' within 1 s"):
+        simulate_many(mats, "G", photons=100, scheduler=silent, connect_timeout_s=1)
+    with pytest.raises(ProfileError, match="the dask scheduler address 'nonsense' is not valid: missing port"):
+        simulate_many(mats, "G", photons=100, scheduler="nonsense")
+
+
+def test_one_progress_bar_and_time_estimate_across_the_channels(capsys, tmp_path, monkeypatch):
+    """``simulate`` estimated the time left of the running channel only ("about 10 s left" with 37 s to go): one bar
+    now counts every channel's photons, and photons not simulated (a cached channel) leave its total."""
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setenv("SSSKIT_PROGRESS", "lines")
+    from ssskit.profiles.montecarlo import simulate_material
+
+    mat = get_material("ketchup")
+    simulate_material(mat, "all", photons=20_000, batch_size=1_000, progress=True)
+    lines = [line for line in capsys.readouterr().err.splitlines() if "photons" in line]
+    assert lines and all("Ketchup R/G/B: " in line and "/60,000 photons" in line for line in lines), lines
+    assert "60,000/60,000 photons" in lines[-1]
+    assert any("channel R" in line for line in lines) and any("channel B" in line for line in lines)
+    simulate_material(mat, "G", photons=30_000, batch_size=1_000, progress=True)  # G cached at 30,000
+    capsys.readouterr()
+    simulate_material(mat, "all", photons=30_000, batch_size=1_000, progress=True)
+    lines = [line for line in capsys.readouterr().err.splitlines() if "photons" in line]
+    assert "60,000/60,000 photons" in lines[-1], lines  # R and B simulated, G taken from the cache

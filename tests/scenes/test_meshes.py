@@ -4,6 +4,7 @@ render (small meshes, tiny images)."""
 
 from __future__ import annotations
 
+import os
 import json
 import math
 from pathlib import Path
@@ -449,3 +450,88 @@ def test_reference_is_cached_per_mesh_digest(tmp_path, monkeypatch):
     assert c.objects[0].digest != a.objects[0].digest
     render_reference(c.spec, mat, **kw)
     assert len(files()) == 2
+
+
+_OOB_HEADER = ("ply\nformat {fmt} 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+               "element face 1\nproperty list uchar int vertex_indices\nend_header\n")
+
+
+@pytest.mark.parametrize("index", [3, 2_000_000_000, -5])
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian"])
+def test_a_ply_face_index_out_of_range_is_one_error_line_not_a_crash(tmp_path, fmt, index):
+    """Mitsuba's PLY loader takes an index beyond the vertices as it is and crashed the process (exit 139, no
+    message) for large ones; the file's indices are checked before any renderer sees them (a subprocess, so the
+    old crash fails the test instead of the suite)."""
+    import subprocess
+    import sys
+
+    head = _OOB_HEADER.format(fmt=fmt).encode()
+    if fmt == "ascii":
+        body = f"0 0 0\n1 0 0\n0 1 0\n3 0 1 {index}\n".encode()
+    else:
+        body = (np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], "<f4").tobytes() + b"\x03"
+                + np.array([0, 1, index], "<i4").tobytes())
+    path = tmp_path / "oob.ply"
+    path.write_bytes(head + body)
+    proc = subprocess.run([sys.executable, "-m", "ssskit.cli", "render", "--scene", str(path), "--out",
+                           str(tmp_path / "o.png")], capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "SSSKIT_CACHE_DIR": str(tmp_path / "cache")})
+    assert proc.returncode == 2, proc.stderr
+    # (a heartbeat line, "  ... still working", comes only from a machine loaded enough to make this take 8 s)
+    lines = [line for line in proc.stderr.splitlines() if not line.startswith("  ... still working")]
+    assert len(lines) == 1 and "face indices must lie in [0, 2]" in lines[0], proc.stderr
+    assert not (tmp_path / "o.png").exists()
+    with pytest.raises(SceneError, match=rf"face indices must lie in \[0, 2\], found {min(index, 0)} to {max(index, 1)}"):
+        read_mesh(path)
+
+
+@pytest.mark.parametrize("value", ["5", "true", "{ a = 1 }", "[5]"])
+def test_units_of_a_wrong_type_in_a_scene_file_are_refused(tmp_path, value):
+    """``units = 5`` in a scene file raised a TypeError (a traceback from the CLI); a scene error now."""
+    write_mesh(tmp_path / "ball.ply", _sphere())
+    for doc in (f'units = {value}\n[shapes.ball]\ntype = "mesh"\nfile = "ball.ply"\n',
+                f'[shapes.ball]\ntype = "mesh"\nunits = {value}\nfile = "ball.ply"\n'):
+        (tmp_path / "s.toml").write_text(doc)
+        with pytest.raises(SceneError, match=r"unknown units .* \(known: mm, cm, m\)"):
+            resolve_scene(str(tmp_path / "s.toml"))
+
+
+def test_a_mesh_with_a_240_character_name_is_rendered(tmp_path, monkeypatch):
+    """The cache's file names held the mesh's whole name: a 240-character one passed the file system's 255 bytes
+    and the mesh could not be rendered. Names are bounded (readable beginning + hash of the whole name)."""
+    from ssskit.cache import NAME_BYTES, cache_file
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "cache"))
+    stem = "b" * 240
+    path = write_mesh(tmp_path / f"{stem}.ply", _sphere())
+    scene = resolve_scene(str(path), units="mm", width=16, height=12)
+    (cached,) = (tmp_path / "cache" / "meshes").iterdir()
+    assert len(cached.name.encode()) < 128 and cached.name.startswith("mesh-bbbb")
+    gb = render_gbuffer(scene.spec, ALBEDO, width=16, height=12, spp=1)
+    assert np.isfinite(gb.diffuse).all()
+    # bounded in bytes for any name, readable, and apart for names sharing their beginning
+    for name in ("é" * 300, "x" * 300, "x" * 299 + "y", "a/b\x00c"):
+        p = cache_file("reference", name, "0123456789abcdef", ".npz")
+        assert p.parent == tmp_path / "cache" / "reference"
+        assert len(p.name.encode()) <= NAME_BYTES + 30 and "/" not in p.name and "\x00" not in p.name
+    assert cache_file("meshes", "x" * 300, "k", ".ply") != cache_file("meshes", "x" * 299 + "y", "k", ".ply")
+    assert cache_file("meshes", "head", "k", ".ply").name == "head-k.ply"
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".gltf"])
+def test_a_one_material_gltf_object_is_named_by_its_material(tmp_path, suffix):
+    """docs/meshes.md: glTF objects are named by their material, so ``--material-map skin=skin1`` names the one
+    object of a one-material head.glb (it was named after the file, 'head', and the documented map failed)."""
+    path = str(write_mesh(tmp_path / f"head{suffix}", Mesh("skin", _sphere(0.03).vertices, _sphere(0.03).faces)))
+    scene = resolve_scene(path, units="m", material_map="skin=skin1", width=W, height=H)
+    assert [o.name for o in scene.objects] == ["skin"] and scene.objects[0].material == "skin1"
+    with pytest.raises(SceneError, match=r"material map names 'head'.*its objects: skin"):
+        resolve_scene(path, units="m", material_map="head=skin1", width=W, height=H)
+    # a scene file's shape table: the same names (materials = { skin = ... })
+    (tmp_path / "s.toml").write_text(f'units = "m"\n[shapes.head]\ntype = "mesh"\nfile = "head{suffix}"\n'
+                                     'materials = { skin = "skin2" }\n')
+    scene = resolve_scene(str(tmp_path / "s.toml"), width=W, height=H)
+    assert [(o.name, o.material) for o in scene.objects] == [("skin", "skin2")]
+    # OBJ and PLY: one object named by the file's stem
+    ply = str(write_mesh(tmp_path / "ball.ply", _sphere()))
+    assert [o.name for o in resolve_scene(ply, units="mm", material_map="ball=skin1", width=W, height=H).objects] == ["ball"]

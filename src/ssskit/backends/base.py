@@ -36,7 +36,7 @@ from .plan import DEPTH_MODES, SeparablePlan, check_frame_values, check_integer_
 
 if TYPE_CHECKING:
     from .adaptive_plan import AdaptivePlan
-    from .burley_plan import BurleyPlan, MipPyramid, SampleCounts
+    from .burley_plan import BurleyPlan, Prefiltered, SampleCounts
     from .spread_plan import SpreadPlan
     from .transmission_plan import TransmissionPlan
 
@@ -89,17 +89,24 @@ class Backend(ABC):
         """The separable pass (see :mod:`ssskit.backends.plan`): a new (H, W, 3) array."""
 
     def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-               spp: SampleCounts, pyramid: MipPyramid | None = None) -> np.ndarray:
+               spp: SampleCounts, pyramid: Prefiltered | None = None) -> np.ndarray:
         """The Burley Monte Carlo pass (see :mod:`ssskit.backends.burley_plan`): a new (H, W, 3) array.
 
         ``spp``: samples per pixel, an int or an (H, W) integer image (checked by
-        :func:`check_burley_frame`). ``pyramid``: the frame's :func:`~ssskit.backends.burley_plan.mip_pyramid`
-        if the caller built it already (CPU backends; None: built here when the plan has mips). A backend
+        :func:`check_burley_frame`). ``pyramid``: the frame's pyramid if the caller built it already, by
+        :meth:`burley_prefilter` (CPU backends; None: built here when the plan has mips). A backend
         without the pass raises :class:`~ssskit.errors.BackendError`.
         """
         from ..errors import BackendError
 
         raise BackendError(f"backend {self.name!r} has no Burley pass")
+
+    def burley_prefilter(self, plan: BurleyPlan, diffuse: np.ndarray, slots: np.ndarray) -> Prefiltered:
+        """Step 5b's pyramid of a frame (Xie 2020 Eqs. 22-23) in the form this backend's :meth:`burley` takes
+        as ``pyramid``: here the oracle's :func:`~ssskit.backends.burley_plan.mip_pyramid` (float64)."""
+        from .burley_plan import mip_pyramid
+
+        return mip_pyramid(diffuse, slots, plan.slots)
 
     def transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
@@ -215,13 +222,13 @@ class AdaptiveRunner:
     def sample(self, plan: BurleyPlan) -> None:
         """The Burley pass of the loaded frame with the current counts (``plan.frame`` keys its samples)."""
         from ..errors import PassError
-        from .burley_plan import mip_pyramid
-
         if self._frame is None or self._counts is None:
             raise PassError("load a frame (and set its counts, without the estimate) before sampling it")
         diffuse, depth, slots = self._frame
         counts = self._counts
-        pyr = self._timed("prefilter", lambda: mip_pyramid(diffuse, slots, plan.slots)) if plan.mips else None
+        pyr = None
+        if plan.mips:
+            pyr = self._timed("prefilter", lambda: self.sampler.burley_prefilter(plan, diffuse, slots))
         self._out = self._timed("sampling", lambda: self.sampler.burley(plan, diffuse, depth, slots, counts,
                                                                          pyramid=pyr))
 

@@ -144,6 +144,9 @@ if TYPE_CHECKING:
 SampleCounts: TypeAlias = "int | np.integer[Any] | NDArray[np.integer[Any]]"
 #: :func:`mip_pyramid`'s levels 0..MAX_MIP, each (S, H_k, W_k, 4) float64
 MipPyramid: TypeAlias = "list[NDArray[np.float64]]"
+#: what a backend's ``burley_prefilter`` gives its ``burley``: the oracle's :data:`MipPyramid`, or the backend's
+#: own layout of it (the numba backend's float32 ``NumbaMips``)
+Prefiltered: TypeAlias = Any
 
 #: samplers of the radius (module docstring, step 4)
 SAMPLERS = ("exact", "xie", "golubev")

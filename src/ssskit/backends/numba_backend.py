@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -25,13 +26,34 @@ if TYPE_CHECKING:
     from concurrent.futures import ThreadPoolExecutor
 
     from .adaptive_plan import AdaptivePlan
-    from .burley_plan import BurleyPlan, MipPyramid, SampleCounts
+    from .burley_plan import BurleyPlan, MipPyramid, Prefiltered, SampleCounts
     from .spread_plan import SpreadPlan
     from .transmission_plan import TransmissionPlan
 
 
 #: the largest planar frame buffer the backend allocates (extreme close-ups need a wide pad)
 MAX_BUFFER_BYTES = 2 << 30
+
+
+@dataclass(frozen=True, eq=False)
+class NumbaMips:
+    """The Burley pass's prefiltered pyramid (plan step 5b) in the numba kernel's layout: levels 1..MAX_MIP
+    of every slot s >= 1 as float32 planes (S - 1, hh[L], ww[L], 4) flattened into ``pyr`` at ``off[L]``
+    (level 0 is read from the frame itself, so its entry is empty)."""
+
+    pyr: NDArray[np.float32]
+    off: NDArray[np.int64]
+    hh: NDArray[np.int64]
+    ww: NDArray[np.int64]
+
+    @classmethod
+    def from_levels(cls, levels: MipPyramid) -> "NumbaMips":
+        """From the oracle's float64 list (:func:`~ssskit.backends.burley_plan.mip_pyramid`, slot 0 first)."""
+        hh = np.array([lv.shape[1] for lv in levels], np.int64)
+        ww = np.array([lv.shape[2] for lv in levels], np.int64)
+        parts = [np.zeros(0, np.float32)] + [np.ascontiguousarray(lv[1:], np.float32).ravel() for lv in levels[1:]]
+        off = np.concatenate([[0], np.cumsum([p.size for p in parts])[:-1]]).astype(np.int64)
+        return cls(np.concatenate(parts), off, hh, ww)
 
 
 class NumbaBackend(Backend):
@@ -249,11 +271,12 @@ class NumbaBackend(Backend):
 
 
     def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-               spp: SampleCounts, pyramid: MipPyramid | None = None) -> NDArray[np.float32]:
-        """The Burley pass (kernel in :mod:`ssskit.backends._numba_burley`), rows on the thread pool."""
+               spp: SampleCounts, pyramid: Prefiltered | None = None) -> NDArray[np.float32]:
+        """The Burley pass (kernel in :mod:`ssskit.backends._numba_burley`), rows on the thread pool; ``pyramid``:
+        :meth:`burley_prefilter`'s result or the oracle's list (None: built here when the plan has mips)."""
         from ._numba_burley import burley_rows
         from .base import check_burley_frame
-        from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, SAMPLERS, SEQUENCES, mip_pyramid
+        from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, SAMPLERS, SEQUENCES
 
         spp = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
         h, w = np.shape(slots)
@@ -270,16 +293,36 @@ class NumbaBackend(Backend):
                 SEQUENCES.index(plan.sequence), plan.c, plan.bleed, plan.fx, plan.fy,
                 u64(frame_base(0 if plan.stable else plan.frame, plan.seed)), plan.stable, u64(KEY2), u64(GOLDEN32),
                 u64(R2_A1), u64(R2_A2), plan.mips, plan.mip_scale, MAX_MIP)
-        if plan.mips:
-            levels = mip_pyramid(src, np.asarray(slots), plan.slots) if pyramid is None else pyramid
+        if not plan.mips:
+            mips = NumbaMips(np.zeros(1, np.float32), *(np.zeros(MAX_MIP + 1, np.int64) for _ in range(3)))
+        elif isinstance(pyramid, NumbaMips):
+            mips = pyramid
+        elif pyramid is not None:  # the oracle's float64 list (burley_plan.mip_pyramid)
+            mips = NumbaMips.from_levels(pyramid)
         else:
-            levels = [np.zeros((1, 1, 1, 4))]
-        sizes = [lv.size for lv in levels]
-        pyr = (np.concatenate([lv.ravel() for lv in levels]), np.cumsum([0] + sizes[:-1]).astype(np.int64),
-               np.array([lv.shape[1] for lv in levels], np.int64), np.array([lv.shape[2] for lv in levels], np.int64),
-               np.ascontiguousarray(plan.dmfp_max_mm, np.float64))
+            mips = self.burley_prefilter(plan, src, slots)
+        pyr = (mips.pyr, mips.off, mips.hh, mips.ww, np.ascontiguousarray(plan.dmfp_max_mm, np.float64))
         self._rows(h, lambda y0, y1: burley_rows(*args, y0, y1, *rest, *pyr))
         return out
+
+    def burley_prefilter(self, plan: BurleyPlan, diffuse: np.ndarray, slots: np.ndarray) -> NumbaMips:
+        """Step 5b's pyramid (Xie 2020 Eqs. 22-23; :func:`~ssskit.backends.burley_plan.mip_pyramid`) in the
+        kernel's layout: levels 1..MAX_MIP in float32 (level 0 is the frame itself), level 1's rows on the pool."""
+        from ._numba_burley import mip_coarse, mip_level1
+        from .burley_plan import MAX_MIP
+
+        slots = np.ascontiguousarray(slots, np.int32)
+        src = np.ascontiguousarray(diffuse, np.float32)
+        h, w = slots.shape
+        hh = np.array([-(-h // (1 << k)) for k in range(MAX_MIP + 1)], np.int64)
+        ww = np.array([-(-w // (1 << k)) for k in range(MAX_MIP + 1)], np.int64)
+        planes = max(plan.slots - 1, 1)
+        sizes = np.where(np.arange(MAX_MIP + 1) > 0, planes * hh * ww * 4, 0)
+        off = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+        pyr = np.zeros(int(sizes.sum()), np.float32)
+        self._rows(int(hh[1]), lambda y0, y1: mip_level1(src, slots, pyr, int(off[1]), int(hh[1]), int(ww[1]), y0, y1))
+        mip_coarse(pyr, off, hh, ww, planes, MAX_MIP)
+        return NumbaMips(pyr, off, hh, ww)
 
     def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
                         valid: ArrayLike | None = None) -> NDArray[np.int64]:

@@ -49,6 +49,9 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "figures": ("report", "figures", "Regenerate the papers' figures (NAME: any of the figures listed below; all "
                                      "by default). The figures that run a screen-space pass run it on --backend; "
                                      "those that render a scene (xie-fig1) take --scene, --units and --material-map."),
+    "view": ("view", "view", "A live WebGL2 viewer of a material on a mesh: the G-buffer pass, the separable and "
+                             "Burley passes as the fragment shaders ssskit export writes, composite and tone mapping, "
+                             "with per-pass frame times."),
     "demo": ("report", "demo", "The main job: build the report (figures + index.html) on built-in defaults; --scene "
                                "adds your model."),
 }
@@ -195,23 +198,26 @@ def _leave_objects_to_exit() -> None:
 def _main(argv: list[str] | None) -> int:
     import os
 
-    from ..compute.workers import one_library_thread
+    from ..compute.workers import ignored_sigint_blocked, one_library_thread
     from ..progress import heartbeat, reporting
     from .options import progress
 
     os.environ.update(one_library_thread())
 
     try:
-        # progress from deep in the library in every mode; no silence longer than a few seconds in a log
-        with reporting(progress), _terminate_as_interrupt(), heartbeat():
+        # progress from deep in the library in every mode; no silence longer than a few seconds in a log. SIGINT
+        # inherited as ignored (a script's background job) is ignored by every thread, Mitsuba's renders included,
+        # and the command completes; otherwise it is Ctrl-C: exit status 130 with nothing written
+        with ignored_sigint_blocked(), reporting(progress), _terminate_as_interrupt(), heartbeat():
             cli.main(args=argv, prog_name="ssskit", standalone_mode=False)
     except click.exceptions.Exit as exc:
         return exc.exit_code
     except SimulationInterrupted as exc:
         click.echo(f"ssskit: {' '.join((exc.cli_message or str(exc)).splitlines())}", err=True)
         return 130
-    except click.exceptions.Abort:
-        click.echo("ssskit: aborted", err=True)
+    except click.exceptions.Abort as exc:  # click's form of a KeyboardInterrupt in a command: one word for both
+        interrupted = isinstance(exc.__cause__, KeyboardInterrupt)
+        click.echo(f"ssskit: {'interrupted' if interrupted else 'aborted'}", err=True)
         return 130
     except click.ClickException as exc:
         message = " ".join(exc.format_message().split("\n"))

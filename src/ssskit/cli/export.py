@@ -81,7 +81,8 @@ class ExportMaterial(click.ParamType):
         if text and is_engine_file(text):
             return text
         try:
-            get_material(text)
+            for part in text.split(",") if "," in text else [text]:  # several: --format babylon (one scene)
+                get_material(part.strip())
         except SsskitError as exc:
             self.fail(str(exc), param, ctx)
         return text
@@ -169,7 +170,18 @@ def export(fmt: str, out: str, as_json: bool, kernel_spec: str | None, **options
     from ..export import export as run
 
     given = {k: v for k, v in options.items() if v is not None and v is not False}
-    summary = run(ExportSettings(format=fmt, out=out, kernel=kernel_spec, **given))
+    material = given.get("material")
+    if material is not None and "," in material:  # one Babylon.js scene's materials
+        if fmt != "babylon":
+            raise SsskitError("--material takes several names (a,b,c) only with --format babylon (one scene's profiles)")
+        from ..export.babylon import export_scene
+
+        given.pop("material")
+        if kernel_spec is not None:
+            given["kernel"] = kernel_spec
+        summary = export_scene([m.strip() for m in material.split(",")], out, **given)
+    else:
+        summary = run(ExportSettings(format=fmt, out=out, kernel=kernel_spec, **given))
     for note in summary.pop("notes"):
         click.echo(f"ssskit: note: {note}", err=True)
     if as_json:

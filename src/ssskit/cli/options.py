@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from click.shell_completion import CompletionItem
 
 from ..errors import OutputError, SsskitError
-from ..settings import DEFAULT_PHOTONS, PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE
+from ..settings import DEFAULT_PHOTONS, HEAD_ATTRIBUTION, PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE
 
 #: the profile model every command defaults to: the supplement's Monte Carlo profiles (shipped for the
 #: 11 measured materials at 10^7 photons, so a preset costs nothing; another material is simulated once
@@ -578,7 +578,9 @@ def signal_option(default: str = "edge") -> Callable:
 def scene_option() -> Callable:
     return click.option("--scene", type=SceneRef(), required=True,
                         help="Built-in scene, generated mesh (bust, icosphere, torus), mesh file (.obj, .ply, .glb, "
-                             ".gltf), scene .toml, or a G-buffer EXR (its layers: docs/commands.md, 'A G-buffer EXR').")
+                             ".gltf), scene .toml, or a G-buffer EXR (its layers: docs/commands.md, 'A G-buffer EXR'). "
+                             "The built-in head (--view front, ear or close; 259 mm per unit, docs/head.md): "
+                             f"{HEAD_ATTRIBUTION}.")
 
 
 def backend_option(default: str | None) -> Callable:

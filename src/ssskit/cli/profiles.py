@@ -139,7 +139,7 @@ def profile(ctx: click.Context, material: str | None, model: str, configuration:
         echo_json(data)
         return
     click.echo(f"# {prof.model} profile of {prof.name}; r in mm, Rd in mm^-2")
-    click.echo("# total Rd (R, G, B): " + ", ".join(f"{v:.6f}" for v in prof.total_rd()))
+    click.echo("# total Rd (R, G, B): " + ", ".join(f"{c['total_Rd']:.6f}" for c in data["channels"].values()))
     from ..profiles.montecarlo import MonteCarloProfile
 
     mc = [c for c in prof.channels if isinstance(c, MonteCarloProfile)]

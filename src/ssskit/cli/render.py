@@ -173,6 +173,9 @@ def render(ctx: click.Context, scene: str | Path, settings_file: str | None, sav
         if (base.width, base.height) != (d.width, d.height):
             raise SsskitError(f"the settings file {settings_file!r} sets width x height {base.width}x{base.height}, "
                               f"which does not apply to the G-buffer file {str(scene)!r} (it keeps its own size)")
+    import contextlib
+
+    from ..io import staged_folder
     from ..pipeline import plan
     from ..pipeline import render as run
 
@@ -185,17 +188,23 @@ def render(ctx: click.Context, scene: str | Path, settings_file: str | None, sav
                           "Burley fit); --albedo/--dmfp give Burley parameters and no material: give --material for "
                           "the light through thin parts, --transmission-model jimenez2010, or --transmission off")
     say_notes(planned.notes)
-    writer = FrameWriter(frames_dir) if frames_dir is not None else None
-    res = run(resolved, s, progress=progress, on_frame=writer)  # checks everything first; progress on stderr, --json too
+    # an adaptive run's frames go to a staging folder that becomes --frames-dir only when every frame is done: an
+    # interrupted run leaves no partial folder
+    with staged_folder(frames_dir) if frames_dir is not None else contextlib.nullcontext() as stage:
+        writer = FrameWriter(stage) if stage is not None else None
+        res = run(resolved, s, progress=progress, on_frame=writer)  # checks everything first; progress on stderr
     if save_gbuffer:
         res.gbuffer.save(save_gbuffer)
     if out:
         res.save(out)
+    about = dict(resolved.spec.about) if resolved.spec is not None else {}
     if as_json:
-        echo_json(res.to_dict())
+        echo_json({**res.to_dict(), **({"scene_about": about} if about else {})})
         return
     for line in res.lines():
         click.echo(line)
+    for key, value in about.items():
+        click.echo(f"# {key}: {value}")
     if frames_dir:
         click.echo(f"# wrote frames and sample-count heatmaps to {frames_dir}")
     if out:

@@ -102,9 +102,9 @@ def pass_of(ctx: click.Context, pass_name: str | None, method: str | None, base:
     """The pass to run: ``--pass``, or ``--method`` (its deprecated alias: says so once), or the settings
     file's (``base``), or separable; and every option of another pass refused."""
     if method is not None:
-        click.echo("ssskit: warning: --method is deprecated for render; use --pass (same values)", err=True)
-        if pass_name is not None and pass_name.lower() != method.lower():
+        if pass_name is not None and pass_name.lower() != method.lower():  # the error alone: one line
             raise SettingsError(f"--pass {pass_name} and --method {method} disagree; give --pass only")
+        click.echo("ssskit: warning: --method is deprecated for render; use --pass (same values)", err=True)
         pass_name = pass_name or method
     name = PASSES.get(pass_name).name if pass_name is not None else (base.pass_name if base else "separable")
     burley = name in ("burley", "burley-adaptive")

@@ -97,7 +97,7 @@ def figures(ctx: click.Context, names: tuple[str, ...], material: str | None, mo
 @click.option("--full", is_flag=True, help="Simulate the Monte Carlo profiles at the supplement's 10^7 photons instead "
                                            "of reading the shipped ones (an hour or more on 2 cores the first time, then cached).")
 @backend_option(DEFAULT_BACKEND)
-@material_option(split=True, help="The materials whose kernels the report ranks [default: skin1, marble, ketchup]; "
+@material_option(split=True, help="The materials whose kernels the report ranks [default: all 11 measured]; "
                                   "comma-separated presets or material files.")
 @click.option("--scene", type=SceneRef(), default=None,
               help="Add a section on your model (a mesh file, scene .toml or generated mesh): the three views of "

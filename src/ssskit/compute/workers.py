@@ -4,15 +4,19 @@
 processes (numba's threading layers are not fork-safe), each worker taking, as it finishes one, the first
 job in the list's order whose prerequisites have finished. A job says how far it is with :func:`line`; the
 parent receives those lines and each job's result as they come. An error in a job is raised in the parent, with the workers ended first;
-so are Ctrl-C in the parent (the workers ignore SIGINT: the parent ends them) and a worker that dies
+so are Ctrl-C in the parent (the workers start with SIGINT blocked and ignore it: the parent ends them) and a
+worker that dies
 (a crash or the kernel's OOM killer), which ``multiprocessing.Pool`` would silently replace and wait for
 forever. Used by ``ssskit demo`` to build the report's sections side by side.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
-from collections.abc import Callable, Collection, Mapping, Sequence
+import signal
+import threading
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from typing import Any
 
 _LINES: Any = None  # in a worker: the queue to the parent
@@ -35,6 +39,47 @@ def one_library_thread() -> dict[str, str]:
     command imports numpy; it has no effect on a library already loaded."""
     return {name: os.environ.get(name, "1") for name in LIBRARY_THREADS}
 
+
+def sigint_ignored() -> bool:
+    """Whether this process ignores SIGINT: its parent asked for it (a non-interactive shell starts a background
+    job, ``cmd &``, with SIGINT ignored, and Python keeps an inherited SIG_IGN), or a worker set it."""
+    return signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+
+
+@contextlib.contextmanager
+def sigint_blocked() -> Iterator[None]:
+    """Within the block SIGINT is blocked in the calling thread (``pthread_sigmask``), and so in every thread and
+    process it starts meanwhile, for their whole life (a thread inherits its creator's mask; a spawned
+    process keeps it across ``exec``). A blocked SIGINT is never handled by anyone, a library's handler
+    included; it waits, pending, and is dropped when SIGINT's disposition is set to "ignore" (POSIX
+    ``sigaction``), or taken by the calling thread when the block ends. Without ``pthread_sigmask``
+    (Windows): nothing changes."""
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - POSIX only
+        yield
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+@contextlib.contextmanager
+def ignored_sigint_blocked() -> Iterator[None]:
+    """Within the block, if this process ignores SIGINT (:func:`sigint_ignored`) and the caller is the main
+    thread: SIGINT blocked (:func:`sigint_blocked`), so that it stays ignored by every part of the process.
+    Mitsuba replaces SIGINT's handler during each render whatever the disposition was (its handler cancels
+    the render, then re-raises the signal to the handler before it: to SIG_IGN, nowhere) and wound renders
+    down that were meant to ignore it; blocked, the signal never reaches that handler, and Mitsuba's own
+    restoring of SIG_IGN at the render's end drops it. For the CLI's whole run, entered before any thread
+    starts. Otherwise nothing changes."""
+    if not sigint_ignored() or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    with sigint_blocked():
+        yield
+
+
 #: seconds between the parent's checks that its workers still live
 POLL_S = 0.2
 
@@ -46,10 +91,13 @@ def line(message: str) -> None:
 
 
 def _worker(tasks: Any, results: Any, env: dict[str, str]) -> None:
-    import signal
-
     global _LINES
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle: it ends the workers
+    # Ctrl-C (SIGINT to the terminal's whole process group) is the parent's to handle: it ends the workers. The
+    # worker was started with SIGINT blocked (run_jobs), so neither Python nor Mitsuba's handler, which it
+    # installs during each render whatever the disposition, ever sees one; ignored too, should it be unblocked.
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     os.environ.update(env)
     _LINES = results
     while True:
@@ -110,8 +158,9 @@ def run_jobs(jobs: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], workers
             ended = True
 
     try:
-        for p in procs:
-            p.start()
+        with sigint_blocked():  # each worker process starts with SIGINT blocked (see _worker)
+            for p in procs:
+                p.start()
         dispatch()
         while len(finished) < len(jobs):
             try:
@@ -134,6 +183,11 @@ def run_jobs(jobs: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], workers
                 dispatch()
         for p in procs:
             p.join()
+    except BaseException:
+        # the workers are ended: the tasks they will never read must not keep this process from exiting (a
+        # queue's feeder thread is joined at exit and would wait for room in a pipe nobody reads)
+        tasks.cancel_join_thread()
+        raise
     finally:
         for p in procs:
             if p.is_alive():
@@ -145,4 +199,5 @@ def run_jobs(jobs: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], workers
         results.close()
 
 
-__all__ = ["LIBRARY_THREADS", "POLL_S", "line", "one_library_thread", "run_jobs"]
+__all__ = ["LIBRARY_THREADS", "POLL_S", "ignored_sigint_blocked", "line", "one_library_thread", "run_jobs",
+           "sigint_blocked", "sigint_ignored"]

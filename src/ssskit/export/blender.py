@@ -44,6 +44,9 @@ RADIUS_PER_D = 4.0 * math.pi
 #: Cycles BURLEY_TRUNCATE and BURLEY_TRUNCATE_CDF (bssrdf.h): the profile stops at 16 d, renormalised
 CYCLES_TRUNCATE = 16.0
 CYCLES_TRUNCATE_CDF = 0.9963790093708328
+EEVEE_SOURCE = ("Blender source/blender/draw/engines/eevee_next/shaders/eevee_subsurface_convolve_comp.glsl (4.2): "
+                "d = burley_setup(clamped_sss_radius, albedo) with burley_setup = radius / (4 pi s(A / max A)) "
+                "(eevee_subsurface_lib.glsl); 16 samples (eevee_subsurface.cc: sample_len = 16 whatever sss_samples)")
 #: the Blender versions whose Cycles has this mapping (bssrdf_setup_radius since Cycles X)
 BLENDER_VERSIONS = ">= 3.0 (Cycles X) through 4.2 (tested with the bpy 4.2.0 wheel)"
 SOURCE = ("Blender Cycles intern/cycles/kernel/closure/bssrdf.h, bssrdf_setup_radius (Blender 3.0 - 4.2): "
@@ -77,11 +80,27 @@ def blender_parameters(a: np.ndarray, d_mm: np.ndarray, eta: float | None = None
                   "the numbers are for subsurface_method BURLEY (Christensen-Burley); RANDOM_WALK reads the "
                   "radius as a mean free path and renders another plateau and width (docs/exports.md)"],
     }
+    eevee = radius_units * eevee_radius_scale(np.asarray(a, dtype=float))
+    out["eevee"] = {"subsurface_radius": (eevee / float(np.max(eevee))).tolist(),
+                    "subsurface_scale": float(np.max(eevee)),
+                    "formula": "radius_c * scale = 4 pi d_c s(A'_c), A' = A / max A, s = 1.9 - A' + 3.5 (A' - 0.8)^2 "
+                               "(EEVEE Next burley_setup); for EEVEE only: Cycles renders it s(A') times too wide",
+                    "source": EEVEE_SOURCE}
     if eta is not None:
         out["ior"] = float(eta)
     if g is not None:
         out["subsurface_anisotropy"] = float(g)
     return out
+
+
+def eevee_radius_scale(a: np.ndarray) -> np.ndarray:
+    """EEVEE Next's per-channel narrowing: its subsurface gather (``eevee_subsurface_convolve_comp.glsl``) weights
+    with d = radius / (4 pi s(A')), ``burley_setup``'s s(A') = 1.9 - A' + 3.5 (A' - 0.8)^2 of the albedo scaled to
+    max 1 (A' = A / max A; the searchlight fit of Christensen and Burley 2015 [CB15], which Cycles dropped with Cycles X), where Cycles reads
+    d = radius / (4 pi). Multiplying the exported radius by s(A') gives EEVEE's weights Cycles' d (and makes
+    Cycles s(A') times too wide: the ``eevee`` variant is for EEVEE only)."""
+    ap = np.asarray(a, dtype=float) / max(float(np.max(a)), 1e-6)
+    return 1.9 - ap + 3.5 * (ap - 0.8) ** 2
 
 
 def blender_d_mm(params: dict[str, Any]) -> np.ndarray:
@@ -94,12 +113,13 @@ def blender_d_mm(params: dict[str, Any]) -> np.ndarray:
 _SCRIPT = '''"""ssskit export for Blender (Cycles): {title}.
 
 Run inside Blender (Scripting tab, or `blender --python THIS.py`) or with the bpy module
-(`python THIS.py -- [--blend OUT.blend]`). It creates the material {name!r}, or updates it if it
+(`python THIS.py -- [--eevee] [--blend OUT.blend]`). It creates the material {name!r}, or updates it if it
 exists, and assigns it to the selected mesh objects.
 
 Mapping: {formula}
 Valid for Blender {versions}: {source}.
-The numbers are for subsurface_method BURLEY; set_method(material, "RANDOM_WALK") switches the method
+The numbers are for Cycles; `--eevee` (or ssskit_material(variant="eevee")) sets the radius EEVEE Next's
+screen-space gather needs for the same profile (docs/exports.md). They are for subsurface_method BURLEY; set_method(material, "RANDOM_WALK") switches the method
 but then the radius is read as a mean free path and the plateau and width change (docs/exports.md).
 """
 
@@ -131,9 +151,15 @@ def set_method(material, method):
             node.subsurface_method = method
 
 
-def ssskit_material(name=None):
-    """Create or update the material and return it."""
+def ssskit_material(name=None, variant="cycles"):
+    """Create or update the material and return it. variant "eevee": the radius EEVEE Next's gather needs
+    for the same profile (PARAMS["eevee"]; Cycles renders that one too wide)."""
     name = name or PARAMS["name"]
+    radius, scale = PARAMS["subsurface_radius"], PARAMS["subsurface_scale"]
+    if variant == "eevee":
+        radius, scale = PARAMS["eevee"]["subsurface_radius"], PARAMS["eevee"]["subsurface_scale"]
+    elif variant != "cycles":
+        raise ValueError(f"variant must be 'cycles' or 'eevee', not {{variant!r}}")
     mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
     mat.use_nodes = True
     nodes = mat.node_tree.nodes
@@ -148,8 +174,8 @@ def ssskit_material(name=None):
     _set(node, (a[0], a[1], a[2], 1.0), "Subsurface Color")  # Blender < 4.0
     if not _set(node, PARAMS["subsurface_weight"], "Subsurface Weight"):
         _set(node, PARAMS["subsurface_weight"], "Subsurface")  # Blender < 4.0
-    _set(node, tuple(PARAMS["subsurface_radius"]), "Subsurface Radius")
-    _set(node, PARAMS["subsurface_scale"], "Subsurface Scale")
+    _set(node, tuple(radius), "Subsurface Radius")
+    _set(node, scale, "Subsurface Scale")
     if "ior" in PARAMS:
         _set(node, PARAMS["ior"], "IOR")
         _set(node, PARAMS["ior"], "Subsurface IOR")
@@ -164,12 +190,12 @@ def ssskit_material(name=None):
 
 
 if __name__ == "__main__":
-    material = ssskit_material()
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    material = ssskit_material(variant="eevee" if "--eevee" in argv else "cycles")
     for obj in getattr(bpy.context, "selected_objects", None) or []:
         if obj.type == "MESH":
             obj.data.materials.clear()
             obj.data.materials.append(material)
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     if "--blend" in argv:
         bpy.ops.wm.save_as_mainfile(filepath=argv[argv.index("--blend") + 1])
 '''
@@ -179,7 +205,7 @@ def blender_script(params: dict[str, Any], name: str) -> str:
     """The Python script (Blender or bpy) that creates or updates material ``name`` with ``params``
     (:func:`blender_parameters`); the parameters are embedded as a Python literal."""
     keep: dict[str, Any] = {k: params[k] for k in ("subsurface_method", "base_color", "subsurface_weight", "subsurface_radius",
-                                   "subsurface_scale", "specular_ior_level", "ior", "subsurface_anisotropy")
+                                   "subsurface_scale", "specular_ior_level", "ior", "subsurface_anisotropy", "eevee")
             if k in params}
     keep["name"] = name
     text = json.dumps(keep, indent=4)
@@ -213,10 +239,13 @@ def slab_extent_mm(d_mm: float, level: float = 0.01, margin: float = 1.6) -> flo
 
 def render_slab(script: str | Path, channels_d_mm: list[float], width: int = 160, height: int = 12,
                 samples: int = 32, seed: int = 1, method: str | None = None, unit_m: float = 1.0,
-                timeout: float = 600.0, python: str | None = None) -> dict[str, Any]:
+                timeout: float = 600.0, python: str | None = None, engine: str = "CYCLES",
+                eevee: dict[str, Any] | None = None, variant: str | None = None) -> dict[str, Any]:
     """Render the Cycles slab (``cycles_slab.py``) once per channel, each view sized to that channel's
     edge (``channels_d_mm``: the d ssskit predicts), with the material of the exported ``script``, plus a
-    white Lambertian reference per view. Returns {"images": [(H, W, 3)] per channel, "white": [...],
+    white Lambertian reference per view. ``engine``: "CYCLES", or "BLENDER_EEVEE_NEXT" (``samples`` are
+    then its TAA render samples, ``eevee`` its other settings: ``sss_samples``, ``light``; the edge is a
+    spot cone's rim, ``cycles_slab._spot_edge``). Returns {"images": [(H, W, 3)] per channel, "white": [...],
     "extent_mm": [...], "seconds": ..., "blender": version}."""
     exe = python or find_blender_python()[0]
     if exe is None:
@@ -227,9 +256,11 @@ def render_slab(script: str | Path, channels_d_mm: list[float], width: int = 160
     for c, d in enumerate(channels_d_mm):
         ext_mm = slab_extent_mm(d)
         extents.append(ext_mm)
-        common = {"extent_m": ext_mm * 1e-3 / unit_m, "width": width, "height": height, "seed": seed + c}
-        renders.append({**common, "key": f"c{c}", "script": str(script), "samples": samples, "method": method})
-        renders.append({**common, "key": f"w{c}", "white": True, "samples": 1})
+        common = {"extent_m": ext_mm * 1e-3 / unit_m, "width": width, "height": height, "seed": seed + c,
+                  "engine": engine, **(eevee or {})}
+        renders.append({**common, "key": f"c{c}", "script": str(script), "samples": samples, "method": method,
+                        "variant": variant})
+        renders.append({**common, "key": f"w{c}", "white": True, "samples": 1 if engine == "CYCLES" else samples})
     with tempfile.TemporaryDirectory() as tmp:
         cfg = Path(tmp) / "config.json"
         cfg.write_text(json.dumps({"renders": renders, "threads": os.cpu_count() or 1}))
@@ -237,13 +268,13 @@ def render_slab(script: str | Path, channels_d_mm: list[float], width: int = 160
         proc = subprocess.run([exe, str(here), str(cfg), str(out)], capture_output=True, text=True, timeout=timeout)
         if proc.returncode != 0 or not out.is_file():
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-5:]
-            raise SsskitError(f"the Cycles slab render failed (exit {proc.returncode}): {' | '.join(tail)}")
+            raise SsskitError(f"the {engine} slab render failed (exit {proc.returncode}): {' | '.join(tail)}")
         data = np.load(out)
         meta = json.loads(Path(str(out) + ".json").read_text())
         n = len(channels_d_mm)
         return {"images": [data[f"c{c}"] for c in range(n)], "white": [data[f"w{c}"] for c in range(n)],
                 "extent_mm": extents, "seconds": meta["seconds"], "blender": meta["blender"],
-                "width": width, "height": height, "samples": samples}
+                "width": width, "height": height, "samples": samples, "engine": engine}
 
 
 # ------------------------------------------------------------------------- ssskit's own prediction
@@ -325,7 +356,7 @@ def _crossing(x: np.ndarray, norm: np.ndarray, level: float) -> float | None:
 
 
 def compare_slab(render: dict[str, Any], a: np.ndarray, d_mm: np.ndarray,
-                 levels: tuple[float, ...] = LEVELS, groups: int = 8) -> dict[str, Any]:
+                 levels: tuple[float, ...] = LEVELS, groups: int = 8, trim: float = 0.0) -> dict[str, Any]:
     """Rendered slab against ssskit's prediction, per channel.
 
     ``plateau_ratio``: the lit side beyond the 1 % distance, in units of the white reference's lit
@@ -334,8 +365,14 @@ def compare_slab(render: dict[str, Any], a: np.ndarray, d_mm: np.ndarray,
     the measured plateau and fitted monotone (pool-adjacent-violators), falls to each level going into
     the shadow, against :func:`edge_distances`; the noise ``se_mm`` is the scatter of the same distance
     measured in ``groups`` disjoint groups of rows, over sqrt(groups); ``tolerance`` = max(5 %, 3 se / x).
-    ``mean_abs_edge_error``: mean |normalised edge - prediction| over the view.
+    ``mean_abs_edge_error``: mean |normalised edge - prediction| over the view. ``trim`` > 0: each column's
+    mean over rows leaves out that share of rows at each end (EEVEE's gather leaves sparse bright rows).
     """
+    from scipy.stats import trim_mean
+
+    def row_mean(block: np.ndarray) -> np.ndarray:
+        return np.asarray(trim_mean(block, trim, axis=0)) if trim > 0 else block.mean(axis=0)
+
     out: dict[str, Any] = {"channels": []}
     for c, (img, white, ext) in enumerate(zip(render["images"], render["white"], render["extent_mm"])):
         h, w = img.shape[:2]
@@ -347,14 +384,14 @@ def compare_slab(render: dict[str, Any], a: np.ndarray, d_mm: np.ndarray,
         lit = x > edge_distances(float(d_mm[c]), (0.01,))[0]
 
         def measure(sel: np.ndarray) -> tuple[float, list[float | None]]:
-            col = rows[sel].mean(axis=0) / wref
+            col = row_mean(rows[sel]) / wref
             lev = float(np.mean(col[lit])) / float(np.mean(pred[lit]))
             return lev, [_crossing(x, col / lev, q) for q in levels]
 
         level, xs = measure(np.ones(h, dtype=bool))
         parts = [measure(np.arange(h) % groups == k) for k in range(groups)]
         level_se = float(np.std([p[0] for p in parts], ddof=1) / math.sqrt(groups))
-        norm = rows.mean(axis=0) / wref / level
+        norm = row_mean(rows) / wref / level
         dist = []
         for j, (lev, xp) in enumerate(zip(levels, edge_distances(float(d_mm[c]), levels))):
             xm = xs[j]
@@ -373,5 +410,21 @@ def compare_slab(render: dict[str, Any], a: np.ndarray, d_mm: np.ndarray,
     return out
 
 
-__all__ = ["BLENDER_VERSIONS", "LEVELS", "RADIUS_PER_D", "blender_d_mm", "blender_parameters", "blender_script",
+def distance_cells(channel: dict[str, Any], form: str = "error") -> list[str]:
+    """The table cells of one channel of :func:`compare_slab` (the benchmarks' markdown): per level
+    ``"error"``: measured / predicted - 1 +- the noise, or ``"ratio"``: measured / predicted +- the noise."""
+    cells = []
+    for q in channel["distances"]:
+        if q.get("measured_mm") is None:
+            cells.append("not reached")
+            continue
+        se = q["se_mm"] / q["predicted_mm"] if math.isfinite(q["se_mm"]) else 0.0
+        if form == "ratio":
+            cells.append(f"{q['measured_mm'] / q['predicted_mm']:.2f} ± {se:.2f}")
+        else:
+            cells.append(f"{q['relative_error']:+.1%} ± {se:.1%}")
+    return cells
+
+
+__all__ = ["BLENDER_VERSIONS", "distance_cells", "LEVELS", "RADIUS_PER_D", "blender_d_mm", "eevee_radius_scale", "blender_parameters", "blender_script",
            "compare_slab", "edge_distances", "edge_response", "find_blender_python", "render_slab"]

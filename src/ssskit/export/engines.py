@@ -28,6 +28,7 @@ in scene units (metres at the default unit scale 1).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
@@ -389,5 +390,19 @@ def profile_error(source: RGBProfile, imported: RGBProfile, samples: int = 4096,
     return {"relative_l1": rel, "total_ratio": tot, "r50_ratio": r50}
 
 
-__all__ = ["ENGINES", "ENGINE_MODELS", "ENGINE_SOURCES", "LOST", "burley_scaling_diffuse_transmission",
+def slab_material(name: str, model: str, folder: str | Path) -> tuple[dict[str, Any], Path, np.ndarray, np.ndarray]:
+    """A preset's Blender export for the slab renders: (the parameters, the script written in ``folder``, A,
+    d in mm as Cycles reads the script) for the preset ``name`` through the profile ``model``."""
+    from ..materials import get_material
+    from ..profiles import profile_for_material
+    from .blender import blender_d_mm, blender_script
+
+    material = get_material(name)
+    params = engine_parameters(profile_for_material(material, model), "blender", material)
+    script = Path(folder) / f"{name}.py"
+    script.write_text(blender_script(params, name))
+    return params, script, np.array(params["base_color"]), blender_d_mm(params)
+
+
+__all__ = ["ENGINES", "ENGINE_MODELS", "ENGINE_SOURCES", "LOST", "slab_material", "burley_scaling_diffuse_transmission",
            "burley_scaling_dmfp", "engine_parameters", "fit_burley", "fit_burley_channel", "profile_error", "reimport"]

@@ -47,8 +47,10 @@ def export_kernel(kernel: Any, fmt: str, path: str | Path, taps: int | None = No
 
         n = kernel.taps if isinstance(kernel, TapKernel) else (taps or 7)
         given = {} if jitter is None else {"jitter": jitter}  # None: the shader's own default
-        text = separable_shader(make_taps(kernel, n, tap_method), key.split("-")[0], depth_mode=depth_mode, **given)
-        write_text(path, (f"// {comment}\n" if comment else "") + text)
+        stage = shader_stage(path)
+        text = separable_shader(make_taps(kernel, n, tap_method), key.split("-")[0], depth_mode=depth_mode,
+                                stage=stage, **given)
+        write_text(path, with_comment(text, comment, stage))
     elif key in LANGUAGES:
         write_text(path, format_shader_arrays(kernel_arrays(kernel, taps, tap_method), key, comment))
     elif key == "bn":
@@ -100,7 +102,26 @@ def _shader(job: Job) -> str | None:
     what = f"{tmodel} transmittance of {mat.name}" if mat is not None else f"{tmodel} transmittance"
     job.summary.update(material=mat.name if mat is not None else None, model=None, **{"pass": "transmission"},
                        transmission_model=tmodel, terms=plan.terms, table=bool(plan.has_lut))
-    return f"// ssskit export: the transmittance pass, {what}\n" + transmission_shader(plan, req.format.split("-")[0])
+    stage = shader_stage(req.out)
+    return with_comment(transmission_shader(plan, req.format.split("-")[0], stage),
+                        f"ssskit export: the transmittance pass, {what}", stage)
+
+
+def shader_stage(path: str | Path) -> str:
+    """``fragment`` for an output ending in ``.frag`` (the GLSL ES 3.00 fragment form of the same per-pixel body,
+    what ``ssskit view`` runs), else ``compute``."""
+    return "fragment" if str(path).lower().endswith(".frag") else "compute"
+
+
+def with_comment(text: str, comment: str, stage: str) -> str:
+    """``text`` with the ``// comment`` line: first for a compute shader, right after ``#version`` for the GLSL ES
+    fragment form (which allows nothing before that line, comments included)."""
+    if not comment:
+        return text
+    if stage == "fragment":
+        version, _, rest = text.partition("\n")
+        return f"{version}\n// {comment}\n{rest}"
+    return f"// {comment}\n{text}"
 
 
 def _shader_check(req: ExportSettings, source: Any) -> None:
@@ -270,10 +291,26 @@ FORMATS.register("blender", Format("blender", (".json", ".py"), "engine", (), _b
 FORMATS.register("materialx", Format("materialx", (".mtlx",), "engine", ("standard_surface",), _materialx,
                                      "MaterialX .mtlx (OpenPBR, optionally Standard Surface)", _read("materialx"),
                                      _materialx_check))
-FORMATS.register("glsl-shader", Format("glsl-shader", (".comp", ".glsl"), "shader", SHADER_OPTIONS, _shader,
-                                       "the whole separable (or transmittance) compute shader, taps baked in",
+FORMATS.register("glsl-shader", Format("glsl-shader", (".comp", ".glsl", ".frag"), "shader", SHADER_OPTIONS, _shader,
+                                       "the whole separable (or transmittance) compute shader, taps baked in; "
+                                       ".frag: its GLSL ES 3.00 fragment form (what ssskit view runs)",
                                        check=_shader_check))
 FORMATS.register("hlsl-shader", Format("hlsl-shader", (".hlsl", ".fx", ".usf"), "shader", SHADER_OPTIONS, _shader,
                                        "the whole compute shader in HLSL (glslang + spirv-cross)", check=_shader_check))
+
+def _babylon(job: Job) -> str:
+    """Babylon.js's subsurface settings for the job's material (:mod:`ssskit.export.babylon`): an ES module or JSON."""
+    from .babylon import babylon_text
+    from .engines import fit_burley
+
+    a, d = fit_burley(job.source.profile())
+    name = asset_name(job)
+    job.summary.update(model=job.source.model)
+    return babylon_text([(name, a, d)], job.request.suffix, job.summary)
+
+
+FORMATS.register("babylon", Format("babylon", (".json", ".js", ".mjs"), "engine", (), _babylon,
+                                   "Babylon.js PBRMaterial.subSurface and the scene's diffusion profile: an ES module "
+                                   "(.js, .mjs) or .json; several materials of one scene: --material a,b (at most 4)"))
 
 __all__ = ["BN_SUPPORT", "asset_name", "engine_data", "export_kernel"]

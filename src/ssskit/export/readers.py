@@ -19,7 +19,6 @@ an overflow is refused in one line naming the file and the field (never replaced
 
 from __future__ import annotations
 
-import json
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
+from ..io import parse_document
 from ..materials import Material
 from ..quantities import BURLEY_ALBEDO
 from .registry import FORMATS
@@ -91,7 +91,7 @@ def is_engine_file(path: str | Path) -> bool:
         text = p.read_text(encoding="utf-8")
         if suffix == ".py":
             return _script_engine(text) is not None
-        data = json.loads(text)
+        data = parse_document(text, ".json")
     except (OSError, UnicodeDecodeError, ValueError):
         return False
     return isinstance(data, dict) and "engine" in data
@@ -182,7 +182,7 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
         data = _script_literal(p, text, engine)
     else:
         try:
-            data = json.loads(p.read_text(encoding="utf-8"))
+            data = parse_document(p.read_text(encoding="utf-8"), ".json")
         except (UnicodeDecodeError, ValueError) as exc:
             raise SsskitError(f"malformed engine file {str(p)!r}: {exc}") from None
         engine = str(data.get("engine", "")) if isinstance(data, dict) else ""

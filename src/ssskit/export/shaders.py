@@ -141,7 +141,8 @@ def uniform_block(source: str, name: str = PARAMS_BLOCK, binding: int = 0) -> tu
     return source[:first.start()] + block + rest, members
 
 
-def separable_shader(taps: Any, language: str, jitter: float = 0.1, depth_mode: str | None = None) -> str:
+def separable_shader(taps: Any, language: str, jitter: float = 0.1, depth_mode: str | None = None,
+                     stage: str = "compute") -> str:
     """The whole separable-SSS compute shader for ``taps`` (:class:`~ssskit.sampling.SeparableTaps`), the
     same source the ``gl`` backend runs (:func:`ssskit.backends.gl.separable.export_source`), the taps
     baked in as constants.
@@ -152,6 +153,9 @@ def separable_shader(taps: Any, language: str, jitter: float = 0.1, depth_mode: 
     parameters are one constant buffer, ``cbuffer SSSParams : register(b0)``, laid out alike in every pass
     (:func:`uniform_block`).
     ``depth_mode`` None: the kernel's default (:func:`ssskit.screenspace.separable.default_depth_mode`).
+    ``stage`` ``fragment`` (``glsl`` only): the GLSL ES 3.00 fragment form of the same per-pixel body
+    (:func:`ssskit.backends.gl.separable.export_fragment_source`), for WebGL2 and OpenGL ES 3; the text the
+    live viewer (``ssskit view``) runs.
     """
     from ..backends import build_separable_plan
     from ..backends.gl.separable import export_source
@@ -159,7 +163,15 @@ def separable_shader(taps: Any, language: str, jitter: float = 0.1, depth_mode: 
 
     if language not in ("glsl", "hlsl"):
         raise ShaderToolError(f"unknown shader language {language!r}; choose glsl or hlsl")
+    if stage not in ("compute", "fragment"):
+        raise ShaderToolError(f"unknown shader stage {stage!r}; choose compute or fragment")
+    if stage == "fragment" and language != "glsl":
+        raise ShaderToolError("the fragment form is GLSL ES 3.00 (language glsl); HLSL is written as compute shaders")
     plan = build_separable_plan({1: taps}, 1.0, 1.0, jitter=jitter, depth_mode=depth_mode or default_depth_mode(taps))
+    if stage == "fragment":
+        from ..backends.gl.separable import export_fragment_source
+
+        return export_fragment_source(plan)
     glsl = export_source(plan)
     if language == "glsl":
         return glsl
@@ -181,18 +193,26 @@ def separable_shader(taps: Any, language: str, jitter: float = 0.1, depth_mode: 
     return head + "#ifndef VERTICAL\n#define VERTICAL 0\n#endif\n#ifndef TERM\n#define TERM 0\n#endif\n" + "".join(blocks)
 
 
-def transmission_shader(plan: Any, language: str) -> str:
+def transmission_shader(plan: Any, language: str, stage: str = "compute") -> str:
     """The transmittance pass's compute shader for ``plan`` (:class:`~ssskit.backends.transmission_plan.TransmissionPlan`:
     a material's model per profile id), the same source the ``gl`` backend runs
     (:func:`ssskit.backends.gl.transmission.transmission_export_source`) with the model's parameter arrays baked in
     as constants (``COEF_A``, ``COEF_B``, ``COEF_C``, ``SCALE``, ``WRAP``; an ``unreal`` slot's ``LUT``, ``OD_PER_MM``,
     ``OD_OFFSET``). ``glsl``: that file; ``hlsl``: its translation (glslangValidator, spirv-cross), the two
     uniforms in one constant buffer ``cbuffer SSSParams : register(b0)`` (:func:`uniform_block`), each table a
-    ``static const`` array ``NAME_VALUES`` copied into ``NAME``."""
-    from ..backends.gl.transmission import transmission_export_source
+    ``static const`` array ``NAME_VALUES`` copied into ``NAME``. ``stage`` ``fragment`` (``glsl`` only): the GLSL
+    ES 3.00 fragment form of the same per-pixel body
+    (:func:`ssskit.backends.gl.transmission.transmission_fragment_source`), what the live viewer runs."""
+    from ..backends.gl.transmission import transmission_export_source, transmission_fragment_source
 
     if language not in ("glsl", "hlsl"):
         raise ShaderToolError(f"unknown shader language {language!r}; choose glsl or hlsl")
+    if stage not in ("compute", "fragment"):
+        raise ShaderToolError(f"unknown shader stage {stage!r}; choose compute or fragment")
+    if stage == "fragment":
+        if language != "glsl":
+            raise ShaderToolError("the fragment form is GLSL ES 3.00 (language glsl); HLSL is written as compute shaders")
+        return transmission_fragment_source(plan)
     glsl = transmission_export_source(plan)
     if language == "glsl":
         return glsl

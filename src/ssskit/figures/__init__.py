@@ -16,6 +16,7 @@ from ..errors import SsskitError
 from ..registry import Registry
 from . import adaptive as _a
 from . import burley as _b
+from . import head as _h
 from . import kernels as _k
 from . import views as _v
 
@@ -40,6 +41,9 @@ FIGURES.register("xie-table1", _a.xie_table1)
 FIGURES.register("xie-fig6", _b.fig6_xie_inverse)
 FIGURES.register("xie-fig5", _b.fig5_xie_c)
 FIGURES.register("xie-fig1", _v.xie_fig1)
+FIGURES.register("head-fig7", _h.head_fig7)
+FIGURES.register("head-fig9", _h.head_fig9)
+FIGURES.register("head-separable", _h.head_separable)
 
 
 def runs_a_pass(fn: Figure) -> bool:

@@ -18,6 +18,7 @@ import numpy as np
 from ..backends import DEFAULT_BACKEND
 from ..metrics import region_metrics, tonemap
 from ..pipeline import RenderResult, RenderSettings, SeparablePass, render
+from ..pipeline.regions import compare_regions
 from ..scenes import front_lit_scenes
 from ..screenspace import GBuffer, PassSettings
 from .plots import CHANNEL_COLORS, pyplot, save_figure
@@ -34,7 +35,13 @@ SCREEN_SPACE_METHODS = (
 )
 
 #: bumped when what the cached figures hold changes
-_FIGURE_VERSION = 4
+_FIGURE_VERSION = 6
+
+#: the largest relative noise (RMS standard error over the mean, over the SSS mask) a path-traced image is shown with;
+#: a noisier one is shown as a display copy of block means (:func:`display_copy`), never the numbers' reference
+DISPLAY_REL_SE = 0.1
+#: the block sizes a display copy may average (pixels per side)
+DISPLAY_BLOCKS = (1, 2, 3, 4, 6, 8)
 
 
 def _cached(name: str, key: dict[str, Any], make: Callable[[], _T]) -> _T:
@@ -94,6 +101,33 @@ def screen_space_comparison(out: Path, material: str = "skin1", scenes: Iterable
     return path, rows, regions
 
 
+def display_copy(image: np.ndarray, pixel_se: np.ndarray, mask: np.ndarray,
+                 target: float = DISPLAY_REL_SE) -> tuple[np.ndarray, int, float]:
+    """A path-traced image as shown: (image, block, its relative noise over ``mask``: the RMS of the shown pixels'
+    standard errors over their mean, so that fireflies count). Where the image's own noise is above ``target``
+    the display copy is the mean of ``block`` x ``block`` pixel blocks (the smallest of :data:`DISPLAY_BLOCKS`
+    at or below ``target``, else the largest; a block mean's standard error: sqrt(sum se^2) / block^2 of
+    independent pixels), repeated back to the frame's size. Only for showing: the numbers are measured on the
+    reference itself, never on this copy."""
+    img, se = np.asarray(image, float), np.asarray(pixel_se, float)
+    h, w = img.shape[:2]
+    shown, rel, b = img, float("inf"), 1
+    for b in DISPLAY_BLOCKS:
+        hb, wb = h // b * b, w // b * b
+        if hb == 0 or wb == 0:
+            break
+        mean = img[:hb, :wb].reshape(hb // b, b, wb // b, b, 3).mean(axis=(1, 3))
+        err = np.sqrt((se[:hb, :wb] ** 2).reshape(hb // b, b, wb // b, b, 3).sum(axis=(1, 3))) / b ** 2
+        m = mask[:hb, :wb].reshape(hb // b, b, wb // b, b).any(axis=(1, 3))
+        level = float(mean[m].mean()) if m.any() else 0.0
+        rel = float(np.sqrt(np.mean(err[m] ** 2)) / level) if level > 0 else 0.0
+        shown = img.copy()
+        shown[:hb, :wb] = np.repeat(np.repeat(mean, b, axis=0), b, axis=1)
+        if rel <= target:
+            break
+    return shown, b, rel
+
+
 def _edge_window(gb: GBuffer, table: dict[str, Any] | None) -> tuple[int, int, int, int] | None:
     """(y0, y1, x0, x1): a quarter-size window of the frame centred on its sharpest step of light inside
     the SSS mask (the largest jump of E/pi between two SSS neighbours: a shadow edge where the scene has
@@ -124,16 +158,17 @@ def _render_scenes(material: str, scenes: list[str], width: int, height: int, sp
     regions: dict[str, Any] = {}
     for scene in scenes:
         line: list[tuple[str, np.ndarray]] = []
+        ref_budget: dict[str, Any] = dict(reference_spp=reference_spp, reference_max_spp=reference_max_spp)
         base: RenderResult | None = None
         for label, spec, taps, placement in SCREEN_SPACE_METHODS:
             say(f"screen space: {scene}, {label}")
             first = base is None
             settings = RenderSettings(material=material, model=model, photons=photons, kernel=spec, taps=taps,
                                       tap_method=placement, width=width, height=height, spp=spp, exact=first,
-                                      reference=first, frame=sss.frame, seed=sss.seed, backend=sss.backend,
+                                      reference=first, frame=sss.frame, seed=sss.seed,
+                                      **(ref_budget if first else {}),
+                                      backend=sss.backend,
                                       pass_=SeparablePass(jitter=sss.jitter, depth_mode=sss.depth_mode))
-            if first:  # the reference's budget: asked for where a reference is made (the first method) only
-                settings = settings.replace(reference_spp=reference_spp, reference_max_spp=reference_max_spp)
             r = render(scene if base is None else base.gbuffer, settings, progress=say)
             assert isinstance(r, RenderResult)  # the separable pass
             if base is None:
@@ -149,6 +184,10 @@ def _render_scenes(material: str, scenes: list[str], width: int, height: int, sp
                 row["exact_2d"] = r.metrics["exact_2d"] if first else region_metrics(
                     r.gbuffer.composite(base.exact), r.image, mask)
             row["path_traced"] = r.metrics["path_traced"] if first else region_metrics(base.reference, r.image, mask)
+            # each kernel's own region levels against the reference's (with its standard errors): unlike the
+            # per-pixel PSNR against the path trace, which its noise sets alike for every kernel
+            row["regions"] = (r.metrics["regions"] if first else
+                              compare_regions(r.gbuffer, r.profile, r.sss, base.exact, base.reference_info))["regions"]
             rows.append(row)
             line.append((label, r.image))
         assert base is not None and base.reference is not None  # SCREEN_SPACE_METHODS is not empty
@@ -156,7 +195,11 @@ def _render_scenes(material: str, scenes: list[str], width: int, height: int, sp
             line.append(("exact 2D convolution", base.gbuffer.composite(base.exact)))
         else:
             line.append(("exact 2D (non-square pixels)", np.zeros_like(base.image)))
-        line.append(("path traced (volpathmis)", base.reference))
+        ref = base.reference_info
+        shown, block, rel = display_copy(np.asarray(base.reference, float), np.asarray(ref.pixel_se, float),
+                                         base.gbuffer.mask)
+        what = "path traced (volpathmis)" if block == 1 else f"path traced, {block}x{block} block means (display)"
+        line.append((f"{what}; rel. noise {rel:.0%}", shown))
         grid.append((scene, line))
     return grid, rows, regions
 
@@ -259,3 +302,83 @@ def region_mask(table: dict[str, Any], gb: GBuffer) -> np.ndarray:
     from ..metrics import region_masks
 
     return region_masks(gb.diffuse, gb.mask, table["radius_px"])["plateau"]
+
+
+#: the head's separable-paper numbers the demo opens with: the ``separable`` part of docs/head_numbers.json
+#: (``python docs/head_numbers.py --sections separable``, 220 s on 2 cores with the path traces cached, each
+#: ~6 min per view), shipped with the package so an installed ssskit shows them (:func:`ship_head_numbers`)
+HEAD_NUMBERS = Path(__file__).resolve().parents[1] / "scenes" / "data" / "head_separable.json"
+
+
+def ship_head_numbers(source: Path | None = None, target: Path = HEAD_NUMBERS) -> dict[str, Any]:
+    """Copy the ``separable`` part of the repository's docs/head_numbers.json (``source``) to the package's
+    :data:`HEAD_NUMBERS` (run after ``docs/head_numbers.py``; a test checks the two agree); returns it."""
+    import json
+
+    from ..io import write_text
+
+    source = source or Path(__file__).resolve().parents[3] / "docs" / "head_numbers.json"
+    part = json.loads(source.read_text(encoding="utf-8"))["separable"]
+    write_text(target, json.dumps(part, indent=1) + "\n")
+    return part
+
+
+def head_opener(out: Path, kernel: str, taps: int = 7, width: int = 192, height: int = 144,
+                backend: str = DEFAULT_BACKEND, progress: Callable[[str], None] | None = None
+                ) -> tuple[Path, dict[str, Any]]:
+    """The demo's first figure: the built-in head (Skin1, the front view) rendered now by the separable pass with
+    ``kernel`` (``taps`` importance-sampled taps of the Monte Carlo profile), beside that kernel's region levels
+    over the converged path trace's, ±2 standard errors, per view and region, from the shipped numbers
+    (:data:`HEAD_NUMBERS`: the path traces take ~6 min per view on 2 cores, too long for the demo). Written to
+    ``head.png``; returns (path, {"rows": the kernel's shipped rows, "shipped": the file's figure, size, taps,
+    attribution}); rows is empty when the shipped numbers have no row for ``kernel``."""
+    import json
+
+    from ..kernels import build_kernel, default_grid, parse_method_spec
+    from ..materials import get_material
+    from ..profiles import profile_for_material
+    from ..sampling.taps import make_taps
+    from ..screenspace import separable_sss
+    from ..settings import HEAD_ATTRIBUTION
+    from .head import head_view
+
+    say = progress or (lambda msg: None)
+    shipped = json.loads(HEAD_NUMBERS.read_text(encoding="utf-8"))
+    rows = [r for r in shipped["rows"] if r["kernel"] == kernel and r.get("regions")]
+    say(f"the head: its front G-buffer, {width}x{height} (Mitsuba), and the separable pass with {kernel}")
+    prof = profile_for_material(get_material("skin1"), "montecarlo")
+    cell, n = default_grid(prof)
+    method, params, label = parse_method_spec(kernel)
+    tp = make_taps(build_kernel(method.name, prof, cell, n, **params), taps)
+    gb = head_view("front", "skin1", width, height, spp=32).gbuffer
+    gb = dataclasses.replace(gb, albedo=np.where(gb.mask[..., None], np.clip(prof.total_rd(), 0, 1),
+                                                 gb.albedo).astype(np.float32))
+    image = gb.composite(separable_sss(gb, {1: tp}, PassSettings(backend=backend)))
+    plt = pyplot()
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.6), gridspec_kw={"width_ratios": [1, 1.25]})
+    left.imshow(tonemap(image, float(np.percentile(image[gb.mask], 99.5)) or 1.0))
+    left.set_title(f"Skin1 on the head, the separable pass with {label}, {tp.taps} taps (rendered now)", fontsize=9)
+    left.axis("off")
+    labels, k = [], 0
+    for row in rows:
+        for region, r in row["regions"].items():
+            level, ref, se = (np.asarray(r[key], float) for key in ("screen_space", "path_traced", "path_traced_se"))
+            for c in range(3):
+                ratio = level[c] / ref[c]
+                right.errorbar(k + (c - 1) * 0.22, ratio, yerr=2 * ratio * se[c] / ref[c], fmt="o",
+                               color=CHANNEL_COLORS[c], ms=5, capsize=3)
+            labels.append(f"{row['view']}\n{region.replace('_', ' ')}\n{r['pixels']} px")
+            k += 1
+    right.axhline(1.0, color="0.3", lw=1)
+    right.set_xticks(range(len(labels)), labels, fontsize=7)
+    right.set_ylabel("kernel's level / path traced (R, G, B; ± 2 SE)")
+    right.set_title("1 = the path-traced truth: a point whose bar crosses 1 agrees within its noise\n"
+                    f"(shipped numbers: {shipped['size'][0]}x{shipped['size'][1]} path traces, docs/head_numbers.json)",
+                    fontsize=9)
+    right.grid(alpha=0.3, axis="y")
+    fig.suptitle(HEAD_ATTRIBUTION, fontsize=8, y=0.02)
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    path = Path(out) / "head.png"
+    save_figure(fig, path)
+    return path, {"rows": rows, "figure": shipped["figure"], "size": shipped["size"], "taps": shipped["taps"],
+                  "attribution": shipped.get("attribution", HEAD_ATTRIBUTION)}

@@ -73,12 +73,12 @@ class StudyScene:
 
 
 def study_gbuffer(view: str | tuple[float, float, float], material: str = "skin1", width: int = 256,
-                  height: int = 192, spp: int = 16, seed: int = 0, scene: str = "bust", units: str | None = None,
-                  material_map: str | dict[str, str] | None = None) -> StudyScene:
+                  height: int = 192, spp: int = 16, seed: int = 0, scene: Any = "bust", units: str | None = None,
+                  material_map: str | dict[str, str] | None = None, light_layers: bool = False) -> StudyScene:
     """The study's :class:`StudyScene` at ``view`` (a name of :data:`STUDY_VIEWS` or any --view value):
     ``scene`` a mesh scene (:func:`ssskit.scenes.resolve_scene`: the bust by default, or a mesh or
     scene file with its ``units`` and ``material_map``); objects the scene gives no material take
-    ``material``."""
+    ``material``; ``light_layers``: the G-buffer also carries the transmittance pass's light layers."""
     from ..kernels import build_kernel, default_grid
     from ..materials import get_material
     from ..profiles import burley_profile
@@ -86,8 +86,15 @@ def study_gbuffer(view: str | tuple[float, float, float], material: str = "skin1
     from ..scenes import render_gbuffer, resolve_scene
     from ..screenspace import BurleyParams
 
-    v = STUDY_VIEWS.get(view, view) if isinstance(view, str) else view
-    spec = resolve_scene(scene, view=v, units=units, material_map=material_map, width=width, height=height).spec
+    from ..scenes import SCENES, SceneSpec
+
+    spec: SceneSpec | None
+    if isinstance(scene, SceneSpec):  # a scene already seen from its view (ssskit.figures.head)
+        spec = scene
+    else:
+        named = isinstance(scene, str) and scene in SCENES and SCENES.get(scene).views  # the head's own views
+        v = view if named else STUDY_VIEWS.get(view, view) if isinstance(view, str) else view
+        spec = resolve_scene(scene, view=v, units=units, material_map=material_map, width=width, height=height).spec
     assert spec is not None  # a mesh scene always has one
     mats: tuple[Any, ...] = tuple(get_material(m) for m in spec.shape_materials(material))
     params, taps, profiles = {}, {}, []
@@ -99,7 +106,7 @@ def study_gbuffer(view: str | tuple[float, float, float], material: str = "skin1
         profiles.append(prof)
     albedo = np.clip([params[pid].albedo for pid in params], 0.0, 1.0)
     gb = render_gbuffer(spec, albedo, eta=[m.eta for m in mats], width=width, height=height, spp=spp, seed=seed,
-                        material=tuple(m.name for m in mats))
+                        material=tuple(m.name for m in mats), light_layers=light_layers)
     reach = [float(np.max(p.radius_at_fraction(0.99))) for p in profiles]
     return StudyScene(spec, gb, mats, params, taps, profiles[int(np.argmax(reach))])
 

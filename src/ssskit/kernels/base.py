@@ -381,7 +381,9 @@ def load_kernel(path: str | Path) -> AnyKernel:
         raise KernelError(f"kernel file {str(p)!r} does not exist")
     try:
         if suffix == ".json":
-            d = json.loads(p.read_text(encoding="utf-8"))
+            from ..io import parse_document
+
+            d = parse_document(p.read_text(encoding="utf-8"), suffix)
         else:
             with np.load(p, allow_pickle=False) as z:
                 d = json.loads(str(z["meta"]))

@@ -56,6 +56,12 @@ class RadialProfile(ABC):
     def params(self) -> dict[str, Any]:
         """The parameters that define this channel's profile (for reports and provenance)."""
 
+    def totals(self) -> dict[str, float]:
+        """The totals every JSON reports: ``total_Rd``, all diffusely reflected light (MCML's Rd; for a closed-form
+        profile its integral to infinity, :meth:`total_rd`), one meaning in every command's JSON. A profile that
+        leaves light out of R(r) (Monte Carlo beyond its grid) adds its other totals under their own names."""
+        return {"total_Rd": float(self.total_rd())}
+
     def energy_within(self, rho: ArrayLike) -> NDArray[np.float64]:
         """E(rho) = 2 pi Int_0^rho R(r) r dr."""
         return self.total_rd() - self.energy_outside(rho)
@@ -144,7 +150,7 @@ class RGBProfile:
         return np.stack([c.discretize_2d(cell_mm, n) for c in self.channels], axis=-1)
 
     def to_dict(self, r_mm: ArrayLike) -> dict[str, Any]:
-        """The JSON shape of ``ssskit profile --json``: r_mm and per channel Rd and total_Rd."""
+        """The JSON shape of ``ssskit profile --json``: r_mm and per channel Rd and the totals (:meth:`RadialProfile.totals`)."""
         r_mm = np.asarray(r_mm, dtype=float)
         values = self.eval(r_mm)
         return {
@@ -154,7 +160,7 @@ class RGBProfile:
             "channels": {
                 ch: {
                     "Rd": _finite_list(values[:, i]),
-                    "total_Rd": float(self.channels[i].total_rd()),
+                    **self.channels[i].totals(),
                     "params": self.channels[i].params(),
                 }
                 for i, ch in enumerate(CHANNELS)

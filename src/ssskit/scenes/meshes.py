@@ -1,4 +1,4 @@
-"""Triangle meshes from files: reading (OBJ and PLY through Mitsuba 3, glTF ``.glb``/``.gltf`` through
+"""Triangle meshes from files: reading (OBJ through Mitsuba 3, PLY and glTF ``.glb``/``.gltf`` through
 trimesh), the checks a mesh passes before anything is rendered, and writers for the four formats.
 
 What is checked, and when (all before any rendering; :func:`inspect_mesh_file` runs the cheap ones
@@ -23,9 +23,7 @@ transforms applied), named by the material. Coordinates are in the file's units;
 
 from __future__ import annotations
 
-import base64
 import hashlib
-import json
 import os
 import struct
 from collections.abc import Sequence
@@ -36,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError
-from ..io import atomic_output
+from ..io import atomic_output, parse_document
 
 #: mesh file suffixes and the reader of each
 FORMATS = {".obj": "obj", ".ply": "ply", ".glb": "gltf", ".gltf": "gltf"}
@@ -178,8 +176,8 @@ def _gltf_json(p: Path) -> dict:
     else:
         text = data
     try:
-        doc = json.loads(text.decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError):
+        doc = parse_document(text.decode("utf-8"), ".json")
+    except (UnicodeDecodeError, ValueError):
         raise SceneError(f"mesh {str(p)!r} is not a glTF file (its JSON does not parse)") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("asset"), dict):
         raise SceneError(f"mesh {str(p)!r} is not a glTF file (no 'asset' object)")
@@ -379,11 +377,46 @@ def _read_gltf(p: Path) -> tuple[Mesh, ...]:
     return tuple(meshes)
 
 
+def _read_ply(p: Path) -> tuple[Mesh, ...]:
+    """A PLY file's arrays through trimesh's PLY parser (ASCII and binary; polygons triangulated), so that its
+    face indices are checked (:class:`Mesh`) before any renderer sees them: Mitsuba's own PLY loader takes an
+    index beyond the vertices as it is and crashes the process (exit 139) building the shape."""
+    import trimesh
+    from trimesh.exchange.ply import load_ply
+
+    try:
+        with open(p, "rb") as fh:
+            kw = load_ply(fh)
+        faces = kw.get("faces")
+        if faces is None or len(faces) == 0:
+            raise SceneError(f"mesh {str(p)!r} has no faces")
+        if isinstance(faces, np.ndarray) and faces.ndim == 2 and faces.shape[1] == 3:
+            tri = np.asarray(faces, dtype=np.int64)
+        else:  # polygons: fan-triangulated by trimesh, indices kept as they are (checked by Mesh)
+            tri = np.asarray(trimesh.geometry.triangulate_quads(faces), dtype=np.int64)
+    except SceneError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - trimesh's parser raises many kinds of errors on a corrupt file
+        raise SceneError(f"mesh {str(p)!r} cannot be read as PLY: {exc}") from None
+    normals = kw.get("vertex_normals")
+    verts = np.asarray(kw.get("vertices", np.zeros((0, 3))), dtype=np.float32).reshape(-1, 3)
+    if normals is not None:
+        normals = np.asarray(normals, dtype=np.float32).reshape(-1, 3)
+        if len(normals) != len(verts):
+            normals = None
+        else:  # unit length, as Mitsuba's loader leaves them (a zero normal stays zero)
+            normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), np.float32(1e-30))
+    return (Mesh(p.stem, verts, tri, normals),)
+
+
 def read_mesh(path: str | os.PathLike[str]) -> tuple[Mesh, ...]:
-    """The objects of a mesh file (module docstring), each checked by :func:`check_mesh`."""
+    """The objects of a mesh file (module docstring), each checked by :class:`Mesh` (face indices within the
+    vertices) and :func:`check_mesh`: OBJ through Mitsuba's loader (which refuses an index out of range), PLY and
+    glTF through trimesh."""
     p = check_mesh_path(path)
     kind = FORMATS[p.suffix.lower()]
-    meshes = _read_gltf(p) if kind == "gltf" else _read_mitsuba(p, kind)
+    reader = {"gltf": _read_gltf, "ply": _read_ply}.get(kind)
+    meshes = reader(p) if reader is not None else _read_mitsuba(p, kind)
     if not meshes:
         raise SceneError(f"mesh {str(p)!r} holds no triangle mesh")
     for m in meshes:
@@ -455,20 +488,27 @@ def bounding_sphere(meshes: Sequence[Mesh], scale: float = 1.0) -> tuple[np.ndar
 
 # ---- writing -------------------------------------------------------------------------------------------
 
+def _trimesh(mesh: Mesh, material: bool = False) -> Any:
+    """The mesh as a ``trimesh.Trimesh`` (arrays as they are: no merging or reordering), its normals stored only
+    when it has some; ``material``: a glTF PBR material named after the object (grey, not metallic)."""
+    import trimesh
+
+    kw = {} if mesh.normals is None else {"vertex_normals": mesh.normals}
+    t = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False, **kw)
+    if material:
+        t.visual = trimesh.visual.TextureVisuals(material=trimesh.visual.material.PBRMaterial(
+            name=mesh.name, baseColorFactor=[204, 204, 204, 255], metallicFactor=0.0))
+    return t
+
+
 def ply_bytes(verts: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None) -> bytes:
-    """A binary little-endian PLY file of a triangle mesh (float32 positions and normals, uint32 indices)."""
-    verts = np.ascontiguousarray(verts, dtype="<f4")
-    cols = [verts] if normals is None else [verts, np.ascontiguousarray(normals, dtype="<f4")]
-    vdata = np.concatenate(cols, axis=1).astype("<f4")
-    props = "property float x\nproperty float y\nproperty float z\n"
-    if normals is not None:
-        props += "property float nx\nproperty float ny\nproperty float nz\n"
-    header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(verts)}\n{props}"
-              f"element face {len(faces)}\nproperty list uchar uint vertex_indices\nend_header\n")
-    fdata = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<u4", (3,))])
-    fdata["n"] = 3
-    fdata["i"] = faces
-    return header.encode() + vdata.tobytes() + fdata.tobytes()
+    """A binary little-endian PLY file of a triangle mesh (float32 positions and normals, int32 indices), written
+    by trimesh's PLY exporter."""
+    from trimesh.exchange.ply import export_ply
+
+    mesh = Mesh("ply", verts, faces, normals)
+    return bytes(export_ply(_trimesh(mesh), encoding="binary", vertex_normal=normals is not None,
+                            include_attributes=False))
 
 
 def _merged(meshes: Sequence[Mesh]) -> Mesh:
@@ -483,6 +523,9 @@ def _merged(meshes: Sequence[Mesh]) -> Mesh:
 
 
 def _obj_text(meshes: Sequence[Mesh]) -> str:
+    """An OBJ file of the objects, one ``o`` group each, positions and normals as float32 writes them (``%.9g``:
+    exact). Kept by hand: trimesh 4's OBJ export of several objects (a Scene) drops their given vertex normals
+    (``Scene.dump`` copies the geometry without them) and writes fixed-point numbers (8 decimals by default)."""
     lines = ["# written by ssskit"]
     base = 1
     for m in meshes:
@@ -497,48 +540,12 @@ def _obj_text(meshes: Sequence[Mesh]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _gltf_document(meshes: Sequence[Mesh]) -> tuple[dict, bytes]:
-    """A glTF 2.0 document (one mesh, node and material per object, named after it) and its buffer."""
-    blob = bytearray()
-    views: list[dict] = []
-    accessors: list[dict] = []
-
-    def add(array: np.ndarray, target: int, kind: str, ctype: int, minmax: bool = False) -> int:
-        while len(blob) % 4:
-            blob.append(0)
-        data = array.tobytes()
-        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(data), "target": target})
-        blob.extend(data)
-        acc = {"bufferView": len(views) - 1, "componentType": ctype, "count": int(len(array)), "type": kind}
-        if minmax:
-            acc.update(min=array.min(axis=0).tolist(), max=array.max(axis=0).tolist())
-        accessors.append(acc)
-        return len(accessors) - 1
-
-    gl_meshes, nodes, materials = [], [], []
-    for i, m in enumerate(meshes):
-        attrs = {"POSITION": add(m.vertices.astype("<f4"), 34962, "VEC3", 5126, minmax=True)}
-        if m.normals is not None:
-            attrs["NORMAL"] = add(m.normals.astype("<f4"), 34962, "VEC3", 5126)
-        idx = add(m.faces.astype("<u4").reshape(-1), 34963, "SCALAR", 5125)
-        materials.append({"name": m.name, "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0],
-                                                                    "metallicFactor": 0.0}})
-        gl_meshes.append({"name": m.name, "primitives": [{"attributes": attrs, "indices": idx, "material": i,
-                                                          "mode": 4}]})
-        nodes.append({"name": m.name, "mesh": i})
-    while len(blob) % 4:
-        blob.append(0)
-    doc = {"asset": {"version": "2.0", "generator": "ssskit"}, "scene": 0,
-           "scenes": [{"nodes": list(range(len(nodes)))}], "nodes": nodes, "meshes": gl_meshes,
-           "materials": materials, "accessors": accessors, "bufferViews": views,
-           "buffers": [{"byteLength": len(blob)}]}
-    return doc, bytes(blob)
-
-
 def write_mesh(path: str | os.PathLike[str], meshes: Mesh | Sequence[Mesh]) -> Path:
-    """Write ``meshes`` to ``path`` (format from the suffix, atomically): ``.obj`` (one ``o`` group per
-    object), ``.ply`` (binary; several objects are merged), ``.glb`` / ``.gltf`` (glTF 2.0, one node,
-    mesh and material per object named after it; a ``.gltf`` embeds its buffer as a data URI)."""
+    """Write ``meshes`` to ``path`` (format from the suffix, atomically), PLY and glTF with trimesh's exporters:
+    ``.obj`` (one ``o`` group per object: :func:`_obj_text`), ``.ply`` (binary; several objects are merged), ``.glb`` / ``.gltf`` (glTF 2.0, one
+    node, mesh and material per object named after it; a ``.gltf`` embeds its buffer as a data URI)."""
+    import trimesh
+
     p = Path(path)
     items = (meshes,) if isinstance(meshes, Mesh) else tuple(meshes)
     if not items:
@@ -552,15 +559,16 @@ def write_mesh(path: str | os.PathLike[str], meshes: Mesh | Sequence[Mesh]) -> P
     elif kind == "obj":
         data = _obj_text(items).encode("ascii")
     else:
-        doc, blob = _gltf_document(items)
-        if p.suffix.lower() == ".gltf":
-            doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(blob).decode()
-            data = json.dumps(doc).encode()
+        scene = trimesh.Scene()
+        for m in items:
+            scene.add_geometry(_trimesh(m, material=True), geom_name=m.name, node_name=m.name)
+        if p.suffix.lower() == ".glb":
+            data = scene.export(file_type="glb")
         else:
-            text = json.dumps(doc).encode()
-            text += b" " * (-len(text) % 4)
-            body = struct.pack("<I4s", len(text), b"JSON") + text + struct.pack("<I4s", len(blob), b"BIN\x00") + blob
-            data = struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
+            from trimesh.exchange.gltf import export_gltf
+
+            files = export_gltf(scene, embed_buffers=True)
+            data = files["model.gltf"]
     with atomic_output(p) as tmp:
         tmp.write_bytes(data)
     return p

@@ -76,14 +76,47 @@ def warnings_dropped() -> Iterator[None]:
         logger.set_log_level(before)
 
 
+class RenderInterrupted(KeyboardInterrupt):
+    """A Mitsuba render cancelled before its end: an interruption, never an image. Mitsuba's own SIGINT
+    handler (installed around every ``Integrator.render`` on Linux and macOS, whatever SIGINT's disposition
+    was: ``ScopedSignalHandler`` in ``src/render/python/integrator_v.cpp``) cancels the integrator, logs
+    "Received interrupt signal, winding down..", re-raises the signal to the handler before it, and the render
+    returns the samples it has as if it had finished. A KeyboardInterrupt, so every caller's clean-up runs
+    and nothing (a file, a cache entry, a metric) is made of the partial image."""
+
+
 def interruptible_render(scene: Any, **kwargs: Any) -> Any:
-    """``mi.render(scene, **kwargs)`` that Ctrl-C or SIGTERM (handled as Ctrl-C by the CLI) stops within a
-    fraction of a second: in the main thread the render runs on a helper thread (Mitsuba releases the GIL)
-    that the main thread joins in short waits, so Python's signal handler runs; on the interrupt the scene's
-    integrator is cancelled (``Integrator.cancel``: its render ended 0.04 s later on a 1024x1024 image, 0.004 s
-    at 4096 spp) and the KeyboardInterrupt goes on. A direct call from the main thread ran to the end of the
-    render first (minutes on a large image). Elsewhere (a worker thread): ``mi.render`` itself."""
+    """``mi.render(scene, **kwargs)``, the one way ssskit calls Mitsuba's renderer, so that SIGINT means the same
+    to both (:class:`RenderInterrupted`):
+
+    * a render Mitsuba wound down (its integrator's ``should_stop()`` after the render) is a
+      :class:`RenderInterrupted`, never an image;
+    * while SIGINT is ignored (inherited as ignored: a non-interactive shell's background job), Mitsuba's
+      handler still winds the render down and drops the signal; the render then runs again with the same
+      seed, so the image is the one an uninterrupted render gives. (The CLI blocks an ignored SIGINT in every
+      thread, :func:`ssskit.compute.workers.ignored_sigint_blocked`, so Mitsuba's handler never runs there: it
+      logs from inside the signal handler, and a flood of signals, one every 0.1 s, left every thread of a
+      background ``ssskit render`` waiting inside it, for good.)
+    * Ctrl-C or SIGTERM (handled as Ctrl-C by the CLI) stops it within a fraction of a second: in the main
+      thread the render runs on a helper thread (Mitsuba releases the GIL) that the main thread waits for in
+      short waits, so Python's signal handler runs; on the interrupt the scene's integrator is cancelled
+      (``Integrator.cancel``: its render ended 0.04 s later on a 1024x1024 image, 0.004 s at 4096 spp) and the
+      KeyboardInterrupt goes on. A direct call from the main thread ran to the end of the render first (minutes
+      on a large image). Elsewhere (a worker thread): ``mi.render`` itself, then the same checks."""
+    from ..compute.workers import sigint_ignored
+
     mi = mitsuba()
+    integrator = kwargs.get("integrator") or scene.integrator()
+    while True:
+        image = _render_once(mi, scene, integrator, kwargs)
+        if integrator is None or not integrator.should_stop():
+            return image
+        if not sigint_ignored():
+            raise RenderInterrupted("Mitsuba's render was cancelled: its partial image is no result")
+
+
+def _render_once(mi: ModuleType, scene: Any, integrator: Any, kwargs: dict[str, Any]) -> Any:
+    """One ``mi.render`` call, on a helper thread that the main thread waits for (:func:`interruptible_render`)."""
     if threading.current_thread() is not threading.main_thread():
         return mi.render(scene, **kwargs)
     out: list[Any] = []
@@ -103,7 +136,6 @@ def interruptible_render(scene: Any, **kwargs: Any) -> Any:
         while not done.wait(_WAIT_S):
             pass
     except BaseException:
-        integrator = kwargs.get("integrator") or scene.integrator()
         # cancel until the render has ended: Mitsuba's render clears its stop flag when it starts, so a cancel
         # that came before the thread entered it is lost (a process that exits with the render alive can crash)
         deadline = _CANCEL_WAIT_S / _WAIT_S
@@ -170,5 +202,5 @@ def render_threads() -> Iterator[None]:
         yield
 
 
-__all__ = ["interruptible_render", "leaving_a_core_to", "mitsuba", "mitsuba_threads", "render_threads",
-           "warnings_dropped"]
+__all__ = ["RenderInterrupted", "interruptible_render", "leaving_a_core_to", "mitsuba", "mitsuba_threads",
+           "render_threads", "warnings_dropped"]

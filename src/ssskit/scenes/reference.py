@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..cache import cache_dir
+from ..cache import cache_dir, cache_file
 from ..errors import SceneError
 from ..io import atomic_output, progress_bar
 from ..materials import Material
@@ -345,7 +345,7 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
                       "region": hashlib.sha1(np.packbits(region).tobytes()).hexdigest(),
                       "geometry": json.dumps([spec.shapes(), spec.lights(), spec.origin, spec.fov_x_deg], default=str)},
                      sort_keys=True)
-    path = reference_cache_dir() / f"{spec.name}-{hashlib.sha1(key.encode()).hexdigest()[:16]}.npz"
+    path = cache_file("reference", spec.name, hashlib.sha1(key.encode()).hexdigest()[:16], ".npz")
     opts = dict(target_rel_se=float(target_rel_se), max_spp=int(max_spp), boundary=boundary,
                 surround_albedo=float(surround_albedo), seed=int(seed), chunk_spp=int(chunk_spp))
     if use_cache and path.is_file():

@@ -50,7 +50,6 @@ from __future__ import annotations
 import math
 import os
 import re
-import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -60,6 +59,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
+from ..io import parse_document
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
 from .scenes import SCENES, SceneSpec, _T, _ply, check_size
 
@@ -111,14 +111,19 @@ def _generated(kind: str, params: Mapping[str, Any]) -> tuple[Mesh | None, dict 
             return None, _ply("ellipsoid", *scenes._ellipsoid_geometry(**args))
         if kind == "heightfield":
             return None, _ply("bumpy", *scenes._bumpy_geometry(**params))
+        if kind == "head":  # the scanned head (ssskit.scenes.head), scaled to mm; closed once welded
+            from .head import head_mesh
+
+            m = head_mesh(**params)
+            return None, _ply("head", m.vertices, m.faces, m.normals, face_normals=False)
     except TypeError as exc:
         raise SceneError(f"generator {kind!r}: {exc}") from None
     raise SceneError(f"unknown generator {kind!r} (known: {', '.join(GENERATORS)})")
 
 
 #: the shape generators of scene files; the direct ones give the built-in scenes' Mitsuba dicts as they were
-GENERATORS = ("bust", "icosphere", "torus", "ellipsoid", "heightfield")
-DIRECT_GENERATORS = ("ellipsoid", "heightfield")
+GENERATORS = ("bust", "icosphere", "torus", "ellipsoid", "heightfield", "head")
+DIRECT_GENERATORS = ("ellipsoid", "heightfield", "head")
 
 
 def _bust_arrays(voxel_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
@@ -155,7 +160,7 @@ def _shape_id(name: str, taken: set[str]) -> str:
 
 
 def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[str, str], default: str,
-                  source: str, taken: set[str]) -> list[MeshObject]:
+                  source: str, taken: set[str], deferred: list[Callable[[], None]]) -> list[MeshObject]:
     names = [m.name for m in meshes]
     unknown = sorted(set(materials) - set(names))
     if unknown:
@@ -169,7 +174,7 @@ def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[st
             topo = topology(m)
         mm = m.scaled(scale_mm)
         shape = _ply(f"mesh-{re.sub(r'[^A-Za-z0-9_]', '_', m.name)}", mm.vertices, mm.faces, mm.normals,
-                     face_normals=False)
+                     face_normals=False, deferred=deferred)
         out.append(MeshObject(_shape_id(m.name, taken), m.name, shape, materials.get(m.name, default),
                               topo.reference_problem(f"{source}:{m.name}" if len(meshes) > 1 else source),
                               mm.digest()))
@@ -183,12 +188,12 @@ def check_units(units: str | Sequence[str] | None) -> str | None:
     different ones (``--units`` given twice)."""
     if units is None:
         return None
-    values = [units] if isinstance(units, str) else list(units)
+    values = [units] if isinstance(units, str) else list(units) if isinstance(units, (list, tuple)) else [units]
     if not values:
         return None
     norm = []
     for u in values:
-        key = str(u).strip().lower()
+        key = u.strip().lower() if isinstance(u, str) else None  # a TOML number or table is no unit name
         if key not in UNITS_MM:
             raise SceneError(f"unknown units {u!r} (known: {', '.join(UNITS_MM)})")
         norm.append(key)
@@ -385,8 +390,8 @@ def load_scene_file(path: str | os.PathLike[str], **options: Any) -> LoadedScene
         raise SceneError(f"scene file {str(p)!r} does not exist" if not p.exists() else
                          f"scene file {str(p)!r} is not a file")
     try:
-        doc = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        doc = parse_document(p.read_text(encoding="utf-8"), ".toml")
+    except (ValueError, UnicodeDecodeError) as exc:
         raise SceneError(f"scene file {str(p)!r} is not valid TOML: {exc}") from None
     doc.setdefault("name", p.stem)
     return scene_from_document(doc, base=p.parent, source=str(p), **options)
@@ -405,7 +410,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     check (:func:`ssskit.scenes.meshes.check_memory`) is made for.
     """
     _keys(source, doc, {"name", "description", "units", "camera", "shapes", "lights", "orbit_deg_per_frame",
-                        "light_orbit_deg_per_frame", "lit_from_behind"}, {"shapes"})
+                        "light_orbit_deg_per_frame", "lit_from_behind", "views"}, {"shapes"})
     if not isinstance(doc.get("lit_from_behind", False), bool):
         raise SceneError(f"{source}: lit_from_behind must be true or false, got {doc['lit_from_behind']!r}")
     check_size(width, height)
@@ -423,7 +428,9 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     sss_materials: list[str] = []
     objects: list[MeshObject] = []
     problems: list[str] = []
+    deferred: list[Callable[[], None]] = []  # the meshes' cache files, written once every check has passed
     mesh_vertices: list[np.ndarray] = []
+    about: dict[str, Any] = {}
     taken: set[str] = set()
     claimed: set[str] = set()
     for sid, table in shapes_doc.items():
@@ -452,6 +459,14 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         elif kind == "generated":
             _keys(where, table, {"type", "generator", "params", "material", "materials", "sss"}, {"generator"})
             gen, params = str(table["generator"]), dict(table.get("params", {}))
+            if gen == "head":  # the scan's scale and the credit its licence asks for (ssskit.scenes.head)
+                from .head import ATTRIBUTION, LICENCE, MM_PER_UNIT, check_mm_per_unit
+
+                if set(params) - {"mm_per_unit"}:
+                    raise SceneError(f"{where}: the head generator takes mm_per_unit only, got {', '.join(params)}")
+                about.update({"attribution": ATTRIBUTION, "licence": LICENCE,
+                              "mm_per_unit": check_mm_per_unit(params.get("mm_per_unit", MM_PER_UNIT)),
+                              "scale_evidence": "docs/head.md, Scale"})
             if gen in DIRECT_GENERATORS:  # the built-in scenes' geometry, made when the scene is rendered
                 shapes[sid] = {"__thunk": (gen, params)}
                 taken.add(sid)
@@ -470,7 +485,10 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                 sss_materials.append(_shape_material(sid, table, material_map, claimed))
             continue
         assert meshes is not None
-        if len(meshes) == 1 and meshes[0].name != sid:
+        # a one-object file named by its stem (OBJ, PLY) or a generator takes the shape's id; glTF objects keep their
+        # materials' names, one material or several (docs/meshes.md: --material-map skin=skin1 names it)
+        by_material = kind == "mesh" and FORMATS[fpath.suffix.lower()] == "gltf"
+        if len(meshes) == 1 and meshes[0].name != sid and not by_material:
             meshes = (Mesh(sid, meshes[0].vertices, meshes[0].faces, meshes[0].normals),)
             own = {sid: material_map[sid]} if sid in material_map else {}
         else:
@@ -481,7 +499,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             own = {**{str(k): str(v) for k, v in table["materials"].items()}, **own}
         claimed.update(own)
         scale = UNITS_MM[unit]
-        objs = _mesh_objects(meshes, scale, own, str(table.get("material", "")), label, taken)
+        objs = _mesh_objects(meshes, scale, own, str(table.get("material", "")), label, taken, deferred)
         centre, r = bounding_sphere(meshes, scale)
         lo, hi = MODEL_SIZE_MM
         if not lo <= 2 * r <= hi:
@@ -555,6 +573,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                 raise SceneError(f"{source}: light {lid!r} is placed relative to the automatic framing, but the "
                                  "camera is explicit; give type = point | sphere")
             lights[lid] = _relative_light(lid, ltable, centre, radius, vw[0], vw[1], up_v, front)
+    views = _named_views(source, doc.get("views", {}), explicit)
     desc = str(doc.get("description", f"meshes from {source}"))
     spec = SceneSpec(str(doc.get("name", source)), desc, origin, target, up, float(fov),
                      _frozen_dicts(shapes), tuple(sss), _frozen_dicts(lights),
@@ -562,8 +581,32 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                      light_orbit_deg_per_frame=float(doc.get("light_orbit_deg_per_frame", 0.0)),
                      sss_materials=tuple(sss_materials) if any(sss_materials) else (),
                      reference_problem="; ".join(problems) or None,
-                     lit_from_behind=bool(doc.get("lit_from_behind", False)))
+                     lit_from_behind=bool(doc.get("lit_from_behind", False)),
+                     about=tuple(about.items()), views=views)
+    for write in deferred:
+        write()
     return LoadedScene(spec, tuple(notes), tuple(objects), not explicit, dict(doc), base)
+
+
+def _named_views(source: str, table: Any, explicit: bool) -> tuple[tuple[str, tuple], ...]:
+    """A scene's named cameras (``[views.NAME]``: origin, target, up, fov, as an explicit [camera]): what
+    ``--view NAME`` picks for that scene; only beside an explicit camera."""
+    if not isinstance(table, Mapping):
+        raise SceneError(f"{source}: views must be a table of named cameras")
+    if table and not explicit:
+        raise SceneError(f"{source}: named [views] need an explicit [camera] (origin, target, up, fov)")
+    out = []
+    for name, cam in table.items():
+        if not isinstance(cam, Mapping):
+            raise SceneError(f"{source}: view {name!r} must be a table")
+        _keys(f"{source}: view {name!r}", cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
+        for key in ("origin", "target", "up"):
+            _light_numbers(f"view {name}", key, cam[key], (3,), signed=True)
+        if not (isinstance(cam["fov"], (int, float)) and 1.0 <= cam["fov"] <= 150.0):
+            raise SceneError(f"{source}: view {name!r}: fov must lie in [1, 150] degrees, got {cam['fov']!r}")
+        out.append((str(name).lower(), (tuple(map(float, cam["origin"])), tuple(map(float, cam["target"])),
+                                        tuple(map(float, cam["up"])), float(cam["fov"]))))
+    return tuple(out)
 
 
 def _shape_material(sid: str, table: Mapping[str, Any], material_map: Mapping[str, str], claimed: set[str]) -> str:
@@ -615,7 +658,7 @@ def _primitive(where: str, kind: Any, table: Mapping[str, Any]) -> dict:
 
 def builtin_scene_files() -> list[Path]:
     """The built-in scenes' TOML files, in registration order."""
-    order = ("sphere", "slab", "ear", "bumpy", "backlit", "leaf")
+    order = ("sphere", "slab", "ear", "bumpy", "backlit", "leaf", "head")
     return [BUILTIN_DIR / f"{name}.toml" for name in order]
 
 
@@ -674,6 +717,21 @@ def parse_material_map(text: str | Mapping[str, str] | None) -> dict[str, str]:
     return out
 
 
+def with_view(spec: SceneSpec, view: Any) -> SceneSpec:
+    """``spec`` seen from its named view ``view`` (``[views.NAME]`` of its scene file; ``ear`` is also
+    ``profile``); a SceneError naming the scene's views otherwise."""
+    import dataclasses
+
+    names = dict(spec.views)
+    key = str(view).strip().lower() if isinstance(view, str) else None
+    if key not in names and key is not None:
+        key = {v: k for k, v in VIEW_ALIASES.items()}.get(key, key)
+    if key not in names:
+        raise SceneError(f"the built-in scene {spec.name!r} has the views {', '.join(names)}; got --view {view!r}")
+    origin, target, up, fov = names[key]
+    return dataclasses.replace(spec, origin=origin, target=target, up=up, fov_x_deg=fov)
+
+
 def unknown_scene_message(name: str) -> str:
     """The error of a ``--scene`` value that names no scene: every name it could be and the files it takes."""
     return (f"unknown scene {name!r} (built-in: {', '.join(SCENES.names())}; generated meshes: "
@@ -713,8 +771,14 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
             raise SceneError(f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} not apply to {what}")
 
     if text in SCENES:
-        no_options(f"the built-in scene {text!r} (fixed camera and primitives)")
         spec = SCENES.get(text)
+        if view is not None and spec.views:  # a built-in scene with named cameras (the head's close, ear, front)
+            no_options_but_view = [n for n, v in (("--units", cli_units), ("--material-map", mmap)) if v]
+            if no_options_but_view:
+                raise SceneError(f"{', '.join(no_options_but_view)} do not apply to the built-in scene {text!r}")
+            spec = with_view(spec, view)
+        else:
+            no_options(f"the built-in scene {text!r} (fixed camera and primitives)")
         return ResolvedScene("builtin", spec.name, spec=spec)
     if suffix == ".exr":
         no_options("a G-buffer file")
@@ -749,4 +813,4 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
 __all__ = ["BUILTIN_DIR", "DEFAULT_LIGHTS", "GENERATED_SCENES", "GENERATORS", "LoadedScene", "MeshObject",
            "OTHER_LIGHT", "ResolvedScene", "VIEWS", "builtin_scene_files", "check_units", "direction", "framing",
            "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document",
-           "unknown_scene_message"]
+           "unknown_scene_message", "with_view"]

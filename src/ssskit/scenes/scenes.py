@@ -23,14 +23,14 @@ import functools
 import hashlib
 import math
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 from types import ModuleType
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..cache import cache_dir
+from ..cache import cache_file
 from ..errors import SceneError
 from ..io import atomic_output
 from ..registry import Registry
@@ -72,6 +72,11 @@ class SceneSpec:
     #: so its frame shows nothing but the light the transmittance pass adds (``--transmission auto`` runs
     #: that pass for such a scene: :func:`ssskit.pipeline.transmission.transmission_runs`)
     lit_from_behind: bool = False
+    #: what a user must be told of the scene: (key, value) pairs, e.g. the head scan's ``attribution``, ``licence``
+    #: and ``mm_per_unit`` (:mod:`ssskit.scenes.head`); reported beside every result (``ssskit render --json``)
+    about: tuple[tuple[str, Any], ...] = ()
+    #: named cameras (name, (origin, target, up, fov_x_deg)) that ``--view NAME`` picks (the head's close, ear, front)
+    views: tuple[tuple[str, tuple], ...] = ()
 
     def shape_materials(self, default: str) -> tuple[str, ...]:
         """The material of each SSS shape (profile id i + 1 is ``sss_shapes[i]``), ``default`` where the
@@ -112,19 +117,28 @@ def _floor(size=400.0, z=0.0):
 
 
 def _ply(name: str, verts: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None,
-         face_normals: bool | None = None) -> dict:
+         face_normals: bool | None = None, deferred: list[Callable[[], None]] | None = None) -> dict:
     """A Mitsuba ``ply`` shape for a triangle mesh, written once to the ``meshes`` cache (binary PLY,
     named by a digest of the arrays). ``face_normals`` (default: when no normals are given) shades
-    with the faces' normals; otherwise Mitsuba interpolates the given or its own smooth vertex normals."""
+    with the faces' normals; otherwise Mitsuba interpolates the given or its own smooth vertex normals.
+    ``deferred``: the write is appended there instead of done now (a scene file writes its meshes only once
+    every check of the file has passed: nothing is written for a file that is refused)."""
     verts = np.ascontiguousarray(verts, dtype="<f4")
     faces = np.ascontiguousarray(faces, dtype="<u4")
     cols = [verts] if normals is None else [verts, np.ascontiguousarray(normals, dtype="<f4")]
     vdata = np.concatenate(cols, axis=1).astype("<f4")
     digest = hashlib.sha1(vdata.tobytes() + faces.tobytes()).hexdigest()[:16]
-    path = cache_dir("meshes") / f"{name}-{digest}.ply"
-    if not path.is_file():
-        with atomic_output(path) as tmp:
-            tmp.write_bytes(ply_bytes(verts, faces, normals))
+    path = cache_file("meshes", name, digest, ".ply")
+
+    def write() -> None:
+        if not path.is_file():
+            with atomic_output(path) as tmp:
+                tmp.write_bytes(ply_bytes(verts, faces, normals))
+
+    if deferred is None:
+        write()
+    else:
+        deferred.append(write)
     return {"type": "ply", "filename": str(path), "face_normals": normals is None if face_normals is None
             else bool(face_normals)}
 

@@ -1,5 +1,6 @@
 // ssskit: the guiding phase of the variance-guided adaptive sampler (Xie et al. 2020, Sec. 4.1, Fig. 8),
-// GLSL 4.30 compute, float32.
+// GLSL 4.30 compute, float32: the compute wrapper of the per-pixel body adaptive.glsl (inserted at the BODY
+// marker; adaptive.frag is its fragment wrapper).
 //
 // Executes ssskit.backends.adaptive_plan steps 1-4 for every pixel p: the nearest reprojection of the
 // previous history through the motion vectors without rejection (step 1, Sec. 4.1.5), with UPDATE the
@@ -35,59 +36,28 @@ layout(r32i, binding = 1) uniform iimage2D u_counts;
 
 uniform ivec2 u_size;
 
+vec4 load_hist(ivec2 q) { return texelFetch(u_hist, q, 0); }
+float load_mask(ivec2 q) { return texelFetch(u_mask, q, 0).r; }
+#if HAS_MOTION
+vec2 load_motion(ivec2 q) { return texelFetch(u_motion, q, 0).rg; }
+#endif
+#if HAS_VALID
+uint load_valid(ivec2 q) { return texelFetch(u_valid, q, 0).r; }
+#endif
+#if UPDATE
+vec3 load_rgb(ivec2 q) { return texelFetch(u_rgb, q, 0).rgb; }
+int load_count(ivec2 q) { return imageLoad(u_counts, q).r; }
+#endif
+
+// @BODY@
+
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (p.x >= u_size.x || p.y >= u_size.y) return;
-    // step 1: the nearest fetch of the previous history, no rejection; off-screen or invalid: none
-    bool ok = true;
-    ivec2 q = p;
-#if HAS_VALID
-    ok = texelFetch(u_valid, p, 0).r != 0u;
-#endif
-#if HAS_MOTION
-    vec2 mv = texelFetch(u_motion, p, 0).rg;
-    vec2 f = floor(vec2(p) + 0.5 + mv);
-    if (any(lessThan(f, vec2(0.0))) || any(greaterThanEqual(f, vec2(u_size)))) ok = false;
-    else q = ivec2(f);
-#endif
-    vec4 h = ok ? texelFetch(u_hist, q, 0) : vec4(0.0);
-    bool inside = texelFetch(u_mask, p, 0).r > 0.0;
+    vec4 h;
+    int n = adaptive_texel(p, h);
 #if UPDATE
-    // step 2: Eqs. 8, 6, 9, with M' = 1 (Eq. 16) and sigma^2 = sigma0^2 (Eq. 17) without history
-    float v = 0.0;
-    if (inside) {
-        vec3 c = texelFetch(u_rgb, p, 0).rgb;
-        float y = max(c.r * 0.2126 + c.g * 0.7152 + c.b * 0.0722, 0.0);  // BT.709 luminance
-        v = GAMMA_ONE != 0 ? y : pow(y, INV_GAMMA);                        // gamma-corrected (Sec. 4.1.2)
-    }
-    bool had = h.w > 0.0;
-    float a = had ? ALPHA : 1.0;
-    float b = 1.0 - a;
-    float d = v - h.y;                                  // S - C
-    float n_bar = b * h.x + a * float(imageLoad(u_counts, p).r);   // Eq. 8
-    float mu = a * d + h.y;                             // Eq. 6
-    float var = had ? (a * d * d + h.z) * b : SIGMA0_SQ;   // Eq. 9; Eq. 17
-    h = inside ? vec4(n_bar, mu, var, 1.0) : vec4(0.0);
     imageStore(u_dst, p, h);
 #endif
-    // steps 3-4: n_hat = n_bar (var + kappa (k - 1) spread) / sigma0^2 (Eqs. 13-15), clamped to the budget
-    int n = 0;
-    if (inside) {
-        float nb = h.x * h.w;
-#if VARIANCE
-        float spread = h.z - SIGMA0_SQ;
-#else
-        float spread = sqrt(h.z) - SIGMA0;
-#endif
-        float nh = ((spread * SPREAD_SCALE + h.z) * nb) / SIGMA0_SQ;
-        if (h.z == SIGMA0_SQ) {
-            // Eq. 17's variance: n_hat = n_bar exactly; the CPU's float64 estimate of the float32-stored
-            // sigma0^2 gives n_bar (1 + delta), delta of the sign of float32(sigma0^2) - sigma0^2 (S0_ROUNDS_UP)
-            nh = (S0_ROUNDS_UP != 0 && nb > 0.0 && nb == floor(nb)) ? nb + 0.5 : nb;
-        }
-        if (isnan(nh) || nh > float(B_MAX)) n = B_MAX;
-        else if (nh <= float(B_MIN)) n = B_MIN;
-        else n = int(ceil(nh));
-    }
     imageStore(u_counts, p, ivec4(n));
 }

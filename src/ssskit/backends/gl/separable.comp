@@ -1,4 +1,5 @@
-// ssskit: one 1D pass of the screen-space separable SSS filter (GLSL 4.30 compute).
+// ssskit: one 1D pass of the screen-space separable SSS filter (GLSL 4.30 compute): the compute wrapper of
+// the per-pixel body separable.glsl (inserted at the BODY marker), whose fragment wrapper is separable.frag.
 //
 // The pass executes the plan of ssskit.backends.plan, per pixel p with slot s > 0 and channel c:
 //
@@ -60,129 +61,10 @@ layout(binding = 1) uniform usampler2D u_slots;
 uint load_slot(ivec2 q) { return texelFetch(u_slots, q, 0).r; }
 #endif
 
-uniform float u_f;      // focal length along the pass axis, pixels
-uniform uint u_base;    // per-frame hash key: ssskit.sampling.hashes.frame_base(frame, seed)
-uniform int u_accumulate;  // vertical pass: 1 adds to the sum of the earlier terms in u_dst
-
-// Wellons' lowbias32 (ssskit.sampling.hashes.mix32)
-uint mix32(uint h) {
-    h ^= h >> 16; h *= 0x7FEB352Du;
-    h ^= h >> 15; h *= 0x846CA68Bu;
-    h ^= h >> 16;
-    return h;
-}
-
-#if VERTICAL
-const ivec2 AXIS = ivec2(0, 1);
-#else
-const ivec2 AXIS = ivec2(1, 0);
-#endif
-
-float depth_factor(float dz, float param) {
-#if DEPTH_MODE == 0
-    return exp(-dz * dz * param);             // gaussian: exp(-dz^2 / (2 tau_max)), supplement E
-#elif DEPTH_MODE == 1
-    return max(0.0, 1.0 - abs(dz) * param);   // follow: max(0, 1 - |dz| / width)
-#else
-    return 1.0;                               // none
-#endif
-}
-
-// (f E(q), f) with f = f(z_q - z) for a texel q of the pixel's slot, else 0 (off the image, off the
-// slot); a tap's sum S of these gives sum_j b_j f_j (E(j) - E(p)) = S.rgb - S.a E(p)
-vec4 texel(ivec2 q, vec4 c, uint slot, float param) {
-#if !(SRC_BUFFER && !MULTI_SLOT)
-    if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, u_size))) return vec4(0.0);
-#endif
-    vec4 t = load_src(q);
-#if MULTI_SLOT
-    if (load_slot(q) != slot) return vec4(0.0);
-#else
-    if (t.a < 0.0) return vec4(0.0);
-#endif
-    return depth_factor(t.a - c.a, param) * vec4(t.rgb, 1.0);
-}
-
-// a tap d pixels along the pass axis: the two texels of a 1D linear fetch
-vec4 tap1d(ivec2 p, float d, vec4 c, uint slot, float param) {
-    float fl = floor(d);
-    float t = d - fl;
-    ivec2 q = p + int(fl) * AXIS;
-    return (1.0 - t) * texel(q, c, slot, param) + t * texel(q + AXIS, c, slot, param);
-}
-
-// a tap at offset d (pixels, 2D): the four texels of a bilinear fetch
-vec4 tap2d(ivec2 p, vec2 d, vec4 c, uint slot, float param) {
-    vec2 fl = floor(d);
-    vec2 t = d - fl;
-    ivec2 q = p + ivec2(fl);
-    return (1.0 - t.y) * ((1.0 - t.x) * texel(q, c, slot, param) + t.x * texel(q + ivec2(1, 0), c, slot, param))
-         + t.y * ((1.0 - t.x) * texel(q + ivec2(0, 1), c, slot, param) + t.x * texel(q + ivec2(1, 1), c, slot, param));
-}
+// @BODY@
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (p.x >= u_size.x || p.y >= u_size.y) return;
-    vec4 c = load_src(p);
-#if MULTI_SLOT
-    uint slot = load_slot(p);
-    int s = int(slot);
-    if (slot == 0u) {
-#else
-    uint slot = 1u;
-    const int s = 1;
-    if (c.a < 0.0) {
-#endif
-#if VERTICAL
-        if (u_accumulate == 0) store_dst(p, c);
-#else
-        store_dst(p, c);
-#endif
-        return;
-    }
-    int t = TERM * NSLOTS + s;   // this term's table of slot s
-    float param = DEPTH_PARAM[s];
-    float scale = u_f / c.a;     // pixels per mm at the pixel's depth
-    vec3 acc = CENTRE[t] * c.rgb;
-    int nj = N_JIT[t];
-    int nr = N_ROWS[t];
-    vec2 u = vec2(AXIS);
-    if (nj > 0) {
-        // theta = 2 pi h / 2^32 (ssskit.sampling.hashes.jitter_angles), evaluated as theta - pi in
-        // [-pi, pi) where float32 sin/cos are accurate: cos(theta) = -cos(theta - pi), likewise sin
-        uint h = mix32(mix32(u_base ^ uint(p.y)) ^ uint(p.x));
-        float a = (float(h) * 2.3283064365386963e-10 - 0.5) * 6.283185307179586;
-        float cs = -cos(a), sn = -sin(a);
-#if VERTICAL
-        u = vec2(-sn, cs);
-#else
-        u = vec2(cs, sn);
-#endif
-    }
-    for (int k = 0; k < KMAX; ++k) {
-        if (k >= nr) break;
-        int i = t * KMAX + k;
-        float reach = ROW_PLUS[i].w * scale;
-        vec4 sp, sm;
-        if (k < nj) {
-            sp = tap2d(p, reach * u, c, slot, param);
-            sm = tap2d(p, -reach * u, c, slot, param);
-        } else {
-            sp = tap1d(p, reach, c, slot, param);
-            sm = tap1d(p, -reach, c, slot, param);
-        }
-        if (ROW_SYMMETRIC[i]) {   // a mirror pair: one weight for both sides
-            sp += sm;
-            acc += ROW_PLUS[i].rgb * (sp.rgb - sp.a * c.rgb);
-        } else {
-            acc += ROW_PLUS[i].rgb * (sp.rgb - sp.a * c.rgb) + ROW_MINUS[i] * (sm.rgb - sm.a * c.rgb);
-        }
-    }
-#if VERTICAL
-    vec3 outc = SIGN[t] * acc;
-    if (u_accumulate != 0) outc += load_dst(p).rgb;
-    store_dst(p, vec4(outc, c.a));
-#else
-    store_dst(p, vec4(acc, c.a));
-#endif
+    store_dst(p, separable_texel(p));
 }

@@ -47,6 +47,11 @@ class MonteCarloProfile(RadialProfile):
         """All diffusely reflected light, the grid's and beyond it (MCML's Rd)."""
         return float(self.result.total_rd)
 
+    def totals(self) -> dict[str, float]:
+        """``total_Rd`` with the overflow (MCML's Rd, as in ``ssskit simulate``'s JSON), ``total_Rd_in_grid`` (what
+        R(r) integrates to, :meth:`total_rd`) and the ``overflow`` between them."""
+        return {"total_Rd": self.total_rd_with_overflow(), "total_Rd_in_grid": self._total, "overflow": self.overflow}
+
     def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         r = self.radii(r)
         n = self.rd.shape[0]
@@ -72,8 +77,7 @@ class MonteCarloProfile(RadialProfile):
     def params(self) -> dict[str, Any]:
         cfg = self.result.config
         return {"photons": cfg.photons, "seed": cfg.seed, "dr_mm": cfg.dr_mm, "nr": cfg.nr,
-                "grid_mm": float(self.edges[-1]), "total_Rd_in_grid": self._total,
-                "total_Rd_with_overflow": self.total_rd_with_overflow(), "overflow": self.overflow,
+                "grid_mm": float(self.edges[-1]),
                 "layers": [asdict(l) for l in cfg.layers]}
 
 

@@ -21,13 +21,14 @@ import numpy as np
 from ...cache import cache_dir
 from ...errors import ProfileError, SimulationInterrupted
 from ...io import ProgressBar, progress_bar, save_arrays
+from ...progress import add_to_total
 from .config import N_EXIT_BINS, MCConfig, layer_arrays
 from .result import N_TOTALS, MCResult, assemble_result
 
 
 def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None = None, resume: bool = False,
              restart: bool = False, use_cache: bool = True, label: str = "", shipped: bool = True,
-             backend: str = "numba") -> MCResult:
+             backend: str = "numba", shared_bar: ProgressBar | None = None) -> MCResult:
     """Run (or load from the cache) one MCML simulation on the numba engine (``backend="numba"``) or the
     GLSL one (``backend="gl"``: :mod:`.engine_gl`, any GPU or llvmpipe; its own cache entries).
 
@@ -41,6 +42,8 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
     nothing is read or written, a partial result included. The result is bit-identical for any
     ``threads`` and for resumed runs. ``label`` names the run in the progress bar and messages;
     ``progress=None`` shows the bar inside a :func:`ssskit.io.reporting` block (the CLI), not elsewhere.
+    ``shared_bar``: a bar of several runs (:func:`~.sweep.simulate_material`'s channels) that this run advances
+    instead of showing its own; photons it does not simulate (cached, shipped, resumed) leave its total.
     """
     if resume and restart:
         raise ProfileError("resume and restart exclude each other: resume continues an interrupted run, "
@@ -57,6 +60,8 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
 
         found = shipped_result(cfg)
         if found is not None:
+            if shared_bar is not None:
+                add_to_total(shared_bar, -cfg.photons)
             return found
     key = cfg.key() + ("" if backend == "numba" else f"-{backend}")
     cdir = cache_dir("mcml")
@@ -64,7 +69,10 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
     partial_path = cdir / f"{key}.partial.npz"
     if use_cache and final_path.exists():
         with contextlib.suppress(Exception):
-            return _load_result(cfg, final_path)
+            cached = _load_result(cfg, final_path)
+            if shared_bar is not None:
+                add_to_total(shared_bar, -cfg.photons)
+            return cached
 
     sizes = cfg.batch_sizes()
     n_b = sizes.shape[0]
@@ -102,7 +110,11 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
         from ...io import reporting_active
 
         progress = reporting_active()
-    bar = _progress_bar(cfg.photons, int(sizes[done].sum()), label) if progress else None
+    if shared_bar is not None:
+        add_to_total(shared_bar, -int(sizes[done].sum()))
+        bar: ProgressBar | None = shared_bar
+    else:
+        bar = photons_bar(cfg.photons, int(sizes[done].sum()), label) if progress else None
     t0 = time.perf_counter()
     try:
         with _numba_threads(threads) if backend == "numba" else contextlib.nullcontext(1) as nthreads:
@@ -141,7 +153,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
                                 "discard them" if use_cache else "nothing was kept (--no-cache)"),
         ) from None
     finally:
-        if bar is not None:
+        if bar is not None and shared_bar is None:
             bar.close()
     result = assemble_result(cfg, bins, totals, elapsed + time.perf_counter() - t0, rsp=rsp, tt_bins=tt_bins)
     if use_cache:
@@ -294,7 +306,8 @@ def _numba_threads(threads: int | None) -> Iterator[int]:
         numba.set_num_threads(old)
 
 
-def _progress_bar(total: int, initial: int, label: str) -> ProgressBar:
+def photons_bar(total: int, initial: int, label: str) -> ProgressBar:
+    """A bar of ``total`` photons (tqdm on a terminal, plain lines in a log) named ``label``."""
     return progress_bar(total, label or "MCML", "photons", initial=initial, unit_scale=True, smoothing=0.1,
                         dynamic_ncols=True, leave=False)
 

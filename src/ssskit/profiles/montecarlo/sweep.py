@@ -5,10 +5,11 @@ from __future__ import annotations
 
 from ...errors import ProfileError
 from ...materials import CHANNELS, LayeredMaterial, Material
+from ...progress import add_to_total
 from ..domain import check_montecarlo
 from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, SUPPLEMENT_GRID_MFP, channel_seed, config_for_material
 from .result import MCResult
-from .run import simulate
+from .run import photons_bar, simulate
 
 
 def simulate_material(material: Material | LayeredMaterial, channels: str = "all", *, photons: int = DEFAULT_PHOTONS,
@@ -38,18 +39,34 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
             raise ProfileError(f"channel must be R, G, B or all, got {channels!r}")
     if grid_fraction is not None and not (isinstance(grid_fraction, (int, float)) and 0 < grid_fraction < 1):
         raise ProfileError(f"grid fraction must lie in (0, 1), got {grid_fraction!r}")
+    if progress is None:
+        from ...progress import reporting_active
+
+        progress = reporting_active()
+    # one bar for every channel, so its estimate of the time left covers them all (each run takes out what
+    # it does not simulate; a longer grid adds its photons)
+    bar = photons_bar(photons * len(wanted), 0, f"{material.name} {'/'.join(wanted)}") if progress else None
     out = {}
-    for ch in wanted:
-        c = CHANNELS.index(ch)
-        extent = SUPPLEMENT_GRID_MFP
-        while True:
-            cfg = config_for_material(material, c, photons, channel_seed(seed, c), batch_size, extent, roughness)
-            res = simulate(cfg, threads=threads, progress=progress, resume=resume, restart=restart,
-                           use_cache=use_cache, label=f"{material.name} {ch}", shipped=shipped, backend=backend)
-            if grid_fraction is None or res.overflow <= (1.0 - grid_fraction) * res.total_rd or extent >= 64 * 32:
-                break
-            extent *= 2.0
-        out[ch] = res
+    try:
+        for ch in wanted:
+            c = CHANNELS.index(ch)
+            extent = SUPPLEMENT_GRID_MFP
+            while True:
+                cfg = config_for_material(material, c, photons, channel_seed(seed, c), batch_size, extent, roughness)
+                if bar is not None:
+                    bar.set_postfix_str(f"channel {ch}")
+                res = simulate(cfg, threads=threads, progress=progress, resume=resume, restart=restart,
+                               use_cache=use_cache, label=f"{material.name} {ch}", shipped=shipped, backend=backend,
+                               shared_bar=bar)
+                if grid_fraction is None or res.overflow <= (1.0 - grid_fraction) * res.total_rd or extent >= 64 * 32:
+                    break
+                extent *= 2.0
+                if bar is not None:
+                    add_to_total(bar, photons)
+            out[ch] = res
+    finally:
+        if bar is not None:
+            bar.close()
     return out
 
 
@@ -94,6 +111,40 @@ def _gather(futures: list, names: list[str], progress: bool, where: str) -> dict
     return {n: out[n] for n in names}
 
 
+def check_scheduler(address: str, timeout_s: float = 20.0) -> None:
+    """A ProfileError unless a dask.distributed scheduler answers at ``address`` within ``timeout_s`` seconds:
+    dask's own ``identity`` call (``distributed.core.rpc``) under one deadline for the connection and the answer.
+    Something else listening there (a web server, any other service) is refused in one line: dask's client read
+    the first bytes of its answer as frame lengths (an HTTP reply asked for 3.07 EiB: MemoryError) or waited for
+    ever on a server that says nothing."""
+    import asyncio
+
+    from distributed.core import rpc
+
+    async def identity() -> object:
+        remote = rpc(address, timeout=timeout_s)
+        try:
+            return await remote.identity()
+        finally:
+            await remote.close_rpc()
+
+    what = f"the dask scheduler address {address!r}"
+    try:
+        answer = asyncio.run(asyncio.wait_for(identity(), timeout_s))
+    except ValueError as exc:  # a malformed address: dask's own words (missing port, unknown scheme)
+        if "address" in str(exc) or "scheme" in str(exc):
+            raise ProfileError(f"{what} is not valid: {exc}") from None
+        answer = None
+    except asyncio.TimeoutError:
+        raise ProfileError(f"no dask scheduler answered at {address!r} within {timeout_s:g} s (connect timeout)") from None
+    except OSError as exc:
+        raise ProfileError(f"cannot reach the dask scheduler at {address!r}: {exc}") from None
+    except Exception:  # noqa: BLE001 - what another protocol's bytes make of dask's decoder (MemoryError, ...)
+        answer = None
+    if not (isinstance(answer, dict) and answer.get("type") == "Scheduler"):
+        raise ProfileError(f"what answers at {address!r} is not a dask scheduler (it does not speak dask's protocol)")
+
+
 def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "all", *,
                   photons: int = DEFAULT_PHOTONS, seed: int = 1, jobs: int = 1, batch_size: int = DEFAULT_BATCH,
                   progress: bool = False, resume: bool = False, restart: bool = False, scheduler: str | None = None,
@@ -123,6 +174,7 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
             from distributed import Client
         except ImportError:
             raise ProfileError("a scheduler address needs dask.distributed: pip install 'ssskit[cluster]'") from None
+        check_scheduler(scheduler, connect_timeout_s)
         try:
             client = Client(scheduler, timeout=f"{connect_timeout_s}s")
         except (OSError, TimeoutError, ValueError) as exc:
@@ -148,4 +200,4 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
         return _gather([pool.submit(_sweep_job, t) for t in tasks], names, progress, f"{jobs} processes")
 
 
-__all__ = ["simulate_many", "simulate_material"]
+__all__ = ["check_scheduler", "simulate_many", "simulate_material"]

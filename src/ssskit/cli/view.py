@@ -1,0 +1,89 @@
+"""``ssskit view``: the live WebGL2 viewer (:mod:`ssskit.view`), served on 127.0.0.1 or written as a static folder."""
+
+from __future__ import annotations
+
+import click
+
+from ..errors import SsskitError
+from .options import examples
+
+
+def _rgb(text: str | None, flag: str) -> tuple[float, float, float] | None:
+    if text is None:
+        return None
+    try:
+        vals = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise SsskitError(f"{flag} takes R,G,B (three numbers), got {text!r}") from None
+    if len(vals) != 3:
+        raise SsskitError(f"{flag} takes R,G,B (three numbers), got {text!r}")
+    return (vals[0], vals[1], vals[2])
+
+
+@click.command("view", epilog=examples(
+    "ssskit view --scene bust --material skin1",
+    "ssskit view --scene my_head.obj --albedo 0.8,0.6,0.5 --mfp 3.7,1.4,0.7",
+    "ssskit view --scene bust --no-open --out site --presets skin1,marble"))
+@click.option("--scene", default="head", show_default=True,
+              help="The scanned head (head: Lee Perry-Smith, Infinite-Realities, CC BY 3.0), a generated mesh (bust, icosphere, "
+                   "torus) or a mesh file (.obj, .ply, .glb, .gltf; mm).")
+@click.option("--material", default=None, help="A preset name or a material file (default skin1).")
+@click.option("--albedo", default=None, help="Artists' terms: the albedo R,G,B in (0, 1) (with --mfp).")
+@click.option("--mfp", default=None, help="Artists' terms: the mean free path R,G,B in mm (with --albedo).")
+@click.option("--port", type=click.IntRange(0, 65535), default=8765, show_default=True,
+              help="The port on 127.0.0.1 (0: any free port).")
+@click.option("--no-open", is_flag=True, help="Do not open a browser.")
+@click.option("--out", "out", default=None, type=click.Path(file_okay=False),
+              help="Write a static folder (works from file://, presets precomputed) instead of serving.")
+@click.option("--presets", default=None,
+              help="--out: the presets precomputed beside the material, NAME,NAME... (default: "
+                   "skin1,skin2,marble,ketchup,apple; 'none': the material alone).")
+def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, port: int, no_open: bool,
+         out: str | None, presets: str | None) -> None:
+    """A live WebGL2 viewer of a material on a mesh: the G-buffer pass, the separable and Burley passes as the
+    fragment shaders ssskit export writes, composite and tone mapping, with per-pass frame times."""
+    from ..materials import MATERIALS
+    from ..view.site import PRESETS, MaterialRequest, page_data, write_site
+
+    rgb_a, rgb_m = _rgb(albedo, "--albedo"), _rgb(mfp, "--mfp")
+    if (rgb_a is None) != (rgb_m is None):
+        raise SsskitError("artists' terms need --albedo and --mfp together")
+    if rgb_a is not None and material is not None:
+        raise SsskitError("give the material once: --material or --albedo with --mfp")
+    req = MaterialRequest(None, rgb_a, rgb_m) if rgb_a is not None else MaterialRequest(material or "skin1")
+    if presets is not None and out is None:
+        raise SsskitError("--presets applies to --out (a served page asks the server for any preset)")
+    names = PRESETS if presets is None else tuple(n.strip().lower() for n in presets.split(",") if n.strip())
+    if names == ("none",):
+        names = ()
+    for name in names:
+        if name not in MATERIALS:
+            raise SsskitError(f"--presets: unknown preset {name!r} (known: {', '.join(MATERIALS.names())})")
+    req.check()
+    key = "artist" if rgb_a is not None else str(material or "skin1").lower()
+    req.resolve()  # an unknown preset or a bad file fails here, before any work
+    mats = {key: req}
+    if out is not None:  # the static folder: the presets precomputed beside the chosen material
+        for name in names:
+            mats.setdefault(name, MaterialRequest(name))
+    data = page_data(scene, mats, key, served=out is None)
+    if out is not None:
+        dest = write_site(out, data)
+        click.echo(f"# wrote {dest}/index.html (open it from the file system: file://{dest.resolve()}/index.html)")
+        if not no_open:
+            import webbrowser
+
+            webbrowser.open((dest.resolve() / "index.html").as_uri())
+        return
+    from ..view.server import ViewServer, serve
+
+    try:
+        server = ViewServer(data, port)
+    except OSError as exc:
+        raise SsskitError(f"cannot listen on 127.0.0.1:{port}: {exc.strerror or exc}") from None
+    click.echo(f"# ssskit view at {server.url} (Ctrl-C ends it)", err=True)
+    if not no_open:
+        import webbrowser
+
+        webbrowser.open(server.url)
+    serve(server)

@@ -1,0 +1,112 @@
+"""``ssskit export --format babylon``: the ES module or JSON of ssskit.export.babylon, one scene's materials,
+and bad input (one line, exit status 2, nothing written). The renders that judge the numbers are in
+tests/export/test_babylon_client.py (Babylon.js itself)."""
+
+import json
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from ssskit.export import fit_burley
+from ssskit.export.babylon import MAX_PROFILES, babylon_parameters, filter_radius
+from ssskit.materials import get_material
+from ssskit.profiles import profile_for_material
+
+from .test_bad_input import one_error_line, workdir  # noqa: F401  (the fixture)
+
+
+def _ok(run, *args):
+    code, out, err = run(*args)
+    assert code == 0, err
+    return out
+
+
+def test_json_holds_the_profile_the_pass_weights_with(run, tmp_path):
+    """The colour is 1/d (Babylon weights with exp(-r S / 3), S = colour): with the scene's metersPerUnit
+    ('plain') and scaled by k with metersPerUnit x k ('widest'), both give the weights d in true mm."""
+    out = tmp_path / "s.json"
+    _ok(run, "export", "--material", "skin1,ketchup", "--format", "babylon", "--model", "dipole", "--out", out)
+    data = json.loads(out.read_text())
+    for name in ("skin1", "ketchup"):
+        a, d = fit_burley(profile_for_material(get_material(name), "dipole"))
+        m = data["materials"][name]
+        np.testing.assert_allclose(m["albedoColor"], a, rtol=1e-12)
+        np.testing.assert_allclose(m["translucency"]["diffusionDistance"], d, rtol=1e-12)  # scene in mm
+        for v in data["variants"].values():
+            k = v["metersPerUnit"] / data["unit_m"] / v["pixel_size_fix"]
+            # the pass's "mm" are k true mm: weights exp(-(k r) colour / 3) = exp(-r / (3 d))
+            np.testing.assert_allclose(1.0 / (k * np.array(v["diffusionProfile"][name])), d, rtol=1e-12)
+    w = data["variants"]["widest"]
+    dmax = max(max(m["d_mm"]) for m in data["materials"].values())
+    # the widest variant samples the material holding the scene's narrowest d with the widest d, the others closer
+    assert max(w["sampling_distance_mm"].values()) == pytest.approx(dmax, rel=1e-12)
+    assert all(s <= dmax * (1 + 1e-12) for s in w["sampling_distance_mm"].values())
+
+
+def test_filter_radius_is_babylons_closed_form():
+    """getDiffusionProfileParameters: Burley's CDF 1 - e^{-x}/4 - 3 e^{-x/3}/4 at the radius is 0.997."""
+    x = filter_radius(1.0)
+    assert 1 - np.exp(-x) / 4 - 3 * np.exp(-x / 3) / 4 == pytest.approx(0.997, abs=1e-12)
+
+
+@pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed")
+def test_module_imports_and_applies(run, tmp_path):
+    """node imports the ES module and applySsskit sets what Babylon's API takes on stand-in objects."""
+    out = tmp_path / "s.mjs"
+    _ok(run, "export", "--material", "marble", "--format", "babylon", "--model", "dipole", "--out", out)
+    probe = tmp_path / "probe.mjs"
+    probe.write_text(
+        "import { SSSKIT, applySsskit } from './s.mjs';\n"
+        "class Color3 { constructor(r, g, b) { Object.assign(this, {r, g, b}); } }\n"
+        "const cfg = { metersPerUnit: 1, ssDiffusionProfileColors: [new Color3(1, 1, 1)] };\n"
+        "class PBRMaterial { constructor(n) { this.name = n; this.subSurface = {\n"
+        "  set scatteringDiffusionProfile(c) { cfg.ssDiffusionProfileColors.push(c); this._c = c; },\n"
+        "  get scatteringDiffusionProfile() { return this._c; } }; } }\n"
+        "const scene = { subSurfaceConfiguration: cfg, enableSubSurfaceForPrePass() { return true; } };\n"
+        "const m = Object.values(applySsskit({ Color3, PBRMaterial }, scene, {}, 'plain'))[0];\n"
+        "console.log(JSON.stringify({ mpu: cfg.metersPerUnit, color: m.subSurface.scatteringDiffusionProfile,\n"
+        "  on: m.subSurface.isScatteringEnabled, albedo: m.albedoColor, f0: m.metallicF0Factor }));\n")
+    res = subprocess.run(["node", str(probe)], capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    got = json.loads(res.stdout.strip().splitlines()[-1])
+    a, d = fit_burley(profile_for_material(get_material("marble"), "dipole"))
+    assert got["mpu"] == pytest.approx(2e-3) and got["on"] is True and got["f0"] == 0
+    np.testing.assert_allclose([got["color"][c] for c in "rgb"], 1.0 / d, rtol=1e-12)
+    np.testing.assert_allclose([got["albedo"][c] for c in "rgb"], a, rtol=1e-12)
+
+
+BAD = [
+    (["--material", "skin1,skin2,marble,ketchup,apple"], "a Babylon.js scene holds 5 diffusion profiles"),
+    (["--material", "skin1,skin1"], "given twice"),
+    (["--albedo", "nan,0.5,0.5", "--dmfp", "1"], "got (nan, 0.5, 0.5)"),
+    (["--albedo", "0.5", "--dmfp", "1,inf,1"], "got (1, inf, 1)"),
+    (["--material", "skin1,marble", "--albedo", "0.5"], "albedo"),
+    (["--albedo", "0.5", "--dmfp", "1", "--eta", "nan"], "eta"),
+    (["--material", "skin1", "--kernel", "svd:1"], "not --format babylon"),
+    (["--material", "skin1,marble", "--kernel", "svd:1"], "not --format babylon"),
+]
+
+
+@pytest.mark.parametrize("args,fragment", BAD)
+def test_bad_input_is_one_line(run, workdir, args, fragment):  # noqa: F811 (the fixture)
+    one_error_line(run, workdir, ["export", "--format", "babylon", "--out", "s.js", *args], fragment)
+
+
+@pytest.mark.parametrize("out", ["s.ts", "s.txt", "s"])
+def test_wrong_suffix_is_one_line(run, workdir, out):  # noqa: F811
+    one_error_line(run, workdir, ["export", "--format", "babylon", "--material", "skin1", "--out", out], "must end in")
+
+
+def test_several_materials_only_for_babylon(run, workdir):  # noqa: F811
+    one_error_line(run, workdir, ["export", "--format", "unity", "--material", "skin1,marble", "--out", "s.json"],
+                   "only with --format babylon")
+
+
+def test_parameters_check_the_profile_count_and_values():
+    a, d = np.full(3, 0.5), np.ones(3)
+    with pytest.raises(Exception, match="at most 4"):
+        babylon_parameters([(f"m{i}", a, d) for i in range(MAX_PROFILES)])
+    with pytest.raises(Exception, match="finite"):
+        babylon_parameters([("m", a, np.array([1.0, np.nan, 1.0]))])
