@@ -84,7 +84,8 @@ class ExportSettings(Settings):
     tap_method: str | None = setting(Choice("tap_method", _tap_methods), None, optional=True)
     jitter: float | None = setting(FRACTION, None, optional=True)
     depth_mode: str | None = setting(Choice("depth_mode", _depth_modes), None, optional=True)
-    shader_pass: str | None = setting(Choice("shader_pass", ("separable", "transmission", "burley")), None, optional=True)
+    shader_pass: str | None = setting(Choice("shader_pass", ("separable", "transmission", "burley")), None,
+                                      optional=True)
     transmission_model: str | None = setting(Choice("transmission_model", ("mcml", "jimenez2010", "unreal")), None,
                                              optional=True)
     unreal_form: str | None = setting(Choice("unreal_form", ("mfp", "dmfp")), None, optional=True)

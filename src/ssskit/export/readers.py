@@ -492,8 +492,8 @@ def _burley_source(req: Any, engine_file: bool, artist: bool) -> Source:
             raise SsskitError("artists' terms need --albedo and one of --mfp (volume mean free path, mm) or --dmfp "
                               "(diffuse mean free path, mm)")
         kind, dist = ("mfp", req.mfp) if req.mfp is not None else ("dmfp", req.dmfp)
-        mat: Any = material_from_artist(ArtistMaterial("artist", req.albedo, dist, kind,
-                                                       1.3 if req.eta is None else req.eta, 0.0 if req.g is None else req.g))
+        eta, g = 1.3 if req.eta is None else req.eta, 0.0 if req.g is None else req.g
+        mat: Any = material_from_artist(ArtistMaterial("artist", req.albedo, dist, kind, eta, g))
     else:
         from ..materials import get_material
 

@@ -297,6 +297,6 @@ def write_site(out: str | os.PathLike[str], data: dict[str, Any]) -> Path:
     return dest
 
 
-__all__ = ["DEFAULT_KERNEL", "DEFAULT_MODEL", "DEFAULT_TAPS", "MESH_SUFFIXES", "MaterialRequest", "PAGE_FILES", "PRESETS",
-           "SCENE_NAMES", "check_out", "check_scene", "data_script", "kernel_taps", "material_payload", "page_data", "page_file", "scene_payload", "write_site",
-           "write_static"]
+__all__ = ["DEFAULT_KERNEL", "DEFAULT_MODEL", "DEFAULT_TAPS", "MESH_SUFFIXES", "MaterialRequest", "PAGE_FILES",
+           "PRESETS", "SCENE_NAMES", "check_out", "check_scene", "data_script", "kernel_taps", "material_payload",
+           "page_data", "page_file", "scene_payload", "write_site", "write_static"]
