@@ -30,8 +30,7 @@ def run(materials: list[str], model: str, size: int, variant: str = "widest") ->
     from ssskit.export.babylon import babylon_module, babylon_parameters
     from ssskit.materials import get_material
     from ssskit.profiles import profile_for_material
-    from ssskit.screenspace import BurleyParams, GBuffer, burley_sss
-    from ssskit.view.babylon import babylon_available, babylon_gbuffer, render_babylon, terminator_regions
+    from ssskit.view.babylon import babylon_available, render_babylon, ssskit_pass, terminator_regions
 
     ok, why = babylon_available()
     if not ok:
@@ -53,18 +52,9 @@ def run(materials: list[str], model: str, size: int, variant: str = "widest") ->
         sqrt_a = np.sqrt(np.asarray(a, dtype=np.float32))
         babylon = res["image"] / sqrt_a  # the pass's output is inputColor + sqrt(albedo) x blurred irradiance
         t0 = time.perf_counter()
-        ours = burley_sss(babylon_gbuffer(g), {1: BurleyParams(tuple(map(float, a)), tuple(map(float, d)))},
-                          sampler="golubev", spp=64, mips=False, backend="numpy")
+        ours = ssskit_pass(g, a, d)
         t_numpy = time.perf_counter() - t0
-        # the same pass with every depth step doubled about the sphere's median depth: what the export's
-        # metersPerUnit x 2 (the pixel-size fix) does to Babylon's bilateral weight (dz mmPerUnit)
-        gb = babylon_gbuffer(g)
-        on = gb.profile_id > 0
-        z0 = float(np.median(gb.depth[on]))
-        gb2 = GBuffer(diffuse=gb.diffuse, albedo=gb.albedo, depth=np.where(on, z0 + 2.0 * (gb.depth - z0), gb.depth),
-                      profile_id=gb.profile_id, camera=gb.camera)
-        ours2 = burley_sss(gb2, {1: BurleyParams(tuple(map(float, a)), tuple(map(float, d)))},
-                           sampler="golubev", spp=64, mips=False, backend="numpy")
+        ours2 = ssskit_pass(g, a, d, depth_scale=2.0)  # the export's metersPerUnit x 2 on the bilateral weight
         pixel_mm = 2.0 * ext / size
         for region, mask in terminator_regions(g, pixel_mm, dmax).items():
             n = int(mask.sum())

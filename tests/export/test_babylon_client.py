@@ -96,8 +96,7 @@ def skin1_sphere():
     """Skin1 on the page's sphere (radius 8 d_max, 96^2 pixels, the 45-degree sun), the export's default
     variant, with what Babylon's subsurface pass read (pre-pass irradiance, profile index, view z) read back;
     and ssskit's numpy Burley pass (Golubev's sampler, as Babylon's) on that same G-buffer."""
-    from ssskit.screenspace import BurleyParams, burley_sss
-    from ssskit.view.babylon import babylon_gbuffer, render_babylon, terminator_regions
+    from ssskit.view.babylon import render_babylon, ssskit_pass, terminator_regions
 
     a, d = fit_burley(profile_for_material(get_material("skin1"), "dipole"))
     params = babylon_parameters([("skin1", a, d)])
@@ -106,8 +105,7 @@ def skin1_sphere():
            "radius": radius, "material": "skin1", "variant": "widest", "gbuffer": True}
     res = render_babylon(babylon_module(params, "skin1"), [job])[0]
     g = res["gbuffer"]
-    ours = burley_sss(babylon_gbuffer(g), {1: BurleyParams(tuple(map(float, a)), tuple(map(float, d)))},
-                      sampler="golubev", spp=64, mips=False, backend="numpy")
+    ours = ssskit_pass(g, a, d)
     babylon = res["image"] / np.sqrt(a)  # the pass's output: sqrt(albedo) x the blurred irradiance
     masks = terminator_regions(g, 2.5 * radius / size, float(np.max(d)))
     return a, d, res, g, babylon, ours, masks
@@ -150,17 +148,10 @@ def test_sphere_narrow_channels_lose_light_to_the_doubled_depth_term(skin1_spher
     the depth step of Babylon's bilateral weight: past the terminator Skin1's green and blue carry at most 80 % of
     what ssskit's pass gives on the same G-buffer, and ssskit's pass with every depth step doubled comes within
     25 % of Babylon there (closer than the undoubled pass)."""
-    from ssskit.screenspace import BurleyParams, GBuffer, burley_sss
-    from ssskit.view.babylon import babylon_gbuffer
+    from ssskit.view.babylon import ssskit_pass
 
     a, d, res, g, babylon, ours, masks = skin1_sphere
-    gb = babylon_gbuffer(g)
-    on = gb.profile_id > 0
-    z0 = float(np.median(gb.depth[on]))
-    doubled = GBuffer(diffuse=gb.diffuse, albedo=gb.albedo, depth=np.where(on, z0 + 2 * (gb.depth - z0), gb.depth),
-                      profile_id=gb.profile_id, camera=gb.camera)
-    ours2 = burley_sss(doubled, {1: BurleyParams(tuple(map(float, a)), tuple(map(float, d)))},
-                       sampler="golubev", spp=64, mips=False, backend="numpy")
+    ours2 = ssskit_pass(g, a, d, depth_scale=2.0)
     dark = masks["dark, 0-1 d past"]
     for c in (1, 2):
         b, o1, o2 = (img[..., c][dark].mean() for img in (babylon, ours, ours2))

@@ -120,12 +120,14 @@ def crop_view(image: np.ndarray, extent: float, reach: float) -> tuple[np.ndarra
     return image[:, lo:lo + 2 * keep], extent * (2 * keep) / width
 
 
-def babylon_gbuffer(g: dict[str, Any]) -> Any:
+def babylon_gbuffer(g: dict[str, Any], depth_scale: float = 1.0) -> Any:
     """ssskit's :class:`~ssskit.screenspace.GBuffer` of what Babylon's subsurface pass read (a job's
     ``"gbuffer"`` from :func:`render_babylon`): diffuse = the pre-pass irradiance (over sqrt(albedo), so the
     albedo layer is 1 and the pass's own sqrt(albedo) factor stays outside), depth = view z (scene units; the
     page's scenes are in mm), profile id = Babylon's index where its pass blurs (0 elsewhere), and the pinhole
-    camera of the page's vertical field of view with square pixels."""
+    camera of the page's vertical field of view with square pixels. ``depth_scale`` multiplies every depth
+    step on the profiled pixels about their median depth (2: what the export's ``metersPerUnit`` x 2 does to
+    Babylon's bilateral weight, ``relZ * mmPerUnit``)."""
     import math
 
     from ..screenspace import Camera, GBuffer
@@ -135,7 +137,25 @@ def babylon_gbuffer(g: dict[str, Any]) -> Any:
     f = 0.5 * height / math.tan(0.5 * float(g["fov"]))
     cam = Camera(width, height, f, f, 0.5 * width, 0.5 * height)
     ids = np.where(g["sss"], g["profile"], 0).astype(np.int32)
-    return GBuffer(diffuse=irr, albedo=np.ones_like(irr), depth=g["depth"], profile_id=ids, camera=cam)
+    depth = np.asarray(g["depth"], dtype=np.float32)
+    if depth_scale != 1.0:
+        z0 = float(np.median(depth[ids > 0]))
+        depth = np.where(ids > 0, z0 + depth_scale * (depth - z0), depth).astype(np.float32)
+    return GBuffer(diffuse=irr, albedo=np.ones_like(irr), depth=depth, profile_id=ids, camera=cam)
+
+
+def ssskit_pass(g: dict[str, Any], albedo: Any, d_mm: Any, depth_scale: float = 1.0) -> np.ndarray:
+    """ssskit's numpy Burley pass (:func:`ssskit.screenspace.burley_sss`, Golubev's stratified sampler as
+    Babylon's pass, no mips, the footprint-capped 64 samples) on the read-back G-buffer
+    (:func:`babylon_gbuffer`) with Burley's ``albedo`` and ``d_mm`` for Babylon's profile index 1 (the page's
+    one material): the blurred irradiance (H, W, 3), to compare with Babylon's output over sqrt(albedo)."""
+    from ..screenspace import BurleyParams, burley_sss
+
+    a = [float(v) for v in albedo]
+    d = [float(v) for v in d_mm]
+    params = BurleyParams((a[0], a[1], a[2]), (d[0], d[1], d[2]))
+    return burley_sss(babylon_gbuffer(g, depth_scale), {1: params}, sampler="golubev", spp=64, mips=False,
+                      backend="numpy")
 
 
 def terminator_regions(g: dict[str, Any], pixel_mm: float, d_mm: float) -> dict[str, np.ndarray]:
@@ -159,4 +179,4 @@ def terminator_regions(g: dict[str, Any], pixel_mm: float, d_mm: float) -> dict[
 
 
 __all__ = ["PAGE", "babylon_available", "babylon_gbuffer", "babylon_modules", "crop_view", "render_babylon",
-           "terminator_regions"]
+           "ssskit_pass", "terminator_regions"]
