@@ -11,6 +11,7 @@ pass with every depth step doubled (what the export's metersPerUnit x 2 does to 
 
     PYTHONPATH=src python benchmarks/babylon_sphere.py            # markdown table (docs/exports.md)
     PYTHONPATH=src python benchmarks/babylon_sphere.py --json     # one JSON object
+    PYTHONPATH=src python benchmarks/babylon_sphere.py --slab     # the shadow-edge slab, both ways
 
 Needs Chromium, Playwright and @babylonjs/core (ssskit.view.babylon). Progress on stderr.
 """
@@ -68,6 +69,78 @@ def run(materials: list[str], model: str, size: int, variant: str = "widest") ->
     return {"model": model, "size": size, "variant": variant, "rows": rows}
 
 
+def run_slab(materials: list[str], model: str, max_width: int) -> dict:
+    """The shadow-edge slab of benchmarks/babylon_client.py (the same view and crop), the export's default
+    variant, with its G-buffer read back: per channel the plateau and the 25 / 10 / 3 / 1 % edge distances
+    (:func:`ssskit.export.blender.compare_slab`, the read-back irradiance as the white reference) of Babylon's
+    output and of ssskit's numpy pass on the same G-buffer, and ssskit's Burley prediction."""
+    import numpy as np
+
+    from ssskit.export import fit_burley
+    from ssskit.export.babylon import babylon_module, babylon_parameters
+    from ssskit.export.blender import compare_slab, edge_distances
+    from ssskit.materials import get_material
+    from ssskit.profiles import profile_for_material
+    from ssskit.view.babylon import babylon_available, crop_view, render_babylon, ssskit_pass
+
+    ok, why = babylon_available()
+    if not ok:
+        raise SystemExit(f"babylon_sphere: {why}")
+    rows = []
+    for name in materials:
+        material = get_material(name)
+        a, d = fit_burley(profile_for_material(material, model))
+        params = babylon_parameters([(name, a, d)])
+        reach = max(params["variants"]["widest"]["filter_radius_mm"].values())
+        ext = 2.2 * reach + 1.6 * float(edge_distances(float(np.max(d)), (0.01,))[0])
+        width = int(min(max_width, np.ceil(2 * ext / (float(np.min(d)) / 4)) // 8 * 8))
+        job = {"width": width, "height": 8, "extent": ext, "intensity": 0.5, "shape": "slab", "material": name,
+               "variant": "widest", "gbuffer": True}
+        res = render_babylon(babylon_module(params, name), [job])[0]
+        g = res["gbuffer"]
+        babylon = res["image"] / np.sqrt(np.asarray(a, dtype=np.float32))
+        # ssskit's pass drops samples that leave the screen, Babylon's read the other side (its wrap): on the
+        # 8-row strip, whose rows are alike, ssskit's pass gets the strip tiled to past the filter radius
+        # vertically (what the wrap reads), with the field of view to match, and its middle 8 rows are kept
+        k = 2 * int(np.ceil(1.05 * reach / (2 * ext / width) / 8)) + 1
+        tall = {"irradiance": np.tile(g["irradiance"], (k, 1, 1)), "profile": np.tile(g["profile"], (k, 1)),
+                "sss": np.tile(g["sss"], (k, 1)), "depth": np.tile(g["depth"], (k, 1)),
+                "fov": 2 * float(np.arctan(np.tan(0.5 * g["fov"]) * k))}
+        ours = ssskit_pass(tall, a, d)[8 * (k // 2):8 * (k // 2) + 8]
+        white, ext_c = crop_view(g["irradiance"], ext, 1.05 * reach)
+        cmp = {}
+        for who, img in (("babylon", babylon), ("numpy", ours)):
+            render = {"images": [crop_view(img, ext, 1.05 * reach)[0]] * 3, "white": [white] * 3,
+                      "extent_mm": [ext_c] * 3}
+            cmp[who] = compare_slab(render, np.ones(3), np.asarray(d))["channels"]
+        for c in range(3):
+            rows.append({"material": material.name, "channel": "RGB"[c], "pixel_mm": 2 * ext / width,
+                         "predicted_mm": [float(v) for v in edge_distances(float(d[c]))],
+                         **{who: {"plateau": ch[c]["plateau_ratio"],
+                                  "distances_mm": [x["measured_mm"] for x in ch[c]["distances"]]}
+                            for who, ch in cmp.items()}})
+        print(f"babylon_sphere: slab {name} done", file=sys.stderr)
+    return {"model": model, "shape": "slab", "rows": rows}
+
+
+def markdown_slab(data: dict) -> str:
+    out = ["The slab's shadow edge (default export), Babylon's output over sqrt(albedo) and ssskit's numpy pass on "
+           "the G-buffer read back from the page, each normalised by the read-back irradiance: plateau (1 = "
+           "the irradiance) and the distances (mm) at 25 / 10 / 3 / 1 %, with ssskit's Burley prediction",
+           "",
+           "| material | channel | px (mm) | plateau Babylon / numpy | Babylon (mm) | numpy (mm) | predicted (mm) |",
+           "|---|---|---|---|---|---|---|"]
+
+    def mm(v):
+        return " / ".join("-" if x is None else f"{x:.3f}" for x in v)
+
+    for r in data["rows"]:
+        out.append(f"| {r['material']} | {r['channel']} | {r['pixel_mm']:.3f} | {r['babylon']['plateau']:.4f} / "
+                   f"{r['numpy']['plateau']:.4f} | {mm(r['babylon']['distances_mm'])} | "
+                   f"{mm(r['numpy']['distances_mm'])} | {mm(r['predicted_mm'])} |")
+    return "\n".join(out)
+
+
 def markdown(data: dict) -> str:
     r0 = data["rows"][0]
     out = [f"Babylon.js {r0['babylon']} (headless Chromium, SwiftShader WebGL2) against ssskit's numpy Burley pass "
@@ -98,8 +171,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--model", default="dipole", help="source profile model [dipole]")
     ap.add_argument("--size", type=int, default=192, help="image width and height in pixels [192]")
     ap.add_argument("--variant", default="widest", help="the export's variant [widest]")
+    ap.add_argument("--slab", action="store_true", help="the shadow-edge slab instead of the sphere")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    if args.slab:
+        data = run_slab(args.materials.split(","), args.model, 4096)
+        print(json.dumps(data) if args.json else markdown_slab(data))
+        return 0
     data = run(args.materials.split(","), args.model, args.size, args.variant)
     print(json.dumps(data) if args.json else markdown(data))
     return 0
