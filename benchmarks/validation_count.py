@@ -109,8 +109,10 @@ def scan(files: dict[str, str]) -> dict:
                     templates["range"].append(node.value.value)
     fin = sorted({_phrasing(m.split(": ", 1)[1]) for m in finite} | {_phrasing(t) for t in templates["finite"]})
     rng = sorted({_phrasing(m.split(": ", 1)[1]) for m in ranges} | {_phrasing(t) for t in templates["range"]})
+    per_file = Counter(path for path, _ in lines)
     return {
         "validation_lines": len(lines),
+        "by_file": dict(per_file.most_common()),
         "statements": dict(kinds),
         "src_lines": sum(t.count("\n") for t in files.values()),
         "finiteness": {"messages": len(finite), "phrasings": len(fin), "list": fin},
@@ -133,13 +135,14 @@ def _files(root: Path, rev: str | None) -> dict[str, str]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rev", help="a git revision to scan instead of the working tree")
-    ap.add_argument("--list", action="store_true", help="also list the phrasings")
+    ap.add_argument("--list", action="store_true", help="also list the phrasings and the lines per file")
     args = ap.parse_args(argv)
     root = Path(__file__).resolve().parents[1]
     result = {"rev": args.rev or "working tree", **scan(_files(root, args.rev))}
     if not args.list:
         for k in ("finiteness", "range"):
             result[k].pop("list")
+        result.pop("by_file")
     json.dump(result, sys.stdout, indent=2)
     print()
     return 0

@@ -60,7 +60,7 @@ def test_burley_albedo_refuses_zero_and_names_why():
     assert q.BURLEY_ALBEDO.check(1.0) == 1.0
     with pytest.raises(PassError, match=r"albedo must lie in \(0, 1\], got \(0.5, 0, 1\) \(a reflectance; A = 0"):
         q.BURLEY_ALBEDO.check_rgb([0.5, 0, 1], "albedo", PassError)
-    with pytest.raises(PassError, match=r"albedo must be a number or three \[R, G, B\], got \[1, 2\]"):
+    with pytest.raises(PassError, match=r"albedo must be a number or three \[R, G, B\], got \(1, 2\)"):
         q.BURLEY_ALBEDO.check_rgb([1, 2], "albedo", PassError)
 
 

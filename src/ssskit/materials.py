@@ -20,6 +20,8 @@ from pathlib import Path
 from typing import Any
 
 from .errors import MaterialError
+from .quantities import (ANISOTROPY, COEFFICIENT, ETA, EXTINCTION, FINITE, FRACTION, LENGTH_MM, THICKNESS_MM,
+                         fail)
 from .registry import Registry
 
 CHANNELS: tuple[str, str, str] = ("R", "G", "B")
@@ -81,7 +83,7 @@ def _triple(name: str, value: Any) -> Triple:
             raise MaterialError(f"{name} must hold numbers, got {_describe(v)}")
         f = float(v)
         if not math.isfinite(f):
-            raise MaterialError(f"{name} must be finite, got {f}")
+            raise fail(MaterialError, FINITE, name=name, actual=f)
         out.append(f)
     return (out[0], out[1], out[2])
 
@@ -114,24 +116,15 @@ class Material:
         set_(self, "sigma_a", _triple("sigma_a", self.sigma_a))
         set_(self, "sigma_s", _triple("sigma_s", self.sigma_s))
         set_(self, "g", _triple("g", self.g))
-        for c, (a, s) in enumerate(zip(self.sigma_a, self.sigma_s)):
-            if a < 0:
-                raise MaterialError(f"sigma_a must be >= 0, got {a} in channel {CHANNELS[c]}")
-            if s < 0:
-                raise MaterialError(f"sigma_s must be >= 0, got {s} in channel {CHANNELS[c]}")
-            if a + s <= 0:
-                raise MaterialError(f"sigma_a + sigma_s must be > 0 in channel {CHANNELS[c]}")
-        for c, gc in enumerate(self.g):
-            if not -1.0 < gc < 1.0:
-                raise MaterialError(f"g must satisfy |g| < 1, got {gc} in channel {CHANNELS[c]}")
-        for attr in ("eta", "eta_ambient", "thickness_mm"):
-            set_(self, attr, _number(attr, getattr(self, attr)))
-        if not (math.isfinite(self.eta) and self.eta >= 1.0):
-            raise MaterialError(f"eta must be a finite number >= 1, got {self.eta}")
-        if not (math.isfinite(self.eta_ambient) and self.eta_ambient >= 1.0):
-            raise MaterialError(f"eta_ambient must be a finite number >= 1, got {self.eta_ambient}")
-        if not self.thickness_mm > 0 or math.isnan(self.thickness_mm):
-            raise MaterialError(f"thickness_mm must be > 0 (inf for semi-infinite), got {self.thickness_mm}")
+        COEFFICIENT.check_array(self.sigma_a, "sigma_a", MaterialError, "channels")
+        COEFFICIENT.check_array(self.sigma_s, "sigma_s", MaterialError, "channels")
+        EXTINCTION.check_array(tuple(a + s for a, s in zip(self.sigma_a, self.sigma_s)), "sigma_a + sigma_s",
+                               MaterialError, "channels")
+        ANISOTROPY.check_array(self.g, "g", MaterialError, "channels")
+        set_(self, "eta", ETA.check(_number("eta", self.eta), "eta", MaterialError))
+        set_(self, "eta_ambient", ETA.check(_number("eta_ambient", self.eta_ambient), "eta_ambient", MaterialError))
+        set_(self, "thickness_mm", THICKNESS_MM.check(_number("thickness_mm", self.thickness_mm), "thickness_mm",
+                                                      MaterialError))
         if not isinstance(self.name, str) or not self.name.strip():
             raise MaterialError("a material needs a non-empty name")
 
@@ -260,10 +253,8 @@ class ArtistPreset:
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma_near", _triple("sigma_near", self.sigma_near))
         object.__setattr__(self, "sigma_far", _triple("sigma_far", self.sigma_far))
-        if any(s <= 0 for s in self.sigma_near + self.sigma_far):
-            raise MaterialError("two-Gaussian standard deviations must be > 0")
-        if not 0.0 <= float(self.weight) <= 1.0:
-            raise MaterialError(f"two-Gaussian weight w must be in [0, 1], got {self.weight}")
+        LENGTH_MM.check_array(self.sigma_near + self.sigma_far, "two-Gaussian standard deviations", MaterialError)
+        FRACTION.check(self.weight, "two-Gaussian weight w", MaterialError)
 
 
 ARTIST_PRESETS: Registry[ArtistPreset] = Registry("artist preset", MaterialError)
@@ -297,10 +288,7 @@ class LayeredMaterial:
         if any(layer.is_semi_infinite for layer in self.layers[:-1]):
             raise MaterialError("only the last layer may be semi-infinite (omit its thickness_mm)")
         for attr in ("eta_above", "eta_below"):
-            value = _number(attr, getattr(self, attr))
-            if not (math.isfinite(value) and value >= 1.0):
-                raise MaterialError(f"{attr} must be a finite number >= 1, got {value}")
-            object.__setattr__(self, attr, value)
+            object.__setattr__(self, attr, ETA.check(_number(attr, getattr(self, attr)), attr, MaterialError))
 
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "layers": [layer.to_dict() for layer in self.layers],

@@ -26,6 +26,7 @@ The wordings (the only ones: ``benchmarks/validation_count.py`` counts the phras
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Collection, Iterable
 from dataclasses import dataclass, replace
 from typing import Any, SupportsIndex
@@ -51,8 +52,10 @@ def fail(error: ErrorClass, template: str, **fields: object) -> SsskitError:
 def _fmt(v: object) -> str:
     if isinstance(v, float):
         return f"{v:g}"
-    if isinstance(v, (list, tuple)):
-        return "(" + ", ".join(_fmt(x) for x in v) + ")"
+    if isinstance(v, (list, tuple)) or getattr(v, "ndim", 0) == 1:
+        return "(" + ", ".join(_fmt(x) for x in v) + ")"  # type: ignore[attr-defined]
+    if isinstance(v, numbers.Real) and not isinstance(v, (bool, int)):
+        return f"{float(v):g}"
     return repr(v)
 
 
@@ -78,8 +81,10 @@ class Quantity:
     odd: bool = False
 
     def within(self, lo: float | None = None, hi: float | None = None, reason: str | None = None) -> Quantity:
-        """The same quantity on a narrower (or caller-given) range: a model's domain, another's bound."""
+        """The same quantity on a narrower (or caller-given) range: a model's domain, another's bound; an end
+        given here is included (closed)."""
         return replace(self, lo=self.lo if lo is None else lo, hi=self.hi if hi is None else hi,
+                       lo_open=self.lo_open and lo is None, hi_open=self.hi_open and hi is None,
                        reason=self.reason if reason is None else reason)
 
     @property
@@ -131,11 +136,11 @@ class Quantity:
                   ) -> tuple[float, float, float]:
         """One number or three (R, G, B), each in the range: three floats."""
         label = name or self.name
-        vals = tuple(value) if isinstance(value, (list, tuple)) else (value,)
-        if len(vals) not in (1, 3):
-            raise fail(error, TYPE, name=label, kind=f"{self.kind} or three [R, G, B]", actual=repr(value))
-        if any(isinstance(v, (bool, str, bytes)) or not isinstance(v, (int, float, SupportsIndex)) for v in vals):
-            raise fail(error, TYPE, name=label, kind=f"{self.kind} or three [R, G, B]", actual=repr(value))
+        seq = isinstance(value, (list, tuple)) or getattr(value, "ndim", 0) == 1  # a list, tuple or 1D array
+        vals = tuple(value) if seq else (value,)  # type: ignore[arg-type]
+        if len(vals) not in (1, 3) or any(isinstance(v, (bool, str, bytes)) or not isinstance(v, numbers.Real)
+                                          for v in vals):
+            raise fail(error, TYPE, name=label, kind=f"{self.kind} or three [R, G, B]", actual=_fmt(value))
         shown = vals[0] if len(vals) == 1 else vals
         r, g, b = (float(self._scalar(v, label, error, shown)) for v in (vals * 3 if len(vals) == 1 else vals))
         return r, g, b
@@ -235,9 +240,8 @@ def refuse_unused(names: Iterable[str], category: str, values: Iterable[str], ac
 # lengths are millimetres (materials.py); counts are integers; every bound says why it is where it is
 
 #: transport mean free paths 1/sigma_t' (and any mean free path an artist gives) every model takes
-MFP_MM = Quantity("mean free path", 1e-6, 1e6, "mm",
-                  "1 nm to 1 km: profiles are sampled on grids of a fraction of the shortest path up to tens of the "
-                  "longest; outside it the arithmetic overflows or underflows long before a translucent material ends")
+MFP_MM = Quantity("mean free path", 1e-6, 1e6, "mm", "1 nm to 1 km: beyond it a profile's grid overflows or "
+                  "underflows, docs/models.md")
 #: Burley's surface albedo A (Xie 2020 Eq. 5, Burley 2015): the total diffuse reflectance of a scattering medium
 BURLEY_ALBEDO = Quantity("Burley albedo A", 0.0, 1.0, "",
                          "a reflectance; A = 0 reflects no light beneath the surface: R(r) = 0 and a kernel "
@@ -246,12 +250,14 @@ BURLEY_ALBEDO = Quantity("Burley albedo A", 0.0, 1.0, "",
 REFLECTANCE = Quantity("albedo", 0.0, 1.0, "", "a reflectance")
 #: absorption and scattering coefficients (mm^-1): >= 0, finite
 COEFFICIENT = Quantity("coefficient", 0.0, math.inf, "mm^-1", "an attenuation per mm", hi_open=True)
+#: the extinction sigma_t = sigma_a + sigma_s (mm^-1): > 0
+EXTINCTION = Quantity("sigma_t", 0.0, math.inf, "mm^-1", "a medium that neither absorbs nor scatters holds no "
+                      "light beneath its surface", lo_open=True, hi_open=True)
 #: the Henyey-Greenstein anisotropy g (mean cosine of the scattering angle)
 ANISOTROPY = Quantity("g", -1.0, 1.0, "", "the mean cosine of the scattering angle; |g| = 1 is a delta phase "
                       "function that never turns", lo_open=True, hi_open=True)
-#: refractive index (absolute or relative to the outside)
-ETA = Quantity("eta", 1.0, 4.0, "", "no optical medium is denser in the visible (diamond 2.42, rutile 2.9); "
-               "beyond it the photons are trapped by total internal reflection")
+#: refractive index (absolute or relative to the outside); each model bounds it further (profiles.domain)
+ETA = Quantity("eta", 1.0, math.inf, "", "a refractive index; vacuum is 1", hi_open=True)
 #: a layer's thickness (mm); inf: semi-infinite
 THICKNESS_MM = Quantity("thickness_mm", 0.0, math.inf, "mm", "a slab's depth; inf for a semi-infinite medium",
                         lo_open=True)
@@ -282,7 +288,7 @@ REL_SE = Quantity("reference_rel_se", 0.0, 1.0, "", "a relative standard error",
 #: a scale factor that must be positive and finite
 SCALE = Quantity("scale", 1e-6, 1e6, "", "a positive factor")
 
-__all__ = ["ANISOTROPY", "BURLEY_ALBEDO", "CHOICE", "COEFFICIENT", "Choice", "ETA", "FINITE", "FRACTION", "FRAME",
+__all__ = ["ANISOTROPY", "BURLEY_ALBEDO", "CHOICE", "COEFFICIENT", "Choice", "ETA", "EXTINCTION", "FINITE", "FRACTION", "FRAME",
            "FRAMES", "Flag", "LENGTH_MM", "MFP_MM", "PHOTONS", "Quantity", "RANGE", "REFERENCE_SPP", "REFLECTANCE",
            "REL_SE", "SCALE", "SEED", "SIZE_PX", "SPP", "TAPS", "THICKNESS_MM", "TYPE", "UNUSED", "check_choice",
            "check_finite", "fail", "refuse_unused"]

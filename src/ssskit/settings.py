@@ -23,7 +23,7 @@ import math
 import typing
 from pathlib import Path
 from collections.abc import Collection
-from typing import Any, ClassVar, Self, SupportsIndex
+from typing import Any, ClassVar, Self
 
 from .errors import SettingsError, unknown_names_message
 from .quantities import FRAMES, PHOTONS, SIZE_PX, TAPS, Choice, Flag, Quantity, refuse_unused

@@ -12,7 +12,6 @@ convolution on each SSS region, with the pass's own boundary rule.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from numbers import Real
 from typing import TYPE_CHECKING
@@ -20,6 +19,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .errors import SignalError
+from .quantities import LENGTH_MM, Quantity, check_finite
+
+#: the fraction of the kernel's energy its radius holds
+RADIUS_FRACTION = Quantity("fraction", 0.0, 1.0, "", "", lo_open=True, hi_open=True)
 
 if TYPE_CHECKING:  # imported where used: truth loads without them
     from .kernels.base import AnyKernel, Kernel
@@ -39,8 +42,7 @@ def check_image(image: np.ndarray, what: str = "image") -> np.ndarray:
         raise SignalError(f"{what} must have shape (H, W, 3), got {img.shape}")
     if not np.issubdtype(img.dtype, np.floating):
         raise SignalError(f"{what} must be floating point, got {img.dtype}")
-    if not np.all(np.isfinite(img)):
-        raise SignalError(f"{what} contains NaN or infinity")
+    check_finite(img, what, SignalError)
     return img.astype(np.float64, copy=False)
 
 
@@ -61,8 +63,7 @@ def kernel_on_pixels(kernel: AnyKernel, pixel_mm: float) -> Kernel:
     """The kernel as a tabulated :class:`Kernel` on the pixel grid (resampled or tap-deposited)."""
     from .kernels.base import TapKernel
 
-    if not (_is_number(pixel_mm) and math.isfinite(pixel_mm) and pixel_mm > 0):
-        raise SignalError(f"pixel_mm (the pixel's size in mm) must be a finite number > 0, got {pixel_mm!r}")
+    pixel_mm = LENGTH_MM.check(pixel_mm, "pixel_mm (the pixel's size in mm)", SignalError)
     if isinstance(kernel, TapKernel):
         return kernel.to_kernel(pixel_mm)
     if abs(kernel.cell_mm - pixel_mm) <= 1e-12 * pixel_mm:
@@ -114,11 +115,8 @@ def exact_screen_space(gbuffer: GBuffer, profile: RGBProfile | Mapping[int, RGBP
     bad = [type(p).__name__ for p in given if not isinstance(p, RGBProfile)]
     if bad:
         raise ProfileError(f"exact_screen_space needs {expected}, got {bad[0]}")
-    if not (_is_number(fraction) and 0.0 < fraction < 1.0):
-        raise SignalError(f"fraction (of the energy the kernel's radius holds) must lie in (0, 1), got {fraction!r}")
-    if not np.all(np.isfinite(gbuffer.diffuse)):  # a layer changed after the G-buffer checked it: as the passes say
-        raise SignalError("the G-buffer's diffuse layer must be finite on every pixel (a NaN or inf colour spreads "
-                          "over the whole convolution)")
+    fraction = RADIUS_FRACTION.check(fraction, "fraction (of the energy the kernel's radius holds)", SignalError)
+    check_finite(gbuffer.diffuse, "the G-buffer's diffuse layer", SignalError, "colour values")
     cam = gbuffer.camera
     if abs(cam.fx - cam.fy) > 1e-6 * cam.fx:
         return None

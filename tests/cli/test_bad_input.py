@@ -127,12 +127,12 @@ BAD = [
     (["render", "--scene", "slab", "--size", "0x0"], "the width must lie in 8..8192"),
     (["render", "--scene", "slab", "--size", "100000x100000"], "the width must lie in 8..8192"),
     (["render", "--scene", "slab", "--size", "64x"], "must look like 256x192"),
-    (["render", "--scene", "slab", "--jitter", "nan"], "--jitter: jitter must be a finite number in [0, 1]"),
+    (["render", "--scene", "slab", "--jitter", "nan"], "--jitter: jitter must lie in [0, 1], got nan"),
     (["render", "--scene", "slab", "--jitter", "2"], "--jitter"),
     (["render", "--scene", "slab", "--kernel", "svd:0"], "SVD rank must lie in 1..64"),
     (["render", "--scene", "slab", "--kernel", "guided:9"], "guide exponent k"),
     (["render", "--scene", "slab", "--kernel", "jimenez2012:11", "--taps", "7"], "give the number of taps once"),
-    (["render", "--scene", "slab", "--taps", "6"], "--taps: taps must be odd"),
+    (["render", "--scene", "slab", "--taps", "6"], "--taps: taps must be an odd integer, got 6"),
     (["render", "--scene", "slab", "--taps", "0"], "--taps"),
     (["render", "--scene", "slab", "--spp", "0"], "--spp: spp must lie in"),
     (["render", "--scene", "slab", "--seed", "-1"], "--seed: seed must lie in"),
@@ -175,14 +175,14 @@ def test_bad_input(run, workdir, args, fragment):
 #: the inputs a newcomer's trial found still let through (issue 23), each failing before its fix
 FIRST_HOUR = [
     # physically meaningless materials: each model's valid domain, named
-    (["profile", "--material", "eta4.json", "--model", "dipole"], "the dipole model takes a relative index eta in [1, 2.5]"),
+    (["profile", "--material", "eta4.json", "--model", "dipole"], "the dipole model's relative index eta must lie in [1, 2.5]"),
     (["profile", "--material", "eta1e6.json", "--model", "gaussians"], "the gaussians (fitted to the dipole) model"),
-    (["profile", "--material", "eta1e6.json", "--model", "montecarlo"], "the montecarlo model takes a relative index eta in [1, 4]"),
-    (["profile", "--material", "huge.json", "--out", "p.csv"], "the montecarlo model takes transport mean free paths"),
-    (["profile", "--material", "tiny.json", "--model", "burley", "--out", "p.csv"], "the burley model takes transport"),
-    (["simulate", "--material", "huge.json"], "the montecarlo model takes transport mean free paths"),
-    (["kernel", "--material", "tiny.json", "--model", "dipole", "--method", "svd"], "the dipole model takes transport"),
-    (["evaluate", "--material", "eta4.json", "--model", "dipole"], "the dipole model takes a relative index"),
+    (["profile", "--material", "eta1e6.json", "--model", "montecarlo"], "the montecarlo model's relative index eta must lie in [1, 4]"),
+    (["profile", "--material", "huge.json", "--out", "p.csv"], "the montecarlo model's transport mean free path"),
+    (["profile", "--material", "tiny.json", "--model", "burley", "--out", "p.csv"], "the burley model's transport"),
+    (["simulate", "--material", "huge.json"], "the montecarlo model's transport mean free path"),
+    (["kernel", "--material", "tiny.json", "--model", "dipole", "--method", "svd"], "the dipole model's transport"),
+    (["evaluate", "--material", "eta4.json", "--model", "dipole"], "the dipole model's relative index eta must lie in"),
     (["profile", "--material", "skin1", "--r-max", "1e308", "--out", "p.csv"], "--r-max must be a positive number of mm up to"),
     # options accepted and ignored, or computed twice
     (["kernel", "--method", "jimenez2012", "--material", "skin1"], "jimenez2012 is a fixed engine kernel that reads no profile"),
@@ -195,10 +195,10 @@ FIRST_HOUR = [
     # render: options accepted and ignored (the settings tree of issue 22)
     (["render", "--scene", "slab", "--model", "deon2007", "--material", "marble"], "--model deon2007 is a fixed preset"),
     (["render", "--scene", "slab", "--reference", "--reference-spp", "64", "--reference-max-spp", "32"],
-     "--reference-max-spp 32 is below --reference-spp 64"),
+     "--reference-max-spp: reference_max_spp 32 is below reference_spp 64"),
     (["render", "--scene", "slab", "--model", "dipole", "--photons", "5000"], "--photons does not apply to --model dipole"),
-    (["render", "--scene", "slab", "--reference-rel-se", "0.02"], "--reference-rel-se applies with --reference"),
-    (["render", "--scene", "slab", "--material", "eta4.json", "--model", "dipole"], "the dipole model takes a relative index"),
+    (["render", "--scene", "slab", "--reference-rel-se", "0.02"], "--reference-rel-se: reference_rel_se applies to reference true, not reference false"),
+    (["render", "--scene", "slab", "--material", "eta4.json", "--model", "dipole"], "the dipole model's relative index eta must lie in"),
 ]
 
 
@@ -208,9 +208,9 @@ def test_bad_input_of_the_first_hour(run, workdir, args, fragment):
 
 
 @pytest.mark.parametrize("content, fragment", [
-    ("taps = 8\n", "taps must be odd"),
+    ("taps = 8\n", "taps must be an odd integer, got 8"),
     ("tapz = 7\n", "unknown setting(s) tapz"),
-    ("[sss]\njitter = 3\n", "jitter must be a finite number"),
+    ("[sss]\njitter = 3\n", "jitter must lie in [0, 1], got 3"),
     ("kernel = 'svd:0'\n", "SVD rank"),
     ("reference = true\n", "--reference needs a built-in scene"),
     ("taps = \n", "malformed settings file"),

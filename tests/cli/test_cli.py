@@ -157,9 +157,9 @@ def test_bad_input_one_line_exit_2(capsys, tmp_path, monkeypatch, args, fragment
 @pytest.mark.parametrize(
     "content, fragment",
     [
-        ('{"sigma_a": -1, "sigma_s": 1}', "sigma_a must be >= 0"),
-        ('{"sigma_a": 1, "sigma_s": 1, "g": 1.5}', "|g| < 1"),
-        ('{"sigma_a": 1, "sigma_s": 1, "eta": 0.7}', "eta must be"),
+        ('{"sigma_a": -1, "sigma_s": 1}', "sigma_a must lie in [0, inf) mm^-1, got -1"),
+        ('{"sigma_a": 1, "sigma_s": 1, "g": 1.5}', "g must lie in (-1, 1), got 1.5"),
+        ('{"sigma_a": 1, "sigma_s": 1, "eta": 0.7}', "eta must lie in [1, inf), got 0.7"),
         ("{not json", "malformed material file"),
     ],
 )

@@ -73,16 +73,16 @@ def test_text_output(run, workdir):  # noqa: F811
 
 BAD = [
     (["--limit-spp", "1"], "--limit-spp: limit_spp must lie in [2, 131072], got 1"),
-    (["--static", "--limit-spp", "128"], "--limit-spp: limit_spp applies to a moving camera"),
+    (["--static", "--limit-spp", "128"], "--limit-spp: limit_spp applies to camera moving, not camera static"),
     (["--save-gbuffer", "g.exr"], "--save-gbuffer applies to one frame; add --static"),
     (["--reference"], "--reference applies to one frame; add --static"),
     (["--frames-dir", "notes.txt"], "is a file, not a folder"),
     (["--disocclusion-spp", "65"], "--disocclusion-spp: disocclusion_spp must lie in [8, 64], got 65"),
-    (["--static", "--disocclusion-spp", "64"], "--disocclusion-spp: disocclusion_spp applies to a moving camera"),
+    (["--static", "--disocclusion-spp", "64"], "--disocclusion-spp: disocclusion_spp applies to camera moving, not camera static"),
     # the one-frame comparisons' options would be silently unused on a moving run
-    (["--reference-spp", "128"], "--reference-spp applies to one frame; add --static"),
-    (["--reference-max-spp", "128"], "--reference-max-spp applies to one frame; add --static"),
-    (["--reference-rel-se", "0.5"], "--reference-rel-se applies to one frame; add --static"),
+    (["--reference-spp", "128"], "--reference-spp: reference_spp applies to reference true, not reference false"),
+    (["--reference-max-spp", "128"], "--reference-max-spp: reference_max_spp applies to reference true, not reference false"),
+    (["--reference-rel-se", "0.5"], "--reference-rel-se: reference_rel_se applies to reference true, not reference false"),
     (["--no-exact"], "--no-exact applies to one frame; add --static"),
     (["--out", "a.png", "--frames-dir", "a.png"], "--frames-dir 'a.png' is also the --out file"),
     (["--out", "fd/frame_0001_taa.png", "--frames-dir", "fd"], "is one of the frame files --frames-dir writes"),

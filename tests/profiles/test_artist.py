@@ -116,11 +116,11 @@ def test_burley_fit_inversion():
 @pytest.mark.parametrize("kw,fragment", [
     (dict(albedo=(1.2, 0.5, 0.3)), "must lie in (0, 1]"),
     (dict(albedo=(0.0, 0.5, 0.3)), "must lie in (0, 1]"),  # A = 0: R(r) = 0, as render's Burley pass refuses it
-    (dict(distance_mm=(1.0, 0.0, 1.0)), "must be > 0 mm"),
-    (dict(distance_mm=(1.0, -2.0, 1.0)), "must be > 0 mm"),
+    (dict(distance_mm=(1.0, 0.0, 1.0)), "the dmfp distance must lie in [1e-06, 1e+06] mm, got (1, 0, 1)"),
+    (dict(distance_mm=(1.0, -2.0, 1.0)), "must lie in [1e-06, 1e+06] mm, got (1, -2, 1)"),
     # the export wrote subsurface_scale 3.6e6 from --dmfp 1e9: the mean free paths every model takes
     (dict(distance_mm=(1e9, 1.0, 1.0)), "in [1e-06, 1e+06] mm"),
-    (dict(distance_mm=(1.0, 1e-9, 1.0), kind="mfp"), "the mfp distance must be > 0 mm, in [1e-06, 1e+06] mm"),
+    (dict(distance_mm=(1.0, 1e-9, 1.0), kind="mfp"), "the mfp distance must lie in [1e-06, 1e+06] mm"),
     (dict(eta=0.9), "eta must be >= 1"),
     (dict(g=1.0), "|g| < 1"),
     (dict(kind="radius"), "distance kind"),

@@ -385,7 +385,7 @@ def test_layered_material_errors(tmp_path):
     with pytest.raises(MaterialError, match="only the last layer may be semi-infinite"):
         get_material(str(f))
     f.write_text('{"layers": [{"sigma_a": 1, "sigma_s": -1}]}')
-    with pytest.raises(MaterialError, match="layer 1: sigma_s must be >= 0"):
+    with pytest.raises(MaterialError, match=r"layer 1: sigma_s must lie in \[0, inf\) mm\^-1, got"):
         get_material(str(f))
     f.write_text('{"layers": [{"sigma_a": 1, "sigma_s": 1}]}')
     with pytest.raises(ProfileError, match="only supported by the montecarlo model"):

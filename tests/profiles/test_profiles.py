@@ -245,7 +245,11 @@ def test_a_given_burley_albedo_lies_in_0_1():
     render and export refuse it: one domain, (0, 1]; A = 1 is taken and is the channel's total reflectance."""
     from ssskit.errors import ProfileError
 
-    for albedo in ((0.0, 0.5, 0.5), (0.5, 1.01, 0.5), (0.5, float("nan"), 0.5), 0.5):
-        with pytest.raises(ProfileError, match=r"in \(0, 1\]"):
+    for albedo in ((0.0, 0.5, 0.5), (0.5, 1.01, 0.5), (0.5, float("nan"), 0.5), 0.0):
+        with pytest.raises(ProfileError, match=r"albedo A must lie in \(0, 1\], got .* \(a reflectance; A = 0 reflects "):
             profile_for_material("skin1", "burley", albedo=albedo)
+    with pytest.raises(ProfileError, match=r"albedo A must be a number or three \[R, G, B\], got \(0.5, 0.5\)"):
+        profile_for_material("skin1", "burley", albedo=(0.5, 0.5))
+    # one number is every channel's, as BurleyParams, the settings' albedo and --albedo take it
+    assert profile_for_material("skin1", "burley", albedo=0.5).total_rd() == pytest.approx([0.5, 0.5, 0.5])
     assert profile_for_material("skin1", "burley", albedo=(1.0, 0.5, 0.25)).total_rd() == pytest.approx([1.0, 0.5, 0.25])

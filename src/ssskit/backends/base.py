@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Protocol, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .plan import DEPTH_MODES, SeparablePlan, check_integer_slots, check_real
+from .plan import DEPTH_MODES, SeparablePlan, check_frame_values, check_integer_slots, check_real, check_slot_range
 
 if TYPE_CHECKING:
     from .adaptive_plan import AdaptivePlan
@@ -353,19 +353,13 @@ def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, pl
     if np.shape(slots) != np.shape(depth_mm):
         raise PassError(f"slots must be (H, W) like depth, got {np.shape(slots)}")
     check_integer_slots(slots)
-    slots = np.asarray(slots)
-    if slot_range and slots.size and (int(slots.min()) < 0 or int(slots.max()) >= plan.slots):
-        raise PassError(f"slots must lie in [0, {plan.slots - 1}]")
+    if slot_range:
+        check_slot_range(slots, plan.slots)
     if not values:
         return
     check_real("diffuse", diffuse)
-    if not np.all(np.isfinite(diffuse)):
-        raise PassError("diffuse must be finite on every pixel (a NaN or inf colour spreads over its neighbours)")
     check_real("depth", depth_mm)
-    depth_mm = np.asarray(depth_mm)
-    inside = slots > 0
-    if not np.all(np.isfinite(depth_mm[inside])) or np.any(depth_mm[inside] <= 0):
-        raise PassError("depth must be positive and finite on every pixel with SSS")
+    check_frame_values(diffuse, depth_mm, slots)
 
 
 def check_burley_frame(plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,

@@ -135,6 +135,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
+from ..quantities import BURLEY_ALBEDO, MFP_MM
 
 if TYPE_CHECKING:
     from ..profiles.base import RGBProfile
@@ -171,14 +172,6 @@ R2_A1 = 0xC13FA9A9  # round(2^32 / g), g the plastic number
 R2_A2 = 0x91E10DA6  # round(2^32 / g^2)
 
 
-def _check_albedo(a: NDArray[np.float64]) -> None:
-    """Burley's surface albedo A in (0, 1] per channel (:mod:`ssskit.profiles.domain`): A = 0 gives R(r) = 0
-    (Xie 2020 Eq. 4), no subsurface light, refused like a material that does not scatter."""
-    if np.any(a <= 0) or np.any(a > 1):
-        raise PassError(f"Burley albedo must lie in (0, 1] per channel (A = 0 reflects no light beneath the surface: "
-                        f"R(r) = 0), got {tuple(a.tolist())}")
-
-
 @dataclass(frozen=True, eq=False)
 class BurleyParams:
     """One profile id's Burley parameters per RGB channel: surface albedo A and length d (mm).
@@ -193,31 +186,16 @@ class BurleyParams:
     d_mm: tuple[float, float, float]
 
     def __post_init__(self) -> None:
-        from ..profiles.domain import BURLEY_D_RANGE_MM
+        from ..profiles.domain import BURLEY_D
 
-        a = _rgb("albedo", self.albedo)
-        d = _rgb("d", self.d_mm)
-        _check_albedo(a)
-        lo, hi = BURLEY_D_RANGE_MM
-        if np.any(d < lo) or np.any(d > hi):
-            raise PassError(f"Burley length d must be > 0 mm, in [{lo:.3g}, {hi:.3g}] mm (what Xie 2020 Eq. 5 gives from "
-                            f"mean free paths in the [1e-06, 1e+06] mm every model takes, docs/models.md) per channel, "
-                            f"got {tuple(d.tolist())}")
-        object.__setattr__(self, "albedo", tuple(float(v) for v in a))
-        object.__setattr__(self, "d_mm", tuple(float(v) for v in d))
+        object.__setattr__(self, "albedo", BURLEY_ALBEDO.check_rgb(self.albedo, "Burley albedo", PassError))
+        object.__setattr__(self, "d_mm", BURLEY_D.check_rgb(self.d_mm, "Burley length d", PassError))
 
     @classmethod
     def from_dmfp(cls, albedo: ArrayLike, dmfp_mm: ArrayLike) -> "BurleyParams":
         """d = dmfp / (3.5 + 100 (A - 0.33)^4) per channel (Xie 2020, Eq. 5, configuration 3)."""
-        from ..profiles.domain import MFP_RANGE_MM
-
-        a = _rgb("albedo", albedo)
-        ell = _rgb("dmfp", dmfp_mm)
-        _check_albedo(a)
-        lo, hi = MFP_RANGE_MM
-        if np.any(ell < lo) or np.any(ell > hi):
-            raise PassError(f"diffuse mean free path must be > 0 mm, in [{lo:g}, {hi:g}] mm (the mean free paths every "
-                            f"model takes, docs/models.md) per channel, got {tuple(ell.tolist())}")
+        a = np.asarray(BURLEY_ALBEDO.check_rgb(albedo, "Burley albedo", PassError))
+        ell = np.asarray(MFP_MM.check_rgb(dmfp_mm, "diffuse mean free path", PassError))
         d = ell / (3.5 + 100.0 * (a - 0.33) ** 4)
         return cls((a[0], a[1], a[2]), (d[0], d[1], d[2]))
 
@@ -252,18 +230,6 @@ class BurleyParams:
         return int(np.argmax(self.d_mm))
 
 
-def _rgb(name: str, value: ArrayLike) -> NDArray[np.float64]:
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise PassError(f"{name} must be a number or 3 numbers (R, G, B), got {value!r}") from None
-    if arr.ndim == 0:
-        arr = np.full(3, float(arr))
-    if arr.shape != (3,):
-        raise PassError(f"{name} must be a number or 3 numbers (R, G, B), got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise PassError(f"{name} must be finite, got {tuple(arr.tolist())}")
-    return arr
 
 
 @dataclass(frozen=True, eq=False)

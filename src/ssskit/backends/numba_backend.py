@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import PassError
 from ..sampling.hashes import frame_base
 from .base import Backend, check_frame, run_tiny_frames
-from .plan import SeparablePlan, TermTable, check_real
+from .plan import SeparablePlan, TermTable, check_frame_values, check_real, check_slot_range
 
 if TYPE_CHECKING:
     from concurrent.futures import ThreadPoolExecutor
@@ -228,12 +228,10 @@ class NumbaBackend(Backend):
         pad = self._pads.get((h, w))
         multi = plan.slots > 2  # several profiles: the passes test slots (one: a texel's depth tells)
         buf, wps, plane, stats = self._pack(src, depth, slots, pad if pad is not None else 0, pad is not None, multi)
-        if stats[:, 4].any():
-            raise PassError("diffuse must be finite on every pixel (a NaN or inf colour spreads over its neighbours)")
-        if stats[:, 1].any():
-            raise PassError("depth must be positive and finite on every pixel with SSS")
+        if stats[:, 4].any() or stats[:, 1].any():  # the one pass over the frame found a bad value: name it
+            check_frame_values(src, depth, slots)
         if slots.size and (stats[:, 2].min() < 0 or stats[:, 3].max() >= plan.slots):
-            raise PassError(f"slots must lie in [0, {plan.slots - 1}]")
+            check_slot_range(slots, plan.slots)
         z_min = float(stats[:, 0].min(initial=np.inf))
         if not np.isfinite(z_min):  # no pixel with SSS
             return np.array(src, dtype=np.float32)

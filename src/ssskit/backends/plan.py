@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
+from ..quantities import LENGTH_MM, Quantity, check_finite
 
 #: depth factor f(d_z) of the pass: exp(-d_z^2 p) with p = 1 / (2 tau_max) (supplement E),
 #: max(0, 1 - |d_z| p) with p = 1 / width (follow-surface test), or 1 (no depth test)
@@ -43,6 +44,29 @@ def check_integer_slots(slots: ArrayLike) -> None:
     kind = np.asarray(slots).dtype.kind
     if kind not in "iu" and not (kind == "f" and np.size(slots) == 0):
         raise PassError(f"slots must be an integer image, got dtype {np.asarray(slots).dtype}")
+
+
+#: a pixel's linear depth in front of the camera where it has SSS (mm): positive, finite
+DEPTH_MM = LENGTH_MM.within(reason="a linear depth in front of the camera, on every pixel with SSS")
+
+
+def check_slot_range(slots: ArrayLike, n_slots: int) -> None:
+    """Every slot of the (H, W) image in [0, n_slots - 1] (0: no SSS), in the quantities' range wording."""
+    s = np.asarray(slots)
+    if s.size and (int(s.min()) < 0 or int(s.max()) >= n_slots):
+        Quantity("slots", 0, n_slots - 1, "", "the plan's profile slots; 0 is no SSS", integer=True).check_array(
+            s, "slots", PassError, "pixels")
+
+
+def check_frame_values(diffuse: ArrayLike | None, depth_mm: ArrayLike, slots: ArrayLike) -> None:
+    """Every colour of ``diffuse`` finite (a NaN or inf colour spreads over its neighbours; None: not checked)
+    and every pixel with SSS (``slots`` > 0) at a positive finite depth (:data:`DEPTH_MM`), in the quantities'
+    wordings."""
+    if diffuse is not None:
+        check_finite(diffuse, "diffuse", PassError, "colour values")
+    z = np.asarray(depth_mm)[np.asarray(slots) > 0]
+    if z.size:
+        DEPTH_MM.check_array(z, "depth", PassError, "pixels with SSS")
 
 
 def check_real(name: str, values: ArrayLike) -> None:

@@ -44,6 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PassError
+from .plan import check_frame_values, check_slot_range
 
 #: the most taps on each side of a pixel per 1D pass (a wider Gaussian is sampled with a stride)
 MAX_TAPS = 16
@@ -142,12 +143,8 @@ def check_spread_frame(plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndar
             raise PassError(f"{name} must have shape {shape} like the frame, got {np.shape(arr)}")
     if np.ndim(shadow_mm) != 2 or 0 in np.shape(shadow_mm):
         raise PassError(f"the light-space depth must be a non-empty (H, W) image, got shape {np.shape(shadow_mm)}")
-    s = np.asarray(slots)
-    if s.size and (int(s.min()) < 0 or int(s.max()) >= plan.slots):
-        raise PassError(f"slots must lie in [0, {plan.slots - 1}]")
-    z = np.asarray(depth_mm)[s > 0]
-    if z.size and not (np.all(np.isfinite(z)) and np.all(z > 0)):
-        raise PassError("depth must be positive and finite on every pixel with SSS")
+    check_slot_range(slots, plan.slots)
+    check_frame_values(None, depth_mm, slots)
 
 
 __all__ = ["MAX_KNOTS", "MAX_TAPS", "MIN_PX", "SlotSpread", "SpreadPlan", "build_spread_plan", "check_spread_frame",

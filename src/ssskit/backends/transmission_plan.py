@@ -64,7 +64,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PassError
-from .plan import check_integer_slots, check_real
+from .plan import check_integer_slots, check_real, check_slot_range
 
 #: the transmittance models a plan can hold (the MCML fit, Jimenez et al. 2010's skin Gaussians, Unreal Engine 5's
 #: subsurface-profile transmission)
@@ -238,9 +238,8 @@ def check_transmission_frame(plan: TransmissionPlan, slots: np.ndarray, light_uv
     if np.ndim(shadow_mm) != 2 or 0 in np.shape(shadow_mm):
         raise PassError(f"the light-space depth must be a non-empty (H, W) image, got shape {np.shape(shadow_mm)}")
     check_integer_slots(slots)
+    check_slot_range(slots, plan.slots)
     s = np.asarray(slots)
-    if s.size and (int(s.min()) < 0 or int(s.max()) >= plan.slots):
-        raise PassError(f"slots must lie in [0, {plan.slots - 1}]")
     for name, arr in (("light_uvz", light_uvz), ("n_dot_l", n_dot_l), ("light_rgb", light_rgb),
                       ("shadow_mm", shadow_mm)):
         check_real(name, arr)

@@ -4,7 +4,7 @@ and the checks between options and outputs that only the command line has.
 :func:`build_settings` starts from the settings file (``--settings``; the defaults without one) and
 applies the options the user gave, each validated by the settings classes and named in the error: the
 top-level values (:data:`FIELDS`), the pass (``--pass``, or the file's), and the pass member's options
-(:data:`OWN` says which pass each option belongs to; an option of another pass is refused). The frame
+(:func:`own` derives from the settings which pass each option belongs to; an option of another pass is refused). The frame
 writer (:class:`FrameWriter`) writes an adaptive run's frames through the pipeline's callback.
 """
 
@@ -15,6 +15,7 @@ import math
 import re
 import warnings
 from pathlib import Path
+from collections.abc import Iterable
 from typing import Any, TypeVar
 
 import click
@@ -52,15 +53,23 @@ FIELDS: dict[str, tuple[str, ...]] = {
     "transmission_model": ("transmission_model",),
     "transmission_spread": ("transmission_spread",),
 }
-#: the options each pass owns: with another pass they are refused
-OWN: dict[str, tuple[str, ...]] = {
-    "separable": ("model", "photons", "kernel_spec", "taps", "tap_method", "jitter", "depth_mode"),
-    "burley": ("sampler", "c", "albedo", "dmfp", "no_mips"),
-    "burley-adaptive": ("frames", "sigma0", "kappa", "budget", "alpha", "correction", "static", "taa", "frames_dir",
-                        "limit_spp", "disocclusion_spp"),
-}
-#: the Burley sampler's options, which the adaptive run takes too
-SAMPLING = OWN["burley"]
+#: click parameter -> the pass member field(s) it sets, where the names differ (the others are a field's own)
+MEMBER_FIELDS: dict[str, tuple[str, ...]] = {"dmfp": ("dmfp_mm",), "no_mips": ("mips",), "sigma0": ("sigma0_sq",),
+                                             "budget": ("b_min", "b_max"), "frames_dir": ("frames",)}
+
+
+def own(params: Iterable[str]) -> dict[str, tuple[str, ...]]:
+    """The options among ``params`` (click parameter names) each pass owns, derived from the settings: those
+    setting a top-level field declared to apply to the pass (RenderSettings' ``applies=("pass", ...)``), or only
+    fields of the pass's member class (:data:`PASSES`); the Burley sampler's fields, which the adaptive run takes
+    too, are the burley pass's, and its spp is --spp (the G-buffer's for the other passes)."""
+    top = {f.name for f in dataclasses.fields(RenderSettings) if (f.metadata.get("applies") or ("",))[0] == "pass"}
+    fields = {name: {f.name for f in dataclasses.fields(cls)} for name, cls in PASSES.items()}
+    fields["separable"] |= top
+    fields["burley-adaptive"] -= fields["burley"]
+    fields["burley"] -= {"spp"}
+    sets = {p: set(FIELDS.get(p, MEMBER_FIELDS.get(p, (p,)))) for p in params}
+    return {name: tuple(p for p, fs in sets.items() if fs <= own) for name, own in fields.items()}
 #: options that describe how a built-in scene's G-buffer is rendered: refused with a G-buffer file
 SCENE_ONLY = ("size", "spp")
 
@@ -99,7 +108,7 @@ def pass_of(ctx: click.Context, pass_name: str | None, method: str | None, base:
         pass_name = pass_name or method
     name = PASSES.get(pass_name).name if pass_name is not None else (base.pass_name if base else "separable")
     burley = name in ("burley", "burley-adaptive")
-    for other, options in OWN.items():
+    for other, options in own(p.name for p in ctx.command.params if p.name).items():
         mine = other == name or (other == "burley" and burley)
         for opt in () if mine else options:
             if given(ctx, opt):
@@ -260,15 +269,6 @@ def _check_ignored(ctx: click.Context, s: RenderSettings) -> None:
                           f"profile, not {s.material!r}'s)")
     if given(ctx, "photons") and "photons" not in model_parameters(s.model):
         raise SsskitError(f"--photons does not apply to --model {s.model} (only the Monte Carlo profiles are simulated)")
-    if not s.reference:
-        for name in ("reference_spp", "reference_max_spp", "reference_rel_se"):
-            if given(ctx, name):
-                raise SsskitError(f"{option_name(ctx, name)} applies with --reference (no path-traced reference is made)")
-    if given(ctx, "reference_max_spp") and ctx.params["reference_max_spp"] < s.reference_spp:
-        # (RenderSettings would raise the budget to reference_spp without a word)
-        raise SsskitError(f"--reference-max-spp {ctx.params['reference_max_spp']} is below --reference-spp "
-                          f"{s.reference_spp}: the reference renders at least reference_spp samples and at most "
-                          "reference_max_spp")
 
 
 def _mesh_scene(scene: Any) -> bool:
@@ -303,10 +303,9 @@ def _check_adaptive(ctx: click.Context, s: RenderSettings, still: bool, save_gbu
     if s.reference:
         raise SsskitError("--reference applies to one frame; add --static (a moving sequence compares each frame "
                           "with its converged Burley reference)")
-    for name in ("reference_spp", "reference_max_spp", "reference_rel_se", "no_exact"):  # else silently unused
-        if given(ctx, name):
-            raise SsskitError(f"{option_name(ctx, name)} applies to one frame; add --static (a moving sequence "
-                              "compares each frame with its converged Burley reference of --limit-spp spp)")
+    if given(ctx, "no_exact"):  # (the reference's options need --reference, refused above: RenderSettings)
+        raise SsskitError("--no-exact applies to one frame; add --static (a moving sequence compares each frame "
+                          "with its converged Burley reference of --limit-spp spp)")
 
 
 #: the files :class:`FrameWriter` writes into --frames-dir
@@ -352,5 +351,5 @@ class FrameWriter:
                          f"adaptive frame {n}: mean {mean:.1f} spp")
 
 
-__all__ = ["FIELDS", "FRAME_FILE", "OWN", "Budget", "FrameWriter", "RGBFloats", "build_settings", "check_inputs",
-           "load_settings", "pass_of"]
+__all__ = ["FIELDS", "FRAME_FILE", "MEMBER_FIELDS", "Budget", "FrameWriter", "RGBFloats", "build_settings", "check_inputs",
+           "load_settings", "own", "pass_of"]

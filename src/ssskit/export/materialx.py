@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
+from ..quantities import BURLEY_ALBEDO, LENGTH_MM
 
 
 def searchlight_scaling(a: Any) -> np.ndarray:
@@ -155,9 +156,10 @@ def read_materialx(path: str | Path) -> dict[str, Any]:
             if not np.all(np.isfinite(v)):
                 raise SsskitError(f"{str(path)!r}: {cat} {field} must be finite, got {np.asarray(v).tolist()}")
         ell = radius * rel
-        if np.any(ell <= 0) or np.any(a <= 0) or np.any(a > 1):
-            raise SsskitError(f"{str(path)!r}: the {cat} needs 0 < subsurface_color <= 1 (the observed albedo) and "
-                              "a positive mean free path (subsurface radius x scale)")
+        BURLEY_ALBEDO.check_array(a, f"{str(path)!r}: the {cat} subsurface_color (the observed albedo)", SsskitError,
+                                  "channels")
+        LENGTH_MM.check_array(ell, f"{str(path)!r}: the {cat} mean free path (subsurface radius x scale)", SsskitError,
+                              "channels")
         ior_in = node.getInput("specular_ior" if cat == "open_pbr_surface" else "specular_IOR")
         aniso_in = node.getInput("subsurface_scatter_anisotropy" if cat == "open_pbr_surface" else "subsurface_anisotropy")
         eta = float(ior_in.getValue()) if ior_in is not None else None

@@ -29,6 +29,7 @@ import numpy as np
 from ..errors import SsskitError
 from ..io import parse_document
 from ..materials import Material
+from ..quantities import BURLEY_ALBEDO
 from .registry import FORMATS
 
 #: suffixes that hold an engine file (a .json one only when it has an "engine" key, a .py one only when it is an
@@ -263,11 +264,8 @@ def _unreal_clamps(block: dict[str, Any]) -> tuple[str, ...]:
 
 def _check_burley_inputs(path: Path, engine: str, albedo: np.ndarray, d_mm: np.ndarray | None = None) -> None:
     """Burley's domain for an engine without a cited clamp (module docstring): A in (0, 1], d > 0 finite."""
-    for c, v in enumerate(np.asarray(albedo, dtype=float).reshape(-1)[:3]):
-        if not (np.isfinite(v) and 0.0 < v <= 1.0):
-            raise SsskitError(f"{str(path)!r}: the {engine} albedo must lie in (0, 1] (Burley's A; 0 reflects no light "
-                              f"beneath the surface, and {engine}'s reader has no clamp ssskit could apply), got {v:g} "
-                              f"in channel {'RGB'[c]}")
+    BURLEY_ALBEDO.check_array(np.asarray(albedo, dtype=float).reshape(-1)[:3],  # no clamp ssskit could apply
+                              f"{str(path)!r}: the {engine} albedo", SsskitError, "channels")
     if d_mm is not None:
         for c, v in enumerate(d_mm):
             if not (np.isfinite(v) and v > 0.0):

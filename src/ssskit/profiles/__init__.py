@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ProfileError
+from ..quantities import BURLEY_ALBEDO
 from ..materials import LayeredMaterial, Material, get_material
 from ..registry import Registry
 from .base import RadialProfile, RGBProfile
@@ -83,10 +84,7 @@ def burley_profile(
         raise ProfileError(f"albedo source must be one of {', '.join(BURLEY_ALBEDO_SOURCES)}, got {albedo_source!r}")
     check_burley_material(material, albedo_given=albedo is not None or source == "dipole")
     if albedo is not None:
-        given = np.asarray(albedo, dtype=float) if np.ndim(albedo) == 1 and np.size(albedo) == 3 else None
-        if given is None or not np.all((given > 0) & (given <= 1)):
-            raise ProfileError(f"a given Burley albedo A must be 3 numbers (R, G, B) in (0, 1] (A = 0 reflects no light "
-                               f"beneath the surface: R(r) = 0, as BurleyParams says), got {albedo!r}")
+        albedo = BURLEY_ALBEDO.check_rgb(albedo, "a given Burley albedo A", ProfileError)
         source = "given"
     elif source == "dipole":
         a_r, a_g, a_b = (float(v) for v in dipole_profile(material).total_rd())

@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import MaterialError
 from ..materials import Material
+from ..quantities import BURLEY_ALBEDO, MFP_MM
 
 TABLE_PATH = Path(__file__).with_name("data") / "artist_table.json"
 #: Burley's r50 / d: the inverse of Xie 2020 Eq. 20 at 1/2
@@ -60,34 +61,13 @@ class ArtistMaterial:
         check_artist(self.albedo, self.distance_mm, self.kind, self.eta, self.g)
 
 
-def _triple(name: str, v: Any) -> tuple[float, float, float]:
-    try:
-        vals = [float(x) for x in (v if hasattr(v, "__iter__") and not isinstance(v, str) else [v] * 3)]
-    except (TypeError, ValueError):
-        raise MaterialError(f"{name} must be a number or 3 numbers (R, G, B), got {v!r}") from None
-    if len(vals) != 3:
-        raise MaterialError(f"{name} needs 3 values (R, G, B), got {len(vals)}")
-    return (vals[0], vals[1], vals[2])
-
-
 def check_artist(albedo: Any, distance_mm: Any, kind: str, eta: float, g: float) -> None:
     """The model's valid domain, naming the offending value: 0 < A <= 1 (Burley's albedo,
     :mod:`ssskit.profiles.domain`: A = 0 reflects no light beneath the surface), distance in the mean
     free paths every model takes (:data:`~ssskit.profiles.domain.MFP_RANGE_MM`), eta >= 1, |g| < 1,
     kind mfp or dmfp."""
-    from .domain import MFP_RANGE_MM
-
-    a = _triple("albedo", albedo)
-    d = _triple("distance", distance_mm)
-    for c, v in enumerate(a):
-        if not (math.isfinite(v) and 0.0 < v <= 1.0):
-            raise MaterialError(f"surface albedo must lie in (0, 1] (a reflectance of a scattering medium; A = 0 "
-                                f"reflects no light beneath the surface), got {v} in channel {'RGB'[c]}")
-    lo, hi = MFP_RANGE_MM
-    for c, v in enumerate(d):
-        if not (math.isfinite(v) and lo <= v <= hi):
-            raise MaterialError(f"the {kind} distance must be > 0 mm, in [{lo:g}, {hi:g}] mm (the mean free paths "
-                                f"every model takes, docs/models.md), got {v:g} in channel {'RGB'[c]}")
+    BURLEY_ALBEDO.check_rgb(albedo, "surface albedo", MaterialError)
+    MFP_MM.check_rgb(distance_mm, f"the {kind} distance", MaterialError)
     if kind not in DISTANCE_KINDS:
         raise MaterialError(f"distance kind must be one of {', '.join(DISTANCE_KINDS)}, got {kind!r}")
     if not (math.isfinite(eta) and eta >= 1.0):

@@ -21,24 +21,25 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
+from ..quantities import BURLEY_ALBEDO, REFLECTANCE
 from .base import RadialProfile
 
 
 def burley_d_searchlight(albedo: ArrayLike, ell: ArrayLike) -> NDArray[np.float64]:
     """d for the searchlight configuration, Theta_1 of Xie 2020 Eq. 5; ell = volume mean free path."""
-    a = _check_albedo(albedo)
+    a = _eq5_albedo(albedo)
     return np.asarray(ell, dtype=float) / (1.85 - a + 7.0 * np.abs(a - 0.8) ** 3)
 
 
 def burley_d_diffuse_transmission(albedo: ArrayLike, ell: ArrayLike) -> NDArray[np.float64]:
     """d for diffuse surface transmission, Theta_2 of Xie 2020 Eq. 5."""
-    a = _check_albedo(albedo)
+    a = _eq5_albedo(albedo)
     return np.asarray(ell, dtype=float) / (1.9 - a + 3.5 * (a - 0.8) ** 2)
 
 
 def burley_d_dmfp(albedo: ArrayLike, ell: ArrayLike) -> NDArray[np.float64]:
     """d with ell the diffuse mean free path on the surface, Theta_3 of Xie 2020 Eq. 5."""
-    a = _check_albedo(albedo)
+    a = _eq5_albedo(albedo)
     return np.asarray(ell, dtype=float) / (3.5 + 100.0 * (a - 0.33) ** 4)
 
 
@@ -65,11 +66,13 @@ def burley_d(albedo: ArrayLike, ell: ArrayLike, configuration: str = "searchligh
     return fn(albedo, ell_arr)
 
 
-def _check_albedo(albedo: ArrayLike) -> NDArray[np.float64]:
-    a = np.asarray(albedo, dtype=float)
-    if np.any(~np.isfinite(a)) or np.any(a < 0) or np.any(a > 1):
-        raise ProfileError(f"Burley albedo A must be in [0, 1], got {albedo!r}")
-    return a
+#: the albedo Xie 2020 Eq. 5's fits s(A) take: A in [0, 1], the range they are stated for (Burley 2015 fitted them
+#: over it); the profile itself, Eq. 4, needs A > 0 (:data:`ssskit.quantities.BURLEY_ALBEDO`, :class:`BurleyProfile`)
+EQ5_ALBEDO = REFLECTANCE.within(reason="the range Xie 2020 Eq. 5's fits are stated for")
+
+
+def _eq5_albedo(albedo: ArrayLike) -> NDArray[np.float64]:
+    return np.asarray(EQ5_ALBEDO.check_array(albedo, "Burley albedo A", ProfileError))
 
 
 def burley_cdf(r: ArrayLike, d: float | NDArray[np.float64]) -> NDArray[np.float64]:
@@ -123,7 +126,8 @@ class BurleyProfile(RadialProfile):
     model = "burley"
 
     def __init__(self, albedo: float, d: float) -> None:
-        self.albedo = float(_check_albedo(albedo))
+        # Eq. 4: R(r) = A s exp(-s r / ...): at A = 0 no light beneath the surface, and a kernel normalised by it 0/0
+        self.albedo = float(BURLEY_ALBEDO.check(albedo, "Burley albedo A", ProfileError))
         if not (math.isfinite(d) and d > 0):
             raise ProfileError(f"Burley length d must be > 0 mm, got {d}")
         self.d = float(d)

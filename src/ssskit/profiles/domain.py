@@ -47,13 +47,17 @@ from collections.abc import Iterable
 
 from ..errors import ProfileError
 from ..materials import CHANNELS, LayeredMaterial, Material
+from ..quantities import ETA, MFP_MM, Quantity
 
-#: transport mean free paths 1/sigma_t' every model takes (mm)
-MFP_RANGE_MM = (1e-6, 1e6)
+#: transport mean free paths 1/sigma_t' every model takes (mm): :data:`ssskit.quantities.MFP_MM`
+MFP_RANGE_MM = (MFP_MM.lo, MFP_MM.hi)
 #: Xie 2020 Eq. 5's scalings s(A) = ell / d over A in [0, 1], all three configurations (module docstring)
 BURLEY_EQ5_SCALING_RANGE = (0.906, 3.5 + 100.0 * 0.67**4)
 #: Burley's d (mm) that Eq. 5 gives from mean free paths in MFP_RANGE_MM (module docstring)
 BURLEY_D_RANGE_MM = (MFP_RANGE_MM[0] / BURLEY_EQ5_SCALING_RANGE[1], MFP_RANGE_MM[1] / BURLEY_EQ5_SCALING_RANGE[0])
+#: Burley's length d as a quantity: the range above, and why
+BURLEY_D = Quantity("Burley length d", *BURLEY_D_RANGE_MM, "mm", "what Xie 2020 Eq. 5 gives from the mean free paths "
+                    "in [1e-06, 1e+06] mm every model takes, docs/models.md")
 #: the largest relative index of the [JMLH01] dipole's F_dr fit (its A within 5% of the exact one)
 DIPOLE_ETA_MAX = 2.5
 #: the largest relative index the Monte Carlo model takes (no optical medium in the visible beyond it)
@@ -74,19 +78,15 @@ def _layers(material: Material | LayeredMaterial) -> tuple[Material, ...]:
 def check_mfp(model: str, mfp_mm: Iterable[float], where: str = "", per_channel: bool = True) -> None:
     """Refuse transport mean free paths outside :data:`MFP_RANGE_MM`, naming ``model`` and (with
     ``per_channel``: the values are R, G, B) the channel."""
-    lo, hi = MFP_RANGE_MM
     for c, v in enumerate(mfp_mm):
-        if not (math.isfinite(v) and lo <= v <= hi):
-            channel = f" in channel {CHANNELS[c]}" if per_channel else ""
-            raise ProfileError(
-                f"the {model} model takes transport mean free paths 1/sigma_t' in [{lo:g}, {hi:g}] mm, got {v:.3g} mm"
-                f"{channel}{where} (sigma_t' = sigma_a + sigma_s (1 - g), mm^-1)")
+        channel = f" in channel {CHANNELS[c]}" if per_channel else ""
+        MFP_MM.within(reason=f"sigma_t' = sigma_a + sigma_s (1 - g), mm^-1; {MFP_MM.reason}").check(
+            v, f"the {model} model's transport mean free path 1/sigma_t'{channel}{where}", ProfileError)
 
 
 def check_eta(model: str, eta: float, eta_max: float, why: str) -> None:
     """Refuse a relative index outside [1, eta_max], naming ``model`` and why it stops there."""
-    if not (math.isfinite(eta) and 1.0 <= eta <= eta_max):
-        raise ProfileError(f"the {model} model takes a relative index eta in [1, {eta_max:g}] ({why}), got {eta:g}")
+    ETA.within(1.0, eta_max, why).check(eta, f"the {model} model's relative index eta", ProfileError)
 
 
 def check_scatters(model: str, material: Material | LayeredMaterial) -> None:
@@ -149,6 +149,6 @@ def check_burley_material(material: Material, albedo_given: bool) -> None:
         check_montecarlo(material, "burley (A from MCML)")
 
 
-__all__ = ["BURLEY_D_RANGE_MM", "BURLEY_EQ5_SCALING_RANGE", "DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM",
+__all__ = ["BURLEY_D", "BURLEY_D_RANGE_MM", "BURLEY_EQ5_SCALING_RANGE", "DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM",
            "MIN_ABSORBED_FRACTION", "OPTICAL_ETA_MAX", "check_burley_material",
            "check_dipole", "check_eta", "check_mfp", "check_montecarlo", "check_scatters"]

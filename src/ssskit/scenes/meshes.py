@@ -493,8 +493,7 @@ def _trimesh(mesh: Mesh, material: bool = False) -> Any:
     when it has some; ``material``: a glTF PBR material named after the object (grey, not metallic)."""
     import trimesh
 
-    kw = {} if mesh.normals is None else {"vertex_normals": mesh.normals}
-    t = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False, **kw)
+    t = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False, vertex_normals=mesh.normals)
     if material:
         t.visual = trimesh.visual.TextureVisuals(material=trimesh.visual.material.PBRMaterial(
             name=mesh.name, baseColorFactor=[204, 204, 204, 255], metallicFactor=0.0))

@@ -58,9 +58,8 @@ from ..backends.adaptive_plan import (
     reference_reproject,
     reference_update,
 )
-from ..backends.burley_plan import MAX_SPP
 from ..errors import PassError, SettingsError
-from ..quantities import FRACTION, Choice, Quantity
+from ..quantities import FRACTION, Choice, Quantity, check_finite
 from ..settings import Settings, check_float, check_int, setting
 from .burley import BURLEY_SPP
 from .camera import check_motion
@@ -133,8 +132,8 @@ def check_history(history: ArrayLike) -> NDArray[np.float32]:
         raise PassError(f"the adaptive history must hold floats, got {arr.dtype}")
     arr = arr.astype(np.float32, copy=False)
     # one cheap pass first (a sum is NaN or inf if any entry is); the exact test only when it fails
-    if not math.isfinite(float(arr.sum(dtype=np.float64))) and not np.all(np.isfinite(arr)):
-        raise PassError("the adaptive history holds NaN or infinite values")
+    if not math.isfinite(float(arr.sum(dtype=np.float64))):
+        check_finite(arr, "the adaptive history", PassError)
     if arr.size and (float(arr[..., N_BAR].min()) < 0 or float(arr[..., VAR].min()) < 0):
         raise PassError("the adaptive history holds a negative mean count or variance")
     return arr
@@ -227,8 +226,7 @@ def update_history(history: ArrayLike, value: ArrayLike, counts: ArrayLike, sett
     if n.shape != shape:
         raise PassError(f"the sample counts must be (H, W) = {shape}, got {n.shape}")
     m = _mask(mask, shape)
-    if not np.all(np.isfinite(v[m])):
-        raise PassError("the shading value holds NaN or infinite values inside the mask")
+    check_finite(v[m], "the shading value", PassError, "pixels inside the mask")
     return _update(h, v, n, s, m)
 
 

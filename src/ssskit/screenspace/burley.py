@@ -23,7 +23,6 @@ stratified radii, golden-angle rotation, exact inverse, samples capped by the fo
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
@@ -45,7 +44,7 @@ from ..backends.burley_plan import (
     build_burley_plan,
 )
 from ..backends.plan import profile_ids
-from ..errors import GBufferError, PassError, SettingsError
+from ..errors import GBufferError, PassError
 from ..quantities import FRACTION, FRAME, SCALE, SEED, Choice, Flag, Quantity
 from ..settings import Settings, setting
 from .gbuffer import GBuffer

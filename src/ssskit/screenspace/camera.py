@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GBufferError, PassError
+from ..quantities import check_finite
 
 
 @dataclass(frozen=True)
@@ -115,8 +116,7 @@ def check_motion(motion: ArrayLike, shape: tuple[int, int]) -> NDArray[np.float6
     mv = np.asarray(motion, dtype=np.float64)
     if mv.shape != (hh, ww, 2):
         raise PassError(f"the motion vectors must be (H, W, 2) = {(hh, ww, 2)}, got {mv.shape}")
-    if not np.all(np.isfinite(mv)):
-        raise PassError("the motion vectors hold NaN or infinite values")
+    check_finite(mv, "the motion vectors", PassError)
     return mv
 
 

@@ -47,8 +47,8 @@ from typing import Literal, overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import PassError, SettingsError
-from ..quantities import Choice, Quantity
+from ..errors import PassError
+from ..quantities import Choice, Quantity, check_finite
 from ..settings import Settings, check_float, setting
 from .camera import Camera, check_motion
 
@@ -200,8 +200,7 @@ def _check_frame(current: ArrayLike) -> NDArray[np.float64]:
     if a.ndim != 3 or a.shape[2] != 3:
         raise PassError(f"TAA needs an (H, W, 3) RGB frame, got shape {a.shape}")
     a = a.astype(np.float64)
-    if not np.all(np.isfinite(a)):
-        raise PassError("the TAA input frame holds NaN or infinite values")
+    check_finite(a, "the TAA input frame", PassError)
     return a
 
 
