@@ -24,23 +24,32 @@ import sys
 import time
 
 
-def run(materials: list[str], model: str, size: int, variant: str = "widest") -> dict:
-    import numpy as np
-
+def materials_of(names: list[str], model: str):
+    """Per name (after checking the client is here): the material, its Burley fit A and d, and its Babylon
+    export's parameters (one material per scene)."""
     from ssskit.export import fit_burley
-    from ssskit.export.babylon import babylon_module, babylon_parameters
+    from ssskit.export.babylon import babylon_parameters
     from ssskit.materials import get_material
     from ssskit.profiles import profile_for_material
-    from ssskit.view.babylon import babylon_available, render_babylon, ssskit_pass, terminator_regions
+    from ssskit.view.babylon import babylon_available
 
     ok, why = babylon_available()
     if not ok:
         raise SystemExit(f"babylon_sphere: {why}")
-    rows = []
-    for name in materials:
+    for name in names:
         material = get_material(name)
         a, d = fit_burley(profile_for_material(material, model))
-        params = babylon_parameters([(name, a, d)])
+        yield name, material, a, d, babylon_parameters([(name, a, d)])
+
+
+def run(materials: list[str], model: str, size: int, variant: str = "widest") -> dict:
+    import numpy as np
+
+    from ssskit.export.babylon import babylon_module
+    from ssskit.view.babylon import render_babylon, ssskit_pass, terminator_regions
+
+    rows = []
+    for name, material, a, d, params in materials_of(materials, model):
         dmax = float(np.max(d))
         radius = 8.0 * dmax
         ext = 1.25 * radius
@@ -76,21 +85,12 @@ def run_slab(materials: list[str], model: str, max_width: int) -> dict:
     output and of ssskit's numpy pass on the same G-buffer, and ssskit's Burley prediction."""
     import numpy as np
 
-    from ssskit.export import fit_burley
-    from ssskit.export.babylon import babylon_module, babylon_parameters
+    from ssskit.export.babylon import babylon_module
     from ssskit.export.blender import compare_slab, edge_distances
-    from ssskit.materials import get_material
-    from ssskit.profiles import profile_for_material
-    from ssskit.view.babylon import babylon_available, crop_view, render_babylon, ssskit_pass
+    from ssskit.view.babylon import crop_view, render_babylon, ssskit_pass
 
-    ok, why = babylon_available()
-    if not ok:
-        raise SystemExit(f"babylon_sphere: {why}")
     rows = []
-    for name in materials:
-        material = get_material(name)
-        a, d = fit_burley(profile_for_material(material, model))
-        params = babylon_parameters([(name, a, d)])
+    for name, material, a, d, params in materials_of(materials, model):
         reach = max(params["variants"]["widest"]["filter_radius_mm"].values())
         ext = 2.2 * reach + 1.6 * float(edge_distances(float(np.max(d)), (0.01,))[0])
         width = int(min(max_width, np.ceil(2 * ext / (float(np.min(d)) / 4)) // 8 * 8))
