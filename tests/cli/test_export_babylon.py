@@ -110,3 +110,21 @@ def test_parameters_check_the_profile_count_and_values():
         babylon_parameters([(f"m{i}", a, d) for i in range(MAX_PROFILES)])
     with pytest.raises(Exception, match="finite"):
         babylon_parameters([("m", a, np.array([1.0, np.nan, 1.0]))])
+
+
+def test_scene_export_honours_photons_and_grid_fraction(run, tmp_path):
+    """--material a,b (one scene) reads each material as the one-material export reads it, --photons and
+    --grid-fraction included: the scene's Marble equals the one-material export's at the same options, and the
+    99.9 % grid gives the larger, complete red albedo (the supplement's 32-MFP grid drops Marble's red overflow),
+    so neither option is dropped on the way."""
+    mc = ["--model", "montecarlo", "--photons", "20000", "--format", "babylon"]
+    _ok(run, "export", "--material", "marble,ketchup", *mc, "--grid-fraction", "0.999", "--out", tmp_path / "s.json")
+    _ok(run, "export", "--material", "marble", *mc, "--grid-fraction", "0.999", "--out", tmp_path / "one.json")
+    _ok(run, "export", "--material", "marble,ketchup", *mc, "--out", tmp_path / "narrow.json")
+    (one,) = json.loads((tmp_path / "one.json").read_text())["materials"].values()  # named as the asset
+    scene, narrow = (json.loads((tmp_path / f).read_text())["materials"]["marble"] for f in ("s.json", "narrow.json"))
+    np.testing.assert_allclose(scene["albedoColor"], one["albedoColor"], rtol=1e-12)
+    np.testing.assert_allclose(scene["d_mm"], one["d_mm"], rtol=1e-12)
+    assert scene["albedoColor"][0] > narrow["albedoColor"][0] * 1.01
+    a_default, _ = fit_burley(profile_for_material(get_material("marble"), "montecarlo"))  # 10^7 photons, shipped
+    assert not np.allclose(narrow["albedoColor"], a_default, rtol=1e-6)  # 2*10^4 photons: another estimate

@@ -37,8 +37,9 @@ profile colour, both with the weighting shape ``d_c`` exact:
   1.7-2.6 times too wide (docs/exports.md), because the pass takes a pixel for half its size
   (``cornerPosNDC = vUV + 0.5 texelSize`` with ``viewportSize = tan(fov / 2)``: the UV is used as NDC without
   ``2 uv - 1``). ``"plain"`` and ``"widest"`` multiply ``metersPerUnit`` by :data:`PIXEL_SIZE_FIX` = 2, which
-  undoes it (the depth difference of the bilateral weight then counts double; a flat or gently curved surface
-  barely notices).
+  undoes it (the depth difference of the bilateral weight then counts double: a flat surface does not notice,
+  while past a sphere's terminator the narrow channels lose light, e.g. Skin1's blue 0.57x of ssskit's pass at
+  0-1 d_max on a sphere of radius 8 d_max: docs/exports.md).
 * ``"widest"`` (the default): the same profile shape with the samples spread over the widest channel. With
   ``metersPerUnit' = k metersPerUnit`` and ``color' = color / k`` the weights are unchanged (the pass's "mm"
   are ``k`` true mm) while the sampling distance becomes ``1 / (k^2 min d)`` true mm; ``k = 1 / sqrt(min d

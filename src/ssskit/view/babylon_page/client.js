@@ -9,10 +9,18 @@ BABYLON.ShaderStore.ShadersStore["ssskitPackFragmentShader"] = `
 precision highp float;
 varying vec2 vUV;
 uniform sampler2D textureSampler;
+uniform sampler2D irradianceSampler;
+uniform sampler2D depthSampler;
 uniform float channel;
+uniform float source;
+uniform vec2 range;
 void main(void) {
-  vec3 c = texture2D(textureSampler, vUV).rgb;
-  float x = channel < 0.5 ? c.r : (channel < 1.5 ? c.g : c.b);
+  // source 0: the subsurface pass's output; 1: the pre-pass irradiance (alpha: the profile index / 255);
+  // 2: the pre-pass depth (view z, scene units), mapped from range to [0, 1]
+  vec4 c = source < 0.5 ? texture2D(textureSampler, vUV)
+         : (source < 1.5 ? texture2D(irradianceSampler, vUV) : texture2D(depthSampler, vUV));
+  float x = channel < 0.5 ? c.r : (channel < 1.5 ? c.g : (channel < 2.5 ? c.b : c.a));
+  x = (x - range.x) / (range.y - range.x);
   float q = floor(clamp(x, 0.0, 1.0) * 65535.0 + 0.5);
   float hi = floor(q / 256.0);
   gl_FragColor = vec4(hi / 255.0, (q - 256.0 * hi) / 255.0, x > 1.0 ? 1.0 : 0.0, 1.0);
@@ -46,7 +54,9 @@ window.ssskitRender = async (o) => {
   light.shadowMinZ = 0.01 * ext;  // else the camera's near and far planes, which miss the scene from the light
   light.shadowMaxZ = 40 * ext;
   let receiver;
-  {
+  if (o.shape === "sphere") {  // a sphere of radius o.radius at the origin: the terminator from N.L, no shadow map
+    receiver = BABYLON.MeshBuilder.CreateSphere("ball", { diameter: 2 * o.radius, segments: o.segments || 96 }, scene);
+  } else {
     receiver = BABYLON.MeshBuilder.CreateGround("slab", { width: 6 * ext, height: 6 * ext, subdivisions: 1 }, scene);
     const blocker = BABYLON.MeshBuilder.CreateGround("blocker", { width: 4 * ext, height: 8 * ext }, scene);
     blocker.position = new BABYLON.Vector3(-1.5 * ext - 2 * ext, 1.5 * ext, 0);
@@ -80,25 +90,45 @@ window.ssskitRender = async (o) => {
   mat.environmentIntensity = 0;
   receiver.material = mat;
   let channel = 0;
-  const pack = new BABYLON.PostProcess("ssskitPack", "ssskitPack", ["channel"], null, 1.0, cam,
+  const pack = new BABYLON.PostProcess("ssskitPack", "ssskitPack", ["channel", "source", "range"],
+                                       ["irradianceSampler", "depthSampler"], 1.0, cam,
                                        BABYLON.Texture.NEAREST_SAMPLINGMODE, engine, false, null,
                                        BABYLON.Constants.TEXTURETYPE_FLOAT);
-  pack.onApply = (effect) => effect.setFloat("channel", channel);
+  let source = 0, range = [0, 1];
+  pack.onApply = (effect) => {
+    effect.setFloat("channel", channel);
+    effect.setFloat("source", source);
+    effect.setFloat2("range", range[0], range[1]);
+    const pp = scene.prePassRenderer;  // the textures Babylon's subsurface pass reads (its getIndex(0) and (5))
+    effect.setTexture("irradianceSampler", pp.getRenderTarget().textures[pp.getIndex(0)]);
+    effect.setTexture("depthSampler", pp.getRenderTarget().textures[pp.getIndex(5)]);
+  };
   // render until every effect has compiled (the pre-pass recompiles the materials), then a few frames more
   for (let i = 0; i < 600 && !(scene.isReady() && mat.isReady(receiver)); i++) {
     scene.render();
     await new Promise(r => setTimeout(r, 20));
   }
   for (let i = 0; i < (o.frames || 3); i++) { scene.render(); await new Promise(r => setTimeout(r, 20)); }
-  const px = new Float32Array(o.width * o.height * 3);
   let clipped = 0;
-  for (channel = 0; channel < 3; channel++) {
-    scene.render();
-    const bytes = await engine.readPixels(0, 0, o.width, o.height);
-    for (let i = 0; i < o.width * o.height; i++) {
-      px[3 * i + channel] = (256 * bytes[4 * i] + bytes[4 * i + 1]) / 65535;
-      clipped += bytes[4 * i + 2] > 127 ? 1 : 0;
+  const read = async (src, chans, lo, hi) => {  // chans channels of one source, 16 bits each of [lo, hi]
+    const out = new Float32Array(o.width * o.height * chans);
+    source = src; range = [lo, hi];
+    for (channel = 0; channel < chans; channel++) {
+      scene.render();
+      const bytes = await engine.readPixels(0, 0, o.width, o.height);
+      for (let i = 0; i < o.width * o.height; i++) {
+        out[chans * i + channel] = lo + (hi - lo) * (256 * bytes[4 * i] + bytes[4 * i + 1]) / 65535;
+        if (src === 0) clipped += bytes[4 * i + 2] > 127 ? 1 : 0;
+      }
     }
+    return out;
+  };
+  const px = await read(0, 3, 0, 1);
+  let gbuffer = null;
+  if (o.gbuffer) {  // what the subsurface pass read: irradiance (over sqrt(albedo), clamped), profile, view z
+    const zlo = far - 3 * ext, zhi = far + 3 * ext;
+    gbuffer = { irradiance: Array.from(await read(1, 4, 0, 1)), depth: Array.from(await read(2, 1, zlo, zhi)),
+                depthRange: [zlo, zhi], fov: cam.fov };
   }
   const info = { postProcesses: cam._postProcesses.filter(p => p).map(p => p.name),
                  profiles: scene.subSurfaceConfiguration ? scene.subSurfaceConfiguration.ssDiffusionS : null,
@@ -107,6 +137,6 @@ window.ssskitRender = async (o) => {
                  clipped,
                  version: BABYLON.Engine.Version, webgl: engine.webGLVersion };
   engine.dispose();
-  return { pixels: Array.from(px), info };
+  return { pixels: Array.from(px), info, gbuffer };
 };
 window.ssskitReady = true;
