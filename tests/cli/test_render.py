@@ -103,8 +103,8 @@ def test_an_old_settings_file_runs_as_the_tree_says_so_once(run, gbuffer_file, t
 @pytest.mark.parametrize("reference", [False, True], ids=["gbuffer", "reference"])
 def test_sigterm_while_mitsuba_renders_ends_the_process_at_once(tmp_path, reference):
     """SIGTERM (kill, a CI timeout) while Mitsuba renders a large image: the process ends within a second or
-    two with 'ssskit: aborted' and status 130, writing nothing (a trial's render kept on for 8.5 minutes after
-    SIGTERM: Python's handler waited for the C++ render to return). The G-buffer's render and the path-traced
+    two with 'ssskit: interrupted' (SIGTERM is handled as Ctrl-C) and status 130, writing nothing (a trial's render
+    kept on for 8.5 minutes after SIGTERM: Python's handler waited for the C++ render to return). The G-buffer's render and the path-traced
     reference's chunks (after the G-buffer at 1 spp)."""
     import signal
     import threading
@@ -114,7 +114,7 @@ def test_sigterm_while_mitsuba_renders_ends_the_process_at_once(tmp_path, refere
 
     env = dict(os.environ, SSSKIT_CACHE_DIR=str(tmp_path / "cache"),
                PYTHONPATH=str(Path(ssskit.__file__).resolve().parents[1]))
-    args = ["--spp", "1", "--reference", "--reference-spp", "4096"] if reference else ["--spp", "4096"]
+    args = ["--spp", "1", "--reference", "--reference-spp", "4096", "--reference-max-spp", "4096"] if reference else ["--spp", "4096"]
     proc = subprocess.Popen([sys.executable, "-m", "ssskit", "render", "--scene", "sphere", "--size", "512x384",
                              "--backend", "numpy", "--out", "x.png", *args], cwd=tmp_path, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -135,6 +135,6 @@ def test_sigterm_while_mitsuba_renders_ends_the_process_at_once(tmp_path, refere
     out = proc.stdout.read()
     reader.join(5)
     err = "".join(lines)
-    assert proc.returncode == 130 and err.rstrip().endswith("ssskit: aborted"), err
+    assert proc.returncode == 130 and err.rstrip().endswith("ssskit: interrupted"), err
     assert "Traceback" not in err and out == ""
     assert sorted(p.name for p in tmp_path.iterdir() if p.name != "cache") == []

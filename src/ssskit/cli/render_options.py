@@ -201,22 +201,24 @@ def build_settings(ctx: click.Context, base: RenderSettings | None, params: dict
     applied, each validated and named in the error when wrong (module docstring)."""
     s = RenderSettings() if base is None else base
     member = _pass_options(ctx, _member(s.pass_, pass_name), params)
-    probe = s.replace(pass_=SeparablePass())  # the top-level values are checked one by one against it
-    top: dict[str, Any] = {}
+    steps: list[tuple[str, dict[str, Any]]] = []
     for name, fields in FIELDS.items():
         if not given(ctx, name):
             continue
         value = params[name]
         values = tuple(value) if name == "size" else ((not value,) if name.startswith("no_") else (value,) * len(fields))
-        change = dict(zip(fields, values))
-        probe = _apply(probe, option_name(ctx, name), change)
-        top.update(change)
+        steps.append((option_name(ctx, name), dict(zip(fields, values))))
     if pass_name == "separable" and given(ctx, "spp"):  # the G-buffer's; the Burley pass's is its member's
-        probe = _apply(probe, "--spp", {"spp": params["spp"]})
-        top["spp"] = params["spp"]
+        steps.append(("--spp", {"spp": params["spp"]}))
+    top = {k: v for _, change in steps for k, v in change.items()}
     try:
         s = s.replace(**top, pass_=member)
     except SsskitError as exc:
+        # name the option: the top-level values applied one by one (all of them together are checked first, so a
+        # rule between two options, reference_spp <= reference_max_spp, sees both before it refuses either)
+        probe = s.replace(pass_=SeparablePass())
+        for flag, change in steps:
+            probe = _apply(probe, flag, change)
         raise SettingsError(str(exc)) from None
     return _engine_taps(ctx, s) if pass_name == "separable" else s
 
