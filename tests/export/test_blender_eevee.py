@@ -18,8 +18,10 @@ from ssskit.profiles import profile_for_material
 PYTHON, WHY = find_blender_python()
 pytestmark = [pytest.mark.skipif(PYTHON is None, reason=f"no Blender client: {WHY}"), pytest.mark.slow]
 
-#: EEVEE's render: 160 x 32 px per channel view, 16 TAA samples (its gather: 16 samples per pixel each)
-WIDTH, HEIGHT, TAA = 160, 32, 16
+#: EEVEE's render: 160 x 32 px per channel view, 64 TAA samples (its gather: 16 samples per pixel each). EEVEE on
+#: llvmpipe is not repeatable run to run even with one seed; at 16 TAA samples red's 10 % distance ranged 0.68-0.93 of
+#: Cycles' over five runs, at 64 it ranged 0.88-0.90 (2026-12-06, /tmp runs of this fixture)
+WIDTH, HEIGHT, TAA = 160, 32, 64
 #: the bias EEVEE's plateau shows (measured 0.976-1.000 for Skin1, Marble; benchmarks/blender_eevee.py)
 PLATEAU_TOL = 0.03
 
@@ -49,17 +51,20 @@ def test_plateau_is_the_exported_albedo(skin1):
 
 
 def test_the_viewport_edge_is_narrower_than_the_render(skin1):
-    """EEVEE's gather (16 samples, d = radius / (4 pi s(A'))) draws the 25 % and 10 % distances at 0.2-0.9
-    of what Cycles renders for the same file, in every channel."""
-    _, _, out = skin1
+    """EEVEE's gather weights the profile with d = radius / (4 pi s(A')) (EEVEE Next's burley_setup), where Cycles
+    uses d = radius / (4 pi): the 25 % and 10 % distances it draws are 1 / s(A') of Cycles' (Skin1: 0.96, 0.61,
+    0.40), within the 16-sample gather's own bias (measured 0.85-0.95 of that at 64 TAA samples): asserted in
+    [0.7, 1.3] / s(A') per channel, which red with s = 1.04 and blue with s = 2.47 cannot both meet by chance."""
+    a, _, out = skin1
+    s = eevee_radius_scale(a)
     for c, ch in enumerate(out["cycles"]["channels"]):
         for level in (0, 1):
-            assert 0.15 < _ratio(ch, level) < 0.9, (c, level, _ratio(ch, level))
+            assert 0.7 < _ratio(ch, level) * s[c] < 1.3, (c, level, _ratio(ch, level), s[c])
 
 
 def test_the_eevee_variant_undoes_the_albedo_narrowing(skin1):
     """Skin1's s(A') is (1.04, 1.65, 2.47): the variant widens green and blue at 25 % and 10 % by more than
-    1 + 0.3 (s / s_red - 1) (1.18 and 1.41; measured 1.25-1.97 and 1.97-2.29 over runs: EEVEE's noise), red by
+    1 + 0.3 (s / s_red - 1) (1.18 and 1.41; measured 1.5-1.7 and 1.9-2.0 at 64 TAA samples), red by
     less than 15 % (its s is 1.04), and no channel beyond Cycles' width."""
     a, _, out = skin1
     s = eevee_radius_scale(a)
