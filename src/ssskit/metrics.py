@@ -13,6 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import SignalError
 from .io import tonemap  # the display encoding images are written with
+from .quantities import POSITIVE, check_finite
 
 #: ITU-R BT.709 luminance weights of linear RGB (Y = 0.2126 R + 0.7152 G + 0.0722 B)
 BT709_LUMA = (0.2126, 0.7152, 0.0722)
@@ -25,8 +26,8 @@ def _pair(reference: ArrayLike, test: ArrayLike) -> tuple[NDArray[np.float64], N
         raise SignalError(f"images differ in shape: reference {ref.shape} vs test {tst.shape}")
     if ref.ndim != 3 or ref.shape[2] != 3:
         raise SignalError(f"images must have shape (H, W, 3), got {ref.shape}")
-    if not (np.all(np.isfinite(ref)) and np.all(np.isfinite(tst))):
-        raise SignalError("images contain NaN or infinity")
+    check_finite(ref, "the reference image", SignalError, "values")
+    check_finite(tst, "the test image", SignalError, "values")
     return ref, tst
 
 
@@ -209,8 +210,7 @@ def region_masks(e_over_pi: ArrayLike, mask: ArrayLike, radius_px: float,
     m = np.asarray(mask, dtype=bool)
     if e.shape != m.shape:
         raise SignalError(f"the light layer has shape {e.shape}, the mask {m.shape}")
-    if not (np.isfinite(radius_px) and radius_px > 0):
-        raise SignalError(f"radius_px must be a positive number of pixels, got {radius_px!r}")
+    POSITIVE.check(radius_px, "radius_px (pixels)", SignalError)
     empty = {name: np.zeros_like(m) for name in REGIONS}
     if not m.any():
         return empty

@@ -292,3 +292,18 @@ __all__ = ["ANISOTROPY", "BURLEY_ALBEDO", "CHOICE", "COEFFICIENT", "Choice", "ET
            "FRAMES", "Flag", "LENGTH_MM", "MFP_MM", "PHOTONS", "Quantity", "RANGE", "REFERENCE_SPP", "REFLECTANCE",
            "REL_SE", "SCALE", "SEED", "SIZE_PX", "SPP", "TAPS", "THICKNESS_MM", "TYPE", "UNUSED", "check_choice",
            "check_finite", "fail", "refuse_unused"]
+
+
+# --- vocab-a: the quantities of the engine files, the kernels and the exports ----------------------------------
+
+#: the largest finite float32 (the engines store their parameters as float32)
+FLOAT32_MAX = float.fromhex("0x1.fffffep+127")
+#: any number an engine file holds (NaN, an infinity or an overflow of the float32 the engines store is refused)
+ENGINE_NUMBER = Quantity("number", -FLOAT32_MAX, FLOAT32_MAX, "", "a finite float32, as the engine stores it")
+#: a positive finite number without a unit (a scale factor, a weight's suppression): (0, inf)
+POSITIVE = Quantity("value", 0.0, math.inf, "", "a positive finite number", lo_open=True, hi_open=True)
+#: a length in metres (a scene's unit): (0, inf) m
+LENGTH_M = Quantity("length", 0.0, math.inf, "m", "a length", lo_open=True, hi_open=True)
+#: cells per side of a tabulated kernel's grid: odd (the origin at a cell centre), at least 3
+KERNEL_CELLS = Quantity("kernel grid size", 3, 100_001, "", "odd, so the origin lies at a cell centre", integer=True,
+                        odd=True)

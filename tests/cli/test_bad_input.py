@@ -129,7 +129,7 @@ BAD = [
     (["render", "--scene", "slab", "--size", "64x"], "must look like 256x192"),
     (["render", "--scene", "slab", "--jitter", "nan"], "--jitter: jitter must lie in [0, 1], got nan"),
     (["render", "--scene", "slab", "--jitter", "2"], "--jitter"),
-    (["render", "--scene", "slab", "--kernel", "svd:0"], "SVD rank must lie in 1..64"),
+    (["render", "--scene", "slab", "--kernel", "svd:0"], "SVD rank must lie in [1, 64], got 0"),
     (["render", "--scene", "slab", "--kernel", "guided:9"], "guide exponent k"),
     (["render", "--scene", "slab", "--kernel", "jimenez2012:11", "--taps", "7"], "give the number of taps once"),
     (["render", "--scene", "slab", "--taps", "6"], "--taps: taps must be an odd integer, got 6"),

@@ -76,7 +76,7 @@ BAD = [
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--taps", "10"], "taps must be an odd integer, got 10"),
     # the header named 'jimenez2012 kernel of Skin1 (montecarlo)' though the taps ignore the material
     (["export", "--material", "skin1", "--kernel", "jimenez2012", "--taps", "9", "--format", "glsl", "--out", "k.glsl"],
-     "--kernel jimenez2012 is a fixed engine kernel that reads no profile; drop --material"),
+     "--material does not apply to --kernel jimenez2012, a fixed engine kernel that reads no profile"),
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012:10"], "odd"),
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "preintegrated"], "--material is required"),
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--tap-method", "uniform"],
@@ -84,7 +84,7 @@ BAD = [
     (["export", "--format", "bn", "--out", "k.bn", "--kernel", "preintegrated", "--material", "skin1",
       "--tap-method", "uniform"], "--format bn writes no taps"),
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--model", "burley"],
-     "reads no profile; drop --model"),
+     "--model does not apply to --kernel jimenez2012, a fixed engine kernel that reads no profile"),
     (["export", "--format", "hlsl", "--out", "f.txt/k.hlsl", "--kernel", "jimenez2012"], "'f.txt' is not a folder"),
     (["export", "--format", "unity", "--out", "m.json", "--material", "m.json"], "would overwrite the input"),
     (["export", "--format", "unity", "--out", "u.json", "--material", "nosuch"], "nosuch"),

@@ -117,7 +117,7 @@ BAD_EXPORT = [
     (["--albedo", "0.5", "--mfp", "1", "--dmfp", "1", "--format", "unreal", "--out", "o.json"], "one of --mfp"),
     (["--material", "skin1", "--albedo", "0.5", "--mfp", "1", "--format", "unreal", "--out", "o.json"],
      "give the material once"),
-    (["--material", "skin1", "--eta", "1.4", "--format", "unreal", "--out", "o.json"], "--eta belongs"),
+    (["--material", "skin1", "--eta", "1.4", "--format", "unreal", "--out", "o.json"], "--eta does not apply to a material without artists' terms"),
     (["--material", "skin1", "--format", "godot", "--out", "o.json"], "unknown export format 'godot'"),
     (["--material", "skin1", "--format", "unity", "--out", "o.py"], "--out for --format unity"),
     (["--material", "other.json", "--format", "unity", "--out", "o.json"], "an export of engine 'godot'"),

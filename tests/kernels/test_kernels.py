@@ -416,9 +416,9 @@ def test_build_kernel_refuses_what_it_cannot_use(skin):
     from ssskit.kernels import MAX_SVD_RANK
     from ssskit.materials import get_material
 
-    with pytest.raises(KernelError, match="kernel cell size must be a positive number of mm, got 0.0"):
+    with pytest.raises(KernelError, match=r"kernel cell size must lie in \(0, inf\) mm, got 0"):
         build_kernel("svd", skin, cell_mm=0.0)
-    with pytest.raises(KernelError, match="kernel grid size must be an odd integer >= 3.*got 0"):
+    with pytest.raises(KernelError, match=r"kernel grid size must lie in \[3, 100001\], got 0 \(odd, so the origin"):
         build_kernel("svd", skin, n=0)
     with pytest.raises(KernelError, match=r"kernel method 'svd': unknown keyword argument\(s\) rnk "
                                           r"\(known: rank, renormalise\)"):
@@ -431,7 +431,7 @@ def test_build_kernel_refuses_what_it_cannot_use(skin):
     assert MAX_SVD_RANK == 64
     h, n = default_grid(skin, 201)
     for method in ("svd", "svd_l1", "preintegrated_svd"):
-        with pytest.raises(KernelError, match=f"rank must .*1..{MAX_SVD_RANK}, got {MAX_SVD_RANK + 1}"):
+        with pytest.raises(KernelError, match=rf"rank must lie in \[1, {MAX_SVD_RANK}\], got {MAX_SVD_RANK + 1}"):
             build_kernel(method, skin, h, n, rank=MAX_SVD_RANK + 1)
-        with pytest.raises(KernelError, match=f"rank must lie in 1..{MAX_SVD_RANK}, got {MAX_SVD_RANK + 1}"):
+        with pytest.raises(KernelError, match=rf"rank must lie in \[1, {MAX_SVD_RANK}\], got {MAX_SVD_RANK + 1}"):
             parse_method_spec(f"{method}:{MAX_SVD_RANK + 1}")

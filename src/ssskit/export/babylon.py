@@ -56,11 +56,16 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
+from ..quantities import BURLEY_ALBEDO, LENGTH_M, LENGTH_MM, Quantity
 
 #: the npm version the client tests pin (``.ci/run``, ``tests/export/test_babylon_client.py``)
 BABYLON_VERSION = "9.37.1"
 #: SubSurfaceConfiguration.addDiffusionProfile refuses a profile once ssDiffusionD holds 5 (the default included)
 MAX_PROFILES = 5
+#: materials of one Babylon scene: its default white takes one of the profiles
+SCENE_MATERIALS = Quantity("materials", 1, MAX_PROFILES - 1, "", f"a Babylon.js scene holds {MAX_PROFILES} diffusion "
+                           "profiles and its default white takes one (SubSurfaceConfiguration.addDiffusionProfile)",
+                           integer=True)
 #: getDiffusionProfileParameters: the filter radius is Burley's radius at this CDF value, times max(color)
 FILTER_CDF = 0.997
 #: the pass's sample budget (_SssSampleBudget) and one sample per this many pixels of the filter's area
@@ -102,22 +107,10 @@ def filter_radius(distance: float) -> float:
 def check_babylon(materials: list[tuple[str, np.ndarray, np.ndarray]]) -> None:
     """Every rule of a Babylon export, before any work: at most :data:`MAX_PROFILES` - 1 distinct profiles (the
     scene's default white takes the first of Babylon's 5 slots), finite albedo in (0, 1] and finite d > 0 mm."""
-    if not materials:
-        raise SsskitError("--format babylon needs at least one material")
-    if len(materials) > MAX_PROFILES - 1:
-        raise SsskitError(f"--format babylon: {len(materials)} materials, but a Babylon.js scene holds "
-                          f"{MAX_PROFILES} diffusion profiles and its default white takes one "
-                          f"(SubSurfaceConfiguration.addDiffusionProfile): give at most {MAX_PROFILES - 1}")
+    SCENE_MATERIALS.check(len(materials), "--format babylon: the number of materials")
     for name, a, d in materials:
-        a = np.asarray(a, dtype=float)
-        d = np.asarray(d, dtype=float)
-        if a.shape != (3,) or d.shape != (3,) or not (np.all(np.isfinite(a)) and np.all(np.isfinite(d))):
-            raise SsskitError(f"--format babylon: {name}: albedo and d must be 3 finite numbers each, got "
-                              f"{a.tolist()} and {d.tolist()}")
-        if np.any(a <= 0) or np.any(a > 1):
-            raise SsskitError(f"--format babylon: {name}: albedo {a.tolist()} is outside Burley's (0, 1]")
-        if np.any(d <= 0):
-            raise SsskitError(f"--format babylon: {name}: d {d.tolist()} mm must be > 0")
+        BURLEY_ALBEDO.check_rgb(a, f"--format babylon: {name}: albedo")
+        LENGTH_MM.check_rgb(d, f"--format babylon: {name}: Burley's d")
 
 
 def babylon_parameters(materials: list[tuple[str, np.ndarray, np.ndarray]],
@@ -127,8 +120,7 @@ def babylon_parameters(materials: list[tuple[str, np.ndarray, np.ndarray]],
     scene's ``metersPerUnit`` and each material's profile colour (module docstring), plus each material's
     ``albedoColor`` and translucency ``diffusionDistance`` (d in scene units)."""
     check_babylon(materials)
-    if not (math.isfinite(unit_m) and unit_m > 0):
-        raise SsskitError(f"--format babylon: the scene unit must be a finite length > 0 m, got {unit_m}")
+    LENGTH_M.check(unit_m, "--format babylon: the scene unit")
     dmin = min(float(np.min(d)) for _, _, d in materials)
     dmax = max(float(np.max(d)) for _, _, d in materials)
     k = 1.0 / math.sqrt(dmin * dmax)
@@ -231,9 +223,7 @@ def export_scene(names: list[str], out: str, **options: Any) -> dict[str, Any]:
 
     if len({n.lower() for n in names}) != len(names):
         raise SsskitError(f"--material {','.join(names)}: a name is given twice")
-    if len(names) > MAX_PROFILES - 1:
-        raise SsskitError(f"--format babylon: {len(names)} materials, but a Babylon.js scene holds {MAX_PROFILES} "
-                          f"diffusion profiles and its default white takes one: give at most {MAX_PROFILES - 1}")
+    SCENE_MATERIALS.check(len(names), "--format babylon: the number of materials")
     sources = []
     for name in names:
         req = ExportSettings(format="babylon", out=out, material=name, **options)

@@ -24,9 +24,12 @@ import numpy as np
 
 from ..errors import KernelError
 from ..io import atomic_output, check_suffix
+from ..quantities import Quantity, check_finite
 
 #: relative tolerance on the grid spacing and its symmetry about 0 when reading (float32 positions)
 GRID_RTOL = 1e-4
+#: the part of every channel's kernel mass a cropped grid keeps (:func:`crop_to_support`)
+SUPPORT = Quantity("the .bn support fraction", 0.0, 1.0, "", "a part of the kernel's mass", lo_open=True)
 
 
 def bn_bytes(x_mm: Any, rgb: Any) -> bytes:
@@ -36,15 +39,13 @@ def bn_bytes(x_mm: Any, rgb: Any) -> bytes:
     if x.ndim != 1 or v.shape != (x.size, 3) or x.size < 2:
         raise KernelError(f".bn needs positions (n,) and RGB values (n, 3), n >= 2; got {x.shape} and {v.shape}")
     _check_grid(x, "kernel")
-    if not np.all(np.isfinite(v)):
-        raise KernelError(".bn values must be finite")
+    check_finite(v, ".bn values", KernelError)
     records = np.column_stack([v, x]).astype("<f4").ravel()
     return np.array([records.size], dtype="<f4").tobytes() + records.tobytes()
 
 
 def _check_grid(x: np.ndarray, what: str) -> float:
-    if not np.all(np.isfinite(x)):
-        raise KernelError(f"{what}: sample positions must be finite")
+    check_finite(x, f"{what}: sample positions", KernelError)
     steps = np.diff(x)
     h = float(np.mean(steps))
     if not (h > 0 and np.all(np.abs(steps - h) <= GRID_RTOL * h)):
@@ -57,8 +58,7 @@ def _check_grid(x: np.ndarray, what: str) -> float:
 def crop_to_support(x_mm: np.ndarray, rgb: np.ndarray, support: float) -> tuple[np.ndarray, np.ndarray]:
     """The symmetric part of the grid that holds at least ``support`` of every channel's kernel mass (the
     public loaders take the file's extent as the tap range: a grid wider than the kernel wastes taps)."""
-    if not 0.0 < support <= 1.0:
-        raise KernelError(f"the .bn support fraction must lie in (0, 1], got {support}")
+    SUPPORT.check(support, error=KernelError)
     mass = np.abs(np.asarray(rgb, dtype=float))
     total = mass.sum(axis=0)
     drop = 0
@@ -110,8 +110,7 @@ def read_bn(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     rec = body.reshape(-1, 4).astype(float)
     x, rgb = rec[:, 3], rec[:, :3]
     _check_grid(x, str(p))
-    if not np.all(np.isfinite(rgb)):
-        raise KernelError(f"{str(p)!r}: kernel values must be finite")
+    check_finite(rgb, f"{str(p)!r}: kernel values", KernelError)
     return x, rgb
 
 

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
-from ..quantities import BURLEY_ALBEDO, LENGTH_MM
+from ..quantities import BURLEY_ALBEDO, LENGTH_MM, check_finite
 
 
 def searchlight_scaling(a: Any) -> np.ndarray:
@@ -65,9 +65,7 @@ def materialx_document(a: np.ndarray, mfp_mm: np.ndarray, name: str, g: float = 
     albedo); ``mfp_mm`` (3,): the mean free path r = 1 / sigma_t per channel, mm (OpenPBR: mu_t = 1 / r,
     [OPBR24] "Subsurface"). Raises if MaterialX finds it invalid."""
     mx = _mx()
-    ell = np.asarray(mfp_mm, dtype=float)
-    if ell.shape != (3,) or not np.all(np.isfinite(ell) & (ell > 0)):
-        raise SsskitError(f"the mean free path must be 3 positive finite lengths (mm), got {ell.tolist()}")
+    ell = np.array(LENGTH_MM.check_rgb(mfp_mm, "the mean free path"))
     scale = float(np.max(ell))
     rel = ell / scale
     safe = "".join(ch if ch.isalnum() or ch == "_" else "_" for ch in name) or "ssskit"
@@ -152,21 +150,17 @@ def read_materialx(path: str | Path) -> dict[str, Any]:
         a = np.array(list(inputs[col_name].getValue()), dtype=float)
         radius = float(inputs[rad_name].getValue()) * length(inputs[rad_name])
         rel = np.array(list(inputs[scl_name].getValue()), dtype=float) * length(inputs[scl_name])
-        for field, v in ((col_name, a), (rad_name, radius), (scl_name, rel)):
-            if not np.all(np.isfinite(v)):
-                raise SsskitError(f"{str(path)!r}: {cat} {field} must be finite, got {np.asarray(v).tolist()}")
+        ior_in = node.getInput("specular_ior" if cat == "open_pbr_surface" else "specular_IOR")
+        aniso_in = node.getInput("subsurface_scatter_anisotropy" if cat == "open_pbr_surface" else "subsurface_anisotropy")
+        eta = float(ior_in.getValue()) if ior_in is not None else None
+        g = float(aniso_in.getValue()) if aniso_in is not None else 0.0
+        for field, v in ((col_name, a), (rad_name, radius), (scl_name, rel), ("specular_ior", eta), ("anisotropy", g)):
+            check_finite(0.0 if v is None else v, f"{str(path)!r}: {cat} {field}", SsskitError)
         ell = radius * rel
         BURLEY_ALBEDO.check_array(a, f"{str(path)!r}: the {cat} subsurface_color (the observed albedo)", SsskitError,
                                   "channels")
         LENGTH_MM.check_array(ell, f"{str(path)!r}: the {cat} mean free path (subsurface radius x scale)", SsskitError,
                               "channels")
-        ior_in = node.getInput("specular_ior" if cat == "open_pbr_surface" else "specular_IOR")
-        aniso_in = node.getInput("subsurface_scatter_anisotropy" if cat == "open_pbr_surface" else "subsurface_anisotropy")
-        eta = float(ior_in.getValue()) if ior_in is not None else None
-        g = float(aniso_in.getValue()) if aniso_in is not None else 0.0
-        for field, num in (("specular_ior", eta), ("anisotropy", g)):
-            if num is not None and not np.isfinite(num):
-                raise SsskitError(f"{str(path)!r}: {cat} {field} must be finite, got {num}")
         return {"albedo": a, "mfp_mm": ell, "d_mm": ell / searchlight_scaling(a), "eta": eta, "g": g,
                 "name": node.getName(), "shader": cat}
     raise SsskitError(f"{str(path)!r} has no open_pbr_surface or standard_surface node")

@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import SsskitError
 from ..io import parse_document
 from ..materials import Material
-from ..quantities import BURLEY_ALBEDO
+from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM
 from .registry import FORMATS
 
 #: suffixes that hold an engine file (a .json one only when it has an "engine" key, a .py one only when it is an
@@ -37,8 +37,6 @@ from .registry import FORMATS
 ENGINE_SUFFIXES = (".json", ".asset", ".mtlx", ".py")
 #: the parameter literal of each editor script ssskit writes (ssskit.export.blender / .unreal)
 SCRIPT_LITERALS = {"blender": "PARAMS", "unreal": "SETTINGS"}
-#: the largest finite float32 (the engines store their parameters as float32)
-FLOAT32_MAX = float(np.finfo(np.float32).max)
 ENGINE_NAMES = ("unreal", "unity", "blender")
 
 
@@ -147,10 +145,14 @@ def check_numbers(path: str | Path, value: Any, field: str) -> None:
         for i, v in enumerate(value):
             check_numbers(path, v, f"{field}[{i}]")
     elif isinstance(value, (int, float)) and not isinstance(value, bool):
-        v = float(value)
-        if not (np.isfinite(v) and abs(v) <= FLOAT32_MAX):
-            raise SsskitError(f"{str(path)!r}: {field} must be a finite number within float32 (|x| <= "
-                              f"{FLOAT32_MAX:.4g}, as the engine stores it), got {v!r}")
+        ENGINE_NUMBER.check(value, f"{str(path)!r}: {field}")
+
+
+def _text(p: Path, what: str) -> str:
+    try:
+        return p.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise SsskitError(f"{str(p)!r} is not a text ({what}) file") from None
 
 
 def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = None) -> EngineSource:
@@ -171,10 +173,7 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
     elif suffix == ".mtlx":
         engine = "materialx"
     elif suffix == ".py":
-        try:
-            text = p.read_text(encoding="utf-8")
-        except UnicodeDecodeError:
-            raise SsskitError(f"{str(p)!r} is not a text (Python) file") from None
+        text = _text(p, "Python")
         script = _script_engine(text)
         if script is None:
             raise SsskitError(f"{str(p)!r} is not an editor script ssskit wrote (a Blender or Unreal export)")
@@ -196,11 +195,7 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
     if engine == "unity" and suffix == ".asset":
         from .unity import read_unity_asset
 
-        try:
-            text = p.read_text(encoding="utf-8")
-        except UnicodeDecodeError:
-            raise SsskitError(f"{str(p)!r} is not a text (YAML) .asset file") from None
-        u = read_unity_asset(text, repr(str(p)))
+        u = read_unity_asset(_text(p, "YAML .asset"), repr(str(p)))
         check_numbers(p, {k: u[k] for k in ("scatteringDistance", "scatteringDistanceMultiplier", "worldScale", "ior")}, "")
         if u["worldScale"] != 1.0:
             raise SsskitError(f"{str(p)!r}: worldScale {u['worldScale']}: ssskit reads profiles at HDRP's worldScale 1 "
@@ -251,9 +246,7 @@ def _unreal_clamps(block: dict[str, Any]) -> tuple[str, ...]:
 
     out = []
     for field, hi in (("SurfaceAlbedo", 1.0), ("MeanFreePathColor", None)):
-        v = np.asarray(block[field], dtype=np.float32).astype(float)
-        if v.shape != (3,) or not np.all(np.isfinite(v)):
-            raise ValueError(f"{field} must be 3 finite numbers, got {block[field]!r}")
+        v = np.array(ENGINE_NUMBER.check_rgb(block[field], field), dtype=np.float32).astype(float)
         for c in range(3):
             eng = min(max(v[c], COLOR_BIAS), hi) if hi is not None else max(v[c], COLOR_BIAS)
             if eng != v[c]:
@@ -267,10 +260,7 @@ def _check_burley_inputs(path: Path, engine: str, albedo: np.ndarray, d_mm: np.n
     BURLEY_ALBEDO.check_array(np.asarray(albedo, dtype=float).reshape(-1)[:3],  # no clamp ssskit could apply
                               f"{str(path)!r}: the {engine} albedo", SsskitError, "channels")
     if d_mm is not None:
-        for c, v in enumerate(d_mm):
-            if not (np.isfinite(v) and v > 0.0):
-                raise SsskitError(f"{str(path)!r}: Burley's d must be a positive number of mm, got {v:g} in channel "
-                                  f"{'RGB'[c]}")
+        LENGTH_MM.check_array(d_mm, f"{str(path)!r}: Burley's d", SsskitError, "channels")
 
 
 # ------------------------------------------------------------------------------------- the one entry point
@@ -330,16 +320,33 @@ def _physical(req: Any, mat: Any, model: str) -> Any:
     from ..profiles import MATERIAL_FREE_MODELS, check_model_domain, profile_for_material
 
     takes = _model_takes(model)
-    kwargs = {}
-    for name, flag in (("photons", "--photons"), ("grid_fraction", "--grid-fraction")):
-        if getattr(req, name) is not None:
-            if name not in takes:
-                raise SsskitError(f"{flag} does not apply to --model {model}")
-            kwargs[name] = getattr(req, name)
+    refuse_given(req, tuple(n for n in ("photons", "grid_fraction") if n not in takes), f"--model {model}")
+    kwargs = {n: getattr(req, n) for n in ("photons", "grid_fraction") if getattr(req, n) is not None}
     free = model.lower() in MATERIAL_FREE_MODELS
     if not free:
         check_model_domain(mat, model)
     return lambda: profile_for_material(None if free else mat, model, **kwargs)
+
+
+def refuse_given(req: Any, names: tuple[str, ...], what: str) -> None:
+    """The unused-option rule of an export request, stated once: the first of ``names`` the user gave (its
+    option ``--name``) does not apply to ``what``."""
+    given = [n for n in names if req.given(n)]
+    if given:
+        raise SsskitError(f"--{given[0].replace('_', '-')} does not apply to {what}")
+
+
+def _artist(req: Any) -> Any:
+    """The request's artists' terms (--albedo with one of --mfp or --dmfp; --eta 1.3 and --g 0 by default) as an
+    :class:`~ssskit.profiles.artist.ArtistMaterial`, which checks their domain."""
+    from ..profiles.artist import ArtistMaterial
+
+    if req.albedo is None or (req.mfp is None) == (req.dmfp is None):
+        raise SsskitError("artists' terms need --albedo and one of --mfp (volume mean free path, mm) or --dmfp "
+                          "(diffuse mean free path, mm)")
+    kind, dist = ("mfp", req.mfp) if req.mfp is not None else ("dmfp", req.dmfp)
+    return ArtistMaterial("artist", req.albedo, dist, kind, 1.3 if req.eta is None else req.eta,
+                          0.0 if req.g is None else req.g)
 
 
 def material_source(req: Any, needs: str) -> Source:
@@ -348,21 +355,18 @@ def material_source(req: Any, needs: str) -> Source:
     An engine file or artists' terms default to the Burley-fit inversion (``model`` burley, no coefficients);
     montecarlo / dipole invert them to a physical material first (:mod:`ssskit.profiles.artist`). A kernel
     format (``needs`` "kernel" or "shader") checks its kernel here too (:func:`_kernel_checks`)."""
-    from ..profiles.artist import ArtistMaterial, burley_from_artist, check_artist, material_from_artist
+    from ..profiles.artist import burley_from_artist, check_artist, material_from_artist
 
     material, albedo = req.material, req.albedo
     artist = albedo is not None or req.mfp is not None or req.dmfp is not None
     engine_file = material is not None and is_engine_file(material)
-    for name in ("eta", "g"):
-        if req.given(name) and not artist:
-            raise SsskitError(f"--{name} belongs to artists' terms (--albedo with --mfp or --dmfp)")
+    if not artist:
+        refuse_given(req, ("eta", "g"), "a material without artists' terms (--albedo with --mfp or --dmfp)")
     if artist and material is not None and not (engine_file and str(material).lower().endswith(".asset")):
         raise SsskitError("give the material once: --material or artists' terms (--albedo with --mfp or --dmfp)")
     if engine_file:  # an HDRP .asset takes --albedo only: the file holds the distances and the index
-        for name in ("mfp", "dmfp", "eta", "g"):
-            if req.given(name):
-                raise SsskitError(f"give the material once: --{name} does not apply to an engine file ({material}), "
-                                  "which holds its own parameters (an HDRP .asset takes only --albedo)")
+        refuse_given(req, ("mfp", "dmfp", "eta", "g"), f"an engine file ({material}), which holds its own parameters "
+                     "(an HDRP .asset takes only --albedo)")
     if req.shader_pass == "transmission":
         return _transmission_source(req, engine_file, artist)
     if req.shader_pass == "burley":
@@ -378,9 +382,7 @@ def material_source(req: Any, needs: str) -> Source:
                               "Burley-fit inversion, or montecarlo / dipole through the Monte Carlo inversion)")
     if engine_file:
         if used == "burley":
-            for name in ("photons", "grid_fraction"):
-                if req.given(name):
-                    raise SsskitError(f"--{name.replace('_', '-')} needs --model montecarlo")
+            refuse_given(req, ("photons", "grid_fraction"), "--model burley (the Burley fit simulates nothing)")
         src = read_engine_file(material, albedo=albedo)
         if albedo is not None:
             check_artist(albedo, src.d_mm, "dmfp", 1.0, 0.0)
@@ -390,12 +392,8 @@ def material_source(req: Any, needs: str) -> Source:
         mat = src.material()
         return Source(_physical(req, mat, used), mat, src.name, used, None, notes, kernel)
     if artist:
-        if albedo is None or (req.mfp is None) == (req.dmfp is None):
-            raise SsskitError("artists' terms need --albedo and one of --mfp (volume mean free path, mm) or --dmfp "
-                              "(diffuse mean free path, mm)")
-        kind, dist = ("mfp", req.mfp) if req.mfp is not None else ("dmfp", req.dmfp)
-        eta = 1.3 if req.eta is None else req.eta
-        art = ArtistMaterial("artist", albedo, dist, kind, eta, 0.0 if req.g is None else req.g)  # checks the domain
+        art = _artist(req)  # checks the domain
+        kind, eta = art.kind, art.eta
         if used == "burley":
             from ..profiles import BurleyProfile, RGBProfile
 
@@ -416,15 +414,12 @@ def _named_source(req: Any, kernel: Any) -> Source:
     model = req.model or "montecarlo"
     m = kernel[0] if kernel is not None else None
     if m is not None and not m.uses_profile:  # as `ssskit kernel` refuses it: the header named an unused material
-        for name in ("material", "albedo", "model", "photons", "grid_fraction"):
-            if req.given(name):
-                raise SsskitError(f"--kernel {m.name} is a fixed engine kernel that reads no profile; drop "
-                                  f"--{name.replace('_', '-')} (its fit to a material's profile is --kernel burley_fit)")
+        refuse_given(req, ("material", "albedo", "model", "photons", "grid_fraction"), f"--kernel {m.name}, a fixed "
+                     "engine kernel that reads no profile (its fit to a material's profile is --kernel burley_fit)")
     needs_profile = m is None or m.needs_profile
     if req.material is None and m is not None and not needs_profile:
-        if req.given("model") or req.given("photons") or req.given("grid_fraction"):
-            raise SsskitError(f"--model, --photons and --grid-fraction need a --material (--kernel {m.name} "
-                              "without one uses no profile)")
+        refuse_given(req, ("model", "photons", "grid_fraction"), f"--kernel {m.name} without a --material (it then "
+                     "uses no profile)")
         return Source(None, None, None, None, None, [], kernel)
     free = model.lower() in MATERIAL_FREE_MODELS
     if free:
@@ -477,23 +472,17 @@ def _burley_source(req: Any, engine_file: bool, artist: bool) -> Source:
     parameters, :func:`ssskit.screenspace.burley.burley_params_for_material`, are baked in)."""
     from ..materials import Material
 
-    for name in ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction", "model"):
-        if req.given(name):
-            raise SsskitError(f"--{name.replace('_', '-')} does not apply to --pass burley (the shader bakes the "
-                              "material's Burley parameters: Xie 2020 Eq. 5, the searchlight configuration)")
+    refuse_given(req, ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction", "model"),
+                 "--pass burley (the shader bakes the material's Burley parameters: Xie 2020 Eq. 5, the searchlight "
+                 "configuration)")
     if engine_file:
         raise SsskitError("--pass burley takes a preset, a material file or artists' terms, not an engine file")
     if req.material is None and not artist:
         raise SsskitError("--pass burley needs --material (or artists' terms: --albedo with --mfp or --dmfp)")
     if artist:
-        from ..profiles.artist import ArtistMaterial, material_from_artist
+        from ..profiles.artist import material_from_artist
 
-        if req.albedo is None or (req.mfp is None) == (req.dmfp is None):
-            raise SsskitError("artists' terms need --albedo and one of --mfp (volume mean free path, mm) or --dmfp "
-                              "(diffuse mean free path, mm)")
-        kind, dist = ("mfp", req.mfp) if req.mfp is not None else ("dmfp", req.dmfp)
-        eta, g = 1.3 if req.eta is None else req.eta, 0.0 if req.g is None else req.g
-        mat: Any = material_from_artist(ArtistMaterial("artist", req.albedo, dist, kind, eta, g))
+        mat: Any = material_from_artist(_artist(req))
     else:
         from ..materials import get_material
 
@@ -509,10 +498,8 @@ def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
     from ..materials import Material
 
     tmodel = req.transmission_model or "mcml"
-    for name in ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction"):
-        if req.given(name):
-            raise SsskitError(f"--{name.replace('_', '-')} does not apply to --pass transmission (the shader bakes "
-                              "the material's transmittance model)")
+    refuse_given(req, ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction"),
+                 "--pass transmission (the shader bakes the material's transmittance model)")
     if req.model is not None and req.model.lower() != "montecarlo":  # the models read the material's MCML transport
         raise SsskitError(f"--model {req.model} does not apply to --pass transmission (the shader bakes the material's "
                           "transmittance model from its MCML transport; artists' terms take --model montecarlo, "
@@ -526,15 +513,9 @@ def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
                           f"{'MCML slab transmittance' if tmodel == 'mcml' else 'Burley profile'})")
     mat: Any = None
     if artist:
-        from ..profiles.artist import ArtistMaterial, material_from_artist
+        from ..profiles.artist import material_from_artist
 
-        if req.albedo is None or (req.mfp is None) == (req.dmfp is None):
-            raise SsskitError("artists' terms need --albedo and one of --mfp (volume mean free path, mm) or --dmfp "
-                              "(diffuse mean free path, mm)")
-        kind, dist = ("mfp", req.mfp) if req.mfp is not None else ("dmfp", req.dmfp)
-        art = ArtistMaterial("artist", req.albedo, dist, kind, 1.3 if req.eta is None else req.eta,
-                             0.0 if req.g is None else req.g)
-        mat = material_from_artist(art) if req.model is not None else None
+        mat = material_from_artist(_artist(req)) if req.model is not None else None
     elif engine_file:
         mat = read_engine_file(req.material).material() if req.model is not None else None
     else:

@@ -12,12 +12,16 @@ from __future__ import annotations
 
 import inspect
 from dataclasses import dataclass
+from functools import partial
 from typing import Any, Callable
 
 from ..errors import KernelError, check_keywords
 from ..profiles.base import RGBProfile
 from ..registry import Registry
-from .base import MAX_SVD_RANK, AnyKernel, Kernel, TapKernel, _check_grid, default_grid, load_kernel, save_kernel
+from .base import MAX_SVD_RANK, SVD_RANK, AnyKernel, Kernel, TapKernel, _check_grid, default_grid, load_kernel, save_kernel
+from .guided import GUIDE_K
+from .jimenez2012 import JIMENEZ_TAPS
+from .methods import GAUSSIAN_COUNT
 
 
 @dataclass(frozen=True)
@@ -123,18 +127,6 @@ for _m in (
     METHODS.register(_m.name, _m)
 
 
-def _in_range(lo, hi, what):
-    def check(v):
-        if not lo <= v <= hi:
-            raise KernelError(f"{what} must lie in {lo}..{hi}, got {v}")
-    return check
-
-
-def _odd_taps(v):
-    if not (3 <= v <= 255 and v % 2 == 1):
-        raise KernelError(f"the number of taps must be odd in 3..255, got {v}")
-
-
 def _preset(v):
     from ..materials import ARTIST_PRESETS
 
@@ -151,12 +143,12 @@ def _error_fn(v):
 
 #: range checks of each method's primary parameter, applied when a spec is parsed (before any work)
 PARAM_CHECKS: dict[tuple[str, str], Callable[[Any], None]] = {
-    ("svd", "rank"): _in_range(1, MAX_SVD_RANK, "SVD rank"),
-    ("svd_l1", "rank"): _in_range(1, MAX_SVD_RANK, "SVD rank"),
-    ("preintegrated_svd", "rank"): _in_range(1, MAX_SVD_RANK, "residual rank"),
-    ("gaussians", "count"): _in_range(1, 12, "number of Gaussians"),
-    ("guided", "k"): _in_range(0.0, 8.0, "guide exponent k (paper: 0..4)"),
-    ("jimenez2012", "taps"): _odd_taps,
+    ("svd", "rank"): partial(SVD_RANK.check, error=KernelError),
+    ("svd_l1", "rank"): partial(SVD_RANK.check, error=KernelError),
+    ("preintegrated_svd", "rank"): partial(SVD_RANK.check, name="residual rank", error=KernelError),
+    ("gaussians", "count"): partial(GAUSSIAN_COUNT.check, error=KernelError),
+    ("guided", "k"): partial(GUIDE_K.check, error=KernelError),
+    ("jimenez2012", "taps"): partial(JIMENEZ_TAPS.check, name="jimenez2012 taps", error=KernelError),
     ("artist", "preset"): _preset,
     ("burley_fit", "error"): _error_fn,
 }

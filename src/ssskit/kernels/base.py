@@ -30,28 +30,27 @@ from ..errors import KernelError
 from ..io import atomic_output, check_suffix
 from ..profiles.base import RGBProfile
 from ..profiles.discretize import grid_coordinates
+from ..quantities import KERNEL_CELLS, LENGTH_MM, POSITIVE, Quantity, check_finite
 
 CHANNELS = ("R", "G", "B")
 
 #: the largest rank of an SVD kernel (svd, svd_l1) and of preintegrated_svd's residual, for the API and the
 #: method specs alike (``svd:N``); each needs 2 N 1D convolutions, and the grid (n cells) bounds it too
 MAX_SVD_RANK = 64
+#: the rank of an SVD kernel (and of preintegrated_svd's residual): 1 to MAX_SVD_RANK, and at most the grid's cells
+SVD_RANK = Quantity("SVD rank", 1, MAX_SVD_RANK, "", "terms of the truncated SVD, each two 1D convolutions",
+                    integer=True)
 
 
 def _check_grid(cell_mm: float, n: int) -> None:
-    if not (isinstance(n, (int, np.integer)) and n >= 3 and n % 2 == 1):
-        raise KernelError(f"kernel grid size must be an odd integer >= 3 (origin at a cell centre), got {n!r}")
-    real = isinstance(cell_mm, (int, float, np.integer, np.floating)) and not isinstance(cell_mm, bool)
-    if not (real and np.isfinite(cell_mm) and cell_mm > 0):
-        raise KernelError(f"kernel cell size must be a positive number of mm, got {cell_mm!r}")
+    KERNEL_CELLS.check(n, error=KernelError)
+    LENGTH_MM.check(cell_mm, "kernel cell size", KernelError)
 
 
 def _scale_factors(factors: ArrayLike) -> NDArray[np.float64]:
     """Per-channel scale factors (3,), each positive and finite, or a precise error."""
-    f = np.broadcast_to(np.asarray(factors, dtype=float), (3,))
-    if not np.all(np.isfinite(f)) or np.any(f <= 0):
-        raise KernelError(f"kernel scale factors must be positive and finite, got {f.tolist()}")
-    return f
+    return POSITIVE.check_array(np.broadcast_to(np.asarray(factors, dtype=float), (3,)), "kernel scale factors",
+                                KernelError, "channels")
 
 
 def default_grid(profile: RGBProfile, n: int = 201, fraction: float = 0.999) -> tuple[float, int]:
@@ -99,8 +98,7 @@ class Kernel:
         if comps.ndim != 3 or comps.shape[0] != 3 or comps.shape[1] < 1:
             raise KernelError(f"kernel components must have shape (3, N, n) with N >= 1, got {comps.shape}")
         _check_grid(float(self.cell_mm), comps.shape[2])
-        if not np.all(np.isfinite(comps)):
-            raise KernelError("kernel components contain NaN or infinity")
+        check_finite(comps, "kernel components", KernelError)
         signs = np.asarray(self.signs, dtype=float)
         if signs.shape != comps.shape[:2] or not np.all(np.abs(signs) == 1.0):
             raise KernelError(f"kernel signs must be +-1 with shape {comps.shape[:2]}, got {signs.shape}")
@@ -277,8 +275,8 @@ class TapKernel:
         w = np.asarray(self.weights, dtype=float)
         if o.ndim != 1 or w.shape != (o.size, 3) or o.size < 1:
             raise KernelError(f"tap kernel needs offsets (N,) and weights (N, 3), got {o.shape} and {w.shape}")
-        if not (np.all(np.isfinite(o)) and np.all(np.isfinite(w))):
-            raise KernelError("tap offsets and weights must be finite")
+        check_finite(o, "tap offsets", KernelError)
+        check_finite(w, "tap weights", KernelError)
         object.__setattr__(self, "offsets_mm", o)
         object.__setattr__(self, "weights", w)
 

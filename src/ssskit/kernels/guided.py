@@ -46,7 +46,11 @@ from numpy.typing import NDArray
 
 from ..errors import KernelError
 from ..profiles.base import RadialProfile, RGBProfile
+from ..quantities import POSITIVE, Quantity
 from .base import Kernel
+
+#: the guide exponent k of the guided kernel (paper Appendix A): the paper uses 0..4, accepted up to 8
+GUIDE_K = Quantity("guide exponent k", 0.0, 8.0, "", "the paper uses 0..4")
 
 GUIDE_B = 50.0
 
@@ -209,10 +213,8 @@ def kernel_guided(profile: RGBProfile, cell_mm: float, n: int, k: float = 2.0, b
     RMSE, k = 0 or 4 on the texture), so k ~ 2 is a compromise rather than the paper's "approximation of
     the actual diffusion kernel". ``b`` is Gamma's centre-cross suppression (paper: 50).
     """
-    if not (np.isfinite(k) and 0.0 <= k <= 8.0):
-        raise KernelError(f"guide exponent k must lie in [0, 8] (the paper uses 0..4), got {k!r}")
-    if not (np.isfinite(b) and b > 0):
-        raise KernelError(f"guide suppression b must be > 0, got {b!r}")
+    GUIDE_K.check(k, error=KernelError)
+    POSITIVE.check(b, "guide suppression b", KernelError)
     comps = np.stack([guided_1d(ch, cell_mm, n, k, b, label=f"guided kernel (k = {k:g}), channel {name}")
                       for name, ch in zip("RGB", profile.channels)])[:, None, :]
     return Kernel(cell_mm, comps, np.ones((3, 1)), "guided", {"k": float(k), "b": float(b)},

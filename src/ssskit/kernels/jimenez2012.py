@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import KernelError
+from ..quantities import FRACTION, TAPS, Quantity
 from .base import TapKernel
 
 #: (c_k, v_k [mm^2]) of the demo's skin profile.
@@ -31,18 +32,19 @@ JIMENEZ2012_GAUSSIANS = ((0.100, 0.0484), (0.118, 0.187), (0.113, 0.567), (0.358
 JIMENEZ2012_STRENGTH = (0.48, 0.41, 0.28)
 JIMENEZ2012_FALLOFF = (1.0, 0.37, 0.3)
 _PI_ENGINE = 3.14
+#: the engine's falloff per channel (a radius scale; 0 keeps the narrowest Gaussian)
+FALLOFF = Quantity("falloff", 0.0, float("inf"), "", "a radius scale per channel", hi_open=True)
+#: the engine kernel's taps: odd, a centre and at least one pair
+JIMENEZ_TAPS = TAPS.within(lo=3, reason="odd: a centre tap and at least one pair")
 
 
-def _triple(value: ArrayLike, what: str) -> NDArray[np.float64]:
-    arr = np.broadcast_to(np.asarray(value, dtype=float), (3,)).copy()
-    if not np.all(np.isfinite(arr)):
-        raise KernelError(f"{what} must be finite, got {arr.tolist()}")
-    return arr
+def _triple(value: ArrayLike, what: str, q: Quantity) -> NDArray[np.float64]:
+    return q.check_array(np.broadcast_to(np.asarray(value, dtype=float), (3,)).copy(), what, KernelError, "channels")
 
 
 def jimenez2012_profile(r: ArrayLike, falloff: ArrayLike = JIMENEZ2012_FALLOFF) -> NDArray[np.float64]:
     """The demo's radial profile P(r) per channel, shape r.shape + (3,) (engine constants kept)."""
-    f = _triple(falloff, "falloff")
+    f = _triple(falloff, "falloff", FALLOFF)
     rr = np.asarray(r, dtype=float)[..., None] / (0.001 + f)
     out = np.zeros(rr.shape)
     for c, v in JIMENEZ2012_GAUSSIANS:
@@ -52,8 +54,7 @@ def jimenez2012_profile(r: ArrayLike, falloff: ArrayLike = JIMENEZ2012_FALLOFF) 
 
 def jimenez2012_offsets(taps: int) -> NDArray[np.float64]:
     """Quadratically spaced tap offsets o_i (mm), in the engine's order before the centre moves first."""
-    if not (isinstance(taps, (int, np.integer)) and taps >= 3 and taps % 2 == 1):
-        raise KernelError(f"jimenez2012 needs an odd number of taps >= 3, got {taps!r}")
+    JIMENEZ_TAPS.check(taps, "jimenez2012 taps", KernelError)
     rng = 3.0 if taps > 20 else 2.0
     t = -rng + np.arange(taps // 2) * (2.0 * rng / (taps - 1))  # the negative half; mirrored exactly
     neg = -(t**2) / rng
@@ -63,12 +64,8 @@ def jimenez2012_offsets(taps: int) -> NDArray[np.float64]:
 def kernel_jimenez2012(taps: int = 11, strength: ArrayLike = JIMENEZ2012_STRENGTH,
                        falloff: ArrayLike = JIMENEZ2012_FALLOFF, source: dict[str, Any] | None = None) -> TapKernel:
     """The engine's tap kernel (module docstring), centre tap first; weights (taps, 3)."""
-    s = _triple(strength, "strength")
-    if np.any(s < 0) or np.any(s > 1):
-        raise KernelError(f"strength must lie in [0, 1], got {s.tolist()}")
-    f = _triple(falloff, "falloff")
-    if np.any(f < 0):
-        raise KernelError(f"falloff must be >= 0, got {f.tolist()}")
+    s = _triple(strength, "strength", FRACTION)
+    f = _triple(falloff, "falloff", FALLOFF)
     o = jimenez2012_offsets(taps)
     gaps = np.abs(np.diff(o))
     area = np.zeros(taps)

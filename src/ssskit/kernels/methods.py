@@ -16,7 +16,11 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import KernelError
 from ..materials import ARTIST_PRESETS
 from ..profiles.base import RadialProfile, RGBProfile
-from .base import MAX_SVD_RANK, Kernel
+from ..quantities import FRACTION, LENGTH_MM, Quantity
+from .base import MAX_SVD_RANK, SVD_RANK, Kernel
+
+#: the number of Gaussians of a sum-of-Gaussians kernel (supplement Eq. S.1)
+GAUSSIAN_COUNT = Quantity("number of Gaussians", 1, 12, "", "terms of the fit", integer=True)
 
 
 def _source(profile: RGBProfile) -> dict[str, Any]:
@@ -70,9 +74,8 @@ def kernel_svd(profile: RGBProfile, cell_mm: float, n: int, rank: int = 1, renor
     With ``renormalise`` the L1 energy renormalisation of supplement B is applied,
     A~_s = A_s ||Rd||_1 / ||A_s||_1 (||.||_1 the sum of absolute cell values, as written there).
     """
-    top = min(n, MAX_SVD_RANK)
-    if not (isinstance(rank, (int, np.integer)) and 1 <= rank <= top):
-        raise KernelError(f"SVD rank must be an integer in 1..{top}, got {rank!r}")
+    SVD_RANK.within(hi=min(n, MAX_SVD_RANK), reason="terms of the truncated SVD, at most the grid's cells"
+                    ).check(rank, error=KernelError)
     rd = profile.discretize_2d(cell_mm, n)
     comps, signs = np.zeros((3, rank, n)), np.zeros((3, rank))
     for c in range(3):
@@ -137,8 +140,7 @@ def kernel_gaussians(profile: RGBProfile, cell_mm: float, n: int, count: int = 6
     rank ``count`` and costs 2 count 1D convolutions. After the fit, each channel is rescaled so the
     discrete kernel's L1 norm equals the discrete ||Rd||_1 on the grid.
     """
-    if not (isinstance(count, (int, np.integer)) and 1 <= count <= 12):
-        raise KernelError(f"number of Gaussians must be an integer in 1..12, got {count!r}")
+    GAUSSIAN_COUNT.check(count, error=KernelError)
     comps = np.zeros((3, count, n))
     weights: list[list[float]] = []
     variances: list[list[float]] = []
@@ -179,9 +181,8 @@ def kernel_preintegrated_svd(profile: RGBProfile, cell_mm: float, n: int, rank: 
     A = A_p + sum_{i<=N} s_i r_i r_i^T with the r_i the Eckart-Young terms of Rd - A_p (Eqs. S.2-S.4):
     rank N + 1, 2 (N + 1) 1D convolutions.
     """
-    top = min(n - 1, MAX_SVD_RANK)
-    if not (isinstance(rank, (int, np.integer)) and 1 <= rank <= top):
-        raise KernelError(f"residual rank must be an integer in 1..{top}, got {rank!r}")
+    SVD_RANK.within(hi=min(n - 1, MAX_SVD_RANK), reason="terms of the residual's SVD, fewer than the grid's cells"
+                    ).check(rank, "residual rank", KernelError)
     base = kernel_preintegrated(profile, cell_mm, n)
     resid = profile.discretize_2d(cell_mm, n) - base.to_2d()
     comps, signs = np.zeros((3, rank + 1, n)), np.ones((3, rank + 1))
@@ -204,13 +205,9 @@ def two_gaussian_1d(sigma_near: ArrayLike, sigma_far: ArrayLike, weight: ArrayLi
 
 
 def _check_artist(sigma_near: ArrayLike, sigma_far: ArrayLike, weight: ArrayLike) -> None:
-    for name, v in (("sigma_near", sigma_near), ("sigma_far", sigma_far)):
-        arr = np.broadcast_to(np.asarray(v, float), (3,))
-        if not np.all(np.isfinite(arr)) or np.any(arr <= 0):
-            raise KernelError(f"{name} must be positive mm values, got {arr.tolist()}")
-    w = np.broadcast_to(np.asarray(weight, float), (3,))
-    if not np.all(np.isfinite(w)) or np.any(w < 0) or np.any(w > 1):
-        raise KernelError(f"artist weight w must lie in [0, 1], got {w.tolist()}")
+    for name, v, q in (("sigma_near", sigma_near, LENGTH_MM), ("sigma_far", sigma_far, LENGTH_MM),
+                       ("artist weight w", weight, FRACTION)):
+        q.check_array(np.broadcast_to(np.asarray(v, float), (3,)), name, KernelError, "channels")
 
 
 def fit_artist(profile: RGBProfile, cell_mm: float, n: int) -> dict[str, list[float]]:

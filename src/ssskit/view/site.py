@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
+from ..quantities import CHOICE, FRACTION, TAPS, fail
 
 #: the files of the page (ssskit/view/static), copied into a static folder and the only files served
 PAGE_FILES = ("index.html", "viewer.js", "viewer.css")
@@ -64,10 +65,9 @@ class MaterialRequest:
             if self.albedo is None or self.mfp is None:
                 raise SsskitError("artists' terms need albedo and mfp (3 values each)")
             check_artist(self.albedo, self.mfp, "mfp", 1.4, 0.0)
-        if self.taps not in TAP_CHOICES:
-            raise SsskitError(f"taps must be one of {', '.join(map(str, TAP_CHOICES))}, got {self.taps!r}")
-        if not (isinstance(self.jitter, (int, float)) and math.isfinite(self.jitter) and 0.0 <= self.jitter <= 1.0):
-            raise SsskitError(f"jitter is a fraction of the kernel size in [0, 1], got {self.jitter!r}")
+        if TAPS.check(self.taps) not in TAP_CHOICES:  # (bounded work per request)
+            raise fail(SsskitError, CHOICE, name="taps", choices=", ".join(map(str, TAP_CHOICES)), actual=self.taps)
+        FRACTION.check(self.jitter, "jitter (a fraction of the kernel size)")
         from ..kernels import parse_method_spec
 
         parse_method_spec(self.kernel)
