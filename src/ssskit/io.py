@@ -293,18 +293,31 @@ def check_regular_file(path: str | Path, what: str, error: type[Exception] = Out
         raise error(f"{what} {str(path)!r} is {kind}, not a regular file")
 
 
+def read_input(path: str | Path, what: str, error: type[Exception] = OutputError, suffixes: Iterable[str] = (),
+               size: int = -1, text: bool = False) -> Any:
+    """The contents of an input file (``text``: decoded as UTF-8; ``size``: at most that many bytes), after the
+    rules of every input file, stated once: a regular file that exists (a folder, a FIFO, a socket or a device
+    is refused), its suffix one of ``suffixes`` (when given), that reads; else one ``error`` naming ``what``."""
+    p = Path(path)
+    allowed = tuple(suffixes)
+    if not p.exists() or p.is_dir():
+        raise error(f"{what} {str(p)!r} {'is a directory, not a file' if p.is_dir() else 'does not exist'}")
+    check_regular_file(p, what, error)
+    if allowed and p.suffix.lower() not in allowed:
+        raise error(f"{what} {str(p)!r} must end in {' or '.join(allowed)}")
+    try:
+        with open(p, "rb") as fh:
+            raw = fh.read(size)
+        return raw.decode("utf-8") if text else raw
+    except UnicodeDecodeError:
+        raise error(f"{what} {str(p)!r} is not a UTF-8 text file") from None
+    except OSError as exc:
+        raise error(f"cannot read {what} {str(p)!r}: {exc.strerror or exc}") from None
+
+
 def _check_readable(path: Path, what: str) -> int:
     """The version field of an OpenEXR file, after checking that ``path`` is a readable OpenEXR file."""
-    if not path.exists():
-        raise GBufferError(f"{what} {str(path)!r} does not exist")
-    if path.is_dir():
-        raise GBufferError(f"{what} {str(path)!r} is a directory, not a file")
-    check_regular_file(path, what, GBufferError)
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(8)
-    except OSError as exc:
-        raise GBufferError(f"cannot read {what} {str(path)!r}: {exc.strerror}") from None
+    head = read_input(path, what, GBufferError, size=8)
     if len(head) < 8 or head[:4] != EXR_MAGIC:
         raise GBufferError(f"{what} {str(path)!r} is not an OpenEXR file")
     return int.from_bytes(head[4:8], "little")

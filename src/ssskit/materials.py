@@ -376,24 +376,14 @@ def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user mat
 def load_material(path: str | Path) -> Material | LayeredMaterial:
     """Load a material from a ``.toml`` or ``.json`` file (see :func:`material_from_dict`); a file
     with a ``layers`` list gives a :class:`LayeredMaterial`."""
+    from .io import parse_document, read_input
+
     p = Path(path)
-    if p.is_dir():
-        raise MaterialError(f"material file {str(p)!r} is a directory, not a .toml or .json file")
-    from .io import check_regular_file
-
-    check_regular_file(p, "material file", MaterialError)
-    try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise MaterialError(f"cannot read material file {str(p)!r}: {exc.strerror}") from None
     suffix = p.suffix.lower()
-    if suffix not in (".toml", ".json"):
-        raise MaterialError(f"material file {str(p)!r} must end in .toml or .json")
-    from .io import parse_document
-
+    text = read_input(p, "material file", MaterialError, (".toml", ".json"), text=True)
     try:
-        data = parse_document(raw.decode("utf-8"), suffix)
-    except (UnicodeDecodeError, ValueError) as exc:
+        data = parse_document(text, suffix)
+    except ValueError as exc:
         raise MaterialError(f"malformed material file {str(p)!r}: {exc}") from None
     try:
         return material_from_dict(data, default_name=p.stem)

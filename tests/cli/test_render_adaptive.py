@@ -52,8 +52,8 @@ def test_text_output(run, gbuffer_file, tmp_path):
 
 
 BAD = [
-    (["--sigma0", "0"], "--sigma0: the target standard deviation sigma0 must be > 0, got 0.0"),
-    (["--sigma0", "-0.1"], "--sigma0: the target standard deviation sigma0 must be > 0"),
+    (["--sigma0", "0"], "--sigma0: sigma0 must lie in [1e-150, 1e+150], got 0 (the target standard deviation"),
+    (["--sigma0", "-0.1"], "--sigma0: sigma0 must lie in [1e-150, 1e+150], got -0.1"),
     (["--sigma0", "nan"], "--sigma0"),
     (["--kappa", "1.5"], "--kappa: kappa must lie in [0, 1], got 1.5"),
     (["--kappa", "-0.2"], "--kappa: kappa must lie in [0, 1], got -0.2"),
@@ -69,8 +69,9 @@ BAD = [
     (["--c", "3.5"], "--c: c must lie in (2, 3), got 3.5"),
     (["--out", "x.exr"], "x.exr"),
     # sigma0 is fine but its square is not a usable float64: the error says so, not "sigma0_sq ... got 0.0"
-    (["--sigma0", "1e-200"], "--sigma0: sigma0^2 must be a positive finite float64, but 1e-200^2 underflows to 0"),
-    (["--sigma0", "1e200"], "--sigma0: sigma0^2 must be a positive finite float64, but 1e+200^2 overflows"),
+    (["--sigma0", "1e-200"], "--sigma0: sigma0 must lie in [1e-150, 1e+150], got 1e-200 (the target standard "
+                             "deviation of a frame's luminance; its square must be a positive float64)"),
+    (["--sigma0", "1e200"], "--sigma0: sigma0 must lie in [1e-150, 1e+150], got 1e+200"),
     # --frames-dir may be neither another output nor the folder of another output's name
     (["--static", "--out", "f.png", "--frames-dir", "f.png"], "--frames-dir 'f.png' is also the --out file"),
     (["--static", "--save-gbuffer", "new.exr", "--frames-dir", "new.exr"],

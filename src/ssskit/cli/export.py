@@ -22,9 +22,10 @@ from typing import Any
 
 import click
 
-from ..errors import SsskitError
-from .options import TAP_RANGE, OutputFile, depth_mode_option, echo_json, examples, json_option, kernel_spec_option
-from .options import model_option, photons_option, tap_method_option
+from ..errors import SettingsError, SsskitError
+from ..export.api import FLAGS, ExportSettings
+from .options import (DEPTH_MODE, MODEL, TAP_METHOD, OutputFile, RGBFloats, echo_json, examples, json_option,
+                      kernel_spec_option, setting_option)
 
 
 def _formats() -> Any:
@@ -88,26 +89,6 @@ class ExportMaterial(click.ParamType):
         return text
 
 
-class Triple(click.ParamType):
-    """A number or three comma-separated numbers (R,G,B)."""
-
-    name = "R,G,B"
-
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        if isinstance(value, tuple):
-            return value
-        parts = [p.strip() for p in str(value).split(",")]
-        try:
-            vals = [float(p) for p in parts]
-        except ValueError:
-            self.fail(f"needs a number or 3 comma-separated numbers (R,G,B), got {value!r}", param, ctx)
-        if len(vals) == 1:
-            vals = vals * 3
-        if len(vals) != 3:
-            self.fail(f"needs 1 or 3 values (R,G,B), got {len(vals)}", param, ctx)
-        return tuple(vals)
-
-
 @click.command(epilog=examples(
     "ssskit export --kernel jimenez2012 --taps 11 --format hlsl --out SeparableSSSKernel.hlsl",
     "ssskit export --material skin1 --kernel preintegrated --taps 9 --format glsl --out kernel.glsl",
@@ -128,61 +109,70 @@ class Triple(click.ParamType):
 @click.option("--material", type=ExportMaterial(), default=None,
               help="Preset name, material file, or an engine file to read back (an ssskit engine .json or .py script, "
                    "an HDRP .asset with --albedo, a .mtlx); not needed by jimenez2012 or artist presets.")
-@click.option("--albedo", type=Triple(), default=None,
-              help="Artists' terms: surface albedo R,G,B in (0, 1] (with --mfp or --dmfp, mm, in [1e-6, 1e6]).")
-@click.option("--mfp", type=Triple(), default=None, help="Artists' terms: volume mean free path 1/sigma_t, mm.")
-@click.option("--dmfp", type=Triple(), default=None,
-              help="Artists' terms: diffuse mean free path, mm (Burley's convention: d = dmfp / (3.5 + 100 (A - 0.33)^4)).")
-@click.option("--eta", type=float, default=None,
-              help="Artists' terms: relative refractive index, written as the engine's IOR [default: 1.3].")
-@click.option("--g", type=float, default=None, help="Artists' terms: Henyey-Greenstein anisotropy [default: 0].")
-@click.option("--unreal-form", type=click.Choice(("mfp", "dmfp")), default=None,
-              help="--format unreal with a .py: the Burley form the script writes (mfp: UE 5, the default; dmfp: UE "
-                   "4.25-4.27).")
-@click.option("--standard-surface", is_flag=True, help="--format materialx: add a standard_surface beside OpenPBR.")
-@click.option("--pass", "shader_pass", type=click.Choice(("separable", "transmission", "burley")), default=None,
-              help="--format glsl-shader/hlsl-shader: the separable pass (with --kernel) or the transmittance pass (light "
-                   "through thin parts, docs/transmission.md: --material's model baked in); --format glsl-shader: "
-                   "the Burley Monte Carlo pass (Xie 2020, --material's Burley parameters baked in).")
-@click.option("--transmission-model", type=click.Choice(("mcml", "jimenez2010", "unreal")), default=None,
-              help="--pass transmission: the transmittance model baked into the shader [default: mcml].")
-@click.option("--no-transmission", is_flag=True,
-              help="--format unreal/unity: leave out the transmission fields (by default fitted to the material's MCML "
-                   "slab transmittance T(t), which a material not seen before simulates first: docs/transmission.md).")
+@setting_option(ExportSettings, "albedo", type=RGBFloats(), help="Artists' terms: surface albedo R,G,B (with --mfp or "
+                                                                   "--dmfp)")
+@setting_option(ExportSettings, "mfp", type=RGBFloats(), help="Artists' terms: volume mean free path 1/sigma_t")
+@setting_option(ExportSettings, "dmfp", type=RGBFloats(),
+                help="Artists' terms: diffuse mean free path (Burley's convention: d = dmfp / (3.5 + 100 (A - 0.33)^4))")
+@setting_option(ExportSettings, "eta",
+                help="Artists' terms: relative refractive index, written as the engine's IOR [default: 1.3]")
+@setting_option(ExportSettings, "g", help="Artists' terms: Henyey-Greenstein anisotropy [default: 0]")
+@setting_option(ExportSettings, "unreal_form",
+                help="--format unreal with a .py: the Burley form the script writes (mfp: UE 5, the default; dmfp: UE "
+                     "4.25-4.27).")
+@setting_option(ExportSettings, "standard_surface", help="--format materialx: add a standard_surface beside OpenPBR.")
+@setting_option(ExportSettings, "shader_pass", "--pass", "shader_pass",
+                help="--format glsl-shader/hlsl-shader: the separable pass (with --kernel) or the transmittance pass "
+                     "(light through thin parts, docs/transmission.md: --material's model baked in); --format "
+                     "glsl-shader: the Burley Monte Carlo pass (Xie 2020, --material's Burley parameters baked in).")
+@setting_option(ExportSettings, "transmission_model",
+                help="--pass transmission: the transmittance model baked into the shader [default: mcml].")
+@setting_option(ExportSettings, "no_transmission",
+                help="--format unreal/unity: leave out the transmission fields (by default fitted to the material's "
+                     "MCML slab transmittance T(t), which a material not seen before simulates first: "
+                     "docs/transmission.md).")
 @kernel_spec_option(help="Kernel method name[:value] for hlsl/glsl/bn/json (e.g. jimenez2012, preintegrated, svd:2).")
-@click.option("--taps", type=click.IntRange(*TAP_RANGE), default=None,
-              help="Taps per 1D pass (odd): jimenez2012's tap count, or the taps placed on a tabulated kernel "
-                   "for hlsl/glsl [default: 11 for jimenez2012, 7 otherwise].")
-@tap_method_option(None)
-@click.option("--jitter", type=click.FloatRange(0.0, 1.0), default=None,
-              help="glsl-shader/hlsl-shader: taps within this fraction of the kernel size on rotated axes [default: 0.1].")
-@depth_mode_option()
-@model_option(None, help="Profile model of the material (the source of the kernel or of the parameters); engine "
-                             "files and artists' terms default to burley (Burley-fit inversion), montecarlo or "
-                             "dipole invert them to a physical material first [default: montecarlo; burley for engine files "
-                             "and artists' terms].")
-@photons_option(None, help="--model montecarlo: photons per channel (shipped for the presets at 10^7, else cached) [default: 10^7].")
-@click.option("--grid-fraction", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=None,
-              help="--model montecarlo: lengthen each channel's grid until it holds this fraction of the light.")
+@setting_option(ExportSettings, "taps",
+                help="Taps per 1D pass: jimenez2012's tap count, or the taps placed on a tabulated kernel for hlsl/glsl "
+                     "[default: 11 for jimenez2012, 7 otherwise]")
+@setting_option(ExportSettings, "tap_method", type=TAP_METHOD, help="Tap placement.")
+@setting_option(ExportSettings, "jitter", help="glsl-shader/hlsl-shader: taps within this fraction of the kernel size "
+                                               "on rotated axes [default: 0.1]")
+@setting_option(ExportSettings, "depth_mode", type=DEPTH_MODE,
+                help="Depth test [default: gaussian for artist kernels, follow otherwise].")
+@setting_option(ExportSettings, "model", type=MODEL,
+                help="Profile model of the material (the source of the kernel or of the parameters); engine files and "
+                     "artists' terms default to burley (Burley-fit inversion), montecarlo or dipole invert them to a "
+                     "physical material first [default: montecarlo; burley for engine files and artists' terms].")
+@setting_option(ExportSettings, "photons", help="--model montecarlo: photons per channel (shipped for the presets at "
+                                                "10^7, else cached) [default: 10^7]")
+@setting_option(ExportSettings, "grid_fraction",
+                help="--model montecarlo: lengthen each channel's grid until it holds this fraction of the light")
 @json_option("Print one JSON object describing what was written.")
 def export(fmt: str, out: str, as_json: bool, kernel_spec: str | None, **options: Any) -> None:
     """Write a kernel or a material's parameters in a format an engine loads."""
-    from ..export import ExportSettings
     from ..export import export as run
 
     given = {k: v for k, v in options.items() if v is not None and v is not False}
     material = given.get("material")
-    if material is not None and "," in material:  # one Babylon.js scene's materials
-        if fmt != "babylon":
-            raise SsskitError("--material takes several names (a,b,c) only with --format babylon (one scene's profiles)")
-        from ..export.babylon import export_scene
+    try:
+        if material is not None and "," in material:  # one Babylon.js scene's materials
+            if fmt != "babylon":
+                raise SsskitError("--material takes several names (a,b,c) only with --format babylon (one scene's "
+                                  "profiles)")
+            from ..export.babylon import export_scene
 
-        given.pop("material")
-        if kernel_spec is not None:
-            given["kernel"] = kernel_spec
-        summary = export_scene([m.strip() for m in material.split(",")], out, **given)
-    else:
-        summary = run(ExportSettings(format=fmt, out=out, kernel=kernel_spec, **given))
+            given.pop("material")
+            if kernel_spec is not None:
+                given["kernel"] = kernel_spec
+            summary = export_scene([m.strip() for m in material.split(",")], out, **given)
+        else:
+            summary = run(ExportSettings(format=fmt, out=out, kernel=kernel_spec, **given))
+    except SettingsError as exc:  # a field's value refused by ExportSettings (its quantity): named by its option
+        field = str(exc).split(" ", 1)[0]
+        if field in given and not str(exc).startswith("--"):
+            raise SettingsError(f"{FLAGS[field]}: {exc}") from None
+        raise
     for note in summary.pop("notes"):
         click.echo(f"ssskit: note: {note}", err=True)
     if as_json:

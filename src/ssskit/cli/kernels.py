@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from ..errors import SsskitError
+from ..quantities import KERNEL_CELLS
 
 if TYPE_CHECKING:
     from ..kernels import AnyKernel, KernelMethod
@@ -136,8 +137,7 @@ def kernel(ctx: click.Context, material: str | None, method_spec: str, model: st
     from ..io import check_distinct
 
     m, params = method_parameters(method_spec, method_values)
-    if grid_n % 2 == 0:
-        raise SsskitError(f"--size must be odd (the origin sits at a cell centre), got {grid_n}")
+    KERNEL_CELLS.check(grid_n, "--size")
     check_distinct(out, material, what="--out")
     from ..profiles import MATERIAL_FREE_MODELS
 

@@ -302,8 +302,8 @@ def _canonical_spec(method: KernelMethod, params: dict[str, Any]) -> tuple[str, 
 
 
 class IntPair(click.ParamType):
-    """Two integers written with a separator (``name`` is the metavar, ``hint`` the message's example);
-    subclasses check their range in :meth:`check`."""
+    """Two integers written with a separator (``name`` is the metavar, ``hint`` the message's example); the
+    settings fields they set check their range."""
 
     name = "A:B"
     sep = ":"
@@ -312,10 +312,6 @@ class IntPair(click.ParamType):
     def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         return self.name
 
-    def check(self, a: int, b: int, value: Any, param: click.Parameter | None,
-              ctx: click.Context | None) -> tuple[int, int]:
-        return a, b
-
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, tuple):
             return value
@@ -323,23 +319,15 @@ class IntPair(click.ParamType):
             a, b = (int(v) for v in str(value).lower().split(self.sep))
         except ValueError:
             self.fail(f"must look like {self.hint}, got {value!r}", param, ctx)
-        return self.check(a, b, value, param, ctx)
+        return a, b
 
 
 class Size(IntPair):
-    """``WxH`` in pixels, each side in ``SIZE_RANGE``."""
+    """``WxH`` in pixels (the settings' width and height check each side's range)."""
 
     name = "WxH"
     sep = "x"
     hint = "256x192"
-
-    def check(self, a: int, b: int, value: Any, param: click.Parameter | None,
-              ctx: click.Context | None) -> tuple[int, int]:
-        lo, hi = SIZE_RANGE
-        for side, v in (("width", a), ("height", b)):
-            if not lo <= v <= hi:
-                self.fail(f"the {side} must lie in {lo}..{hi} pixels, got {value!r}", param, ctx)
-        return a, b
 
 
 class SceneRef(click.ParamType):
@@ -474,6 +462,86 @@ class OutputDir(click.ParamType):
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         check_writable(value, _opt(param, "output folder"), folder=True)
         return str(value)
+
+
+class SettingOption(click.Option):
+    """A click option generated from declared settings fields (:func:`ssskit.settings.setting`), not declared a
+    second time: its name (``--field`` with ``-`` for ``_``, unless given), type (an integer, a number, one
+    number or three for an RGB field, a choice among the quantity's names, a flag), default (the field's) and
+    the range in its help (the quantity's interval and unit), after ``help`` (default: the quantity's reason).
+    The value is checked once, by the settings class when it is made (the option named in the error:
+    :mod:`ssskit.cli.render_options`); :meth:`changes` gives the fields it sets.
+
+    ``setting=(cls, field)``, or ``(cls, (field, ...))`` for one option setting several fields (with an explicit
+    ``type`` whose value is a tuple); ``invert=True``: a ``--no-x`` flag that sets the boolean field to False;
+    ``convert``: the fields' values from the option's (e.g. sigma0 -> sigma0^2)."""
+
+    def __init__(self, param_decls: Sequence[str], *, setting: tuple[type, Any], invert: bool = False,
+                 convert: Callable[[Any], tuple[Any, ...]] | None = None, **attrs: Any) -> None:
+        import dataclasses
+
+        from ..quantities import Choice, Flag, Quantity
+
+        cls, names = setting
+        self.settings_class: type = cls
+        self.fields: tuple[str, ...] = (names,) if isinstance(names, str) else tuple(names)
+        self.invert, self.convert = invert, convert
+        declared = {f.name: f for f in dataclasses.fields(cls)}
+        f = declared[self.fields[0]]
+        q = f.metadata.get("quantity")
+        default: Any = tuple(getattr(cls(), n) for n in self.fields) if len(self.fields) > 1 else \
+            (f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default)
+        help_ = attrs.pop("help", None) or getattr(q, "reason", "")
+        if invert or isinstance(q, Flag):
+            attrs.setdefault("is_flag", True)
+            attrs.setdefault("default", False if invert else default)
+        else:
+            if isinstance(q, Choice):
+                choices = q.choices
+                attrs.setdefault("type", RegistryName(choices) if callable(choices) else
+                                 click.Choice(list(choices), case_sensitive=False))
+            elif isinstance(q, Quantity):
+                if f.metadata.get("rgb"):
+                    attrs.setdefault("type", RGBFloats())
+                attrs.setdefault("type", click.INT if q.integer else click.FLOAT)
+                if len(self.fields) == 1 and convert is None:  # the range, stated once: the quantity's
+                    help_ = f"{help_} ({'odd, ' if q.odd else ''}in {q.interval}{' ' + q.unit if q.unit else ''})."
+            if len(self.fields) > 1:  # written as the option's type writes it (8:64, 256x192)
+                default = getattr(attrs.get("type"), "sep", ",").join(str(v) for v in default)
+            attrs.setdefault("default", default)
+            attrs.setdefault("show_default", default is not None)
+        decls = list(param_decls) or [f"--{self.fields[0].replace('_', '-')}"]
+        super().__init__(decls, help=help_, **attrs)
+
+    def changes(self, value: Any) -> dict[str, Any]:
+        """The settings fields this option sets from its ``value`` (``{field: value}``)."""
+        if self.invert:
+            return {self.fields[0]: not value}
+        values = self.convert(value) if self.convert is not None else (
+            tuple(value) if len(self.fields) > 1 else (value,))
+        return dict(zip(self.fields, values))
+
+
+def setting_option(cls: type, field: Any, *decls: str, **attrs: Any) -> Callable[[Callable[..., Any]], Any]:
+    """The :class:`SettingOption` of ``cls``'s declared ``field`` (or fields), as a decorator."""
+    return click.option(*decls, cls=SettingOption, setting=(cls, field), **attrs)
+
+
+class RGBFloats(click.ParamType):
+    """One number or three comma-separated numbers (R,G,B)."""
+
+    name = "V[,V,V]"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, tuple):
+            return value
+        try:
+            vals = tuple(float(v) for v in str(value).split(","))
+        except ValueError:
+            self.fail(f"{value!r} is not a number or three comma-separated numbers", param, ctx)
+        if len(vals) not in (1, 3):
+            self.fail(f"{value!r}: give one number or three (R,G,B)", param, ctx)
+        return vals if len(vals) == 3 else vals * 3
 
 
 # ------------------------------------------------------------------------------------------ registries

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 import click
 
 from ..errors import SsskitError
+from ..quantities import LENGTH_MM
 
 if TYPE_CHECKING:
     from ..materials import LayeredMaterial, Material
@@ -112,9 +113,8 @@ def profile(ctx: click.Context, material: str | None, model: str, configuration:
     if albedo_source == "dipole" and model.lower() == "burley" and given(ctx, "photons"):
         raise SsskitError("--photons does not apply to --albedo-source dipole (A from the dipole's closed form, no "
                           "Monte Carlo run)")
-    if r_max is not None and not (0 < r_max <= R_MAX_MM):
-        raise SsskitError(f"--r-max must be a positive number of mm up to {R_MAX_MM:g} (10 times the longest mean free "
-                          f"path a model takes), got {r_max:g}")
+    if r_max is not None:
+        LENGTH_MM.within(hi=R_MAX_MM, reason="10 times the longest mean free path a model takes").check(r_max, "--r-max")
     make = resolve_profile(ctx, material, model, {"configuration": ("configuration", configuration),
                                                   "albedo_source": ("albedo_source", albedo_source),
                                                   "n_gaussians": ("n", n_gaussians),

@@ -16,34 +16,32 @@ from typing import Any
 
 import click
 
-from ..backends.burley_plan import C_RANGE, SAMPLERS, XIE_C
 from ..errors import SsskitError
-from ..pipeline.settings import (PASSES, TAP_RANGE, TRANSMISSION, TRANSMISSION_MODELS, TRANSMISSION_SPREADS, AdaptivePass,
-                                 RenderSettings)
-from ..screenspace.adaptive import CORRECTIONS
+from ..pipeline.settings import PASSES, AdaptivePass, BurleyPass, RenderSettings, SeparablePass
 from .options import (
+    BACKEND,
+    DEPTH_MODE,
+    MODEL,
+    TAP_METHOD,
     OutputDir,
     RegistryName,
     Size,
-    backend_option,
-    depth_mode_option,
     echo_json,
     given,
     examples,
     json_option,
     kernel_spec_option,
     material_option,
-    model_option,
     out_option,
-    photons_option,
     progress,
     resolve_scene_value,
     say_notes,
     scene_mesh_options,
     scene_option,
-    tap_method_option,
+    setting_option,
 )
-from .render_options import Budget, FrameWriter, RGBFloats, build_settings, check_inputs, load_settings, pass_of
+from .render_options import (SIGMA0, Budget, FrameWriter, _member, _sigma0_sq, build_settings, check_inputs,
+                             load_settings, pass_of)
 
 _D = RenderSettings()
 _A = AdaptivePass()
@@ -69,91 +67,78 @@ _PASS = RegistryName(lambda: PASSES)
                    "burley-adaptive (its variance-guided sample counts over --frames frames, Xie 2020 Sec. 4.1); "
                    "default: the settings file's, else separable.")
 @click.option("--method", "method", type=_PASS, default=None, help="Deprecated alias of --pass.")
-@click.option("--frames", type=int, default=_A.frames, show_default=True,
-              help="--pass burley-adaptive: frames along the scene's camera and light paths from --frame (1..100000).")
-@click.option("--static", is_flag=True,
-              help="--pass burley-adaptive: keep the camera and lights at --frame (a G-buffer file is always static).")
-@click.option("--taa/--no-taa", default=_A.taa, show_default=True,
-              help="--pass burley-adaptive: resolve every frame with the global TAA (Karis 2014) and report psnr_taa.")
+@_member(AdaptivePass, "frames", help="frames along the scene's camera and light paths from --frame")
+@_member(AdaptivePass, "static", help="keep the camera and lights at --frame (a G-buffer file is always static).")
+@_member(AdaptivePass, "taa", "--taa/--no-taa", show_default=True,
+         help="resolve every frame with the global TAA (Karis 2014) and report psnr_taa.")
 @click.option("--frames-dir", type=OutputDir(), default=None,
               help="--pass burley-adaptive: write per-frame images and sample-count heatmaps (PNG) into DIR.")
-@click.option("--disocclusion-spp", type=int, default=None,
-              help="--pass burley-adaptive on a moving camera: samples where the history is missing (new pixels; "
-                   "default b_min, Xie 2020 Sec. 4.1.4; a larger value is ssskit's variant), in [b_min, b_max].")
-@click.option("--limit-spp", type=int, default=None,
-              help="--pass burley-adaptive on a moving camera: samples per pixel of each frame's converged reference "
-                   f"(exact sampler, no mips; two cached halves give its standard error).  [default: {_A.reference_spp}]")
-@click.option("--sigma0", type=float, default=math.sqrt(_A.sigma0_sq),
-              help="--pass burley-adaptive: target standard deviation sigma0 of a frame's gamma-corrected luminance, > 0 "
-                   f"(Xie: sigma0^2 = 1e-3, i.e. --sigma0 0.0316).  [default: {math.sqrt(_A.sigma0_sq):.4g}, "
-                   f"sigma0^2 = {_A.sigma0_sq:.3g}]")
-@click.option("--kappa", type=float, default=_A.kappa, show_default=True,
-              help="--pass burley-adaptive: correction factor kappa of Eq. 14, in [0, 1].")
-@click.option("--budget", type=Budget(), default=f"{_A.b_min}:{_A.b_max}", show_default=True,
-              help="--pass burley-adaptive: samples per pixel and frame, b_min <= b_max.")
-@click.option("--alpha", type=float, default=_A.alpha, show_default=True,
-              help="--pass burley-adaptive: EMA weight alpha of the history (Eqs. 6, 8, 9), in (0, 1].")
-@click.option("--correction", type=click.Choice(CORRECTIONS, case_sensitive=False), default=_A.correction,
-              show_default=True, help="--pass burley-adaptive: Eq. 15 with variances, or as printed with standard "
-                                      "deviations.")
-@click.option("--sampler", type=click.Choice(SAMPLERS, case_sensitive=False), default=_A.sampler, show_default=True,
-              help="--pass burley: radius sampler (exact inverse CDF, Xie Eq. 21, Golubev 2018).")
-@click.option("--c", "c", type=float, default=XIE_C, show_default=True,
-              help=f"--pass burley: Eq. 21's c for --sampler xie, in ({C_RANGE[0]:g}, {C_RANGE[1]:g}) (Unreal ships 2.6).")
-@click.option("--no-mips", is_flag=True,
-              help="--pass burley: fetch every sample at full resolution (no prefiltered pyramid, Xie Eqs. 22-23).")
-@click.option("--albedo", type=RGBFloats(), default=None,
-              help="--pass burley: surface albedo A in (0, 1] (one or R,G,B), with --dmfp: parameters instead of "
-                   "the material's Burley profile (the material still gives a built-in scene its eta).")
-@click.option("--dmfp", type=RGBFloats(), default=None,
-              help="--pass burley: diffuse mean free path in mm (in [1e-6, 1e6]; one or R,G,B), with --albedo.")
+@_member(AdaptivePass, ("b_min", "b_max"), "--budget", type=Budget(),
+         help="samples per pixel and frame, b_min <= b_max.")
+@_member(AdaptivePass, "disocclusion_spp",
+         help="on a moving camera: samples where the history is missing (new pixels; default b_min, Xie 2020 Sec. "
+              "4.1.4; a larger value is ssskit's variant), within --budget")
+@_member(AdaptivePass, "limit_spp",
+         help="on a moving camera: samples per pixel of each frame's converged reference (exact sampler, no mips; "
+              f"two cached halves give its standard error; default {_A.reference_spp})")
+@_member(AdaptivePass, "sigma0_sq", "--sigma0", type=float, default=math.sqrt(_A.sigma0_sq), show_default=False,
+         convert=_sigma0_sq,
+         help=f"target standard deviation sigma0 of a frame's gamma-corrected luminance, in [{SIGMA0.lo:g}, "
+              f"{SIGMA0.hi:g}] (Xie: sigma0^2 = 1e-3, i.e. --sigma0 0.0316).  [default: {math.sqrt(_A.sigma0_sq):.4g}, "
+              f"sigma0^2 = {_A.sigma0_sq:.3g}]")
+@_member(AdaptivePass, "kappa", help="correction factor kappa of Eq. 14")
+@_member(AdaptivePass, "alpha", help="EMA weight alpha of the history (Eqs. 6, 8, 9)")
+@_member(AdaptivePass, "correction", help="Eq. 15 with variances, or as printed with standard deviations.")
+@_member(BurleyPass, "sampler", help="radius sampler (exact inverse CDF, Xie Eq. 21, Golubev 2018).")
+@_member(BurleyPass, "c", help="Eq. 21's c for --sampler xie (Unreal ships 2.6)")
+@_member(BurleyPass, "mips", "--no-mips", invert=True,
+         help="fetch every sample at full resolution (no prefiltered pyramid, Xie Eqs. 22-23).")
+@_member(BurleyPass, "albedo", help="surface albedo A (one or R,G,B), with --dmfp: parameters instead of the material's "
+                                    "Burley profile (the material still gives a built-in scene its eta)")
+@_member(BurleyPass, "dmfp_mm", "--dmfp", help="diffuse mean free path (one or R,G,B), with --albedo")
 @click.option("--settings", "settings_file", type=click.Path(exists=True, dir_okay=False), default=None,
               metavar="FILE.toml|json", help="Render settings file (RenderSettings); options given here override it.")
 @material_option(default=_D.material, help="Preset name or material file.")
-@model_option(_D.model, help="Profile the kernel approximates.")
-@photons_option(_D.photons, help="--model montecarlo: photons per channel (cached).")
+@setting_option(RenderSettings, "model", type=MODEL, help="Profile the kernel approximates.")
+@setting_option(RenderSettings, "photons", help="--model montecarlo: photons per channel (cached)")
 @kernel_spec_option(default=_D.kernel, help="Kernel method spec name[:value] (preintegrated, svd:2, artist:production, "
                                             "jimenez2012...); an engine tap kernel is built with --taps taps.")
-@click.option("--taps", type=click.IntRange(*TAP_RANGE), default=_D.taps, show_default=True, help="Taps per 1D pass (odd).")
-@tap_method_option(_D.tap_method)
-@click.option("--jitter", type=float, default=0.1, show_default=True,
-              help="Jitter radius as a fraction of the kernel size, 0..1 (paper: 0.1, 0.3 for close-ups).")
-@depth_mode_option()
-@backend_option(_D.backend)
-@click.option("--size", type=Size(), default=f"{_D.width}x{_D.height}", show_default=True,
-              help="Image size of a built-in or mesh scene (a G-buffer file has its own).")
-@click.option("--spp", type=int, default=_D.spp, show_default=True,
-              help="Samples per pixel of a scene's G-buffer; with --pass burley, of the Burley pass "
-                   "(not with burley-adaptive: --budget).")
-@click.option("--frame", type=int, default=_D.frame, show_default=True,
-              help="Frame along the scene's camera orbit (and of the pass's random numbers).")
-@click.option("--seed", type=int, default=_D.seed, show_default=True, help="Random seed (renders, jitter, samples).")
-@click.option("--reference", is_flag=True, help="Also path-trace the scene, built-in or mesh (Mitsuba volpathmis; cached) "
-                                               "and compare.")
-@click.option("--reference-spp", type=int, default=_D.reference_spp, show_default=True,
-              help="Samples per pixel of the path-traced reference (at least).")
-@click.option("--reference-max-spp", type=int, default=_D.reference_max_spp, show_default=True,
-              help="Sample budget of the reference: it renders until --reference-rel-se is reached or this is spent.")
-@click.option("--reference-rel-se", type=float, default=_D.reference_rel_se, show_default=True,
-              help="Target relative standard error of the reference's mean over the SSS mask.")
-@click.option("--transmission", type=click.Choice(TRANSMISSION, case_sensitive=False), default=_D.transmission,
-              show_default=True,
-              help="The transmittance pass (light through thin parts, lit from behind; docs/transmission.md), added to "
-                   "the separable or Burley pass (each frame of burley-adaptive): auto runs it where the G-buffer has the light layers (a G-buffer file "
-                   "that carries them; a scene renders without them), on renders a scene's G-buffer with them (a "
-                   "G-buffer file without them is an error), off never.")
-@click.option("--transmission-model", type=click.Choice(TRANSMISSION_MODELS, case_sensitive=False),
-              default=_D.transmission_model, show_default=True,
-              help="The transmittance T(t): mcml (the fit of the material's MCML slab tables), jimenez2010 "
-                   "(Jimenez et al. 2010's skin Gaussians, thickness in mm) or unreal (Unreal Engine 5's "
-                   "subsurface-profile transmission with its defaults for the material's Burley profile).")
-@click.option("--transmission-spread", type=click.Choice(TRANSMISSION_SPREADS, case_sensitive=False),
-              default=_D.transmission_spread, show_default=True,
-              help="The lateral spread of the transmitted light: mcml (a Gaussian per pixel as wide as MCML's Tt(r) at "
-                   "its thickness, where wider than half a pixel; several times the separable pass's cost on the CPU) or "
-                   "off (each pixel keeps the light that crossed the medium behind it).")
-@click.option("--no-exact", is_flag=True, help="Skip the exact 2D convolution.")
-@click.option("--no-perceptual", is_flag=True, help="Skip FLIP in the metrics.")
+@setting_option(RenderSettings, "taps", help="Taps per 1D pass")
+@setting_option(RenderSettings, "tap_method", type=TAP_METHOD, help="Tap placement.")
+@setting_option(SeparablePass, "jitter", help="Jitter radius as a fraction of the kernel size (paper: 0.1, 0.3 for "
+                                              "close-ups)")
+@setting_option(SeparablePass, "depth_mode", type=DEPTH_MODE,
+                help="Depth test [default: gaussian for artist kernels, follow otherwise].")
+@setting_option(RenderSettings, "backend", type=BACKEND,
+                help="Who runs the screen-space pass ('ssskit backends' lists them and whether they run here).")
+@setting_option(RenderSettings, ("width", "height"), "--size", type=Size(),
+                help="Image size of a built-in or mesh scene (a G-buffer file has its own).")
+@setting_option(RenderSettings, "spp", help="Samples per pixel of a scene's G-buffer; with --pass burley, of the Burley "
+                                            "pass (not with burley-adaptive: --budget)")
+@setting_option(RenderSettings, "frame", help="Frame along the scene's camera orbit (and of the pass's random numbers)")
+@setting_option(RenderSettings, "seed", help="Random seed (renders, jitter, samples)")
+@setting_option(RenderSettings, "reference", help="Also path-trace the scene, built-in or mesh (Mitsuba volpathmis; "
+                                                  "cached) and compare.")
+@setting_option(RenderSettings, "reference_spp", help="Samples per pixel of the path-traced reference (at least)")
+@setting_option(RenderSettings, "reference_max_spp",
+                help="Sample budget of the reference: it renders until --reference-rel-se is reached or this is spent")
+@setting_option(RenderSettings, "reference_rel_se",
+                help="Target relative standard error of the reference's mean over the SSS mask")
+@setting_option(RenderSettings, "transmission",
+                help="The transmittance pass (light through thin parts, lit from behind; docs/transmission.md), added "
+                     "to the separable or Burley pass (each frame of burley-adaptive): auto runs it where the G-buffer "
+                     "has the light layers (a G-buffer file that carries them; a scene renders without them), on "
+                     "renders a scene's G-buffer with them (a G-buffer file without them is an error), off never.")
+@setting_option(RenderSettings, "transmission_model",
+                help="The transmittance T(t): mcml (the fit of the material's MCML slab tables), jimenez2010 "
+                     "(Jimenez et al. 2010's skin Gaussians, thickness in mm) or unreal (Unreal Engine 5's "
+                     "subsurface-profile transmission with its defaults for the material's Burley profile).")
+@setting_option(RenderSettings, "transmission_spread",
+                help="The lateral spread of the transmitted light: mcml (a Gaussian per pixel as wide as MCML's Tt(r) "
+                     "at its thickness, where wider than half a pixel; several times the separable pass's cost on the "
+                     "CPU) or off (each pixel keeps the light that crossed the medium behind it).")
+@setting_option(RenderSettings, "exact", "--no-exact", invert=True, help="Skip the exact 2D convolution.")
+@setting_option(RenderSettings, "perceptual", "--no-perceptual", invert=True, help="Skip FLIP in the metrics.")
 @out_option((".exr",), "Also write the G-buffer as a multi-layer EXR.", name="--save-gbuffer", dest="save_gbuffer")
 @out_option((".exr", ".png"), "Write the image: FILE.exr (linear, with sss/exact/reference layers) or FILE.png (tone-mapped).")
 @json_option("Print one JSON object with settings and error metrics.")
@@ -166,7 +151,7 @@ def render(ctx: click.Context, scene: str | Path, settings_file: str | None, sav
     adaptive sample counts, each against its converged reference."""
     base = load_settings(settings_file) if settings_file else None
     name = pass_of(ctx, pass_name, method, base)
-    s = build_settings(ctx, base, params, name)
+    s = build_settings(ctx, base, name)
     check_inputs(ctx, scene, s, settings_file, out, save_gbuffer, frames_dir)
     if base is not None and isinstance(scene, Path) and scene.suffix.lower() == ".exr":
         d = RenderSettings()

@@ -3,15 +3,16 @@ and the checks between options and outputs that only the command line has.
 
 :func:`build_settings` starts from the settings file (``--settings``; the defaults without one) and
 applies the options the user gave, each validated by the settings classes and named in the error: the
-top-level values (:data:`FIELDS`), the pass (``--pass``, or the file's), and the pass member's options
-(:func:`own` derives from the settings which pass each option belongs to; an option of another pass is refused). The frame
-writer (:class:`FrameWriter`) writes an adaptive run's frames through the pipeline's callback.
+top-level values, the pass (``--pass``, or the file's), and the pass member's options. The options of the settings
+fields are generated from them (:class:`~ssskit.cli.options.SettingOption`: name, type, default, range), so the
+option knows its settings class and fields: :func:`own` derives which pass each belongs to (an option of another
+pass is refused) and :func:`build_settings` which field it sets. The frame writer (:class:`FrameWriter`) writes an
+adaptive run's frames through the pipeline's callback.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 import re
 import warnings
 from pathlib import Path
@@ -26,50 +27,50 @@ from ..errors import OutputError, SettingsError, SsskitError
 from ..pipeline.adaptive import AdaptiveFrame
 from ..pipeline.settings import (PASSES, AdaptivePass, BurleyPass, PassMember, RenderSettings, SeparablePass,
                                  SettingsMigrated)
+from ..quantities import Quantity
 from ..settings import Settings
-from .options import IntPair, check_distinct, given, option_name
+from .options import IntPair, SettingOption, check_distinct, given, option_name, setting_option
 
 _S = TypeVar("_S", bound=Settings)
 
-#: click parameter -> the top-level settings field(s) it sets
-FIELDS: dict[str, tuple[str, ...]] = {
-    "material": ("material",),
-    "model": ("model",),
-    "photons": ("photons",),
-    "kernel_spec": ("kernel",),
-    "taps": ("taps",),
-    "tap_method": ("tap_method",),
-    "size": ("width", "height"),
-    "seed": ("seed",),
-    "frame": ("frame",),
-    "backend": ("backend",),
-    "reference": ("reference",),
-    "reference_spp": ("reference_spp",),
-    "reference_max_spp": ("reference_max_spp",),
-    "reference_rel_se": ("reference_rel_se",),
-    "no_exact": ("exact",),
-    "no_perceptual": ("perceptual",),
-    "transmission": ("transmission",),
-    "transmission_model": ("transmission_model",),
-    "transmission_spread": ("transmission_spread",),
-}
-#: click parameter -> the pass member field(s) it sets, where the names differ (the others are a field's own)
-MEMBER_FIELDS: dict[str, tuple[str, ...]] = {"dmfp": ("dmfp_mm",), "no_mips": ("mips",), "sigma0": ("sigma0_sq",),
-                                             "budget": ("b_min", "b_max"), "frames_dir": ("frames",)}
+#: options that set a top-level field but are not generated from it (a field its class checks itself)
+FIELDS: dict[str, tuple[str, ...]] = {"material": ("material",), "kernel_spec": ("kernel",)}
+#: options of a pass that set no settings field (what the pass writes)
+PASS_OPTIONS = {"frames_dir": "burley-adaptive"}
+#: the target standard deviation of the adaptive pass, whose square (sigma0_sq) the history works with in float64
+SIGMA0 = Quantity("sigma0", 1e-150, 1e150, "", "the target standard deviation of a frame's luminance; its square "
+                  "must be a positive float64")
 
 
-def own(params: Iterable[str]) -> dict[str, tuple[str, ...]]:
-    """The options among ``params`` (click parameter names) each pass owns, derived from the settings: those
-    setting a top-level field declared to apply to the pass (RenderSettings' ``applies=("pass", ...)``), or only
-    fields of the pass's member class (:data:`PASSES`); the Burley sampler's fields, which the adaptive run takes
-    too, are the burley pass's, and its spp is --spp (the G-buffer's for the other passes)."""
-    top = {f.name for f in dataclasses.fields(RenderSettings) if (f.metadata.get("applies") or ("",))[0] == "pass"}
-    fields = {name: {f.name for f in dataclasses.fields(cls)} for name, cls in PASSES.items()}
-    fields["separable"] |= top
-    fields["burley-adaptive"] -= fields["burley"]
-    fields["burley"] -= {"spp"}
-    sets = {p: set(FIELDS.get(p, MEMBER_FIELDS.get(p, (p,)))) for p in params}
-    return {name: tuple(p for p, fs in sets.items() if fs <= own) for name, own in fields.items()}
+def _member(cls: type, field: Any, *decls: str, help: str = "", **attrs: Any) -> Any:
+    """The option of a pass member's field (:func:`~ssskit.cli.options.setting_option`), its help naming the pass."""
+    return setting_option(cls, field, *decls, help=f"--pass {cls.name}: {help}", **attrs)  # type: ignore[attr-defined]
+
+
+def _sigma0_sq(sigma0: float) -> tuple[float]:
+    return (SIGMA0.check(sigma0, "sigma0", SettingsError) ** 2,)
+
+
+def own(params: Iterable[click.Parameter]) -> dict[str, tuple[str, ...]]:
+    """The options among ``params`` (the command's) each pass owns, derived from the settings: a generated
+    option of a pass member's field is its pass's (the Burley sampler's fields, which the adaptive run takes too,
+    are the burley pass's), one of a top-level field declared to apply to some passes
+    (RenderSettings' ``applies=("pass", ...)``) theirs; :data:`FIELDS` and :data:`PASS_OPTIONS` the others."""
+    top = {f.name: f.metadata["applies"][1] for f in dataclasses.fields(RenderSettings)
+           if (f.metadata.get("applies") or ("",))[0] == "pass"}
+    out: dict[str, list[str]] = {name: [] for name in PASSES.names()}
+    for p in params:
+        if isinstance(p, SettingOption):
+            cls = p.settings_class
+            passes = top.get(p.fields[0], ()) if cls is RenderSettings else (cls.name,)  # type: ignore[attr-defined]
+        else:
+            passes = top.get(FIELDS.get(p.name or "", ("",))[0], ()) or (PASS_OPTIONS.get(p.name or ""),)
+        for name in passes:
+            if name in out and p.name:
+                out[name].append(p.name)
+    return {name: tuple(v) for name, v in out.items()}
+
+
 #: options that describe how a built-in scene's G-buffer is rendered: refused with a G-buffer file
 SCENE_ONLY = ("size", "spp")
 
@@ -79,23 +80,6 @@ class Budget(IntPair):
     their range)."""
 
     name = "B_MIN:B_MAX"
-
-
-class RGBFloats(click.ParamType):
-    """One number or three comma-separated numbers (R,G,B)."""
-
-    name = "V[,V,V]"
-
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        if isinstance(value, tuple):
-            return value
-        try:
-            vals = tuple(float(v) for v in str(value).split(","))
-        except ValueError:
-            self.fail(f"{value!r} is not a number or three comma-separated numbers", param, ctx)
-        if len(vals) not in (1, 3):
-            self.fail(f"{value!r}: give one number or three (R,G,B)", param, ctx)
-        return vals if len(vals) == 3 else vals * 3
 
 
 def pass_of(ctx: click.Context, pass_name: str | None, method: str | None, base: RenderSettings | None) -> str:
@@ -108,7 +92,7 @@ def pass_of(ctx: click.Context, pass_name: str | None, method: str | None, base:
         pass_name = pass_name or method
     name = PASSES.get(pass_name).name if pass_name is not None else (base.pass_name if base else "separable")
     burley = name in ("burley", "burley-adaptive")
-    for other, options in own(p.name for p in ctx.command.params if p.name).items():
+    for other, options in own(ctx.command.params).items():
         mine = other == name or (other == "burley" and burley)
         for opt in () if mine else options:
             if given(ctx, opt):
@@ -137,7 +121,7 @@ def _apply(obj: _S, flag: str, changes: dict[str, Any]) -> _S:
         raise SettingsError(f"{flag}: {exc}") from None
 
 
-def _member(base: PassMember, name: str) -> PassMember:
+def _member_of(base: PassMember, name: str) -> PassMember:
     """The pass member to start from: the settings file's when it is this pass's; a Burley member's sampler
     carried over to the other Burley pass; else the pass's defaults (the command line overrides the file)."""
     cls = PASSES.get(name)
@@ -149,67 +133,52 @@ def _member(base: PassMember, name: str) -> PassMember:
     return cls()
 
 
-def _sigma0_sq(sigma0: float) -> float:
-    if not (math.isfinite(sigma0) and sigma0 > 0):
-        raise SettingsError(f"--sigma0: the target standard deviation sigma0 must be > 0, got {sigma0!r}")
-    if not (0 < sigma0 * sigma0 < math.inf):  # the history works with sigma0^2 (float64)
-        raise SettingsError(f"--sigma0: sigma0^2 must be a positive finite float64, but {sigma0!r}^2 "
-                            f"{'underflows to 0' if sigma0 < 1 else 'overflows'}; give sigma0 in [1e-150, 1e150]")
-    return sigma0 * sigma0
+def _generated(ctx: click.Context, cls: type, skip: tuple[str, ...] = ()) -> list[tuple[str, dict[str, Any]]]:
+    """(option, the fields it sets) of the generated options of ``cls``'s fields the user gave (but ``skip``), in
+    the command's order."""
+    out = []
+    for p in ctx.command.params:
+        if isinstance(p, SettingOption) and p.settings_class is cls and p.name and p.name not in skip \
+                and given(ctx, p.name):
+            try:
+                out.append((p.opts[0], p.changes(ctx.params[p.name])))
+            except SsskitError as exc:  # a conversion's own check (--sigma0)
+                raise SettingsError(f"{p.opts[0]}: {exc}") from None
+    return out
 
 
-def _pass_options(ctx: click.Context, member: PassMember, params: dict[str, Any]) -> PassMember:
-    """The pass member with the pass's options the user gave applied in a fixed order (the sampler with
-    its c, the budget before the counts inside it), each named in its error. A sampler other than xie
+def _pass_options(ctx: click.Context, member: PassMember) -> PassMember:
+    """The pass member with the pass's options the user gave applied one by one, each named in its error (the
+    command's order: the budget before the counts inside it). The sampler and its c are one step, each checked
+    against the other as asked for; --albedo with --dmfp another (they go together). A sampler other than xie
     asked for on the command line drops the file's c (Eq. 21's constant belongs to the xie sampler)."""
-    def opt(name: str, field: str | None = None) -> tuple[str, dict[str, Any]] | None:
-        return (option_name(ctx, name), {field or name: params[name]}) if given(ctx, name) else None
-
-    steps: list[tuple[str, dict[str, Any]] | None] = [opt("c")]
-    if given(ctx, "sampler"):  # with c in one step: each is checked against the other as asked for
+    params = ctx.params
+    steps: list[tuple[str, dict[str, Any]]] = []
+    if given(ctx, "sampler") or given(ctx, "c"):
         c = params["c"] if given(ctx, "c") else (None if str(params["sampler"]).lower() == "xie" else XIE_C)
-        steps[0] = ("--c" if given(ctx, "c") else "--sampler",
-                    {"sampler": params["sampler"], **({} if c is None else {"c": c})})
-    if given(ctx, "no_mips"):
-        steps.append(("--no-mips", {"mips": False}))
+        steps.append(("--c" if given(ctx, "c") else "--sampler", {**({"sampler": params["sampler"]} if
+                      given(ctx, "sampler") else {}), **({} if c is None else {"c": c})}))
     if given(ctx, "albedo") or given(ctx, "dmfp"):
-        if params["albedo"] is None or params["dmfp"] is None:
-            raise SsskitError("--albedo and --dmfp go together (Burley parameters from albedo and diffuse mean free "
-                              "path, Xie 2020 Eq. 5); give both or neither")
         steps.append(("--albedo/--dmfp", {"albedo": params["albedo"], "dmfp_mm": params["dmfp"]}))
-    if isinstance(member, BurleyPass):
-        steps.append(opt("spp"))
-    steps += [opt("jitter"), opt("depth_mode")]
-    if given(ctx, "sigma0"):
-        steps.append(("--sigma0", {"sigma0_sq": _sigma0_sq(params["sigma0"])}))
-    steps.append(opt("kappa"))
-    if given(ctx, "budget"):
-        b_min, b_max = params["budget"]
-        steps.append(("--budget", {"b_min": b_min, "b_max": b_max}))
-    steps += [opt("alpha"), opt("correction"), opt("frames")]
-    if given(ctx, "taa"):
-        steps.append(("--taa/--no-taa", {"taa": params["taa"]}))
-    steps += [opt("static"), opt("disocclusion_spp"), opt("limit_spp")]
-    for step in steps:
-        if step is not None:
-            member = _apply(member, *step)
+    if isinstance(member, BurleyPass) and given(ctx, "spp"):
+        steps.append(("--spp", {"spp": params["spp"]}))
+    for cls in (SeparablePass, BurleyPass, AdaptivePass):
+        if isinstance(member, cls) or (cls is BurleyPass and isinstance(member, AdaptivePass)):
+            steps += _generated(ctx, cls, ("sampler", "c", "albedo", "dmfp"))
+    for flag, change in steps:
+        member = _apply(member, "--taa/--no-taa" if flag == "--taa" else flag, change)
     return member
 
 
-def build_settings(ctx: click.Context, base: RenderSettings | None, params: dict, pass_name: str) -> RenderSettings:
+def build_settings(ctx: click.Context, base: RenderSettings | None, pass_name: str) -> RenderSettings:
     """RenderSettings from the settings file's (``base``; None: the defaults) with the options the user gave
     applied, each validated and named in the error when wrong (module docstring)."""
     s = RenderSettings() if base is None else base
-    member = _pass_options(ctx, _member(s.pass_, pass_name), params)
-    steps: list[tuple[str, dict[str, Any]]] = []
-    for name, fields in FIELDS.items():
-        if not given(ctx, name):
-            continue
-        value = params[name]
-        values = tuple(value) if name == "size" else ((not value,) if name.startswith("no_") else (value,) * len(fields))
-        steps.append((option_name(ctx, name), dict(zip(fields, values))))
-    if pass_name == "separable" and given(ctx, "spp"):  # the G-buffer's; the Burley pass's is its member's
-        steps.append(("--spp", {"spp": params["spp"]}))
+    member = _pass_options(ctx, _member_of(s.pass_, pass_name))
+    steps = [(option_name(ctx, name), {f: ctx.params[name] for f in fields}) for name, fields in FIELDS.items()
+             if given(ctx, name)]
+    steps += _generated(ctx, RenderSettings, () if pass_name == "separable" else ("spp",))  # (the G-buffer's spp; the
+    # Burley pass's is its member's)
     top = {k: v for _, change in steps for k, v in change.items()}
     try:
         s = s.replace(**top, pass_=member)
@@ -353,5 +322,5 @@ class FrameWriter:
                          f"adaptive frame {n}: mean {mean:.1f} spp")
 
 
-__all__ = ["FIELDS", "FRAME_FILE", "MEMBER_FIELDS", "Budget", "FrameWriter", "RGBFloats", "build_settings", "check_inputs",
+__all__ = ["FIELDS", "FRAME_FILE", "PASS_OPTIONS", "SIGMA0", "Budget", "FrameWriter", "build_settings", "check_inputs",
            "load_settings", "own", "pass_of"]

@@ -47,13 +47,9 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
     from .options import check_writable
 
     rgb_a, rgb_m = _rgb(albedo, "--albedo"), _rgb(mfp, "--mfp")
-    if (rgb_a is None) != (rgb_m is None):
-        raise SsskitError("artists' terms need --albedo and --mfp together")
-    if rgb_a is not None and material is not None:
-        raise SsskitError("give the material once: --material or --albedo with --mfp")
-    # an empty --material is refused by name (MaterialRequest.resolve), not taken for the default
-    req = (MaterialRequest(None, rgb_a, rgb_m) if rgb_a is not None
-           else MaterialRequest("skin1" if material is None else material))
+    # the request states its rules once (MaterialRequest.check: the material once, artists' terms together); an
+    # empty --material is refused by name (MaterialRequest.resolve), not taken for the default
+    req = MaterialRequest("skin1" if material is None and rgb_a is None and rgb_m is None else material, rgb_a, rgb_m)
     if presets is not None and out is None:
         raise SsskitError("--presets applies to --out (a served page asks the server for any preset)")
     names = PRESETS if presets is None else tuple(n.strip().lower() for n in presets.split(",") if n.strip())
@@ -67,7 +63,7 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
     if out is not None:
         check_out(out)
         check_writable(out, "--out", folder=True)
-    key = "artist" if rgb_a is not None else str(req.material).lower()
+    key = "artist" if req.material is None else str(req.material).lower()
     req.resolve()  # an unknown preset or a bad file fails here, before any work
     mats = {key: req}
     if out is not None:  # the static folder: the presets precomputed beside the chosen material

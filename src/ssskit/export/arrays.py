@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import KernelError
+from ..quantities import check_choice
 
 LANGUAGES = ("hlsl", "glsl")
 
@@ -97,9 +98,7 @@ def _num(v: float) -> str:
 
 def format_shader_arrays(arrays: list[ShaderArray], language: str, comment: str = "") -> str:
     """The source text of ``arrays`` in ``language`` (``hlsl`` or ``glsl``), demo layout (module docstring)."""
-    lang = str(language).strip().lower()
-    if lang not in LANGUAGES:
-        raise KernelError(f"unknown shader language {language!r}; choose from {', '.join(LANGUAGES)}")
+    lang = check_choice("shader language", language, LANGUAGES, KernelError)
     if not arrays:
         raise KernelError("no kernel terms to export")
     n = arrays[0].offsets_mm.size

@@ -23,12 +23,13 @@ from typing import Any
 import numpy as np
 
 from ..errors import KernelError
-from ..io import atomic_output, check_suffix
+from ..io import atomic_output, check_suffix, read_input
 from ..quantities import Quantity, check_finite
 
 #: relative tolerance on the grid spacing and its symmetry about 0 when reading (float32 positions)
 GRID_RTOL = 1e-4
 #: the part of every channel's kernel mass a cropped grid keeps (:func:`crop_to_support`)
+SAMPLES = Quantity(".bn samples", 2, 2**31 - 1, "", "a grid of two positions at least", integer=True)
 SUPPORT = Quantity("the .bn support fraction", 0.0, 1.0, "", "a part of the kernel's mass", lo_open=True)
 
 
@@ -36,8 +37,9 @@ def bn_bytes(x_mm: Any, rgb: Any) -> bytes:
     """The file contents for samples at ``x_mm`` (n,) with values ``rgb`` (n, 3) (module docstring)."""
     x = np.asarray(x_mm, dtype=float)
     v = np.asarray(rgb, dtype=float)
-    if x.ndim != 1 or v.shape != (x.size, 3) or x.size < 2:
-        raise KernelError(f".bn needs positions (n,) and RGB values (n, 3), n >= 2; got {x.shape} and {v.shape}")
+    if x.ndim != 1 or v.shape != (x.size, 3):
+        raise KernelError(f".bn needs positions (n,) and RGB values (n, 3); got {x.shape} and {v.shape}")
+    SAMPLES.check(x.size, error=KernelError)
     _check_grid(x, "kernel")
     check_finite(v, ".bn values", KernelError)
     records = np.column_stack([v, x]).astype("<f4").ravel()
@@ -94,12 +96,7 @@ def save_bn(kernel: Any, path: str | Path, support: float | None = None) -> None
 def read_bn(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """(x_mm (n,), rgb (n, 3)) of a ``.bn`` file, checked: size, record count, uniform symmetric grid."""
     p = Path(path)
-    if not p.is_file():
-        raise KernelError(f".bn file {str(p)!r} does not exist")
-    try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise KernelError(f"cannot read .bn file {str(p)!r}: {exc.strerror}") from None
+    raw = read_input(p, ".bn file", KernelError)
     if len(raw) < 4 or len(raw) % 4:
         raise KernelError(f"{str(p)!r} is not a .bn kernel: {len(raw)} bytes is not a float count and float32 records")
     head = float(np.frombuffer(raw[:4], dtype="<f4")[0])

@@ -29,16 +29,15 @@ def export_kernel(kernel: Any, fmt: str, path: str | Path, taps: int | None = No
     from .arrays import LANGUAGES, format_shader_arrays, kernel_arrays
     from .bn import save_bn
 
-    key = fmt.strip().lower() if isinstance(fmt, str) else fmt
+    from ..quantities import check_choice, refuse_unused
+
     kernel_formats = [name for name, f in FORMATS.items() if f.kind in ("kernel", "shader")]
-    if key not in kernel_formats:
-        raise KernelError(f"{fmt!r} is not a kernel format; choose from {', '.join(kernel_formats)}")
-    shader = key in ("glsl-shader", "hlsl-shader")
-    if not shader and (jitter is not None or depth_mode is not None):
-        raise KernelError(f"jitter and depth_mode apply to the whole shaders only (glsl-shader, hlsl-shader), not to "
-                          f"the {key} format; got jitter={jitter!r}, depth_mode={depth_mode!r}")
-    if key in ("bn", "json") and taps is not None:
-        raise KernelError(f"taps do not apply to the {key} format (it writes the tabulated kernel itself), got {taps!r}")
+    key = check_choice("kernel format", fmt, kernel_formats, KernelError)
+    shaders, tabulated = ("glsl-shader", "hlsl-shader"), ("bn", "json")  # (these write the tabulated kernel itself)
+    refuse_unused([n for n, v in (("jitter", jitter), ("depth_mode", depth_mode)) if v is not None and key not in shaders],
+                  "format", shaders, key, KernelError)
+    refuse_unused(["taps"] if taps is not None and key in tabulated else [], "format",
+                  [k for k in kernel_formats if k not in tabulated], key, KernelError)
     check_suffix(path, FORMATS.get(key).suffixes, f"{key} output")
     if key in ("glsl-shader", "hlsl-shader"):
         from ..kernels import TapKernel

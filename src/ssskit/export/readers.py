@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
-from ..io import parse_document
+from ..io import parse_document, read_input
 from ..materials import Material
 from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM
 from .registry import FORMATS
@@ -135,24 +135,23 @@ def _script_literal(p: Path, text: str, engine: str) -> dict[str, Any]:
     return {"engine": "blender", **out, "source_profile": {"name": str(out.get("name", p.stem))}}
 
 
-def check_numbers(path: str | Path, value: Any, field: str) -> None:
-    """Every number under ``value`` (nested lists and dicts) finite and within float32, else one
-    :class:`SsskitError` naming the file and the field (module docstring)."""
+def _numbers(value: Any, field: str = "") -> Any:
+    """(field, number) for every number under ``value`` (nested dicts and lists), the field as ``a.b[2]``."""
     if isinstance(value, dict):
         for k, v in value.items():
-            check_numbers(path, v, f"{field}.{k}" if field else str(k))
+            yield from _numbers(v, f"{field}.{k}" if field else str(k))
     elif isinstance(value, (list, tuple)):
         for i, v in enumerate(value):
-            check_numbers(path, v, f"{field}[{i}]")
+            yield from _numbers(v, f"{field}[{i}]")
     elif isinstance(value, (int, float)) and not isinstance(value, bool):
-        ENGINE_NUMBER.check(value, f"{str(path)!r}: {field}")
+        yield field, value
 
 
-def _text(p: Path, what: str) -> str:
-    try:
-        return p.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise SsskitError(f"{str(p)!r} is not a text ({what}) file") from None
+def check_numbers(path: str | Path, value: Any, field: str) -> None:
+    """Every number under ``value`` (nested lists and dicts) a finite float32 (:data:`ENGINE_NUMBER`), else one
+    :class:`SsskitError` naming the file and the field (module docstring)."""
+    for name, v in _numbers(value, field):
+        ENGINE_NUMBER.check(v, f"{str(path)!r}: {name}")
 
 
 def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = None) -> EngineSource:
@@ -162,8 +161,7 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
     from .engines import reimport
 
     p = Path(path)
-    if not p.is_file():
-        raise SsskitError(f"cannot read engine file {str(p)!r}: no such file")
+    read_input(p, "engine file", SsskitError, size=0)  # a regular file that exists and reads
     suffix = p.suffix.lower()
     reader = _format_reader(suffix)
     if reader is not None:
@@ -173,16 +171,17 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
     elif suffix == ".mtlx":
         engine = "materialx"
     elif suffix == ".py":
-        text = _text(p, "Python")
+        text = read_input(p, "engine file (a Python script)", SsskitError, text=True)
         script = _script_engine(text)
         if script is None:
             raise SsskitError(f"{str(p)!r} is not an editor script ssskit wrote (a Blender or Unreal export)")
         engine = script
         data = _script_literal(p, text, engine)
     else:
+        text = read_input(p, "engine file", SsskitError, text=True)
         try:
-            data = parse_document(p.read_text(encoding="utf-8"), ".json")
-        except (UnicodeDecodeError, ValueError) as exc:
+            data = parse_document(text, ".json")
+        except ValueError as exc:
             raise SsskitError(f"malformed engine file {str(p)!r}: {exc}") from None
         engine = str(data.get("engine", "")) if isinstance(data, dict) else ""
         other = FORMATS.get(engine).read if engine not in ENGINE_NAMES and engine in FORMATS else None
@@ -195,7 +194,7 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
     if engine == "unity" and suffix == ".asset":
         from .unity import read_unity_asset
 
-        u = read_unity_asset(_text(p, "YAML .asset"), repr(str(p)))
+        u = read_unity_asset(read_input(p, "engine file (a YAML .asset)", SsskitError, text=True), repr(str(p)))
         check_numbers(p, {k: u[k] for k in ("scatteringDistance", "scatteringDistanceMultiplier", "worldScale", "ior")}, "")
         if u["worldScale"] != 1.0:
             raise SsskitError(f"{str(p)!r}: worldScale {u['worldScale']}: ssskit reads profiles at HDRP's worldScale 1 "
@@ -444,8 +443,6 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
     tap_count = None
     taps = req.taps
     if taps is not None:
-        if taps % 2 == 0:
-            raise SsskitError(f"--taps must be odd (a centre tap), got {taps}")
         if tap_kernel:
             if params.get("taps", taps) != taps:
                 raise SsskitError(f"--kernel {req.kernel} and --taps {taps} disagree; give the tap count once")

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import SsskitError
+from ..quantities import Choice
 
 GLSLANG = "glslangValidator"
 SPIRV_CROSS = "spirv-cross"
@@ -161,12 +162,7 @@ def separable_shader(taps: Any, language: str, jitter: float = 0.1, depth_mode: 
     from ..backends.gl.separable import export_source
     from ..screenspace.separable import default_depth_mode
 
-    if language not in ("glsl", "hlsl"):
-        raise ShaderToolError(f"unknown shader language {language!r}; choose glsl or hlsl")
-    if stage not in ("compute", "fragment"):
-        raise ShaderToolError(f"unknown shader stage {stage!r}; choose compute or fragment")
-    if stage == "fragment" and language != "glsl":
-        raise ShaderToolError("the fragment form is GLSL ES 3.00 (language glsl); HLSL is written as compute shaders")
+    language, stage = _form(language, stage)
     plan = build_separable_plan({1: taps}, 1.0, 1.0, jitter=jitter, depth_mode=depth_mode or default_depth_mode(taps))
     if stage == "fragment":
         from ..backends.gl.separable import export_fragment_source
@@ -193,6 +189,15 @@ def separable_shader(taps: Any, language: str, jitter: float = 0.1, depth_mode: 
     return head + "#ifndef VERTICAL\n#define VERTICAL 0\n#endif\n#ifndef TERM\n#define TERM 0\n#endif\n" + "".join(blocks)
 
 
+def _form(language: str, stage: str) -> tuple[str, str]:
+    """A whole shader's language and stage, checked: the fragment form is GLSL ES 3.00 only."""
+    language = Choice("shader language", ("glsl", "hlsl")).check(language, error=ShaderToolError)
+    stage = Choice("shader stage", ("compute", "fragment")).check(stage, error=ShaderToolError)
+    if stage == "fragment" and language != "glsl":
+        raise ShaderToolError("the fragment form is GLSL ES 3.00 (language glsl); HLSL is written as compute shaders")
+    return language, stage
+
+
 def transmission_shader(plan: Any, language: str, stage: str = "compute") -> str:
     """The transmittance pass's compute shader for ``plan`` (:class:`~ssskit.backends.transmission_plan.TransmissionPlan`:
     a material's model per profile id), the same source the ``gl`` backend runs
@@ -205,13 +210,8 @@ def transmission_shader(plan: Any, language: str, stage: str = "compute") -> str
     (:func:`ssskit.backends.gl.transmission.transmission_fragment_source`), what the live viewer runs."""
     from ..backends.gl.transmission import transmission_export_source, transmission_fragment_source
 
-    if language not in ("glsl", "hlsl"):
-        raise ShaderToolError(f"unknown shader language {language!r}; choose glsl or hlsl")
-    if stage not in ("compute", "fragment"):
-        raise ShaderToolError(f"unknown shader stage {stage!r}; choose compute or fragment")
+    language, stage = _form(language, stage)
     if stage == "fragment":
-        if language != "glsl":
-            raise ShaderToolError("the fragment form is GLSL ES 3.00 (language glsl); HLSL is written as compute shaders")
         return transmission_fragment_source(plan)
     glsl = transmission_export_source(plan)
     if language == "glsl":

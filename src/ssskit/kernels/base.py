@@ -18,6 +18,7 @@ bilinear fetches do) so it can be compared and convolved like every other kernel
 from __future__ import annotations
 
 import dataclasses
+import io
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -95,8 +96,10 @@ class Kernel:
 
     def __post_init__(self) -> None:
         comps = np.asarray(self.components, dtype=float)
-        if comps.ndim != 3 or comps.shape[0] != 3 or comps.shape[1] < 1:
-            raise KernelError(f"kernel components must have shape (3, N, n) with N >= 1, got {comps.shape}")
+        if comps.ndim != 3 or comps.shape[0] != 3:
+            raise KernelError(f"kernel components must have shape (3, N, n), got {comps.shape}")
+        SVD_RANK.within(hi=1 << 20, reason="terms of a separable kernel").check(comps.shape[1], "kernel rank N",
+                                                                                 KernelError)
         _check_grid(float(self.cell_mm), comps.shape[2])
         check_finite(comps, "kernel components", KernelError)
         signs = np.asarray(self.signs, dtype=float)
@@ -199,8 +202,7 @@ class Kernel:
 
     def truncated(self, rank: int) -> "Kernel":
         """The first ``rank`` terms."""
-        if not (1 <= rank <= self.rank):
-            raise KernelError(f"rank must be in 1..{self.rank}, got {rank}")
+        SVD_RANK.within(hi=self.rank, reason="the kernel's own terms").check(rank, "rank", KernelError)
         return self._replace(components=self.components[:, :rank], signs=self.signs[:, :rank])
 
     def _replace(self, **changes: Any) -> "Kernel":
@@ -371,19 +373,16 @@ def save_kernel(kernel: AnyKernel, path: str | Path) -> None:
 
 def load_kernel(path: str | Path) -> AnyKernel:
     """Read a kernel written by :func:`save_kernel`."""
+    from ..io import parse_document, read_input
+
     p = Path(path)
     suffix = p.suffix.lower()
-    if suffix not in (".json", ".npz"):
-        raise KernelError(f"kernel file {str(p)!r} must end in .json or .npz")
-    if not p.is_file():
-        raise KernelError(f"kernel file {str(p)!r} does not exist")
+    raw = read_input(p, "kernel file", KernelError, (".json", ".npz"))
     try:
         if suffix == ".json":
-            from ..io import parse_document
-
-            d = parse_document(p.read_text(encoding="utf-8"), suffix)
+            d = parse_document(raw.decode("utf-8"), suffix)
         else:
-            with np.load(p, allow_pickle=False) as z:
+            with np.load(io.BytesIO(raw), allow_pickle=False) as z:
                 d = json.loads(str(z["meta"]))
                 if d.get("type") == "taps":
                     d["offsets"], d["weights"] = z["offsets_mm"].tolist(), z["weights"].tolist()
@@ -391,7 +390,7 @@ def load_kernel(path: str | Path) -> AnyKernel:
                     comps, signs = z["components"], z["signs"]
                     d["channels"] = {ch: {"components": comps[i].tolist(), "signs": signs[i].tolist()}
                                      for i, ch in enumerate(CHANNELS)}
-    except (OSError, ValueError, KeyError) as exc:
+    except (OSError, ValueError, KeyError) as exc:  # (a UnicodeDecodeError too)
         raise KernelError(f"cannot read kernel file {str(p)!r}: {exc}") from None
     if not isinstance(d, dict):
         raise KernelError(f"kernel file {str(p)!r} does not hold a JSON object")

@@ -55,8 +55,8 @@ def parse_material_request(body: Any) -> MaterialRequest:
     if "kernel" in body and (not isinstance(body["kernel"], str) or len(body["kernel"]) > 40):
         raise RequestError(400, "kernel must be a method spec such as 'svd:2'")  # (bounded work per request)
     # the values are checked once, by the request (MaterialRequest.check: the quantities' wording)
-    kw = {"material": material, **{k: tuple(body[k]) if isinstance(body[k], list) else body[k]
-                                    for k in ("albedo", "mfp", "kernel", "taps", "jitter") if k in body}}
+    kw: dict[str, Any] = {"material": material, **{k: tuple(body[k]) if isinstance(body[k], list) else body[k]
+                                                   for k in ("albedo", "mfp", "kernel", "taps", "jitter") if k in body}}
     try:
         req = MaterialRequest(**kw)
         req.check()

@@ -63,7 +63,7 @@ class MaterialRequest:
             raise SsskitError("give the material once: a preset name or file, or albedo with mfp")
         if artist:
             if self.albedo is None or self.mfp is None:
-                raise SsskitError("artists' terms need albedo and mfp (3 values each)")
+                raise SsskitError("artists' terms need albedo and mfp together (3 values each)")
             check_artist(self.albedo, self.mfp, "mfp", 1.4, 0.0)
         if TAPS.check(self.taps) not in TAP_CHOICES:  # (bounded work per request)
             raise fail(SsskitError, CHOICE, name="taps", choices=", ".join(map(str, TAP_CHOICES)), actual=self.taps)
