@@ -126,11 +126,11 @@ def write_text(path: str | Path, text: str) -> None:
         tmp.write_text(text, encoding="utf-8")
 
 
-def check_suffix(path: str | Path, allowed: tuple[str, ...], what: str) -> str:
-    """The lower-case suffix of ``path`` if it is one of ``allowed``; else a precise error."""
+def check_suffix(path: str | Path, allowed: tuple[str, ...], what: str, error: type[Exception] = OutputError) -> str:
+    """The lower-case suffix of ``path`` if it is one of ``allowed``; else a precise ``error``."""
     suffix = Path(path).suffix.lower()
     if suffix not in allowed:
-        raise OutputError(f"{what} {str(path)!r} must end in {' or '.join(allowed)}")
+        raise error(f"{what} {str(path)!r} must end in {' or '.join(allowed)}")
     return suffix
 
 
@@ -141,18 +141,20 @@ def check_distinct(output: str | Path | None, *inputs: Any, what: str = "output"
     hard links count too). ``None`` and inputs that are not paths (a scene name given as a string
     that names no file, a G-buffer in memory) are skipped, so callers may pass their inputs as given.
     """
-    if output is None:
-        return
-    out = Path(output)
-    for inp in inputs:
-        if inp is None or not isinstance(inp, (str, os.PathLike)):
-            continue
-        p = Path(inp)
-        same = False
-        with contextlib.suppress(OSError):
-            same = p.resolve() == out.resolve() or (out.exists() and p.exists() and os.path.samefile(out, p))
-        if same:
-            raise OutputError(f"{what} {str(output)!r} would overwrite the input {str(inp)!r}; choose another path")
+    same = next((inp for inp in inputs if output is not None and same_file(output, inp)), None)
+    if same is not None:
+        raise OutputError(f"{what} {str(output)!r} would overwrite the input {str(same)!r}; choose another path")
+
+
+def same_file(a: Any, b: Any) -> bool:
+    """Whether paths ``a`` and ``b`` name one file: equal after resolving symlinks and ``..``, or (both existing)
+    one device and inode, so hard links count too; anything that is not a path is no file."""
+    if not (isinstance(a, (str, os.PathLike)) and isinstance(b, (str, os.PathLike))):
+        return False
+    p, q = Path(a), Path(b)
+    with contextlib.suppress(OSError):
+        return p.resolve() == q.resolve() or (p.exists() and q.exists() and os.path.samefile(p, q))
+    return False
 
 
 # ---- arrays and profile tables ---------------------------------------------------------------------
@@ -299,12 +301,11 @@ def read_input(path: str | Path, what: str, error: type[Exception] = OutputError
     rules of every input file, stated once: a regular file that exists (a folder, a FIFO, a socket or a device
     is refused), its suffix one of ``suffixes`` (when given), that reads; else one ``error`` naming ``what``."""
     p = Path(path)
-    allowed = tuple(suffixes)
     if not p.exists() or p.is_dir():
         raise error(f"{what} {str(p)!r} {'is a directory, not a file' if p.is_dir() else 'does not exist'}")
     check_regular_file(p, what, error)
-    if allowed and p.suffix.lower() not in allowed:
-        raise error(f"{what} {str(p)!r} must end in {' or '.join(allowed)}")
+    if suffixes:
+        check_suffix(p, tuple(suffixes), what, error)
     try:
         with open(p, "rb") as fh:
             raw = fh.read(size)

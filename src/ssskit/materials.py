@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import MaterialError
-from .quantities import (ANISOTROPY, COEFFICIENT, ETA, EXTINCTION, FINITE, FRACTION, LENGTH_MM, THICKNESS_MM,
+from .quantities import (ANISOTROPY, COEFFICIENT, ETA, EXTINCTION, FRACTION, LENGTH_MM, THICKNESS_MM, TYPE,
                          fail)
 from .registry import Registry
 
@@ -55,37 +55,25 @@ def _describe(value: Any) -> str:
 
 
 def _number(name: str, value: Any) -> float:
-    """A real number as float; strings, booleans, tables and lists are refused, naming ``name``."""
+    """A real number as float; strings, booleans, tables and lists are refused, naming ``name`` (the quantities'
+    type wording, the value described in a file's terms)."""
     if not _is_number(value):
-        raise MaterialError(f"{name} must be a number, got {_describe(value)}")
+        raise fail(MaterialError, TYPE, name=name, kind="a number", actual=_describe(value))
     return float(value)
 
 
 def _triple(name: str, value: Any) -> Triple:
-    """Accept a number (same for R, G, B) or 3 numbers (a list, tuple or numpy array), all finite.
-
-    Strings (even "0.1" or "123"), booleans and tables are refused, alone or inside the list.
-    """
-    if _is_number(value):
-        values = [value] * 3
-    elif isinstance(value, (str, bytes, Mapping)) or not hasattr(value, "__iter__"):
-        raise MaterialError(f"{name} must be a number or a list of 3 numbers (R, G, B), got {_describe(value)}")
-    else:
-        try:
-            values = list(value)
-        except TypeError:  # a 0-d numpy array
-            raise MaterialError(f"{name} must be a number or a list of 3 numbers (R, G, B), got {value!r}") from None
-        if len(values) != 3:
-            raise MaterialError(f"{name} needs 3 values (R, G, B), got {len(values)}")
-    out = []
-    for v in values:
-        if not _is_number(v):
-            raise MaterialError(f"{name} must hold numbers, got {_describe(v)}")
-        f = float(v)
-        if not math.isfinite(f):
-            raise fail(MaterialError, FINITE, name=name, actual=f)
-        out.append(f)
-    return (out[0], out[1], out[2])
+    """A number (the same for R, G, B) or 3 numbers (a list, tuple or numpy array) as three floats. Strings (even
+    "0.1" or "123"), booleans and tables are refused, alone or inside the list; the finiteness and range are the
+    field's quantity's (:meth:`Material.__post_init__`)."""
+    listed = (hasattr(value, "__iter__") and not isinstance(value, (str, bytes, Mapping))
+              and getattr(value, "ndim", 1) != 0)  # (a 0-d numpy array is one number)
+    values = list(value) if listed else [value] * 3
+    wrong = [v for v in values if not _is_number(v)]
+    if len(values) != 3 or wrong:
+        raise fail(MaterialError, TYPE, name=name, kind="a number or a list of 3 numbers (R, G, B)",
+                   actual=_describe(wrong[0]) if wrong else f"{len(values)} values")
+    return (float(values[0]), float(values[1]), float(values[2]))
 
 
 @dataclass(frozen=True)

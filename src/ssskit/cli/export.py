@@ -24,8 +24,8 @@ import click
 
 from ..errors import SettingsError, SsskitError
 from ..export.api import FLAGS, ExportSettings
-from .options import (DEPTH_MODE, MODEL, TAP_METHOD, OutputFile, RGBFloats, echo_json, examples, json_option,
-                      kernel_spec_option, setting_option)
+from .options import (DEPTH_MODE, DEPTH_MODE_HELP, MODEL, TAP_METHOD, OutputFile, RGBFloats, echo_json, examples,
+                      json_option, kernel_spec_option, setting_option)
 
 
 def _formats() -> Any:
@@ -138,8 +138,7 @@ class ExportMaterial(click.ParamType):
 @setting_option(ExportSettings, "tap_method", type=TAP_METHOD, help="Tap placement.")
 @setting_option(ExportSettings, "jitter", help="glsl-shader/hlsl-shader: taps within this fraction of the kernel size "
                                                "on rotated axes [default: 0.1]")
-@setting_option(ExportSettings, "depth_mode", type=DEPTH_MODE,
-                help="Depth test [default: gaussian for artist kernels, follow otherwise].")
+@setting_option(ExportSettings, "depth_mode", type=DEPTH_MODE, help=DEPTH_MODE_HELP)
 @setting_option(ExportSettings, "model", type=MODEL,
                 help="Profile model of the material (the source of the kernel or of the parameters); engine files and "
                      "artists' terms default to burley (Burley-fit inversion), montecarlo or dipole invert them to a "

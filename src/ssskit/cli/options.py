@@ -53,7 +53,6 @@ __all__ = [
     "backend_option",
     "check_distinct",
     "check_writable",
-    "depth_mode_option",
     "echo_json",
     "examples",
     "given",
@@ -67,7 +66,6 @@ __all__ = [
     "progress",
     "scene_option",
     "signal_option",
-    "tap_method_option",
 ]
 
 
@@ -116,19 +114,16 @@ def given(ctx: click.Context, name: str) -> bool:
 def check_distinct(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None]) -> None:
     """Refuse an output path that is one of the input files (:func:`ssskit.io.check_distinct`) or
     another output; ``{option: path}``, None skipped."""
-    from ..io import check_distinct as distinct
+    from ..io import check_distinct as distinct, same_file
 
-    files = [p for p in inputs.values() if p is not None]
     done: list[tuple[str, str | Path]] = []
     for opt, path in outputs.items():
         if path is None:
             continue
-        distinct(path, *files, what=opt)
-        for other, earlier in done:
-            try:
-                distinct(path, earlier, what=opt)
-            except OutputError:
-                raise OutputError(f"{opt} {str(path)!r} is also the {other} file; choose another path") from None
+        distinct(path, *inputs.values(), what=opt)
+        other = next((o for o, earlier in done if same_file(path, earlier)), None)
+        if other is not None:
+            raise OutputError(f"{opt} {str(path)!r} is also the {other} file; choose another path")
         done.append((opt, path))
 
 
@@ -589,6 +584,8 @@ def _figures():
     return FIGURES
 
 
+#: the help of every --depth-mode (render's and export's, generated from their settings)
+DEPTH_MODE_HELP = "Depth test [default: gaussian for artist kernels, follow otherwise]."
 MODEL = RegistryName(_models)
 SIGNAL = RegistryName(_signals)
 BACKEND = RegistryName(_backends)
@@ -654,15 +651,6 @@ def scene_option() -> Callable:
 def backend_option(default: str | None) -> Callable:
     return click.option("--backend", type=BACKEND, default=default, show_default=default is not None,
                         help="Who runs the screen-space pass ('ssskit backends' lists them and whether they run here).")
-
-
-def depth_mode_option() -> Callable:
-    return click.option("--depth-mode", type=DEPTH_MODE, default=None,
-                        help="Depth test [default: gaussian for artist kernels, follow otherwise].")
-
-
-def tap_method_option(default: str | None) -> Callable:
-    return click.option("--tap-method", type=TAP_METHOD, default=default, show_default=True, help="Tap placement.")
 
 
 def option_name(ctx: click.Context, name: str) -> str:

@@ -21,6 +21,7 @@ from ..pipeline.settings import PASSES, AdaptivePass, BurleyPass, RenderSettings
 from .options import (
     BACKEND,
     DEPTH_MODE,
+    DEPTH_MODE_HELP,
     MODEL,
     TAP_METHOD,
     OutputDir,
@@ -107,8 +108,7 @@ _PASS = RegistryName(lambda: PASSES)
 @setting_option(RenderSettings, "tap_method", type=TAP_METHOD, help="Tap placement.")
 @setting_option(SeparablePass, "jitter", help="Jitter radius as a fraction of the kernel size (paper: 0.1, 0.3 for "
                                               "close-ups)")
-@setting_option(SeparablePass, "depth_mode", type=DEPTH_MODE,
-                help="Depth test [default: gaussian for artist kernels, follow otherwise].")
+@setting_option(SeparablePass, "depth_mode", type=DEPTH_MODE, help=DEPTH_MODE_HELP)
 @setting_option(RenderSettings, "backend", type=BACKEND,
                 help="Who runs the screen-space pass ('ssskit backends' lists them and whether they run here).")
 @setting_option(RenderSettings, ("width", "height"), "--size", type=Size(),
