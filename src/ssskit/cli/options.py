@@ -340,11 +340,12 @@ class SceneRef(click.ParamType):
         return "[" + "|".join([*_scenes().names(), *GENERATED_SCENES]) + "|MESH|SCENE.toml|GBUFFER.exr]"
 
     def _regular(self, path: Path, what: str, param: click.Parameter | None, ctx: click.Context | None) -> None:
-        """Fail unless ``path`` is a regular file (a FIFO as an input would hang: io.check_regular_file)."""
-        from ..io import check_regular_file
+        """Fail unless ``path`` is a regular file that exists and reads (a FIFO as an input would hang:
+        :func:`ssskit.io.read_input`)."""
+        from ..io import read_input
 
         try:
-            check_regular_file(path, what)
+            read_input(path, what, size=0)
         except SsskitError as exc:
             self.fail(str(exc), param, ctx)
 
@@ -367,13 +368,9 @@ class SceneRef(click.ParamType):
                 self._regular(p, "scene file", param, ctx)
             return p
         if p.suffix or p.exists() or len(p.parts) > 1:
-            if p.is_dir():
-                self.fail(f"{text!r} is a directory, not a G-buffer file", param, ctx)
-            if p.suffix.lower() != ".exr":
+            if p.suffix.lower() != ".exr" and not p.is_dir():
                 self.fail(f"scene file {text!r}: unknown format {p.suffix or '(no suffix)'!r} (a mesh "
                           f"{', '.join(FORMATS)}, a scene .toml or a G-buffer .exr)", param, ctx)
-            if not p.exists():
-                self.fail(f"G-buffer file {text!r} does not exist", param, ctx)
             self._regular(p, "G-buffer file", param, ctx)
             return p
         try:

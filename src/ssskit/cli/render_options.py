@@ -230,16 +230,12 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
 
 
 def _check_ignored(ctx: click.Context, s: RenderSettings) -> None:
-    """Options (or settings) that would be accepted and silently ignored: refused, naming what they need."""
-    from ..profiles import MATERIAL_FREE_MODELS
-    from .profiles import model_parameters
+    """Options that would be accepted and silently ignored, refused by the model commands' rules (one place,
+    :mod:`ssskit.cli.profiles`): --material with a fixed preset, --photons with a model that simulates nothing."""
+    from .profiles import check_material_for_model, resolve_profile
 
-    model = s.model.strip().lower()
-    if model in MATERIAL_FREE_MODELS and given(ctx, "material"):
-        raise SsskitError(f"--model {s.model} is a fixed preset and takes no --material (it would render its own "
-                          f"profile, not {s.material!r}'s)")
-    if given(ctx, "photons") and "photons" not in model_parameters(s.model):
-        raise SsskitError(f"--photons does not apply to --model {s.model} (only the Monte Carlo profiles are simulated)")
+    check_material_for_model(ctx, s.material, s.model)
+    resolve_profile(ctx, s.material, s.model, {"photons": ("photons", s.photons)})
 
 
 def _mesh_scene(scene: Any) -> bool:

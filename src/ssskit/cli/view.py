@@ -58,7 +58,6 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
     for name in names:
         if name not in MATERIALS:
             raise SsskitError(f"--presets: unknown preset {name!r} (known: {', '.join(MATERIALS.names())})")
-    req.check()
     check_scene(scene)
     if out is not None:
         check_out(out)

@@ -58,8 +58,7 @@ def parse_material_request(body: Any) -> MaterialRequest:
     kw: dict[str, Any] = {"material": material, **{k: tuple(body[k]) if isinstance(body[k], list) else body[k]
                                                    for k in ("albedo", "mfp", "kernel", "taps", "jitter") if k in body}}
     try:
-        req = MaterialRequest(**kw)
-        req.check()
+        req = MaterialRequest(**kw)  # (checked when made)
     except SsskitError as exc:
         raise RequestError(400, str(exc)) from None
     return req

@@ -54,6 +54,9 @@ class MaterialRequest:
     taps: int = DEFAULT_TAPS
     jitter: float = DEFAULT_JITTER
 
+    def __post_init__(self) -> None:
+        self.check()  # a request is checked when made, wherever it enters (the server's API, ssskit view)
+
     def check(self) -> None:
         """Every refusal before any work (a :class:`SsskitError` naming the input and its valid domain)."""
         from ..profiles.artist import check_artist
@@ -90,7 +93,6 @@ def kernel_taps(req: MaterialRequest) -> tuple[Any, Any, Any]:
     from ..profiles import profile_for_material
     from ..sampling.taps import make_taps
 
-    req.check()
     mat = req.resolve()
     prof = profile_for_material(mat, DEFAULT_MODEL)
     method, params, _ = parse_method_spec(req.kernel)
