@@ -116,7 +116,7 @@ BAD = [
     (["render", "--scene", "g.exr", "--out", "./sub/../g.exr"], "would overwrite the input"),
     (["render", "--scene", "g.exr", "--save-gbuffer", "g.exr"], "--save-gbuffer 'g.exr' would overwrite the input"),
     (["render", "--scene", "slab", "--out", "a.exr", "--save-gbuffer", "a.exr"], "--save-gbuffer 'a.exr' is also the --out file"),
-    (["render", "--scene", "g.exr", "--reference"], "--reference needs a built-in scene"),
+    (["render", "--scene", "g.exr", "--reference"], "reference needs a built-in scene or a mesh (a G-buffer file"),
     (["kernel", "--material", "m.json", "--model", "dipole", "--method", "artist", "--out", "m.json"],
      "would overwrite the input 'm.json'"),
     (["render", "--scene", "x.exr"], "'x.exr' is a directory"),

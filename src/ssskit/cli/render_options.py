@@ -220,8 +220,6 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
                               f"{str(scene)!r} has its own")
     if name == "burley-adaptive":
         _check_adaptive(ctx, s, still, save_gbuffer, gbuffer_file)
-    if gbuffer_file and s.reference:
-        raise SsskitError("--reference needs a built-in scene (a G-buffer file has no scene to path-trace)")
     _check_ignored(ctx, s)
     material_file = Path(s.material) if Path(s.material).is_file() else None
     check_distinct({"--out": out, "--save-gbuffer": save_gbuffer},
@@ -253,26 +251,20 @@ def _check_adaptive(ctx: click.Context, s: RenderSettings, still: bool, save_gbu
     assert isinstance(p, AdaptivePass)
     if given(ctx, "spp"):
         raise SsskitError("--spp: the adaptive pass chooses its samples per pixel; give --budget B_MIN:B_MAX")
-    if p.static or still:
-        # why the run is static, when the user did not say --static (a mesh scene's camera does not move)
-        why = ("" if p.static else " (a G-buffer file is always static)" if gbuffer_file else
-               " (a mesh, scene file or generated mesh is always static under --pass burley-adaptive: its camera "
-               "and lights stay at --frame; only the built-in scenes move)")
-        if given(ctx, "disocclusion_spp"):
-            raise SsskitError(f"--disocclusion-spp applies to a moving camera; this run is static{why} and has no "
-                              "new pixels")
-        if given(ctx, "limit_spp"):
-            raise SsskitError(f"--limit-spp applies to a moving camera; this run is static{why} and compares with the "
-                              "exact limit (burley_exact)")
-        return
-    if save_gbuffer:
-        raise SsskitError("--save-gbuffer applies to one frame; add --static")
-    if s.reference:
-        raise SsskitError("--reference applies to one frame; add --static (a moving sequence compares each frame "
-                          "with its converged Burley reference)")
-    if given(ctx, "no_exact"):  # (the reference's options need --reference, refused above: RenderSettings)
-        raise SsskitError("--no-exact applies to one frame; add --static (a moving sequence compares each frame "
-                          "with its converged Burley reference of --limit-spp spp)")
+    if still and not p.static:  # (with --static, AdaptivePass refuses a moving camera's options itself)
+        why = (" (a G-buffer file is always static)" if gbuffer_file else " (a mesh, scene file or generated mesh is "
+               "always static under --pass burley-adaptive: its camera and lights stay at --frame; only the built-in "
+               "scenes move)")
+        for opt, tail in (("disocclusion_spp", "has no new pixels"),
+                          ("limit_spp", "compares with the exact limit (burley_exact)")):
+            if given(ctx, opt):
+                raise SsskitError(f"{option_name(ctx, opt)} applies to a moving camera; this run is static{why} and "
+                                  f"{tail}")
+    moving = "a moving sequence compares each frame with its converged Burley reference"
+    for flag, on, why in (("--save-gbuffer", save_gbuffer, ""), ("--reference", s.reference, f" ({moving})"),
+                          ("--no-exact", given(ctx, "no_exact"), f" ({moving} of --limit-spp spp)")):
+        if on and not (p.static or still):  # (the reference's options need --reference: RenderSettings)
+            raise SsskitError(f"{flag} applies to one frame; add --static{why}")
 
 
 #: the files :class:`FrameWriter` writes into --frames-dir
