@@ -305,5 +305,5 @@ POSITIVE = Quantity("value", 0.0, math.inf, "", "a positive finite number", lo_o
 #: a length in metres (a scene's unit): (0, inf) m
 LENGTH_M = Quantity("length", 0.0, math.inf, "m", "a length", lo_open=True, hi_open=True)
 #: cells per side of a tabulated kernel's grid: odd (the origin at a cell centre), at least 3
-KERNEL_CELLS = Quantity("kernel grid size", 3, 100_001, "", "odd, so the origin lies at a cell centre", integer=True,
-                        odd=True)
+KERNEL_CELLS = Quantity("kernel grid size", 3, 100_001, "", "odd, so the origin lies at a cell centre; an n x n "
+                        "grid of floats bounds n", integer=True, odd=True)
