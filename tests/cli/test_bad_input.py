@@ -152,7 +152,7 @@ BAD = [
     (["kernel", "--method", "svd", "--material", "skin1", "--size", "50"], "--size must be an odd integer, got 50"),
     (["kernel", "--method", "jimenez2012", "--taps", "10"], "odd"),
     (["kernel", "--method", "jimenez2012", "--out", "k.txt"], "must end in .npz or .json"),
-    (["kernel", "--method", "jimenez2012", "--model", "dipole"], "reads no profile; drop --model"),
+    (["kernel", "--method", "jimenez2012", "--model", "dipole"], "--model does not apply to --method jimenez2012, a fixed engine kernel that reads no profile"),
     (["evaluate", "--material", "skin1", "--signal", "plaid"], "unknown signal 'plaid'"),
     (["evaluate", "--material", "skin1", "--methods", "svd:x"], "integer"),
     (["evaluate", "--model", "dipole"], "--material is required"),
@@ -185,7 +185,7 @@ FIRST_HOUR = [
     (["evaluate", "--material", "eta4.json", "--model", "dipole"], "the dipole model's relative index eta must lie in"),
     (["profile", "--material", "skin1", "--r-max", "1e308", "--out", "p.csv"], "--r-max must lie in (0, 1e+07] mm, got 1e+308 (10 times"),
     # options accepted and ignored, or computed twice
-    (["kernel", "--method", "jimenez2012", "--material", "skin1"], "jimenez2012 is a fixed engine kernel that reads no profile"),
+    (["kernel", "--method", "jimenez2012", "--material", "skin1"], "--material does not apply to --method jimenez2012, a fixed engine kernel that reads no profile"),
     (["evaluate", "--material", "skin1", "--methods", "svd,svd:1"], "'svd:1' names the same kernel as 'svd'"),
     (["evaluate", "--material", "skin1", "--methods", "guided:0,preintegrated,guided:0"], "names the same kernel"),
     (["figures", "fig2", "fig2", "--model", "dipole"], "figure fig2 named more than once"),
@@ -212,7 +212,7 @@ def test_bad_input_of_the_first_hour(run, workdir, args, fragment):
     ("tapz = 7\n", "unknown setting(s) tapz"),
     ("[sss]\njitter = 3\n", "jitter must lie in [0, 1], got 3"),
     ("kernel = 'svd:0'\n", "SVD rank"),
-    ("reference = true\n", "--reference needs a built-in scene"),
+    ("reference = true\n", "reference needs a built-in scene or a mesh (a G-buffer file"),
     ("taps = \n", "malformed settings file"),
 ])
 def test_bad_settings_file(run, workdir, content, fragment):

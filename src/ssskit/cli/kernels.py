@@ -132,7 +132,7 @@ def _dest_of(param: str) -> str:
 def kernel(ctx: click.Context, material: str | None, method_spec: str, model: str, photons: int, grid_n: int,
            as_json: bool, out: str | None, **method_values: str | None) -> None:
     """A separable kernel approximation of a material's profile."""
-    from ..kernels import TapKernel, build_kernel, save_kernel
+    from ..kernels import TapKernel, build_kernel, refuse_profile_options, save_kernel
 
     from ..io import check_distinct
 
@@ -142,17 +142,14 @@ def kernel(ctx: click.Context, material: str | None, method_spec: str, model: st
     from ..profiles import MATERIAL_FREE_MODELS
 
     prof = None
-    if not m.uses_profile and (material is not None or given(ctx, "model") or given(ctx, "photons")):
-        given_opt = "--material" if material is not None else "--model" if given(ctx, "model") else "--photons"
-        raise SsskitError(f"--method {m.name} is a fixed engine kernel that reads no profile; drop {given_opt} "
-                          "(its fit to a material's profile is --method burley_fit)")
+    refuse_profile_options(m, [f for f, on in (("--material", material is not None), ("--model", given(ctx, "model")),
+                                               ("--photons", given(ctx, "photons"))) if on], material is not None,
+                           "--method")
     if material is not None or (m.needs_profile and model.lower() in MATERIAL_FREE_MODELS):
         check_material_for_model(ctx, material, model)
         prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
     elif m.needs_profile:
         raise SsskitError(f"--material is required for --method {m.name}")
-    elif given(ctx, "model") or given(ctx, "photons"):
-        raise SsskitError(f"--model and --photons need a --material (--method {m.name} without one uses no profile)")
     k = build_kernel(m.name, prof, n=grid_n, **params)
     if out:
         save_kernel(k, out)

@@ -410,16 +410,16 @@ def _named_source(req: Any, kernel: Any) -> Source:
     from ..materials import get_material
     from ..profiles import MATERIAL_FREE_MODELS
 
+    from ..kernels import refuse_profile_options
+
     model = req.model or "montecarlo"
     m = kernel[0] if kernel is not None else None
-    if m is not None and not m.uses_profile:  # as `ssskit kernel` refuses it: the header named an unused material
-        refuse_given(req, ("material", "albedo", "model", "photons", "grid_fraction"), f"--kernel {m.name}, a fixed "
-                     "engine kernel that reads no profile (its fit to a material's profile is --kernel burley_fit)")
-    needs_profile = m is None or m.needs_profile
-    if req.material is None and m is not None and not needs_profile:
-        refuse_given(req, ("model", "photons", "grid_fraction"), f"--kernel {m.name} without a --material (it then "
-                     "uses no profile)")
-        return Source(None, None, None, None, None, [], kernel)
+    if m is not None:  # as `ssskit kernel` refuses them (the header named an unused material)
+        refuse_profile_options(m, [f"--{n.replace('_', '-')}" for n in ("material", "albedo", "model", "photons",
+                                                                       "grid_fraction") if req.given(n)],
+                               req.material is not None, "--kernel")
+        if req.material is None and not m.needs_profile:
+            return Source(None, None, None, None, None, [], kernel)
     free = model.lower() in MATERIAL_FREE_MODELS
     if free:
         if req.material is not None:

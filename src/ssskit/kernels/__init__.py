@@ -162,6 +162,20 @@ def check_params(method: KernelMethod, params: dict[str, Any]) -> None:
             check(value)
 
 
+def refuse_profile_options(method: KernelMethod, given: list[str], material: bool, how: str) -> None:
+    """The rule of a kernel's profile options, stated once for ``ssskit kernel`` and ``ssskit export`` (``how``:
+    the option that names the method, ``--method`` or ``--kernel``; ``given``: the profile options given, as
+    flags): a fixed engine kernel (``uses_profile`` False) reads no profile, so takes none of them; one that reads
+    a profile only from a material (``needs_profile`` False) takes no model options without ``--material``."""
+    if given and not method.uses_profile:
+        raise KernelError(f"{given[0]} does not apply to {how} {method.name}, a fixed engine kernel that reads no "
+                          f"profile (its fit to a material's profile is {how} burley_fit)")
+    model_options = [g for g in given if g not in ("--material", "--albedo")]
+    if model_options and not material and not method.needs_profile:
+        raise KernelError(f"{model_options[0]} does not apply to {how} {method.name} without a --material (it then "
+                          "uses no profile)")
+
+
 def parse_method_spec(spec: str) -> tuple[KernelMethod, dict[str, Any], str]:
     """``"svd:3"`` -> (the svd method, {"rank": 3}, "svd:3"); a bare name uses the method's defaults.
 
@@ -215,5 +229,6 @@ __all__ = [
     "default_grid",
     "load_kernel",
     "parse_method_spec",
+    "refuse_profile_options",
     "save_kernel",
 ]
