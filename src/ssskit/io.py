@@ -78,13 +78,10 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
     try:
         try:
             yield tmp
-        except OSError as exc:  # the write itself failed (a full disk, a file size limit): name the target
-            raise OutputError(f"cannot write {str(target)!r}: {exc.strerror or exc}") from None
-        try:
             os.chmod(tmp, 0o666 & ~_umask())
             os.replace(tmp, target)
-        except OSError as exc:
-            raise OutputError(f"cannot write {str(target)!r}: {exc.strerror}") from None
+        except OSError as exc:  # the write itself (a full disk, a file size limit) or the rename: name the target
+            raise OutputError(f"cannot write {str(target)!r}: {exc.strerror or exc}") from None
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()

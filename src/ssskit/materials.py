@@ -76,6 +76,11 @@ def _triple(name: str, value: Any) -> Triple:
     return (float(values[0]), float(values[1]), float(values[2]))
 
 
+#: the quantity of each field of a :class:`Material` (one number or R, G, B; one number)
+_RGB_FIELDS = {"sigma_a": COEFFICIENT, "sigma_s": COEFFICIENT, "g": ANISOTROPY}
+_FIELDS = {"eta": ETA, "eta_ambient": ETA, "thickness_mm": THICKNESS_MM}
+
+
 @dataclass(frozen=True)
 class Material:
     """A homogeneous scattering medium with per-channel (R, G, B) coefficients.
@@ -100,19 +105,12 @@ class Material:
     source: str = field(default="user", compare=False)
 
     def __post_init__(self) -> None:
-        set_ = object.__setattr__
-        set_(self, "sigma_a", _triple("sigma_a", self.sigma_a))
-        set_(self, "sigma_s", _triple("sigma_s", self.sigma_s))
-        set_(self, "g", _triple("g", self.g))
-        COEFFICIENT.check_array(self.sigma_a, "sigma_a", MaterialError, "channels")
-        COEFFICIENT.check_array(self.sigma_s, "sigma_s", MaterialError, "channels")
-        EXTINCTION.check_array(tuple(a + s for a, s in zip(self.sigma_a, self.sigma_s)), "sigma_a + sigma_s",
-                               MaterialError, "channels")
-        ANISOTROPY.check_array(self.g, "g", MaterialError, "channels")
-        set_(self, "eta", ETA.check(_number("eta", self.eta), "eta", MaterialError))
-        set_(self, "eta_ambient", ETA.check(_number("eta_ambient", self.eta_ambient), "eta_ambient", MaterialError))
-        set_(self, "thickness_mm", THICKNESS_MM.check(_number("thickness_mm", self.thickness_mm), "thickness_mm",
-                                                      MaterialError))
+        for name, q in _RGB_FIELDS.items():  # each field's quantity, declared once (_RGB_FIELDS, _FIELDS)
+            object.__setattr__(self, name, _triple(name, getattr(self, name)))
+            q.check_array(getattr(self, name), name, MaterialError, "channels")
+        EXTINCTION.check_array(self.sigma_t, "sigma_a + sigma_s", MaterialError, "channels")
+        for name, q in _FIELDS.items():
+            object.__setattr__(self, name, q.check(_number(name, getattr(self, name)), name, MaterialError))
         if not isinstance(self.name, str) or not self.name.strip():
             raise MaterialError("a material needs a non-empty name")
 

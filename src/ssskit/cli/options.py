@@ -135,8 +135,7 @@ def check_writable(target: str | Path, opt: str, folder: bool = False) -> None:
     would mean the current folder) is refused.
     """
     if not str(target).strip():
-        raise OutputError(f"{opt} is empty; give a {'folder' if folder else 'file'} path (. for the current folder)"
-                          if folder else f"{opt} is empty; give a file path")
+        raise OutputError(f"{opt} is empty; give a {'folder path (. for the current folder)' if folder else 'file path'}")
     t = Path(target)
     if folder and t.exists() and not t.is_dir():
         raise OutputError(f"{opt} {str(t)!r} is a file, not a folder")
