@@ -48,6 +48,8 @@ PARTS = ("separable", "burley", "adaptive", "transmission")
 #: the adaptive pass's limits the page offers as controls: fields of ssskit's AdaptivePass (the guide's
 #: AdaptiveSettings fields and the history ``frames``), with the ranges Python declares (:func:`adaptive_controls`)
 ADAPTIVE_FIELDS = ("b_min", "b_max", "sigma0_sq", "kappa", "alpha")
+#: the guide's rule across fields (AdaptiveSettings: the sample budget needs b_min <= b_max), sent to the page
+ADAPTIVE_ORDER = (("b_min", "b_max"),)
 
 
 @dataclass(frozen=True)
@@ -350,6 +352,14 @@ def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     return out / np.where(length > 0, length, 1.0)
 
 
+def _request_body(req: MaterialRequest) -> dict[str, Any]:
+    """The material of ``req`` as the API names it (a served page asks for more of it): albedo with mfp, or the
+    preset's name."""
+    if req.material is None:
+        return {"albedo": list(req.albedo or ()), "mfp": list(req.mfp or ())}
+    return {"material": req.material}
+
+
 def engine_formats() -> list[dict[str, Any]]:
     """The engine formats of :data:`ssskit.export.FORMATS` (kind "engine"), one export button each: name, the
     suffixes it writes (the first is the button's default) and its description."""
@@ -365,9 +375,11 @@ def page_data(scene: str, materials: dict[str, MaterialRequest], default: str, s
     lists, the parts its pass and transmission switch need)."""
     parts = ("separable",) if served else PARTS
     return {"version": 1, "served": bool(served), "scene": scene_payload(scene), "default_material": default,
-            "materials": {name: material_payload(req, parts) for name, req in materials.items()},
+            "materials": {name: {**material_payload(req, parts), "request": _request_body(req)}
+                          for name, req in materials.items()},
             "presets": list(PRESETS) if served else [], "tap_choices": list(TAP_CHOICES), "spp_range": list(SPP_RANGE),
-            "adaptive_controls": adaptive_controls(), "exports": engine_formats()}
+            "adaptive_controls": adaptive_controls(), "adaptive_order": [list(p) for p in ADAPTIVE_ORDER],
+            "exports": engine_formats()}
 
 
 def data_script(data: dict[str, Any]) -> str:
@@ -413,7 +425,7 @@ def write_site(out: str | os.PathLike[str], data: dict[str, Any]) -> Path:
     return dest
 
 
-__all__ = ["ADAPTIVE_FIELDS", "ARTIST_ETA", "DEFAULT_KERNEL", "DEFAULT_MODEL", "DEFAULT_TAPS", "MESH_SUFFIXES",
+__all__ = ["ADAPTIVE_FIELDS", "ADAPTIVE_ORDER", "ARTIST_ETA", "DEFAULT_KERNEL", "DEFAULT_MODEL", "DEFAULT_TAPS", "MESH_SUFFIXES",
            "MaterialRequest", "PAGE_FILES", "PARTS", "PRESETS", "SCENE_NAMES", "adaptive_controls", "check_out",
            "check_scene", "data_script", "engine_formats", "kernel_taps", "material_payload", "page_data", "page_file", "scene_payload",
            "write_site", "write_static"]

@@ -295,7 +295,7 @@ void main() {
 
   // ---- state and controls --------------------------------------------------------------------------------------
   const state = { material: D.default_material, pass: 'separable', spp: 16, split: false, heat: false, transmission: true, auto: true, frame: 0, seed: 0,
-    light: { az: 0, el: 0, scale: 1 } };
+    light: { az: 0, el: 0, scale: 1 }, frames: 16 };
   const composite = link(FULL_VS, COMPOSITE_FS, 'composite');
   const timing = { mode: timerExt ? 'GPU timer queries (EXT_disjoint_timer_query_webgl2)' : 'wall time to a finished readback', passes: {}, frame_ms: 0 };
   let pending = [];
@@ -471,7 +471,7 @@ void main() {
   const ad = { key: '', cur: 0, frame: 0, used: 0 };
   function adaptive(m, mat) {
     const A = mat.adaptive;
-    const key = JSON.stringify([state.material, cam, state.light, state.seed, W, H]);
+    const key = JSON.stringify([state.material, cam, state.light, state.seed, W, H, A.settings]);
     setUniforms = (prog) => {
       setIf(prog, 'u_size', (l) => gl.uniform2i(l, W, H));
     };
@@ -510,6 +510,7 @@ void main() {
   function render() {
     collectQueries();
     const mat = D.materials[state.material];
+    const has = (part) => !!(mat[part] && !mat[part].error);   // a served page may still be asking for a part
     const m = matrices();
     const t0 = performance.now();
     timing.passes = timerExt ? timing.passes : {};
@@ -517,22 +518,23 @@ void main() {
     timed('gbuffer', () => drawGbuffer(m, mat));
     gl.viewport(0, 0, W, H);
     if (state.pass === 'separable') timed('separable', () => { result = separable(m, mat); });
-    else if (state.pass === 'burley') timed('burley', () => { result = burley(m, mat); });
-    else if (state.pass === 'adaptive') {
+    else if (state.pass === 'burley' && has('burley')) timed('burley', () => { result = burley(m, mat); });
+    else if (state.pass === 'adaptive' && has('adaptive')) {
       if (lastPass !== 'adaptive') ad.key = '';   // switching to the adaptive pass starts a new history
       timed('adaptive', () => { result = adaptive(m, mat); });
     } else result = G.src;
     lastPass = state.pass;
-    if (state.transmission) timed('transmission', () => transmission(mat));
+    const transOn = state.transmission && has('transmission');
+    if (transOn) timed('transmission', () => transmission(mat));
     timed('composite', () => {
       gl.bindFramebuffer(gl.FRAMEBUFFER, null);
       gl.useProgram(composite.p);
       bindTextures(composite, { u_src: G.src, u_sss: result, u_spec: G.spec, u_albedo: G.albedo, u_counts: counts[ad.used],
         u_trans: trans });
-      gl.uniform1i(composite.u.u_transmission, state.transmission ? 1 : 0);
+      gl.uniform1i(composite.u.u_transmission, transOn ? 1 : 0);
       gl.uniform1i(composite.u.u_split, state.split ? 1 : 0);
-      gl.uniform1i(composite.u.u_heat, state.heat && state.pass === 'adaptive' ? 1 : 0);
-      gl.uniform2f(composite.u.u_budget, mat.adaptive.b_min, mat.adaptive.b_max);
+      gl.uniform1i(composite.u.u_heat, state.heat && state.pass === 'adaptive' && has('adaptive') ? 1 : 0);
+      if (has('adaptive')) gl.uniform2f(composite.u.u_budget, mat.adaptive.b_min, mat.adaptive.b_max);
       gl.uniform1f(composite.u.u_exposure, 1.0);
       gl.drawArrays(gl.TRIANGLES, 0, 3);
     });
@@ -549,7 +551,7 @@ void main() {
 
   let frames = 0, dirty = true;
   function loop() {
-    if (state.pass === 'adaptive' && state.auto && ad.frame < 64) dirty = true;
+    if (state.pass === 'adaptive' && state.auto && ad.frame < state.frames) dirty = true;
     if (dirty && state.auto) {
       dirty = false;
       try { render(); status(''); } catch (e) { status(String(e)); console.error(String(e)); }
@@ -562,7 +564,8 @@ void main() {
   function fillMaterials() {
     const sel = $('material');
     sel.innerHTML = '';
-    for (const name of Object.keys(D.materials)) sel.add(new Option(D.materials[name].name, name, false, name === state.material));
+    const names = [...new Set([...Object.keys(D.materials), ...(D.presets || [])])];
+    for (const name of names) sel.add(new Option(D.materials[name] ? D.materials[name].name : name, name, false, name === state.material));
     if (D.served) sel.add(new Option('albedo + mean free path...', '__artist__'));
   }
   fillMaterials();
@@ -570,47 +573,183 @@ void main() {
   const servedOnly = ['taps', 'jitter'];
   if (!D.served) servedOnly.forEach((id) => { $(id).disabled = true; $(id).title = 'served mode only (ssskit view without --out)'; });
 
+  // served mode: the server computes a material's parts (ssskit.view.site.material_payload) when the page needs
+  // them: the separable pass always, Burley and adaptive for those passes, the transmittance pass when it is on
+  async function post(route, body) {
+    return fetch(route, { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
+  }
   async function ask(body) {
-    const r = await fetch('api/material', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
+    const r = await post('api/material', body);
     const j = await r.json();
     if (!r.ok) throw new Error(j.error || r.statusText);
     return j;
   }
-  async function requestMaterial(body, key) {
-    status('computing the kernel...');
-    const payload = await ask(body);
-    D.materials[key] = payload;
+  // the material of a key as the API names it: a preset, or the artists' terms it was asked with
+  function materialBody(key) {
+    const mat = D.materials[key];
+    if (mat && mat.request && mat.request.albedo) return { albedo: mat.request.albedo, mfp: mat.request.mfp };
+    return { material: key };
+  }
+  function neededParts() {
+    const parts = ['separable'];
+    if (state.pass === 'burley') parts.push('burley');
+    if (state.pass === 'adaptive') parts.push('adaptive');
+    return parts;
+  }
+  const missing = (key, parts) => parts.filter((p) => !(D.materials[key] && D.materials[key][p]));
+  let pendingAsk = Promise.resolve();
+  // merge a payload's parts into the page's data for key; a new separable pass or adaptive guide replaces the old
+  function merge(key, payload) {
+    const old = D.materials[key] || {};
+    D.materials[key] = Object.assign({}, old, payload);
+  }
+  async function requestMaterial(body, key, extra) {
+    // the fast parts first (the frame re-renders with them), then the transmittance pass where it is on
+    const opts = { ...currentOptions(key), ...(extra || {}) };
+    const first = neededParts();
+    status('computing the material...');
+    const payload = await ask({ ...opts, ...body, parts: first });
+    delete D.materials[key];
+    merge(key, payload);
     state.material = key;
     fillMaterials();
-    status('');
     redraw();
-    return payload;
+    status('');
+    await ensureParts();
+    return D.materials[key];
   }
-  function currentOptions() {
-    return { kernel: D.materials[state.material].separable.kernel, taps: parseInt($('taps').value, 10), jitter: parseFloat($('jitter').value) };
+  async function ensureParts() {
+    if (!D.served) return;
+    const key = state.material;
+    for (const parts of [neededParts(), state.transmission ? ['transmission'] : []]) {
+      const want = missing(key, parts);
+      if (!want.length) continue;
+      status(`computing ${want.join(', ')}...`);
+      merge(key, await ask({ ...materialBody(key), ...currentOptions(key), parts: want }));
+      if (key === state.material) redraw();
+    }
+    const t = D.materials[key].transmission;
+    status(state.transmission && t && t.error ? `no transmittance pass for this material: ${t.error}` : '');
+  }
+  const ensure = () => { pendingAsk = pendingAsk.then(ensureParts).catch((e) => status(String(e))); return pendingAsk; };
+  function currentOptions(key) {
+    const sep = D.materials[key] ? D.materials[key].separable : null;
+    const opts = { kernel: sep ? sep.kernel : D.materials[state.material].separable.kernel, taps: parseInt($('taps').value, 10), jitter: parseFloat($('jitter').value) };
+    if (adaptiveChanged) opts.adaptive = adaptiveSettings();
+    return opts;
   }
   $('material').addEventListener('change', (e) => {
     const v = e.target.value;
     $('artist').hidden = v !== '__artist__';
-    if (v !== '__artist__') { state.material = v; redraw(); }
+    if (v === '__artist__') return;
+    if (D.served && missing(v, neededParts()).length) {
+      pendingAsk = pendingAsk.then(() => requestMaterial(materialBody(v), v)).catch((err) => status(String(err)));
+    } else { state.material = v; redraw(); ensure(); }
   });
   $('apply').addEventListener('click', () => {
     const triple = (id) => $(id).value.split(',').map(Number);
-    requestMaterial({ albedo: triple('albedo'), mfp: triple('mfp'), ...currentOptions() }, 'artist').catch((e) => status(String(e)));
+    pendingAsk = pendingAsk.then(() => requestMaterial({ albedo: triple('albedo'), mfp: triple('mfp') }, 'artist')).catch((e) => status(String(e)));
   });
-  for (const id of ['taps', 'jitter']) {
-    $(id).addEventListener('change', () => {
-      const name = state.material;
-      const mat = D.materials[name];
-      const body = name === 'artist' ? { albedo: mat.request.albedo, mfp: mat.request.mfp } : { material: name };
-      requestMaterial({ ...body, ...currentOptions() }, name).catch((e) => status(String(e)));
+  // a changed option makes every part of the material stale: the server rebuilds them (cached per option)
+  function reaskAll() {
+    const name = state.material, body = materialBody(name);
+    pendingAsk = pendingAsk.then(() => requestMaterial(body, name)).catch((e) => status(String(e)));
+    return pendingAsk;
+  }
+  for (const id of ['taps', 'jitter']) $(id).addEventListener('change', reaskAll);
+
+  // the adaptive pass's limits: inputs made from the ranges Python declares (D.adaptive_controls:
+  // ssskit.view.site.adaptive_controls, from ssskit's AdaptivePass), checked here as there
+  let adaptiveChanged = false;
+  const controlsById = {};
+  function checkControl(c, text) {
+    const v = Number(text);
+    const inRange = text.trim() !== '' && Number.isFinite(v) && (!c.integer || Number.isInteger(v)) &&
+      (c.lo === null || (c.lo_open ? v > c.lo : v >= c.lo)) && (c.hi === null || (c.hi_open ? v < c.hi : v <= c.hi));
+    return inRange ? null : `${c.name} must be ${c.integer ? 'an integer' : 'a number'} in ${c.interval}` +
+      `${c.reason ? ' (' + c.reason + ')' : ''}, got ${JSON.stringify(text)}`;
+  }
+  function adaptiveSettings() {
+    const out = {};
+    for (const c of D.adaptive_controls) if (c.name !== 'frames') out[c.name] = Number($('ad_' + c.name).value);
+    return out;
+  }
+  for (const c of D.adaptive_controls) {
+    controlsById[c.name] = c;
+    const label = document.createElement('label');
+    label.textContent = c.name + ' ';
+    const input = document.createElement('input');
+    input.id = 'ad_' + c.name;
+    input.type = 'text';
+    input.size = 7;
+    input.value = String(c.default);
+    input.title = `${c.interval}${c.reason ? ': ' + c.reason : ''}`;
+    if (c.served_only && !D.served) { input.disabled = true; input.title = 'served mode only (ssskit view without --out)'; }
+    label.appendChild(input);
+    $('adaptive_limits').appendChild(label);
+    input.addEventListener('change', () => {
+      const err = checkControl(c, input.value);
+      input.classList.toggle('bad', !!err);
+      if (err) { status(err); return; }
+      if (c.name === 'frames') { state.frames = Number(input.value); redraw(); status(''); return; }
+      const bad = D.adaptive_controls.filter((o) => o.served_only).map((o) => checkControl(o, $('ad_' + o.name).value)).find((x) => x) ||
+        D.adaptive_order.map(([lo, hi]) => {   // AdaptiveSettings' rule across fields, as Python words it
+          const a = Number($('ad_' + lo).value), b = Number($('ad_' + hi).value);
+          return a <= b ? null : `the sample budget needs ${lo} <= ${hi}, got ${lo}=${a} > ${hi}=${b}`;
+        }).find((x) => x);
+      if (bad) { status(bad); return; }
+      adaptiveChanged = true;
+      const key = state.material;
+      pendingAsk = pendingAsk.then(async () => {
+        status('computing the adaptive pass...');
+        merge(key, await ask({ ...materialBody(key), ...currentOptions(key), parts: ['adaptive'] }));
+        redraw();
+        status('');
+      }).catch((e) => status(String(e)));
     });
   }
-  $('pass').addEventListener('change', (e) => { state.pass = e.target.value; redraw(); });
+  state.frames = controlsById.frames ? controlsById.frames.default : 16;
+
+  // export buttons: the engine formats of ssskit.export.FORMATS; the server writes the file through
+  // ssskit.export.export (the code of ssskit export) and the page downloads its bytes
+  for (const f of D.exports) {
+    const row = document.createElement('div');
+    row.className = 'export';
+    const sel = document.createElement('select');
+    sel.id = 'export_suffix_' + f.name;
+    for (const s of f.suffixes) sel.add(new Option(s, s));
+    const b = document.createElement('button');
+    b.id = 'export_' + f.name;
+    b.textContent = f.name;
+    b.title = f.description;
+    if (!D.served) { b.disabled = true; sel.disabled = true; b.title = 'export needs the served page: ssskit view (without --out)'; }
+    b.addEventListener('click', () => exportFile(f.name, sel.value).catch((e) => status(String(e))));
+    row.append(b, sel);
+    $('exports').appendChild(row);
+  }
+  $('export_note').textContent = D.served ? 'the current material, written by ssskit export' :
+    'export needs the served page: run ssskit view (without --out)';
+  async function exportFile(format, suffix) {
+    status(`exporting ${format}${suffix}...`);
+    const r = await post('api/export', { ...materialBody(state.material), format, suffix });
+    if (!r.ok) { const j = await r.json(); throw new Error(j.error || r.statusText); }
+    const disp = r.headers.get('Content-Disposition') || '';
+    const m = /filename="([^"]+)"/.exec(disp);
+    const url = URL.createObjectURL(await r.blob());
+    const a = document.createElement('a');
+    a.href = url;
+    a.download = m ? m[1] : `${state.material}_${format}${suffix}`;
+    document.body.appendChild(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 10000);
+    status('');
+  }
+  $('pass').addEventListener('change', (e) => { state.pass = e.target.value; redraw(); ensure(); });
   $('spp').addEventListener('change', (e) => { state.spp = Math.max(1, Math.min(256, parseInt(e.target.value, 10) || 1)); redraw(); });
   $('split').addEventListener('change', (e) => { state.split = e.target.checked; redraw(); });
   $('heat').addEventListener('change', (e) => { state.heat = e.target.checked; redraw(); });
-  $('transmission').addEventListener('change', (e) => { state.transmission = e.target.checked; redraw(); });
+  $('transmission').addEventListener('change', (e) => { state.transmission = e.target.checked; redraw(); ensure(); });
   $('light_az').addEventListener('input', (e) => { state.light.az = e.target.value * Math.PI / 180; redraw(); });
   $('light_el').addEventListener('input', (e) => { state.light.el = e.target.value * Math.PI / 180; redraw(); });
   $('light_i').addEventListener('input', (e) => { state.light.scale = parseFloat(e.target.value); redraw(); });
@@ -645,7 +784,9 @@ void main() {
     size: [W, H],
     render,
     frames: () => frames,
-    set(changes) { Object.assign(state, changes); redraw(); },
+    set(changes) { Object.assign(state, changes); redraw(); ensure(); },
+    // resolves when the server has answered every part the page asked for (served mode)
+    ready: () => pendingAsk,
     orbit(daz, del) { cam.az += daz; cam.el += del; redraw(); },
     material: requestMaterial,
     shader(kind) { return D.materials[state.material][kind].shader; },
@@ -678,5 +819,6 @@ void main() {
       return toBase64(out);
     },
   };
+  ensure();
   requestAnimationFrame(loop);
 })();
