@@ -561,6 +561,8 @@ void main() {
   const redraw = () => { dirty = true; };
 
   // ---- controls -------------------------------------------------------------------------------------------------
+  // what the controls and the server say (the render loop owns #status: its errors)
+  const notice = (msg) => { $('notice').textContent = msg; };
   function fillMaterials() {
     const sel = $('material');
     sel.innerHTML = '';
@@ -607,14 +609,14 @@ void main() {
     // the fast parts first (the frame re-renders with them), then the transmittance pass where it is on
     const opts = { ...currentOptions(key), ...(extra || {}) };
     const first = neededParts();
-    status('computing the material...');
+    notice('computing the material...');
     const payload = await ask({ ...opts, ...body, parts: first });
     delete D.materials[key];
     merge(key, payload);
     state.material = key;
     fillMaterials();
     redraw();
-    status('');
+    notice('');
     await ensureParts();
     return D.materials[key];
   }
@@ -624,14 +626,14 @@ void main() {
     for (const parts of [neededParts(), state.transmission ? ['transmission'] : []]) {
       const want = missing(key, parts);
       if (!want.length) continue;
-      status(`computing ${want.join(', ')}...`);
+      notice(`computing ${want.join(', ')}...`);
       merge(key, await ask({ ...materialBody(key), ...currentOptions(key), parts: want }));
       if (key === state.material) redraw();
     }
     const t = D.materials[key].transmission;
-    status(state.transmission && t && t.error ? `no transmittance pass for this material: ${t.error}` : '');
+    notice(state.transmission && t && t.error ? `no transmittance pass for this material: ${t.error}` : '');
   }
-  const ensure = () => { pendingAsk = pendingAsk.then(ensureParts).catch((e) => status(String(e))); return pendingAsk; };
+  const ensure = () => { pendingAsk = pendingAsk.then(ensureParts).catch((e) => notice(String(e))); return pendingAsk; };
   function currentOptions(key) {
     const sep = D.materials[key] ? D.materials[key].separable : null;
     const opts = { kernel: sep ? sep.kernel : D.materials[state.material].separable.kernel, taps: parseInt($('taps').value, 10), jitter: parseFloat($('jitter').value) };
@@ -643,17 +645,17 @@ void main() {
     $('artist').hidden = v !== '__artist__';
     if (v === '__artist__') return;
     if (D.served && missing(v, neededParts()).length) {
-      pendingAsk = pendingAsk.then(() => requestMaterial(materialBody(v), v)).catch((err) => status(String(err)));
+      pendingAsk = pendingAsk.then(() => requestMaterial(materialBody(v), v)).catch((err) => notice(String(err)));
     } else { state.material = v; redraw(); ensure(); }
   });
   $('apply').addEventListener('click', () => {
     const triple = (id) => $(id).value.split(',').map(Number);
-    pendingAsk = pendingAsk.then(() => requestMaterial({ albedo: triple('albedo'), mfp: triple('mfp') }, 'artist')).catch((e) => status(String(e)));
+    pendingAsk = pendingAsk.then(() => requestMaterial({ albedo: triple('albedo'), mfp: triple('mfp') }, 'artist')).catch((e) => notice(String(e)));
   });
   // a changed option makes every part of the material stale: the server rebuilds them (cached per option)
   function reaskAll() {
     const name = state.material, body = materialBody(name);
-    pendingAsk = pendingAsk.then(() => requestMaterial(body, name)).catch((e) => status(String(e)));
+    pendingAsk = pendingAsk.then(() => requestMaterial(body, name)).catch((e) => notice(String(e)));
     return pendingAsk;
   }
   for (const id of ['taps', 'jitter']) $(id).addEventListener('change', reaskAll);
@@ -690,22 +692,22 @@ void main() {
     input.addEventListener('change', () => {
       const err = checkControl(c, input.value);
       input.classList.toggle('bad', !!err);
-      if (err) { status(err); return; }
-      if (c.name === 'frames') { state.frames = Number(input.value); redraw(); status(''); return; }
+      if (err) { notice(err); return; }
+      if (c.name === 'frames') { state.frames = Number(input.value); redraw(); notice(''); return; }
       const bad = D.adaptive_controls.filter((o) => o.served_only).map((o) => checkControl(o, $('ad_' + o.name).value)).find((x) => x) ||
         D.adaptive_order.map(([lo, hi]) => {   // AdaptiveSettings' rule across fields, as Python words it
           const a = Number($('ad_' + lo).value), b = Number($('ad_' + hi).value);
           return a <= b ? null : `the sample budget needs ${lo} <= ${hi}, got ${lo}=${a} > ${hi}=${b}`;
         }).find((x) => x);
-      if (bad) { status(bad); return; }
+      if (bad) { notice(bad); return; }
       adaptiveChanged = true;
       const key = state.material;
       pendingAsk = pendingAsk.then(async () => {
-        status('computing the adaptive pass...');
+        notice('computing the adaptive pass...');
         merge(key, await ask({ ...materialBody(key), ...currentOptions(key), parts: ['adaptive'] }));
         redraw();
-        status('');
-      }).catch((e) => status(String(e)));
+        notice('');
+      }).catch((e) => notice(String(e)));
     });
   }
   state.frames = controlsById.frames ? controlsById.frames.default : 16;
@@ -723,14 +725,14 @@ void main() {
     b.textContent = f.name;
     b.title = f.description;
     if (!D.served) { b.disabled = true; sel.disabled = true; b.title = 'export needs the served page: ssskit view (without --out)'; }
-    b.addEventListener('click', () => exportFile(f.name, sel.value).catch((e) => status(String(e))));
+    b.addEventListener('click', () => exportFile(f.name, sel.value).catch((e) => notice(String(e))));
     row.append(b, sel);
     $('exports').appendChild(row);
   }
   $('export_note').textContent = D.served ? 'the current material, written by ssskit export' :
     'export needs the served page: run ssskit view (without --out)';
   async function exportFile(format, suffix) {
-    status(`exporting ${format}${suffix}...`);
+    notice(`exporting ${format}${suffix}...`);
     const r = await post('api/export', { ...materialBody(state.material), format, suffix });
     if (!r.ok) { const j = await r.json(); throw new Error(j.error || r.statusText); }
     const disp = r.headers.get('Content-Disposition') || '';
@@ -743,7 +745,7 @@ void main() {
     a.click();
     a.remove();
     setTimeout(() => URL.revokeObjectURL(url), 10000);
-    status('');
+    notice('');
   }
   $('pass').addEventListener('change', (e) => { state.pass = e.target.value; redraw(); ensure(); });
   $('spp').addEventListener('change', (e) => { state.spp = Math.max(1, Math.min(256, parseInt(e.target.value, 10) || 1)); redraw(); });
