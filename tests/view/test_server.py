@@ -178,6 +178,7 @@ def test_material_parts_are_asked_for_and_cached(server, monkeypatch):
     (the transmittance model replaced by a failure after the first request); a material whose transmittance
     table fails keeps its other parts and names the reason."""
     import ssskit.screenspace.transmission as tr
+    import ssskit.view.site as site
     from ssskit.errors import ProfileError
 
     srv, _ = server
@@ -194,10 +195,30 @@ def test_material_parts_are_asked_for_and_cached(server, monkeypatch):
     monkeypatch.setattr(tr, "mcml_model", fail)
     status, _, body = _reply(srv.port, "/api/material", {"material": "ketchup", "parts": ["transmission"]})
     assert status == 200 and json.loads(body)["transmission"] == first        # from the cache: no new fit
-    status, _, body = _reply(srv.port, "/api/material", {"material": "apple"})
+    site._transmission_part.cache_clear()                 # the cache emptied: the fit is asked again, and fails
+    status, _, body = _reply(srv.port, "/api/material", {"material": "ketchup", "parts": ["transmission"]})
+    assert json.loads(body)["transmission"]["error"] == "the table does not converge (a stand-in)"
+    status, _, body = _reply(srv.port, "/api/material", {"material": "apple", "parts": ["separable", "transmission"]})
     payload = json.loads(body)
     assert status == 200 and payload["transmission"] == {"error": "the table does not converge (a stand-in)"}
-    assert "shader" in payload["burley"] and "shader" in payload["separable"]
+    assert "shader" in payload["separable"]                  # the material keeps its other parts
+
+
+def test_a_warmed_server_answers_the_presets_from_memory(server, monkeypatch):
+    """``ssskit view`` warms the presets the page lists (their separable and transmittance parts) after it
+    listens: afterwards no transmittance model is fitted for them (the fit replaced by a failure)."""
+    import ssskit.screenspace.transmission as tr
+
+    srv, _ = server
+    srv.warm(("skin2", "marble")).join(timeout=600)
+
+    def fail(*_a, **_k):
+        raise AssertionError("fitted again")
+
+    monkeypatch.setattr(tr, "mcml_model", fail)
+    for name in ("skin2", "marble"):
+        status, _, body = _reply(srv.port, "/api/material", {"material": name, "parts": ["separable", "transmission"]})
+        assert status == 200 and "shader" in json.loads(body)["transmission"], body[:300]
 
 
 def test_adaptive_limits_reach_the_shaders_and_the_ranges_are_pythons(server):

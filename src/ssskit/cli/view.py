@@ -88,6 +88,7 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
     except OSError as exc:
         raise SsskitError(f"cannot listen on 127.0.0.1:{port}: {exc.strerror or exc}") from None
     click.echo(f"# ssskit view at {server.url} (Ctrl-C ends it)", err=True)
+    server.warm(tuple(n for n in PRESETS if n != key))  # the presets the page lists, computed while it loads
     if not no_open:
         import webbrowser
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 import threading
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -158,6 +159,25 @@ class ViewServer(ThreadingHTTPServer):
         self.data_js = data_script(data).encode("utf-8")
         self.log = log if log is not None else sys.stderr
         self.lock = threading.Lock()
+
+    def warm(self, presets: tuple[str, ...]) -> threading.Thread:
+        """Compute the parts of ``presets`` the page's default state needs (the separable and transmittance
+        passes) in a background thread (niced, a daemon: Ctrl-C does not wait for it) after the server listens,
+        so that a preset the page switches to is answered from memory (the transmittance pass's MCML fit takes
+        1-3 s a material: benchmarks/bench_view_material.py). Returns the thread."""
+        def run() -> None:
+            try:
+                os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 10)
+            except (AttributeError, OSError):
+                pass
+            for name in presets:
+                try:
+                    material_payload(MaterialRequest(name), ("separable", "transmission"))
+                except SsskitError:
+                    pass  # the request for it will say why
+        thread = threading.Thread(target=run, name="ssskit-view-warm", daemon=True)
+        thread.start()
+        return thread
 
     @property
     def port(self) -> int:
