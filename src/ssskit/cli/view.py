@@ -83,8 +83,11 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
     from ..view.server import ViewServer, serve
 
     data = page_data(scene, mats, key, served=True)
+    references = None
+    if scene.lower() == "head":  # the head's views have path-traced references (docs/head_references.json)
+        from ..figures.head import cached_reference_layers as references
     try:
-        server = ViewServer(data, port)
+        server = ViewServer(data, port, references=references)
     except OSError as exc:
         raise SsskitError(f"cannot listen on 127.0.0.1:{port}: {exc.strerror or exc}") from None
     click.echo(f"# ssskit view at {server.url} (Ctrl-C ends it)", err=True)

@@ -25,17 +25,20 @@ import os
 import sys
 import threading
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from collections.abc import Callable
 from typing import Any, TextIO
 from urllib.parse import urlsplit
 
 from ..errors import SsskitError
 from .site import (ADAPTIVE_FIELDS, ARTIST_ETA, PAGE_FILES, PARTS, MaterialRequest, data_script, engine_formats,
-                   material_payload, page_file)
+                   material_payload, page_file, reference_payload)
 
 #: the largest request body the API reads (bytes)
 MAX_BODY = 4096
 #: the keys of a material request (``POST /api/material``)
 API_KEYS = frozenset({"material", "albedo", "mfp", "kernel", "taps", "jitter", "parts", "adaptive"})
+#: the keys of a reference request (``POST /api/reference``)
+REFERENCE_KEYS = frozenset({"view", "material", "w", "h"})
 #: the keys of an export request (``POST /api/export``)
 EXPORT_KEYS = frozenset({"material", "albedo", "mfp", "format", "suffix"})
 _TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=utf-8", ".css": "text/css; charset=utf-8"}
@@ -154,11 +157,17 @@ class ViewServer(ThreadingHTTPServer):
 
     daemon_threads = True
 
-    def __init__(self, data: dict[str, Any], port: int = 0, log: TextIO | None = None) -> None:
+    def __init__(self, data: dict[str, Any], port: int = 0, log: TextIO | None = None,
+                 references: Callable[[str, str], dict[str, Any]] | None = None) -> None:
         super().__init__(("127.0.0.1", int(port)), _Handler)
         self.data_js = data_script(data).encode("utf-8")
         self.log = log if log is not None else sys.stderr
         self.lock = threading.Lock()
+        #: the scene's named views, and where the path-traced references of a (view, preset) come from
+        #: (``ssskit view --scene head``: :func:`ssskit.figures.head.cached_reference_layers`), kept once read
+        self.views = tuple(data["scene"].get("views", {}))
+        self.references = references
+        self._layers: dict[tuple[str, str], dict[str, Any]] = {}
 
     def warm(self, presets: tuple[str, ...]) -> threading.Thread:
         """Compute the parts of ``presets`` the page's default state needs (the separable and transmittance
@@ -264,6 +273,41 @@ class _Handler(BaseHTTPRequestHandler):
         except (UnicodeDecodeError, json.JSONDecodeError, ValueError) as exc:
             raise RequestError(400, f"malformed JSON: {exc}") from None
 
+    def _reference_request(self, body: Any) -> tuple[str, str, int, int]:
+        """(view, preset, page width, page height) of a reference request, or a RequestError."""
+        from ..materials import MATERIALS
+
+        if not isinstance(body, dict) or set(body) - REFERENCE_KEYS:
+            raise RequestError(400, f"a reference request is an object of {', '.join(sorted(REFERENCE_KEYS))}")
+        view, material = body.get("view"), body.get("material")
+        if not isinstance(view, str) or view not in self.server.views:
+            raise RequestError(400, f"view must be one of the scene's views ({', '.join(self.server.views) or 'none'})")
+        if not isinstance(material, str) or material not in MATERIALS:
+            raise RequestError(400, f"material must be a preset name ({', '.join(MATERIALS.names())})")
+        size = []
+        for key in ("w", "h"):
+            v = body.get(key)
+            if not isinstance(v, int) or isinstance(v, bool) or not 1 <= v <= 8192:
+                raise RequestError(400, f"{key} must be the page's size in pixels, an integer in [1, 8192]")
+            size.append(v)
+        if self.server.references is None:
+            raise RequestError(404, "this scene has no path-traced references (the head's views have)")
+        return view, material.lower(), size[0], size[1]
+
+    def _reference_layers(self, view: str, material: str) -> dict[str, Any]:
+        key = (view, material)
+        with self.server.lock:
+            layers = self.server._layers.get(key)
+        if layers is None:
+            assert self.server.references is not None
+            try:
+                layers = self.server.references(view, material)
+            except SsskitError as exc:
+                raise RequestError(404, str(exc)) from None
+            with self.server.lock:
+                self.server._layers[key] = layers
+        return layers
+
     def do_POST(self) -> None:
         try:
             _, path = self._route()  # type: ignore[misc]
@@ -276,6 +320,10 @@ class _Handler(BaseHTTPRequestHandler):
                     raise RequestError(422, str(exc)) from None
                 payload["request"] = {k: v for k, v in body.items() if k != "parts"}
                 self._send(200, json.dumps(payload).encode(), "application/json")
+            elif path == "/api/reference":
+                view, material, w, h = self._reference_request(self._json_body())
+                self._send(200, json.dumps(reference_payload(self._reference_layers(view, material), w, h)).encode(),
+                           "application/json")
             elif path == "/api/export":
                 settings, name = parse_export_request(self._json_body())
                 data = _export_bytes(settings)
@@ -326,5 +374,5 @@ def serve(server: ViewServer) -> None:
         server.server_close()
 
 
-__all__ = ["API_KEYS", "EXPORT_KEYS", "MAX_BODY", "RequestError", "ViewServer", "parse_export_request",
+__all__ = ["API_KEYS", "EXPORT_KEYS", "MAX_BODY", "REFERENCE_KEYS", "RequestError", "ViewServer", "parse_export_request",
            "parse_material_request", "serve"]

@@ -339,7 +339,10 @@ def scene_payload(scene: str) -> dict[str, Any]:
             "cull": ("back" if topo.volume > 0 else "front") if closed else "none",
             "camera": {"origin": list(map(float, spec.origin)), "target": list(map(float, spec.target)),
                        "up": list(map(float, spec.up)), "fov_x_deg": float(spec.fov_x_deg)},
-            "lights": _light_list(spec), "about": dict(getattr(spec, "about", ()) or ())}
+            "lights": _light_list(spec), "about": dict(getattr(spec, "about", ()) or ()),
+            # a built-in scene's named views (the head: Xie 2020 Fig. 1's front, ear and close)
+            "views": {name: {"origin": list(map(float, o)), "target": list(map(float, t)), "up": list(map(float, u)),
+                             "fov_x_deg": float(f)} for name, (o, t, u, f) in dict(getattr(spec, "views", ()) or ()).items()}}
 
 
 def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -350,6 +353,43 @@ def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
         np.add.at(out, f[:, k], n)
     length = np.linalg.norm(out, axis=1, keepdims=True)
     return out / np.where(length > 0, length, 1.0)
+
+
+def _json_level(row: dict[str, Any]) -> dict[str, Any]:
+    """A region's level as JSON holds it: an empty region's (NaN) level as None."""
+    return {**row, "level": row["level"] if row["pixels"] else None}
+
+
+def reference_payload(layers: dict[str, Any], width: int, height: int) -> dict[str, Any]:
+    """The path-traced reference of a view as the page shows it beside its own ``width`` x ``height`` frame of the
+    same camera (the same horizontal field of view): the image (float32 RGB, rows from the top, base64; shown
+    unfiltered), each pixel's region (uint8, 1 + the index in ``regions``, 0 outside them), and per region its
+    level with the standard error (:func:`ssskit.metrics.region_level`: mean(image - specular) / mean(E / pi),
+    the effective albedo) over the rows the page's frame shows (a frame of another aspect crops the reference's
+    rows: ``rows``) and over all of it (``levels_all``). ``layers``: :func:`ssskit.figures.head.cached_reference_layers`."""
+    from ..metrics import region_level
+
+    image = np.asarray(layers["image"], np.float64)
+    h, w = image.shape[:2]
+    # a page pixel's centre (x + 1/2, y + 1/2) is the reference's ((x + 1/2) w / W, h / 2 + (y + 1/2 - H / 2) w / W)
+    half = height / 2 * w / width
+    r0, r1 = max(0, int(math.floor(h / 2 - half))), min(h, int(math.ceil(h / 2 + half)))
+    shown = np.zeros((h, w), bool)
+    shown[r0:r1] = True
+    part = image - np.asarray(layers["specular"], np.float64)
+    e = np.asarray(layers["e_over_pi"], np.float64)
+    se = np.asarray(layers["pixel_se"], np.float64)
+    names = list(layers["masks"])
+    labels = np.zeros((h, w), np.uint8)
+    levels, levels_all = {}, {}
+    for i, name in enumerate(names):
+        m = np.asarray(layers["masks"][name], bool)
+        labels[m] = i + 1
+        levels[name] = _json_level(region_level(part, e, m & shown, se))
+        levels_all[name] = _json_level(region_level(part, e, m, se))
+    return {"size": [w, h], "rows": [r0, r1], "spp": int(layers["spp"]), "converged": bool(layers["converged"]),
+            "driving_region": layers.get("driving_region"), "regions": names, "image": _b64(image, np.float32),
+            "labels": _b64(labels, np.uint8), "levels": levels, "levels_all": levels_all}
 
 
 def _request_body(req: MaterialRequest) -> dict[str, Any]:
@@ -427,5 +467,5 @@ def write_site(out: str | os.PathLike[str], data: dict[str, Any]) -> Path:
 
 __all__ = ["ADAPTIVE_FIELDS", "ADAPTIVE_ORDER", "ARTIST_ETA", "DEFAULT_KERNEL", "DEFAULT_MODEL", "DEFAULT_TAPS", "MESH_SUFFIXES",
            "MaterialRequest", "PAGE_FILES", "PARTS", "PRESETS", "SCENE_NAMES", "adaptive_controls", "check_out",
-           "check_scene", "data_script", "engine_formats", "kernel_taps", "material_payload", "page_data", "page_file", "scene_payload",
+           "check_scene", "data_script", "engine_formats", "kernel_taps", "material_payload", "page_data", "page_file", "reference_payload", "scene_payload",
            "write_site", "write_static"]

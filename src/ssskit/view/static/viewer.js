@@ -617,6 +617,7 @@ void main() {
     fillMaterials();
     redraw();
     notice('');
+    if (refOn) refreshReference();
     await ensureParts();
     return D.materials[key];
   }
@@ -646,7 +647,7 @@ void main() {
     if (v === '__artist__') return;
     if (D.served && missing(v, neededParts()).length) {
       pendingAsk = pendingAsk.then(() => requestMaterial(materialBody(v), v)).catch((err) => notice(String(err)));
-    } else { state.material = v; redraw(); ensure(); }
+    } else { state.material = v; redraw(); ensure(); if (refOn) refreshReference(); }
   });
   $('apply').addEventListener('click', () => {
     const triple = (id) => $(id).value.split(',').map(Number);
@@ -747,6 +748,134 @@ void main() {
     setTimeout(() => URL.revokeObjectURL(url), 10000);
     notice('');
   }
+  // ---- the path-traced reference beside the frame (served mode; the head's views) ------------------------------------
+  // The server answers the cached path trace of a view and preset (ssskit.view.site.reference_payload): its image,
+  // shown unfiltered (one reference pixel, many screen pixels), its regions and their levels with standard errors.
+  // The page's own level per region: mean(albedo x SSS (+ T / pi)) / mean(E / pi) over its pixels that fall in the
+  // region (ssskit.metrics.region_level's effective albedo), from the current frame's float targets.
+  const views = S.views || {};
+  const viewNames = Object.keys(views);
+  const sameCam = (a, b) => ['origin', 'target', 'up'].every((k) => a[k].every((v, i) => Math.abs(v - b[k][i]) < 1e-9)) &&
+    Math.abs(a.fov_x_deg - b.fov_x_deg) < 1e-9;
+  if (viewNames.length) {
+    $('view_label').hidden = false;
+    for (const v of viewNames) $('viewsel').add(new Option(v, v, false, sameCam(views[v], S.camera)));
+    $('viewsel').addEventListener('change', (e) => {
+      S.camera = views[e.target.value];
+      cam.az = 0; cam.el = 0; cam.zoom = 1;
+      redraw();
+      refreshReference();
+    });
+  }
+  if (!D.served) { $('reference').disabled = true; $('reference_label').title = 'served mode only (ssskit view without --out)'; }
+  const refs = {};
+  let refOn = false, levelsFrame = -1;
+  const currentView = () => (viewNames.length ? $('viewsel').value : null);
+  // why the frame and the reference are not of the same view, or '' where they are
+  function moved() {
+    const v = currentView();
+    if (!v) return 'this scene has no named views';
+    if (!sameCam(views[v], S.camera) || cam.az !== 0 || cam.el !== 0 || cam.zoom !== 1)
+      return `the camera moved from the ${v} view: the reference is of that view (choose it again to return)`;
+    if (state.light.az !== 0 || state.light.el !== 0) return "the light turned: the reference is lit by the scene's lights";
+    return '';
+  }
+  async function refreshReference() {
+    refOn = $('reference').checked && D.served;
+    $('refside').hidden = !refOn;
+    if (!refOn) return;
+    const v = currentView();
+    if (!v) { $('refnote').textContent = 'this scene has no path-traced reference (the head has, at its views)'; return; }
+    const key = `${v}/${state.material}`;
+    if (!refs[key]) {
+      $('refnote').textContent = `reading the ${v} view's reference...`;
+      const r = await post('api/reference', { view: v, material: state.material, w: W, h: H });
+      const j = await r.json();
+      refs[key] = r.ok ? j : { error: j.error || r.statusText };
+    }
+    drawReference(refs[key]);
+    levelsFrame = -1;
+    updateLevels();
+  }
+  function drawReference(ref) {
+    const c = $('refimg');
+    if (ref.error) { c.width = 0; $('reflevels').innerHTML = ''; $('refnote').textContent = ref.error; return; }
+    const [w, h] = ref.size;
+    c.width = w; c.height = h;
+    c.style.height = `${H}px`;
+    c.style.width = `${Math.round(H * w / h)}px`;
+    const img = decode(ref.image, Float32Array), px = new ImageData(w, h);
+    for (let i = 0; i < w * h; ++i) {
+      for (let k = 0; k < 3; ++k) {   // the composite's display: Reinhard, then the sRGB encoding
+        let x = img[3 * i + k]; x = x / (1 + x);
+        x = x <= 0.0031308 ? 12.92 * x : 1.055 * Math.pow(x, 1 / 2.4) - 0.055;
+        px.data[4 * i + k] = Math.round(255 * Math.min(1, Math.max(0, x)));
+      }
+      px.data[4 * i + 3] = 255;
+    }
+    c.getContext('2d').putImageData(px, 0, 0);
+  }
+  function readFloat(tex) {
+    const fb = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, tex, 0);
+    const out = new Float32Array(W * H * 4);
+    gl.readPixels(0, 0, W, H, gl.RGBA, gl.FLOAT, out);
+    gl.deleteFramebuffer(fb);
+    return out;
+  }
+  // the page's level per region of ref over the current frame: {name: {pixels, level: [r, g, b]}}
+  function pageLevels(ref) {
+    const [w, h] = ref.size, labels = decode(ref.labels, Uint8Array);
+    const mat = D.materials[state.material], transOn = state.transmission && mat.transmission && !mat.transmission.error;
+    const src = readFloat(G.src), sss = readFloat(result), alb = readFloat(G.albedo), tr = transOn ? readFloat(trans) : null;
+    const sums = ref.regions.map(() => ({ n: 0, out: [0, 0, 0], e: [0, 0, 0] }));
+    for (let yg = 0; yg < H; ++yg) {
+      const y = H - 1 - yg;   // GL's rows count from the bottom, the reference's from the top
+      const row = Math.floor(h / 2 + (y + 0.5 - H / 2) * w / W);
+      if (row < 0 || row >= h) continue;
+      for (let x = 0; x < W; ++x) {
+        const label = labels[row * w + Math.floor((x + 0.5) * w / W)];
+        const i = 4 * (yg * W + x);
+        if (!label || alb[i + 3] === 0) continue;
+        const s = sums[label - 1];
+        s.n += 1;
+        for (let k = 0; k < 3; ++k) {
+          s.out[k] += alb[i + k] * sss[i + k] + (tr ? tr[i + k] / Math.PI : 0);
+          s.e[k] += src[i + k];
+        }
+      }
+    }
+    const out = {};
+    ref.regions.forEach((name, j) => {
+      const s = sums[j];
+      out[name] = { pixels: s.n, level: s.n ? s.out.map((o, k) => o / s.e[k]) : null };
+    });
+    return out;
+  }
+  function updateLevels() {
+    if (!refOn) return null;
+    const ref = refs[`${currentView()}/${state.material}`];
+    if (!ref || ref.error) return null;
+    const why = moved();
+    const mine = why ? null : pageLevels(ref);
+    levelsFrame = frames;
+    const f3 = (a) => (a ? a.map((x) => x.toFixed(3)).join(' ') : '-');
+    const rows = ref.regions.map((name) => {
+      const r = ref.levels[name], p = mine ? mine[name] : null;
+      const se = r.se ? ' \u00b1 ' + r.se.map((x) => x.toFixed(3)).join(' ') : '';
+      return `<tr><td>${name}</td><td>${r.pixels}</td><td>${f3(r.level)}${se}</td><td>${p ? f3(p.level) : '-'}</td></tr>`;
+    });
+    $('reflevels').innerHTML = '<tr><th>region</th><th>px</th><th>path trace (R G B \u00b1 SE)</th><th>this frame</th></tr>' + rows.join('');
+    $('refnote').textContent = `${currentView()} view, ${state.material}: Mitsuba volpathmis, ${ref.spp} spp` +
+      `${ref.converged ? '' : ' (not converged)'}; levels: mean(diffuse out) / mean(E / pi) per region over ` +
+      `the reference rows ${ref.rows[0]}-${ref.rows[1]} this frame shows. The page's G-buffer has no shadows.` +
+      (why ? `\n${why}` : '');
+    return { reference: ref.levels, page: mine, moved: why };
+  }
+  $('reference').addEventListener('change', () => refreshReference().catch((e) => notice(String(e))));
+  setInterval(() => { if (refOn && frames !== levelsFrame) updateLevels(); }, 300);
+
   $('pass').addEventListener('change', (e) => { state.pass = e.target.value; redraw(); ensure(); });
   $('spp').addEventListener('change', (e) => { state.spp = Math.max(1, Math.min(256, parseInt(e.target.value, 10) || 1)); redraw(); });
   $('split').addEventListener('change', (e) => { state.split = e.target.checked; redraw(); });
@@ -789,6 +918,9 @@ void main() {
     set(changes) { Object.assign(state, changes); redraw(); ensure(); },
     // resolves when the server has answered every part the page asked for (served mode)
     ready: () => pendingAsk,
+    // the reference panel: its levels beside the page's of the last frame (after a render), or null
+    referenceLevels: () => updateLevels(),
+    showReference: (on) => { $('reference').checked = on; return refreshReference(); },
     orbit(daz, del) { cam.az += daz; cam.el += del; redraw(); },
     material: requestMaterial,
     shader(kind) { return D.materials[state.material][kind].shader; },
