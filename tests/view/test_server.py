@@ -70,6 +70,7 @@ def test_hostile_requests_each_get_a_4xx_and_the_server_answers_the_next(server)
     p = srv.port
     post = lambda body, **kw: request(p, "POST", "/api/material", body, **kw)  # noqa: E731
     export = lambda body, **kw: request(p, "POST", "/api/export", body, **kw)  # noqa: E731
+    ref = lambda body, **kw: request(p, "POST", "/api/reference", body, **kw)  # noqa: E731
     hostile = [
         lambda: request(p, "GET", "/../../../../etc/passwd"),
         lambda: request(p, "GET", "/%2e%2e/%2e%2e/etc/passwd"),
@@ -119,8 +120,13 @@ def test_hostile_requests_each_get_a_4xx_and_the_server_answers_the_next(server)
         lambda: export(json.dumps({"material": "skin1", "format": "unreal"}), ctype="text/plain"),
         lambda: export("x" * 5000),
         lambda: request(p, "GET", "/api/export"),
+        # the reference: a view of the scene, a preset, the page's size; never a path
+        lambda: ref(json.dumps({"view": "../../etc/passwd", "material": "skin1", "w": 96, "h": 72})),
+        lambda: ref(json.dumps({"view": "front", "material": "/etc/passwd", "w": 96, "h": 72})),
+        lambda: ref(json.dumps({"view": "front", "material": "skin1", "w": 10**9, "h": 72})),
+        lambda: ref(json.dumps({"view": "front", "material": "skin1", "w": 96, "h": 72, "file": "/etc/passwd"})),
     ]
-    assert len(hostile) == 45
+    assert len(hostile) == 49
     before = log.getvalue().count("\n")
     for i, send in enumerate(hostile):
         status, body = send()
