@@ -99,7 +99,7 @@ def parse_material_request(body: Any) -> tuple[MaterialRequest, tuple[str, ...]]
         if not isinstance(j, (int, float)) or isinstance(j, bool) or not math.isfinite(j):
             raise RequestError(400, "jitter must be a finite number")
         kw["jitter"] = float(j)
-    parts = PARTS
+    parts: tuple[str, ...] = PARTS
     if "parts" in body:
         p = body["parts"]
         if not isinstance(p, list) or not p or not all(isinstance(x, str) and x in PARTS for x in p):
