@@ -2,11 +2,8 @@
 the export buttons download the bytes `ssskit export` writes, the adaptive limits are checked with Python's ranges
 before any request and reach the page's shaders, and a preset chosen in the page is computed by the server."""
 import base64
-import io
-import json
 import subprocess
 import sys
-import threading
 
 import numpy as np
 import pytest
@@ -22,22 +19,15 @@ W, H = 160, 120
 @pytest.fixture(scope="module")
 def served():
     """``ssskit view --scene icosphere`` served on a free port (the server's code, in this process), and the page."""
-    from ssskit.view.server import ViewServer
     from ssskit.view.site import MaterialRequest, page_data
+    from tests.view.serving import running
 
-    log = io.StringIO()
-    srv = ViewServer(page_data("icosphere", {"skin1": MaterialRequest("skin1")}, "skin1", served=True), 0, log)
-    thread = threading.Thread(target=srv.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
-    thread.start()
-    try:
-        with headless_page(width=W + 420, height=900) as (pg, plog):
-            pg.goto(srv.url + f"?w={W}&h={H}")
-            pg.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=60_000)
-            pg.evaluate("() => window.ssskit.ready()")
-            yield pg, plog, srv, log
-    finally:
-        srv.shutdown()
-        srv.server_close()
+    data = page_data("icosphere", {"skin1": MaterialRequest("skin1")}, "skin1", served=True)
+    with running(data) as (srv, log), headless_page(width=W + 420, height=900) as (pg, plog):
+        pg.goto(srv.url + f"?w={W}&h={H}")
+        pg.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=60_000)
+        pg.evaluate("() => window.ssskit.ready()")
+        yield pg, plog, srv, log
 
 
 def display(pg):

@@ -4,15 +4,14 @@ against numpy on the page's read-back frame, the reference drawn unfiltered, and
 moved or no reference is cached. The head's real references (docs/head_references.json) where this machine's cache
 holds them."""
 import base64
-import io
 import json
-import threading
 
 import numpy as np
 import pytest
 
 from ssskit.errors import SceneError
 from ssskit.view.browser import browser_available, headless_page
+from tests.view.serving import running
 
 ok, why = browser_available()
 
@@ -95,22 +94,14 @@ def test_the_heads_cached_references_give_the_documented_levels():
 def head_page():
     if not ok:
         pytest.skip(why)
-    from ssskit.view.server import ViewServer
     from ssskit.view.site import MaterialRequest, page_data
 
-    log = io.StringIO()
-    srv = ViewServer(page_data("head", {"skin1": MaterialRequest("skin1")}, "skin1", served=True), 0, log,
-                     references=synthetic_layers)
-    threading.Thread(target=srv.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True).start()
-    try:
-        with headless_page(width=W + 900, height=900) as (pg, plog):
-            pg.goto(srv.url + f"?w={W}&h={H}")
-            pg.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=120_000)
-            pg.evaluate("() => window.ssskit.ready()")
-            yield pg, plog, srv
-    finally:
-        srv.shutdown()
-        srv.server_close()
+    data = page_data("head", {"skin1": MaterialRequest("skin1")}, "skin1", served=True)
+    with running(data, synthetic_layers) as (srv, _), headless_page(width=W + 900, height=900) as (pg, plog):
+        pg.goto(srv.url + f"?w={W}&h={H}")
+        pg.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=120_000)
+        pg.evaluate("() => window.ssskit.ready()")
+        yield pg, plog, srv
 
 
 def read(pg, name):
@@ -178,7 +169,6 @@ def test_the_reference_route_answers_the_levels_or_says_why_not():
     reference and a scene without references each get a 404 naming why, and one logged line."""
     import http.client
 
-    from ssskit.view.server import ViewServer
     from ssskit.view.site import reference_payload
 
     def ask(srv, body):
@@ -190,10 +180,7 @@ def test_the_reference_route_answers_the_levels_or_says_why_not():
     data = {"scene": {"views": {"front": {}, "ear": {}}}}
     for references, cases in ((synthetic_layers, ((("front", "skin1"), 200), (("ear", "marble"), 404))),
                               (None, ((("front", "skin1"), 404),))):
-        log = io.StringIO()
-        srv = ViewServer(data, 0, log, references=references)
-        threading.Thread(target=srv.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True).start()
-        try:
+        with running(data, references) as (srv, log):
             for (view, material), status in cases:
                 got_status, got = ask(srv, {"view": view, "material": material, "w": W, "h": H})
                 assert got_status == status, got
@@ -203,6 +190,3 @@ def test_the_reference_route_answers_the_levels_or_says_why_not():
                     assert ("no path-traced reference" in got["error"] if references else
                             "has no path-traced references" in got["error"])
             assert log.getvalue().count("\n") == sum(s != 200 for _, s in cases)
-        finally:
-            srv.shutdown()
-            srv.server_close()

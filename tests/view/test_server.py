@@ -1,32 +1,25 @@
 """The viewer's local server: hostile requests get a 4xx and a logged line and the server keeps serving; only the
 page's files are served; a material change computes the kernel `ssskit kernel` writes; Ctrl-C exits 130."""
 import http.client
-import io
 import json
 import os
 import signal
 import socket
 import subprocess
 import sys
-import threading
 import time
 
 import numpy as np
 import pytest
 
-from ssskit.view.server import ViewServer, serve
 from ssskit.view.site import MaterialRequest, page_data
+from tests.view.serving import running
 
 
 @pytest.fixture(scope="module")
 def server():
-    log = io.StringIO()
-    srv = ViewServer(page_data("icosphere", {"skin1": MaterialRequest("skin1")}, "skin1", served=True), 0, log)
-    thread = threading.Thread(target=srv.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
-    thread.start()
-    yield srv, log
-    srv.shutdown()
-    srv.server_close()
+    with running(page_data("icosphere", {"skin1": MaterialRequest("skin1")}, "skin1", served=True)) as (srv, log):
+        yield srv, log
 
 
 def raw(port, data: bytes) -> tuple[int, bytes]:

@@ -815,6 +815,7 @@ void main() {
     }
     c.getContext('2d').putImageData(px, 0, 0);
   }
+  // a float target's texels, float32 RGBA, GL's rows (bottom first)
   function readFloat(tex) {
     const fb = gl.createFramebuffer();
     gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
@@ -933,13 +934,7 @@ void main() {
     // history (the adaptive history after the last frame)
     read(name) {
       const tex = name === 'result' ? result : name === 'history' ? hist[ad.cur] : name === 'transmission' ? trans : G[name];
-      const fb = gl.createFramebuffer();
-      gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
-      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, tex, 0);
-      const out = new Float32Array(W * H * 4);
-      gl.readPixels(0, 0, W, H, gl.RGBA, gl.FLOAT, out);
-      gl.deleteFramebuffer(fb);
-      return toBase64(new Uint8Array(out.buffer));
+      return toBase64(new Uint8Array(readFloat(tex).buffer));
     },
     // the sample counts the last adaptive frame used (used) or the next frame's (next), base64 int32, GL's rows
     readCounts(which) {
