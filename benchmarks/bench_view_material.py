@@ -12,9 +12,14 @@ machine's cache holds them, stated per run by ``disk_cache``) answers:
 * ``again``: the material asked a second time with every part (a preset shown before: the in-memory cache).
 
 ``--mode full`` alone runs against a server without parts (the code before them: ``PYTHONPATH=OLD/src``).
-Prints one JSON object with the load average before and after.
+``--browser`` adds the page's side: the served bust in headless Chromium (SwiftShader) at ``--size``, each preset
+chosen in the page's material list, the seconds until the first frame with the new material is drawn
+(``frame``: the server's answer, the new shaders compiled, one frame) and until the frame with its transmittance
+pass (``transmission``), with a fresh server (no warm-up: the worst case). Prints one JSON object with the load
+average before and after.
 
     python benchmarks/bench_view_material.py [--mode all|full] [--presets skin2 marble ketchup apple]
+                                             [--browser] [--size 960x540]
 """
 
 from __future__ import annotations
@@ -68,10 +73,51 @@ def worker(mode: str, material: dict) -> dict:
     return {k: round(s, 3) for k, (_, s) in out.items()}
 
 
+#: the page's side of a material change: choose ``name`` in the list, wait for the frames (resolves to seconds)
+CHANGE_JS = """async (name) => {
+  const S = window.ssskit, D = window.SSSKIT_DATA, sel = document.getElementById('material');
+  const next = (ok) => new Promise((done) => { const f = () => (ok() ? done() : requestAnimationFrame(f)); f(); });
+  const t0 = performance.now();
+  sel.value = name;
+  sel.dispatchEvent(new Event('change'));
+  await next(() => S.drawn().material === name);
+  const frame = (performance.now() - t0) / 1000;
+  await next(() => S.drawn().material === name && S.drawn().transmission);
+  return [frame, (performance.now() - t0) / 1000];
+}"""
+
+
+def browser_times(presets: list[str], width: int, height: int) -> dict:
+    """Seconds from choosing each preset in the served bust's page to its first frame and to its frame with the
+    transmittance pass (a fresh server, no warm-up)."""
+    from ssskit.view.browser import headless_page
+    from ssskit.view.server import ViewServer
+    from ssskit.view.site import MaterialRequest, page_data
+
+    srv = ViewServer(page_data("bust", {"skin1": MaterialRequest("skin1")}, "skin1", served=True), 0, io.StringIO())
+    threading.Thread(target=srv.serve_forever, daemon=True).start()
+    out = {}
+    try:
+        with headless_page(width=width + 420, height=max(height, 900)) as (page, log):
+            page.goto(srv.url + f"?w={width}&h={height}")
+            page.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=120_000)
+            page.evaluate("() => window.ssskit.ready()")
+            for name in presets:
+                frame, trans = page.evaluate(CHANGE_JS, name)
+                out[name] = {"frame": round(frame, 3), "transmission": round(trans, 3)}
+            log.check()
+    finally:
+        srv.shutdown()
+        srv.server_close()
+    return out
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--mode", choices=("all", "full"), default="all")
     ap.add_argument("--presets", nargs="+", default=["skin2", "marble", "ketchup", "apple"])
+    ap.add_argument("--browser", action="store_true")
+    ap.add_argument("--size", default="960x540")
     ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.worker is not None:
@@ -98,6 +144,11 @@ def main(argv: list[str] | None = None) -> dict:
            "seconds_per_request": rows, "disk_cache": str(cache_root()),
            "machine": {"cpus": os.cpu_count(), "platform": platform.platform(), "load_avg_before": load0,
                        "load_avg_after": os.getloadavg()}}
+    if args.browser:
+        w, _, h = args.size.partition("x")
+        out["seconds_in_the_page"] = {"size": args.size, "renderer": "swiftshader",
+                                      **browser_times(args.presets, int(w), int(h))}
+        out["machine"]["load_avg_after"] = os.getloadavg()
     print(json.dumps(out, indent=1))
     return out
 

@@ -542,6 +542,7 @@ void main() {
     timing.frame_ms = performance.now() - t0;
     timing.fx = m.fx; timing.fy = m.fy;
     frames += 1;
+    drawn = { material: state.material, transmission: transOn, frame: frames };
     const lines = Object.entries(timing.passes).map(([k, v]) => `${k.padEnd(10)} ${v.toFixed(2)} ms`);
     $('stats').textContent = `${W}x${H}, ${S.triangles} triangles\nframe ${timing.frame_ms.toFixed(1)} ms (` +
       `${(1000 / timing.frame_ms).toFixed(1)} fps, wall time to a finished readback)\n` + lines.join('\n') + `\nper pass: ${timing.mode}` +
@@ -550,6 +551,7 @@ void main() {
   }
 
   let frames = 0, dirty = true;
+  let drawn = null;   // what the last frame showed: its material, whether with the transmittance pass
   function loop() {
     if (state.pass === 'adaptive' && state.auto && ad.frame < state.frames) dirty = true;
     if (dirty && state.auto) {
@@ -917,6 +919,8 @@ void main() {
     render,
     frames: () => frames,
     set(changes) { Object.assign(state, changes); redraw(); ensure(); },
+    state: () => JSON.parse(JSON.stringify(state)),
+    drawn: () => drawn,
     // resolves when the server has answered every part the page asked for (served mode)
     ready: () => pendingAsk,
     // the reference panel: its levels beside the page's of the last frame (after a render), or null
