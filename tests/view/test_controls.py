@@ -114,3 +114,4 @@ def test_adaptive_limits_are_checked_with_pythons_ranges_and_reach_the_shaders(s
     assert status(pg) == ""
     pg.select_option("#pass", "separable")
     plog.check()
+

@@ -624,9 +624,8 @@ void main() {
     return D.materials[key];
   }
   async function ensureParts() {
-    if (!D.served) return;
     const key = state.material;
-    for (const parts of [neededParts(), state.transmission ? ['transmission'] : []]) {
+    for (const parts of D.served ? [neededParts(), state.transmission ? ['transmission'] : []] : []) {
       const want = missing(key, parts);
       if (!want.length) continue;
       notice(`computing ${want.join(', ')}...`);
@@ -918,7 +917,16 @@ void main() {
     size: [W, H],
     render,
     frames: () => frames,
-    set(changes) { Object.assign(state, changes); redraw(); ensure(); },
+    set(changes) {
+      const { material, ...rest } = changes;
+      Object.assign(state, rest);
+      // a served page asks the server for a material it does not hold yet (ready() resolves when it is drawn)
+      if (material !== undefined && !D.materials[material] && D.served) {
+        pendingAsk = pendingAsk.then(() => requestMaterial(materialBody(material), material)).catch((e) => notice(String(e)));
+      } else if (material !== undefined) state.material = material;
+      redraw();
+      ensure();
+    },
     state: () => JSON.parse(JSON.stringify(state)),
     drawn: () => drawn,
     // resolves when the server has answered every part the page asked for (served mode)
