@@ -7,13 +7,15 @@ Safe by construction:
   DNS rebinding;
 * it serves the page's own files by name (:data:`ssskit.view.site.PAGE_FILES` and the generated ``data.js``),
   nothing read from a path taken from the request, so no traversal can reach another file;
-* two API routes, each a JSON object of at most :data:`MAX_BODY` bytes naming a preset (never a file: the API
+* three API routes, each a JSON object of at most :data:`MAX_BODY` bytes naming a preset (never a file: the API
   reads no user path) or artists' terms, every value checked before any work: ``POST /api/material`` (with the
   separable pass's options, the adaptive guide's limits and the parts asked: :class:`ssskit.view.site.MaterialRequest`,
   :func:`~ssskit.view.site.material_payload`) answers the page's data; ``POST /api/export`` (an engine format of
   :data:`ssskit.export.FORMATS` and one of its suffixes) writes the engine file through :func:`ssskit.export.export`
   (the code of ``ssskit export``) into a temporary folder of its own and answers its bytes as a download
-  (``Content-Disposition: attachment``): it never writes to a path the request names;
+  (``Content-Disposition: attachment``): it never writes to a path the request names; ``POST /api/reference`` (a
+  view of the scene, a preset, the page's size) answers the cached path trace of that view beside the page's frame
+  (:func:`~ssskit.view.site.reference_payload`, from the ``references`` the CLI gives: the head's), never rendering one;
 * a malformed or hostile request gets a 4xx with a JSON error and one logged line, and the server keeps serving.
 """
 
