@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Protocol, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .plan import DEPTH_MODES, SeparablePlan, check_frame_values, check_integer_slots, check_real, check_slot_range
+from .plan import DEPTH_MODES, SeparablePlan, check_frame_values, check_image, check_slot_range
 
 if TYPE_CHECKING:
     from .adaptive_plan import AdaptivePlan
@@ -201,12 +201,7 @@ class AdaptiveRunner:
         (H, W) (the caller's disocclusion test; None: everywhere); runs the *estimate* for the frame.
         ``estimate=False`` skips it (a fixed count, or the caller's own): :meth:`set_counts` must follow
         before :meth:`sample`."""
-        slots = np.asarray(slots)
-        if slots.shape != self.shape:
-            from ..errors import PassError
-
-            raise PassError(f"the frame is {slots.shape[1]}x{slots.shape[0]} but the history is "
-                            f"{self.shape[1]}x{self.shape[0]}")
+        slots = check_image("the frame's slots", slots, self.shape, "iu")
         self._frame = (np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
         self._motion, self._valid = motion, valid
         self._counts = None
@@ -330,36 +325,24 @@ def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
 
 def _checked_counts(counts: ArrayLike, shape: tuple[int, int]) -> NDArray[np.int64]:
     """An (H, W) integer count image as int64 (values in the Burley pass's range), or a PassError."""
-    from ..errors import PassError
     from .burley_plan import check_counts
 
-    if np.ndim(counts) != 2:
-        raise PassError(f"the sample counts must be an (H, W) = {tuple(shape)} integer image, got {np.shape(counts)}")
-    return np.array(check_counts(counts, shape), np.int64)
+    return np.array(check_counts(check_image("the sample counts", counts, shape, "iu"), shape), np.int64)
 
 
 def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, plan: SlotPlan,
                 values: bool = True, slot_range: bool = True) -> None:
-    """Shapes, types and slot range of the separable (or Burley) pass's inputs, or a precise error; with
-    ``values`` also that every colour is finite and every pixel with SSS has a positive finite depth (a
-    backend may check those, and the slot range with ``slot_range=False``, in its own pass over the frame).
-    ``diffuse`` and ``depth_mm`` may be any real array-like (the backend converts them); ``slots`` must be an
-    integer image (a float image is refused, never rounded)."""
-    from ..errors import PassError
-
-    if np.ndim(depth_mm) != 2 or np.shape(diffuse) != tuple(np.shape(depth_mm)) + (3,):
-        raise PassError(f"diffuse must be (H, W, 3) and depth (H, W) of the same size, got {np.shape(diffuse)} "
-                        f"and {np.shape(depth_mm)}")
-    if np.shape(slots) != np.shape(depth_mm):
-        raise PassError(f"slots must be (H, W) like depth, got {np.shape(slots)}")
-    check_integer_slots(slots)
+    """Shapes, types and slot range of the separable (or Burley) pass's inputs (real ``diffuse`` (H, W, 3) and
+    ``depth_mm`` (H, W) of any array-like, an integer ``slots`` image: a float one is refused, never rounded), or
+    a PassError; with ``values`` also that every colour is finite and every pixel with SSS has a positive finite
+    depth (a backend may check those, and the slot range with ``slot_range=False``, in its own pass)."""
+    h, w = check_image("depth", depth_mm).shape
+    check_image("diffuse", diffuse, (h, w, 3))
+    check_image("slots", slots, (h, w), "iu")
     if slot_range:
         check_slot_range(slots, plan.slots)
-    if not values:
-        return
-    check_real("diffuse", diffuse)
-    check_real("depth", depth_mm)
-    check_frame_values(diffuse, depth_mm, slots)
+    if values:
+        check_frame_values(diffuse, depth_mm, slots)
 
 
 def check_burley_frame(plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,

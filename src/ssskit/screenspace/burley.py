@@ -32,11 +32,11 @@ import numpy as np
 
 from ..backends import BACKENDS, DEFAULT_BACKEND, get_backend
 from ..backends.burley_plan import (
-    C_RANGE,
-    MAX_SPP,
-    SAMPLERS,
+    BURLEY_SPP,
+    SAMPLER,
     SEQUENCES,
     XIE_C,
+    XIE_C_RANGE,
     XIE_MIP_SCALE,
     BurleyParams,
     BurleyPlan,
@@ -54,11 +54,8 @@ if TYPE_CHECKING:
     from ..materials import Material
 
 
-#: the Burley sampler (Xie 2020 Sec. 4.2), its samples per pixel, Eq. 21's damping c, the backend: quantities
-#: the pipeline's settings declare too
-SAMPLER = Choice("sampler", SAMPLERS)
-BURLEY_SPP = Quantity("spp", 1, MAX_SPP, "", "samples per pixel of the Burley pass", integer=True)
-XIE_C_RANGE = Quantity("c", C_RANGE[0], C_RANGE[1], "", "Eq. 21's damping (Xie 2020)", lo_open=True, hi_open=True)
+#: the backend (the sampler, spp and c: ssskit.backends.burley_plan's quantities): what the pipeline's settings
+#: declare too
 BACKEND = Choice("backend", BACKENDS.names)
 
 
