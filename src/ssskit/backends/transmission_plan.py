@@ -57,7 +57,6 @@ t = z - D, which carries the rounding of D (about one ulp of the depths, not of 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 

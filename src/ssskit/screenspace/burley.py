@@ -45,7 +45,7 @@ from ..backends.burley_plan import (
 )
 from ..backends.plan import profile_ids
 from ..errors import GBufferError, PassError
-from ..quantities import FRACTION, FRAME, SCALE, SEED, Choice, Flag, Quantity
+from ..quantities import FRACTION, FRAME, SCALE, SEED, Choice, Flag
 from ..settings import Settings, setting
 from .gbuffer import GBuffer
 
