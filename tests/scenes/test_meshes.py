@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -359,7 +360,7 @@ def _nan_mesh() -> Mesh:
 @pytest.mark.parametrize("suffix", SUFFIXES)
 def test_nan_vertices_are_refused(tmp_path, suffix):
     path = write_mesh(tmp_path / f"nan{suffix}", _nan_mesh())
-    with pytest.raises(SceneError, match="NaN or infinite vertex positions"):
+    with pytest.raises(SceneError, match=r"vertex positions must be finite, got NaN or inf"):
         resolve_scene(str(path), units="mm")
 
 
@@ -481,7 +482,7 @@ def test_a_ply_face_index_out_of_range_is_one_error_line_not_a_crash(tmp_path, f
     lines = [line for line in proc.stderr.splitlines() if not line.startswith("  ... still working")]
     assert len(lines) == 1 and "face indices must lie in [0, 2]" in lines[0], proc.stderr
     assert not (tmp_path / "o.png").exists()
-    with pytest.raises(SceneError, match=rf"face indices must lie in \[0, 2\], found {min(index, 0)} to {max(index, 1)}"):
+    with pytest.raises(SceneError, match=re.escape(f"face indices must lie in [0, 2], got {float(index):g} in 1 of 3 indices")):
         read_mesh(path)
 
 
