@@ -354,3 +354,16 @@ def check_fields(table: Any, fields: dict[str, Quantity | Choice | Flag], where:
 
 
 __all__ += ["check_shape", "check_fields", "check_keys"]
+
+
+def check_instance(value: Any, kind: type | tuple[type, ...], name: str, error: ErrorClass = SsskitError,
+                   optional: bool = False) -> Any:
+    """``value`` if it is a ``kind`` (``optional``: or None), else ``error`` in the type wording: ``burley must be
+    BurleySettings, got dict``."""
+    if (optional and value is None) or isinstance(value, kind):
+        return value
+    names = " or ".join(k.__name__ for k in (kind if isinstance(kind, tuple) else (kind,)))
+    raise fail(error, TYPE, name=name, kind=names, actual=type(value).__name__)
+
+
+__all__ += ["check_instance"]
