@@ -6,11 +6,15 @@ from __future__ import annotations
 from ...errors import ProfileError
 from ...materials import CHANNELS, LayeredMaterial, Material
 from ...progress import add_to_total
+from ...quantities import Quantity
 from ..domain import check_montecarlo
 from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, SUPPLEMENT_GRID_MFP, channel_seed, config_for_material
 from .result import MCResult
 from .run import photons_bar, simulate
 
+
+#: the share of the supplement's grid a sweep simulates
+GRID_FRACTION = Quantity("grid fraction", 0.0, 1.0, "", "a share of the supplement's grid", lo_open=True, hi_open=True)
 
 def simulate_material(material: Material | LayeredMaterial, channels: str = "all", *, photons: int = DEFAULT_PHOTONS,
                       seed: int = 1, threads: int | None = None, progress: bool | None = None, resume: bool = False,
@@ -37,8 +41,8 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
     for ch in wanted:
         if ch not in CHANNELS:
             raise ProfileError(f"channel must be R, G, B or all, got {channels!r}")
-    if grid_fraction is not None and not (isinstance(grid_fraction, (int, float)) and 0 < grid_fraction < 1):
-        raise ProfileError(f"grid fraction must lie in (0, 1), got {grid_fraction!r}")
+    if grid_fraction is not None:
+        GRID_FRACTION.check(grid_fraction, "grid fraction", ProfileError)
     if progress is None:
         from ...progress import reporting_active
 
