@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import KernelError, SamplingError
+from ..quantities import FRACTION, LENGTH_MM, check_finite
 
 if TYPE_CHECKING:  # imported where used: taps load without the kernels package
     from ..kernels.base import AnyKernel, Kernel
@@ -66,8 +67,8 @@ class SeparableTaps:
         if w.shape != o.shape + (3,) or s.shape != (o.shape[0], 3):
             raise SamplingError(f"taps need offsets (R, N), weights (R, N, 3), signs (R, 3); got "
                                 f"{o.shape}, {w.shape}, {s.shape}")
-        if not (np.all(np.isfinite(o)) and np.all(np.isfinite(w))):
-            raise SamplingError("tap offsets and weights must be finite")
+        check_finite(o, "tap offsets", SamplingError)
+        check_finite(w, "tap weights", SamplingError)
         if not np.all(np.abs(s) == 1):
             raise SamplingError("tap signs must be +-1")
         order = np.argsort(np.abs(o), axis=1, kind="stable")
@@ -75,8 +76,7 @@ class SeparableTaps:
         w = np.take_along_axis(w, order[..., None], axis=1)
         for name, val in (("offsets_mm", o), ("weights", w), ("signs", s)):
             object.__setattr__(self, name, np.ascontiguousarray(val))
-        if not (np.isfinite(self.extent_mm) and self.extent_mm > 0):
-            raise SamplingError(f"tap extent must be positive, got {self.extent_mm!r}")
+        LENGTH_MM.check(self.extent_mm, "tap extent", SamplingError)
 
     @property
     def rank(self) -> int:
@@ -102,8 +102,7 @@ class SeparableTaps:
         The radius is ``jitter`` times the kernel size, the full span 2 * extent_mm of the taps
         (the paper: "closer than 10% of the kernel size").
         """
-        if not (0.0 <= jitter <= 1.0):
-            raise SamplingError(f"jitter radius must be a fraction of the kernel size in [0, 1], got {jitter!r}")
+        FRACTION.check(jitter, "jitter radius (a fraction of the kernel size)", SamplingError)
         if jitter == 0:
             return 0
         return int(np.max(np.sum(np.abs(self.offsets_mm) <= jitter * 2.0 * self.extent_mm + 1e-12, axis=1)))

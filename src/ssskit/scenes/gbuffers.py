@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
+from ..quantities import REFLECTANCE
 from ..screenspace.gbuffer import GBuffer
 from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, SceneSpec, check_size, check_spp, get_scene, render_dict,
                      scene_camera, scene_dict)
@@ -67,8 +68,7 @@ def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float | Array
     check_spp(spp)
     n = len(spec.sss_shapes)
     alb = _per_shape("albedo", albedo, n, (3,))
-    if not np.all(np.isfinite(alb)) or np.any(alb < 0) or np.any(alb > 1):
-        raise SceneError(f"albedo must lie in [0, 1], got {alb.tolist() if n > 1 else alb[0].tolist()}")
+    REFLECTANCE.check_array(alb, "albedo", SceneError)
     if isinstance(eta, bool):
         raise SceneError(f"eta must be a positive refractive index, got {eta!r}")
     etas = _per_shape("eta", eta, n, ())
