@@ -45,6 +45,10 @@ from ..cache import cache_dir, cache_file
 from ..errors import SceneError
 from ..io import atomic_output, progress_bar
 from ..materials import Material
+from ..quantities import CHOICE, FRAME, REFLECTANCE, REL_SE, SEED, Quantity, fail
+
+#: the path tracer's longest path (Mitsuba's max_depth): at least the camera's ray
+MAX_DEPTH = Quantity("max_depth", 1, 2**31 - 1, "", "bounces of a path, the camera's ray the first", integer=True)
 from .scenes import COAT_ROUGHNESS, SceneSpec, check_size, check_spp, get_scene, mitsuba, scene_dict
 from .mitsuba_variant import interruptible_render
 
@@ -263,16 +267,11 @@ def shape_materials(spec: SceneSpec, material: Any) -> tuple[Any, ...]:
 
 
 def _check_options(max_depth: int, seed: int, frame: int, boundary: str, surround_albedo: float) -> None:
-    if isinstance(max_depth, bool) or not (isinstance(max_depth, (int, np.integer)) and max_depth >= 1):
-        raise SceneError(f"max_depth must be a positive integer, got {max_depth!r}")
-    if isinstance(seed, bool) or not (isinstance(seed, (int, np.integer)) and seed >= 0):
-        raise SceneError(f"seed must be a non-negative integer, got {seed!r}")
-    if isinstance(frame, bool) or not (isinstance(frame, (int, np.integer)) and frame >= 0):
-        raise SceneError(f"frame must be a non-negative integer, got {frame!r}")
-    if boundary not in BOUNDARIES:
-        raise SceneError(f"boundary must be one of {', '.join(BOUNDARIES)}, got {boundary!r}")
-    if not (isinstance(surround_albedo, (int, float, np.floating)) and 0.0 <= surround_albedo <= 1.0):
-        raise SceneError(f"surround_albedo must lie in [0, 1], got {surround_albedo!r}")
+    for name, value, q in (("max_depth", max_depth, MAX_DEPTH), ("seed", seed, SEED), ("frame", frame, FRAME),
+                           ("surround_albedo", surround_albedo, REFLECTANCE)):
+        q.check(value, name, SceneError)
+    if boundary not in BOUNDARIES:  # (exactly: the name keys the cache)
+        raise fail(SceneError, CHOICE, name="boundary", choices=", ".join(BOUNDARIES), actual=repr(boundary))
 
 
 def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) -> np.ndarray:
@@ -318,8 +317,7 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
     check_spp(max_spp)
     if max_spp < spp:
         raise SceneError(f"the spp budget ({max_spp}) is below the minimum spp ({spp})")
-    if not (isinstance(target_rel_se, (int, float, np.floating)) and 0 < target_rel_se < 1):
-        raise SceneError(f"target relative standard error must lie in (0, 1), got {target_rel_se!r}")
+    REL_SE.check(target_rel_se, "target relative standard error", SceneError)
     _check_options(max_depth, seed, frame, boundary, surround_albedo)
     check_reference_scene(spec)
     mats = shape_materials(spec, material)
