@@ -117,7 +117,7 @@ def test_entry_point_checks():
     p = BurleyParams.from_dmfp(0.5, 1.0)
     with pytest.raises(PassError, match="no Burley parameters given for profile id 1"):
         burley_sss(gb, {2: p})
-    with pytest.raises(PassError, match="BurleyParams or a mapping"):
+    with pytest.raises(PassError, match="Burley parameters must be BurleyParams or Mapping, got list"):
         burley_sss(gb, [p])
     with pytest.raises(PassError, match=r"sample-count image must be an integer array of shape \(20, 24\), got shape \(24, 20\)"):
         burley_sss(gb, p, counts=np.ones((24, 20), np.int64))

@@ -26,7 +26,7 @@ the two 1D passes of term r is multiplied by ``sign[s]`` and the terms are summe
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
-from ..quantities import LENGTH_MM, TYPE, Quantity, check_choice, check_finite, check_shape, fail
+from ..quantities import LENGTH_MM, TYPE, Quantity, check_choice, check_finite, check_instance, check_shape, fail
 
 #: depth factor f(d_z) of the pass: exp(-d_z^2 p) with p = 1 / (2 tau_max) (supplement E),
 #: max(0, 1 - |d_z| p) with p = 1 / width (follow-surface test), or 1 (no depth test)
@@ -92,6 +92,20 @@ def check_plan_ids(by_id: Any, kind: type, fx: float | None = None, fy: float | 
         if not isinstance(value, kind):
             raise fail(PassError, TYPE, name=f"profile id {pid}", kind=f"a {kind.__name__}", actual=type(value).__name__)
     return tuple(sorted(int(i) for i in by_id))
+
+
+def per_id(given: Any, kind: type, ids: Iterable[int], what: str) -> dict[int, Any]:
+    """A pass's parameters per profile id: ``given`` (one ``kind`` for every id, or a mapping profile id ->
+    ``kind``) for each of ``ids``; a PassError naming the id whose ``what`` is missing or of another kind."""
+    if isinstance(given, kind):
+        return {int(i): given for i in ids}
+    check_instance(given, (kind, Mapping), f"the pass's {what}", PassError)
+    out = {int(i): given.get(int(i)) for i in ids}
+    for i, value in out.items():
+        if value is None:
+            raise PassError(f"no {what} given for profile id {i}")
+        check_instance(value, kind, f"{what} for profile id {i}", PassError)
+    return out
 
 
 def check_light_view(plan_slots: int, slots: ArrayLike, light_uvz: ArrayLike, shadow_mm: ArrayLike,

@@ -43,9 +43,9 @@ from ..backends.burley_plan import (
     SampleCounts,
     build_burley_plan,
 )
-from ..backends.plan import profile_ids
+from ..backends.plan import per_id, profile_ids
 from ..errors import GBufferError, PassError
-from ..quantities import FRACTION, FRAME, SCALE, SEED, Choice, Flag
+from ..quantities import FRACTION, FRAME, SCALE, SEED, Choice, Flag, check_instance
 from ..settings import Settings, setting
 from .gbuffer import GBuffer
 
@@ -98,27 +98,12 @@ def burley_params_for_material(material: Material | str, configuration: str = "s
 
 
 def _settings(settings: BurleySettings | None, overrides: dict[str, Any]) -> BurleySettings:
-    base = BurleySettings() if settings is None else settings
-    if not isinstance(base, BurleySettings):
-        raise PassError(f"settings must be BurleySettings, got {type(base).__name__}")
+    base = check_instance(BurleySettings() if settings is None else settings, BurleySettings, "settings", PassError)
     return base.replace(**overrides) if overrides else base
 
 
 def _params_by_id(params: BurleyParams | Mapping[int, BurleyParams], ids: Iterable[int]) -> dict[int, BurleyParams]:
-    if isinstance(params, BurleyParams):
-        return {int(i): params for i in ids}
-    if not isinstance(params, Mapping):
-        raise PassError(f"the Burley pass needs BurleyParams or a mapping profile id -> BurleyParams, got "
-                        f"{type(params).__name__}")
-    out = {}
-    for i in ids:
-        p = params.get(int(i))
-        if p is None:
-            raise PassError(f"no Burley parameters given for profile id {int(i)}")
-        if not isinstance(p, BurleyParams):
-            raise PassError(f"parameters for profile id {int(i)} must be BurleyParams, got {type(p).__name__}")
-        out[int(i)] = p
-    return out
+    return per_id(params, BurleyParams, ids, "Burley parameters")
 
 
 def burley_plan_for(params: BurleyParams | Mapping[int, BurleyParams], ids: Iterable[int], fx: float, fy: float, settings: BurleySettings) -> BurleyPlan:
@@ -148,8 +133,7 @@ def burley_sss(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, Burle
     ``counts``: an optional (H, W) integer image of samples per pixel (the adaptive sampler's), used
     instead of ``settings.spp``. Pixels without SSS keep their diffuse value.
     """
-    if not isinstance(gbuffer, GBuffer):
-        raise GBufferError(f"expected a GBuffer, got {type(gbuffer).__name__}")
+    check_instance(gbuffer, GBuffer, "gbuffer", GBufferError)
     s = _settings(settings, overrides)
     backend = burley_backend(s.backend)
     ids = profile_ids(gbuffer.profile_id)
