@@ -321,18 +321,18 @@ def check_shape(values: Any, name: str, shape: tuple[int | str, ...], error: Err
     return a if dtype is None else a.astype(dtype, copy=False)
 
 
-def check_keys(table: object, where: str, allowed: Collection[str], required: Collection[str] = (),
+def check_keys(table: object, where: str, allowed: Collection[str] | None = None, required: Collection[str] = (),
                error: ErrorClass = SsskitError) -> Any:
-    """``table`` (a mapping: a TOML or JSON table) with no key outside ``allowed`` and every one of ``required``;
-    else ``error``: ``{where}: unknown key(s) a, b (known: ...)``, ``{where}: missing a, b`` or ``{where} must be
-    a table``."""
+    """``table`` (a mapping: a TOML or JSON table) with no key outside ``allowed`` (None: any key) and every one of
+    ``required``; else ``error``: ``{where}: unknown key(s) a, b (known: ...)``, ``{where}: missing a, b`` or
+    ``{where} must be a table``."""
     from collections.abc import Mapping
 
     if not isinstance(table, Mapping):
         raise fail(error, TYPE, name=where, kind="a table", actual=_fmt(table))
-    unknown = sorted(str(k) for k in table if k not in allowed)
+    unknown = [] if allowed is None else sorted(str(k) for k in table if k not in allowed)
     if unknown:
-        raise error(f"{where}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(allowed))})")
+        raise error(f"{where}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(allowed or ()))})")
     missing = [k for k in required if k not in table]
     if missing:
         raise error(f"{where}: missing {', '.join(missing)}")

@@ -59,7 +59,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
-from ..quantities import CHOICE, TYPE, Quantity, check_fields, check_keys, check_shape, fail
+from ..quantities import CHOICE, TYPE, Flag, Quantity, check_choice, check_fields, check_keys, check_shape, fail
 from ..io import parse_document
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
 from .scenes import SCENES, SceneSpec, _T, _ply, check_size
@@ -212,20 +212,11 @@ def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[st
 def check_units(units: str | Sequence[str] | None) -> str | None:
     """One unit name of :data:`UNITS_MM`, or None; a SceneError for an unknown unit or for several
     different ones (``--units`` given twice)."""
-    if units is None:
-        return None
-    values = [units] if isinstance(units, str) else list(units) if isinstance(units, (list, tuple)) else [units]
-    if not values:
-        return None
-    norm = []
-    for u in values:
-        key = u.strip().lower() if isinstance(u, str) else None  # a TOML number or table is no unit name
-        if key not in UNITS_MM:
-            raise SceneError(f"unknown units {u!r} (known: {', '.join(UNITS_MM)})")
-        norm.append(key)
+    values = [] if units is None else list(units) if isinstance(units, (list, tuple)) else [units]
+    norm = [check_choice("units", u, UNITS_MM, SceneError) for u in values]  # (a TOML number is no unit name)
     if len(set(norm)) > 1:
         raise SceneError(f"conflicting units: {', '.join(norm)} (give --units once)")
-    return norm[0]
+    return norm[0] if norm else None
 
 
 def _units_note(source: str, unit: str, assumed: bool, diameter_mm: float) -> str:
@@ -391,16 +382,15 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     """
     _keys(source, doc, {"name", "description", "units", "camera", "shapes", "lights", "orbit_deg_per_frame",
                         "light_orbit_deg_per_frame", "lit_from_behind", "views"}, {"shapes"})
-    if not isinstance(doc.get("lit_from_behind", False), bool):
-        raise SceneError(f"{source}: lit_from_behind must be true or false, got {doc['lit_from_behind']!r}")
+    Flag("lit_from_behind").check(doc.get("lit_from_behind", False), f"{source}: lit_from_behind", SceneError)
     check_size(width, height)
     cli_units = check_units(units)
     doc_units = check_units(doc.get("units"))
     if cli_units and doc_units and cli_units != doc_units:
         raise SceneError(f"conflicting units: --units {cli_units}, but {source} says units = {doc_units!r}")
     material_map = dict(material_map or {})
-    shapes_doc = doc["shapes"]
-    if not isinstance(shapes_doc, Mapping) or not shapes_doc:
+    shapes_doc = check_keys(doc["shapes"], f"{source}: [shapes]", error=SceneError)
+    if not shapes_doc:
         raise SceneError(f"{source}: [shapes] must hold at least one shape table")
     notes: list[str] = []
     shapes: dict[str, dict] = {}
@@ -415,12 +405,8 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     claimed: set[str] = set()
     for sid, table in shapes_doc.items():
         where = f"{source}: shape {sid!r}"
-        if not isinstance(table, Mapping):
-            raise SceneError(f"{where} must be a table")
-        kind = table.get("type")
-        is_sss = table.get("sss", kind in ("mesh", "generated"))
-        if not isinstance(is_sss, bool):
-            raise SceneError(f"{where}: sss must be true or false")
+        kind = check_keys(table, where, error=SceneError).get("type")
+        is_sss = Flag("sss").check(table.get("sss", kind in ("mesh", "generated")), f"{where}: sss", SceneError)
         meshes: tuple[Mesh, ...] | None = None
         if kind == "mesh":
             _keys(where, table, {"type", "file", "units", "material", "materials", "sss"}, {"file"})
@@ -474,8 +460,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         else:
             own = {m.name: material_map[m.name] for m in meshes if m.name in material_map}
         if "materials" in table:
-            if not isinstance(table["materials"], Mapping):
-                raise SceneError(f"{where}: materials must be a table object name -> material")
+            check_keys(table["materials"], f"{where}: materials (object name -> material)", error=SceneError)
             own = {**{str(k): str(v) for k, v in table["materials"].items()}, **own}
         claimed.update(own)
         scale = UNITS_MM[unit]
@@ -542,9 +527,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         light_doc = DEFAULT_LIGHTS
     lights: dict[str, dict] = {}
     for lid, ltable in dict(light_doc).items():
-        if not isinstance(ltable, Mapping):
-            raise SceneError(f"{source}: light {lid!r} must be a table")
-        if "type" in ltable:
+        if "type" in check_keys(ltable, f"{source}: light {lid!r}", error=SceneError):
             lights[lid] = _explicit_light(lid, ltable)
         else:
             if explicit:
@@ -569,14 +552,10 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
 def _named_views(source: str, table: Any, explicit: bool) -> tuple[tuple[str, tuple], ...]:
     """A scene's named cameras (``[views.NAME]``: origin, target, up, fov, as an explicit [camera]): what
     ``--view NAME`` picks for that scene; only beside an explicit camera."""
-    if not isinstance(table, Mapping):
-        raise SceneError(f"{source}: views must be a table of named cameras")
-    if table and not explicit:
+    if check_keys(table, f"{source}: views (named cameras)", error=SceneError) and not explicit:
         raise SceneError(f"{source}: named [views] need an explicit [camera] (origin, target, up, fov)")
     out = []
     for name, cam in table.items():
-        if not isinstance(cam, Mapping):
-            raise SceneError(f"{source}: view {name!r} must be a table")
         where = f"{source}: view {name!r}"
         _keys(where, cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
         origin, target, up = (tuple(_point(f"{where}: {key}", cam[key])) for key in ("origin", "target", "up"))
