@@ -306,24 +306,24 @@ class RenderSettings(Settings):
     def pass_settings(self) -> PassSettings:
         """The separable pass's complete :class:`~ssskit.screenspace.PassSettings` (frame, seed and backend
         from the tree)."""
-        if not isinstance(self.pass_, SeparablePass):
-            raise SettingsError(f"this render runs the {self.pass_name} pass, not the separable one")
-        return self.pass_.settings(self.frame, self.seed, self.backend)
+        return self._pass(SeparablePass, "the separable one").settings(self.frame, self.seed, self.backend)
 
     def burley_settings(self, spp: int | None = None) -> BurleySettings:
         """The Burley sampler's complete :class:`~ssskit.screenspace.BurleySettings` (frame, seed and backend
         from the tree; ``spp``: the Burley pass's own unless given)."""
-        p = self.pass_
-        if not isinstance(p, (BurleyPass, AdaptivePass)):
-            raise SettingsError(f"this render runs the {self.pass_name} pass, not a Burley one")
+        p = self._pass((BurleyPass, AdaptivePass), "a Burley one")
         n = spp if spp is not None else (p.spp if isinstance(p, BurleyPass) else _B.spp)
         return p.settings(self.frame, self.seed, self.backend, n)
 
     def adaptive_settings(self) -> AdaptiveSettings:
         """The adaptive run's guiding phase (:class:`~ssskit.screenspace.AdaptiveSettings`)."""
-        if not isinstance(self.pass_, AdaptivePass):
-            raise SettingsError(f"this render runs the {self.pass_name} pass, not burley-adaptive")
-        return self.pass_.adaptive_settings()
+        return self._pass(AdaptivePass, "burley-adaptive").adaptive_settings()
+
+    def _pass(self, kind: type | tuple[type, ...], what: str) -> Any:
+        """The render pass's settings if they are a ``kind``, else a SettingsError: the render runs another pass."""
+        if not isinstance(self.pass_, kind):
+            raise SettingsError(f"this render runs the {self.pass_name} pass, not {what}")
+        return self.pass_
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data: the top-level values, and the pass as one table named after it."""
