@@ -20,7 +20,7 @@ import numpy as np
 from ...errors import ProfileError
 from ...settings import DEFAULT_PHOTONS  # supplement F's 10^7, re-exported here
 from ...materials import CHANNELS, LayeredMaterial, Material
-from ...quantities import ANISOTROPY, COEFFICIENT, ETA, EXTINCTION, SEED, THICKNESS_MM, Quantity
+from ...quantities import ANISOTROPY, COEFFICIENT, ETA, EXTINCTION, LENGTH_MM, SEED, THICKNESS_MM, Quantity
 
 #: a layer's fields and a simulation's numbers, each declared once as a quantity (checked in a loop)
 LAYER_FIELDS = {"sigma_a": COEFFICIENT, "sigma_s": COEFFICIENT, "g": ANISOTROPY, "eta": ETA,
@@ -95,8 +95,9 @@ class MCConfig:
     def __post_init__(self) -> None:
         if not self.layers:
             raise ProfileError("a simulation needs at least one layer")
-        if any(math.isinf(l.thickness_mm) for l in self.layers[:-1]):
-            raise ProfileError("only the last layer may be semi-infinite")
+        for k, layer in enumerate(self.layers[:-1]):
+            LENGTH_MM.within(reason="only the last layer may be semi-infinite").check(
+                layer.thickness_mm, f"layer {k + 1} thickness_mm", ProfileError)
         for name, q in CONFIG_FIELDS.items():
             q.check(getattr(self, name), q.name, ProfileError)
 
