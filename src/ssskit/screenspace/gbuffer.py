@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike
 
 from ..backends.plan import DEPTH_MM
 from ..errors import GBufferError
-from ..quantities import TYPE, Quantity, check_finite, check_shape, fail
+from ..quantities import TYPE, Quantity, check_finite, check_instance, check_shape, fail
 from ..io import check_suffix, read_exr, write_exr
 from .camera import Camera
 
@@ -268,16 +268,10 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
         if "ssskit_camera" not in header:
             raise GBufferError(f"G-buffer {str(p)!r} has no 'ssskit_camera' header attribute; pass a camera")
         try:
-            camera = Camera.from_dict(json.loads(header["ssskit_camera"]))
-        except json.JSONDecodeError:
-            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_camera' is not JSON") from None
+            camera = Camera.from_dict(_header(p, header, "ssskit_camera"))
         except GBufferError as exc:
             raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None
-    try:
-        named = json.loads(header["ssskit_materials"]) if "ssskit_materials" in header else None
-        meta = json.loads(header.get("ssskit_meta", "{}"))
-    except json.JSONDecodeError:
-        raise GBufferError(f"G-buffer {str(p)!r}: material or meta header attribute is not JSON") from None
+    named, meta = _header(p, header, "ssskit_materials"), _header(p, header, "ssskit_meta", {})
     materials: tuple[str, ...] = ()
     if named is not None:  # a file that names its materials names one for every profile id it uses
         if not (isinstance(named, list) and all(isinstance(m, str) and m.strip() for m in named)):
@@ -289,14 +283,8 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
             raise GBufferError(f"G-buffer {str(p)!r}: layer 'profile_id' uses id {top} but the header "
                                f"'ssskit_materials' names {len(named)} material(s) {named!r} (id k is the k-th name)")
         materials = tuple(named)
-    light = None
-    if "ssskit_light" in header:
-        try:
-            light = json.loads(header["ssskit_light"])
-        except json.JSONDecodeError:
-            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_light' is not JSON") from None
-        if not isinstance(light, dict):
-            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_light' must be a JSON object")
+    light = check_instance(_header(p, header, "ssskit_light"), dict, f"G-buffer {str(p)!r}: header 'ssskit_light' "
+                           "(a JSON object)", GBufferError, optional=True)
     try:
         return GBuffer(diffuse=channels["diffuse"], albedo=channels["albedo"], depth=channels["depth"],
                        profile_id=channels["profile_id"], camera=camera, specular=channels.get("specular"),
@@ -304,6 +292,15 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
                        light_depth=channels.get("light_depth"), light=light)
     except GBufferError as exc:  # name the file in the layer's message
         raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None
+
+
+def _header(p: Path, header: dict[str, Any], key: str, default: Any = None) -> Any:
+    """The JSON value of the EXR header attribute ``key`` (``default`` where absent), or a GBufferError naming the
+    file."""
+    try:
+        return json.loads(header[key]) if key in header else default
+    except json.JSONDecodeError:
+        raise GBufferError(f"G-buffer {str(p)!r}: header {key!r} is not JSON") from None
 
 
 def _float_layer(name: str, value: ArrayLike, shape: tuple[int | str, ...], allow_inf: bool = False) -> np.ndarray:
