@@ -115,12 +115,7 @@ def burley_plan_for(params: BurleyParams | Mapping[int, BurleyParams], ids: Iter
 
 def burley_backend(name: str) -> Backend:
     """The named backend if it has the Burley pass, else a BackendError saying so."""
-    from ..errors import BackendError
-
-    backend = get_backend(name)
-    if "burley" not in backend.passes:
-        raise BackendError(f"backend {backend.name!r} has no Burley pass")
-    return backend
+    return get_backend(name).require("burley")
 
 
 def burley_sss(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, BurleyParams],

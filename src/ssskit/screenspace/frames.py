@@ -46,7 +46,7 @@ from ..backends.adaptive_plan import AVAILABLE, as_plan
 from ..backends.base import PHASES, AdaptiveRunner, Backend
 from ..backends.burley_plan import BurleyParams, BurleyPlan
 from ..backends.plan import profile_ids
-from ..errors import BackendError, PassError, SettingsError
+from ..errors import PassError, SettingsError
 from ..metrics import display_psnr, region_metrics
 from ..quantities import FRAME, check_instance, check_shape, refuse_unused
 from ..settings import FRAMES_RANGE, check_choice, check_int
@@ -173,9 +173,7 @@ def _runner(b: BurleySettings, adaptive: AdaptiveSettings | None, history: Array
     from ..backends import BACKENDS, get_backend
 
     sampler = burley_backend(b.backend)
-    g = sampler if guide is None else get_backend(check_choice("backend", guide, BACKENDS.names()))
-    if "adaptive" not in g.passes:
-        raise BackendError(f"backend {g.name!r} has no adaptive guiding pass")
+    g = (sampler if guide is None else get_backend(check_choice("backend", guide, BACKENDS.names()))).require("adaptive")
     h = new_history(*shape) if history is None else check_history(history)
     if h.shape[:2] != shape:
         raise PassError(f"the history is {h.shape[1]}x{h.shape[0]} but the G-buffer is {shape[1]}x{shape[0]}")
