@@ -252,7 +252,7 @@ BAD_LIGHTS = [
     ({"size": "big"}, "size must be a number, got 'big'"),
     # finite but beyond the renderer's float32 (the verifier's 1e36 key light: 64,000 warnings, then a NaN layer);
     # OTHER_LIGHT: distance 4, size 0.15, so radiance = 1e36 (4 / 0.15)^2 = 7.11e38
-    ({"intensity": 1e36}, r"its radiance \(intensity x \(distance / size\)\^2\) is 7.11e\+38, beyond the 1e\+30"),
+    ({"intensity": 1e36}, r"its radiance \(intensity x \(distance / size\)\^2\) must lie in \[0, 1e\+30\], got 7.11\d*e\+38"),
     ({"size": 1e-20, "intensity": 1.0}, "its radiance"),
     ({"size": 0.0, "distance": 1e30}, "its intensity"),
     ({"type": "point", "position": [0, 400, -600], "intensity": [1.0, 1e39, 1.0]}, r"intensity must lie in \[0, 1e\+30\], got \(1, 1e\+39, 1\)"),

@@ -185,13 +185,17 @@ def _shape_id(name: str, taken: set[str]) -> str:
     return sid
 
 
+def _unclaimed(unknown: set[str], source: str, names: Sequence[str]) -> None:
+    """A SceneError if the material map names objects (``unknown``) the scene ``source`` does not have."""
+    if unknown:
+        raise SceneError(f"material map names {', '.join(map(repr, sorted(unknown)))}, which {source!r} does not "
+                         f"have (its objects: {', '.join(names)})")
+
+
 def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[str, str], default: str,
                   source: str, taken: set[str], deferred: list[Callable[[], None]]) -> list[MeshObject]:
     names = [m.name for m in meshes]
-    unknown = sorted(set(materials) - set(names))
-    if unknown:
-        raise SceneError(f"material map names {', '.join(map(repr, unknown))}, which {source!r} does not have "
-                         f"(its objects: {', '.join(names)})")
+    _unclaimed(set(materials) - set(names), source, names)
     out = []
     for m in meshes:
         topo = topology(m)
@@ -217,6 +221,15 @@ def check_units(units: str | Sequence[str] | None) -> str | None:
     if len(set(norm)) > 1:
         raise SceneError(f"conflicting units: {', '.join(norm)} (give --units once)")
     return norm[0] if norm else None
+
+
+def _agreeing_units(cli_units: str | None, given: Any, where: str) -> str | None:
+    """The units a scene file (or one of its shapes: ``where``) gives, or a SceneError if they are not the
+    command line's ``--units``."""
+    units = check_units(given)
+    if cli_units and units and cli_units != units:
+        raise SceneError(f"conflicting units: --units {cli_units}, but {where} says units = {units!r}")
+    return units
 
 
 def _units_note(source: str, unit: str, assumed: bool, diameter_mm: float) -> str:
@@ -307,11 +320,9 @@ def _relative_light(name: str, spec: Mapping[str, Any], centre: np.ndarray, radi
 
 
 def _emitter_value(name: str, key: str, value: float, how: str) -> float:
-    """``value`` if it is at most :data:`EMITTER_MAX`, else a SceneError naming the light (before any work)."""
-    if not value <= EMITTER_MAX:
-        raise SceneError(f"light {name!r}: its {key} ({how}) is {value:.3g}, beyond the {EMITTER_MAX:g} the renderer's "
-                         "float32 carries; lower the intensity or raise the size")
-    return value
+    """``value`` if it is at most :data:`EMITTER_MAX`, else a SceneError naming the light (before any work: lower
+    the intensity or raise the size)."""
+    return float(EMITTED.check(value, f"light {name!r}: its {key} ({how})", SceneError))
 
 
 def _point(where: str, value: Any) -> list[float]:
@@ -385,9 +396,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     Flag("lit_from_behind").check(doc.get("lit_from_behind", False), f"{source}: lit_from_behind", SceneError)
     check_size(width, height)
     cli_units = check_units(units)
-    doc_units = check_units(doc.get("units"))
-    if cli_units and doc_units and cli_units != doc_units:
-        raise SceneError(f"conflicting units: --units {cli_units}, but {source} says units = {doc_units!r}")
+    doc_units = _agreeing_units(cli_units, doc.get("units"), source)
     material_map = dict(material_map or {})
     shapes_doc = check_keys(doc["shapes"], f"{source}: [shapes]", error=SceneError)
     if not shapes_doc:
@@ -414,9 +423,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             if base is not None and not fpath.is_absolute():
                 fpath = base / fpath
             inspect_mesh_file(fpath, width, height)
-            shape_units = check_units(table.get("units"))
-            if cli_units and shape_units and cli_units != shape_units:
-                raise SceneError(f"conflicting units: --units {cli_units}, but {where} says units = {shape_units!r}")
+            shape_units = _agreeing_units(cli_units, table.get("units"), where)
             unit = cli_units or shape_units or doc_units
             assumed = unit is None
             unit = unit or DEFAULT_UNITS[FORMATS[fpath.suffix.lower()]]
@@ -482,11 +489,8 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                     problems.append(o.problem)
         objects.extend(objs)
         mesh_vertices.extend(m.vertices.astype(np.float64) * scale for m in meshes)
-    unknown = sorted(set(material_map) - claimed)
-    if unknown:
-        names = [o.name for o in objects] + [s for s in shapes if s not in {o.id for o in objects}]
-        raise SceneError(f"material map names {', '.join(map(repr, unknown))}, which {source!r} does not have "
-                         f"(its objects: {', '.join(names)})")
+    _unclaimed(set(material_map) - claimed, source,
+               [o.name for o in objects] + [s for s in shapes if s not in {o.id for o in objects}])
     if not sss:
         raise SceneError(f"{source}: no shape is an SSS object (sss = true)")
     if default_material:
@@ -605,7 +609,8 @@ def _primitive(where: str, kind: Any, table: Mapping[str, Any]) -> dict:
         if "translate" in table or "scale" in table:
             entry["__to_world"] = (list(table.get("translate", [0, 0, 0])), list(table.get("scale", [1, 1, 1])))
         return entry
-    raise SceneError(f"{where}: type must be one of mesh, generated, sphere, rectangle, cube; got {kind!r}")
+    raise fail(SceneError, CHOICE, name=f"{where}: type", choices="mesh, generated, sphere, rectangle, cube",
+               actual=repr(kind))
 
 
 # ---- the built-in scenes -------------------------------------------------------------------------------
