@@ -74,6 +74,7 @@ import numpy as np
 
 from ..backends import warm_up_in_background
 from ..errors import SettingsError
+from ..quantities import check_instance
 from ..kernels import KernelMethod, TapKernel, build_kernel, check_params, default_grid, parse_method_spec
 from ..profiles import MATERIAL_FREE_MODELS, profile_for_material
 from ..sampling.taps import SeparableTaps, make_taps
@@ -175,8 +176,7 @@ def _kernel_plan(settings: RenderSettings) -> tuple[KernelMethod, dict[str, Any]
 def plan_render(scene: SceneInput, settings: RenderSettings) -> _Plan:
     """Resolve and check everything :func:`render_separable` needs, doing no work (module docstring); reads
     a G-buffer file. Raises the first problem as an :class:`~ssskit.errors.SsskitError`."""
-    if not isinstance(settings, RenderSettings):
-        raise SettingsError(f"settings must be RenderSettings, got {type(settings).__name__}")
+    check_instance(settings, RenderSettings, 'settings', SettingsError)
     if settings.pass_name != "separable":
         raise SettingsError(f"plan_render plans the separable pass; these settings run the {settings.pass_name} pass")
     method, params, tap_count = _kernel_plan(settings)
@@ -244,8 +244,7 @@ def plan(scene: SceneInput, settings: RenderSettings, *, params: BurleyInput | N
     """Every check :func:`render` makes for the pass ``settings`` names, doing no work; returns the scene's
     plan (its ``notes``: what resolving a mesh scene assumed). A caller that reports those notes runs this
     first, so a bad input is its only message."""
-    if not isinstance(settings, RenderSettings):
-        raise SettingsError(f"settings must be RenderSettings, got {type(settings).__name__}")
+    check_instance(settings, RenderSettings, 'settings', SettingsError)
     if settings.pass_name == "burley-adaptive":
         from .adaptive import plan_adaptive
 
@@ -270,8 +269,7 @@ def render(scene: SceneInput = "slab", settings: RenderSettings | None = None,
     every profile id instead of the material's; ``on_frame`` (the adaptive run only): called with every
     frame it renders (:class:`~ssskit.pipeline.adaptive.AdaptiveFrame`), e.g. to write it."""
     settings = RenderSettings() if settings is None else settings
-    if not isinstance(settings, RenderSettings):
-        raise SettingsError(f"settings must be RenderSettings, got {type(settings).__name__}")
+    check_instance(settings, RenderSettings, 'settings', SettingsError)
     name = settings.pass_name
     if on_frame is not None and name != "burley-adaptive":
         raise SettingsError(f"on_frame applies to the burley-adaptive pass (frames); this render runs the {name} pass")

@@ -39,7 +39,7 @@ from ..screenspace.adaptive import AdaptiveSettings
 from ..screenspace.burley import BurleyParams, BurleySettings
 from ..screenspace.settings import PassSettings
 from ..quantities import (BURLEY_ALBEDO, FRAME, FRAMES, MFP_MM, PHOTONS, REFERENCE_SPP, REL_SE, SEED, SIZE_PX, SPP,
-                          TAPS, Choice, Flag, Quantity)
+                          TAPS, Choice, Flag, Quantity, check_instance)
 from ..screenspace.burley import BACKEND, BURLEY_SPP
 from ..settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, check_choice, like, setting
 
@@ -286,9 +286,7 @@ class RenderSettings(Settings):
         if not isinstance(self.kernel, str):
             raise SettingsError(f"kernel must be a method spec such as 'svd:2', got {self.kernel!r}")
         parse_method_spec(self.kernel)  # unknown names and out-of-range parameters fail here
-        if not isinstance(self.pass_, (SeparablePass, BurleyPass, AdaptivePass)):
-            raise SettingsError(f"pass_ must be one of {', '.join(c.__name__ for _, c in PASSES.items())}, got "
-                                f"{type(self.pass_).__name__}")
+        check_instance(self.pass_, (SeparablePass, BurleyPass, AdaptivePass), 'pass_', SettingsError)
         super().__post_init__()
         if self.reference_max_spp < self.reference_spp:
             raise SettingsError(f"reference_max_spp {self.reference_max_spp} is below reference_spp "

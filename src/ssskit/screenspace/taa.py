@@ -48,7 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
-from ..quantities import Choice, Quantity, check_finite
+from ..quantities import Choice, Quantity, check_finite, check_instance
 from ..settings import Settings, check_float, setting
 from .camera import Camera, check_motion
 
@@ -231,8 +231,7 @@ def taa_resolve(current: ArrayLike, history: ArrayLike | None = None, motion: Ar
     take the current frame). Returns the (H, W, 3) float32 output, and with ``return_weight`` also the
     (H, W) weight a of the current frame used per pixel (1 where the history was rejected)."""
     s = TAASettings() if settings is None else settings
-    if not isinstance(s, TAASettings):
-        raise PassError(f"settings must be TAASettings, got {type(s).__name__}")
+    check_instance(s, TAASettings, 'settings', PassError)
     cur = _check_frame(current)
     hh, ww = cur.shape[:2]
     if history is None:
@@ -273,8 +272,7 @@ class TemporalAA:
 
     def __init__(self, settings: TAASettings | None = None) -> None:
         s = TAASettings() if settings is None else settings
-        if not isinstance(s, TAASettings):
-            raise PassError(f"settings must be TAASettings, got {type(s).__name__}")
+        check_instance(s, TAASettings, 'settings', PassError)
         self.settings = s
         self.history: np.ndarray | None = None
 
