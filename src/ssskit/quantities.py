@@ -296,11 +296,17 @@ __all__ = ["ANISOTROPY", "BURLEY_ALBEDO", "CHOICE", "COEFFICIENT", "Choice", "ET
 
 # --- vocab-b: arrays, tables and their keys, in the wordings above ------------------------------------------------
 
+from collections.abc import Mapping  # noqa: E402
+from typing import TYPE_CHECKING  # noqa: E402
+
+if TYPE_CHECKING:
+    import numpy as np
+
 _KINDS = {"iuf": "a real", "iu": "an integer", "f": "a float", "b": "a boolean", "iufb": "a real or boolean"}
 
 
 def check_shape(values: Any, name: str, shape: tuple[int | str, ...], error: ErrorClass = SsskitError,
-                kinds: str = "iuf", dtype: Any = None, finite: bool = False, where: str = "values") -> Any:
+                kinds: str = "iuf", dtype: Any = None, finite: bool = False, where: str = "values") -> np.ndarray:
     """``values`` as a numpy array (``dtype``: converted to it) of ``shape`` (an int per axis, or a letter such as
     ``"H"`` for any length) whose dtype kind is one of ``kinds`` (numpy's letters: ``"iuf"`` real, ``"iu"``
     integer, ``"b"`` boolean; an empty array passes), with ``finite`` no NaN or infinity; else ``error`` in the
@@ -326,8 +332,6 @@ def check_keys(table: object, where: str, allowed: Collection[str] | None = None
     """``table`` (a mapping: a TOML or JSON table) with no key outside ``allowed`` (None: any key) and every one of
     ``required``; else ``error``: ``{where}: unknown key(s) a, b (known: ...)``, ``{where}: missing a, b`` or
     ``{where} must be a table``."""
-    from collections.abc import Mapping
-
     if not isinstance(table, Mapping):
         raise fail(error, TYPE, name=where, kind="a table", actual=_fmt(table))
     unknown = [] if allowed is None else sorted(str(k) for k in table if k not in allowed)
@@ -339,7 +343,7 @@ def check_keys(table: object, where: str, allowed: Collection[str] | None = None
     return table
 
 
-def check_fields(table: Any, fields: dict[str, Quantity | Choice | Flag], where: str = "",
+def check_fields(table: Any, fields: Mapping[str, Quantity | Choice | Flag], where: str = "",
                  error: ErrorClass = SsskitError, rgb: Collection[str] = ()) -> dict[str, Any]:
     """Each key of ``fields`` that ``table`` holds, checked by its quantity (``rgb``: the keys that take one
     number or three) under the name ``{where}: {key}`` (``where`` empty: the key alone): a dict of the checked

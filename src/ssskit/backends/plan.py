@@ -63,7 +63,8 @@ def check_frame_values(diffuse: ArrayLike | None, depth_mm: ArrayLike, slots: Ar
         DEPTH_MM.check_array(z, "depth", PassError, "pixels with SSS")
 
 
-def check_image(name: str, values: ArrayLike, shape: tuple[int | str, ...] = ("H", "W"), kinds: str = "iuf") -> Any:
+def check_image(name: str, values: ArrayLike, shape: tuple[int | str, ...] = ("H", "W"), kinds: str = "iuf"
+                ) -> np.ndarray:
     """``values`` as an array of ``shape`` (a letter: any length) and dtype kinds (real; ``"iu"``: integer, so a
     float or bool image of profile slots is refused, never truncated), or a PassError in the type wording."""
     return check_shape(values, name, shape, PassError, kinds)

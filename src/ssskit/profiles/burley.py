@@ -98,7 +98,7 @@ def burley_inverse_cdf(xi: ArrayLike, d: float | NDArray[np.float64]) -> NDArray
     start is the series r = 2 d xi; three Newton steps on cdf(r) - xi (or, for xi > 1/2, on
     the survival function) bring the relative error below 1e-13.
     """
-    xi = FRACTION.check_array(xi, "the inverse CDF's xi", ProfileError)
+    xi = np.asarray(FRACTION.check_array(xi, "the inverse CDF's xi", ProfileError))
     eta = 1.0 - xi
     with np.errstate(divide="ignore"):
         u = 2.0 * np.sinh(np.arcsinh(2.0 * eta) / 3.0)

@@ -99,25 +99,25 @@ EMITTER_MAX = 1e30
 
 #: the numbers of a scene file, each declared once (the readers below check every field by its quantity)
 _ANY = dict(lo_open=True, hi_open=True)
-ANGLE_DEG = Quantity("angle", -math.inf, math.inf, "degrees", "an angle about the model", **_ANY)  # type: ignore[arg-type]
+ANGLE_DEG = Quantity("angle", -math.inf, math.inf, "degrees", "an angle about the model", **_ANY)
 ELEVATION_DEG = Quantity("elevation", -90.0, 90.0, "degrees", "a view above or below the model, not along its up "
-                         "axis", **_ANY)  # type: ignore[arg-type]
+                         "axis", **_ANY)
 VIEW_DISTANCE = Quantity("distance", 0.05, 100.0, "", "a multiple of the framing distance")
 FOV_DEG = Quantity("fov", 1.0, 150.0, "degrees", "a horizontal field of view")
-COORDINATE = Quantity("coordinate", -math.inf, math.inf, "", "a point or direction in the scene", **_ANY)  # type: ignore[arg-type]
+COORDINATE = Quantity("coordinate", -math.inf, math.inf, "", "a point or direction in the scene", **_ANY)
 EMITTED = Quantity("intensity", 0.0, EMITTER_MAX, "", "the renderer's float32 arithmetic overflows not far beyond")
 #: a light placed relative to the framing (docs/meshes.md): its distance and size in bounding radii
 RELATIVE_LIGHT: dict[str, Quantity] = {
     "azimuth": ANGLE_DEG, "elevation": ANGLE_DEG,
     "distance": Quantity("distance", 1.0, math.inf, "bounding radii", "a light outside the model's bounding sphere",
-                         **_ANY),  # type: ignore[arg-type]
+                         **_ANY),
     "size": Quantity("size", 0.0, math.inf, "bounding radii", "a light's radius; 0 is a point light", hi_open=True),
     "intensity": Quantity("intensity", 0.0, math.inf, "", "the irradiance at the model's centre over pi",
                           hi_open=True)}
 #: an explicit Mitsuba light's numbers (the ones that take one number or three [R, G, B]; the points take three)
 EXPLICIT_LIGHT: dict[str, Quantity] = {
     "intensity": EMITTED, "radiance": EMITTED,
-    "radius": Quantity("radius", 0.0, math.inf, "", "a sphere light's radius", **_ANY)}  # type: ignore[arg-type]
+    "radius": Quantity("radius", 0.0, math.inf, "", "a sphere light's radius", **_ANY)}
 
 
 def _generated(kind: str, params: Mapping[str, Any]) -> tuple[Mesh | None, dict | None]:

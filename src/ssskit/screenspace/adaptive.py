@@ -106,7 +106,7 @@ class AdaptiveSettings(Settings):
 def _settings(settings: object) -> AdaptiveSettings:
     if settings is None:
         return AdaptiveSettings()
-    return check_instance(settings, AdaptiveSettings, "settings", PassError)  # type: ignore[no-any-return]
+    return check_instance(settings, AdaptiveSettings, "settings", PassError)
 
 
 def new_history(height: int, width: int, *, available: bool = False) -> np.ndarray:

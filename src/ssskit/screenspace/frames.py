@@ -154,8 +154,9 @@ def _check(gbuffers: Sequence[GBuffer], burley: BurleySettings | None, adaptive:
     check_instance(adaptive, AdaptiveSettings, "adaptive", SettingsError, optional=True)
     check_instance(taa, TAASettings, "taa", SettingsError, optional=True)
     spp = None if spp is None else int(BURLEY_SPP.check(spp, "spp", SettingsError))
-    if disocclusion_spp is not None:
-        refuse_unused(["disocclusion_spp"] if adaptive is None else [], "counts", ["adaptive"], "fixed", SettingsError)
+    if disocclusion_spp is not None and adaptive is None:
+        refuse_unused(["disocclusion_spp"], "counts", ["adaptive"], "fixed", SettingsError)
+    if disocclusion_spp is not None and adaptive is not None:
         disocclusion_spp = check_int("disocclusion_spp", disocclusion_spp, adaptive.b_min, adaptive.b_max)
     gbs = [check_instance(g, GBuffer, "the frame loop's G-buffers", PassError) for g in gbuffers]
     if not gbs or any(g.shape != gbs[0].shape for g in gbs):
