@@ -304,20 +304,20 @@ class RenderSettings(Settings):
     def pass_settings(self) -> PassSettings:
         """The separable pass's complete :class:`~ssskit.screenspace.PassSettings` (frame, seed and backend
         from the tree)."""
-        return self._pass(SeparablePass, "the separable one").settings(self.frame, self.seed, self.backend)
+        return self.pass_as(SeparablePass, "the separable one").settings(self.frame, self.seed, self.backend)
 
     def burley_settings(self, spp: int | None = None) -> BurleySettings:
         """The Burley sampler's complete :class:`~ssskit.screenspace.BurleySettings` (frame, seed and backend
         from the tree; ``spp``: the Burley pass's own unless given)."""
-        p = self._pass((BurleyPass, AdaptivePass), "a Burley one")
+        p = self.pass_as((BurleyPass, AdaptivePass), "a Burley one")
         n = spp if spp is not None else (p.spp if isinstance(p, BurleyPass) else _B.spp)
         return p.settings(self.frame, self.seed, self.backend, n)
 
     def adaptive_settings(self) -> AdaptiveSettings:
         """The adaptive run's guiding phase (:class:`~ssskit.screenspace.AdaptiveSettings`)."""
-        return self._pass(AdaptivePass, "burley-adaptive").adaptive_settings()
+        return self.pass_as(AdaptivePass, "burley-adaptive").adaptive_settings()
 
-    def _pass(self, kind: type | tuple[type, ...], what: str) -> Any:
+    def pass_as(self, kind: type | tuple[type, ...], what: str) -> Any:
         """The render pass's settings if they are a ``kind``, else a SettingsError: the render runs another pass."""
         if not isinstance(self.pass_, kind):
             raise SettingsError(f"this render runs the {self.pass_name} pass, not {what}")
