@@ -35,7 +35,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import KernelError, SamplingError
-from ..quantities import FRACTION, LENGTH_MM, check_finite
+from ..quantities import CHOICE, FRACTION, LENGTH_MM, Quantity, check_finite, check_instance, fail
+
+#: taps of one 1D pass: odd, for a centre tap
+TAP_COUNT = Quantity("tap count", 1, 2**31 - 1, "", "taps of one 1D pass, odd for a centre tap", integer=True, odd=True)
 
 if TYPE_CHECKING:  # imported where used: taps load without the kernels package
     from ..kernels.base import AnyKernel, Kernel
@@ -129,9 +132,7 @@ class SeparableTaps:
 
 
 def _check_count(n: int) -> int:
-    if not (isinstance(n, (int, np.integer)) and n >= 1 and n % 2 == 1):
-        raise SamplingError(f"tap count must be an odd positive integer (a centre tap), got {n!r}")
-    return int(n)
+    return int(TAP_COUNT.check(n, "tap count", SamplingError))
 
 
 def _fine(kernel: Kernel, r: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
@@ -215,11 +216,10 @@ def make_taps(kernel: AnyKernel, n: int | None = None, method: str = "importance
         return SeparableTaps(o[None], kernel.weights[None], np.ones((1, 3)), kernel.method,
                              float(np.max(np.abs(o))) or 1.0, None, _tap_width(o, kernel.weights),
                              {"kernel": kernel.method, **kernel.source}).normalised()
-    if not isinstance(kernel, Kernel):
-        raise KernelError(f"taps need a Kernel or TapKernel, got {type(kernel).__name__}")
+    check_instance(kernel, Kernel, "the kernel of taps", KernelError)
     n = _check_count(7 if n is None else n)
     if method not in TAP_METHODS:
-        raise SamplingError(f"unknown tap placement {method!r}; choose from {', '.join(TAP_METHODS)}")
+        raise fail(SamplingError, CHOICE, name="tap placement", choices=", ".join(TAP_METHODS), actual=repr(method))
     offs, wts, widths = [], [], []
     for r in range(kernel.rank):
         o, w, width = _term_taps(kernel, r, n, method)
