@@ -22,7 +22,7 @@ from ...cache import cache_dir
 from ...errors import ProfileError, SimulationInterrupted
 from ...io import ProgressBar, progress_bar, save_arrays
 from ...progress import add_to_total
-from ...quantities import ETA, Quantity
+from ...quantities import CHOICE, ETA, Quantity, fail
 from .config import N_EXIT_BINS, MCConfig, layer_arrays
 
 #: numba's threads, a cosine of incidence (0 excluded: grazing light never enters), estimate samples
@@ -51,15 +51,13 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
     ``shared_bar``: a bar of several runs (:func:`~.sweep.simulate_material`'s channels) that this run advances
     instead of showing its own; photons it does not simulate (cached, shipped, resumed) leave its total.
     """
-    if resume and restart:
-        raise ProfileError("resume and restart exclude each other: resume continues an interrupted run, "
-                           "restart discards it")
+    check_resume(resume, restart)
     if (resume or restart) and not use_cache:
         which = "resume" if resume else "restart"
         raise ProfileError(f"{which} acts on the on-disk cache; it cannot be combined with use_cache=False",
                            cli_message=f"--{which} acts on the on-disk cache; it cannot be combined with --no-cache")
-    if backend not in ENGINES:
-        raise ProfileError(f"unknown Monte Carlo backend {backend!r}; choose from {', '.join(ENGINES)}")
+    if backend not in ENGINES:  # (exactly: the name picks the engine module)
+        raise fail(ProfileError, CHOICE, name="the Monte Carlo backend", choices=", ".join(ENGINES), actual=repr(backend))
     check_threads(threads)  # before any answer, the shipped one included
     if use_cache and shipped and backend == "numba":  # (None inside shipped.recompute(): ssskit demo --full)
         from .shipped import shipped_result
@@ -175,11 +173,19 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
     return result
 
 
+def check_resume(resume: bool, restart: bool) -> None:
+    """A ProfileError if both ``resume`` and ``restart`` are asked for (a run and a sweep state it once)."""
+    if resume and restart:
+        raise ProfileError("resume and restart exclude each other: resume continues an interrupted run, "
+                           "restart discards it")
+
+
 def check_threads(threads: int | None) -> None:
     """A ProfileError unless ``threads`` is None or an int in 1..numba's thread count."""
     if threads is not None:
         import numba
 
+        # numba.config sets its NUMBA_* names through globals(), which its inline types cannot show
         THREADS.within(hi=numba.config.NUMBA_NUM_THREADS).check(threads, "threads", ProfileError)  # type: ignore[attr-defined]
 
 
@@ -295,8 +301,7 @@ def _numba_threads(threads: int | None) -> Iterator[int]:
     if threads is None:
         yield numba.get_num_threads()
         return
-    # numba.config sets its NUMBA_* names through globals(), which its inline types cannot show
-    THREADS.within(hi=numba.config.NUMBA_NUM_THREADS).check(threads, "threads", ProfileError)  # type: ignore[attr-defined]
+    check_threads(threads)
     old = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:

@@ -10,7 +10,7 @@ from ...quantities import Quantity
 from ..domain import check_montecarlo
 from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, SUPPLEMENT_GRID_MFP, channel_seed, config_for_material
 from .result import MCResult
-from .run import photons_bar, simulate
+from .run import check_resume, photons_bar, simulate
 
 
 #: the share of the supplement's grid a sweep simulates
@@ -162,11 +162,8 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
     process as materials finish, at least every few seconds; on one machine finished simulations land in the shared cache, and so do
     the partial results of an interrupted sweep, which ``resume`` / ``restart`` continue / discard.
     """
-    if not (isinstance(jobs, int) and jobs >= 1):
-        raise ProfileError(f"jobs must be a positive integer, got {jobs!r}")
-    if resume and restart:
-        raise ProfileError("resume and restart exclude each other: resume continues an interrupted run, "
-                           "restart discards it")
+    Quantity("jobs", 1, 2**31 - 1, "", "processes of a sweep", integer=True).check(jobs, "jobs", ProfileError)
+    check_resume(resume, restart)
     names = [m.name for m in materials]
     if len(set(names)) != len(names):
         raise ProfileError("material names in a sweep must be distinct")
