@@ -33,7 +33,6 @@ measurement of the map's thickness against the ray-cast chord.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 from numbers import Real
@@ -45,7 +44,7 @@ from ..backends.spread_plan import SlotSpread
 from ..backends.transmission_plan import LUT_SIZE, UE_MAX_OPTICAL_DEPTH, SlotModel, TransmissionPlan, build_transmission_plan
 from ..errors import PassError
 from ..materials import Material
-from ..quantities import LENGTH_MM, Quantity, check_shape
+from ..quantities import LENGTH_MM, Quantity, check_instance, check_shape
 from ..profiles.gaussians import DEON2007_SKIN_VARIANCES, DEON2007_SKIN_WEIGHTS
 
 if TYPE_CHECKING:
@@ -221,15 +220,15 @@ def _is_integral(x: Any) -> bool:
     return _is_number(x) and math.isfinite(x) and float(x).is_integer()
 
 
-def _three_finite(name: str, value: Any, fail: Callable[[str], PassError]) -> tuple[float, float, float]:
-    """A projection field of 3 finite numbers (a list, tuple or 1D array), or ``fail``'s error naming it."""
-    if isinstance(value, np.ndarray) and value.ndim == 1:
-        value = value.tolist()
-    if not (isinstance(value, (list, tuple)) and len(value) == 3 and all(_is_number(x) for x in value)):
-        raise fail(f"{name!r} must be 3 numbers [x, y, z], got {value!r}")
-    if not all(math.isfinite(x) for x in value):
-        raise fail(f"{name!r} must be 3 finite numbers, got {value!r}")
-    return float(value[0]), float(value[1]), float(value[2])
+def _three_finite(name: str, value: Any) -> tuple[float, float, float]:
+    """A projection field of 3 finite numbers [x, y, z] (a list, tuple or 1D array), or a PassError naming it."""
+    label = f"the light projection's {name!r}"
+    x, y, z = check_shape(value, label, (3,), PassError, finite=True, dtype=float).tolist()
+    return x, y, z
+
+
+#: the light map's sides (texels)
+MAP_SIDE = Quantity("size", 1, 2**31 - 1, "texels", "a light map's side [W, H]", integer=True)
 
 
 @dataclass(frozen=True)
@@ -279,14 +278,13 @@ class LightView:
         def fail(msg: str) -> PassError:
             return PassError(f"the light projection is malformed: {msg}")
 
-        if not isinstance(d, dict):
-            raise fail(f"it must be a JSON object, got {type(d).__name__}")
+        check_instance(d, dict, "the light projection (a JSON object)", PassError)
         if d.get("type", "orthographic") != "orthographic":
             raise fail(f"type {d.get('type')!r} (only 'orthographic')")
         missing = [k for k in ("direction", "origin", "u", "v", "texel_mm", "size") if k not in d]
         if missing:
             raise fail(f"missing field(s) {', '.join(repr(k) for k in missing)}")
-        vecs = [_three_finite(k, d[k], fail) for k in ("direction", "origin", "u", "v")]
+        vecs = [_three_finite(k, d[k]) for k in ("direction", "origin", "u", "v")]
         axes = {"direction": vecs[0], "u": vecs[2], "v": vecs[3]}
         for k, x in axes.items():
             norm = math.sqrt(sum(c * c for c in x))
@@ -297,17 +295,12 @@ class LightView:
             dot = sum(p * q for p, q in zip(axes[a], axes[b], strict=True))
             if not abs(dot) <= UNIT_TOL:
                 raise fail(f"{a!r} and {b!r} must be orthogonal (|dot| <= {UNIT_TOL:g}), got dot {dot:.6g}")
-        size = d["size"]
-        if isinstance(size, np.ndarray) and size.ndim == 1:
-            size = size.tolist()
-        if not (isinstance(size, (list, tuple)) and len(size) == 2
-                and all(_is_integral(x) and x >= 1 for x in size)):
-            raise fail(f"'size' must be 2 positive integers [W, H], got {size!r}")
-        texel = d["texel_mm"]
-        if not (_is_number(texel) and math.isfinite(texel) and texel > 0):
-            raise fail(f"'texel_mm' must be a finite number > 0, got {texel!r}")
-        t3 = [(x[0], x[1], x[2]) for x in vecs]
-        return cls(t3[0], t3[1], t3[2], t3[3], float(texel), (int(size[0]), int(size[1])))
+        label = "the light projection's 'size'"
+        size = d["size"].tolist() if isinstance(d["size"], np.ndarray) else d["size"]
+        check_shape(size, label, (2,), PassError)
+        w, h = (MAP_SIDE.check(int(x) if _is_integral(x) else x, label, PassError) for x in size)
+        texel = LENGTH_MM.check(d["texel_mm"], "the light projection's 'texel_mm'", PassError)
+        return cls(vecs[0], vecs[1], vecs[2], vecs[3], float(texel), (int(w), int(h)))
 
     def project(self, points: np.ndarray) -> np.ndarray:
         """(..., 3) world points (mm) -> (..., 3) (x, y) texel coordinates and z the depth along the light (mm)."""
