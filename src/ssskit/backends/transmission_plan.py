@@ -64,7 +64,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PassError
-from ..quantities import Quantity, check_choice, check_shape
+from ..quantities import CHOICE, Quantity, check_shape, fail
 from .plan import check_image, check_light_view, check_plan_ids
 
 #: the transmittance models a plan can hold (the MCML fit, Jimenez et al. 2010's skin Gaussians, Unreal Engine 5's
@@ -197,7 +197,8 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3,
             label = f"profile id {pid}: {name}"
             (TERM if name == "a" else TERM.within(lo=0.0)).check_array(
                 check_shape(v, label, (3, "K"), PassError), label, PassError)
-        check_choice(f"profile id {pid}: model", m.model, MODELS, PassError)
+        if m.model not in MODELS:  # (exactly: the name picks the pass's branch)
+            raise fail(PassError, CHOICE, name=f"profile id {pid}: model", choices=", ".join(MODELS), actual=repr(m.model))
         FACTOR.check(m.scale, f"profile id {pid}: scale", PassError)
         WRAP.check(m.wrap, f"profile id {pid}: wrap", PassError)
         if (m.model == "unreal") != (m.lut is not None):
