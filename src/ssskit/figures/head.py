@@ -415,11 +415,11 @@ def _show(ax: Any, img: np.ndarray, title: str, scale: float) -> None:
 
 
 def _show_path_traced(ax: Any, img: np.ndarray, pixel_se: np.ndarray, mask: np.ndarray, spp: int, scale: float) -> None:
-    """A path trace (diffuse part) as shown: its display copy (:func:`ssskit.figures.screenspace.display_copy`:
+    """A path trace (diffuse part) as shown: its display copy (:func:`ssskit.figures.display.display_copy`:
     box means of b x b pixels where its own per-pixel noise is above 10 %; only for showing, every number is
     measured on the unfiltered image), titled with the samples per shown pixel (spp x b^2) and its remaining
     relative noise. Its per-pixel noise is the dielectric boundary's (docs/head.md, "Why the path traces speckle")."""
-    from .screenspace import display_copy
+    from .display import display_copy
 
     shown, block, rel = display_copy(img, pixel_se, mask)
     box = f", {block}x{block} box means" if block > 1 else ""
