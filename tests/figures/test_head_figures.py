@@ -142,3 +142,16 @@ def test_a_head_path_trace_is_shown_as_block_means_with_its_samples_per_shown_pi
     assert np.array_equal(img, before)
     shown = ax.get_images()[0].get_array()
     assert np.allclose(shown[:6, :6], shown[0, 0])  # one block, one value
+
+
+def test_head_pictures_script_states_the_samples_behind_each_shown_pixel(tmp_path):
+    """docs/head_pictures.py on a tiny case: per view the samples per shown pixel are the render's spp times the
+    box's area, the display copy's noise is below the unfiltered image's (box means of independent pixels), and
+    the figure and its record are written."""
+    mod = _script("head_pictures")
+    png, js = tmp_path / "p.png", tmp_path / "p.json"
+    out = mod.main(["--size", "24x18", "--spp", "512", "--views", "front", "--png", str(png), "--json", str(js)])
+    assert png.is_file() and json.loads(js.read_text())["rows"][0]["view"] == "front"
+    row = out["rows"][0]
+    assert row["spp"] == 512 and row["spp_per_shown_pixel"] == 512 * row["block"] ** 2
+    assert row["block"] > 1 and row["noise_shown"] < row["noise_unfiltered"]
