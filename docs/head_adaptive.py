@@ -13,7 +13,7 @@ sigma0^2 = 0.001, kappa = 0.2, b = [8, 64] within 0.13 dB of fixed 64 spp on the
 40.39 dB, Fig. 11). Here, per view of the head (close skin patch, ear, front: ``builtin/head.toml``), Skin1:
 
 * **jittered**: frame f's G-buffer rendered (Mitsuba) through the camera moved by Unreal's TAA jitter, the
-  8-frame Halton(2, 3) sub-pixel offset (:func:`taa_jitter`; :attr:`ssskit.scenes.SceneSpec.pixel_jitter`), the
+  8-frame Halton(2, 3) sub-pixel offset (:func:`ssskit.screenspace.taa.taa_jitter`; :attr:`ssskit.scenes.SceneSpec.pixel_jitter`), the
   8 G-buffers in turn; the camera does not move, so the TAA (ssskit's, Karis 2014, alpha = 0.1, no motion)
   blends the jittered frames as they come;
 * **jittered, TAA unclamped**: the same with the TAA's neighbourhood clamp off (``neighbourhood = "none"``): what
@@ -57,6 +57,8 @@ os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
 
 import numpy as np  # noqa: E402
 
+from ssskit.screenspace.taa import taa_jitter  # noqa: E402
+
 #: Xie 2020 Sec. 6 / Fig. 1: sigma0^2, kappa, b_min, b_max
 XIE = {"sigma0_sq": 1e-3, "kappa": 0.2, "b_min": 8, "b_max": 64}
 #: Xie 2020 Fig. 11 (close skin patch): final PSNR (TAA) of adaptive and of fixed 64 spp
@@ -65,21 +67,28 @@ BEGIN, END = "<!-- adaptive: docs/head_adaptive.py -->", "<!-- end of adaptive -
 JITTER_FRAMES = 8
 
 
-def halton(i: int, base: int) -> float:
-    """The i-th (i >= 1) element of the van der Corput sequence in ``base`` (Halton 1964)."""
-    f, r = 1.0, 0.0
-    while i > 0:
-        f /= base
-        r += f * (i % base)
-        i //= base
-    return r
+def skin_texture(points_mm: np.ndarray, contrast: float, waves: int = 32, seed: int = 0) -> np.ndarray:
+    """(H, W) albedo factor 1 + contrast * n(p) of a band-limited 3D noise n (unit variance: ``waves`` plane waves
+    of random directions, wavelengths 0.5-2 mm and phases, summed and scaled by sqrt(2 / waves)) at the surface
+    points ``points_mm`` (H, W, 3): a stand-in for the pores of a skin albedo map (the scan has none), fixed to
+    the surface, so that a jittered pixel sees the texture where its ray lands; clipped to [0.2, 1.8]."""
+    rng = np.random.default_rng(seed)
+    d = rng.standard_normal((waves, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    k = 2.0 * math.pi / rng.uniform(0.5, 2.0, waves)
+    phase = rng.uniform(0.0, 2.0 * math.pi, waves)
+    n = np.cos(points_mm @ (d * k[:, None]).T + phase).sum(axis=-1) * math.sqrt(2.0 / waves)
+    return np.clip(1.0 + contrast * n, 0.2, 1.8)
 
 
-def taa_jitter(frame: int, samples: int = JITTER_FRAMES) -> tuple[float, float]:
-    """Unreal's TAA sub-pixel offset of ``frame`` (pixels, in [-1/2, 1/2)): Halton(2, 3) over ``samples`` frames
-    (Karis 2014; UE4 ``r.TemporalAASamples`` = 8)."""
-    k = frame % samples + 1
-    return halton(k, 2) - 0.5, halton(k, 3) - 0.5
+def textured(gb: Any, jitter: tuple[float, float], contrast: float) -> Any:
+    """``gb`` (rendered through the camera jittered by ``jitter`` pixels) with its SSS albedo times
+    :func:`skin_texture` at the surface points its pixels see (the camera's principal point moved by the jitter)."""
+    cam = dataclasses.replace(gb.camera, cx=gb.camera.cx - jitter[0], cy=gb.camera.cy - jitter[1])
+    p = cam.unproject(np.where(np.isfinite(gb.depth), gb.depth, 1.0)) / cam.world_units_per_mm
+    f = skin_texture(p, contrast)
+    albedo = np.where(gb.mask[..., None], np.clip(gb.albedo * f[..., None], 0.0, 1.0), gb.albedo)
+    return gb.with_layers(albedo=albedo.astype(np.float32))
 
 
 def additive_gap(floor_db: float, fixed_db: float, adaptive_db: float) -> float:
@@ -98,7 +107,7 @@ def _spread(values: list[float]) -> dict[str, Any]:
 
 
 def view_study(view: str, seeds: list[int], size: tuple[int, int], frames: int, limit_spp: int, gbuffer_spp: int,
-               say: Callable[[str], None]) -> dict[str, Any]:
+               say: Callable[[str], None], texture: float = 0.0) -> dict[str, Any]:
     """The jittered and still runs of one view (module docstring)."""
     from ssskit.figures.head import head_spec
     from ssskit.figures.views import study_gbuffer
@@ -117,13 +126,12 @@ def view_study(view: str, seeds: list[int], size: tuple[int, int], frames: int, 
 
     still = scene((0.0, 0.0))
     params = still.params
-    jit = [scene(taa_jitter(f)) for f in range(JITTER_FRAMES)]
+    jit = [scene(taa_jitter(f, JITTER_FRAMES)) for f in range(JITTER_FRAMES)]
     say(f"{view}: converged limits ({limit_spp} spp, exact sampler, no mips)")
     lim0 = burley_reference(still.gbuffer, params, spp=limit_spp)
     lims = [burley_reference(s.gbuffer, params, spp=limit_spp) for s in jit]
     mask = still.gbuffer.mask
-    truth = still.gbuffer.composite(lim0).astype(np.float64)
-    peak = float(truth[mask].max())
+    peak = 1.0
 
     def psnr(image: np.ndarray, ref: np.ndarray) -> float:
         err = (np.asarray(image, np.float64) - ref)[mask]
@@ -131,13 +139,23 @@ def view_study(view: str, seeds: list[int], size: tuple[int, int], frames: int, 
         return 20.0 * math.log10(peak / math.sqrt(mse)) if mse > 0 else math.inf  # inf: the still floor
 
     jittered = [jit[f % JITTER_FRAMES].gbuffer for f in range(frames)]
-    seqs = {"jittered": (jittered, TAASettings(alpha=0.1)),
-            "jittered, TAA unclamped": (jittered, TAASettings(alpha=0.1, neighbourhood="none")),
-            "still": ([still.gbuffer] * frames, TAASettings(alpha=0.1))}
+    seqs = {"jittered": (jittered, TAASettings(alpha=0.1), still.gbuffer),
+            "jittered, TAA unclamped": (jittered, TAASettings(alpha=0.1, neighbourhood="none"), still.gbuffer),
+            "still": ([still.gbuffer] * frames, TAASettings(alpha=0.1), still.gbuffer)}
     limit_of = {id(s.gbuffer): lim for s, lim in zip(jit, lims)}
     limit_of[id(still.gbuffer)] = lim0
-    out: dict[str, Any] = {"view": view, "pixels": int(mask.sum()), "peak": peak, "runs": {}}
-    for name, (gbs, taa) in seqs.items():
+    if texture:  # the skin's albedo textured (pores), each frame's at the surface points its jittered pixels see
+        tex = {f: textured(s.gbuffer, taa_jitter(f, JITTER_FRAMES), texture) for f, s in enumerate(jit)}
+        tex_still = textured(still.gbuffer, (0.0, 0.0), texture)
+        for f, g in tex.items():
+            limit_of[id(g)] = lims[f]
+        limit_of[id(tex_still)] = lim0
+        seqs[f"jittered, textured skin ({texture:g})"] = ([tex[f % JITTER_FRAMES] for f in range(frames)],
+                                                           TAASettings(alpha=0.1), tex_still)
+    out: dict[str, Any] = {"view": view, "pixels": int(mask.sum()), "runs": {}}
+    for name, (gbs, taa, truth_gb) in seqs.items():
+        truth = truth_gb.composite(lim0).astype(np.float64)
+        peak = float(truth[mask].max())
         # the TAA run on the noise-free frames (the limits), exactly as run_frames runs it: no motion (the camera
         # does not move), and where a frame's G-buffer is new its depth test against the previous one
         # (reprojection_valid) drops the history of the pixels it rejects: the jitter's own error, frame by frame
@@ -203,13 +221,14 @@ def view_study(view: str, seeds: list[int], size: tuple[int, int], frames: int, 
 
 
 def compute(views: list[str], seeds: list[int], size: tuple[int, int], frames: int, limit_spp: int,
-            gbuffer_spp: int, say: Callable[[str], None] = print) -> dict[str, Any]:
+            gbuffer_spp: int, say: Callable[[str], None] = print, texture: float = 0.0) -> dict[str, Any]:
     t0 = time.time()
     load0 = os.getloadavg()
-    rows = [view_study(v, seeds, size, frames, limit_spp, gbuffer_spp, say) for v in views]
+    rows = [view_study(v, seeds, size, frames, limit_spp, gbuffer_spp, say, texture) for v in views]
     return {"experiment": "Xie 2020's adaptive vs fixed 64 spp with TAA on the head, jittered camera",
             "adaptive": XIE, "xie_close": XIE_CLOSE, "size": list(size), "frames": frames, "seeds": seeds,
-            "limit_spp": limit_spp, "gbuffer_spp": gbuffer_spp, "jitter": [taa_jitter(f) for f in range(JITTER_FRAMES)],
+            "limit_spp": limit_spp, "gbuffer_spp": gbuffer_spp, "texture": texture,
+            "jitter": [taa_jitter(f, JITTER_FRAMES) for f in range(JITTER_FRAMES)],
             "pass": "exact sampler, r2, no mips, numba; TAA alpha 0.1, no motion", "views": rows,
             "seconds": time.time() - t0,
             "machine": {"cpus": os.cpu_count(), "platform": platform.platform(), "load_avg_before": load0,
@@ -263,6 +282,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--seeds", nargs="+", type=int, default=None)
     ap.add_argument("--size", default=None)
     ap.add_argument("--frames", type=int, default=None)
+    ap.add_argument("--texture", type=float, default=0.0, help="also a jittered run with the skin's albedo "
+                    "textured (skin_texture) at this contrast (relative SD); 0: none")
     ap.add_argument("--json", default=None)
     ap.add_argument("--md", default=None)
     args = ap.parse_args(argv)
@@ -273,7 +294,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     frames = args.frames or (32 if q else 64)
     if frames < 24:
         ap.error("--frames must be at least 24 (the 24-frame window)")
-    n = compute(views, seeds, (int(w), int(h)), frames, 256 if q else 2048, 64, say=print)
+    n = compute(views, seeds, (int(w), int(h)), frames, 256 if q else 2048, 64, say=print, texture=args.texture)
     n["quick"] = q
     n["command"] = "python docs/head_adaptive.py " + " ".join(sys.argv[1:] if argv is None else argv)
     if args.json:

@@ -155,3 +155,15 @@ def test_head_pictures_script_states_the_samples_behind_each_shown_pixel(tmp_pat
     row = out["rows"][0]
     assert row["spp"] == 512 and row["spp_per_shown_pixel"] == 512 * row["block"] ** 2
     assert row["block"] > 1 and row["noise_shown"] < row["noise_unfiltered"]
+
+
+def test_the_skin_texture_has_the_contrast_asked():
+    """docs/head_adaptive.py's stand-in for a skin albedo map: its factor over the surface has mean 1 and relative
+    SD the contrast given (a sum of 32 unit-variance-scaled plane waves), and it is fixed to the surface (a point
+    gets the same factor whichever pixel sees it)."""
+    mod = _script("head_adaptive")
+    rng = np.random.default_rng(0)
+    p = rng.uniform(0.0, 50.0, (200, 100, 3))
+    f = mod.skin_texture(p, 0.16)
+    assert abs(float(f.mean()) - 1.0) < 0.01 and abs(float(f.std()) / 0.16 - 1.0) < 0.1
+    assert np.array_equal(mod.skin_texture(p[::-1], 0.16), f[::-1])
