@@ -3,7 +3,7 @@ the camera jittered as Xie's engine renders every frame. Regenerates docs/head_a
 docs/head.md (between its "adaptive" markers).
 
     nice -n 10 python docs/head_adaptive.py [--quick] [--views close ear front] [--seeds 0 1 2]
-        [--size 128x96] [--frames 64] [--json docs/head_adaptive.json] [--md docs/head.md]
+        [--size 128x96] [--frames 64] [--texture 0.16] [--json docs/head_adaptive.json] [--md docs/head.md]
 
 What Xie et al. 2020 did (Sec. 3.2, 4.1.5, 6; Figs. 1, 10, 11): a still camera in UE4, whose TAA renders every
 frame through a sub-pixel jittered projection (Karis 2014: "accumulate consecutive frames ... per jittered
@@ -18,7 +18,11 @@ sigma0^2 = 0.001, kappa = 0.2, b = [8, 64] within 0.13 dB of fixed 64 spp on the
   blends the jittered frames as they come;
 * **jittered, TAA unclamped**: the same with the TAA's neighbourhood clamp off (``neighbourhood = "none"``): what
   the clamp (Karis 2014's min/max box in YCoCg) does to the noisy frames;
-* **still**: the unjittered G-buffer every frame (ssskit's figures' set-up), for comparison.
+* **still**: the unjittered G-buffer every frame (ssskit's figures' set-up), for comparison;
+* with ``--texture C``: **jittered, textured skin**: the jittered run with the skin's albedo modulated by a
+  band-limited 3D noise fixed to the surface (:func:`skin_texture`: relative SD C, wavelengths 0.5-2 mm, a
+  stand-in for the pores of Xie's Digital Mike; the scan has no albedo map), so that the jitter's own error
+  (the TAA floor) is set by a texture as in Xie's scenes; the truth is the unjittered frame with the same texture.
 
 Both runs of a seed use the same pass: the exact sampler (inverse CDF), R2, no mips, numba; fixed: 64 spp per
 pixel; adaptive: Xie's setting. The truth is the pass's **converged limit** (the exact sampler at 2048 spp, no
