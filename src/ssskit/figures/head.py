@@ -422,8 +422,8 @@ def _show_path_traced(ax: Any, img: np.ndarray, pixel_se: np.ndarray, mask: np.n
     from .display import display_copy
 
     shown, block, rel = display_copy(img, pixel_se, mask)
-    box = f", {block}x{block} box means" if block > 1 else ""
-    _show(ax, shown, f"path traced: {spp * block ** 2} spp per shown pixel{box}, noise {rel:.0%}", scale)
+    box = f"{block}x{block} box means, " if block > 1 else ""
+    _show(ax, shown, f"path traced: {spp * block ** 2} spp per shown pixel\n({box}noise {rel:.0%})", scale)
 
 
 def plot_fig7(res: dict[str, Any], path: Path) -> Path:
