@@ -130,6 +130,12 @@ def test_path_traced_reference_is_cached(tmp_path, monkeypatch):
     again = render_reference("slab", mat, width=24, height=18, spp=2, max_depth=64, chunk_spp=1, progress=False)
     np.testing.assert_array_equal(img, again.image)
     np.testing.assert_array_equal(ref.region_se, again.region_se)
+    # a jittered camera (SceneSpec.pixel_jitter) is another picture: its own cache entry, never the one above
+    import dataclasses
+
+    moved = dataclasses.replace(SCENES.get("slab"), pixel_jitter=(0.5, 0.0))
+    render_reference(moved, mat, width=24, height=18, spp=2, max_depth=64, chunk_spp=1, progress=False)
+    assert len(list((tmp_path / "reference").glob("slab-*.npz"))) == 2
 
 
 def test_reference_takes_one_phase_g():
