@@ -78,7 +78,8 @@ class SceneSpec:
     #: named cameras (name, (origin, target, up, fov_x_deg)) that ``--view NAME`` picks (the head's close, ear, front)
     views: tuple[tuple[str, tuple], ...] = ()
     #: the image's sub-pixel offset (x right, y down, in pixels): the jittered projection a TAA renders each
-    #: frame with (Karis 2014; Mitsuba's principal point offset, a fraction of the film); (0, 0): none
+    #: frame with (Karis 2014; Mitsuba's principal point offset, a fraction of the film); (0, 0): none. The
+    #: G-buffer's camera stays the unjittered one, as a TAA's motion vectors leave the jitter out
     pixel_jitter: tuple[float, float] = (0.0, 0.0)
 
     def shape_materials(self, default: str) -> tuple[str, ...]:
