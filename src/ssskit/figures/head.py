@@ -109,10 +109,11 @@ def reference_levels(sc: StudyScene, ref: Any) -> dict[str, dict[str, Any]]:
 
 
 def head_reference(view: str, material: str = "skin1", width: int = 96, height: int = 72, rel_se: float = 0.02,
-                   max_spp: int = 4096, mm_per_unit: float | None = None) -> tuple[StudyScene, Any, dict[str, Any]]:
+                   max_spp: int = 4096, mm_per_unit: float | None = None,
+                   cache_only: bool = False) -> tuple[StudyScene, Any, dict[str, Any]]:
     """(the view's :class:`StudyScene`, its path-traced :class:`~ssskit.scenes.Reference`, a JSON-ready row):
     rendered until the driving region's (:func:`driving_region`) relative SE is at most ``rel_se`` in
-    every channel or ``max_spp`` is spent; cached."""
+    every channel or ``max_spp`` is spent; cached (``cache_only``: the cached one or a SceneError)."""
     from ..materials import get_material
     from ..scenes import render_reference
 
@@ -120,11 +121,40 @@ def head_reference(view: str, material: str = "skin1", width: int = 96, height: 
     name, region = driving_region(sc)
     t0 = time.perf_counter()
     ref = render_reference(sc.spec, _homogeneous(get_material(material)), width, height, spp=256, max_spp=max_spp,
-                           target_rel_se=rel_se, region=region, chunk_spp=16, progress=False)
+                           target_rel_se=rel_se, region=region, chunk_spp=16, progress=False, cache_only=cache_only)
     row = {"view": view, "material": material, "size": [width, height], "spp": ref.spp, "converged": ref.converged,
            "driving_region": name, "seconds": time.perf_counter() - t0, "regions": reference_levels(sc, ref),
            "attribution": HEAD_ATTRIBUTION}
     return sc, ref, row
+
+
+#: the settings of the head's references (docs/head_references.py's defaults, docs/head_references.json)
+REFERENCE_SIZE, REFERENCE_REL_SE, REFERENCE_MAX_SPP = (96, 72), 0.02, 4096
+
+
+def cached_reference_layers(view: str, material: str) -> dict[str, Any]:
+    """What the live viewer shows beside its frame at a head view (``ssskit view --scene head``): the cached
+    path trace of ``view`` with ``material`` at the settings of docs/head_references.json (:func:`head_reference`
+    with ``cache_only``: a SceneError naming the command that renders it where none is cached), with the layers
+    its region levels need: ``image`` and ``pixel_se`` (H, W, 3), the G-buffer's ``specular`` and ``e_over_pi``
+    (H, W, 3), the SSS ``mask`` and the comparison regions ``masks`` (:func:`ssskit.metrics.region_masks`), and
+    ``spp``, ``converged``, ``driving_region``."""
+    from ..errors import SceneError
+
+    w, h = REFERENCE_SIZE
+    try:
+        sc, ref, row = head_reference(view, material, w, h, REFERENCE_REL_SE, REFERENCE_MAX_SPP, cache_only=True)
+    except SceneError:
+        raise SceneError(f"no path-traced reference of the head's {view} view with {material} is cached here: "
+                         f"python docs/head_references.py --views {view} --materials {material} renders it "
+                         f"(minutes)") from None
+    masks, _ = _masks(sc)
+    gb = sc.gbuffer
+    assert gb.specular is not None
+    return {"image": np.asarray(ref.image, np.float64), "pixel_se": np.asarray(ref.pixel_se, np.float64),
+            "specular": gb.specular.astype(np.float64), "e_over_pi": gb.diffuse.astype(np.float64),
+            "mask": np.asarray(gb.mask, bool), "masks": masks, "spp": int(ref.spp), "converged": bool(ref.converged),
+            "driving_region": row["driving_region"]}
 
 
 def head_references(views: Sequence[str] = VIEWS, materials: Sequence[str] = ("skin1",), width: int = 96,
@@ -246,6 +276,8 @@ def fig9_numbers(view: str = "front", material: str = "skin1", width: int = 96, 
         out["images"][name] = {"image": _composite(sc, sss), "difference": np.where(gb.mask[..., None], diff, 0.0),
                                "counts": run.counts[-1]}
     out["images"]["reference"] = np.asarray(ref.image, np.float64) - gb.specular.astype(np.float64)
+    out["images"]["reference_se"] = np.asarray(ref.pixel_se, np.float64)
+    out["images"]["mask"] = gb.mask
     return out
 
 
@@ -357,7 +389,9 @@ def separable_numbers(views: Sequence[str] = VIEWS, material: str = "skin1", wid
             rows.append(row)
             if label == "preintegrated":
                 images[v] = {"pass": gb.albedo * sss, "exact": gb.albedo * exact,
-                             "path_traced": None if ref is None else np.asarray(ref.image) - gb.specular}
+                             "path_traced": None if ref is None else np.asarray(ref.image) - gb.specular,
+                             "path_traced_se": None if ref is None else np.asarray(ref.pixel_se, np.float64),
+                             "spp": None if ref is None else ref.spp, "mask": gb.mask}
     return {"figure": "the separable-SSS paper on the head (Fig. 1, S.2, S.8)", "material": material,
             "size": [width, height], "taps": taps, "s8": S8_DISTANCES, "rows": rows, "attribution": HEAD_ATTRIBUTION,
             "images": images}
@@ -374,7 +408,7 @@ def plot_separable(res: dict[str, Any], path: Path) -> Path:
         _show(axes[i][0], im["pass"], f"{v}: separable, preintegrated, {res['taps']} taps", scale)
         _show(axes[i][1], im["exact"], "exact 2D convolution", scale)
         if im["path_traced"] is not None:
-            _show(axes[i][2], im["path_traced"], "path traced (diffuse part)", scale)
+            _show_path_traced(axes[i][2], im["path_traced"], im["path_traced_se"], im["mask"], im["spp"], scale)
         else:
             axes[i][2].axis("off")
     fig.suptitle(f"The separable-SSS paper on the head ({res['material']}). {HEAD_ATTRIBUTION}", fontsize=9)
@@ -410,6 +444,18 @@ def _show(ax: Any, img: np.ndarray, title: str, scale: float) -> None:
     ax.axis("off")
 
 
+def _show_path_traced(ax: Any, img: np.ndarray, pixel_se: np.ndarray, mask: np.ndarray, spp: int, scale: float) -> None:
+    """A path trace (diffuse part) as shown: its display copy (:func:`ssskit.figures.display.display_copy`:
+    box means of b x b pixels where its own per-pixel noise is above 10 %; only for showing, every number is
+    measured on the unfiltered image), titled with the samples per shown pixel (spp x b^2) and its remaining
+    relative noise. Its per-pixel noise is the dielectric boundary's (docs/head.md, "Why the path traces speckle")."""
+    from .display import display_copy
+
+    shown, block, rel = display_copy(img, pixel_se, mask)
+    box = f"{block}x{block} box means, " if block > 1 else ""
+    _show(ax, shown, f"path traced: {spp * block ** 2} spp per shown pixel\n({box}noise {rel:.0%})", scale)
+
+
 def plot_fig7(res: dict[str, Any], path: Path) -> Path:
     """Per view: the exact sampling, Eq. 21 and their difference x 10 (Xie Fig. 7's layout)."""
     plt = pyplot()
@@ -436,7 +482,7 @@ def plot_fig9(res: dict[str, Any], path: Path) -> Path:
     scale = float(np.percentile(ref[ref > 0], 99.5)) if (ref > 0).any() else 1.0
     fig, axes = plt.subplots(2, 4, figsize=(11, 4.8), squeeze=False)
     for i, name in enumerate(("without", "with")):
-        _show(axes[i][0], ref, "path traced (diffuse part)", scale)
+        _show_path_traced(axes[i][0], ref, im["reference_se"], im["mask"], res["reference"]["spp"], scale)
         _show(axes[i][1], im[name]["image"], f"adaptive, {name} transmission", scale)
         d = im[name]["difference"].mean(axis=-1) / scale
         axes[i][2].imshow(d, cmap="coolwarm", vmin=-0.25, vmax=0.25)
@@ -475,4 +521,4 @@ def head_fig9(out: Path, profile: RGBProfile | None = None, progress: Progress |
 
 
 __all__ = ["VIEWS", "XIE_ADAPTIVE", "XIE_FIG7_RMS", "driving_region", "fig7_numbers", "fig9_numbers", "head_fig7", "head_fig9", "head_separable", "S2_KERNELS", "S8_DISTANCES", "separable_numbers", "plot_separable",
-           "head_reference", "head_references", "head_spec", "head_view", "plot_fig7", "plot_fig9", "reference_levels", "scale_sensitivity"]
+           "REFERENCE_MAX_SPP", "REFERENCE_REL_SE", "REFERENCE_SIZE", "cached_reference_layers", "head_reference", "head_references", "head_spec", "head_view", "plot_fig7", "plot_fig9", "reference_levels", "scale_sensitivity"]
