@@ -271,8 +271,9 @@ class LayeredMaterial:
     def __post_init__(self) -> None:
         if not self.layers:
             raise MaterialError("a layered material needs at least one layer")
-        if any(layer.is_semi_infinite for layer in self.layers[:-1]):
-            raise MaterialError("only the last layer may be semi-infinite (omit its thickness_mm)")
+        for i, layer in enumerate(self.layers[:-1]):
+            LENGTH_MM.within(reason="only the last layer may be semi-infinite (omit its thickness_mm)").check(
+                layer.thickness_mm, f"layer {i + 1}: thickness_mm", MaterialError)
         for attr in ("eta_above", "eta_below"):
             object.__setattr__(self, attr, ETA.check(_number(attr, getattr(self, attr)), attr, MaterialError))
 
