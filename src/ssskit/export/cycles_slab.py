@@ -67,12 +67,10 @@ def _spot_edge(scene: Any, extent: float, sun: Any, blocker: Any) -> None:
     scene.collection.objects.link(spot)
 
 
-def _scene(extent: float, width: int, height: int, samples: int, seed: int, threads: int,
-           job: dict[str, Any] | None = None) -> tuple[Any, Any]:
-    job = job or {}
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    engine = job.get("engine", "CYCLES")
+def _settings(scene: Any, engine: str, width: int, height: int, samples: int, seed: int, threads: int) -> None:
+    """The render settings every ssskit bpy scene shares (this slab, ``head_scene.py``): ``engine``; Cycles on
+    the CPU with ``samples`` and ``seed``, box pixel filter, no denoising or adaptive sampling; ``threads``;
+    the size; Standard view transform (no tone mapping); float EXR; a black world."""
     scene.render.engine = engine
     scene.cycles.device = "CPU"
     scene.cycles.samples = samples
@@ -101,6 +99,15 @@ def _scene(extent: float, width: int, height: int, samples: int, seed: int, thre
     world.use_nodes = False
     world.color = (0.0, 0.0, 0.0)
     scene.world = world
+
+
+def _scene(extent: float, width: int, height: int, samples: int, seed: int, threads: int,
+           job: dict[str, Any] | None = None) -> tuple[Any, Any]:
+    job = job or {}
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    engine = job.get("engine", "CYCLES")
+    _settings(scene, engine, width, height, samples, seed, threads)
     # the slab: a box much wider than the view and deep enough for any walk (top face at z = 0)
     size = 40.0 * extent
     bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, -size / 2.0))
