@@ -20,7 +20,8 @@ needs_bpy = pytest.mark.skipif(PYTHON is None, reason=f"no Blender client: {WHY}
 #: 160 x 120 px (0.37 mm per pixel on the cheek), EEVEE 64 TAA samples, Cycles 64 spp. Over 3 EEVEE renders in one
 #: process (2026-12-06, benchmarks/blender_eevee_head.py and /tmp runs of this fixture) EEVEE's spill over Cycles'
 #: for Skin1 ranged R 0.58-0.72, G 0.29-0.43, B 0.17-0.35 (cycles export) and R 0.58-0.72, G 0.89-1.31, B 1.05-1.92
-#: (eevee variant): the gain of the variant R 0.99-1.21, G 2.5-4.3, B 4.2-10.4
+#: (eevee variant): the gain of the variant R 0.99-1.21, G 2.5-4.3, B 4.2-10.4; the benchmark's 3 renders (Cycles
+#: 256 spp) gave R 0.60-0.65, G 0.32-0.41, B 0.20-0.32 and gains R 0.96-1.07, G 2.4-3.4, B 3.9-7.2
 WIDTH, HEIGHT, TAA, SPP = 160, 120, 64, 64
 
 
@@ -55,11 +56,12 @@ def test_the_viewport_carries_less_light_past_the_terminator(skin1):
 def test_the_eevee_variant_widens_green_and_blue_by_at_least_s(skin1):
     """Skin1's s(A') = (1.04, 1.65, 2.47): the variant multiplies the radius EEVEE reads by s(A'); the spill past
     the terminator grows by s (a step) to s^2 (a ramp, the terminator's E), so green and blue gain more than s
-    (measured 2.5-4.3 and 4.2-10.4) and red, s = 1.04, within [0.8, 1.3] (measured 0.99-1.21)."""
+    (measured 2.4-4.3 and 3.9-10.4) and red, s = 1.04, within [0.75, 1.35] (measured 0.96-1.21; its spill ratio
+    alone ranged 0.58-0.72 over renders, so the gain of two renders can reach 0.81-1.24)."""
     a, cmp = skin1
     s = eevee_radius_scale(a)
     gain = np.array(cmp["eevee"]["eevee"][0]["spill_ratio"]) / np.array(cmp["eevee"]["cycles"][0]["spill_ratio"])
-    assert 0.8 < gain[0] < 1.3, gain
+    assert 0.75 < gain[0] < 1.35, gain
     assert gain[1] > s[1] and gain[2] > s[2], (gain, s)
 
 

@@ -171,6 +171,25 @@ def _white() -> Any:
     return mat
 
 
+def _job_material(job: dict[str, Any], name: str | None = None) -> Any:
+    """A job's material: the white Lambertian (``white``) or the one the exported ``script`` makes (its
+    ``variant``; ``method`` overrides the subsurface method), named ``material_name`` or ``name``."""
+    if job.get("white"):
+        return _white()
+    ns = runpy.run_path(job["script"], run_name="ssskit_material")
+    mat = ns["ssskit_material"](job.get("material_name") or name, job.get("variant") or "cycles")
+    if job.get("method"):
+        ns["set_method"](mat, job["method"])
+    return mat
+
+
+def _save(out_path: str, arrays: dict[str, np.ndarray], seconds: dict[str, float]) -> None:
+    """OUT.npz (one array per render key) and OUT.npz.json (the seconds per render, Blender's version)."""
+    np.savez(out_path, allow_pickle=True, **arrays)  # the default, named so no array can take its place
+    with open(out_path + ".json", "w") as fh:
+        json.dump({"seconds": seconds, "blender": bpy.app.version_string}, fh)
+
+
 def main(argv: list[str]) -> int:
     config_path, out_path = argv[0], argv[1]
     with open(config_path) as fh:
@@ -183,20 +202,11 @@ def main(argv: list[str]) -> int:
             t0 = time.perf_counter()
             scene, slab = _scene(float(job["extent_m"]), int(job["width"]), int(job["height"]),
                                  int(job["samples"]), int(job["seed"]), threads, job)
-            if job.get("white"):
-                mat = _white()
-            else:
-                ns = runpy.run_path(job["script"], run_name="ssskit_material")
-                mat = ns["ssskit_material"](job.get("material_name"), job.get("variant") or "cycles")
-                if job.get("method"):
-                    ns["set_method"](mat, job["method"])
             slab.data.materials.clear()
-            slab.data.materials.append(mat)
+            slab.data.materials.append(_job_material(job))
             arrays[job["key"]] = _render(scene, os.path.join(tmp, f"r{i}.exr"))
             seconds[job["key"]] = time.perf_counter() - t0
-    np.savez(out_path, allow_pickle=True, **arrays)  # the default, named so no array can take its place
-    with open(out_path + ".json", "w") as fh:
-        json.dump({"seconds": seconds, "blender": bpy.app.version_string}, fh)
+    _save(out_path, arrays, seconds)
     return 0
 
 

@@ -10,8 +10,8 @@ metres, ``fov_x_deg``: one of the head's views, a perspective camera whose horiz
 ``fov_x_deg``); ``light`` (``position`` in metres, ``intensity`` in W/sr: the head's key light, a point light of
 radius 0, power 4 pi I); ``threads``; and ``renders``, each with ``key``, ``engine`` ("CYCLES" or
 "BLENDER_EEVEE_NEXT"), ``width`` x ``height``, ``samples`` (Cycles' spp or EEVEE's TAA render samples),
-``seed``, and either ``script`` (an exported ssskit Blender script, applied with its ``variant``), ``white``
-(a white Lambertian: the irradiance reference E / pi) or ``coverage`` (an emission of 1: the head's pixels). The render settings are the slab's
+``seed``, and either ``script`` (an exported ssskit Blender script, applied with its ``variant``) or ``white``
+(a white Lambertian: the irradiance reference E / pi). The render settings are the slab's
 (``cycles_slab._settings``, ``cycles_slab._eevee``: Standard view transform, float EXR, black world); Cycles
 traces ``bounces`` (0 by default: direct light only, as EEVEE without raytracing or probes draws it; the
 subsurface walk is not a bounce). Each render is written as an (H, W, 3) float32 linear array, OUT.npz.json
@@ -24,7 +24,6 @@ import importlib
 import json
 import math
 import os
-import runpy
 import sys
 import tempfile
 import time
@@ -36,7 +35,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 _slab = importlib.import_module("cycles_slab")  # the slab's script beside this one: its settings, render, white
-_eevee, _render, _settings, _white = _slab._eevee, _slab._render, _slab._settings, _slab._white
+_eevee, _render, _settings = _slab._eevee, _slab._render, _slab._settings
 
 
 def _mesh(path: str) -> Any:
@@ -98,20 +97,6 @@ def _light(scene: Any, light: dict[str, Any]) -> None:
     scene.collection.objects.link(obj)
 
 
-def _coverage() -> Any:
-    """An emission of 1 (no light needed): the head's pixels, 1 on the head, 0 on the black world."""
-    mat = bpy.data.materials.new("coverage")
-    mat.use_nodes = True
-    nodes = mat.node_tree.nodes
-    nodes.clear()
-    out = nodes.new("ShaderNodeOutputMaterial")
-    emit = nodes.new("ShaderNodeEmission")
-    emit.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    emit.inputs["Strength"].default_value = 1.0
-    mat.node_tree.links.new(emit.outputs["Emission"], out.inputs["Surface"])
-    return mat
-
-
 def main(argv: list[str]) -> int:
     config_path, out_path = argv[0], argv[1]
     with open(config_path) as fh:
@@ -123,7 +108,6 @@ def main(argv: list[str]) -> int:
     head.visible_shadow = bool(config["light"].get("shadow", True))  # Cycles: no cast shadow either
     _camera(scene, config["camera"])
     _light(scene, config["light"])
-    white, coverage = _white(), _coverage()
     arrays: dict[str, np.ndarray] = {}
     seconds: dict[str, float] = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -135,20 +119,11 @@ def main(argv: list[str]) -> int:
             scene.cycles.max_bounces = int(job.get("bounces", 0))
             if engine != "CYCLES":
                 _eevee(scene, int(job["samples"]), job)
-            if job.get("white"):
-                mat = white
-            elif job.get("coverage"):
-                mat = coverage
-            else:
-                ns = runpy.run_path(job["script"], run_name="ssskit_material")
-                mat = ns["ssskit_material"](job.get("material_name") or f"m{i}", job.get("variant") or "cycles")
             head.data.materials.clear()
-            head.data.materials.append(mat)
+            head.data.materials.append(_slab._job_material(job, f"m{i}"))
             arrays[job["key"]] = _render(scene, os.path.join(tmp, f"r{i}.exr"))
             seconds[job["key"]] = time.perf_counter() - t0
-    np.savez(out_path, allow_pickle=True, **arrays)  # the default, named so no array can take its place
-    with open(out_path + ".json", "w") as fh:
-        json.dump({"seconds": seconds, "blender": bpy.app.version_string}, fh)
+    _slab._save(out_path, arrays, seconds)
     return 0
 
 
