@@ -77,3 +77,21 @@ def test_spill_is_zero_without_subsurface_transport_and_counts_only_the_dark_pix
     img = white * a
     img[:, 9] = 0.01
     np.testing.assert_allclose(spill(img, a, dark), 20 * 0.01 / a)
+
+
+@needs_bpy
+def test_the_eevee_settings_keep_shadows_on():
+    """The defect of docs/engines/eevee-sun-shadow.md: bpy 4.2.0's deprecated ``use_bloom = False`` clears
+    ``use_shadows`` (and soft shadows, TAA reprojection), and EEVEE Next then casts no shadow. The scenes' EEVEE
+    settings (``cycles_slab._eevee``, which ``head_scene.py`` shares) must leave shadows on."""
+    import subprocess
+    from pathlib import Path
+
+    import ssskit.export
+
+    folder = Path(ssskit.export.__file__).parent
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); import bpy, cycles_slab; s = bpy.context.scene; "
+            "cycles_slab._eevee(s, 4, {}); print('SHADOWS', s.eevee.use_shadows, s.eevee.use_soft_shadows)")
+    proc = subprocess.run([PYTHON, "-c", code, str(folder)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "SHADOWS True True" in proc.stdout, proc.stdout[-2000:]

@@ -35,15 +35,17 @@ import numpy as np
 def _eevee(scene: Any, samples: int, job: dict[str, Any]) -> None:
     """EEVEE Next's render settings: ``samples`` TAA render samples; ``sss_samples`` is set but EEVEE Next
     4.2 gathers 16 samples per pixel whatever it says (docs/engines/eevee-sss-albedo-fit.md); film filter
-    ``filter_size`` (0 by default: each pixel its own samples); no raytracing, AO or bloom."""
+    ``filter_size`` (0 by default: each pixel its own samples); no raytracing or AO; shadows on."""
     eevee = scene.eevee
     eevee.taa_render_samples = samples
     eevee.sss_samples = int(job.get("sss_samples", 7))
     eevee.sss_jitter_threshold = float(job.get("sss_jitter_threshold", 0.3))
-    eevee.use_shadows = True
     eevee.use_raytracing = False
     eevee.use_gtao = False
-    eevee.use_bloom = False
+    # never write the deprecated ``use_bloom`` (EEVEE Next has no bloom): in bpy 4.2.0 setting it False also clears
+    # use_shadows, use_soft_shadows and use_taa_reprojection, and EEVEE then casts no shadow at all
+    # (docs/engines/eevee-sun-shadow.md)
+    eevee.use_shadows = True
     scene.render.filter_size = float(job.get("filter_size", 0.0))
 
 
