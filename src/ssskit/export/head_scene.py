@@ -14,7 +14,7 @@ radius 0, power 4 pi I); ``threads``; and ``renders``, each with ``key``, ``engi
 (a white Lambertian: the irradiance reference E / pi). The render settings are the slab's
 (``cycles_slab._settings``, ``cycles_slab._eevee``: Standard view transform, float EXR, black world); Cycles
 traces ``bounces`` (0 by default: direct light only, as EEVEE without raytracing or probes draws it; the
-subsurface walk is not a bounce). Each render is written as an (H, W, 3) float32 linear array, OUT.npz.json
+subsurface walk is not a bounce); with ``light.shadow`` false EEVEE's shadow maps are off as well. Each render is written as an (H, W, 3) float32 linear array, OUT.npz.json
 holds the seconds per render and Blender's version.
 """
 
@@ -105,7 +105,8 @@ def main(argv: list[str]) -> int:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     head = _mesh(config["mesh"])
-    head.visible_shadow = bool(config["light"].get("shadow", True))  # Cycles: no cast shadow either
+    shadow = bool(config["light"].get("shadow", True))
+    head.visible_shadow = shadow  # Cycles: no cast shadow either
     _camera(scene, config["camera"])
     _light(scene, config["light"])
     arrays: dict[str, np.ndarray] = {}
@@ -119,6 +120,8 @@ def main(argv: list[str]) -> int:
             scene.cycles.max_bounces = int(job.get("bounces", 0))
             if engine != "CYCLES":
                 _eevee(scene, int(job["samples"]), job)
+                # no cast shadow asked: EEVEE's shadow maps off too (on llvmpipe they cost about 3x the render)
+                scene.eevee.use_shadows = shadow
             head.data.materials.clear()
             head.data.materials.append(_slab._job_material(job, f"m{i}"))
             arrays[job["key"]] = _render(scene, os.path.join(tmp, f"r{i}.exr"))
