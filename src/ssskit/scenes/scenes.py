@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike
 
 from ..cache import cache_file
 from ..errors import SceneError
+from ..quantities import SIZE_PX, Quantity
 from ..io import atomic_output
 from ..registry import Registry
 from ..screenspace.camera import Camera
@@ -77,6 +78,10 @@ class SceneSpec:
     about: tuple[tuple[str, Any], ...] = ()
     #: named cameras (name, (origin, target, up, fov_x_deg)) that ``--view NAME`` picks (the head's close, ear, front)
     views: tuple[tuple[str, tuple], ...] = ()
+    #: the image's sub-pixel offset (x right, y down, in pixels): the jittered projection a TAA renders each
+    #: frame with (Karis 2014; Mitsuba's principal point offset, a fraction of the film); (0, 0): none. The
+    #: G-buffer's camera stays the unjittered one, as a TAA's motion vectors leave the jitter out
+    pixel_jitter: tuple[float, float] = (0.0, 0.0)
 
     def shape_materials(self, default: str) -> tuple[str, ...]:
         """The material of each SSS shape (profile id i + 1 is ``sss_shapes[i]``), ``default`` where the
@@ -250,15 +255,12 @@ def scene_camera(spec: SceneSpec, width: int, height: int, frame: int = 0) -> Ca
 
 def check_size(width: int, height: int) -> None:
     """A SceneError unless width and height are integers in :data:`SIZE_RANGE`."""
-    lo, hi = SIZE_RANGE
     for v, name in ((width, "width"), (height, "height")):
-        if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and lo <= v <= hi):
-            raise SceneError(f"image {name} must be an integer in [{lo}, {hi}], got {v!r}")
+        SIZE_PX.within(*SIZE_RANGE).check(v, f"image {name}", SceneError)
 
 
 def check_spp(spp: int) -> None:
-    if not (isinstance(spp, (int, np.integer)) and not isinstance(spp, bool) and spp >= 1):
-        raise SceneError(f"samples per pixel must be a positive integer, got {spp!r}")
+    Quantity("spp", 1, math.inf, "", "samples per pixel", integer=True, hi_open=True).check(spp, "spp", SceneError)
 
 
 #: Mitsuba's perspective sensor's default clip planes (world units: mm), kept wherever they hold the scene
@@ -279,11 +281,15 @@ def clip_planes(distance: float) -> tuple[float, float]:
 def _sensor(spec: SceneSpec, width: int, height: int, spp: int, seed: int, frame: int) -> dict:
     origin, target, up = camera_pose(spec, frame)
     near, far = clip_planes(float(np.linalg.norm(target - origin)))
-    return {"type": "perspective", "fov": spec.fov_x_deg, "fov_axis": "x", "near_clip": near, "far_clip": far,
-            "to_world": _T()().look_at(origin=origin.tolist(), target=target.tolist(), up=up.tolist()),
-            "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
-                     "pixel_format": "rgb"},
-            "sampler": {"type": "independent", "sample_count": spp, "seed": seed}}
+    sensor = {"type": "perspective", "fov": spec.fov_x_deg, "fov_axis": "x", "near_clip": near, "far_clip": far,
+              "to_world": _T()().look_at(origin=origin.tolist(), target=target.tolist(), up=up.tolist()),
+              "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
+                       "pixel_format": "rgb"},
+              "sampler": {"type": "independent", "sample_count": spp, "seed": seed}}
+    jx, jy = spec.pixel_jitter
+    if jx or jy:  # pixel (i, j) sees what (i + jx, j + jy) sees unjittered (tests/scenes/test_scenes.py)
+        sensor.update(principal_point_offset_x=float(jx) / width, principal_point_offset_y=float(jy) / height)
+    return sensor
 
 
 def scene_dict(spec: SceneSpec, width: int, height: int, spp: int, seed: int, frame: int, integrator: dict,
