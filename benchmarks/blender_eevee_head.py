@@ -51,10 +51,10 @@ def _span(values: list[float], digits: int = 2) -> str:
 
 
 def markdown(data: dict) -> str:
-    out = [f"EEVEE Next {data['rows'][0]['blender']} (Mesa llvmpipe, EGL) and Cycles (CPU, {data['spp']} spp), the head's "
-           f"{data['view']} view at {data['width']}x{data['height']} px, key light without cast shadow, EEVEE "
-           f"{data['taa']} TAA samples (its gather: 16 samples per pixel per TAA sample), {data['repeats']} EEVEE renders "
-           f"per row (min-max over them), source --model {data['model']}",
+    out = [f"EEVEE Next {data['rows'][0]['blender']} (Mesa llvmpipe, EGL) and Cycles (CPU, {data['spp']} spp), "
+           f"the head's {data['view']} view at {data['width']}x{data['height']} px, key light without cast shadow, "
+           f"EEVEE {data['taa']} TAA samples (its gather: 16 samples per pixel per TAA sample), {data['repeats']} "
+           f"EEVEE renders per row (min-max over them), source --model {data['model']}",
            "",
            "| material | channel | A | s(A') | Cycles plateau / A | EEVEE spill / Cycles' (cycles export) | "
            "EEVEE spill / Cycles' (eevee variant) | gain of the variant | EEVEE plateau / A (cycles) |",

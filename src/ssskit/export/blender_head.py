@@ -2,13 +2,13 @@
 renders, in its mm scale; one of its views; its key light), and what they show is measured against each other.
 
 :func:`render_head` writes the job (``head_scene.py``'s CONFIG) and runs it in a Python that has ``bpy``
-(:func:`ssskit.export.blender.find_blender_python`), as the slab's runner does. :func:`spill` measures what a
-screen-space pass and a path tracer must agree on: the share of a channel's light that leaves the skin where the
-key light does not reach (cast shadow and the far side of the terminator, from the white reference of the same
-engine), which grows linearly with the profile's width d for a straight edge (the light that crosses a line,
-integral of F(u) du over u > 0 for the edge response F of :func:`ssskit.export.blender.edge_response`, is
-proportional to d for Burley's profile R(r; d) = f(r / d) / d^2, Xie 2020 Eq. 4; Christensen and Burley 2015
-[CB15]). Summed over hundreds of pixels it is far less noisy than an edge distance.
+(:func:`ssskit.export.blender.find_blender_python`), as the slab's runner does. :func:`compare_head` renders one
+exported material in both engines with the key light casting no shadow, so the light ends only at the terminator
+(N . L = 0), the same line in both, and measures with :func:`spill` what a screen-space pass and a path tracer
+must agree on: the light that leaves the skin where the key light does not reach (the pixels both engines' white
+references leave unlit, :func:`dark_mask`). It is 0 without subsurface transport and grows with the profile's
+width d (as d past a step of light, as d^2 past the terminator's ramp; Burley's profile R(r; d) = f(r / d) / d^2,
+Xie 2020 Eq. 4 [XOKN20]). Summed over thousands of pixels it is far steadier than an edge distance.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import SsskitError
 from .blender import find_blender_python
 
-#: the head's key light (the scene's ``key``: E / pi = 1 at the head's centre) and the views it takes
+#: the head's key light (the scene's ``key``: E / pi = 1 at the head's centre)
 KEY_LIGHT = "key"
 #: the white reference's level (of its 98th percentile over the head) below which a pixel counts as unlit
 UNLIT = 1e-3
@@ -70,7 +70,8 @@ def render_head(renders: list[dict[str, Any]], view: str = "close", shadow: bool
         mesh = Path(tmp) / "head.npz"
         np.savez(mesh, **job["arrays"])
         cfg = Path(tmp) / "config.json"
-        cfg.write_text(json.dumps({"mesh": str(mesh), "camera": job["camera"], "light": {**job["light"], "shadow": shadow},
+        cfg.write_text(json.dumps({"mesh": str(mesh), "camera": job["camera"],
+                                   "light": {**job["light"], "shadow": shadow},
                                    "threads": os.cpu_count() or 1, "renders": renders}))
         out = Path(tmp) / "out.npz"
         proc = subprocess.run([exe, str(here), str(cfg), str(out)], capture_output=True, text=True, timeout=timeout)

@@ -14,8 +14,8 @@ radius 0, power 4 pi I); ``threads``; and ``renders``, each with ``key``, ``engi
 (a white Lambertian: the irradiance reference E / pi). The render settings are the slab's
 (``cycles_slab._settings``, ``cycles_slab._eevee``: Standard view transform, float EXR, black world); Cycles
 traces ``bounces`` (0 by default: direct light only, as EEVEE without raytracing or probes draws it; the
-subsurface walk is not a bounce); with ``light.shadow`` false EEVEE's shadow maps are off as well. Each render is written as an (H, W, 3) float32 linear array, OUT.npz.json
-holds the seconds per render and Blender's version.
+subsurface walk is not a bounce); with ``light.shadow`` false EEVEE's shadow maps are off as well. Each render
+is written as an (H, W, 3) float32 linear array; OUT.npz.json holds the seconds per render and Blender's version.
 """
 
 from __future__ import annotations
