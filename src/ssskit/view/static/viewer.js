@@ -65,13 +65,32 @@ void main() {
   v_world = a_pos;
   gl_Position = u_proj * vp;
 }`;
-  // The G-buffer of ssskit.screenspace.GBuffer: diffuse = the lighting of a white Lambertian surface, each
-  // light's intensity being E / pi of a surface facing it (ssskit.scenes.scenefile); no shadows.
-  const GBUF_FS = `#version 300 es
+  // The G-buffer of ssskit.screenspace.GBuffer in two draws (deferred shading): the mesh writes one target, the
+  // world normal and the linear depth (mm); a full-screen resolve then writes the other layers once per pixel from
+  // them. Writing six float targets per rasterised fragment (small triangles shade whole 2x2 quads, so several
+  // fragments per pixel) cost SwiftShader more than the resolve's one pass (benchmarks/RESULTS.md, "The live viewer").
+  const GEOM_FS = `#version 300 es
 precision highp float;
 in vec3 v_nrm;
 in vec3 v_world;
 in float v_z;
+uniform vec3 u_eye;
+layout(location = 0) out vec4 o_normal;  // world normal (facing the viewer), linear depth mm
+void main() {
+  vec3 n = normalize(v_nrm);
+  if (dot(n, u_eye - v_world) < 0.0) n = -n;
+  o_normal = vec4(n, v_z);
+}`;
+  // diffuse = the lighting of a white Lambertian surface, each light's intensity being E / pi of a surface facing
+  // it (ssskit.scenes.scenefile); no shadows. The surface point: the pixel centre's ray at the linear depth,
+  // world = eye + z (ndc.x tan(fov_x / 2) r + ndc.y tan(fov_y / 2) u + f) for the camera's right, up and forward axes.
+  const GBUF_FS = `#version 300 es
+precision highp float;
+uniform highp sampler2D u_geom;
+uniform vec2 u_px;       // 2 / W, 2 / H: pixel centre to NDC
+uniform vec3 u_cam_r;    // the camera's axes scaled by tan(fov / 2) (right, up) and its forward axis
+uniform vec3 u_cam_u;
+uniform vec3 u_cam_f;
 uniform vec3 u_light_dir[4];
 uniform vec3 u_light_rgb[4];
 uniform int u_nlights;
@@ -86,13 +105,18 @@ uniform float u_ltexel;  // mm per map texel
 layout(location = 0) out vec4 o_src;     // diffuse irradiance rgb, linear depth mm (-1 without SSS)
 layout(location = 1) out vec4 o_spec;    // specular rgb
 layout(location = 2) out vec4 o_albedo;  // albedo rgb, 1 on surfaces
-layout(location = 3) out vec4 o_normal;  // world normal, linear depth mm
-layout(location = 4) out vec4 o_id;      // profile id (0: no SSS)
-layout(location = 5) out vec4 o_light;   // the transmittance pass's inputs: map texel x, y, depth along the light (mm), N . L
+layout(location = 3) out vec4 o_id;      // profile id (0: no SSS)
+layout(location = 4) out vec4 o_light;   // the transmittance pass's inputs: map texel x, y, depth along the light (mm), N . L
 void main() {
-  vec3 n = normalize(v_nrm);
-  vec3 v = normalize(u_eye - v_world);
-  if (dot(n, v) < 0.0) n = -n;
+  vec4 g = texelFetch(u_geom, ivec2(gl_FragCoord.xy), 0);
+  if (g.w <= 0.0) {        // no surface: the cleared values
+    o_src = vec4(0.0, 0.0, 0.0, -1.0); o_spec = vec4(0.0); o_albedo = vec4(0.0); o_id = vec4(0.0); o_light = vec4(0.0);
+    return;
+  }
+  vec3 n = g.xyz;
+  vec2 ndc = gl_FragCoord.xy * u_px - 1.0;
+  vec3 world = u_eye + g.w * (ndc.x * u_cam_r + ndc.y * u_cam_u + u_cam_f);
+  vec3 v = normalize(u_eye - world);
   vec3 e = vec3(0.0), s = vec3(0.0);
   for (int i = 0; i < 4; ++i) {
     if (i >= u_nlights) break;
@@ -102,12 +126,11 @@ void main() {
     vec3 h = normalize(l + v);
     s += u_light_rgb[i] * nl * 0.028 * 6.0 * pow(max(dot(n, h), 0.0), 40.0);  // a glossy coat (F0 = 0.028)
   }
-  o_src = vec4(e, u_profile > 0.0 ? v_z : -1.0);
+  o_src = vec4(e, u_profile > 0.0 ? g.w : -1.0);
   o_spec = vec4(s, 1.0);
   o_albedo = vec4(u_albedo, 1.0);
-  o_normal = vec4(n, v_z);
   o_id = vec4(u_profile, 0.0, 0.0, 0.0);
-  vec3 d = v_world - u_lo;
+  vec3 d = world - u_lo;
   o_light = vec4(dot(d, u_lu) / u_ltexel, dot(d, u_lv) / u_ltexel, -dot(d, u_ll), dot(n, u_ll));
 }`;
   // the key light's depth map (orthographic along the light, mm from the map's plane): the translucency shadow
@@ -197,10 +220,11 @@ void main() {
     return t;
   }
   // float32 where a pass reads the layer (and the parity tests read it back); half floats for what only the
-  // composite reads (specular, albedo, normal)
+  // composite reads (specular, albedo)
   const G = { src: floatTexture(), spec: floatTexture(gl.RGBA16F), albedo: floatTexture(gl.RGBA16F),
-    normal: floatTexture(gl.RGBA16F), id: floatTexture(gl.R32F), light: floatTexture() };
-  const gbufFb = framebuffer([G.src, G.spec, G.albedo, G.normal, G.id, G.light], true);
+    normal: floatTexture(), id: floatTexture(gl.R32F), light: floatTexture() };
+  const geomFb = framebuffer([G.normal], true);
+  const gbufFb = framebuffer([G.src, G.spec, G.albedo, G.id, G.light], false);
   const lightMap = gl.createTexture();
   gl.bindTexture(gl.TEXTURE_2D, lightMap);
   gl.texStorage2D(gl.TEXTURE_2D, 1, gl.R32F, LMAP, LMAP);
@@ -234,19 +258,22 @@ void main() {
   }
   const S = D.scene;
   const vao = gl.createVertexArray();
-  const gbuf = link(GBUF_VS, GBUF_FS, 'G-buffer');
+  const geom = link(GBUF_VS, GEOM_FS, 'G-buffer (geometry)');
+  const gbuf = link(FULL_VS, GBUF_FS, 'G-buffer (resolve)');
   gl.bindVertexArray(vao);
-  for (const [name, data] of [['a_pos', S.positions], ['a_nrm', S.normals]]) {
+  const positions = decode(S.positions, Float32Array);   // kept: the mesh's screen rectangle (meshRect)
+  for (const [name, data] of [['a_pos', positions], ['a_nrm', decode(S.normals, Float32Array)]]) {
     const b = gl.createBuffer();
     gl.bindBuffer(gl.ARRAY_BUFFER, b);
-    gl.bufferData(gl.ARRAY_BUFFER, decode(data, Float32Array), gl.STATIC_DRAW);
-    const loc = gl.getAttribLocation(gbuf.p, name);
+    gl.bufferData(gl.ARRAY_BUFFER, data, gl.STATIC_DRAW);
+    const loc = gl.getAttribLocation(geom.p, name);
     gl.enableVertexAttribArray(loc);
     gl.vertexAttribPointer(loc, 3, gl.FLOAT, false, 0, 0);
   }
   const ib = gl.createBuffer();
   gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, ib);
-  gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, decode(S.indices, Uint32Array), gl.STATIC_DRAW);
+  const indices = decode(S.indices, Uint32Array);   // kept, as the positions: meshRect
+  gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, indices, gl.STATIC_DRAW);
   gl.bindVertexArray(null);
   const emptyVao = gl.createVertexArray();
   // a closed mesh wound consistently (ssskit.scenes.meshes.topology): its back faces are hidden, so culled
@@ -280,7 +307,7 @@ void main() {
     const dist = Math.hypot(...sub(e, c.target));
     const near = Math.max(dist * 0.01, 0.1), far = dist * 10;
     const proj = [1 / tx, 0, 0, 0, 0, 1 / ty, 0, 0, 0, 0, -(far + near) / (far - near), -1, 0, 0, -2 * far * near / (far - near), 0];
-    return { view, proj, eye: e, fx: 0.5 * W / tx, fy: 0.5 * H / ty };
+    return { view, proj, eye: e, right: r, up: u, forward: f, tx, ty, fx: 0.5 * W / tx, fy: 0.5 * H / ty };
   }
 
   // ---- hashes (ssskit.sampling.hashes) -----------------------------------------------------------------------
@@ -404,15 +431,23 @@ void main() {
 
   let result = G.src;   // the texture holding the last pass's output (the diffuse layer)
   function drawGbuffer(m, mat) {
-    gl.bindFramebuffer(gl.FRAMEBUFFER, gbufFb);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, geomFb);
     gl.viewport(0, 0, W, H);
     gl.enable(gl.DEPTH_TEST);
-    gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, -1]);
-    for (let i = 1; i < 6; ++i) gl.clearBufferfv(gl.COLOR, i, [0, 0, 0, 0]);
+    gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, 0]);
     gl.clearBufferfv(gl.DEPTH, 0, [1]);
+    gl.useProgram(geom.p);
+    gl.uniformMatrix4fv(geom.u.u_view, false, m.view);
+    gl.uniformMatrix4fv(geom.u.u_proj, false, m.proj);
+    gl.uniform3fv(geom.u.u_eye, m.eye);
+    drawMesh();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, gbufFb);
     gl.useProgram(gbuf.p);
-    gl.uniformMatrix4fv(gbuf.u.u_view, false, m.view);
-    gl.uniformMatrix4fv(gbuf.u.u_proj, false, m.proj);
+    bindTextures(gbuf, { u_geom: G.normal });
+    gl.uniform2f(gbuf.u.u_px, 2 / W, 2 / H);
+    gl.uniform3fv(gbuf.u.u_cam_r, m.right.map((x) => x * m.tx));
+    gl.uniform3fv(gbuf.u.u_cam_u, m.up.map((x) => x * m.ty));
+    gl.uniform3fv(gbuf.u.u_cam_f, m.forward);
     const L = lights();
     gl.uniform3fv(gbuf.u.u_light_dir, L.dirs);
     gl.uniform3fv(gbuf.u.u_light_rgb, L.rgb);
@@ -421,8 +456,53 @@ void main() {
     gl.uniform3fv(gbuf.u.u_albedo, mat.albedo);
     gl.uniform1f(gbuf.u.u_profile, 1);
     lightUniforms(gbuf, L);
-    drawMesh();
+    drawMasked(gbufFb, [[0, 0, 0, -1], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0]]);
   }
+  // A full-screen pass on the mesh's screen rectangle only (the box of the triangles that reach the frame, a pixel's
+  // margin): outside it every pixel is background, where a pass's output is its target's cleared value. SwiftShader
+  // runs the fragment shader on every pixel of a draw, background or not, so the rectangle is what saves the work
+  // (a depth-test mask did not: benchmarks/RESULTS.md, "The live viewer"). A target is cleared only where an
+  // earlier frame wrote outside this frame's rectangle.
+  let rect = [0, 0, W, H];
+  const projected = new Float32Array(positions.length / 3 * 2);
+  function meshRect(m) {
+    const P = positions, M = m.view, Q = m.proj, X = projected;
+    for (let i = 0, j = 0; i < P.length; i += 3, j += 2) {
+      const x = P[i], y = P[i + 1], z = P[i + 2];
+      const w = -(M[2] * x + M[6] * y + M[10] * z + M[14]);
+      if (w <= 0) return [0, 0, W, H];        // a vertex behind the camera: the whole frame
+      X[j] = Q[0] * (M[0] * x + M[4] * y + M[8] * z + M[12]) / w;
+      X[j + 1] = Q[5] * (M[1] * x + M[5] * y + M[9] * z + M[13]) / w;
+    }
+    let x0 = Infinity, x1 = -Infinity, y0 = Infinity, y1 = -Infinity;
+    for (let t = 0; t < indices.length; t += 3) {
+      const a = 2 * indices[t], b = 2 * indices[t + 1], c = 2 * indices[t + 2];
+      const tx0 = Math.min(X[a], X[b], X[c]), tx1 = Math.max(X[a], X[b], X[c]);
+      const ty0 = Math.min(X[a + 1], X[b + 1], X[c + 1]), ty1 = Math.max(X[a + 1], X[b + 1], X[c + 1]);
+      if (tx1 < -1 || tx0 > 1 || ty1 < -1 || ty0 > 1) continue;   // off the frame
+      if (tx0 < x0) x0 = tx0; if (tx1 > x1) x1 = tx1; if (ty0 < y0) y0 = ty0; if (ty1 > y1) y1 = ty1;
+    }
+    const px0 = Math.max(0, Math.floor((x0 + 1) * W / 2) - 1), px1 = Math.min(W, Math.ceil((x1 + 1) * W / 2) + 1);
+    const py0 = Math.max(0, Math.floor((y0 + 1) * H / 2) - 1), py1 = Math.min(H, Math.ceil((y1 + 1) * H / 2) + 1);
+    return px1 > px0 && py1 > py0 ? [px0, py0, px1 - px0, py1 - py0] : [0, 0, 0, 0];
+  }
+  // per target framebuffer: the rectangle it was last written in (the whole frame at first: zero-initialised)
+  const written = new Map();
+  const inside = (a, b) => a[2] === 0 || (a[0] >= b[0] && a[1] >= b[1] && a[0] + a[2] <= b[0] + b[2] && a[1] + a[3] <= b[1] + b[3]);
+  function drawMasked(fb, background) {
+    const old = written.has(fb) ? written.get(fb) : [0, 0, W, H];
+    gl.enable(gl.SCISSOR_TEST);
+    if (!inside(old, rect)) {
+      gl.scissor(old[0], old[1], old[2], old[3]);
+      background.forEach((v, i) => gl.clearBufferfv(gl.COLOR, i, v));
+    }
+    written.set(fb, rect);
+    gl.scissor(rect[0], rect[1], rect[2], rect[3]);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    gl.disable(gl.SCISSOR_TEST);
+  }
+  // the background of the pass targets: what the passes return off the mesh (the source, (0, 0, 0, -1))
+  const NO_SSS = [[0, 0, 0, -1]];
   // the mesh with the bound program and depth test (back faces culled where closed), then the state of the passes
   function drawMesh() {
     gl.bindVertexArray(vao);
@@ -434,7 +514,7 @@ void main() {
   }
   function drawPass(prog, target) {
     gl.bindFramebuffer(gl.FRAMEBUFFER, TF[target]);
-    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    drawMasked(TF[target], NO_SSS);
   }
   function separable(m, mat) {
     const sp = mat.separable, base = frameBase(state.frame, state.seed);
@@ -514,7 +594,7 @@ void main() {
     const t0 = performance.now();
     timing.passes = timerExt ? timing.passes : {};
     gl.bindVertexArray(emptyVao);
-    timed('gbuffer', () => drawGbuffer(m, mat));
+    timed('gbuffer', () => { rect = meshRect(m); drawGbuffer(m, mat); });
     gl.viewport(0, 0, W, H);
     if (state.pass === 'separable') timed('separable', () => { result = separable(m, mat); });
     else if (state.pass === 'burley') timed('burley', () => { result = burley(m, mat); });
@@ -534,11 +614,11 @@ void main() {
       gl.uniform1i(composite.u.u_heat, state.heat && state.pass === 'adaptive' ? 1 : 0);
       gl.uniform2f(composite.u.u_budget, mat.adaptive.b_min, mat.adaptive.b_max);
       gl.uniform1f(composite.u.u_exposure, 1.0);
-      gl.drawArrays(gl.TRIANGLES, 0, 3);
+      drawMasked(null, [[0.13, 0.13, 0.13, 1]]);   // off the mesh: the composite's background
     });
     sync();
     timing.frame_ms = performance.now() - t0;
-    timing.fx = m.fx; timing.fy = m.fy;
+    timing.fx = m.fx; timing.fy = m.fy; timing.rect = rect.slice();
     frames += 1;
     const lines = Object.entries(timing.passes).map(([k, v]) => `${k.padEnd(10)} ${v.toFixed(2)} ms`);
     $('stats').textContent = `${W}x${H}, ${S.triangles} triangles\nframe ${timing.frame_ms.toFixed(1)} ms (` +
