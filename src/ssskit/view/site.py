@@ -131,9 +131,12 @@ def material_payload(req: MaterialRequest) -> dict[str, Any]:
                       "weights": np.asarray(taps.weights).tolist()},
         "burley": {"shader": burley_fragment_source(plan), "dmfp_mm": [float(v) for v in params.dmfp_mm],
                    "albedo": [float(v) for v in params.albedo]},
-        # Xie 2020 Sec. 4.1 with ssskit's AdaptiveSettings defaults: the estimate, the update, the Burley pass
-        # reading the count image
+        # Xie 2020 Sec. 4.1 with ssskit's AdaptiveSettings defaults: the estimate, the update (each also reading
+        # the history through motion vectors), the Burley pass reading the count image
         "adaptive": {"estimate": adaptive_fragment_source(guide, False), "update": adaptive_fragment_source(guide, True),
+                     # after an orbit step: the history fetched through motion vectors, a validity image
+                     "estimate_moved": adaptive_fragment_source(guide, False, motion=True, valid=True),
+                     "update_moved": adaptive_fragment_source(guide, True, motion=True, valid=True),
                      "burley": burley_fragment_source(plan, count_image=True), "b_min": guide.b_min,
                      "b_max": guide.b_max},
         # the transmittance pass with the material's MCML slab table (ssskit.screenspace.transmission.mcml_model)

@@ -156,6 +156,47 @@ precision highp float;
 in float v_z;
 out vec4 o_depth;
 void main() { o_depth = vec4(v_z, 0.0, 0.0, 1.0); }`;
+  // Reprojection of the adaptive history after an orbit step: per pixel the motion to where its surface point was
+  // in the history's frame (ssskit.screenspace.camera.motion_vectors: pixels, columns and rows from the top) and
+  // whether that history may be used. Xie 2020 Sec. 4.1.4 (Eqs. 16-17) restarts a pixel whose fetched history
+  // holds no SSS mask (the history's m channel); the page also refuses a fetch whose surface differs, the depth and
+  // normal consistency tests of temporal reuse (Schied et al. 2017, SVGF Sec. 4): the stored linear depth of the
+  // fetched pixel within REPROJECT_DEPTH of the point's depth in the history's camera, and normals within
+  // REPROJECT_COS. The fetch itself is the body's nearest fetch without rejection (Xie Eq. 18).
+  const REPROJECT_DEPTH = 0.02, REPROJECT_COS = 0.9;
+  const MOTION_FS = `#version 300 es
+precision highp float;
+uniform highp sampler2D u_geom;        // this frame: world normal, linear depth mm
+uniform highp sampler2D u_prev_geom;   // the history's frame
+uniform vec2 u_px;
+uniform vec3 u_cam_r;
+uniform vec3 u_cam_u;
+uniform vec3 u_cam_f;
+uniform vec3 u_eye;
+uniform mat4 u_prev_viewproj;
+uniform vec3 u_prev_eye;
+uniform vec3 u_prev_f;
+layout(location = 0) out vec4 o_motion;
+layout(location = 1) out uvec4 o_valid;
+void main() {
+  vec2 res = 2.0 / u_px;
+  vec4 g = texelFetch(u_geom, ivec2(gl_FragCoord.xy), 0);
+  o_motion = vec4(0.0);
+  o_valid = uvec4(0u);
+  if (g.w <= 0.0) return;
+  vec2 ndc = gl_FragCoord.xy * u_px - 1.0;
+  vec3 world = u_eye + g.w * (ndc.x * u_cam_r + ndc.y * u_cam_u + u_cam_f);
+  vec4 c = u_prev_viewproj * vec4(world, 1.0);
+  if (c.w <= 0.0) return;
+  vec2 prev = (c.xy / c.w * 0.5 + 0.5) * res;   // GL window coordinates in the history's frame
+  o_motion = vec4(prev.x - gl_FragCoord.x, gl_FragCoord.y - prev.y, 0.0, 0.0);
+  ivec2 pq = ivec2(floor(prev));
+  if (any(lessThan(pq, ivec2(0))) || any(greaterThanEqual(pq, ivec2(res)))) return;
+  vec4 gp = texelFetch(u_prev_geom, pq, 0);
+  float z = dot(world - u_prev_eye, u_prev_f);
+  bool ok = gp.w > 0.0 && abs(gp.w - z) <= ${REPROJECT_DEPTH} * z && dot(gp.xyz, g.xyz) >= ${REPROJECT_COS};
+  o_valid = uvec4(ok ? 1u : 0u);
+}`;
   const COMPOSITE_FS = `#version 300 es
 precision highp float;
 uniform sampler2D u_src;
@@ -222,8 +263,11 @@ void main() {
   // float32 where a pass reads the layer (and the parity tests read it back); half floats for what only the
   // composite reads (specular, albedo)
   const G = { src: floatTexture(), spec: floatTexture(gl.RGBA16F), albedo: floatTexture(gl.RGBA16F),
-    normal: floatTexture(), id: floatTexture(gl.R32F), light: floatTexture() };
-  const geomFb = framebuffer([G.normal], true);
+    normal: null, id: floatTexture(gl.R32F), light: floatTexture() };
+  // the geometry target alternates per frame, so the adaptive pass can read the history's frame's beside this one's
+  const geoms = [floatTexture(), floatTexture()].map((t) => ({ tex: t, fb: framebuffer([t], true) }));
+  let geomIndex = 0;
+  G.normal = geoms[0].tex;
   const gbufFb = framebuffer([G.src, G.spec, G.albedo, G.id, G.light], false);
   const lightMap = gl.createTexture();
   gl.bindTexture(gl.TEXTURE_2D, lightMap);
@@ -246,6 +290,14 @@ void main() {
   const updateFb = [0, 1].map((i) => framebuffer([hist[i], counts[i]], false));
   const countFb = [0, 1].map((i) => framebuffer([counts[i]], false));
   const histFb = [0, 1].map((i) => framebuffer([hist[i]], false));
+  const motion = floatTexture(gl.RG32F), valid = (() => {
+    const t = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, t);
+    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.R8UI, W, H);
+    for (const k of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, k, gl.NEAREST);
+    return t;
+  })();
+  const motionFb = framebuffer([motion, valid], false), validFb = framebuffer([valid], false);
   const T = [floatTexture(), floatTexture(), floatTexture()];
   const TF = T.map((t) => framebuffer([t], false));
 
@@ -431,7 +483,9 @@ void main() {
 
   let result = G.src;   // the texture holding the last pass's output (the diffuse layer)
   function drawGbuffer(m, mat) {
-    gl.bindFramebuffer(gl.FRAMEBUFFER, geomFb);
+    geomIndex = 1 - geomIndex;
+    G.normal = geoms[geomIndex].tex;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, geoms[geomIndex].fb);
     gl.viewport(0, 0, W, H);
     gl.enable(gl.DEPTH_TEST);
     gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, 0]);
@@ -547,16 +601,37 @@ void main() {
     drawPass(prog, 1);
     return T[1];
   }
-  // Xie 2020 Sec. 4.1 with a static camera: any change of the view, light or material starts a new history
-  const ad = { key: '', cur: 0, frame: 0, used: 0 };
+  // Xie 2020 Sec. 4.1: a change of light, material or seed starts a new history; an orbit step reprojects it
+  // (MOTION_FS: the estimate and the update then fetch the history through the motion, where valid)
+  const ad = { key: '', cur: 0, frame: 0, used: 0, view: null, geom: null, moved: 0 };
+  // column-major 4x4 product a b
+  const mul4 = (a, b) => Array.from({ length: 16 }, (_, i) => [0, 1, 2, 3].reduce((acc, k) => acc + a[4 * k + (i & 3)] * b[4 * (i >> 2) + k], 0));
+  function reproject(m) {
+    const p = ad.view;
+    const prog = passProgram(MOTION_FS, '', 'reprojection');
+    gl.useProgram(prog.p);
+    bindTextures(prog, { u_geom: G.normal, u_prev_geom: ad.geom });
+    gl.uniform2f(prog.u.u_px, 2 / W, 2 / H);
+    gl.uniform3fv(prog.u.u_cam_r, m.right.map((x) => x * m.tx));
+    gl.uniform3fv(prog.u.u_cam_u, m.up.map((x) => x * m.ty));
+    gl.uniform3fv(prog.u.u_cam_f, m.forward);
+    gl.uniform3fv(prog.u.u_eye, m.eye);
+    gl.uniformMatrix4fv(prog.u.u_prev_viewproj, false, mul4(p.proj, p.view));
+    gl.uniform3fv(prog.u.u_prev_eye, p.eye);
+    gl.uniform3fv(prog.u.u_prev_f, p.forward);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, motionFb);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+  }
   function adaptive(m, mat) {
     const A = mat.adaptive;
-    const key = JSON.stringify([state.material, cam, state.light, state.seed, W, H]);
+    const key = JSON.stringify([state.material, state.light, state.seed, W, H]);
+    const view = JSON.stringify(cam);
     setUniforms = (prog) => {
       setIf(prog, 'u_size', (l) => gl.uniform2i(l, W, H));
     };
+    const moved = key === ad.key && view !== ad.viewKey;
     if (key !== ad.key) {            // no history: the estimate on an empty one gives b_min inside the mask
-      ad.key = key; ad.cur = 0; ad.frame = 0;
+      ad.key = key; ad.cur = 0; ad.frame = 0; ad.moved = 0;
       gl.bindFramebuffer(gl.FRAMEBUFFER, histFb[0]);
       gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, 0]);
       const est = passProgram(A.estimate, '', 'adaptive estimate');
@@ -565,6 +640,15 @@ void main() {
       setUniforms(est);
       gl.bindFramebuffer(gl.FRAMEBUFFER, countFb[0]);
       gl.drawArrays(gl.TRIANGLES, 0, 3);
+    } else if (moved) {              // this frame's counts from the history seen from the new view
+      reproject(m);
+      const est = passProgram(A.estimate_moved, '', 'adaptive estimate (reprojected)');
+      gl.useProgram(est.p);
+      bindTextures(est, { u_hist: hist[ad.cur], u_mask: G.id, u_motion: motion, u_valid: valid });
+      setUniforms(est);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, countFb[ad.cur]);
+      gl.drawArrays(gl.TRIANGLES, 0, 3);
+      ad.moved += 1;
     }
     const c = ad.cur;
     const bur = passProgram(A.burley, '', 'Burley pass (count image)');
@@ -575,13 +659,14 @@ void main() {
     setIf(bur, 'u_fy', (l) => gl.uniform1f(l, m.fy));
     setIf(bur, 'u_base', (l) => gl.uniform1ui(l, frameBase(ad.frame, state.seed)));
     drawPass(bur, 1);
-    const upd = passProgram(A.update, '', 'adaptive update');
+    const upd = moved ? passProgram(A.update_moved, '', 'adaptive update (reprojected)') : passProgram(A.update, '', 'adaptive update');
     gl.useProgram(upd.p);
-    bindTextures(upd, { u_hist: hist[c], u_mask: G.id, u_rgb: T[1], u_counts: counts[c] });
+    bindTextures(upd, { u_hist: hist[c], u_mask: G.id, u_rgb: T[1], u_counts: counts[c], u_motion: motion, u_valid: valid });
     setUniforms(upd);
     gl.bindFramebuffer(gl.FRAMEBUFFER, updateFb[1 - c]);
     gl.drawArrays(gl.TRIANGLES, 0, 3);
     ad.used = c; ad.cur = 1 - c; ad.frame += 1;
+    ad.viewKey = view; ad.view = m; ad.geom = G.normal;   // the history's frame
     return T[1];
   }
   let setUniforms = null;
@@ -737,7 +822,8 @@ void main() {
     // a float target as base64 float32 RGBA, GL's rows (bottom first): src, spec, albedo, normal, id, result,
     // history (the adaptive history after the last frame)
     read(name) {
-      const tex = name === 'result' ? result : name === 'history' ? hist[ad.cur] : name === 'transmission' ? trans : G[name];
+      const tex = name === 'result' ? result : name === 'history' ? hist[ad.cur] : name === 'transmission' ? trans
+        : name === 'motion' ? motion : G[name];
       const fb = gl.createFramebuffer();
       gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
       gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, tex, 0);
@@ -747,6 +833,10 @@ void main() {
       return toBase64(new Uint8Array(out.buffer));
     },
     // the sample counts the last adaptive frame used (used) or the next frame's (next), base64 int32, GL's rows
+    // after an orbit step with the adaptive pass: the motion (base64 float32 RG as RGBA, GL's rows) and the validity
+    // image (base64 uint32, GL's rows; 1: the history was reused), and how many frames reprojected a history
+    readValid() { return readChannel(validFb, W, H, Uint32Array, gl.RGBA_INTEGER, gl.UNSIGNED_INT); },
+    reprojected: () => ad.moved,
     readCounts(which) {
       return readChannel(which === 'next' ? countFb[ad.cur] : countFb[ad.used], W, H, Int32Array, gl.RGBA_INTEGER, gl.INT);
     },
