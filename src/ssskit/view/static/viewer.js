@@ -105,12 +105,17 @@ uniform float u_ltexel;  // mm per map texel
 layout(location = 0) out vec4 o_src;     // diffuse irradiance rgb, linear depth mm (-1 without SSS)
 layout(location = 1) out vec4 o_spec;    // specular rgb
 layout(location = 2) out vec4 o_albedo;  // albedo rgb, 1 on surfaces
+#if ALL_LAYERS   // the layers only the adaptive and transmittance passes read
 layout(location = 3) out vec4 o_id;      // profile id (0: no SSS)
 layout(location = 4) out vec4 o_light;   // the transmittance pass's inputs: map texel x, y, depth along the light (mm), N . L
+#endif
 void main() {
   vec4 g = texelFetch(u_geom, ivec2(gl_FragCoord.xy), 0);
   if (g.w <= 0.0) {        // no surface: the cleared values
-    o_src = vec4(0.0, 0.0, 0.0, -1.0); o_spec = vec4(0.0); o_albedo = vec4(0.0); o_id = vec4(0.0); o_light = vec4(0.0);
+    o_src = vec4(0.0, 0.0, 0.0, -1.0); o_spec = vec4(0.0); o_albedo = vec4(0.0);
+#if ALL_LAYERS
+    o_id = vec4(0.0); o_light = vec4(0.0);
+#endif
     return;
   }
   vec3 n = g.xyz;
@@ -129,9 +134,11 @@ void main() {
   o_src = vec4(e, u_profile > 0.0 ? g.w : -1.0);
   o_spec = vec4(s, 1.0);
   o_albedo = vec4(u_albedo, 1.0);
+#if ALL_LAYERS
   o_id = vec4(u_profile, 0.0, 0.0, 0.0);
   vec3 d = world - u_lo;
   o_light = vec4(dot(d, u_lu) / u_ltexel, dot(d, u_lv) / u_ltexel, -dot(d, u_ll), dot(n, u_ll));
+#endif
 }`;
   // the key light's depth map (orthographic along the light, mm from the map's plane): the translucency shadow
   // map of Jimenez et al. 2010 that the transmittance pass reads
@@ -268,7 +275,9 @@ void main() {
   const geoms = [floatTexture(), floatTexture()].map((t) => ({ tex: t, fb: framebuffer([t], true) }));
   let geomIndex = 0;
   G.normal = geoms[0].tex;
-  const gbufFb = framebuffer([G.src, G.spec, G.albedo, G.id, G.light], false);
+  // the resolve writes the profile id and light-space layers only for a frame whose passes read them
+  const gbufFb = [framebuffer([G.src, G.spec, G.albedo], false), framebuffer([G.src, G.spec, G.albedo, G.id, G.light], false)];
+  const GBUF_LAYERS = [[G.src, G.spec, G.albedo], [G.src, G.spec, G.albedo, G.id, G.light]];
   const lightMap = gl.createTexture();
   gl.bindTexture(gl.TEXTURE_2D, lightMap);
   gl.texStorage2D(gl.TEXTURE_2D, 1, gl.R32F, LMAP, LMAP);
@@ -311,7 +320,7 @@ void main() {
   const S = D.scene;
   const vao = gl.createVertexArray();
   const geom = link(GBUF_VS, GEOM_FS, 'G-buffer (geometry)');
-  const gbuf = link(FULL_VS, GBUF_FS, 'G-buffer (resolve)');
+  const gbuf_ = [0, 1].map((all) => link(FULL_VS, GBUF_FS.replace('\n', `\n#define ALL_LAYERS ${all}\n`), 'G-buffer (resolve)'));
   gl.bindVertexArray(vao);
   const positions = decode(S.positions, Float32Array);   // kept: the mesh's screen rectangle (meshRect)
   for (const [name, data] of [['a_pos', positions], ['a_nrm', decode(S.normals, Float32Array)]]) {
@@ -482,7 +491,7 @@ void main() {
   }
 
   let result = G.src;   // the texture holding the last pass's output (the diffuse layer)
-  function drawGbuffer(m, mat) {
+  function drawGbuffer(m, mat, all) {
     geomIndex = 1 - geomIndex;
     G.normal = geoms[geomIndex].tex;
     gl.bindFramebuffer(gl.FRAMEBUFFER, geoms[geomIndex].fb);
@@ -495,7 +504,8 @@ void main() {
     gl.uniformMatrix4fv(geom.u.u_proj, false, m.proj);
     gl.uniform3fv(geom.u.u_eye, m.eye);
     drawMesh();
-    gl.bindFramebuffer(gl.FRAMEBUFFER, gbufFb);
+    const fb = gbufFb[all], gbuf = gbuf_[all];
+    gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
     gl.useProgram(gbuf.p);
     bindTextures(gbuf, { u_geom: G.normal });
     gl.uniform2f(gbuf.u.u_px, 2 / W, 2 / H);
@@ -510,7 +520,7 @@ void main() {
     gl.uniform3fv(gbuf.u.u_albedo, mat.albedo);
     gl.uniform1f(gbuf.u.u_profile, 1);
     lightUniforms(gbuf, L);
-    drawMasked(gbufFb, [[0, 0, 0, -1], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0]]);
+    drawMasked(GBUF_LAYERS[all], [[0, 0, 0, -1], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0]].slice(0, all ? 5 : 3));
   }
   // A full-screen pass on the mesh's screen rectangle only (the box of the triangles that reach the frame, a pixel's
   // margin): outside it every pixel is background, where a pass's output is its target's cleared value. SwiftShader
@@ -540,17 +550,23 @@ void main() {
     const py0 = Math.max(0, Math.floor((y0 + 1) * H / 2) - 1), py1 = Math.min(H, Math.ceil((y1 + 1) * H / 2) + 1);
     return px1 > px0 && py1 > py0 ? [px0, py0, px1 - px0, py1 - py0] : [0, 0, 0, 0];
   }
-  // per target framebuffer: the rectangle it was last written in (the whole frame at first: zero-initialised)
+  // per target (a texture, or 'canvas'): the rectangle it was last written in (the whole frame at first: zero-initialised)
   const written = new Map();
   const inside = (a, b) => a[2] === 0 || (a[0] >= b[0] && a[1] >= b[1] && a[0] + a[2] <= b[0] + b[2] && a[1] + a[3] <= b[1] + b[3]);
-  function drawMasked(fb, background) {
-    const old = written.has(fb) ? written.get(fb) : [0, 0, W, H];
+  // draw into the bound framebuffer, whose colour attachments are `targets`, cleared to `background` (one per
+  // attachment) where an earlier frame wrote outside this frame's rectangle
+  function drawMasked(targets, background) {
     gl.enable(gl.SCISSOR_TEST);
-    if (!inside(old, rect)) {
-      gl.scissor(old[0], old[1], old[2], old[3]);
+    let old = null;
+    for (const t of targets) {
+      const r = written.has(t) ? written.get(t) : [0, 0, W, H];
+      if (!inside(r, rect)) old = old ? [Math.min(old[0], r[0]), Math.min(old[1], r[1]), Math.max(old[0] + old[2], r[0] + r[2]), Math.max(old[1] + old[3], r[1] + r[3])] : [r[0], r[1], r[0] + r[2], r[1] + r[3]];
+      written.set(t, rect);
+    }
+    if (old) {
+      gl.scissor(old[0], old[1], old[2] - old[0], old[3] - old[1]);
       background.forEach((v, i) => gl.clearBufferfv(gl.COLOR, i, v));
     }
-    written.set(fb, rect);
     gl.scissor(rect[0], rect[1], rect[2], rect[3]);
     gl.drawArrays(gl.TRIANGLES, 0, 3);
     gl.disable(gl.SCISSOR_TEST);
@@ -568,7 +584,7 @@ void main() {
   }
   function drawPass(prog, target) {
     gl.bindFramebuffer(gl.FRAMEBUFFER, TF[target]);
-    drawMasked(TF[target], NO_SSS);
+    drawMasked([T[target]], NO_SSS);
   }
   function separable(m, mat) {
     const sp = mat.separable, base = frameBase(state.frame, state.seed);
@@ -679,7 +695,9 @@ void main() {
     const t0 = performance.now();
     timing.passes = timerExt ? timing.passes : {};
     gl.bindVertexArray(emptyVao);
-    timed('gbuffer', () => { rect = meshRect(m); drawGbuffer(m, mat); });
+    // the profile id and light-space layers where this frame's passes read them
+    const all = state.pass === 'adaptive' || state.transmission ? 1 : 0;
+    timed('gbuffer', () => { rect = meshRect(m); drawGbuffer(m, mat, all); });
     gl.viewport(0, 0, W, H);
     if (state.pass === 'separable') timed('separable', () => { result = separable(m, mat); });
     else if (state.pass === 'burley') timed('burley', () => { result = burley(m, mat); });
@@ -699,7 +717,7 @@ void main() {
       gl.uniform1i(composite.u.u_heat, state.heat && state.pass === 'adaptive' ? 1 : 0);
       gl.uniform2f(composite.u.u_budget, mat.adaptive.b_min, mat.adaptive.b_max);
       gl.uniform1f(composite.u.u_exposure, 1.0);
-      drawMasked(null, [[0.13, 0.13, 0.13, 1]]);   // off the mesh: the composite's background
+      drawMasked(['canvas'], [[0.13, 0.13, 0.13, 1]]);   // off the mesh: the composite's background
     });
     sync();
     timing.frame_ms = performance.now() - t0;
@@ -819,8 +837,9 @@ void main() {
     readLightMap() { return readChannel(lightFb, LMAP, LMAP, Float32Array, gl.RGBA, gl.FLOAT); },
     lightMapSize: LMAP,
     lightRgb: () => lights().rgb.slice(0, 3).map((x) => Math.PI * x),
-    // a float target as base64 float32 RGBA, GL's rows (bottom first): src, spec, albedo, normal, id, result,
-    // history (the adaptive history after the last frame)
+    // a float target as base64 float32 RGBA, GL's rows (bottom first): src, spec, albedo, normal, id, light, result,
+    // history (the adaptive history after the last frame), motion (the last reprojection's); id and light are
+    // those of the last frame with the adaptive or transmittance pass (the frames that write them)
     read(name) {
       const tex = name === 'result' ? result : name === 'history' ? hist[ad.cur] : name === 'transmission' ? trans
         : name === 'motion' ? motion : G[name];
