@@ -167,7 +167,7 @@ void main() { o_depth = vec4(v_z, 0.0, 0.0, 1.0); }`;
   // in the history's frame (ssskit.screenspace.camera.motion_vectors: pixels, columns and rows from the top) and
   // whether that history may be used. Xie 2020 Sec. 4.1.4 (Eqs. 16-17) restarts a pixel whose fetched history
   // holds no SSS mask (the history's m channel); the page also refuses a fetch whose surface differs, the depth and
-  // normal consistency tests of temporal reuse (Schied et al. 2017, SVGF Sec. 4): the stored linear depth of the
+  // normal consistency tests of temporal reuse (Schied et al. 2017, SVGF [SKW+17]): the stored linear depth of the
   // fetched pixel within REPROJECT_DEPTH of the point's depth in the history's camera, and normals within
   // REPROJECT_COS. The fetch itself is the body's nearest fetch without rejection (Xie Eq. 18).
   const REPROJECT_DEPTH = 0.02, REPROJECT_COS = 0.9;
@@ -204,6 +204,48 @@ void main() {
   bool ok = gp.w > 0.0 && abs(gp.w - z) <= ${REPROJECT_DEPTH} * z && dot(gp.xyz, g.xyz) >= ${REPROJECT_COS};
   o_valid = uvec4(ok ? 1u : 0u);
 }`;
+  // TAA of the adaptive pass's output (Karis 2014: an exponential moving average of the frames, here with
+  // Xie 2020 Sec. 5's weight alpha_0 = 0.2 for opaque surfaces, the AdaptiveSettings default): ping-pong float
+  // targets; after an orbit step the accumulated image is fetched through the same motion and validity as the
+  // adaptive history, bilinearly over the texels that hold history (a nearest fetch shifts the image by up to half a
+  // pixel), with no neighbourhood clamp (a clamp cuts the Monte Carlo noise's accumulation: Xie Sec. A.1.2's energy
+  // loss); a pixel without valid history starts from this frame.
+  const TAA_FS = `#version 300 es
+precision highp float;
+uniform highp sampler2D u_cur;       // this frame's pass output: rgb, alpha < 0 off the mesh
+uniform highp sampler2D u_prev;      // the accumulated image: rgb, alpha 1 where it holds history
+uniform highp sampler2D u_motion;
+uniform highp usampler2D u_valid;
+uniform int u_moved;                 // 1: fetch through u_motion where u_valid
+uniform int u_reset;                 // 1: a new history
+uniform float u_alpha;
+out vec4 o_color;
+void main() {
+  ivec2 q = ivec2(gl_FragCoord.xy);
+  vec4 c = texelFetch(u_cur, q, 0);
+  if (c.a < 0.0) { o_color = vec4(0.0); return; }
+  vec4 h = vec4(0.0);
+  if (u_reset == 0) {
+    if (u_moved == 0) h = texelFetch(u_prev, q, 0);
+    else if (texelFetch(u_valid, q, 0).r != 0u) {
+      vec2 mv = texelFetch(u_motion, q, 0).xy;   // columns, rows from the top
+      vec2 x = vec2(gl_FragCoord.x + mv.x, gl_FragCoord.y - mv.y) - 0.5;   // texel-centre coordinates
+      vec2 f = floor(x), t = x - f;
+      ivec2 b = ivec2(f), size = textureSize(u_prev, 0);
+      vec4 acc = vec4(0.0);
+      for (int k = 0; k < 4; ++k) {
+        ivec2 o = ivec2(k & 1, k >> 1), p = b + o;
+        if (any(lessThan(p, ivec2(0))) || any(greaterThanEqual(p, size))) continue;
+        vec4 v = texelFetch(u_prev, p, 0);
+        float w = (o.x == 1 ? t.x : 1.0 - t.x) * (o.y == 1 ? t.y : 1.0 - t.y) * v.a;
+        acc += w * vec4(v.rgb, 1.0);
+      }
+      if (acc.a > 1e-6) h = vec4(acc.rgb / acc.a, 1.0);
+    }
+  }
+  o_color = vec4(h.a > 0.0 ? mix(h.rgb, c.rgb, u_alpha) : c.rgb, 1.0);
+}`;
+  const TAA_ALPHA = 0.2;
   const COMPOSITE_FS = `#version 300 es
 precision highp float;
 uniform sampler2D u_src;
@@ -307,6 +349,7 @@ void main() {
     return t;
   })();
   const motionFb = framebuffer([motion, valid], false), validFb = framebuffer([valid], false);
+  const taa = [floatTexture(), floatTexture()], taaFb = taa.map((t) => framebuffer([t], false));
   const T = [floatTexture(), floatTexture(), floatTexture()];
   const TF = T.map((t) => framebuffer([t], false));
 
@@ -491,6 +534,7 @@ void main() {
   }
 
   let result = G.src;   // the texture holding the last pass's output (the diffuse layer)
+  let shown = G.src;    // what the composite shows: the pass's output, or with the adaptive pass its TAA
   function drawGbuffer(m, mat, all) {
     geomIndex = 1 - geomIndex;
     G.normal = geoms[geomIndex].tex;
@@ -619,7 +663,7 @@ void main() {
   }
   // Xie 2020 Sec. 4.1: a change of light, material or seed starts a new history; an orbit step reprojects it
   // (MOTION_FS: the estimate and the update then fetch the history through the motion, where valid)
-  const ad = { key: '', cur: 0, frame: 0, used: 0, view: null, geom: null, moved: 0 };
+  const ad = { key: '', cur: 0, frame: 0, used: 0, view: null, geom: null, moved: 0, taa: 0 };
   // column-major 4x4 product a b
   const mul4 = (a, b) => Array.from({ length: 16 }, (_, i) => [0, 1, 2, 3].reduce((acc, k) => acc + a[4 * k + (i & 3)] * b[4 * (i >> 2) + k], 0));
   function reproject(m) {
@@ -646,6 +690,7 @@ void main() {
       setIf(prog, 'u_size', (l) => gl.uniform2i(l, W, H));
     };
     const moved = key === ad.key && view !== ad.viewKey;
+    const reset = key !== ad.key;
     if (key !== ad.key) {            // no history: the estimate on an empty one gives b_min inside the mask
       ad.key = key; ad.cur = 0; ad.frame = 0; ad.moved = 0;
       gl.bindFramebuffer(gl.FRAMEBUFFER, histFb[0]);
@@ -683,6 +728,15 @@ void main() {
     gl.drawArrays(gl.TRIANGLES, 0, 3);
     ad.used = c; ad.cur = 1 - c; ad.frame += 1;
     ad.viewKey = view; ad.view = m; ad.geom = G.normal;   // the history's frame
+    const tp = passProgram(TAA_FS, '', 'TAA');
+    gl.useProgram(tp.p);
+    bindTextures(tp, { u_cur: T[1], u_prev: taa[ad.taa], u_motion: motion, u_valid: valid });
+    gl.uniform1i(tp.u.u_moved, moved ? 1 : 0);
+    gl.uniform1i(tp.u.u_reset, reset ? 1 : 0);
+    gl.uniform1f(tp.u.u_alpha, TAA_ALPHA);
+    ad.taa = 1 - ad.taa;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, taaFb[ad.taa]);
+    drawMasked([taa[ad.taa]], [[0, 0, 0, 0]]);
     return T[1];
   }
   let setUniforms = null;
@@ -705,12 +759,13 @@ void main() {
       if (lastPass !== 'adaptive') ad.key = '';   // switching to the adaptive pass starts a new history
       timed('adaptive', () => { result = adaptive(m, mat); });
     } else result = G.src;
+    shown = state.pass === 'adaptive' ? taa[ad.taa] : result;
     lastPass = state.pass;
     if (state.transmission) timed('transmission', () => transmission(mat));
     timed('composite', () => {
       gl.bindFramebuffer(gl.FRAMEBUFFER, null);
       gl.useProgram(composite.p);
-      bindTextures(composite, { u_src: G.src, u_sss: result, u_spec: G.spec, u_albedo: G.albedo, u_counts: counts[ad.used],
+      bindTextures(composite, { u_src: G.src, u_sss: shown, u_spec: G.spec, u_albedo: G.albedo, u_counts: counts[ad.used],
         u_trans: trans });
       gl.uniform1i(composite.u.u_transmission, state.transmission ? 1 : 0);
       gl.uniform1i(composite.u.u_split, state.split ? 1 : 0);
@@ -838,11 +893,12 @@ void main() {
     lightMapSize: LMAP,
     lightRgb: () => lights().rgb.slice(0, 3).map((x) => Math.PI * x),
     // a float target as base64 float32 RGBA, GL's rows (bottom first): src, spec, albedo, normal, id, light, result,
-    // history (the adaptive history after the last frame), motion (the last reprojection's); id and light are
+    // history (the adaptive history after the last frame), taa (the adaptive pass's accumulated image, alpha 1 on
+    // the mesh), motion (the last reprojection's); id and light are
     // those of the last frame with the adaptive or transmittance pass (the frames that write them)
     read(name) {
       const tex = name === 'result' ? result : name === 'history' ? hist[ad.cur] : name === 'transmission' ? trans
-        : name === 'motion' ? motion : G[name];
+        : name === 'motion' ? motion : name === 'taa' ? taa[ad.taa] : G[name];
       const fb = gl.createFramebuffer();
       gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
       gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, tex, 0);
