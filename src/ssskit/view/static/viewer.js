@@ -566,53 +566,67 @@ void main() {
     lightUniforms(gbuf, L);
     drawMasked(GBUF_LAYERS[all], [[0, 0, 0, -1], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0]].slice(0, all ? 5 : 3));
   }
-  // A full-screen pass on the mesh's screen rectangle only (the box of the triangles that reach the frame, a pixel's
-  // margin): outside it every pixel is background, where a pass's output is its target's cleared value. SwiftShader
-  // runs the fragment shader on every pixel of a draw, background or not, so the rectangle is what saves the work
-  // (a depth-test mask did not: benchmarks/RESULTS.md, "The live viewer"). A target is cleared only where an
-  // earlier frame wrote outside this frame's rectangle.
-  let rect = [0, 0, W, H];
+  // A full-screen pass on the mesh's pixels only, near enough: per band of BAND rows the span of columns the mesh's
+  // triangles that reach the frame cover (their boxes, a pixel's margin), drawn with a scissor box per band; outside
+  // the spans every pixel is background, where a pass's output is its target's cleared value. SwiftShader runs the
+  // fragment shader on every pixel of a draw, background or not, so the spans are what save the work (a depth-test
+  // mask did not: benchmarks/RESULTS.md, "The live viewer"). A target is cleared only where an earlier frame wrote
+  // outside this frame's spans.
+  const BAND = 32, NB = Math.ceil(H / BAND);
+  const FULL = new Int32Array(2 * NB).map((_, i) => (i & 1 ? W : 0));
+  let spans = FULL;
   const projected = new Float32Array(positions.length / 3 * 2);
-  function meshRect(m) {
+  function meshSpans(m) {
     const P = positions, M = m.view, Q = m.proj, X = projected;
     for (let i = 0, j = 0; i < P.length; i += 3, j += 2) {
       const x = P[i], y = P[i + 1], z = P[i + 2];
       const w = -(M[2] * x + M[6] * y + M[10] * z + M[14]);
-      if (w <= 0) return [0, 0, W, H];        // a vertex behind the camera: the whole frame
+      if (w <= 0) return FULL;        // a vertex behind the camera: the whole frame
       X[j] = Q[0] * (M[0] * x + M[4] * y + M[8] * z + M[12]) / w;
       X[j + 1] = Q[5] * (M[1] * x + M[5] * y + M[9] * z + M[13]) / w;
     }
-    let x0 = Infinity, x1 = -Infinity, y0 = Infinity, y1 = -Infinity;
+    const out = new Int32Array(2 * NB).map((_, i) => (i & 1 ? 0 : W));   // empty: x0 = W > x1 = 0
     for (let t = 0; t < indices.length; t += 3) {
       const a = 2 * indices[t], b = 2 * indices[t + 1], c = 2 * indices[t + 2];
       const tx0 = Math.min(X[a], X[b], X[c]), tx1 = Math.max(X[a], X[b], X[c]);
       const ty0 = Math.min(X[a + 1], X[b + 1], X[c + 1]), ty1 = Math.max(X[a + 1], X[b + 1], X[c + 1]);
       if (tx1 < -1 || tx0 > 1 || ty1 < -1 || ty0 > 1) continue;   // off the frame
-      if (tx0 < x0) x0 = tx0; if (tx1 > x1) x1 = tx1; if (ty0 < y0) y0 = ty0; if (ty1 > y1) y1 = ty1;
+      const px0 = Math.max(0, Math.floor((tx0 + 1) * W / 2) - 1), px1 = Math.min(W, Math.ceil((tx1 + 1) * W / 2) + 1);
+      const py0 = Math.max(0, Math.floor((ty0 + 1) * H / 2) - 1), py1 = Math.min(H, Math.ceil((ty1 + 1) * H / 2) + 1);
+      for (let k = Math.floor(py0 / BAND), k1 = Math.floor((py1 - 1) / BAND); k <= k1; ++k) {
+        if (px0 < out[2 * k]) out[2 * k] = px0;
+        if (px1 > out[2 * k + 1]) out[2 * k + 1] = px1;
+      }
     }
-    const px0 = Math.max(0, Math.floor((x0 + 1) * W / 2) - 1), px1 = Math.min(W, Math.ceil((x1 + 1) * W / 2) + 1);
-    const py0 = Math.max(0, Math.floor((y0 + 1) * H / 2) - 1), py1 = Math.min(H, Math.ceil((y1 + 1) * H / 2) + 1);
-    return px1 > px0 && py1 > py0 ? [px0, py0, px1 - px0, py1 - py0] : [0, 0, 0, 0];
+    return out;
   }
-  // per target (a texture, or 'canvas'): the rectangle it was last written in (the whole frame at first: zero-initialised)
+  // the share of the frame the spans cover (the timing's readout)
+  const coverage = (sp) => { let n = 0; for (let k = 0; k < NB; ++k) n += Math.max(0, sp[2 * k + 1] - sp[2 * k]) * (Math.min(H, (k + 1) * BAND) - k * BAND); return n / (W * H); };
+  // per target (a texture, or 'canvas'): the spans it was last written in (the whole frame at first: zero-initialised)
   const written = new Map();
-  const inside = (a, b) => a[2] === 0 || (a[0] >= b[0] && a[1] >= b[1] && a[0] + a[2] <= b[0] + b[2] && a[1] + a[3] <= b[1] + b[3]);
   // draw into the bound framebuffer, whose colour attachments are `targets`, cleared to `background` (one per
-  // attachment) where an earlier frame wrote outside this frame's rectangle
+  // attachment) where an earlier frame wrote outside this frame's spans
   function drawMasked(targets, background) {
     gl.enable(gl.SCISSOR_TEST);
-    let old = null;
-    for (const t of targets) {
-      const r = written.has(t) ? written.get(t) : [0, 0, W, H];
-      if (!inside(r, rect)) old = old ? [Math.min(old[0], r[0]), Math.min(old[1], r[1]), Math.max(old[0] + old[2], r[0] + r[2]), Math.max(old[1] + old[3], r[1] + r[3])] : [r[0], r[1], r[0] + r[2], r[1] + r[3]];
-      written.set(t, rect);
+    for (let k = 0; k < NB; ++k) {
+      const x0 = spans[2 * k], x1 = spans[2 * k + 1], y = k * BAND, h = Math.min(H, y + BAND) - y;
+      let c0 = W, c1 = 0;            // the columns an earlier frame wrote outside this band's span
+      for (const t of targets) {
+        const o = written.has(t) ? written.get(t) : FULL;
+        if (o[2 * k] < o[2 * k + 1] && (x0 >= x1 || o[2 * k] < x0 || o[2 * k + 1] > x1)) {
+          c0 = Math.min(c0, o[2 * k]); c1 = Math.max(c1, o[2 * k + 1]);
+        }
+      }
+      if (c0 < c1) {
+        gl.scissor(c0, y, c1 - c0, h);
+        background.forEach((v, i) => gl.clearBufferfv(gl.COLOR, i, v));
+      }
+      if (x0 < x1) {
+        gl.scissor(x0, y, x1 - x0, h);
+        gl.drawArrays(gl.TRIANGLES, 0, 3);
+      }
     }
-    if (old) {
-      gl.scissor(old[0], old[1], old[2] - old[0], old[3] - old[1]);
-      background.forEach((v, i) => gl.clearBufferfv(gl.COLOR, i, v));
-    }
-    gl.scissor(rect[0], rect[1], rect[2], rect[3]);
-    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    for (const t of targets) written.set(t, spans);
     gl.disable(gl.SCISSOR_TEST);
   }
   // the background of the pass targets: what the passes return off the mesh (the source, (0, 0, 0, -1))
@@ -751,7 +765,7 @@ void main() {
     gl.bindVertexArray(emptyVao);
     // the profile id and light-space layers where this frame's passes read them
     const all = state.pass === 'adaptive' || state.transmission ? 1 : 0;
-    timed('gbuffer', () => { rect = meshRect(m); drawGbuffer(m, mat, all); });
+    timed('gbuffer', () => { spans = meshSpans(m); drawGbuffer(m, mat, all); });
     gl.viewport(0, 0, W, H);
     if (state.pass === 'separable') timed('separable', () => { result = separable(m, mat); });
     else if (state.pass === 'burley') timed('burley', () => { result = burley(m, mat); });
@@ -776,7 +790,7 @@ void main() {
     });
     sync();
     timing.frame_ms = performance.now() - t0;
-    timing.fx = m.fx; timing.fy = m.fy; timing.rect = rect.slice();
+    timing.fx = m.fx; timing.fy = m.fy; timing.coverage = coverage(spans);
     frames += 1;
     const lines = Object.entries(timing.passes).map(([k, v]) => `${k.padEnd(10)} ${v.toFixed(2)} ms`);
     $('stats').textContent = `${W}x${H}, ${S.triangles} triangles\nframe ${timing.frame_ms.toFixed(1)} ms (` +

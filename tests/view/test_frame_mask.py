@@ -1,0 +1,71 @@
+"""The live viewer draws its full-screen passes only over the mesh's column spans (scissor boxes per band of rows)
+and clears a target only where an earlier frame wrote outside them (headless Chromium through ssskit.view.browser;
+skipped without it). After orbit and zoom steps that move the mesh, every background pixel must still hold the
+background value: the G-buffer's (no SSS: depth -1), each pass's (its input there), the composite's grey."""
+import base64
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from ssskit.view.browser import browser_available, headless_page
+
+ok, why = browser_available()
+pytestmark = pytest.mark.skipif(not ok, reason=why)
+
+W, H = 192, 144
+
+
+def _read(pg, name):
+    raw = base64.b64decode(pg.evaluate(f"() => window.ssskit.read('{name}')"))
+    return np.frombuffer(raw, np.float32).reshape(H, W, 4)[::-1]
+
+
+def _display(pg):
+    raw = base64.b64decode(pg.evaluate("() => window.ssskit.readDisplay()"))
+    return np.frombuffer(raw, np.uint8).reshape(H, W, 4)[::-1]
+
+
+@pytest.fixture(scope="module")
+def page(tmp_path_factory):
+    out = tmp_path_factory.mktemp("view") / "site"
+    proc = subprocess.run([sys.executable, "-m", "ssskit", "view", "--scene", "bust", "--no-open", "--out", str(out),
+                           "--presets", "skin1"], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    with headless_page(width=W + 320, height=max(H, 500)) as (pg, log):
+        pg.goto((out / "index.html").as_uri() + f"?w={W}&h={H}")
+        pg.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=30_000)
+        yield pg, log
+
+
+@pytest.mark.parametrize("pass_", ["separable", "burley", "adaptive"])
+def test_background_holds_its_value_after_the_mesh_moves(page, pass_):
+    pg, log = page
+    pg.evaluate(f"() => window.ssskit.set({json.dumps({'pass': pass_, 'auto': False, 'transmission': True})})")
+    pg.evaluate("() => window.ssskit.render()")
+    first = _read(pg, "src")[..., 3] > 0
+    # a close view (the mesh fills the frame), then an orbit away and the first distance again: the spans shrink and move
+    pg.evaluate("() => { const e = new WheelEvent('wheel', {deltaY: -900}); document.getElementById('view').dispatchEvent(e); }")
+    pg.evaluate("() => window.ssskit.render()")
+    close = _read(pg, "src")[..., 3] > 0
+    pg.evaluate("() => window.ssskit.orbit(0.9, 0.3)")
+    pg.evaluate("() => { const e = new WheelEvent('wheel', {deltaY: 900}); document.getElementById('view').dispatchEvent(e); }")
+    timing = pg.evaluate("() => window.ssskit.render()")
+    src = _read(pg, "src")
+    mesh = src[..., 3] > 0
+    assert close.mean() > max(first.mean(), mesh.mean()) and mesh.mean() > 0.01   # the mesh grew, then moved and shrank
+    assert timing["coverage"] < 0.9
+    bg = ~mesh
+    assert np.all(src[bg] == np.array([0, 0, 0, -1], np.float32))
+    assert np.all(_read(pg, "result")[bg][:, :3] == 0)
+    for layer in ("spec", "albedo", "light"):
+        assert np.all(_read(pg, layer)[bg] == 0), layer
+    assert np.all(_read(pg, "transmission")[bg][:, :3] == 0)   # its own pass (drawn on the whole frame): alpha 1
+    assert np.all(_read(pg, "id")[bg][:, 0] == 0)    # R32F, read as RGBA: alpha 1
+    if pass_ == "adaptive":
+        assert np.all(_read(pg, "taa")[bg] == 0)
+    shown = _display(pg)[..., :3]
+    assert np.all(shown[bg] == 33)           # the composite's background, 0.13 in 8 bits
+    log.check()
