@@ -4,13 +4,12 @@ skipped without it). After orbit and zoom steps that move the mesh, every backgr
 background value: the G-buffer's (no SSS: depth -1), each pass's (its input there), the composite's grey."""
 import base64
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from ssskit.view.browser import browser_available, headless_page
+from tests.view.pages import read_target, static_bust
 
 ok, why = browser_available()
 pytestmark = pytest.mark.skipif(not ok, reason=why)
@@ -19,8 +18,7 @@ W, H = 192, 144
 
 
 def _read(pg, name):
-    raw = base64.b64decode(pg.evaluate(f"() => window.ssskit.read('{name}')"))
-    return np.frombuffer(raw, np.float32).reshape(H, W, 4)[::-1]
+    return read_target(pg, name, W, H)
 
 
 def _display(pg):
@@ -30,10 +28,7 @@ def _display(pg):
 
 @pytest.fixture(scope="module")
 def page(tmp_path_factory):
-    out = tmp_path_factory.mktemp("view") / "site"
-    proc = subprocess.run([sys.executable, "-m", "ssskit", "view", "--scene", "bust", "--no-open", "--out", str(out),
-                           "--presets", "skin1"], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
+    out = static_bust(tmp_path_factory)
     with headless_page(width=W + 320, height=max(H, 500)) as (pg, log):
         pg.goto((out / "index.html").as_uri() + f"?w={W}&h={H}")
         pg.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=30_000)

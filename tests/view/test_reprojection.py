@@ -4,13 +4,12 @@ view-projection and the G-buffer's linear depth), each agrees with one converged
 validity test kept it, and the pixels it refused start over (Xie 2020 Eqs. 16-17; the TAA from this frame)."""
 import base64
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from ssskit.view.browser import browser_available, headless_page
+from tests.view.pages import read_target, static_bust
 
 ok, why = browser_available()
 pytestmark = pytest.mark.skipif(not ok, reason=why)
@@ -23,8 +22,7 @@ STEP = 0.1
 
 
 def _read(pg, name):
-    raw = base64.b64decode(pg.evaluate(f"() => window.ssskit.read('{name}')"))
-    return np.frombuffer(raw, np.float32).reshape(H, W, 4)[::-1]
+    return read_target(pg, name, W, H)
 
 
 def _frames(pg, n):
@@ -35,10 +33,7 @@ def _frames(pg, n):
 def histories(tmp_path_factory):
     """The bust's adaptive history converged at view A, then one frame after an orbit step to view B (reprojected),
     and a history converged afresh at B; the validity image and counts of the step's frame."""
-    out = tmp_path_factory.mktemp("view") / "site"
-    proc = subprocess.run([sys.executable, "-m", "ssskit", "view", "--scene", "bust", "--no-open", "--out", str(out),
-                           "--presets", "skin1"], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
+    out = static_bust(tmp_path_factory)
     with headless_page(width=W + 320, height=max(H, 500)) as (pg, log):
         pg.goto((out / "index.html").as_uri() + f"?w={W}&h={H}")
         pg.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=30_000)
