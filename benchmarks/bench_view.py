@@ -5,7 +5,9 @@ The page: the static folder of ``ssskit view --scene head --out DIR`` (the scann
 70,736 triangles; ``--scene bust`` for the generated bust, 248,324; Skin1, the pre-integrated kernel, 7 taps,
 jitter 0.1; Burley 16 spp). Per renderer (``swiftshader``: ANGLE on SwiftShader;
 ``gl``: ANGLE on the system's OpenGL, Mesa's llvmpipe here, where it starts) and size, per pass (off, separable,
-burley), the median over ``--frames`` frames after one warm-up frame of: the frame's wall time to a finished
+burley, adaptive, separable + transmittance; each drawing its G-buffer every frame, and separable and adaptive
+again keeping the G-buffer of the frame before, as the page does on a still view), the median over ``--frames``
+frames after one warm-up frame of: the frame's wall time to a finished
 one-pixel readback (G-buffer pass, the pass, composite: fps = 1000 / ms) and each pass's wall time to a finished
 readback (``?timer=wall``: the page then syncs after every pass, which adds a little to the frame).
 
@@ -58,10 +60,16 @@ def page_times(site: Path, gl: str, w: int, h: int, frames: int) -> dict:
     with headless_page(gl=gl, width=w + 320, height=h) as (page, log):
         page.goto((site / "index.html").as_uri() + f"?w={w}&h={h}&timer=wall")
         page.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=120_000)
-        modes = {m: {"pass": m, "spp": 16, "auto": False, "transmission": False}
+        # every frame draws the G-buffer again (reuse_gbuffer: false), as a moving view or light does
+        modes = {m: {"pass": m, "spp": 16, "auto": False, "transmission": False, "reuse_gbuffer": False}
                  for m in ("off", "separable", "burley", "adaptive")}
         # the separable frame with the transmittance pass (the light map included)
-        modes["transmission"] = {"pass": "separable", "spp": 16, "auto": False, "transmission": True}
+        modes["transmission"] = {"pass": "separable", "spp": 16, "auto": False, "transmission": True,
+                                 "reuse_gbuffer": False}
+        # the page's own behaviour on a still view: the G-buffer kept from the frame before (reported apart)
+        for m in ("separable", "adaptive"):
+            modes[m + " (G-buffer reused)"] = {"pass": m, "spp": 16, "auto": False, "transmission": False,
+                                               "reuse_gbuffer": True}
         for mode, state in modes.items():
             page.evaluate(f"() => window.ssskit.set({json.dumps(state)})")
             page.evaluate("() => window.ssskit.render()")   # warm-up: shader compilation
@@ -71,6 +79,7 @@ def page_times(site: Path, gl: str, w: int, h: int, frames: int) -> dict:
             c1 = cpu_seconds()
             frame = statistics.median(r["frame_ms"] for r in runs)
             passes = {k: round(statistics.median(r["passes"][k] for r in runs), 2) for k in runs[0]["passes"]}
+            assert all(r["gbuffer_reused"] == state["reuse_gbuffer"] for r in runs), mode
             out[mode] = {"frame_ms": round(frame, 2), "fps": round(1000.0 / frame, 2), "passes_ms": passes}
             if c0 is not None and c1 is not None:
                 cpu = 1000.0 * (c1 - c0) / frames

@@ -64,3 +64,22 @@ def test_background_holds_its_value_after_the_mesh_moves(page, pass_):
     shown = _display(pg)[..., :3]
     assert np.all(shown[bg] == 33)           # the composite's background, 0.13 in 8 bits
     log.check()
+
+
+def test_the_gbuffer_is_drawn_again_only_when_what_it_shows_changes(page):
+    pg, log = page
+    pg.evaluate("() => window.ssskit.set({pass: 'separable', auto: false, transmission: false})")
+    pg.evaluate("() => window.ssskit.render()")
+    before = _read(pg, "src")
+    again = pg.evaluate("() => window.ssskit.render()")
+    assert again["gbuffer_reused"]
+    assert np.array_equal(_read(pg, "src"), before)
+    pg.evaluate("() => window.ssskit.set({light: {az: 0.5, el: 0, scale: 1}})")
+    lit = pg.evaluate("() => window.ssskit.render()")
+    assert not lit["gbuffer_reused"] and not np.array_equal(_read(pg, "src"), before)
+    pg.evaluate("() => window.ssskit.set({light: {az: 0, el: 0, scale: 1}, reuse_gbuffer: false})")
+    pg.evaluate("() => window.ssskit.render()")
+    assert not pg.evaluate("() => window.ssskit.render()")["gbuffer_reused"]     # the benchmarks' setting
+    assert np.array_equal(_read(pg, "src"), before)
+    pg.evaluate("() => window.ssskit.set({reuse_gbuffer: true})")
+    log.check()

@@ -534,6 +534,7 @@ void main() {
   }
 
   let result = G.src;   // the texture holding the last pass's output (the diffuse layer)
+  let gbufKey = '';     // what the G-buffer holds (render: drawn again only when it changes)
   let shown = G.src;    // what the composite shows: the pass's output, or with the adaptive pass its TAA
   function drawGbuffer(m, mat, all) {
     geomIndex = 1 - geomIndex;
@@ -765,7 +766,13 @@ void main() {
     gl.bindVertexArray(emptyVao);
     // the profile id and light-space layers where this frame's passes read them
     const all = state.pass === 'adaptive' || state.transmission ? 1 : 0;
-    timed('gbuffer', () => { spans = meshSpans(m); drawGbuffer(m, mat, all); });
+    // The G-buffer is drawn again only when what it shows changed (the view, the light, the albedo, the layers), unless
+    // the state says reuse_gbuffer: false (benchmarks/bench_view.py: its frames include the G-buffer pass). The
+    // adaptive pass's frames after a change (up to 64 on a still view) then cost only the screen-space passes.
+    const gkey = JSON.stringify([cam, state.light, mat.albedo, all]);
+    timing.gbuffer_reused = state.reuse_gbuffer !== false && gkey === gbufKey;
+    if (!timing.gbuffer_reused) timed('gbuffer', () => { spans = meshSpans(m); drawGbuffer(m, mat, all); });
+    gbufKey = gkey;
     gl.viewport(0, 0, W, H);
     if (state.pass === 'separable') timed('separable', () => { result = separable(m, mat); });
     else if (state.pass === 'burley') timed('burley', () => { result = burley(m, mat); });
@@ -793,6 +800,7 @@ void main() {
     timing.fx = m.fx; timing.fy = m.fy; timing.coverage = coverage(spans);
     frames += 1;
     const lines = Object.entries(timing.passes).map(([k, v]) => `${k.padEnd(10)} ${v.toFixed(2)} ms`);
+    if (timing.gbuffer_reused) lines.unshift('gbuffer    reused (unchanged)');
     $('stats').textContent = `${W}x${H}, ${S.triangles} triangles\nframe ${timing.frame_ms.toFixed(1)} ms (` +
       `${(1000 / timing.frame_ms).toFixed(1)} fps, wall time to a finished readback)\n` + lines.join('\n') + `\nper pass: ${timing.mode}` +
       (S.about && S.about.attribution ? `\n${S.about.attribution}` : '');
