@@ -4,7 +4,7 @@ numba and gl backends timing the same frame (the page's own G-buffer read back) 
 The page: the static folder of ``ssskit view --scene head --out DIR`` (the scanned head, the viewer's default scene,
 70,736 triangles; ``--scene bust`` for the generated bust, 248,324; Skin1, the pre-integrated kernel, 7 taps,
 jitter 0.1; Burley 16 spp). Per renderer (``swiftshader``: ANGLE on SwiftShader;
-``gl``: ANGLE on the system's OpenGL, Mesa's llvmpipe here, where it starts) and size, per pass (off, separable,
+``gl``: ANGLE on the system's OpenGL ES through EGL, Mesa's llvmpipe here) and size, per pass (off, separable,
 burley, adaptive, separable + transmittance; each drawing its G-buffer every frame, and separable and adaptive
 again keeping the G-buffer of the frame before, as the page does on a still view), the median over ``--frames``
 frames after one warm-up frame of: the frame's wall time to a finished
