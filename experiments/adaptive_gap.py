@@ -52,27 +52,13 @@ os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
 
 import numpy as np  # noqa: E402
 
+from ssskit.screenspace.taa import taa_jitter  # noqa: E402  (Unreal's Halton(2, 3) x 8 sub-pixel offsets)
+
 #: Xie 2020 Sec. 6 / Fig. 1: sigma0^2, kappa, b_min, b_max
 XIE = {"sigma0_sq": 1e-3, "kappa": 0.2, "b_min": 8, "b_max": 64}
 #: frames of the runs, and the windows (1-based, inclusive): the figures' 24-frame window and two late ones
 FRAMES = 96
 WINDOWS = {"frames 19-24": (19, 24), "frames 49-72": (49, 72), "frames 73-96": (73, 96)}
-
-
-def halton(i: int, base: int) -> float:
-    """The i-th (i >= 1) element of the van der Corput sequence in ``base`` (Halton 1964)."""
-    f, r = 1.0, 0.0
-    while i > 0:
-        f /= base
-        r += f * (i % base)
-        i //= base
-    return r
-
-
-def taa_jitter(frame: int, samples: int = 8) -> tuple[float, float]:
-    """Unreal's TAA sub-pixel offset of ``frame`` (pixels, in [-1/2, 1/2)): Halton(2, 3) over ``samples``."""
-    k = frame % samples + 1
-    return halton(k, 2) - 0.5, halton(k, 3) - 0.5
 
 
 def jittered_plane(width: int, height: int, distance: str, jx: float, jy: float, area: int = 1):

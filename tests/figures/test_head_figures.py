@@ -90,3 +90,80 @@ def test_fig9_transmission_adds_light_and_the_pass_meets_its_limit():
             np.testing.assert_allclose(row["screen_space"]["level"], row["exact_2d"]["level"], rtol=0.03)
             checked += 1
     assert checked >= 1
+
+
+@pytest.mark.slow
+def test_head_adaptive_script_writes_its_table_and_the_floor_caps_both_runs(tmp_path):
+    """docs/head_adaptive.py --quick (Xie's adaptive against fixed 64 spp with TAA, the camera jittered as Xie's
+    engine renders): it replaces its block of the page, and its numbers keep the physics of the measurement: on
+    the still camera the TAA has no floor (its frames are all one image); on the jittered camera the TAA run on the
+    noise-free limits (the floor) is above both noisy runs (mean squared errors add); with the floor removed the gap
+    is positive and no larger than the still camera's (the jitter's variation only adds to the variance the adaptive
+    sampler aims at, so it takes at least as many samples); the additive model gives the measured gap within 0.1 dB;
+    the adaptive counts stay within Xie's budget [8, 64], and above the still camera's under the jitter."""
+    md = tmp_path / "head.md"
+    mod = _script("head_adaptive")
+    md.write_text(f"# head\n\n{mod.BEGIN}\nold\n{mod.END}\n\nafter\n")
+    js = tmp_path / "a.json"
+    n = mod.main(["--quick", "--json", str(js), "--md", str(md)])
+    text = md.read_text()
+    assert "old" not in text and text.endswith("after\n") and "| front | jittered | 9-32 |" in text
+    assert json.loads(js.read_text())["views"][0]["view"] == "front"
+    runs = n["views"][0]["runs"]
+    late = "frames 9-32"
+    still, jit = runs["still"]["windows"][late], runs["jittered"]["windows"][late]
+    assert still["floor_db"] > 150
+    assert jit["floor_db"] < 80
+    for method in ("fixed64_db", "adaptive_db"):
+        assert jit[method]["mean"] <= jit["floor_db"] + 0.05
+    assert 0.0 < jit["gap_floorless_db"]["mean"] <= still["gap_db"]["mean"] + 0.5
+    assert runs["jittered"]["adaptive_mean_spp_late"] > runs["still"]["adaptive_mean_spp_late"]
+    assert abs(jit["gap_model_db"] - jit["gap_db"]["mean"]) < 0.1
+    for r in runs.values():
+        assert 8.0 <= r["adaptive_mean_spp_late"] <= 64.0
+
+
+def test_a_head_path_trace_is_shown_as_block_means_with_its_samples_per_shown_pixel():
+    """The head figures show a path trace through its display copy: a flat image with relative noise 50 % per pixel
+    (SE 0.5, 3184 spp) is shown as 6x6 block means (the smallest that bring the noise to 10 %), the title states
+    3184 x 36 samples per shown pixel, and the image given (the numbers' reference) is not changed."""
+    from ssskit.figures.head import _show_path_traced
+    from ssskit.figures.plots import pyplot
+
+    rng = np.random.default_rng(3)
+    img = 1.0 + 0.5 * rng.standard_normal((72, 96, 3))
+    before = img.copy()
+    plt = pyplot()
+    fig, ax = plt.subplots()
+    _show_path_traced(ax, img, np.full_like(img, 0.5), np.ones((72, 96), bool), 3184, 1.0)
+    title = ax.get_title()
+    plt.close(fig)
+    assert f"{3184 * 36} spp per shown pixel" in title and "6x6 box means" in title
+    assert np.array_equal(img, before)
+    shown = ax.get_images()[0].get_array()
+    assert np.allclose(shown[:6, :6], shown[0, 0])  # one block, one value
+
+
+def test_head_pictures_script_states_the_samples_behind_each_shown_pixel(tmp_path):
+    """docs/head_pictures.py on a tiny case: per view the samples per shown pixel are the render's spp times the
+    box's area, the display copy's noise is below the unfiltered image's (box means of independent pixels), and
+    the figure and its record are written."""
+    mod = _script("head_pictures")
+    png, js = tmp_path / "p.png", tmp_path / "p.json"
+    out = mod.main(["--size", "24x18", "--spp", "512", "--views", "front", "--png", str(png), "--json", str(js)])
+    assert png.is_file() and json.loads(js.read_text())["rows"][0]["view"] == "front"
+    row = out["rows"][0]
+    assert row["spp"] == 512 and row["spp_per_shown_pixel"] == 512 * row["block"] ** 2
+    assert row["block"] > 1 and row["noise_shown"] < row["noise_unfiltered"]
+
+
+def test_the_skin_texture_has_the_contrast_asked():
+    """docs/head_adaptive.py's stand-in for a skin albedo map: its factor over the surface has mean 1 and relative
+    SD the contrast given (a sum of 32 unit-variance-scaled plane waves), and it is fixed to the surface (a point
+    gets the same factor whichever pixel sees it)."""
+    mod = _script("head_adaptive")
+    rng = np.random.default_rng(0)
+    p = rng.uniform(0.0, 50.0, (200, 100, 3))
+    f = mod.skin_texture(p, 0.16)
+    assert abs(float(f.mean()) - 1.0) < 0.01 and abs(float(f.std()) / 0.16 - 1.0) < 0.1
+    assert np.array_equal(mod.skin_texture(p[::-1], 0.16), f[::-1])

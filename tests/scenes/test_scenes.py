@@ -130,6 +130,12 @@ def test_path_traced_reference_is_cached(tmp_path, monkeypatch):
     again = render_reference("slab", mat, width=24, height=18, spp=2, max_depth=64, chunk_spp=1, progress=False)
     np.testing.assert_array_equal(img, again.image)
     np.testing.assert_array_equal(ref.region_se, again.region_se)
+    # a jittered camera (SceneSpec.pixel_jitter) is another picture: its own cache entry, never the one above
+    import dataclasses
+
+    moved = dataclasses.replace(SCENES.get("slab"), pixel_jitter=(0.5, 0.0))
+    render_reference(moved, mat, width=24, height=18, spp=2, max_depth=64, chunk_spp=1, progress=False)
+    assert len(list((tmp_path / "reference").glob("slab-*.npz"))) == 2
 
 
 def test_reference_takes_one_phase_g():
@@ -214,3 +220,30 @@ def test_mitsuba_leaves_a_core_only_while_the_thread_beside_it_runs(monkeypatch)
         release.set()
     assert seen == [max(1, before - 1)] * 3 + [before]
     assert dr.thread_count() == before
+
+
+def test_pixel_jitter_moves_what_each_pixel_sees():
+    """``SceneSpec.pixel_jitter`` (the TAA's jittered projection): with a jitter of whole pixels, pixel (i, j)
+    sees what pixel (i + jx, j + jy) sees unjittered. The sphere's silhouette (its mask) and depth then match the
+    unjittered ones shifted by the jitter, up to the few edge pixels whose box-filtered coverage differs by the
+    G-buffer's own sampling noise, and match far worse shifted the other way or not at all."""
+    import dataclasses
+
+    spec = SCENES.get("sphere")
+    w, h, m = 64, 48, 4
+    base = render_gbuffer(spec, ALBEDO, width=w, height=h, spp=16)
+
+    def at(g, sx, sy):  # the layers of g at (i + sx, j + sy) for the pixels (i, j) of a window m pixels inside
+        win = (slice(m + sy, h - m + sy), slice(m + sx, w - m + sx))
+        return g.mask[win], g.depth[win]
+
+    def mismatch(a, b):  # silhouette pixels that differ, and the median depth difference where both see the sphere
+        both = a[0] & b[0]
+        return int((a[0] ^ b[0]).sum()), float(np.median(np.abs(a[1][both] - b[1][both])))
+
+    for jx, jy in ((2, 0), (0, -3)):
+        moved = at(render_gbuffer(dataclasses.replace(spec, pixel_jitter=(float(jx), float(jy))), ALBEDO,
+                                  width=w, height=h, spp=16), 0, 0)
+        right, wrong, still = (mismatch(moved, at(base, sx, sy)) for sx, sy in ((jx, jy), (-jx, -jy), (0, 0)))
+        assert right[0] * 4 < min(wrong[0], still[0]), (right, wrong, still)
+        assert right[1] < 0.25 * min(wrong[1], still[1]), (right, wrong, still)

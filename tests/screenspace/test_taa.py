@@ -199,3 +199,19 @@ def test_bad_inputs_raise():
     taa.resolve(cur)
     with pytest.raises(PassError):
         taa.resolve(np.zeros((3, 3, 3)))
+
+
+def test_taa_jitter_is_the_halton_2_3_sequence_less_a_half():
+    """Karis 2014's jittered projection, Unreal's 8 samples: frame f takes Halton point f mod 8 + 1 in bases 2 and 3
+    (the radical inverse: 1 -> 1/2 and 1/3, 2 -> 1/4 and 2/3, 3 -> 3/4 and 1/9, 8 -> 1/16 and 8/9), less 1/2; the
+    offsets repeat every 8 frames and are distinct within them."""
+    from fractions import Fraction
+
+    from ssskit.screenspace.taa import halton, taa_jitter
+
+    for i, b, want in ((1, 2, Fraction(1, 2)), (2, 2, Fraction(1, 4)), (3, 2, Fraction(3, 4)), (8, 2, Fraction(1, 16)),
+                       (1, 3, Fraction(1, 3)), (2, 3, Fraction(2, 3)), (3, 3, Fraction(1, 9)), (8, 3, Fraction(8, 9))):
+        assert halton(i, b) == pytest.approx(float(want), abs=1e-15)
+    offs = [taa_jitter(f) for f in range(8)]
+    assert offs[0] == pytest.approx((0.0, 1 / 3 - 0.5)) and taa_jitter(8) == offs[0]
+    assert len(set(offs)) == 8 and all(-0.5 <= x < 0.5 for o in offs for x in o)

@@ -246,6 +246,8 @@ def fig9_numbers(view: str = "front", material: str = "skin1", width: int = 96, 
         out["images"][name] = {"image": _composite(sc, sss), "difference": np.where(gb.mask[..., None], diff, 0.0),
                                "counts": run.counts[-1]}
     out["images"]["reference"] = np.asarray(ref.image, np.float64) - gb.specular.astype(np.float64)
+    out["images"]["reference_se"] = np.asarray(ref.pixel_se, np.float64)
+    out["images"]["mask"] = gb.mask
     return out
 
 
@@ -357,7 +359,9 @@ def separable_numbers(views: Sequence[str] = VIEWS, material: str = "skin1", wid
             rows.append(row)
             if label == "preintegrated":
                 images[v] = {"pass": gb.albedo * sss, "exact": gb.albedo * exact,
-                             "path_traced": None if ref is None else np.asarray(ref.image) - gb.specular}
+                             "path_traced": None if ref is None else np.asarray(ref.image) - gb.specular,
+                             "path_traced_se": None if ref is None else np.asarray(ref.pixel_se, np.float64),
+                             "spp": None if ref is None else ref.spp, "mask": gb.mask}
     return {"figure": "the separable-SSS paper on the head (Fig. 1, S.2, S.8)", "material": material,
             "size": [width, height], "taps": taps, "s8": S8_DISTANCES, "rows": rows, "attribution": HEAD_ATTRIBUTION,
             "images": images}
@@ -374,7 +378,7 @@ def plot_separable(res: dict[str, Any], path: Path) -> Path:
         _show(axes[i][0], im["pass"], f"{v}: separable, preintegrated, {res['taps']} taps", scale)
         _show(axes[i][1], im["exact"], "exact 2D convolution", scale)
         if im["path_traced"] is not None:
-            _show(axes[i][2], im["path_traced"], "path traced (diffuse part)", scale)
+            _show_path_traced(axes[i][2], im["path_traced"], im["path_traced_se"], im["mask"], im["spp"], scale)
         else:
             axes[i][2].axis("off")
     fig.suptitle(f"The separable-SSS paper on the head ({res['material']}). {HEAD_ATTRIBUTION}", fontsize=9)
@@ -410,6 +414,18 @@ def _show(ax: Any, img: np.ndarray, title: str, scale: float) -> None:
     ax.axis("off")
 
 
+def _show_path_traced(ax: Any, img: np.ndarray, pixel_se: np.ndarray, mask: np.ndarray, spp: int, scale: float) -> None:
+    """A path trace (diffuse part) as shown: its display copy (:func:`ssskit.figures.display.display_copy`:
+    box means of b x b pixels where its own per-pixel noise is above 10 %; only for showing, every number is
+    measured on the unfiltered image), titled with the samples per shown pixel (spp x b^2) and its remaining
+    relative noise. Its per-pixel noise is the dielectric boundary's (docs/head.md, "Why the path traces speckle")."""
+    from .display import display_copy
+
+    shown, block, rel = display_copy(img, pixel_se, mask)
+    box = f"{block}x{block} box means, " if block > 1 else ""
+    _show(ax, shown, f"path traced: {spp * block ** 2} spp per shown pixel\n({box}noise {rel:.0%})", scale)
+
+
 def plot_fig7(res: dict[str, Any], path: Path) -> Path:
     """Per view: the exact sampling, Eq. 21 and their difference x 10 (Xie Fig. 7's layout)."""
     plt = pyplot()
@@ -436,7 +452,7 @@ def plot_fig9(res: dict[str, Any], path: Path) -> Path:
     scale = float(np.percentile(ref[ref > 0], 99.5)) if (ref > 0).any() else 1.0
     fig, axes = plt.subplots(2, 4, figsize=(11, 4.8), squeeze=False)
     for i, name in enumerate(("without", "with")):
-        _show(axes[i][0], ref, "path traced (diffuse part)", scale)
+        _show_path_traced(axes[i][0], ref, im["reference_se"], im["mask"], res["reference"]["spp"], scale)
         _show(axes[i][1], im[name]["image"], f"adaptive, {name} transmission", scale)
         d = im[name]["difference"].mean(axis=-1) / scale
         axes[i][2].imshow(d, cmap="coolwarm", vmin=-0.25, vmax=0.25)

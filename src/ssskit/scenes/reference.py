@@ -337,7 +337,8 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
     media = {} if len(set(map(id, mats))) == 1 else {
         "media": [[list(m.sigma_a), list(m.sigma_s), reference_phase_g(m), m.eta,
                    float(getattr(m, "eta_ambient", 1.0))] for m in mats]}
-    key = json.dumps({**media, "scene": spec.name, "sa": list(first.sigma_a), "ss": list(first.sigma_s), "g": g,
+    jitter = {"jitter": list(spec.pixel_jitter)} if any(spec.pixel_jitter) else {}  # (unjittered keys unchanged)
+    key = json.dumps({**media, **jitter, "scene": spec.name, "sa": list(first.sigma_a), "ss": list(first.sigma_s), "g": g,
                       "eta": first.eta, "eta_amb": float(getattr(first, "eta_ambient", 1.0)),
                       "w": width, "h": height, "spp": spp, "max_spp": max_spp, "rel_se": float(target_rel_se),
                       "chunk": chunk_spp, "d": max_depth, "seed": seed, "frame": frame, "v": CACHE_VERSION,

@@ -77,6 +77,10 @@ class SceneSpec:
     about: tuple[tuple[str, Any], ...] = ()
     #: named cameras (name, (origin, target, up, fov_x_deg)) that ``--view NAME`` picks (the head's close, ear, front)
     views: tuple[tuple[str, tuple], ...] = ()
+    #: the image's sub-pixel offset (x right, y down, in pixels): the jittered projection a TAA renders each
+    #: frame with (Karis 2014; Mitsuba's principal point offset, a fraction of the film); (0, 0): none. The
+    #: G-buffer's camera stays the unjittered one, as a TAA's motion vectors leave the jitter out
+    pixel_jitter: tuple[float, float] = (0.0, 0.0)
 
     def shape_materials(self, default: str) -> tuple[str, ...]:
         """The material of each SSS shape (profile id i + 1 is ``sss_shapes[i]``), ``default`` where the
@@ -279,11 +283,15 @@ def clip_planes(distance: float) -> tuple[float, float]:
 def _sensor(spec: SceneSpec, width: int, height: int, spp: int, seed: int, frame: int) -> dict:
     origin, target, up = camera_pose(spec, frame)
     near, far = clip_planes(float(np.linalg.norm(target - origin)))
-    return {"type": "perspective", "fov": spec.fov_x_deg, "fov_axis": "x", "near_clip": near, "far_clip": far,
-            "to_world": _T()().look_at(origin=origin.tolist(), target=target.tolist(), up=up.tolist()),
-            "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
-                     "pixel_format": "rgb"},
-            "sampler": {"type": "independent", "sample_count": spp, "seed": seed}}
+    sensor = {"type": "perspective", "fov": spec.fov_x_deg, "fov_axis": "x", "near_clip": near, "far_clip": far,
+              "to_world": _T()().look_at(origin=origin.tolist(), target=target.tolist(), up=up.tolist()),
+              "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
+                       "pixel_format": "rgb"},
+              "sampler": {"type": "independent", "sample_count": spp, "seed": seed}}
+    jx, jy = spec.pixel_jitter
+    if jx or jy:  # pixel (i, j) sees what (i + jx, j + jy) sees unjittered (tests/scenes/test_scenes.py)
+        sensor.update(principal_point_offset_x=float(jx) / width, principal_point_offset_y=float(jy) / height)
+    return sensor
 
 
 def scene_dict(spec: SceneSpec, width: int, height: int, spp: int, seed: int, frame: int, integrator: dict,

@@ -290,5 +290,25 @@ class TemporalAA:
         self.history = None
 
 
-__all__ = ["FETCHES", "NEIGHBOURHOODS", "TAASettings", "TemporalAA", "fetch", "neighbourhood_box", "reprojection_valid",
-           "rgb_to_ycocg", "taa_resolve", "ycocg_to_rgb"]
+def halton(index: int, base: int) -> float:
+    """The ``index``-th (from 1) element of the radical-inverse (van der Corput) sequence in ``base``, one
+    coordinate of the Halton sequence (Halton 1960, [Hal60])."""
+    f, r, i = 1.0, 0.0, int(index)
+    while i > 0:
+        f /= base
+        r += f * (i % base)
+        i //= base
+    return r
+
+
+def taa_jitter(frame: int, samples: int = 8) -> tuple[float, float]:
+    """The sub-pixel offset (pixels, each in [-1/2, 1/2)) of frame ``frame``'s jittered projection: the
+    Halton(2, 3) points 1..``samples`` in turn (Karis 2014, [Kar14]: the TAA renders every frame through a
+    jittered projection; 8 samples, Unreal's default), less 1/2. A G-buffer rendered with it:
+    :attr:`ssskit.scenes.SceneSpec.pixel_jitter`."""
+    k = int(frame) % int(samples) + 1
+    return halton(k, 2) - 0.5, halton(k, 3) - 0.5
+
+
+__all__ = ["FETCHES", "NEIGHBOURHOODS", "TAASettings", "TemporalAA", "fetch", "halton", "neighbourhood_box",
+           "reprojection_valid", "rgb_to_ycocg", "taa_jitter", "taa_resolve", "ycocg_to_rgb"]
