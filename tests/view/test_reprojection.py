@@ -38,11 +38,14 @@ def histories(tmp_path_factory):
         pg.goto((out / "index.html").as_uri() + f"?w={W}&h={H}")
         pg.wait_for_function("() => window.ssskit && window.ssskit.frames() > 0", timeout=30_000)
         pg.evaluate("() => window.ssskit.set({pass: 'adaptive', auto: false, transmission: false})")
-        _frames(pg, FRAMES)
+        _frames(pg, FRAMES - 1)
+        frame_a = pg.evaluate("() => window.ssskit.render()")
+        src_a = _read(pg, "src")
         h_a = _read(pg, "history").copy()
         taa_a = _read(pg, "taa").copy()
         pg.evaluate(f"() => window.ssskit.orbit({STEP}, 0)")
-        _frames(pg, 1)
+        frame_b = pg.evaluate("() => window.ssskit.render()")
+        src_b = _read(pg, "src")
         assert pg.evaluate("() => window.ssskit.reprojected()") == 1
         h_b1 = _read(pg, "history").copy()
         taa_b1 = _read(pg, "taa").copy()
@@ -66,7 +69,8 @@ def histories(tmp_path_factory):
         taa_fresh2 = _read(pg, "taa").copy()
         log.check()
     return {"a": h_a, "b1": h_b1, "fresh": h_fresh, "motion": motion, "valid": valid, "counts": counts,
-            "taa_a": taa_a, "taa_b1": taa_b1, "result_b1": result_b1, "taa_fresh": taa_fresh, "taa_fresh2": taa_fresh2}
+            "taa_a": taa_a, "taa_b1": taa_b1, "result_b1": result_b1, "taa_fresh": taa_fresh, "taa_fresh2": taa_fresh2,
+            "src_a": src_a, "src_b": src_b, "frame_a": frame_a, "frame_b": frame_b}
 
 
 def _noise_scale():
@@ -147,3 +151,32 @@ def test_taa_restarts_from_this_frame_where_refused(histories):
     refused = (b1[..., 3] > 0) & ~histories["valid"]
     assert refused.sum() > 10
     assert np.array_equal(b1[..., :3][refused], result[..., :3][refused])
+
+
+def _camera(frame):
+    """ssskit's Camera of a page frame: the page's GL view matrix (x right, y up, looking down -z) turned to
+    ssskit's convention (x right, y down, looking down +z), its focal lengths, the principal point at the centre."""
+    from ssskit.screenspace.camera import Camera
+
+    view = np.array(frame["view"], dtype=np.float64).reshape(4, 4).T      # column-major
+    return Camera(W, H, frame["fx"], frame["fy"], W / 2, H / 2, np.diag([1.0, -1.0, -1.0, 1.0]) @ view)
+
+
+def test_validity_is_ssskits_depth_test_and_a_normal_test(histories):
+    """The page's validity image against ssskit.screenspace.taa.reprojection_valid (default tolerance) on the
+    page's own linear depth of both frames: every pixel the page keeps passes ssskit's test, but for pixels within
+    float32 rounding of a pixel edge or the tolerance (at most 0.5 % of the mesh's); the page's normal test refuses
+    a few more (at most 5 % of the mesh's)."""
+    from ssskit.screenspace.taa import reprojection_valid
+
+    def depth(src):
+        return np.where(src[..., 3] > 0, src[..., 3], np.inf).astype(np.float64)
+
+    z_b = depth(histories["src_b"])
+    ref = reprojection_valid(z_b, _camera(histories["frame_b"]), depth(histories["src_a"]),
+                             _camera(histories["frame_a"]))
+    mesh = np.isfinite(z_b)
+    page = histories["valid"]
+    assert (page & ~ref)[mesh].mean() <= 0.005
+    assert (ref & ~page)[mesh].mean() <= 0.05
+    assert (~ref)[mesh].sum() > 10          # the step refuses some of the mesh's pixels

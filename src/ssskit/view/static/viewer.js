@@ -168,9 +168,11 @@ void main() { o_depth = vec4(v_z, 0.0, 0.0, 1.0); }`;
   // whether that history may be used. Xie 2020 Sec. 4.1.4 (Eqs. 16-17) restarts a pixel whose fetched history
   // holds no SSS mask (the history's m channel); the page also refuses a fetch whose surface differs, the depth and
   // normal consistency tests of temporal reuse (Schied et al. 2017, SVGF [SKW+17]): the stored linear depth of the
-  // fetched pixel within REPROJECT_DEPTH of the point's depth in the history's camera, and normals within
-  // REPROJECT_COS. The fetch itself is the body's nearest fetch without rejection (Xie Eq. 18).
-  const REPROJECT_DEPTH = 0.02, REPROJECT_COS = 0.9;
+  // fetched pixel within REPROJECT_DEPTH of the point's depth in the history's camera (relative: the depth test of
+  // ssskit.screenspace.taa.reprojection_valid at its default tolerance, which tests/view/test_reprojection.py
+  // compares), and normals within REPROJECT_COS. The fetch itself is the body's nearest fetch without rejection
+  // (Xie Eq. 18).
+  const REPROJECT_DEPTH = 0.05, REPROJECT_COS = 0.9;
   const MOTION_FS = `#version 300 es
 precision highp float;
 uniform highp sampler2D u_geom;        // this frame: world normal, linear depth mm
@@ -797,7 +799,7 @@ void main() {
     });
     sync();
     timing.frame_ms = performance.now() - t0;
-    timing.fx = m.fx; timing.fy = m.fy; timing.coverage = coverage(spans);
+    timing.fx = m.fx; timing.fy = m.fy; timing.view = m.view; timing.coverage = coverage(spans);
     frames += 1;
     const lines = Object.entries(timing.passes).map(([k, v]) => `${k.padEnd(10)} ${v.toFixed(2)} ms`);
     if (timing.gbuffer_reused) lines.unshift('gbuffer    reused (unchanged)');
