@@ -180,7 +180,7 @@ def test_gbuffer_file_layer_errors_name_the_file(tmp_path):
     write_exr(tmp_path / "bad.exr", {"diffuse": gb.diffuse, "albedo": gb.albedo, "depth": depth,
                                      "profile_id": gb.profile_id},
               {"ssskit_camera": __import__("json").dumps(gb.camera.to_dict())})
-    with pytest.raises(GBufferError, match=r"bad\.exr.*'depth' must be positive"):
+    with pytest.raises(GBufferError, match=r"bad\.exr.*'depth' must lie in \(0, inf\] mm, got -1"):
         load_gbuffer(tmp_path / "bad.exr")
 
 

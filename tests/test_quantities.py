@@ -104,3 +104,42 @@ def test_an_option_given_but_unused_is_refused_once():
     with pytest.raises(SettingsError, match=r"^x, y apply to sampler xie, not sampler exact$"):
         q.refuse_unused(["x", "y"], "sampler", ["xie"], "exact", SettingsError)
     q.refuse_unused([], "sampler", ["xie"], "exact")  # nothing given: nothing refused
+
+
+# --- vocab-b: arrays, tables and types in the same wordings ---------------------------------------------------
+
+def test_check_shape_names_the_expected_shape_kind_and_what_came():
+    a = q.check_shape([[1, 2, 3]], "diffuse", ("H", 3))
+    assert a.shape == (1, 3) and a.dtype.kind == "i"
+    with pytest.raises(PassError, match=r"^diffuse must be a real array of shape \(4, 4, 3\), got shape \(4, 4\) "
+                                        r"float64$"):
+        q.check_shape(np.zeros((4, 4)), "diffuse", (4, 4, 3), PassError)
+    with pytest.raises(PassError, match=r"^slots must be an integer array of shape \(H, W\), got shape \(2, 2\) "
+                                        r"float32$"):
+        q.check_shape(np.zeros((2, 2), np.float32), "slots", ("H", "W"), PassError, "iu")
+    with pytest.raises(SsskitError, match=r"^v must be finite, got NaN or inf in 1 of 3 values, the first at 1$"):
+        q.check_shape([0.0, math.inf, 1.0], "v", (3,), finite=True)
+    assert q.check_shape(np.zeros((0, 0)), "empty", ("H", "W"), kinds="iu").size == 0  # an empty image passes
+    assert q.check_shape([1, 2], "x", (2,), dtype=np.float32).dtype == np.float32
+
+
+def test_check_keys_and_fields_read_a_table_by_its_declared_quantities():
+    table = {"distance": 3, "size": 0.5}
+    assert q.check_keys(table, "light 'key'", {"distance", "size"}, ("distance",)) is table
+    with pytest.raises(SsskitError, match=r"^light 'key': unknown key\(s\) colour \(known: distance, size\)$"):
+        q.check_keys({"colour": 1}, "light 'key'", {"distance", "size"})
+    with pytest.raises(SsskitError, match=r"^light 'key': missing distance$"):
+        q.check_keys({}, "light 'key'", {"distance"}, ("distance",))
+    with pytest.raises(SsskitError, match=r"^light 'key' must be a table, got 5$"):
+        q.check_keys(5, "light 'key'")
+    fields = {"size": q.FRACTION, "g": q.ANISOTROPY, "colour": q.REFLECTANCE}
+    assert q.check_fields({"size": 0.5, "colour": 0.2}, fields, "light", rgb=("colour",)) == {
+        "size": 0.5, "colour": (0.2, 0.2, 0.2)}  # absent keys are left to the caller's defaults
+    with pytest.raises(MaterialError, match=r"^light: g must lie in \(-1, 1\), got 1 "):
+        q.check_fields({"g": 1.0}, fields, "light", MaterialError)
+
+
+def test_check_instance_names_the_types():
+    assert q.check_instance(None, int, "n", optional=True) is None
+    with pytest.raises(SettingsError, match=r"^settings must be int or float, got str$"):
+        q.check_instance("1", (int, float), "settings", SettingsError)

@@ -292,3 +292,82 @@ __all__ = ["ANISOTROPY", "BURLEY_ALBEDO", "CHOICE", "COEFFICIENT", "Choice", "ET
            "FRAMES", "Flag", "LENGTH_MM", "MFP_MM", "PHOTONS", "Quantity", "RANGE", "REFERENCE_SPP", "REFLECTANCE",
            "REL_SE", "SCALE", "SEED", "SIZE_PX", "SPP", "TAPS", "THICKNESS_MM", "TYPE", "UNUSED", "check_choice",
            "check_finite", "fail", "refuse_unused"]
+
+
+# --- vocab-b: arrays, tables and their keys, in the wordings above ------------------------------------------------
+
+from collections.abc import Mapping  # noqa: E402
+from typing import TYPE_CHECKING  # noqa: E402
+
+if TYPE_CHECKING:
+    import numpy as np
+
+_KINDS = {"iuf": "a real", "iu": "an integer", "f": "a float", "b": "a boolean", "iufb": "a real or boolean"}
+
+
+def check_shape(values: Any, name: str, shape: tuple[int | str, ...], error: ErrorClass = SsskitError,
+                kinds: str = "iuf", dtype: Any = None, finite: bool = False, where: str = "values") -> np.ndarray:
+    """``values`` as a numpy array (``dtype``: converted to it) of ``shape`` (an int per axis, or a letter such as
+    ``"H"`` for any length) whose dtype kind is one of ``kinds`` (numpy's letters: ``"iuf"`` real, ``"iu"``
+    integer, ``"b"`` boolean; an empty array passes), with ``finite`` no NaN or infinity; else ``error`` in the
+    type (or finiteness) wording: ``diffuse must be a real array of shape (4, 4, 3), got shape (4, 4) float64``."""
+    import numpy as np
+
+    expected = "(" + ", ".join(map(str, shape)) + ("," if len(shape) == 1 else "") + ")"
+    kind = f"{_KINDS.get(kinds, 'a')} array of shape {expected}"
+    try:
+        a = np.asarray(values)
+    except (TypeError, ValueError) as e:
+        raise fail(error, TYPE, name=name, kind=kind, actual=f"{type(values).__name__} ({e})") from None
+    if a.ndim != len(shape) or any(isinstance(n, int) and n != m for n, m in zip(shape, a.shape)) or (
+            a.dtype.kind not in kinds and a.size):
+        raise fail(error, TYPE, name=name, kind=kind, actual=f"shape {a.shape} {a.dtype}")
+    if finite:
+        check_finite(a, name, error, where)
+    return a if dtype is None else a.astype(dtype, copy=False)
+
+
+def check_keys(table: object, where: str, allowed: Collection[str] | None = None, required: Collection[str] = (),
+               error: ErrorClass = SsskitError) -> Any:
+    """``table`` (a mapping: a TOML or JSON table) with no key outside ``allowed`` (None: any key) and every one of
+    ``required``; else ``error``: ``{where}: unknown key(s) a, b (known: ...)``, ``{where}: missing a, b`` or
+    ``{where} must be a table``."""
+    if not isinstance(table, Mapping):
+        raise fail(error, TYPE, name=where, kind="a table", actual=_fmt(table))
+    unknown = [] if allowed is None else sorted(str(k) for k in table if k not in allowed)
+    if unknown:
+        raise error(f"{where}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(allowed or ()))})")
+    missing = [k for k in required if k not in table]
+    if missing:
+        raise error(f"{where}: missing {', '.join(missing)}")
+    return table
+
+
+def check_fields(table: Any, fields: Mapping[str, Quantity | Choice | Flag], where: str = "",
+                 error: ErrorClass = SsskitError, rgb: Collection[str] = ()) -> dict[str, Any]:
+    """Each key of ``fields`` that ``table`` holds, checked by its quantity (``rgb``: the keys that take one
+    number or three) under the name ``{where}: {key}`` (``where`` empty: the key alone): a dict of the checked
+    values. The table-driven reader of a file's section: each field's quantity is declared once."""
+    out: dict[str, Any] = {}
+    for key, q in fields.items():
+        if key in table:
+            label = f"{where}: {key}" if where else key
+            out[key] = q.check_rgb(table[key], label, error) if key in rgb and isinstance(q, Quantity) else \
+                q.check(table[key], label, error)
+    return out
+
+
+__all__ += ["check_shape", "check_fields", "check_keys"]
+
+
+def check_instance(value: Any, kind: type | tuple[type, ...], name: str, error: ErrorClass = SsskitError,
+                   optional: bool = False) -> Any:
+    """``value`` if it is a ``kind`` (``optional``: or None), else ``error`` in the type wording: ``burley must be
+    BurleySettings, got dict``."""
+    if (optional and value is None) or isinstance(value, kind):
+        return value
+    names = " or ".join(k.__name__ for k in (kind if isinstance(kind, tuple) else (kind,)))
+    raise fail(error, TYPE, name=name, kind=names, actual=type(value).__name__)
+
+
+__all__ += ["check_instance"]

@@ -197,11 +197,11 @@ def test_bad_inputs_are_refused(plan):
         b.transmission(plan, slots + 5, uvz, shadow, ndl, light)
     with pytest.raises(PassError, match="profile ids"):
         build_transmission_plan({0: _model()})
-    with pytest.raises(PassError, match="profile ids with a transmittance model must be integers >= 1, got 'a'"):
+    with pytest.raises(PassError, match="profile ids must be an integer, got 'a'"):
         build_transmission_plan({"a": _model()})
-    with pytest.raises(PassError, match="profile id 1: a transmittance model must be a SlotModel"):
+    with pytest.raises(PassError, match="profile id 1 must be a SlotModel, got float"):
         build_transmission_plan({1: 3.0})
-    with pytest.raises(PassError, match="empty mapping"):
+    with pytest.raises(PassError, match="must be a non-empty mapping"):
         build_transmission_plan({})
     assert build_transmission_plan({}, allow_empty=True).slots == 1  # a frame without SSS pixels (the pipeline's)
 
@@ -223,7 +223,7 @@ def test_bad_values_are_refused(plan, backend):
         args[name] = bad
         with pytest.raises(PassError, match=match):
             b.transmission(plan, slots, args["uvz"], args["shadow"], args["ndl"], args["light"])
-    with pytest.raises(PassError, match="slots must be an integer image"):
+    with pytest.raises(PassError, match=r"slots must be an integer array of shape \(H, W\), got shape \(\d+, \d+\) float32"):
         b.transmission(plan, slots.astype(np.float32), uvz, shadow, ndl, light)
     edge = ndl.copy()
     edge[y, x] = 1.0 + 1e-6  # a rounded cosine passes and is clamped

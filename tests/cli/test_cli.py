@@ -255,7 +255,7 @@ def test_simulate_of_one_batch_says_it_has_no_standard_error(capsys, tmp_path, m
         (["simulate", "--material", "nope"], "unknown material"),
         (["simulate", "--material", "skin1,apple", "--out", "x.npz"], "single material"),
         (["simulate", "--material", "skin1,apple", "--threads", "1"], "apply to a single material"),
-        (["simulate", "--material", "skin1", "--threads", "999"], "threads must be in"),
+        (["simulate", "--material", "skin1", "--threads", "999"], "threads must lie in [1, "),
         (["simulate", "--material", "skin1,apple", "--backend", "gl"], "apply to a single material"),
         (["simulate", "--material", "skin1", "--backend", "cuda"], "--backend"),
     ],

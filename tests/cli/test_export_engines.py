@@ -105,7 +105,7 @@ BAD_EXPORT = [
     (["--material", "alb0_unity.json", "--format", "blender", "--out", "o.json"],
      "error: 'alb0_unity.json': the unity albedo must lie in (0, 1]"),
     (["--material", "negd_blender.json", "--format", "unity", "--out", "o.json"],
-     "error: 'negd_blender.json': Burley length d must be > 0 mm"),
+     "error: 'negd_blender.json': Burley length d must lie in (0, inf) mm"),
     # an HDRP .asset takes --albedo; its distances came from the file and --dmfp was ignored silently
     (["--material", "good.asset", "--albedo", "0.5", "--dmfp", "1", "--format", "blender", "--out", "o.json"],
      "--dmfp does not apply to an engine file"),

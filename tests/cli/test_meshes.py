@@ -44,8 +44,8 @@ BAD = [
     (["--scene", "huge.obj"], "huge.obj: the model is 1.414e+30 mm across (bounding-sphere diameter, units mm); a "
                               "scene takes models 0.0002 to 1e+09 mm across"),
     (["--scene", "model.stl"], "unknown format '.stl'"),
-    (["--scene", "nan.obj"], "has NaN or infinite vertex positions"),
-    (["--scene", "nan.glb"], "has NaN or infinite vertex positions (1 of"),
+    (["--scene", "nan.obj"], "vertex positions must be finite, got NaN or inf"),
+    (["--scene", "nan.glb"], "vertex positions must be finite, got NaN or inf in 3 of 486 coordinates"),
     (["--scene", "degen.obj"], "mesh 'degen.obj' is degenerate: its 1 face has zero area"),
     (["--scene", "two.glb", "--material-map", "skinC=skin1"], "material map names 'skinC', which 'two.glb' does not "
                                                               "have (its objects: skinA, skinB)"),

@@ -190,7 +190,7 @@ def test_render_dispatches_on_the_pass(monkeypatch):
     assert render("slab", s) == "burley result"
     assert seen == {"scene": "slab", "burley": BurleySettings(spp=7)}
     assert render("slab", RenderSettings(pass_=AdaptivePass())) == "adaptive result"
-    with pytest.raises(SettingsError, match="on_frame applies to the burley-adaptive pass"):
+    with pytest.raises(SettingsError, match="on_frame applies to pass burley-adaptive, not pass separable"):
         render("slab", RenderSettings(), on_frame=print)
 
 

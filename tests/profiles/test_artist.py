@@ -121,8 +121,8 @@ def test_burley_fit_inversion():
     # the export wrote subsurface_scale 3.6e6 from --dmfp 1e9: the mean free paths every model takes
     (dict(distance_mm=(1e9, 1.0, 1.0)), "in [1e-06, 1e+06] mm"),
     (dict(distance_mm=(1.0, 1e-9, 1.0), kind="mfp"), "the mfp distance must lie in [1e-06, 1e+06] mm"),
-    (dict(eta=0.9), "eta must be >= 1"),
-    (dict(g=1.0), "|g| < 1"),
+    (dict(eta=0.9), "eta must lie in [1, inf), got 0.9"),
+    (dict(g=1.0), "g must lie in (-1, 1), got 1"),
     (dict(kind="radius"), "distance kind"),
 ])
 def test_domain(kw, fragment):

@@ -236,7 +236,7 @@ def test_gl_results_are_cached_apart(tmp_path):
     n = simulate(cfg)
     assert g.total_rd != n.total_rd  # not the gl result read back for numba, nor the reverse
     assert simulate(cfg, backend="gl").total_rd == g.total_rd and simulate(cfg).total_rd == n.total_rd
-    with pytest.raises(ProfileError, match="unknown Monte Carlo backend 'cuda'"):
+    with pytest.raises(ProfileError, match="the Monte Carlo backend must be one of numba, gl, got 'cuda'"):
         simulate(cfg, backend="cuda")
 
 

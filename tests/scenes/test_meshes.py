@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -239,22 +240,22 @@ def test_light_intensity_is_the_diffuse_radiance_at_the_centre(tmp_path, size):
 
 
 BAD_LIGHTS = [
-    ({"type": "point", "position": [0, 400, -600], "intensity": -2.0e5}, "intensity must be"),
-    ({"type": "point", "position": [0, 400, -600], "intensity": [1.0, float("nan"), 1.0]}, "intensity must be"),
-    ({"type": "point", "position": [0, float("inf"), -600], "intensity": 1.0}, "position must be 3 numbers"),
-    ({"type": "sphere", "center": [0, 0, 100], "radius": 5, "radiance": float("inf")}, "radiance must be"),
-    ({"type": "sphere", "center": [0, 0, 100], "radius": 5, "radiance": [1.0, -1.0, 1.0]}, "radiance must be"),
+    ({"type": "point", "position": [0, 400, -600], "intensity": -2.0e5}, r"intensity must lie in \[0, 1e\+30\]"),
+    ({"type": "point", "position": [0, 400, -600], "intensity": [1.0, float("nan"), 1.0]}, "intensity must lie in"),
+    ({"type": "point", "position": [0, float("inf"), -600], "intensity": 1.0}, "position must be finite"),
+    ({"type": "sphere", "center": [0, 0, 100], "radius": 5, "radiance": float("inf")}, "radiance must lie in"),
+    ({"type": "sphere", "center": [0, 0, 100], "radius": 5, "radiance": [1.0, -1.0, 1.0]}, "radiance must lie in"),
     ({"type": "sphere", "center": [0, 0, 100], "radius": -5, "radiance": 1.0},
-     "radius must be a number, finite and > 0"),
-    ({"intensity": float("inf")}, "intensity must be a non-negative number"),
-    ({"azimuth": float("nan")}, "azimuth and elevation must be finite"),
-    ({"size": "big"}, "size must be a number"),
+     r"radius must lie in \(0, inf\), got -5"),
+    ({"intensity": float("inf")}, r"intensity must lie in \[0, inf\), got inf"),
+    ({"azimuth": float("nan")}, r"azimuth must lie in \(-inf, inf\) degrees, got nan"),
+    ({"size": "big"}, "size must be a number, got 'big'"),
     # finite but beyond the renderer's float32 (the verifier's 1e36 key light: 64,000 warnings, then a NaN layer);
     # OTHER_LIGHT: distance 4, size 0.15, so radiance = 1e36 (4 / 0.15)^2 = 7.11e38
-    ({"intensity": 1e36}, r"its radiance \(intensity x \(distance / size\)\^2\) is 7.11e\+38, beyond the 1e\+30"),
+    ({"intensity": 1e36}, r"its radiance \(intensity x \(distance / size\)\^2\) must lie in \[0, 1e\+30\], got 7.11\d*e\+38"),
     ({"size": 1e-20, "intensity": 1.0}, "its radiance"),
     ({"size": 0.0, "distance": 1e30}, "its intensity"),
-    ({"type": "point", "position": [0, 400, -600], "intensity": [1.0, 1e39, 1.0]}, r"its intensity \(as given\)"),
+    ({"type": "point", "position": [0, 400, -600], "intensity": [1.0, 1e39, 1.0]}, r"intensity must lie in \[0, 1e\+30\], got \(1, 1e\+39, 1\)"),
 ]
 
 
@@ -359,7 +360,7 @@ def _nan_mesh() -> Mesh:
 @pytest.mark.parametrize("suffix", SUFFIXES)
 def test_nan_vertices_are_refused(tmp_path, suffix):
     path = write_mesh(tmp_path / f"nan{suffix}", _nan_mesh())
-    with pytest.raises(SceneError, match="NaN or infinite vertex positions"):
+    with pytest.raises(SceneError, match=r"vertex positions must be finite, got NaN or inf"):
         resolve_scene(str(path), units="mm")
 
 
@@ -413,7 +414,7 @@ def test_conflicting_units_are_refused(tmp_path):
     (tmp_path / "s.toml").write_text('units = "cm"\n[shapes.ball]\ntype = "mesh"\nfile = "ball.ply"\n')
     with pytest.raises(SceneError, match="conflicting units: --units m, but .* says units = 'cm'"):
         resolve_scene(str(tmp_path / "s.toml"), units="m")
-    with pytest.raises(SceneError, match="unknown units 'inch'"):
+    with pytest.raises(SceneError, match="units must be one of mm, cm, m, got 'inch'"):
         resolve_scene(path, units="inch")
     with pytest.raises(SceneError, match="--units does not apply to the built-in scene 'slab'"):
         resolve_scene("slab", units="mm")
@@ -481,7 +482,7 @@ def test_a_ply_face_index_out_of_range_is_one_error_line_not_a_crash(tmp_path, f
     lines = [line for line in proc.stderr.splitlines() if not line.startswith("  ... still working")]
     assert len(lines) == 1 and "face indices must lie in [0, 2]" in lines[0], proc.stderr
     assert not (tmp_path / "o.png").exists()
-    with pytest.raises(SceneError, match=rf"face indices must lie in \[0, 2\], found {min(index, 0)} to {max(index, 1)}"):
+    with pytest.raises(SceneError, match=re.escape(f"face indices must lie in [0, 2], got {float(index):g} in 1 of 3 indices")):
         read_mesh(path)
 
 
@@ -492,7 +493,7 @@ def test_units_of_a_wrong_type_in_a_scene_file_are_refused(tmp_path, value):
     for doc in (f'units = {value}\n[shapes.ball]\ntype = "mesh"\nfile = "ball.ply"\n',
                 f'[shapes.ball]\ntype = "mesh"\nunits = {value}\nfile = "ball.ply"\n'):
         (tmp_path / "s.toml").write_text(doc)
-        with pytest.raises(SceneError, match=r"unknown units .* \(known: mm, cm, m\)"):
+        with pytest.raises(SceneError, match=r"units must be one of mm, cm, m, got "):
             resolve_scene(str(tmp_path / "s.toml"))
 
 

@@ -348,7 +348,7 @@ def test_adaptive_frames_bad_inputs():
     from ssskit.screenspace.frames import adaptive_frames
 
     gb = _step_gbuffer(8, 8)
-    with pytest.raises(PassError, match="expected a GBuffer"):
+    with pytest.raises(PassError, match="gbuffer must be GBuffer, got"):
         adaptive_frames(np.zeros((8, 8, 3)), _params())
     with pytest.raises(PassError, match="history is 4x4 but the G-buffer is 8x8"):
         adaptive_frames(gb, _params(), history=new_history(4, 4))

@@ -117,13 +117,13 @@ def test_entry_point_checks():
     p = BurleyParams.from_dmfp(0.5, 1.0)
     with pytest.raises(PassError, match="no Burley parameters given for profile id 1"):
         burley_sss(gb, {2: p})
-    with pytest.raises(PassError, match="BurleyParams or a mapping"):
+    with pytest.raises(PassError, match="Burley parameters must be BurleyParams or Mapping, got list"):
         burley_sss(gb, [p])
-    with pytest.raises(PassError, match=r"sample-count image must be \(H, W\) = \(20, 24\)"):
+    with pytest.raises(PassError, match=r"sample-count image must be an integer array of shape \(20, 24\), got shape \(24, 20\)"):
         burley_sss(gb, p, counts=np.ones((24, 20), np.int64))
     with pytest.raises(PassError, match="settings must be BurleySettings"):
         burley_sss(gb, p, settings={"spp": 4})
-    with pytest.raises(PassError, match="Eq. 21's c must lie"):
+    with pytest.raises(PassError, match=r"c must lie in \(2, 3\), got 3.5 \(Eq. 21's damping"):
         build_burley_plan({1: p}, 600.0, 600.0, c=3.5)
 
 

@@ -87,7 +87,7 @@ def test_one_material_name_is_one_material():
     two = GBuffer(diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id * 2,
                   camera=gb.camera, materials=("skin1", "marble"))
     assert two.materials == ("skin1", "marble")
-    with pytest.raises(GBufferError, match="uses id 2 but only 1 materials are named"):
+    with pytest.raises(GBufferError, match=r"layer 'profile_id' must lie in \[0, 1\], got 2 \(0 is no SSS, k the k-th of the 1 materials named\)"):
         GBuffer(diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id * 2,
                 camera=gb.camera, materials="skin1")
     for raw in (b"skin1", [b"skin1"]):  # bytes were split into their codes ('115', '107', ...)

@@ -61,6 +61,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
+from ..quantities import check_shape
 from ..metrics import BT709_LUMA
 
 #: history channels
@@ -139,10 +140,7 @@ def check_guide_frame(history: ArrayLike, mask: ArrayLike, motion: ArrayLike | N
     """The guiding phase's inputs as arrays of the kernels' types, or a PassError: history (H, W, 4)
     float32, mask (H, W) bool, motion (H, W, 2) float64 or None, valid (H, W) bool or None, rgb (H, W, 3)
     float32 or None, counts (H, W) int64 or None."""
-    h = np.asarray(history)
-    if h.ndim != 3 or h.shape[2] != HISTORY_CHANNELS or not np.issubdtype(h.dtype, np.floating):
-        raise PassError(f"the adaptive history must be an (H, W, {HISTORY_CHANNELS}) float array, got {h.shape} "
-                        f"{h.dtype}")
+    h = check_shape(history, "the adaptive history", ("H", "W", HISTORY_CHANNELS), PassError, "f")
     m, mv, ok, img, n = check_guide_inputs(h.shape[:2], mask, motion, valid, rgb, counts)
     return h.astype(np.float32, copy=False), m, mv, ok, img, n
 
@@ -151,35 +149,14 @@ def check_guide_inputs(shape: tuple[int, ...], mask: ArrayLike, motion: ArrayLik
                        valid: ArrayLike | None = None, rgb: ArrayLike | None = None,
                        counts: ArrayLike | None = None) -> GuideInputs:
     """:func:`check_guide_frame` without the history, for a frame of (H, W) = ``shape``."""
-    shape = tuple(shape)
-    m = np.asarray(mask)
-    if m.shape != shape:
-        raise PassError(f"the mask must be (H, W) = {shape}, got {m.shape}")
-    mv = None
-    if motion is not None:
-        mv = np.asarray(motion, np.float64)
-        if mv.shape != shape + (2,):
-            raise PassError(f"the motion vectors must be (H, W, 2) = {shape + (2,)}, got {mv.shape}")
-        if not np.all(np.isfinite(mv)):
-            raise PassError("the motion vectors hold NaN or infinite values")
-    ok = None
-    if valid is not None:
-        ok = np.asarray(valid)
-        if ok.shape != shape:
-            raise PassError(f"valid must be (H, W) = {shape}, got {ok.shape}")
-        ok = ok.astype(bool)
-    img = None
-    if rgb is not None:
-        img = np.asarray(rgb, np.float32)
-        if img.shape != shape + (3,):
-            raise PassError(f"the pass's result must be (H, W, 3) = {shape + (3,)}, got {img.shape}")
-    n = None
-    if counts is not None:
-        n = np.asarray(counts)
-        if n.shape != shape or not np.issubdtype(n.dtype, np.integer):
-            raise PassError(f"the sample counts must be an (H, W) = {shape} integer image, got {n.shape} {n.dtype}")
-        n = n.astype(np.int64)
-    return m.astype(bool), mv, ok, img, n
+    hw = tuple(shape)
+    m = check_shape(mask, "the mask", hw, PassError, "iufb", bool)
+    mv = None if motion is None else check_shape(motion, "the motion vectors", hw + (2,), PassError, "iuf", np.float64,
+                                                 finite=True, where="pixels")
+    ok = None if valid is None else check_shape(valid, "valid", hw, PassError, "iufb", bool)
+    img = None if rgb is None else check_shape(rgb, "the pass's result", hw + (3,), PassError, "iuf", np.float32)
+    n = None if counts is None else check_shape(counts, "the sample counts", hw, PassError, "iu", np.int64)
+    return m, mv, ok, img, n
 
 
 # ---- the numpy reference (the oracle; ssskit.screenspace.adaptive's public functions call these) -------

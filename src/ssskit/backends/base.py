@@ -32,7 +32,8 @@ from typing import TYPE_CHECKING, Protocol, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .plan import DEPTH_MODES, SeparablePlan, check_frame_values, check_integer_slots, check_real, check_slot_range
+from ..quantities import check_choice
+from .plan import DEPTH_MODES, SeparablePlan, check_frame_values, check_image, check_slot_range
 
 if TYPE_CHECKING:
     from .adaptive_plan import AdaptivePlan
@@ -97,9 +98,7 @@ class Backend(ABC):
         :meth:`burley_prefilter` (CPU backends; None: built here when the plan has mips). A backend
         without the pass raises :class:`~ssskit.errors.BackendError`.
         """
-        from ..errors import BackendError
-
-        raise BackendError(f"backend {self.name!r} has no Burley pass")
+        raise self.lacks("Burley pass")
 
     def burley_prefilter(self, plan: BurleyPlan, diffuse: np.ndarray, slots: np.ndarray) -> Prefiltered:
         """Step 5b's pyramid of a frame (Xie 2020 Eqs. 22-23) in the form this backend's :meth:`burley` takes
@@ -113,27 +112,21 @@ class Backend(ABC):
         """The transmittance pass (see :mod:`ssskit.backends.transmission_plan`): a new (H, W, 3) array of the
         light leaving each pixel through the medium. A backend without the pass raises
         :class:`~ssskit.errors.BackendError`."""
-        from ..errors import BackendError
-
-        raise BackendError(f"backend {self.name!r} has no transmittance pass")
+        raise self.lacks("transmittance pass")
 
     def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> np.ndarray:
         """The transmitted light's lateral spread (see :mod:`ssskit.backends.spread_plan`, pass name "spread"): a
         new (H, W, 3) array, ``exitance`` (the transmittance pass's result) spread by each pixel's thickness. A
         backend without the step raises :class:`~ssskit.errors.BackendError`."""
-        from ..errors import BackendError
-
-        raise BackendError(f"backend {self.name!r} has no spread of the transmitted light")
+        raise self.lacks("spread of the transmitted light")
 
     def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
                         valid: ArrayLike | None = None) -> NDArray[np.int64]:
         """The guiding phase's *estimate* (:mod:`ssskit.backends.adaptive_plan` steps 1, 3, 4): this frame's
         sample counts (H, W) int64 from the previous (H, W, 4) history, reprojected through ``motion``
         (H, W, 2) (None: static) with ``valid`` (H, W) (None: everywhere), and the frame's SSS ``mask``."""
-        from ..errors import BackendError
-
-        raise BackendError(f"backend {self.name!r} has no adaptive guiding pass")
+        raise self.lacks("adaptive guiding pass")
 
     def adaptive_update(self, plan: AdaptivePlan, history: ArrayLike, rgb: ArrayLike | None, counts: ArrayLike | None,
                         mask: ArrayLike, motion: ArrayLike | None = None,
@@ -141,18 +134,28 @@ class Backend(ABC):
         """The guiding phase's *update* (:mod:`ssskit.backends.adaptive_plan` steps 1-4): (the new (H, W, 4)
         float32 history, the next frame's counts (H, W) int64 for the same pixels) from the previous
         history, this frame's Burley result ``rgb`` (H, W, 3) and the ``counts`` it used."""
-        from ..errors import BackendError
-
-        raise BackendError(f"backend {self.name!r} has no adaptive guiding pass")
+        raise self.lacks("adaptive guiding pass")
 
     def adaptive_runner(self, plan: AdaptivePlan, history: ArrayLike) -> AdaptiveRunner:
         """A frame loop of the Burley pass with adaptive counts that keeps the history (and counts) with this
         backend between frames (:class:`AdaptiveRunner`; the gl backend keeps them on the device)."""
-        if "adaptive" not in self.passes or "burley" not in self.passes:
-            from ..errors import BackendError
-
-            raise BackendError(f"backend {self.name!r} has no adaptive guiding pass")
+        self.require("adaptive", "burley")
         return AdaptiveRunner(self, plan, history)
+
+    def lacks(self, what: str) -> Exception:
+        """The BackendError of a pass this backend does not implement (``what``: the pass, in words)."""
+        from ..errors import BackendError
+
+        return BackendError(f"backend {self.name!r} has no {what}")
+
+    def require(self, *passes: str) -> Backend:
+        """This backend if it implements every one of ``passes`` (names of :attr:`passes`), else the
+        BackendError of :meth:`lacks`."""
+        for name in passes:
+            if name not in self.passes:
+                raise self.lacks({"burley": "Burley pass", "adaptive": "adaptive guiding pass",
+                                  "transmission": "transmittance pass"}.get(name, f"{name} pass"))
+        return self
 
 
 class AdaptiveRunner:
@@ -201,12 +204,7 @@ class AdaptiveRunner:
         (H, W) (the caller's disocclusion test; None: everywhere); runs the *estimate* for the frame.
         ``estimate=False`` skips it (a fixed count, or the caller's own): :meth:`set_counts` must follow
         before :meth:`sample`."""
-        slots = np.asarray(slots)
-        if slots.shape != self.shape:
-            from ..errors import PassError
-
-            raise PassError(f"the frame is {slots.shape[1]}x{slots.shape[0]} but the history is "
-                            f"{self.shape[1]}x{self.shape[0]}")
+        slots = check_image("the frame's slots", slots, self.shape, "iu")
         self._frame = (np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
         self._motion, self._valid = motion, valid
         self._counts = None
@@ -263,11 +261,8 @@ def check_warm_up(passes: Iterable[str]) -> list[str]:
     """The names of :meth:`Backend.warm_up` as a list, or a BackendError naming the unknown one."""
     from ..errors import BackendError
 
-    names = [passes] if isinstance(passes, str) else list(passes)
-    for name in names:
-        if name not in WARM_UP:
-            raise BackendError(f"cannot warm up {name!r}; choose from {', '.join(WARM_UP)}")
-    return names
+    return [check_choice("the pass to warm up", name, WARM_UP, BackendError)
+            for name in ([passes] if isinstance(passes, str) else list(passes))]
 
 
 def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
@@ -330,36 +325,24 @@ def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
 
 def _checked_counts(counts: ArrayLike, shape: tuple[int, int]) -> NDArray[np.int64]:
     """An (H, W) integer count image as int64 (values in the Burley pass's range), or a PassError."""
-    from ..errors import PassError
     from .burley_plan import check_counts
 
-    if np.ndim(counts) != 2:
-        raise PassError(f"the sample counts must be an (H, W) = {tuple(shape)} integer image, got {np.shape(counts)}")
-    return np.array(check_counts(counts, shape), np.int64)
+    return np.array(check_counts(check_image("the sample counts", counts, shape, "iu"), shape), np.int64)
 
 
 def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, plan: SlotPlan,
                 values: bool = True, slot_range: bool = True) -> None:
-    """Shapes, types and slot range of the separable (or Burley) pass's inputs, or a precise error; with
-    ``values`` also that every colour is finite and every pixel with SSS has a positive finite depth (a
-    backend may check those, and the slot range with ``slot_range=False``, in its own pass over the frame).
-    ``diffuse`` and ``depth_mm`` may be any real array-like (the backend converts them); ``slots`` must be an
-    integer image (a float image is refused, never rounded)."""
-    from ..errors import PassError
-
-    if np.ndim(depth_mm) != 2 or np.shape(diffuse) != tuple(np.shape(depth_mm)) + (3,):
-        raise PassError(f"diffuse must be (H, W, 3) and depth (H, W) of the same size, got {np.shape(diffuse)} "
-                        f"and {np.shape(depth_mm)}")
-    if np.shape(slots) != np.shape(depth_mm):
-        raise PassError(f"slots must be (H, W) like depth, got {np.shape(slots)}")
-    check_integer_slots(slots)
+    """Shapes, types and slot range of the separable (or Burley) pass's inputs (real ``diffuse`` (H, W, 3) and
+    ``depth_mm`` (H, W) of any array-like, an integer ``slots`` image: a float one is refused, never rounded), or
+    a PassError; with ``values`` also that every colour is finite and every pixel with SSS has a positive finite
+    depth (a backend may check those, and the slot range with ``slot_range=False``, in its own pass)."""
+    h, w = check_image("depth", depth_mm).shape
+    check_image("diffuse", diffuse, (h, w, 3))
+    check_image("slots", slots, (h, w), "iu")
     if slot_range:
         check_slot_range(slots, plan.slots)
-    if not values:
-        return
-    check_real("diffuse", diffuse)
-    check_real("depth", depth_mm)
-    check_frame_values(diffuse, depth_mm, slots)
+    if values:
+        check_frame_values(diffuse, depth_mm, slots)
 
 
 def check_burley_frame(plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,

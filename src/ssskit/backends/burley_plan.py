@@ -126,7 +126,6 @@ pixels, not maxima.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, TypeAlias
@@ -135,7 +134,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
-from ..quantities import BURLEY_ALBEDO, MFP_MM
+from ..quantities import BURLEY_ALBEDO, FRACTION, MFP_MM, SCALE, Choice, Quantity, check_choice, check_shape
+from .plan import check_plan_ids
 
 if TYPE_CHECKING:
     from ..profiles.base import RGBProfile
@@ -158,6 +158,12 @@ XIE_C = 2.5715
 C_RANGE = (2.0, 3.0)
 #: the most samples per pixel
 MAX_SPP = 1 << 16
+#: the Burley sampler (Xie 2020 Sec. 4.2), its samples per pixel (a per-pixel count may be 0: no SSS) and Eq. 21's
+#: damping c: the quantities the pass's plan and settings (ssskit.screenspace.burley) both take
+SAMPLER = Choice("sampler", SAMPLERS)
+BURLEY_SPP = Quantity("spp", 1, MAX_SPP, "", "samples per pixel of the Burley pass", integer=True)
+COUNTS = BURLEY_SPP.within(lo=0, reason="samples per pixel of the Burley pass; 0 on a pixel without SSS")
+XIE_C_RANGE = Quantity("c", C_RANGE[0], C_RANGE[1], "", "Eq. 21's damping (Xie 2020)", lo_open=True, hi_open=True)
 #: the coarsest mip level of step 5b, and Xie 2020's a of Eq. 22 (Unreal's MIP_CONSTANT_FACTOR), in the
 #: units of step 5b
 MAX_MIP = 5
@@ -287,22 +293,11 @@ def build_burley_plan(params_by_id: Mapping[int, BurleyParams], fx: float, fy: f
                       c: float = XIE_C, bleed: float = 0.0, frame: int = 0, seed: int = 0,
                       stable: bool = False, mips: bool = False, mip_scale: float = XIE_MIP_SCALE) -> BurleyPlan:
     """The plan for profile ids -> :class:`BurleyParams` (module docstring)."""
-    if sampler not in SAMPLERS:
-        raise PassError(f"unknown Burley sampler {sampler!r}; choose from {', '.join(SAMPLERS)}")
-    if sequence not in SEQUENCES:
-        raise PassError(f"unknown sample sequence {sequence!r}; choose from {', '.join(SEQUENCES)}")
-    if not (isinstance(c, (int, float)) and C_RANGE[0] < c < C_RANGE[1]):
-        raise PassError(f"Eq. 21's c must lie in ({C_RANGE[0]:g}, {C_RANGE[1]:g}), got {c!r}")
-    if not (isinstance(mip_scale, (int, float)) and math.isfinite(mip_scale) and mip_scale > 0):
-        raise PassError(f"mip_scale (Eq. 22's a) must be a positive number, got {mip_scale!r}")
-    if not (isinstance(bleed, (int, float)) and 0.0 <= bleed <= 1.0):
-        raise PassError(f"bleed must lie in [0, 1], got {bleed!r}")
-    for name, f in (("fx", fx), ("fy", fy)):
-        if not (isinstance(f, (int, float)) and math.isfinite(f) and f > 0):
-            raise PassError(f"focal length {name} must be a positive number of pixels, got {f!r}")
-    ids = tuple(int(i) for i in sorted(params_by_id))
-    if any(i <= 0 for i in ids):
-        raise PassError(f"profile ids with Burley parameters must be >= 1 (0 means no SSS), got {list(ids)}")
+    sampler = SAMPLER.check(sampler, "sampler", PassError)
+    sequence = check_choice("sequence", sequence, SEQUENCES, PassError)
+    c, bleed = XIE_C_RANGE.check(c, "c", PassError), FRACTION.check(bleed, "bleed", PassError)
+    mip_scale = SCALE.check(mip_scale, "mip_scale", PassError)
+    ids = check_plan_ids(params_by_id, BurleyParams, fx, fy)
     n = len(ids) + 1
     d = np.ones((n, 3))
     ch = np.zeros(n, np.int64)
@@ -312,8 +307,6 @@ def build_burley_plan(params_by_id: Mapping[int, BurleyParams], fx: float, fy: f
 
     for s, pid in enumerate(ids, start=1):
         p = params_by_id[pid]
-        if not isinstance(p, BurleyParams):
-            raise PassError(f"parameters of profile id {pid} must be BurleyParams, got {type(p).__name__}")
         d[s] = p.d_mm
         ch[s] = p.sampling_channel
         r997[s] = float(burley_inverse_cdf(GOLUBEV_FRACTION, d[s, ch[s]]))
@@ -343,20 +336,11 @@ def mip_pyramid(diffuse: ArrayLike, slots: np.ndarray, n_slots: int, levels: int
 
 
 def check_counts(spp: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.int64] | int:
-    """spp as an int in [1, MAX_SPP] or an (H, W) int64 image with values in [0, MAX_SPP], else PassError."""
-    if isinstance(spp, (bool, np.bool_)):
-        raise PassError(f"spp must be an integer or an (H, W) integer image, got {spp!r}")
-    if isinstance(spp, (int, np.integer)):
-        if not 1 <= int(spp) <= MAX_SPP:
-            raise PassError(f"spp must lie in [1, {MAX_SPP}], got {int(spp)}")
-        return int(spp)
-    arr = np.asarray(spp)
-    if arr.ndim == 0:
-        raise PassError(f"spp must be an integer or an (H, W) integer image, got {spp!r}")
-    if arr.shape != tuple(shape):
-        raise PassError(f"the sample-count image must be (H, W) = {tuple(shape)}, got {arr.shape}")
-    if not np.issubdtype(arr.dtype, np.integer):
-        raise PassError(f"the sample-count image must hold integers, got {arr.dtype}")
+    """spp as an int in [1, MAX_SPP] (:data:`BURLEY_SPP`) or an (H, W) int64 image with values in [0, MAX_SPP]
+    (:data:`COUNTS`), else a PassError."""
+    if np.ndim(spp) == 0:
+        return int(BURLEY_SPP.check(spp, "spp", PassError))
+    arr = check_shape(spp, "the sample-count image", tuple(shape), PassError, "iu")
     if arr.size and (int(arr.min()) < 0 or int(arr.max()) > MAX_SPP):
-        raise PassError(f"sample counts must lie in [0, {MAX_SPP}]")
+        COUNTS.check_array(arr, "sample counts", PassError, "pixels")
     return arr.astype(np.int64)

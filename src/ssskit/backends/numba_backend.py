@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import PassError
 from ..sampling.hashes import frame_base
 from .base import Backend, check_frame, run_tiny_frames
-from .plan import SeparablePlan, TermTable, check_frame_values, check_real, check_slot_range
+from .plan import SeparablePlan, TermTable, check_frame_values, check_slot_range
 
 if TYPE_CHECKING:
     from concurrent.futures import ThreadPoolExecutor
@@ -197,8 +197,6 @@ class NumbaBackend(Backend):
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
                   slots: np.ndarray) -> NDArray[np.float32]:
         check_frame(diffuse, depth_mm, slots, plan, values=False, slot_range=False)  # values: in the packing
-        check_real("diffuse", diffuse)
-        check_real("depth", depth_mm)
         with self._lock:  # one frame buffer per backend: one frame at a time
             return self._separable(plan, diffuse, depth_mm, slots)
 

@@ -25,25 +25,20 @@ the two 1D passes of term r is multiplied by ``sign[s]`` and the terms are summe
 
 from __future__ import annotations
 
+import math
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
-from ..quantities import LENGTH_MM, Quantity, check_finite
+from ..quantities import LENGTH_MM, TYPE, Quantity, check_choice, check_finite, check_instance, check_shape, fail
 
 #: depth factor f(d_z) of the pass: exp(-d_z^2 p) with p = 1 / (2 tau_max) (supplement E),
 #: max(0, 1 - |d_z| p) with p = 1 / width (follow-surface test), or 1 (no depth test)
 DEPTH_MODES = ("gaussian", "follow", "none")
-
-
-def check_integer_slots(slots: ArrayLike) -> None:
-    """A PassError unless ``slots`` holds integers (its dtype signed or unsigned integer): a float or bool
-    image of profile slots is refused, never truncated."""
-    kind = np.asarray(slots).dtype.kind
-    if kind not in "iu" and not (kind == "f" and np.size(slots) == 0):
-        raise PassError(f"slots must be an integer image, got dtype {np.asarray(slots).dtype}")
 
 
 #: a pixel's linear depth in front of the camera where it has SSS (mm): positive, finite
@@ -60,8 +55,7 @@ def check_slot_range(slots: ArrayLike, n_slots: int) -> None:
 
 def check_frame_values(diffuse: ArrayLike | None, depth_mm: ArrayLike, slots: ArrayLike) -> None:
     """Every colour of ``diffuse`` finite (a NaN or inf colour spreads over its neighbours; None: not checked)
-    and every pixel with SSS (``slots`` > 0) at a positive finite depth (:data:`DEPTH_MM`), in the quantities'
-    wordings."""
+    and every pixel with SSS (``slots`` > 0) at a positive finite depth (:data:`DEPTH_MM`)."""
     if diffuse is not None:
         check_finite(diffuse, "diffuse", PassError, "colour values")
     z = np.asarray(depth_mm)[np.asarray(slots) > 0]
@@ -69,14 +63,65 @@ def check_frame_values(diffuse: ArrayLike | None, depth_mm: ArrayLike, slots: Ar
         DEPTH_MM.check_array(z, "depth", PassError, "pixels with SSS")
 
 
-def check_real(name: str, values: ArrayLike) -> None:
-    """A PassError unless ``values`` converts to a real (integer or float, not bool, complex or object) array."""
-    try:
-        kind = np.asarray(values).dtype.kind
-    except (TypeError, ValueError) as e:
-        raise PassError(f"{name} must be an array of real numbers: {e}") from None
-    if kind not in "iuf":
-        raise PassError(f"{name} must be an array of real numbers, got dtype {np.asarray(values).dtype}")
+def check_image(name: str, values: ArrayLike, shape: tuple[int | str, ...] = ("H", "W"), kinds: str = "iuf"
+                ) -> np.ndarray:
+    """``values`` as an array of ``shape`` (a letter: any length) and dtype kinds (real; ``"iu"``: integer, so a
+    float or bool image of profile slots is refused, never truncated), or a PassError in the type wording."""
+    return check_shape(values, name, shape, PassError, kinds)
+
+
+#: a focal length of the camera in pixels (pixels per unit of the image plane at unit depth)
+FOCAL_PX = Quantity("focal length", 0.0, math.inf, "px", "pixels per mm of the image plane at 1 mm depth",
+                    lo_open=True, hi_open=True)
+#: the profile ids a plan has parameters for: 0 is the G-buffer's no-SSS id
+PROFILE_ID = Quantity("profile ids", 1, 2**31 - 1, "", "0 means no SSS", integer=True)
+
+
+def check_plan_ids(by_id: Any, kind: type, fx: float | None = None, fy: float | None = None,
+                   allow_empty: bool = True) -> tuple[int, ...]:
+    """The sorted profile ids of a plan's mapping profile id -> ``kind`` (the rule every plan states once: a
+    mapping, integer ids >= 1, values of ``kind``), with ``fx``, ``fy`` (focal lengths, :data:`FOCAL_PX`)
+    checked; or a PassError."""
+    for name, f in (("fx", fx), ("fy", fy)):
+        if f is not None:
+            FOCAL_PX.check(f, f"focal length {name}", PassError)
+    if not isinstance(by_id, Mapping) or not (by_id or allow_empty):
+        raise fail(PassError, TYPE, name="a plan", kind=f"a non-empty mapping profile id -> {kind.__name__}",
+                   actual=repr(by_id) if not by_id else type(by_id).__name__)
+    for pid, value in by_id.items():
+        PROFILE_ID.check(pid, "profile ids", PassError)
+        if not isinstance(value, kind):
+            raise fail(PassError, TYPE, name=f"profile id {pid}", kind=f"a {kind.__name__}", actual=type(value).__name__)
+    return tuple(sorted(int(i) for i in by_id))
+
+
+def per_id(given: Any, kind: type, ids: Iterable[int], what: str) -> dict[int, Any]:
+    """A pass's parameters per profile id: ``given`` (one ``kind`` for every id, or a mapping profile id ->
+    ``kind``) for each of ``ids``; a PassError naming the id whose ``what`` is missing or of another kind."""
+    if isinstance(given, kind):
+        return {int(i): given for i in ids}
+    check_instance(given, (kind, Mapping), f"the pass's {what}", PassError)
+    out = {int(i): given.get(int(i)) for i in ids}
+    for i, value in out.items():
+        if value is None:
+            raise PassError(f"no {what} given for profile id {i}")
+        check_instance(value, kind, f"{what} for profile id {i}", PassError)
+    return out
+
+
+def check_light_view(plan_slots: int, slots: ArrayLike, light_uvz: ArrayLike, shadow_mm: ArrayLike,
+                     ) -> tuple[NDArray[np.integer], int, int]:
+    """The light's view of a frame that the transmittance pass and its spread take: an integer ``slots`` image in
+    the plan's range, ``light_uvz`` (H, W, 3) and a non-empty light-space depth ``shadow_mm`` (H', W'); returns
+    (slots as an array, H, W) or raises a PassError."""
+    s = check_image("slots", slots, kinds="iu")
+    h, w = s.shape
+    check_image("light_uvz", light_uvz, (h, w, 3))
+    if 0 in check_image("shadow_mm (the light-space depth)", shadow_mm).shape:
+        raise fail(PassError, TYPE, name="shadow_mm (the light-space depth)", kind="a non-empty image",
+                   actual=f"shape {np.shape(shadow_mm)}")
+    check_slot_range(s, plan_slots)
+    return s, h, w
 
 
 @dataclass(frozen=True, eq=False)
@@ -198,14 +243,8 @@ def build_separable_plan(taps_by_id: dict, fx: float, fy: float, *, jitter: floa
     1 / (2 tau_max) for ``gaussian`` (tau_max = the kernel's depth-correction width squared, or the
     axis width squared for kernels without one), 1 / width for ``follow``.
     """
-    if depth_mode not in DEPTH_MODES:
-        raise PassError(f"unknown depth mode {depth_mode!r}; choose from {', '.join(DEPTH_MODES)}")
-    for name, f in (("fx", fx), ("fy", fy)):
-        if not (np.isfinite(f) and f > 0):
-            raise PassError(f"focal length {name} must be a positive number of pixels, got {f!r}")
-    ids = tuple(int(i) for i in sorted(taps_by_id))
-    if any(i <= 0 for i in ids):
-        raise PassError(f"profile ids with taps must be >= 1 (0 means no SSS), got {list(ids)}")
+    depth_mode = check_choice("depth_mode", depth_mode, DEPTH_MODES, PassError)
+    ids = check_plan_ids(taps_by_id, object, fx, fy)
     n_slots = len(ids) + 1
     rank = max((taps_by_id[i].rank for i in ids), default=1)
     per_slot = []  # per slot: list over terms of rows

@@ -44,7 +44,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PassError
-from .plan import check_frame_values, check_slot_range
+from ..quantities import TYPE, Quantity, check_shape, fail
+from .plan import FOCAL_PX, check_frame_values, check_image, check_light_view, check_plan_ids
+from .transmission_plan import BIAS_MM
 
 #: the most taps on each side of a pixel per 1D pass (a wider Gaussian is sampled with a stride)
 MAX_TAPS = 16
@@ -52,6 +54,9 @@ MAX_TAPS = 16
 MIN_PX = 0.5
 #: the most thickness knots of one slot's width table
 MAX_KNOTS = 64
+#: the step's quantities: its taps per side, its widths and thicknesses (mm)
+MAX_TAPS_Q = Quantity("max_taps", 1, 64, "", "taps on each side of a pixel per 1D pass", integer=True)
+WIDTH_MM = Quantity("knots_mm", 0.0, math.inf, "mm", "a thickness or a width", hi_open=True)
 
 
 @dataclass(frozen=True)
@@ -93,18 +98,10 @@ def build_spread_plan(spreads: dict[int, SlotSpread], fx: float, fy: float, bias
                       min_px: float = MIN_PX, max_taps: int = MAX_TAPS) -> SpreadPlan:
     """The plan of profile ids -> their :class:`SlotSpread` for a camera of focal lengths ``fx``, ``fy``
     (pixels), or a PassError naming what is wrong."""
-    for name, v in (("fx", fx), ("fy", fy)):
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise PassError(f"the spread's focal length {name} must be a positive number of pixels, got {v!r}")
-    if not (isinstance(bias_mm, (int, float)) and math.isfinite(bias_mm) and bias_mm >= 0):
-        raise PassError(f"the zero-thickness bias must be a finite number of mm >= 0, got {bias_mm!r}")
-    if not (isinstance(min_px, (int, float)) and math.isfinite(min_px) and min_px > 0):
-        raise PassError(f"min_px must be a positive number of pixels, got {min_px!r}")
-    if isinstance(max_taps, bool) or not (isinstance(max_taps, int) and 1 <= max_taps <= 64):
-        raise PassError(f"max_taps must be an integer in [1, 64], got {max_taps!r}")
-    ids = tuple(sorted(int(i) for i in spreads))
-    if any(i <= 0 for i in ids):
-        raise PassError(f"profile ids with a spread must be >= 1 (0 means no SSS), got {list(ids)}")
+    ids = check_plan_ids(spreads, SlotSpread, fx, fy)
+    bias_mm = BIAS_MM.check(bias_mm, "bias_mm", PassError)
+    min_px = FOCAL_PX.within(reason="a width in pixels").check(min_px, "min_px", PassError)
+    max_taps = MAX_TAPS_Q.check(max_taps, "max_taps", PassError)
     n = max((np.size(spreads[i].knots_mm) for i in ids), default=1)
     if n > MAX_KNOTS:
         raise PassError(f"a spread table holds at most {MAX_KNOTS} thicknesses, got {n}")
@@ -112,12 +109,13 @@ def build_spread_plan(spreads: dict[int, SlotSpread], fx: float, fy: float, bias
     knots, sigma = np.zeros((s, n)), np.zeros((s, 3, n))
     counts = np.ones(s, np.int64)
     for slot, pid in enumerate(ids, start=1):
-        t = np.asarray(spreads[pid].knots_mm, float)
-        w = np.asarray(spreads[pid].sigma_mm, float)
-        if (t.ndim != 1 or t.size < 1 or w.shape != (3, t.size) or not np.all(np.isfinite(t)) or np.any(t < 0)
-                or np.any(np.diff(t) <= 0) or not np.all(np.isfinite(w)) or np.any(w < 0)):
-            raise PassError(f"profile id {pid}: the spread needs ascending finite thicknesses >= 0 and (3, N) finite "
-                            f"widths >= 0, got shapes {t.shape} and {w.shape}")
+        label = f"profile id {pid}: the spread's"
+        t = WIDTH_MM.check_array(check_shape(spreads[pid].knots_mm, f"{label} knots_mm", ("N",), PassError), label,
+                                 PassError)
+        w = WIDTH_MM.check_array(check_shape(spreads[pid].sigma_mm, f"{label} sigma_mm", (3, t.size), PassError),
+                                 f"{label} sigma_mm", PassError)
+        if t.size < 1 or np.any(np.diff(t) <= 0):
+            raise fail(PassError, TYPE, name=f"{label} knots_mm", kind="ascending thicknesses", actual=t.tolist())
         k = t.size
         knots[slot, :k], knots[slot, k:] = t, t[-1]
         sigma[slot, :, :k], sigma[slot, :, k:] = w, w[:, -1:]
@@ -134,17 +132,9 @@ def taps(m: float, max_taps: int) -> tuple[int, int]:
 def check_spread_frame(plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
                        light_uvz: np.ndarray, shadow_mm: np.ndarray) -> None:
     """Shapes and slot range of the step's inputs, or a PassError naming the input."""
-    h_w = np.shape(slots)
-    if len(h_w) != 2:
-        raise PassError(f"slots must be an (H, W) image, got shape {h_w}")
-    for name, arr, shape in (("exitance", exitance, h_w + (3,)), ("depth_mm", depth_mm, h_w),
-                             ("light_uvz", light_uvz, h_w + (3,))):
-        if np.shape(arr) != shape:
-            raise PassError(f"{name} must have shape {shape} like the frame, got {np.shape(arr)}")
-    if np.ndim(shadow_mm) != 2 or 0 in np.shape(shadow_mm):
-        raise PassError(f"the light-space depth must be a non-empty (H, W) image, got shape {np.shape(shadow_mm)}")
-    check_slot_range(slots, plan.slots)
-    check_frame_values(None, depth_mm, slots)
+    s, h, w = check_light_view(plan.slots, slots, light_uvz, shadow_mm)
+    check_image("exitance", exitance, (h, w, 3))
+    check_frame_values(None, check_image("depth_mm", depth_mm, (h, w)), s)
 
 
 __all__ = ["MAX_KNOTS", "MAX_TAPS", "MIN_PX", "SlotSpread", "SpreadPlan", "build_spread_plan", "check_spread_frame",

@@ -56,7 +56,7 @@ t = z - D, which carries the rounding of D (about one ulp of the depths, not of 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -64,7 +64,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PassError
-from .plan import check_integer_slots, check_real, check_slot_range
+from ..quantities import CHOICE, Quantity, check_shape, fail
+from .plan import check_image, check_light_view, check_plan_ids
 
 #: the transmittance models a plan can hold (the MCML fit, Jimenez et al. 2010's skin Gaussians, Unreal Engine 5's
 #: subsurface-profile transmission)
@@ -73,6 +74,19 @@ MODELS = ("mcml", "jimenez2010", "unreal")
 #: how far |n_dot_l| may exceed 1 (the pass clamps it): the cosine of normals stored in half floats, whose length
 #: is 1 only to about 1e-3, is still a cosine; a value beyond it is not one
 N_DOT_L_TOLERANCE = 1e-2
+
+#: the pass's quantities: a model's terms, factors and wrap (module docstring), the zero thickness of step 2, the
+#: light's view of a pixel with SSS
+TERM = Quantity("term", -math.inf, math.inf, "", "a fitted term's coefficient", lo_open=True, hi_open=True)
+FACTOR = Quantity("scale", 0.0, math.inf, "", "a non-negative factor", hi_open=True)
+LUT = Quantity("lut", 0.0, math.inf, "", "a profile table's transmittance", hi_open=True)
+WRAP = Quantity("wrap", 0.0, 2.0, "", "the wrap of N . L (0: none)")
+BIAS_MM = Quantity("bias_mm", 0.0, math.inf, "mm", "the zero thickness of step 2", hi_open=True)
+SHADOW_MM = Quantity("shadow_mm", -math.inf, math.inf, "mm", "the light-space depth; +-inf marks a texel without "
+                     "surface")
+LIGHT_UVZ = Quantity("light_uvz", -math.inf, math.inf, "", "the light's view of a pixel", lo_open=True, hi_open=True)
+N_DOT_L = Quantity("n_dot_l", -1.0 - N_DOT_L_TOLERANCE, 1.0 + N_DOT_L_TOLERANCE, "", "a cosine of rounded normals")
+LIGHT_RGB = Quantity("light_rgb", 0.0, math.inf, "", "an irradiance", hi_open=True)
 
 #: most terms of one slot's T(t)
 MAX_TERMS = 8
@@ -164,21 +178,8 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3,
     """The plan of profile ids (integers >= 1) -> their :class:`SlotModel`; ``bias_mm`` > 0 is step 2's zero
     thickness. An empty mapping is refused unless ``allow_empty`` (a frame without SSS pixels: its plan has
     no slot but 0, and the pass gives 0 everywhere)."""
-    if not (isinstance(bias_mm, (int, float)) and np.isfinite(bias_mm) and bias_mm >= 0):
-        raise PassError(f"the zero-thickness bias must be a finite number of mm >= 0, got {bias_mm!r}")
-    if not isinstance(models, Mapping):
-        raise PassError(f"a transmittance plan needs a mapping profile id -> SlotModel, got {type(models).__name__}")
-    if not models and not allow_empty:
-        raise PassError("a transmittance plan needs at least one profile id -> SlotModel, got an empty mapping")
-    for key, value in models.items():
-        if not (isinstance(key, (int, np.integer)) and not isinstance(key, bool)):
-            raise PassError(f"profile ids with a transmittance model must be integers >= 1, got {key!r}")
-        if not isinstance(value, SlotModel):
-            raise PassError(f"profile id {key}: a transmittance model must be a SlotModel (e.g. "
-                            f"ssskit.screenspace.transmission.mcml_model), got {type(value).__name__}")
-    ids = tuple(sorted(int(i) for i in models))
-    if any(i <= 0 for i in ids):
-        raise PassError(f"profile ids with a transmittance model must be >= 1 (0 means no SSS), got {list(ids)}")
+    bias_mm = BIAS_MM.check(bias_mm, "bias_mm", PassError)
+    ids = check_plan_ids(models, SlotModel, allow_empty=allow_empty)
     k = max((np.shape(models[i].a)[1] for i in ids), default=1)
     if k > MAX_TERMS:
         raise PassError(f"a transmittance model holds at most {MAX_TERMS} terms, got {k}")
@@ -191,26 +192,23 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3,
     names = []
     for slot, pid in enumerate(ids, start=1):
         m = models[pid]
-        for name, v in (("a", m.a), ("b", m.b), ("c", m.c)):
-            arr = np.asarray(v, float)
-            signed = name == "a"  # a term may subtract (the MCML model's scattered part is 0 at t = 0)
-            if arr.ndim != 2 or arr.shape[0] != 3 or not np.all(np.isfinite(arr)) or (not signed and np.any(arr < 0)):
-                raise PassError(f"profile id {pid}: the model's {name} must be a finite (3, K) array"
-                                f"{'' if signed else ' >= 0'}, got shape {arr.shape}")
-        if m.model not in MODELS:
-            raise PassError(f"unknown transmittance model {m.model!r}; choose from {', '.join(MODELS)}")
-        if not (np.isfinite(m.scale) and m.scale >= 0 and np.isfinite(m.wrap) and 0 <= m.wrap <= 2):
-            raise PassError(f"profile id {pid}: scale must be >= 0 and wrap in [0, 2], got {m.scale!r}, {m.wrap!r}")
+        for name, v in (("a", m.a), ("b", m.b), ("c", m.c)):  # a term may subtract (the MCML model's scattered
+            # part is 0 at t = 0): a is any finite number
+            label = f"profile id {pid}: {name}"
+            (TERM if name == "a" else TERM.within(lo=0.0)).check_array(
+                check_shape(v, label, (3, "K"), PassError), label, PassError)
+        if m.model not in MODELS:  # (exactly: the name picks the pass's branch)
+            raise fail(PassError, CHOICE, name=f"profile id {pid}: model", choices=", ".join(MODELS), actual=repr(m.model))
+        FACTOR.check(m.scale, f"profile id {pid}: scale", PassError)
+        WRAP.check(m.wrap, f"profile id {pid}: wrap", PassError)
         if (m.model == "unreal") != (m.lut is not None):
             raise PassError(f"profile id {pid}: the unreal model, and only it, holds a profile table (lut)")
         if m.lut is not None:
-            table = np.asarray(m.lut, float)
-            if table.shape != (3, LUT_SIZE) or not np.all(np.isfinite(table)) or np.any(table < 0):
-                raise PassError(f"profile id {pid}: the unreal profile table must be a finite (3, {LUT_SIZE}) array "
-                                f">= 0, got shape {table.shape}")
-            if not (np.isfinite(m.od_per_mm) and m.od_per_mm > 0 and np.isfinite(m.od_offset) and m.od_offset >= 0):
-                raise PassError(f"profile id {pid}: od_per_mm must be > 0 and od_offset >= 0, got {m.od_per_mm!r}, "
-                                f"{m.od_offset!r}")
+            label = f"profile id {pid}: the unreal profile table"
+            table = LUT.check_array(check_shape(m.lut, label, (3, LUT_SIZE), PassError), label, PassError)
+            FACTOR.within(reason="an optical depth per mm", lo=0.0).check(m.od_per_mm, f"profile id {pid}: od_per_mm",
+                                                                        PassError)
+            FACTOR.check(m.od_offset, f"profile id {pid}: od_offset", PassError)
             lut_slot[slot], lut[slot] = True, table
             od_per_mm[slot], od_offset[slot] = m.od_per_mm, m.od_offset
         n = np.shape(m.a)[1]
@@ -228,38 +226,19 @@ def check_transmission_frame(plan: TransmissionPlan, slots: np.ndarray, light_uv
     reads) ``light_uvz`` finite, ``n_dot_l`` finite in [-1, 1] (within :data:`N_DOT_L_TOLERANCE`: a cosine of
     rounded normals) and ``light_rgb`` finite and >= 0; ``shadow_mm`` without NaN (+-inf: no surface, the
     spec's non-finite sentinel). Real array-likes are accepted (the backend converts them)."""
-    h_w = np.shape(slots)
-    if len(h_w) != 2:
-        raise PassError(f"slots must be an (H, W) image, got shape {h_w}")
-    for name, arr, shape in (("light_uvz", light_uvz, h_w + (3,)), ("n_dot_l", n_dot_l, h_w),
-                             ("light_rgb", light_rgb, h_w + (3,))):
-        if np.shape(arr) != shape:
-            raise PassError(f"{name} must have shape {shape} like the frame, got {np.shape(arr)}")
-    if np.ndim(shadow_mm) != 2 or 0 in np.shape(shadow_mm):
-        raise PassError(f"the light-space depth must be a non-empty (H, W) image, got shape {np.shape(shadow_mm)}")
-    check_integer_slots(slots)
-    check_slot_range(slots, plan.slots)
-    s = np.asarray(slots)
-    for name, arr in (("light_uvz", light_uvz), ("n_dot_l", n_dot_l), ("light_rgb", light_rgb),
-                      ("shadow_mm", shadow_mm)):
-        check_real(name, arr)
+    s, h, w = check_light_view(plan.slots, slots, light_uvz, shadow_mm)
     if np.isnan(np.min(shadow_mm)):  # min and max propagate NaN: one reduction each, no temporaries
-        raise PassError("shadow_mm (the light-space depth) must not hold NaN (+-inf marks a texel without surface)")
+        SHADOW_MM.refuse("NaN", "shadow_mm", PassError)
     # each value test first over the whole frame by its min and max (what the pipeline's inputs pass: ~3 ms at
     # 1080p); only where that fails, on the pixels with SSS alone (boolean masks copy: ~90 ms at 1080p)
     inside: NDArray[np.bool_] | None = None
-    for name, arr, lo, hi, what in (
-            ("light_uvz", light_uvz, -np.inf, np.inf, "finite"),
-            ("n_dot_l", n_dot_l, -1.0 - N_DOT_L_TOLERANCE, 1.0 + N_DOT_L_TOLERANCE,
-             f"(a cosine) finite and in [-1, 1] (within {N_DOT_L_TOLERANCE:g})"),
-            ("light_rgb", light_rgb, 0.0, np.inf, "(an irradiance) finite and >= 0")):
-        a = np.asarray(arr)
-        if a.size == 0 or (lo <= np.min(a) and np.max(a) <= hi and np.isfinite(np.max(a)) and np.isfinite(np.min(a))):
-            continue
-        inside = s > 0 if inside is None else inside
-        v = a[inside]
-        if v.size and not (np.all(np.isfinite(v)) and lo <= np.min(v) and np.max(v) <= hi):
-            raise PassError(f"{name} must be {what} on every pixel with SSS")
+    for q, arr, shape in ((LIGHT_UVZ, light_uvz, (h, w, 3)), (N_DOT_L, n_dot_l, (h, w)),
+                          (LIGHT_RGB, light_rgb, (h, w, 3))):
+        a = check_image(q.name, arr, shape)
+        lo, hi = (np.min(a), np.max(a)) if a.size else (0.0, 0.0)
+        if not (np.isfinite(lo) and np.isfinite(hi) and q.contains(lo) and q.contains(hi)):
+            inside = s > 0 if inside is None else inside
+            q.check_array(a[inside], q.name, PassError, "pixels with SSS")
 
 
 __all__ = ["LUT_SIZE", "MAX_TERMS", "MODELS", "N_DOT_L_TOLERANCE", "SlotModel", "TransmissionPlan",

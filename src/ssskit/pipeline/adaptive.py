@@ -46,6 +46,7 @@ import numpy as np
 
 from ..backends import warm_up_in_background
 from ..errors import SettingsError
+from ..quantities import FRAME, refuse_unused
 from ..io import check_distinct, save_image
 from ..metrics import region_metrics
 from ..screenspace import AdaptiveSettings, BurleyParams, BurleySettings, GBuffer
@@ -239,19 +240,14 @@ def plan_adaptive(scene: SceneInput, settings: RenderSettings,
                   params: BurleyInput | None = None) -> tuple[ScenePlan, BurleyInput, bool]:
     """Check what :func:`render_adaptive` needs, doing no work (the scene, the material, the backend, the
     moving run's limits); returns (scene plan, params, static)."""
-    p = settings.pass_
-    if not isinstance(p, AdaptivePass):
-        raise SettingsError(f"render_adaptive runs the burley-adaptive pass; these settings run the "
-                            f"{settings.pass_name} pass")
+    p = settings.pass_as(AdaptivePass, "burley-adaptive")  # (what render_adaptive runs)
     plan, params = plan_burley(scene, settings, params)
     static = p.static or plan.builtin is None
-    if static and p.limit_spp is not None:
-        raise SettingsError("limit_spp applies to a moving camera; a static run (a G-buffer or a mesh scene is "
-                            "always static) compares with the pass's exact limit")
-    if static and p.disocclusion_spp is not None:
-        raise SettingsError("disocclusion_spp applies to a moving camera (a static run has no new pixels)")
-    if settings.frame + p.frames - 1 > 2**31 - 1:
-        raise SettingsError(f"frames: {p.frames} frames from frame {settings.frame} pass frame 2^31 - 1")
+    # a static run (a G-buffer or a mesh scene is always static) has no new pixels and compares with the exact limit
+    refuse_unused([k for k in ("limit_spp", "disocclusion_spp") if static and getattr(p, k) is not None], "camera",
+                  ("moving",), "static", SettingsError)
+    FRAME.check(settings.frame + p.frames - 1, f"the last frame ({p.frames} frames from frame {settings.frame})",
+                SettingsError)
     if not static:
         if settings.reference:
             raise SettingsError("reference applies to one frame; set static (a moving sequence compares each frame "

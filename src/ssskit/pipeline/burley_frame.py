@@ -41,6 +41,7 @@ import numpy as np
 
 from ..backends import warm_up_in_background
 from ..errors import SettingsError, SignalError
+from ..quantities import check_instance
 from ..screenspace import BurleyParams, BurleySettings, GBuffer, burley_sss
 from ..screenspace.burley import burley_backend
 from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
@@ -191,8 +192,7 @@ def plan_burley(scene: SceneInput, settings: RenderSettings,
     when a material map gives the scene's objects their own materials)."""
     from ..screenspace.burley import burley_params_for_material
 
-    if not isinstance(settings, RenderSettings):
-        raise SettingsError(f"settings must be RenderSettings, got {type(settings).__name__}")
+    check_instance(settings, RenderSettings, 'settings', SettingsError)
     b = settings.burley_settings()  # a SettingsError when the settings run no Burley pass
     plan = plan_scene(scene, settings)
     burley_backend(b.backend)

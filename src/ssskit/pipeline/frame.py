@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike
 
 from ..backends import get_backend
 from ..errors import SceneError, SettingsError
+from ..quantities import check_instance
 from ..io import check_distinct, save_image
 from ..materials import LayeredMaterial, Material, get_material
 from ..metrics import NO_LIGHT_TEXT, no_light, region_metrics
@@ -174,21 +175,15 @@ def material_label(material: Any, id_materials: Mapping[int, str]) -> str:
 
 
 def _scene(scene: SceneInput, settings: RenderSettings, material: Material | LayeredMaterial) -> ScenePlan:
-    if isinstance(scene, GBuffer):
-        if settings.reference:
-            raise SettingsError("reference needs a built-in scene or a mesh (a G-buffer in memory has no scene to "
-                                "path-trace)")
-        return ScenePlan(material, str(scene.meta.get("scene", "G-buffer")), None, scene, None)
-    if isinstance(scene, ResolvedScene):
-        resolved = scene
-    elif isinstance(scene, (str, os.PathLike, SceneSpec)):
-        resolved = resolve_scene(scene, width=settings.width, height=settings.height)
-    else:
-        raise SceneError(f"scene must be a built-in scene name, a mesh or scene .toml file, a G-buffer .exr file, "
-                         f"a ResolvedScene or a GBuffer, got {type(scene).__name__}")
+    check_instance(scene, (str, os.PathLike, SceneSpec, ResolvedScene, GBuffer), "scene (a built-in scene name, a "
+                   "mesh or scene .toml file, a G-buffer .exr file)", SceneError)
+    resolved = scene if isinstance(scene, (GBuffer, ResolvedScene)) else resolve_scene(
+        scene, width=settings.width, height=settings.height)
+    if settings.reference and (isinstance(resolved, GBuffer) or resolved.kind == "gbuffer"):
+        raise SettingsError("reference needs a built-in scene or a mesh (a G-buffer has no scene to path-trace)")
+    if isinstance(resolved, GBuffer):
+        return ScenePlan(material, str(resolved.meta.get("scene", "G-buffer")), None, resolved, None)
     if resolved.kind == "gbuffer":
-        if settings.reference:
-            raise SettingsError("reference needs a built-in scene or a mesh (a G-buffer file has no scene to path-trace)")
         path = resolved.path
         assert path is not None
         return ScenePlan(material, path.name, None, load_gbuffer(path), path)
@@ -251,8 +246,7 @@ def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
     file or a :class:`~ssskit.screenspace.GBuffer`. A G-buffer keeps its own size: a ``width`` x ``height``
     that differs from the default and from the G-buffer's is an error. Raises the first problem as an
     :class:`~ssskit.errors.SsskitError`."""
-    if not isinstance(settings, RenderSettings):
-        raise SettingsError(f"settings must be RenderSettings, got {type(settings).__name__}")
+    check_instance(settings, RenderSettings, "settings", SettingsError)
     material = get_material(settings.material)
     check_model_domain(material, settings.model)  # the model's valid domain, before any work
     get_backend(settings.backend)

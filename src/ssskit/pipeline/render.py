@@ -74,6 +74,7 @@ import numpy as np
 
 from ..backends import warm_up_in_background
 from ..errors import SettingsError
+from ..quantities import check_instance, refuse_unused
 from ..kernels import KernelMethod, TapKernel, build_kernel, check_params, default_grid, parse_method_spec
 from ..profiles import MATERIAL_FREE_MODELS, profile_for_material
 from ..sampling.taps import SeparableTaps, make_taps
@@ -83,7 +84,7 @@ from .adaptive import AdaptiveResult, FrameCallback, render_adaptive
 from .burley_frame import BurleyResult, render_burley
 from .frame import (BurleyInput, ImageLayers, Progress, SceneInput, ScenePlan, finite, frame_gbuffer, ground_truths,
                     material_label, metric_lines, per_id, plan_scene, reference_line)
-from .settings import RenderSettings
+from .settings import RenderSettings, SeparablePass
 from .transmission import TransmissionInfo, transmission_passes, with_transmission
 
 
@@ -175,10 +176,8 @@ def _kernel_plan(settings: RenderSettings) -> tuple[KernelMethod, dict[str, Any]
 def plan_render(scene: SceneInput, settings: RenderSettings) -> _Plan:
     """Resolve and check everything :func:`render_separable` needs, doing no work (module docstring); reads
     a G-buffer file. Raises the first problem as an :class:`~ssskit.errors.SsskitError`."""
-    if not isinstance(settings, RenderSettings):
-        raise SettingsError(f"settings must be RenderSettings, got {type(settings).__name__}")
-    if settings.pass_name != "separable":
-        raise SettingsError(f"plan_render plans the separable pass; these settings run the {settings.pass_name} pass")
+    check_instance(settings, RenderSettings, 'settings', SettingsError)
+    settings.pass_as(SeparablePass, "the separable one")  # (plan_render plans the separable pass)
     method, params, tap_count = _kernel_plan(settings)
     return _Plan(plan_scene(scene, settings), method, params, tap_count)
 
@@ -244,8 +243,8 @@ def plan(scene: SceneInput, settings: RenderSettings, *, params: BurleyInput | N
     """Every check :func:`render` makes for the pass ``settings`` names, doing no work; returns the scene's
     plan (its ``notes``: what resolving a mesh scene assumed). A caller that reports those notes runs this
     first, so a bad input is its only message."""
-    if not isinstance(settings, RenderSettings):
-        raise SettingsError(f"settings must be RenderSettings, got {type(settings).__name__}")
+    check_instance(settings, RenderSettings, 'settings', SettingsError)
+    _refuse_unused(settings.pass_name, params)
     if settings.pass_name == "burley-adaptive":
         from .adaptive import plan_adaptive
 
@@ -254,9 +253,16 @@ def plan(scene: SceneInput, settings: RenderSettings, *, params: BurleyInput | N
         from .burley_frame import plan_burley
 
         return plan_burley(scene, settings, params)[0]
-    if params is not None:
-        raise SettingsError("params (Burley parameters) apply to the Burley passes; this render runs the separable pass")
     return plan_render(scene, settings).scene
+
+
+def _refuse_unused(name: str, params: BurleyInput | None, on_frame: FrameCallback | None = None) -> None:
+    """The options of :func:`render` given that the pass ``name`` does not use, refused in the one wording:
+    ``params`` (Burley parameters) for the Burley passes, ``on_frame`` for the adaptive run's frames."""
+    refuse_unused(["params"] if params is not None and name == "separable" else [], "pass",
+                  ("burley", "burley-adaptive"), name, SettingsError)
+    refuse_unused(["on_frame"] if on_frame is not None and name != "burley-adaptive" else [], "pass",
+                  ("burley-adaptive",), name, SettingsError)
 
 
 def render(scene: SceneInput = "slab", settings: RenderSettings | None = None,
@@ -270,17 +276,13 @@ def render(scene: SceneInput = "slab", settings: RenderSettings | None = None,
     every profile id instead of the material's; ``on_frame`` (the adaptive run only): called with every
     frame it renders (:class:`~ssskit.pipeline.adaptive.AdaptiveFrame`), e.g. to write it."""
     settings = RenderSettings() if settings is None else settings
-    if not isinstance(settings, RenderSettings):
-        raise SettingsError(f"settings must be RenderSettings, got {type(settings).__name__}")
+    check_instance(settings, RenderSettings, 'settings', SettingsError)
     name = settings.pass_name
-    if on_frame is not None and name != "burley-adaptive":
-        raise SettingsError(f"on_frame applies to the burley-adaptive pass (frames); this render runs the {name} pass")
+    _refuse_unused(name, params, on_frame)
     if name == "burley-adaptive":
         return render_adaptive(scene, settings, progress=progress, params=params, on_frame=on_frame)
     if name == "burley":
         return render_burley(scene, settings, progress=progress, params=params)
-    if params is not None:
-        raise SettingsError("params (Burley parameters) apply to the Burley passes; this render runs the separable pass")
     return render_separable(scene, settings, progress)
 
 

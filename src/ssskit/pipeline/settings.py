@@ -39,7 +39,7 @@ from ..screenspace.adaptive import AdaptiveSettings
 from ..screenspace.burley import BurleyParams, BurleySettings
 from ..screenspace.settings import PassSettings
 from ..quantities import (BURLEY_ALBEDO, FRAME, FRAMES, MFP_MM, PHOTONS, REFERENCE_SPP, REL_SE, SEED, SIZE_PX, SPP,
-                          TAPS, Choice, Flag, Quantity)
+                          TAPS, Choice, Flag, Quantity, check_instance)
 from ..screenspace.burley import BACKEND, BURLEY_SPP
 from ..settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, check_choice, like, setting
 
@@ -286,9 +286,7 @@ class RenderSettings(Settings):
         if not isinstance(self.kernel, str):
             raise SettingsError(f"kernel must be a method spec such as 'svd:2', got {self.kernel!r}")
         parse_method_spec(self.kernel)  # unknown names and out-of-range parameters fail here
-        if not isinstance(self.pass_, (SeparablePass, BurleyPass, AdaptivePass)):
-            raise SettingsError(f"pass_ must be one of {', '.join(c.__name__ for _, c in PASSES.items())}, got "
-                                f"{type(self.pass_).__name__}")
+        check_instance(self.pass_, (SeparablePass, BurleyPass, AdaptivePass), 'pass_', SettingsError)
         super().__post_init__()
         if self.reference_max_spp < self.reference_spp:
             raise SettingsError(f"reference_max_spp {self.reference_max_spp} is below reference_spp "
@@ -306,24 +304,24 @@ class RenderSettings(Settings):
     def pass_settings(self) -> PassSettings:
         """The separable pass's complete :class:`~ssskit.screenspace.PassSettings` (frame, seed and backend
         from the tree)."""
-        if not isinstance(self.pass_, SeparablePass):
-            raise SettingsError(f"this render runs the {self.pass_name} pass, not the separable one")
-        return self.pass_.settings(self.frame, self.seed, self.backend)
+        return self.pass_as(SeparablePass, "the separable one").settings(self.frame, self.seed, self.backend)
 
     def burley_settings(self, spp: int | None = None) -> BurleySettings:
         """The Burley sampler's complete :class:`~ssskit.screenspace.BurleySettings` (frame, seed and backend
         from the tree; ``spp``: the Burley pass's own unless given)."""
-        p = self.pass_
-        if not isinstance(p, (BurleyPass, AdaptivePass)):
-            raise SettingsError(f"this render runs the {self.pass_name} pass, not a Burley one")
+        p = self.pass_as((BurleyPass, AdaptivePass), "a Burley one")
         n = spp if spp is not None else (p.spp if isinstance(p, BurleyPass) else _B.spp)
         return p.settings(self.frame, self.seed, self.backend, n)
 
     def adaptive_settings(self) -> AdaptiveSettings:
         """The adaptive run's guiding phase (:class:`~ssskit.screenspace.AdaptiveSettings`)."""
-        if not isinstance(self.pass_, AdaptivePass):
-            raise SettingsError(f"this render runs the {self.pass_name} pass, not burley-adaptive")
-        return self.pass_.adaptive_settings()
+        return self.pass_as(AdaptivePass, "burley-adaptive").adaptive_settings()
+
+    def pass_as(self, kind: type | tuple[type, ...], what: str) -> Any:
+        """The render pass's settings if they are a ``kind``, else a SettingsError: the render runs another pass."""
+        if not isinstance(self.pass_, kind):
+            raise SettingsError(f"this render runs the {self.pass_name} pass, not {what}")
+        return self.pass_
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data: the top-level values, and the pass as one table named after it."""

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ProfileError
-from ..quantities import BURLEY_ALBEDO
+from ..quantities import BURLEY_ALBEDO, check_choice
 from ..materials import LayeredMaterial, Material, get_material
 from ..registry import Registry
 from .base import RadialProfile, RGBProfile
@@ -79,9 +79,7 @@ def burley_profile(
     Valid domain (:mod:`ssskit.profiles.domain`): transport mean free paths in [1e-6, 1e6] mm, and
     the domain of the model A comes from (montecarlo's, or the dipole's).
     """
-    source = str(albedo_source).strip().lower()
-    if source not in BURLEY_ALBEDO_SOURCES:
-        raise ProfileError(f"albedo source must be one of {', '.join(BURLEY_ALBEDO_SOURCES)}, got {albedo_source!r}")
+    source = check_choice("albedo source", albedo_source, BURLEY_ALBEDO_SOURCES, ProfileError)
     check_burley_material(material, albedo_given=albedo is not None or source == "dipole")
     if albedo is not None:
         albedo = BURLEY_ALBEDO.check_rgb(albedo, "a given Burley albedo A", ProfileError)
@@ -164,11 +162,9 @@ def check_model_domain(material: Material | LayeredMaterial | str, model: str) -
     key = model.strip().lower()
     if key in MATERIAL_FREE_MODELS:
         return
-    mat = get_material(material)
+    mat = _homogeneous_unless_montecarlo(get_material(material), key)
     if key == "montecarlo":
         check_montecarlo(mat)
-    elif isinstance(mat, LayeredMaterial):
-        raise ProfileError(f"layered material {mat.name!r} is only supported by the montecarlo model")
     elif key in ("dipole", "gaussians"):
         check_dipole(mat, key if key == "dipole" else "gaussians (fitted to the dipole)")
     elif key == "burley":
@@ -210,10 +206,14 @@ def profile_for_material(material: Material | LayeredMaterial | str | None, mode
         return factory(None, **options)
     if material is None:
         raise ProfileError(f"profile model {model!r} needs a material")
-    material = get_material(material)
+    return factory(_homogeneous_unless_montecarlo(get_material(material), key), **options)
+
+
+def _homogeneous_unless_montecarlo(material: Material | LayeredMaterial, key: str) -> Any:
+    """``material``, or a ProfileError for a layered material under a model other than montecarlo."""
     if isinstance(material, LayeredMaterial) and key != "montecarlo":
         raise ProfileError(f"layered material {material.name!r} is only supported by the montecarlo model")
-    return factory(material, **options)
+    return material
 
 
 __all__ = [

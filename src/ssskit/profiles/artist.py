@@ -36,7 +36,7 @@ import numpy as np
 
 from ..errors import MaterialError
 from ..materials import Material
-from ..quantities import BURLEY_ALBEDO, MFP_MM
+from ..quantities import ANISOTROPY, BURLEY_ALBEDO, ETA, MFP_MM, REFLECTANCE, check_choice
 
 TABLE_PATH = Path(__file__).with_name("data") / "artist_table.json"
 #: Burley's r50 / d: the inverse of Xie 2020 Eq. 20 at 1/2
@@ -68,12 +68,9 @@ def check_artist(albedo: Any, distance_mm: Any, kind: str, eta: float, g: float)
     kind mfp or dmfp."""
     BURLEY_ALBEDO.check_rgb(albedo, "surface albedo", MaterialError)
     MFP_MM.check_rgb(distance_mm, f"the {kind} distance", MaterialError)
-    if kind not in DISTANCE_KINDS:
-        raise MaterialError(f"distance kind must be one of {', '.join(DISTANCE_KINDS)}, got {kind!r}")
-    if not (math.isfinite(eta) and eta >= 1.0):
-        raise MaterialError(f"eta must be >= 1, got {eta}")
-    if not -1.0 < g < 1.0:
-        raise MaterialError(f"g must satisfy |g| < 1, got {g}")
+    check_choice("distance kind", kind, DISTANCE_KINDS, MaterialError)
+    ETA.check(eta, "eta", MaterialError)
+    ANISOTROPY.check(g, "g", MaterialError)
 
 
 @lru_cache(maxsize=1)
@@ -88,9 +85,8 @@ def _interp_eta(eta: float, key: str) -> np.ndarray:
     t = artist_table()
     etas = np.asarray(t["eta"], dtype=float)
     vals = np.asarray(t[key], dtype=float)
-    if not etas[0] <= eta <= etas[-1]:
-        raise MaterialError(f"eta {eta} is outside the Monte Carlo table's range [{etas[0]}, {etas[-1]}] "
-                            "(docs/artist_table.py --eta extends it)")
+    ETA.within(etas[0], etas[-1], "the Monte Carlo table's range; docs/artist_table.py --eta extends it").check(
+        eta, "eta", MaterialError)
     i = int(np.clip(np.searchsorted(etas, eta) - 1, 0, len(etas) - 2))
     w = (eta - etas[i]) / (etas[i + 1] - etas[i])
     out: np.ndarray = (1.0 - w) * vals[i] + w * vals[i + 1]
@@ -109,9 +105,8 @@ def reduced_albedo_for(rd: float, eta: float) -> float:
     order = np.argsort(u)
     f = PchipInterpolator(u[order], table_rd[order])
     lo, hi = float(np.min(table_rd)), float(np.max(table_rd))
-    if not lo <= rd <= hi:
-        raise MaterialError(f"surface albedo {rd:.4g} is outside what the Monte Carlo table reaches for eta {eta} "
-                            f"([{lo:.4g}, {hi:.4g}]); use the Burley-fit inversion (--model burley)")
+    REFLECTANCE.within(lo, hi, f"what the Monte Carlo table reaches for eta {eta:g}; use the Burley-fit inversion "
+                       "(--model burley)").check(rd, "surface albedo", MaterialError)
     uu = brentq(lambda x: float(f(x)) - rd, float(u.min()), float(u.max()), xtol=1e-12)
     return float(1.0 - uu * uu)
 

@@ -23,6 +23,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
 from ..materials import CHANNELS
+from ..quantities import Quantity
+
+#: a profile's radii (mm) and a share of its energy (within a radius): the numbers every profile takes
+RADIUS_MM = Quantity("radii", 0.0, math.inf, "mm", "distances from the point where the light enters", hi_open=True)
+ENERGY_FRACTION = Quantity("energy fraction", 0.0, 1.0, "", "a share of the profile's energy; all of it lies only "
+                           "at an infinite radius", hi_open=True)
 
 
 class RadialProfile(ABC):
@@ -41,7 +47,7 @@ class RadialProfile(ABC):
         defined for distances 0 <= r < inf; every :meth:`eval` takes its radii through here)."""
         arr = np.asarray(r, dtype=float)
         if arr.size and not (arr.min() >= 0.0 and arr.max() < np.inf):  # (a NaN fails the first: min is NaN)
-            raise ProfileError("a profile's radii must be finite distances >= 0 mm")
+            RADIUS_MM.check_array(arr, "a profile's radii", ProfileError)
         return arr
 
     @abstractmethod
@@ -83,9 +89,7 @@ class RadialProfile(ABC):
         Solved on S(rho) = (1 - fraction) total_rd, which keeps precision near fraction -> 1:
         a bracket found by doubling, then bisection to relative width 1e-14.
         """
-        f = np.asarray(fraction, dtype=float)
-        if np.any(~np.isfinite(f)) or np.any(f < 0) or np.any(f >= 1):
-            raise ProfileError(f"energy fraction must be in [0, 1), got {fraction!r}")
+        f = ENERGY_FRACTION.check_array(fraction, error=ProfileError)
         total = self.total_rd()
         target = (1.0 - f) * total
         scale = self.length_scale_mm()

@@ -15,14 +15,13 @@ Energy within radius rho: E(rho) = A cdf(rho), cdf(r) = 1 - exp(-r/d)/4 - 3 exp(
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
-from ..quantities import BURLEY_ALBEDO, REFLECTANCE
-from .base import RadialProfile
+from ..quantities import BURLEY_ALBEDO, FRACTION, LENGTH_MM as LENGTH, REFLECTANCE
+from .base import ENERGY_FRACTION, RadialProfile
 
 
 def burley_d_searchlight(albedo: ArrayLike, ell: ArrayLike) -> NDArray[np.float64]:
@@ -60,10 +59,7 @@ def burley_d(albedo: ArrayLike, ell: ArrayLike, configuration: str = "searchligh
         raise ProfileError(
             f"unknown Burley configuration {configuration!r} (known: {', '.join(BURLEY_CONFIGURATIONS)})"
         ) from None
-    ell_arr = np.asarray(ell, dtype=float)
-    if np.any(~np.isfinite(ell_arr)) or np.any(ell_arr <= 0):
-        raise ProfileError(f"mean free path ell must be > 0 mm, got {ell!r}")
-    return fn(albedo, ell_arr)
+    return fn(albedo, LENGTH.check_array(ell, "mean free path ell", ProfileError))
 
 
 #: the albedo Xie 2020 Eq. 5's fits s(A) take: A in [0, 1], the range they are stated for (Burley 2015 fitted them
@@ -102,9 +98,7 @@ def burley_inverse_cdf(xi: ArrayLike, d: float | NDArray[np.float64]) -> NDArray
     start is the series r = 2 d xi; three Newton steps on cdf(r) - xi (or, for xi > 1/2, on
     the survival function) bring the relative error below 1e-13.
     """
-    xi = np.asarray(xi, dtype=float)
-    if np.any(~(xi >= 0)) or np.any(xi > 1):
-        raise ProfileError("inverse CDF needs xi in [0, 1]")
+    xi = np.asarray(FRACTION.check_array(xi, "the inverse CDF's xi", ProfileError))
     eta = 1.0 - xi
     with np.errstate(divide="ignore"):
         u = 2.0 * np.sinh(np.arcsinh(2.0 * eta) / 3.0)
@@ -128,9 +122,7 @@ class BurleyProfile(RadialProfile):
     def __init__(self, albedo: float, d: float) -> None:
         # Eq. 4: R(r) = A s exp(-s r / ...): at A = 0 no light beneath the surface, and a kernel normalised by it 0/0
         self.albedo = float(BURLEY_ALBEDO.check(albedo, "Burley albedo A", ProfileError))
-        if not (math.isfinite(d) and d > 0):
-            raise ProfileError(f"Burley length d must be > 0 mm, got {d}")
-        self.d = float(d)
+        self.d = float(LENGTH.check(d, "Burley length d", ProfileError))
 
     def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         """Xie 2020 Eq. 4 (mm^-2); infinite at r = 0 (the profile's 1/r singularity)."""
@@ -154,10 +146,7 @@ class BurleyProfile(RadialProfile):
 
     def radius_at_fraction(self, fraction: ArrayLike) -> NDArray[np.float64]:
         """Exact inverse of Eq. 20, :func:`burley_inverse_cdf`."""
-        f = np.asarray(fraction, dtype=float)
-        if np.any(~np.isfinite(f)) or np.any(f < 0) or np.any(f >= 1):
-            raise ProfileError(f"energy fraction must be in [0, 1), got {fraction!r}")
-        return burley_inverse_cdf(f, self.d)
+        return burley_inverse_cdf(ENERGY_FRACTION.check_array(fraction, error=ProfileError), self.d)
 
     def length_scale_mm(self) -> float:
         return self.d

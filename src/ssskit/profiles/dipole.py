@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
+from ..quantities import ANISOTROPY, COEFFICIENT, EXTINCTION
 from .base import RadialProfile
 from .domain import _DIPOLE_WHY, DIPOLE_ETA_MAX, check_eta, check_mfp
 
@@ -45,18 +46,13 @@ class DipoleProfile(RadialProfile):
     model = "dipole"
 
     def __init__(self, sigma_a: float, sigma_s: float, g: float = 0.0, eta: float = 1.3) -> None:
-        if not (math.isfinite(sigma_a) and sigma_a >= 0):
-            raise ProfileError(f"dipole needs sigma_a >= 0, got {sigma_a}")
-        if not (math.isfinite(sigma_s) and sigma_s >= 0):
-            raise ProfileError(f"dipole needs sigma_s >= 0, got {sigma_s}")
-        if not -1 < g < 1:
-            raise ProfileError(f"dipole needs |g| < 1, got {g}")
+        for name, value, q in (("sigma_a", sigma_a, COEFFICIENT), ("sigma_s", sigma_s, COEFFICIENT), ("g", g, ANISOTROPY)):
+            q.check(value, f"the dipole's {name}", ProfileError)
         check_eta("dipole", eta, DIPOLE_ETA_MAX, _DIPOLE_WHY)
         self.sigma_a, self.sigma_s, self.g, self.eta = float(sigma_a), float(sigma_s), float(g), float(eta)
         sigma_s_r = sigma_s * (1.0 - g)
         self.sigma_t_r = sigma_a + sigma_s_r
-        if self.sigma_t_r <= 0:
-            raise ProfileError("dipole needs sigma_a + sigma_s' > 0")
+        EXTINCTION.check(self.sigma_t_r, "the dipole's sigma_a + sigma_s'", ProfileError)
         check_mfp("dipole", [1.0 / self.sigma_t_r], per_channel=False)
         self.alpha_r = sigma_s_r / self.sigma_t_r
         self.sigma_tr = math.sqrt(3.0 * sigma_a * self.sigma_t_r)

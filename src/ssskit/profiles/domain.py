@@ -70,6 +70,17 @@ MAX_GRID_BINS = 20_000
 #: 1e-7 in 9 s (10^7 photons: hours, which the progress line's estimate says); 1e-14, like 0, did not end in 60 s
 MIN_ABSORBED_FRACTION = 1e-7
 
+#: the per-model physics above as quantities: a scattering coefficient (every model of a material), the grid of
+#: MCML's supplement F and the absorbed fraction of its semi-infinite medium (module docstring)
+SCATTERING = Quantity("sigma_s", 0.0, math.inf, "mm^-1", "a scattering material: without scattering there is no "
+                      "subsurface profile, the light is absorbed or leaves through the far side", lo_open=True,
+                      hi_open=True)
+GRID_BINS = Quantity("grid", 2, MAX_GRID_BINS, "bins", "supplement F: dr = shortest mean free path / 20, out to 32 "
+                     f"longest, so a longest path at most {MAX_GRID_BINS / 640:.3g} times the shortest; Ketchup, the "
+                     "widest preset, 6.1", integer=True)
+ABSORBED = Quantity("sigma_a / sigma_t", MIN_ABSORBED_FRACTION, 1.0, "", "a semi-infinite medium must absorb: without "
+                    "it a photon's float32 weight loses nothing and a walk in a half-space has no finite mean length, "
+                    "the run would not finish; or give a finite thickness_mm")
 
 def _layers(material: Material | LayeredMaterial) -> tuple[Material, ...]:
     return tuple(material.layers) if isinstance(material, LayeredMaterial) else (material,)
@@ -94,9 +105,7 @@ def check_scatters(model: str, material: Material | LayeredMaterial) -> None:
     layers = _layers(material)
     for c, channel in enumerate(CHANNELS):
         if not any(float(layer.sigma_s[c]) > 0 for layer in layers):
-            raise ProfileError(f"the {model} model needs a scattering material: sigma_s is 0 in channel {channel} of "
-                               f"{material.name!r} (without scattering there is no subsurface profile: the light is "
-                               "absorbed or leaves through the far side); give sigma_s > 0")
+            SCATTERING.refuse(0.0, f"the {model} model's sigma_s in channel {channel} of {material.name!r}", ProfileError)
 
 
 _DIPOLE_WHY = "its diffuse Fresnel fit F_dr of [JMLH01] is within 5% there and passes 1 at eta = 3.85"
@@ -122,22 +131,16 @@ def check_montecarlo(material: Material | LayeredMaterial, model: str = "monteca
     ratio = max(mfp) / min(mfp)
     bins = math.ceil(32.0 * 20.0 * ratio)
     if bins > MAX_GRID_BINS:
-        raise ProfileError(
-            f"the {model} model's grid (supplement F: dr = shortest mean free path / 20, out to 32 longest) would need "
-            f"{bins:,} bins, more than {MAX_GRID_BINS:,}: the longest transport mean free path is {ratio:.3g} times the "
-            f"shortest (at most {MAX_GRID_BINS / 640:.3g}; Ketchup, the widest preset, 6.1)")
+        GRID_BINS.refuse(bins, f"the {model} model's grid (its longest transport mean free path {ratio:.3g} times the "
+                         "shortest)", ProfileError)
     last = layers[-1]
     if last.is_semi_infinite:
         where = " of the semi-infinite last layer" if len(layers) > 1 else ""
         for c, channel in enumerate(CHANNELS):
             a, t = float(last.sigma_a[c]), float(last.sigma_a[c]) + float(last.sigma_s[c])
             if a < MIN_ABSORBED_FRACTION * t:
-                raise ProfileError(
-                    f"the {model} model needs absorption in a semi-infinite medium: sigma_a / sigma_t is {a / t:.6g} in "
-                    f"channel {channel}{where} of {material.name!r}, below {MIN_ABSORBED_FRACTION:g} (a photon's float32 "
-                    "weight then loses nothing at an interaction, and a walk in a half-space that nothing ends has no "
-                    "finite mean length: the run would not finish); give sigma_a >= "
-                    f"{MIN_ABSORBED_FRACTION:g} x (sigma_a + sigma_s), or a finite thickness_mm")
+                ABSORBED.refuse(a / t, f"the {model} model's sigma_a / sigma_t in channel {channel}{where} of "
+                                f"{material.name!r}", ProfileError)
 
 
 def check_burley_material(material: Material, albedo_given: bool) -> None:

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
+from ..quantities import Quantity
 from .base import RadialProfile
 
 #: [dLE07] six-Gaussian skin fit: variances (mm^2) and RGB weights per Gaussian.
@@ -30,6 +31,10 @@ DEON2007_SKIN_WEIGHTS = (
 )
 
 
+#: a sum of Gaussians' weights (>= 0) and variances (mm^2, > 0)
+WEIGHT = Quantity("weight", 0.0, math.inf, "", "a Gaussian's share of the profile", hi_open=True)
+VARIANCE = Quantity("variance", 0.0, math.inf, "mm^2", "a Gaussian's width squared", lo_open=True, hi_open=True)
+
 class GaussianSumProfile(RadialProfile):
     """One channel of a sum of 2D Gaussians, Eq. S.1: weights (dimensionless), variances (mm^2)."""
 
@@ -40,12 +45,9 @@ class GaussianSumProfile(RadialProfile):
         v = np.asarray(variances, dtype=float).ravel()
         if w.size == 0 or w.size != v.size:
             raise ProfileError(f"need as many weights as variances (got {w.size} and {v.size}), at least one")
-        if np.any(~np.isfinite(w)) or np.any(w < 0):
-            raise ProfileError("Gaussian weights must be finite and >= 0")
-        if np.any(~np.isfinite(v)) or np.any(v <= 0):
-            raise ProfileError("Gaussian variances must be finite and > 0 (mm^2)")
-        if w.sum() <= 0:
-            raise ProfileError("at least one Gaussian weight must be > 0")
+        WEIGHT.check_array(w, "Gaussian weights", ProfileError)
+        VARIANCE.check_array(v, "Gaussian variances", ProfileError)
+        WEIGHT.within(lo=1e-300, reason="some light").check(w.sum(), "the sum of the Gaussian weights", ProfileError)
         self.weights, self.variances = w, v
 
     def eval(self, r: ArrayLike) -> NDArray[np.float64]:

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import SamplingError
+from ..quantities import FRACTION
 
 
 class Distribution(ABC):
@@ -43,7 +44,4 @@ class Distribution(ABC):
 
 def check_uniform(u: ArrayLike) -> NDArray[np.float64]:
     """Validate uniform variates: finite, in [0, 1]."""
-    u = np.asarray(u, dtype=float)
-    if np.any(~(u >= 0)) or np.any(u > 1):
-        raise SamplingError("uniform variates must lie in [0, 1]")
-    return u
+    return FRACTION.check_array(u, "uniform variates", SamplingError)

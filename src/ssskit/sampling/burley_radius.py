@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import SamplingError
+from ..quantities import LENGTH_MM, Quantity
 from ..profiles.burley import (
     burley_cdf,
     burley_inverse_cdf,
@@ -30,12 +31,13 @@ from .base import Distribution, check_uniform
 
 #: Xie 2020's least-squares constant for Eq. 21.
 XIE_C = 2.5715
+#: Eq. 21's damping c this sampler takes (c >= 2 keeps g increasing) and a radius (mm; inf: the CDF is 1)
+XIE_C_ANY = Quantity("c", 2.0, 10.0, "", "c >= 2 keeps Eq. 21's g increasing")
+RADIUS = Quantity("radius", 0.0, math.inf, "mm", "a distance from the centre", hi_open=True)
 
 
 def _check_d(d: float) -> float:
-    if not (math.isfinite(d) and d > 0):
-        raise SamplingError(f"Burley length d must be a finite number > 0 mm, got {d!r}")
-    return float(d)
+    return float(LENGTH_MM.check(d, "Burley length d", SamplingError))
 
 
 class BurleyRadial(Distribution):
@@ -84,10 +86,8 @@ class BurleyRadialApprox(Distribution):
 
     def __init__(self, d: float, c: float = XIE_C) -> None:
         self.d = _check_d(d)
-        if not (math.isfinite(c) and 2.0 <= c <= 10.0):
-            # For c >= 2 both factors of Eq. 21 keep g increasing (g' > 0 on [0, 1)).
-            raise SamplingError(f"Eq. 21 damping c must be in [2, 10], got {c!r}")
-        self.c = float(c)
+        # For c >= 2 both factors of Eq. 21 keep g increasing (g' > 0 on [0, 1)).
+        self.c = float(XIE_C_ANY.check(c, "Eq. 21 damping c", SamplingError))
 
     def sample(self, u: ArrayLike) -> NDArray[np.float64]:
         return xie_g(check_uniform(u), self.d, self.c)
@@ -109,7 +109,7 @@ class BurleyRadialApprox(Distribution):
     def cdf(self, r: ArrayLike) -> NDArray[np.float64]:
         r = np.asarray(r, dtype=float)
         if np.any(r < 0):
-            raise SamplingError("radius must be >= 0")
+            RADIUS.check_array(np.where(np.isinf(r), 0.0, r), "radius", SamplingError)
         return -np.expm1(-self._t_of_r(r))
 
     def pdf(self, r: ArrayLike) -> NDArray[np.float64]:

@@ -35,6 +35,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import KernelError, SamplingError
+from ..quantities import CHOICE, FRACTION, LENGTH_MM, Quantity, check_finite, check_instance, fail
+
+#: taps of one 1D pass: odd, for a centre tap
+TAP_COUNT = Quantity("tap count", 1, 2**31 - 1, "", "taps of one 1D pass, odd for a centre tap", integer=True, odd=True)
 
 if TYPE_CHECKING:  # imported where used: taps load without the kernels package
     from ..kernels.base import AnyKernel, Kernel
@@ -66,8 +70,8 @@ class SeparableTaps:
         if w.shape != o.shape + (3,) or s.shape != (o.shape[0], 3):
             raise SamplingError(f"taps need offsets (R, N), weights (R, N, 3), signs (R, 3); got "
                                 f"{o.shape}, {w.shape}, {s.shape}")
-        if not (np.all(np.isfinite(o)) and np.all(np.isfinite(w))):
-            raise SamplingError("tap offsets and weights must be finite")
+        check_finite(o, "tap offsets", SamplingError)
+        check_finite(w, "tap weights", SamplingError)
         if not np.all(np.abs(s) == 1):
             raise SamplingError("tap signs must be +-1")
         order = np.argsort(np.abs(o), axis=1, kind="stable")
@@ -75,8 +79,7 @@ class SeparableTaps:
         w = np.take_along_axis(w, order[..., None], axis=1)
         for name, val in (("offsets_mm", o), ("weights", w), ("signs", s)):
             object.__setattr__(self, name, np.ascontiguousarray(val))
-        if not (np.isfinite(self.extent_mm) and self.extent_mm > 0):
-            raise SamplingError(f"tap extent must be positive, got {self.extent_mm!r}")
+        LENGTH_MM.check(self.extent_mm, "tap extent", SamplingError)
 
     @property
     def rank(self) -> int:
@@ -102,8 +105,7 @@ class SeparableTaps:
         The radius is ``jitter`` times the kernel size, the full span 2 * extent_mm of the taps
         (the paper: "closer than 10% of the kernel size").
         """
-        if not (0.0 <= jitter <= 1.0):
-            raise SamplingError(f"jitter radius must be a fraction of the kernel size in [0, 1], got {jitter!r}")
+        FRACTION.check(jitter, "jitter radius (a fraction of the kernel size)", SamplingError)
         if jitter == 0:
             return 0
         return int(np.max(np.sum(np.abs(self.offsets_mm) <= jitter * 2.0 * self.extent_mm + 1e-12, axis=1)))
@@ -130,9 +132,7 @@ class SeparableTaps:
 
 
 def _check_count(n: int) -> int:
-    if not (isinstance(n, (int, np.integer)) and n >= 1 and n % 2 == 1):
-        raise SamplingError(f"tap count must be an odd positive integer (a centre tap), got {n!r}")
-    return int(n)
+    return int(TAP_COUNT.check(n, "tap count", SamplingError))
 
 
 def _fine(kernel: Kernel, r: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
@@ -216,11 +216,10 @@ def make_taps(kernel: AnyKernel, n: int | None = None, method: str = "importance
         return SeparableTaps(o[None], kernel.weights[None], np.ones((1, 3)), kernel.method,
                              float(np.max(np.abs(o))) or 1.0, None, _tap_width(o, kernel.weights),
                              {"kernel": kernel.method, **kernel.source}).normalised()
-    if not isinstance(kernel, Kernel):
-        raise KernelError(f"taps need a Kernel or TapKernel, got {type(kernel).__name__}")
+    check_instance(kernel, Kernel, "the kernel of taps", KernelError)
     n = _check_count(7 if n is None else n)
     if method not in TAP_METHODS:
-        raise SamplingError(f"unknown tap placement {method!r}; choose from {', '.join(TAP_METHODS)}")
+        raise fail(SamplingError, CHOICE, name="tap placement", choices=", ".join(TAP_METHODS), actual=repr(method))
     offs, wts, widths = [], [], []
     for r in range(kernel.rank):
         o, w, width = _term_taps(kernel, r, n, method)

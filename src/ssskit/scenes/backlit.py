@@ -10,8 +10,14 @@ import math
 import tomllib
 
 from ..errors import SceneError
+from ..quantities import Quantity
 from .scenefile import BUILTIN_DIR, scene_from_document
 from .scenes import SceneSpec
+
+#: the backlit slab's camera angle off the normal, thickness and field of view: the ranges its scene holds
+VIEW_DEG = Quantity("view angle", 0.0, 80.0, "degrees", "the slab's face still fills the frame", hi_open=True)
+THICKNESS_MM = Quantity("thickness", 0.0, 40.0, "mm", "the slab stays inside the scene's light", lo_open=True)
+FOV_DEG = Quantity("fov", 1.0, 30.0, "degrees", "the camera sees the slab alone")
 
 
 def _document(name: str) -> dict:
@@ -22,8 +28,7 @@ def _view(doc: dict, view_deg: float | None) -> str:
     """Put ``doc``'s camera at ``view_deg`` from the +z normal (towards -y), at its distance; the name's suffix."""
     if view_deg is None:
         return ""
-    if not (isinstance(view_deg, (int, float)) and 0.0 <= view_deg < 80.0):
-        raise SceneError(f"the view angle must lie in [0, 80) degrees, got {view_deg!r}")
+    VIEW_DEG.check(view_deg, "the view angle", SceneError)
     cam = doc["camera"]
     dist = math.dist(cam["origin"], cam["target"])
     a = math.radians(view_deg)
@@ -35,16 +40,14 @@ def backlit_slab(thickness_mm: float, view_deg: float | None = None, fov_deg: fl
     """The built-in ``backlit`` scene with its slab ``thickness_mm`` thick (its seen face stays at z = 0) and,
     if given, the camera ``view_deg`` off the slab's normal and its horizontal field of view ``fov_deg`` (a
     narrower one sees the slab's middle only, in finer pixels)."""
-    if isinstance(thickness_mm, bool) or not (isinstance(thickness_mm, (int, float)) and 0 < thickness_mm <= 40):
-        raise SceneError(f"the slab's thickness must lie in (0, 40] mm, got {thickness_mm!r}")
+    THICKNESS_MM.check(thickness_mm, "the slab's thickness", SceneError)
     doc = copy.deepcopy(_document("backlit"))
     slab = doc["shapes"]["slab"]
     slab["translate"] = [0.0, 0.0, -thickness_mm / 2.0]
     slab["scale"] = [slab["scale"][0], slab["scale"][1], thickness_mm / 2.0]
     suffix = ""
     if fov_deg is not None:
-        if not (isinstance(fov_deg, (int, float)) and 1.0 <= fov_deg <= 30.0):
-            raise SceneError(f"the field of view must lie in [1, 30] degrees, got {fov_deg!r}")
+        FOV_DEG.check(fov_deg, "the field of view", SceneError)
         doc["camera"]["fov"] = float(fov_deg)
         suffix = f"-fov{fov_deg:g}"
     doc["name"] = f"backlit-{thickness_mm:g}mm" + _view(doc, view_deg) + suffix

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
+from ..quantities import Quantity
 from .scenes import COAT_ROUGHNESS, mitsuba
 
 
@@ -28,10 +29,10 @@ def rough_dielectric_weights(cos_i: ArrayLike, eta: float, alpha: float = COAT_R
     int_ior = ``eta``) sampled ``samples`` times per angle with its own visible-normal routine in
     importance (flux) transport mode, the mean sample weight on each side. 1 minus both is what the
     single-scattering BSDF loses."""
-    if not (isinstance(eta, (int, float, np.floating)) and math.isfinite(eta) and eta > 1.0):
-        raise SceneError(f"a dielectric boundary needs eta > 1, got {eta!r}")
-    if isinstance(samples, bool) or not (isinstance(samples, int) and samples >= 2):
-        raise SceneError(f"samples must be an integer >= 2, got {samples!r}")
+    Quantity("eta", 1.0, math.inf, "", "a dielectric boundary; eta = 1 is none", lo_open=True, hi_open=True).check(
+        eta, "eta", SceneError)
+    Quantity("samples", 2, math.inf, "", "a mean and its spread", integer=True, hi_open=True).check(
+        samples, "samples", SceneError)
     mi = mitsuba()
     bsdf = mi.load_dict({"type": "roughdielectric", "int_ior": float(eta), "ext_ior": 1.0,
                          "distribution": "beckmann", "alpha": float(alpha)})

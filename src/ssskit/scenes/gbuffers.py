@@ -21,6 +21,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
+from ..quantities import FRAME, FRAMES, REFLECTANCE, TYPE, Quantity, fail
+
+#: a surface's refractive index in the G-buffer render (its boundary): positive
+INDEX = Quantity("eta", 0.0, 1e6, "", "a refractive index", lo_open=True)
 from ..screenspace.gbuffer import GBuffer
 from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, SceneSpec, check_size, check_spp, get_scene, render_dict,
                      scene_camera, scene_dict)
@@ -67,13 +71,10 @@ def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float | Array
     check_spp(spp)
     n = len(spec.sss_shapes)
     alb = _per_shape("albedo", albedo, n, (3,))
-    if not np.all(np.isfinite(alb)) or np.any(alb < 0) or np.any(alb > 1):
-        raise SceneError(f"albedo must lie in [0, 1], got {alb.tolist() if n > 1 else alb[0].tolist()}")
+    REFLECTANCE.check_array(alb, "albedo", SceneError)
     if isinstance(eta, bool):
-        raise SceneError(f"eta must be a positive refractive index, got {eta!r}")
-    etas = _per_shape("eta", eta, n, ())
-    if not (np.all(np.isfinite(etas)) and np.all(etas > 0)):
-        raise SceneError(f"eta must be a positive refractive index, got {eta!r}")
+        raise fail(SceneError, TYPE, name="eta", kind="a number", actual=repr(eta))
+    etas = INDEX.check_array(_per_shape("eta", eta, n, ()), "eta", SceneError)
     names = (material,) * n if isinstance(material, str) else tuple(str(m) for m in material)
     if len(names) != n:
         raise SceneError(f"material names one per SSS shape ({n}), got {len(names)}")
@@ -125,10 +126,8 @@ def render_sequence(scene: str, albedo: ArrayLike, frames: int, first: int = 0, 
     """G-buffers of ``frames`` consecutive frames ``first, first + 1, ...`` along the scene's camera and
     light paths (each with its camera and its frame index in ``meta["frame"]``); ``kw`` as for
     :func:`render_gbuffer` (except ``frame``)."""
-    if isinstance(frames, bool) or not (isinstance(frames, (int, np.integer)) and frames >= 1):
-        raise SceneError(f"frames must be a positive integer, got {frames!r}")
-    if isinstance(first, bool) or not (isinstance(first, (int, np.integer)) and first >= 0):
-        raise SceneError(f"first frame must be a non-negative integer, got {first!r}")
+    FRAMES.within(hi=2**31 - 1).check(frames, "frames", SceneError)
+    FRAME.check(first, "first frame", SceneError)
     if "frame" in kw:
         raise SceneError("render_sequence takes first= and frames=, not frame=")
     return [render_gbuffer(scene, albedo, frame=int(first) + f, **kw) for f in range(int(frames))]

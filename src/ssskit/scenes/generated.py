@@ -18,6 +18,7 @@ import numpy as np
 
 from ..cache import cache_dir
 from ..errors import SceneError
+from ..quantities import LENGTH_MM, Quantity
 from ..io import atomic_output
 from .meshes import Mesh, ply_bytes
 
@@ -28,10 +29,9 @@ BUST_VERSION = 2
 def icosphere(subdivisions: int = 2, radius: float = 1.0, name: str = "icosphere") -> Mesh:
     """A sphere of ``radius`` from an icosahedron whose triangles are split in four ``subdivisions``
     times, new vertices pushed onto the sphere; 20 * 4^n faces, outward winding, exact normals."""
-    if isinstance(subdivisions, bool) or not (isinstance(subdivisions, int) and 0 <= subdivisions <= 8):
-        raise SceneError(f"icosphere subdivisions must be an integer in [0, 8], got {subdivisions!r}")
-    if not (isinstance(radius, (int, float)) and radius > 0):
-        raise SceneError(f"icosphere radius must be positive, got {radius!r}")
+    Quantity("subdivisions", 0, 8, "", "20 x 4^8 = 1.3 M faces", integer=True).check(
+        subdivisions, "icosphere subdivisions", SceneError)
+    LENGTH_MM.check(radius, "icosphere radius", SceneError)
     t = (1.0 + 5.0**0.5) / 2.0
     v = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t], [0, 1, -t],
                   [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], float)
@@ -150,8 +150,8 @@ def bust(voxel_mm: float = 1.5) -> Mesh:
     central-difference gradient."""
     from skimage.measure import marching_cubes
 
-    if not (isinstance(voxel_mm, (int, float)) and 0.5 <= voxel_mm <= 10):
-        raise SceneError(f"bust voxel size must lie in [0.5, 10] mm, got {voxel_mm!r}")
+    Quantity("voxel size", 0.5, 10.0, "mm", "a bust of seconds to build, whose features survive").check(
+        voxel_mm, "bust voxel size", SceneError)
     lo = np.array([-160.0, -40.0, -85.0])
     hi = np.array([160.0, 280.0, 120.0])
     axes = [np.arange(lo[i] - 2 * voxel_mm, hi[i] + 2 * voxel_mm, voxel_mm, dtype=np.float32) for i in range(3)]

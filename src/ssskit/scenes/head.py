@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError
+from ..quantities import Quantity
 from ..settings import HEAD_ATTRIBUTION
 from .meshes import Mesh
 
@@ -98,11 +99,8 @@ def head_arrays() -> dict[str, np.ndarray]:
 
 def check_mm_per_unit(mm_per_unit: object) -> float:
     """``mm_per_unit`` as a float, or a SceneError unless it lies in :data:`MM_PER_UNIT_RANGE`."""
-    lo, hi = MM_PER_UNIT_RANGE
-    if isinstance(mm_per_unit, bool) or not isinstance(mm_per_unit, (int, float)) or not lo <= mm_per_unit <= hi:
-        raise SceneError(f"head mm_per_unit must be a number in [{lo:g}, {hi:g}] (the head 0.58 units across is "
-                         f"58 to 580 mm wide; ssskit's scale: {MM_PER_UNIT:g}), got {mm_per_unit!r}")
-    return float(mm_per_unit)
+    return float(Quantity("mm_per_unit", *MM_PER_UNIT_RANGE, "", "the head 0.58 units across is 58 to 580 mm wide; "
+                          f"ssskit's scale: {MM_PER_UNIT:g}").check(mm_per_unit, "head mm_per_unit", SceneError))
 
 
 def head_mesh(mm_per_unit: float = MM_PER_UNIT) -> Mesh:

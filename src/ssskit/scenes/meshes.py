@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError
+from ..quantities import FINITE, Quantity, check_finite, check_shape, fail
 from ..io import atomic_output, parse_document
 
 #: mesh file suffixes and the reader of each
@@ -60,22 +61,17 @@ class Mesh:
     normals: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        v = np.ascontiguousarray(self.vertices, dtype=np.float32)
-        f = np.ascontiguousarray(self.faces, dtype=np.int64)
-        if v.ndim != 2 or v.shape[1] != 3:
-            raise SceneError(f"mesh {self.name!r}: vertices must have shape (V, 3), got {v.shape}")
-        if f.ndim != 2 or f.shape[1] != 3:
-            raise SceneError(f"mesh {self.name!r}: faces must be triangles, shape (F, 3), got {f.shape}")
-        if f.size and (f.min() < 0 or f.max() >= len(v)):
-            raise SceneError(f"mesh {self.name!r}: face indices must lie in [0, {len(v) - 1}], "
-                             f"found {int(f.min())} to {int(f.max())}")
+        where = f"mesh {self.name!r}"
+        v = np.ascontiguousarray(check_shape(self.vertices, f"{where}: vertices", ("V", 3), SceneError), np.float32)
+        f = np.ascontiguousarray(check_shape(self.faces, f"{where}: faces", ("F", 3), SceneError), dtype=np.int64)
+        if f.size and (f.min() < 0 or f.max() >= len(v)):  # an index beyond the vertices crashed Mitsuba's PLY loader
+            Quantity("face indices", 0, len(v) - 1, "", "the indices of the mesh's vertices", integer=True).check_array(
+                f, f"{where}: face indices", SceneError, "indices")
         object.__setattr__(self, "vertices", v)
         object.__setattr__(self, "faces", f.astype(np.uint32))
         if self.normals is not None:
-            n = np.ascontiguousarray(self.normals, dtype=np.float32)
-            if n.shape != v.shape:
-                raise SceneError(f"mesh {self.name!r}: normals have shape {n.shape}, vertices {v.shape}")
-            object.__setattr__(self, "normals", n)
+            object.__setattr__(self, "normals", np.ascontiguousarray(check_shape(
+                self.normals, f"{where}: normals", v.shape, SceneError), dtype=np.float32))
 
     def digest(self) -> str:
         """sha1 of the arrays (the reference cache's key for this geometry)."""
@@ -323,7 +319,8 @@ def _read_mitsuba(p: Path, kind: str) -> tuple[Mesh, ...]:
     except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
         msg = _mitsuba_message(exc)
         if "invalid vertex position" in msg:
-            raise SceneError(f"mesh {str(p)!r} has NaN or infinite vertex positions (Mitsuba: {msg})") from None
+            raise fail(SceneError, FINITE, name=f"mesh {str(p)!r}: vertex positions", actual=f"NaN or inf (Mitsuba: {msg})"
+                       ) from None
         raise SceneError(f"mesh {str(p)!r} cannot be read: {msg}") from None
     params = mi.traverse(shape)
     verts = np.array(params["vertex_positions"], dtype=np.float32).reshape(-1, 3)
@@ -451,10 +448,7 @@ def check_mesh(mesh: Mesh, source: str = "") -> None:
     where = f"mesh {source!r} (object {mesh.name!r})" if source else f"mesh {mesh.name!r}"
     if len(mesh.faces) == 0:
         raise SceneError(f"{where} has no faces")
-    bad = ~np.isfinite(mesh.vertices).all(axis=1)
-    if bad.any():
-        raise SceneError(f"{where} has NaN or infinite vertex positions ({int(bad.sum())} of {len(bad)} vertices, "
-                         f"the first at index {int(np.flatnonzero(bad)[0])})")
+    check_finite(mesh.vertices, f"{where}: vertex positions", SceneError, "coordinates")
 
 
 def topology(mesh: Mesh) -> Topology:

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from collections.abc import Sequence
@@ -45,6 +46,10 @@ from ..cache import cache_dir, cache_file
 from ..errors import SceneError
 from ..io import atomic_output, progress_bar
 from ..materials import Material
+from ..quantities import CHOICE, FRAME, REFLECTANCE, REL_SE, SEED, Quantity, check_shape, fail
+
+#: the path tracer's longest path (Mitsuba's max_depth): at least the camera's ray
+MAX_DEPTH = Quantity("max_depth", 1, 2**31 - 1, "", "bounces of a path, the camera's ray the first", integer=True)
 from .scenes import COAT_ROUGHNESS, SceneSpec, check_size, check_spp, get_scene, mitsuba, scene_dict
 from .mitsuba_variant import interruptible_render
 
@@ -190,9 +195,7 @@ class ReferenceRenderer:
                  frame: int = 0, boundary: str = "rough-dielectric", surround_albedo: float = 0.0,
                  crop: tuple[int, int, int, int] | None = None) -> None:
         self.spec = get_scene(scene)
-        check_size(width, height)
-        check_reference_scene(self.spec)
-        _check_options(max_depth, seed, frame, boundary, surround_albedo)
+        _check_options(self.spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
         mats = shape_materials(self.spec, material)
         self.g = reference_phase_g(mats[0])
         interiors = {sid: _interior(m, boundary) for sid, m in zip(self.spec.sss_shapes, mats)}
@@ -262,17 +265,17 @@ def shape_materials(spec: SceneSpec, material: Any) -> tuple[Any, ...]:
     return (material,) * len(spec.sss_shapes)
 
 
-def _check_options(max_depth: int, seed: int, frame: int, boundary: str, surround_albedo: float) -> None:
-    if isinstance(max_depth, bool) or not (isinstance(max_depth, (int, np.integer)) and max_depth >= 1):
-        raise SceneError(f"max_depth must be a positive integer, got {max_depth!r}")
-    if isinstance(seed, bool) or not (isinstance(seed, (int, np.integer)) and seed >= 0):
-        raise SceneError(f"seed must be a non-negative integer, got {seed!r}")
-    if isinstance(frame, bool) or not (isinstance(frame, (int, np.integer)) and frame >= 0):
-        raise SceneError(f"frame must be a non-negative integer, got {frame!r}")
-    if boundary not in BOUNDARIES:
-        raise SceneError(f"boundary must be one of {', '.join(BOUNDARIES)}, got {boundary!r}")
-    if not (isinstance(surround_albedo, (int, float, np.floating)) and 0.0 <= surround_albedo <= 1.0):
-        raise SceneError(f"surround_albedo must lie in [0, 1], got {surround_albedo!r}")
+def _check_options(spec: SceneSpec, width: int, height: int, max_depth: int, seed: int, frame: int, boundary: str,
+                   surround_albedo: float) -> None:
+    """A reference's request checked once, before any work: the image size, the scene (its SSS meshes closed) and
+    the path tracer's options."""
+    check_size(width, height)
+    check_reference_scene(spec)
+    for name, value, q in (("max_depth", max_depth, MAX_DEPTH), ("seed", seed, SEED), ("frame", frame, FRAME),
+                           ("surround_albedo", surround_albedo, REFLECTANCE)):
+        q.check(value, name, SceneError)
+    if boundary not in BOUNDARIES:  # (exactly: the name keys the cache)
+        raise fail(SceneError, CHOICE, name="boundary", choices=", ".join(BOUNDARIES), actual=repr(boundary))
 
 
 def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) -> np.ndarray:
@@ -311,26 +314,21 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
     :func:`reference_cache_dir`, keyed by every input.
     """
     spec = get_scene(scene)
-    check_size(width, height)
     check_spp(spp)
     check_spp(chunk_spp)
     max_spp = int(spp) if max_spp is None else max_spp
     check_spp(max_spp)
-    if max_spp < spp:
-        raise SceneError(f"the spp budget ({max_spp}) is below the minimum spp ({spp})")
-    if not (isinstance(target_rel_se, (int, float, np.floating)) and 0 < target_rel_se < 1):
-        raise SceneError(f"target relative standard error must lie in (0, 1), got {target_rel_se!r}")
-    _check_options(max_depth, seed, frame, boundary, surround_albedo)
-    check_reference_scene(spec)
+    Quantity("max_spp", spp, math.inf, "", "the spp budget: at least the minimum spp", integer=True,
+             hi_open=True).check(max_spp, "max_spp", SceneError)
+    REL_SE.check(target_rel_se, "target relative standard error", SceneError)
+    _check_options(spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
     mats = shape_materials(spec, material)
     g = reference_phase_g(mats[0])
     for m in mats[1:]:
         reference_phase_g(m)
     if region is None:
         region = sss_region(spec, width, height, frame)
-    region = np.asarray(region, dtype=bool)
-    if region.shape != (height, width):
-        raise SceneError(f"region has shape {region.shape}, the image {(height, width)}")
+    region = check_shape(region, "region", (height, width), SceneError, "iufb", bool)
     if not region.any():
         raise SceneError("the convergence region holds no pixel")
     first = mats[0]

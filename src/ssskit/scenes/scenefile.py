@@ -51,7 +51,7 @@ import math
 import os
 import re
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -59,6 +59,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
+from ..quantities import CHOICE, TYPE, Flag, Quantity, check_choice, check_fields, check_keys, check_shape, fail
 from ..io import parse_document
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
 from .scenes import SCENES, SceneSpec, _T, _ply, check_size
@@ -92,6 +93,31 @@ PLAUSIBLE_MM = (5.0, 3000.0)
 #: nm, as in mm; 0.211 at 20 nm, 0.142 at 2 nm); beyond, its float32 fails (a 1e30 mm model's point light, ~1e61, overflows:
 #: the trial's render of one gave Mitsuba's "Invalid sample value" and a frame with no SSS pixel)
 MODEL_SIZE_MM = (2e-4, 1e9)
+#: the largest intensity or radiance a light may give Mitsuba: its float32 arithmetic overflows not far beyond
+#: (3.4e38; a key light of intensity 1e36 rendered 64,000 "Invalid sample value" warnings and a NaN diffuse layer)
+EMITTER_MAX = 1e30
+
+#: the numbers of a scene file, each declared once (the readers below check every field by its quantity)
+_ANY = dict(lo_open=True, hi_open=True)
+ANGLE_DEG = Quantity("angle", -math.inf, math.inf, "degrees", "an angle about the model", **_ANY)
+ELEVATION_DEG = Quantity("elevation", -90.0, 90.0, "degrees", "a view above or below the model, not along its up "
+                         "axis", **_ANY)
+VIEW_DISTANCE = Quantity("distance", 0.05, 100.0, "", "a multiple of the framing distance")
+FOV_DEG = Quantity("fov", 1.0, 150.0, "degrees", "a horizontal field of view")
+COORDINATE = Quantity("coordinate", -math.inf, math.inf, "", "a point or direction in the scene", **_ANY)
+EMITTED = Quantity("intensity", 0.0, EMITTER_MAX, "", "the renderer's float32 arithmetic overflows not far beyond")
+#: a light placed relative to the framing (docs/meshes.md): its distance and size in bounding radii
+RELATIVE_LIGHT: dict[str, Quantity] = {
+    "azimuth": ANGLE_DEG, "elevation": ANGLE_DEG,
+    "distance": Quantity("distance", 1.0, math.inf, "bounding radii", "a light outside the model's bounding sphere",
+                         **_ANY),
+    "size": Quantity("size", 0.0, math.inf, "bounding radii", "a light's radius; 0 is a point light", hi_open=True),
+    "intensity": Quantity("intensity", 0.0, math.inf, "", "the irradiance at the model's centre over pi",
+                          hi_open=True)}
+#: an explicit Mitsuba light's numbers (the ones that take one number or three [R, G, B]; the points take three)
+EXPLICIT_LIGHT: dict[str, Quantity] = {
+    "intensity": EMITTED, "radiance": EMITTED,
+    "radius": Quantity("radius", 0.0, math.inf, "", "a sphere light's radius", **_ANY)}
 
 
 def _generated(kind: str, params: Mapping[str, Any]) -> tuple[Mesh | None, dict | None]:
@@ -159,13 +185,17 @@ def _shape_id(name: str, taken: set[str]) -> str:
     return sid
 
 
+def _unclaimed(unknown: set[str], source: str, names: Sequence[str]) -> None:
+    """A SceneError if the material map names objects (``unknown``) the scene ``source`` does not have."""
+    if unknown:
+        raise SceneError(f"material map names {', '.join(map(repr, sorted(unknown)))}, which {source!r} does not "
+                         f"have (its objects: {', '.join(names)})")
+
+
 def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[str, str], default: str,
                   source: str, taken: set[str], deferred: list[Callable[[], None]]) -> list[MeshObject]:
     names = [m.name for m in meshes]
-    unknown = sorted(set(materials) - set(names))
-    if unknown:
-        raise SceneError(f"material map names {', '.join(map(repr, unknown))}, which {source!r} does not have "
-                         f"(its objects: {', '.join(names)})")
+    _unclaimed(set(materials) - set(names), source, names)
     out = []
     for m in meshes:
         topo = topology(m)
@@ -186,20 +216,20 @@ def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[st
 def check_units(units: str | Sequence[str] | None) -> str | None:
     """One unit name of :data:`UNITS_MM`, or None; a SceneError for an unknown unit or for several
     different ones (``--units`` given twice)."""
-    if units is None:
-        return None
-    values = [units] if isinstance(units, str) else list(units) if isinstance(units, (list, tuple)) else [units]
-    if not values:
-        return None
-    norm = []
-    for u in values:
-        key = u.strip().lower() if isinstance(u, str) else None  # a TOML number or table is no unit name
-        if key not in UNITS_MM:
-            raise SceneError(f"unknown units {u!r} (known: {', '.join(UNITS_MM)})")
-        norm.append(key)
+    values = [] if units is None else list(units) if isinstance(units, (list, tuple)) else [units]
+    norm = [check_choice("units", u, UNITS_MM, SceneError) for u in values]  # (a TOML number is no unit name)
     if len(set(norm)) > 1:
         raise SceneError(f"conflicting units: {', '.join(norm)} (give --units once)")
-    return norm[0]
+    return norm[0] if norm else None
+
+
+def _agreeing_units(cli_units: str | None, given: Any, where: str) -> str | None:
+    """The units a scene file (or one of its shapes: ``where``) gives, or a SceneError if they are not the
+    command line's ``--units``."""
+    units = check_units(given)
+    if cli_units and units and cli_units != units:
+        raise SceneError(f"conflicting units: --units {cli_units}, but {where} says units = {units!r}")
+    return units
 
 
 def _units_note(source: str, unit: str, assumed: bool, diameter_mm: float) -> str:
@@ -233,16 +263,11 @@ def parse_view(view: str | Sequence[float] | None) -> tuple[float, float, float]
                              "AZIMUTH,ELEVATION[,DISTANCE]") from None
     else:
         nums = [float(x) for x in view]
-    if len(nums) not in (2, 3) or not all(math.isfinite(x) for x in nums):
-        raise SceneError(f"view must be AZIMUTH,ELEVATION[,DISTANCE] (degrees, degrees, a multiple of the framing "
-                         f"distance), got {view!r}")
-    az, el = nums[0], nums[1]
-    dist = nums[2] if len(nums) == 3 else 1.0
-    if not -90.0 < el < 90.0:
-        raise SceneError(f"view elevation must lie in (-90, 90) degrees, got {el:g}")
-    if not 0.05 <= dist <= 100.0:
-        raise SceneError(f"view distance must lie in [0.05, 100] (a multiple of the framing distance), got {dist:g}")
-    return az, el, dist
+    if len(nums) not in (2, 3):
+        raise fail(SceneError, TYPE, name="view", kind="AZIMUTH,ELEVATION[,DISTANCE] (degrees, degrees, a multiple "
+                   "of the framing distance)", actual=repr(view))
+    return (ANGLE_DEG.check(nums[0], "view azimuth", SceneError), ELEVATION_DEG.check(nums[1], "view elevation",
+            SceneError), VIEW_DISTANCE.check(nums[2] if len(nums) == 3 else 1.0, "view distance", SceneError))
 
 
 def _basis(up: Sequence[float], front: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -276,27 +301,12 @@ def framing(centre: ArrayLike, radius: float, view: tuple[float, float, float], 
 
 def _relative_light(name: str, spec: Mapping[str, Any], centre: np.ndarray, radius: float, cam_dir_az: float,
                     cam_el: float, up: Sequence[float], front: Sequence[float]) -> dict[str, Any]:
-    known = {"azimuth", "elevation", "distance", "size", "intensity"}
-    unknown = sorted(set(spec) - known)
-    if unknown:
-        raise SceneError(f"light {name!r}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(known))}; "
-                         "or an explicit Mitsuba light with type = point | sphere)")
+    check_keys(spec, f"light {name!r}", RELATIVE_LIGHT, error=SceneError)  # or type = point | sphere: explicit
     # an omitted field: the named default light's (key, fill, back: docs/meshes.md), else OTHER_LIGHT's
-    spec = {**DEFAULT_LIGHTS.get(name, OTHER_LIGHT), **spec}
-    for k in sorted(known):
-        if isinstance(spec[k], bool) or not isinstance(spec[k], (int, float)):
-            raise SceneError(f"light {name!r}: {k} must be a number, got {spec[k]!r}")
-    d = float(spec["distance"])
-    size = float(spec["size"])
-    inten = float(spec["intensity"])
-    if not (d > 1.0 and 0.0 <= size < d - 1.0):
-        raise SceneError(f"light {name!r}: distance must exceed 1 bounding radius and size lie in [0, distance - 1), "
-                         f"got distance {d:g}, size {size:g}")
-    if not (math.isfinite(inten) and inten >= 0):
-        raise SceneError(f"light {name!r}: intensity must be a non-negative number, got {inten!r}")
-    if not (math.isfinite(float(spec["azimuth"])) and math.isfinite(float(spec["elevation"]))):
-        raise SceneError(f"light {name!r}: azimuth and elevation must be finite, got {spec['azimuth']!r}, "
-                         f"{spec['elevation']!r}")
+    spec = check_fields({**DEFAULT_LIGHTS.get(name, OTHER_LIGHT), **spec}, RELATIVE_LIGHT, f"light {name!r}", SceneError)
+    d, size, inten = spec["distance"], spec["size"], spec["intensity"]
+    replace(RELATIVE_LIGHT["size"], hi=d - 1.0, reason="the light stays outside the model's bounding sphere").check(
+        size, f"light {name!r}: size", SceneError)
     el = float(np.clip(cam_el + float(spec["elevation"]), -89.0, 89.0))
     pos = centre + d * radius * direction(cam_dir_az + float(spec["azimuth"]), el, up, front)
     e = math.pi * inten  # irradiance at the centre (intensity = E / pi)
@@ -309,62 +319,34 @@ def _relative_light(name: str, spec: Mapping[str, Any], centre: np.ndarray, radi
             "emitter": {"type": "area", "radiance": {"type": "rgb", "value": value}}}
 
 
-#: the largest intensity or radiance a light may give Mitsuba: its float32 arithmetic overflows not far beyond
-#: (3.4e38; a key light of intensity 1e36 rendered 64,000 "Invalid sample value" warnings and a NaN diffuse layer)
-EMITTER_MAX = 1e30
-
-
 def _emitter_value(name: str, key: str, value: float, how: str) -> float:
-    """``value`` if it is at most :data:`EMITTER_MAX`, else a SceneError naming the light (before any work)."""
-    if not value <= EMITTER_MAX:
-        raise SceneError(f"light {name!r}: its {key} ({how}) is {value:.3g}, beyond the {EMITTER_MAX:g} the renderer's "
-                         "float32 carries; lower the intensity or raise the size")
-    return value
+    """``value`` if it is at most :data:`EMITTER_MAX`, else a SceneError naming the light (before any work: lower
+    the intensity or raise the size)."""
+    return float(EMITTED.check(value, f"light {name!r}: its {key} ({how})", SceneError))
 
 
-def _light_numbers(name: str, key: str, value: Any, count: tuple[int, ...], positive: bool = False,
-                   signed: bool = False) -> None:
-    """A SceneError unless ``value`` is a number (count 1) or a list of ``count`` numbers, each finite and
-    non-negative (``positive``: > 0; ``signed``: any sign), checked before any work (a negative intensity
-    rendered a black image)."""
-    items = value if isinstance(value, (list, tuple)) else [value]
-    ok = (len(items) in count if isinstance(value, (list, tuple)) else 1 in count) and all(
-        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-        and (signed or (v > 0 if positive else v >= 0)) for v in items)
-    if not ok:
-        what = {(1,): "a number", (3,): "3 numbers", (1, 3): "a number or 3 numbers (R, G, B)"}[count]
-        sign = "" if signed else " > 0" if positive else " >= 0"
-        raise SceneError(f"light {name!r}: {key} must be {what}, finite{sign and ' and' + sign}, got {value!r}")
+def _point(where: str, value: Any) -> list[float]:
+    """Three finite numbers [x, y, z] (a position, a direction), or a SceneError naming ``where``."""
+    return COORDINATE.check_array(check_shape(value, where, (3,), SceneError), where, SceneError).tolist()
 
 
 def _explicit_light(name: str, spec: Mapping[str, Any]) -> dict:
-    kind = spec.get("type")
+    kind, where = spec.get("type"), f"light {name!r}"
     if kind == "point":
-        _keys(f"light {name!r}", spec, {"type", "position", "intensity"}, {"position", "intensity"})
-        _light_numbers(name, "position", spec["position"], (3,), signed=True)
-        _light_numbers(name, "intensity", spec["intensity"], (1, 3))
-        for v in spec["intensity"] if isinstance(spec["intensity"], (list, tuple)) else [spec["intensity"]]:
-            _emitter_value(name, "intensity", float(v), "as given")
-        return {"type": "point", "position": spec["position"], "intensity": {"type": "rgb", "value": spec["intensity"]}}
+        check_keys(spec, where, {"type", "position", "intensity"}, ("intensity", "position"), SceneError)
+        check_fields(spec, EXPLICIT_LIGHT, where, SceneError, rgb=EXPLICIT_LIGHT)
+        return {"type": "point", "position": _point(f"{where}: position", spec["position"]),
+                "intensity": {"type": "rgb", "value": spec["intensity"]}}
     if kind == "sphere":
-        _keys(f"light {name!r}", spec, {"type", "center", "radius", "radiance"}, {"center", "radius", "radiance"})
-        _light_numbers(name, "center", spec["center"], (3,), signed=True)
-        _light_numbers(name, "radius", spec["radius"], (1,), positive=True)
-        _light_numbers(name, "radiance", spec["radiance"], (1, 3))
-        for v in spec["radiance"] if isinstance(spec["radiance"], (list, tuple)) else [spec["radiance"]]:
-            _emitter_value(name, "radiance", float(v), "as given")
-        return {"type": "sphere", "center": list(spec["center"]), "radius": spec["radius"],
+        check_keys(spec, where, {"type", "center", "radius", "radiance"}, ("center", "radiance", "radius"), SceneError)
+        out = check_fields(spec, EXPLICIT_LIGHT, where, SceneError, rgb=("radiance",))
+        return {"type": "sphere", "center": _point(f"{where}: center", spec["center"]), "radius": out["radius"],
                 "emitter": {"type": "area", "radiance": {"type": "rgb", "value": spec["radiance"]}}}
-    raise SceneError(f"light {name!r}: type must be point or sphere, got {kind!r}")
+    raise fail(SceneError, CHOICE, name=f"{where}: type", choices="point, sphere", actual=repr(kind))
 
 
 def _keys(where: str, table: Mapping[str, Any], allowed: set[str], required: set[str] = frozenset()) -> None:  # type: ignore[assignment]
-    unknown = sorted(set(table) - allowed)
-    if unknown:
-        raise SceneError(f"{where}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(allowed))})")
-    missing = sorted(required - set(table))
-    if missing:
-        raise SceneError(f"{where}: missing {', '.join(missing)}")
+    check_keys(table, where, allowed, sorted(required), SceneError)
 
 
 # ---- the loader ----------------------------------------------------------------------------------------
@@ -411,16 +393,13 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     """
     _keys(source, doc, {"name", "description", "units", "camera", "shapes", "lights", "orbit_deg_per_frame",
                         "light_orbit_deg_per_frame", "lit_from_behind", "views"}, {"shapes"})
-    if not isinstance(doc.get("lit_from_behind", False), bool):
-        raise SceneError(f"{source}: lit_from_behind must be true or false, got {doc['lit_from_behind']!r}")
+    Flag("lit_from_behind").check(doc.get("lit_from_behind", False), f"{source}: lit_from_behind", SceneError)
     check_size(width, height)
     cli_units = check_units(units)
-    doc_units = check_units(doc.get("units"))
-    if cli_units and doc_units and cli_units != doc_units:
-        raise SceneError(f"conflicting units: --units {cli_units}, but {source} says units = {doc_units!r}")
+    doc_units = _agreeing_units(cli_units, doc.get("units"), source)
     material_map = dict(material_map or {})
-    shapes_doc = doc["shapes"]
-    if not isinstance(shapes_doc, Mapping) or not shapes_doc:
+    shapes_doc = check_keys(doc["shapes"], f"{source}: [shapes]", error=SceneError)
+    if not shapes_doc:
         raise SceneError(f"{source}: [shapes] must hold at least one shape table")
     notes: list[str] = []
     shapes: dict[str, dict] = {}
@@ -435,12 +414,8 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     claimed: set[str] = set()
     for sid, table in shapes_doc.items():
         where = f"{source}: shape {sid!r}"
-        if not isinstance(table, Mapping):
-            raise SceneError(f"{where} must be a table")
-        kind = table.get("type")
-        is_sss = table.get("sss", kind in ("mesh", "generated"))
-        if not isinstance(is_sss, bool):
-            raise SceneError(f"{where}: sss must be true or false")
+        kind = check_keys(table, where, error=SceneError).get("type")
+        is_sss = Flag("sss").check(table.get("sss", kind in ("mesh", "generated")), f"{where}: sss", SceneError)
         meshes: tuple[Mesh, ...] | None = None
         if kind == "mesh":
             _keys(where, table, {"type", "file", "units", "material", "materials", "sss"}, {"file"})
@@ -448,9 +423,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             if base is not None and not fpath.is_absolute():
                 fpath = base / fpath
             inspect_mesh_file(fpath, width, height)
-            shape_units = check_units(table.get("units"))
-            if cli_units and shape_units and cli_units != shape_units:
-                raise SceneError(f"conflicting units: --units {cli_units}, but {where} says units = {shape_units!r}")
+            shape_units = _agreeing_units(cli_units, table.get("units"), where)
             unit = cli_units or shape_units or doc_units
             assumed = unit is None
             unit = unit or DEFAULT_UNITS[FORMATS[fpath.suffix.lower()]]
@@ -494,8 +467,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         else:
             own = {m.name: material_map[m.name] for m in meshes if m.name in material_map}
         if "materials" in table:
-            if not isinstance(table["materials"], Mapping):
-                raise SceneError(f"{where}: materials must be a table object name -> material")
+            check_keys(table["materials"], f"{where}: materials (object name -> material)", error=SceneError)
             own = {**{str(k): str(v) for k, v in table["materials"].items()}, **own}
         claimed.update(own)
         scale = UNITS_MM[unit]
@@ -517,11 +489,8 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                     problems.append(o.problem)
         objects.extend(objs)
         mesh_vertices.extend(m.vertices.astype(np.float64) * scale for m in meshes)
-    unknown = sorted(set(material_map) - claimed)
-    if unknown:
-        names = [o.name for o in objects] + [s for s in shapes if s not in {o.id for o in objects}]
-        raise SceneError(f"material map names {', '.join(map(repr, unknown))}, which {source!r} does not have "
-                         f"(its objects: {', '.join(names)})")
+    _unclaimed(set(material_map) - claimed, source,
+               [o.name for o in objects] + [s for s in shapes if s not in {o.id for o in objects}])
     if not sss:
         raise SceneError(f"{source}: no shape is an SSS object (sss = true)")
     if default_material:
@@ -545,9 +514,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         vw = parse_view(view)
         up_v = cam.get("up", DEFAULT_UP)
         front = cam.get("front", DEFAULT_FRONT)
-        fov = float(cam.get("fov", DEFAULT_FOV))
-        if not 1.0 <= fov <= 150.0:
-            raise SceneError(f"{source}: camera fov must lie in [1, 150] degrees, got {fov:g}")
+        fov = FOV_DEG.check(cam.get("fov", DEFAULT_FOV), f"{source}: camera fov", SceneError)
         if not mesh_vertices:
             raise SceneError(f"{source}: automatic framing needs a mesh or generated shape; give camera origin, "
                              "target, up and fov")
@@ -564,9 +531,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         light_doc = DEFAULT_LIGHTS
     lights: dict[str, dict] = {}
     for lid, ltable in dict(light_doc).items():
-        if not isinstance(ltable, Mapping):
-            raise SceneError(f"{source}: light {lid!r} must be a table")
-        if "type" in ltable:
+        if "type" in check_keys(ltable, f"{source}: light {lid!r}", error=SceneError):
             lights[lid] = _explicit_light(lid, ltable)
         else:
             if explicit:
@@ -591,21 +556,14 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
 def _named_views(source: str, table: Any, explicit: bool) -> tuple[tuple[str, tuple], ...]:
     """A scene's named cameras (``[views.NAME]``: origin, target, up, fov, as an explicit [camera]): what
     ``--view NAME`` picks for that scene; only beside an explicit camera."""
-    if not isinstance(table, Mapping):
-        raise SceneError(f"{source}: views must be a table of named cameras")
-    if table and not explicit:
+    if check_keys(table, f"{source}: views (named cameras)", error=SceneError) and not explicit:
         raise SceneError(f"{source}: named [views] need an explicit [camera] (origin, target, up, fov)")
     out = []
     for name, cam in table.items():
-        if not isinstance(cam, Mapping):
-            raise SceneError(f"{source}: view {name!r} must be a table")
-        _keys(f"{source}: view {name!r}", cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
-        for key in ("origin", "target", "up"):
-            _light_numbers(f"view {name}", key, cam[key], (3,), signed=True)
-        if not (isinstance(cam["fov"], (int, float)) and 1.0 <= cam["fov"] <= 150.0):
-            raise SceneError(f"{source}: view {name!r}: fov must lie in [1, 150] degrees, got {cam['fov']!r}")
-        out.append((str(name).lower(), (tuple(map(float, cam["origin"])), tuple(map(float, cam["target"])),
-                                        tuple(map(float, cam["up"])), float(cam["fov"]))))
+        where = f"{source}: view {name!r}"
+        _keys(where, cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
+        origin, target, up = (tuple(_point(f"{where}: {key}", cam[key])) for key in ("origin", "target", "up"))
+        out.append((str(name).lower(), (origin, target, up, float(FOV_DEG.check(cam["fov"], f"{where}: fov", SceneError)))))
     return tuple(out)
 
 
@@ -651,7 +609,8 @@ def _primitive(where: str, kind: Any, table: Mapping[str, Any]) -> dict:
         if "translate" in table or "scale" in table:
             entry["__to_world"] = (list(table.get("translate", [0, 0, 0])), list(table.get("scale", [1, 1, 1])))
         return entry
-    raise SceneError(f"{where}: type must be one of mesh, generated, sphere, rectangle, cube; got {kind!r}")
+    raise fail(SceneError, CHOICE, name=f"{where}: type", choices="mesh, generated, sphere, rectangle, cube",
+               actual=repr(kind))
 
 
 # ---- the built-in scenes -------------------------------------------------------------------------------

@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike
 
 from ..cache import cache_file
 from ..errors import SceneError
+from ..quantities import SIZE_PX, Quantity
 from ..io import atomic_output
 from ..registry import Registry
 from ..screenspace.camera import Camera
@@ -254,15 +255,12 @@ def scene_camera(spec: SceneSpec, width: int, height: int, frame: int = 0) -> Ca
 
 def check_size(width: int, height: int) -> None:
     """A SceneError unless width and height are integers in :data:`SIZE_RANGE`."""
-    lo, hi = SIZE_RANGE
     for v, name in ((width, "width"), (height, "height")):
-        if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and lo <= v <= hi):
-            raise SceneError(f"image {name} must be an integer in [{lo}, {hi}], got {v!r}")
+        SIZE_PX.within(*SIZE_RANGE).check(v, f"image {name}", SceneError)
 
 
 def check_spp(spp: int) -> None:
-    if not (isinstance(spp, (int, np.integer)) and not isinstance(spp, bool) and spp >= 1):
-        raise SceneError(f"samples per pixel must be a positive integer, got {spp!r}")
+    Quantity("spp", 1, math.inf, "", "samples per pixel", integer=True, hi_open=True).check(spp, "spp", SceneError)
 
 
 #: Mitsuba's perspective sensor's default clip planes (world units: mm), kept wherever they hold the scene

@@ -12,7 +12,11 @@ from typing import Any, Callable
 import numpy as np
 
 from ..errors import SignalError
+from ..quantities import Quantity
 from ..registry import Registry
+
+#: a width or radius of a test signal's shape (pixels)
+PIXELS = Quantity("width", 0.0, 1e6, "px", "a shape inside a test image", lo_open=True)
 
 _SUPER = 8
 
@@ -60,16 +64,14 @@ def disk(size: int = 256, radius_px: float | None = None) -> np.ndarray:
     """A white disk on black (the 'dot' of supplement Fig. S.5); default radius size / 16."""
     size = _check_size(size)
     r = size / 16.0 if radius_px is None else float(radius_px)
-    if not r > 0:
-        raise SignalError(f"disk radius must be > 0 pixels, got {radius_px!r}")
+    PIXELS.check(r, "disk radius", SignalError)
     return _rgb(_coverage(size, lambda x, y: x * x + y * y < r * r))
 
 
 def line(size: int = 256, width_px: float = 1.0, angle_deg: float = 0.0) -> np.ndarray:
     """A thin bright line of ``width_px`` through the centre (angle from vertical)."""
     size = _check_size(size)
-    if not width_px > 0:
-        raise SignalError(f"line width must be > 0 pixels, got {width_px!r}")
+    PIXELS.check(width_px, "line width", SignalError)
     a = np.deg2rad(float(angle_deg))
     ca, sa = np.cos(a), np.sin(a)
     return _rgb(_coverage(size, lambda x, y: np.abs(x * ca + y * sa) < width_px / 2.0))

@@ -17,13 +17,13 @@ normal incidence and 0.79 at 45 degrees).
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 
 from ..errors import SceneError
+from ..quantities import LENGTH_MM
 from .scenes import SceneSpec, _T, check_size, get_scene, mitsuba, scene_camera, scene_lights
 
 
@@ -116,13 +116,6 @@ def incidence_angle(scene: str | SceneSpec, width: int, height: int, frame: int 
     return out
 
 
-def _check_positive(value: object, what: str) -> float:
-    if isinstance(value, bool) or not (isinstance(value, (int, float, np.integer, np.floating))
-                                       and math.isfinite(value) and value > 0):
-        raise SceneError(f"{what} must be a positive number, got {value!r}")
-    return float(value)
-
-
 def box_thickness_mm(shape: dict) -> float:
     """The thickness (mm) of a Mitsuba ``cube`` shape along its local z axis: 2 |to_world e_z| (the
     unit cube spans [-1, 1]^3)."""
@@ -137,7 +130,7 @@ def thin_scene(scene: str | SceneSpec, thickness_mm: float) -> SceneSpec:
     z = +1 face and moves the z = -1 face up (module docstring). A SceneError for a scene with no SSS
     box, or a thickness not below the box's. Named ``<name>-t<thickness>``."""
     spec = get_scene(scene)
-    t = _check_positive(thickness_mm, "the thickness (mm)")
+    t = float(LENGTH_MM.check(thickness_mm, "the thickness", SceneError))
     base = spec.shapes()
     boxes = [sid for sid in spec.sss_shapes if base[sid].get("type") == "cube"]
     if not boxes:

@@ -59,7 +59,10 @@ from ..backends.adaptive_plan import (
     reference_update,
 )
 from ..errors import PassError, SettingsError
-from ..quantities import FRACTION, Choice, Quantity, check_finite
+from ..quantities import FRACTION, Choice, Flag, Quantity, check_finite, check_instance, check_shape
+
+#: the history's mean sample counts and variances (Xie 2020 Sec. 4.1.2): non-negative
+HISTORY_MOMENT = Quantity("moment", 0.0, math.inf, "", "a mean count or a variance", hi_open=True)
 from ..settings import Settings, check_float, check_int, setting
 from .burley import BURLEY_SPP
 from .camera import check_motion
@@ -103,9 +106,7 @@ class AdaptiveSettings(Settings):
 def _settings(settings: object) -> AdaptiveSettings:
     if settings is None:
         return AdaptiveSettings()
-    if not isinstance(settings, AdaptiveSettings):
-        raise PassError(f"settings must be AdaptiveSettings, got {type(settings).__name__}")
-    return settings
+    return check_instance(settings, AdaptiveSettings, "settings", PassError)
 
 
 def new_history(height: int, width: int, *, available: bool = False) -> np.ndarray:
@@ -125,36 +126,27 @@ def new_history(height: int, width: int, *, available: bool = False) -> np.ndarr
 
 def check_history(history: ArrayLike) -> NDArray[np.float32]:
     """``history`` as an (H, W, 4) float32 array with finite, valid entries, else a PassError."""
-    arr = np.asarray(history)
-    if arr.ndim != 3 or arr.shape[2] != HISTORY_CHANNELS:
-        raise PassError(f"the adaptive history must be an (H, W, {HISTORY_CHANNELS}) array, got shape {arr.shape}")
-    if not np.issubdtype(arr.dtype, np.floating):
-        raise PassError(f"the adaptive history must hold floats, got {arr.dtype}")
-    arr = arr.astype(np.float32, copy=False)
+    label = "the adaptive history"
+    arr = check_shape(history, label, ("H", "W", HISTORY_CHANNELS), PassError, "f", np.float32)
     # one cheap pass first (a sum is NaN or inf if any entry is); the exact test only when it fails
     if not math.isfinite(float(arr.sum(dtype=np.float64))):
         check_finite(arr, "the adaptive history", PassError)
     if arr.size and (float(arr[..., N_BAR].min()) < 0 or float(arr[..., VAR].min()) < 0):
-        raise PassError("the adaptive history holds a negative mean count or variance")
+        HISTORY_MOMENT.check_array(arr[..., [N_BAR, VAR]], f"{label}'s mean counts and variances", PassError)
     return arr
 
 
 def _mask(mask: ArrayLike | None, shape: tuple[int, ...]) -> NDArray[np.bool_]:
     if mask is None:
         return np.ones(shape, bool)
-    m = np.asarray(mask)
-    if m.shape != shape:
-        raise PassError(f"the mask must be (H, W) = {shape}, got {m.shape}")
-    return m.astype(bool)
+    return check_shape(mask, "the mask", shape, PassError, "iufb", bool)
 
 
 def shading_value(rgb: ArrayLike, gamma: float = 2.2) -> NDArray[np.float32]:
     """The per-pixel value S the history records: gamma-corrected luminance Y^(1/gamma) (H, W) float32
     of linear RGB (H, W, 3), Y = 0.2126 R + 0.7152 G + 0.0722 B (ITU-R BT.709), as Xie 2020 Sec. 4.1.2
     records "the moving average of gamma-corrected luminance to consider human perception"."""
-    a = np.asarray(rgb, dtype=np.float32)
-    if a.ndim != 3 or a.shape[2] != 3:
-        raise PassError(f"shading_value needs an (H, W, 3) RGB image, got shape {a.shape}")
+    a = check_shape(rgb, "shading_value's RGB image", ("H", "W", 3), PassError, dtype=np.float32)
     return reference_luminance(a, GAMMA.check(gamma, "gamma", SettingsError))
 
 
@@ -183,9 +175,7 @@ def clamp_counts(n_hat: ArrayLike, settings: AdaptiveSettings | None = None,
 
     n_hat is rounded up: the count is the smallest that reaches the target variance."""
     s = _settings(settings)
-    nh = np.asarray(n_hat, dtype=np.float64)
-    if nh.ndim != 2:
-        raise PassError(f"n_hat must be an (H, W) array, got shape {nh.shape}")
+    nh = check_shape(n_hat, "n_hat", ("H", "W"), PassError, dtype=np.float64)
     return _clamp(nh, s, _mask(mask, nh.shape))
 
 
@@ -219,12 +209,8 @@ def update_history(history: ArrayLike, value: ArrayLike, counts: ArrayLike, sett
     s = _settings(settings)
     h = check_history(history)
     shape = h.shape[:2]
-    v = np.asarray(value)
-    if v.shape != shape:
-        raise PassError(f"the shading value must be (H, W) = {shape}, got {v.shape}")
-    n = np.asarray(counts)
-    if n.shape != shape:
-        raise PassError(f"the sample counts must be (H, W) = {shape}, got {n.shape}")
+    v = check_shape(value, "the shading value", shape, PassError)
+    n = check_shape(counts, "the sample counts", shape, PassError)
     m = _mask(mask, shape)
     check_finite(v[m], "the shading value", PassError, "pixels inside the mask")
     return _update(h, v, n, s, m)
@@ -311,8 +297,7 @@ def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150,
     pixels = check_int("pixels", pixels, 1, 1_000_000)
     seed = check_int("seed", seed, 0, 2**63 - 1)
     scale = check_float("scale", scale, 1e-12, 1e12)
-    if not isinstance(disocclusion, bool):
-        raise PassError(f"disocclusion must be true or false, got {disocclusion!r}")
+    Flag("disocclusion").check(disocclusion, "disocclusion", PassError)
     history = new_history(1, pixels, available=not disocclusion)
     series = {k: np.zeros((frames, pixels)) for k in ("n_hat", "n", "value", "mu", "sigma")}
     slots = np.arange(s.b_max)

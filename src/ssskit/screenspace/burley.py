@@ -32,20 +32,20 @@ import numpy as np
 
 from ..backends import BACKENDS, DEFAULT_BACKEND, get_backend
 from ..backends.burley_plan import (
-    C_RANGE,
-    MAX_SPP,
-    SAMPLERS,
+    BURLEY_SPP,
+    SAMPLER,
     SEQUENCES,
     XIE_C,
+    XIE_C_RANGE,
     XIE_MIP_SCALE,
     BurleyParams,
     BurleyPlan,
     SampleCounts,
     build_burley_plan,
 )
-from ..backends.plan import profile_ids
+from ..backends.plan import per_id, profile_ids
 from ..errors import GBufferError, PassError
-from ..quantities import FRACTION, FRAME, SCALE, SEED, Choice, Flag, Quantity
+from ..quantities import FRACTION, FRAME, SCALE, SEED, Choice, Flag, check_instance
 from ..settings import Settings, setting
 from .gbuffer import GBuffer
 
@@ -54,11 +54,8 @@ if TYPE_CHECKING:
     from ..materials import Material
 
 
-#: the Burley sampler (Xie 2020 Sec. 4.2), its samples per pixel, Eq. 21's damping c, the backend: quantities
-#: the pipeline's settings declare too
-SAMPLER = Choice("sampler", SAMPLERS)
-BURLEY_SPP = Quantity("spp", 1, MAX_SPP, "", "samples per pixel of the Burley pass", integer=True)
-XIE_C_RANGE = Quantity("c", C_RANGE[0], C_RANGE[1], "", "Eq. 21's damping (Xie 2020)", lo_open=True, hi_open=True)
+#: the backend (the sampler, spp and c: ssskit.backends.burley_plan's quantities): what the pipeline's settings
+#: declare too
 BACKEND = Choice("backend", BACKENDS.names)
 
 
@@ -101,27 +98,12 @@ def burley_params_for_material(material: Material | str, configuration: str = "s
 
 
 def _settings(settings: BurleySettings | None, overrides: dict[str, Any]) -> BurleySettings:
-    base = BurleySettings() if settings is None else settings
-    if not isinstance(base, BurleySettings):
-        raise PassError(f"settings must be BurleySettings, got {type(base).__name__}")
+    base = check_instance(BurleySettings() if settings is None else settings, BurleySettings, "settings", PassError)
     return base.replace(**overrides) if overrides else base
 
 
 def _params_by_id(params: BurleyParams | Mapping[int, BurleyParams], ids: Iterable[int]) -> dict[int, BurleyParams]:
-    if isinstance(params, BurleyParams):
-        return {int(i): params for i in ids}
-    if not isinstance(params, Mapping):
-        raise PassError(f"the Burley pass needs BurleyParams or a mapping profile id -> BurleyParams, got "
-                        f"{type(params).__name__}")
-    out = {}
-    for i in ids:
-        p = params.get(int(i))
-        if p is None:
-            raise PassError(f"no Burley parameters given for profile id {int(i)}")
-        if not isinstance(p, BurleyParams):
-            raise PassError(f"parameters for profile id {int(i)} must be BurleyParams, got {type(p).__name__}")
-        out[int(i)] = p
-    return out
+    return per_id(params, BurleyParams, ids, "Burley parameters")
 
 
 def burley_plan_for(params: BurleyParams | Mapping[int, BurleyParams], ids: Iterable[int], fx: float, fy: float, settings: BurleySettings) -> BurleyPlan:
@@ -133,12 +115,7 @@ def burley_plan_for(params: BurleyParams | Mapping[int, BurleyParams], ids: Iter
 
 def burley_backend(name: str) -> Backend:
     """The named backend if it has the Burley pass, else a BackendError saying so."""
-    from ..errors import BackendError
-
-    backend = get_backend(name)
-    if "burley" not in backend.passes:
-        raise BackendError(f"backend {backend.name!r} has no Burley pass")
-    return backend
+    return get_backend(name).require("burley")
 
 
 def burley_sss(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, BurleyParams],
@@ -151,8 +128,7 @@ def burley_sss(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, Burle
     ``counts``: an optional (H, W) integer image of samples per pixel (the adaptive sampler's), used
     instead of ``settings.spp``. Pixels without SSS keep their diffuse value.
     """
-    if not isinstance(gbuffer, GBuffer):
-        raise GBufferError(f"expected a GBuffer, got {type(gbuffer).__name__}")
+    check_instance(gbuffer, GBuffer, "gbuffer", GBufferError)
     s = _settings(settings, overrides)
     backend = burley_backend(s.backend)
     ids = profile_ids(gbuffer.profile_id)

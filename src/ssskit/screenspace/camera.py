@@ -16,7 +16,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GBufferError, PassError
-from ..quantities import check_finite
+from ..quantities import Quantity, check_finite, check_shape
+
+#: a camera's image sides (pixels), its positive factors (focal lengths in pixels, world units per mm, the pixel
+#: aspect) and its horizontal field of view
+PIXELS = Quantity("width", 1, 2**31 - 1, "px", "an image side", integer=True)
+FACTOR = Quantity("factor", 0.0, math.inf, "", "a positive scale", lo_open=True, hi_open=True)
+FOV_DEG = Quantity("field of view", 0.0, 180.0, "degrees", "a pinhole camera's", lo_open=True, hi_open=True)
 
 
 @dataclass(frozen=True)
@@ -33,18 +39,11 @@ class Camera:
     world_units_per_mm: float = 1.0
 
     def __post_init__(self) -> None:
-        for name in ("width", "height"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, np.integer)) and v >= 1):
-                raise GBufferError(f"camera: {name} must be a positive integer, got {v!r}")
-        for name in ("fx", "fy", "world_units_per_mm"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and v > 0):
-                raise GBufferError(f"camera: {name} must be a positive finite number, got {v!r}")
-        m = np.asarray(self.world_to_camera, dtype=float)
-        if m.shape != (4, 4) or not np.all(np.isfinite(m)):
-            raise GBufferError(f"camera: world_to_camera must be a finite 4x4 matrix, got shape {m.shape}")
-        object.__setattr__(self, "world_to_camera", m)
+        for name in ("width", "height", "fx", "fy", "world_units_per_mm"):
+            (PIXELS if name in ("width", "height") else FACTOR).check(getattr(self, name), f"camera: {name}",
+                                                                     GBufferError)
+        object.__setattr__(self, "world_to_camera", check_shape(self.world_to_camera, "camera: world_to_camera",
+                                                                (4, 4), GBufferError, finite=True, dtype=float))
         for name in ("fx", "fy", "cx", "cy", "world_units_per_mm"):
             object.__setattr__(self, name, float(getattr(self, name)))
 
@@ -56,10 +55,8 @@ class Camera:
         fx = (W/2) / tan(fov_x/2); fy = fx / pixel_aspect (a pixel that is taller than wide covers
         more of the scene vertically, so fewer pixels per unit length).
         """
-        if not (0 < fov_x_deg < 180):
-            raise GBufferError(f"camera: field of view must lie in (0, 180) degrees, got {fov_x_deg!r}")
-        if not (pixel_aspect > 0 and math.isfinite(pixel_aspect)):
-            raise GBufferError(f"camera: pixel aspect must be positive, got {pixel_aspect!r}")
+        FOV_DEG.check(fov_x_deg, "camera: field of view", GBufferError)
+        FACTOR.check(pixel_aspect, "camera: pixel aspect", GBufferError)
         fx = 0.5 * width / math.tan(math.radians(fov_x_deg) / 2.0)
         return cls(int(width), int(height), fx, fx / pixel_aspect, width / 2.0, height / 2.0,
                    np.eye(4) if world_to_camera is None else np.asarray(world_to_camera, dtype=float),

@@ -46,13 +46,14 @@ from ..backends.adaptive_plan import AVAILABLE, as_plan
 from ..backends.base import PHASES, AdaptiveRunner, Backend
 from ..backends.burley_plan import BurleyParams, BurleyPlan
 from ..backends.plan import profile_ids
-from ..errors import BackendError, PassError, SettingsError
+from ..errors import PassError, SettingsError
 from ..metrics import display_psnr, region_metrics
+from ..quantities import FRAME, check_instance, check_shape, refuse_unused
 from ..settings import FRAMES_RANGE, check_choice, check_int
 from .adaptive import AdaptiveSettings, check_history, new_history, reproject_history
-from .burley import BurleySettings, burley_backend, burley_plan_for
+from .burley import BURLEY_SPP, BurleySettings, burley_backend, burley_plan_for
 from .camera import motion_vectors
-from .gbuffer import GBuffer
+from .gbuffer import RADIANCE, GBuffer
 from .taa import TAASettings, TemporalAA, reprojection_valid
 
 #: the per-frame times :attr:`FrameRun.phases` holds: the runner's phases, the result's readback and the
@@ -147,32 +148,23 @@ def _psnr(reference: np.ndarray | None, image: np.ndarray, mask: np.ndarray) -> 
 def _check(gbuffers: Sequence[GBuffer], burley: BurleySettings | None, adaptive: AdaptiveSettings | None,
            spp: int | None, taa: TAASettings | None, references: Sequence[np.ndarray] | None,
            disocclusion_spp: int | None) -> tuple[BurleySettings, int | None, int | None, list[GBuffer], tuple[int, int]]:
-    b = BurleySettings() if burley is None else burley
-    if not isinstance(b, BurleySettings):
-        raise SettingsError(f"burley must be BurleySettings, got {type(b).__name__}")
+    b = check_instance(BurleySettings() if burley is None else burley, BurleySettings, "burley", SettingsError)
     if (adaptive is None) == (spp is None):
         raise SettingsError("give adaptive settings or a fixed spp, exactly one of them")
-    if adaptive is not None and not isinstance(adaptive, AdaptiveSettings):
-        raise SettingsError(f"adaptive must be AdaptiveSettings, got {type(adaptive).__name__}")
-    if spp is not None:
-        spp = check_int("spp", spp, 1, 65536)
-    if disocclusion_spp is not None:
-        if adaptive is None:
-            raise SettingsError("disocclusion_spp applies to the adaptive counts")
+    check_instance(adaptive, AdaptiveSettings, "adaptive", SettingsError, optional=True)
+    check_instance(taa, TAASettings, "taa", SettingsError, optional=True)
+    spp = None if spp is None else int(BURLEY_SPP.check(spp, "spp", SettingsError))
+    if disocclusion_spp is not None and adaptive is None:
+        refuse_unused(["disocclusion_spp"], "counts", ["adaptive"], "fixed", SettingsError)
+    if disocclusion_spp is not None and adaptive is not None:
         disocclusion_spp = check_int("disocclusion_spp", disocclusion_spp, adaptive.b_min, adaptive.b_max)
-    if taa is not None and not isinstance(taa, TAASettings):
-        raise SettingsError(f"taa must be TAASettings, got {type(taa).__name__}")
-    gbs = list(gbuffers)
-    if not gbs or not all(isinstance(g, GBuffer) for g in gbs):
-        raise PassError("the frame loop needs a non-empty sequence of GBuffers")
-    shape = gbs[0].shape
-    if any(g.shape != shape for g in gbs):
-        raise PassError("the G-buffers of a sequence must share one size")
+    gbs = [check_instance(g, GBuffer, "the frame loop's G-buffers", PassError) for g in gbuffers]
+    if not gbs or any(g.shape != gbs[0].shape for g in gbs):
+        raise PassError("the frame loop needs a non-empty sequence of G-buffers of one size")
     if references is not None and len(references) != len(gbs):
         raise PassError(f"{len(references)} references for {len(gbs)} frames")
-    if b.frame + len(gbs) - 1 > 2**31 - 1:
-        raise SettingsError(f"{len(gbs)} frames from frame {b.frame} pass the last frame number 2^31 - 1")
-    return b, spp, disocclusion_spp, gbs, shape
+    FRAME.check(b.frame + len(gbs) - 1, f"the last frame ({len(gbs)} frames from frame {b.frame})", SettingsError)
+    return b, spp, disocclusion_spp, gbs, gbs[0].shape
 
 
 def _runner(b: BurleySettings, adaptive: AdaptiveSettings | None, history: ArrayLike | None, guide: str | None,
@@ -182,9 +174,7 @@ def _runner(b: BurleySettings, adaptive: AdaptiveSettings | None, history: Array
     from ..backends import BACKENDS, get_backend
 
     sampler = burley_backend(b.backend)
-    g = sampler if guide is None else get_backend(check_choice("backend", guide, BACKENDS.names()))
-    if "adaptive" not in g.passes:
-        raise BackendError(f"backend {g.name!r} has no adaptive guiding pass")
+    g = (sampler if guide is None else get_backend(check_choice("backend", guide, BACKENDS.names()))).require("adaptive")
     h = new_history(*shape) if history is None else check_history(history)
     if h.shape[:2] != shape:
         raise PassError(f"the history is {h.shape[1]}x{h.shape[0]} but the G-buffer is {shape[1]}x{shape[0]}")
@@ -325,12 +315,8 @@ def run_frames(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, 
 
 def _check_added(added: Any, shape: tuple[int, int]) -> np.ndarray:
     """The transmitted light of a G-buffer as an (H, W, 3) array of finite numbers >= 0, or a PassError."""
-    a = np.asarray(added)
-    if a.shape != (*shape, 3):
-        raise PassError(f"the transmitted light must have shape {(*shape, 3)} like the frame, got {a.shape}")
-    if not np.all(np.isfinite(a)) or np.any(a < 0):
-        raise PassError("the transmitted light must be finite and >= 0")
-    return a
+    return RADIANCE.check_array(check_shape(added, "the transmitted light", (*shape, 3), PassError),
+                                "the transmitted light", PassError, "values")
 
 
 def _had_history(prev_inside: np.ndarray | None, motion: np.ndarray | None, shape: tuple[int, int],
@@ -401,14 +387,9 @@ def adaptive_frames(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, 
     ``"adaptive frame k/N"``. ``backend``: where the guiding phase runs (default: the Burley settings'
     backend, which then keeps the history and counts between frames: on gl, on the device).
     """
-    if not isinstance(gbuffer, GBuffer):
-        raise PassError(f"expected a GBuffer, got {type(gbuffer).__name__}")
-    s = AdaptiveSettings() if settings is None else settings
-    if not isinstance(s, AdaptiveSettings):
-        raise PassError(f"settings must be AdaptiveSettings, got {type(s).__name__}")
-    b = BurleySettings() if burley is None else burley
-    if not isinstance(b, BurleySettings):
-        raise PassError(f"burley must be BurleySettings, got {type(b).__name__}")
+    check_instance(gbuffer, GBuffer, "gbuffer", PassError)
+    s = check_instance(AdaptiveSettings() if settings is None else settings, AdaptiveSettings, "settings", PassError)
+    b = check_instance(BurleySettings() if burley is None else burley, BurleySettings, "burley", PassError)
     frames = check_int("frames", frames, *FRAMES_RANGE)
     hook = None if on_frame is None else (lambda fr: on_frame(fr.index, fr.sss, fr.counts))
     say = None if progress is None else (lambda msg: progress(f"adaptive {msg}"))

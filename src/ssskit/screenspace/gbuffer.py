@@ -31,16 +31,25 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass, field, replace
-from numbers import Real
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from ..backends.plan import DEPTH_MM
 from ..errors import GBufferError
+from ..quantities import TYPE, Quantity, check_finite, check_instance, check_shape, fail
 from ..io import check_suffix, read_exr, write_exr
 from .camera import Camera
+
+#: the layers' quantities: a linear camera-space depth (inf: no surface), linear-light radiance, profile ids,
+#: the light projection's irradiance (the transmittance pass's inputs are float32)
+DEPTH_LAYER = Quantity("depth", 0.0, math.inf, "mm", "a linear camera-space depth; inf where there is no surface",
+                       lo_open=True)
+RADIANCE = Quantity("diffuse", 0.0, math.inf, "", "linear-light radiance", hi_open=True)
+PROFILE_ID = Quantity("profile_id", 0, 2**32 - 1, "", "0 is no SSS, k the k-th material named", integer=True)
+IRRADIANCE = Quantity("irradiance", 0.0, float(np.finfo(np.float32).max), "", "an irradiance the float32 pass carries")
 
 LAYERS = ("diffuse", "specular", "albedo", "depth", "normal", "profile_id")
 
@@ -62,28 +71,23 @@ class GBuffer:
     light: dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
-        diffuse = _float_layer("diffuse", self.diffuse, rgb=True)
+        diffuse = _float_layer("diffuse", self.diffuse, ("H", "W", 3))
         h, w = diffuse.shape[:2]
+        if not diffuse.size:
+            raise fail(GBufferError, TYPE, name="layer 'diffuse'", kind="a non-empty layer", actual="shape (0, 0, 3)")
         layers = {"diffuse": diffuse}
         for name in ("specular", "albedo", "normal"):
             value = getattr(self, name)
-            if value is None:
-                value = np.zeros((h, w, 3), np.float32)
-            layers[name] = _float_layer(name, value, rgb=True)
-        layers["depth"] = _float_layer("depth", self.depth, rgb=False, allow_inf=True)
-        layers["profile_id"] = _id_layer(self.profile_id)
-        for name, arr in layers.items():
-            if arr.shape[:2] != (h, w):
-                raise GBufferError(f"layer {name!r} has shape {arr.shape[:2]}, but 'diffuse' is {(h, w)}")
-        depth = layers["depth"]
-        if np.any(depth <= 0):
-            raise GBufferError("layer 'depth' must be positive (linear camera-space depth), found values <= 0")
-        if not np.all(np.isfinite(depth[layers["profile_id"] > 0])):
-            raise GBufferError("layer 'depth' is infinite on pixels whose 'profile_id' marks SSS")
-        if np.any(layers["diffuse"] < 0):
-            raise GBufferError("layer 'diffuse' has negative values (it must be linear-light radiance)")
+            layers[name] = _float_layer(name, np.zeros((h, w, 3), np.float32) if value is None else value, (h, w, 3))
+        depth = layers["depth"] = _float_layer("depth", self.depth, (h, w), allow_inf=True)
+        ids = layers["profile_id"] = check_shape(self.profile_id, "layer 'profile_id'", (h, w), GBufferError, "iub")
+        PROFILE_ID.check_array(ids, "layer 'profile_id'", GBufferError, "pixels")
+        ids = layers["profile_id"] = np.ascontiguousarray(ids, dtype=np.uint32)
+        DEPTH_LAYER.check_array(np.where(depth == np.inf, 1.0, depth), "layer 'depth'", GBufferError, "pixels")
+        DEPTH_MM.check_array(depth[ids > 0], "layer 'depth'", GBufferError, "pixels with SSS")
+        RADIANCE.check_array(diffuse, "layer 'diffuse'", GBufferError, "colour values")
         if not isinstance(self.camera, Camera):
-            raise GBufferError(f"camera must be a Camera, got {type(self.camera).__name__}")
+            raise fail(GBufferError, TYPE, name="camera", kind="a Camera", actual=type(self.camera).__name__)
         if (self.camera.width, self.camera.height) != (w, h):
             raise GBufferError(f"camera is {self.camera.width}x{self.camera.height} but the layers are {w}x{h}")
         if isinstance(self.materials, (bytes, bytearray)) or any(isinstance(m, (bytes, bytearray))
@@ -92,9 +96,9 @@ class GBuffer:
             raise GBufferError(f"materials must be names (str), not bytes, got {self.materials!r}")
         mats = (str(self.materials),) if isinstance(self.materials, (str, Path)) else \
             tuple(str(m) for m in self.materials)  # one name (or file) is one material, not its characters
-        top = int(layers["profile_id"].max(initial=0))
-        if top > len(mats) and mats:
-            raise GBufferError(f"layer 'profile_id' uses id {top} but only {len(mats)} materials are named")
+        if mats:
+            PROFILE_ID.within(hi=len(mats), reason=f"0 is no SSS, k the k-th of the {len(mats)} materials named").check(
+                int(ids.max(initial=0)), "layer 'profile_id'", GBufferError)
         for name, arr in layers.items():
             object.__setattr__(self, name, arr)
         object.__setattr__(self, "materials", mats)
@@ -111,9 +115,7 @@ class GBuffer:
         from ..errors import PassError
         from .transmission import LightView
 
-        ld = _float_layer("light_depth", self.light_depth, rgb=False, allow_inf=True)
-        if ld.shape != (h, w):
-            raise GBufferError(f"layer 'light_depth' has shape {ld.shape}, but the frame is {(h, w)}")
+        ld = _float_layer("light_depth", self.light_depth, (h, w), allow_inf=True)
         try:
             view = LightView.from_dict(self.light)
         except PassError as e:
@@ -121,14 +123,8 @@ class GBuffer:
         if view.size != (w, h):
             raise GBufferError(f"the light projection's size {list(view.size)} is not the 'light_depth' layer's "
                                f"[{w}, {h}]")
-        raw = self.light.get("irradiance")
-        top = float(np.finfo(np.float32).max)  # the pass's inputs are float32 (transmission_inputs)
-        items = (list(raw) if isinstance(raw, (list, tuple)) else
-                 list(raw.reshape(-1)) if isinstance(raw, np.ndarray) and raw.ndim == 1 else [])
-        nums = [float(x) for x in items if isinstance(x, Real) and not isinstance(x, bool)]
-        if not (len(items) == len(nums) == 3 and all(math.isfinite(x) and 0 <= x <= top for x in nums)):
-            raise GBufferError(f"the light projection's 'irradiance' must be 3 finite numbers >= 0 and at most "
-                               f"float32's max {top:.6g}, got {raw!r}")
+        label = "the light projection's 'irradiance'"
+        IRRADIANCE.check_array(check_shape(self.light.get("irradiance"), label, (3,), GBufferError), label, GBufferError)
         object.__setattr__(self, "light_depth", ld)
 
     @property
@@ -272,16 +268,10 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
         if "ssskit_camera" not in header:
             raise GBufferError(f"G-buffer {str(p)!r} has no 'ssskit_camera' header attribute; pass a camera")
         try:
-            camera = Camera.from_dict(json.loads(header["ssskit_camera"]))
-        except json.JSONDecodeError:
-            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_camera' is not JSON") from None
+            camera = Camera.from_dict(_header(p, header, "ssskit_camera"))
         except GBufferError as exc:
             raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None
-    try:
-        named = json.loads(header["ssskit_materials"]) if "ssskit_materials" in header else None
-        meta = json.loads(header.get("ssskit_meta", "{}"))
-    except json.JSONDecodeError:
-        raise GBufferError(f"G-buffer {str(p)!r}: material or meta header attribute is not JSON") from None
+    named, meta = _header(p, header, "ssskit_materials"), _header(p, header, "ssskit_meta", {})
     materials: tuple[str, ...] = ()
     if named is not None:  # a file that names its materials names one for every profile id it uses
         if not (isinstance(named, list) and all(isinstance(m, str) and m.strip() for m in named)):
@@ -293,14 +283,8 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
             raise GBufferError(f"G-buffer {str(p)!r}: layer 'profile_id' uses id {top} but the header "
                                f"'ssskit_materials' names {len(named)} material(s) {named!r} (id k is the k-th name)")
         materials = tuple(named)
-    light = None
-    if "ssskit_light" in header:
-        try:
-            light = json.loads(header["ssskit_light"])
-        except json.JSONDecodeError:
-            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_light' is not JSON") from None
-        if not isinstance(light, dict):
-            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_light' must be a JSON object")
+    light = check_instance(_header(p, header, "ssskit_light"), dict, f"G-buffer {str(p)!r}: header 'ssskit_light' "
+                           "(a JSON object)", GBufferError, optional=True)
     try:
         return GBuffer(diffuse=channels["diffuse"], albedo=channels["albedo"], depth=channels["depth"],
                        profile_id=channels["profile_id"], camera=camera, specular=channels.get("specular"),
@@ -310,31 +294,18 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
         raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None
 
 
-def _float_layer(name: str, value: ArrayLike, rgb: bool, allow_inf: bool = False) -> np.ndarray:
-    arr = np.asarray(value)
-    if not np.issubdtype(arr.dtype, np.floating):
-        raise GBufferError(f"layer {name!r} must be floating point (half or float), got {arr.dtype}")
-    want = 3 if rgb else 2
-    if arr.ndim != want or (rgb and arr.shape[2] != 3):
-        raise GBufferError(f"layer {name!r} must have shape {'(H, W, 3)' if rgb else '(H, W)'}, got {arr.shape}")
-    if arr.shape[0] < 1 or arr.shape[1] < 1:
-        raise GBufferError(f"layer {name!r} is empty")
-    arr = np.ascontiguousarray(arr, dtype=np.float32)
-    if np.any(np.isnan(arr)):
-        raise GBufferError(f"layer {name!r} contains NaN")
-    if not allow_inf and not np.all(np.isfinite(arr)):
-        raise GBufferError(f"layer {name!r} contains infinity")
+def _header(p: Path, header: dict[str, Any], key: str, default: Any = None) -> Any:
+    """The JSON value of the EXR header attribute ``key`` (``default`` where absent), or a GBufferError naming the
+    file."""
+    try:
+        return json.loads(header[key]) if key in header else default
+    except json.JSONDecodeError:
+        raise GBufferError(f"G-buffer {str(p)!r}: header {key!r} is not JSON") from None
+
+
+def _float_layer(name: str, value: ArrayLike, shape: tuple[int | str, ...], allow_inf: bool = False) -> np.ndarray:
+    """A float (half or float) layer of ``shape`` as contiguous float32, without NaN (nor infinity unless
+    ``allow_inf``), or a GBufferError naming it."""
+    arr = np.ascontiguousarray(check_shape(value, f"layer {name!r}", shape, GBufferError, "f"), dtype=np.float32)
+    check_finite(np.where(np.isinf(arr), 0.0, arr) if allow_inf else arr, f"layer {name!r}", GBufferError, "values")
     return arr
-
-
-def _id_layer(value: ArrayLike) -> NDArray[np.uint32]:
-    arr = np.asarray(value)
-    if arr.dtype == bool:
-        arr = arr.astype(np.uint32)
-    if not np.issubdtype(arr.dtype, np.integer):
-        raise GBufferError(f"layer 'profile_id' must be an integer (uint32) layer, got {arr.dtype}")
-    if arr.ndim != 2:
-        raise GBufferError(f"layer 'profile_id' must have shape (H, W), got {arr.shape}")
-    if np.any(arr < 0):
-        raise GBufferError("layer 'profile_id' has negative ids")
-    return np.ascontiguousarray(arr, dtype=np.uint32)

@@ -39,8 +39,9 @@ from typing import Any
 import numpy as np
 
 from ..backends import build_separable_plan, get_backend
-from ..backends.plan import SeparablePlan, profile_ids
+from ..backends.plan import SeparablePlan, per_id, profile_ids
 from ..errors import GBufferError, PassError
+from ..quantities import check_instance
 from ..sampling.taps import SeparableTaps
 from .gbuffer import GBuffer
 from .settings import PassSettings
@@ -54,27 +55,12 @@ def default_depth_mode(taps: SeparableTaps | Mapping[int, SeparableTaps]) -> str
 
 
 def _settings(settings: PassSettings | None, overrides: dict[str, Any]) -> PassSettings:
-    base = PassSettings() if settings is None else settings
-    if not isinstance(base, PassSettings):
-        raise PassError(f"settings must be PassSettings, got {type(base).__name__}")
+    base = check_instance(PassSettings() if settings is None else settings, PassSettings, "settings", PassError)
     return base.replace(**overrides) if overrides else base
 
 
 def _taps_by_id(taps: SeparableTaps | Mapping[int, SeparableTaps], ids: Iterable[int]) -> dict[int, SeparableTaps]:
-    if isinstance(taps, SeparableTaps):
-        return {int(i): taps for i in ids}
-    if not isinstance(taps, Mapping):
-        raise PassError(f"the pass needs SeparableTaps (ssskit.sampling.make_taps) or a mapping profile id -> "
-                        f"taps, got {type(taps).__name__}")
-    out = {}
-    for i in ids:
-        t = taps.get(int(i))
-        if t is None:
-            raise PassError(f"no taps given for profile id {int(i)}")
-        if not isinstance(t, SeparableTaps):
-            raise PassError(f"taps for profile id {int(i)} must be SeparableTaps, got {type(t).__name__}")
-        out[int(i)] = t
-    return out
+    return per_id(taps, SeparableTaps, ids, "taps")  # (SeparableTaps: ssskit.sampling.make_taps)
 
 
 def plan_for(taps: SeparableTaps | Mapping[int, SeparableTaps], ids: Iterable[int], fx: float, fy: float, settings: PassSettings) -> SeparablePlan:
@@ -93,8 +79,7 @@ def separable_sss(gbuffer: GBuffer, taps: SeparableTaps | Mapping[int, Separable
     ``settings`` (:class:`PassSettings`; keyword ``overrides`` such as ``jitter=0.3`` replace its
     fields). Pixels without SSS keep their diffuse value.
     """
-    if not isinstance(gbuffer, GBuffer):
-        raise GBufferError(f"expected a GBuffer, got {type(gbuffer).__name__}")
+    check_instance(gbuffer, GBuffer, "gbuffer", GBufferError)
     s = _settings(settings, overrides)
     backend = get_backend(s.backend)
     ids = profile_ids(gbuffer.profile_id)
@@ -112,8 +97,7 @@ def filter_arrays(diffuse: np.ndarray, depth_mm: np.ndarray, fx: float, fy: floa
     ``fx``/``fy``: focal lengths in pixels. Returns a new (H, W, 3) array in the backend's float type;
     pixels outside the region are copied. 2R passes for a rank-R kernel, horizontal then vertical.
     """
-    if not isinstance(taps, SeparableTaps):
-        raise PassError(f"the pass needs SeparableTaps (ssskit.sampling.make_taps), got {type(taps).__name__}")
+    check_instance(taps, SeparableTaps, "taps (ssskit.sampling.make_taps)", PassError)
     s = _settings(settings, overrides)
     backend = get_backend(s.backend)
     depth_mm = np.asarray(depth_mm)  # shapes are checked by the backend (backends.check_frame)

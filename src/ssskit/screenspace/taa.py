@@ -48,7 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
-from ..quantities import Choice, Quantity, check_finite
+from ..quantities import CHOICE, Choice, Quantity, check_instance, check_shape, fail
 from ..settings import Settings, check_float, setting
 from .camera import Camera, check_motion
 
@@ -120,7 +120,7 @@ def fetch(image: ArrayLike, x: ArrayLike, y: ArrayLike, filter: str = "bilinear"
     elif filter == "catmull-rom":
         offsets, wx, wy = (-1, 0, 1, 2), _catmull_rom_weights(tx), _catmull_rom_weights(ty)
     else:
-        raise PassError(f"unknown fetch filter {filter!r}; known: {', '.join(FETCHES)}")
+        raise fail(PassError, CHOICE, name="fetch filter", choices=", ".join(FETCHES), actual=repr(filter))
     out = np.zeros(fx.shape + img.shape[2:], np.float64)
     for j, oy in enumerate(offsets):
         rows = np.clip(y0 + oy, 0, hh - 1)
@@ -155,7 +155,7 @@ def neighbourhood_box(ycocg: ArrayLike, kind: str = "minmax", gamma: float = 1.0
         low = np.maximum(low, mu - gamma * sd)
         high = np.minimum(high, mu + gamma * sd)
     elif kind != "minmax":
-        raise PassError(f"unknown neighbourhood {kind!r}; known: minmax, variance")
+        raise fail(PassError, CHOICE, name="neighbourhood", choices="minmax, variance", actual=repr(kind))
     return low, high
 
 
@@ -167,12 +167,10 @@ def reprojection_valid(depth: ArrayLike, camera: Camera, previous_depth: ArrayLi
     engines reject disoccluded history): its world point projects inside the previous image and its
     depth there agrees with ``previous_depth`` at the nearest pixel within ``tolerance`` relative.
     Pixels without a surface (depth inf) are valid where the previous frame had none there either."""
-    z = np.asarray(depth, dtype=np.float64)
-    zp = np.asarray(previous_depth, dtype=np.float64)
-    if z.ndim != 2 or zp.shape != z.shape:
-        raise PassError(f"depth and previous depth must be (H, W) arrays of one shape, got {z.shape} and {zp.shape}")
-    if not (isinstance(camera, Camera) and isinstance(previous_camera, Camera)):
-        raise PassError("reprojection_valid needs two Camera objects")
+    z = check_shape(depth, "depth", ("H", "W"), PassError, dtype=np.float64)
+    zp = check_shape(previous_depth, "previous depth", z.shape, PassError, dtype=np.float64)
+    for name, cam in (("camera", camera), ("previous_camera", previous_camera)):
+        check_instance(cam, Camera, name, PassError)
     tol = check_float("tolerance", tolerance, 0.0, math.inf)
     hh, ww = z.shape
     finite = np.isfinite(z)
@@ -196,12 +194,7 @@ def reprojection_valid(depth: ArrayLike, camera: Camera, previous_depth: ArrayLi
 # ---- the resolve ---------------------------------------------------------------------------------------------
 
 def _check_frame(current: ArrayLike) -> NDArray[np.float64]:
-    a = np.asarray(current)
-    if a.ndim != 3 or a.shape[2] != 3:
-        raise PassError(f"TAA needs an (H, W, 3) RGB frame, got shape {a.shape}")
-    a = a.astype(np.float64)
-    check_finite(a, "the TAA input frame", PassError)
-    return a
+    return check_shape(current, "the TAA input frame", ("H", "W", 3), PassError, dtype=np.float64, finite=True)
 
 
 @overload
@@ -231,23 +224,17 @@ def taa_resolve(current: ArrayLike, history: ArrayLike | None = None, motion: Ar
     take the current frame). Returns the (H, W, 3) float32 output, and with ``return_weight`` also the
     (H, W) weight a of the current frame used per pixel (1 where the history was rejected)."""
     s = TAASettings() if settings is None else settings
-    if not isinstance(s, TAASettings):
-        raise PassError(f"settings must be TAASettings, got {type(s).__name__}")
+    check_instance(s, TAASettings, 'settings', PassError)
     cur = _check_frame(current)
     hh, ww = cur.shape[:2]
     if history is None:
         out = cur.astype(np.float32)
         return (out, np.ones((hh, ww))) if return_weight else out
-    hist = _check_frame(history)
-    if hist.shape != cur.shape:
-        raise PassError(f"the TAA history is {hist.shape[1]}x{hist.shape[0]} but the frame is {ww}x{hh}")
+    hist = check_shape(history, "the TAA history", cur.shape, PassError, dtype=np.float64, finite=True)
     v, u = np.mgrid[0:hh, 0:ww] + 0.5
     ok = np.ones((hh, ww), bool)
     if valid is not None:
-        vm = np.asarray(valid)
-        if vm.shape != (hh, ww):
-            raise PassError(f"valid must be (H, W) = {(hh, ww)}, got {vm.shape}")
-        ok &= vm.astype(bool)
+        ok &= check_shape(valid, "valid", (hh, ww), PassError, "iufb", bool)
     if motion is not None:
         mv = check_motion(motion, (hh, ww))
         u = u + mv[..., 0]
@@ -273,8 +260,7 @@ class TemporalAA:
 
     def __init__(self, settings: TAASettings | None = None) -> None:
         s = TAASettings() if settings is None else settings
-        if not isinstance(s, TAASettings):
-            raise PassError(f"settings must be TAASettings, got {type(s).__name__}")
+        check_instance(s, TAASettings, 'settings', PassError)
         self.settings = s
         self.history: np.ndarray | None = None
 

@@ -33,7 +33,6 @@ measurement of the map's thickness against the ray-cast chord.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 from numbers import Real
@@ -45,6 +44,7 @@ from ..backends.spread_plan import SlotSpread
 from ..backends.transmission_plan import LUT_SIZE, UE_MAX_OPTICAL_DEPTH, SlotModel, TransmissionPlan, build_transmission_plan
 from ..errors import PassError
 from ..materials import Material
+from ..quantities import LENGTH_MM, Quantity, check_instance, check_shape
 from ..profiles.gaussians import DEON2007_SKIN_VARIANCES, DEON2007_SKIN_WEIGHTS
 
 if TYPE_CHECKING:
@@ -52,18 +52,21 @@ if TYPE_CHECKING:
 
 #: Jimenez 2010's wrap of the back irradiance (SeparableSSS.h: saturate(0.3 + dot(light, -normal)))
 JIMENEZ2010_WRAP = 0.3
+#: UE's positive scales (WorldUnitScale, DistanceScale, ExtinctionScale) and its non-negative factors (a tint
+#: channel, NormalScale); Jimenez 2010's translucency (1 would scale the thickness to 0)
+UE_SCALE = Quantity("scale", 0.0, math.inf, "", "a positive scale", lo_open=True, hi_open=True)
+TINT = Quantity("tint", 0.0, math.inf, "", "a non-negative factor", hi_open=True)
+TRANSLUCENCY = Quantity("translucency", 0.0, 1.0, "", "1 would pass all light through", hi_open=True)
 
 
 def jimenez2010_model(translucency: float = 0.0, sss_width_mm: float | None = None) -> SlotModel:
     """Jimenez et al. 2010's skin transmittance (module docstring): scale 8.25 (1 - translucency) /
     sss_width_mm, or 1 (thickness in mm) when ``sss_width_mm`` is None."""
-    if not (0.0 <= translucency < 1.0):
-        raise PassError(f"translucency must lie in [0, 1), got {translucency!r}")
+    TRANSLUCENCY.check(translucency, "translucency", PassError)
     if sss_width_mm is None:
         scale = 1.0
     else:
-        if not (math.isfinite(sss_width_mm) and sss_width_mm > 0):
-            raise PassError(f"the SSS width must be a positive number of mm, got {sss_width_mm!r}")
+        LENGTH_MM.check(sss_width_mm, "the SSS width", PassError)
         scale = 8.25 * (1.0 - translucency) / sss_width_mm
     w = np.asarray(DEON2007_SKIN_WEIGHTS, float).T  # (3, 6)
     v = np.asarray(DEON2007_SKIN_VARIANCES, float)
@@ -135,8 +138,9 @@ def unreal_profile_distances_mm(world_unit_scale: float = 0.1, distance_scale: f
     """(LUT_SIZE,) the radii (mm) at which UE tabulates its transmission profile: r_i = (i / N 5 cm + 0.06 cm) 10
     mm/cm / u, u = WorldUnitScale DistanceScale / 0.1 ([UE58] BurleyNormalizedSSS.cpp, ComputeTransmissionProfileBurley,
     called with WorldUnitScale x DistanceScale by SubsurfaceProfile.cpp)."""
-    if not (world_unit_scale > 0 and distance_scale > 0 and math.isfinite(world_unit_scale * distance_scale)):
-        raise PassError(f"WorldUnitScale and DistanceScale must be positive, got {world_unit_scale!r}, {distance_scale!r}")
+    for name, v in (("WorldUnitScale", world_unit_scale), ("DistanceScale", distance_scale),
+                    ("WorldUnitScale x DistanceScale", world_unit_scale * distance_scale)):
+        UE_SCALE.check(v, name, PassError)
     inv_unit = 0.1 / (world_unit_scale * distance_scale)
     i = np.arange(LUT_SIZE)
     return (i / LUT_SIZE * UE_MAX_OPTICAL_DEPTH + UE_PROFILE_RADIUS_OFFSET_CM) * 10.0 * inv_unit
@@ -149,12 +153,9 @@ def unreal_profile_table(d_mm: Any, tint: Any = (1.0, 1.0, 1.0), world_unit_scal
     entry black. UE writes it as 0.25 A (e^(-S r / L) + 3 e^(-S r / (3 L))) with A = 1 (UE 5.8: white; the base
     colour comes in the recombine pass), S = s_sl(SurfaceAlbedo) and L = DMFP = d s_sl (SubsurfaceScatteringMath.h),
     so S / L = 1 / d, the Burley profile's d (Christensen and Burley 2015, [CB15])."""
-    d = np.asarray(d_mm, float)
-    w = np.asarray(tint, float)
-    if d.shape != (3,) or not np.all(np.isfinite(d)) or np.any(d <= 0):
-        raise PassError(f"the Burley d must be 3 positive numbers of mm, got {d_mm!r}")
-    if w.shape != (3,) or not np.all(np.isfinite(w)) or np.any(w < 0):
-        raise PassError(f"TransmissionTintColor must be 3 numbers >= 0, got {tint!r}")
+    d = LENGTH_MM.check_array(check_shape(d_mm, "the Burley d", (3,), PassError), "the Burley d", PassError)
+    w = TINT.check_array(check_shape(tint, "TransmissionTintColor", (3,), PassError), "TransmissionTintColor",
+                         PassError)
     r = unreal_profile_distances_mm(world_unit_scale, distance_scale)[None, :]
     table = w[:, None] * 0.25 * (np.exp(-r / d[:, None]) + 3.0 * np.exp(-r / (3.0 * d[:, None])))
     table[:, -1] = 0.0  # bMakeLastPixelBlack
@@ -167,10 +168,8 @@ def unreal_model(d_mm: Any, tint: Any = (1.0, 1.0, 1.0), extinction_scale: float
     its profile table, od_per_mm = ExtinctionScale / 10 (the thickness in cm, UE's world unit), od_offset =
     NormalScale / 2 ([UE58] TransmissionThickness.ush, CalculateEncodedOpticalDepth), wrap 2 (no cosine).
     Defaults: FSubsurfaceProfileStruct's (:data:`UE_TRANSMISSION_DEFAULTS`)."""
-    if not (math.isfinite(extinction_scale) and extinction_scale > 0):
-        raise PassError(f"ExtinctionScale must be positive, got {extinction_scale!r}")
-    if not (math.isfinite(normal_scale) and normal_scale >= 0):
-        raise PassError(f"NormalScale must be >= 0, got {normal_scale!r}")
+    UE_SCALE.check(extinction_scale, "ExtinctionScale", PassError)
+    TINT.check(normal_scale, "NormalScale", PassError)
     table = unreal_profile_table(d_mm, tint, world_unit_scale, distance_scale)
     zero = np.zeros((3, 1))
     return SlotModel(zero, zero, zero, 1.0, 2.0, "unreal", lut=table, od_per_mm=extinction_scale / 10.0,
@@ -221,15 +220,15 @@ def _is_integral(x: Any) -> bool:
     return _is_number(x) and math.isfinite(x) and float(x).is_integer()
 
 
-def _three_finite(name: str, value: Any, fail: Callable[[str], PassError]) -> tuple[float, float, float]:
-    """A projection field of 3 finite numbers (a list, tuple or 1D array), or ``fail``'s error naming it."""
-    if isinstance(value, np.ndarray) and value.ndim == 1:
-        value = value.tolist()
-    if not (isinstance(value, (list, tuple)) and len(value) == 3 and all(_is_number(x) for x in value)):
-        raise fail(f"{name!r} must be 3 numbers [x, y, z], got {value!r}")
-    if not all(math.isfinite(x) for x in value):
-        raise fail(f"{name!r} must be 3 finite numbers, got {value!r}")
-    return float(value[0]), float(value[1]), float(value[2])
+def _three_finite(name: str, value: Any) -> tuple[float, float, float]:
+    """A projection field of 3 finite numbers [x, y, z] (a list, tuple or 1D array), or a PassError naming it."""
+    label = f"the light projection's {name!r}"
+    x, y, z = check_shape(value, label, (3,), PassError, finite=True, dtype=float).tolist()
+    return x, y, z
+
+
+#: the light map's sides (texels)
+MAP_SIDE = Quantity("size", 1, 2**31 - 1, "texels", "a light map's side [W, H]", integer=True)
 
 
 @dataclass(frozen=True)
@@ -279,14 +278,13 @@ class LightView:
         def fail(msg: str) -> PassError:
             return PassError(f"the light projection is malformed: {msg}")
 
-        if not isinstance(d, dict):
-            raise fail(f"it must be a JSON object, got {type(d).__name__}")
+        check_instance(d, dict, "the light projection (a JSON object)", PassError)
         if d.get("type", "orthographic") != "orthographic":
             raise fail(f"type {d.get('type')!r} (only 'orthographic')")
         missing = [k for k in ("direction", "origin", "u", "v", "texel_mm", "size") if k not in d]
         if missing:
             raise fail(f"missing field(s) {', '.join(repr(k) for k in missing)}")
-        vecs = [_three_finite(k, d[k], fail) for k in ("direction", "origin", "u", "v")]
+        vecs = [_three_finite(k, d[k]) for k in ("direction", "origin", "u", "v")]
         axes = {"direction": vecs[0], "u": vecs[2], "v": vecs[3]}
         for k, x in axes.items():
             norm = math.sqrt(sum(c * c for c in x))
@@ -297,17 +295,12 @@ class LightView:
             dot = sum(p * q for p, q in zip(axes[a], axes[b], strict=True))
             if not abs(dot) <= UNIT_TOL:
                 raise fail(f"{a!r} and {b!r} must be orthogonal (|dot| <= {UNIT_TOL:g}), got dot {dot:.6g}")
-        size = d["size"]
-        if isinstance(size, np.ndarray) and size.ndim == 1:
-            size = size.tolist()
-        if not (isinstance(size, (list, tuple)) and len(size) == 2
-                and all(_is_integral(x) and x >= 1 for x in size)):
-            raise fail(f"'size' must be 2 positive integers [W, H], got {size!r}")
-        texel = d["texel_mm"]
-        if not (_is_number(texel) and math.isfinite(texel) and texel > 0):
-            raise fail(f"'texel_mm' must be a finite number > 0, got {texel!r}")
-        t3 = [(x[0], x[1], x[2]) for x in vecs]
-        return cls(t3[0], t3[1], t3[2], t3[3], float(texel), (int(size[0]), int(size[1])))
+        label = "the light projection's 'size'"
+        size = d["size"].tolist() if isinstance(d["size"], np.ndarray) else d["size"]
+        check_shape(size, label, (2,), PassError)
+        w, h = (MAP_SIDE.check(int(x) if _is_integral(x) else x, label, PassError) for x in size)
+        texel = LENGTH_MM.check(d["texel_mm"], "the light projection's 'texel_mm'", PassError)
+        return cls(vecs[0], vecs[1], vecs[2], vecs[3], float(texel), (int(w), int(h)))
 
     def project(self, points: np.ndarray) -> np.ndarray:
         """(..., 3) world points (mm) -> (..., 3) (x, y) texel coordinates and z the depth along the light (mm)."""

@@ -20,6 +20,24 @@ import numpy as np
 from ...errors import ProfileError
 from ...settings import DEFAULT_PHOTONS  # supplement F's 10^7, re-exported here
 from ...materials import CHANNELS, LayeredMaterial, Material
+from ...quantities import ANISOTROPY, COEFFICIENT, ETA, EXTINCTION, LENGTH_MM, SEED, THICKNESS_MM, Quantity
+
+#: a layer's fields and a simulation's numbers, each declared once as a quantity (checked in a loop)
+LAYER_FIELDS = {"sigma_a": COEFFICIENT, "sigma_s": COEFFICIENT, "g": ANISOTROPY, "eta": ETA,
+                "thickness_mm": THICKNESS_MM}
+CONFIG_FIELDS = {
+    "dr_mm": Quantity("grid spacing dr_mm", 0.0, math.inf, "mm", "the radial grid's spacing", lo_open=True,
+                      hi_open=True),
+    "nr": Quantity("radial bins nr", 2, math.inf, "", "the last bin collects the light beyond the grid", integer=True,
+                   hi_open=True),
+    "photons": Quantity("photon count", 1, math.inf, "", "photons per channel", integer=True, hi_open=True),
+    "seed": SEED.within(hi=2**63 - 1, reason="numpy's seed sequence takes 63 bits"),
+    "batch_size": Quantity("batch size", 1, math.inf, "", "photons per batch", integer=True, hi_open=True),
+    "eta_above": Quantity("eta_above", 1.0, math.inf, "", ETA.reason, hi_open=True),
+    "eta_below": Quantity("eta_below", 1.0, math.inf, "", ETA.reason, hi_open=True),
+    "incidence_deg": Quantity("incidence angle", 0.0, 90.0, "degrees", "a beam from above the surface",
+                              hi_open=True),
+    "roughness": Quantity("surface roughness (Beckmann alpha)", 0.0, 1.0, "", "0 is a smooth surface")}
 
 #: bump when the transport or the tallies change: it is part of every cache key
 #: (2: the exit-direction tally, totals of shape (batches, 3 + N_EXIT_BINS); 3: photons traced in float32
@@ -45,14 +63,9 @@ class MCLayer:
     thickness_mm: float = math.inf
 
     def __post_init__(self) -> None:
-        if not (self.sigma_a >= 0 and self.sigma_s >= 0 and self.sigma_a + self.sigma_s > 0):
-            raise ProfileError(f"layer needs sigma_a, sigma_s >= 0 with a positive sum, got {self.sigma_a}, {self.sigma_s}")
-        if not -1 < self.g < 1:
-            raise ProfileError(f"layer needs |g| < 1, got {self.g}")
-        if not (math.isfinite(self.eta) and self.eta >= 1):
-            raise ProfileError(f"layer needs eta >= 1, got {self.eta}")
-        if not self.thickness_mm > 0:
-            raise ProfileError(f"layer thickness must be > 0 mm, got {self.thickness_mm}")
+        for name, q in LAYER_FIELDS.items():
+            q.check(getattr(self, name), f"layer {name}", ProfileError)
+        EXTINCTION.check(self.sigma_a + self.sigma_s, "layer sigma_a + sigma_s", ProfileError)
 
 
 @dataclass(frozen=True)
@@ -82,26 +95,11 @@ class MCConfig:
     def __post_init__(self) -> None:
         if not self.layers:
             raise ProfileError("a simulation needs at least one layer")
-        if any(math.isinf(l.thickness_mm) for l in self.layers[:-1]):
-            raise ProfileError("only the last layer may be semi-infinite")
-        if not (self.dr_mm > 0 and math.isfinite(self.dr_mm)):
-            raise ProfileError(f"grid spacing dr must be > 0 mm, got {self.dr_mm}")
-        if not (isinstance(self.nr, (int, np.integer)) and self.nr >= 2):
-            raise ProfileError(f"number of radial bins must be >= 2 (the last one collects the light beyond the "
-                               f"grid), got {self.nr}")
-        if not (isinstance(self.photons, (int, np.integer)) and self.photons >= 1):
-            raise ProfileError(f"photon count must be a positive integer, got {self.photons!r}")
-        if not (isinstance(self.seed, (int, np.integer)) and 0 <= self.seed < 2**63):
-            raise ProfileError(f"seed must be an integer in [0, 2^63), got {self.seed!r}")
-        if not (isinstance(self.batch_size, (int, np.integer)) and self.batch_size >= 1):
-            raise ProfileError(f"batch size must be a positive integer, got {self.batch_size!r}")
-        for name in ("eta_above", "eta_below"):
-            if not getattr(self, name) >= 1:
-                raise ProfileError(f"{name} must be >= 1")
-        if not (isinstance(self.incidence_deg, (int, float)) and 0 <= self.incidence_deg < 90):
-            raise ProfileError(f"incidence angle must lie in [0, 90) degrees, got {self.incidence_deg!r}")
-        if not (isinstance(self.roughness, (int, float)) and 0 <= self.roughness <= 1):
-            raise ProfileError(f"surface roughness (Beckmann alpha) must lie in [0, 1], got {self.roughness!r}")
+        for k, layer in enumerate(self.layers[:-1]):
+            LENGTH_MM.within(reason="only the last layer may be semi-infinite").check(
+                layer.thickness_mm, f"layer {k + 1} thickness_mm", ProfileError)
+        for name, q in CONFIG_FIELDS.items():
+            q.check(getattr(self, name), q.name, ProfileError)
 
     @property
     def n_batches(self) -> int:

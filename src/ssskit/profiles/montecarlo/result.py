@@ -29,7 +29,12 @@ from typing import Any
 
 import numpy as np
 
+from ...quantities import Quantity
 from .config import N_EXIT_BINS, MCConfig
+
+#: an exit cosine (the normal itself is the last bin's edge) and a number of exit bins a fit takes
+EXIT_COSINE = Quantity("mu", 0.0, 1.0, "", "the cosine of an exit direction", lo_open=True, hi_open=True)
+EXIT_BINS = Quantity("bins", 2, N_EXIT_BINS, "", "the exit bins a straight line is fitted through", integer=True)
 
 
 @dataclass
@@ -100,8 +105,8 @@ class MCResult:
         bins at their centres. A single bin averages 12.9 degrees, over which the factor of a
         strongly scattering medium changes by ~1%; a camera looking along the normal sits at its edge.
         """
-        if not (0.0 < mu <= 1.0) or not (2 <= bins <= N_EXIT_BINS):
-            raise ValueError(f"need 0 < mu <= 1 and 2 <= bins <= {N_EXIT_BINS}, got {mu!r}, {bins!r}")
+        EXIT_COSINE.within(hi=1.0).check(mu, "mu", ValueError)  # type: ignore[arg-type]
+        EXIT_BINS.check(bins, "bins", ValueError)  # type: ignore[arg-type]
         idx = np.arange(N_EXIT_BINS - bins, N_EXIT_BINS)
         return _line_at(self.radiance_factor(), N_EXIT_BINS * self.exit_rd_se / self.total_rd, idx, mu)
 
@@ -111,8 +116,8 @@ class MCResult:
         straight line in cos^2 fitted (weighted by the standard errors) through the ``bins`` bins whose centres
         are nearest mu^2, the last bin left out (a normally incident run's unscattered beam leaves along the
         normal, into it): what a camera at exit cosine ``mu`` sees of the light the slab scattered."""
-        if not (0.0 < mu < 1.0) or not (2 <= bins < N_EXIT_BINS):
-            raise ValueError(f"need 0 < mu < 1 and 2 <= bins < {N_EXIT_BINS}, got {mu!r}, {bins!r}")
+        EXIT_COSINE.check(mu, "mu", ValueError)  # type: ignore[arg-type]
+        EXIT_BINS.within(hi=N_EXIT_BINS - 1).check(bins, "bins", ValueError)  # type: ignore[arg-type]
         centres = (np.arange(N_EXIT_BINS - 1) + 0.5) / N_EXIT_BINS
         idx = np.sort(np.argsort(np.abs(centres - mu * mu), kind="stable")[:bins])
         return _line_at(N_EXIT_BINS * self.exit_tt, N_EXIT_BINS * self.exit_tt_se, idx, mu)

@@ -22,7 +22,13 @@ from ...cache import cache_dir
 from ...errors import ProfileError, SimulationInterrupted
 from ...io import ProgressBar, progress_bar, save_arrays
 from ...progress import add_to_total
+from ...quantities import CHOICE, ETA, Quantity, fail
 from .config import N_EXIT_BINS, MCConfig, layer_arrays
+
+#: numba's threads, a cosine of incidence (0 excluded: grazing light never enters), estimate samples
+THREADS = Quantity("threads", 1, 1, "", "numba's threads (NUMBA_NUM_THREADS)", integer=True)
+COSINE = Quantity("cos_theta", 0.0, 1.0, "", "a cosine of incidence", lo_open=True)
+SAMPLES = Quantity("samples", 2, math.inf, "", "a mean and its standard error", integer=True, hi_open=True)
 from .result import N_TOTALS, MCResult, assemble_result
 
 
@@ -45,15 +51,13 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
     ``shared_bar``: a bar of several runs (:func:`~.sweep.simulate_material`'s channels) that this run advances
     instead of showing its own; photons it does not simulate (cached, shipped, resumed) leave its total.
     """
-    if resume and restart:
-        raise ProfileError("resume and restart exclude each other: resume continues an interrupted run, "
-                           "restart discards it")
+    check_resume(resume, restart)
     if (resume or restart) and not use_cache:
         which = "resume" if resume else "restart"
         raise ProfileError(f"{which} acts on the on-disk cache; it cannot be combined with use_cache=False",
                            cli_message=f"--{which} acts on the on-disk cache; it cannot be combined with --no-cache")
-    if backend not in ENGINES:
-        raise ProfileError(f"unknown Monte Carlo backend {backend!r}; choose from {', '.join(ENGINES)}")
+    if backend not in ENGINES:  # (exactly: the name picks the engine module)
+        raise fail(ProfileError, CHOICE, name="the Monte Carlo backend", choices=", ".join(ENGINES), actual=repr(backend))
     check_threads(threads)  # before any answer, the shipped one included
     if use_cache and shipped and backend == "numba":  # (None inside shipped.recompute(): ssskit demo --full)
         from .shipped import shipped_result
@@ -169,14 +173,20 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
     return result
 
 
+def check_resume(resume: bool, restart: bool) -> None:
+    """A ProfileError if both ``resume`` and ``restart`` are asked for (a run and a sweep state it once)."""
+    if resume and restart:
+        raise ProfileError("resume and restart exclude each other: resume continues an interrupted run, "
+                           "restart discards it")
+
+
 def check_threads(threads: int | None) -> None:
     """A ProfileError unless ``threads`` is None or an int in 1..numba's thread count."""
     if threads is not None:
         import numba
 
-        most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
-        if not (isinstance(threads, int) and 1 <= threads <= most):
-            raise ProfileError(f"threads must be in 1..{most}, got {threads!r}")
+        # numba.config sets its NUMBA_* names through globals(), which its inline types cannot show
+        THREADS.within(hi=numba.config.NUMBA_NUM_THREADS).check(threads, "threads", ProfileError)  # type: ignore[attr-defined]
 
 
 #: a chunk of batches (one engine call) that takes longer than this is halved for the next (seconds)
@@ -214,13 +224,10 @@ def rough_boundary_albedo(cos_theta: float, eta_from: float, eta_to: float, alph
     ``cos_theta`` to the normal from the medium of index ``eta_from``: ``{"reflected", "transmitted",
     "lost"}``, each (mean, standard error) over ``samples`` samples of the stream ``seed``. "lost" is
     what the single-scattering BSDF removes (masking), 0 for a smooth surface."""
-    for name, v, lo, hi in (("cos_theta", cos_theta, 0.0, 1.0), ("eta_from", eta_from, 1.0, math.inf),
-                            ("eta_to", eta_to, 1.0, math.inf), ("alpha", alpha, 0.0, 1.0)):
-        ok = isinstance(v, (int, float)) and not isinstance(v, bool) and (lo < v <= hi if lo == 0 else lo <= v < hi)
-        if not ok:
-            raise ProfileError(f"{name} out of range: {v!r} (cos_theta in (0, 1], etas >= 1, alpha in (0, 1])")
-    if not (isinstance(samples, (int, np.integer)) and samples >= 2):
-        raise ProfileError(f"samples must be an integer >= 2, got {samples!r}")
+    for name, v, q in (("cos_theta", cos_theta, COSINE), ("eta_from", eta_from, ETA), ("eta_to", eta_to, ETA),
+                       ("alpha", alpha, COSINE.within(reason="a Beckmann roughness; 0 is a smooth surface"))):
+        q.check(v, name, ProfileError)
+    SAMPLES.check(samples, "samples", ProfileError)
     from . import engine_numba
 
     out = engine_numba.rough_interface_albedo(float(cos_theta), float(eta_from), float(eta_to), float(alpha),
@@ -294,10 +301,7 @@ def _numba_threads(threads: int | None) -> Iterator[int]:
     if threads is None:
         yield numba.get_num_threads()
         return
-    # numba.config sets its NUMBA_* names through globals(), which its inline types cannot show
-    most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
-    if not (isinstance(threads, int) and 1 <= threads <= most):
-        raise ProfileError(f"threads must be in 1..{most}, got {threads!r}")
+    check_threads(threads)
     old = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:

@@ -22,6 +22,7 @@ import numpy as np
 
 from ...errors import ProfileError
 from ...materials import Material
+from ...quantities import LENGTH_MM, THICKNESS_MM, TYPE, check_instance, check_shape, fail
 from .config import MCConfig, config_for_material
 from .result import MCResult
 from .run import simulate
@@ -37,14 +38,20 @@ def slab_config(material: Material, channel: int, thickness_mm: float, photons: 
     (:func:`~ssskit.profiles.montecarlo.config_for_material`) with its one layer ``thickness_mm`` thick
     (``inf``: the semi-infinite medium), the ambient index (eta_ambient) above and below, lit at
     ``incidence_deg``."""
-    if not isinstance(material, Material):
-        raise ProfileError(f"a slab needs a homogeneous material, got {type(material).__name__}")
-    if isinstance(thickness_mm, bool) or not (isinstance(thickness_mm, (int, float, np.integer, np.floating))
-                                              and thickness_mm > 0):
-        raise ProfileError(f"slab thickness must be a positive number of mm (or inf), got {thickness_mm!r}")
+    check_instance(material, Material, "a slab's material (homogeneous)", ProfileError)
+    THICKNESS_MM.check(thickness_mm, "slab thickness", ProfileError)
     cfg = config_for_material(material, channel, photons=photons, seed=seed)
     layer = dataclasses.replace(cfg.layers[0], thickness_mm=float(thickness_mm))
     return dataclasses.replace(cfg, layers=(layer,), incidence_deg=float(incidence_deg))
+
+
+def thickness_grid(thicknesses: Sequence[float]) -> list[float]:
+    """Slab thicknesses (mm): finite, positive and ascending, as floats; or a ProfileError."""
+    ts = LENGTH_MM.check_array(check_shape(thicknesses, "thicknesses", ("T",), ProfileError), "thicknesses",
+                               ProfileError).tolist()
+    if not ts or any(b <= a for a, b in zip(ts, ts[1:])):
+        raise fail(ProfileError, TYPE, name="thicknesses", kind="ascending (each thicker than the last)", actual=ts)
+    return ts
 
 
 def _ratio(a: float, a_se: float, b: float, b_se: float) -> tuple[float, float]:
@@ -64,9 +71,7 @@ def thickness_table(material: Material, thicknesses: Sequence[float] = DEFAULT_T
     Returns a JSON-ready dict: ``thickness_mm`` (T,), ``rd`` / ``rd_se`` / ``tt`` / ``tt_se`` /
     ``absorbed`` / ``absorbed_se`` (T, 3), ``rsp`` (3,), ``rd_inf`` / ``rd_inf_se`` (3,) and ``ratio`` /
     ``ratio_se`` (T, 3) = Rd(t) / Rd(inf); cached per simulation (:func:`simulate`)."""
-    ts = [float(t) for t in thicknesses]
-    if not ts or any(not (math.isfinite(t) and t > 0) for t in ts) or any(b <= a for a, b in zip(ts, ts[1:])):
-        raise ProfileError(f"thicknesses must be finite, positive and ascending, got {list(thicknesses)!r}")
+    ts = thickness_grid(thicknesses)
     out: dict[str, Any] = {"material": material.name, "photons": int(photons), "seed": int(seed),
                            "incidence_deg": float(incidence_deg), "thickness_mm": ts}
     keys = ("rd", "rd_se", "tt", "tt_se", "absorbed", "absorbed_se")

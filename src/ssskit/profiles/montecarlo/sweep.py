@@ -6,11 +6,15 @@ from __future__ import annotations
 from ...errors import ProfileError
 from ...materials import CHANNELS, LayeredMaterial, Material
 from ...progress import add_to_total
+from ...quantities import Quantity
 from ..domain import check_montecarlo
 from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, SUPPLEMENT_GRID_MFP, channel_seed, config_for_material
 from .result import MCResult
-from .run import photons_bar, simulate
+from .run import check_resume, photons_bar, simulate
 
+
+#: the share of the supplement's grid a sweep simulates
+GRID_FRACTION = Quantity("grid fraction", 0.0, 1.0, "", "a share of the supplement's grid", lo_open=True, hi_open=True)
 
 def simulate_material(material: Material | LayeredMaterial, channels: str = "all", *, photons: int = DEFAULT_PHOTONS,
                       seed: int = 1, threads: int | None = None, progress: bool | None = None, resume: bool = False,
@@ -37,8 +41,8 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
     for ch in wanted:
         if ch not in CHANNELS:
             raise ProfileError(f"channel must be R, G, B or all, got {channels!r}")
-    if grid_fraction is not None and not (isinstance(grid_fraction, (int, float)) and 0 < grid_fraction < 1):
-        raise ProfileError(f"grid fraction must lie in (0, 1), got {grid_fraction!r}")
+    if grid_fraction is not None:
+        GRID_FRACTION.check(grid_fraction, "grid fraction", ProfileError)
     if progress is None:
         from ...progress import reporting_active
 
@@ -158,11 +162,8 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
     process as materials finish, at least every few seconds; on one machine finished simulations land in the shared cache, and so do
     the partial results of an interrupted sweep, which ``resume`` / ``restart`` continue / discard.
     """
-    if not (isinstance(jobs, int) and jobs >= 1):
-        raise ProfileError(f"jobs must be a positive integer, got {jobs!r}")
-    if resume and restart:
-        raise ProfileError("resume and restart exclude each other: resume continues an interrupted run, "
-                           "restart discards it")
+    Quantity("jobs", 1, 2**31 - 1, "", "processes of a sweep", integer=True).check(jobs, "jobs", ProfileError)
+    check_resume(resume, restart)
     names = [m.name for m in materials]
     if len(set(names)) != len(names):
         raise ProfileError("material names in a sweep must be distinct")

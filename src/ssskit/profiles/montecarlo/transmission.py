@@ -59,10 +59,16 @@ import numpy as np
 
 from ...errors import ProfileError
 from ...materials import Material
+from ...quantities import Quantity, check_instance
 from .config import MCConfig
 from .result import MCResult
 from .run import check_threads, simulate
-from .slab import slab_config
+from .slab import slab_config, thickness_grid
+
+#: the transmittance a table runs down to, and what its fit of the scattered part may give
+FLOOR = Quantity("floor", 0.0, 1.0, "", "a transmittance the table's thickest slab reaches", lo_open=True,
+                 hi_open=True)
+FIT = Quantity("fit", -1e-9, math.inf, "", "a transmittance; try another number of terms", hi_open=True)
 
 #: T below which the table stops (the issue's "for skin, up to where T falls below 1e-4")
 T_FLOOR = 1e-4
@@ -165,13 +171,9 @@ class TransmissionTable:
 
 def _check_request(material: Material, floor: float, grid: Sequence[float]) -> list[float]:
     """The grid as floats, after the checks of a table's request (ProfileError for a bad one)."""
-    if not isinstance(material, Material):
-        raise ProfileError(f"a transmission table needs a homogeneous material, got {type(material).__name__}")
-    ts = [float(t) for t in grid]
-    if not ts or any(not (math.isfinite(t) and t > 0) for t in ts) or any(b <= a for a, b in zip(ts, ts[1:])):
-        raise ProfileError(f"thicknesses must be finite, positive and ascending, got {list(grid)!r}")
-    if not (0 < floor < 1):
-        raise ProfileError(f"the transmittance floor must lie in (0, 1), got {floor!r}")
+    check_instance(material, Material, "a transmission table's material (homogeneous)", ProfileError)
+    ts = thickness_grid(grid)
+    FLOOR.check(floor, "the transmittance floor", ProfileError)
     # the unscattered part alone, a lower bound of T (absorber_transmittance), decides before any simulation
     # that the table cannot reach the floor within the grid
     ballistic = absorber_transmittance(np.asarray(material.sigma_t, float), ts[-1], material.eta, material.eta_ambient)
@@ -429,9 +431,8 @@ def fit_transmission(table: TransmissionTable, terms: int | None = None, rel_flo
         lo, hi = min(lo, float(t[ok].min())), max(hi, float(t[ok].max()))
         if diffuse:
             low = _lowest(a, b, g, float(t.max()))
-            if low < -1e-9:
-                raise ProfileError(f"{table.material}: channel {c}'s fit of the scattered transmittance falls to "
-                                   f"{low:.3g} < 0; try another number of terms")
+            if low < -1e-9:  # (try another number of terms)
+                FIT.refuse(low, f"{table.material}: channel {c}'s fit of the scattered transmittance", ProfileError)
     if lo > hi:  # no channel resolved anywhere
         lo = hi = 0.0
     return TransmissionFit(table.material, out[0], out[1], out[2], errs[0], errs[1], errs[2], (lo, hi), part)
