@@ -81,6 +81,25 @@ def test_rendering_continues_until_the_target_or_the_budget(tmp_path, monkeypatc
     assert summary["boundary"] == "index-matched" and len(summary["rel_se"]) == 3
 
 
+def test_cache_only_reads_the_cached_render_and_never_renders(tmp_path, monkeypatch):
+    """``cache_only`` (the live viewer's lookup): a SceneError where nothing is cached, with no chunk rendered;
+    the same image as the render that filled the cache once it is."""
+    import ssskit.scenes.reference as reference
+
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path))
+    kw = dict(width=16, height=12, spp=4, chunk_spp=2, max_depth=64, boundary="index-matched", progress=False)
+    rendered = []
+    chunk = reference.ReferenceRenderer.chunk
+    monkeypatch.setattr(reference.ReferenceRenderer, "chunk", lambda self, *a: rendered.append(a) or chunk(self, *a))
+    with pytest.raises(SceneError, match="no path-traced reference of slab"):
+        render_reference("slab", SKIN, cache_only=True, **kw)
+    assert rendered == []
+    first = render_reference("slab", SKIN, **kw)
+    n = len(rendered)
+    again = render_reference("slab", SKIN, cache_only=True, **kw)
+    assert len(rendered) == n and np.array_equal(again.image, first.image)
+
+
 def test_surroundings_are_black_so_only_the_lights_reach_the_sss_object(tmp_path, monkeypatch):
     """The floor of the sphere scene is black in the reference (it still casts and receives shadows):
     no floor bounce reaches the sphere, as none reaches the G-buffer's direct-light layer."""

@@ -1,32 +1,25 @@
 """The viewer's local server: hostile requests get a 4xx and a logged line and the server keeps serving; only the
 page's files are served; a material change computes the kernel `ssskit kernel` writes; Ctrl-C exits 130."""
 import http.client
-import io
 import json
 import os
 import signal
 import socket
 import subprocess
 import sys
-import threading
 import time
 
 import numpy as np
 import pytest
 
-from ssskit.view.server import ViewServer, serve
 from ssskit.view.site import MaterialRequest, page_data
+from tests.view.serving import running
 
 
 @pytest.fixture(scope="module")
 def server():
-    log = io.StringIO()
-    srv = ViewServer(page_data("icosphere", {"skin1": MaterialRequest("skin1")}, "skin1", served=True), 0, log)
-    thread = threading.Thread(target=srv.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
-    thread.start()
-    yield srv, log
-    srv.shutdown()
-    srv.server_close()
+    with running(page_data("icosphere", {"skin1": MaterialRequest("skin1")}, "skin1", served=True)) as (srv, log):
+        yield srv, log
 
 
 def raw(port, data: bytes) -> tuple[int, bytes]:
@@ -64,10 +57,13 @@ def test_the_page_is_served(server):
         assert status == 200 and body, path
 
 
-def test_25_hostile_requests_each_get_a_4xx_and_the_server_answers_the_next(server):
+def test_hostile_requests_each_get_a_4xx_and_the_server_answers_the_next(server):
+    """The issue's 25 hostile requests and those of the later routes (the export, the parts, the adaptive limits)."""
     srv, log = server
     p = srv.port
     post = lambda body, **kw: request(p, "POST", "/api/material", body, **kw)  # noqa: E731
+    export = lambda body, **kw: request(p, "POST", "/api/export", body, **kw)  # noqa: E731
+    ref = lambda body, **kw: request(p, "POST", "/api/reference", body, **kw)  # noqa: E731
     hostile = [
         lambda: request(p, "GET", "/../../../../etc/passwd"),
         lambda: request(p, "GET", "/%2e%2e/%2e%2e/etc/passwd"),
@@ -94,15 +90,173 @@ def test_25_hostile_requests_each_get_a_4xx_and_the_server_answers_the_next(serv
         lambda: post(json.dumps({"material": "skin1"}), length=False),
         lambda: request(p, "DELETE", "/index.html"),
         lambda: raw(p, b"GARBAGE\r\n\r\n"),
+        # the parts and the adaptive limits
+        lambda: post(json.dumps({"material": "skin1", "parts": ["../../etc/passwd"]})),
+        lambda: post(json.dumps({"material": "skin1", "parts": []})),
+        lambda: post(json.dumps({"material": "skin1", "adaptive": {"b_min": -1}})),
+        lambda: post(json.dumps({"material": "skin1", "adaptive": {"b_min": 40, "b_max": 32}})),
+        lambda: post('{"material": "skin1", "adaptive": {"sigma0_sq": NaN}}'),
+        lambda: post(json.dumps({"material": "skin1", "adaptive": {"alpha": 0}})),
+        lambda: post(json.dumps({"material": "skin1", "adaptive": {"b_min": True}})),
+        lambda: post(json.dumps({"material": "skin1", "adaptive": {"open": "/etc/passwd"}})),
+        # the export: no path from the request, an engine format of the registry and one of its suffixes
+        lambda: export(json.dumps({"material": "skin1", "format": "unreal", "out": "/tmp/x.json"})),
+        lambda: export(json.dumps({"material": "/etc/passwd", "format": "unreal"})),
+        lambda: export(json.dumps({"material": "skin1", "format": "../../etc/passwd"})),
+        lambda: export(json.dumps({"material": "skin1", "format": "glsl"})),
+        lambda: export(json.dumps({"material": "skin1", "format": "unreal", "suffix": "/../../x.py"})),
+        lambda: export(json.dumps({"material": "skin1", "format": "unreal", "suffix": ".mtlx"})),
+        lambda: export(json.dumps({"format": "unreal"})),
+        lambda: export(json.dumps({"material": "skin1", "albedo": [0.5, 0.5, 0.5], "mfp": [1, 1, 1],
+                                   "format": "unreal"})),
+        lambda: export('{"albedo": [0.5, 0.5, Infinity], "mfp": [1, 1, 1], "format": "unreal"}'),
+        lambda: export(json.dumps({"material": "skin1", "format": "unreal"}), ctype="text/plain"),
+        lambda: export("x" * 5000),
+        lambda: request(p, "GET", "/api/export"),
+        # the reference: a view of the scene, a preset, the page's size; never a path
+        lambda: ref(json.dumps({"view": "../../etc/passwd", "material": "skin1", "w": 96, "h": 72})),
+        lambda: ref(json.dumps({"view": "front", "material": "/etc/passwd", "w": 96, "h": 72})),
+        lambda: ref(json.dumps({"view": "front", "material": "skin1", "w": 10**9, "h": 72})),
+        lambda: ref(json.dumps({"view": "front", "material": "skin1", "w": 96, "h": 72, "file": "/etc/passwd"})),
     ]
-    assert len(hostile) == 25
+    assert len(hostile) == 49
     before = log.getvalue().count("\n")
     for i, send in enumerate(hostile):
         status, body = send()
         assert 400 <= status < 500, (i, status, body[:200])
         assert b"root:" not in body and b"import" not in body, i      # nothing outside the page
         assert request(p, "GET", "/index.html")[0] == 200, i          # and the server answers the next request
-    assert log.getvalue().count("\n") - before == 25                 # one logged line each
+    assert log.getvalue().count("\n") - before == len(hostile)      # one logged line each
+    assert not os.path.exists("/tmp/x.json")
+
+
+def _reply(port, path, body) -> tuple[int, dict, bytes]:
+    """POST JSON through http.client: (status, headers, body)."""
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=300)
+    try:
+        conn.request("POST", path, json.dumps(body), {"Content-Type": "application/json"})
+        r = conn.getresponse()
+        return r.status, dict(r.getheaders()), r.read()
+    finally:
+        conn.close()
+
+
+def test_the_export_route_answers_the_bytes_ssskit_export_writes(server, tmp_path):
+    """Every engine format of the registry and each of its suffixes, a preset and artists' terms (the viewer's
+    eta): the bytes served as a download equal the file ``ssskit export`` writes for the same request."""
+    from ssskit.export import FORMATS
+
+    srv, _ = server
+    engines = [(f.name, s) for _, f in FORMATS.items() if f.kind == "engine" for s in f.suffixes]
+    assert {name for name, _ in engines} >= {"unreal", "unity", "blender", "materialx", "babylon"}
+    cases = [({"material": "marble"}, ["--material", "marble"], name, s) for name, s in engines]
+    cases.append(({"albedo": [0.7, 0.5, 0.4], "mfp": [1.7, 0.9, 0.5]},
+                  ["--albedo", "0.7,0.5,0.4", "--mfp", "1.7,0.9,0.5", "--eta", "1.4"], "unreal", ".json"))
+    for body, flags, name, suffix in cases:
+        status, headers, data = _reply(srv.port, "/api/export", {**body, "format": name, "suffix": suffix})
+        assert status == 200, data[:300]
+        stem = body.get("material", "artist")
+        assert headers["Content-Disposition"] == f'attachment; filename="{stem}_{name}{suffix}"'
+        out = tmp_path / f"{stem}_{name}{suffix}"
+        proc = subprocess.run([sys.executable, "-m", "ssskit", "export", "--format", name, *flags, "--out", str(out)],
+                              capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        assert data == out.read_bytes(), (name, suffix)
+    assert not list(srv_tmp_folders()), "the server left a temporary folder behind"
+
+
+def srv_tmp_folders():
+    import tempfile
+    from pathlib import Path
+
+    return Path(tempfile.gettempdir()).glob("ssskit-view-export-*")
+
+
+def test_material_parts_are_asked_for_and_cached(server, monkeypatch):
+    """The separable pass always, the other parts only where asked; a part computed before is not computed again
+    (the transmittance model replaced by a failure after the first request); a material whose transmittance
+    table fails keeps its other parts and names the reason."""
+    import ssskit.screenspace.transmission as tr
+    import ssskit.view.site as site
+    from ssskit.errors import ProfileError
+
+    srv, _ = server
+    status, _, body = _reply(srv.port, "/api/material", {"material": "ketchup", "parts": ["separable"]})
+    assert status == 200
+    assert set(json.loads(body)) >= {"separable", "albedo"} and "transmission" not in json.loads(body)
+    status, _, body = _reply(srv.port, "/api/material", {"material": "ketchup", "parts": ["transmission"]})
+    first = json.loads(body)["transmission"]
+    assert status == 200 and "shader" in first
+
+    def fail(*_a, **_k):
+        raise ProfileError("the table does not converge (a stand-in)")
+
+    monkeypatch.setattr(tr, "mcml_model", fail)
+    status, _, body = _reply(srv.port, "/api/material", {"material": "ketchup", "parts": ["transmission"]})
+    assert status == 200 and json.loads(body)["transmission"] == first        # from the cache: no new fit
+    site._transmission_part.cache_clear()                 # the cache emptied: the fit is asked again, and fails
+    status, _, body = _reply(srv.port, "/api/material", {"material": "ketchup", "parts": ["transmission"]})
+    assert json.loads(body)["transmission"]["error"] == "the table does not converge (a stand-in)"
+    status, _, body = _reply(srv.port, "/api/material", {"material": "apple", "parts": ["separable", "transmission"]})
+    payload = json.loads(body)
+    assert status == 200 and payload["transmission"] == {"error": "the table does not converge (a stand-in)"}
+    assert "shader" in payload["separable"]                  # the material keeps its other parts
+
+
+def test_a_warmed_server_answers_the_presets_from_memory(server, monkeypatch):
+    """``ssskit view`` warms the presets the page lists (their separable and transmittance parts) after it
+    listens: afterwards no transmittance model is fitted for them (the fit replaced by a failure)."""
+    import ssskit.screenspace.transmission as tr
+
+    srv, _ = server
+    srv.warm(("skin2", "marble")).join(timeout=600)
+
+    def fail(*_a, **_k):
+        raise AssertionError("fitted again")
+
+    monkeypatch.setattr(tr, "mcml_model", fail)
+    for name in ("skin2", "marble"):
+        status, _, body = _reply(srv.port, "/api/material", {"material": name, "parts": ["separable", "transmission"]})
+        assert status == 200 and "shader" in json.loads(body)["transmission"], body[:300]
+
+
+def test_adaptive_limits_reach_the_shaders_and_the_ranges_are_pythons(server):
+    """The page's inputs carry AdaptivePass's declared ranges: for every bound, a value beyond it is refused by
+    AdaptivePass (the pipeline's settings) and by the server alike; a valid request gives the shaders of that guide."""
+    import math
+
+    from ssskit.backends.adaptive_plan import as_plan
+    from ssskit.backends.gl.adaptive import adaptive_fragment_source
+    from ssskit.errors import SettingsError
+    from ssskit.pipeline.settings import AdaptivePass
+    from ssskit.screenspace.adaptive import AdaptiveSettings
+    from ssskit.view.site import adaptive_controls
+
+    srv, _ = server
+    controls = adaptive_controls()
+    assert [c["name"] for c in controls] == ["b_min", "b_max", "sigma0_sq", "kappa", "alpha", "frames"]
+    for c in controls:
+        AdaptivePass(**{c["name"]: c["default"]})
+        for bound, is_open, step in (("lo", c["lo_open"], -1), ("hi", c["hi_open"], 1)):
+            v = c[bound]
+            if v is None:
+                continue
+            beyond = v + step if c["integer"] else (v if is_open else v + step * max(abs(v), 1.0) * 1e-6)
+            if c["name"] == "b_min" and bound == "hi":      # beyond b_max's default too: the budget rule
+                continue
+            with pytest.raises(SettingsError):
+                AdaptivePass(**{c["name"]: beyond})
+            if c["served_only"] and math.isfinite(beyond):
+                status, _, body = _reply(srv.port, "/api/material", {"material": "skin1", "parts": ["adaptive"],
+                                                                      "adaptive": {c["name"]: beyond}})
+                assert status == 400, (c["name"], beyond, body)
+    guide = {"b_min": 4, "b_max": 32, "sigma0_sq": 2e-3, "kappa": 0.5, "alpha": 0.1}
+    status, _, body = _reply(srv.port, "/api/material", {"material": "skin1", "parts": ["adaptive"], "adaptive": guide})
+    got = json.loads(body)["adaptive"]
+    plan = as_plan(AdaptiveSettings(**guide))
+    assert status == 200 and got["settings"] == guide and (got["b_min"], got["b_max"]) == (4, 32)
+    assert got["estimate"] == adaptive_fragment_source(plan, False)
+    assert got["update"] == adaptive_fragment_source(plan, True)
 
 
 def test_a_served_material_change_gives_the_kernel_ssskit_kernel_writes(server, tmp_path):

@@ -67,6 +67,23 @@ def test_static_page_draws_a_finite_frame_with_a_frame_time(page):
     log.check()
 
 
+def test_static_page_says_export_and_the_guides_limits_need_the_server(page):
+    """From file:// there is no server: each engine format's button is there, disabled, and says it needs
+    `ssskit view`; the adaptive guide's limits (baked into the precomputed shaders) likewise; the history's
+    frames, a setting of the page itself, stays."""
+    from ssskit.export import FORMATS
+
+    pg, log = page
+    buttons = pg.evaluate("() => [...document.querySelectorAll('#exports button')].map((b) => [b.id, b.disabled, b.title])")
+    assert sorted(b[0] for b in buttons) == sorted(f"export_{f.name}" for _, f in FORMATS.items() if f.kind == "engine")
+    assert all(disabled and "ssskit view" in title for _, disabled, title in buttons)
+    assert "needs the served page: run ssskit view" in pg.evaluate("() => document.getElementById('export_note').textContent")
+    inputs = dict(pg.evaluate("() => [...document.querySelectorAll('#adaptive_limits input')].map((i) => [i.id, i.disabled])"))
+    assert inputs == {"ad_b_min": True, "ad_b_max": True, "ad_sigma0_sq": True, "ad_kappa": True, "ad_alpha": True,
+                      "ad_frames": False}
+    log.check()
+
+
 def _gbuffer(pg):
     src = read(pg, "src").astype(np.float64)
     slots = (src[..., 3] > 0).astype(np.int64)

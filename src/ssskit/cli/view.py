@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import click
 
 from ..errors import SsskitError
@@ -83,11 +86,17 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
     from ..view.server import ViewServer, serve
 
     data = page_data(scene, mats, key, served=True)
+    references: Callable[[str, str], dict[str, Any]] | None = None
+    if scene.lower() == "head":  # the head's views have path-traced references (docs/head_references.json)
+        from ..figures.head import cached_reference_layers
+
+        references = cached_reference_layers
     try:
-        server = ViewServer(data, port)
+        server = ViewServer(data, port, references=references)
     except OSError as exc:
         raise SsskitError(f"cannot listen on 127.0.0.1:{port}: {exc.strerror or exc}") from None
     click.echo(f"# ssskit view at {server.url} (Ctrl-C ends it)", err=True)
+    server.warm(tuple(n for n in PRESETS if n != key))  # the presets the page lists, computed while it loads
     if not no_open:
         import webbrowser
 

@@ -109,10 +109,11 @@ def reference_levels(sc: StudyScene, ref: Any) -> dict[str, dict[str, Any]]:
 
 
 def head_reference(view: str, material: str = "skin1", width: int = 96, height: int = 72, rel_se: float = 0.02,
-                   max_spp: int = 4096, mm_per_unit: float | None = None) -> tuple[StudyScene, Any, dict[str, Any]]:
+                   max_spp: int = 4096, mm_per_unit: float | None = None,
+                   cache_only: bool = False) -> tuple[StudyScene, Any, dict[str, Any]]:
     """(the view's :class:`StudyScene`, its path-traced :class:`~ssskit.scenes.Reference`, a JSON-ready row):
     rendered until the driving region's (:func:`driving_region`) relative SE is at most ``rel_se`` in
-    every channel or ``max_spp`` is spent; cached."""
+    every channel or ``max_spp`` is spent; cached (``cache_only``: the cached one or a SceneError)."""
     from ..materials import get_material
     from ..scenes import render_reference
 
@@ -120,11 +121,40 @@ def head_reference(view: str, material: str = "skin1", width: int = 96, height: 
     name, region = driving_region(sc)
     t0 = time.perf_counter()
     ref = render_reference(sc.spec, _homogeneous(get_material(material)), width, height, spp=256, max_spp=max_spp,
-                           target_rel_se=rel_se, region=region, chunk_spp=16, progress=False)
+                           target_rel_se=rel_se, region=region, chunk_spp=16, progress=False, cache_only=cache_only)
     row = {"view": view, "material": material, "size": [width, height], "spp": ref.spp, "converged": ref.converged,
            "driving_region": name, "seconds": time.perf_counter() - t0, "regions": reference_levels(sc, ref),
            "attribution": HEAD_ATTRIBUTION}
     return sc, ref, row
+
+
+#: the settings of the head's references (docs/head_references.py's defaults, docs/head_references.json)
+REFERENCE_SIZE, REFERENCE_REL_SE, REFERENCE_MAX_SPP = (96, 72), 0.02, 4096
+
+
+def cached_reference_layers(view: str, material: str) -> dict[str, Any]:
+    """What the live viewer shows beside its frame at a head view (``ssskit view --scene head``): the cached
+    path trace of ``view`` with ``material`` at the settings of docs/head_references.json (:func:`head_reference`
+    with ``cache_only``: a SceneError naming the command that renders it where none is cached), with the layers
+    its region levels need: ``image`` and ``pixel_se`` (H, W, 3), the G-buffer's ``specular`` and ``e_over_pi``
+    (H, W, 3), the SSS ``mask`` and the comparison regions ``masks`` (:func:`ssskit.metrics.region_masks`), and
+    ``spp``, ``converged``, ``driving_region``."""
+    from ..errors import SceneError
+
+    w, h = REFERENCE_SIZE
+    try:
+        sc, ref, row = head_reference(view, material, w, h, REFERENCE_REL_SE, REFERENCE_MAX_SPP, cache_only=True)
+    except SceneError:
+        raise SceneError(f"no path-traced reference of the head's {view} view with {material} is cached here: "
+                         f"python docs/head_references.py --views {view} --materials {material} renders it "
+                         f"(minutes)") from None
+    masks, _ = _masks(sc)
+    gb = sc.gbuffer
+    assert gb.specular is not None
+    return {"image": np.asarray(ref.image, np.float64), "pixel_se": np.asarray(ref.pixel_se, np.float64),
+            "specular": gb.specular.astype(np.float64), "e_over_pi": gb.diffuse.astype(np.float64),
+            "mask": np.asarray(gb.mask, bool), "masks": masks, "spp": int(ref.spp), "converged": bool(ref.converged),
+            "driving_region": row["driving_region"]}
 
 
 def head_references(views: Sequence[str] = VIEWS, materials: Sequence[str] = ("skin1",), width: int = 96,
@@ -491,4 +521,4 @@ def head_fig9(out: Path, profile: RGBProfile | None = None, progress: Progress |
 
 
 __all__ = ["VIEWS", "XIE_ADAPTIVE", "XIE_FIG7_RMS", "driving_region", "fig7_numbers", "fig9_numbers", "head_fig7", "head_fig9", "head_separable", "S2_KERNELS", "S8_DISTANCES", "separable_numbers", "plot_separable",
-           "head_reference", "head_references", "head_spec", "head_view", "plot_fig7", "plot_fig9", "reference_levels", "scale_sensitivity"]
+           "REFERENCE_MAX_SPP", "REFERENCE_REL_SE", "REFERENCE_SIZE", "cached_reference_layers", "head_reference", "head_references", "head_spec", "head_view", "plot_fig7", "plot_fig9", "reference_levels", "scale_sensitivity"]

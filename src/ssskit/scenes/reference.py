@@ -298,7 +298,7 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
                      max_spp: int | None = None, target_rel_se: float = TARGET_REL_SE, region: ArrayLike | None = None,
                      max_depth: int = 1024, seed: int = 0, frame: int = 0, chunk_spp: int = 8,
                      boundary: str = "rough-dielectric", surround_albedo: float = 0.0, use_cache: bool = True,
-                     progress: bool = True) -> Reference:
+                     progress: bool = True, cache_only: bool = False) -> Reference:
     """Volumetric path-traced image of the scene at ``frame`` with its standard errors (module docstring).
 
     The SSS objects are a homogeneous medium with the material's sigma_a, sigma_s and one
@@ -311,7 +311,8 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
     seed each); then more chunks until the relative standard error of the mean over ``region``
     ((H, W) bool; default: the pixels of the SSS objects) is at most ``target_rel_se`` in every
     channel, or until ``max_spp`` (default: ``spp``, i.e. a fixed budget) is spent. Cached in
-    :func:`reference_cache_dir`, keyed by every input.
+    :func:`reference_cache_dir`, keyed by every input; ``cache_only``: the cached render or a SceneError saying
+    none is cached (nothing is rendered: the live viewer asks so).
     """
     spec = get_scene(scene)
     check_spp(spp)
@@ -352,6 +353,8 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
             return _load(path, region, opts)
         except Exception:  # noqa: BLE001 - a truncated or foreign file is rendered again
             pass
+    if cache_only:
+        raise SceneError(f"no path-traced reference of {spec.name} with these settings is cached")
     renderer = ReferenceRenderer(spec, mats if media else first, width, height, max_depth, seed, frame, boundary,
                                  surround_albedo)
     min_chunks = -(-int(spp) // chunk_spp)

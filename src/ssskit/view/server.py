@@ -7,9 +7,15 @@ Safe by construction:
   DNS rebinding;
 * it serves the page's own files by name (:data:`ssskit.view.site.PAGE_FILES` and the generated ``data.js``),
   nothing read from a path taken from the request, so no traversal can reach another file;
-* one API route, ``POST /api/material``: a JSON object of at most :data:`MAX_BODY` bytes naming a preset (never a
-  file: the API reads no user path) or artists' terms, with the separable pass's options; every value checked
-  (:class:`ssskit.view.site.MaterialRequest`) before any work;
+* three API routes, each a JSON object of at most :data:`MAX_BODY` bytes naming a preset (never a file: the API
+  reads no user path) or artists' terms, every value checked before any work: ``POST /api/material`` (with the
+  separable pass's options, the adaptive guide's limits and the parts asked: :class:`ssskit.view.site.MaterialRequest`,
+  :func:`~ssskit.view.site.material_payload`) answers the page's data; ``POST /api/export`` (an engine format of
+  :data:`ssskit.export.FORMATS` and one of its suffixes) writes the engine file through :func:`ssskit.export.export`
+  (the code of ``ssskit export``) into a temporary folder of its own and answers its bytes as a download
+  (``Content-Disposition: attachment``): it never writes to a path the request names; ``POST /api/reference`` (a
+  view of the scene, a preset, the page's size) answers the cached path trace of that view beside the page's frame
+  (:func:`~ssskit.view.site.reference_payload`, from the ``references`` the CLI gives: the head's), never rendering one;
 * a malformed or hostile request gets a 4xx with a JSON error and one logged line, and the server keeps serving.
 """
 
@@ -17,19 +23,26 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 import threading
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from collections.abc import Callable
 from typing import Any, TextIO
 from urllib.parse import urlsplit
 
 from ..errors import SsskitError
-from .site import PAGE_FILES, MaterialRequest, data_script, material_payload, page_file
+from .site import (ADAPTIVE_FIELDS, ARTIST_ETA, PAGE_FILES, PARTS, MaterialRequest, data_script, engine_formats,
+                   material_payload, page_file, reference_payload)
 
 #: the largest request body the API reads (bytes)
 MAX_BODY = 4096
-#: the keys of an API request
-API_KEYS = frozenset({"material", "albedo", "mfp", "kernel", "taps", "jitter"})
+#: the keys of a material request (``POST /api/material``)
+API_KEYS = frozenset({"material", "albedo", "mfp", "kernel", "taps", "jitter", "parts", "adaptive"})
+#: the keys of a reference request (``POST /api/reference``)
+REFERENCE_KEYS = frozenset({"view", "material", "w", "h"})
+#: the keys of an export request (``POST /api/export``)
+EXPORT_KEYS = frozenset({"material", "albedo", "mfp", "format", "suffix"})
 _TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=utf-8", ".css": "text/css; charset=utf-8"}
 
 
@@ -48,13 +61,13 @@ def _triple(name: str, value: Any) -> tuple[float, float, float]:
     return (float(value[0]), float(value[1]), float(value[2]))
 
 
-def parse_material_request(body: Any) -> MaterialRequest:
-    """An API body (parsed JSON) as a checked :class:`MaterialRequest`, or a :class:`RequestError` (400)."""
+def _material_keys(body: Any, allowed: frozenset[str]) -> dict[str, Any]:
+    """The material of a request body (a preset name, or albedo with mfp), its keys checked against ``allowed``."""
     from ..materials import MATERIALS
 
     if not isinstance(body, dict):
         raise RequestError(400, "the body must be a JSON object")
-    unknown = set(body) - API_KEYS
+    unknown = set(body) - allowed
     if unknown:
         raise RequestError(400, f"unknown keys: {', '.join(sorted(map(str, unknown)))}")
     material = body.get("material")
@@ -64,6 +77,17 @@ def parse_material_request(body: Any) -> MaterialRequest:
     for key in ("albedo", "mfp"):
         if key in body:
             kw[key] = _triple(key, body[key])
+    return kw
+
+
+def parse_material_request(body: Any) -> tuple[MaterialRequest, tuple[str, ...]]:
+    """An API body (parsed JSON) as a checked :class:`MaterialRequest` and the parts asked (all where not
+    given), or a :class:`RequestError` (400). The adaptive guide's limits (``adaptive``: an object of
+    :data:`~ssskit.view.site.ADAPTIVE_FIELDS`) are checked by :class:`~ssskit.screenspace.AdaptiveSettings`, the
+    ranges the page was sent (:func:`ssskit.view.site.adaptive_controls`)."""
+    from ..screenspace.adaptive import AdaptiveSettings
+
+    kw = _material_keys(body, API_KEYS)
     if "kernel" in body:
         if not isinstance(body["kernel"], str) or len(body["kernel"]) > 40:
             raise RequestError(400, "kernel must be a method spec such as 'svd:2'")
@@ -77,12 +101,57 @@ def parse_material_request(body: Any) -> MaterialRequest:
         if not isinstance(j, (int, float)) or isinstance(j, bool) or not math.isfinite(j):
             raise RequestError(400, "jitter must be a finite number")
         kw["jitter"] = float(j)
+    parts: tuple[str, ...] = PARTS
+    if "parts" in body:
+        p = body["parts"]
+        if not isinstance(p, list) or not p or not all(isinstance(x, str) and x in PARTS for x in p):
+            raise RequestError(400, f"parts must be a non-empty list of {', '.join(PARTS)}")
+        parts = tuple(x for x in PARTS if x in p)
+    if "adaptive" in body:
+        a = body["adaptive"]
+        if not isinstance(a, dict) or set(a) - set(ADAPTIVE_FIELDS):
+            raise RequestError(400, f"adaptive must be an object of {', '.join(ADAPTIVE_FIELDS)}")
+        try:
+            kw["adaptive"] = AdaptiveSettings(**a)
+        except SsskitError as exc:
+            raise RequestError(400, str(exc)) from None
     req = MaterialRequest(**kw)
     try:
         req.check()
     except SsskitError as exc:
         raise RequestError(400, str(exc)) from None
-    return req
+    return req, parts
+
+
+def parse_export_request(body: Any) -> tuple[Any, str]:
+    """An export body (parsed JSON) as the checked :class:`~ssskit.export.ExportSettings` of ``ssskit export``
+    (its ``out`` a placeholder name in no folder: the server writes into a temporary folder of its own) and the
+    download's file name, or a :class:`RequestError` (400). Artists' terms are exported with the viewer's
+    relative index (:data:`~ssskit.view.site.ARTIST_ETA`), as ``ssskit export --albedo --mfp --eta 1.4``."""
+    from ..export import ExportSettings
+
+    kw = _material_keys(body, EXPORT_KEYS)
+    formats = {f["name"]: f for f in engine_formats()}
+    fmt, suffix = body.get("format"), body.get("suffix")
+    if not isinstance(fmt, str) or fmt not in formats:
+        raise RequestError(400, f"format must be an engine format ({', '.join(formats)})")
+    if suffix is None:
+        suffix = formats[fmt]["suffixes"][0]
+    if not isinstance(suffix, str) or suffix not in formats[fmt]["suffixes"]:
+        raise RequestError(400, f"suffix must be one of {', '.join(formats[fmt]['suffixes'])} for {fmt}")
+    artist = "albedo" in kw or "mfp" in kw
+    if artist == (kw["material"] is not None):
+        raise RequestError(400, "give the material once: a preset name, or albedo with mfp")
+    stem = "artist" if artist else kw["material"].lower()
+    name = f"{stem}_{fmt}{suffix}"
+    try:
+        if artist:
+            settings = ExportSettings(format=fmt, out=name, albedo=kw.get("albedo"), mfp=kw.get("mfp"), eta=ARTIST_ETA)
+        else:
+            settings = ExportSettings(format=fmt, out=name, material=kw["material"])
+    except SsskitError as exc:
+        raise RequestError(400, str(exc)) from None
+    return settings, name
 
 
 class ViewServer(ThreadingHTTPServer):
@@ -90,11 +159,36 @@ class ViewServer(ThreadingHTTPServer):
 
     daemon_threads = True
 
-    def __init__(self, data: dict[str, Any], port: int = 0, log: TextIO | None = None) -> None:
+    def __init__(self, data: dict[str, Any], port: int = 0, log: TextIO | None = None,
+                 references: Callable[[str, str], dict[str, Any]] | None = None) -> None:
         super().__init__(("127.0.0.1", int(port)), _Handler)
         self.data_js = data_script(data).encode("utf-8")
         self.log = log if log is not None else sys.stderr
         self.lock = threading.Lock()
+        #: the scene's named views, and where the path-traced references of a (view, preset) come from
+        #: (``ssskit view --scene head``: :func:`ssskit.figures.head.cached_reference_layers`), kept once read
+        self.views = tuple(data["scene"].get("views", {}))
+        self.references = references
+        self._layers: dict[tuple[str, str], dict[str, Any]] = {}
+
+    def warm(self, presets: tuple[str, ...]) -> threading.Thread:
+        """Compute the parts of ``presets`` the page's default state needs (the separable and transmittance
+        passes) in a background thread (niced, a daemon: Ctrl-C does not wait for it) after the server listens,
+        so that a preset the page switches to is answered from memory (the transmittance pass's MCML fit takes
+        1-3 s a material: benchmarks/bench_view_material.py). Returns the thread."""
+        def run() -> None:
+            try:
+                os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 10)
+            except (AttributeError, OSError):
+                pass
+            for name in presets:
+                try:
+                    material_payload(MaterialRequest(name), ("separable", "transmission"))
+                except SsskitError:
+                    pass  # the request for it will say why
+        thread = threading.Thread(target=run, name="ssskit-view-warm", daemon=True)
+        thread.start()
+        return thread
 
     @property
     def port(self) -> int:
@@ -114,9 +208,11 @@ class _Handler(BaseHTTPRequestHandler):
     def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 (the base class's name)
         pass  # successful requests are not logged; refusals are (_refuse)
 
-    def _send(self, status: int, body: bytes, ctype: str) -> None:
+    def _send(self, status: int, body: bytes, ctype: str, headers: dict[str, str] | None = None) -> None:
         self.send_response(status)
         self.send_header("Content-Type", ctype)
+        for key, value in (headers or {}).items():
+            self.send_header(key, value)
         self.send_header("Content-Length", str(len(body)))
         self.send_header("X-Content-Type-Options", "nosniff")
         self.send_header("Cache-Control", "no-store")
@@ -165,30 +261,78 @@ class _Handler(BaseHTTPRequestHandler):
 
     do_HEAD = do_GET
 
+    def _json_body(self) -> Any:
+        if self.headers.get("Content-Type", "").split(";")[0].strip() != "application/json":
+            raise RequestError(415, "the body must be application/json")
+        length = self.headers.get("Content-Length")
+        if length is None or not length.isdigit():
+            raise RequestError(411, "a Content-Length is required")
+        if int(length) > MAX_BODY:
+            raise RequestError(413, f"the body is larger than {MAX_BODY} bytes")
+        raw = self.rfile.read(int(length))
+        try:
+            return json.loads(raw.decode("utf-8"), parse_constant=_no_constant)
+        except (UnicodeDecodeError, json.JSONDecodeError, ValueError) as exc:
+            raise RequestError(400, f"malformed JSON: {exc}") from None
+
+    def _reference_request(self, body: Any) -> tuple[str, str, int, int]:
+        """(view, preset, page width, page height) of a reference request, or a RequestError."""
+        from ..materials import MATERIALS
+
+        if not isinstance(body, dict) or set(body) - REFERENCE_KEYS:
+            raise RequestError(400, f"a reference request is an object of {', '.join(sorted(REFERENCE_KEYS))}")
+        view, material = body.get("view"), body.get("material")
+        if not isinstance(view, str) or view not in self.server.views:
+            raise RequestError(400, f"view must be one of the scene's views ({', '.join(self.server.views) or 'none'})")
+        if not isinstance(material, str) or material not in MATERIALS:
+            raise RequestError(400, f"material must be a preset name ({', '.join(MATERIALS.names())})")
+        size = []
+        for key in ("w", "h"):
+            v = body.get(key)
+            if not isinstance(v, int) or isinstance(v, bool) or not 1 <= v <= 8192:
+                raise RequestError(400, f"{key} must be the page's size in pixels, an integer in [1, 8192]")
+            size.append(v)
+        if self.server.references is None:
+            raise RequestError(404, "this scene has no path-traced references (the head's views have)")
+        return view, material.lower(), size[0], size[1]
+
+    def _reference_layers(self, view: str, material: str) -> dict[str, Any]:
+        key = (view, material)
+        with self.server.lock:
+            layers = self.server._layers.get(key)
+        if layers is None:
+            assert self.server.references is not None
+            try:
+                layers = self.server.references(view, material)
+            except SsskitError as exc:
+                raise RequestError(404, str(exc)) from None
+            with self.server.lock:
+                self.server._layers[key] = layers
+        return layers
+
     def do_POST(self) -> None:
         try:
             _, path = self._route()  # type: ignore[misc]
-            if path != "/api/material":
+            if path == "/api/material":
+                body = self._json_body()
+                req, parts = parse_material_request(body)
+                try:
+                    payload = material_payload(req, parts)
+                except SsskitError as exc:
+                    raise RequestError(422, str(exc)) from None
+                payload["request"] = {k: v for k, v in body.items() if k != "parts"}
+                self._send(200, json.dumps(payload).encode(), "application/json")
+            elif path == "/api/reference":
+                view, material, w, h = self._reference_request(self._json_body())
+                self._send(200, json.dumps(reference_payload(self._reference_layers(view, material), w, h)).encode(),
+                           "application/json")
+            elif path == "/api/export":
+                settings, name = parse_export_request(self._json_body())
+                data = _export_bytes(settings)
+                self._send(200, data, "application/octet-stream",
+                           {"Content-Disposition": f'attachment; filename="{name}"'})
+            else:
                 raise RequestError(404, "unknown route")
-            if self.headers.get("Content-Type", "").split(";")[0].strip() != "application/json":
-                raise RequestError(415, "the body must be application/json")
-            length = self.headers.get("Content-Length")
-            if length is None or not length.isdigit():
-                raise RequestError(411, "a Content-Length is required")
-            if int(length) > MAX_BODY:
-                raise RequestError(413, f"the body is larger than {MAX_BODY} bytes")
-            raw = self.rfile.read(int(length))
-            try:
-                body = json.loads(raw.decode("utf-8"), parse_constant=_no_constant)
-            except (UnicodeDecodeError, json.JSONDecodeError, ValueError) as exc:
-                raise RequestError(400, f"malformed JSON: {exc}") from None
-            req = parse_material_request(body)
-            try:
-                payload = material_payload(req)
-            except SsskitError as exc:
-                raise RequestError(422, str(exc)) from None
-            payload["request"] = {k: v for k, v in body.items()}
-            self._send(200, json.dumps(payload).encode(), "application/json")
         except RequestError as exc:
             self._refuse(exc.status, str(exc))
 
@@ -196,6 +340,24 @@ class _Handler(BaseHTTPRequestHandler):
         self._refuse(405, f"method {self.command} is not allowed")
 
     do_PUT = do_DELETE = do_PATCH = do_OPTIONS = _other
+
+
+def _export_bytes(settings: Any) -> bytes:
+    """The engine file :func:`ssskit.export.export` writes for ``settings``, written into a temporary folder of the
+    server's own (removed after, also when the export fails) and read back: the bytes ``ssskit export`` writes."""
+    import tempfile
+    from dataclasses import replace
+    from pathlib import Path
+
+    from ..export import export
+
+    with tempfile.TemporaryDirectory(prefix="ssskit-view-export-") as tmp:
+        out = Path(tmp) / Path(settings.out).name
+        try:
+            export(replace(settings, out=str(out)))
+        except SsskitError as exc:
+            raise RequestError(422, str(exc)) from None
+        return out.read_bytes()
 
 
 def _no_constant(name: str) -> Any:
@@ -214,4 +376,5 @@ def serve(server: ViewServer) -> None:
         server.server_close()
 
 
-__all__ = ["API_KEYS", "MAX_BODY", "RequestError", "ViewServer", "parse_material_request", "serve"]
+__all__ = ["API_KEYS", "EXPORT_KEYS", "MAX_BODY", "REFERENCE_KEYS", "RequestError", "ViewServer", "parse_export_request",
+           "parse_material_request", "serve"]

@@ -15,6 +15,7 @@ import math
 import os
 import shutil
 from dataclasses import dataclass
+from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -41,10 +42,21 @@ TAP_CHOICES = (5, 7, 9, 11, 13, 15, 17, 21, 25)
 SPP_RANGE = (1, 256)
 
 
+#: the parts of a material's data (:func:`material_payload`): each pass's shaders and numbers, computed only
+#: where asked (a served page asks for what its pass and transmission switch need; a static folder holds all)
+PARTS = ("separable", "burley", "adaptive", "transmission")
+#: the adaptive pass's limits the page offers as controls: fields of ssskit's AdaptivePass (the guide's
+#: AdaptiveSettings fields and the history ``frames``), with the ranges Python declares (:func:`adaptive_controls`)
+ADAPTIVE_FIELDS = ("b_min", "b_max", "sigma0_sq", "kappa", "alpha")
+#: the guide's rule across fields (AdaptiveSettings: the sample budget needs b_min <= b_max), sent to the page
+ADAPTIVE_ORDER = (("b_min", "b_max"),)
+
+
 @dataclass(frozen=True)
 class MaterialRequest:
     """A material for the page: a preset name or material file (``material``), or artists' terms
-    (``albedo`` with ``mfp`` in mm, 3 values each), and the separable pass's options."""
+    (``albedo`` with ``mfp`` in mm, 3 values each), the separable pass's options and the adaptive pass's
+    guide (:class:`~ssskit.screenspace.AdaptiveSettings`; ssskit's defaults, Xie 2020 Fig. 9's setting)."""
 
     material: str | None = "skin1"
     albedo: tuple[float, float, float] | None = None
@@ -52,10 +64,12 @@ class MaterialRequest:
     kernel: str = DEFAULT_KERNEL
     taps: int = DEFAULT_TAPS
     jitter: float = DEFAULT_JITTER
+    adaptive: Any = None
 
     def check(self) -> None:
         """Every refusal before any work (a :class:`SsskitError` naming the input and its valid domain)."""
         from ..profiles.artist import check_artist
+        from ..screenspace.adaptive import AdaptiveSettings
 
         artist = self.albedo is not None or self.mfp is not None
         if artist == (self.material is not None):
@@ -63,86 +77,177 @@ class MaterialRequest:
         if artist:
             if self.albedo is None or self.mfp is None:
                 raise SsskitError("artists' terms need albedo and mfp (3 values each)")
-            check_artist(self.albedo, self.mfp, "mfp", 1.4, 0.0)
+            check_artist(self.albedo, self.mfp, "mfp", ARTIST_ETA, 0.0)
         if self.taps not in TAP_CHOICES:
             raise SsskitError(f"taps must be one of {', '.join(map(str, TAP_CHOICES))}, got {self.taps!r}")
         if not (isinstance(self.jitter, (int, float)) and math.isfinite(self.jitter) and 0.0 <= self.jitter <= 1.0):
             raise SsskitError(f"jitter is a fraction of the kernel size in [0, 1], got {self.jitter!r}")
+        if self.adaptive is not None and not isinstance(self.adaptive, AdaptiveSettings):
+            raise SsskitError(f"adaptive must be AdaptiveSettings, got {type(self.adaptive).__name__}")
         from ..kernels import parse_method_spec
 
         parse_method_spec(self.kernel)
 
     def resolve(self) -> Any:
         """The :class:`~ssskit.materials.Material`."""
-        from ..materials import get_material
-        from ..profiles.artist import ArtistMaterial, material_from_artist
+        return _resolve(self.material, self.albedo, self.mfp)
 
-        if self.material is not None:
-            return get_material(self.material)
-        assert self.albedo is not None and self.mfp is not None
-        return material_from_artist(ArtistMaterial("artist", self.albedo, self.mfp, "mfp", 1.4, 0.0))
+    @property
+    def guide(self) -> Any:
+        """The adaptive pass's :class:`~ssskit.screenspace.AdaptiveSettings` (ssskit's defaults where not given)."""
+        from ..screenspace.adaptive import AdaptiveSettings
+
+        return AdaptiveSettings() if self.adaptive is None else self.adaptive
+
+
+#: the relative index of artists' terms in the viewer (``ssskit view --albedo --mfp``), and of its exports
+ARTIST_ETA = 1.4
+
+
+@lru_cache(maxsize=64)
+def _resolve(material: str | None, albedo: tuple[float, float, float] | None,
+             mfp: tuple[float, float, float] | None) -> Any:
+    from ..materials import get_material
+    from ..profiles.artist import ArtistMaterial, material_from_artist
+
+    if material is not None:
+        return get_material(material)
+    assert albedo is not None and mfp is not None
+    return material_from_artist(ArtistMaterial("artist", albedo, mfp, "mfp", ARTIST_ETA, 0.0))
 
 
 def kernel_taps(req: MaterialRequest) -> tuple[Any, Any, Any]:
     """(material, kernel, taps) as ``ssskit render`` builds them (:func:`ssskit.pipeline.render`'s
     ``taps_of``): the material's profile (:data:`DEFAULT_MODEL`), the kernel on its default grid, the taps."""
+    req.check()
+    return _kernel_taps(req.resolve(), req.kernel, req.taps)
+
+
+@lru_cache(maxsize=64)
+def _kernel_taps(mat: Any, kernel_spec: str, ntaps: int) -> tuple[Any, Any, Any]:
     from ..kernels import TapKernel, build_kernel, default_grid, parse_method_spec
     from ..profiles import profile_for_material
     from ..sampling.taps import make_taps
 
-    req.check()
-    mat = req.resolve()
     prof = profile_for_material(mat, DEFAULT_MODEL)
-    method, params, _ = parse_method_spec(req.kernel)
+    method, params, _ = parse_method_spec(kernel_spec)
     cell, n = default_grid(prof)
     kernel = build_kernel(method.name, prof, cell, n, **params)
-    taps = make_taps(kernel, None if isinstance(kernel, TapKernel) else req.taps, "importance")
+    taps = make_taps(kernel, None if isinstance(kernel, TapKernel) else ntaps, "importance")
     return (mat, prof), kernel, taps
 
 
-def material_payload(req: MaterialRequest) -> dict[str, Any]:
-    """The page's data for one material: its name, the composite's albedo (the profile's total diffuse
-    reflectance), the separable pass (the exported fragment shader, its term count, the taps), the
-    Burley pass (its fragment shader; Burley parameters from the material, Xie 2020 Eq. 5 searchlight), the
-    adaptive guide (Xie 2020 Sec. 4.1) and the transmittance pass (the material's MCML slab table)."""
-    from ..backends.burley_plan import build_burley_plan
-    from ..backends.gl.burley import burley_fragment_source
+# Each part of a material's data, cached in memory per material (the frozen Material: a key of its numbers) and
+# per option: a material the page showed before comes back at once (a served page's material change).
+
+@lru_cache(maxsize=64)
+def _separable_part(mat: Any, kernel_spec: str, ntaps: int, jitter: float) -> dict[str, Any]:
     from ..export.shaders import separable_shader
-    from ..screenspace.burley import burley_params_for_material
     from ..screenspace.separable import default_depth_mode
 
+    (_, prof), _, taps = _kernel_taps(mat, kernel_spec, ntaps)
+    shader = separable_shader(taps, "glsl", jitter=jitter, depth_mode=default_depth_mode(taps), stage="fragment")
+    return {"albedo": [float(v) for v in prof.total_rd()],
+            "separable": {"shader": shader, "terms": int(taps.rank), "kernel": kernel_spec, "taps": int(taps.taps),
+                          "jitter": float(jitter), "offsets_mm": np.asarray(taps.offsets_mm).tolist(),
+                          "weights": np.asarray(taps.weights).tolist()}}
+
+
+@lru_cache(maxsize=64)
+def _burley_plan(mat: Any) -> tuple[Any, Any]:
+    from ..backends.burley_plan import build_burley_plan
+    from ..screenspace.burley import burley_params_for_material
+
+    params = burley_params_for_material(mat)
+    return params, build_burley_plan({1: params}, 1.0, 1.0)
+
+
+@lru_cache(maxsize=64)
+def _burley_part(mat: Any) -> dict[str, Any]:
+    from ..backends.gl.burley import burley_fragment_source
+
+    params, plan = _burley_plan(mat)
+    return {"shader": burley_fragment_source(plan), "dmfp_mm": [float(v) for v in params.dmfp_mm],
+            "albedo": [float(v) for v in params.albedo]}
+
+
+@lru_cache(maxsize=64)
+def _adaptive_part(mat: Any, guide: Any) -> dict[str, Any]:
     from ..backends.adaptive_plan import as_plan
     from ..backends.gl.adaptive import adaptive_fragment_source
+    from ..backends.gl.burley import burley_fragment_source
+
+    _, plan = _burley_plan(mat)
+    g = as_plan(guide)
+    return {"estimate": adaptive_fragment_source(g, False), "update": adaptive_fragment_source(g, True),
+            # after an orbit step: the history fetched through motion vectors, where a validity image allows
+            "estimate_moved": adaptive_fragment_source(g, False, motion=True, valid=True),
+            "update_moved": adaptive_fragment_source(g, True, motion=True, valid=True),
+            "burley": burley_fragment_source(plan, count_image=True), "b_min": g.b_min, "b_max": g.b_max,
+            "settings": {name: getattr(guide, name) for name in ADAPTIVE_FIELDS}}
+
+
+@lru_cache(maxsize=64)
+def _transmission_part(mat: Any) -> dict[str, Any]:
     from ..backends.gl.transmission import transmission_fragment_source
     from ..backends.transmission_plan import build_transmission_plan
-    from ..screenspace.adaptive import AdaptiveSettings
     from ..screenspace.transmission import mcml_model
 
-    (mat, prof), kernel, taps = kernel_taps(req)
-    shader = separable_shader(taps, "glsl", jitter=req.jitter, depth_mode=default_depth_mode(taps), stage="fragment")
-    params = burley_params_for_material(mat)
-    plan = build_burley_plan({1: params}, 1.0, 1.0)
-    guide = as_plan(AdaptiveSettings())
-    return {
-        "name": getattr(mat, "name", "material"),
-        "albedo": [float(v) for v in prof.total_rd()],
-        "separable": {"shader": shader, "terms": int(taps.rank), "kernel": req.kernel, "taps": int(taps.taps),
-                      "jitter": float(req.jitter), "offsets_mm": np.asarray(taps.offsets_mm).tolist(),
-                      "weights": np.asarray(taps.weights).tolist()},
-        "burley": {"shader": burley_fragment_source(plan), "dmfp_mm": [float(v) for v in params.dmfp_mm],
-                   "albedo": [float(v) for v in params.albedo]},
-        # Xie 2020 Sec. 4.1 with ssskit's AdaptiveSettings defaults: the estimate, the update (each also reading
-        # the history through motion vectors), the Burley pass reading the count image
-        "adaptive": {"estimate": adaptive_fragment_source(guide, False), "update": adaptive_fragment_source(guide, True),
-                     # after an orbit step: the history fetched through motion vectors, a validity image
-                     "estimate_moved": adaptive_fragment_source(guide, False, motion=True, valid=True),
-                     "update_moved": adaptive_fragment_source(guide, True, motion=True, valid=True),
-                     "burley": burley_fragment_source(plan, count_image=True), "b_min": guide.b_min,
-                     "b_max": guide.b_max},
-        # the transmittance pass with the material's MCML slab table (ssskit.screenspace.transmission.mcml_model)
-        "transmission": {"shader": transmission_fragment_source(build_transmission_plan({1: mcml_model(mat)})),
-                         "model": "mcml"},
-    }
+    return {"shader": transmission_fragment_source(build_transmission_plan({1: mcml_model(mat)})), "model": "mcml"}
+
+
+def material_payload(req: MaterialRequest, parts: tuple[str, ...] = PARTS) -> dict[str, Any]:
+    """The page's data for one material, the ``parts`` asked (:data:`PARTS`; all by default): its name, the
+    composite's albedo (the profile's total diffuse reflectance) and the separable pass (the exported fragment
+    shader, its term count, the taps) always; the Burley pass (its fragment shader; Burley parameters from the
+    material, Xie 2020 Eq. 5 searchlight), the adaptive guide (Xie 2020 Sec. 4.1, ``req.guide``) and the
+    transmittance pass (the material's MCML slab table) where asked. A material whose MCML slab table does not
+    converge has no transmittance pass: its part holds the reason (``{"error": ...}``) and the page says so.
+    Every part is cached in memory per material and options (a material shown before comes back at once)."""
+    unknown = [p for p in parts if p not in PARTS]
+    if unknown:
+        raise SsskitError(f"unknown parts {', '.join(map(repr, unknown))} (known: {', '.join(PARTS)})")
+    req.check()
+    mat = req.resolve()
+    out: dict[str, Any] = {"name": getattr(mat, "name", "material"), "parts": [p for p in PARTS if p in parts],
+                           **_separable_part(mat, req.kernel, req.taps, float(req.jitter))}
+    if "burley" in parts:
+        out["burley"] = _burley_part(mat)
+    if "adaptive" in parts:
+        # Xie 2020 Sec. 4.1 with the request's guide: the estimate, the update, the Burley pass reading the counts
+        out["adaptive"] = _adaptive_part(mat, req.guide)
+    if "transmission" in parts:
+        try:  # the transmittance pass with the material's MCML slab table (ssskit.screenspace.transmission)
+            out["transmission"] = _transmission_part(mat)
+        except SsskitError as exc:
+            out["transmission"] = {"error": str(exc)}
+    return out
+
+
+def _finite(v: float) -> float | None:
+    """A bound as JSON holds it: an infinite one as None (no bound)."""
+    return float(v) if math.isfinite(v) else None
+
+
+def adaptive_controls() -> list[dict[str, Any]]:
+    """The adaptive pass's limits as the page's controls, one source: each field of ssskit's
+    :class:`~ssskit.pipeline.settings.AdaptivePass` named in :data:`ADAPTIVE_FIELDS` and its ``frames`` (the
+    history the page renders after a change), with the range its declared quantity (:mod:`ssskit.quantities`)
+    holds, its default and its reason. The page checks an input against these before it asks the server, and
+    the server checks it again through AdaptiveSettings."""
+    import dataclasses
+
+    from ..pipeline.settings import AdaptivePass
+
+    fields = {f.name: f for f in dataclasses.fields(AdaptivePass)}
+    out = []
+    for name in (*ADAPTIVE_FIELDS, "frames"):
+        f = fields[name]
+        q = f.metadata["quantity"]
+        out.append({"name": name, "lo": _finite(q.lo), "hi": _finite(q.hi), "lo_open": q.lo_open, "hi_open": q.hi_open,
+                    "integer": q.integer, "default": f.default, "interval": q.interval, "reason": q.reason,
+                    "served_only": name != "frames"})
+    return out
 
 
 def _b64(a: np.ndarray, dtype: Any) -> str:
@@ -237,7 +342,10 @@ def scene_payload(scene: str) -> dict[str, Any]:
             "cull": ("back" if topo.volume > 0 else "front") if closed else "none",
             "camera": {"origin": list(map(float, spec.origin)), "target": list(map(float, spec.target)),
                        "up": list(map(float, spec.up)), "fov_x_deg": float(spec.fov_x_deg)},
-            "lights": _light_list(spec), "about": dict(getattr(spec, "about", ()) or ())}
+            "lights": _light_list(spec), "about": dict(getattr(spec, "about", ()) or ()),
+            # a built-in scene's named views (the head: Xie 2020 Fig. 1's front, ear and close)
+            "views": {name: {"origin": list(map(float, o)), "target": list(map(float, t)), "up": list(map(float, u)),
+                             "fov_x_deg": float(f)} for name, (o, t, u, f) in dict(getattr(spec, "views", ()) or ()).items()}}
 
 
 def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -250,11 +358,71 @@ def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     return out / np.where(length > 0, length, 1.0)
 
 
+def _json_level(row: dict[str, Any]) -> dict[str, Any]:
+    """A region's level as JSON holds it: an empty region's (NaN) level as None."""
+    return {**row, "level": row["level"] if row["pixels"] else None}
+
+
+def reference_payload(layers: dict[str, Any], width: int, height: int) -> dict[str, Any]:
+    """The path-traced reference of a view as the page shows it beside its own ``width`` x ``height`` frame of the
+    same camera (the same horizontal field of view): the image (float32 RGB, rows from the top, base64; shown
+    unfiltered), each pixel's region (uint8, 1 + the index in ``regions``, 0 outside them), and per region its
+    level with the standard error (:func:`ssskit.metrics.region_level`: mean(image - specular) / mean(E / pi),
+    the effective albedo) over the rows the page's frame shows (a frame of another aspect crops the reference's
+    rows: ``rows``) and over all of it (``levels_all``). ``layers``: :func:`ssskit.figures.head.cached_reference_layers`."""
+    from ..metrics import region_level
+
+    image = np.asarray(layers["image"], np.float64)
+    h, w = image.shape[:2]
+    # a page pixel's centre (x + 1/2, y + 1/2) is the reference's ((x + 1/2) w / W, h / 2 + (y + 1/2 - H / 2) w / W)
+    half = height / 2 * w / width
+    r0, r1 = max(0, int(math.floor(h / 2 - half))), min(h, int(math.ceil(h / 2 + half)))
+    shown = np.zeros((h, w), bool)
+    shown[r0:r1] = True
+    part = image - np.asarray(layers["specular"], np.float64)
+    e = np.asarray(layers["e_over_pi"], np.float64)
+    se = np.asarray(layers["pixel_se"], np.float64)
+    names = list(layers["masks"])
+    labels = np.zeros((h, w), np.uint8)
+    levels, levels_all = {}, {}
+    for i, name in enumerate(names):
+        m = np.asarray(layers["masks"][name], bool)
+        labels[m] = i + 1
+        levels[name] = _json_level(region_level(part, e, m & shown, se))
+        levels_all[name] = _json_level(region_level(part, e, m, se))
+    return {"size": [w, h], "rows": [r0, r1], "spp": int(layers["spp"]), "converged": bool(layers["converged"]),
+            "driving_region": layers.get("driving_region"), "regions": names, "image": _b64(image, np.float32),
+            "labels": _b64(labels, np.uint8), "levels": levels, "levels_all": levels_all}
+
+
+def _request_body(req: MaterialRequest) -> dict[str, Any]:
+    """The material of ``req`` as the API names it (a served page asks for more of it): albedo with mfp, or the
+    preset's name."""
+    if req.material is None:
+        return {"albedo": list(req.albedo or ()), "mfp": list(req.mfp or ())}
+    return {"material": req.material}
+
+
+def engine_formats() -> list[dict[str, Any]]:
+    """The engine formats of :data:`ssskit.export.FORMATS` (kind "engine"), one export button each: name, the
+    suffixes it writes (the first is the button's default) and its description."""
+    from ..export import FORMATS
+
+    return [{"name": f.name, "suffixes": list(f.suffixes), "description": f.description}
+            for _, f in FORMATS.items() if f.kind == "engine"]
+
+
 def page_data(scene: str, materials: dict[str, MaterialRequest], default: str, served: bool) -> dict[str, Any]:
-    """Everything ``data.js`` holds."""
+    """Everything ``data.js`` holds. A static folder holds every part of each material (:data:`PARTS`); a served
+    page starts with the separable pass of its material alone and asks the server for the rest (the presets it
+    lists, the parts its pass and transmission switch need)."""
+    parts = ("separable",) if served else PARTS
     return {"version": 1, "served": bool(served), "scene": scene_payload(scene), "default_material": default,
-            "materials": {name: material_payload(req) for name, req in materials.items()},
-            "tap_choices": list(TAP_CHOICES), "spp_range": list(SPP_RANGE)}
+            "materials": {name: {**material_payload(req, parts), "request": _request_body(req)}
+                          for name, req in materials.items()},
+            "presets": list(PRESETS) if served else [], "tap_choices": list(TAP_CHOICES), "spp_range": list(SPP_RANGE),
+            "adaptive_controls": adaptive_controls(), "adaptive_order": [list(p) for p in ADAPTIVE_ORDER],
+            "exports": engine_formats()}
 
 
 def data_script(data: dict[str, Any]) -> str:
@@ -300,6 +468,7 @@ def write_site(out: str | os.PathLike[str], data: dict[str, Any]) -> Path:
     return dest
 
 
-__all__ = ["DEFAULT_KERNEL", "DEFAULT_MODEL", "DEFAULT_TAPS", "MESH_SUFFIXES", "MaterialRequest", "PAGE_FILES",
-           "PRESETS", "SCENE_NAMES", "check_out", "check_scene", "data_script", "kernel_taps", "material_payload",
-           "page_data", "page_file", "scene_payload", "write_site", "write_static"]
+__all__ = ["ADAPTIVE_FIELDS", "ADAPTIVE_ORDER", "ARTIST_ETA", "DEFAULT_KERNEL", "DEFAULT_MODEL", "DEFAULT_TAPS", "MESH_SUFFIXES",
+           "MaterialRequest", "PAGE_FILES", "PARTS", "PRESETS", "SCENE_NAMES", "adaptive_controls", "check_out",
+           "check_scene", "data_script", "engine_formats", "kernel_taps", "material_payload", "page_data", "page_file", "reference_payload", "scene_payload",
+           "write_site", "write_static"]

@@ -428,7 +428,7 @@ void main() {
 
   // ---- state and controls --------------------------------------------------------------------------------------
   const state = { material: D.default_material, pass: 'separable', spp: 16, split: false, heat: false, transmission: true, auto: true, frame: 0, seed: 0,
-    light: { az: 0, el: 0, scale: 1 } };
+    light: { az: 0, el: 0, scale: 1 }, frames: 16 };
   const composite = link(FULL_VS, COMPOSITE_FS, 'composite');
   const timing = { mode: timerExt ? 'GPU timer queries (EXT_disjoint_timer_query_webgl2)' : 'wall time to a finished readback', passes: {}, frame_ms: 0 };
   let pending = [];
@@ -701,7 +701,7 @@ void main() {
   }
   function adaptive(m, mat) {
     const A = mat.adaptive;
-    const key = JSON.stringify([state.material, state.light, state.seed, W, H]);
+    const key = JSON.stringify([state.material, state.light, state.seed, W, H, A.settings]);
     const view = JSON.stringify(cam);
     setUniforms = (prog) => {
       setIf(prog, 'u_size', (l) => gl.uniform2i(l, W, H));
@@ -762,6 +762,7 @@ void main() {
   function render() {
     collectQueries();
     const mat = D.materials[state.material];
+    const has = (part) => !!(mat[part] && !mat[part].error);   // a served page may still be asking for a part
     const m = matrices();
     const t0 = performance.now();
     timing.passes = timerExt ? timing.passes : {};
@@ -770,30 +771,31 @@ void main() {
     const all = state.pass === 'adaptive' || state.transmission ? 1 : 0;
     // The G-buffer is drawn again only when what it shows changed (the view, the light, the albedo, the layers), unless
     // the state says reuse_gbuffer: false (benchmarks/bench_view.py: its frames include the G-buffer pass). The
-    // adaptive pass's frames after a change (up to 64 on a still view) then cost only the screen-space passes.
+    // adaptive pass's frames after a change (`frames` on a still view) then cost only the screen-space passes.
     const gkey = JSON.stringify([cam, state.light, mat.albedo, all]);
     timing.gbuffer_reused = state.reuse_gbuffer !== false && gkey === gbufKey;
     if (!timing.gbuffer_reused) timed('gbuffer', () => { spans = meshSpans(m); drawGbuffer(m, mat, all); });
     gbufKey = gkey;
     gl.viewport(0, 0, W, H);
     if (state.pass === 'separable') timed('separable', () => { result = separable(m, mat); });
-    else if (state.pass === 'burley') timed('burley', () => { result = burley(m, mat); });
-    else if (state.pass === 'adaptive') {
+    else if (state.pass === 'burley' && has('burley')) timed('burley', () => { result = burley(m, mat); });
+    else if (state.pass === 'adaptive' && has('adaptive')) {
       if (lastPass !== 'adaptive') ad.key = '';   // switching to the adaptive pass starts a new history
       timed('adaptive', () => { result = adaptive(m, mat); });
     } else result = G.src;
     shown = state.pass === 'adaptive' ? taa[ad.taa] : result;
     lastPass = state.pass;
-    if (state.transmission) timed('transmission', () => transmission(mat));
+    const transOn = state.transmission && has('transmission');
+    if (transOn) timed('transmission', () => transmission(mat));
     timed('composite', () => {
       gl.bindFramebuffer(gl.FRAMEBUFFER, null);
       gl.useProgram(composite.p);
       bindTextures(composite, { u_src: G.src, u_sss: shown, u_spec: G.spec, u_albedo: G.albedo, u_counts: counts[ad.used],
         u_trans: trans });
-      gl.uniform1i(composite.u.u_transmission, state.transmission ? 1 : 0);
+      gl.uniform1i(composite.u.u_transmission, transOn ? 1 : 0);
       gl.uniform1i(composite.u.u_split, state.split ? 1 : 0);
-      gl.uniform1i(composite.u.u_heat, state.heat && state.pass === 'adaptive' ? 1 : 0);
-      gl.uniform2f(composite.u.u_budget, mat.adaptive.b_min, mat.adaptive.b_max);
+      gl.uniform1i(composite.u.u_heat, state.heat && state.pass === 'adaptive' && has('adaptive') ? 1 : 0);
+      if (has('adaptive')) gl.uniform2f(composite.u.u_budget, mat.adaptive.b_min, mat.adaptive.b_max);
       gl.uniform1f(composite.u.u_exposure, 1.0);
       drawMasked(['canvas'], [[0.13, 0.13, 0.13, 1]]);   // off the mesh: the composite's background
     });
@@ -801,6 +803,7 @@ void main() {
     timing.frame_ms = performance.now() - t0;
     timing.fx = m.fx; timing.fy = m.fy; timing.view = m.view; timing.coverage = coverage(spans);
     frames += 1;
+    drawn = { material: state.material, transmission: transOn, frame: frames };
     const lines = Object.entries(timing.passes).map(([k, v]) => `${k.padEnd(10)} ${v.toFixed(2)} ms`);
     if (timing.gbuffer_reused) lines.unshift('gbuffer    reused (unchanged)');
     $('stats').textContent = `${W}x${H}, ${S.triangles} triangles\nframe ${timing.frame_ms.toFixed(1)} ms (` +
@@ -810,8 +813,9 @@ void main() {
   }
 
   let frames = 0, dirty = true;
+  let drawn = null;   // what the last frame showed: its material, whether with the transmittance pass
   function loop() {
-    if (state.pass === 'adaptive' && state.auto && ad.frame < 64) dirty = true;
+    if (state.pass === 'adaptive' && state.auto && ad.frame < state.frames) dirty = true;
     if (dirty && state.auto) {
       dirty = false;
       try { render(); status(''); } catch (e) { status(String(e)); console.error(String(e)); }
@@ -821,10 +825,13 @@ void main() {
   const redraw = () => { dirty = true; };
 
   // ---- controls -------------------------------------------------------------------------------------------------
+  // what the controls and the server say (the render loop owns #status: its errors)
+  const notice = (msg) => { $('notice').textContent = msg; };
   function fillMaterials() {
     const sel = $('material');
     sel.innerHTML = '';
-    for (const name of Object.keys(D.materials)) sel.add(new Option(D.materials[name].name, name, false, name === state.material));
+    const names = [...new Set([...Object.keys(D.materials), ...(D.presets || [])])];
+    for (const name of names) sel.add(new Option(D.materials[name] ? D.materials[name].name : name, name, false, name === state.material));
     if (D.served) sel.add(new Option('albedo + mean free path...', '__artist__'));
   }
   fillMaterials();
@@ -832,47 +839,312 @@ void main() {
   const servedOnly = ['taps', 'jitter'];
   if (!D.served) servedOnly.forEach((id) => { $(id).disabled = true; $(id).title = 'served mode only (ssskit view without --out)'; });
 
+  // served mode: the server computes a material's parts (ssskit.view.site.material_payload) when the page needs
+  // them: the separable pass always, Burley and adaptive for those passes, the transmittance pass when it is on
+  async function post(route, body) {
+    return fetch(route, { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
+  }
   async function ask(body) {
-    const r = await fetch('api/material', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
+    const r = await post('api/material', body);
     const j = await r.json();
     if (!r.ok) throw new Error(j.error || r.statusText);
     return j;
   }
-  async function requestMaterial(body, key) {
-    status('computing the kernel...');
-    const payload = await ask(body);
-    D.materials[key] = payload;
+  // the material of a key as the API names it: a preset, or the artists' terms it was asked with
+  function materialBody(key) {
+    const mat = D.materials[key];
+    if (mat && mat.request && mat.request.albedo) return { albedo: mat.request.albedo, mfp: mat.request.mfp };
+    return { material: key };
+  }
+  function neededParts() {
+    const parts = ['separable'];
+    if (state.pass === 'burley') parts.push('burley');
+    if (state.pass === 'adaptive') parts.push('adaptive');
+    return parts;
+  }
+  const missing = (key, parts) => parts.filter((p) => !(D.materials[key] && D.materials[key][p]));
+  let pendingAsk = Promise.resolve();
+  // merge a payload's parts into the page's data for key; a new separable pass or adaptive guide replaces the old
+  function merge(key, payload) {
+    const old = D.materials[key] || {};
+    D.materials[key] = Object.assign({}, old, payload);
+  }
+  async function requestMaterial(body, key, extra) {
+    // the fast parts first (the frame re-renders with them), then the transmittance pass where it is on
+    const opts = { ...currentOptions(key), ...(extra || {}) };
+    const first = neededParts();
+    notice('computing the material...');
+    const payload = await ask({ ...opts, ...body, parts: first });
+    delete D.materials[key];
+    merge(key, payload);
     state.material = key;
     fillMaterials();
-    status('');
     redraw();
-    return payload;
+    notice('');
+    if (refOn) refreshReference();
+    await ensureParts();
+    return D.materials[key];
   }
-  function currentOptions() {
-    return { kernel: D.materials[state.material].separable.kernel, taps: parseInt($('taps').value, 10), jitter: parseFloat($('jitter').value) };
+  async function ensureParts() {
+    const key = state.material;
+    for (const parts of D.served ? [neededParts(), state.transmission ? ['transmission'] : []] : []) {
+      const want = missing(key, parts);
+      if (!want.length) continue;
+      notice(`computing ${want.join(', ')}...`);
+      merge(key, await ask({ ...materialBody(key), ...currentOptions(key), parts: want }));
+      if (key === state.material) redraw();
+    }
+    const t = D.materials[key].transmission;
+    notice(state.transmission && t && t.error ? `no transmittance pass for this material: ${t.error}` : '');
+  }
+  const ensure = () => { pendingAsk = pendingAsk.then(ensureParts).catch((e) => notice(String(e))); return pendingAsk; };
+  function currentOptions(key) {
+    const sep = D.materials[key] ? D.materials[key].separable : null;
+    const opts = { kernel: sep ? sep.kernel : D.materials[state.material].separable.kernel, taps: parseInt($('taps').value, 10), jitter: parseFloat($('jitter').value) };
+    if (adaptiveChanged) opts.adaptive = adaptiveSettings();
+    return opts;
   }
   $('material').addEventListener('change', (e) => {
     const v = e.target.value;
     $('artist').hidden = v !== '__artist__';
-    if (v !== '__artist__') { state.material = v; redraw(); }
+    if (v === '__artist__') return;
+    if (D.served && missing(v, neededParts()).length) {
+      pendingAsk = pendingAsk.then(() => requestMaterial(materialBody(v), v)).catch((err) => notice(String(err)));
+    } else { state.material = v; redraw(); ensure(); if (refOn) refreshReference(); }
   });
   $('apply').addEventListener('click', () => {
     const triple = (id) => $(id).value.split(',').map(Number);
-    requestMaterial({ albedo: triple('albedo'), mfp: triple('mfp'), ...currentOptions() }, 'artist').catch((e) => status(String(e)));
+    pendingAsk = pendingAsk.then(() => requestMaterial({ albedo: triple('albedo'), mfp: triple('mfp') }, 'artist')).catch((e) => notice(String(e)));
   });
-  for (const id of ['taps', 'jitter']) {
-    $(id).addEventListener('change', () => {
-      const name = state.material;
-      const mat = D.materials[name];
-      const body = name === 'artist' ? { albedo: mat.request.albedo, mfp: mat.request.mfp } : { material: name };
-      requestMaterial({ ...body, ...currentOptions() }, name).catch((e) => status(String(e)));
+  // a changed option makes every part of the material stale: the server rebuilds them (cached per option)
+  function reaskAll() {
+    const name = state.material, body = materialBody(name);
+    pendingAsk = pendingAsk.then(() => requestMaterial(body, name)).catch((e) => notice(String(e)));
+    return pendingAsk;
+  }
+  for (const id of ['taps', 'jitter']) $(id).addEventListener('change', reaskAll);
+
+  // the adaptive pass's limits: inputs made from the ranges Python declares (D.adaptive_controls:
+  // ssskit.view.site.adaptive_controls, from ssskit's AdaptivePass), checked here as there
+  let adaptiveChanged = false;
+  const controlsById = {};
+  function checkControl(c, text) {
+    const v = Number(text);
+    const inRange = text.trim() !== '' && Number.isFinite(v) && (!c.integer || Number.isInteger(v)) &&
+      (c.lo === null || (c.lo_open ? v > c.lo : v >= c.lo)) && (c.hi === null || (c.hi_open ? v < c.hi : v <= c.hi));
+    return inRange ? null : `${c.name} must be ${c.integer ? 'an integer' : 'a number'} in ${c.interval}` +
+      `${c.reason ? ' (' + c.reason + ')' : ''}, got ${JSON.stringify(text)}`;
+  }
+  function adaptiveSettings() {
+    const out = {};
+    for (const c of D.adaptive_controls) if (c.name !== 'frames') out[c.name] = Number($('ad_' + c.name).value);
+    return out;
+  }
+  for (const c of D.adaptive_controls) {
+    controlsById[c.name] = c;
+    const label = document.createElement('label');
+    label.textContent = c.name + ' ';
+    const input = document.createElement('input');
+    input.id = 'ad_' + c.name;
+    input.type = 'text';
+    input.size = 7;
+    input.value = String(c.default);
+    input.title = `${c.interval}${c.reason ? ': ' + c.reason : ''}`;
+    if (c.served_only && !D.served) { input.disabled = true; input.title = 'served mode only (ssskit view without --out)'; }
+    label.appendChild(input);
+    $('adaptive_limits').appendChild(label);
+    input.addEventListener('change', () => {
+      const err = checkControl(c, input.value);
+      input.classList.toggle('bad', !!err);
+      if (err) { notice(err); return; }
+      if (c.name === 'frames') { state.frames = Number(input.value); redraw(); notice(''); return; }
+      const bad = D.adaptive_controls.filter((o) => o.served_only).map((o) => checkControl(o, $('ad_' + o.name).value)).find((x) => x) ||
+        D.adaptive_order.map(([lo, hi]) => {   // AdaptiveSettings' rule across fields, as Python words it
+          const a = Number($('ad_' + lo).value), b = Number($('ad_' + hi).value);
+          return a <= b ? null : `the sample budget needs ${lo} <= ${hi}, got ${lo}=${a} > ${hi}=${b}`;
+        }).find((x) => x);
+      if (bad) { notice(bad); return; }
+      adaptiveChanged = true;
+      const key = state.material;
+      pendingAsk = pendingAsk.then(async () => {
+        notice('computing the adaptive pass...');
+        merge(key, await ask({ ...materialBody(key), ...currentOptions(key), parts: ['adaptive'] }));
+        redraw();
+        notice('');
+      }).catch((e) => notice(String(e)));
     });
   }
-  $('pass').addEventListener('change', (e) => { state.pass = e.target.value; redraw(); });
+  state.frames = controlsById.frames ? controlsById.frames.default : 16;
+
+  // export buttons: the engine formats of ssskit.export.FORMATS; the server writes the file through
+  // ssskit.export.export (the code of ssskit export) and the page downloads its bytes
+  for (const f of D.exports) {
+    const row = document.createElement('div');
+    row.className = 'export';
+    const sel = document.createElement('select');
+    sel.id = 'export_suffix_' + f.name;
+    for (const s of f.suffixes) sel.add(new Option(s, s));
+    const b = document.createElement('button');
+    b.id = 'export_' + f.name;
+    b.textContent = f.name;
+    b.title = f.description;
+    if (!D.served) { b.disabled = true; sel.disabled = true; b.title = 'export needs the served page: ssskit view (without --out)'; }
+    b.addEventListener('click', () => exportFile(f.name, sel.value).catch((e) => notice(String(e))));
+    row.append(b, sel);
+    $('exports').appendChild(row);
+  }
+  $('export_note').textContent = D.served ? 'the current material, written by ssskit export' :
+    'export needs the served page: run ssskit view (without --out)';
+  async function exportFile(format, suffix) {
+    notice(`exporting ${format}${suffix}...`);
+    const r = await post('api/export', { ...materialBody(state.material), format, suffix });
+    if (!r.ok) { const j = await r.json(); throw new Error(j.error || r.statusText); }
+    const disp = r.headers.get('Content-Disposition') || '';
+    const m = /filename="([^"]+)"/.exec(disp);
+    const url = URL.createObjectURL(await r.blob());
+    const a = document.createElement('a');
+    a.href = url;
+    a.download = m ? m[1] : `${state.material}_${format}${suffix}`;
+    document.body.appendChild(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 10000);
+    notice('');
+  }
+  // ---- the path-traced reference beside the frame (served mode; the head's views) ------------------------------------
+  // The server answers the cached path trace of a view and preset (ssskit.view.site.reference_payload): its image,
+  // shown unfiltered (one reference pixel, many screen pixels), its regions and their levels with standard errors.
+  // The page's own level per region: mean(albedo x SSS (+ T / pi)) / mean(E / pi) over its pixels that fall in the
+  // region (ssskit.metrics.region_level's effective albedo), from the current frame's float targets.
+  const views = S.views || {};
+  const viewNames = Object.keys(views);
+  const sameCam = (a, b) => ['origin', 'target', 'up'].every((k) => a[k].every((v, i) => Math.abs(v - b[k][i]) < 1e-9)) &&
+    Math.abs(a.fov_x_deg - b.fov_x_deg) < 1e-9;
+  if (viewNames.length) {
+    $('view_label').hidden = false;
+    for (const v of viewNames) $('viewsel').add(new Option(v, v, false, sameCam(views[v], S.camera)));
+    $('viewsel').addEventListener('change', (e) => {
+      S.camera = views[e.target.value];
+      cam.az = 0; cam.el = 0; cam.zoom = 1;
+      redraw();
+      refreshReference();
+    });
+  }
+  if (!D.served) { $('reference').disabled = true; $('reference_label').title = 'served mode only (ssskit view without --out)'; }
+  const refs = {};
+  let refOn = false, levelsFrame = -1;
+  const currentView = () => (viewNames.length ? $('viewsel').value : null);
+  // why the frame and the reference are not of the same view, or '' where they are
+  function moved() {
+    const v = currentView();
+    if (!v) return 'this scene has no named views';
+    if (!sameCam(views[v], S.camera) || cam.az !== 0 || cam.el !== 0 || cam.zoom !== 1)
+      return `the camera moved from the ${v} view: the reference is of that view (choose it again to return)`;
+    if (state.light.az !== 0 || state.light.el !== 0) return "the light turned: the reference is lit by the scene's lights";
+    return '';
+  }
+  async function refreshReference() {
+    refOn = $('reference').checked && D.served;
+    $('refside').hidden = !refOn;
+    if (!refOn) return;
+    const v = currentView();
+    if (!v) { $('refnote').textContent = 'this scene has no path-traced reference (the head has, at its views)'; return; }
+    const key = `${v}/${state.material}`;
+    if (!refs[key]) {
+      $('refnote').textContent = `reading the ${v} view's reference...`;
+      const r = await post('api/reference', { view: v, material: state.material, w: W, h: H });
+      const j = await r.json();
+      refs[key] = r.ok ? j : { error: j.error || r.statusText };
+    }
+    drawReference(refs[key]);
+    levelsFrame = -1;
+    updateLevels();
+  }
+  function drawReference(ref) {
+    const c = $('refimg');
+    if (ref.error) { c.width = 0; $('reflevels').innerHTML = ''; $('refnote').textContent = ref.error; return; }
+    const [w, h] = ref.size;
+    c.width = w; c.height = h;
+    c.style.height = `${H}px`;
+    c.style.width = `${Math.round(H * w / h)}px`;
+    const img = decode(ref.image, Float32Array), px = new ImageData(w, h);
+    for (let i = 0; i < w * h; ++i) {
+      for (let k = 0; k < 3; ++k) {   // the composite's display: Reinhard, then the sRGB encoding
+        let x = img[3 * i + k]; x = x / (1 + x);
+        x = x <= 0.0031308 ? 12.92 * x : 1.055 * Math.pow(x, 1 / 2.4) - 0.055;
+        px.data[4 * i + k] = Math.round(255 * Math.min(1, Math.max(0, x)));
+      }
+      px.data[4 * i + 3] = 255;
+    }
+    c.getContext('2d').putImageData(px, 0, 0);
+  }
+  // a float target's texels, float32 RGBA, GL's rows (bottom first)
+  function readFloat(tex) {
+    const fb = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, tex, 0);
+    const out = new Float32Array(W * H * 4);
+    gl.readPixels(0, 0, W, H, gl.RGBA, gl.FLOAT, out);
+    gl.deleteFramebuffer(fb);
+    return out;
+  }
+  // the page's level per region of ref over the current frame: {name: {pixels, level: [r, g, b]}}
+  function pageLevels(ref) {
+    const [w, h] = ref.size, labels = decode(ref.labels, Uint8Array);
+    const mat = D.materials[state.material], transOn = state.transmission && mat.transmission && !mat.transmission.error;
+    const src = readFloat(G.src), sss = readFloat(result), alb = readFloat(G.albedo), tr = transOn ? readFloat(trans) : null;
+    const sums = ref.regions.map(() => ({ n: 0, out: [0, 0, 0], e: [0, 0, 0] }));
+    for (let yg = 0; yg < H; ++yg) {
+      const y = H - 1 - yg;   // GL's rows count from the bottom, the reference's from the top
+      const row = Math.floor(h / 2 + (y + 0.5 - H / 2) * w / W);
+      if (row < 0 || row >= h) continue;
+      for (let x = 0; x < W; ++x) {
+        const label = labels[row * w + Math.floor((x + 0.5) * w / W)];
+        const i = 4 * (yg * W + x);
+        if (!label || alb[i + 3] === 0) continue;
+        const s = sums[label - 1];
+        s.n += 1;
+        for (let k = 0; k < 3; ++k) {
+          s.out[k] += alb[i + k] * sss[i + k] + (tr ? tr[i + k] / Math.PI : 0);
+          s.e[k] += src[i + k];
+        }
+      }
+    }
+    const out = {};
+    ref.regions.forEach((name, j) => {
+      const s = sums[j];
+      out[name] = { pixels: s.n, level: s.n ? s.out.map((o, k) => o / s.e[k]) : null };
+    });
+    return out;
+  }
+  function updateLevels() {
+    if (!refOn) return null;
+    const ref = refs[`${currentView()}/${state.material}`];
+    if (!ref || ref.error) return null;
+    const why = moved();
+    const mine = why ? null : pageLevels(ref);
+    levelsFrame = frames;
+    const f3 = (a) => (a ? a.map((x) => x.toFixed(3)).join(' ') : '-');
+    const rows = ref.regions.map((name) => {
+      const r = ref.levels[name], p = mine ? mine[name] : null;
+      const se = r.se ? ' \u00b1 ' + r.se.map((x) => x.toFixed(3)).join(' ') : '';
+      return `<tr><td>${name}</td><td>${r.pixels}</td><td>${f3(r.level)}${se}</td><td>${p ? f3(p.level) : '-'}</td></tr>`;
+    });
+    $('reflevels').innerHTML = '<tr><th>region</th><th>px</th><th>path trace (R G B \u00b1 SE)</th><th>this frame</th></tr>' + rows.join('');
+    $('refnote').textContent = `${currentView()} view, ${state.material}: Mitsuba volpathmis, ${ref.spp} spp` +
+      `${ref.converged ? '' : ' (not converged)'}; levels: mean(diffuse out) / mean(E / pi) per region over ` +
+      `the reference rows ${ref.rows[0]}-${ref.rows[1]} this frame shows. The page's G-buffer has no shadows.` +
+      (why ? `\n${why}` : '');
+    return { reference: ref.levels, page: mine, moved: why };
+  }
+  $('reference').addEventListener('change', () => refreshReference().catch((e) => notice(String(e))));
+  setInterval(() => { if (refOn && frames !== levelsFrame) updateLevels(); }, 300);
+
+  $('pass').addEventListener('change', (e) => { state.pass = e.target.value; redraw(); ensure(); });
   $('spp').addEventListener('change', (e) => { state.spp = Math.max(1, Math.min(256, parseInt(e.target.value, 10) || 1)); redraw(); });
   $('split').addEventListener('change', (e) => { state.split = e.target.checked; redraw(); });
   $('heat').addEventListener('change', (e) => { state.heat = e.target.checked; redraw(); });
-  $('transmission').addEventListener('change', (e) => { state.transmission = e.target.checked; redraw(); });
+  $('transmission').addEventListener('change', (e) => { state.transmission = e.target.checked; redraw(); ensure(); });
   $('light_az').addEventListener('input', (e) => { state.light.az = e.target.value * Math.PI / 180; redraw(); });
   $('light_el').addEventListener('input', (e) => { state.light.el = e.target.value * Math.PI / 180; redraw(); });
   $('light_i').addEventListener('input', (e) => { state.light.scale = parseFloat(e.target.value); redraw(); });
@@ -907,7 +1179,23 @@ void main() {
     size: [W, H],
     render,
     frames: () => frames,
-    set(changes) { Object.assign(state, changes); redraw(); },
+    set(changes) {
+      const { material, ...rest } = changes;
+      Object.assign(state, rest);
+      // a served page asks the server for a material it does not hold yet (ready() resolves when it is drawn)
+      if (material !== undefined && !D.materials[material] && D.served) {
+        pendingAsk = pendingAsk.then(() => requestMaterial(materialBody(material), material)).catch((e) => notice(String(e)));
+      } else if (material !== undefined) state.material = material;
+      redraw();
+      ensure();
+    },
+    state: () => JSON.parse(JSON.stringify(state)),
+    drawn: () => drawn,
+    // resolves when the server has answered every part the page asked for (served mode)
+    ready: () => pendingAsk,
+    // the reference panel: its levels beside the page's of the last frame (after a render), or null
+    referenceLevels: () => updateLevels(),
+    showReference: (on) => { $('reference').checked = on; return refreshReference(); },
     orbit(daz, del) { cam.az += daz; cam.el += del; redraw(); },
     material: requestMaterial,
     shader(kind) { return D.materials[state.material][kind].shader; },
@@ -923,13 +1211,7 @@ void main() {
     read(name) {
       const tex = name === 'result' ? result : name === 'history' ? hist[ad.cur] : name === 'transmission' ? trans
         : name === 'motion' ? motion : name === 'taa' ? taa[ad.taa] : G[name];
-      const fb = gl.createFramebuffer();
-      gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
-      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, tex, 0);
-      const out = new Float32Array(W * H * 4);
-      gl.readPixels(0, 0, W, H, gl.RGBA, gl.FLOAT, out);
-      gl.deleteFramebuffer(fb);
-      return toBase64(new Uint8Array(out.buffer));
+      return toBase64(new Uint8Array(readFloat(tex).buffer));
     },
     // the sample counts the last adaptive frame used (used) or the next frame's (next), base64 int32, GL's rows
     // after an orbit step with the adaptive pass: the motion (base64 float32 RG as RGBA, GL's rows) and the validity
@@ -947,5 +1229,6 @@ void main() {
       return toBase64(out);
     },
   };
+  ensure();
   requestAnimationFrame(loop);
 })();
