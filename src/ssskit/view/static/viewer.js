@@ -680,7 +680,7 @@ void main() {
   }
   // Xie 2020 Sec. 4.1: a change of light, material or seed starts a new history; an orbit step reprojects it
   // (MOTION_FS: the estimate and the update then fetch the history through the motion, where valid)
-  const ad = { key: '', cur: 0, frame: 0, used: 0, view: null, geom: null, moved: 0, taa: 0 };
+  const ad = { key: '', cur: 0, frame: 0, used: 0, view: null, geom: null, moved: 0, taa: 0, since: 0 };
   // column-major 4x4 product a b
   const mul4 = (a, b) => Array.from({ length: 16 }, (_, i) => [0, 1, 2, 3].reduce((acc, k) => acc + a[4 * k + (i & 3)] * b[4 * (i >> 2) + k], 0));
   function reproject(m) {
@@ -744,6 +744,7 @@ void main() {
     gl.bindFramebuffer(gl.FRAMEBUFFER, updateFb[1 - c]);
     gl.drawArrays(gl.TRIANGLES, 0, 3);
     ad.used = c; ad.cur = 1 - c; ad.frame += 1;
+    ad.since = reset || moved ? 1 : ad.since + 1;   // frames since the last change (the page's loop)
     ad.viewKey = view; ad.view = m; ad.geom = G.normal;   // the history's frame
     const tp = passProgram(TAA_FS, '', 'TAA');
     gl.useProgram(tp.p);
@@ -815,7 +816,7 @@ void main() {
   let frames = 0, dirty = true;
   let drawn = null;   // what the last frame showed: its material, whether with the transmittance pass
   function loop() {
-    if (state.pass === 'adaptive' && state.auto && ad.frame < state.frames) dirty = true;
+    if (state.pass === 'adaptive' && state.auto && ad.since < state.frames) dirty = true;
     if (dirty && state.auto) {
       dirty = false;
       try { render(); status(''); } catch (e) { status(String(e)); console.error(String(e)); }
