@@ -39,7 +39,8 @@ import numpy as np
 
 from ssskit.errors import SceneError
 from ssskit.scenes.scenes import SceneSpec, _ellipsoid_geometry, _ply, _T, camera_pose, get_scene
-from ssskit.scenes.thickness import _check_positive, box_thickness_mm, thin_scene  # noqa: F401  (re-exported)
+from ssskit.quantities import SCALE
+from ssskit.scenes.thickness import box_thickness_mm, thin_scene  # noqa: F401  (re-exported)
 
 #: how far (mm) the backing shell lies outside the surface (beyond the deviation of the shell's mesh
 #: from an analytic surface): small against a pixel (~0.5 mm), so that it shadows little light
@@ -216,7 +217,7 @@ def deepened_scene(scene: str | SceneSpec, factor: float, frame: int = 0) -> Sce
     half becomes 2 ``factor`` mm, its seen half and the G-buffer stay the same. A SceneError for an
     SSS shape that is not a PLY mesh. Named ``<name>-deep<factor>``."""
     spec = get_scene(scene)
-    k = _check_positive(factor, "the depth factor")
+    k = float(SCALE.check(factor, "the depth factor", SceneError))
     if k < 1:
         raise SceneError(f"the depth factor must be at least 1, got {factor!r}")
     base = spec.shapes()

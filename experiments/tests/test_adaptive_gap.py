@@ -1,22 +1,9 @@
-"""experiments/adaptive_gap.py: the jitter sequence and the jittered plane it renders."""
+"""experiments/adaptive_gap.py: the jittered plane it renders (the jitter sequence is the product's:
+tests/screenspace/test_taa.py)."""
 
 import numpy as np
 
 import adaptive_gap as ag
-
-
-def test_halton_is_the_radical_inverse():
-    # Halton (1964): base 2 gives 1/2, 1/4, 3/4, 1/8; base 3 gives 1/3, 2/3, 1/9
-    assert [ag.halton(i, 2) for i in range(1, 5)] == [0.5, 0.25, 0.75, 0.125]
-    np.testing.assert_allclose([ag.halton(i, 3) for i in range(1, 4)], [1 / 3, 2 / 3, 1 / 9], rtol=1e-15)
-
-
-def test_jitter_is_sub_pixel_centred_and_repeats_every_eight_frames():
-    offs = np.array([ag.taa_jitter(f) for f in range(16)])
-    assert np.all(offs >= -0.5) and np.all(offs < 0.5)
-    np.testing.assert_array_equal(offs[:8], offs[8:])
-    assert len({tuple(o) for o in offs[:8]}) == 8
-    assert abs(offs[:8, 0].mean()) < 0.07 and abs(offs[:8, 1].mean()) < 0.07
 
 
 def test_unjittered_plane_is_the_figures_plane():
