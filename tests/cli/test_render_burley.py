@@ -66,7 +66,7 @@ BAD = [
     (["--albedo", "0.5", "--dmfp", "1e12"], "dmfp_mm must lie in [1e-06, 1e+06] mm, got"),
     (["--albedo", "0.5", "--dmfp", "1,1,1e-9"], "dmfp_mm must lie in [1e-06, 1e+06] mm, got"),
     (["--albedo", "0.5,0.5", "--dmfp", "1"], "give one number or three"),
-    (["--albedo", "0.5"], "--albedo/--dmfp: albedo and dmfp_mm go together"),
+    (["--albedo", "0.5"], "--albedo and --dmfp go together"),
     (["--taps", "5"], "--taps applies to --pass separable"),
     (["--kernel", "svd:2"], "--kernel applies to --pass separable"),
     (["--jitter", "0.3"], "--jitter applies to --pass separable"),
@@ -95,8 +95,7 @@ def test_count_image_of_the_wrong_shape_is_one_error(tmp_path):
     gb = GBuffer(diffuse=np.zeros((8, 10, 3), np.float32), albedo=np.zeros((8, 10, 3), np.float32),
                  depth=np.full((8, 10), 100.0, np.float32), profile_id=np.ones((8, 10), np.uint32),
                  camera=Camera(10, 8, 50.0, 50.0, 5, 4))
-    with pytest.raises(PassError, match=r"the sample-count image must be an integer array of shape \(8, 10\), got shape "
-                                         r"\(10, 8\)"):
+    with pytest.raises(PassError, match=r"shape \(8, 10\), got shape \(10, 8\)"):
         burley_sss(gb, BurleyParams.from_dmfp(0.5, 1.0), counts=np.ones((10, 8), np.int64))
 
 
