@@ -66,7 +66,7 @@ BAD = [
     (["--albedo", "0.5", "--dmfp", "1e12"], "dmfp_mm must lie in [1e-06, 1e+06] mm, got"),
     (["--albedo", "0.5", "--dmfp", "1,1,1e-9"], "dmfp_mm must lie in [1e-06, 1e+06] mm, got"),
     (["--albedo", "0.5,0.5", "--dmfp", "1"], "give one number or three"),
-    (["--albedo", "0.5"], "--albedo and --dmfp go together"),
+    (["--albedo", "0.5"], "--albedo/--dmfp: albedo and dmfp_mm go together"),
     (["--taps", "5"], "--taps applies to --pass separable"),
     (["--kernel", "svd:2"], "--kernel applies to --pass separable"),
     (["--jitter", "0.3"], "--jitter applies to --pass separable"),
