@@ -371,3 +371,23 @@ def check_instance(value: Any, kind: type | tuple[type, ...], name: str, error: 
 
 
 __all__ += ["check_instance"]
+
+
+# --- vocab-c: a value's rule that no range or list of names states ------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Rule:
+    """A value's rule that no :class:`Quantity` or :class:`Choice` states (a name that must resolve to a preset or a
+    file, a spec that must parse, a type): ``test(value, name, error)`` returns the value or raises ``error`` in
+    this module's wordings. Declared on a settings field like a quantity (:func:`ssskit.settings.setting`), so
+    the field's rule is stated once, where the settings are made."""
+
+    name: str
+    test: Callable[[Any, str, ErrorClass], Any]
+
+    def check(self, value: object, name: str | None = None, error: ErrorClass = SsskitError) -> Any:
+        return self.test(value, name or self.name, error)
+
+
+__all__ += ["Rule"]
