@@ -342,7 +342,7 @@ def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
     entry points: what a backend that compiles on first use calls to compile, since the argument types (hence
     the compiled specialisations) are those of a real frame of any size. ``separable:ids`` runs the pass in the
     depth mode named before it (else ``follow``) on two ids. The results are thrown away."""
-    from .adaptive_plan import AdaptivePlan, GuideFrame
+    from .adaptive_plan import AdaptivePlan
     from .burley_plan import BurleyParams, build_burley_plan
     from .plan import TermTable
     from .spread_plan import SlotSpread, build_spread_plan

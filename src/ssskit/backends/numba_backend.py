@@ -211,7 +211,7 @@ class NumbaBackend(Backend):
                           slots: np.ndarray) -> NDArray[np.float32]:
         from ._numba_separable import LANES, PASSES, PLANES, TMP_PLANE, block_slot_rows
 
-        slots = np.ascontiguousarray(slots, dtype=np.int32)  # (an array-like: Backend.separable checked its shape and type)
+        slots = np.ascontiguousarray(slots, dtype=np.int32)  # (Backend.separable checked its shape and type)
         h, w = slots.shape
         depth = np.ascontiguousarray(depth_mm, dtype=np.float32)
         src = np.ascontiguousarray(diffuse, dtype=np.float32)

@@ -296,7 +296,8 @@ def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150,
     multiplies the irradiance (the paper: 1), to study how the sampler depends on the unit of the values.
     """
     s = _settings(settings)
-    frames, pixels = (int(_TOY_COUNT.check(v, name, SettingsError)) for v, name in ((frames, "frames"), (pixels, "pixels")))
+    frames, pixels = (int(_TOY_COUNT.check(v, name, SettingsError)) for v, name in ((frames, "frames"),
+                                                                                     (pixels, "pixels")))
     seed = int(_TOY_SEED.check(seed, "seed", SettingsError))
     scale = float(SCALE.within(1e-12, 1e12).check(scale, "scale", SettingsError))
     Flag("disocclusion").check(disocclusion, "disocclusion", PassError)
