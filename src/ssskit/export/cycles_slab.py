@@ -35,15 +35,17 @@ import numpy as np
 def _eevee(scene: Any, samples: int, job: dict[str, Any]) -> None:
     """EEVEE Next's render settings: ``samples`` TAA render samples; ``sss_samples`` is set but EEVEE Next
     4.2 gathers 16 samples per pixel whatever it says (docs/engines/eevee-sss-albedo-fit.md); film filter
-    ``filter_size`` (0 by default: each pixel its own samples); no raytracing, AO or bloom."""
+    ``filter_size`` (0 by default: each pixel its own samples); no raytracing or AO; shadows on."""
     eevee = scene.eevee
     eevee.taa_render_samples = samples
     eevee.sss_samples = int(job.get("sss_samples", 7))
     eevee.sss_jitter_threshold = float(job.get("sss_jitter_threshold", 0.3))
-    eevee.use_shadows = True
     eevee.use_raytracing = False
     eevee.use_gtao = False
-    eevee.use_bloom = False
+    # never write the deprecated ``use_bloom`` (EEVEE Next has no bloom): in bpy 4.2.0 setting it False also clears
+    # use_shadows, use_soft_shadows and use_taa_reprojection, and EEVEE then casts no shadow at all
+    # (docs/engines/eevee-sun-shadow.md)
+    eevee.use_shadows = True
     scene.render.filter_size = float(job.get("filter_size", 0.0))
 
 
@@ -67,12 +69,10 @@ def _spot_edge(scene: Any, extent: float, sun: Any, blocker: Any) -> None:
     scene.collection.objects.link(spot)
 
 
-def _scene(extent: float, width: int, height: int, samples: int, seed: int, threads: int,
-           job: dict[str, Any] | None = None) -> tuple[Any, Any]:
-    job = job or {}
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    engine = job.get("engine", "CYCLES")
+def _settings(scene: Any, engine: str, width: int, height: int, samples: int, seed: int, threads: int) -> None:
+    """The render settings every ssskit bpy scene shares (this slab, ``head_scene.py``): ``engine``; Cycles on
+    the CPU with ``samples`` and ``seed``, box pixel filter, no denoising or adaptive sampling; ``threads``;
+    the size; Standard view transform (no tone mapping); float EXR; a black world."""
     scene.render.engine = engine
     scene.cycles.device = "CPU"
     scene.cycles.samples = samples
@@ -101,6 +101,15 @@ def _scene(extent: float, width: int, height: int, samples: int, seed: int, thre
     world.use_nodes = False
     world.color = (0.0, 0.0, 0.0)
     scene.world = world
+
+
+def _scene(extent: float, width: int, height: int, samples: int, seed: int, threads: int,
+           job: dict[str, Any] | None = None) -> tuple[Any, Any]:
+    job = job or {}
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    engine = job.get("engine", "CYCLES")
+    _settings(scene, engine, width, height, samples, seed, threads)
     # the slab: a box much wider than the view and deep enough for any walk (top face at z = 0)
     size = 40.0 * extent
     bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, -size / 2.0))
@@ -135,6 +144,7 @@ def _scene(extent: float, width: int, height: int, samples: int, seed: int, thre
         _eevee(scene, samples, job)
         if job.get("light", "SPOT") == "SPOT":
             _spot_edge(scene, extent, sun, blocker)
+            scene.eevee.use_shadows = False  # the spot casts none; EEVEE's shadow maps cost ~3x on llvmpipe
         elif "shadow_texel" in job:  # the sun kept (light "SUN"): its virtual shadow map's finest texel
             sun_data.shadow_maximum_resolution = float(job["shadow_texel"])
     return scene, slab
@@ -164,6 +174,25 @@ def _white() -> Any:
     return mat
 
 
+def _job_material(job: dict[str, Any], name: str | None = None) -> Any:
+    """A job's material: the white Lambertian (``white``) or the one the exported ``script`` makes (its
+    ``variant``; ``method`` overrides the subsurface method), named ``material_name`` or ``name``."""
+    if job.get("white"):
+        return _white()
+    ns = runpy.run_path(job["script"], run_name="ssskit_material")
+    mat = ns["ssskit_material"](job.get("material_name") or name, job.get("variant") or "cycles")
+    if job.get("method"):
+        ns["set_method"](mat, job["method"])
+    return mat
+
+
+def _save(out_path: str, arrays: dict[str, np.ndarray], seconds: dict[str, float]) -> None:
+    """OUT.npz (one array per render key) and OUT.npz.json (the seconds per render, Blender's version)."""
+    np.savez(out_path, allow_pickle=True, **arrays)  # the default, named so no array can take its place
+    with open(out_path + ".json", "w") as fh:
+        json.dump({"seconds": seconds, "blender": bpy.app.version_string}, fh)
+
+
 def main(argv: list[str]) -> int:
     config_path, out_path = argv[0], argv[1]
     with open(config_path) as fh:
@@ -176,20 +205,11 @@ def main(argv: list[str]) -> int:
             t0 = time.perf_counter()
             scene, slab = _scene(float(job["extent_m"]), int(job["width"]), int(job["height"]),
                                  int(job["samples"]), int(job["seed"]), threads, job)
-            if job.get("white"):
-                mat = _white()
-            else:
-                ns = runpy.run_path(job["script"], run_name="ssskit_material")
-                mat = ns["ssskit_material"](job.get("material_name"), job.get("variant") or "cycles")
-                if job.get("method"):
-                    ns["set_method"](mat, job["method"])
             slab.data.materials.clear()
-            slab.data.materials.append(mat)
+            slab.data.materials.append(_job_material(job))
             arrays[job["key"]] = _render(scene, os.path.join(tmp, f"r{i}.exr"))
             seconds[job["key"]] = time.perf_counter() - t0
-    np.savez(out_path, allow_pickle=True, **arrays)  # the default, named so no array can take its place
-    with open(out_path + ".json", "w") as fh:
-        json.dump({"seconds": seconds, "blender": bpy.app.version_string}, fh)
+    _save(out_path, arrays, seconds)
     return 0
 
 

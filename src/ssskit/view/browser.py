@@ -7,8 +7,9 @@ may load ``file://`` URLs and 127.0.0.1 only: any other request is aborted and r
 reaches for the internet fails its test instead of silently passing offline.
 
 The renderer is chosen by ``gl``: ``"swiftshader"`` (ANGLE on SwiftShader's Vulkan, Chromium's software
-GPU, the default on a machine without one), ``"gl"`` (ANGLE on the system's OpenGL: Mesa's llvmpipe
-here, a real GPU on a desktop) or ``"default"`` (Chromium's own choice).
+GPU, the default on a machine without one), ``"gl"`` (ANGLE on the system's OpenGL ES through EGL: Mesa's
+llvmpipe here, a real GPU on a desktop; ``--use-angle=gl`` alone fell back to SwiftShader in Chromium 156, while
+``--use-gl=angle --use-angle=gl-egl`` starts it) or ``"default"`` (Chromium's own choice).
 """
 from __future__ import annotations
 
@@ -25,7 +26,7 @@ CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrom
 #: Chromium's flags per renderer (``gl=``)
 GL_FLAGS = {
     "swiftshader": ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--ignore-gpu-blocklist"],
-    "gl": ["--use-angle=gl", "--ignore-gpu-blocklist"],
+    "gl": ["--use-gl=angle", "--use-angle=gl-egl", "--ignore-gpu-blocklist"],
     "default": [],
 }
 

@@ -180,6 +180,9 @@ def _adaptive_part(mat: Any, guide: Any) -> dict[str, Any]:
     _, plan = _burley_plan(mat)
     g = as_plan(guide)
     return {"estimate": adaptive_fragment_source(g, False), "update": adaptive_fragment_source(g, True),
+            # after an orbit step: the history fetched through motion vectors, where a validity image allows
+            "estimate_moved": adaptive_fragment_source(g, False, motion=True, valid=True),
+            "update_moved": adaptive_fragment_source(g, True, motion=True, valid=True),
             "burley": burley_fragment_source(plan, count_image=True), "b_min": g.b_min, "b_max": g.b_max,
             "settings": {name: getattr(guide, name) for name in ADAPTIVE_FIELDS}}
 

@@ -65,13 +65,32 @@ void main() {
   v_world = a_pos;
   gl_Position = u_proj * vp;
 }`;
-  // The G-buffer of ssskit.screenspace.GBuffer: diffuse = the lighting of a white Lambertian surface, each
-  // light's intensity being E / pi of a surface facing it (ssskit.scenes.scenefile); no shadows.
-  const GBUF_FS = `#version 300 es
+  // The G-buffer of ssskit.screenspace.GBuffer in two draws (deferred shading): the mesh writes one target, the
+  // world normal and the linear depth (mm); a full-screen resolve then writes the other layers once per pixel from
+  // them. Writing six float targets per rasterised fragment (small triangles shade whole 2x2 quads, so several
+  // fragments per pixel) cost SwiftShader more than the resolve's one pass (benchmarks/RESULTS.md, "The live viewer").
+  const GEOM_FS = `#version 300 es
 precision highp float;
 in vec3 v_nrm;
 in vec3 v_world;
 in float v_z;
+uniform vec3 u_eye;
+layout(location = 0) out vec4 o_normal;  // world normal (facing the viewer), linear depth mm
+void main() {
+  vec3 n = normalize(v_nrm);
+  if (dot(n, u_eye - v_world) < 0.0) n = -n;
+  o_normal = vec4(n, v_z);
+}`;
+  // diffuse = the lighting of a white Lambertian surface, each light's intensity being E / pi of a surface facing
+  // it (ssskit.scenes.scenefile); no shadows. The surface point: the pixel centre's ray at the linear depth,
+  // world = eye + z (ndc.x tan(fov_x / 2) r + ndc.y tan(fov_y / 2) u + f) for the camera's right, up and forward axes.
+  const GBUF_FS = `#version 300 es
+precision highp float;
+uniform highp sampler2D u_geom;
+uniform vec2 u_px;       // 2 / W, 2 / H: pixel centre to NDC
+uniform vec3 u_cam_r;    // the camera's axes scaled by tan(fov / 2) (right, up) and its forward axis
+uniform vec3 u_cam_u;
+uniform vec3 u_cam_f;
 uniform vec3 u_light_dir[4];
 uniform vec3 u_light_rgb[4];
 uniform int u_nlights;
@@ -86,13 +105,23 @@ uniform float u_ltexel;  // mm per map texel
 layout(location = 0) out vec4 o_src;     // diffuse irradiance rgb, linear depth mm (-1 without SSS)
 layout(location = 1) out vec4 o_spec;    // specular rgb
 layout(location = 2) out vec4 o_albedo;  // albedo rgb, 1 on surfaces
-layout(location = 3) out vec4 o_normal;  // world normal, linear depth mm
-layout(location = 4) out vec4 o_id;      // profile id (0: no SSS)
-layout(location = 5) out vec4 o_light;   // the transmittance pass's inputs: map texel x, y, depth along the light (mm), N . L
+#if ALL_LAYERS   // the layers only the adaptive and transmittance passes read
+layout(location = 3) out vec4 o_id;      // profile id (0: no SSS)
+layout(location = 4) out vec4 o_light;   // the transmittance pass's inputs: map texel x, y, depth along the light (mm), N . L
+#endif
 void main() {
-  vec3 n = normalize(v_nrm);
-  vec3 v = normalize(u_eye - v_world);
-  if (dot(n, v) < 0.0) n = -n;
+  vec4 g = texelFetch(u_geom, ivec2(gl_FragCoord.xy), 0);
+  if (g.w <= 0.0) {        // no surface: the cleared values
+    o_src = vec4(0.0, 0.0, 0.0, -1.0); o_spec = vec4(0.0); o_albedo = vec4(0.0);
+#if ALL_LAYERS
+    o_id = vec4(0.0); o_light = vec4(0.0);
+#endif
+    return;
+  }
+  vec3 n = g.xyz;
+  vec2 ndc = gl_FragCoord.xy * u_px - 1.0;
+  vec3 world = u_eye + g.w * (ndc.x * u_cam_r + ndc.y * u_cam_u + u_cam_f);
+  vec3 v = normalize(u_eye - world);
   vec3 e = vec3(0.0), s = vec3(0.0);
   for (int i = 0; i < 4; ++i) {
     if (i >= u_nlights) break;
@@ -102,13 +131,14 @@ void main() {
     vec3 h = normalize(l + v);
     s += u_light_rgb[i] * nl * 0.028 * 6.0 * pow(max(dot(n, h), 0.0), 40.0);  // a glossy coat (F0 = 0.028)
   }
-  o_src = vec4(e, u_profile > 0.0 ? v_z : -1.0);
+  o_src = vec4(e, u_profile > 0.0 ? g.w : -1.0);
   o_spec = vec4(s, 1.0);
   o_albedo = vec4(u_albedo, 1.0);
-  o_normal = vec4(n, v_z);
+#if ALL_LAYERS
   o_id = vec4(u_profile, 0.0, 0.0, 0.0);
-  vec3 d = v_world - u_lo;
+  vec3 d = world - u_lo;
   o_light = vec4(dot(d, u_lu) / u_ltexel, dot(d, u_lv) / u_ltexel, -dot(d, u_ll), dot(n, u_ll));
+#endif
 }`;
   // the key light's depth map (orthographic along the light, mm from the map's plane): the translucency shadow
   // map of Jimenez et al. 2010 that the transmittance pass reads
@@ -133,6 +163,91 @@ precision highp float;
 in float v_z;
 out vec4 o_depth;
 void main() { o_depth = vec4(v_z, 0.0, 0.0, 1.0); }`;
+  // Reprojection of the adaptive history after an orbit step: per pixel the motion to where its surface point was
+  // in the history's frame (ssskit.screenspace.camera.motion_vectors: pixels, columns and rows from the top) and
+  // whether that history may be used. Xie 2020 Sec. 4.1.4 (Eqs. 16-17) restarts a pixel whose fetched history
+  // holds no SSS mask (the history's m channel); the page also refuses a fetch whose surface differs, the depth and
+  // normal consistency tests of temporal reuse (Schied et al. 2017, SVGF [SKW+17]): the stored linear depth of the
+  // fetched pixel within REPROJECT_DEPTH of the point's depth in the history's camera (relative: the depth test of
+  // ssskit.screenspace.taa.reprojection_valid at its default tolerance, which tests/view/test_reprojection.py
+  // compares), and normals within REPROJECT_COS. The fetch itself is the body's nearest fetch without rejection
+  // (Xie Eq. 18).
+  const REPROJECT_DEPTH = 0.05, REPROJECT_COS = 0.9;
+  const MOTION_FS = `#version 300 es
+precision highp float;
+uniform highp sampler2D u_geom;        // this frame: world normal, linear depth mm
+uniform highp sampler2D u_prev_geom;   // the history's frame
+uniform vec2 u_px;
+uniform vec3 u_cam_r;
+uniform vec3 u_cam_u;
+uniform vec3 u_cam_f;
+uniform vec3 u_eye;
+uniform mat4 u_prev_viewproj;
+uniform vec3 u_prev_eye;
+uniform vec3 u_prev_f;
+layout(location = 0) out vec4 o_motion;
+layout(location = 1) out uvec4 o_valid;
+void main() {
+  vec2 res = 2.0 / u_px;
+  vec4 g = texelFetch(u_geom, ivec2(gl_FragCoord.xy), 0);
+  o_motion = vec4(0.0);
+  o_valid = uvec4(0u);
+  if (g.w <= 0.0) return;
+  vec2 ndc = gl_FragCoord.xy * u_px - 1.0;
+  vec3 world = u_eye + g.w * (ndc.x * u_cam_r + ndc.y * u_cam_u + u_cam_f);
+  vec4 c = u_prev_viewproj * vec4(world, 1.0);
+  if (c.w <= 0.0) return;
+  vec2 prev = (c.xy / c.w * 0.5 + 0.5) * res;   // GL window coordinates in the history's frame
+  o_motion = vec4(prev.x - gl_FragCoord.x, gl_FragCoord.y - prev.y, 0.0, 0.0);
+  ivec2 pq = ivec2(floor(prev));
+  if (any(lessThan(pq, ivec2(0))) || any(greaterThanEqual(pq, ivec2(res)))) return;
+  vec4 gp = texelFetch(u_prev_geom, pq, 0);
+  float z = dot(world - u_prev_eye, u_prev_f);
+  bool ok = gp.w > 0.0 && abs(gp.w - z) <= ${REPROJECT_DEPTH} * z && dot(gp.xyz, g.xyz) >= ${REPROJECT_COS};
+  o_valid = uvec4(ok ? 1u : 0u);
+}`;
+  // TAA of the adaptive pass's output (Karis 2014: an exponential moving average of the frames, here with
+  // Xie 2020 Sec. 5's weight alpha_0 = 0.2 for opaque surfaces, the AdaptiveSettings default): ping-pong float
+  // targets; after an orbit step the accumulated image is fetched through the same motion and validity as the
+  // adaptive history, bilinearly over the texels that hold history (a nearest fetch shifts the image by up to half a
+  // pixel), with no neighbourhood clamp (a clamp cuts the Monte Carlo noise's accumulation: Xie Sec. A.1.2's energy
+  // loss); a pixel without valid history starts from this frame.
+  const TAA_FS = `#version 300 es
+precision highp float;
+uniform highp sampler2D u_cur;       // this frame's pass output: rgb, alpha < 0 off the mesh
+uniform highp sampler2D u_prev;      // the accumulated image: rgb, alpha 1 where it holds history
+uniform highp sampler2D u_motion;
+uniform highp usampler2D u_valid;
+uniform int u_moved;                 // 1: fetch through u_motion where u_valid
+uniform int u_reset;                 // 1: a new history
+uniform float u_alpha;
+out vec4 o_color;
+void main() {
+  ivec2 q = ivec2(gl_FragCoord.xy);
+  vec4 c = texelFetch(u_cur, q, 0);
+  if (c.a < 0.0) { o_color = vec4(0.0); return; }
+  vec4 h = vec4(0.0);
+  if (u_reset == 0) {
+    if (u_moved == 0) h = texelFetch(u_prev, q, 0);
+    else if (texelFetch(u_valid, q, 0).r != 0u) {
+      vec2 mv = texelFetch(u_motion, q, 0).xy;   // columns, rows from the top
+      vec2 x = vec2(gl_FragCoord.x + mv.x, gl_FragCoord.y - mv.y) - 0.5;   // texel-centre coordinates
+      vec2 f = floor(x), t = x - f;
+      ivec2 b = ivec2(f), size = textureSize(u_prev, 0);
+      vec4 acc = vec4(0.0);
+      for (int k = 0; k < 4; ++k) {
+        ivec2 o = ivec2(k & 1, k >> 1), p = b + o;
+        if (any(lessThan(p, ivec2(0))) || any(greaterThanEqual(p, size))) continue;
+        vec4 v = texelFetch(u_prev, p, 0);
+        float w = (o.x == 1 ? t.x : 1.0 - t.x) * (o.y == 1 ? t.y : 1.0 - t.y) * v.a;
+        acc += w * vec4(v.rgb, 1.0);
+      }
+      if (acc.a > 1e-6) h = vec4(acc.rgb / acc.a, 1.0);
+    }
+  }
+  o_color = vec4(h.a > 0.0 ? mix(h.rgb, c.rgb, u_alpha) : c.rgb, 1.0);
+}`;
+  const TAA_ALPHA = 0.2;
   const COMPOSITE_FS = `#version 300 es
 precision highp float;
 uniform sampler2D u_src;
@@ -197,10 +312,16 @@ void main() {
     return t;
   }
   // float32 where a pass reads the layer (and the parity tests read it back); half floats for what only the
-  // composite reads (specular, albedo, normal)
+  // composite reads (specular, albedo)
   const G = { src: floatTexture(), spec: floatTexture(gl.RGBA16F), albedo: floatTexture(gl.RGBA16F),
-    normal: floatTexture(gl.RGBA16F), id: floatTexture(gl.R32F), light: floatTexture() };
-  const gbufFb = framebuffer([G.src, G.spec, G.albedo, G.normal, G.id, G.light], true);
+    normal: null, id: floatTexture(gl.R32F), light: floatTexture() };
+  // the geometry target alternates per frame, so the adaptive pass can read the history's frame's beside this one's
+  const geoms = [floatTexture(), floatTexture()].map((t) => ({ tex: t, fb: framebuffer([t], true) }));
+  let geomIndex = 0;
+  G.normal = geoms[0].tex;
+  // the resolve writes the profile id and light-space layers only for a frame whose passes read them
+  const gbufFb = [framebuffer([G.src, G.spec, G.albedo], false), framebuffer([G.src, G.spec, G.albedo, G.id, G.light], false)];
+  const GBUF_LAYERS = [[G.src, G.spec, G.albedo], [G.src, G.spec, G.albedo, G.id, G.light]];
   const lightMap = gl.createTexture();
   gl.bindTexture(gl.TEXTURE_2D, lightMap);
   gl.texStorage2D(gl.TEXTURE_2D, 1, gl.R32F, LMAP, LMAP);
@@ -222,6 +343,15 @@ void main() {
   const updateFb = [0, 1].map((i) => framebuffer([hist[i], counts[i]], false));
   const countFb = [0, 1].map((i) => framebuffer([counts[i]], false));
   const histFb = [0, 1].map((i) => framebuffer([hist[i]], false));
+  const motion = floatTexture(gl.RG32F), valid = (() => {
+    const t = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, t);
+    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.R8UI, W, H);
+    for (const k of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, k, gl.NEAREST);
+    return t;
+  })();
+  const motionFb = framebuffer([motion, valid], false), validFb = framebuffer([valid], false);
+  const taa = [floatTexture(), floatTexture()], taaFb = taa.map((t) => framebuffer([t], false));
   const T = [floatTexture(), floatTexture(), floatTexture()];
   const TF = T.map((t) => framebuffer([t], false));
 
@@ -234,19 +364,22 @@ void main() {
   }
   const S = D.scene;
   const vao = gl.createVertexArray();
-  const gbuf = link(GBUF_VS, GBUF_FS, 'G-buffer');
+  const geom = link(GBUF_VS, GEOM_FS, 'G-buffer (geometry)');
+  const gbuf_ = [0, 1].map((all) => link(FULL_VS, GBUF_FS.replace('\n', `\n#define ALL_LAYERS ${all}\n`), 'G-buffer (resolve)'));
   gl.bindVertexArray(vao);
-  for (const [name, data] of [['a_pos', S.positions], ['a_nrm', S.normals]]) {
+  const positions = decode(S.positions, Float32Array);   // kept: the mesh's screen rectangle (meshRect)
+  for (const [name, data] of [['a_pos', positions], ['a_nrm', decode(S.normals, Float32Array)]]) {
     const b = gl.createBuffer();
     gl.bindBuffer(gl.ARRAY_BUFFER, b);
-    gl.bufferData(gl.ARRAY_BUFFER, decode(data, Float32Array), gl.STATIC_DRAW);
-    const loc = gl.getAttribLocation(gbuf.p, name);
+    gl.bufferData(gl.ARRAY_BUFFER, data, gl.STATIC_DRAW);
+    const loc = gl.getAttribLocation(geom.p, name);
     gl.enableVertexAttribArray(loc);
     gl.vertexAttribPointer(loc, 3, gl.FLOAT, false, 0, 0);
   }
   const ib = gl.createBuffer();
   gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, ib);
-  gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, decode(S.indices, Uint32Array), gl.STATIC_DRAW);
+  const indices = decode(S.indices, Uint32Array);   // kept, as the positions: meshRect
+  gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, indices, gl.STATIC_DRAW);
   gl.bindVertexArray(null);
   const emptyVao = gl.createVertexArray();
   // a closed mesh wound consistently (ssskit.scenes.meshes.topology): its back faces are hidden, so culled
@@ -280,7 +413,7 @@ void main() {
     const dist = Math.hypot(...sub(e, c.target));
     const near = Math.max(dist * 0.01, 0.1), far = dist * 10;
     const proj = [1 / tx, 0, 0, 0, 0, 1 / ty, 0, 0, 0, 0, -(far + near) / (far - near), -1, 0, 0, -2 * far * near / (far - near), 0];
-    return { view, proj, eye: e, fx: 0.5 * W / tx, fy: 0.5 * H / ty };
+    return { view, proj, eye: e, right: r, up: u, forward: f, tx, ty, fx: 0.5 * W / tx, fy: 0.5 * H / ty };
   }
 
   // ---- hashes (ssskit.sampling.hashes) -----------------------------------------------------------------------
@@ -403,16 +536,29 @@ void main() {
   }
 
   let result = G.src;   // the texture holding the last pass's output (the diffuse layer)
-  function drawGbuffer(m, mat) {
-    gl.bindFramebuffer(gl.FRAMEBUFFER, gbufFb);
+  let gbufKey = '';     // what the G-buffer holds (render: drawn again only when it changes)
+  let shown = G.src;    // what the composite shows: the pass's output, or with the adaptive pass its TAA
+  function drawGbuffer(m, mat, all) {
+    geomIndex = 1 - geomIndex;
+    G.normal = geoms[geomIndex].tex;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, geoms[geomIndex].fb);
     gl.viewport(0, 0, W, H);
     gl.enable(gl.DEPTH_TEST);
-    gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, -1]);
-    for (let i = 1; i < 6; ++i) gl.clearBufferfv(gl.COLOR, i, [0, 0, 0, 0]);
+    gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, 0]);
     gl.clearBufferfv(gl.DEPTH, 0, [1]);
+    gl.useProgram(geom.p);
+    gl.uniformMatrix4fv(geom.u.u_view, false, m.view);
+    gl.uniformMatrix4fv(geom.u.u_proj, false, m.proj);
+    gl.uniform3fv(geom.u.u_eye, m.eye);
+    drawMesh();
+    const fb = gbufFb[all], gbuf = gbuf_[all];
+    gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
     gl.useProgram(gbuf.p);
-    gl.uniformMatrix4fv(gbuf.u.u_view, false, m.view);
-    gl.uniformMatrix4fv(gbuf.u.u_proj, false, m.proj);
+    bindTextures(gbuf, { u_geom: G.normal });
+    gl.uniform2f(gbuf.u.u_px, 2 / W, 2 / H);
+    gl.uniform3fv(gbuf.u.u_cam_r, m.right.map((x) => x * m.tx));
+    gl.uniform3fv(gbuf.u.u_cam_u, m.up.map((x) => x * m.ty));
+    gl.uniform3fv(gbuf.u.u_cam_f, m.forward);
     const L = lights();
     gl.uniform3fv(gbuf.u.u_light_dir, L.dirs);
     gl.uniform3fv(gbuf.u.u_light_rgb, L.rgb);
@@ -421,8 +567,73 @@ void main() {
     gl.uniform3fv(gbuf.u.u_albedo, mat.albedo);
     gl.uniform1f(gbuf.u.u_profile, 1);
     lightUniforms(gbuf, L);
-    drawMesh();
+    drawMasked(GBUF_LAYERS[all], [[0, 0, 0, -1], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0]].slice(0, all ? 5 : 3));
   }
+  // A full-screen pass on the mesh's pixels only, near enough: per band of BAND rows the span of columns the mesh's
+  // triangles that reach the frame cover (their boxes, a pixel's margin), drawn with a scissor box per band; outside
+  // the spans every pixel is background, where a pass's output is its target's cleared value. SwiftShader runs the
+  // fragment shader on every pixel of a draw, background or not, so the spans are what save the work (a depth-test
+  // mask did not: benchmarks/RESULTS.md, "The live viewer"). A target is cleared only where an earlier frame wrote
+  // outside this frame's spans.
+  const BAND = 32, NB = Math.ceil(H / BAND);
+  const FULL = new Int32Array(2 * NB).map((_, i) => (i & 1 ? W : 0));
+  let spans = FULL;
+  const projected = new Float32Array(positions.length / 3 * 2);
+  function meshSpans(m) {
+    const P = positions, M = m.view, Q = m.proj, X = projected;
+    for (let i = 0, j = 0; i < P.length; i += 3, j += 2) {
+      const x = P[i], y = P[i + 1], z = P[i + 2];
+      const w = -(M[2] * x + M[6] * y + M[10] * z + M[14]);
+      if (w <= 0) return FULL;        // a vertex behind the camera: the whole frame
+      X[j] = Q[0] * (M[0] * x + M[4] * y + M[8] * z + M[12]) / w;
+      X[j + 1] = Q[5] * (M[1] * x + M[5] * y + M[9] * z + M[13]) / w;
+    }
+    const out = new Int32Array(2 * NB).map((_, i) => (i & 1 ? 0 : W));   // empty: x0 = W > x1 = 0
+    for (let t = 0; t < indices.length; t += 3) {
+      const a = 2 * indices[t], b = 2 * indices[t + 1], c = 2 * indices[t + 2];
+      const tx0 = Math.min(X[a], X[b], X[c]), tx1 = Math.max(X[a], X[b], X[c]);
+      const ty0 = Math.min(X[a + 1], X[b + 1], X[c + 1]), ty1 = Math.max(X[a + 1], X[b + 1], X[c + 1]);
+      if (tx1 < -1 || tx0 > 1 || ty1 < -1 || ty0 > 1) continue;   // off the frame
+      const px0 = Math.max(0, Math.floor((tx0 + 1) * W / 2) - 1), px1 = Math.min(W, Math.ceil((tx1 + 1) * W / 2) + 1);
+      const py0 = Math.max(0, Math.floor((ty0 + 1) * H / 2) - 1), py1 = Math.min(H, Math.ceil((ty1 + 1) * H / 2) + 1);
+      for (let k = Math.floor(py0 / BAND), k1 = Math.floor((py1 - 1) / BAND); k <= k1; ++k) {
+        if (px0 < out[2 * k]) out[2 * k] = px0;
+        if (px1 > out[2 * k + 1]) out[2 * k + 1] = px1;
+      }
+    }
+    return out;
+  }
+  // the share of the frame the spans cover (the timing's readout)
+  const coverage = (sp) => { let n = 0; for (let k = 0; k < NB; ++k) n += Math.max(0, sp[2 * k + 1] - sp[2 * k]) * (Math.min(H, (k + 1) * BAND) - k * BAND); return n / (W * H); };
+  // per target (a texture, or 'canvas'): the spans it was last written in (the whole frame at first: zero-initialised)
+  const written = new Map();
+  // draw into the bound framebuffer, whose colour attachments are `targets`, cleared to `background` (one per
+  // attachment) where an earlier frame wrote outside this frame's spans
+  function drawMasked(targets, background) {
+    gl.enable(gl.SCISSOR_TEST);
+    for (let k = 0; k < NB; ++k) {
+      const x0 = spans[2 * k], x1 = spans[2 * k + 1], y = k * BAND, h = Math.min(H, y + BAND) - y;
+      let c0 = W, c1 = 0;            // the columns an earlier frame wrote outside this band's span
+      for (const t of targets) {
+        const o = written.has(t) ? written.get(t) : FULL;
+        if (o[2 * k] < o[2 * k + 1] && (x0 >= x1 || o[2 * k] < x0 || o[2 * k + 1] > x1)) {
+          c0 = Math.min(c0, o[2 * k]); c1 = Math.max(c1, o[2 * k + 1]);
+        }
+      }
+      if (c0 < c1) {
+        gl.scissor(c0, y, c1 - c0, h);
+        background.forEach((v, i) => gl.clearBufferfv(gl.COLOR, i, v));
+      }
+      if (x0 < x1) {
+        gl.scissor(x0, y, x1 - x0, h);
+        gl.drawArrays(gl.TRIANGLES, 0, 3);
+      }
+    }
+    for (const t of targets) written.set(t, spans);
+    gl.disable(gl.SCISSOR_TEST);
+  }
+  // the background of the pass targets: what the passes return off the mesh (the source, (0, 0, 0, -1))
+  const NO_SSS = [[0, 0, 0, -1]];
   // the mesh with the bound program and depth test (back faces culled where closed), then the state of the passes
   function drawMesh() {
     gl.bindVertexArray(vao);
@@ -434,7 +645,7 @@ void main() {
   }
   function drawPass(prog, target) {
     gl.bindFramebuffer(gl.FRAMEBUFFER, TF[target]);
-    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    drawMasked([T[target]], NO_SSS);
   }
   function separable(m, mat) {
     const sp = mat.separable, base = frameBase(state.frame, state.seed);
@@ -467,16 +678,38 @@ void main() {
     drawPass(prog, 1);
     return T[1];
   }
-  // Xie 2020 Sec. 4.1 with a static camera: any change of the view, light or material starts a new history
-  const ad = { key: '', cur: 0, frame: 0, used: 0 };
+  // Xie 2020 Sec. 4.1: a change of light, material or seed starts a new history; an orbit step reprojects it
+  // (MOTION_FS: the estimate and the update then fetch the history through the motion, where valid)
+  const ad = { key: '', cur: 0, frame: 0, used: 0, view: null, geom: null, moved: 0, taa: 0, since: 0 };
+  // column-major 4x4 product a b
+  const mul4 = (a, b) => Array.from({ length: 16 }, (_, i) => [0, 1, 2, 3].reduce((acc, k) => acc + a[4 * k + (i & 3)] * b[4 * (i >> 2) + k], 0));
+  function reproject(m) {
+    const p = ad.view;
+    const prog = passProgram(MOTION_FS, '', 'reprojection');
+    gl.useProgram(prog.p);
+    bindTextures(prog, { u_geom: G.normal, u_prev_geom: ad.geom });
+    gl.uniform2f(prog.u.u_px, 2 / W, 2 / H);
+    gl.uniform3fv(prog.u.u_cam_r, m.right.map((x) => x * m.tx));
+    gl.uniform3fv(prog.u.u_cam_u, m.up.map((x) => x * m.ty));
+    gl.uniform3fv(prog.u.u_cam_f, m.forward);
+    gl.uniform3fv(prog.u.u_eye, m.eye);
+    gl.uniformMatrix4fv(prog.u.u_prev_viewproj, false, mul4(p.proj, p.view));
+    gl.uniform3fv(prog.u.u_prev_eye, p.eye);
+    gl.uniform3fv(prog.u.u_prev_f, p.forward);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, motionFb);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+  }
   function adaptive(m, mat) {
     const A = mat.adaptive;
-    const key = JSON.stringify([state.material, cam, state.light, state.seed, W, H, A.settings]);
+    const key = JSON.stringify([state.material, state.light, state.seed, W, H, A.settings]);
+    const view = JSON.stringify(cam);
     setUniforms = (prog) => {
       setIf(prog, 'u_size', (l) => gl.uniform2i(l, W, H));
     };
+    const moved = key === ad.key && view !== ad.viewKey;
+    const reset = key !== ad.key;
     if (key !== ad.key) {            // no history: the estimate on an empty one gives b_min inside the mask
-      ad.key = key; ad.cur = 0; ad.frame = 0;
+      ad.key = key; ad.cur = 0; ad.frame = 0; ad.moved = 0;
       gl.bindFramebuffer(gl.FRAMEBUFFER, histFb[0]);
       gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, 0]);
       const est = passProgram(A.estimate, '', 'adaptive estimate');
@@ -485,6 +718,15 @@ void main() {
       setUniforms(est);
       gl.bindFramebuffer(gl.FRAMEBUFFER, countFb[0]);
       gl.drawArrays(gl.TRIANGLES, 0, 3);
+    } else if (moved) {              // this frame's counts from the history seen from the new view
+      reproject(m);
+      const est = passProgram(A.estimate_moved, '', 'adaptive estimate (reprojected)');
+      gl.useProgram(est.p);
+      bindTextures(est, { u_hist: hist[ad.cur], u_mask: G.id, u_motion: motion, u_valid: valid });
+      setUniforms(est);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, countFb[ad.cur]);
+      gl.drawArrays(gl.TRIANGLES, 0, 3);
+      ad.moved += 1;
     }
     const c = ad.cur;
     const bur = passProgram(A.burley, '', 'Burley pass (count image)');
@@ -495,13 +737,24 @@ void main() {
     setIf(bur, 'u_fy', (l) => gl.uniform1f(l, m.fy));
     setIf(bur, 'u_base', (l) => gl.uniform1ui(l, frameBase(ad.frame, state.seed)));
     drawPass(bur, 1);
-    const upd = passProgram(A.update, '', 'adaptive update');
+    const upd = moved ? passProgram(A.update_moved, '', 'adaptive update (reprojected)') : passProgram(A.update, '', 'adaptive update');
     gl.useProgram(upd.p);
-    bindTextures(upd, { u_hist: hist[c], u_mask: G.id, u_rgb: T[1], u_counts: counts[c] });
+    bindTextures(upd, { u_hist: hist[c], u_mask: G.id, u_rgb: T[1], u_counts: counts[c], u_motion: motion, u_valid: valid });
     setUniforms(upd);
     gl.bindFramebuffer(gl.FRAMEBUFFER, updateFb[1 - c]);
     gl.drawArrays(gl.TRIANGLES, 0, 3);
     ad.used = c; ad.cur = 1 - c; ad.frame += 1;
+    ad.since = reset || moved ? 1 : ad.since + 1;   // frames since the last change (the page's loop)
+    ad.viewKey = view; ad.view = m; ad.geom = G.normal;   // the history's frame
+    const tp = passProgram(TAA_FS, '', 'TAA');
+    gl.useProgram(tp.p);
+    bindTextures(tp, { u_cur: T[1], u_prev: taa[ad.taa], u_motion: motion, u_valid: valid });
+    gl.uniform1i(tp.u.u_moved, moved ? 1 : 0);
+    gl.uniform1i(tp.u.u_reset, reset ? 1 : 0);
+    gl.uniform1f(tp.u.u_alpha, TAA_ALPHA);
+    ad.taa = 1 - ad.taa;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, taaFb[ad.taa]);
+    drawMasked([taa[ad.taa]], [[0, 0, 0, 0]]);
     return T[1];
   }
   let setUniforms = null;
@@ -515,7 +768,15 @@ void main() {
     const t0 = performance.now();
     timing.passes = timerExt ? timing.passes : {};
     gl.bindVertexArray(emptyVao);
-    timed('gbuffer', () => drawGbuffer(m, mat));
+    // the profile id and light-space layers where this frame's passes read them
+    const all = state.pass === 'adaptive' || state.transmission ? 1 : 0;
+    // The G-buffer is drawn again only when what it shows changed (the view, the light, the albedo, the layers), unless
+    // the state says reuse_gbuffer: false (benchmarks/bench_view.py: its frames include the G-buffer pass). The
+    // adaptive pass's frames after a change (`frames` on a still view) then cost only the screen-space passes.
+    const gkey = JSON.stringify([cam, state.light, mat.albedo, all]);
+    timing.gbuffer_reused = state.reuse_gbuffer !== false && gkey === gbufKey;
+    if (!timing.gbuffer_reused) timed('gbuffer', () => { spans = meshSpans(m); drawGbuffer(m, mat, all); });
+    gbufKey = gkey;
     gl.viewport(0, 0, W, H);
     if (state.pass === 'separable') timed('separable', () => { result = separable(m, mat); });
     else if (state.pass === 'burley' && has('burley')) timed('burley', () => { result = burley(m, mat); });
@@ -523,27 +784,29 @@ void main() {
       if (lastPass !== 'adaptive') ad.key = '';   // switching to the adaptive pass starts a new history
       timed('adaptive', () => { result = adaptive(m, mat); });
     } else result = G.src;
+    shown = state.pass === 'adaptive' ? taa[ad.taa] : result;
     lastPass = state.pass;
     const transOn = state.transmission && has('transmission');
     if (transOn) timed('transmission', () => transmission(mat));
     timed('composite', () => {
       gl.bindFramebuffer(gl.FRAMEBUFFER, null);
       gl.useProgram(composite.p);
-      bindTextures(composite, { u_src: G.src, u_sss: result, u_spec: G.spec, u_albedo: G.albedo, u_counts: counts[ad.used],
+      bindTextures(composite, { u_src: G.src, u_sss: shown, u_spec: G.spec, u_albedo: G.albedo, u_counts: counts[ad.used],
         u_trans: trans });
       gl.uniform1i(composite.u.u_transmission, transOn ? 1 : 0);
       gl.uniform1i(composite.u.u_split, state.split ? 1 : 0);
       gl.uniform1i(composite.u.u_heat, state.heat && state.pass === 'adaptive' && has('adaptive') ? 1 : 0);
       if (has('adaptive')) gl.uniform2f(composite.u.u_budget, mat.adaptive.b_min, mat.adaptive.b_max);
       gl.uniform1f(composite.u.u_exposure, 1.0);
-      gl.drawArrays(gl.TRIANGLES, 0, 3);
+      drawMasked(['canvas'], [[0.13, 0.13, 0.13, 1]]);   // off the mesh: the composite's background
     });
     sync();
     timing.frame_ms = performance.now() - t0;
-    timing.fx = m.fx; timing.fy = m.fy;
+    timing.fx = m.fx; timing.fy = m.fy; timing.view = m.view; timing.coverage = coverage(spans);
     frames += 1;
     drawn = { material: state.material, transmission: transOn, frame: frames };
     const lines = Object.entries(timing.passes).map(([k, v]) => `${k.padEnd(10)} ${v.toFixed(2)} ms`);
+    if (timing.gbuffer_reused) lines.unshift('gbuffer    reused (unchanged)');
     $('stats').textContent = `${W}x${H}, ${S.triangles} triangles\nframe ${timing.frame_ms.toFixed(1)} ms (` +
       `${(1000 / timing.frame_ms).toFixed(1)} fps, wall time to a finished readback)\n` + lines.join('\n') + `\nper pass: ${timing.mode}` +
       (S.about && S.about.attribution ? `\n${S.about.attribution}` : '');
@@ -553,7 +816,7 @@ void main() {
   let frames = 0, dirty = true;
   let drawn = null;   // what the last frame showed: its material, whether with the transmittance pass
   function loop() {
-    if (state.pass === 'adaptive' && state.auto && ad.frame < state.frames) dirty = true;
+    if (state.pass === 'adaptive' && state.auto && ad.since < state.frames) dirty = true;
     if (dirty && state.auto) {
       dirty = false;
       try { render(); status(''); } catch (e) { status(String(e)); console.error(String(e)); }
@@ -942,13 +1205,20 @@ void main() {
     readLightMap() { return readChannel(lightFb, LMAP, LMAP, Float32Array, gl.RGBA, gl.FLOAT); },
     lightMapSize: LMAP,
     lightRgb: () => lights().rgb.slice(0, 3).map((x) => Math.PI * x),
-    // a float target as base64 float32 RGBA, GL's rows (bottom first): src, spec, albedo, normal, id, result,
-    // history (the adaptive history after the last frame)
+    // a float target as base64 float32 RGBA, GL's rows (bottom first): src, spec, albedo, normal, id, light, result,
+    // history (the adaptive history after the last frame), taa (the adaptive pass's accumulated image, alpha 1 on
+    // the mesh), motion (the last reprojection's); id and light are
+    // those of the last frame with the adaptive or transmittance pass (the frames that write them)
     read(name) {
-      const tex = name === 'result' ? result : name === 'history' ? hist[ad.cur] : name === 'transmission' ? trans : G[name];
+      const tex = name === 'result' ? result : name === 'history' ? hist[ad.cur] : name === 'transmission' ? trans
+        : name === 'motion' ? motion : name === 'taa' ? taa[ad.taa] : G[name];
       return toBase64(new Uint8Array(readFloat(tex).buffer));
     },
     // the sample counts the last adaptive frame used (used) or the next frame's (next), base64 int32, GL's rows
+    // after an orbit step with the adaptive pass: the motion (base64 float32 RG as RGBA, GL's rows) and the validity
+    // image (base64 uint32, GL's rows; 1: the history was reused), and how many frames reprojected a history
+    readValid() { return readChannel(validFb, W, H, Uint32Array, gl.RGBA_INTEGER, gl.UNSIGNED_INT); },
+    reprojected: () => ad.moved,
     readCounts(which) {
       return readChannel(which === 'next' ? countFb[ad.cur] : countFb[ad.used], W, H, Int32Array, gl.RGBA_INTEGER, gl.INT);
     },
