@@ -163,10 +163,9 @@ class AdaptivePass(_BurleySampling):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        self.adaptive_settings()  # b_min <= b_max
+        budget = self.adaptive_settings().budget()  # b_min <= b_max
         if self.disocclusion_spp is not None:
-            BURLEY_SPP.within(self.b_min, self.b_max, "inside the budget b_min:b_max").check(
-                self.disocclusion_spp, "disocclusion_spp", SettingsError)
+            budget.check(self.disocclusion_spp, "disocclusion_spp", SettingsError)
 
     def situation(self) -> dict[str, str]:
         return {"camera": "static" if self.static else "moving"}

@@ -101,6 +101,11 @@ class AdaptiveSettings(Settings):
         if self.b_min > self.b_max:
             raise SettingsError(f"the sample budget needs b_min <= b_max, got b_min={self.b_min} > b_max={self.b_max}")
 
+    def budget(self) -> Quantity:
+        """A per-pixel sample count inside the budget [b_min, b_max] (a fixed count the caller gives a pixel in
+        place of the guide's, e.g. ``disocclusion_spp``)."""
+        return BURLEY_SPP.within(self.b_min, self.b_max, "inside the budget b_min:b_max")
+
     @property
     def k(self) -> float:
         """k = 2 / alpha - 1 (Xie 2020 Sec. 4.1.2: the SMA length of an EMA, Bauer and Dahlquist 1998)."""

@@ -156,8 +156,7 @@ def _check(gbuffers: Sequence[GBuffer], burley: BurleySettings | None, adaptive:
     if disocclusion_spp is not None and adaptive is None:
         refuse_unused(["disocclusion_spp"], "counts", ["adaptive"], "fixed", SettingsError)
     if disocclusion_spp is not None and adaptive is not None:
-        disocclusion_spp = int(BURLEY_SPP.within(adaptive.b_min, adaptive.b_max, "inside the budget b_min:b_max")
-                               .check(disocclusion_spp, "disocclusion_spp", SettingsError))
+        disocclusion_spp = int(adaptive.budget().check(disocclusion_spp, "disocclusion_spp", SettingsError))
     gbs = [check_instance(g, GBuffer, "the frame loop's G-buffers", PassError) for g in gbuffers]
     if not gbs or any(g.shape != gbs[0].shape for g in gbs):
         raise PassError("the frame loop needs a non-empty sequence of G-buffers of one size")
