@@ -386,3 +386,22 @@ LENGTH_M = Quantity("length", 0.0, math.inf, "m", "a length", lo_open=True, hi_o
 #: cells per side of a tabulated kernel's grid: odd (the origin at a cell centre), at least 3
 KERNEL_CELLS = Quantity("kernel grid size", 3, 100_001, "", "odd, so the origin lies at a cell centre; an n x n "
                         "grid of floats bounds n", integer=True, odd=True)
+
+# --- vocab-c: a value's rule that no range or list of names states ------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Rule:
+    """A value's rule that no :class:`Quantity` or :class:`Choice` states (a name that must resolve to a preset or a
+    file, a spec that must parse, a type): ``test(value, name, error)`` returns the value or raises ``error`` in
+    this module's wordings. Declared on a settings field like a quantity (:func:`ssskit.settings.setting`), so
+    the field's rule is stated once, where the settings are made."""
+
+    name: str
+    test: Callable[[Any, str, ErrorClass], Any]
+
+    def check(self, value: object, name: str | None = None, error: ErrorClass = SsskitError) -> Any:
+        return self.test(value, name or self.name, error)
+
+
+__all__ += ["Rule"]

@@ -26,8 +26,7 @@ from collections.abc import Collection
 from typing import Any, ClassVar, Self
 
 from .errors import SettingsError, unknown_names_message
-from .quantities import FRAMES, PHOTONS, SIZE_PX, TAPS, Choice, Flag, Quantity, refuse_unused
-from .quantities import check_choice as _check_choice
+from .quantities import FRAMES, PHOTONS, SIZE_PX, TAPS, Choice, Flag, Quantity, Rule, refuse_unused
 
 #: ranges the settings and the command line share (here, below every layer that checks them, so the CLI's
 #: option types need not import the pipeline): image sides of the built-in scenes (pixels), photons of a
@@ -44,7 +43,7 @@ TAP_RANGE = (int(TAPS.lo), int(TAPS.hi))
 FRAMES_RANGE = (int(FRAMES.lo), int(FRAMES.hi))
 
 
-Checkable = Quantity | Choice | Flag
+Checkable = Quantity | Choice | Flag | Rule
 
 
 def setting(quantity: Checkable | None, default: Any = dataclasses.MISSING, *,
@@ -217,19 +216,3 @@ def _settings_class(hint: Any) -> type[Settings] | None:
 def _drop_none(d: dict[str, Any]) -> dict[str, Any]:
     return {k: (_drop_none(v) if isinstance(v, dict) else v) for k, v in d.items() if v is not None}
 
-
-def check_int(name: str, value: object, lo: int, hi: int) -> int:
-    """An int in [lo, hi] (bools refused), or a SettingsError naming ``name`` (:class:`~ssskit.quantities.Quantity`'s
-    wording)."""
-    return int(Quantity(name, lo, hi, integer=True).check(value, name, SettingsError))
-
-
-def check_float(name: str, value: Any, lo: float, hi: float, *, open_lo: bool = False) -> float:
-    """A finite float in [lo, hi] (in (lo, hi] with ``open_lo``), or a SettingsError naming ``name`` and the
-    interval (:class:`~ssskit.quantities.Quantity`'s wording)."""
-    return float(Quantity(name, lo, hi, lo_open=open_lo, hi_open=math.isinf(hi)).check(value, name, SettingsError))
-
-
-def check_choice(name: str, value: object, choices: Collection[str]) -> str:
-    """``value`` (case-insensitive) if it is one of ``choices``, returned in its canonical spelling."""
-    return _check_choice(name, value, choices, SettingsError)

@@ -49,7 +49,7 @@ def test_a_backend_without_the_pass_says_so():
     class Plain(Backend):
         name = "plain"
 
-        def separable(self, plan, diffuse, depth_mm, slots):
+        def _separable(self, plan, diffuse, depth_mm, slots):
             return diffuse
 
     b = Plain()

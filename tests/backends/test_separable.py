@@ -270,7 +270,7 @@ def test_unknown_and_unavailable_backends():
         def availability(self):
             return False, "libmissing.so not found"
 
-        def separable(self, plan, diffuse, depth_mm, slots):
+        def _separable(self, plan, diffuse, depth_mm, slots):
             raise AssertionError("never called")
 
     BACKENDS.register("missing-test", Missing)
@@ -355,18 +355,18 @@ def test_backend_instances_are_keyed_by_name():
     from ssskit.backends import BACKENDS, Backend
 
     class A(Backend):
-        def separable(self, plan, diffuse, depth_mm, slots):
+        def _separable(self, plan, diffuse, depth_mm, slots):
             return "a"
 
     class B(A):
-        def separable(self, plan, diffuse, depth_mm, slots):
+        def _separable(self, plan, diffuse, depth_mm, slots):
             return "b"
 
     BACKENDS.register("test-a", lambda: A())
     BACKENDS.register("test-b", lambda: B())  # same factory __name__ ('<lambda>')
     try:
-        assert get_backend("test-a").separable(None, None, None, None) == "a"
-        assert get_backend("test-b").separable(None, None, None, None) == "b"
+        assert get_backend("test-a")._separable(None, None, None, None) == "a"
+        assert get_backend("test-b")._separable(None, None, None, None) == "b"
     finally:
         BACKENDS._entries.pop("test-a")
         BACKENDS._entries.pop("test-b")

@@ -199,7 +199,7 @@ def test_bad_inputs_are_refused(plan):
         build_transmission_plan({0: _model()})
     with pytest.raises(PassError, match="profile ids must be an integer, got 'a'"):
         build_transmission_plan({"a": _model()})
-    with pytest.raises(PassError, match="profile id 1 must be a SlotModel, got float"):
+    with pytest.raises(PassError, match="profile id 1 must be SlotModel, got float"):
         build_transmission_plan({1: 3.0})
     with pytest.raises(PassError, match="must be a non-empty mapping"):
         build_transmission_plan({})

@@ -246,7 +246,7 @@ def test_adaptive_pass_matches_the_numpy_oracle_over_three_frames(page):
     Burley pass, frames 0-2, seed 0). Tolerances: the Burley result as in the Burley test (0.2% of pixels beyond
     1e-5 of the brightest value); counts and history may differ only where a result or a float32 count estimate
     did (the module docstring of adaptive_plan), on at most 0.5% of the pixels."""
-    from ssskit.backends.adaptive_plan import as_plan, reference_counts, reference_update_pass
+    from ssskit.backends.adaptive_plan import as_plan
     from ssskit.backends.burley_plan import build_burley_plan
     from ssskit.backends.numpy_backend import NumpyBackend
     from ssskit.materials import get_material
@@ -269,11 +269,12 @@ def test_adaptive_pass_matches_the_numpy_oracle_over_three_frames(page):
     params = {1: burley_params_for_material(get_material("skin1"))}
     mask = slots > 0
     hist = np.zeros((H, W, 4), np.float32)
-    counts = reference_counts(guide, hist, mask)
+    oracle = NumpyBackend()  # the reference functions of adaptive_plan, on inputs checked by the Backend
+    counts = oracle.adaptive_counts(guide, hist, mask)
     for f in range(3):
         plan = build_burley_plan(params, timing["fx"], timing["fy"], frame=f)
-        rgb = NumpyBackend().burley(plan, e, depth, slots, counts)
-        hist, counts = reference_update_pass(guide, hist, rgb, counts, mask)
+        rgb = oracle.burley(plan, e, depth, slots, counts)
+        hist, counts = oracle.adaptive_update(guide, hist, rgb, counts, mask)
     scale = max(1.0, float(e.max()))
     assert float((np.abs(got - rgb) > TOLERANCES[("gl", "float32")] * scale).mean()) <= 0.002
     assert float((got_counts != counts).mean()) <= 0.005

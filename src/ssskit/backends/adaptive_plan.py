@@ -55,7 +55,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol, TypeAlias
+from typing import NamedTuple, Protocol, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -132,17 +132,27 @@ def as_plan(settings: GuideSettings) -> AdaptivePlan:
                         gamma=float(settings.gamma))
 
 
+class GuideFrame(NamedTuple):
+    """The guiding phase's checked inputs (:func:`check_guide_frame`): history (H, W, 4) float32, mask (H, W)
+    bool, motion (H, W, 2) float64, valid (H, W) bool, rgb (H, W, 3) float32, counts (H, W) int64 (each
+    optional one None where not given)."""
+
+    history: NDArray[np.float32]
+    mask: NDArray[np.bool_]
+    motion: NDArray[np.float64] | None
+    valid: NDArray[np.bool_] | None
+    rgb: NDArray[np.float32] | None
+    counts: NDArray[np.int64] | None
+
+
 def check_guide_frame(history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
                       valid: ArrayLike | None = None, rgb: ArrayLike | None = None,
-                      counts: ArrayLike | None = None) -> tuple[
-        NDArray[np.float32], NDArray[np.bool_], NDArray[np.float64] | None, NDArray[np.bool_] | None,
-        NDArray[np.float32] | None, NDArray[np.int64] | None]:
-    """The guiding phase's inputs as arrays of the kernels' types, or a PassError: history (H, W, 4)
-    float32, mask (H, W) bool, motion (H, W, 2) float64 or None, valid (H, W) bool or None, rgb (H, W, 3)
-    float32 or None, counts (H, W) int64 or None."""
+                      counts: ArrayLike | None = None) -> GuideFrame:
+    """The guiding phase's inputs as arrays of the kernels' types, or a PassError: the rule
+    :meth:`~ssskit.backends.base.Backend.adaptive_counts` and ``adaptive_update`` state for every backend."""
     h = check_shape(history, "the adaptive history", ("H", "W", HISTORY_CHANNELS), PassError, "f")
-    m, mv, ok, img, n = check_guide_inputs(h.shape[:2], mask, motion, valid, rgb, counts)
-    return h.astype(np.float32, copy=False), m, mv, ok, img, n
+    return GuideFrame(h.astype(np.float32, copy=False), *check_guide_inputs(h.shape[:2], mask, motion, valid, rgb,
+                                                                            counts))
 
 
 def check_guide_inputs(shape: tuple[int, ...], mask: ArrayLike, motion: ArrayLike | None = None,
@@ -235,19 +245,16 @@ def reference_update(h: np.ndarray, v: np.ndarray, n: np.ndarray, s: GuideParams
     return np.stack([n_bar * mf, mu * mf, var * mf, mf], axis=-1)
 
 
-def reference_counts(plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
-                     valid: ArrayLike | None = None) -> NDArray[np.int64]:
-    """The *estimate* entry point (steps 1, 3, 4) in numpy: counts (H, W) int64."""
-    h, m, mv, ok, _, _ = check_guide_frame(history, mask, motion, valid)
-    return reference_clamp(reference_estimate(reference_reproject(h, mv, ok), plan), plan, m)
+def reference_counts(plan: AdaptivePlan, frame: GuideFrame) -> NDArray[np.int64]:
+    """The *estimate* entry point (steps 1, 3, 4) in numpy on a checked frame: counts (H, W) int64."""
+    return reference_clamp(reference_estimate(reference_reproject(frame.history, frame.motion, frame.valid), plan),
+                           plan, frame.mask)
 
 
-def reference_update_pass(plan: AdaptivePlan, history: ArrayLike, rgb: ArrayLike | None, counts: ArrayLike | None,
-                          mask: ArrayLike, motion: ArrayLike | None = None,
-                          valid: ArrayLike | None = None) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
-    """The *update* entry point (steps 1-4) in numpy: (new history (H, W, 4) float32, next counts int64)."""
-    h, m, mv, ok, img, n = check_guide_frame(history, mask, motion, valid, rgb, counts)
-    if img is None or n is None:
-        raise PassError("the history update needs the pass's result and the frame's sample counts")
-    new = reference_update(reference_reproject(h, mv, ok), reference_luminance(img, plan.gamma), n, plan, m)
-    return new, reference_clamp(reference_estimate(new, plan), plan, m)
+def reference_update_pass(plan: AdaptivePlan, frame: GuideFrame) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
+    """The *update* entry point (steps 1-4) in numpy on a checked frame with its ``rgb`` and ``counts``: (new
+    history (H, W, 4) float32, next counts int64)."""
+    assert frame.rgb is not None and frame.counts is not None  # Backend.adaptive_update requires both
+    new = reference_update(reference_reproject(frame.history, frame.motion, frame.valid),
+                           reference_luminance(frame.rgb, plan.gamma), frame.counts, plan, frame.mask)
+    return new, reference_clamp(reference_estimate(new, plan), plan, frame.mask)

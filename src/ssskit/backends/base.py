@@ -36,7 +36,7 @@ from ..quantities import check_choice
 from .plan import DEPTH_MODES, SeparablePlan, check_frame_values, check_image, check_slot_range
 
 if TYPE_CHECKING:
-    from .adaptive_plan import AdaptivePlan
+    from .adaptive_plan import AdaptivePlan, GuideFrame
     from .burley_plan import BurleyPlan, Prefiltered, SampleCounts
     from .spread_plan import SpreadPlan
     from .transmission_plan import TransmissionPlan
@@ -84,10 +84,28 @@ class Backend(ABC):
         every later process too). This backend has nothing to prepare. An unknown name: a BackendError."""
         check_warm_up(passes)
 
-    @abstractmethod
+    #: whether :meth:`_separable` checks the frame's values and slot range itself as it reads the frame (numba:
+    #: in its one packing pass), so that :meth:`separable` checks only the shapes and types
+    separable_checks_values: bool = False
+
+    # The entry points below are template methods: each states its pass's input rules once, for every backend
+    # (the pass is one this backend implements, the frame's shapes, types and values), returns an empty
+    # frame's result without running the pass, and hands checked inputs to the backend's own ``_<pass>``.
+
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
                   slots: np.ndarray) -> np.ndarray:
-        """The separable pass (see :mod:`ssskit.backends.plan`): a new (H, W, 3) array."""
+        """The separable pass (see :mod:`ssskit.backends.plan`): a new (H, W, 3) array, inputs checked by
+        :func:`check_frame`."""
+        own = self.separable_checks_values
+        check_frame(diffuse, depth_mm, slots, plan, values=not own, slot_range=not own)
+        if np.size(slots) == 0:
+            return np.array(diffuse, self.dtype)
+        return self._separable(plan, diffuse, depth_mm, slots)
+
+    @abstractmethod
+    def _separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
+                   slots: np.ndarray) -> np.ndarray:
+        """:meth:`separable` on a checked frame of at least one pixel."""
 
     def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
                spp: SampleCounts, pyramid: Prefiltered | None = None) -> np.ndarray:
@@ -98,6 +116,15 @@ class Backend(ABC):
         :meth:`burley_prefilter` (CPU backends; None: built here when the plan has mips). A backend
         without the pass raises :class:`~ssskit.errors.BackendError`.
         """
+        self.require("burley")
+        counts = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
+        if np.size(slots) == 0:
+            return np.array(diffuse, self.dtype)
+        return self._burley(plan, diffuse, depth_mm, slots, counts, pyramid)
+
+    def _burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                spp: NDArray[np.int64] | int, pyramid: Prefiltered | None) -> np.ndarray:
+        """:meth:`burley` on a checked frame of at least one pixel and its checked counts."""
         raise self.lacks("Burley pass")
 
     def burley_prefilter(self, plan: BurleyPlan, diffuse: np.ndarray, slots: np.ndarray) -> Prefiltered:
@@ -110,30 +137,73 @@ class Backend(ABC):
     def transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
         """The transmittance pass (see :mod:`ssskit.backends.transmission_plan`): a new (H, W, 3) array of the
-        light leaving each pixel through the medium. A backend without the pass raises
+        light leaving each pixel through the medium, inputs checked by
+        :func:`~ssskit.backends.transmission_plan.check_transmission_frame`. A backend without the pass raises
         :class:`~ssskit.errors.BackendError`."""
+        from .transmission_plan import check_transmission_frame
+
+        self.require("transmission")
+        check_transmission_frame(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
+        if np.size(slots) == 0:
+            return np.zeros(np.shape(slots) + (3,), self.dtype)
+        return self._transmission(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
+
+    def _transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
+                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
+        """:meth:`transmission` on a checked frame of at least one pixel."""
         raise self.lacks("transmittance pass")
 
     def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> np.ndarray:
         """The transmitted light's lateral spread (see :mod:`ssskit.backends.spread_plan`, pass name "spread"): a
-        new (H, W, 3) array, ``exitance`` (the transmittance pass's result) spread by each pixel's thickness. A
-        backend without the step raises :class:`~ssskit.errors.BackendError`."""
+        new (H, W, 3) array, ``exitance`` (the transmittance pass's result) spread by each pixel's thickness,
+        inputs checked by :func:`~ssskit.backends.spread_plan.check_spread_frame`. A backend without the step
+        raises :class:`~ssskit.errors.BackendError`."""
+        from .spread_plan import check_spread_frame
+
+        self.require("spread")
+        check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
+        if np.size(slots) == 0:
+            return np.array(exitance, self.dtype)
+        return self._transmission_spread(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
+
+    def _transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> np.ndarray:
+        """:meth:`transmission_spread` on a checked frame of at least one pixel."""
         raise self.lacks("spread of the transmitted light")
 
     def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
                         valid: ArrayLike | None = None) -> NDArray[np.int64]:
         """The guiding phase's *estimate* (:mod:`ssskit.backends.adaptive_plan` steps 1, 3, 4): this frame's
         sample counts (H, W) int64 from the previous (H, W, 4) history, reprojected through ``motion``
-        (H, W, 2) (None: static) with ``valid`` (H, W) (None: everywhere), and the frame's SSS ``mask``."""
-        raise self.lacks("adaptive guiding pass")
+        (H, W, 2) (None: static) with ``valid`` (H, W) (None: everywhere), and the frame's SSS ``mask``;
+        inputs checked by :func:`~ssskit.backends.adaptive_plan.check_guide_frame`."""
+        from .adaptive_plan import check_guide_frame
+
+        self.require("adaptive")
+        return self._adaptive_counts(plan, check_guide_frame(history, mask, motion, valid))
 
     def adaptive_update(self, plan: AdaptivePlan, history: ArrayLike, rgb: ArrayLike | None, counts: ArrayLike | None,
                         mask: ArrayLike, motion: ArrayLike | None = None,
                         valid: ArrayLike | None = None) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
         """The guiding phase's *update* (:mod:`ssskit.backends.adaptive_plan` steps 1-4): (the new (H, W, 4)
         float32 history, the next frame's counts (H, W) int64 for the same pixels) from the previous
-        history, this frame's Burley result ``rgb`` (H, W, 3) and the ``counts`` it used."""
+        history, this frame's Burley result ``rgb`` (H, W, 3) and the ``counts`` it used (both required)."""
+        from ..errors import PassError
+        from .adaptive_plan import check_guide_frame
+
+        self.require("adaptive")
+        if rgb is None or counts is None:
+            raise PassError("the history update needs the pass's result and the frame's sample counts")
+        return self._adaptive_update(plan, check_guide_frame(history, mask, motion, valid, rgb, counts))
+
+    def _adaptive_counts(self, plan: AdaptivePlan, frame: GuideFrame) -> NDArray[np.int64]:
+        """:meth:`adaptive_counts` on a checked frame (its ``rgb`` and ``counts`` None)."""
+        raise self.lacks("adaptive guiding pass")
+
+    def _adaptive_update(self, plan: AdaptivePlan,
+                         frame: GuideFrame) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
+        """:meth:`adaptive_update` on a checked frame (with its ``rgb`` and ``counts``)."""
         raise self.lacks("adaptive guiding pass")
 
     def adaptive_runner(self, plan: AdaptivePlan, history: ArrayLike) -> AdaptiveRunner:
@@ -154,7 +224,8 @@ class Backend(ABC):
         for name in passes:
             if name not in self.passes:
                 raise self.lacks({"burley": "Burley pass", "adaptive": "adaptive guiding pass",
-                                  "transmission": "transmittance pass"}.get(name, f"{name} pass"))
+                                  "transmission": "transmittance pass",
+                                  "spread": "spread of the transmitted light"}.get(name, f"{name} pass"))
         return self
 
 

@@ -15,18 +15,18 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from ..errors import PassError
 from ..sampling.hashes import frame_base
-from .base import Backend, check_frame, run_tiny_frames
+from .base import Backend, run_tiny_frames
 from .plan import SeparablePlan, TermTable, check_frame_values, check_slot_range
 
 if TYPE_CHECKING:
     from concurrent.futures import ThreadPoolExecutor
 
-    from .adaptive_plan import AdaptivePlan
-    from .burley_plan import BurleyPlan, MipPyramid, Prefiltered, SampleCounts
+    from .adaptive_plan import AdaptivePlan, GuideFrame
+    from .burley_plan import BurleyPlan, MipPyramid, Prefiltered
     from .spread_plan import SpreadPlan
     from .transmission_plan import TransmissionPlan
 
@@ -62,6 +62,7 @@ class NumbaBackend(Backend):
     dtype = np.float32
     passes = frozenset({"separable", "burley", "adaptive", "transmission", "spread"})
     compiles_on_first_use = True
+    separable_checks_values = True  # in the one packing pass over the frame (_pack)
 
     def __init__(self) -> None:
         self._key: tuple[int, int, int] | None = None
@@ -115,13 +116,11 @@ class NumbaBackend(Backend):
             self._key = key
         return self._buf, wps, plane
 
-    def transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
-                     n_dot_l: np.ndarray, light_rgb: np.ndarray) -> NDArray[np.float32]:
+    def _transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
+                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> NDArray[np.float32]:
         """The transmittance pass (:mod:`ssskit.backends._numba_transmission`), float32, rows on the pool."""
         from ._numba_transmission import LANES, transmission_pixels
-        from .transmission_plan import check_transmission_frame
 
-        check_transmission_frame(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
         f32 = np.float32
         h, w = np.shape(slots)
         n = h * w
@@ -149,18 +148,14 @@ class NumbaBackend(Backend):
                                                               m if i1 == blocks else i1 * LANES))
         return out[: 3 * n].reshape(h, w, 3)
 
-    def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-                            light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float32]:
+    def _transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float32]:
         """The transmitted light's lateral spread (:mod:`ssskit.backends._numba_spread`), float32, rows on the pool:
         per row the widths and planes and the horizontal pass (``spread_h``), then the vertical pass."""
         from ._numba_spread import LANES, PLANES, plane_stride, spread_h, spread_v
-        from .spread_plan import check_spread_frame
 
-        check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
         f32 = np.float32
         h, w = np.shape(slots)
-        if h * w == 0:
-            return np.ascontiguousarray(exitance, dtype=f32).copy()
         pad = max(0, LANES - w)  # the kernels work on whole blocks of LANES pixels: a narrower frame is padded
         sl = np.ascontiguousarray(slots, dtype=np.int32)
         uvz = np.ascontiguousarray(light_uvz, dtype=f32)
@@ -194,11 +189,10 @@ class NumbaBackend(Backend):
         res = out.reshape(h, wp, 3)
         return res[:, :w].copy() if pad else res
 
-    def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
-                  slots: np.ndarray) -> NDArray[np.float32]:
-        check_frame(diffuse, depth_mm, slots, plan, values=False, slot_range=False)  # values: in the packing
+    def _separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
+                   slots: np.ndarray) -> NDArray[np.float32]:
         with self._lock:  # one frame buffer per backend: one frame at a time
-            return self._separable(plan, diffuse, depth_mm, slots)
+            return self._separable_locked(plan, diffuse, depth_mm, slots)
 
     def _pack(self, src: np.ndarray, depth: np.ndarray, slots: np.ndarray, pad: int, write: bool,
               slot_plane: bool) -> tuple[NDArray[np.float32], int, int, NDArray[np.float64]]:
@@ -213,11 +207,11 @@ class NumbaBackend(Backend):
                                                    stats))
         return buf, wps, plane, stats
 
-    def _separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
-                   slots: np.ndarray) -> NDArray[np.float32]:
+    def _separable_locked(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
+                          slots: np.ndarray) -> NDArray[np.float32]:
         from ._numba_separable import LANES, PASSES, PLANES, TMP_PLANE, block_slot_rows
 
-        slots = np.ascontiguousarray(slots, dtype=np.int32)  # (an array-like: check_frame took its shape and type)
+        slots = np.ascontiguousarray(slots, dtype=np.int32)  # (Backend.separable checked its shape and type)
         h, w = slots.shape
         depth = np.ascontiguousarray(depth_mm, dtype=np.float32)
         src = np.ascontiguousarray(diffuse, dtype=np.float32)
@@ -268,15 +262,13 @@ class NumbaBackend(Backend):
         return np.where((slots > 0)[..., None], acc, src).astype(np.float32)
 
 
-    def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-               spp: SampleCounts, pyramid: Prefiltered | None = None) -> NDArray[np.float32]:
+    def _burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                spp: NDArray[np.int64] | int, pyramid: Prefiltered | None) -> NDArray[np.float32]:
         """The Burley pass (kernel in :mod:`ssskit.backends._numba_burley`), rows on the thread pool; ``pyramid``:
         :meth:`burley_prefilter`'s result or the oracle's list (None: built here when the plan has mips)."""
         from ._numba_burley import burley_rows
-        from .base import check_burley_frame
         from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, SAMPLERS, SEQUENCES
 
-        spp = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
         h, w = np.shape(slots)
         src = np.ascontiguousarray(diffuse, dtype=np.float32)
         z = np.ascontiguousarray(depth_mm, dtype=np.float32)
@@ -322,28 +314,20 @@ class NumbaBackend(Backend):
         mip_coarse(pyr, off, hh, ww, planes, MAX_MIP)
         return NumbaMips(pyr, off, hh, ww)
 
-    def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
-                        valid: ArrayLike | None = None) -> NDArray[np.int64]:
+    def _adaptive_counts(self, plan: AdaptivePlan, frame: GuideFrame) -> NDArray[np.int64]:
         """The *estimate* of :mod:`ssskit.backends.adaptive_plan` (kernel in ``_numba_adaptive``)."""
-        return self._guide(plan, history, mask, motion, valid, None, None)[1]
+        return self._guide(plan, frame)[1]
 
-    def adaptive_update(self, plan: AdaptivePlan, history: ArrayLike, rgb: ArrayLike | None, counts: ArrayLike | None,
-                        mask: ArrayLike, motion: ArrayLike | None = None,
-                        valid: ArrayLike | None = None) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
+    def _adaptive_update(self, plan: AdaptivePlan, frame: GuideFrame) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
         """The *update* of :mod:`ssskit.backends.adaptive_plan` (kernel in ``_numba_adaptive``)."""
-        if rgb is None or counts is None:
-            raise PassError("the history update needs the pass's result and the frame's sample counts")
-        new, n = self._guide(plan, history, mask, motion, valid, rgb, counts)
+        new, n = self._guide(plan, frame)
         assert new is not None  # an update returns the new history
         return new, n
 
-    def _guide(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None,
-               valid: ArrayLike | None, rgb: ArrayLike | None,
-               counts: ArrayLike | None) -> tuple[NDArray[np.float32] | None, NDArray[np.int64]]:
+    def _guide(self, plan: AdaptivePlan, frame: GuideFrame) -> tuple[NDArray[np.float32] | None, NDArray[np.int64]]:
         from ._numba_adaptive import guide_rows
-        from .adaptive_plan import check_guide_frame
 
-        h, m, mv, ok, img, n = check_guide_frame(history, mask, motion, valid, rgb, counts)
+        h, m, mv, ok, img, n = frame
         hh, ww = m.shape
         update = img is not None
         hist = np.ascontiguousarray(h, np.float32)

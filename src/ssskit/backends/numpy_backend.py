@@ -20,12 +20,12 @@ from numpy.typing import ArrayLike, NDArray
 from ..sampling.hashes import jitter_angles
 from ..profiles.burley import burley_inverse_cdf
 from ..sampling.hashes import frame_base, mix32
-from .adaptive_plan import AdaptivePlan, reference_counts, reference_update_pass
-from .base import Backend, check_burley_frame, check_frame
+from .adaptive_plan import AdaptivePlan, GuideFrame, reference_counts, reference_update_pass
+from .base import Backend
 from .burley_plan import GOLDEN32, KEY2, MAX_MIP, R2_A1, R2_A2, BurleyPlan, MipPyramid, SampleCounts, mip_pyramid
 from .plan import SeparablePlan, TermTable
 from .spread_plan import SpreadPlan
-from .transmission_plan import LUT_SIZE, TransmissionPlan, check_transmission_frame, unreal_lut_coordinate
+from .transmission_plan import LUT_SIZE, TransmissionPlan, unreal_lut_coordinate
 
 
 def depth_factor(dz: np.ndarray, mode: str, param: np.ndarray) -> np.ndarray:
@@ -236,9 +236,8 @@ class NumpyBackend(Backend):
     def availability(self) -> tuple[bool, str]:
         return True, "float64 reference (the oracle)"
 
-    def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
-                  slots: np.ndarray) -> NDArray[np.float64]:
-        check_frame(diffuse, depth_mm, slots, plan)
+    def _separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
+                   slots: np.ndarray) -> NDArray[np.float64]:
         src = np.asarray(diffuse, dtype=np.float64)
         z = np.asarray(depth_mm, dtype=np.float64)
         slots = np.asarray(slots, dtype=np.int64)
@@ -251,34 +250,26 @@ class NumpyBackend(Backend):
         inside = (slots > 0)[..., None]
         return np.where(inside, out, src)
 
-    def transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
-                     n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
-        check_transmission_frame(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
+    def _transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
+                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
         return transmission_pass(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
 
-    def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-                            light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float64]:
-        from .spread_plan import check_spread_frame
-
-        check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
+    def _transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> NDArray[np.float64]:
         return spread_pass(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
 
-    def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-               spp: SampleCounts, pyramid: MipPyramid | None = None) -> np.ndarray:
-        spp = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
+    def _burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                spp: NDArray[np.int64] | int, pyramid: MipPyramid | None) -> np.ndarray:
         return burley_pass(plan, np.asarray(diffuse, dtype=np.float64), np.asarray(depth_mm, dtype=np.float64),
                            np.asarray(slots, dtype=np.int64), spp, pyramid)
 
-    def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
-                        valid: ArrayLike | None = None) -> NDArray[np.int64]:
+    def _adaptive_counts(self, plan: AdaptivePlan, frame: GuideFrame) -> NDArray[np.int64]:
         """The *estimate* of :mod:`ssskit.backends.adaptive_plan` (its reference functions)."""
-        return reference_counts(plan, history, mask, motion, valid)
+        return reference_counts(plan, frame)
 
-    def adaptive_update(self, plan: AdaptivePlan, history: ArrayLike, rgb: ArrayLike | None, counts: ArrayLike | None,
-                        mask: ArrayLike, motion: ArrayLike | None = None,
-                        valid: ArrayLike | None = None) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
+    def _adaptive_update(self, plan: AdaptivePlan, frame: GuideFrame) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
         """The *update* of :mod:`ssskit.backends.adaptive_plan` (its reference functions)."""
-        return reference_update_pass(plan, history, rgb, counts, mask, motion, valid)
+        return reference_update_pass(plan, frame)
 
 
 def shadow_depth(shadow_mm: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:

@@ -90,8 +90,7 @@ def check_plan_ids(by_id: Any, kind: type, fx: float | None = None, fy: float | 
                    actual=repr(by_id) if not by_id else type(by_id).__name__)
     for pid, value in by_id.items():
         PROFILE_ID.check(pid, "profile ids", PassError)
-        if not isinstance(value, kind):
-            raise fail(PassError, TYPE, name=f"profile id {pid}", kind=f"a {kind.__name__}", actual=type(value).__name__)
+        check_instance(value, kind, f"profile id {pid}", PassError)
     return tuple(sorted(int(i) for i in by_id))
 
 

@@ -41,7 +41,7 @@ from ..io import atomic_output
 from ..materials import Material
 from ..screenspace.burley import BurleyParams
 from ..screenspace import Camera, GBuffer
-from ..settings import FRAMES_RANGE, check_int
+from ..quantities import FRAME, FRAMES, REFERENCE_SPP
 
 #: bumped when the cached G-buffers' contents change
 GBUFFER_VERSION = 1
@@ -94,8 +94,8 @@ def sequence_gbuffers(scene: str, material: str | Material, frames: int, first: 
     SCENES.get(scene)
     check_size(width, height)
     check_spp(spp)
-    frames = check_int("frames", frames, *FRAMES_RANGE)
-    first = check_int("first", first, 0, 2**31 - 1 - frames)
+    frames = int(FRAMES.check(frames, "frames", SettingsError))
+    first = int(FRAME.within(hi=FRAME.hi - frames).check(first, "first", SettingsError))
     mat = MATERIALS.get(material) if isinstance(material, str) else material
     if not hasattr(mat, "eta"):
         raise SettingsError(f"the Burley pass needs a homogeneous material; {getattr(mat, 'name', mat)!r} is not one")
@@ -137,13 +137,17 @@ class SequenceReference:
     spp: int
 
 
+#: samples per pixel of a sequence reference: two independent halves (the error estimate), each at least one
+_SEQUENCE_SPP = REFERENCE_SPP.within(2, 2 * 65536)
+
+
 def sequence_references(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, BurleyParams], spp: int = 8192, seed: int = 1000,
                         backend: str = "numba", use_cache: bool = True,
                         progress: Callable[[str], None] | None = None) -> list[SequenceReference]:
     """One :class:`SequenceReference` per G-buffer (identical G-buffers share theirs)."""
     from .burley_frame import burley_reference
 
-    spp = check_int("spp", spp, 2, 2 * 65536)
+    spp = int(_SEQUENCE_SPP.check(spp, "spp", SettingsError))
     half = spp // 2
     out: list[SequenceReference] = []
     seen: dict[int, SequenceReference] = {}

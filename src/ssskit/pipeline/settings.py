@@ -39,9 +39,9 @@ from ..screenspace.adaptive import AdaptiveSettings
 from ..screenspace.burley import BurleyParams, BurleySettings
 from ..screenspace.settings import PassSettings
 from ..quantities import (BURLEY_ALBEDO, FRAME, FRAMES, MFP_MM, PHOTONS, REFERENCE_SPP, REL_SE, SEED, SIZE_PX, SPP,
-                          TAPS, Choice, Flag, Quantity, check_instance)
+                          TAPS, TYPE, Choice, ErrorClass, Flag, Quantity, Rule, check_choice, check_instance, fail)
 from ..screenspace.burley import BACKEND, BURLEY_SPP
-from ..settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, check_choice, like, setting
+from ..settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, like, setting
 
 #: the samples per pixel of an adaptive run's converged references (moving camera)
 LIMIT_SPP = Quantity("limit_spp", 2, 131072, "", "samples per pixel of a moving run's converged references",
@@ -163,10 +163,9 @@ class AdaptivePass(_BurleySampling):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        self.adaptive_settings()  # b_min <= b_max
+        budget = self.adaptive_settings().budget()  # b_min <= b_max
         if self.disocclusion_spp is not None:
-            BURLEY_SPP.within(self.b_min, self.b_max, "inside the budget b_min:b_max").check(
-                self.disocclusion_spp, "disocclusion_spp", SettingsError)
+            budget.check(self.disocclusion_spp, "disocclusion_spp", SettingsError)
 
     def situation(self) -> dict[str, str]:
         return {"camera": "static" if self.static else "moving"}
@@ -191,17 +190,30 @@ _BY_TABLE = {cls.table: cls for _, cls in PASSES.items()}
 KERNEL_FIELDS = ("model", "photons", "kernel", "taps", "tap_method")  # declared applies=_SEPARABLE below
 
 
-def _check_material_name(name: str) -> None:
-    """A SettingsError unless ``name`` is a preset or names a material file (.toml / .json, or an existing path;
-    the file is read, and checked, when the render loads it: making settings reads no file)."""
+def _material(value: object, name: str, error: ErrorClass) -> str:
+    """``value`` if it is a preset or names a material file (.toml / .json, or an existing path; the file is read,
+    and checked, when the render loads it: making settings reads no file), else ``error``."""
     from pathlib import Path
 
     from ..materials import MATERIALS
 
-    if name in MATERIALS or name.strip().lower().endswith((".toml", ".json")) or Path(name).exists():
-        return
-    raise SettingsError(f"material {name!r} is neither a preset ({', '.join(MATERIALS.names())}) nor a material "
-                        f"file (.toml / .json)")
+    if not isinstance(value, str) or not value.strip():
+        raise fail(error, TYPE, name=name, kind="a preset name or a material file", actual=repr(value))
+    if value in MATERIALS or value.strip().lower().endswith((".toml", ".json")) or Path(value).exists():
+        return value
+    raise error(f"material {value!r} is neither a preset ({', '.join(MATERIALS.names())}) nor a material "
+                f"file (.toml / .json)")
+
+
+def _kernel(value: object, name: str, error: ErrorClass) -> str:
+    """``value`` if it is a kernel method spec (:func:`ssskit.kernels.parse_method_spec`: unknown names and
+    out-of-range parameters fail there), else ``error``."""
+    from ..kernels import parse_method_spec
+
+    if not isinstance(value, str):
+        raise fail(error, TYPE, name=name, kind="a method spec such as 'svd:2'", actual=repr(value))
+    parse_method_spec(value)
+    return value
 
 
 def _models() -> list[str]:
@@ -254,10 +266,10 @@ class RenderSettings(Settings):
     pass they must keep their defaults.
     """
 
-    material: str = setting(None, "skin1")
+    material: str = setting(Rule("material", _material), "skin1")
     model: str = setting(Choice("model", _models), "montecarlo", applies=_SEPARABLE)
     photons: int = setting(PHOTONS, 10_000_000, applies=_SEPARABLE)
-    kernel: str = setting(None, "preintegrated", applies=_SEPARABLE)
+    kernel: str = setting(Rule("kernel", _kernel), "preintegrated", applies=_SEPARABLE)
     taps: int = setting(TAPS, 7, applies=_SEPARABLE)
     tap_method: str = setting(Choice("tap_method", _tap_methods), "importance", applies=_SEPARABLE)
     width: int = setting(SIZE_PX, 256)
@@ -275,18 +287,10 @@ class RenderSettings(Settings):
     transmission: str = setting(Choice("transmission", TRANSMISSION), "auto")
     transmission_model: str = setting(Choice("transmission_model", TRANSMISSION_MODELS), "mcml", applies=_TRANSMITS)
     transmission_spread: str = setting(Choice("transmission_spread", TRANSMISSION_SPREADS), "off", applies=_TRANSMITS)
-    pass_: PassMember = setting(None, default_factory=SeparablePass)
+    pass_: PassMember = setting(Rule("pass_", lambda v, name, error: check_instance(
+        v, (SeparablePass, BurleyPass, AdaptivePass), name, error)), default_factory=SeparablePass)
 
     def __post_init__(self) -> None:
-        from ..kernels import parse_method_spec
-
-        if not isinstance(self.material, str) or not self.material.strip():
-            raise SettingsError(f"material must be a preset name or a material file, got {self.material!r}")
-        _check_material_name(self.material)
-        if not isinstance(self.kernel, str):
-            raise SettingsError(f"kernel must be a method spec such as 'svd:2', got {self.kernel!r}")
-        parse_method_spec(self.kernel)  # unknown names and out-of-range parameters fail here
-        check_instance(self.pass_, (SeparablePass, BurleyPass, AdaptivePass), 'pass_', SettingsError)
         super().__post_init__()
         if self.reference_max_spp < self.reference_spp:
             raise SettingsError(f"reference_max_spp {self.reference_max_spp} is below reference_spp "
@@ -374,7 +378,7 @@ def _migrate(data: dict[str, Any], label: str) -> dict[str, Any]:
     if not old:
         return data
     d = dict(data)
-    method = check_choice("method", d.pop("method", "separable"), ("separable", "burley"))
+    method = check_choice("method", d.pop("method", "separable"), ("separable", "burley"), SettingsError)
     tables = {"separable": d.pop("sss", None), "burley": d.pop("burley", None)}
     full = {"separable": PassSettings, "burley": BurleySettings}
     for name, table in tables.items():

@@ -385,14 +385,12 @@ def _read_ply(p: Path) -> tuple[Mesh, ...]:
         with open(p, "rb") as fh:
             kw = load_ply(fh)
         faces = kw.get("faces")
-        if faces is None or len(faces) == 0:
-            raise SceneError(f"mesh {str(p)!r} has no faces")
-        if isinstance(faces, np.ndarray) and faces.ndim == 2 and faces.shape[1] == 3:
+        if faces is None or len(faces) == 0:  # a mesh without faces: read_mesh's check_mesh refuses it
+            tri = np.zeros((0, 3), np.int64)
+        elif isinstance(faces, np.ndarray) and faces.ndim == 2 and faces.shape[1] == 3:
             tri = np.asarray(faces, dtype=np.int64)
         else:  # polygons: fan-triangulated by trimesh, indices kept as they are (checked by Mesh)
             tri = np.asarray(trimesh.geometry.triangulate_quads(faces), dtype=np.int64)
-    except SceneError:
-        raise
     except Exception as exc:  # noqa: BLE001 - trimesh's parser raises many kinds of errors on a corrupt file
         raise SceneError(f"mesh {str(p)!r} cannot be read as PLY: {exc}") from None
     normals = kw.get("vertex_normals")

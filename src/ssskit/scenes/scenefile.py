@@ -724,17 +724,17 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
     text = os.fspath(value)
     suffix = Path(text).suffix.lower()
 
-    def no_options(what: str) -> None:
-        given = [n for n, v in (("--units", cli_units), ("--material-map", mmap), ("--view", view)) if v]
+    def no_options(what: str, applies: tuple[str, ...] = ()) -> None:
+        """Refuse the options given that do not apply to ``what`` (all but ``applies``)."""
+        given = [n for n, v in (("--units", cli_units), ("--material-map", mmap), ("--view", view))
+                 if v and n not in applies]
         if given:
             raise SceneError(f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} not apply to {what}")
 
     if text in SCENES:
         spec = SCENES.get(text)
         if view is not None and spec.views:  # a built-in scene with named cameras (the head's close, ear, front)
-            no_options_but_view = [n for n, v in (("--units", cli_units), ("--material-map", mmap)) if v]
-            if no_options_but_view:
-                raise SceneError(f"{', '.join(no_options_but_view)} do not apply to the built-in scene {text!r}")
+            no_options(f"the built-in scene {text!r}", applies=("--view",))
             spec = with_view(spec, view)
         else:
             no_options(f"the built-in scene {text!r} (fixed camera and primitives)")
@@ -744,8 +744,7 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
         return ResolvedScene("gbuffer", Path(text).name, path=Path(text))
     if text.strip().lower() in GENERATED_SCENES:
         name = text.strip().lower()
-        if cli_units:
-            raise SceneError(f"--units does not apply to the generated {name!r} (made in mm)")
+        no_options(f"the generated {name!r} (made in mm)", applies=("--material-map", "--view"))
         doc = {"name": name, "description": f"the generated {name} (mm)",
                "shapes": {name: {"type": "generated", **GENERATED_SCENES[name]}}}
         loaded = scene_from_document(doc, None, name, material_map=mmap, view=view, width=width, height=height)

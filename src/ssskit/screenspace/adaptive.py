@@ -59,11 +59,15 @@ from ..backends.adaptive_plan import (
     reference_update,
 )
 from ..errors import PassError, SettingsError
-from ..quantities import FRACTION, Choice, Flag, Quantity, check_finite, check_instance, check_shape
+from ..quantities import FRACTION, SCALE, Choice, Flag, Quantity, check_finite, check_instance, check_shape
 
 #: the history's mean sample counts and variances (Xie 2020 Sec. 4.1.2): non-negative
 HISTORY_MOMENT = Quantity("moment", 0.0, math.inf, "", "a mean count or a variance", hi_open=True)
-from ..settings import Settings, check_float, check_int, setting
+#: a history's sides (pixels), and the toy scenario's frame and pixel counts and seed (:func:`circle_scenario`)
+_SIDE = Quantity("side", 1, 1 << 16, integer=True)
+_TOY_COUNT = Quantity("count", 1, 1_000_000, integer=True)
+_TOY_SEED = Quantity("seed", 0, 2**63 - 1, integer=True)
+from ..settings import Settings, setting
 from .burley import BURLEY_SPP
 from .camera import check_motion
 
@@ -97,6 +101,11 @@ class AdaptiveSettings(Settings):
         if self.b_min > self.b_max:
             raise SettingsError(f"the sample budget needs b_min <= b_max, got b_min={self.b_min} > b_max={self.b_max}")
 
+    def budget(self) -> Quantity:
+        """A per-pixel sample count inside the budget [b_min, b_max] (a fixed count the caller gives a pixel in
+        place of the guide's, e.g. ``disocclusion_spp``)."""
+        return BURLEY_SPP.within(self.b_min, self.b_max, "inside the budget b_min:b_max")
+
     @property
     def k(self) -> float:
         """k = 2 / alpha - 1 (Xie 2020 Sec. 4.1.2: the SMA length of an EMA, Bauer and Dahlquist 1998)."""
@@ -116,8 +125,7 @@ def new_history(height: int, width: int, *, available: bool = False) -> np.ndarr
     pixel starts from (n_bar, mu, sigma^2) = 0 and Eqs. 6-9 run unchanged); ``False`` (default) marks
     it as missing, so the first frame takes the disocclusion initialisation of Eqs. 16-17 (Fig. 3).
     """
-    h = check_int("height", height, 1, 1 << 16)
-    w = check_int("width", width, 1, 1 << 16)
+    h, w = (int(_SIDE.check(v, name, SettingsError)) for v, name in ((height, "height"), (width, "width")))
     out = np.zeros((h, w, HISTORY_CHANNELS), np.float32)
     if available:
         out[..., AVAILABLE] = 1.0
@@ -293,10 +301,10 @@ def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150,
     multiplies the irradiance (the paper: 1), to study how the sampler depends on the unit of the values.
     """
     s = _settings(settings)
-    frames = check_int("frames", frames, 1, 1_000_000)
-    pixels = check_int("pixels", pixels, 1, 1_000_000)
-    seed = check_int("seed", seed, 0, 2**63 - 1)
-    scale = check_float("scale", scale, 1e-12, 1e12)
+    frames, pixels = (int(_TOY_COUNT.check(v, name, SettingsError)) for v, name in ((frames, "frames"),
+                                                                                     (pixels, "pixels")))
+    seed = int(_TOY_SEED.check(seed, "seed", SettingsError))
+    scale = float(SCALE.within(1e-12, 1e12).check(scale, "scale", SettingsError))
     Flag("disocclusion").check(disocclusion, "disocclusion", PassError)
     history = new_history(1, pixels, available=not disocclusion)
     series = {k: np.zeros((frames, pixels)) for k in ("n_hat", "n", "value", "mu", "sigma")}

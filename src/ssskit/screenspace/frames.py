@@ -48,10 +48,9 @@ from ..backends.burley_plan import BurleyParams, BurleyPlan
 from ..backends.plan import profile_ids
 from ..errors import PassError, SettingsError
 from ..metrics import display_psnr, region_metrics
-from ..quantities import FRAME, check_instance, check_shape, refuse_unused
-from ..settings import FRAMES_RANGE, check_choice, check_int
+from ..quantities import FRAME, FRAMES, check_instance, check_shape, refuse_unused
 from .adaptive import AdaptiveSettings, check_history, new_history, reproject_history
-from .burley import BURLEY_SPP, BurleySettings, burley_backend, burley_plan_for
+from .burley import BACKEND, BURLEY_SPP, BurleySettings, burley_backend, burley_plan_for
 from .camera import motion_vectors
 from .gbuffer import RADIANCE, GBuffer
 from .taa import TAASettings, TemporalAA, reprojection_valid
@@ -157,7 +156,7 @@ def _check(gbuffers: Sequence[GBuffer], burley: BurleySettings | None, adaptive:
     if disocclusion_spp is not None and adaptive is None:
         refuse_unused(["disocclusion_spp"], "counts", ["adaptive"], "fixed", SettingsError)
     if disocclusion_spp is not None and adaptive is not None:
-        disocclusion_spp = check_int("disocclusion_spp", disocclusion_spp, adaptive.b_min, adaptive.b_max)
+        disocclusion_spp = int(adaptive.budget().check(disocclusion_spp, "disocclusion_spp", SettingsError))
     gbs = [check_instance(g, GBuffer, "the frame loop's G-buffers", PassError) for g in gbuffers]
     if not gbs or any(g.shape != gbs[0].shape for g in gbs):
         raise PassError("the frame loop needs a non-empty sequence of G-buffers of one size")
@@ -171,10 +170,10 @@ def _runner(b: BurleySettings, adaptive: AdaptiveSettings | None, history: Array
             shape: tuple[int, int]) -> tuple[AdaptiveRunner, Backend]:
     """The backend runner: the Burley pass on ``b.backend``, the guiding phase on ``guide`` (default: the
     same backend, which then keeps the history and counts between frames)."""
-    from ..backends import BACKENDS, get_backend
+    from ..backends import get_backend
 
     sampler = burley_backend(b.backend)
-    g = (sampler if guide is None else get_backend(check_choice("backend", guide, BACKENDS.names()))).require("adaptive")
+    g = (sampler if guide is None else get_backend(BACKEND.check(guide, "backend", SettingsError))).require("adaptive")
     h = new_history(*shape) if history is None else check_history(history)
     if h.shape[:2] != shape:
         raise PassError(f"the history is {h.shape[1]}x{h.shape[0]} but the G-buffer is {shape[1]}x{shape[0]}")
@@ -390,7 +389,7 @@ def adaptive_frames(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, 
     check_instance(gbuffer, GBuffer, "gbuffer", PassError)
     s = check_instance(AdaptiveSettings() if settings is None else settings, AdaptiveSettings, "settings", PassError)
     b = check_instance(BurleySettings() if burley is None else burley, BurleySettings, "burley", PassError)
-    frames = check_int("frames", frames, *FRAMES_RANGE)
+    frames = int(FRAMES.check(frames, "frames", SettingsError))
     hook = None if on_frame is None else (lambda fr: on_frame(fr.index, fr.sss, fr.counts))
     say = None if progress is None else (lambda msg: progress(f"adaptive {msg}"))
     run = run_frames([gbuffer] * frames, params_by_id, b, adaptive=s, history=history, guide=backend,

@@ -86,8 +86,7 @@ class GBuffer:
         DEPTH_LAYER.check_array(np.where(depth == np.inf, 1.0, depth), "layer 'depth'", GBufferError, "pixels")
         DEPTH_MM.check_array(depth[ids > 0], "layer 'depth'", GBufferError, "pixels with SSS")
         RADIANCE.check_array(diffuse, "layer 'diffuse'", GBufferError, "colour values")
-        if not isinstance(self.camera, Camera):
-            raise fail(GBufferError, TYPE, name="camera", kind="a Camera", actual=type(self.camera).__name__)
+        check_instance(self.camera, Camera, "camera", GBufferError)
         if (self.camera.width, self.camera.height) != (w, h):
             raise GBufferError(f"camera is {self.camera.width}x{self.camera.height} but the layers are {w}x{h}")
         if isinstance(self.materials, (bytes, bytearray)) or any(isinstance(m, (bytes, bytearray))

@@ -47,15 +47,17 @@ from typing import Literal, overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import PassError
+from ..errors import PassError, SettingsError
 from ..quantities import CHOICE, Choice, Quantity, check_instance, check_shape, fail
-from ..settings import Settings, check_float, setting
+from ..settings import Settings, setting
 from .camera import Camera, check_motion
 
 #: neighbourhood boxes the history is clamped to (module docstring)
 NEIGHBOURHOODS = ("minmax", "variance", "none")
 #: history fetch filters
 FETCHES = ("bilinear", "catmull-rom")
+#: :func:`reprojection_valid`'s depth tolerance
+_TOLERANCE = Quantity("tolerance", 0.0, math.inf, "", "a relative depth difference", hi_open=True)
 
 
 @dataclass(frozen=True)
@@ -171,7 +173,7 @@ def reprojection_valid(depth: ArrayLike, camera: Camera, previous_depth: ArrayLi
     zp = check_shape(previous_depth, "previous depth", z.shape, PassError, dtype=np.float64)
     for name, cam in (("camera", camera), ("previous_camera", previous_camera)):
         check_instance(cam, Camera, name, PassError)
-    tol = check_float("tolerance", tolerance, 0.0, math.inf)
+    tol = float(_TOLERANCE.check(tolerance, "tolerance", SettingsError))
     hh, ww = z.shape
     finite = np.isfinite(z)
     world = camera.unproject(np.where(finite, z, 1.0))

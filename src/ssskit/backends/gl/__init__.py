@@ -14,18 +14,18 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ...errors import BackendError
-from ..base import Backend, check_frame
+from ..base import Backend
 
 if TYPE_CHECKING:
-    from ..adaptive_plan import AdaptivePlan
+    from ..adaptive_plan import AdaptivePlan, GuideFrame
     from ..base import AdaptiveRunner
-    from ..burley_plan import BurleyPlan, MipPyramid, SampleCounts
+    from ..burley_plan import BurleyPlan, MipPyramid
     from ..plan import SeparablePlan
     from ..spread_plan import SpreadPlan
     from ..transmission_plan import TransmissionPlan
@@ -59,39 +59,26 @@ class GLBackend(Backend):
             return False, str(e)
         return True, renderer()
 
-    def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
-                  slots: np.ndarray) -> np.ndarray:
+    def _separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
+                   slots: np.ndarray) -> np.ndarray:
         from .separable import SeparableFrame
 
-        check_frame(diffuse, depth_mm, slots, plan)
-        slots = np.asarray(slots)
-        if slots.size == 0:
-            return np.array(diffuse, dtype=np.float32, copy=True)
         return self._run(lambda: SeparableFrame(plan, np.asarray(diffuse, np.float32),
-                                                np.asarray(depth_mm, np.float32), slots))
+                                                np.asarray(depth_mm, np.float32), np.asarray(slots)))
 
-    def burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-               spp: SampleCounts, pyramid: MipPyramid | None = None) -> np.ndarray:
-        from ..base import check_burley_frame
+    def _burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                spp: NDArray[np.int64] | int, pyramid: MipPyramid | None) -> np.ndarray:
         from .burley import BurleyFrame
 
-        spp = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
-        slots = np.asarray(slots)
-        if slots.size == 0:
-            return np.array(diffuse, dtype=np.float32, copy=True)
         return self._run(lambda: BurleyFrame(plan, np.asarray(diffuse, np.float32),
-                                             np.asarray(depth_mm, np.float32), slots, spp))
+                                             np.asarray(depth_mm, np.float32), np.asarray(slots), spp))
 
-    def transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
-                     n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
+    def _transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
+                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
         """The transmittance pass (``gl/transmission.py``), host arrays in and out."""
-        from ..transmission_plan import check_transmission_frame
         from .context import context
         from .transmission import run_transmission
 
-        check_transmission_frame(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
-        if np.size(slots) == 0:
-            return np.zeros(np.shape(slots) + (3,), np.float32)
         with self._lock:
             ctx = context()
             try:
@@ -99,16 +86,12 @@ class GLBackend(Backend):
             finally:
                 ctx.__exit__(None, None, None)
 
-    def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-                            light_uvz: np.ndarray, shadow_mm: np.ndarray) -> np.ndarray:
+    def _transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
+                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> np.ndarray:
         """The transmitted light's lateral spread (``gl/spread.py``), host arrays in and out."""
-        from ..spread_plan import check_spread_frame
         from .context import context
         from .spread import run_spread
 
-        check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
-        if np.size(slots) == 0:
-            return np.array(exitance, np.float32, copy=True)
         with self._lock:
             ctx = context()
             try:
@@ -116,31 +99,24 @@ class GLBackend(Backend):
             finally:
                 ctx.__exit__(None, None, None)
 
-    def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
-                        valid: ArrayLike | None = None) -> NDArray[np.int64]:
+    def _adaptive_counts(self, plan: AdaptivePlan, frame: GuideFrame) -> NDArray[np.int64]:
         """The *estimate* of :mod:`ssskit.backends.adaptive_plan` (``adaptive.comp``), host arrays in and out."""
-        return self._guide(plan, history, mask, motion, valid, None, None)[1]
+        return self._guide(plan, frame)[1]
 
-    def adaptive_update(self, plan: AdaptivePlan, history: ArrayLike, rgb: ArrayLike | None, counts: ArrayLike | None,
-                        mask: ArrayLike, motion: ArrayLike | None = None,
-                        valid: ArrayLike | None = None) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
+    def _adaptive_update(self, plan: AdaptivePlan, frame: GuideFrame) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
         """The *update* of :mod:`ssskit.backends.adaptive_plan` (``adaptive.comp``), host arrays in and out."""
-        from ...errors import PassError
-
-        if rgb is None or counts is None:
-            raise PassError("the history update needs the pass's result and the frame's sample counts")
-        new, n = self._guide(plan, history, mask, motion, valid, rgb, counts)
+        new, n = self._guide(plan, frame)
         assert new is not None  # an update returns the new history
         return new, n
 
-    def _guide(self, *args: Any) -> tuple[NDArray[np.float32] | None, NDArray[np.int64]]:
+    def _guide(self, plan: AdaptivePlan, frame: GuideFrame) -> tuple[NDArray[np.float32] | None, NDArray[np.int64]]:
         from .adaptive import guide
         from .context import context
 
         with self._lock:
             ctx = context()
             try:
-                return guide(*args)
+                return guide(plan, frame)
             finally:
                 ctx.__exit__(None, None, None)
 

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ...errors import PassError
-from ..adaptive_plan import AdaptivePlan, check_guide_frame, check_guide_inputs
+from ..adaptive_plan import AdaptivePlan, GuideFrame, check_guide_inputs
 from ..base import PHASES, AdaptiveRunner, Backend
 from .burley import _program
 from .separable import _f, _uniforms, wrapped
@@ -129,16 +129,13 @@ def _texture(ctx: moderngl.Context, size: tuple[int, int], components: int, dtyp
     return tex
 
 
-def guide(plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
-          valid: ArrayLike | None = None, rgb: ArrayLike | None = None,
-          counts: ArrayLike | None = None) -> tuple[NDArray[np.float32] | None, NDArray[np.int64]]:
-    """The guiding phase on host arrays (upload, run, read back): (new history or None, counts int64)."""
+def guide(plan: AdaptivePlan, frame: GuideFrame) -> tuple[NDArray[np.float32] | None, NDArray[np.int64]]:
+    """The guiding phase on a checked frame of host arrays (upload, run, read back): (new history, or None
+    without the frame's ``rgb``, counts int64)."""
     from .context import context
 
-    h, m, mv, ok, img, n = check_guide_frame(history, mask, motion, valid, rgb, counts)
+    h, m, mv, ok, img, n = frame
     update = img is not None
-    if update and n is None:
-        raise PassError("the history update needs the pass's result and the frame's sample counts")
     hh, ww = m.shape
     if hh == 0 or ww == 0:
         return (np.zeros((hh, ww, 4), np.float32) if update else None), np.zeros((hh, ww), np.int64)

@@ -20,15 +20,13 @@ import numpy as np
 from ...errors import PassError
 from ...sampling.hashes import frame_base
 from ..burley_plan import MAX_MIP, SAMPLERS, SEQUENCES, BurleyPlan
-from .separable import _array, _f, _uniforms, wrapped
+from .separable import MAX_SLOTS, _array, _f, _uniforms, check_slot_count, wrapped
 
 if TYPE_CHECKING:
     import moderngl
 
     from ..burley_plan import SampleCounts
 
-#: slots are stored as 16-bit unsigned integers
-MAX_SLOTS = 1 << 16
 
 
 def _template(name: str) -> str:
@@ -58,8 +56,7 @@ def _set_mip_uniforms(prog: moderngl.ComputeShader, width: int, height: int) -> 
 
 def _generated(plan: BurleyPlan, count_image: bool, filtered_mips: bool) -> str:
     """The generated block (constants and defines) of :func:`burley_source` and :func:`burley_fragment_source`."""
-    if plan.slots > MAX_SLOTS:
-        raise PassError(f"the gl backend holds at most {MAX_SLOTS - 1} profile ids in one frame, got {plan.slots - 1}")
+    check_slot_count(plan.slots, MAX_SLOTS, "slots are stored as 16-bit unsigned integers")
     S = plan.slots
     d_sample = plan.d_sample
     assert plan.dmfp_max_mm is not None  # BurleyPlan refuses a plan without it

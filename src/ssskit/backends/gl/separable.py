@@ -62,6 +62,13 @@ def default_layout() -> Layout:
 MAX_SLOTS = 1 << 16
 
 
+def check_slot_count(plan_slots: int, limit: int, why: str) -> None:
+    """The rule of every gl shader that bakes a plan's per-slot tables: at most ``limit - 1`` profile ids in one
+    frame (``why``: the shader's reason), or a PassError in the range wording."""
+    Quantity("profile ids", 0, limit - 1, "", why, integer=True).check(
+        plan_slots - 1, "the gl backend's profile ids in one frame", PassError)
+
+
 def wrapped(wrapper: str, body: str) -> str:
     """The shader ``wrapper`` (a file beside this module: the compute or the fragment form) with the per-pixel
     body ``body`` (a file beside it, one source for both forms) inserted at its ``// @BODY@`` marker."""
@@ -95,8 +102,7 @@ def _vec(v: Sequence[float]) -> str:
 
 def plan_constants(plan: SeparablePlan) -> str:
     """The GLSL constants of a plan's tables (every term and slot): the generated block of the shader."""
-    if plan.slots > MAX_SLOTS:
-        raise PassError(f"the gl backend holds at most {MAX_SLOTS - 1} profile ids in one frame, got {plan.slots - 1}")
+    check_slot_count(plan.slots, MAX_SLOTS, "slots are stored as 16-bit unsigned integers")
     S = plan.slots
     kmax = max(1, max((t.max_rows for t in plan.terms), default=0))
     rows_p, rows_m, sym, n_jit, n_rows, centre, sign = [], [], [], [], [], [], []
