@@ -118,8 +118,12 @@ def test_hostile_requests_each_get_a_4xx_and_the_server_answers_the_next(server)
         lambda: ref(json.dumps({"view": "front", "material": "/etc/passwd", "w": 96, "h": 72})),
         lambda: ref(json.dumps({"view": "front", "material": "skin1", "w": 10**9, "h": 72})),
         lambda: ref(json.dumps({"view": "front", "material": "skin1", "w": 96, "h": 72, "file": "/etc/passwd"})),
+        # nested deeper than the JSON parser recurses, within MAX_BODY (a new user's trial: a dropped connection)
+        lambda: post("[" * 2000 + "]" * 2000),
+        lambda: export("[" * 2000 + "]" * 2000),
+        lambda: ref("[" * 2000 + "]" * 2000),
     ]
-    assert len(hostile) == 49
+    assert len(hostile) == 52
     before = log.getvalue().count("\n")
     for i, send in enumerate(hostile):
         status, body = send()

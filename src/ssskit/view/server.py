@@ -267,6 +267,8 @@ class _Handler(BaseHTTPRequestHandler):
             return json.loads(raw.decode("utf-8"), parse_constant=_no_constant)
         except (UnicodeDecodeError, json.JSONDecodeError, ValueError) as exc:
             raise RequestError(400, f"malformed JSON: {exc}") from None
+        except RecursionError:  # 4 KB of '[' nests deeper than the parser's recursion allows
+            raise RequestError(400, "malformed JSON: nested too deeply") from None
 
     def _reference_request(self, body: Any) -> tuple[str, str, int, int]:
         """(view, preset, page width, page height) of a reference request, or a RequestError."""
