@@ -169,6 +169,35 @@ def test_the_export_route_answers_the_bytes_ssskit_export_writes(server, tmp_pat
     assert not list(srv_tmp_folders()), "the server left a temporary folder behind"
 
 
+def test_the_pages_own_material_file_is_served_and_exported_and_no_other_file(tmp_path):
+    """`ssskit view --material FILE` (the README's step 2; a new user's trial found every request after the first
+    frame refused): the page names the file by its key, the server resolves that key to the file given on the
+    command line, computes its parts and exports it with the bytes `ssskit export --material FILE` writes; any
+    other path stays refused."""
+    f = tmp_path / "My.toml"
+    f.write_text('name = "my skin"\nsigma_a = [0.032, 0.17, 0.48]\nsigma_s = [0.74, 0.88, 1.01]\neta = 1.3\n')
+    key = str(f).lower()
+    data = page_data("icosphere", {key: MaterialRequest(str(f))}, key, served=True)
+    with running(data, given={key: str(f)}) as (srv, _):
+        status, _, body = _reply(srv.port, "/api/material", {"material": key, "parts": ["separable"], "taps": 11})
+        assert status == 200, body[:300]
+        assert json.loads(body)["separable"]["taps"] == 11
+        status, headers, body = _reply(srv.port, "/api/export", {"material": key, "format": "unreal", "suffix": ".json"})
+        assert status == 200, body[:300]
+        assert headers["Content-Disposition"] == 'attachment; filename="my_unreal.json"'
+        out = tmp_path / "my_unreal.json"
+        proc = subprocess.run([sys.executable, "-m", "ssskit", "export", "--format", "unreal", "--material", str(f),
+                               "--out", str(out)], capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        assert body == out.read_bytes()
+        other = tmp_path / "other.toml"
+        other.write_text(f.read_text())
+        for path in ("/api/material", "/api/export"):
+            status, _, body = _reply(srv.port, path, {"material": str(other), "format": "unreal"} if "export" in path
+                                     else {"material": str(other)})
+            assert status == 400 and b"reads no other files" in body, body[:300]
+
+
 def srv_tmp_folders():
     import tempfile
     from pathlib import Path

@@ -87,7 +87,8 @@ def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, 
 
         references = cached_reference_layers
     try:
-        server = ViewServer(data, port, references=references)
+        given = {} if req.material is None or str(req.material).lower() in MATERIALS else {key: str(req.material)}
+        server = ViewServer(data, port, references=references, given=given)
     except OSError as exc:
         raise SsskitError(f"cannot listen on 127.0.0.1:{port}: {exc.strerror or exc}") from None
     click.echo(f"# ssskit view at {server.url} (Ctrl-C ends it)", err=True)

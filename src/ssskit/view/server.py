@@ -28,6 +28,7 @@ import sys
 import threading
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TextIO
 from urllib.parse import urlsplit
 
@@ -64,8 +65,9 @@ def _triple(name: str, value: Any) -> tuple[float, float, float]:
     return (float(value[0]), float(value[1]), float(value[2]))
 
 
-def _material_keys(body: Any, allowed: frozenset[str]) -> dict[str, Any]:
-    """The material of a request body (a preset name, or albedo with mfp), its keys checked against ``allowed``."""
+def _material_keys(body: Any, allowed: frozenset[str], given: dict[str, str] | None = None) -> dict[str, Any]:
+    """The material of a request body (a preset name, the key of a material file given to ``ssskit view`` on the
+    command line: ``given`` maps it to that file, or albedo with mfp), its keys checked against ``allowed``."""
     from ..materials import MATERIALS
 
     if not isinstance(body, dict):
@@ -74,8 +76,11 @@ def _material_keys(body: Any, allowed: frozenset[str]) -> dict[str, Any]:
     if unknown:
         raise RequestError(400, f"unknown keys: {', '.join(sorted(map(str, unknown)))}")
     material = body.get("material")
-    if material is not None and (not isinstance(material, str) or material not in MATERIALS):
-        raise RequestError(400, f"material must be a preset name ({', '.join(MATERIALS.names())}); the API reads no files")
+    if isinstance(material, str) and given and material in given:
+        material = given[material]  # the file named on the command line, never a path from the request
+    elif material is not None and (not isinstance(material, str) or material not in MATERIALS):
+        raise RequestError(400, f"material must be a preset name ({', '.join(MATERIALS.names())}) or the page's own "
+                                "material; the API reads no other files")
     kw: dict[str, Any] = {"material": material}
     for key in ("albedo", "mfp"):
         if key in body:
@@ -83,14 +88,14 @@ def _material_keys(body: Any, allowed: frozenset[str]) -> dict[str, Any]:
     return kw
 
 
-def parse_material_request(body: Any) -> tuple[MaterialRequest, tuple[str, ...]]:
+def parse_material_request(body: Any, given: dict[str, str] | None = None) -> tuple[MaterialRequest, tuple[str, ...]]:
     """An API body (parsed JSON) as a checked :class:`MaterialRequest` and the parts asked (all where not
     given), or a :class:`RequestError` (400). The adaptive guide's limits (``adaptive``: an object of
     :data:`~ssskit.view.site.ADAPTIVE_FIELDS`) are checked by :class:`~ssskit.screenspace.AdaptiveSettings`, the
     ranges the page was sent (:func:`ssskit.view.site.adaptive_controls`)."""
     from ..screenspace.adaptive import AdaptiveSettings
 
-    kw = _material_keys(body, API_KEYS)
+    kw = _material_keys(body, API_KEYS, given)
     if "kernel" in body and (not isinstance(body["kernel"], str) or len(body["kernel"]) > 40):
         raise RequestError(400, "kernel must be a method spec such as 'svd:2'")  # (bounded work per request)
     # the values are checked once, by the request (MaterialRequest.check: the quantities' wording)
@@ -116,14 +121,14 @@ def parse_material_request(body: Any) -> tuple[MaterialRequest, tuple[str, ...]]
     return req, parts
 
 
-def parse_export_request(body: Any) -> tuple[Any, str]:
+def parse_export_request(body: Any, given: dict[str, str] | None = None) -> tuple[Any, str]:
     """An export body (parsed JSON) as the checked :class:`~ssskit.export.ExportSettings` of ``ssskit export``
     (its ``out`` a placeholder name in no folder: the server writes into a temporary folder of its own) and the
     download's file name, or a :class:`RequestError` (400). Artists' terms are exported with the viewer's
     relative index (:data:`~ssskit.view.site.ARTIST_ETA`), as ``ssskit export --albedo --mfp --eta 1.4``."""
     from ..export import ExportSettings
 
-    kw = _material_keys(body, EXPORT_KEYS)
+    kw = _material_keys(body, EXPORT_KEYS, given)
     formats = {f["name"]: f for f in engine_formats()}
     fmt, suffix = body.get("format"), body.get("suffix")
     if not isinstance(fmt, str) or fmt not in formats:
@@ -135,7 +140,7 @@ def parse_export_request(body: Any) -> tuple[Any, str]:
     artist = "albedo" in kw or "mfp" in kw
     if artist == (kw["material"] is not None):
         raise RequestError(400, "give the material once: a preset name, or albedo with mfp")
-    stem = "artist" if artist else kw["material"].lower()
+    stem = "artist" if artist else Path(kw["material"]).stem.lower()
     name = f"{stem}_{fmt}{suffix}"
     try:
         if artist:
@@ -153,7 +158,8 @@ class ViewServer(ThreadingHTTPServer):
     daemon_threads = True
 
     def __init__(self, data: dict[str, Any], port: int = 0, log: TextIO | None = None,
-                 references: Callable[[str, str], dict[str, Any]] | None = None) -> None:
+                 references: Callable[[str, str], dict[str, Any]] | None = None,
+                 given: dict[str, str] | None = None) -> None:
         super().__init__(("127.0.0.1", int(port)), _Handler)
         self.data_js = data_script(data).encode("utf-8")
         self.log = log if log is not None else sys.stderr
@@ -162,6 +168,9 @@ class ViewServer(ThreadingHTTPServer):
         #: (``ssskit view --scene head``: :func:`ssskit.figures.head.cached_reference_layers`), kept once read
         self.views = tuple(data["scene"].get("views", {}))
         self.references = references
+        #: the page's own material files, named on the command line (``ssskit view --material FILE``): the page's
+        #: key -> the file, the only files the API resolves a material from
+        self.given = dict(given or {})
         self._layers: dict[tuple[str, str], dict[str, Any]] = {}
 
     def warm(self, presets: tuple[str, ...]) -> threading.Thread:
@@ -310,7 +319,7 @@ class _Handler(BaseHTTPRequestHandler):
             _, path = self._route()  # type: ignore[misc]
             if path == "/api/material":
                 body = self._json_body()
-                req, parts = parse_material_request(body)
+                req, parts = parse_material_request(body, self.server.given)
                 try:
                     payload = material_payload(req, parts)
                 except SsskitError as exc:
@@ -322,7 +331,7 @@ class _Handler(BaseHTTPRequestHandler):
                 self._send(200, json.dumps(reference_payload(self._reference_layers(view, material), w, h)).encode(),
                            "application/json")
             elif path == "/api/export":
-                settings, name = parse_export_request(self._json_body())
+                settings, name = parse_export_request(self._json_body(), self.server.given)
                 data = _export_bytes(settings)
                 self._send(200, data, "application/octet-stream",
                            {"Content-Disposition": f'attachment; filename="{name}"'})
@@ -342,7 +351,6 @@ def _export_bytes(settings: Any) -> bytes:
     server's own (removed after, also when the export fails) and read back: the bytes ``ssskit export`` writes."""
     import tempfile
     from dataclasses import replace
-    from pathlib import Path
 
     from ..export import export
 
