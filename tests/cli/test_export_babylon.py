@@ -77,6 +77,36 @@ def test_module_imports_and_applies(run, tmp_path):
     np.testing.assert_allclose([got["albedo"][c] for c in "rgb"], a, rtol=1e-12)
 
 
+@pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed")
+def test_a_second_export_into_one_scene_and_a_key_of_no_material_are_errors(run, tmp_path):
+    """A new user's trial: two files exported apart set the scene-wide metersPerUnit in turn (Skin1 rendered 1.66x
+    off after Marble's), and ``{ skin1: myMaterial }`` (the comment's key in lower case) was ignored silently, the
+    user's material left without subsurface scattering. Both now throw, naming what to do; the file's comment
+    names its own keys; one file applied twice to a scene is fine."""
+    for name in ("skin1", "marble"):
+        _ok(run, "export", "--material", name, "--format", "babylon", "--out", tmp_path / f"{name}.mjs")
+    assert '{ "Skin1": myMaterial }' in (tmp_path / "skin1.mjs").read_text()
+    probe = tmp_path / "probe.mjs"
+    probe.write_text(
+        "import * as skin from './skin1.mjs';\nimport * as marble from './marble.mjs';\n"
+        "class Color3 { constructor(r, g, b) { Object.assign(this, {r, g, b}); } }\n"
+        "const cfg = { metersPerUnit: 1, ssDiffusionProfileColors: [new Color3(1, 1, 1)] };\n"
+        "class PBRMaterial { constructor(n) { this.name = n; this.subSurface = {\n"
+        "  set scatteringDiffusionProfile(c) { cfg.ssDiffusionProfileColors.push(c); this._c = c; },\n"
+        "  get scatteringDiffusionProfile() { return this._c; } }; } }\n"
+        "const scene = { subSurfaceConfiguration: cfg, enableSubSurfaceForPrePass() { return true; } };\n"
+        "const B = { Color3, PBRMaterial }, out = {};\n"
+        "try { skin.applySsskit(B, scene, { skin1: new PBRMaterial('mine') }); } catch (e) { out.key = e.message; }\n"
+        "skin.applySsskit(B, scene); skin.applySsskit(B, scene);\n"
+        "try { marble.applySsskit(B, scene); } catch (e) { out.second = e.message; }\n"
+        "console.log(JSON.stringify(out));\n")
+    res = subprocess.run(["node", str(probe)], capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    got = json.loads(res.stdout.strip().splitlines()[-1])
+    assert "no material skin1 in this file (its names: Skin1)" in got["key"]
+    assert "set by another ssskit export" in got["second"] and "--material a,b" in got["second"]
+
+
 BAD = [
     (["--material", "skin1,skin2,marble,ketchup,apple"], "a Babylon.js scene holds 5 diffusion profiles"),
     (["--material", "skin1,skin1"], "given twice"),

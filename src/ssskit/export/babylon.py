@@ -163,7 +163,8 @@ _MODULE = """// ssskit export for Babylon.js (@babylonjs/core {version}): {title
 // Screen-space subsurface scattering (PBRMaterial.subSurface + scene.subSurfaceConfiguration).
 //   import {{ SSSKIT, applySsskit }} from "./THIS.js";
 //   const materials = applySsskit(BABYLON, scene);           // one PBRMaterial per name, or pass your own:
-//   applySsskit(BABYLON, scene, {{ skin1: myMaterial }}, "widest");
+//   applySsskit(BABYLON, scene, {{ {first}: myMaterial }}, "widest");   // keys: this file's names ({names})
+// metersPerUnit is one per scene: materials that share a scene are exported together (--material a,b,...).
 // {formula}
 // Sources: {sources}
 export const SSSKIT = {params};
@@ -171,8 +172,15 @@ export const SSSKIT = {params};
 export function applySsskit(BABYLON, scene, materials = {{}}, variant = SSSKIT.default_variant) {{
   const v = SSSKIT.variants[variant];
   if (!v) throw new Error(`ssskit: unknown variant ${{variant}} (${{Object.keys(SSSKIT.variants).join(", ")}})`);
+  for (const key of Object.keys(materials))
+    if (!(key in SSSKIT.materials))
+      throw new Error(`ssskit: no material ${{key}} in this file (its names: ${{Object.keys(SSSKIT.materials).join(", ")}})`);
   if (!scene.enableSubSurfaceForPrePass()) throw new Error("ssskit: this engine has no pre-pass renderer (WebGL2 needed)");
-  scene.subSurfaceConfiguration.metersPerUnit = v.metersPerUnit;
+  const cfg = scene.subSurfaceConfiguration, prev = cfg._ssskitMetersPerUnit;
+  if (prev !== undefined && prev !== v.metersPerUnit)
+    throw new Error(`ssskit: this scene's metersPerUnit is ${{prev}}, set by another ssskit export, and this file's is ` +
+                    `${{v.metersPerUnit}}: a scene has one, so export the materials it shares together (ssskit export --material a,b)`);
+  cfg.metersPerUnit = cfg._ssskitMetersPerUnit = v.metersPerUnit;
   const out = {{}};
   for (const [name, m] of Object.entries(SSSKIT.materials)) {{
     const mat = materials[name] || new BABYLON.PBRMaterial(name, scene);
@@ -198,7 +206,9 @@ def babylon_module(params: dict[str, Any], title: str) -> str:
     """The ES module: ``SSSKIT`` (the :func:`babylon_parameters` JSON) and ``applySsskit(BABYLON, scene,
     materials, variant)`` that sets the scene's ``metersPerUnit`` and each material's subsurface settings."""
     keep = {k: params[k] for k in ("babylon_version", "unit_m", "default_variant", "variants", "materials")}
+    names = list(params["materials"])
     return _MODULE.format(version=params["babylon_version"], title=title, formula=params["formula"],
+                          first=json.dumps(names[0]), names=", ".join(names),
                           sources="; ".join(params["sources"].values()), params=json.dumps(keep, indent=1))
 
 
