@@ -340,3 +340,16 @@ def test_the_head_is_the_viewers_default_scene_with_its_credit():
     head = scene_payload("head")
     assert head["triangles"] == 70736 and head["cull"] != "none"
     assert head["about"]["attribution"] == HEAD_ATTRIBUTION
+
+
+def test_a_request_that_fails_outside_the_handler_is_one_logged_line(server, capsys):
+    """A new user's trial: Ctrl-C during a slow request left socketserver's "Exception occurred during processing
+    of request" banner and a traceback after "ssskit: interrupted"; the server logs one line instead."""
+    srv, log = server
+    before = log.getvalue()
+    try:
+        raise ConnectionResetError("the client went away")
+    except ConnectionResetError:
+        srv.handle_error(None, ("127.0.0.1", 5))
+    assert log.getvalue()[len(before):] == "ssskit view: a request from 127.0.0.1 ended early: ConnectionResetError\n"
+    assert capsys.readouterr().err == ""

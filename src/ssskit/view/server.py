@@ -192,6 +192,12 @@ class ViewServer(ThreadingHTTPServer):
         thread.start()
         return thread
 
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        """A request that failed outside the handler's own refusals (a client gone mid-answer, the server ending
+        under Ctrl-C): one logged line instead of socketserver's traceback banner on stderr."""
+        exc = sys.exc_info()[1]
+        self.log.write(f"ssskit view: a request from {client_address[0]} ended early: {type(exc).__name__}\n")
+
     @property
     def port(self) -> int:
         return int(self.server_address[1])
