@@ -51,6 +51,18 @@ def test_filter_radius_is_babylons_closed_form():
     assert 1 - np.exp(-x) / 4 - 3 * np.exp(-x / 3) / 4 == pytest.approx(0.997, abs=1e-12)
 
 
+#: stand-ins for what applySsskit touches of Babylon's API (Color3, PBRMaterial, the scene's subsurface
+#: configuration with its default white profile), for node
+STAND_INS = (
+    "class Color3 { constructor(r, g, b) { Object.assign(this, {r, g, b}); } }\n"
+    "const cfg = { metersPerUnit: 1, ssDiffusionProfileColors: [new Color3(1, 1, 1)] };\n"
+    "class PBRMaterial { constructor(n) { this.name = n; this.subSurface = {\n"
+    "  set scatteringDiffusionProfile(c) { cfg.ssDiffusionProfileColors.push(c); this._c = c; },\n"
+    "  get scatteringDiffusionProfile() { return this._c; } }; } }\n"
+    "const scene = { subSurfaceConfiguration: cfg, enableSubSurfaceForPrePass() { return true; } };\n"
+)
+
+
 @pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed")
 def test_module_imports_and_applies(run, tmp_path):
     """node imports the ES module and applySsskit sets what Babylon's API takes on stand-in objects."""
@@ -58,13 +70,7 @@ def test_module_imports_and_applies(run, tmp_path):
     _ok(run, "export", "--material", "marble", "--format", "babylon", "--model", "dipole", "--out", out)
     probe = tmp_path / "probe.mjs"
     probe.write_text(
-        "import { SSSKIT, applySsskit } from './s.mjs';\n"
-        "class Color3 { constructor(r, g, b) { Object.assign(this, {r, g, b}); } }\n"
-        "const cfg = { metersPerUnit: 1, ssDiffusionProfileColors: [new Color3(1, 1, 1)] };\n"
-        "class PBRMaterial { constructor(n) { this.name = n; this.subSurface = {\n"
-        "  set scatteringDiffusionProfile(c) { cfg.ssDiffusionProfileColors.push(c); this._c = c; },\n"
-        "  get scatteringDiffusionProfile() { return this._c; } }; } }\n"
-        "const scene = { subSurfaceConfiguration: cfg, enableSubSurfaceForPrePass() { return true; } };\n"
+        "import { SSSKIT, applySsskit } from './s.mjs';\n" + STAND_INS +
         "const m = Object.values(applySsskit({ Color3, PBRMaterial }, scene, {}, 'plain'))[0];\n"
         "console.log(JSON.stringify({ mpu: cfg.metersPerUnit, color: m.subSurface.scatteringDiffusionProfile,\n"
         "  on: m.subSurface.isScatteringEnabled, albedo: m.albedoColor, f0: m.metallicF0Factor }));\n")
@@ -88,13 +94,7 @@ def test_a_second_export_into_one_scene_and_a_key_of_no_material_are_errors(run,
     assert '{ "Skin1": myMaterial }' in (tmp_path / "skin1.mjs").read_text()
     probe = tmp_path / "probe.mjs"
     probe.write_text(
-        "import * as skin from './skin1.mjs';\nimport * as marble from './marble.mjs';\n"
-        "class Color3 { constructor(r, g, b) { Object.assign(this, {r, g, b}); } }\n"
-        "const cfg = { metersPerUnit: 1, ssDiffusionProfileColors: [new Color3(1, 1, 1)] };\n"
-        "class PBRMaterial { constructor(n) { this.name = n; this.subSurface = {\n"
-        "  set scatteringDiffusionProfile(c) { cfg.ssDiffusionProfileColors.push(c); this._c = c; },\n"
-        "  get scatteringDiffusionProfile() { return this._c; } }; } }\n"
-        "const scene = { subSurfaceConfiguration: cfg, enableSubSurfaceForPrePass() { return true; } };\n"
+        "import * as skin from './skin1.mjs';\nimport * as marble from './marble.mjs';\n" + STAND_INS +
         "const B = { Color3, PBRMaterial }, out = {};\n"
         "try { skin.applySsskit(B, scene, { skin1: new PBRMaterial('mine') }); } catch (e) { out.key = e.message; }\n"
         "skin.applySsskit(B, scene); skin.applySsskit(B, scene);\n"
