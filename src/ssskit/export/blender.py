@@ -261,20 +261,34 @@ def render_slab(script: str | Path, channels_d_mm: list[float], width: int = 160
         renders.append({**common, "key": f"c{c}", "script": str(script), "samples": samples, "method": method,
                         "variant": variant})
         renders.append({**common, "key": f"w{c}", "white": True, "samples": 1 if engine == "CYCLES" else samples})
+    data, meta = run_bpy_job(here, {"renders": renders}, f"the {engine} slab render", timeout, exe)
+    n = len(channels_d_mm)
+    return {"images": [data[f"c{c}"] for c in range(n)], "white": [data[f"w{c}"] for c in range(n)],
+            "extent_mm": extents, "seconds": meta["seconds"], "blender": meta["blender"],
+            "width": width, "height": height, "samples": samples, "engine": engine}
+
+
+def run_bpy_job(script: Path, config: dict[str, Any], what: str, timeout: float, exe: str,
+                arrays: dict[str, dict[str, Any]] | None = None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """Run a bpy scene script (``cycles_slab.py``, ``head_scene.py``: ``python SCRIPT CONFIG OUT``) in a folder of
+    its own: ``config`` (plus ``threads``, and per entry of ``arrays`` the path of that .npz, written first) as
+    its JSON, the images it saves to OUT read back with OUT.json's metadata. A failed or interrupted render is an
+    :class:`~ssskit.errors.SsskitError` naming ``what``, and nothing of it is kept."""
     with tempfile.TemporaryDirectory() as tmp:
-        cfg = Path(tmp) / "config.json"
-        cfg.write_text(json.dumps({"renders": renders, "threads": os.cpu_count() or 1}))
+        cfg = dict(config, threads=os.cpu_count() or 1)
+        for name, arrs in (arrays or {}).items():
+            cfg[name] = str(Path(tmp) / f"{name}.npz")
+            np.savez(cfg[name], **arrs)
+        (Path(tmp) / "config.json").write_text(json.dumps(cfg))
         out = Path(tmp) / "out.npz"
-        proc = subprocess.run([exe, str(here), str(cfg), str(out)], capture_output=True, text=True, timeout=timeout)
+        proc = subprocess.run([exe, str(script), str(Path(tmp) / "config.json"), str(out)], capture_output=True,
+                              text=True, timeout=timeout)
         if proc.returncode != 0 or not out.is_file():
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-5:]
-            raise SsskitError(f"the {engine} slab render failed (exit {proc.returncode}): {' | '.join(tail)}")
-        data = np.load(out)
-        meta = json.loads(Path(str(out) + ".json").read_text())
-        n = len(channels_d_mm)
-        return {"images": [data[f"c{c}"] for c in range(n)], "white": [data[f"w{c}"] for c in range(n)],
-                "extent_mm": extents, "seconds": meta["seconds"], "blender": meta["blender"],
-                "width": width, "height": height, "samples": samples, "engine": engine}
+            raise SsskitError(f"{what} failed (exit {proc.returncode}): {' | '.join(tail)}")
+        with np.load(out) as data:
+            images = {k: np.array(data[k]) for k in data.files}
+        return images, json.loads(Path(str(out) + ".json").read_text())
 
 
 # ------------------------------------------------------------------------- ssskit's own prediction

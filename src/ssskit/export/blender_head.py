@@ -13,17 +13,13 @@ Xie 2020 Eq. 4 [XOKN20]). Summed over thousands of pixels it is far steadier tha
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..errors import SsskitError
-from .blender import find_blender_python
+from .blender import find_blender_python, run_bpy_job
 
 #: the head's key light (the scene's ``key``: E / pi = 1 at the head's centre)
 KEY_LIGHT = "key"
@@ -65,23 +61,11 @@ def render_head(renders: list[dict[str, Any]], view: str = "close", shadow: bool
     if exe is None:
         raise SsskitError(find_blender_python()[1])
     job = head_job(view)
-    here = Path(__file__).with_name("head_scene.py")
-    with tempfile.TemporaryDirectory() as tmp:
-        mesh = Path(tmp) / "head.npz"
-        np.savez(mesh, **job["arrays"])
-        cfg = Path(tmp) / "config.json"
-        cfg.write_text(json.dumps({"mesh": str(mesh), "camera": job["camera"],
-                                   "light": {**job["light"], "shadow": shadow},
-                                   "threads": os.cpu_count() or 1, "renders": renders}))
-        out = Path(tmp) / "out.npz"
-        proc = subprocess.run([exe, str(here), str(cfg), str(out)], capture_output=True, text=True, timeout=timeout)
-        if proc.returncode != 0 or not out.is_file():
-            tail = (proc.stderr or proc.stdout).strip().splitlines()[-5:]
-            raise SsskitError(f"the head render failed (exit {proc.returncode}): {' | '.join(tail)}")
-        with np.load(out) as data:
-            images = {r["key"]: np.array(data[r["key"]]) for r in renders}
-        meta = json.loads(Path(str(out) + ".json").read_text())
-    return {"images": images, "seconds": meta["seconds"], "blender": meta["blender"], "view": view}
+    images, meta = run_bpy_job(Path(__file__).with_name("head_scene.py"),
+                               {"camera": job["camera"], "light": {**job["light"], "shadow": shadow},
+                                "renders": renders}, "the head render", timeout, exe, arrays={"mesh": job["arrays"]})
+    return {"images": {r["key"]: images[r["key"]] for r in renders}, "seconds": meta["seconds"],
+            "blender": meta["blender"], "view": view}
 
 
 def dark_mask(whites: list[np.ndarray], level: float = UNLIT) -> np.ndarray:
