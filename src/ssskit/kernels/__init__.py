@@ -18,7 +18,10 @@ from typing import Any, Callable
 from ..errors import KernelError, check_keywords
 from ..profiles.base import RGBProfile
 from ..registry import Registry
+from ..materials import ARTIST_PRESETS
+from ..quantities import Choice
 from .base import MAX_SVD_RANK, SVD_RANK, AnyKernel, Kernel, TapKernel, _check_grid, default_grid, load_kernel, save_kernel
+from .burley_fit import ERROR_FUNCTION
 from .guided import GUIDE_K
 from .jimenez2012 import JIMENEZ_TAPS
 from .methods import GAUSSIAN_COUNT
@@ -127,18 +130,8 @@ for _m in (
     METHODS.register(_m.name, _m)
 
 
-def _preset(v):
-    from ..materials import ARTIST_PRESETS
-
-    if str(v).strip().lower() != "fit" and v not in ARTIST_PRESETS:
-        raise KernelError(f"unknown artist preset {v!r} (known: {', '.join(ARTIST_PRESETS.names())}, fit)")
-
-
-def _error_fn(v):
-    from .burley_fit import ERROR_FUNCTIONS
-
-    if v not in ERROR_FUNCTIONS:
-        raise KernelError(f"unknown error function {v!r}; choose from {', '.join(ERROR_FUNCTIONS)}")
+#: an artist kernel's preset: a Table 2 preset, or "fit" (fitted to the profile)
+ARTIST_PRESET = Choice("artist preset", lambda: [*ARTIST_PRESETS.names(), "fit"])
 
 
 #: range checks of each method's primary parameter, applied when a spec is parsed (before any work)
@@ -149,8 +142,8 @@ PARAM_CHECKS: dict[tuple[str, str], Callable[[Any], None]] = {
     ("gaussians", "count"): partial(GAUSSIAN_COUNT.check, error=KernelError),
     ("guided", "k"): partial(GUIDE_K.check, error=KernelError),
     ("jimenez2012", "taps"): partial(JIMENEZ_TAPS.check, name="jimenez2012 taps", error=KernelError),
-    ("artist", "preset"): _preset,
-    ("burley_fit", "error"): _error_fn,
+    ("artist", "preset"): partial(ARTIST_PRESET.check, error=KernelError),
+    ("burley_fit", "error"): partial(ERROR_FUNCTION.check, error=KernelError),
 }
 
 

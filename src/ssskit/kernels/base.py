@@ -31,7 +31,7 @@ from ..errors import KernelError
 from ..io import atomic_output, check_suffix
 from ..profiles.base import RGBProfile
 from ..profiles.discretize import grid_coordinates
-from ..quantities import KERNEL_CELLS, LENGTH_MM, POSITIVE, Quantity, check_finite
+from ..quantities import KERNEL_CELLS, LENGTH_MM, POSITIVE, Quantity, check_finite, check_shape
 
 CHANNELS = ("R", "G", "B")
 
@@ -95,13 +95,10 @@ class Kernel:
     depth_sigma_mm: float | None = None
 
     def __post_init__(self) -> None:
-        comps = np.asarray(self.components, dtype=float)
-        if comps.ndim != 3 or comps.shape[0] != 3:
-            raise KernelError(f"kernel components must have shape (3, N, n), got {comps.shape}")
+        comps = check_shape(self.components, "kernel components", (3, "N", "n"), KernelError, dtype=float, finite=True)
         SVD_RANK.within(hi=1 << 20, reason="terms of a separable kernel").check(comps.shape[1], "kernel rank N",
                                                                                  KernelError)
         _check_grid(float(self.cell_mm), comps.shape[2])
-        check_finite(comps, "kernel components", KernelError)
         signs = np.asarray(self.signs, dtype=float)
         if signs.shape != comps.shape[:2] or not np.all(np.abs(signs) == 1.0):
             raise KernelError(f"kernel signs must be +-1 with shape {comps.shape[:2]}, got {signs.shape}")
@@ -252,9 +249,9 @@ class Kernel:
             signs = np.array([d["channels"][ch]["signs"] for ch in CHANNELS], dtype=float)
             return cls(float(d["cell_mm"]), comps, signs, str(d["method"]), dict(d.get("params", {})),
                        dict(d.get("source", {})))
+        except KernelError:
+            raise
         except (KeyError, TypeError, ValueError) as exc:
-            if isinstance(exc, KernelError):
-                raise
             raise KernelError(f"not a tabulated ssskit kernel: {exc}") from None
 
 
@@ -333,9 +330,9 @@ class TapKernel:
         try:
             return cls(np.array(d["offsets"], dtype=float), np.array(d["weights"], dtype=float), str(d["method"]),
                        dict(d.get("params", {})), dict(d.get("source", {})))
+        except KernelError:
+            raise
         except (KeyError, TypeError, ValueError) as exc:
-            if isinstance(exc, KernelError):
-                raise
             raise KernelError(f"not an ssskit tap kernel: {exc}") from None
 
 

@@ -317,8 +317,7 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
     spec = get_scene(scene)
     check_spp(spp)
     check_spp(chunk_spp)
-    max_spp = int(spp) if max_spp is None else max_spp
-    check_spp(max_spp)
+    max_spp = int(spp) if max_spp is None else max_spp  # (an integer at least spp, so at least 1:)
     Quantity("max_spp", spp, math.inf, "", "the spp budget: at least the minimum spp", integer=True,
              hi_open=True).check(max_spp, "max_spp", SceneError)
     REL_SE.check(target_rel_se, "target relative standard error", SceneError)

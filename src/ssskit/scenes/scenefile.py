@@ -60,7 +60,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import SceneError
 from ..quantities import CHOICE, TYPE, Flag, Quantity, check_choice, check_fields, check_keys, check_shape, fail
-from ..io import parse_document
+from ..io import parse_document, read_input
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
 from .scenes import SCENES, SceneSpec, _T, _ply, check_size
 
@@ -368,12 +368,10 @@ def load_scene_file(path: str | os.PathLike[str], **options: Any) -> LoadedScene
     """Read a TOML scene file (module docstring) into a :class:`LoadedScene`; ``options`` as for
     :func:`scene_from_document`."""
     p = Path(path)
-    if not p.is_file():
-        raise SceneError(f"scene file {str(p)!r} does not exist" if not p.exists() else
-                         f"scene file {str(p)!r} is not a file")
+    text = read_input(p, "scene file", SceneError, text=True)  # (io: every input file's rules)
     try:
-        doc = parse_document(p.read_text(encoding="utf-8"), ".toml")
-    except (ValueError, UnicodeDecodeError) as exc:
+        doc = parse_document(text, ".toml")
+    except ValueError as exc:
         raise SceneError(f"scene file {str(p)!r} is not valid TOML: {exc}") from None
     doc.setdefault("name", p.stem)
     return scene_from_document(doc, base=p.parent, source=str(p), **options)
@@ -389,7 +387,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     or is given twice differently); ``material_map``: object or glTF material name -> ssskit
     material (``--material-map``; every name must be an object of the scene); ``view``: overrides
     the document's view (automatic framing only); ``width`` x ``height``: the image size the memory
-    check (:func:`ssskit.scenes.meshes.check_memory`) is made for.
+    check (:func:`ssskit.scenes.meshes.check_render_memory`) is made for.
     """
     _keys(source, doc, {"name", "description", "units", "camera", "shapes", "lights", "orbit_deg_per_frame",
                         "light_orbit_deg_per_frame", "lit_from_behind", "views"}, {"shapes"})
