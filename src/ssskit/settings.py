@@ -26,7 +26,7 @@ from collections.abc import Collection
 from typing import Any, ClassVar, Self
 
 from .errors import SettingsError, unknown_names_message
-from .quantities import FRAMES, PHOTONS, SIZE_PX, TAPS, Choice, Flag, Quantity, Rule, refuse_unused
+from .quantities import FRAMES, PHOTONS, SIZE_PX, TAPS, Choice, Flag, Quantity, Rule, check_keys, refuse_unused
 
 #: ranges the settings and the command line share (here, below every layer that checks them, so the CLI's
 #: option types need not import the pipeline): image sides of the built-in scenes (pixels), photons of a
@@ -142,8 +142,7 @@ class Settings:
     @classmethod
     def from_dict(cls, data: dict[str, Any], where: str = "") -> Self:
         """Build from plain data; unknown keys and wrong types are errors naming the key."""
-        if not isinstance(data, dict):
-            raise SettingsError(f"{where or cls.__name__}: expected a table/object, got {type(data).__name__}")
+        check_keys(data, where or cls.__name__, error=SettingsError)  # a table (its keys: the fields, below)
         names = {f.name: f for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - set(names))
         if unknown:

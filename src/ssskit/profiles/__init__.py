@@ -156,19 +156,12 @@ def check_model_domain(material: Material | LayeredMaterial | str, model: str) -
     """Refuse a material outside ``model``'s valid domain (:mod:`ssskit.profiles.domain`) without
     computing anything: the check :func:`profile_for_material` makes, for callers that build the
     profile later (a render plans every input first)."""
-    from .domain import check_montecarlo
+    from .domain import DOMAINS
 
     MODELS.get(model)  # an unknown model fails here with the list of models
     key = model.strip().lower()
-    if key in MATERIAL_FREE_MODELS:
-        return
-    mat = _homogeneous_unless_montecarlo(get_material(material), key)
-    if key == "montecarlo":
-        check_montecarlo(mat)
-    elif key in ("dipole", "gaussians"):
-        check_dipole(mat, key if key == "dipole" else "gaussians (fitted to the dipole)")
-    elif key == "burley":
-        check_burley_material(mat, albedo_given=False)
+    if key not in MATERIAL_FREE_MODELS:
+        DOMAINS[key](_homogeneous_unless_montecarlo(get_material(material), key))
 
 
 def _check_options(factory: ProfileFactory, key: str, options: dict[str, Any]) -> None:

@@ -43,7 +43,9 @@ all-zero transmission fit).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from functools import partial
+from typing import Any
 
 from ..errors import ProfileError
 from ..materials import CHANNELS, LayeredMaterial, Material
@@ -152,6 +154,12 @@ def check_burley_material(material: Material, albedo_given: bool) -> None:
         check_montecarlo(material, "burley (A from MCML)")
 
 
-__all__ = ["BURLEY_D", "BURLEY_D_RANGE_MM", "BURLEY_EQ5_SCALING_RANGE", "DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM",
+#: each model's domain of a material, by the model's name (the montecarlo's, and the dipole's for what is fitted
+#: to it): what :func:`ssskit.profiles.check_model_domain` checks before a profile is built
+DOMAINS: dict[str, Callable[[Any], None]] = {
+    "dipole": check_dipole, "gaussians": partial(check_dipole, model="gaussians (fitted to the dipole)"),
+    "burley": partial(check_burley_material, albedo_given=False), "montecarlo": check_montecarlo}
+
+__all__ = ["BURLEY_D", "DOMAINS", "BURLEY_D_RANGE_MM", "BURLEY_EQ5_SCALING_RANGE", "DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM",
            "MIN_ABSORBED_FRACTION", "OPTICAL_ETA_MAX", "check_burley_material",
            "check_dipole", "check_eta", "check_mfp", "check_montecarlo", "check_scatters"]

@@ -158,9 +158,7 @@ class Reference:
         The standard error is sqrt(sum of the pixels' squared standard errors) / N: distinct pixels
         draw from independent random streams, so their errors add in quadrature.
         """
-        m = np.asarray(mask, dtype=bool)
-        if m.shape != self.image.shape[:2]:
-            raise SceneError(f"region has shape {m.shape}, the reference {self.image.shape[:2]}")
+        m = check_shape(mask, "region", self.image.shape[:2], SceneError, "iufb", bool)
         n = int(m.sum())
         if n == 0:
             return np.full(3, np.nan), np.full(3, np.nan)

@@ -93,6 +93,8 @@ PLAUSIBLE_MM = (5.0, 3000.0)
 #: nm, as in mm; 0.211 at 20 nm, 0.142 at 2 nm); beyond, its float32 fails (a 1e30 mm model's point light, ~1e61, overflows:
 #: the trial's render of one gave Mitsuba's "Invalid sample value" and a frame with no SSS pixel)
 MODEL_SIZE_MM = (2e-4, 1e9)
+MODEL_SIZE = Quantity("model size", *MODEL_SIZE_MM, "mm", "200 nm to 1000 km: the renderer's lighting goes wrong "
+                      "below, its float32 lights overflow far beyond")
 #: the largest intensity or radiance a light may give Mitsuba: its float32 arithmetic overflows not far beyond
 #: (3.4e38; a key light of intensity 1e36 rendered 64,000 "Invalid sample value" warnings and a NaN diffuse layer)
 EMITTER_MAX = 1e30
@@ -471,11 +473,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         scale = UNITS_MM[unit]
         objs = _mesh_objects(meshes, scale, own, str(table.get("material", "")), label, taken, deferred)
         centre, r = bounding_sphere(meshes, scale)
-        lo, hi = MODEL_SIZE_MM
-        if not lo <= 2 * r <= hi:
-            raise SceneError(f"{label}: the model is {2 * r:.4g} mm across (bounding-sphere diameter, units {unit}); a "
-                             f"scene takes models {lo:g} to {hi:g} mm across (200 nm to 1000 km: the renderer's lighting "
-                             "goes wrong below, its float32 lights overflow far beyond)")
+        MODEL_SIZE.check(2 * r, f"{label}: the model's bounding-sphere diameter (units {unit})", SceneError)
         if kind == "mesh":
             notes.append(_units_note(label, unit, assumed, 2 * r))
         for o in objs:

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError
-from ..quantities import LENGTH_MM
+from ..quantities import LENGTH_MM, check_shape
 from .scenes import SceneSpec, _T, check_size, get_scene, mitsuba, scene_camera, scene_lights
 
 
@@ -42,9 +42,7 @@ def _seen_points(spec: SceneSpec, width: int, height: int, frame: int,
     hits an SSS object of ``spec``."""
     check_size(width, height)
     if mask is not None:
-        mask = np.asarray(mask, dtype=bool)
-        if mask.shape != (height, width):
-            raise SceneError(f"mask has shape {mask.shape}, the image {(height, width)}")
+        mask = check_shape(mask, "mask", (height, width), SceneError, "iufb", bool)
     mi = mitsuba()
     sc = _sss_only(spec)
     cam = scene_camera(spec, width, height, frame)
