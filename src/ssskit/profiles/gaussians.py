@@ -84,8 +84,7 @@ def fit_gaussian_sum(profile: RadialProfile, n: int = 6, fraction: float = 0.999
     """
     from scipy.optimize import nnls
 
-    if not (isinstance(n, (int, np.integer)) and 1 <= n <= 16):
-        raise ProfileError(f"number of Gaussians must be an integer in 1..16, got {n!r}")
+    Quantity("number of Gaussians", 1, 16, "", "terms of the fit", integer=True).check(n, error=ProfileError)
     total = profile.total_rd()
     r_lo = float(profile.radius_at_fraction(0.05))
     r_hi = float(profile.radius_at_fraction(fraction))

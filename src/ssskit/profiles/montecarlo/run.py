@@ -301,8 +301,7 @@ def _numba_threads(threads: int | None) -> Iterator[int]:
     if threads is None:
         yield numba.get_num_threads()
         return
-    check_threads(threads)
-    old = numba.get_num_threads()
+    old = numba.get_num_threads()  # (threads: checked by simulate, its one caller, before any work)
     numba.set_num_threads(threads)
     try:
         yield threads
