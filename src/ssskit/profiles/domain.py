@@ -84,22 +84,24 @@ ABSORBED = Quantity("sigma_a / sigma_t", MIN_ABSORBED_FRACTION, 1.0, "", "a semi
                     "it a photon's float32 weight loses nothing and a walk in a half-space has no finite mean length, "
                     "the run would not finish; or give a finite thickness_mm")
 
+#: the relative index eta each model takes (module docstring): the dipole's (its F_dr fit), the Monte Carlo's
+DIPOLE_ETA = ETA.within(1.0, DIPOLE_ETA_MAX, "its diffuse Fresnel fit F_dr of [JMLH01] is within 5% there and passes 1 "
+                        "at eta = 3.85")
+OPTICAL_ETA = ETA.within(1.0, OPTICAL_ETA_MAX, "no optical medium is denser in the visible; beyond it the photons are "
+                         "trapped by total internal reflection")
+#: the transport mean free path 1/sigma_t' every model takes (module docstring)
+TRANSPORT_MFP = MFP_MM.within(reason=f"sigma_t' = sigma_a + sigma_s (1 - g), mm^-1; {MFP_MM.reason}")
+
+
 def _layers(material: Material | LayeredMaterial) -> tuple[Material, ...]:
     return tuple(material.layers) if isinstance(material, LayeredMaterial) else (material,)
 
 
-def check_mfp(model: str, mfp_mm: Iterable[float], where: str = "", per_channel: bool = True) -> None:
-    """Refuse transport mean free paths outside :data:`MFP_RANGE_MM`, naming ``model`` and (with
-    ``per_channel``: the values are R, G, B) the channel."""
-    for c, v in enumerate(mfp_mm):
-        channel = f" in channel {CHANNELS[c]}" if per_channel else ""
-        MFP_MM.within(reason=f"sigma_t' = sigma_a + sigma_s (1 - g), mm^-1; {MFP_MM.reason}").check(
-            v, f"the {model} model's transport mean free path 1/sigma_t'{channel}{where}", ProfileError)
-
-
-def check_eta(model: str, eta: float, eta_max: float, why: str) -> None:
-    """Refuse a relative index outside [1, eta_max], naming ``model`` and why it stops there."""
-    ETA.within(1.0, eta_max, why).check(eta, f"the {model} model's relative index eta", ProfileError)
+def check_mfp(model: str, mfp_mm: Iterable[float], where: str = "") -> None:
+    """Refuse transport mean free paths (R, G, B) outside :data:`MFP_RANGE_MM`, naming ``model`` and the channel."""
+    for channel, v in zip(CHANNELS, mfp_mm):
+        TRANSPORT_MFP.check(v, f"the {model} model's transport mean free path 1/sigma_t' in channel {channel}{where}",
+                            ProfileError)
 
 
 def check_scatters(model: str, material: Material | LayeredMaterial) -> None:
@@ -110,14 +112,11 @@ def check_scatters(model: str, material: Material | LayeredMaterial) -> None:
             SCATTERING.refuse(0.0, f"the {model} model's sigma_s in channel {channel} of {material.name!r}", ProfileError)
 
 
-_DIPOLE_WHY = "its diffuse Fresnel fit F_dr of [JMLH01] is within 5% there and passes 1 at eta = 3.85"
-
-
 def check_dipole(material: Material, model: str = "dipole") -> None:
     """The domain of the [JMLH01] dipole (and of what is fitted to it): module docstring."""
     check_scatters(model, material)
     check_mfp(model, material.mfp_reduced_mm)
-    check_eta(model, material.eta / material.eta_ambient, DIPOLE_ETA_MAX, _DIPOLE_WHY)
+    DIPOLE_ETA.check(material.eta / material.eta_ambient, f"the {model} model's relative index eta", ProfileError)
 
 
 def check_montecarlo(material: Material | LayeredMaterial, model: str = "montecarlo") -> None:
@@ -127,8 +126,7 @@ def check_montecarlo(material: Material | LayeredMaterial, model: str = "monteca
     for k, layer in enumerate(layers):
         where = f" of layer {k + 1}" if len(layers) > 1 else ""
         check_mfp(model, layer.mfp_reduced_mm, where)
-        check_eta(model, layer.eta, OPTICAL_ETA_MAX, "no optical medium is denser in the visible; beyond it the "
-                  "photons are trapped by total internal reflection")
+        OPTICAL_ETA.check(layer.eta, f"the {model} model's relative index eta", ProfileError)
     mfp = [v for layer in layers for v in layer.mfp_reduced_mm]
     ratio = max(mfp) / min(mfp)
     bins = math.ceil(32.0 * 20.0 * ratio)
@@ -162,4 +160,4 @@ DOMAINS: dict[str, Callable[[Any], None]] = {
 
 __all__ = ["BURLEY_D", "DOMAINS", "BURLEY_D_RANGE_MM", "BURLEY_EQ5_SCALING_RANGE", "DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM",
            "MIN_ABSORBED_FRACTION", "OPTICAL_ETA_MAX", "check_burley_material",
-           "check_dipole", "check_eta", "check_mfp", "check_montecarlo", "check_scatters"]
+           "check_dipole", "check_mfp", "DIPOLE_ETA", "OPTICAL_ETA", "TRANSPORT_MFP", "check_montecarlo", "check_scatters"]

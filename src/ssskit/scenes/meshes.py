@@ -321,10 +321,8 @@ def _read_gltf(p: Path) -> tuple[Mesh, ...]:
     doc = _gltf_json(p)
     prims = [prim for mesh in doc.get("meshes", []) for prim in mesh.get("primitives", [])]
     has_normals = bool(prims) and all("NORMAL" in prim.get("attributes", {}) for prim in prims)
-    try:
-        import trimesh
-    except ImportError:  # pragma: no cover - trimesh is a core dependency
-        raise SceneError("reading glTF needs trimesh: pip install trimesh") from None
+    import trimesh  # (a core dependency)
+
     try:
         scene: Any = trimesh.load(str(p), force="scene", process=False)
     except Exception as exc:  # noqa: BLE001 - trimesh raises many kinds of errors

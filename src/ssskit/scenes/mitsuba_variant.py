@@ -16,11 +16,9 @@ from ..errors import SceneError
 
 def mitsuba() -> ModuleType:
     """The ``mitsuba`` module with the ``scalar_rgb`` variant set and its log on stderr
-    (:func:`_log_to_stderr`), or a SceneError saying how to get it."""
-    try:
-        import mitsuba as mi
-    except ImportError:  # pragma: no cover - mitsuba is a core dependency
-        raise SceneError("the 3D scenes need Mitsuba 3: pip install mitsuba") from None
+    (:func:`_log_to_stderr`; mitsuba is a core dependency)."""
+    import mitsuba as mi
+
     if mi.variant() != "scalar_rgb":
         mi.set_variant("scalar_rgb")
     _log_to_stderr(mi)
