@@ -171,14 +171,13 @@ def _check_options(factory: ProfileFactory, key: str, options: dict[str, Any]) -
     from ..errors import check_keywords
 
     params = list(inspect.signature(factory).parameters.values())[1:]  # (the first is the material)
-    if any(p.kind is p.VAR_KEYWORD for p in params):
-        if key != "montecarlo":
-            return
-        from .montecarlo.sweep import simulate_material  # the montecarlo model's **options go there
+    if key == "montecarlo":  # its **options go to simulate_material
+        from .montecarlo.sweep import simulate_material
 
-        params += [p for p in inspect.signature(simulate_material).parameters.values()
-                   if p.kind is p.KEYWORD_ONLY and p.name not in {q.name for q in params}]
-    known = [p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+        params += [p for p in inspect.signature(simulate_material).parameters.values() if p.kind is p.KEYWORD_ONLY]
+    elif any(p.kind is p.VAR_KEYWORD for p in params):
+        return  # (a model of one's own that takes any keyword)
+    known = list(dict.fromkeys(p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)))
     check_keywords(f"profile model {key!r}", options, known, ProfileError)
 
 

@@ -25,6 +25,15 @@ def mitsuba() -> ModuleType:
     return mi
 
 
+def load_scene(d: dict) -> Any:
+    """Mitsuba's scene of the dict ``d`` (:func:`mitsuba`), or a SceneError with Mitsuba's own text: every
+    scene ssskit builds is loaded here."""
+    try:
+        return mitsuba().load_dict(d)
+    except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
+        raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
+
+
 _STDERR_APPENDER: list[object] = []  # the appender installed, kept alive with its Python object
 
 

@@ -46,12 +46,12 @@ from ..cache import cache_dir, cache_file
 from ..errors import SceneError
 from ..io import atomic_output, progress_bar
 from ..materials import Material
-from ..quantities import CHOICE, FRAME, REFLECTANCE, REL_SE, SEED, Quantity, check_shape, fail
+from ..quantities import CHOICE, FRAME, REFLECTANCE, REL_SE, SEED, Quantity, check_instance, check_shape, fail
 
 #: the path tracer's longest path (Mitsuba's max_depth): at least the camera's ray
 MAX_DEPTH = Quantity("max_depth", 1, 2**31 - 1, "", "bounces of a path, the camera's ray the first", integer=True)
 from .scenes import COAT_ROUGHNESS, SceneSpec, check_size, check_spp, get_scene, mitsuba, scene_dict
-from .mitsuba_variant import interruptible_render
+from .mitsuba_variant import interruptible_render, load_scene
 
 #: bumped when the reference renders change (invalidates the cache). 3: a unique seed per mi.render
 #: call (before, chunks replayed each other shifted by a pixel), black surroundings, chunk statistics
@@ -76,10 +76,8 @@ def reference_phase_g(material: Material) -> float:
     Mitsuba's ``hg`` phase function takes a single g, so a material whose g differs between channels
     (or a layered material, which is no single medium) cannot be path-traced as it is.
     """
-    for attr in ("sigma_a", "sigma_s", "g", "eta"):
-        if not hasattr(material, attr):
-            raise SceneError(f"the path-traced reference needs a homogeneous material (sigma_a, sigma_s, g, eta); "
-                             f"{getattr(material, 'name', material)!r} is a {type(material).__name__}")
+    check_instance(material, Material, "the path-traced reference's material (homogeneous: sigma_a, sigma_s, g, eta)",
+                   SceneError)
     g = np.asarray(material.g, dtype=float)
     if np.ptp(g) > 0:
         raise SceneError(f"the path-traced reference takes one Henyey-Greenstein g (Mitsuba's hg phase function), "
@@ -213,10 +211,7 @@ class ReferenceRenderer:
             if not (0 <= x0 and 0 <= y0 and cw >= 1 and ch >= 1 and x0 + cw <= width and y0 + ch <= height):
                 raise SceneError(f"crop window {crop!r} does not lie inside the {width}x{height} image")
             d["sensor"]["film"].update(crop_offset_x=x0, crop_offset_y=y0, crop_width=cw, crop_height=ch)
-        try:
-            self._scene = mi.load_dict(d)
-        except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
-            raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
+        self._scene = load_scene(d)
         self._mi = mi
 
     def chunk(self, index: int, spp: int) -> np.ndarray:
@@ -229,9 +224,7 @@ def _interior(material: Any, boundary: str) -> dict[str, Any]:
     """The BSDF (boundary) and interior medium of one SSS shape (:class:`ReferenceRenderer`)."""
     g = reference_phase_g(material)
     sigma_t = np.asarray(material.sigma_a, float) + np.asarray(material.sigma_s, float)
-    scale = float(sigma_t.max())
-    if not scale > 0:
-        raise SceneError(f"material {getattr(material, 'name', material)!r} has no extinction (sigma_a + sigma_s = 0)")
+    scale = float(sigma_t.max())  # (> 0: a Material's sigma_t is, reference_phase_g's check above)
     single = np.where(sigma_t > 0, np.asarray(material.sigma_s, float) / np.maximum(sigma_t, 1e-300), 0.0)
     # RGB values of a Mitsuba medium must lie in [0, 1]: sigma_t is given relative to its maximum
     medium = {"type": "homogeneous", "sigma_t": {"type": "rgb", "value": (sigma_t / scale).tolist()},
@@ -280,15 +273,11 @@ def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) 
     """(H, W) bool: the pixels that see an SSS object of ``scene`` (one AOV sample per pixel)."""
     spec = get_scene(scene)
     check_size(width, height)
-    mi = mitsuba()
     white = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 1.0}}
     tagged = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.25}}
     aov = {"type": "aov", "aovs": "alb:albedo"}
     d = scene_dict(spec, width, height, 1, 0, frame, aov, lambda sid: white if sid in spec.sss_shapes else tagged)
-    try:
-        img = np.array(interruptible_render(mi.load_dict(d), seed=0))
-    except Exception as exc:  # noqa: BLE001
-        raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
+    img = np.array(interruptible_render(load_scene(d), seed=0))
     return img[..., 0] > 0.6
 
 

@@ -59,7 +59,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
-from ..quantities import CHOICE, TYPE, Flag, Quantity, check_choice, check_fields, check_keys, check_shape, fail
+from ..quantities import TYPE, Choice, Flag, Quantity, check_choice, check_fields, check_keys, check_shape, fail
 from ..io import parse_document, read_input
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
 from .scenes import SCENES, SceneSpec, _T, _ply, check_size
@@ -116,6 +116,10 @@ RELATIVE_LIGHT: dict[str, Quantity] = {
     "size": Quantity("size", 0.0, math.inf, "bounding radii", "a light's radius; 0 is a point light", hi_open=True),
     "intensity": Quantity("intensity", 0.0, math.inf, "", "the irradiance at the model's centre over pi",
                           hi_open=True)}
+#: the keys of an explicit Mitsuba light, by its type (each required)
+EXPLICIT_KEYS = {"point": ("intensity", "position"), "sphere": ("center", "radiance", "radius")}
+#: a shape's types (docs/meshes.md)
+SHAPE_TYPE = Choice("type", ("mesh", "generated", "sphere", "rectangle", "cube"))
 #: an explicit Mitsuba light's numbers (the ones that take one number or three [R, G, B]; the points take three)
 EXPLICIT_LIGHT: dict[str, Quantity] = {
     "intensity": EMITTED, "radiance": EMITTED,
@@ -333,18 +337,15 @@ def _point(where: str, value: Any) -> list[float]:
 
 
 def _explicit_light(name: str, spec: Mapping[str, Any]) -> dict:
-    kind, where = spec.get("type"), f"light {name!r}"
+    where = f"light {name!r}"
+    kind = Choice("type", EXPLICIT_KEYS).check(spec.get("type"), f"{where}: type", SceneError)
+    check_keys(spec, where, {"type", *EXPLICIT_KEYS[kind]}, EXPLICIT_KEYS[kind], SceneError)
+    out = check_fields(spec, EXPLICIT_LIGHT, where, SceneError, rgb=("intensity", "radiance"))
     if kind == "point":
-        check_keys(spec, where, {"type", "position", "intensity"}, ("intensity", "position"), SceneError)
-        check_fields(spec, EXPLICIT_LIGHT, where, SceneError, rgb=EXPLICIT_LIGHT)
         return {"type": "point", "position": _point(f"{where}: position", spec["position"]),
                 "intensity": {"type": "rgb", "value": spec["intensity"]}}
-    if kind == "sphere":
-        check_keys(spec, where, {"type", "center", "radius", "radiance"}, ("center", "radiance", "radius"), SceneError)
-        out = check_fields(spec, EXPLICIT_LIGHT, where, SceneError, rgb=("radiance",))
-        return {"type": "sphere", "center": _point(f"{where}: center", spec["center"]), "radius": out["radius"],
-                "emitter": {"type": "area", "radiance": {"type": "rgb", "value": spec["radiance"]}}}
-    raise fail(SceneError, CHOICE, name=f"{where}: type", choices="point, sphere", actual=repr(kind))
+    return {"type": "sphere", "center": _point(f"{where}: center", spec["center"]), "radius": out["radius"],
+            "emitter": {"type": "area", "radiance": {"type": "rgb", "value": spec["radiance"]}}}
 
 
 def _keys(where: str, table: Mapping[str, Any], allowed: set[str], required: set[str] = frozenset()) -> None:  # type: ignore[assignment]
@@ -414,7 +415,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     claimed: set[str] = set()
     for sid, table in shapes_doc.items():
         where = f"{source}: shape {sid!r}"
-        kind = check_keys(table, where, error=SceneError).get("type")
+        kind = SHAPE_TYPE.check(check_keys(table, where, error=SceneError).get("type"), f"{where}: type", SceneError)
         is_sss = Flag("sss").check(table.get("sss", kind in ("mesh", "generated")), f"{where}: sss", SceneError)
         meshes: tuple[Mesh, ...] | None = None
         if kind == "mesh":
@@ -599,14 +600,11 @@ def _primitive(where: str, kind: Any, table: Mapping[str, Any]) -> dict:
     if kind == "sphere":
         _keys(where, table, {"type", "center", "radius", "sss", "material"}, {"center", "radius"})
         return {"type": "sphere", "center": list(table["center"]), "radius": table["radius"]}
-    if kind in ("rectangle", "cube"):
-        _keys(where, table, {"type", "translate", "scale", "sss", "material"})
-        entry: dict[str, Any] = {"type": kind}
-        if "translate" in table or "scale" in table:
-            entry["__to_world"] = (list(table.get("translate", [0, 0, 0])), list(table.get("scale", [1, 1, 1])))
-        return entry
-    raise fail(SceneError, CHOICE, name=f"{where}: type", choices="mesh, generated, sphere, rectangle, cube",
-               actual=repr(kind))
+    _keys(where, table, {"type", "translate", "scale", "sss", "material"})
+    entry: dict[str, Any] = {"type": kind}  # a rectangle or a cube (the shape types: SHAPE_TYPE)
+    if "translate" in table or "scale" in table:
+        entry["__to_world"] = (list(table.get("translate", [0, 0, 0])), list(table.get("scale", [1, 1, 1])))
+    return entry
 
 
 # ---- the built-in scenes -------------------------------------------------------------------------------

@@ -24,16 +24,13 @@ import numpy as np
 
 from ..errors import SceneError
 from ..quantities import LENGTH_MM, check_shape
+from .mitsuba_variant import load_scene
 from .scenes import SceneSpec, _T, check_size, get_scene, mitsuba, scene_camera, scene_lights
 
 
 def _sss_only(spec: SceneSpec) -> Any:
-    mi = mitsuba()
     shapes = spec.shapes()
-    try:
-        return mi.load_dict({"type": "scene", **{sid: shapes[sid] for sid in spec.sss_shapes}})
-    except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
-        raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
+    return load_scene({"type": "scene", **{sid: shapes[sid] for sid in spec.sss_shapes}})
 
 
 def _seen_points(spec: SceneSpec, width: int, height: int, frame: int,
