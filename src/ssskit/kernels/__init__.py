@@ -97,18 +97,17 @@ def _burley_fit(profile, cell_mm, n, error="difference", model="jimenez2012"):
     return kernel_burley_fit(profile, cell_mm, n, model=model, error=error)
 
 
-def _int(text: str) -> int:
-    try:
-        return int(text)
-    except ValueError:
-        raise KernelError(f"expected an integer, got {text!r}") from None
+def _parser(cast: Callable[[str], Any], kind: str) -> Callable[[str], Any]:
+    """The parser of a spec's number (``svd:3``, ``guided:2.5``): ``cast`` of the text, or a KernelError."""
+    def parse(text: str) -> Any:
+        try:
+            return cast(text)
+        except ValueError:
+            raise KernelError(f"expected {kind}, got {text!r}") from None
+    return parse
 
 
-def _float(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise KernelError(f"expected a number, got {text!r}") from None
+_int, _float = _parser(int, "an integer"), _parser(float, "a number")
 
 
 METHODS: Registry[KernelMethod] = Registry("kernel method", KernelError)

@@ -119,14 +119,11 @@ def gaussians_profile(material: Material, n: int = 6) -> RGBProfile:
 def deon2007_profile(material: None = None) -> RGBProfile:
     """The six-Gaussian skin profile of [dLE07]: a fixed preset, so it takes no material."""
     if material is not None:
-        raise ProfileError(_DEON2007_NO_MATERIAL)
+        raise ProfileError("the deon2007 model is a fixed skin preset and takes no material")
     r, g, b = (
         GaussianSumProfile([w[i] for w in DEON2007_SKIN_WEIGHTS], DEON2007_SKIN_VARIANCES) for i in range(3)
     )
     return RGBProfile((r, g, b), "deon2007", "d'Eon 2007 skin", {"source": "[dLE07] six-Gaussian skin fit"})
-
-
-_DEON2007_NO_MATERIAL = "the deon2007 model is a fixed skin preset and takes no material"
 
 
 @MODELS.decorator("montecarlo")
@@ -191,11 +188,8 @@ def profile_for_material(material: Material | LayeredMaterial | str | None, mode
     factory = MODELS.get(model)
     key = model.strip().lower()
     _check_options(factory, key, options)
-    if key in MATERIAL_FREE_MODELS:
-        if material is not None:
-            raise ProfileError(_DEON2007_NO_MATERIAL if key == "deon2007"
-                               else f"the {key} model is a fixed preset and takes no material")
-        return factory(None, **options)
+    if key in MATERIAL_FREE_MODELS:  # (its factory refuses a material given: deon2007_profile)
+        return factory(material, **options)
     if material is None:
         raise ProfileError(f"profile model {model!r} needs a material")
     return factory(_homogeneous_unless_montecarlo(get_material(material), key), **options)

@@ -129,18 +129,15 @@ def check_montecarlo(material: Material | LayeredMaterial, model: str = "monteca
         OPTICAL_ETA.check(layer.eta, f"the {model} model's relative index eta", ProfileError)
     mfp = [v for layer in layers for v in layer.mfp_reduced_mm]
     ratio = max(mfp) / min(mfp)
-    bins = math.ceil(32.0 * 20.0 * ratio)
-    if bins > MAX_GRID_BINS:
-        GRID_BINS.refuse(bins, f"the {model} model's grid (its longest transport mean free path {ratio:.3g} times the "
-                         "shortest)", ProfileError)
+    GRID_BINS.check(math.ceil(32.0 * 20.0 * ratio), f"the {model} model's grid (its longest transport mean free path "
+                    f"{ratio:.3g} times the shortest)", ProfileError)
     last = layers[-1]
     if last.is_semi_infinite:
         where = " of the semi-infinite last layer" if len(layers) > 1 else ""
         for c, channel in enumerate(CHANNELS):
             a, t = float(last.sigma_a[c]), float(last.sigma_a[c]) + float(last.sigma_s[c])
-            if a < MIN_ABSORBED_FRACTION * t:
-                ABSORBED.refuse(a / t, f"the {model} model's sigma_a / sigma_t in channel {channel}{where} of "
-                                f"{material.name!r}", ProfileError)
+            ABSORBED.check(a / t, f"the {model} model's sigma_a / sigma_t in channel {channel}{where} of "
+                           f"{material.name!r}", ProfileError)
 
 
 def check_burley_material(material: Material, albedo_given: bool) -> None:

@@ -436,8 +436,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             if gen == "head":  # the scan's scale and the credit its licence asks for (ssskit.scenes.head)
                 from .head import ATTRIBUTION, LICENCE, MM_PER_UNIT, check_mm_per_unit
 
-                if set(params) - {"mm_per_unit"}:
-                    raise SceneError(f"{where}: the head generator takes mm_per_unit only, got {', '.join(params)}")
+                check_keys(params, f"{where}: the head generator's params", {"mm_per_unit"}, error=SceneError)
                 about.update({"attribution": ATTRIBUTION, "licence": LICENCE,
                               "mm_per_unit": check_mm_per_unit(params.get("mm_per_unit", MM_PER_UNIT)),
                               "scale_evidence": "docs/head.md, Scale"})
