@@ -60,9 +60,8 @@ def default_grid(profile: RGBProfile, n: int = 201, fraction: float = 0.999) -> 
     For a profile with a finite domain (binned Monte Carlo), the radius is capped by the domain.
     """
     _check_grid(1.0, n)
-    radius = float(np.max(profile.radius_at_fraction(fraction)))
-    if not (np.isfinite(radius) and radius > 0):
-        raise KernelError(f"cannot size a kernel grid: radius holding {fraction} of the energy is {radius!r}")
+    radius = POSITIVE.check(np.max(profile.radius_at_fraction(fraction)), f"a kernel grid's radius (holding {fraction} "
+                            "of the profile's energy)", KernelError)
     return 2.0 * radius / n, int(n)
 
 
@@ -175,9 +174,7 @@ class Kernel:
 
     def normalised(self, total: ArrayLike = 1.0) -> "Kernel":
         """Each channel scaled so that its total (sum of A) equals ``total`` (scalar or (3,))."""
-        t = self.total()
-        if np.any(t <= 0):
-            raise KernelError(f"cannot normalise a kernel whose total is not positive: {t.tolist()}")
+        t = POSITIVE.check_array(self.total(), "the totals of a kernel to normalise", KernelError, "channels")
         return self.scaled(np.broadcast_to(np.asarray(total, dtype=float), (3,)) / t)
 
     def resample(self, cell_mm: float, n: int | None = None) -> "Kernel":
