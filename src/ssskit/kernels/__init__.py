@@ -134,7 +134,7 @@ ARTIST_PRESET = Choice("artist preset", lambda: [*ARTIST_PRESETS.names(), "fit"]
 
 
 #: range checks of each method's primary parameter, applied when a spec is parsed (before any work)
-PARAM_CHECKS: dict[tuple[str, str], Callable[[Any], None]] = {
+PARAM_CHECKS: dict[tuple[str, str], Callable[[Any], Any]] = {
     ("svd", "rank"): partial(SVD_RANK.check, error=KernelError),
     ("svd_l1", "rank"): partial(SVD_RANK.check, error=KernelError),
     ("preintegrated_svd", "rank"): partial(SVD_RANK.check, name="residual rank", error=KernelError),
