@@ -192,11 +192,9 @@ def build_kernel(method: str, profile: RGBProfile | None = None, cell_mm: float 
     (cell_mm, n) (each default when None: :func:`default_grid`); ``params`` are the method's keywords (an
     unknown one is a KernelError naming the known ones)."""
     m = METHODS.get(method)
-    if profile is not None and not isinstance(profile, RGBProfile):
+    if not isinstance(profile, RGBProfile) and (profile is not None or m.needs_profile):  # (None: where it needs none)
         raise KernelError(f"kernel method {m.name!r} needs a profile (an RGBProfile: "
                           f"profile_for_material(material, model) makes one), got {type(profile).__name__}")
-    if profile is None and m.needs_profile:
-        raise KernelError(f"kernel method {m.name!r} needs a profile")
     takes = list(inspect.signature(m.builder).parameters)[3:]  # (after profile, cell_mm, n)
     check_keywords(f"kernel method {m.name!r}", params, takes, KernelError)
     if cell_mm is None or n is None:

@@ -18,6 +18,7 @@ bilinear fetches do) so it can be compared and convolved like every other kernel
 from __future__ import annotations
 
 import dataclasses
+import math
 import io
 import json
 from dataclasses import dataclass, field
@@ -31,7 +32,7 @@ from ..errors import KernelError
 from ..io import atomic_output, check_suffix
 from ..profiles.base import RGBProfile
 from ..profiles.discretize import grid_coordinates
-from ..quantities import KERNEL_CELLS, LENGTH_MM, POSITIVE, Quantity, check_finite, check_shape
+from ..quantities import KERNEL_CELLS, LENGTH_MM, POSITIVE, Quantity, check_shape
 
 CHANNELS = ("R", "G", "B")
 
@@ -41,6 +42,11 @@ MAX_SVD_RANK = 64
 #: the rank of an SVD kernel (and of preintegrated_svd's residual): 1 to MAX_SVD_RANK, and at most the grid's cells
 SVD_RANK = Quantity("SVD rank", 1, MAX_SVD_RANK, "", "terms of the truncated SVD, each two 1D convolutions",
                     integer=True)
+
+
+#: taps of a tap kernel (:class:`TapKernel`; the centre first)
+TAP_COUNT = Quantity("taps", 1, math.inf, "", "a tap kernel's offsets and weights, the centre first", integer=True,
+                     hi_open=True)
 
 
 def _check_grid(cell_mm: float, n: int) -> None:
@@ -267,12 +273,9 @@ class TapKernel:
     source: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        o = np.asarray(self.offsets_mm, dtype=float)
-        w = np.asarray(self.weights, dtype=float)
-        if o.ndim != 1 or w.shape != (o.size, 3) or o.size < 1:
-            raise KernelError(f"tap kernel needs offsets (N,) and weights (N, 3), got {o.shape} and {w.shape}")
-        check_finite(o, "tap offsets", KernelError)
-        check_finite(w, "tap weights", KernelError)
+        o = check_shape(self.offsets_mm, "tap offsets", ("N",), KernelError, dtype=float, finite=True)
+        TAP_COUNT.check(o.size, "a tap kernel's taps", KernelError)
+        w = check_shape(self.weights, "tap weights", (o.size, 3), KernelError, dtype=float, finite=True)
         object.__setattr__(self, "offsets_mm", o)
         object.__setattr__(self, "weights", w)
 
