@@ -46,7 +46,7 @@ from ..cache import cache_dir, cache_file
 from ..errors import SceneError
 from ..io import atomic_output, progress_bar
 from ..materials import Material
-from ..quantities import CHOICE, FRAME, REFLECTANCE, REL_SE, SEED, Quantity, check_instance, check_shape, fail
+from ..quantities import FRAME, REFLECTANCE, REL_SE, SEED, Choice, Quantity, check_instance, check_shape
 
 #: the path tracer's longest path (Mitsuba's max_depth): at least the camera's ray
 MAX_DEPTH = Quantity("max_depth", 1, 2**31 - 1, "", "bounces of a path, the camera's ray the first", integer=True)
@@ -191,7 +191,7 @@ class ReferenceRenderer:
                  frame: int = 0, boundary: str = "rough-dielectric", surround_albedo: float = 0.0,
                  crop: tuple[int, int, int, int] | None = None) -> None:
         self.spec = get_scene(scene)
-        _check_options(self.spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
+        boundary = _check_options(self.spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
         mats = shape_materials(self.spec, material)
         self.g = reference_phase_g(mats[0])
         interiors = {sid: _interior(m, boundary) for sid, m in zip(self.spec.sss_shapes, mats)}
@@ -257,16 +257,15 @@ def shape_materials(spec: SceneSpec, material: Any) -> tuple[Any, ...]:
 
 
 def _check_options(spec: SceneSpec, width: int, height: int, max_depth: int, seed: int, frame: int, boundary: str,
-                   surround_albedo: float) -> None:
+                   surround_albedo: float) -> str:
     """A reference's request checked once, before any work: the image size, the scene (its SSS meshes closed) and
-    the path tracer's options."""
+    the path tracer's options; returns the boundary's canonical name (it keys the cache)."""
     check_size(width, height)
     check_reference_scene(spec)
     for name, value, q in (("max_depth", max_depth, MAX_DEPTH), ("seed", seed, SEED), ("frame", frame, FRAME),
                            ("surround_albedo", surround_albedo, REFLECTANCE)):
         q.check(value, name, SceneError)
-    if boundary not in BOUNDARIES:  # (exactly: the name keys the cache)
-        raise fail(SceneError, CHOICE, name="boundary", choices=", ".join(BOUNDARIES), actual=repr(boundary))
+    return Choice("boundary", BOUNDARIES).check(boundary, error=SceneError)
 
 
 def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) -> np.ndarray:
@@ -308,7 +307,7 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
     Quantity("max_spp", spp, math.inf, "", "the spp budget: at least the minimum spp", integer=True,
              hi_open=True).check(max_spp, "max_spp", SceneError)
     REL_SE.check(target_rel_se, "target relative standard error", SceneError)
-    _check_options(spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
+    boundary = _check_options(spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
     mats = shape_materials(spec, material)
     g = reference_phase_g(mats[0])
     for m in mats[1:]:
