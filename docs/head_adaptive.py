@@ -373,8 +373,19 @@ def compute(views: list[str], seeds: list[int], size: tuple[int, int], frames: i
             "jitter": [taa_jitter(f, JITTER_FRAMES) for f in range(JITTER_FRAMES)],
             "pass": "exact sampler, r2, no mips, numba; TAA alpha 0.1, no motion", "views": rows,
             "seconds": time.time() - t0,
-            "machine": {"cpus": os.cpu_count(), "platform": platform.platform(), "load_avg_before": load0,
-                        "load_avg_after": os.getloadavg()}}
+            "machine": _machine(load0)}
+
+
+def _machine(load0: tuple[float, float, float]) -> dict[str, Any]:
+    """The machine a run had: its cores, platform and load average before (``load0``) and now."""
+    return {"cpus": os.cpu_count(), "platform": platform.platform(), "load_avg_before": load0,
+            "load_avg_after": os.getloadavg()}
+
+
+def _ran(n: dict[str, Any]) -> str:
+    """The table's first line: the command, its wall time on the machine's cores and the load average around it."""
+    return (f"`{n['command']}`: {n['seconds']:.0f} s on {n['machine']['cpus']} cores, load average "
+            f"{n['machine']['load_avg_before'][0]:.1f}-{n['machine']['load_avg_after'][0]:.1f}; ")
 
 
 def _floor(db: float) -> str:
@@ -385,9 +396,7 @@ def _floor(db: float) -> str:
 def table(n: dict[str, Any]) -> str:
     """The markdown table of docs/head.md from the numbers."""
     late = f"frames {n['frames'] - 23}-{n['frames']}"
-    lines = [f"`{n['command']}`: {n['seconds']:.0f} s on {n['machine']['cpus']} cores, load average "
-             f"{n['machine']['load_avg_before'][0]:.1f}-{n['machine']['load_avg_after'][0]:.1f}; "
-             f"{n['size'][0]} x {n['size'][1]}, {n['frames']} frames, seeds {', '.join(map(str, n['seeds']))}, "
+    lines = [_ran(n) + f"{n['size'][0]} x {n['size'][1]}, {n['frames']} frames, seeds {', '.join(map(str, n['seeds']))}, "
              f"limits {n['limit_spp']} spp, G-buffers {n['gbuffer_spp']} spp.", "",
              "Final PSNR (dB, mean over seeds) of fixed 64 spp and adaptive (Xie: sigma0^2 = 1e-3, kappa = 0.2, "
              "[8, 64]) against the unjittered limit; the TAA floor (the same TAA run on the frames' limits), and that floor "
@@ -467,16 +476,13 @@ def factors(seeds: list[int], size: tuple[int, int], frames: int, limit_spp: int
     return {"experiment": "the adaptive-vs-fixed remainder on the close patch (textured, jittered): one factor "
             "changed at a time", "adaptive": XIE, "xie_close": XIE_CLOSE, "size": list(size), "frames": frames,
             "seeds": seeds, "limit_spp": limit_spp, "texture": texture, "rows": rows, "seconds": time.time() - t0,
-            "machine": {"cpus": os.cpu_count(), "platform": platform.platform(), "load_avg_before": load0,
-                        "load_avg_after": os.getloadavg()}}
+            "machine": _machine(load0)}
 
 
 def factor_table(n: dict[str, Any]) -> str:
     """The markdown table of the factors (docs/head.md, between :data:`FBEGIN` and :data:`FEND`)."""
     late = f"frames {n['frames'] - 23}-{n['frames']}"
-    lines = [f"`{n['command']}`: {n['seconds']:.0f} s on {n['machine']['cpus']} cores, load average "
-             f"{n['machine']['load_avg_before'][0]:.1f}-{n['machine']['load_avg_after'][0]:.1f}; close view, "
-             f"texture {n['texture']:g}, {n['size'][0]} x {n['size'][1]}, {n['frames']} frames, seeds "
+    lines = [_ran(n) + f"close view, texture {n['texture']:g}, {n['size'][0]} x {n['size'][1]}, {n['frames']} frames, seeds "
              f"{', '.join(map(str, n['seeds']))}, window {late.replace('frames ', '')}.", "",
              "Per factor (one change from today's run): final PSNR (dB) of fixed 64 and adaptive, the TAA floor, the "
              "gap (mean +- SD over seeds), the additive model's gap, and the mean squared errors (units of 1e-5 of "
