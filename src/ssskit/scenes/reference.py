@@ -301,8 +301,8 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
     none is cached (nothing is rendered: the live viewer asks so).
     """
     spec = get_scene(scene)
-    check_spp(spp)
-    check_spp(chunk_spp)
+    for name, value in (("spp", spp), ("chunk_spp", chunk_spp)):
+        check_spp(value, name)
     max_spp = int(spp) if max_spp is None else max_spp  # (an integer at least spp, so at least 1:)
     Quantity("max_spp", spp, math.inf, "", "the spp budget: at least the minimum spp", integer=True,
              hi_open=True).check(max_spp, "max_spp", SceneError)
