@@ -32,7 +32,7 @@ from ..errors import KernelError
 from ..io import atomic_output, check_suffix
 from ..profiles.base import RGBProfile
 from ..profiles.discretize import grid_coordinates
-from ..quantities import KERNEL_CELLS, LENGTH_MM, POSITIVE, Quantity, check_shape
+from ..quantities import KERNEL_CELLS, LENGTH_MM, POSITIVE, Quantity, check_keys, check_shape
 
 CHANNELS = ("R", "G", "B")
 
@@ -389,6 +389,5 @@ def load_kernel(path: str | Path) -> AnyKernel:
                                      for i, ch in enumerate(CHANNELS)}
     except (OSError, ValueError, KeyError) as exc:  # (a UnicodeDecodeError too)
         raise KernelError(f"cannot read kernel file {str(p)!r}: {exc}") from None
-    if not isinstance(d, dict):
-        raise KernelError(f"kernel file {str(p)!r} does not hold a JSON object")
+    check_keys(d, f"kernel file {str(p)!r}", error=KernelError)  # (a JSON object: a table)
     return TapKernel.from_dict(d) if d.get("type") == "taps" else Kernel.from_dict(d)
