@@ -30,7 +30,7 @@ from .burley import (
 from .dipole import DipoleProfile, fresnel_diffuse_reflectance
 from .discretize import cell_integrals, grid_coordinates
 from .montecarlo.config import DEFAULT_PHOTONS
-from .domain import check_burley_material, check_dipole
+from .domain import DOMAINS, check_domain
 from .gaussians import (
     DEON2007_SKIN_VARIANCES,
     DEON2007_SKIN_WEIGHTS,
@@ -46,7 +46,7 @@ MODELS: Registry[ProfileFactory] = Registry("profile model", ProfileError)
 def dipole_profile(material: Material) -> RGBProfile:
     """The [JMLH01] dipole for each channel of ``material``; valid for a relative index eta in [1, 2.5]
     and transport mean free paths in [1e-6, 1e6] mm (:mod:`ssskit.profiles.domain`)."""
-    check_dipole(material)
+    check_domain(material, DOMAINS["dipole"])
     r, g, b = (
         DipoleProfile(material.sigma_a[i], material.sigma_s[i], material.g[i], material.eta / material.eta_ambient)
         for i in range(3)
@@ -80,7 +80,7 @@ def burley_profile(
     the domain of the model A comes from (montecarlo's, or the dipole's).
     """
     source = check_choice("albedo source", albedo_source, BURLEY_ALBEDO_SOURCES, ProfileError)
-    check_burley_material(material, albedo_given=albedo is not None or source == "dipole")
+    check_domain(material, DOMAINS["burley (A given)" if albedo is not None or source == "dipole" else "burley"])
     if albedo is not None:
         albedo = BURLEY_ALBEDO.check_rgb(albedo, "a given Burley albedo A", ProfileError)
         source = "given"
@@ -109,7 +109,7 @@ def burley_profile(
 def gaussians_profile(material: Material, n: int = 6) -> RGBProfile:
     """A sum of ``n`` Gaussians (Eq. S.1) fitted to the material's dipole, L1-constrained (the dipole's
     valid domain, :mod:`ssskit.profiles.domain`)."""
-    check_dipole(material, "gaussians (fitted to the dipole)")
+    check_domain(material, DOMAINS["gaussians"])
     base = dipole_profile(material)
     r, g, b = (fit_gaussian_sum(c, n) for c in base.channels)
     return RGBProfile((r, g, b), "gaussians", material.name, {"material": material.to_dict(), "fit_to": "dipole"})
@@ -153,12 +153,10 @@ def check_model_domain(material: Material | LayeredMaterial | str, model: str) -
     """Refuse a material outside ``model``'s valid domain (:mod:`ssskit.profiles.domain`) without
     computing anything: the check :func:`profile_for_material` makes, for callers that build the
     profile later (a render plans every input first)."""
-    from .domain import DOMAINS
-
     MODELS.get(model)  # an unknown model fails here with the list of models
     key = model.strip().lower()
     if key not in MATERIAL_FREE_MODELS:
-        DOMAINS[key](_homogeneous_unless_montecarlo(get_material(material), key))
+        check_domain(_homogeneous_unless_montecarlo(get_material(material), key), DOMAINS[key])
 
 
 def _check_options(factory: ProfileFactory, key: str, options: dict[str, Any]) -> None:

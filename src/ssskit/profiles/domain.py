@@ -43,9 +43,8 @@ all-zero transmission fit).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from functools import partial
-from typing import Any
 
 from ..errors import ProfileError
 from ..materials import CHANNELS, LayeredMaterial, Material
@@ -97,64 +96,67 @@ def _layers(material: Material | LayeredMaterial) -> tuple[Material, ...]:
     return tuple(material.layers) if isinstance(material, LayeredMaterial) else (material,)
 
 
-def check_mfp(model: str, mfp_mm: Iterable[float], where: str = "") -> None:
-    """Refuse transport mean free paths (R, G, B) outside :data:`MFP_RANGE_MM`, naming ``model`` and the channel."""
-    for channel, v in zip(CHANNELS, mfp_mm):
-        TRANSPORT_MFP.check(v, f"the {model} model's transport mean free path 1/sigma_t' in channel {channel}{where}",
-                            ProfileError)
-
-
 def check_scatters(model: str, material: Material | LayeredMaterial) -> None:
     """sigma_s > 0 in every channel (in some layer of a layered material): module docstring."""
-    layers = _layers(material)
     for c, channel in enumerate(CHANNELS):
-        if not any(float(layer.sigma_s[c]) > 0 for layer in layers):
+        if not any(float(layer.sigma_s[c]) > 0 for layer in _layers(material)):
             SCATTERING.refuse(0.0, f"the {model} model's sigma_s in channel {channel} of {material.name!r}", ProfileError)
 
 
-def check_dipole(material: Material, model: str = "dipole") -> None:
-    """The domain of the [JMLH01] dipole (and of what is fitted to it): module docstring."""
-    check_scatters(model, material)
-    check_mfp(model, material.mfp_reduced_mm)
-    DIPOLE_ETA.check(material.eta / material.eta_ambient, f"the {model} model's relative index eta", ProfileError)
+@dataclass(frozen=True)
+class Domain:
+    """One model's domain of a material (module docstring), an entry of :data:`DOMAINS`. Every model's: sigma_s > 0
+    and transport mean free paths in :data:`MFP_RANGE_MM` per channel (and layer); ``eta``: the range of its
+    relative index (``ambient``: the material's eta over the outside's, the dipole's; else each layer's, MCML's);
+    ``mcml``: the supplement's grid and an absorbing semi-infinite last layer; ``then``: the domain of the model
+    that gives this one an input (Burley's A from MCML)."""
+
+    model: str
+    eta: Quantity | None = None
+    ambient: bool = False
+    mcml: bool = False
+    then: Domain | None = None
 
 
-def check_montecarlo(material: Material | LayeredMaterial, model: str = "montecarlo") -> None:
-    """The domain of the MCML model on the supplement's grid (a scattering material among it): module docstring."""
-    check_scatters(model, material)
-    layers = _layers(material)
+def check_domain(material: Material | LayeredMaterial, domain: Domain) -> None:
+    """Refuse ``material`` outside ``domain``, naming the model, the quantity, its range and the channel."""
+    m, layers = domain.model, _layers(material)
+    check_scatters(m, material)
     for k, layer in enumerate(layers):
         where = f" of layer {k + 1}" if len(layers) > 1 else ""
-        check_mfp(model, layer.mfp_reduced_mm, where)
-        OPTICAL_ETA.check(layer.eta, f"the {model} model's relative index eta", ProfileError)
-    mfp = [v for layer in layers for v in layer.mfp_reduced_mm]
-    ratio = max(mfp) / min(mfp)
-    GRID_BINS.check(math.ceil(32.0 * 20.0 * ratio), f"the {model} model's grid (its longest transport mean free path "
-                    f"{ratio:.3g} times the shortest)", ProfileError)
-    last = layers[-1]
-    if last.is_semi_infinite:
-        where = " of the semi-infinite last layer" if len(layers) > 1 else ""
+        for channel, v in zip(CHANNELS, layer.mfp_reduced_mm):
+            TRANSPORT_MFP.check(v, f"the {m} model's transport mean free path 1/sigma_t' in channel {channel}{where}",
+                                ProfileError)
+        if domain.eta is not None:
+            domain.eta.check(layer.eta / (layer.eta_ambient if domain.ambient else 1.0),
+                             f"the {m} model's relative index eta", ProfileError)
+    if domain.mcml:
+        mfp = [v for layer in layers for v in layer.mfp_reduced_mm]
+        ratio = max(mfp) / min(mfp)
+        GRID_BINS.check(math.ceil(32.0 * 20.0 * ratio), f"the {m} model's grid (its longest transport mean free "
+                        f"path {ratio:.3g} times the shortest)", ProfileError)
+        last, where = layers[-1], " of the semi-infinite last layer" if len(layers) > 1 else ""
         for c, channel in enumerate(CHANNELS):
-            a, t = float(last.sigma_a[c]), float(last.sigma_a[c]) + float(last.sigma_s[c])
-            ABSORBED.check(a / t, f"the {model} model's sigma_a / sigma_t in channel {channel}{where} of "
-                           f"{material.name!r}", ProfileError)
+            a, s = float(last.sigma_a[c]), float(last.sigma_s[c])
+            if last.is_semi_infinite:
+                ABSORBED.check(a / (a + s), f"the {m} model's sigma_a / sigma_t in channel {channel}{where} of "
+                               f"{material.name!r}", ProfileError)
+    if domain.then is not None:
+        check_domain(material, domain.then)
 
 
-def check_burley_material(material: Material, albedo_given: bool) -> None:
-    """The domain of Burley's profile matched to a material: its mean free paths, and the montecarlo
-    domain where A comes from MCML (``albedo_given`` False)."""
-    check_scatters("burley", material)
-    check_mfp("burley", material.mfp_reduced_mm)
-    if not albedo_given:
-        check_montecarlo(material, "burley (A from MCML)")
+#: each model's domain of a material, by the model's name (the dipole's for what is fitted to it; Burley's with A
+#: from MCML, and with A given): what :func:`ssskit.profiles.check_model_domain` checks before a profile is built
+DOMAINS: dict[str, Domain] = {
+    "dipole": Domain("dipole", DIPOLE_ETA, ambient=True),
+    "gaussians": Domain("gaussians (fitted to the dipole)", DIPOLE_ETA, ambient=True),
+    "montecarlo": Domain("montecarlo", OPTICAL_ETA, mcml=True),
+    "burley": Domain("burley", then=Domain("burley (A from MCML)", OPTICAL_ETA, mcml=True)),
+    "burley (A given)": Domain("burley")}
+#: the Monte Carlo model's domain: :func:`check_domain` with ``DOMAINS["montecarlo"]``
+check_montecarlo = partial(check_domain, domain=DOMAINS["montecarlo"])
 
-
-#: each model's domain of a material, by the model's name (the montecarlo's, and the dipole's for what is fitted
-#: to it): what :func:`ssskit.profiles.check_model_domain` checks before a profile is built
-DOMAINS: dict[str, Callable[[Any], None]] = {
-    "dipole": check_dipole, "gaussians": partial(check_dipole, model="gaussians (fitted to the dipole)"),
-    "burley": partial(check_burley_material, albedo_given=False), "montecarlo": check_montecarlo}
 
 __all__ = ["BURLEY_D", "DOMAINS", "BURLEY_D_RANGE_MM", "BURLEY_EQ5_SCALING_RANGE", "DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM",
-           "MIN_ABSORBED_FRACTION", "OPTICAL_ETA_MAX", "check_burley_material",
-           "check_dipole", "check_mfp", "DIPOLE_ETA", "OPTICAL_ETA", "TRANSPORT_MFP", "check_montecarlo", "check_scatters"]
+           "MIN_ABSORBED_FRACTION", "OPTICAL_ETA_MAX", "Domain", "check_domain", "DIPOLE_ETA", "OPTICAL_ETA",
+           "TRANSPORT_MFP", "check_montecarlo", "check_scatters"]
