@@ -143,3 +143,24 @@ def test_check_instance_names_the_types():
     assert q.check_instance(None, int, "n", optional=True) is None
     with pytest.raises(SettingsError, match=r"^settings must be int or float, got str$"):
         q.check_instance("1", (int, float), "settings", SettingsError)
+
+
+def test_checks_declares_a_functions_argument_rules_at_its_signature():
+    @q.checks(MaterialError, spp=q.SPP, kind=(q.Choice("kind", ("mfp", "dmfp")), "distance kind"),
+              albedo=q.rgb(q.REFLECTANCE), fraction=q.FRACTION)
+    def f(spp: int, kind: str = "dmfp", albedo: object = 0.5, fraction: float | None = None) -> tuple:
+        return spp, kind, albedo, fraction
+
+    # the body gets the checked values: an int, a choice's canonical spelling, three floats; None where optional
+    assert f(np.int64(8), "MFP") == (8, "mfp", (0.5, 0.5, 0.5), None)
+    assert f(1, fraction=0.25)[3] == 0.25
+    with pytest.raises(MaterialError, match=r"^spp must lie in \[1, 4096\], got 0 "):
+        f(0)  # under the argument's name, in the caller's error
+    with pytest.raises(MaterialError, match=r"^distance kind must be one of mfp, dmfp, got 'radius'$"):
+        f(8, kind="radius")  # under the name given with the rule
+    with pytest.raises(MaterialError, match=r"^albedo must lie in \[0, 1\], got \(0.5, 2, 0.5\)"):
+        f(8, albedo=(0.5, 2.0, 0.5))
+    with pytest.raises(MaterialError, match=r"^spp must be an integer, got None$"):
+        f(None)  # None passes only where it is the default
+    with pytest.raises(TypeError):
+        f()  # a missing argument stays Python's own error

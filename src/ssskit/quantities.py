@@ -405,3 +405,41 @@ class Rule:
 
 
 __all__ += ["Rule"]
+
+
+# --- vc-d: a function's argument rules declared once, at its signature ---------------------------------------------
+
+import functools  # noqa: E402
+import inspect  # noqa: E402
+from typing import TypeVar, cast  # noqa: E402
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def checks(error: ErrorClass = SsskitError, **rules: Quantity | Choice | Flag | Rule | tuple[Any, str],
+           ) -> Callable[[_F], _F]:
+    """A decorator declaring a function's argument rules once, at its signature (pydantic's ``validate_call``):
+    before the body runs, each argument named in ``rules`` is checked by its rule under the argument's name (a
+    tuple: the rule and the name), in ``error`` and the rule's wording, and the body gets the checked value (a
+    choice's canonical spelling, an int or a float). An argument whose default is None passes when None."""
+    def decorate(fn: _F) -> _F:
+        signature = inspect.signature(fn)
+
+        @functools.wraps(fn)
+        def checked(*args: Any, **kwargs: Any) -> Any:
+            bound = signature.bind(*args, **kwargs)
+            bound.apply_defaults()
+            for arg, (rule, name) in ((a, r if isinstance(r, tuple) else (r, a)) for a, r in rules.items()):
+                if bound.arguments[arg] is not None or signature.parameters[arg].default is not None:
+                    bound.arguments[arg] = rule.check(bound.arguments[arg], name, error)
+            return fn(*bound.args, **bound.kwargs)
+        return cast(_F, checked)
+    return decorate
+
+
+def rgb(quantity: Quantity) -> Rule:
+    """``quantity``'s rule for one number or three (R, G, B): :meth:`Quantity.check_rgb`, as a :func:`checks` rule."""
+    return Rule(quantity.name, quantity.check_rgb)
+
+
+__all__ += ["checks", "rgb"]

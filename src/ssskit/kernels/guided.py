@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 
 from ..errors import KernelError
 from ..profiles.base import RadialProfile, RGBProfile
-from ..quantities import POSITIVE, Quantity
+from ..quantities import POSITIVE, Quantity, checks
 from .base import Kernel
 
 #: the guide exponent k of the guided kernel (paper Appendix A): the paper uses 0..4, accepted up to 8
@@ -202,6 +202,7 @@ def guided_1d(channel: RadialProfile, cell_mm: float, n: int, k: float = 2.0, b:
     return a
 
 
+@checks(KernelError, k=(GUIDE_K, GUIDE_K.name), b=(POSITIVE, "guide suppression b"))
 def kernel_guided(profile: RGBProfile, cell_mm: float, n: int, k: float = 2.0, b: float = GUIDE_B) -> Kernel:
     """Guided rank-1 kernel A_s = a_s(x) a_s(y) (paper Appendix A, Eqs. 7-8), per channel.
 
@@ -213,8 +214,6 @@ def kernel_guided(profile: RGBProfile, cell_mm: float, n: int, k: float = 2.0, b
     RMSE, k = 0 or 4 on the texture), so k ~ 2 is a compromise rather than the paper's "approximation of
     the actual diffusion kernel". ``b`` is Gamma's centre-cross suppression (paper: 50).
     """
-    GUIDE_K.check(k, error=KernelError)
-    POSITIVE.check(b, "guide suppression b", KernelError)
     comps = np.stack([guided_1d(ch, cell_mm, n, k, b, label=f"guided kernel (k = {k:g}), channel {name}")
                       for name, ch in zip("RGB", profile.channels)])[:, None, :]
     return Kernel(cell_mm, comps, np.ones((3, 1)), "guided", {"k": float(k), "b": float(b)},

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..errors import MaterialError
 from ..materials import Material
-from ..quantities import ANISOTROPY, BURLEY_ALBEDO, ETA, MFP_MM, REFLECTANCE, check_choice
+from ..quantities import ANISOTROPY, BURLEY_ALBEDO, ETA, MFP_MM, REFLECTANCE, Choice, checks, rgb
 
 TABLE_PATH = Path(__file__).with_name("data") / "artist_table.json"
 #: Burley's r50 / d: the inverse of Xie 2020 Eq. 20 at 1/2
@@ -61,16 +61,14 @@ class ArtistMaterial:
         check_artist(self.albedo, self.distance_mm, self.kind, self.eta, self.g)
 
 
+@checks(MaterialError, albedo=(rgb(BURLEY_ALBEDO), "surface albedo"),
+        kind=(Choice("distance kind", DISTANCE_KINDS), "distance kind"), eta=ETA, g=ANISOTROPY)
 def check_artist(albedo: Any, distance_mm: Any, kind: str, eta: float, g: float) -> None:
     """The model's valid domain, naming the offending value: 0 < A <= 1 (Burley's albedo,
     :mod:`ssskit.profiles.domain`: A = 0 reflects no light beneath the surface), distance in the mean
     free paths every model takes (:data:`~ssskit.profiles.domain.MFP_RANGE_MM`), eta >= 1, |g| < 1,
     kind mfp or dmfp."""
-    BURLEY_ALBEDO.check_rgb(albedo, "surface albedo", MaterialError)
     MFP_MM.check_rgb(distance_mm, f"the {kind} distance", MaterialError)
-    check_choice("distance kind", kind, DISTANCE_KINDS, MaterialError)
-    ETA.check(eta, "eta", MaterialError)
-    ANISOTROPY.check(g, "g", MaterialError)
 
 
 @lru_cache(maxsize=1)

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
-from ..quantities import BURLEY_ALBEDO, Choice, FRACTION, LENGTH_MM as LENGTH, REFLECTANCE
+from ..quantities import BURLEY_ALBEDO, Choice, FRACTION, LENGTH_MM as LENGTH, REFLECTANCE, checks
 from .base import ENERGY_FRACTION, RadialProfile
 
 
@@ -114,10 +114,10 @@ class BurleyProfile(RadialProfile):
 
     model = "burley"
 
+    # Eq. 4: R(r) = A s exp(-s r / ...): at A = 0 no light beneath the surface, and a kernel normalised by it 0/0
+    @checks(ProfileError, albedo=(BURLEY_ALBEDO, "Burley albedo A"), d=(LENGTH, "Burley length d"))
     def __init__(self, albedo: float, d: float) -> None:
-        # Eq. 4: R(r) = A s exp(-s r / ...): at A = 0 no light beneath the surface, and a kernel normalised by it 0/0
-        self.albedo = float(BURLEY_ALBEDO.check(albedo, "Burley albedo A", ProfileError))
-        self.d = float(LENGTH.check(d, "Burley length d", ProfileError))
+        self.albedo, self.d = float(albedo), float(d)
 
     def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         """Xie 2020 Eq. 4 (mm^-2); infinite at r = 0 (the profile's 1/r singularity)."""

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError, check_keywords
-from ..quantities import FRAME, FRAMES, REFLECTANCE, TYPE, Quantity, fail
+from ..quantities import FRAME, FRAMES, REFLECTANCE, TYPE, Quantity, checks, fail
 
 #: a surface's refractive index in the G-buffer render (its boundary): positive
 INDEX = Quantity("eta", 0.0, 1e6, "", "a refractive index", lo_open=True)
@@ -123,12 +123,11 @@ def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float | Array
                    **_light_layers(spec, width, height, frame, light_layers))
 
 
+@checks(SceneError, frames=FRAMES.within(hi=2**31 - 1), first=(FRAME, "first frame"))
 def render_sequence(scene: str, albedo: ArrayLike, frames: int, first: int = 0, **kw: Any) -> list[GBuffer]:
     """G-buffers of ``frames`` consecutive frames ``first, first + 1, ...`` along the scene's camera and
     light paths (each with its camera and its frame index in ``meta["frame"]``); ``kw`` as for
     :func:`render_gbuffer` (except ``frame``)."""
-    FRAMES.within(hi=2**31 - 1).check(frames, "frames", SceneError)
-    FRAME.check(first, "first frame", SceneError)
     takes = [k for k in inspect.signature(render_gbuffer).parameters if k not in ("scene", "albedo", "frame")]
     check_keywords("render_sequence", kw, takes, SceneError)  # (frame: first= and frames= say which)
     return [render_gbuffer(scene, albedo, frame=int(first) + f, **kw) for f in range(int(frames))]

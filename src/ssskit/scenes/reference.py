@@ -46,11 +46,11 @@ from ..cache import cache_dir, cache_file
 from ..errors import SceneError
 from ..io import atomic_output, progress_bar
 from ..materials import Material
-from ..quantities import FRAME, REFLECTANCE, REL_SE, SEED, Choice, Quantity, check_instance, check_shape
+from ..quantities import FRAME, REFLECTANCE, REL_SE, SEED, Choice, Quantity, check_instance, check_shape, checks
 
 #: the path tracer's longest path (Mitsuba's max_depth): at least the camera's ray
 MAX_DEPTH = Quantity("max_depth", 1, 2**31 - 1, "", "bounces of a path, the camera's ray the first", integer=True)
-from .scenes import COAT_ROUGHNESS, SceneSpec, check_size, check_spp, get_scene, mitsuba, scene_dict
+from .scenes import COAT_ROUGHNESS, SceneSpec, RENDER_SPP, check_size, get_scene, mitsuba, scene_dict
 from .mitsuba_variant import interruptible_render, load_scene
 
 #: bumped when the reference renders change (invalidates the cache). 3: a unique seed per mi.render
@@ -280,6 +280,7 @@ def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) 
     return img[..., 0] > 0.6
 
 
+@checks(SceneError, spp=RENDER_SPP, chunk_spp=RENDER_SPP, target_rel_se=(REL_SE, "target relative standard error"))
 def render_reference(scene: str | SceneSpec, material: Material | Sequence[Material], width: int = 128, height: int = 96, spp: int = 64,
                      max_spp: int | None = None, target_rel_se: float = TARGET_REL_SE, region: ArrayLike | None = None,
                      max_depth: int = 1024, seed: int = 0, frame: int = 0, chunk_spp: int = 8,
@@ -301,12 +302,9 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
     none is cached (nothing is rendered: the live viewer asks so).
     """
     spec = get_scene(scene)
-    for name, value in (("spp", spp), ("chunk_spp", chunk_spp)):
-        check_spp(value, name)
     max_spp = int(spp) if max_spp is None else max_spp  # (an integer at least spp, so at least 1:)
     Quantity("max_spp", spp, math.inf, "", "the spp budget: at least the minimum spp", integer=True,
              hi_open=True).check(max_spp, "max_spp", SceneError)
-    REL_SE.check(target_rel_se, "target relative standard error", SceneError)
     boundary = _check_options(spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
     mats = shape_materials(spec, material)
     g = reference_phase_g(mats[0])

@@ -259,8 +259,12 @@ def check_size(width: int, height: int) -> None:
         SIZE_PX.within(*SIZE_RANGE).check(v, f"image {name}", SceneError)
 
 
+#: samples per pixel of a Mitsuba render (any budget: a reference's as well as a G-buffer's)
+RENDER_SPP = Quantity("spp", 1, math.inf, "", "samples per pixel", integer=True, hi_open=True)
+
+
 def check_spp(spp: int, name: str = "spp") -> None:
-    Quantity("spp", 1, math.inf, "", "samples per pixel", integer=True, hi_open=True).check(spp, name, SceneError)
+    RENDER_SPP.check(spp, name, SceneError)
 
 
 #: Mitsuba's perspective sensor's default clip planes (world units: mm), kept wherever they hold the scene

@@ -12,7 +12,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..errors import SignalError
-from ..quantities import SIZE_PX, Quantity
+from ..quantities import SIZE_PX, Quantity, checks
 from ..registry import Registry
 
 #: a width or radius of a test signal's shape (pixels)
@@ -62,10 +62,9 @@ def disk(size: int = 256, radius_px: float | None = None) -> np.ndarray:
     return _rgb(_coverage(size, lambda x, y: x * x + y * y < r * r))
 
 
+@checks(SignalError, size=(SIZE_PX, "signal size"), width_px=(PIXELS, "line width"))
 def line(size: int = 256, width_px: float = 1.0, angle_deg: float = 0.0) -> np.ndarray:
     """A thin bright line of ``width_px`` through the centre (angle from vertical)."""
-    size = SIZE_PX.check(size, "signal size", SignalError)
-    PIXELS.check(width_px, "line width", SignalError)
     a = np.deg2rad(float(angle_deg))
     ca, sa = np.cos(a), np.sin(a)
     return _rgb(_coverage(size, lambda x, y: np.abs(x * ca + y * sa) < width_px / 2.0))

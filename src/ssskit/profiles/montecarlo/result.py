@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from ...quantities import Quantity
+from ...quantities import Quantity, checks
 from .config import N_EXIT_BINS, MCConfig
 
 #: an exit cosine (the normal itself is the last bin's edge) and a number of exit bins a fit takes
@@ -98,25 +98,23 @@ class MCResult:
         within 12.9 degrees of the normal)."""
         return N_EXIT_BINS * self.exit_rd / self.total_rd
 
+    @checks(ValueError, mu=EXIT_COSINE.within(hi=1.0), bins=EXIT_BINS)  # type: ignore[arg-type]
     def radiance_factor_at(self, mu: float, bins: int = 4) -> tuple[float, float]:
         """(factor, standard error): the radiance factor at exit cosine ``mu`` near the normal, from a
         straight line in cos^2 fitted (weighted by the standard errors) through the last ``bins`` exit
         bins at their centres. A single bin averages 12.9 degrees, over which the factor of a
         strongly scattering medium changes by ~1%; a camera looking along the normal sits at its edge.
         """
-        EXIT_COSINE.within(hi=1.0).check(mu, "mu", ValueError)  # type: ignore[arg-type]
-        EXIT_BINS.check(bins, "bins", ValueError)  # type: ignore[arg-type]
         idx = np.arange(N_EXIT_BINS - bins, N_EXIT_BINS)
         return _line_at(self.radiance_factor(), N_EXIT_BINS * self.exit_rd_se / self.total_rd, idx, mu)
 
+    @checks(ValueError, mu=EXIT_COSINE, bins=EXIT_BINS.within(hi=N_EXIT_BINS - 1))  # type: ignore[arg-type]
     def tt_level_at(self, mu: float, bins: int = 4) -> tuple[float, float]:
         """(level, standard error): the transmitted light's radiance L at exit cosine ``mu`` as pi L / E (E the
         irradiance of the lit face; a Lambertian exit of the whole Tt gives Tt), N exit_tt per bin, from a
         straight line in cos^2 fitted (weighted by the standard errors) through the ``bins`` bins whose centres
         are nearest mu^2, the last bin left out (a normally incident run's unscattered beam leaves along the
         normal, into it): what a camera at exit cosine ``mu`` sees of the light the slab scattered."""
-        EXIT_COSINE.check(mu, "mu", ValueError)  # type: ignore[arg-type]
-        EXIT_BINS.within(hi=N_EXIT_BINS - 1).check(bins, "bins", ValueError)  # type: ignore[arg-type]
         centres = (np.arange(N_EXIT_BINS - 1) + 0.5) / N_EXIT_BINS
         idx = np.sort(np.argsort(np.abs(centres - mu * mu), kind="stable")[:bins])
         return _line_at(N_EXIT_BINS * self.exit_tt, N_EXIT_BINS * self.exit_tt_se, idx, mu)

@@ -22,7 +22,7 @@ from ...cache import cache_dir
 from ...errors import ProfileError, SimulationInterrupted
 from ...io import ProgressBar, progress_bar, save_arrays
 from ...progress import add_to_total
-from ...quantities import ETA, Choice, Quantity
+from ...quantities import ETA, Choice, Quantity, checks
 from .config import N_EXIT_BINS, MCConfig, layer_arrays
 
 #: numba's threads, a cosine of incidence (0 excluded: grazing light never enters), estimate samples
@@ -216,6 +216,8 @@ def _engine(backend: str) -> ModuleType:
 RSP_SAMPLES = 1_000_000
 
 
+@checks(ProfileError, cos_theta=COSINE, eta_from=ETA, eta_to=ETA,
+        alpha=COSINE.within(reason="a Beckmann roughness; 0 is a smooth surface"), samples=SAMPLES)
 def rough_boundary_albedo(cos_theta: float, eta_from: float, eta_to: float, alpha: float,
                           samples: int = RSP_SAMPLES, seed: int = 0) -> dict[str, tuple[float, float]]:
     """Directional albedo of the simulation's rough dielectric surface (Beckmann ``alpha``, Walter et
@@ -223,10 +225,6 @@ def rough_boundary_albedo(cos_theta: float, eta_from: float, eta_to: float, alph
     ``cos_theta`` to the normal from the medium of index ``eta_from``: ``{"reflected", "transmitted",
     "lost"}``, each (mean, standard error) over ``samples`` samples of the stream ``seed``. "lost" is
     what the single-scattering BSDF removes (masking), 0 for a smooth surface."""
-    for name, v, q in (("cos_theta", cos_theta, COSINE), ("eta_from", eta_from, ETA), ("eta_to", eta_to, ETA),
-                       ("alpha", alpha, COSINE.within(reason="a Beckmann roughness; 0 is a smooth surface"))):
-        q.check(v, name, ProfileError)
-    SAMPLES.check(samples, "samples", ProfileError)
     from . import engine_numba
 
     out = engine_numba.rough_interface_albedo(float(cos_theta), float(eta_from), float(eta_to), float(alpha),

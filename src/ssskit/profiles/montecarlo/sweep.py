@@ -6,7 +6,7 @@ from __future__ import annotations
 from ...errors import ProfileError
 from ...materials import CHANNELS, LayeredMaterial, Material
 from ...progress import add_to_total
-from ...quantities import Choice, Quantity
+from ...quantities import Choice, Quantity, checks
 from ..domain import check_montecarlo
 from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, SUPPLEMENT_GRID_MFP, channel_seed, config_for_material
 from .result import MCResult
@@ -16,6 +16,7 @@ from .run import check_resume, photons_bar, simulate
 #: the share of the supplement's grid a sweep simulates
 GRID_FRACTION = Quantity("grid fraction", 0.0, 1.0, "", "a share of the supplement's grid", lo_open=True, hi_open=True)
 
+@checks(ProfileError, channels=Choice("channels", (*CHANNELS, "all")), grid_fraction=(GRID_FRACTION, "grid fraction"))
 def simulate_material(material: Material | LayeredMaterial, channels: str = "all", *, photons: int = DEFAULT_PHOTONS,
                       seed: int = 1, threads: int | None = None, progress: bool | None = None, resume: bool = False,
                       restart: bool = False, use_cache: bool = True, batch_size: int = DEFAULT_BATCH,
@@ -37,10 +38,7 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
     the supplement's smooth one. ``shipped=False``: simulate even what the package ships
     (:mod:`.shipped`). ``backend``: the engine, "numba" or "gl" (:func:`~.run.simulate`).
     """
-    chosen = Choice("channels", (*CHANNELS, "all")).check(channels, error=ProfileError)
-    wanted = list(CHANNELS) if chosen == "all" else [chosen]
-    if grid_fraction is not None:
-        GRID_FRACTION.check(grid_fraction, "grid fraction", ProfileError)
+    wanted = list(CHANNELS) if channels == "all" else [channels]
     if progress is None:
         from ...progress import reporting_active
 
