@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
-from ..quantities import ANISOTROPY, COEFFICIENT, EXTINCTION
+from ..quantities import ANISOTROPY, COEFFICIENT, EXTINCTION, checks
 from .base import RadialProfile
 from .domain import DIPOLE_ETA, TRANSPORT_MFP
 
@@ -45,10 +45,9 @@ class DipoleProfile(RadialProfile):
 
     model = "dipole"
 
+    @checks(ProfileError, sigma_a=(COEFFICIENT, "the dipole's sigma_a"), sigma_s=(COEFFICIENT, "the dipole's sigma_s"),
+            g=(ANISOTROPY, "the dipole's g"), eta=(DIPOLE_ETA, "the dipole model's relative index eta"))
     def __init__(self, sigma_a: float, sigma_s: float, g: float = 0.0, eta: float = 1.3) -> None:
-        for name, value, q in (("sigma_a", sigma_a, COEFFICIENT), ("sigma_s", sigma_s, COEFFICIENT), ("g", g, ANISOTROPY)):
-            q.check(value, f"the dipole's {name}", ProfileError)
-        DIPOLE_ETA.check(eta, "the dipole model's relative index eta", ProfileError)
         self.sigma_a, self.sigma_s, self.g, self.eta = float(sigma_a), float(sigma_s), float(g), float(eta)
         sigma_s_r = sigma_s * (1.0 - g)
         self.sigma_t_r = sigma_a + sigma_s_r

@@ -18,20 +18,20 @@ import numpy as np
 
 from ..cache import cache_dir
 from ..errors import SceneError
-from ..quantities import LENGTH_MM, Quantity
+from ..quantities import LENGTH_MM, Quantity, checks
 from ..io import atomic_output
 from .meshes import Mesh, ply_bytes
 
 #: bumped when the bust's shape changes (its cache file name carries it)
 BUST_VERSION = 2
+#: an icosphere's subdivisions (each splits every triangle in four)
+SUBDIVISIONS = Quantity("subdivisions", 0, 8, "", "20 x 4^8 = 1.3 M faces", integer=True)
 
 
+@checks(SceneError, subdivisions=(SUBDIVISIONS, "icosphere subdivisions"), radius=(LENGTH_MM, "icosphere radius"))
 def icosphere(subdivisions: int = 2, radius: float = 1.0, name: str = "icosphere") -> Mesh:
     """A sphere of ``radius`` from an icosahedron whose triangles are split in four ``subdivisions``
     times, new vertices pushed onto the sphere; 20 * 4^n faces, outward winding, exact normals."""
-    Quantity("subdivisions", 0, 8, "", "20 x 4^8 = 1.3 M faces", integer=True).check(
-        subdivisions, "icosphere subdivisions", SceneError)
-    LENGTH_MM.check(radius, "icosphere radius", SceneError)
     t = (1.0 + 5.0**0.5) / 2.0
     v = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t], [0, 1, -t],
                   [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], float)
