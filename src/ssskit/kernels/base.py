@@ -22,6 +22,7 @@ import math
 import io
 import json
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -31,8 +32,8 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import KernelError
 from ..io import atomic_output, check_suffix
 from ..profiles.base import RGBProfile
-from ..profiles.discretize import grid_coordinates
-from ..quantities import KERNEL_CELLS, LENGTH_MM, POSITIVE, Quantity, check_keys, check_shape
+from ..profiles.discretize import check_grid, grid_coordinates
+from ..quantities import KERNEL_CELLS, POSITIVE, Quantity, check_keys, check_shape
 
 CHANNELS = ("R", "G", "B")
 
@@ -49,9 +50,8 @@ TAP_COUNT = Quantity("taps", 1, math.inf, "", "a tap kernel's offsets and weight
                      hi_open=True)
 
 
-def _check_grid(cell_mm: float, n: int) -> None:
-    KERNEL_CELLS.check(n, error=KernelError)
-    LENGTH_MM.check(cell_mm, "kernel cell size", KernelError)
+#: a kernel's grid: at least 3 cells (:func:`~ssskit.profiles.discretize.check_grid`)
+_check_grid = partial(check_grid, error=KernelError, what="kernel ", cells=KERNEL_CELLS)
 
 
 def _scale_factors(factors: ArrayLike) -> NDArray[np.float64]:

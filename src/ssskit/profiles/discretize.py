@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
-from ..quantities import KERNEL_CELLS, LENGTH_MM
+from ..quantities import KERNEL_CELLS, LENGTH_MM, ErrorClass, Quantity
 
 _GL_ORDER = 24
 
@@ -35,9 +35,12 @@ def grid_coordinates(cell_mm: float, n: int) -> NDArray[np.float64]:
     return (np.arange(n, dtype=np.float64) - (n - 1) / 2.0) * cell_mm
 
 
-def _check_grid(cell_mm: float, n: int) -> None:
-    KERNEL_CELLS.within(lo=1).check(n, "grid size n", ProfileError)  # (odd: the origin at a cell centre)
-    LENGTH_MM.check(cell_mm, "cell size", ProfileError)
+def check_grid(cell_mm: float, n: int, error: ErrorClass = ProfileError, what: str = "",
+               cells: Quantity = KERNEL_CELLS.within(lo=1)) -> None:
+    """An n-cell grid of side ``cell_mm`` (a profile's cell integrals, a kernel's grid: ``what`` names it), its ``n``
+    among ``cells`` (odd: the origin at a cell centre), or ``error``."""
+    cells.check(n, f"{what}grid size", error)
+    LENGTH_MM.check(cell_mm, f"{what}cell size", error)
 
 
 class RadialEnergy(Protocol):
@@ -54,7 +57,7 @@ def cell_integrals(profile: RadialEnergy, cell_mm: float, n: int) -> NDArray[np.
     Returns an (n, n) float64 array indexed [row = y, column = x], the origin at the centre of
     cell (n // 2, n // 2). Its sum is the energy in the square of side n * cell_mm.
     """
-    _check_grid(cell_mm, n)
+    check_grid(cell_mm, n)
     h = float(cell_mm)
     edges = (np.arange(n + 1) - n / 2.0) * h  # edge coordinates, none at 0 because n is odd
     total = float(profile.total_rd())
