@@ -27,7 +27,7 @@ from ..quantities import FRAME, FRAMES, REFLECTANCE, TYPE, Quantity, checks, fai
 #: a surface's refractive index in the G-buffer render (its boundary): positive
 INDEX = Quantity("eta", 0.0, 1e6, "", "a refractive index", lo_open=True)
 from ..screenspace.gbuffer import GBuffer
-from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, SceneSpec, check_size, check_spp, get_scene, render_dict,
+from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, IMAGE_SIDE, RENDER_SPP, SceneSpec, get_scene, render_dict,
                      scene_camera, scene_dict)
 
 
@@ -54,6 +54,7 @@ def _light_layers(spec: SceneSpec, width: int, height: int, frame: int, wanted: 
     return {"light_depth": depth.astype(np.float32), "light": light}
 
 
+@checks(SceneError, width=(IMAGE_SIDE, "image width"), height=(IMAGE_SIDE, "image height"), spp=RENDER_SPP)
 def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float | ArrayLike = 1.4, width: int = 256,
                    height: int = 192, spp: int = 32, seed: int = 0, frame: int = 0,
                    material: str | tuple[str, ...] = "material", light_layers: bool = False) -> GBuffer:
@@ -68,8 +69,6 @@ def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float | Array
     first light's ray-cast translucency shadow map at the frame's size and its projection).
     """
     spec = get_scene(scene)
-    check_size(width, height)
-    check_spp(spp)
     n = len(spec.sss_shapes)
     alb = _per_shape("albedo", albedo, n, (3,))
     REFLECTANCE.check_array(alb, "albedo", SceneError)

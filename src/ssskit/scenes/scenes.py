@@ -47,6 +47,7 @@ FLOOR_ALBEDO = 0.5
 #: highlight of a point light.
 COAT_ROUGHNESS = 0.15
 #: image sizes the renderers accept (pixels per side): ssskit.settings.SIZE_RANGE
+IMAGE_SIDE = SIZE_PX.within(*SIZE_RANGE)
 
 
 @dataclass(frozen=True)
@@ -256,7 +257,7 @@ def scene_camera(spec: SceneSpec, width: int, height: int, frame: int = 0) -> Ca
 def check_size(width: int, height: int) -> None:
     """A SceneError unless width and height are integers in :data:`SIZE_RANGE`."""
     for v, name in ((width, "width"), (height, "height")):
-        SIZE_PX.within(*SIZE_RANGE).check(v, f"image {name}", SceneError)
+        IMAGE_SIDE.check(v, f"image {name}", SceneError)
 
 
 #: samples per pixel of a Mitsuba render (any budget: a reference's as well as a G-buffer's)
