@@ -17,10 +17,15 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
-from ..quantities import Quantity
+from ..quantities import Quantity, checks
 from .scenes import COAT_ROUGHNESS, mitsuba
 
+#: a dielectric boundary's index, and the samples of a mean and its standard error
+BOUNDARY_ETA = Quantity("eta", 1.0, math.inf, "", "a dielectric boundary; eta = 1 is none", lo_open=True, hi_open=True)
+SAMPLES = Quantity("samples", 2, math.inf, "", "a mean and its spread", integer=True, hi_open=True)
 
+
+@checks(SceneError, eta=BOUNDARY_ETA, samples=SAMPLES)
 def rough_dielectric_weights(cos_i: ArrayLike, eta: float, alpha: float = COAT_ROUGHNESS, samples: int = 50_000,
                              seed: int = 0, inside: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(mean, standard error), each of shape cos_i.shape + (2,): the light the reference's boundary
@@ -29,10 +34,6 @@ def rough_dielectric_weights(cos_i: ArrayLike, eta: float, alpha: float = COAT_R
     int_ior = ``eta``) sampled ``samples`` times per angle with its own visible-normal routine in
     importance (flux) transport mode, the mean sample weight on each side. 1 minus both is what the
     single-scattering BSDF loses."""
-    Quantity("eta", 1.0, math.inf, "", "a dielectric boundary; eta = 1 is none", lo_open=True, hi_open=True).check(
-        eta, "eta", SceneError)
-    Quantity("samples", 2, math.inf, "", "a mean and its spread", integer=True, hi_open=True).check(
-        samples, "samples", SceneError)
     mi = mitsuba()
     bsdf = mi.load_dict({"type": "roughdielectric", "int_ior": float(eta), "ext_ior": 1.0,
                          "distribution": "beckmann", "alpha": float(alpha)})
