@@ -136,9 +136,9 @@ def check_domain(material: Material | LayeredMaterial, domain: Domain) -> None:
         GRID_BINS.check(math.ceil(32.0 * 20.0 * ratio), f"the {m} model's grid (its longest transport mean free "
                         f"path {ratio:.3g} times the shortest)", ProfileError)
         last, where = layers[-1], " of the semi-infinite last layer" if len(layers) > 1 else ""
-        for c, channel in enumerate(CHANNELS):
-            a, s = float(last.sigma_a[c]), float(last.sigma_s[c])
-            if last.is_semi_infinite:
+        if last.is_semi_infinite:
+            for c, channel in enumerate(CHANNELS):
+                a, s = float(last.sigma_a[c]), float(last.sigma_s[c])
                 ABSORBED.check(a / (a + s), f"the {m} model's sigma_a / sigma_t in channel {channel}{where} of "
                                f"{material.name!r}", ProfileError)
     if domain.then is not None:
