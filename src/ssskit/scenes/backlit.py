@@ -10,13 +10,15 @@ import math
 import tomllib
 
 from ..errors import SceneError
-from ..quantities import Choice, Quantity
+from ..quantities import Choice, Quantity, checks
 from .scenefile import BUILTIN_DIR, scene_from_document
 from .scenes import SceneSpec
 
 #: the backlit slab's camera angle off the normal, thickness and field of view: the ranges its scene holds
 VIEW_DEG = Quantity("view angle", 0.0, 80.0, "degrees", "the slab's face still fills the frame", hi_open=True)
 THICKNESS_MM = Quantity("thickness", 0.0, 40.0, "mm", "the slab stays inside the scene's light", lo_open=True)
+#: a back-lit scene's view angle, as its functions take it (``view_deg``: None for the scene's own)
+VIEW = (VIEW_DEG, "the view angle")
 FOV_DEG = Quantity("fov", 1.0, 30.0, "degrees", "the camera sees the slab alone")
 
 
@@ -25,10 +27,10 @@ def _document(name: str) -> dict:
 
 
 def _view(doc: dict, view_deg: float | None) -> str:
-    """Put ``doc``'s camera at ``view_deg`` from the +z normal (towards -y), at its distance; the name's suffix."""
+    """Put ``doc``'s camera at ``view_deg`` from the +z normal (towards -y), at its distance; the name's suffix
+    (``view_deg`` checked by the callers, :data:`VIEW`)."""
     if view_deg is None:
         return ""
-    VIEW_DEG.check(view_deg, "the view angle", SceneError)
     cam = doc["camera"]
     dist = math.dist(cam["origin"], cam["target"])
     a = math.radians(view_deg)
@@ -36,18 +38,18 @@ def _view(doc: dict, view_deg: float | None) -> str:
     return f"-view{view_deg:g}"
 
 
+@checks(SceneError, thickness_mm=(THICKNESS_MM, "the slab's thickness"), view_deg=VIEW,
+        fov_deg=(FOV_DEG, "the field of view"))
 def backlit_slab(thickness_mm: float, view_deg: float | None = None, fov_deg: float | None = None) -> SceneSpec:
     """The built-in ``backlit`` scene with its slab ``thickness_mm`` thick (its seen face stays at z = 0) and,
     if given, the camera ``view_deg`` off the slab's normal and its horizontal field of view ``fov_deg`` (a
     narrower one sees the slab's middle only, in finer pixels)."""
-    THICKNESS_MM.check(thickness_mm, "the slab's thickness", SceneError)
     doc = copy.deepcopy(_document("backlit"))
     slab = doc["shapes"]["slab"]
     slab["translate"] = [0.0, 0.0, -thickness_mm / 2.0]
     slab["scale"] = [slab["scale"][0], slab["scale"][1], thickness_mm / 2.0]
     suffix = ""
     if fov_deg is not None:
-        FOV_DEG.check(fov_deg, "the field of view", SceneError)
         doc["camera"]["fov"] = float(fov_deg)
         suffix = f"-fov{fov_deg:g}"
     doc["name"] = f"backlit-{thickness_mm:g}mm" + _view(doc, view_deg) + suffix
@@ -55,9 +57,9 @@ def backlit_slab(thickness_mm: float, view_deg: float | None = None, fov_deg: fl
     return scene_from_document(doc, BUILTIN_DIR, doc["name"]).spec
 
 
+@checks(SceneError, name=(Choice("back-lit scene", ("backlit", "leaf")), "back-lit scene"), view_deg=VIEW)
 def backlit_scene(name: str, view_deg: float | None = None) -> SceneSpec:
     """A built-in back-lit scene (``backlit`` or ``leaf``) with the camera ``view_deg`` off the normal."""
-    name = Choice("back-lit scene", ("backlit", "leaf")).check(name, error=SceneError)
     doc = copy.deepcopy(_document(name))
     doc["name"] = name + _view(doc, view_deg)
     return scene_from_document(doc, BUILTIN_DIR, doc["name"]).spec

@@ -59,7 +59,7 @@ import numpy as np
 
 from ...errors import ProfileError
 from ...materials import Material
-from ...quantities import Choice, Quantity, check_instance
+from ...quantities import Choice, Quantity, check_instance, checks
 from .config import MCConfig
 from .result import MCResult
 from .run import check_threads, simulate
@@ -374,6 +374,7 @@ def _lowest(a: np.ndarray, b: np.ndarray, c: np.ndarray, t_max: float) -> float:
     return float(np.min(np.sum(a * np.exp(-b * dense - c * dense ** 2), axis=-1)))
 
 
+@checks(ProfileError, part=(Choice("part", PARTS), "the fit's part"), terms=(FIT_TERMS, "the fit's terms"))
 def fit_transmission(table: TransmissionTable, terms: int | None = None, rel_floor: float = 0.01,
                      part: str = "total") -> TransmissionFit:
     """The fit of a table's ``part`` (:data:`PARTS`: MCML's Tt, or its scattered part T_s, ``table.diffuse``;
@@ -384,10 +385,8 @@ def fit_transmission(table: TransmissionTable, terms: int | None = None, rel_flo
     Deterministic starts: rates spanning the channel's diffusion rate sigma_tr = sqrt(3 sigma_a sigma_t') (g =
     0) to a few times its extinction sigma_t, with small and moderate Gaussian terms (and B = 2 sigma_t). A
     scattered-part fit negative anywhere on [0, 2 x the table's last thickness] is a ProfileError."""
-    part = Choice("part", PARTS).check(part, "the fit's part", ProfileError)
     diffuse = part == "diffuse"
-    terms = FIT_TERMS.check((DIFFUSE_TERMS if diffuse else DEFAULT_TERMS) if terms is None else terms,
-                            "the fit's terms", ProfileError)
+    terms = (DIFFUSE_TERMS if diffuse else DEFAULT_TERMS) if terms is None else terms
     n_out = terms + 1 if diffuse else terms
     out = np.zeros((3, 3, n_out))
     errs = np.zeros((3, 3))
