@@ -50,7 +50,7 @@ from ..quantities import FRAME, REFLECTANCE, REL_SE, SEED, Choice, Quantity, che
 
 #: the path tracer's longest path (Mitsuba's max_depth): at least the camera's ray
 MAX_DEPTH = Quantity("max_depth", 1, 2**31 - 1, "", "bounces of a path, the camera's ray the first", integer=True)
-from .scenes import COAT_ROUGHNESS, SceneSpec, RENDER_SPP, check_size, get_scene, mitsuba, scene_dict
+from .scenes import COAT_ROUGHNESS, IMAGE_SIDE, RENDER_SPP, SceneSpec, check_size, get_scene, mitsuba, scene_dict
 from .mitsuba_variant import interruptible_render, load_scene
 
 #: bumped when the reference renders change (invalidates the cache). 3: a unique seed per mi.render
@@ -59,6 +59,12 @@ CACHE_VERSION = 3
 
 #: the reference's boundaries: the rough dielectric of the scenes, or an index-matched null interface
 BOUNDARIES = ("rough-dielectric", "index-matched")
+#: a reference's image and path-tracer options, declared once for :class:`ReferenceRenderer` and
+#: :func:`render_reference` (:func:`ssskit.quantities.checks`: before any work; the boundary's canonical name keys
+#: the cache)
+OPTIONS: dict[str, Any] = {"width": (IMAGE_SIDE, "image width"), "height": (IMAGE_SIDE, "image height"),
+                           "max_depth": MAX_DEPTH, "seed": SEED, "frame": FRAME,
+                           "surround_albedo": REFLECTANCE, "boundary": Choice("boundary", BOUNDARIES)}
 
 #: defaults of the convergence rule: relative standard error of the region's mean, spp budget
 TARGET_REL_SE = 0.01
@@ -187,11 +193,12 @@ class ReferenceRenderer:
     image (every sample lands in it; a region's error falls faster).
     """
 
+    @checks(SceneError, **OPTIONS)
     def __init__(self, scene: str | SceneSpec, material: Material | Sequence[Material], width: int, height: int, max_depth: int = 1024, seed: int = 0,
                  frame: int = 0, boundary: str = "rough-dielectric", surround_albedo: float = 0.0,
                  crop: tuple[int, int, int, int] | None = None) -> None:
         self.spec = get_scene(scene)
-        boundary = _check_options(self.spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
+        check_reference_scene(self.spec)
         mats = shape_materials(self.spec, material)
         self.g = reference_phase_g(mats[0])
         interiors = {sid: _interior(m, boundary) for sid, m in zip(self.spec.sss_shapes, mats)}
@@ -256,18 +263,6 @@ def shape_materials(spec: SceneSpec, material: Any) -> tuple[Any, ...]:
     return (material,) * len(spec.sss_shapes)
 
 
-def _check_options(spec: SceneSpec, width: int, height: int, max_depth: int, seed: int, frame: int, boundary: str,
-                   surround_albedo: float) -> str:
-    """A reference's request checked once, before any work: the image size, the scene (its SSS meshes closed) and
-    the path tracer's options; returns the boundary's canonical name (it keys the cache)."""
-    check_size(width, height)
-    check_reference_scene(spec)
-    for name, value, q in (("max_depth", max_depth, MAX_DEPTH), ("seed", seed, SEED), ("frame", frame, FRAME),
-                           ("surround_albedo", surround_albedo, REFLECTANCE)):
-        q.check(value, name, SceneError)
-    return Choice("boundary", BOUNDARIES).check(boundary, error=SceneError)
-
-
 def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) -> np.ndarray:
     """(H, W) bool: the pixels that see an SSS object of ``scene`` (one AOV sample per pixel)."""
     spec = get_scene(scene)
@@ -280,7 +275,8 @@ def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) 
     return img[..., 0] > 0.6
 
 
-@checks(SceneError, spp=RENDER_SPP, chunk_spp=RENDER_SPP, target_rel_se=(REL_SE, "target relative standard error"))
+@checks(SceneError, spp=RENDER_SPP, chunk_spp=RENDER_SPP, target_rel_se=(REL_SE, "target relative standard error"),
+        **OPTIONS)
 def render_reference(scene: str | SceneSpec, material: Material | Sequence[Material], width: int = 128, height: int = 96, spp: int = 64,
                      max_spp: int | None = None, target_rel_se: float = TARGET_REL_SE, region: ArrayLike | None = None,
                      max_depth: int = 1024, seed: int = 0, frame: int = 0, chunk_spp: int = 8,
@@ -305,7 +301,7 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
     max_spp = int(spp) if max_spp is None else max_spp  # (an integer at least spp, so at least 1:)
     Quantity("max_spp", spp, math.inf, "", "the spp budget: at least the minimum spp", integer=True,
              hi_open=True).check(max_spp, "max_spp", SceneError)
-    boundary = _check_options(spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
+    check_reference_scene(spec)
     mats = shape_materials(spec, material)
     g = reference_phase_g(mats[0])
     for m in mats[1:]:
