@@ -131,10 +131,6 @@ class SeparableTaps:
         return dataclasses.replace(self, **kw)
 
 
-def _check_count(n: int) -> int:
-    return int(TAP_COUNT.check(n, "tap count", SamplingError))
-
-
 def _fine(kernel: Kernel, r: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
                                           NDArray[np.float64], float]:
     """Fine sub-cell edges and cumulative integrals of every channel's a_r and of the dominant |a_r|."""
@@ -217,7 +213,7 @@ def make_taps(kernel: AnyKernel, n: int | None = None, method: str = "importance
                              float(np.max(np.abs(o))) or 1.0, None, _tap_width(o, kernel.weights),
                              {"kernel": kernel.method, **kernel.source}).normalised()
     check_instance(kernel, Kernel, "the kernel of taps", KernelError)
-    n = _check_count(7 if n is None else n)
+    n = int(TAP_COUNT.check(7 if n is None else n, "tap count", SamplingError))
     if method not in TAP_METHODS:
         raise fail(SamplingError, CHOICE, name="tap placement", choices=", ".join(TAP_METHODS), actual=repr(method))
     offs, wts, widths = [], [], []

@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import GBufferError, PassError
-from ..quantities import Quantity, check_finite, check_shape
+from ..errors import GBufferError
+from ..quantities import Quantity, check_shape
 
 #: a camera's image sides (pixels), its positive factors (focal lengths in pixels, world units per mm, the pixel
 #: aspect) and its horizontal field of view
@@ -104,17 +104,6 @@ class Camera:
             if isinstance(exc, GBufferError):
                 raise
             raise GBufferError(f"camera: not an ssskit camera record ({exc})") from None
-
-
-def check_motion(motion: ArrayLike, shape: tuple[int, int]) -> NDArray[np.float64]:
-    """Motion vectors as a float64 (H, W, 2) array (pixels, current to previous), or a PassError naming
-    the expected shape or the non-finite values."""
-    hh, ww = shape
-    mv = np.asarray(motion, dtype=np.float64)
-    if mv.shape != (hh, ww, 2):
-        raise PassError(f"the motion vectors must be (H, W, 2) = {(hh, ww, 2)}, got {mv.shape}")
-    check_finite(mv, "the motion vectors", PassError)
-    return mv
 
 
 def motion_vectors(depth: np.ndarray, camera: Camera, previous: Camera) -> np.ndarray:

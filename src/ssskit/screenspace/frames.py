@@ -261,7 +261,8 @@ def run_frames(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, 
             t4 = time.perf_counter()
             if transmission is not None:
                 if new:
-                    added = _check_added(transmission(gb), shape)
+                    added = RADIANCE.check_array(check_shape(transmission(gb), "the transmitted light", (*shape, 3),
+                                                             PassError), "the transmitted light", PassError, "values")
                 assert added is not None  # (computed on the first frame, which is new)
                 sss = np.add(sss, added, dtype=sss.dtype)
             t3 = time.perf_counter()
@@ -310,12 +311,6 @@ def run_frames(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, 
         var = np.maximum(total_sq / n - run.mean * run.mean, 0.0) * (n / max(n - 1, 1))
         run.stderr = np.sqrt(var / n)
     return run
-
-
-def _check_added(added: Any, shape: tuple[int, int]) -> np.ndarray:
-    """The transmitted light of a G-buffer as an (H, W, 3) array of finite numbers >= 0, or a PassError."""
-    return RADIANCE.check_array(check_shape(added, "the transmitted light", (*shape, 3), PassError),
-                                "the transmitted light", PassError, "values")
 
 
 def _had_history(prev_inside: np.ndarray | None, motion: np.ndarray | None, shape: tuple[int, int],
