@@ -191,9 +191,9 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
       "jimenez2010"], "transmission_model applies to transmission auto or on, not transmission off"),
     (["--scene", "plain.exr", "--transmission-spread", "wide"], "Invalid value for '--transmission-spread': 'wide'"),
     # auto with no light layers: the pass does not run, so a model or spread asked for would be dropped silently
-    (["--scene", "plain.exr", "--transmission-model", "jimenez2010"], "applies when the transmittance pass runs; under "
-                                                                      "transmission auto it does not run here"),
-    (["--scene", "plain.exr", "--transmission-spread", "mcml"], "transmission_spread 'mcml' applies when"),
+    (["--scene", "plain.exr", "--transmission-model", "jimenez2010"], "transmission_model applies to transmission on, "
+                                                                      "not transmission auto (the G-buffer "),
+    (["--scene", "plain.exr", "--transmission-spread", "mcml"], "transmission_spread applies to transmission on, not"),
     (["--scene", "slab", "--transmission-model", "unreal"], "the scene slab is not lit from behind alone"),
     (["--scene", "plain.exr", "--transmission", "off", "--transmission-spread", "mcml"],
      "transmission_spread applies to transmission auto or on, not transmission off"),

@@ -165,8 +165,8 @@ BURLEY_SPP = Quantity("spp", 1, MAX_SPP, "", "samples per pixel of the Burley pa
 COUNTS = BURLEY_SPP.within(lo=0, reason="samples per pixel of the Burley pass; 0 on a pixel without SSS")
 XIE_C_RANGE = Quantity("c", C_RANGE[0], C_RANGE[1], "", "Eq. 21's damping (Xie 2020)", lo_open=True, hi_open=True)
 #: the sampler's arguments of :func:`build_burley_plan`
-_PLAN_FIELDS = {"sampler": SAMPLER, "sequence": Choice("sequence", SEQUENCES), "c": XIE_C_RANGE, "bleed": FRACTION,
-                "mip_scale": SCALE}
+_PLAN_FIELDS: dict[str, Quantity | Choice] = {"sampler": SAMPLER, "sequence": Choice("sequence", SEQUENCES),
+                                             "c": XIE_C_RANGE, "bleed": FRACTION, "mip_scale": SCALE}
 #: the coarsest mip level of step 5b, and Xie 2020's a of Eq. 22 (Unreal's MIP_CONSTANT_FACTOR), in the
 #: units of step 5b
 MAX_MIP = 5
@@ -259,18 +259,11 @@ class BurleyPlan:
     frame: int
     seed: int
     stable: bool
+    #: (S,) float64: each slot's largest diffuse mean free path ell (mm), Eq. 22's ell_max (slot 0: 1), > 0:
+    #: set by :func:`build_burley_plan` from the parameters (checked BurleyParams: A in (0, 1], d > 0)
+    dmfp_max_mm: np.ndarray
     mips: bool = False
     mip_scale: float = XIE_MIP_SCALE
-    #: (S,) float64: each slot's largest diffuse mean free path ell (mm), Eq. 22's ell_max (slot 0: 1);
-    #: set by :func:`build_burley_plan` from the parameters' albedos
-    dmfp_max_mm: np.ndarray | None = None
-
-    def __post_init__(self) -> None:
-        ell = None if self.dmfp_max_mm is None else np.asarray(self.dmfp_max_mm, np.float64)
-        if ell is None or ell.shape != (len(self.ids) + 1,) or not np.all(ell > 0):
-            raise PassError("a BurleyPlan needs dmfp_max_mm, one positive dmfp per slot: build it with "
-                            "build_burley_plan")
-        object.__setattr__(self, "dmfp_max_mm", ell)
 
     @property
     def slots(self) -> int:
@@ -313,7 +306,7 @@ def build_burley_plan(params_by_id: Mapping[int, BurleyParams], fx: float, fy: f
         r997[s] = float(burley_inverse_cdf(GOLUBEV_FRACTION, d[s, ch[s]]))
         ell[s] = float(np.max(p.dmfp_mm))
     return BurleyPlan(ids, d, ch, r997, v["sampler"], v["sequence"], float(v["c"]), float(v["bleed"]), float(fx),
-                      float(fy), int(frame), int(seed), bool(stable), bool(mips), float(v["mip_scale"]), ell)
+                      float(fy), int(frame), int(seed), bool(stable), ell, bool(mips), float(v["mip_scale"]))
 
 
 def mip_pyramid(diffuse: ArrayLike, slots: np.ndarray, n_slots: int, levels: int = MAX_MIP) -> MipPyramid:

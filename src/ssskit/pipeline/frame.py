@@ -30,7 +30,6 @@ from numpy.typing import ArrayLike
 
 from ..backends import get_backend
 from ..errors import SceneError, SettingsError
-from ..quantities import check_instance
 from ..io import check_distinct, save_image
 from ..materials import LayeredMaterial, Material, get_material
 from ..metrics import NO_LIGHT_TEXT, no_light, region_metrics
@@ -175,8 +174,7 @@ def material_label(material: Any, id_materials: Mapping[int, str]) -> str:
 
 
 def _scene(scene: SceneInput, settings: RenderSettings, material: Material | LayeredMaterial) -> ScenePlan:
-    check_instance(scene, (str, os.PathLike, SceneSpec, ResolvedScene, GBuffer), "scene (a built-in scene name, a "
-                   "mesh or scene .toml file, a G-buffer .exr file)", SceneError)
+    # (any other value: resolve_scene's SceneError naming what a scene may be)
     resolved = scene if isinstance(scene, (GBuffer, ResolvedScene)) else resolve_scene(
         scene, width=settings.width, height=settings.height)
     if settings.reference and (isinstance(resolved, GBuffer) or resolved.kind == "gbuffer"):
@@ -245,8 +243,8 @@ def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
     (:func:`ssskit.scenes.resolve_scene` with the user's units, material map and view), a G-buffer ``.exr``
     file or a :class:`~ssskit.screenspace.GBuffer`. A G-buffer keeps its own size: a ``width`` x ``height``
     that differs from the default and from the G-buffer's is an error. Raises the first problem as an
-    :class:`~ssskit.errors.SsskitError`."""
-    check_instance(settings, RenderSettings, "settings", SettingsError)
+    :class:`~ssskit.errors.SsskitError`. (``settings``: a RenderSettings, as its callers plan_render and
+    plan_burley check.)"""
     material = get_material(settings.material)
     check_model_domain(material, settings.model)  # the model's valid domain, before any work
     get_backend(settings.backend)

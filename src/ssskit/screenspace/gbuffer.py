@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike
 
 from ..backends.plan import DEPTH_MM
 from ..errors import GBufferError
-from ..quantities import TYPE, Quantity, check_finite, check_instance, check_shape, fail
+from ..quantities import Quantity, check_finite, check_instance, check_shape
 from ..io import check_suffix, read_exr, write_exr
 from .camera import Camera
 
@@ -72,9 +72,7 @@ class GBuffer:
 
     def __post_init__(self) -> None:
         diffuse = _float_layer("diffuse", self.diffuse, ("H", "W", 3))
-        h, w = diffuse.shape[:2]
-        if not diffuse.size:
-            raise fail(GBufferError, TYPE, name="layer 'diffuse'", kind="a non-empty layer", actual="shape (0, 0, 3)")
+        h, w = diffuse.shape[:2]  # (an empty layer is not the camera's size: the camera has a pixel at least)
         layers = {"diffuse": diffuse}
         for name in ("specular", "albedo", "normal"):
             value = getattr(self, name)

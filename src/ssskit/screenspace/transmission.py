@@ -44,7 +44,7 @@ from ..backends.spread_plan import SlotSpread
 from ..backends.transmission_plan import LUT_SIZE, UE_MAX_OPTICAL_DEPTH, SlotModel, TransmissionPlan, build_transmission_plan
 from ..errors import PassError
 from ..materials import Material
-from ..quantities import LENGTH_MM, Quantity, check_instance, check_shape
+from ..quantities import LENGTH_MM, Quantity, check_keys, check_shape
 from ..profiles.gaussians import DEON2007_SKIN_VARIANCES, DEON2007_SKIN_WEIGHTS
 
 if TYPE_CHECKING:
@@ -278,12 +278,9 @@ class LightView:
         def fail(msg: str) -> PassError:
             return PassError(f"the light projection is malformed: {msg}")
 
-        check_instance(d, dict, "the light projection (a JSON object)", PassError)
+        check_keys(d, "the light projection", None, ("direction", "origin", "u", "v", "texel_mm", "size"), PassError)
         if d.get("type", "orthographic") != "orthographic":
             raise fail(f"type {d.get('type')!r} (only 'orthographic')")
-        missing = [k for k in ("direction", "origin", "u", "v", "texel_mm", "size") if k not in d]
-        if missing:
-            raise fail(f"missing field(s) {', '.join(repr(k) for k in missing)}")
         vecs = [_three_finite(k, d[k]) for k in ("direction", "origin", "u", "v")]
         axes = {"direction": vecs[0], "u": vecs[2], "v": vecs[3]}
         for k, x in axes.items():
