@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..backends import get_backend
-from ..errors import SceneError, SettingsError
+from ..errors import SceneError, SettingsError, SsskitError
 from ..io import check_distinct, save_image
 from ..materials import LayeredMaterial, Material, get_material
 from ..metrics import NO_LIGHT_TEXT, no_light, region_metrics
@@ -255,9 +255,7 @@ def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
         if size not in (_default_size(), (w, h)):
             raise SettingsError(f"the image size {size[0]}x{size[1]} (--size) does not apply to a G-buffer file: "
                                 f"{plan.label} is {w}x{h} and keeps its size")
-        if not plan.gbuffer.mask.any():
-            raise SettingsError(f"the G-buffer {plan.label} has no SSS pixel (its profile_id is 0 everywhere): there "
-                                "is nothing for the pass to blur and nothing to measure")
+        _refuse_no_sss(plan.gbuffer, f"the G-buffer {plan.label}", "its profile_id is 0 everywhere", SettingsError)
         _check_named_materials(plan.gbuffer, material, plan.label)
     for mat in plan.materials:  # a scene's own materials (a material map) are held to the model's domain too
         if mat is not material:
@@ -322,11 +320,16 @@ def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo: ArrayLike |
     gb = render_gbuffer(plan.spec, alb, eta=[m.eta for m in mats], width=settings.width, height=settings.height,
                         spp=settings.spp, seed=settings.seed, frame=settings.frame,
                         material=tuple(m.name for m in mats), light_layers=plan.transmission)
-    if not gb.mask.any():  # as a G-buffer file without an SSS pixel is refused (plan_scene)
-        raise SceneError(f"the {plan.label} G-buffer ({settings.width}x{settings.height}) has no SSS pixel: the camera "
-                         "sees no surface of an SSS object (a flat model seen edge-on, or one outside the frame), "
-                         "so there is nothing for the pass to blur and nothing to measure")
+    _refuse_no_sss(gb, f"the {plan.label} G-buffer ({settings.width}x{settings.height})", "the camera sees no surface "
+                   "of an SSS object (a flat model seen edge-on, or one outside the frame)", SceneError)
     return gb
+
+
+def _refuse_no_sss(gb: GBuffer, label: str, why: str, error: type[SsskitError]) -> None:
+    """The one rule of a G-buffer file (plan_scene) and of a rendered one (frame_gbuffer): at least one SSS pixel,
+    else ``error`` naming ``label`` and ``why`` there is none."""
+    if not gb.mask.any():
+        raise error(f"{label} has no SSS pixel: {why}, so there is nothing for the pass to blur and nothing to measure")
 
 
 def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, profile: RGBProfile,
