@@ -49,7 +49,7 @@ from ..backends.plan import profile_ids
 from ..errors import PassError, SettingsError
 from ..metrics import display_psnr, region_metrics
 from ..quantities import FRAME, FRAMES, check_instance, check_shape, refuse_unused
-from .adaptive import AdaptiveSettings, check_history, new_history, reproject_history
+from .adaptive import AdaptiveSettings, _settings as adaptive_settings, check_history, new_history, reproject_history
 from .burley import BACKEND, BURLEY_SPP, BurleySettings, burley_backend, burley_plan_for
 from .camera import motion_vectors
 from .gbuffer import RADIANCE, GBuffer
@@ -382,7 +382,7 @@ def adaptive_frames(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, 
     backend, which then keeps the history and counts between frames: on gl, on the device).
     """
     check_instance(gbuffer, GBuffer, "gbuffer", PassError)
-    s = check_instance(AdaptiveSettings() if settings is None else settings, AdaptiveSettings, "settings", PassError)
+    s = adaptive_settings(settings)
     b = check_instance(BurleySettings() if burley is None else burley, BurleySettings, "burley", PassError)
     frames = int(FRAMES.check(frames, "frames", SettingsError))
     hook = None if on_frame is None else (lambda fr: on_frame(fr.index, fr.sss, fr.counts))

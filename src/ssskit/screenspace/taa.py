@@ -195,6 +195,12 @@ def reprojection_valid(depth: ArrayLike, camera: Camera, previous_depth: ArrayLi
 
 # ---- the resolve ---------------------------------------------------------------------------------------------
 
+def _settings(settings: object) -> TAASettings:
+    """The TAA settings given (None: the defaults), or a PassError: the rule of :func:`taa_resolve` and
+    :class:`TemporalAA`."""
+    return check_instance(TAASettings() if settings is None else settings, TAASettings, "settings", PassError)
+
+
 @overload
 def taa_resolve(current: ArrayLike, history: ArrayLike | None = None, motion: ArrayLike | None = None,
                 valid: ArrayLike | None = None, settings: TAASettings | None = None,
@@ -221,8 +227,7 @@ def taa_resolve(current: ArrayLike, history: ArrayLike | None = None, motion: Ar
     pixel to its previous position (None: a static camera), ``valid`` (H, W) bool (False: disoccluded,
     take the current frame). Returns the (H, W, 3) float32 output, and with ``return_weight`` also the
     (H, W) weight a of the current frame used per pixel (1 where the history was rejected)."""
-    s = TAASettings() if settings is None else settings
-    check_instance(s, TAASettings, 'settings', PassError)
+    s = _settings(settings)
     cur = check_shape(current, "the TAA input frame", ("H", "W", 3), PassError, dtype=np.float64, finite=True)
     hh, ww = cur.shape[:2]
     if history is None:
@@ -257,9 +262,7 @@ class TemporalAA:
     is taken as is). ``history``: the last output, or None."""
 
     def __init__(self, settings: TAASettings | None = None) -> None:
-        s = TAASettings() if settings is None else settings
-        check_instance(s, TAASettings, 'settings', PassError)
-        self.settings = s
+        self.settings = _settings(settings)
         self.history: np.ndarray | None = None
 
     def resolve(self, current: ArrayLike, motion: ArrayLike | None = None,
