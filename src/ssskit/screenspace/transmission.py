@@ -210,6 +210,9 @@ UNIT_TOL = 1e-3
 """How far the light projection's axes may be from an orthonormal frame (|length - 1| and |dot|): a file's
 frame written in float32 or rounded to 6 digits passes, a meaningless one (a zero or an unnormalised vector,
 skewed axes) does not."""
+#: the light frame's axes: unit lengths and pairwise dot products within UNIT_TOL (an orthonormal frame)
+UNIT_LENGTH = Quantity("length", 1.0 - UNIT_TOL, 1.0 + UNIT_TOL, "", "a unit vector, within 1e-3")
+ORTHOGONAL = Quantity("dot", -UNIT_TOL, UNIT_TOL, "", "orthogonal axes, within 1e-3")
 
 
 def _is_number(x: Any) -> bool:
@@ -284,14 +287,10 @@ class LightView:
         vecs = [_three_finite(k, d[k]) for k in ("direction", "origin", "u", "v")]
         axes = {"direction": vecs[0], "u": vecs[2], "v": vecs[3]}
         for k, x in axes.items():
-            norm = math.sqrt(sum(c * c for c in x))
-            if not abs(norm - 1.0) <= UNIT_TOL:
-                raise fail(f"{k!r} must be a unit vector (length within {UNIT_TOL:g} of 1), got {list(x)!r} "
-                           f"of length {norm:.6g}")
+            UNIT_LENGTH.check(math.sqrt(sum(c * c for c in x)), f"the light projection's {k!r}: its length", PassError)
         for a, b in (("direction", "u"), ("direction", "v"), ("u", "v")):
             dot = sum(p * q for p, q in zip(axes[a], axes[b], strict=True))
-            if not abs(dot) <= UNIT_TOL:
-                raise fail(f"{a!r} and {b!r} must be orthogonal (|dot| <= {UNIT_TOL:g}), got dot {dot:.6g}")
+            ORTHOGONAL.check(dot, f"the light projection's {a!r} . {b!r}", PassError)
         label = "the light projection's 'size'"
         size = d["size"].tolist() if isinstance(d["size"], np.ndarray) else d["size"]
         check_shape(size, label, (2,), PassError)
