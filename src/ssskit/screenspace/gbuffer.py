@@ -109,14 +109,10 @@ class GBuffer:
             raise GBufferError("layer 'light_depth' needs the light projection (header 'ssskit_light'), which is missing")
         if self.light_depth is None:
             raise GBufferError("the light projection (header 'ssskit_light') is given without a 'light_depth' layer")
-        from ..errors import PassError
         from .transmission import LightView
 
         ld = _float_layer("light_depth", self.light_depth, (h, w), allow_inf=True)
-        try:
-            view = LightView.from_dict(self.light)
-        except PassError as e:
-            raise GBufferError(str(e)) from None
+        view = LightView.from_dict(self.light, GBufferError)
         if view.size != (w, h):
             raise GBufferError(f"the light projection's size {list(view.size)} is not the 'light_depth' layer's "
                                f"[{w}, {h}]")

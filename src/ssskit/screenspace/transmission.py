@@ -42,7 +42,7 @@ import numpy as np
 
 from ..backends.spread_plan import SlotSpread
 from ..backends.transmission_plan import LUT_SIZE, UE_MAX_OPTICAL_DEPTH, SlotModel, TransmissionPlan, build_transmission_plan
-from ..errors import PassError
+from ..errors import PassError, SsskitError
 from ..materials import Material
 from ..quantities import LENGTH_MM, Quantity, check_keys, check_shape
 from ..profiles.gaussians import DEON2007_SKIN_VARIANCES, DEON2007_SKIN_WEIGHTS
@@ -223,10 +223,10 @@ def _is_integral(x: Any) -> bool:
     return _is_number(x) and math.isfinite(x) and float(x).is_integer()
 
 
-def _three_finite(name: str, value: Any) -> tuple[float, float, float]:
-    """A projection field of 3 finite numbers [x, y, z] (a list, tuple or 1D array), or a PassError naming it."""
+def _three_finite(name: str, value: Any, error: type[SsskitError]) -> tuple[float, float, float]:
+    """A projection field of 3 finite numbers [x, y, z] (a list, tuple or 1D array), or ``error`` naming it."""
     label = f"the light projection's {name!r}"
-    x, y, z = check_shape(value, label, (3,), PassError, finite=True, dtype=float).tolist()
+    x, y, z = check_shape(value, label, (3,), error, finite=True, dtype=float).tolist()
     return x, y, z
 
 
@@ -272,30 +272,30 @@ class LightView:
                 "u": list(self.u), "v": list(self.v), "texel_mm": self.texel_mm, "size": list(self.size)}
 
     @classmethod
-    def from_dict(cls, d: dict) -> LightView:
-        """:meth:`to_dict`'s form back, or a PassError naming the field that is wrong and its valid domain:
+    def from_dict(cls, d: dict, error: type[SsskitError] = PassError) -> LightView:
+        """:meth:`to_dict`'s form back, or ``error`` (a PassError; the G-buffer's reader: a GBufferError) naming the field that is wrong and its valid domain:
         ``direction``, ``u``, ``v`` 3 finite numbers each, unit vectors (|x| within :data:`UNIT_TOL` of 1) and
         mutually orthogonal (|dot| <= :data:`UNIT_TOL`: an orthonormal frame, what :meth:`looking_along` writes
         and what :meth:`project` assumes); ``origin`` 3 finite numbers; ``size`` 2 positive integers;
         ``texel_mm`` a finite number > 0."""
-        def fail(msg: str) -> PassError:
-            return PassError(f"the light projection is malformed: {msg}")
+        def fail(msg: str) -> SsskitError:
+            return error(f"the light projection is malformed: {msg}")
 
-        check_keys(d, "the light projection", None, ("direction", "origin", "u", "v", "texel_mm", "size"), PassError)
+        check_keys(d, "the light projection", None, ("direction", "origin", "u", "v", "texel_mm", "size"), error)
         if d.get("type", "orthographic") != "orthographic":
             raise fail(f"type {d.get('type')!r} (only 'orthographic')")
-        vecs = [_three_finite(k, d[k]) for k in ("direction", "origin", "u", "v")]
+        vecs = [_three_finite(k, d[k], error) for k in ("direction", "origin", "u", "v")]
         axes = {"direction": vecs[0], "u": vecs[2], "v": vecs[3]}
         for k, x in axes.items():
-            UNIT_LENGTH.check(math.sqrt(sum(c * c for c in x)), f"the light projection's {k!r}: its length", PassError)
+            UNIT_LENGTH.check(math.sqrt(sum(c * c for c in x)), f"the light projection's {k!r}: its length", error)
         for a, b in (("direction", "u"), ("direction", "v"), ("u", "v")):
             dot = sum(p * q for p, q in zip(axes[a], axes[b], strict=True))
-            ORTHOGONAL.check(dot, f"the light projection's {a!r} . {b!r}", PassError)
+            ORTHOGONAL.check(dot, f"the light projection's {a!r} . {b!r}", error)
         label = "the light projection's 'size'"
         size = d["size"].tolist() if isinstance(d["size"], np.ndarray) else d["size"]
-        check_shape(size, label, (2,), PassError)
-        w, h = (MAP_SIDE.check(int(x) if _is_integral(x) else x, label, PassError) for x in size)
-        texel = LENGTH_MM.check(d["texel_mm"], "the light projection's 'texel_mm'", PassError)
+        check_shape(size, label, (2,), error)
+        w, h = (MAP_SIDE.check(int(x) if _is_integral(x) else x, label, error) for x in size)
+        texel = LENGTH_MM.check(d["texel_mm"], "the light projection's 'texel_mm'", error)
         return cls(vecs[0], vecs[1], vecs[2], vecs[3], float(texel), (int(w), int(h)))
 
     def project(self, points: np.ndarray) -> np.ndarray:
