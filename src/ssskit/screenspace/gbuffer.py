@@ -257,13 +257,9 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
     for name in ("diffuse", "albedo", "depth", "profile_id"):
         if name not in channels:
             raise GBufferError(f"G-buffer {str(p)!r} has no layer {name!r} (found: {', '.join(sorted(channels))})")
-    if camera is None:
-        if "ssskit_camera" not in header:
-            raise GBufferError(f"G-buffer {str(p)!r} has no 'ssskit_camera' header attribute; pass a camera")
-        try:
-            camera = Camera.from_dict(_header(p, header, "ssskit_camera"))
-        except GBufferError as exc:
-            raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None
+    if camera is None and "ssskit_camera" not in header:
+        raise GBufferError(f"G-buffer {str(p)!r} has no 'ssskit_camera' header attribute; pass a camera")
+    record: Any = None if camera is not None else _header(p, header, "ssskit_camera")
     named, meta = _header(p, header, "ssskit_materials"), _header(p, header, "ssskit_meta", {})
     materials: tuple[str, ...] = ()
     if named is not None:  # a file that names its materials names one for every profile id it uses
@@ -278,10 +274,10 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
         materials = tuple(named)
     light = check_instance(_header(p, header, "ssskit_light"), dict, f"G-buffer {str(p)!r}: header 'ssskit_light' "
                            "(a JSON object)", GBufferError, optional=True)
-    try:
+    try:  # (the camera record's and the layers' errors alike name the file)
         return GBuffer(diffuse=channels["diffuse"], albedo=channels["albedo"], depth=channels["depth"],
-                       profile_id=channels["profile_id"], camera=camera, specular=channels.get("specular"),
-                       normal=channels.get("normal"), materials=materials, meta=meta,
+                       profile_id=channels["profile_id"], camera=camera if camera is not None else Camera.from_dict(record),
+                       specular=channels.get("specular"), normal=channels.get("normal"), materials=materials, meta=meta,
                        light_depth=channels.get("light_depth"), light=light)
     except GBufferError as exc:  # name the file in the layer's message
         raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None
