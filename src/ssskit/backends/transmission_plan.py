@@ -64,7 +64,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PassError
-from ..quantities import CHOICE, Quantity, check_shape, fail
+from ..quantities import CHOICE, Quantity, check_fields, check_shape, fail
 from .plan import check_light_view, check_plan_ids
 
 #: the transmittance models a plan can hold (the MCML fit, Jimenez et al. 2010's skin Gaussians, Unreal Engine 5's
@@ -199,8 +199,7 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3,
                 check_shape(v, label, (3, "K"), PassError), label, PassError)
         if m.model not in MODELS:  # (exactly: the name picks the pass's branch)
             raise fail(PassError, CHOICE, name=f"profile id {pid}: model", choices=", ".join(MODELS), actual=repr(m.model))
-        FACTOR.check(m.scale, f"profile id {pid}: scale", PassError)
-        WRAP.check(m.wrap, f"profile id {pid}: wrap", PassError)
+        check_fields({"scale": m.scale, "wrap": m.wrap}, {"scale": FACTOR, "wrap": WRAP}, f"profile id {pid}", PassError)
         if (m.model == "unreal") != (m.lut is not None):
             raise PassError(f"profile id {pid}: the unreal model, and only it, holds a profile table (lut)")
         if m.lut is not None:

@@ -44,7 +44,7 @@ from ..backends.spread_plan import SlotSpread
 from ..backends.transmission_plan import LUT_SIZE, UE_MAX_OPTICAL_DEPTH, SlotModel, TransmissionPlan, build_transmission_plan
 from ..errors import PassError, SsskitError
 from ..materials import Material
-from ..quantities import LENGTH_MM, Quantity, check_keys, check_shape
+from ..quantities import LENGTH_MM, Quantity, check_fields, check_keys, check_shape
 from ..profiles.gaussians import DEON2007_SKIN_VARIANCES, DEON2007_SKIN_WEIGHTS
 
 if TYPE_CHECKING:
@@ -57,6 +57,7 @@ JIMENEZ2010_WRAP = 0.3
 UE_SCALE = Quantity("scale", 0.0, math.inf, "", "a positive scale", lo_open=True, hi_open=True)
 TINT = Quantity("tint", 0.0, math.inf, "", "a non-negative factor", hi_open=True)
 TRANSLUCENCY = Quantity("translucency", 0.0, 1.0, "", "1 would pass all light through", hi_open=True)
+_UNREAL = {"ExtinctionScale": UE_SCALE, "NormalScale": TINT}  # unreal_model's factors
 
 
 def jimenez2010_model(translucency: float = 0.0, sss_width_mm: float | None = None) -> SlotModel:
@@ -168,8 +169,7 @@ def unreal_model(d_mm: Any, tint: Any = (1.0, 1.0, 1.0), extinction_scale: float
     its profile table, od_per_mm = ExtinctionScale / 10 (the thickness in cm, UE's world unit), od_offset =
     NormalScale / 2 ([UE58] TransmissionThickness.ush, CalculateEncodedOpticalDepth), wrap 2 (no cosine).
     Defaults: FSubsurfaceProfileStruct's (:data:`UE_TRANSMISSION_DEFAULTS`)."""
-    UE_SCALE.check(extinction_scale, "ExtinctionScale", PassError)
-    TINT.check(normal_scale, "NormalScale", PassError)
+    check_fields({"ExtinctionScale": extinction_scale, "NormalScale": normal_scale}, _UNREAL, error=PassError)
     table = unreal_profile_table(d_mm, tint, world_unit_scale, distance_scale)
     zero = np.zeros((3, 1))
     return SlotModel(zero, zero, zero, 1.0, 2.0, "unreal", lut=table, od_per_mm=extinction_scale / 10.0,
