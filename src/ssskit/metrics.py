@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import SignalError
 from .io import tonemap  # the display encoding images are written with
-from .quantities import POSITIVE, check_shape
+from .quantities import POSITIVE, check_choice, check_shape
 
 #: ITU-R BT.709 luminance weights of linear RGB (Y = 0.2126 R + 0.7152 G + 0.0722 B)
 BT709_LUMA = (0.2126, 0.7152, 0.0722)
@@ -114,10 +114,7 @@ def all_metrics(reference: ArrayLike, test: ArrayLike, perceptual: bool | tuple[
     """rmse, relative_rmse, psnr and the ``perceptual`` metrics: True for ssim and flip, False for
     none, or a tuple of names from :data:`PERCEPTUAL` (e.g. ``("flip",)`` when SSIM is not shown)."""
     names = PERCEPTUAL if perceptual is True else (() if perceptual is False else tuple(perceptual))
-    unknown = [n for n in names if n not in PERCEPTUAL]
-    if unknown:
-        raise SignalError(f"unknown perceptual metric(s) {', '.join(map(repr, unknown))}; choose from "
-                          f"{', '.join(PERCEPTUAL)}")
+    names = tuple(check_choice("perceptual metric", n, PERCEPTUAL, SignalError) for n in names)
     out = {"rmse": rmse(reference, test), "relative_rmse": relative_rmse(reference, test),
            "psnr": psnr(reference, test)}
     if "ssim" in names:

@@ -217,9 +217,9 @@ class GBuffer:
 
         ``diffuse`` is the (blurred) diffuse layer; by default the unblurred one.
         """
-        d = self.diffuse if diffuse is None else np.asarray(diffuse, dtype=np.float32)
-        if d.shape != self.diffuse.shape:
-            raise GBufferError(f"diffuse to composite has shape {d.shape}, expected {self.diffuse.shape}")
+        if diffuse is None:
+            return self.albedo * self.diffuse + self.specular
+        d = check_shape(diffuse, "diffuse to composite", self.diffuse.shape, GBufferError, dtype=np.float32)
         return self.albedo * d + self.specular
 
     # ---- EXR ---------------------------------------------------------------------------------
