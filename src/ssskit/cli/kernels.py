@@ -139,17 +139,13 @@ def kernel(ctx: click.Context, material: str | None, method_spec: str, model: st
     m, params = method_parameters(method_spec, method_values)
     KERNEL_CELLS.check(grid_n, "--size")
     check_distinct(out, material, what="--out")
-    from ..profiles import MATERIAL_FREE_MODELS
-
     prof = None
     refuse_profile_options(m, [f for f, on in (("--material", material is not None), ("--model", given(ctx, "model")),
                                                ("--photons", given(ctx, "photons"))) if on], material is not None,
                            "--method")
-    if material is not None or (m.needs_profile and model.lower() in MATERIAL_FREE_MODELS):
-        check_material_for_model(ctx, material, model)
+    if material is not None or m.needs_profile:  # (a material-free model's profile needs none)
+        check_material_for_model(ctx, material, model, f"--method {m.name}")
         prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
-    elif m.needs_profile:
-        raise SsskitError(f"--material is required for --method {m.name}")
     k = build_kernel(m.name, prof, n=grid_n, **params)
     if out:
         save_kernel(k, out)

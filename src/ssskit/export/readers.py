@@ -229,10 +229,9 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
         raise SsskitError(f"{str(p)!r} lacks the {engine} parameters ssskit writes ({exc})") from None
     from ..profiles.burley import BurleyProfile
 
-    chans = [ch for ch in prof.channels if isinstance(ch, BurleyProfile)]  # reimport gives Burley channels
-    a = np.array([ch.albedo for ch in chans])
+    chans = [ch for ch in prof.channels if isinstance(ch, BurleyProfile)]  # reimport gives Burley channels, each
+    a = np.array([ch.albedo for ch in chans])  # in Burley's domain (BurleyProfile checks A and d when made)
     d = np.array([ch.d for ch in chans])
-    _check_burley_inputs(p, engine, a, d)
     eta = data.get("IOR", data.get("ior"))
     name = str(data.get("source_profile", {}).get("name", p.stem)) if isinstance(data.get("source_profile"), dict) \
         else p.stem

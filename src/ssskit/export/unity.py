@@ -36,7 +36,6 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
-from ..quantities import LENGTH_MM, POSITIVE
 
 #: the m_Script GUID of DiffusionProfileSettings.cs (HDRP's own .asset files name it)
 SCRIPT_GUID = "b2686e09ec7aef44bad2843e4416f057"
@@ -148,8 +147,7 @@ def read_unity_asset(text: str, what: str = "the .asset file") -> dict[str, Any]
         mult, ws, ior = (float(prof[k]) for k in ("scatteringDistanceMultiplier", "worldScale", "ior"))
     except (TypeError, KeyError, ValueError):
         raise SsskitError(f"{what}: scatteringDistance, its multiplier, worldScale and ior must be numbers") from None
-    LENGTH_MM.check_array(np.array(colour) * mult, f"{what}: scatteringDistance x multiplier", SsskitError, "channels")
-    POSITIVE.check(ws, f"{what}: worldScale")
+    # (their values: ssskit.export.readers, the one reader of engine files, checks them finite, worldScale 1 and d > 0)
     return {"name": str(mb.get("m_Name", "unity")), "scatteringDistance": colour,
             "scatteringDistanceMultiplier": mult, "worldScale": ws, "ior": ior}
 
