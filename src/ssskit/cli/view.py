@@ -50,7 +50,7 @@ def view(scene: str, material: str | None, albedo: RGB | None, mfp: RGB | None, 
     names = PRESETS if presets is None else tuple(n.strip().lower() for n in presets.split(",") if n.strip())
     if names == ("none",):
         names = ()
-    names = tuple(Choice("--presets", MATERIALS.names()).check(n) for n in names)
+    names = tuple(Choice("--presets", MATERIALS.names()).check(n).lower() for n in names)
     check_scene(scene)
     if out is not None:  # (what the folder holds: write_static checks it, before any work)
         check_writable(out, "--out", folder=True)
