@@ -51,7 +51,6 @@ __all__ = [
     "SceneRef",
     "Size",
     "backend_option",
-    "check_distinct",
     "check_writable",
     "echo_json",
     "examples",
@@ -109,22 +108,6 @@ def examples(*lines: str) -> str:
 def given(ctx: click.Context, name: str) -> bool:
     """Whether the user gave parameter ``name`` (on the command line or in the environment)."""
     return ctx.get_parameter_source(name) not in (None, ParameterSource.DEFAULT, ParameterSource.DEFAULT_MAP)
-
-
-def check_distinct(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None]) -> None:
-    """Refuse an output path that is one of the input files (:func:`ssskit.io.check_distinct`) or
-    another output; ``{option: path}``, None skipped."""
-    from ..io import check_distinct as distinct, same_file
-
-    done: list[tuple[str, str | Path]] = []
-    for opt, path in outputs.items():
-        if path is None:
-            continue
-        distinct(path, *inputs.values(), what=opt)
-        other = next((o for o, earlier in done if same_file(path, earlier)), None)
-        if other is not None:
-            raise OutputError(f"{opt} {str(path)!r} is also the {other} file; choose another path")
-        done.append((opt, path))
 
 
 def check_writable(target: str | Path, opt: str, folder: bool = False) -> None:

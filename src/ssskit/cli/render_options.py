@@ -29,7 +29,8 @@ from ..pipeline.settings import (PASSES, AdaptivePass, BurleyPass, PassMember, R
                                  SettingsMigrated)
 from ..quantities import Quantity
 from ..settings import Settings
-from .options import IntPair, SettingOption, check_distinct, given, option_name, setting_option
+from ..io import check_distinct
+from .options import IntPair, SettingOption, given, option_name, setting_option
 
 _S = TypeVar("_S", bound=Settings)
 
@@ -222,8 +223,8 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
         _check_adaptive(ctx, s, still, save_gbuffer, gbuffer_file)
     _check_ignored(ctx, s)
     material_file = Path(s.material) if Path(s.material).is_file() else None
-    check_distinct({"--out": out, "--save-gbuffer": save_gbuffer},
-                   {"--scene": scene if gbuffer_file else None, "--settings": settings_file, "--material": material_file})
+    check_distinct({"--out": out, "--save-gbuffer": save_gbuffer}, scene if gbuffer_file else None, settings_file,
+                   material_file)
     _check_frames_dir(frames_dir, {"--out": out, "--save-gbuffer": save_gbuffer})
 
 
