@@ -111,7 +111,7 @@ def test_demo_order():
 def test_array_errors(kernels):
     with pytest.raises(KernelError, match="language"):
         format_shader_arrays(kernel_arrays(kernel_jimenez2012(11)), "metal")
-    with pytest.raises(KernelError, match="ships 11 taps"):
+    with pytest.raises(SamplingError, match="ships 11 taps"):  # (make_taps's rule)
         kernel_arrays(kernel_jimenez2012(11), taps=17)
     with pytest.raises(SamplingError, match="odd"):
         kernel_arrays(kernels["preintegrated"], taps=8)

@@ -65,18 +65,9 @@ def kernel_arrays(kernel: Any, taps: int | None = None, tap_method: str = "impor
     Weights are normalised so each channel's 2D kernel sums to 1 (what :func:`make_taps` returns);
     the centre tap must sit at offset 0 (the demo's pass never reads the centre tap's offset).
     """
-    from ..kernels.base import Kernel, TapKernel
     from ..sampling.taps import make_taps
 
-    if isinstance(kernel, TapKernel):
-        if taps is not None and taps != kernel.taps:
-            raise KernelError(f"the {kernel.method} kernel ships {kernel.taps} taps, not {taps} "
-                              f"(ask the kernel for {taps} taps: {kernel.method}:{taps})")
-        st = make_taps(kernel)
-    elif isinstance(kernel, Kernel):
-        st = make_taps(kernel, taps, tap_method)
-    else:
-        raise KernelError(f"shader arrays need a Kernel or TapKernel, got {type(kernel).__name__}")
+    st = make_taps(kernel, taps, tap_method)  # (it refuses what is no kernel, and a TapKernel's taps but its own)
     out = []
     for r in range(st.rank):
         o, w = demo_order(st.offsets_mm[r], st.weights[r])
