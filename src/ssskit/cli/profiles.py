@@ -204,9 +204,7 @@ def simulate(material: list[str], channel: str, photons: int, seed: int, threads
     from ..materials import get_material
     from ..profiles.montecarlo import config_for_material, simulate_many, simulate_material
 
-    names = [n for group in material for n in group]
-    if not names:
-        raise SsskitError("no material given: --material names none")
+    names = [n for group in material for n in group]  # (MaterialRef refuses a --material that names none)
     mats = [get_material(n) for n in names]
     if resume and restart:
         raise SsskitError("--resume and --restart exclude each other: --resume continues an interrupted run, "

@@ -154,10 +154,9 @@ def check_numbers(path: str | Path, value: Any, field: str) -> None:
         ENGINE_NUMBER.check(v, f"{str(path)!r}: {name}")
 
 
-def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = None) -> EngineSource:
-    """An :class:`EngineSource` from an engine file. ``expect``: the engine the caller asked for (an
-    Unreal file given where a Unity one is expected is refused, naming both). ``albedo`` (3,): the
-    surface albedo for a Unity .asset, whose profile holds none (HDRP takes it from the material)."""
+def read_engine_file(path: str | Path, albedo: Any = None) -> EngineSource:
+    """An :class:`EngineSource` from an engine file. ``albedo`` (3,): the surface albedo for a Unity .asset,
+    whose profile holds none (HDRP takes it from the material)."""
     from .engines import reimport
 
     p = Path(path)
@@ -189,8 +188,6 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
             return other(p)  # a format registered beside ssskit's own reads its JSON export
         if engine not in ENGINE_NAMES:
             raise SsskitError(f"{str(p)!r} is an export of engine {engine!r}; ssskit reads {', '.join(ENGINE_NAMES)}")
-    if expect is not None and engine != expect:
-        raise SsskitError(f"{str(p)!r} is a {engine} file, not a {expect} one")
     if engine == "unity" and suffix == ".asset":
         from .unity import read_unity_asset
 

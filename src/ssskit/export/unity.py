@@ -30,7 +30,6 @@ picker shows them sRGB-encoded (IEC 61966-2-1 transfer function), so both are gi
 
 from __future__ import annotations
 
-import re
 from typing import Any
 
 import numpy as np
@@ -71,9 +70,7 @@ def unity_asset(params: dict[str, Any], name: str) -> str:
     sd = params["scatteringDistance"]
     tr = params.get("transmission") or {}
     tint = tr.get("transmissionTint", (1.0, 1.0, 1.0))  # HDRP's defaults without the MCML fit (ResetToDefault)
-    remap = tr.get("thicknessRemap", (0.0, 5.0))
-    if not re.fullmatch(r"[^\n:#{}\[\],&*!|>'\"%@`]+", name.strip() or "?"):
-        raise SsskitError(f"the asset name {name!r} has characters a Unity asset name cannot hold")
+    remap = tr.get("thicknessRemap", (0.0, 5.0))  # (name: ssskit.export.formats.asset_name's letters, digits, _ and -)
     return "\n".join([
         "%YAML 1.1",
         "%TAG !u! tag:unity3d.com,2011:",
