@@ -331,6 +331,12 @@ def refuse_given(req: Any, names: tuple[str, ...], what: str) -> None:
         raise SsskitError(f"--{given[0].replace('_', '-')} does not apply to {what}")
 
 
+def _need_material(req: Any, artist: bool, what: str) -> None:
+    """The material a request's ``what`` needs: --material or artists' terms (one wording for every format)."""
+    if req.material is None and not artist:
+        raise SsskitError(f"{what} needs --material (or artists' terms: --albedo with --mfp or --dmfp)")
+
+
 def _artist(req: Any) -> Any:
     """The request's artists' terms (--albedo with one of --mfp or --dmfp; --eta 1.3 and --g 0 by default) as an
     :class:`~ssskit.profiles.artist.ArtistMaterial`, which checks their domain."""
@@ -367,8 +373,8 @@ def material_source(req: Any, needs: str) -> Source:
     if req.shader_pass == "burley":
         return _burley_source(req, engine_file, artist)
     kernel = _kernel_checks(req, material is not None or artist) if needs != "engine" else None
-    if needs == "engine" and material is None and not artist:
-        raise SsskitError(f"--material is required for --format {req.format}")
+    if needs == "engine":
+        _need_material(req, artist, f"--format {req.format}")
     model = req.model
     if engine_file or artist:
         used = model.lower() if model is not None else "burley"
@@ -421,8 +427,7 @@ def _named_source(req: Any, kernel: Any) -> Source:
         if req.material is not None:
             raise SsskitError(f"--model {model} is a fixed preset and takes no --material (got {req.material!r})")
         return Source(_physical(req, None, model), None, None, model, None, [], kernel)
-    if req.material is None:
-        raise SsskitError(f"--material is required for " + (f"--format {req.format}" if m is None else f"--kernel {m.name}"))
+    _need_material(req, False, f"--format {req.format}" if m is None else f"--kernel {m.name}")
     mat = get_material(req.material)
     return Source(_physical(req, mat, model), mat, None, model, None, [], kernel)
 
@@ -470,8 +475,7 @@ def _burley_source(req: Any, engine_file: bool, artist: bool) -> Source:
                  "configuration)")
     if engine_file:
         raise SsskitError("--pass burley takes a preset, a material file or artists' terms, not an engine file")
-    if req.material is None and not artist:
-        raise SsskitError("--pass burley needs --material (or artists' terms: --albedo with --mfp or --dmfp)")
+    _need_material(req, artist, "--pass burley")
     if artist:
         from ..profiles.artist import material_from_artist
 
@@ -501,9 +505,7 @@ def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
         if req.material is not None or req.albedo is not None:
             raise SsskitError("--transmission-model jimenez2010 takes no material (Jimenez et al. 2010's skin Gaussians)")
         return Source(None, None, None, None)
-    if req.material is None and req.albedo is None:
-        raise SsskitError(f"--transmission-model {tmodel} needs --material (its "
-                          f"{'MCML slab transmittance' if tmodel == 'mcml' else 'Burley profile'})")
+    _need_material(req, artist, f"--transmission-model {tmodel}")
     mat: Any = None
     if artist:
         from ..profiles.artist import material_from_artist
