@@ -104,7 +104,7 @@ BAD = [
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--out", "t.comp"],
      "--transmission-model mcml needs --material"),
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--transmission-model", "jimenez2010",
-      "--material", "skin1", "--out", "t.comp"], "jimenez2010 takes no material"),
+      "--material", "skin1", "--out", "t.comp"], "--material does not apply to --transmission-model jimenez2010"),
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--transmission-model", "unreal",
       "--albedo", "0.5", "--mfp", "1", "--out", "t.comp"], "needs a homogeneous material"),
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--material", "skin1", "--model", "dipole",

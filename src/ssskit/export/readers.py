@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import SsskitError
 from ..io import parse_document, read_input
 from ..materials import Material
-from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM
+from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM, Choice
 from .registry import FORMATS
 
 #: suffixes that hold an engine file (a .json one only when it has an "engine" key, a .py one only when it is an
@@ -38,6 +38,8 @@ ENGINE_SUFFIXES = (".json", ".asset", ".mtlx", ".py")
 #: the parameter literal of each editor script ssskit writes (ssskit.export.blender / .unreal)
 SCRIPT_LITERALS = {"blender": "PARAMS", "unreal": "SETTINGS"}
 ENGINE_NAMES = ("unreal", "unity", "blender")
+#: the models an engine file's or artists' terms' Burley parameters go through (module docstring)
+INVERSIONS = Choice("--model of an engine file or artists' terms", ("burley", "montecarlo", "dipole"))
 
 
 @dataclass(frozen=True)
@@ -376,11 +378,8 @@ def material_source(req: Any, needs: str) -> Source:
     if needs == "engine":
         _need_material(req, artist, f"--format {req.format}")
     model = req.model
-    if engine_file or artist:
-        used = model.lower() if model is not None else "burley"
-        if used not in ("burley", "montecarlo", "dipole"):
-            raise SsskitError(f"--model {model} does not apply to an engine file or artists' terms (burley, the "
-                              "Burley-fit inversion, or montecarlo / dipole through the Monte Carlo inversion)")
+    if engine_file or artist:  # burley: the Burley-fit inversion; montecarlo / dipole: the Monte Carlo inversion
+        used = INVERSIONS.check("burley" if model is None else model)
     if engine_file:
         if used == "burley":
             refuse_given(req, ("photons", "grid_fraction"), "--model burley (the Burley fit simulates nothing)")
@@ -474,7 +473,8 @@ def _burley_source(req: Any, engine_file: bool, artist: bool) -> Source:
                  "--pass burley (the shader bakes the material's Burley parameters: Xie 2020 Eq. 5, the searchlight "
                  "configuration)")
     if engine_file:
-        raise SsskitError("--pass burley takes a preset, a material file or artists' terms, not an engine file")
+        refuse_given(req, ("material",), "--pass burley as an engine file (it takes a preset, a material file or "
+                     "artists' terms)")
     _need_material(req, artist, "--pass burley")
     if artist:
         from ..profiles.artist import material_from_artist
@@ -502,8 +502,8 @@ def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
                           "transmittance model from its MCML transport; artists' terms take --model montecarlo, "
                           "the Monte Carlo inversion)")
     if tmodel == "jimenez2010":
-        if req.material is not None or req.albedo is not None:
-            raise SsskitError("--transmission-model jimenez2010 takes no material (Jimenez et al. 2010's skin Gaussians)")
+        refuse_given(req, ("material", "albedo"), "--transmission-model jimenez2010 (Jimenez et al. 2010's skin "
+                     "Gaussians: no material)")
         return Source(None, None, None, None)
     _need_material(req, artist, f"--transmission-model {tmodel}")
     mat: Any = None
