@@ -29,7 +29,7 @@ from ..pipeline.settings import (PASSES, AdaptivePass, BurleyPass, PassMember, R
                                  SettingsMigrated)
 from ..quantities import Quantity
 from ..settings import Settings
-from ..io import check_distinct
+from ..io import check_distinct, same_file
 from .options import IntPair, SettingOption, given, option_name, setting_option
 
 _S = TypeVar("_S", bound=Settings)
@@ -223,9 +223,12 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
         _check_adaptive(ctx, s, still, save_gbuffer, gbuffer_file)
     _check_ignored(ctx, s)
     material_file = Path(s.material) if Path(s.material).is_file() else None
-    check_distinct({"--out": out, "--save-gbuffer": save_gbuffer}, scene if gbuffer_file else None, settings_file,
-                   material_file)
-    _check_frames_dir(frames_dir, {"--out": out, "--save-gbuffer": save_gbuffer})
+    check_distinct({"--out": out, "--save-gbuffer": save_gbuffer, "--frames-dir": frames_dir},
+                   scene if gbuffer_file else None, settings_file, material_file)
+    for opt, path in (("--out", out), ("--save-gbuffer", save_gbuffer)):  # nor a frame file written into the folder
+        if frames_dir and path and same_file(Path(path).parent, frames_dir) and FRAME_FILE.fullmatch(Path(path).name):
+            raise OutputError(f"{opt} {str(path)!r} is one of the frame files --frames-dir writes; choose another "
+                              "name or folder")
 
 
 def _check_ignored(ctx: click.Context, s: RenderSettings) -> None:
@@ -270,23 +273,6 @@ def _check_adaptive(ctx: click.Context, s: RenderSettings, still: bool, save_gbu
 
 #: the files :class:`FrameWriter` writes into --frames-dir
 FRAME_FILE = re.compile(r"(frame_\d{4,}(_taa)?|counts_\d{4,})\.png")
-
-
-def _check_frames_dir(frames_dir: str | None, outputs: dict[str, str | None]) -> None:
-    """No other output (``{option: path}``, None skipped) may be the --frames-dir folder or one of the
-    frame files written into it (``frame_NNNN.png``, ``frame_NNNN_taa.png``, ``counts_NNNN.png``)."""
-    if frames_dir is None:
-        return
-    folder = Path(frames_dir).resolve()
-    for opt, path in outputs.items():
-        if path is None:
-            continue
-        p = Path(path).resolve()
-        if p == folder:
-            raise OutputError(f"--frames-dir {str(frames_dir)!r} is also the {opt} file; choose another folder")
-        if p.parent == folder and FRAME_FILE.fullmatch(p.name):
-            raise OutputError(f"{opt} {str(path)!r} is one of the frame files --frames-dir writes; choose another "
-                              "name or folder")
 
 
 class FrameWriter:
