@@ -123,9 +123,8 @@ def parse_export_request(body: Any, given: dict[str, str] | None = None) -> tupl
     fmt = Choice("format (an engine format)", formats).check(body.get("format"))
     suffixes = formats[fmt]["suffixes"]
     suffix = Choice(f"suffix of {fmt}", suffixes).check(suffixes[0] if body.get("suffix") is None else body["suffix"])
-    artist = "albedo" in kw or "mfp" in kw
-    if artist == (kw["material"] is not None):
-        raise RequestError(400, "give the material once: a preset name, or albedo with mfp")
+    MaterialRequest(**kw)  # the page's material rules, stated once: the material once, artists' terms together
+    artist = kw["material"] is None
     stem = "artist" if artist else Path(kw["material"]).stem.lower()
     name = f"{stem}_{fmt}{suffix}"
     if artist:
