@@ -199,9 +199,10 @@ def read_engine_file(path: str | Path, albedo: Any = None) -> EngineSource:
             raise SsskitError(f"{str(p)!r}: worldScale {u['worldScale']}: ssskit reads profiles at HDRP's worldScale 1 "
                               "(scattering distances in mm) only")
         d = np.array(u["scatteringDistance"]) * u["scatteringDistanceMultiplier"]
-        if albedo is None:
-            raise SsskitError(f"{str(p)!r}: a DiffusionProfileSettings asset holds no albedo (HDRP takes it from "
-                              "the material's base colour): give --albedo R,G,B, or read ssskit's JSON export")
+        if albedo is None:  # (so an .asset is no material by itself: every command but export refuses it here)
+            raise SsskitError(f"{str(p)!r}: a DiffusionProfileSettings asset holds no albedo (HDRP takes it from the "
+                              "material's base colour): read ssskit's JSON export of the profile (--format unity --out "
+                              f"X.json), or give the albedo: ssskit export --material {p} --albedo R,G,B ...")
         _check_burley_inputs(p, engine, np.asarray(albedo, dtype=float), d)
         return EngineSource("unity", u["name"], np.asarray(albedo, dtype=float), d, u["ior"])
     if engine == "materialx":
@@ -210,8 +211,6 @@ def read_engine_file(path: str | Path, albedo: Any = None) -> EngineSource:
         m = read_materialx(p)
         return EngineSource("materialx", str(m["name"]), m["albedo"], m["d_mm"], m["eta"], mfp_mm=m["mfp_mm"],
                             g=m["g"])
-    if not isinstance(data, dict):
-        raise SsskitError(f"{str(p)!r} lacks the {engine} parameters ssskit writes (not an object)")
     check_numbers(p, {k: v for k, v in data.items() if k not in ("sources", "lost")}, "")
     clamps: tuple[str, ...] = ()
     try:
@@ -284,12 +283,7 @@ def engine_material(path: str | Path) -> Material:
     """The physical material of an engine file ssskit wrote (the Monte Carlo inversion,
     :meth:`EngineSource.material`): the reader :func:`ssskit.materials.get_material` uses for engine files (it is
     registered in :data:`ssskit.materials.MATERIAL_READERS` when this module is imported)."""
-    if Path(path).suffix.lower() == ".asset":
-        raise SsskitError(f"{str(path)!r}: an HDRP DiffusionProfileSettings asset holds no albedo (HDRP takes it from "
-                          "the material's base colour), so it is no material by itself: read ssskit's JSON export of "
-                          "the profile (--format unity --out X.json), or give the albedo: ssskit export --material "
-                          f"{path} --albedo R,G,B --format unity --out X.json")
-    return read_engine_file(path).material()
+    return read_engine_file(path).material()  # (an .asset alone is refused there: it holds no albedo)
 
 
 def _register() -> None:
