@@ -203,12 +203,11 @@ def simulate(material: list[str], channel: str, photons: int, seed: int, threads
     from ..io import save_arrays
     from ..materials import get_material
     from ..profiles.montecarlo import config_for_material, simulate_many, simulate_material
+    from ..profiles.montecarlo.run import check_resume
 
     names = [n for group in material for n in group]  # (MaterialRef refuses a --material that names none)
     mats = [get_material(n) for n in names]
-    if resume and restart:
-        raise SsskitError("--resume and --restart exclude each other: --resume continues an interrupted run, "
-                          "--restart discards it")
+    check_resume(resume, restart)  # the engine's rule, before any bar is shown
     if no_cache and (resume or restart):
         raise SsskitError(f"{'--resume' if resume else '--restart'} acts on the on-disk cache; it cannot be "
                           "combined with --no-cache")

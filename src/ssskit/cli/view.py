@@ -9,7 +9,7 @@ import click
 
 from ..errors import SsskitError
 from ..quantities import Choice
-from .options import RGBFloats, examples
+from .options import OutputDir, RGBFloats, examples
 
 RGB = tuple[float, float, float]
 
@@ -29,7 +29,7 @@ RGB = tuple[float, float, float]
 @click.option("--port", type=click.IntRange(0, 65535), default=8765, show_default=True,
               help="The port on 127.0.0.1 (0: any free port).")
 @click.option("--no-open", is_flag=True, help="Do not open a browser.")
-@click.option("--out", "out", default=None, type=click.Path(file_okay=False),
+@click.option("--out", "out", default=None, type=OutputDir(),
               help="Write a static folder (works from file://, presets precomputed) instead of serving.")
 @click.option("--presets", default=None,
               help="--out: the presets precomputed beside the material, NAME,NAME... (default: "
@@ -40,7 +40,6 @@ def view(scene: str, material: str | None, albedo: RGB | None, mfp: RGB | None, 
     fragment shaders ssskit export writes, composite and tone mapping, with per-pass frame times."""
     from ..materials import MATERIALS
     from ..view.site import PRESETS, MaterialRequest, check_scene, page_data, write_static
-    from .options import check_writable
 
     # the request states its rules once (MaterialRequest.check: the material once, artists' terms together); an
     # empty --material is refused by name (MaterialRequest.resolve), not taken for the default
@@ -51,9 +50,7 @@ def view(scene: str, material: str | None, albedo: RGB | None, mfp: RGB | None, 
     if names == ("none",):
         names = ()
     names = tuple(Choice("--presets", MATERIALS.names()).check(n).lower() for n in names)
-    check_scene(scene)
-    if out is not None:  # (what the folder holds: write_static checks it, before any work)
-        check_writable(out, "--out", folder=True)
+    check_scene(scene)  # (--out: a writable folder, OutputDir; what it holds: write_static, before any work)
     key = "artist" if req.material is None else str(req.material).lower()
     req.resolve()  # an unknown preset or a bad file fails here, before any work
     mats = {key: req}
