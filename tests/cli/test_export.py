@@ -116,7 +116,7 @@ BAD = [
     (["export", "--format", "unity", "--pass", "transmission", "--material", "skin1", "--out", "u.json"],
      "--pass applies to --format glsl-shader or hlsl-shader, not --format unity"),
     (["export", "--format", "glsl-shader", "--transmission-model", "unreal", "--kernel", "jimenez2012",
-      "--out", "k.comp"], "--transmission-model applies with --pass transmission"),
+      "--out", "k.comp"], "--transmission-model applies to --pass transmission"),
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--material", "skin1", "--out", "t.hlsl"],
      "must end in"),
     (["export", "--format", "glsl-shader", "--pass", "bogus", "--material", "skin1", "--out", "t.comp"],

@@ -71,7 +71,7 @@ def test_bad_mesh_input(run, meshes, command, args, fragment):
 
 def test_figures_scene_options_need_a_figure_that_renders_a_scene(run, meshes):
     code, _, err = run("figures", "fig7", "--scene", "ball.ply", "--out", "figs")
-    assert code == 2 and "apply to the figures that render a scene (xie-fig1), not to fig7" in err
+    assert code == 2 and "applies to figure xie-fig1, not figure fig7" in err
 
 
 def test_demo_needs_scene_for_units(run, meshes):

@@ -65,7 +65,7 @@ EXPORT_BAD = [
     (["--material", "skin1", "--pass", "burley", "--model", "dipole", "--format", "glsl-shader", "--out", "b.frag"],
      "--model does not apply to --pass burley"),
     (["--material", "skin1", "--pass", "burley", "--transmission-model", "mcml", "--format", "glsl-shader",
-      "--out", "b.frag"], "--transmission-model applies with --pass transmission"),
+      "--out", "b.frag"], "--transmission-model applies to --pass transmission"),
     (["--albedo", "nan,0.6,0.5", "--mfp", MFP, "--pass", "burley", "--format", "glsl-shader", "--out", "b.frag"],
      "albedo must lie in (0, 1]"),
 ]

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from ..errors import SsskitError
-from ..quantities import KERNEL_CELLS
+from ..quantities import KERNEL_CELLS, refuse_unused
 
 if TYPE_CHECKING:
     from ..kernels import AnyKernel, KernelMethod
@@ -82,9 +82,7 @@ def method_parameters(method_spec: str, values: dict[str, str | None]) -> tuple[
         flag = _option_flag(dest)
         param = PRIMARY_OPTIONS[dest][0]
         if m.primary != param:
-            hint = (f"; its parameter is {_option_flag(_dest_of(m.primary))}" if m.primary
-                    else "; it takes no parameter")
-            raise SsskitError(f"{flag} does not apply to --method {m.name}{hint}")
+            refuse_unused([flag], "--method", PRIMARY_OPTIONS[dest][1], m.name)
         try:
             value = m.parse(text)
             check_params(m, {param: value})
@@ -107,10 +105,6 @@ def kernel_label(method: KernelMethod, params: dict[str, Any], kernel: AnyKernel
     if value is None:
         value = inspect.signature(method.builder).parameters[method.primary].default
     return f"{method.name}:{value}"
-
-
-def _dest_of(param: str) -> str:
-    return next(d for d, (p, _) in PRIMARY_OPTIONS.items() if p == param)
 
 
 @click.command(epilog=examples(

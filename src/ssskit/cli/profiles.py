@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import click
 
 from ..errors import SsskitError
-from ..quantities import LENGTH_MM
+from ..quantities import LENGTH_MM, refuse_unused
 
 if TYPE_CHECKING:
     from ..materials import LayeredMaterial, Material
@@ -62,7 +62,7 @@ def resolve_profile(ctx: click.Context, material: str | Material | LayeredMateri
     whose factory (the MODELS registry) takes its parameter; given for another model, it is refused.
     Returns a function that computes the profile (all checks are done first).
     """
-    from ..profiles import MATERIAL_FREE_MODELS, profile_for_material
+    from ..profiles import MATERIAL_FREE_MODELS, MODELS, profile_for_material
 
     params = model_parameters(model)
     kwargs = {}
@@ -70,7 +70,8 @@ def resolve_profile(ctx: click.Context, material: str | Material | LayeredMateri
         if param in params:
             kwargs[param] = value
         elif given(ctx, name):
-            raise SsskitError(f"{option_name(ctx, name)} does not apply to --model {model}")
+            refuse_unused([option_name(ctx, name)], "--model", [m for m in MODELS.names() if param in model_parameters(m)],
+                          model)
     free = model.lower() in MATERIAL_FREE_MODELS
     return lambda: profile_for_material(None if free else material, model, **kwargs)
 
@@ -110,9 +111,8 @@ def profile(ctx: click.Context, material: str | None, model: str, configuration:
     from ..io import save_profile_table
 
     check_material_for_model(ctx, material, model)
-    if albedo_source == "dipole" and model.lower() == "burley" and given(ctx, "photons"):
-        raise SsskitError("--photons does not apply to --albedo-source dipole (A from the dipole's closed form, no "
-                          "Monte Carlo run)")
+    if albedo_source == "dipole" and model.lower() == "burley" and given(ctx, "photons"):  # (A: the dipole's closed form)
+        refuse_unused(["--photons"], "--albedo-source", ("montecarlo",), albedo_source)
     if r_max is not None:
         LENGTH_MM.within(hi=R_MAX_MM, reason="10 times the longest mean free path a model takes").check(r_max, "--r-max")
     make = resolve_profile(ctx, material, model, {"configuration": ("configuration", configuration),
@@ -217,9 +217,8 @@ def simulate(material: list[str], channel: str, photons: int, seed: int, threads
     if not single and (no_cache or threads is not None or grid_fraction is not None or backend != "numba"):
         raise SsskitError("--no-cache, --threads, --backend and --grid-fraction apply to a single material (a sweep "
                           "runs one numba thread per job)")
-    if backend == "gl" and threads is not None:
-        raise SsskitError("--threads does not apply to --backend gl (the GLSL engine runs on the GPU or llvmpipe, "
-                          "not on numba's threads)")
+    if backend == "gl" and threads is not None:  # (the GLSL engine runs on the GPU or llvmpipe, not numba's threads)
+        refuse_unused(["--threads"], "--backend", ("numba",), backend)
     for m in mats:  # photons, seed and batch size checked by the engine's own configuration, before any work
         config_for_material(m, 0, photons, seed, batch_size, roughness=roughness)
     if single:

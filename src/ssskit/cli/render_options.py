@@ -27,7 +27,7 @@ from ..errors import OutputError, SettingsError, SsskitError
 from ..pipeline.adaptive import AdaptiveFrame
 from ..pipeline.settings import (PASSES, AdaptivePass, BurleyPass, PassMember, RenderSettings, SeparablePass,
                                  SettingsMigrated)
-from ..quantities import Quantity
+from ..quantities import Quantity, refuse_unused
 from ..settings import Settings
 from ..io import check_distinct, same_file
 from .options import IntPair, SettingOption, given, option_name, setting_option
@@ -96,10 +96,9 @@ def pass_of(ctx: click.Context, pass_name: str | None, method: str | None, base:
     for other, options in own(ctx.command.params).items():
         mine = other == name or (other == "burley" and burley)
         for opt in () if mine else options:
-            if given(ctx, opt):
+            if given(ctx, opt):  # (the one wording of an option that what runs does not use)
                 flag = "--taa/--no-taa" if opt == "taa" else option_name(ctx, opt)
-                target = "burley" if other == "burley" else other
-                raise SsskitError(f"{flag} applies to --pass {target}")
+                refuse_unused([flag], "--pass", ("burley" if other == "burley" else other,), name, SsskitError)
     return name
 
 

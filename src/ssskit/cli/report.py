@@ -8,6 +8,7 @@ import click
 
 from ..backends import DEFAULT_BACKEND
 from ..errors import SsskitError
+from ..quantities import refuse_unused
 from .options import (
     DEFAULT_MODEL,
     DEFAULT_PHOTONS,
@@ -72,10 +73,9 @@ def figures(ctx: click.Context, names: tuple[str, ...], material: str | None, mo
     if scene is not None or units or material_map:
         chosen = list(names) or FIGURES.names()
         takers = [n for n in chosen if renders_a_scene(FIGURES.get(n))]
-        if not takers:
-            raise SsskitError(f"--scene, --units and --material-map apply to the figures that render a scene "
-                              f"({', '.join(n for n in FIGURES.names() if renders_a_scene(FIGURES.get(n)))}), "
-                              f"not to {', '.join(chosen)}")
+        if not takers:  # the figures that render a scene take them
+            refuse_unused([f for f, v in (("--scene", scene), ("--units", units), ("--material-map", material_map)) if v],
+                          "figure", [n for n in FIGURES.names() if renders_a_scene(FIGURES.get(n))], ", ".join(chosen))
         value = "bust" if scene is None else scene
         resolve_scene_value(value, units, material_map, view="front")  # every check before any work
         scene_kw = {"scene": str(value), "units": units[0] if units else None, "material_map": material_map,

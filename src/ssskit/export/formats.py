@@ -146,7 +146,7 @@ def with_comment(text: str, comment: str, stage: str) -> str:
 
 def _shader_check(req: ExportSettings, source: Any) -> None:
     if req.given("transmission_model") and req.shader_pass != "transmission":
-        raise SsskitError("--transmission-model applies with --pass transmission")
+        refuse_unused(["--transmission-model"], "--pass", ("transmission",), req.shader_pass or "separable")
     if req.shader_pass == "burley" and req.format != "glsl-shader":
         raise SsskitError("--pass burley is written as GLSL (--format glsl-shader: .comp, or .frag for the fragment "
                           "form)")
