@@ -33,7 +33,7 @@ BAD = [
     (["--port", "70000", "--no-open"], "--port"),
     (["--port", "-1", "--no-open"], "--port"),
     (["--port", "http", "--no-open"], "--port"),
-    (["--presets", "skin1", "--no-open"], "--presets applies to --out"),
+    (["--presets", "skin1", "--no-open"], "--presets applies to a static folder (--out), not a served page"),
     (["--out", "site", "--presets", "skin1,nosuch", "--no-open"], "--presets must be one of"),
     (["--out", "f.txt", "--no-open"], "f.txt"),
     (["--out", "f.txt/site", "--no-open"], "f.txt"),

@@ -214,10 +214,9 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
     gbuffer_file = isinstance(scene, Path) and scene.suffix.lower() == ".exr"
     still = gbuffer_file or _mesh_scene(scene)  # a G-buffer or a mesh scene: one still camera
     name = s.pass_name
-    for opt in (SCENE_ONLY if name == "separable" else ("size",)) if gbuffer_file else ():
-        if given(ctx, opt):
-            raise SsskitError(f"{option_name(ctx, opt)} applies to a built-in scene; the G-buffer file "
-                              f"{str(scene)!r} has its own")
+    if gbuffer_file:  # (it has its own size and samples)
+        refuse_unused([option_name(ctx, o) for o in (SCENE_ONLY if name == "separable" else ("size",)) if given(ctx, o)],
+                      "a", ("built-in scene",), f"G-buffer file {str(scene)!r}", SsskitError)
     if name == "burley-adaptive":
         _check_adaptive(ctx, s, still, save_gbuffer, gbuffer_file)
     _check_ignored(ctx, s)

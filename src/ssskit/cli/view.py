@@ -8,7 +8,7 @@ from typing import Any
 import click
 
 from ..errors import SsskitError
-from ..quantities import Choice
+from ..quantities import Choice, refuse_unused
 from .options import OutputDir, RGBFloats, examples
 
 RGB = tuple[float, float, float]
@@ -45,7 +45,7 @@ def view(scene: str, material: str | None, albedo: RGB | None, mfp: RGB | None, 
     # empty --material is refused by name (MaterialRequest.resolve), not taken for the default
     req = MaterialRequest("skin1" if material is None and albedo is None and mfp is None else material, albedo, mfp)
     if presets is not None and out is None:
-        raise SsskitError("--presets applies to --out (a served page asks the server for any preset)")
+        refuse_unused(["--presets"], "a", ("static folder (--out)",), "served page, which asks the server for any preset")
     names = PRESETS if presets is None else tuple(n.strip().lower() for n in presets.split(",") if n.strip())
     if names == ("none",):
         names = ()
