@@ -76,7 +76,7 @@ def test_figures_scene_options_need_a_figure_that_renders_a_scene(run, meshes):
 
 def test_demo_needs_scene_for_units(run, meshes):
     code, _, err = run("demo", "--units", "mm", "--out", "demo")
-    assert code == 2 and "--units and --material-map need --scene" in err
+    assert code == 2 and "--units applies to a demo with --scene, not a demo without one" in err
 
 
 def test_demo_section_of_your_model(tmp_path, monkeypatch):

@@ -121,8 +121,9 @@ def demo(out: str, photons: int | None, full: bool, backend: str, material: tupl
     get_backend(backend)  # can it run here? checked before any work
     scene_kw = None
     if scene is not None or units or material_map:
-        if scene is None:
-            raise SsskitError("--units and --material-map need --scene (the model of the demo's last section)")
+        if scene is None:  # (--scene: the model of the demo's last section)
+            refuse_unused([f for f, v in (("--units", units), ("--material-map", material_map)) if v], "a",
+                          ("demo with --scene",), "demo without one")
         resolve_scene_value(scene, units, material_map, view="front")  # every check before any work
         scene_kw = {"scene": str(scene), "units": units[0] if units else None, "material_map": material_map}
     click.echo(f"ssskit demo: writing the report to {out}/", err=True)
