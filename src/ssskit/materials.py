@@ -252,6 +252,19 @@ ARTIST_PRESETS.register(
 )
 
 
+def homogeneous(material: Any, what: str) -> Material:
+    """``material`` if it is one homogeneous medium (a :class:`Material`), else a :class:`MaterialError` in one
+    wording for every user of a single medium (``what``: who needs it, and where to get one)."""
+    if not isinstance(material, Material):
+        raise MaterialError(f"{what} needs one homogeneous medium, not {_describe_material(material)}")
+    return material
+
+
+def _describe_material(material: Any) -> str:
+    return (f"the layered material {material.name!r}" if isinstance(material, LayeredMaterial)
+            else "Burley parameters without coefficients")
+
+
 # ---- loading ---------------------------------------------------------------------------------
 
 _FILE_KEYS = {"name", "sigma_a", "sigma_s", "g", "eta", "thickness_mm", "eta_ambient", "unit", "units"}

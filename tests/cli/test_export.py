@@ -106,7 +106,7 @@ BAD = [
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--transmission-model", "jimenez2010",
       "--material", "skin1", "--out", "t.comp"], "--material does not apply to --transmission-model jimenez2010"),
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--transmission-model", "unreal",
-      "--albedo", "0.5", "--mfp", "1", "--out", "t.comp"], "needs a homogeneous material"),
+      "--albedo", "0.5", "--mfp", "1", "--out", "t.comp"], "needs one homogeneous medium, not Burley parameters without coefficients"),
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--material", "skin1", "--model", "dipole",
       "--out", "t.comp"], "--model dipole does not apply to --pass transmission"),
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--transmission-model", "jimenez2010",

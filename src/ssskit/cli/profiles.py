@@ -214,9 +214,10 @@ def simulate(material: list[str], channel: str, photons: int, seed: int, threads
     single = len(mats) == 1 and scheduler is None
     if out and len(mats) > 1:
         raise SsskitError("--out takes a single material; use --json for a sweep")
-    if not single and (no_cache or threads is not None or grid_fraction is not None or backend != "numba"):
-        raise SsskitError("--no-cache, --threads, --backend and --grid-fraction apply to a single material (a sweep "
-                          "runs one numba thread per job)")
+    if not single:  # (a sweep runs one numba thread per job)
+        refuse_unused([f for f, on in (("--no-cache", no_cache), ("--threads", threads is not None), ("--backend", backend
+                       != "numba"), ("--grid-fraction", grid_fraction is not None)) if on], "a", ("single material",),
+                      "sweep (one numba thread per job)")
     if backend == "gl" and threads is not None:  # (the GLSL engine runs on the GPU or llvmpipe, not numba's threads)
         refuse_unused(["--threads"], "--backend", ("numba",), backend)
     for m in mats:  # photons, seed and batch size checked by the engine's own configuration, before any work

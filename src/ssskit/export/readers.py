@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import SsskitError
 from ..io import parse_document, read_input
-from ..materials import Material
+from ..materials import Material, homogeneous
 from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM, Choice
 from .registry import FORMATS
 
@@ -461,8 +461,6 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
 def _burley_source(req: Any, engine_file: bool, artist: bool) -> Source:
     """``shader_pass="burley"``: the material of the Burley pass's shader (a homogeneous one: its Burley
     parameters, :func:`ssskit.screenspace.burley.burley_params_for_material`, are baked in)."""
-    from ..materials import Material
-
     refuse_given(req, ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction", "model"),
                  "--pass burley (the shader bakes the material's Burley parameters: Xie 2020 Eq. 5, the searchlight "
                  "configuration)")
@@ -478,16 +476,13 @@ def _burley_source(req: Any, engine_file: bool, artist: bool) -> Source:
         from ..materials import get_material
 
         mat = get_material(req.material)
-    if not isinstance(mat, Material):
-        raise SsskitError("--pass burley needs a homogeneous material (a preset, a material file or artists' terms)")
+    mat = homogeneous(mat, "--pass burley (a preset, a material file or artists' terms)")
     return Source(None, mat, mat.name, None)
 
 
 def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
     """``shader_pass="transmission"``: the material of the transmittance pass's shader (a homogeneous one,
     except for jimenez2010, which takes none)."""
-    from ..materials import Material
-
     tmodel = req.transmission_model or "mcml"
     refuse_given(req, ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction"),
                  "--pass transmission (the shader bakes the material's transmittance model)")
@@ -511,9 +506,8 @@ def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
         from ..materials import get_material
 
         mat = get_material(req.material)
-    if not isinstance(mat, Material):
-        raise SsskitError(f"--transmission-model {tmodel} needs a homogeneous material (a preset, a material file, "
-                          "or artists' terms with --model montecarlo)")
+    mat = homogeneous(mat, f"--transmission-model {tmodel} (a preset, a material file, or artists' terms with "
+                      "--model montecarlo)")
     return Source(None, mat, mat.name, None)
 
 
