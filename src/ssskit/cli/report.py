@@ -113,8 +113,8 @@ def demo(out: str, photons: int | None, full: bool, backend: str, material: tupl
     from ..profiles.domain import check_montecarlo
     from ..report import DEMO_PHOTONS, build_report
 
-    if full and photons is not None:
-        raise SsskitError("give either --full or --photons, not both")
+    if full and photons is not None:  # (--full simulates at the supplement's 10^7 photons)
+        refuse_unused(["--photons"], "a", ("demo without --full",), "--full demo")
     names = [n for group in material for n in group] or None
     for n in names or []:
         check_montecarlo(get_material(n))  # the ranking's profiles are Monte Carlo ones

@@ -47,6 +47,8 @@ REFERENCE_KEYS = frozenset({"view", "material", "w", "h"})
 EXPORT_KEYS = frozenset({"material", "albedo", "mfp", "format", "suffix"})
 #: a side of the page's frame (a reference request's w and h)
 PAGE_SIDE = Quantity("page size", 1, 8192, "px", "a side of the page's frame", integer=True)
+#: a number of artists' terms in a body: one or three (R, G, B), finite
+REAL = Quantity("number", -math.inf, math.inf, "", "a finite number", lo_open=True, hi_open=True)
 _TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=utf-8", ".css": "text/css; charset=utf-8"}
 
 
@@ -56,16 +58,6 @@ class RequestError(Exception):
     def __init__(self, status: int, reason: str) -> None:
         super().__init__(reason)
         self.status = status
-
-
-def _triple(name: str, value: Any) -> tuple[float, float, float]:
-    """A list of 3 finite numbers, or a :class:`RequestError` in the quantities' type wording."""
-    from ..quantities import TYPE
-
-    if not isinstance(value, list) or len(value) != 3 or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value):
-        raise RequestError(400, TYPE.format(name=name, kind="a list of 3 finite numbers", actual=repr(value)))
-    return (float(value[0]), float(value[1]), float(value[2]))
 
 
 def _material_keys(body: Any, allowed: frozenset[str], given: dict[str, str] | None = None) -> dict[str, Any]:
@@ -83,7 +75,7 @@ def _material_keys(body: Any, allowed: frozenset[str], given: dict[str, str] | N
     kw: dict[str, Any] = {"material": material}
     for key in ("albedo", "mfp"):
         if key in body:
-            kw[key] = _triple(key, body[key])
+            kw[key] = REAL.check_rgb(body[key], key)  # (their domain: MaterialRequest's, check_artist)
     return kw
 
 
