@@ -265,13 +265,10 @@ def _materialx(job: Job) -> str:
 def _medium(src: Any) -> Any:
     """The one homogeneous medium OpenPBR describes: the material, or for artists' terms or an engine file under
     Burley the Monte Carlo inversion's; a layered material has none."""
-    from ..materials import Material
+    from ..materials import homogeneous
 
     mat = src.material if src.material is not None else (src.physical() if src.physical is not None else None)
-    if not isinstance(mat, Material):
-        raise SsskitError("--format materialx writes OpenPBR's one homogeneous subsurface medium; a layered material "
-                          "has none (export its layers' materials)")
-    return mat
+    return homogeneous(mat, "--format materialx (OpenPBR's one subsurface medium: export a layer's material)")
 
 
 def _materialx_check(req: ExportSettings, source: Any) -> None:
