@@ -58,7 +58,7 @@ def test_view_bad_input(run, workdir, monkeypatch, args, fragment):  # noqa: F81
 
 #: ``ssskit export --pass burley`` (the viewer's Burley shader): GLSL only, a homogeneous material, no kernel options
 EXPORT_BAD = [
-    (["--material", "skin1", "--pass", "burley", "--format", "hlsl-shader", "--out", "b.hlsl"], "is written as GLSL"),
+    (["--material", "skin1", "--pass", "burley", "--format", "hlsl-shader", "--out", "b.hlsl"], "--pass burley applies to --format glsl-shader, not --format hlsl-shader"),
     (["--pass", "burley", "--format", "glsl-shader", "--out", "b.frag"], "needs --material"),
     (["--material", "skin1", "--pass", "burley", "--taps", "7", "--format", "glsl-shader", "--out", "b.frag"],
      "--taps does not apply to --pass burley"),

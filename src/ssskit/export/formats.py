@@ -147,9 +147,8 @@ def with_comment(text: str, comment: str, stage: str) -> str:
 def _shader_check(req: ExportSettings, source: Any) -> None:
     if req.given("transmission_model") and req.shader_pass != "transmission":
         refuse_unused(["--transmission-model"], "--pass", ("transmission",), req.shader_pass or "separable")
-    if req.shader_pass == "burley" and req.format != "glsl-shader":
-        raise SsskitError("--pass burley is written as GLSL (--format glsl-shader: .comp, or .frag for the fragment "
-                          "form)")
+    if req.shader_pass == "burley" and req.format != "glsl-shader":  # (.comp, or .frag for the fragment form)
+        refuse_unused(["--pass burley"], "--format", ("glsl-shader",), req.format)
     if req.format == "hlsl-shader":
         from .shaders import tools_available
 
