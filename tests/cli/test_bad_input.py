@@ -406,7 +406,7 @@ def test_the_kernel_header_names_the_preset_built(run):
 
 
 @pytest.mark.parametrize("content, fragment", [
-    ("width = 64\nheight = 48\n", "does not apply to the G-buffer file"),
+    ("width = 64\nheight = 48\n", "applies to a built-in scene, not a G-buffer file"),
     ("method = 'separable'\n[burley]\nspp = 8\n", "never reads it"),
 ])
 def test_settings_a_gbuffer_render_would_ignore(run, workdir, gbuffer_file, content, fragment):

@@ -34,7 +34,7 @@ from .options import (
     progress,
     signal_option,
 )
-from .profiles import check_material_for_model, resolve_profile
+from .profiles import resolve_profile
 
 #: options of ``kernel`` itself; a method parameter of the same name is offered as --<method>-<name>
 _OWN = {"material", "method", "model", "photons", "size", "json", "out", "help"}
@@ -138,8 +138,7 @@ def kernel(ctx: click.Context, material: str | None, method_spec: str, model: st
                                                ("--photons", given(ctx, "photons"))) if on], material is not None,
                            "--method")
     if material is not None or m.needs_profile:  # (a material-free model's profile needs none)
-        check_material_for_model(ctx, material, model, f"--method {m.name}")
-        prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
+        prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)}, f"--method {m.name}")()
     k = build_kernel(m.name, prof, n=grid_n, **params)
     if out:
         save_kernel(k, out)
@@ -184,7 +183,6 @@ def evaluate(ctx: click.Context, material: str | None, signal: str, methods: lis
 
     if not no_perceptual:  # before the profile (an MCML run) and the kernels
         check_ssim_size(size, size, f"--size {size}: ", "; give a larger --size, or --no-perceptual")
-    check_material_for_model(ctx, material, model)
     prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
     ev = run(prof, signal, methods, size=size, perceptual=not no_perceptual,
              progress=lambda m: progress(f"method {m}"))  # on stderr in every mode, --json included

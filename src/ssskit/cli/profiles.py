@@ -43,27 +43,23 @@ def model_parameters(model: str) -> set[str]:
             if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
 
 
-def check_material_for_model(ctx: click.Context, material: str | None, model: str, needed_by: str = "") -> None:
-    """--material is refused by a material-free model (deon2007) and required by every other one."""
-    from ..profiles import MATERIAL_FREE_MODELS
-
-    if model.lower() in MATERIAL_FREE_MODELS:
-        if material is not None and given(ctx, "material"):
-            raise SsskitError(f"--model {model} is a fixed preset and takes no --material (got {material!r})")
-    elif material is None:
-        raise SsskitError(f"--material is required for {needed_by or f'--model {model}'}")
-
-
 def resolve_profile(ctx: click.Context, material: str | Material | LayeredMaterial | None, model: str,
-                    options: dict[str, tuple[str, object]]) -> Callable[[], RGBProfile]:
-    """The profile of ``model`` for ``material``, passing each option the model takes.
+                    options: dict[str, tuple[str, object]], needed_by: str = "") -> Callable[[], RGBProfile]:
+    """The profile of ``model`` for ``material``, passing each option the model takes: every command's one
+    statement of the model's rules.
 
-    ``options``: {click parameter name: (factory parameter, value)}. An option applies to the models
-    whose factory (the MODELS registry) takes its parameter; given for another model, it is refused.
-    Returns a function that computes the profile (all checks are done first).
+    --material is refused by a material-free model (deon2007) and required by every other one (``needed_by``: what
+    needs it, ``--model M`` by default). ``options``: {click parameter name: (factory parameter, value)}. An option
+    applies to the models whose factory (the MODELS registry) takes its parameter; given for another model, it is
+    refused. Returns a function that computes the profile (all checks are done first).
     """
     from ..profiles import MATERIAL_FREE_MODELS, MODELS, profile_for_material
 
+    free = model.lower() in MATERIAL_FREE_MODELS
+    if free and material is not None and given(ctx, "material"):
+        raise SsskitError(f"--model {model} is a fixed preset and takes no --material (got {material!r})")
+    if not free and material is None:
+        raise SsskitError(f"--material is required for {needed_by or f'--model {model}'}")
     params = model_parameters(model)
     kwargs = {}
     for name, (param, value) in options.items():
@@ -72,7 +68,6 @@ def resolve_profile(ctx: click.Context, material: str | Material | LayeredMateri
         elif given(ctx, name):
             refuse_unused([option_name(ctx, name)], "--model", [m for m in MODELS.names() if param in model_parameters(m)],
                           model)
-    free = model.lower() in MATERIAL_FREE_MODELS
     return lambda: profile_for_material(None if free else material, model, **kwargs)
 
 
@@ -110,7 +105,6 @@ def profile(ctx: click.Context, material: str | None, model: str, configuration:
 
     from ..io import save_profile_table
 
-    check_material_for_model(ctx, material, model)
     if albedo_source == "dipole" and model.lower() == "burley" and given(ctx, "photons"):  # (A: the dipole's closed form)
         refuse_unused(["--photons"], "--albedo-source", ("montecarlo",), albedo_source)
     if r_max is not None:

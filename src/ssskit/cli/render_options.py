@@ -31,6 +31,7 @@ from ..quantities import Quantity, refuse_unused
 from ..settings import Settings
 from ..io import check_distinct, same_file
 from .options import IntPair, SettingOption, given, option_name, setting_option
+from .profiles import resolve_profile
 
 _S = TypeVar("_S", bound=Settings)
 
@@ -219,7 +220,9 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
                       "a", ("built-in scene",), f"G-buffer file {str(scene)!r}", SsskitError)
     if name == "burley-adaptive":
         _check_adaptive(ctx, s, still, save_gbuffer, gbuffer_file)
-    _check_ignored(ctx, s)
+    # options that would be accepted and silently ignored, refused by the model commands' one statement of the model's
+    # rules (resolve_profile): --material with a fixed preset, --photons with a model that simulates nothing
+    resolve_profile(ctx, s.material, s.model, {"photons": ("photons", s.photons)})
     material_file = Path(s.material) if Path(s.material).is_file() else None
     check_distinct({"--out": out, "--save-gbuffer": save_gbuffer, "--frames-dir": frames_dir},
                    scene if gbuffer_file else None, settings_file, material_file)
@@ -227,15 +230,6 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
         if frames_dir and path and same_file(Path(path).parent, frames_dir) and FRAME_FILE.fullmatch(Path(path).name):
             raise OutputError(f"{opt} {str(path)!r} is one of the frame files --frames-dir writes; choose another "
                               "name or folder")
-
-
-def _check_ignored(ctx: click.Context, s: RenderSettings) -> None:
-    """Options that would be accepted and silently ignored, refused by the model commands' rules (one place,
-    :mod:`ssskit.cli.profiles`): --material with a fixed preset, --photons with a model that simulates nothing."""
-    from .profiles import check_material_for_model, resolve_profile
-
-    check_material_for_model(ctx, s.material, s.model)
-    resolve_profile(ctx, s.material, s.model, {"photons": ("photons", s.photons)})
 
 
 def _mesh_scene(scene: Any) -> bool:

@@ -24,7 +24,7 @@ from .options import (
     resolve_scene_value,
     scene_mesh_options,
 )
-from .profiles import check_material_for_model, resolve_profile
+from .profiles import resolve_profile
 
 
 class _FiguresCommand(click.Command):
@@ -67,7 +67,6 @@ def figures(ctx: click.Context, names: tuple[str, ...], material: str | None, mo
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
         raise SsskitError(f"figure {', '.join(twice)} named more than once; name each figure once")
-    check_material_for_model(ctx, material, model)
     get_backend(backend)  # can it run here? checked before any work
     scene_kw = None
     if scene is not None or units or material_map:
