@@ -82,7 +82,7 @@ BAD = [
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--tap-method", "uniform"],
      "ships its own taps"),
     (["export", "--format", "bn", "--out", "k.bn", "--kernel", "preintegrated", "--material", "skin1",
-      "--tap-method", "uniform"], "--format bn writes no taps"),
+      "--tap-method", "uniform"], "--tap-method does not apply to --format bn, which writes no taps"),
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--model", "burley"],
      "--model does not apply to --kernel jimenez2012, a fixed engine kernel that reads no profile"),
     (["export", "--format", "hlsl", "--out", "f.txt/k.hlsl", "--kernel", "jimenez2012"], "'f.txt' is not a folder"),

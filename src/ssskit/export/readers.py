@@ -203,7 +203,10 @@ def read_engine_file(path: str | Path, albedo: Any = None) -> EngineSource:
             raise SsskitError(f"{str(p)!r}: a DiffusionProfileSettings asset holds no albedo (HDRP takes it from the "
                               "material's base colour): read ssskit's JSON export of the profile (--format unity --out "
                               f"X.json), or give the albedo: ssskit export --material {p} --albedo R,G,B ...")
-        _check_burley_inputs(p, engine, np.asarray(albedo, dtype=float), d)
+        # Burley's domain (module docstring: HDRP's reader has no cited clamp ssskit could apply): A in (0, 1], d > 0
+        BURLEY_ALBEDO.check_array(np.asarray(albedo, dtype=float).reshape(-1)[:3], f"{str(p)!r}: the unity albedo",
+                                  SsskitError, "channels")
+        LENGTH_MM.check_array(d, f"{str(p)!r}: Burley's d", SsskitError, "channels")
         return EngineSource("unity", u["name"], np.asarray(albedo, dtype=float), d, u["ior"])
     if engine == "materialx":
         from .materialx import read_materialx
@@ -216,9 +219,7 @@ def read_engine_file(path: str | Path, albedo: Any = None) -> EngineSource:
     try:
         if engine == "unreal":
             clamps = _unreal_clamps(data["mfp"])
-        else:
-            _check_burley_inputs(p, engine, np.asarray(data["base_color"], dtype=float))
-        prof = reimport(data, "burley")
+        prof = reimport(data, "burley")  # (its BurleyProfiles refuse an A or d outside Burley's domain)
     except SsskitError as exc:  # (a ValueError too): a value the file has is out of its domain, not missing
         if str(p) in str(exc):
             raise
@@ -249,14 +250,6 @@ def _unreal_clamps(block: dict[str, Any]) -> tuple[str, ...]:
                 rng = f"[{COLOR_BIAS:g}, {hi:g}]" if hi is not None else f">= {COLOR_BIAS:g}"
                 out.append(f"{field}[{'RGB'[c]}] {v[c]:.4g} -> {eng:.4g} (UE clamps to {rng})")
     return tuple(out)
-
-
-def _check_burley_inputs(path: Path, engine: str, albedo: np.ndarray, d_mm: np.ndarray | None = None) -> None:
-    """Burley's domain for an engine without a cited clamp (module docstring): A in (0, 1], d > 0 finite."""
-    BURLEY_ALBEDO.check_array(np.asarray(albedo, dtype=float).reshape(-1)[:3],  # no clamp ssskit could apply
-                              f"{str(path)!r}: the {engine} albedo", SsskitError, "channels")
-    if d_mm is not None:
-        LENGTH_MM.check_array(d_mm, f"{str(path)!r}: Burley's d", SsskitError, "channels")
 
 
 # ------------------------------------------------------------------------------------- the one entry point
@@ -441,13 +434,13 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
             if params.get("taps", taps) != taps:
                 raise SsskitError(f"--kernel {req.kernel} and --taps {taps} disagree; give the tap count once")
             params["taps"] = taps
-        elif fmt in ("bn", "json"):
-            raise SsskitError(f"--taps does not apply to --format {fmt} (it writes the tabulated kernel itself)")
         else:
             tap_count = taps
-    if req.given("tap_method") and (tap_kernel or fmt in ("bn", "json")):
-        why = f"the {m.name} kernel ships its own taps" if tap_kernel else f"--format {fmt} writes no taps"
-        raise SsskitError(f"--tap-method does not apply: {why}")
+    if fmt in ("bn", "json") and not tap_kernel:
+        refuse_given(req, ("taps",), f"--format {fmt} (it writes the tabulated kernel itself)")
+    if tap_kernel or fmt in ("bn", "json"):
+        refuse_given(req, ("tap_method",), f"the {m.name} kernel, which ships its own taps" if tap_kernel else
+                     f"--format {fmt}, which writes no taps")
     if fmt == "bn":
         if tap_kernel:
             raise SsskitError(f"--format bn holds a tabulated kernel on a uniform grid; {m.name} is a list of taps "
