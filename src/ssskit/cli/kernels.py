@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from ..errors import SsskitError
-from ..quantities import KERNEL_CELLS, refuse_unused
+from ..quantities import KERNEL_CELLS, refuse_twice, refuse_unused
 
 if TYPE_CHECKING:
     from ..kernels import AnyKernel, KernelMethod
@@ -89,7 +89,7 @@ def method_parameters(method_spec: str, values: dict[str, str | None]) -> tuple[
         except SsskitError as exc:
             raise SsskitError(f"{flag}: {exc}") from None
         if param in params and params[param] != value:
-            raise SsskitError(f"--method {method_spec} and {flag} {text} disagree; give the {param} once")
+            refuse_twice(f"--method {method_spec}", f"{flag} {text}", f"the {param}")
         params[param] = value
     return m, params
 

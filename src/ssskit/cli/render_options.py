@@ -27,7 +27,7 @@ from ..errors import OutputError, SettingsError, SsskitError
 from ..pipeline.adaptive import AdaptiveFrame
 from ..pipeline.settings import (PASSES, AdaptivePass, BurleyPass, PassMember, RenderSettings, SeparablePass,
                                  SettingsMigrated)
-from ..quantities import Quantity, refuse_unused
+from ..quantities import Quantity, refuse_twice, refuse_unused
 from ..settings import Settings
 from ..io import check_distinct, same_file
 from .options import IntPair, SettingOption, given, option_name, setting_option
@@ -89,7 +89,7 @@ def pass_of(ctx: click.Context, pass_name: str | None, method: str | None, base:
     file's (``base``), or separable; and every option of another pass refused."""
     if method is not None:
         if pass_name is not None and pass_name.lower() != method.lower():  # the error alone: one line
-            raise SettingsError(f"--pass {pass_name} and --method {method} disagree; give --pass only")
+            refuse_twice(f"--pass {pass_name}", f"--method {method}", "the pass (with --pass)", SettingsError)
         click.echo("ssskit: warning: --method is deprecated for render; use --pass (same values)", err=True)
         pass_name = pass_name or method
     name = PASSES.get(pass_name).name if pass_name is not None else (base.pass_name if base else "separable")
@@ -201,8 +201,7 @@ def _engine_taps(ctx: click.Context, s: RenderSettings) -> RenderSettings:
     method, inline, _ = parse_method_spec(s.kernel)
     if method.primary == "taps" and inline.get("taps", s.taps) != s.taps:
         if given(ctx, "taps"):
-            raise SettingsError(f"--kernel {s.kernel} builds {inline['taps']} taps but --taps is {s.taps}; "
-                                "give the number of taps once")
+            refuse_twice(f"--kernel {s.kernel}", f"--taps {s.taps}", "the number of taps", SettingsError)
         s = _apply(s, "--kernel", {"taps": inline["taps"]})
     return s
 

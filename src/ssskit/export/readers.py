@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import SsskitError
 from ..io import parse_document, read_input
 from ..materials import Material, homogeneous
-from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM, Choice
+from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM, Choice, refuse_twice
 from .registry import FORMATS
 
 #: suffixes that hold an engine file (a .json one only when it has an "engine" key, a .py one only when it is an
@@ -432,7 +432,7 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
     if taps is not None:
         if tap_kernel:
             if params.get("taps", taps) != taps:
-                raise SsskitError(f"--kernel {req.kernel} and --taps {taps} disagree; give the tap count once")
+                refuse_twice(f"--kernel {req.kernel}", f"--taps {taps}", "the number of taps")
             params["taps"] = taps
         else:
             tap_count = taps
