@@ -25,6 +25,7 @@ from .options import (
     echo_json,
     examples,
     given,
+    named,
     json_option,
     kernel_spec_option,
     material_option,
@@ -83,11 +84,9 @@ def method_parameters(method_spec: str, values: dict[str, str | None]) -> tuple[
         param = PRIMARY_OPTIONS[dest][0]
         if m.primary != param:
             refuse_unused([flag], "--method", PRIMARY_OPTIONS[dest][1], m.name)
-        try:
+        with named(flag, SsskitError):
             value = m.parse(text)
             check_params(m, {param: value})
-        except SsskitError as exc:
-            raise SsskitError(f"{flag}: {exc}") from None
         if param in params and params[param] != value:
             refuse_twice(f"--method {method_spec}", f"{flag} {text}", f"the {param}")
         params[param] = value

@@ -16,7 +16,7 @@ import json
 import os
 import stat
 import tempfile
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from ..kernels import KernelMethod
     from click.shell_completion import CompletionItem
 
-from ..errors import OutputError, SsskitError
+from ..errors import OutputError, SettingsError, SsskitError
 from ..settings import DEFAULT_PHOTONS, HEAD_ATTRIBUTION, PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE
 
 #: the profile model every command defaults to: the supplement's Monte Carlo profiles (shipped for the
@@ -55,6 +55,7 @@ __all__ = [
     "echo_json",
     "examples",
     "given",
+    "named",
     "json_option",
     "kernel_spec_option",
     "material_option",
@@ -103,6 +104,15 @@ def progress(msg: str) -> None:
 def examples(*lines: str) -> str:
     """A command's epilog: example command lines, printed verbatim under 'Examples:'."""
     return "\b\nExamples:\n" + "\n".join(f"  {line}" for line in lines)
+
+
+@contextlib.contextmanager
+def named(flag: str, error: type[SsskitError] = SettingsError) -> Iterator[None]:
+    """An error of what option ``flag`` gave, named by it (``--c: c must lie in ...``): every option's one wording."""
+    try:
+        yield
+    except SsskitError as exc:
+        raise error(f"{flag}: {exc}") from None
 
 
 def given(ctx: click.Context, name: str) -> bool:

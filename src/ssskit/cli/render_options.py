@@ -30,7 +30,7 @@ from ..pipeline.settings import (PASSES, AdaptivePass, BurleyPass, PassMember, R
 from ..quantities import Quantity, refuse_twice, refuse_unused
 from ..settings import Settings
 from ..io import check_distinct, same_file
-from .options import IntPair, SettingOption, given, option_name, setting_option
+from .options import IntPair, SettingOption, given, named, option_name, setting_option
 from .profiles import resolve_profile
 
 _S = TypeVar("_S", bound=Settings)
@@ -116,10 +116,8 @@ def load_settings(path: str) -> RenderSettings:
 
 
 def _apply(obj: _S, flag: str, changes: dict[str, Any]) -> _S:
-    try:
+    with named(flag):
         return obj.replace(**changes)
-    except SsskitError as exc:
-        raise SettingsError(f"{flag}: {exc}") from None
 
 
 def _member_of(base: PassMember, name: str) -> PassMember:
@@ -141,10 +139,8 @@ def _generated(ctx: click.Context, cls: type, skip: tuple[str, ...] = ()) -> lis
     for p in ctx.command.params:
         if isinstance(p, SettingOption) and p.settings_class is cls and p.name and p.name not in skip \
                 and given(ctx, p.name):
-            try:
+            with named(p.opts[0]):  # a conversion's own check (--sigma0)
                 out.append((p.opts[0], p.changes(ctx.params[p.name])))
-            except SsskitError as exc:  # a conversion's own check (--sigma0)
-                raise SettingsError(f"{p.opts[0]}: {exc}") from None
     return out
 
 

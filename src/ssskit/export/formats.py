@@ -10,7 +10,7 @@ from typing import Any
 
 from pathlib import Path
 
-from ..errors import KernelError, SsskitError
+from ..errors import KernelError
 from ..quantities import refuse_unused
 from .api import FORMATS, KERNEL_OPTIONS, SHADER_OPTIONS, ExportSettings, Format, Job
 
@@ -149,12 +149,10 @@ def _shader_check(req: ExportSettings, source: Any) -> None:
         refuse_unused(["--transmission-model"], "--pass", ("transmission",), req.shader_pass or "separable")
     if req.shader_pass == "burley" and req.format != "glsl-shader":  # (.comp, or .frag for the fragment form)
         refuse_unused(["--pass burley"], "--format", ("glsl-shader",), req.format)
-    if req.format == "hlsl-shader":
-        from .shaders import tools_available
+    if req.format == "hlsl-shader":  # glslangValidator and spirv-cross, or the error saying how to install them
+        from .shaders import GLSLANG, SPIRV_CROSS, tool_path
 
-        ok, why = tools_available()
-        if not ok:
-            raise SsskitError(f"--format hlsl-shader needs glslangValidator and spirv-cross: {why}")
+        tool_path(GLSLANG), tool_path(SPIRV_CROSS)
 
 
 # ------------------------------------------------------------------------------------------ engines
