@@ -188,8 +188,7 @@ def read_engine_file(path: str | Path, albedo: Any = None) -> EngineSource:
         other = FORMATS.get(engine).read if engine not in ENGINE_NAMES and engine in FORMATS else None
         if other is not None:
             return other(p)  # a format registered beside ssskit's own reads its JSON export
-        if engine not in ENGINE_NAMES:
-            raise SsskitError(f"{str(p)!r} is an export of engine {engine!r}; ssskit reads {', '.join(ENGINE_NAMES)}")
+        engine = Choice(f"{str(p)!r}: the engine of an export", ENGINE_NAMES).check(engine)
     if engine == "unity" and suffix == ".asset":
         from .unity import read_unity_asset
 
