@@ -59,7 +59,7 @@ def test_engine_parameters(run, tmp_path, engine):
 
 
 BAD = [
-    (["export", "--format", "hlsl", "--out", "k.hlsl"], "--kernel is required for --format hlsl"),
+    (["export", "--format", "hlsl", "--out", "k.hlsl"], "--format hlsl needs --kernel"),
     (["export", "--format", "unity", "--out", "u.json", "--material", "skin1", "--kernel", "svd"],
      "--kernel applies to --format hlsl or glsl or bn or json or glsl-shader or hlsl-shader, not --format unity"),
     (["export", "--format", "unity", "--out", "u.json"], "--format unity needs --material (or artists' terms"),

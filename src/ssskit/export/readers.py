@@ -319,10 +319,15 @@ def refuse_given(req: Any, names: tuple[str, ...], what: str) -> None:
         raise SsskitError(f"--{given[0].replace('_', '-')} does not apply to {what}")
 
 
+def _need(have: bool, what: str, option: str) -> None:
+    """What a request's ``what`` needs (``option``: the material, the kernel), in one wording for every format."""
+    if not have:
+        raise SsskitError(f"{what} needs {option}")
+
+
 def _need_material(req: Any, artist: bool, what: str) -> None:
-    """The material a request's ``what`` needs: --material or artists' terms (one wording for every format)."""
-    if req.material is None and not artist:
-        raise SsskitError(f"{what} needs --material (or artists' terms: --albedo with --mfp or --dmfp)")
+    """The material a request's ``what`` needs: --material or artists' terms."""
+    _need(req.material is not None or artist, what, "--material (or artists' terms: --albedo with --mfp or --dmfp)")
 
 
 def _artist(req: Any) -> Any:
@@ -422,8 +427,7 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
     from ..kernels import parse_method_spec
 
     fmt = req.format
-    if req.kernel is None:
-        raise SsskitError(f"--kernel is required for --format {fmt}")
+    _need(req.kernel is not None, f"--format {fmt}", "--kernel")
     m, params, _ = parse_method_spec(req.kernel)
     tap_kernel = m.primary == "taps"  # an engine tap kernel (jimenez2012): built with its taps
     tap_count = None
