@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -298,9 +298,7 @@ class LayeredMaterial:
 
 
 def _layered_from_dict(data: Mapping[str, Any], default_name: str) -> LayeredMaterial:
-    raw = data["layers"]  # (the keys checked by material_from_dict)
-    if not isinstance(raw, Sequence) or isinstance(raw, (str, bytes)) or not raw:
-        raise MaterialError("'layers' must be a non-empty list of tables/objects")
+    raw = check_instance(data["layers"], (list, tuple), "layers", MaterialError)  # (none: LayeredMaterial refuses it)
     unit = data.get("unit", data.get("units"))
     layers = []
     for i, entry in enumerate(raw):
