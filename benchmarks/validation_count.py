@@ -34,9 +34,13 @@ from collections import Counter
 from pathlib import Path
 
 VALIDATOR = re.compile(r"^_*(check|validate)", re.IGNORECASE)
-FINITE = re.compile(r"finite|\bnan\b|\binf\b", re.IGNORECASE)
+# "finite" as a property of a value, not of a thing ("a finite slab", "a finite medium": a slab's kind)
+FINITE = re.compile(r"\bfinite\b(?! (slab|medium|thickness|layer))|\bnan\b|\binf\b", re.IGNORECASE)
+# a comparison with a number, not a version specifier ("materialx>=1.39": the operator follows a name); "outside"
+# an interval, not "outside the frame" (a place)
 RANGE = re.compile(r"must (lie|be) (in|between|within)|must be (>|<|at least|at most|positive|non-negative)|"
-                   r"[<>]=? ?[-0-9{]|\bin [\[(][-0-9{]|out of range|outside", re.IGNORECASE)
+                   r"(?<![\w\],])[<>]=? ?[-0-9{]|\bin [\[(][-0-9{]|out of range|"
+                   r"outside (the |its |a )?(range|interval|domain|bounds|[\[(])", re.IGNORECASE)
 VERB = re.compile(r"\b(must|holds?|has|have|is|are|needs?|takes?)\b", re.IGNORECASE)
 
 

@@ -26,7 +26,7 @@ from collections.abc import Collection
 from typing import Any, ClassVar, Self
 
 from .errors import SettingsError, unknown_names_message
-from .quantities import FRAMES, PHOTONS, SIZE_PX, TAPS, Choice, Flag, Quantity, Rule, refuse_unused
+from .quantities import FRAMES, PHOTONS, SIZE_PX, TAPS, Choice, Flag, Quantity, Rule, check_keys, refuse_unused
 
 #: ranges the settings and the command line share (here, below every layer that checks them, so the CLI's
 #: option types need not import the pipeline): image sides of the built-in scenes (pixels), photons of a
@@ -108,11 +108,11 @@ class Settings:
         overrides this."""
         return {}
 
-    def unused(self) -> dict[tuple[str, tuple[str, ...]], list[str]]:
+    def unused(self) -> dict[tuple[str, tuple[str, ...], str], list[str]]:
         """The fields given (not at their default) whose ``applies`` the :meth:`situation` does not meet,
-        grouped by what they apply to."""
+        grouped by what they apply to and what runs instead: (category, values, what runs) -> names."""
         situation = self.situation()
-        out: dict[tuple[str, tuple[str, ...]], list[str]] = {}
+        out: dict[tuple[str, tuple[str, ...], str], list[str]] = {}
         for f in dataclasses.fields(self):
             applies = f.metadata.get("applies")
             if applies is None:
@@ -123,15 +123,13 @@ class Settings:
                 continue
             default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
             if getattr(self, f.name) != default:
-                out.setdefault(applies, []).append(f.name)
+                out.setdefault((category, values, now), []).append(f.name)
         return out
 
     def check_applies(self) -> None:
         """Refuse, in the one wording (:func:`ssskit.quantities.refuse_unused`), the fields given that what
         runs does not use."""
-        situation = self.situation()
-        for (category, values), names in self.unused().items():
-            now = situation[category] if category in situation else str(getattr(self, category)).lower()
+        for (category, values, now), names in self.unused().items():
             refuse_unused(names, category, values, now, SettingsError)
 
     def to_dict(self) -> dict[str, Any]:
@@ -144,8 +142,7 @@ class Settings:
     @classmethod
     def from_dict(cls, data: dict[str, Any], where: str = "") -> Self:
         """Build from plain data; unknown keys and wrong types are errors naming the key."""
-        if not isinstance(data, dict):
-            raise SettingsError(f"{where or cls.__name__}: expected a table/object, got {type(data).__name__}")
+        check_keys(data, where or cls.__name__, error=SettingsError)  # a table (its keys: the fields, below)
         names = {f.name: f for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - set(names))
         if unknown:
@@ -167,18 +164,11 @@ class Settings:
     @classmethod
     def load(cls, path: str | Path) -> Self:
         """Read a ``.toml`` or ``.json`` settings file."""
+        from .io import parse_document, read_input
+
         p = Path(path)
         suffix = p.suffix.lower()
-        if suffix not in (".toml", ".json"):
-            raise SettingsError(f"settings file {str(p)!r} must end in .toml or .json")
-        from .io import check_regular_file
-
-        check_regular_file(p, "settings file", SettingsError)
-        try:
-            text = p.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise SettingsError(f"cannot read settings file {str(p)!r}: {getattr(exc, 'strerror', None) or exc}") from None
-        from .io import parse_document
+        text = read_input(p, "settings file", SettingsError, (".toml", ".json"), text=True)  # (io: every input file's rules)
 
         try:
             data = parse_document(text, suffix)

@@ -103,7 +103,7 @@ BAD = [
     (["kernel", "--material", "skin1", "--method", "svd:3", "--rank", "2"], "give the rank once"),
     (["kernel", "--material", "skin1", "--method", "guided", "--k", "9"], "--k: guide exponent"),
     (["kernel", "--material", "skin1", "--method", "svd", "--rank", "two"], "--rank: expected an integer"),
-    (["kernel", "--method", "artist", "--preset", "nope"], "unknown artist preset"),
+    (["kernel", "--method", "artist", "--preset", "nope"], "artist preset must be one of"),
     (["kernel", "--method", "artist:fit"], "needs a profile"),
     (["evaluate", "--material", "skin1", "--methods", ","], "no kernel method given"),
     (["evaluate", "--material", "skin1", "--methods", "svd:0"], "SVD rank"),

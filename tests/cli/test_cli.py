@@ -140,7 +140,7 @@ def test_profile_outputs(capsys, tmp_path):
         (["profile", "--material", "skin1", "--out", "x.txt"], "must end in .csv or .npz"),
         (["profile", "--material", "skin1", "--plot", "x.bmp"], "must end in .png"),
         (["profile", "--material", "skin1", "--r-max", "-3"], "--r-max"),
-        (["profile", "--material", "skin1", "--model", "burley", "--configuration", "x"], "unknown Burley configuration"),
+        (["profile", "--material", "skin1", "--model", "burley", "--configuration", "x"], "Burley configuration must be one of"),
         (["materials", "--bogus"], "No such option"),
         (["nonsense"], "No such command"),
     ],

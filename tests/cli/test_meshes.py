@@ -40,9 +40,9 @@ def meshes(tmp_path, monkeypatch):
 BAD = [
     (["--scene", "nope.obj"], "mesh 'nope.obj' does not exist"),
     (["--scene", "empty.obj"], "mesh 'empty.obj' is empty (0 bytes)"),
-    (["--scene", "dust.obj"], "a scene takes models 0.0002 to 1e+09 mm across (200 nm to 1000 km"),
-    (["--scene", "huge.obj"], "huge.obj: the model is 1.414e+30 mm across (bounding-sphere diameter, units mm); a "
-                              "scene takes models 0.0002 to 1e+09 mm across"),
+    (["--scene", "dust.obj"], "dust.obj: the model's bounding-sphere diameter (units mm) must lie in [0.0002, 1e+09] mm"),
+    (["--scene", "huge.obj"], "huge.obj: the model's bounding-sphere diameter (units mm) must lie in [0.0002, 1e+09] mm, "
+                              "got 1.41421e+30"),
     (["--scene", "model.stl"], "unknown format '.stl'"),
     (["--scene", "nan.obj"], "vertex positions must be finite, got NaN or inf"),
     (["--scene", "nan.glb"], "vertex positions must be finite, got NaN or inf in 3 of 486 coordinates"),

@@ -167,3 +167,19 @@ def test_the_skin_texture_has_the_contrast_asked():
     f = mod.skin_texture(p, 0.16)
     assert abs(float(f.mean()) - 1.0) < 0.01 and abs(float(f.std()) / 0.16 - 1.0) < 0.1
     assert np.array_equal(mod.skin_texture(p[::-1], 0.16), f[::-1])
+
+
+@pytest.mark.slow
+def test_the_skin_texture_moves_the_taa_floor_but_not_the_adaptive_counts():
+    """docs/head_adaptive.py --quick with the pore stand-in (--texture): the texture is in the albedo, which the
+    composite multiplies after the pass, and Xie 2020 Sec. 5 updates the guiding history with the scattering
+    result before the albedo is combined; so the adaptive counts of the textured run are the untextured run's,
+    exactly (the variance the sampler sees is the pass's alone), while the jittered TAA's own error grows: the
+    texture aliases under the jitter, so its floor is lower (docs/head.md, "What the remainder is made of")."""
+    mod = _script("head_adaptive")
+    n = mod.main(["--quick", "--texture", "0.16", "--runs", "jittered", "textured"])
+    runs = n["views"][0]["runs"]
+    plain, tex = runs["jittered"], runs["jittered, textured skin (0.16)"]
+    assert tex["adaptive_mean_spp_late"] == plain["adaptive_mean_spp_late"]
+    late = "frames 9-32"
+    assert tex["windows"][late]["floor_db"] < plain["windows"][late]["floor_db"] - 0.5

@@ -47,7 +47,7 @@ def test_the_view_moves_the_camera_about_the_slab():
             backlit_slab(bad)
     with pytest.raises(SceneError, match="view angle"):
         backlit_slab(1.0, 85.0)
-    with pytest.raises(SceneError, match="back-lit scenes"):
+    with pytest.raises(SceneError, match="back-lit scene must be one of backlit, leaf"):
         backlit_scene("ear")
 
 

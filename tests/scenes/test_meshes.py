@@ -16,7 +16,7 @@ import pytest
 from ssskit.errors import SceneError
 from ssskit.scenes import SCENES, render_gbuffer, render_reference, resolve_scene
 from ssskit.scenes.generated import bust, bust_path, bust_sdf, icosphere, torus
-from ssskit.scenes.meshes import (BYTES_PER_FACE, FORMATS, Mesh, MeshCounts, check_memory, mesh_counts, read_mesh,
+from ssskit.scenes.meshes import (BYTES_PER_FACE, FORMATS, Mesh, MeshCounts, check_render_memory, mesh_counts, read_mesh,
                                   topology, write_mesh)
 from ssskit.scenes.scenefile import builtin_scene_files, load_scene_file, parse_view, scene_from_document
 
@@ -403,7 +403,7 @@ def test_a_mesh_too_large_for_memory_is_refused_with_the_estimate(tmp_path):
     assert mesh_counts(p) == MeshCounts(1_000_000_000, 2_000_000_000)
     with pytest.raises(SceneError, match=r"2,000,000,000 faces: rendering it at 256x192 needs about 745\.[0-9] GiB"):
         resolve_scene(str(p), units="mm")
-    need = check_memory(p, MeshCounts(10, 20), 256, 192, available=1 << 40)
+    need = check_render_memory(f"mesh {str(p)!r}", MeshCounts(10, 20), 256, 192, available=1 << 40)
     assert need == 20 * BYTES_PER_FACE + 256 * 192 * 512
 
 

@@ -18,7 +18,10 @@ from typing import Any, Callable
 from ..errors import KernelError, check_keywords
 from ..profiles.base import RGBProfile
 from ..registry import Registry
+from ..materials import ARTIST_PRESETS
+from ..quantities import Choice
 from .base import MAX_SVD_RANK, SVD_RANK, AnyKernel, Kernel, TapKernel, _check_grid, default_grid, load_kernel, save_kernel
+from .burley_fit import ERROR_FUNCTION
 from .guided import GUIDE_K
 from .jimenez2012 import JIMENEZ_TAPS
 from .methods import GAUSSIAN_COUNT
@@ -94,18 +97,17 @@ def _burley_fit(profile, cell_mm, n, error="difference", model="jimenez2012"):
     return kernel_burley_fit(profile, cell_mm, n, model=model, error=error)
 
 
-def _int(text: str) -> int:
-    try:
-        return int(text)
-    except ValueError:
-        raise KernelError(f"expected an integer, got {text!r}") from None
+def _parser(cast: Callable[[str], Any], kind: str) -> Callable[[str], Any]:
+    """The parser of a spec's number (``svd:3``, ``guided:2.5``): ``cast`` of the text, or a KernelError."""
+    def parse(text: str) -> Any:
+        try:
+            return cast(text)
+        except ValueError:
+            raise KernelError(f"expected {kind}, got {text!r}") from None
+    return parse
 
 
-def _float(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise KernelError(f"expected a number, got {text!r}") from None
+_int, _float = _parser(int, "an integer"), _parser(float, "a number")
 
 
 METHODS: Registry[KernelMethod] = Registry("kernel method", KernelError)
@@ -127,30 +129,20 @@ for _m in (
     METHODS.register(_m.name, _m)
 
 
-def _preset(v):
-    from ..materials import ARTIST_PRESETS
-
-    if str(v).strip().lower() != "fit" and v not in ARTIST_PRESETS:
-        raise KernelError(f"unknown artist preset {v!r} (known: {', '.join(ARTIST_PRESETS.names())}, fit)")
-
-
-def _error_fn(v):
-    from .burley_fit import ERROR_FUNCTIONS
-
-    if v not in ERROR_FUNCTIONS:
-        raise KernelError(f"unknown error function {v!r}; choose from {', '.join(ERROR_FUNCTIONS)}")
+#: an artist kernel's preset: a Table 2 preset, or "fit" (fitted to the profile)
+ARTIST_PRESET = Choice("artist preset", lambda: [*ARTIST_PRESETS.names(), "fit"])
 
 
 #: range checks of each method's primary parameter, applied when a spec is parsed (before any work)
-PARAM_CHECKS: dict[tuple[str, str], Callable[[Any], None]] = {
+PARAM_CHECKS: dict[tuple[str, str], Callable[[Any], Any]] = {
     ("svd", "rank"): partial(SVD_RANK.check, error=KernelError),
     ("svd_l1", "rank"): partial(SVD_RANK.check, error=KernelError),
     ("preintegrated_svd", "rank"): partial(SVD_RANK.check, name="residual rank", error=KernelError),
     ("gaussians", "count"): partial(GAUSSIAN_COUNT.check, error=KernelError),
     ("guided", "k"): partial(GUIDE_K.check, error=KernelError),
     ("jimenez2012", "taps"): partial(JIMENEZ_TAPS.check, name="jimenez2012 taps", error=KernelError),
-    ("artist", "preset"): _preset,
-    ("burley_fit", "error"): _error_fn,
+    ("artist", "preset"): partial(ARTIST_PRESET.check, error=KernelError),
+    ("burley_fit", "error"): partial(ERROR_FUNCTION.check, error=KernelError),
 }
 
 
@@ -200,11 +192,9 @@ def build_kernel(method: str, profile: RGBProfile | None = None, cell_mm: float 
     (cell_mm, n) (each default when None: :func:`default_grid`); ``params`` are the method's keywords (an
     unknown one is a KernelError naming the known ones)."""
     m = METHODS.get(method)
-    if profile is not None and not isinstance(profile, RGBProfile):
+    if not isinstance(profile, RGBProfile) and (profile is not None or m.needs_profile):  # (None: where it needs none)
         raise KernelError(f"kernel method {m.name!r} needs a profile (an RGBProfile: "
                           f"profile_for_material(material, model) makes one), got {type(profile).__name__}")
-    if profile is None and m.needs_profile:
-        raise KernelError(f"kernel method {m.name!r} needs a profile")
     takes = list(inspect.signature(m.builder).parameters)[3:]  # (after profile, cell_mm, n)
     check_keywords(f"kernel method {m.name!r}", params, takes, KernelError)
     if cell_mm is None or n is None:

@@ -18,6 +18,7 @@ bilinear fetches do) so it can be compared and convolved like every other kernel
 from __future__ import annotations
 
 import dataclasses
+import math
 import io
 import json
 from dataclasses import dataclass, field
@@ -31,7 +32,7 @@ from ..errors import KernelError
 from ..io import atomic_output, check_suffix
 from ..profiles.base import RGBProfile
 from ..profiles.discretize import grid_coordinates
-from ..quantities import KERNEL_CELLS, LENGTH_MM, POSITIVE, Quantity, check_finite
+from ..quantities import KERNEL_CELLS, LENGTH_MM, POSITIVE, Quantity, check_keys, check_shape
 
 CHANNELS = ("R", "G", "B")
 
@@ -41,6 +42,11 @@ MAX_SVD_RANK = 64
 #: the rank of an SVD kernel (and of preintegrated_svd's residual): 1 to MAX_SVD_RANK, and at most the grid's cells
 SVD_RANK = Quantity("SVD rank", 1, MAX_SVD_RANK, "", "terms of the truncated SVD, each two 1D convolutions",
                     integer=True)
+
+
+#: taps of a tap kernel (:class:`TapKernel`; the centre first)
+TAP_COUNT = Quantity("taps", 1, math.inf, "", "a tap kernel's offsets and weights, the centre first", integer=True,
+                     hi_open=True)
 
 
 def _check_grid(cell_mm: float, n: int) -> None:
@@ -60,9 +66,8 @@ def default_grid(profile: RGBProfile, n: int = 201, fraction: float = 0.999) -> 
     For a profile with a finite domain (binned Monte Carlo), the radius is capped by the domain.
     """
     _check_grid(1.0, n)
-    radius = float(np.max(profile.radius_at_fraction(fraction)))
-    if not (np.isfinite(radius) and radius > 0):
-        raise KernelError(f"cannot size a kernel grid: radius holding {fraction} of the energy is {radius!r}")
+    radius = POSITIVE.check(np.max(profile.radius_at_fraction(fraction)), f"a kernel grid's radius (holding {fraction} "
+                            "of the profile's energy)", KernelError)
     return 2.0 * radius / n, int(n)
 
 
@@ -95,13 +100,10 @@ class Kernel:
     depth_sigma_mm: float | None = None
 
     def __post_init__(self) -> None:
-        comps = np.asarray(self.components, dtype=float)
-        if comps.ndim != 3 or comps.shape[0] != 3:
-            raise KernelError(f"kernel components must have shape (3, N, n), got {comps.shape}")
+        comps = check_shape(self.components, "kernel components", (3, "N", "n"), KernelError, dtype=float, finite=True)
         SVD_RANK.within(hi=1 << 20, reason="terms of a separable kernel").check(comps.shape[1], "kernel rank N",
                                                                                  KernelError)
         _check_grid(float(self.cell_mm), comps.shape[2])
-        check_finite(comps, "kernel components", KernelError)
         signs = np.asarray(self.signs, dtype=float)
         if signs.shape != comps.shape[:2] or not np.all(np.abs(signs) == 1.0):
             raise KernelError(f"kernel signs must be +-1 with shape {comps.shape[:2]}, got {signs.shape}")
@@ -178,9 +180,7 @@ class Kernel:
 
     def normalised(self, total: ArrayLike = 1.0) -> "Kernel":
         """Each channel scaled so that its total (sum of A) equals ``total`` (scalar or (3,))."""
-        t = self.total()
-        if np.any(t <= 0):
-            raise KernelError(f"cannot normalise a kernel whose total is not positive: {t.tolist()}")
+        t = POSITIVE.check_array(self.total(), "the totals of a kernel to normalise", KernelError, "channels")
         return self.scaled(np.broadcast_to(np.asarray(total, dtype=float), (3,)) / t)
 
     def resample(self, cell_mm: float, n: int | None = None) -> "Kernel":
@@ -252,9 +252,9 @@ class Kernel:
             signs = np.array([d["channels"][ch]["signs"] for ch in CHANNELS], dtype=float)
             return cls(float(d["cell_mm"]), comps, signs, str(d["method"]), dict(d.get("params", {})),
                        dict(d.get("source", {})))
+        except KernelError:
+            raise
         except (KeyError, TypeError, ValueError) as exc:
-            if isinstance(exc, KernelError):
-                raise
             raise KernelError(f"not a tabulated ssskit kernel: {exc}") from None
 
 
@@ -273,12 +273,9 @@ class TapKernel:
     source: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        o = np.asarray(self.offsets_mm, dtype=float)
-        w = np.asarray(self.weights, dtype=float)
-        if o.ndim != 1 or w.shape != (o.size, 3) or o.size < 1:
-            raise KernelError(f"tap kernel needs offsets (N,) and weights (N, 3), got {o.shape} and {w.shape}")
-        check_finite(o, "tap offsets", KernelError)
-        check_finite(w, "tap weights", KernelError)
+        o = check_shape(self.offsets_mm, "tap offsets", ("N",), KernelError, dtype=float, finite=True)
+        TAP_COUNT.check(o.size, "a tap kernel's taps", KernelError)
+        w = check_shape(self.weights, "tap weights", (o.size, 3), KernelError, dtype=float, finite=True)
         object.__setattr__(self, "offsets_mm", o)
         object.__setattr__(self, "weights", w)
 
@@ -333,9 +330,9 @@ class TapKernel:
         try:
             return cls(np.array(d["offsets"], dtype=float), np.array(d["weights"], dtype=float), str(d["method"]),
                        dict(d.get("params", {})), dict(d.get("source", {})))
+        except KernelError:
+            raise
         except (KeyError, TypeError, ValueError) as exc:
-            if isinstance(exc, KernelError):
-                raise
             raise KernelError(f"not an ssskit tap kernel: {exc}") from None
 
 
@@ -392,6 +389,5 @@ def load_kernel(path: str | Path) -> AnyKernel:
                                      for i, ch in enumerate(CHANNELS)}
     except (OSError, ValueError, KeyError) as exc:  # (a UnicodeDecodeError too)
         raise KernelError(f"cannot read kernel file {str(p)!r}: {exc}") from None
-    if not isinstance(d, dict):
-        raise KernelError(f"kernel file {str(p)!r} does not hold a JSON object")
+    check_keys(d, f"kernel file {str(p)!r}", error=KernelError)  # (a JSON object: a table)
     return TapKernel.from_dict(d) if d.get("type") == "taps" else Kernel.from_dict(d)

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import KernelError
+from ..quantities import Choice
 from ..profiles.base import RadialProfile, RGBProfile
 from .base import Kernel
 from .jimenez2012 import _PI_ENGINE, JIMENEZ2012_GAUSSIANS
@@ -29,6 +30,9 @@ from .methods import gaussian_cell_averages
 
 ERROR_FUNCTIONS = ("difference", "ratio", "derivative")
 FIT_MODELS = ("jimenez2012", "two_gaussian")
+#: the fit's two names, each declared once (:func:`fit_burley_channel`, and ``burley_fit:ERROR`` specs)
+ERROR_FUNCTION = Choice("error function", ERROR_FUNCTIONS)
+FIT_MODEL = Choice("separable model", FIT_MODELS)
 
 
 def _mixture(model: str, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -65,10 +69,7 @@ def fit_burley_channel(channel: RadialProfile, model: str = "jimenez2012", error
     """
     from scipy.optimize import least_squares
 
-    if model not in FIT_MODELS:
-        raise KernelError(f"unknown separable model {model!r}; choose from {', '.join(FIT_MODELS)}")
-    if error not in ERROR_FUNCTIONS:
-        raise KernelError(f"unknown error function {error!r}; choose from {', '.join(ERROR_FUNCTIONS)}")
+    model, error = FIT_MODEL.check(model, error=KernelError), ERROR_FUNCTION.check(error, error=KernelError)
     total = float(channel.total_rd())
     r_max = float(channel.radius_at_fraction(0.99))
     r = np.linspace(0.0, r_max, samples + 1)[1:]

@@ -119,14 +119,11 @@ def gaussians_profile(material: Material, n: int = 6) -> RGBProfile:
 def deon2007_profile(material: None = None) -> RGBProfile:
     """The six-Gaussian skin profile of [dLE07]: a fixed preset, so it takes no material."""
     if material is not None:
-        raise ProfileError(_DEON2007_NO_MATERIAL)
+        raise ProfileError("the deon2007 model is a fixed skin preset and takes no material")
     r, g, b = (
         GaussianSumProfile([w[i] for w in DEON2007_SKIN_WEIGHTS], DEON2007_SKIN_VARIANCES) for i in range(3)
     )
     return RGBProfile((r, g, b), "deon2007", "d'Eon 2007 skin", {"source": "[dLE07] six-Gaussian skin fit"})
-
-
-_DEON2007_NO_MATERIAL = "the deon2007 model is a fixed skin preset and takes no material"
 
 
 @MODELS.decorator("montecarlo")
@@ -156,19 +153,12 @@ def check_model_domain(material: Material | LayeredMaterial | str, model: str) -
     """Refuse a material outside ``model``'s valid domain (:mod:`ssskit.profiles.domain`) without
     computing anything: the check :func:`profile_for_material` makes, for callers that build the
     profile later (a render plans every input first)."""
-    from .domain import check_montecarlo
+    from .domain import DOMAINS
 
     MODELS.get(model)  # an unknown model fails here with the list of models
     key = model.strip().lower()
-    if key in MATERIAL_FREE_MODELS:
-        return
-    mat = _homogeneous_unless_montecarlo(get_material(material), key)
-    if key == "montecarlo":
-        check_montecarlo(mat)
-    elif key in ("dipole", "gaussians"):
-        check_dipole(mat, key if key == "dipole" else "gaussians (fitted to the dipole)")
-    elif key == "burley":
-        check_burley_material(mat, albedo_given=False)
+    if key not in MATERIAL_FREE_MODELS:
+        DOMAINS[key](_homogeneous_unless_montecarlo(get_material(material), key))
 
 
 def _check_options(factory: ProfileFactory, key: str, options: dict[str, Any]) -> None:
@@ -178,14 +168,13 @@ def _check_options(factory: ProfileFactory, key: str, options: dict[str, Any]) -
     from ..errors import check_keywords
 
     params = list(inspect.signature(factory).parameters.values())[1:]  # (the first is the material)
-    if any(p.kind is p.VAR_KEYWORD for p in params):
-        if key != "montecarlo":
-            return
-        from .montecarlo.sweep import simulate_material  # the montecarlo model's **options go there
+    if key == "montecarlo":  # its **options go to simulate_material
+        from .montecarlo.sweep import simulate_material
 
-        params += [p for p in inspect.signature(simulate_material).parameters.values()
-                   if p.kind is p.KEYWORD_ONLY and p.name not in {q.name for q in params}]
-    known = [p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+        params += [p for p in inspect.signature(simulate_material).parameters.values() if p.kind is p.KEYWORD_ONLY]
+    elif any(p.kind is p.VAR_KEYWORD for p in params):
+        return  # (a model of one's own that takes any keyword)
+    known = list(dict.fromkeys(p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)))
     check_keywords(f"profile model {key!r}", options, known, ProfileError)
 
 
@@ -199,11 +188,8 @@ def profile_for_material(material: Material | LayeredMaterial | str | None, mode
     factory = MODELS.get(model)
     key = model.strip().lower()
     _check_options(factory, key, options)
-    if key in MATERIAL_FREE_MODELS:
-        if material is not None:
-            raise ProfileError(_DEON2007_NO_MATERIAL if key == "deon2007"
-                               else f"the {key} model is a fixed preset and takes no material")
-        return factory(None, **options)
+    if key in MATERIAL_FREE_MODELS:  # (its factory refuses a material given: deon2007_profile)
+        return factory(material, **options)
     if material is None:
         raise ProfileError(f"profile model {model!r} needs a material")
     return factory(_homogeneous_unless_montecarlo(get_material(material), key), **options)

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
-from ..quantities import BURLEY_ALBEDO, FRACTION, LENGTH_MM as LENGTH, REFLECTANCE
+from ..quantities import BURLEY_ALBEDO, Choice, FRACTION, LENGTH_MM as LENGTH, REFLECTANCE
 from .base import ENERGY_FRACTION, RadialProfile
 
 
@@ -52,13 +52,8 @@ BURLEY_CONFIGURATIONS = {
 
 def burley_d(albedo: ArrayLike, ell: ArrayLike, configuration: str = "searchlight") -> NDArray[np.float64]:
     """d from the albedo A and a mean free path ell (mm) for a named Eq. 5 configuration."""
-    key = configuration.strip().lower().replace("_", "-")
-    try:
-        fn = BURLEY_CONFIGURATIONS[key]
-    except KeyError:
-        raise ProfileError(
-            f"unknown Burley configuration {configuration!r} (known: {', '.join(BURLEY_CONFIGURATIONS)})"
-        ) from None
+    key = configuration.replace("_", "-") if isinstance(configuration, str) else configuration
+    fn = BURLEY_CONFIGURATIONS[Choice("Burley configuration", BURLEY_CONFIGURATIONS).check(key, error=ProfileError)]
     return fn(albedo, LENGTH.check_array(ell, "mean free path ell", ProfileError))
 
 

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import ProfileError
 from ..quantities import ANISOTROPY, COEFFICIENT, EXTINCTION
 from .base import RadialProfile
-from .domain import _DIPOLE_WHY, DIPOLE_ETA_MAX, check_eta, check_mfp
+from .domain import DIPOLE_ETA, TRANSPORT_MFP
 
 
 def fresnel_diffuse_reflectance(eta: float) -> float:
@@ -48,12 +48,12 @@ class DipoleProfile(RadialProfile):
     def __init__(self, sigma_a: float, sigma_s: float, g: float = 0.0, eta: float = 1.3) -> None:
         for name, value, q in (("sigma_a", sigma_a, COEFFICIENT), ("sigma_s", sigma_s, COEFFICIENT), ("g", g, ANISOTROPY)):
             q.check(value, f"the dipole's {name}", ProfileError)
-        check_eta("dipole", eta, DIPOLE_ETA_MAX, _DIPOLE_WHY)
+        DIPOLE_ETA.check(eta, "the dipole model's relative index eta", ProfileError)
         self.sigma_a, self.sigma_s, self.g, self.eta = float(sigma_a), float(sigma_s), float(g), float(eta)
         sigma_s_r = sigma_s * (1.0 - g)
         self.sigma_t_r = sigma_a + sigma_s_r
         EXTINCTION.check(self.sigma_t_r, "the dipole's sigma_a + sigma_s'", ProfileError)
-        check_mfp("dipole", [1.0 / self.sigma_t_r], per_channel=False)
+        TRANSPORT_MFP.check(1.0 / self.sigma_t_r, "the dipole model's transport mean free path 1/sigma_t'", ProfileError)
         self.alpha_r = sigma_s_r / self.sigma_t_r
         self.sigma_tr = math.sqrt(3.0 * sigma_a * self.sigma_t_r)
         f_dr = fresnel_diffuse_reflectance(eta)

@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
+from ..quantities import KERNEL_CELLS, LENGTH_MM
 
 _GL_ORDER = 24
 
@@ -35,10 +36,8 @@ def grid_coordinates(cell_mm: float, n: int) -> NDArray[np.float64]:
 
 
 def _check_grid(cell_mm: float, n: int) -> None:
-    if not (isinstance(n, (int, np.integer)) and n >= 1 and n % 2 == 1):
-        raise ProfileError(f"grid size n must be a positive odd integer (origin at a cell centre), got {n!r}")
-    if not (np.isfinite(cell_mm) and cell_mm > 0):
-        raise ProfileError(f"cell size must be a positive number of mm, got {cell_mm!r}")
+    KERNEL_CELLS.within(lo=1).check(n, "grid size n", ProfileError)  # (odd: the origin at a cell centre)
+    LENGTH_MM.check(cell_mm, "cell size", ProfileError)
 
 
 class RadialEnergy(Protocol):

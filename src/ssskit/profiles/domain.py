@@ -43,7 +43,9 @@ all-zero transmission fit).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from functools import partial
+from typing import Any
 
 from ..errors import ProfileError
 from ..materials import CHANNELS, LayeredMaterial, Material
@@ -82,22 +84,24 @@ ABSORBED = Quantity("sigma_a / sigma_t", MIN_ABSORBED_FRACTION, 1.0, "", "a semi
                     "it a photon's float32 weight loses nothing and a walk in a half-space has no finite mean length, "
                     "the run would not finish; or give a finite thickness_mm")
 
+#: the relative index eta each model takes (module docstring): the dipole's (its F_dr fit), the Monte Carlo's
+DIPOLE_ETA = ETA.within(1.0, DIPOLE_ETA_MAX, "its diffuse Fresnel fit F_dr of [JMLH01] is within 5% there and passes 1 "
+                        "at eta = 3.85")
+OPTICAL_ETA = ETA.within(1.0, OPTICAL_ETA_MAX, "no optical medium is denser in the visible; beyond it the photons are "
+                         "trapped by total internal reflection")
+#: the transport mean free path 1/sigma_t' every model takes (module docstring)
+TRANSPORT_MFP = MFP_MM.within(reason=f"sigma_t' = sigma_a + sigma_s (1 - g), mm^-1; {MFP_MM.reason}")
+
+
 def _layers(material: Material | LayeredMaterial) -> tuple[Material, ...]:
     return tuple(material.layers) if isinstance(material, LayeredMaterial) else (material,)
 
 
-def check_mfp(model: str, mfp_mm: Iterable[float], where: str = "", per_channel: bool = True) -> None:
-    """Refuse transport mean free paths outside :data:`MFP_RANGE_MM`, naming ``model`` and (with
-    ``per_channel``: the values are R, G, B) the channel."""
-    for c, v in enumerate(mfp_mm):
-        channel = f" in channel {CHANNELS[c]}" if per_channel else ""
-        MFP_MM.within(reason=f"sigma_t' = sigma_a + sigma_s (1 - g), mm^-1; {MFP_MM.reason}").check(
-            v, f"the {model} model's transport mean free path 1/sigma_t'{channel}{where}", ProfileError)
-
-
-def check_eta(model: str, eta: float, eta_max: float, why: str) -> None:
-    """Refuse a relative index outside [1, eta_max], naming ``model`` and why it stops there."""
-    ETA.within(1.0, eta_max, why).check(eta, f"the {model} model's relative index eta", ProfileError)
+def check_mfp(model: str, mfp_mm: Iterable[float], where: str = "") -> None:
+    """Refuse transport mean free paths (R, G, B) outside :data:`MFP_RANGE_MM`, naming ``model`` and the channel."""
+    for channel, v in zip(CHANNELS, mfp_mm):
+        TRANSPORT_MFP.check(v, f"the {model} model's transport mean free path 1/sigma_t' in channel {channel}{where}",
+                            ProfileError)
 
 
 def check_scatters(model: str, material: Material | LayeredMaterial) -> None:
@@ -108,14 +112,11 @@ def check_scatters(model: str, material: Material | LayeredMaterial) -> None:
             SCATTERING.refuse(0.0, f"the {model} model's sigma_s in channel {channel} of {material.name!r}", ProfileError)
 
 
-_DIPOLE_WHY = "its diffuse Fresnel fit F_dr of [JMLH01] is within 5% there and passes 1 at eta = 3.85"
-
-
 def check_dipole(material: Material, model: str = "dipole") -> None:
     """The domain of the [JMLH01] dipole (and of what is fitted to it): module docstring."""
     check_scatters(model, material)
     check_mfp(model, material.mfp_reduced_mm)
-    check_eta(model, material.eta / material.eta_ambient, DIPOLE_ETA_MAX, _DIPOLE_WHY)
+    DIPOLE_ETA.check(material.eta / material.eta_ambient, f"the {model} model's relative index eta", ProfileError)
 
 
 def check_montecarlo(material: Material | LayeredMaterial, model: str = "montecarlo") -> None:
@@ -125,22 +126,18 @@ def check_montecarlo(material: Material | LayeredMaterial, model: str = "monteca
     for k, layer in enumerate(layers):
         where = f" of layer {k + 1}" if len(layers) > 1 else ""
         check_mfp(model, layer.mfp_reduced_mm, where)
-        check_eta(model, layer.eta, OPTICAL_ETA_MAX, "no optical medium is denser in the visible; beyond it the "
-                  "photons are trapped by total internal reflection")
+        OPTICAL_ETA.check(layer.eta, f"the {model} model's relative index eta", ProfileError)
     mfp = [v for layer in layers for v in layer.mfp_reduced_mm]
     ratio = max(mfp) / min(mfp)
-    bins = math.ceil(32.0 * 20.0 * ratio)
-    if bins > MAX_GRID_BINS:
-        GRID_BINS.refuse(bins, f"the {model} model's grid (its longest transport mean free path {ratio:.3g} times the "
-                         "shortest)", ProfileError)
+    GRID_BINS.check(math.ceil(32.0 * 20.0 * ratio), f"the {model} model's grid (its longest transport mean free path "
+                    f"{ratio:.3g} times the shortest)", ProfileError)
     last = layers[-1]
     if last.is_semi_infinite:
         where = " of the semi-infinite last layer" if len(layers) > 1 else ""
         for c, channel in enumerate(CHANNELS):
             a, t = float(last.sigma_a[c]), float(last.sigma_a[c]) + float(last.sigma_s[c])
-            if a < MIN_ABSORBED_FRACTION * t:
-                ABSORBED.refuse(a / t, f"the {model} model's sigma_a / sigma_t in channel {channel}{where} of "
-                                f"{material.name!r}", ProfileError)
+            ABSORBED.check(a / t, f"the {model} model's sigma_a / sigma_t in channel {channel}{where} of "
+                           f"{material.name!r}", ProfileError)
 
 
 def check_burley_material(material: Material, albedo_given: bool) -> None:
@@ -152,6 +149,12 @@ def check_burley_material(material: Material, albedo_given: bool) -> None:
         check_montecarlo(material, "burley (A from MCML)")
 
 
-__all__ = ["BURLEY_D", "BURLEY_D_RANGE_MM", "BURLEY_EQ5_SCALING_RANGE", "DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM",
+#: each model's domain of a material, by the model's name (the montecarlo's, and the dipole's for what is fitted
+#: to it): what :func:`ssskit.profiles.check_model_domain` checks before a profile is built
+DOMAINS: dict[str, Callable[[Any], None]] = {
+    "dipole": check_dipole, "gaussians": partial(check_dipole, model="gaussians (fitted to the dipole)"),
+    "burley": partial(check_burley_material, albedo_given=False), "montecarlo": check_montecarlo}
+
+__all__ = ["BURLEY_D", "DOMAINS", "BURLEY_D_RANGE_MM", "BURLEY_EQ5_SCALING_RANGE", "DIPOLE_ETA_MAX", "MAX_GRID_BINS", "MFP_RANGE_MM",
            "MIN_ABSORBED_FRACTION", "OPTICAL_ETA_MAX", "check_burley_material",
-           "check_dipole", "check_eta", "check_mfp", "check_montecarlo", "check_scatters"]
+           "check_dipole", "check_mfp", "DIPOLE_ETA", "OPTICAL_ETA", "TRANSPORT_MFP", "check_montecarlo", "check_scatters"]

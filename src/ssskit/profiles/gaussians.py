@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
-from ..quantities import Quantity
+from ..quantities import Quantity, check_shape
 from .base import RadialProfile
 
 #: [dLE07] six-Gaussian skin fit: variances (mm^2) and RGB weights per Gaussian.
@@ -42,11 +42,10 @@ class GaussianSumProfile(RadialProfile):
 
     def __init__(self, weights: ArrayLike, variances: ArrayLike) -> None:
         w = np.asarray(weights, dtype=float).ravel()
-        v = np.asarray(variances, dtype=float).ravel()
-        if w.size == 0 or w.size != v.size:
-            raise ProfileError(f"need as many weights as variances (got {w.size} and {v.size}), at least one")
+        v = check_shape(np.ravel(variances), "Gaussian variances", (w.size,), ProfileError, dtype=float)
         WEIGHT.check_array(w, "Gaussian weights", ProfileError)
         VARIANCE.check_array(v, "Gaussian variances", ProfileError)
+        # (no weights at all: their sum 0 is refused here)
         WEIGHT.within(lo=1e-300, reason="some light").check(w.sum(), "the sum of the Gaussian weights", ProfileError)
         self.weights, self.variances = w, v
 
@@ -84,8 +83,7 @@ def fit_gaussian_sum(profile: RadialProfile, n: int = 6, fraction: float = 0.999
     """
     from scipy.optimize import nnls
 
-    if not (isinstance(n, (int, np.integer)) and 1 <= n <= 16):
-        raise ProfileError(f"number of Gaussians must be an integer in 1..16, got {n!r}")
+    Quantity("number of Gaussians", 1, 16, "", "terms of the fit", integer=True).check(n, error=ProfileError)
     total = profile.total_rd()
     r_lo = float(profile.radius_at_fraction(0.05))
     r_hi = float(profile.radius_at_fraction(fraction))

@@ -10,7 +10,7 @@ import math
 import tomllib
 
 from ..errors import SceneError
-from ..quantities import Quantity
+from ..quantities import Choice, Quantity
 from .scenefile import BUILTIN_DIR, scene_from_document
 from .scenes import SceneSpec
 
@@ -57,8 +57,7 @@ def backlit_slab(thickness_mm: float, view_deg: float | None = None, fov_deg: fl
 
 def backlit_scene(name: str, view_deg: float | None = None) -> SceneSpec:
     """A built-in back-lit scene (``backlit`` or ``leaf``) with the camera ``view_deg`` off the normal."""
-    if name not in ("backlit", "leaf"):
-        raise SceneError(f"the back-lit scenes are backlit and leaf, got {name!r}")
+    name = Choice("back-lit scene", ("backlit", "leaf")).check(name, error=SceneError)
     doc = copy.deepcopy(_document(name))
     doc["name"] = name + _view(doc, view_deg)
     return scene_from_document(doc, BUILTIN_DIR, doc["name"]).spec

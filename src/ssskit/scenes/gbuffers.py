@@ -15,12 +15,13 @@ Layers (section 6 of the separable-SSS paper splits the frame the same way):
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import SceneError
+from ..errors import SceneError, check_keywords
 from ..quantities import FRAME, FRAMES, REFLECTANCE, TYPE, Quantity, fail
 
 #: a surface's refractive index in the G-buffer render (its boundary): positive
@@ -128,6 +129,6 @@ def render_sequence(scene: str, albedo: ArrayLike, frames: int, first: int = 0, 
     :func:`render_gbuffer` (except ``frame``)."""
     FRAMES.within(hi=2**31 - 1).check(frames, "frames", SceneError)
     FRAME.check(first, "first frame", SceneError)
-    if "frame" in kw:
-        raise SceneError("render_sequence takes first= and frames=, not frame=")
+    takes = [k for k in inspect.signature(render_gbuffer).parameters if k not in ("scene", "albedo", "frame")]
+    check_keywords("render_sequence", kw, takes, SceneError)  # (frame: first= and frames= say which)
     return [render_gbuffer(scene, albedo, frame=int(first) + f, **kw) for f in range(int(frames))]

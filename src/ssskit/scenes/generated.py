@@ -53,13 +53,17 @@ def icosphere(subdivisions: int = 2, radius: float = 1.0, name: str = "icosphere
     return Mesh(name, v * radius, f, v)
 
 
+#: segments of a torus's ring and of its tube
+TORUS_SEGMENTS = Quantity("segments", 3, 4096, "", "a ring of at least three; 4096 x 4096 is 33 M faces", integer=True)
+
+
 def torus(major: float = 1.0, minor: float = 0.3, n_major: int = 48, n_minor: int = 24, name: str = "torus") -> Mesh:
     """A torus about the +Y axis: tube radius ``minor`` around a circle of radius ``major``, an
     ``n_major`` x ``n_minor`` grid wrapped in both directions (closed, genus 1), outward winding."""
-    if not (0 < minor < major):
-        raise SceneError(f"torus needs 0 < minor < major, got minor={minor!r}, major={major!r}")
-    if not (isinstance(n_major, int) and isinstance(n_minor, int) and n_major >= 3 and n_minor >= 3):
-        raise SceneError(f"torus needs at least 3 segments each way, got {n_major!r} x {n_minor!r}")
+    Quantity("minor", 0.0, major, "", "the tube's radius, inside the ring's (major)", lo_open=True, hi_open=True).check(
+        minor, "torus minor radius", SceneError)
+    for n in (n_major, n_minor):
+        TORUS_SEGMENTS.check(n, "torus segments", SceneError)
     u = np.arange(n_major) * (2 * np.pi / n_major)
     w = np.arange(n_minor) * (2 * np.pi / n_minor)
     U, W = np.meshgrid(u, w, indexing="ij")

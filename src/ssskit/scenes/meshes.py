@@ -4,10 +4,10 @@ trimesh), the checks a mesh passes before anything is rendered, and writers for 
 What is checked, and when (all before any rendering; :func:`inspect_mesh_file` runs the cheap ones
 without loading the mesh):
 
-* the file: missing, a directory, empty, a suffix that is none of :data:`FORMATS`;
+* the file: missing, a directory, a FIFO, empty, a suffix that is none of :data:`FORMATS`;
 * its size: the vertex and face counts read from the file's header (PLY, glTF) or counted (OBJ
   lines), and the memory a render of them at the asked image size would take
-  (:func:`memory_estimate`) against the memory available (:func:`check_memory`);
+  (:func:`memory_estimate`) against the memory available (:func:`check_render_memory`);
 * its data (:func:`check_mesh`): no faces, NaN or infinite vertex positions, face indices out of
   range;
 * its topology (:func:`topology`): edges with one face (an open mesh), edges with more than two
@@ -35,7 +35,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..quantities import FINITE, Quantity, check_finite, check_shape, fail
-from ..io import atomic_output, parse_document
+from ..io import atomic_output, check_suffix, parse_document, read_input
 
 #: mesh file suffixes and the reader of each
 FORMATS = {".obj": "obj", ".ply": "ply", ".glb": "gltf", ".gltf": "gltf"}
@@ -146,15 +146,7 @@ class MeshCounts:
 def check_mesh_path(path: str | os.PathLike[str]) -> Path:
     """``path`` as a Path, or a SceneError if it is missing, a directory, empty, or of an unknown format."""
     p = Path(path)
-    suffix = p.suffix.lower()
-    if suffix not in FORMATS:
-        raise SceneError(f"mesh {str(p)!r}: unknown format {suffix or '(no suffix)'!r} "
-                         f"(known: {', '.join(FORMATS)})")
-    if not p.exists():
-        raise SceneError(f"mesh {str(p)!r} does not exist")
-    if p.is_dir():
-        raise SceneError(f"mesh {str(p)!r} is a directory, not a mesh file")
-    if p.stat().st_size == 0:
+    if not read_input(p, "mesh", SceneError, FORMATS, size=1):  # (io: every input file's rules, its suffix too)
         raise SceneError(f"mesh {str(p)!r} is empty (0 bytes)")
     return p
 
@@ -263,12 +255,6 @@ def _gb(n: float) -> str:
     return f"{n / 2**30:.1f} GiB"
 
 
-def check_memory(path: str | os.PathLike[str], counts: MeshCounts, width: int, height: int,
-                 available: int | None = None) -> int:
-    """The :func:`memory_estimate`, or a SceneError saying it exceeds the memory available."""
-    return check_render_memory(f"mesh {str(path)!r} has {counts.faces:,} faces", counts, width, height, available)
-
-
 def check_render_memory(what: str, counts: MeshCounts, width: int, height: int, available: int | None = None) -> int:
     """The :func:`memory_estimate` of rendering ``what`` (a mesh, a built-in, generated or file scene with the
     ``counts`` of its triangle meshes) at ``width`` x ``height``, or a SceneError saying it exceeds the memory
@@ -294,11 +280,11 @@ def shape_counts(shapes: Sequence[dict]) -> MeshCounts:
 
 def inspect_mesh_file(path: str | os.PathLike[str], width: int, height: int) -> MeshCounts:
     """The checks that need no loading (:func:`check_mesh_path`, :func:`mesh_counts`,
-    :func:`check_memory`); returns the counts."""
+    :func:`check_render_memory`); returns the counts."""
     counts = mesh_counts(path)
     if counts.faces == 0:
         raise SceneError(f"mesh {str(path)!r} has no faces")
-    check_memory(path, counts, width, height)
+    check_render_memory(f"mesh {str(path)!r} has {counts.faces:,} faces", counts, width, height)
     return counts
 
 
@@ -335,10 +321,8 @@ def _read_gltf(p: Path) -> tuple[Mesh, ...]:
     doc = _gltf_json(p)
     prims = [prim for mesh in doc.get("meshes", []) for prim in mesh.get("primitives", [])]
     has_normals = bool(prims) and all("NORMAL" in prim.get("attributes", {}) for prim in prims)
-    try:
-        import trimesh
-    except ImportError:  # pragma: no cover - trimesh is a core dependency
-        raise SceneError("reading glTF needs trimesh: pip install trimesh") from None
+    import trimesh  # (a core dependency)
+
     try:
         scene: Any = trimesh.load(str(p), force="scene", process=False)
     except Exception as exc:  # noqa: BLE001 - trimesh raises many kinds of errors
@@ -541,9 +525,7 @@ def write_mesh(path: str | os.PathLike[str], meshes: Mesh | Sequence[Mesh]) -> P
     items = (meshes,) if isinstance(meshes, Mesh) else tuple(meshes)
     if not items:
         raise SceneError("write_mesh needs at least one mesh")
-    kind = FORMATS.get(p.suffix.lower())
-    if kind is None:
-        raise SceneError(f"mesh {str(p)!r}: unknown format {p.suffix!r} (known: {', '.join(FORMATS)})")
+    kind = FORMATS[check_suffix(p, tuple(FORMATS), "mesh", SceneError)]
     if kind == "ply":
         m = _merged(items)
         data = ply_bytes(m.vertices, m.faces, m.normals)
@@ -566,6 +548,6 @@ def write_mesh(path: str | os.PathLike[str], meshes: Mesh | Sequence[Mesh]) -> P
 
 
 __all__ = ["BYTES_PER_FACE", "BYTES_PER_PIXEL", "FORMATS", "Mesh", "MeshCounts", "Topology", "UNITS_MM",
-           "available_memory", "bounding_sphere", "check_area", "check_memory", "check_mesh", "check_mesh_path",
+           "available_memory", "bounding_sphere", "check_area", "check_mesh", "check_mesh_path",
            "check_render_memory", "inspect_mesh_file", "memory_estimate", "mesh_counts", "ply_bytes", "read_mesh",
            "shape_counts", "surface_area", "topology", "write_mesh"]

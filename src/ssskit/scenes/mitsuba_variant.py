@@ -16,15 +16,22 @@ from ..errors import SceneError
 
 def mitsuba() -> ModuleType:
     """The ``mitsuba`` module with the ``scalar_rgb`` variant set and its log on stderr
-    (:func:`_log_to_stderr`), or a SceneError saying how to get it."""
-    try:
-        import mitsuba as mi
-    except ImportError:  # pragma: no cover - mitsuba is a core dependency
-        raise SceneError("the 3D scenes need Mitsuba 3: pip install mitsuba") from None
+    (:func:`_log_to_stderr`; mitsuba is a core dependency)."""
+    import mitsuba as mi
+
     if mi.variant() != "scalar_rgb":
         mi.set_variant("scalar_rgb")
     _log_to_stderr(mi)
     return mi
+
+
+def load_scene(d: dict) -> Any:
+    """Mitsuba's scene of the dict ``d`` (:func:`mitsuba`), or a SceneError with Mitsuba's own text: every
+    scene ssskit builds is loaded here."""
+    try:
+        return mitsuba().load_dict(d)
+    except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
+        raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
 
 
 _STDERR_APPENDER: list[object] = []  # the appender installed, kept alive with its Python object

@@ -46,12 +46,12 @@ from ..cache import cache_dir, cache_file
 from ..errors import SceneError
 from ..io import atomic_output, progress_bar
 from ..materials import Material
-from ..quantities import CHOICE, FRAME, REFLECTANCE, REL_SE, SEED, Quantity, check_shape, fail
+from ..quantities import FRAME, REFLECTANCE, REL_SE, SEED, Choice, Quantity, check_instance, check_shape
 
 #: the path tracer's longest path (Mitsuba's max_depth): at least the camera's ray
 MAX_DEPTH = Quantity("max_depth", 1, 2**31 - 1, "", "bounces of a path, the camera's ray the first", integer=True)
 from .scenes import COAT_ROUGHNESS, SceneSpec, check_size, check_spp, get_scene, mitsuba, scene_dict
-from .mitsuba_variant import interruptible_render
+from .mitsuba_variant import interruptible_render, load_scene
 
 #: bumped when the reference renders change (invalidates the cache). 3: a unique seed per mi.render
 #: call (before, chunks replayed each other shifted by a pixel), black surroundings, chunk statistics
@@ -76,10 +76,8 @@ def reference_phase_g(material: Material) -> float:
     Mitsuba's ``hg`` phase function takes a single g, so a material whose g differs between channels
     (or a layered material, which is no single medium) cannot be path-traced as it is.
     """
-    for attr in ("sigma_a", "sigma_s", "g", "eta"):
-        if not hasattr(material, attr):
-            raise SceneError(f"the path-traced reference needs a homogeneous material (sigma_a, sigma_s, g, eta); "
-                             f"{getattr(material, 'name', material)!r} is a {type(material).__name__}")
+    check_instance(material, Material, "the path-traced reference's material (homogeneous: sigma_a, sigma_s, g, eta)",
+                   SceneError)
     g = np.asarray(material.g, dtype=float)
     if np.ptp(g) > 0:
         raise SceneError(f"the path-traced reference takes one Henyey-Greenstein g (Mitsuba's hg phase function), "
@@ -158,9 +156,7 @@ class Reference:
         The standard error is sqrt(sum of the pixels' squared standard errors) / N: distinct pixels
         draw from independent random streams, so their errors add in quadrature.
         """
-        m = np.asarray(mask, dtype=bool)
-        if m.shape != self.image.shape[:2]:
-            raise SceneError(f"region has shape {m.shape}, the reference {self.image.shape[:2]}")
+        m = check_shape(mask, "region", self.image.shape[:2], SceneError, "iufb", bool)
         n = int(m.sum())
         if n == 0:
             return np.full(3, np.nan), np.full(3, np.nan)
@@ -195,7 +191,7 @@ class ReferenceRenderer:
                  frame: int = 0, boundary: str = "rough-dielectric", surround_albedo: float = 0.0,
                  crop: tuple[int, int, int, int] | None = None) -> None:
         self.spec = get_scene(scene)
-        _check_options(self.spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
+        boundary = _check_options(self.spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
         mats = shape_materials(self.spec, material)
         self.g = reference_phase_g(mats[0])
         interiors = {sid: _interior(m, boundary) for sid, m in zip(self.spec.sss_shapes, mats)}
@@ -215,10 +211,7 @@ class ReferenceRenderer:
             if not (0 <= x0 and 0 <= y0 and cw >= 1 and ch >= 1 and x0 + cw <= width and y0 + ch <= height):
                 raise SceneError(f"crop window {crop!r} does not lie inside the {width}x{height} image")
             d["sensor"]["film"].update(crop_offset_x=x0, crop_offset_y=y0, crop_width=cw, crop_height=ch)
-        try:
-            self._scene = mi.load_dict(d)
-        except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
-            raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
+        self._scene = load_scene(d)
         self._mi = mi
 
     def chunk(self, index: int, spp: int) -> np.ndarray:
@@ -231,9 +224,7 @@ def _interior(material: Any, boundary: str) -> dict[str, Any]:
     """The BSDF (boundary) and interior medium of one SSS shape (:class:`ReferenceRenderer`)."""
     g = reference_phase_g(material)
     sigma_t = np.asarray(material.sigma_a, float) + np.asarray(material.sigma_s, float)
-    scale = float(sigma_t.max())
-    if not scale > 0:
-        raise SceneError(f"material {getattr(material, 'name', material)!r} has no extinction (sigma_a + sigma_s = 0)")
+    scale = float(sigma_t.max())  # (> 0: a Material's sigma_t is, reference_phase_g's check above)
     single = np.where(sigma_t > 0, np.asarray(material.sigma_s, float) / np.maximum(sigma_t, 1e-300), 0.0)
     # RGB values of a Mitsuba medium must lie in [0, 1]: sigma_t is given relative to its maximum
     medium = {"type": "homogeneous", "sigma_t": {"type": "rgb", "value": (sigma_t / scale).tolist()},
@@ -266,31 +257,26 @@ def shape_materials(spec: SceneSpec, material: Any) -> tuple[Any, ...]:
 
 
 def _check_options(spec: SceneSpec, width: int, height: int, max_depth: int, seed: int, frame: int, boundary: str,
-                   surround_albedo: float) -> None:
+                   surround_albedo: float) -> str:
     """A reference's request checked once, before any work: the image size, the scene (its SSS meshes closed) and
-    the path tracer's options."""
+    the path tracer's options; returns the boundary's canonical name (it keys the cache)."""
     check_size(width, height)
     check_reference_scene(spec)
     for name, value, q in (("max_depth", max_depth, MAX_DEPTH), ("seed", seed, SEED), ("frame", frame, FRAME),
                            ("surround_albedo", surround_albedo, REFLECTANCE)):
         q.check(value, name, SceneError)
-    if boundary not in BOUNDARIES:  # (exactly: the name keys the cache)
-        raise fail(SceneError, CHOICE, name="boundary", choices=", ".join(BOUNDARIES), actual=repr(boundary))
+    return Choice("boundary", BOUNDARIES).check(boundary, error=SceneError)
 
 
 def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) -> np.ndarray:
     """(H, W) bool: the pixels that see an SSS object of ``scene`` (one AOV sample per pixel)."""
     spec = get_scene(scene)
     check_size(width, height)
-    mi = mitsuba()
     white = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 1.0}}
     tagged = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.25}}
     aov = {"type": "aov", "aovs": "alb:albedo"}
     d = scene_dict(spec, width, height, 1, 0, frame, aov, lambda sid: white if sid in spec.sss_shapes else tagged)
-    try:
-        img = np.array(interruptible_render(mi.load_dict(d), seed=0))
-    except Exception as exc:  # noqa: BLE001
-        raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
+    img = np.array(interruptible_render(load_scene(d), seed=0))
     return img[..., 0] > 0.6
 
 
@@ -315,14 +301,13 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
     none is cached (nothing is rendered: the live viewer asks so).
     """
     spec = get_scene(scene)
-    check_spp(spp)
-    check_spp(chunk_spp)
-    max_spp = int(spp) if max_spp is None else max_spp
-    check_spp(max_spp)
+    for name, value in (("spp", spp), ("chunk_spp", chunk_spp)):
+        check_spp(value, name)
+    max_spp = int(spp) if max_spp is None else max_spp  # (an integer at least spp, so at least 1:)
     Quantity("max_spp", spp, math.inf, "", "the spp budget: at least the minimum spp", integer=True,
              hi_open=True).check(max_spp, "max_spp", SceneError)
     REL_SE.check(target_rel_se, "target relative standard error", SceneError)
-    _check_options(spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
+    boundary = _check_options(spec, width, height, max_depth, seed, frame, boundary, surround_albedo)
     mats = shape_materials(spec, material)
     g = reference_phase_g(mats[0])
     for m in mats[1:]:

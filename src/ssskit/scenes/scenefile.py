@@ -59,8 +59,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
-from ..quantities import CHOICE, TYPE, Flag, Quantity, check_choice, check_fields, check_keys, check_shape, fail
-from ..io import parse_document
+from ..quantities import TYPE, Choice, Flag, Quantity, check_choice, check_fields, check_keys, check_shape, fail
+from ..io import parse_document, read_input
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
 from .scenes import SCENES, SceneSpec, _T, _ply, check_size
 
@@ -93,6 +93,8 @@ PLAUSIBLE_MM = (5.0, 3000.0)
 #: nm, as in mm; 0.211 at 20 nm, 0.142 at 2 nm); beyond, its float32 fails (a 1e30 mm model's point light, ~1e61, overflows:
 #: the trial's render of one gave Mitsuba's "Invalid sample value" and a frame with no SSS pixel)
 MODEL_SIZE_MM = (2e-4, 1e9)
+MODEL_SIZE = Quantity("model size", *MODEL_SIZE_MM, "mm", "200 nm to 1000 km: the renderer's lighting goes wrong "
+                      "below, its float32 lights overflow far beyond")
 #: the largest intensity or radiance a light may give Mitsuba: its float32 arithmetic overflows not far beyond
 #: (3.4e38; a key light of intensity 1e36 rendered 64,000 "Invalid sample value" warnings and a NaN diffuse layer)
 EMITTER_MAX = 1e30
@@ -114,6 +116,10 @@ RELATIVE_LIGHT: dict[str, Quantity] = {
     "size": Quantity("size", 0.0, math.inf, "bounding radii", "a light's radius; 0 is a point light", hi_open=True),
     "intensity": Quantity("intensity", 0.0, math.inf, "", "the irradiance at the model's centre over pi",
                           hi_open=True)}
+#: the keys of an explicit Mitsuba light, by its type (each required)
+EXPLICIT_KEYS = {"point": ("intensity", "position"), "sphere": ("center", "radiance", "radius")}
+#: a shape's types (docs/meshes.md)
+SHAPE_TYPE = Choice("type", ("mesh", "generated", "sphere", "rectangle", "cube"))
 #: an explicit Mitsuba light's numbers (the ones that take one number or three [R, G, B]; the points take three)
 EXPLICIT_LIGHT: dict[str, Quantity] = {
     "intensity": EMITTED, "radiance": EMITTED,
@@ -331,18 +337,15 @@ def _point(where: str, value: Any) -> list[float]:
 
 
 def _explicit_light(name: str, spec: Mapping[str, Any]) -> dict:
-    kind, where = spec.get("type"), f"light {name!r}"
+    where = f"light {name!r}"
+    kind = Choice("type", EXPLICIT_KEYS).check(spec.get("type"), f"{where}: type", SceneError)
+    check_keys(spec, where, {"type", *EXPLICIT_KEYS[kind]}, EXPLICIT_KEYS[kind], SceneError)
+    out = check_fields(spec, EXPLICIT_LIGHT, where, SceneError, rgb=("intensity", "radiance"))
     if kind == "point":
-        check_keys(spec, where, {"type", "position", "intensity"}, ("intensity", "position"), SceneError)
-        check_fields(spec, EXPLICIT_LIGHT, where, SceneError, rgb=EXPLICIT_LIGHT)
         return {"type": "point", "position": _point(f"{where}: position", spec["position"]),
                 "intensity": {"type": "rgb", "value": spec["intensity"]}}
-    if kind == "sphere":
-        check_keys(spec, where, {"type", "center", "radius", "radiance"}, ("center", "radiance", "radius"), SceneError)
-        out = check_fields(spec, EXPLICIT_LIGHT, where, SceneError, rgb=("radiance",))
-        return {"type": "sphere", "center": _point(f"{where}: center", spec["center"]), "radius": out["radius"],
-                "emitter": {"type": "area", "radiance": {"type": "rgb", "value": spec["radiance"]}}}
-    raise fail(SceneError, CHOICE, name=f"{where}: type", choices="point, sphere", actual=repr(kind))
+    return {"type": "sphere", "center": _point(f"{where}: center", spec["center"]), "radius": out["radius"],
+            "emitter": {"type": "area", "radiance": {"type": "rgb", "value": spec["radiance"]}}}
 
 
 def _keys(where: str, table: Mapping[str, Any], allowed: set[str], required: set[str] = frozenset()) -> None:  # type: ignore[assignment]
@@ -368,12 +371,10 @@ def load_scene_file(path: str | os.PathLike[str], **options: Any) -> LoadedScene
     """Read a TOML scene file (module docstring) into a :class:`LoadedScene`; ``options`` as for
     :func:`scene_from_document`."""
     p = Path(path)
-    if not p.is_file():
-        raise SceneError(f"scene file {str(p)!r} does not exist" if not p.exists() else
-                         f"scene file {str(p)!r} is not a file")
+    text = read_input(p, "scene file", SceneError, text=True)  # (io: every input file's rules)
     try:
-        doc = parse_document(p.read_text(encoding="utf-8"), ".toml")
-    except (ValueError, UnicodeDecodeError) as exc:
+        doc = parse_document(text, ".toml")
+    except ValueError as exc:
         raise SceneError(f"scene file {str(p)!r} is not valid TOML: {exc}") from None
     doc.setdefault("name", p.stem)
     return scene_from_document(doc, base=p.parent, source=str(p), **options)
@@ -389,7 +390,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     or is given twice differently); ``material_map``: object or glTF material name -> ssskit
     material (``--material-map``; every name must be an object of the scene); ``view``: overrides
     the document's view (automatic framing only); ``width`` x ``height``: the image size the memory
-    check (:func:`ssskit.scenes.meshes.check_memory`) is made for.
+    check (:func:`ssskit.scenes.meshes.check_render_memory`) is made for.
     """
     _keys(source, doc, {"name", "description", "units", "camera", "shapes", "lights", "orbit_deg_per_frame",
                         "light_orbit_deg_per_frame", "lit_from_behind", "views"}, {"shapes"})
@@ -414,7 +415,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     claimed: set[str] = set()
     for sid, table in shapes_doc.items():
         where = f"{source}: shape {sid!r}"
-        kind = check_keys(table, where, error=SceneError).get("type")
+        kind = SHAPE_TYPE.check(check_keys(table, where, error=SceneError).get("type"), f"{where}: type", SceneError)
         is_sss = Flag("sss").check(table.get("sss", kind in ("mesh", "generated")), f"{where}: sss", SceneError)
         meshes: tuple[Mesh, ...] | None = None
         if kind == "mesh":
@@ -435,8 +436,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             if gen == "head":  # the scan's scale and the credit its licence asks for (ssskit.scenes.head)
                 from .head import ATTRIBUTION, LICENCE, MM_PER_UNIT, check_mm_per_unit
 
-                if set(params) - {"mm_per_unit"}:
-                    raise SceneError(f"{where}: the head generator takes mm_per_unit only, got {', '.join(params)}")
+                check_keys(params, f"{where}: the head generator's params", {"mm_per_unit"}, error=SceneError)
                 about.update({"attribution": ATTRIBUTION, "licence": LICENCE,
                               "mm_per_unit": check_mm_per_unit(params.get("mm_per_unit", MM_PER_UNIT)),
                               "scale_evidence": "docs/head.md, Scale"})
@@ -473,11 +473,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         scale = UNITS_MM[unit]
         objs = _mesh_objects(meshes, scale, own, str(table.get("material", "")), label, taken, deferred)
         centre, r = bounding_sphere(meshes, scale)
-        lo, hi = MODEL_SIZE_MM
-        if not lo <= 2 * r <= hi:
-            raise SceneError(f"{label}: the model is {2 * r:.4g} mm across (bounding-sphere diameter, units {unit}); a "
-                             f"scene takes models {lo:g} to {hi:g} mm across (200 nm to 1000 km: the renderer's lighting "
-                             "goes wrong below, its float32 lights overflow far beyond)")
+        MODEL_SIZE.check(2 * r, f"{label}: the model's bounding-sphere diameter (units {unit})", SceneError)
         if kind == "mesh":
             notes.append(_units_note(label, unit, assumed, 2 * r))
         for o in objs:
@@ -603,14 +599,11 @@ def _primitive(where: str, kind: Any, table: Mapping[str, Any]) -> dict:
     if kind == "sphere":
         _keys(where, table, {"type", "center", "radius", "sss", "material"}, {"center", "radius"})
         return {"type": "sphere", "center": list(table["center"]), "radius": table["radius"]}
-    if kind in ("rectangle", "cube"):
-        _keys(where, table, {"type", "translate", "scale", "sss", "material"})
-        entry: dict[str, Any] = {"type": kind}
-        if "translate" in table or "scale" in table:
-            entry["__to_world"] = (list(table.get("translate", [0, 0, 0])), list(table.get("scale", [1, 1, 1])))
-        return entry
-    raise fail(SceneError, CHOICE, name=f"{where}: type", choices="mesh, generated, sphere, rectangle, cube",
-               actual=repr(kind))
+    _keys(where, table, {"type", "translate", "scale", "sss", "material"})
+    entry: dict[str, Any] = {"type": kind}  # a rectangle or a cube (the shape types: SHAPE_TYPE)
+    if "translate" in table or "scale" in table:
+        entry["__to_world"] = (list(table.get("translate", [0, 0, 0])), list(table.get("scale", [1, 1, 1])))
+    return entry
 
 
 # ---- the built-in scenes -------------------------------------------------------------------------------

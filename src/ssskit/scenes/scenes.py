@@ -38,7 +38,7 @@ from ..registry import Registry
 from ..screenspace.camera import Camera
 from ..settings import SIZE_RANGE
 from .meshes import ply_bytes
-from .mitsuba_variant import interruptible_render, mitsuba, render_threads
+from .mitsuba_variant import interruptible_render, load_scene, mitsuba, render_threads
 
 #: diffuse albedo of everything that is not an SSS object (floors, occluders)
 FLOOR_ALBEDO = 0.5
@@ -259,8 +259,8 @@ def check_size(width: int, height: int) -> None:
         SIZE_PX.within(*SIZE_RANGE).check(v, f"image {name}", SceneError)
 
 
-def check_spp(spp: int) -> None:
-    Quantity("spp", 1, math.inf, "", "samples per pixel", integer=True, hi_open=True).check(spp, "spp", SceneError)
+def check_spp(spp: int, name: str = "spp") -> None:
+    Quantity("spp", 1, math.inf, "", "samples per pixel", integer=True, hi_open=True).check(spp, name, SceneError)
 
 
 #: Mitsuba's perspective sensor's default clip planes (world units: mm), kept wherever they hold the scene
@@ -311,10 +311,6 @@ def scene_dict(spec: SceneSpec, width: int, height: int, spp: int, seed: int, fr
 
 def render_dict(scene: dict) -> np.ndarray:
     """Load and render a Mitsuba scene dict; (H, W, C) float32."""
-    mi = mitsuba()
-    try:
-        loaded = mi.load_dict(scene)
-    except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
-        raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
+    loaded = load_scene(scene)
     with render_threads():
         return np.array(interruptible_render(loaded), dtype=np.float32)

@@ -12,19 +12,13 @@ from typing import Any, Callable
 import numpy as np
 
 from ..errors import SignalError
-from ..quantities import Quantity
+from ..quantities import SIZE_PX, Quantity
 from ..registry import Registry
 
 #: a width or radius of a test signal's shape (pixels)
 PIXELS = Quantity("width", 0.0, 1e6, "px", "a shape inside a test image", lo_open=True)
 
 _SUPER = 8
-
-
-def _check_size(size: int) -> int:
-    if not (isinstance(size, (int, np.integer)) and 8 <= size <= 8192):
-        raise SignalError(f"signal size must be an integer number of pixels in 8..8192, got {size!r}")
-    return int(size)
 
 
 def _coverage(size: int, inside: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> np.ndarray:
@@ -46,7 +40,7 @@ def _rgb(gray: np.ndarray) -> np.ndarray:
 
 def edge(size: int = 256, angle_deg: float = 0.0) -> np.ndarray:
     """A straight shadow edge through the centre: lit where x cos(a) + y sin(a) > 0 (a = 0: vertical edge)."""
-    size = _check_size(size)
+    size = SIZE_PX.check(size, "signal size", SignalError)
     a = np.deg2rad(float(angle_deg))
     if a == 0.0:  # the axis-aligned edge is exactly additively separable: E = E1(x)
         x = np.arange(size) - (size - 1) / 2.0
@@ -62,7 +56,7 @@ def edge_rotated(size: int = 256, angle_deg: float = 30.0) -> np.ndarray:
 
 def disk(size: int = 256, radius_px: float | None = None) -> np.ndarray:
     """A white disk on black (the 'dot' of supplement Fig. S.5); default radius size / 16."""
-    size = _check_size(size)
+    size = SIZE_PX.check(size, "signal size", SignalError)
     r = size / 16.0 if radius_px is None else float(radius_px)
     PIXELS.check(r, "disk radius", SignalError)
     return _rgb(_coverage(size, lambda x, y: x * x + y * y < r * r))
@@ -70,7 +64,7 @@ def disk(size: int = 256, radius_px: float | None = None) -> np.ndarray:
 
 def line(size: int = 256, width_px: float = 1.0, angle_deg: float = 0.0) -> np.ndarray:
     """A thin bright line of ``width_px`` through the centre (angle from vertical)."""
-    size = _check_size(size)
+    size = SIZE_PX.check(size, "signal size", SignalError)
     PIXELS.check(width_px, "line width", SignalError)
     a = np.deg2rad(float(angle_deg))
     ca, sa = np.cos(a), np.sin(a)
@@ -81,7 +75,7 @@ def texture(size: int = 256, seed: int = 7) -> np.ndarray:
     """Seeded band-limited noise with pore-scale detail: 0.6 coarse (sigma 6 px) + 0.4 fine (sigma 0.7 px)."""
     from scipy.ndimage import gaussian_filter
 
-    size = _check_size(size)
+    size = SIZE_PX.check(size, "signal size", SignalError)
     rng = np.random.default_rng(seed)
     coarse = gaussian_filter(rng.standard_normal((size, size)), 6.0, mode="wrap")
     fine = gaussian_filter(rng.standard_normal((size, size)), 0.7, mode="wrap")

@@ -23,17 +23,14 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError
-from ..quantities import LENGTH_MM
+from ..quantities import LENGTH_MM, check_shape
+from .mitsuba_variant import load_scene
 from .scenes import SceneSpec, _T, check_size, get_scene, mitsuba, scene_camera, scene_lights
 
 
 def _sss_only(spec: SceneSpec) -> Any:
-    mi = mitsuba()
     shapes = spec.shapes()
-    try:
-        return mi.load_dict({"type": "scene", **{sid: shapes[sid] for sid in spec.sss_shapes}})
-    except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
-        raise SceneError(f"Mitsuba could not build the scene: {exc}") from None
+    return load_scene({"type": "scene", **{sid: shapes[sid] for sid in spec.sss_shapes}})
 
 
 def _seen_points(spec: SceneSpec, width: int, height: int, frame: int,
@@ -42,9 +39,7 @@ def _seen_points(spec: SceneSpec, width: int, height: int, frame: int,
     hits an SSS object of ``spec``."""
     check_size(width, height)
     if mask is not None:
-        mask = np.asarray(mask, dtype=bool)
-        if mask.shape != (height, width):
-            raise SceneError(f"mask has shape {mask.shape}, the image {(height, width)}")
+        mask = check_shape(mask, "mask", (height, width), SceneError, "iufb", bool)
     mi = mitsuba()
     sc = _sss_only(spec)
     cam = scene_camera(spec, width, height, frame)

@@ -20,7 +20,7 @@ import numpy as np
 from ...errors import ProfileError
 from ...settings import DEFAULT_PHOTONS  # supplement F's 10^7, re-exported here
 from ...materials import CHANNELS, LayeredMaterial, Material
-from ...quantities import ANISOTROPY, COEFFICIENT, ETA, EXTINCTION, LENGTH_MM, SEED, THICKNESS_MM, Quantity
+from ...quantities import ANISOTROPY, COEFFICIENT, ETA, EXTINCTION, LENGTH_MM, SEED, THICKNESS_MM, Choice, Quantity
 
 #: a layer's fields and a simulation's numbers, each declared once as a quantity (checked in a loop)
 LAYER_FIELDS = {"sigma_a": COEFFICIENT, "sigma_s": COEFFICIENT, "g": ANISOTROPY, "eta": ETA,
@@ -189,14 +189,19 @@ def _layers_of(material: Material | LayeredMaterial) -> tuple[Material, ...]:
 SUPPLEMENT_GRID_MFP = 32.0
 
 
+#: a channel of a simulation, by name or by index (R, G, B = 0, 1, 2); the reach of its radial grid
+CHANNEL = Choice("channel", CHANNELS)
+CHANNEL_INDEX = Quantity("channel index", 0, 2, "", "R, G, B", integer=True)
+GRID_EXTENT = Quantity("grid extent", 0.0, math.inf, "mean free paths", "the grid's reach", lo_open=True, hi_open=True)
+
+
 def supplement_grid(material: Material | LayeredMaterial, extent_mfp: float = SUPPLEMENT_GRID_MFP) -> tuple[float, int]:
     """Supplement F's grid: dr = min(MFP_rgb) / 20, nr = ceil(32 max(MFP_rgb) / dr), MFP = 1/sigma_t'
     (over every layer of a layered material); ``extent_mfp`` replaces the 32 (a longer grid for
     materials whose light travels farther, :func:`~ssskit.profiles.montecarlo.simulate_material`'s
     ``grid_fraction``). Returns (dr in mm, nr), nr counting the regular bins and, as MCML's last bin,
     the one that collects every photon beyond them."""
-    if not (isinstance(extent_mfp, (int, float)) and math.isfinite(extent_mfp) and extent_mfp > 0):
-        raise ProfileError(f"grid extent must be a positive number of mean free paths, got {extent_mfp!r}")
+    GRID_EXTENT.check(extent_mfp, error=ProfileError)
     mfp = [v for layer in _layers_of(material) for v in layer.mfp_reduced_mm]
     dr = min(mfp) / 20.0
     return dr, max(int(math.ceil(extent_mfp * max(mfp) / dr - 1e-9)), 2)
@@ -217,14 +222,8 @@ def config_for_material(material: Material | LayeredMaterial, channel: int | str
     from ..domain import check_montecarlo
 
     check_montecarlo(material)
-    if isinstance(channel, str):
-        if channel.strip().upper() not in CHANNELS:
-            raise ProfileError(f"channel must be R, G or B, got {channel!r}")
-        c = CHANNELS.index(channel.strip().upper())
-    else:
-        c = int(channel)
-        if not 0 <= c < 3:
-            raise ProfileError(f"channel index must be 0, 1 or 2, got {channel!r}")
+    c = CHANNELS.index(CHANNEL.check(channel, error=ProfileError)) if isinstance(channel, str) else \
+        CHANNEL_INDEX.check(channel, error=ProfileError)
     dr, nr = supplement_grid(material, extent_mfp)
     layers = tuple(MCLayer(m.sigma_a[c], m.sigma_s[c], m.g[c], m.eta, m.thickness_mm) for m in _layers_of(material))
     if isinstance(material, LayeredMaterial):

@@ -23,7 +23,6 @@ both are zero.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -207,25 +206,18 @@ N_TOTALS = 3 + 2 * N_EXIT_BINS
 
 
 def assemble_result(cfg: MCConfig, bins: np.ndarray, totals: np.ndarray, seconds: float,
-                    extra: dict[str, Any] | None = None, rsp: float | None = None,
-                    tt_bins: np.ndarray | None = None) -> MCResult:
-    """An :class:`MCResult` from an engine's per-batch tallies over all of ``cfg``'s batches.
+                    extra: dict[str, Any] | None = None, rsp: float | None = None, *,
+                    tt_bins: np.ndarray) -> MCResult:
+    """An :class:`MCResult` from an engine's per-batch tallies over all of ``cfg``'s batches (its callers, the
+    engines' runs, make the arrays in these shapes from ``cfg``, or read them back shape-checked: ``run._load_partial``).
 
     bins, tt_bins: (cfg.n_batches, cfg.nr) diffusely reflected / transmitted weight per radial bin, the
-    last one for every radius beyond the grid (``tt_bins`` None: a semi-infinite medium's, all zero);
+    last one for every radius beyond the grid (a semi-infinite medium's tt_bins all zero);
     totals: (cfg.n_batches, :data:`N_TOTALS`) weight sums [diffusely reflected, transmitted, absorbed,
     reflected per exit-direction bin..., transmitted per exit-direction bin...]; seconds: the simulation's
     run time; rsp: the specular reflectance if not the smooth surface's ``cfg.specular_reflectance()``.
     """
     sizes = cfg.batch_sizes()
-    if tt_bins is None:
-        if math.isfinite(cfg.layers[-1].thickness_mm):
-            raise ValueError("a finite slab's result needs its transmitted radial tally (tt_bins)")
-        tt_bins = np.zeros_like(bins)
-    if (bins.shape != (sizes.shape[0], cfg.nr) or tt_bins.shape != bins.shape
-            or totals.shape != (sizes.shape[0], N_TOTALS)):
-        raise ValueError(f"tallies of shape {bins.shape}, {tt_bins.shape} and {totals.shape} do not match the "
-                         f"configuration's {sizes.shape[0]} batches, {cfg.nr} bins and {N_EXIT_BINS} exit bins")
     n = cfg.nr - 1  # the regular bins; bin n collects everything beyond them
     r_mm = (np.arange(n) + 0.5) * cfg.dr_mm
     area = 2.0 * np.pi * r_mm * cfg.dr_mm

@@ -22,7 +22,7 @@ from ...cache import cache_dir
 from ...errors import ProfileError, SimulationInterrupted
 from ...io import ProgressBar, progress_bar, save_arrays
 from ...progress import add_to_total
-from ...quantities import CHOICE, ETA, Quantity, fail
+from ...quantities import ETA, Choice, Quantity
 from .config import N_EXIT_BINS, MCConfig, layer_arrays
 
 #: numba's threads, a cosine of incidence (0 excluded: grazing light never enters), estimate samples
@@ -56,8 +56,7 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
         which = "resume" if resume else "restart"
         raise ProfileError(f"{which} acts on the on-disk cache; it cannot be combined with use_cache=False",
                            cli_message=f"--{which} acts on the on-disk cache; it cannot be combined with --no-cache")
-    if backend not in ENGINES:  # (exactly: the name picks the engine module)
-        raise fail(ProfileError, CHOICE, name="the Monte Carlo backend", choices=", ".join(ENGINES), actual=repr(backend))
+    backend = Choice("the Monte Carlo backend", ENGINES).check(backend, error=ProfileError)  # (its canonical name from here)
     check_threads(threads)  # before any answer, the shipped one included
     if use_cache and shipped and backend == "numba":  # (None inside shipped.recompute(): ssskit demo --full)
         from .shipped import shipped_result
@@ -301,8 +300,7 @@ def _numba_threads(threads: int | None) -> Iterator[int]:
     if threads is None:
         yield numba.get_num_threads()
         return
-    check_threads(threads)
-    old = numba.get_num_threads()
+    old = numba.get_num_threads()  # (threads: checked by simulate, its one caller, before any work)
     numba.set_num_threads(threads)
     try:
         yield threads

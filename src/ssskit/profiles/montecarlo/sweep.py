@@ -6,7 +6,7 @@ from __future__ import annotations
 from ...errors import ProfileError
 from ...materials import CHANNELS, LayeredMaterial, Material
 from ...progress import add_to_total
-from ...quantities import Quantity
+from ...quantities import Choice, Quantity
 from ..domain import check_montecarlo
 from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, SUPPLEMENT_GRID_MFP, channel_seed, config_for_material
 from .result import MCResult
@@ -37,10 +37,8 @@ def simulate_material(material: Material | LayeredMaterial, channels: str = "all
     the supplement's smooth one. ``shipped=False``: simulate even what the package ships
     (:mod:`.shipped`). ``backend``: the engine, "numba" or "gl" (:func:`~.run.simulate`).
     """
-    wanted = list(CHANNELS) if channels.strip().lower() == "all" else [channels.strip().upper()]
-    for ch in wanted:
-        if ch not in CHANNELS:
-            raise ProfileError(f"channel must be R, G, B or all, got {channels!r}")
+    chosen = Choice("channels", (*CHANNELS, "all")).check(channels, error=ProfileError)
+    wanted = list(CHANNELS) if chosen == "all" else [chosen]
     if grid_fraction is not None:
         GRID_FRACTION.check(grid_fraction, "grid fraction", ProfileError)
     if progress is None:

@@ -59,7 +59,7 @@ import numpy as np
 
 from ...errors import ProfileError
 from ...materials import Material
-from ...quantities import Quantity, check_instance
+from ...quantities import Choice, Quantity, check_instance
 from .config import MCConfig
 from .result import MCResult
 from .run import check_threads, simulate
@@ -169,8 +169,10 @@ class TransmissionTable:
         return cls(**kw)
 
 
-def _check_request(material: Material, floor: float, grid: Sequence[float]) -> list[float]:
-    """The grid as floats, after the checks of a table's request (ProfileError for a bad one)."""
+def check_table_request(material: Material, floor: float = T_FLOOR, grid: Sequence[float] = GRID_MM) -> list[float]:
+    """The grid as floats, after the checks :func:`transmission_table` makes before simulating (a ProfileError for
+    a request outside its domain: not homogeneous, a bad grid or floor, a material whose unscattered light alone
+    stays above the floor at the grid's end); for a caller that does other work first too."""
     check_instance(material, Material, "a transmission table's material (homogeneous)", ProfileError)
     ts = thickness_grid(grid)
     FLOOR.check(floor, "the transmittance floor", ProfileError)
@@ -185,13 +187,6 @@ def _check_request(material: Material, floor: float, grid: Sequence[float]) -> l
                            f"{ts[-1]:g} mm slab unscattered alone is {float(np.max(ballistic)):.3g} (sigma_t "
                            f"{', '.join(f'{x:g}' for x in material.sigma_t)} /mm); {fix}")
     return ts
-
-
-def check_table_request(material: Material, floor: float = T_FLOOR, grid: Sequence[float] = GRID_MM) -> None:
-    """The checks :func:`transmission_table` makes before simulating (a ProfileError for a request outside its
-    domain: not homogeneous, a bad grid or floor, a material whose unscattered light alone stays above the floor
-    at the grid's end), for a caller that does other work first."""
-    _check_request(material, floor, grid)
 
 
 def table_runs(material: Material, photons: int = DEFAULT_PHOTONS, seed: int = DEFAULT_SEED,
@@ -209,7 +204,7 @@ def table_key(material: Material, photons: int = DEFAULT_PHOTONS, seed: int = DE
     simulation it may run (:func:`table_runs`), the floor and :data:`TABLE_VERSION`. The material's name is
     not an input: equal coefficients give the same table. A shipped table (:mod:`.shipped`) answers a request
     of the same key."""
-    ts = _check_request(material, floor, grid)
+    ts = check_table_request(material, floor, grid)
     runs = [cfg.key() for row in table_runs(material, photons, seed, ts) for cfg in row]
     text = json.dumps({"runs": runs, "floor": float(floor), "table_version": TABLE_VERSION}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:24]
@@ -230,7 +225,7 @@ def transmission_table(material: Material, photons: int = DEFAULT_PHOTONS, seed:
     the same :func:`table_key`) is answered from the shipped file without simulating, named after
     ``material``; ``shipped=False``, or a :func:`~.shipped.recompute` block (``ssskit demo --full``),
     simulates instead. The result does not depend on ``threads``."""
-    ts = _check_request(material, floor, grid)
+    ts = check_table_request(material, floor, grid)
     check_threads(threads)  # before any answer, the shipped one included
     if shipped:
         from .shipped import shipped_table
@@ -327,6 +322,8 @@ class TransmissionFit:
 
 #: the parts of MCML's transmittance a fit follows: Tt, or its scattered part T_s (module docstring)
 PARTS = ("total", "diffuse")
+#: exponential terms of a fit (module docstring)
+FIT_TERMS = Quantity("terms", 1, 6, "", "exponential terms of a fit", integer=True)
 
 
 def _fit_channel(t: np.ndarray, y: np.ndarray, se: np.ndarray, starts: Sequence[np.ndarray], terms: int,
@@ -387,12 +384,10 @@ def fit_transmission(table: TransmissionTable, terms: int | None = None, rel_flo
     Deterministic starts: rates spanning the channel's diffusion rate sigma_tr = sqrt(3 sigma_a sigma_t') (g =
     0) to a few times its extinction sigma_t, with small and moderate Gaussian terms (and B = 2 sigma_t). A
     scattered-part fit negative anywhere on [0, 2 x the table's last thickness] is a ProfileError."""
-    if part not in PARTS:
-        raise ProfileError(f"the fit follows one of {', '.join(PARTS)}, got {part!r}")
+    part = Choice("part", PARTS).check(part, "the fit's part", ProfileError)
     diffuse = part == "diffuse"
-    terms = (DIFFUSE_TERMS if diffuse else DEFAULT_TERMS) if terms is None else terms
-    if not (isinstance(terms, int) and 1 <= terms <= 6):
-        raise ProfileError(f"the fit takes 1 to 6 terms, got {terms!r}")
+    terms = FIT_TERMS.check((DIFFUSE_TERMS if diffuse else DEFAULT_TERMS) if terms is None else terms,
+                            "the fit's terms", ProfileError)
     n_out = terms + 1 if diffuse else terms
     out = np.zeros((3, 3, n_out))
     errs = np.zeros((3, 3))
