@@ -414,6 +414,7 @@ __all__ = [
     "Material",
     "Triple",
     "get_material",
+    "homogeneous",
     "load_material",
     "material_from_dict",
 ]

@@ -120,7 +120,7 @@ BAD_EXPORT = [
     (["--material", "skin1", "--eta", "1.4", "--format", "unreal", "--out", "o.json"], "--eta does not apply to a material without artists' terms"),
     (["--material", "skin1", "--format", "godot", "--out", "o.json"], "unknown export format 'godot'"),
     (["--material", "skin1", "--format", "unity", "--out", "o.py"], "--out for --format unity"),
-    (["--material", "other.json", "--format", "unity", "--out", "o.json"], "an export of engine 'godot'"),
+    (["--material", "other.json", "--format", "unity", "--out", "o.json"], "the engine of an export must be one of unreal, unity, blender, got 'godot'"),
     (["--material", "other.asset", "--albedo", "0.5", "--format", "blender", "--out", "o.json"],
      "not HDRP's DiffusionProfileSettings"),
     (["--material", "cut.asset", "--albedo", "0.5", "--format", "blender", "--out", "o.json"], "truncated"),
