@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
+from ..quantities import check_keys
 
 #: the m_Script GUID of DiffusionProfileSettings.cs (HDRP's own .asset files name it)
 SCRIPT_GUID = "b2686e09ec7aef44bad2843e4416f057"
@@ -132,12 +133,8 @@ def read_unity_asset(text: str, what: str = "the .asset file") -> dict[str, Any]
     if guid != SCRIPT_GUID:
         raise SsskitError(f"{what} is a MonoBehaviour of script {guid!r}, not HDRP's DiffusionProfileSettings "
                           f"({SCRIPT_GUID})")
-    prof = mb.get("profile")
-    if not isinstance(prof, dict):
-        raise SsskitError(f"{what} has no 'profile' block (truncated?)")
-    missing = [f for f in ("scatteringDistance", "scatteringDistanceMultiplier", "worldScale", "ior") if f not in prof]
-    if missing:
-        raise SsskitError(f"{what} lacks {', '.join(missing)} in its profile (truncated?)")
+    prof = check_keys(mb.get("profile"), f"{what}: the profile block (truncated?)", None,
+                      ("scatteringDistance", "scatteringDistanceMultiplier", "worldScale", "ior"))
     sd = prof["scatteringDistance"]
     try:
         colour = [float(sd[k]) for k in ("r", "g", "b")]
