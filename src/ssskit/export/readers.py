@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import SsskitError
 from ..io import parse_document, read_input
 from ..materials import Material, homogeneous
-from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM, Choice, refuse_twice
+from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM, Choice, check_keys, refuse_twice
 from .registry import FORMATS
 
 #: suffixes that hold an engine file (a .json one only when it has an "engine" key, a .py one only when it is an
@@ -128,9 +128,7 @@ def _script_literal(p: Path, text: str, engine: str) -> dict[str, Any]:
                 values[node.targets[0].id] = ast.literal_eval(node.value)
             except ValueError:
                 continue
-    if not isinstance(values.get(name), dict):
-        raise SsskitError(f"{str(p)!r} has no {name} literal of the {engine} parameters ssskit writes (truncated?)")
-    out = dict(values[name])
+    out = dict(check_keys(values.get(name), f"{str(p)!r}: the {name} literal of the {engine} parameters (truncated?)"))
     if engine == "unreal":  # the script holds the mfp block and its asset name
         return {"engine": "unreal", "mfp": out, "base_color": out.get("SurfaceAlbedo"), "IOR": out.get("IOR"),
                 "source_profile": {"name": str(values.get("NAME", p.stem))}}

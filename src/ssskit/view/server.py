@@ -69,9 +69,9 @@ def _material_keys(body: Any, allowed: frozenset[str], given: dict[str, str] | N
     material = body.get("material")
     if isinstance(material, str) and given and material in given:
         material = given[material]  # the file named on the command line, never a path from the request
-    elif material is not None and (not isinstance(material, str) or material not in MATERIALS):
-        raise RequestError(400, f"material must be a preset name ({', '.join(MATERIALS.names())}) or the page's own "
-                                "material; the API reads no other files")
+    elif material is not None:  # (the API reads no other files)
+        material = Choice("material (a preset, or the page's own: the API reads no other files)",
+                          MATERIALS.names()).check(material)
     kw: dict[str, Any] = {"material": material}
     for key in ("albedo", "mfp"):
         if key in body:
