@@ -13,22 +13,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import SignalError
 from .io import tonemap  # the display encoding images are written with
-from .quantities import POSITIVE, check_finite
+from .quantities import POSITIVE, check_choice, check_shape
 
 #: ITU-R BT.709 luminance weights of linear RGB (Y = 0.2126 R + 0.7152 G + 0.0722 B)
 BT709_LUMA = (0.2126, 0.7152, 0.0722)
 
 
 def _pair(reference: ArrayLike, test: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    ref = np.asarray(reference, dtype=np.float64)
-    tst = np.asarray(test, dtype=np.float64)
-    if ref.shape != tst.shape:
-        raise SignalError(f"images differ in shape: reference {ref.shape} vs test {tst.shape}")
-    if ref.ndim != 3 or ref.shape[2] != 3:
-        raise SignalError(f"images must have shape (H, W, 3), got {ref.shape}")
-    check_finite(ref, "the reference image", SignalError, "values")
-    check_finite(tst, "the test image", SignalError, "values")
-    return ref, tst
+    ref = check_shape(reference, "the reference image", ("H", "W", 3), SignalError, dtype=np.float64, finite=True)
+    return ref, check_shape(test, "the test image", ref.shape, SignalError, dtype=np.float64, finite=True)
 
 
 def rmse(reference: ArrayLike, test: ArrayLike) -> float:
@@ -121,10 +114,7 @@ def all_metrics(reference: ArrayLike, test: ArrayLike, perceptual: bool | tuple[
     """rmse, relative_rmse, psnr and the ``perceptual`` metrics: True for ssim and flip, False for
     none, or a tuple of names from :data:`PERCEPTUAL` (e.g. ``("flip",)`` when SSIM is not shown)."""
     names = PERCEPTUAL if perceptual is True else (() if perceptual is False else tuple(perceptual))
-    unknown = [n for n in names if n not in PERCEPTUAL]
-    if unknown:
-        raise SignalError(f"unknown perceptual metric(s) {', '.join(map(repr, unknown))}; choose from "
-                          f"{', '.join(PERCEPTUAL)}")
+    names = tuple(check_choice("perceptual metric", n, PERCEPTUAL, SignalError) for n in names)
     out = {"rmse": rmse(reference, test), "relative_rmse": relative_rmse(reference, test),
            "psnr": psnr(reference, test)}
     if "ssim" in names:
@@ -142,9 +132,7 @@ def region_metrics(reference: ArrayLike, test: ArrayLike, mask: ArrayLike, perce
     the mask (no light reached it: e.g. a back-lit scene without the transmittance pass) has no relative
     error and no PSNR: both NaN, and ``no_light`` is True (:func:`no_light`)."""
     ref, tst = _pair(reference, test)
-    m = np.asarray(mask, dtype=bool)
-    if m.shape != ref.shape[:2]:
-        raise SignalError(f"mask has shape {m.shape}, the images {ref.shape[:2]}")
+    m = check_shape(mask, "the mask", ref.shape[:2], SignalError, "iufb", bool)
     if m.any():
         r, t = ref[m][None], tst[m][None]  # the masked pixels as a (1, N, 3) image
         out = {"rmse": rmse(r, t), "relative_rmse": relative_rmse(r, t), "psnr": psnr(r, t)}
@@ -208,8 +196,7 @@ def region_masks(e_over_pi: ArrayLike, mask: ArrayLike, radius_px: float,
     e = np.asarray(e_over_pi, dtype=np.float64)
     e = e.mean(axis=2) if e.ndim == 3 else e
     m = np.asarray(mask, dtype=bool)
-    if e.shape != m.shape:
-        raise SignalError(f"the light layer has shape {e.shape}, the mask {m.shape}")
+    check_shape(e, "the light layer", m.shape, SignalError)
     POSITIVE.check(radius_px, "radius_px (pixels)", SignalError)
     empty = {name: np.zeros_like(m) for name in REGIONS}
     if not m.any():

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .errors import SignalError
-from .quantities import LENGTH_MM, Quantity, check_finite
+from .quantities import LENGTH_MM, TYPE, Quantity, check_finite, check_shape, fail
 
 #: the fraction of the kernel's energy its radius holds
 RADIUS_FRACTION = Quantity("fraction", 0.0, 1.0, "", "", lo_open=True, hi_open=True)
@@ -37,12 +37,9 @@ def _is_number(value: object) -> bool:
 
 def check_image(image: np.ndarray, what: str = "image") -> np.ndarray:
     """An (H, W, 3) finite float64 copy-free view of ``image`` or a precise error."""
-    img = np.asarray(image)
-    if img.ndim != 3 or img.shape[2] != 3 or img.shape[0] < 1 or img.shape[1] < 1:
-        raise SignalError(f"{what} must have shape (H, W, 3), got {img.shape}")
-    if not np.issubdtype(img.dtype, np.floating):
-        raise SignalError(f"{what} must be floating point, got {img.dtype}")
-    check_finite(img, what, SignalError)
+    img = check_shape(image, what, ("H", "W", 3), SignalError, "f", finite=True)
+    if not img.size:
+        raise fail(SignalError, TYPE, name=what, kind="a non-empty image", actual=f"shape {img.shape}")
     return img.astype(np.float64, copy=False)
 
 

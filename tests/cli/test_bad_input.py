@@ -195,7 +195,8 @@ FIRST_HOUR = [
     # render: options accepted and ignored (the settings tree of issue 22)
     (["render", "--scene", "slab", "--model", "deon2007", "--material", "marble"], "--model deon2007 is a fixed preset"),
     (["render", "--scene", "slab", "--reference", "--reference-spp", "64", "--reference-max-spp", "32"],
-     "--reference-max-spp: reference_max_spp 32 is below reference_spp 64"),
+     "--reference-max-spp: reference_max_spp must lie in [64, 1048576], got 32 (the reference renders at least "
+     "reference_spp samples"),
     (["render", "--scene", "slab", "--model", "dipole", "--photons", "5000"], "--photons applies to --model burley or montecarlo, not --model dipole"),
     (["render", "--scene", "slab", "--reference-rel-se", "0.02"], "--reference-rel-se: reference_rel_se applies to reference true, not reference false"),
     (["render", "--scene", "slab", "--material", "eta4.json", "--model", "dipole"], "the dipole model's relative index eta must lie in"),

@@ -175,8 +175,8 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
                                                            "'light_depth' layer's"),
     (["--scene", "no_projection.exr"], "the light projection (header 'ssskit_light'), which is missing"),
     (["--scene", "dir_word.exr"], "'direction' must be a real array of shape (3,), got shape () <U4"),
-    (["--scene", "dir_long.exr", "--transmission", "off"], "'direction' must be a unit vector (length within 0.001"),
-    (["--scene", "u_is_v.exr"], "'u' and 'v' must be orthogonal (|dot| <= 0.001)"),
+    (["--scene", "dir_long.exr", "--transmission", "off"], "'direction': its length must lie in [0.999, 1.001], got"),
+    (["--scene", "u_is_v.exr"], "'u' . 'v' must lie in [-0.001, 0.001], got 1 (orthogonal axes"),
     (["--scene", "size_half.exr"], "the light projection's 'size' must be an integer, got "),
     (["--scene", "irr_huge.exr"], "'irradiance' must lie in [0, 3.40282e+38], got 1e+39"),
     (["--scene", "plain.exr", "--transmission-model", "foo"], "Invalid value for '--transmission-model': 'foo'"),
@@ -191,9 +191,9 @@ def workdir(tmp_path, monkeypatch, ear, gbuffer_file):
       "jimenez2010"], "transmission_model applies to transmission auto or on, not transmission off"),
     (["--scene", "plain.exr", "--transmission-spread", "wide"], "Invalid value for '--transmission-spread': 'wide'"),
     # auto with no light layers: the pass does not run, so a model or spread asked for would be dropped silently
-    (["--scene", "plain.exr", "--transmission-model", "jimenez2010"], "applies when the transmittance pass runs; under "
-                                                                      "transmission auto it does not run here"),
-    (["--scene", "plain.exr", "--transmission-spread", "mcml"], "transmission_spread 'mcml' applies when"),
+    (["--scene", "plain.exr", "--transmission-model", "jimenez2010"], "transmission_model applies to transmission on, "
+                                                                      "not transmission auto (the G-buffer "),
+    (["--scene", "plain.exr", "--transmission-spread", "mcml"], "transmission_spread applies to transmission on, not"),
     (["--scene", "slab", "--transmission-model", "unreal"], "the scene slab is not lit from behind alone"),
     (["--scene", "plain.exr", "--transmission", "off", "--transmission-spread", "mcml"],
      "transmission_spread applies to transmission auto or on, not transmission off"),

@@ -94,5 +94,6 @@ def test_one_spec_string_and_a_wrong_profile(skin):
     with pytest.raises(SignalError, match="not bytes"):  # was "unknown kernel method '115'"
         evaluate(skin, "disk", b"svd:1", size=32, perceptual=False)
     for wrong in (get_material("skin1"), "skin1"):
-        with pytest.raises(ProfileError, match="evaluate needs a profile"):
+        with pytest.raises(ProfileError, match=r"evaluate's profile \(profile_for_material\(material, model\)\) "
+                                               "must be RGBProfile, got (Material|str)"):
             evaluate(wrong, "disk", ["svd:1"], size=32)

@@ -32,8 +32,9 @@ from typing import TYPE_CHECKING, Protocol, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..quantities import check_choice
-from .plan import DEPTH_MODES, SeparablePlan, check_frame_values, check_image, check_slot_range
+from ..errors import PassError
+from ..quantities import check_choice, check_shape
+from .plan import DEPTH_MODES, SeparablePlan, check_frame_values, check_slot_range
 
 if TYPE_CHECKING:
     from .adaptive_plan import AdaptivePlan, GuideFrame
@@ -90,7 +91,17 @@ class Backend(ABC):
 
     # The entry points below are template methods: each states its pass's input rules once, for every backend
     # (the pass is one this backend implements, the frame's shapes, types and values), returns an empty
-    # frame's result without running the pass, and hands checked inputs to the backend's own ``_<pass>``.
+    # frame's result without running the pass, and hands checked inputs to the backend's own ``_<pass>``:
+    # ``_separable`` always, and each of these where :attr:`passes` names the pass (:meth:`require` refuses the
+    # others before they are reached): ``_burley`` (checked counts: an int or an (H, W) int64 image),
+    # ``_transmission``, ``_transmission_spread``, ``_adaptive_counts`` (a GuideFrame without ``rgb`` and
+    # ``counts``) and ``_adaptive_update`` (with them).
+    _burley: Callable[[BurleyPlan, np.ndarray, np.ndarray, np.ndarray, NDArray[np.int64] | int, Prefiltered | None],
+                      np.ndarray]
+    _transmission: Callable[[TransmissionPlan, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+    _transmission_spread: Callable[[SpreadPlan, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+    _adaptive_counts: Callable[[AdaptivePlan, GuideFrame], NDArray[np.int64]]
+    _adaptive_update: Callable[[AdaptivePlan, GuideFrame], tuple[NDArray[np.float32], NDArray[np.int64]]]
 
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
                   slots: np.ndarray) -> np.ndarray:
@@ -122,11 +133,6 @@ class Backend(ABC):
             return np.array(diffuse, self.dtype)
         return self._burley(plan, diffuse, depth_mm, slots, counts, pyramid)
 
-    def _burley(self, plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-                spp: NDArray[np.int64] | int, pyramid: Prefiltered | None) -> np.ndarray:
-        """:meth:`burley` on a checked frame of at least one pixel and its checked counts."""
-        raise self.lacks("Burley pass")
-
     def burley_prefilter(self, plan: BurleyPlan, diffuse: np.ndarray, slots: np.ndarray) -> Prefiltered:
         """Step 5b's pyramid of a frame (Xie 2020 Eqs. 22-23) in the form this backend's :meth:`burley` takes
         as ``pyramid``: here the oracle's :func:`~ssskit.backends.burley_plan.mip_pyramid` (float64)."""
@@ -148,11 +154,6 @@ class Backend(ABC):
             return np.zeros(np.shape(slots) + (3,), self.dtype)
         return self._transmission(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
 
-    def _transmission(self, plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray, shadow_mm: np.ndarray,
-                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
-        """:meth:`transmission` on a checked frame of at least one pixel."""
-        raise self.lacks("transmittance pass")
-
     def transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> np.ndarray:
         """The transmitted light's lateral spread (see :mod:`ssskit.backends.spread_plan`, pass name "spread"): a
@@ -166,11 +167,6 @@ class Backend(ABC):
         if np.size(slots) == 0:
             return np.array(exitance, self.dtype)
         return self._transmission_spread(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
-
-    def _transmission_spread(self, plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> np.ndarray:
-        """:meth:`transmission_spread` on a checked frame of at least one pixel."""
-        raise self.lacks("spread of the transmitted light")
 
     def adaptive_counts(self, plan: AdaptivePlan, history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
                         valid: ArrayLike | None = None) -> NDArray[np.int64]:
@@ -189,22 +185,12 @@ class Backend(ABC):
         """The guiding phase's *update* (:mod:`ssskit.backends.adaptive_plan` steps 1-4): (the new (H, W, 4)
         float32 history, the next frame's counts (H, W) int64 for the same pixels) from the previous
         history, this frame's Burley result ``rgb`` (H, W, 3) and the ``counts`` it used (both required)."""
-        from ..errors import PassError
         from .adaptive_plan import check_guide_frame
 
         self.require("adaptive")
         if rgb is None or counts is None:
             raise PassError("the history update needs the pass's result and the frame's sample counts")
         return self._adaptive_update(plan, check_guide_frame(history, mask, motion, valid, rgb, counts))
-
-    def _adaptive_counts(self, plan: AdaptivePlan, frame: GuideFrame) -> NDArray[np.int64]:
-        """:meth:`adaptive_counts` on a checked frame (its ``rgb`` and ``counts`` None)."""
-        raise self.lacks("adaptive guiding pass")
-
-    def _adaptive_update(self, plan: AdaptivePlan,
-                         frame: GuideFrame) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
-        """:meth:`adaptive_update` on a checked frame (with its ``rgb`` and ``counts``)."""
-        raise self.lacks("adaptive guiding pass")
 
     def adaptive_runner(self, plan: AdaptivePlan, history: ArrayLike) -> AdaptiveRunner:
         """A frame loop of the Burley pass with adaptive counts that keeps the history (and counts) with this
@@ -275,7 +261,7 @@ class AdaptiveRunner:
         (H, W) (the caller's disocclusion test; None: everywhere); runs the *estimate* for the frame.
         ``estimate=False`` skips it (a fixed count, or the caller's own): :meth:`set_counts` must follow
         before :meth:`sample`."""
-        slots = check_image("the frame's slots", slots, self.shape, "iu")
+        slots = check_shape(slots, "the frame's slots", self.shape, PassError, "iu")
         self._frame = (np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
         self._motion, self._valid = motion, valid
         self._counts = None
@@ -290,7 +276,6 @@ class AdaptiveRunner:
 
     def sample(self, plan: BurleyPlan) -> None:
         """The Burley pass of the loaded frame with the current counts (``plan.frame`` keys its samples)."""
-        from ..errors import PassError
         if self._frame is None or self._counts is None:
             raise PassError("load a frame (and set its counts, without the estimate) before sampling it")
         diffuse, depth, slots = self._frame
@@ -303,8 +288,6 @@ class AdaptiveRunner:
 
     def update(self) -> None:
         """The history update from the last :meth:`sample` (Eqs. 6, 8, 9; 16-17) and the next counts."""
-        from ..errors import PassError
-
         if self._out is None or self._frame is None:  # a sampled frame was loaded
             raise PassError("sample a frame before updating the history")
         slots = self._frame[2]
@@ -398,7 +381,7 @@ def _checked_counts(counts: ArrayLike, shape: tuple[int, int]) -> NDArray[np.int
     """An (H, W) integer count image as int64 (values in the Burley pass's range), or a PassError."""
     from .burley_plan import check_counts
 
-    return np.array(check_counts(check_image("the sample counts", counts, shape, "iu"), shape), np.int64)
+    return np.array(check_counts(check_shape(counts, "the sample counts", shape, PassError, "iu"), shape), np.int64)
 
 
 def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, plan: SlotPlan,
@@ -407,9 +390,9 @@ def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, pl
     ``depth_mm`` (H, W) of any array-like, an integer ``slots`` image: a float one is refused, never rounded), or
     a PassError; with ``values`` also that every colour is finite and every pixel with SSS has a positive finite
     depth (a backend may check those, and the slot range with ``slot_range=False``, in its own pass)."""
-    h, w = check_image("depth", depth_mm).shape
-    check_image("diffuse", diffuse, (h, w, 3))
-    check_image("slots", slots, (h, w), "iu")
+    h, w = check_shape(depth_mm, "depth", ("H", "W"), PassError).shape
+    check_shape(diffuse, "diffuse", (h, w, 3), PassError)
+    check_shape(slots, "slots", (h, w), PassError, "iu")
     if slot_range:
         check_slot_range(slots, plan.slots)
     if values:

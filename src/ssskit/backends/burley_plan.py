@@ -134,7 +134,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
-from ..quantities import BURLEY_ALBEDO, FRACTION, MFP_MM, SCALE, Choice, Quantity, check_choice, check_shape
+from ..quantities import BURLEY_ALBEDO, FRACTION, MFP_MM, SCALE, Choice, Quantity, check_fields, check_shape
 from .plan import check_plan_ids
 
 if TYPE_CHECKING:
@@ -164,6 +164,9 @@ SAMPLER = Choice("sampler", SAMPLERS)
 BURLEY_SPP = Quantity("spp", 1, MAX_SPP, "", "samples per pixel of the Burley pass", integer=True)
 COUNTS = BURLEY_SPP.within(lo=0, reason="samples per pixel of the Burley pass; 0 on a pixel without SSS")
 XIE_C_RANGE = Quantity("c", C_RANGE[0], C_RANGE[1], "", "Eq. 21's damping (Xie 2020)", lo_open=True, hi_open=True)
+#: the sampler's arguments of :func:`build_burley_plan`
+_PLAN_FIELDS: dict[str, Quantity | Choice] = {"sampler": SAMPLER, "sequence": Choice("sequence", SEQUENCES),
+                                             "c": XIE_C_RANGE, "bleed": FRACTION, "mip_scale": SCALE}
 #: the coarsest mip level of step 5b, and Xie 2020's a of Eq. 22 (Unreal's MIP_CONSTANT_FACTOR), in the
 #: units of step 5b
 MAX_MIP = 5
@@ -256,18 +259,11 @@ class BurleyPlan:
     frame: int
     seed: int
     stable: bool
+    #: (S,) float64: each slot's largest diffuse mean free path ell (mm), Eq. 22's ell_max (slot 0: 1), > 0:
+    #: set by :func:`build_burley_plan` from the parameters (checked BurleyParams: A in (0, 1], d > 0)
+    dmfp_max_mm: np.ndarray
     mips: bool = False
     mip_scale: float = XIE_MIP_SCALE
-    #: (S,) float64: each slot's largest diffuse mean free path ell (mm), Eq. 22's ell_max (slot 0: 1);
-    #: set by :func:`build_burley_plan` from the parameters' albedos
-    dmfp_max_mm: np.ndarray | None = None
-
-    def __post_init__(self) -> None:
-        ell = None if self.dmfp_max_mm is None else np.asarray(self.dmfp_max_mm, np.float64)
-        if ell is None or ell.shape != (len(self.ids) + 1,) or not np.all(ell > 0):
-            raise PassError("a BurleyPlan needs dmfp_max_mm, one positive dmfp per slot: build it with "
-                            "build_burley_plan")
-        object.__setattr__(self, "dmfp_max_mm", ell)
 
     @property
     def slots(self) -> int:
@@ -293,10 +289,8 @@ def build_burley_plan(params_by_id: Mapping[int, BurleyParams], fx: float, fy: f
                       c: float = XIE_C, bleed: float = 0.0, frame: int = 0, seed: int = 0,
                       stable: bool = False, mips: bool = False, mip_scale: float = XIE_MIP_SCALE) -> BurleyPlan:
     """The plan for profile ids -> :class:`BurleyParams` (module docstring)."""
-    sampler = SAMPLER.check(sampler, "sampler", PassError)
-    sequence = check_choice("sequence", sequence, SEQUENCES, PassError)
-    c, bleed = XIE_C_RANGE.check(c, "c", PassError), FRACTION.check(bleed, "bleed", PassError)
-    mip_scale = SCALE.check(mip_scale, "mip_scale", PassError)
+    v = check_fields({"sampler": sampler, "sequence": sequence, "c": c, "bleed": bleed, "mip_scale": mip_scale},
+                     _PLAN_FIELDS, error=PassError)
     ids = check_plan_ids(params_by_id, BurleyParams, fx, fy)
     n = len(ids) + 1
     d = np.ones((n, 3))
@@ -311,8 +305,8 @@ def build_burley_plan(params_by_id: Mapping[int, BurleyParams], fx: float, fy: f
         ch[s] = p.sampling_channel
         r997[s] = float(burley_inverse_cdf(GOLUBEV_FRACTION, d[s, ch[s]]))
         ell[s] = float(np.max(p.dmfp_mm))
-    return BurleyPlan(ids, d, ch, r997, sampler, sequence, float(c), float(bleed), float(fx), float(fy),
-                      int(frame), int(seed), bool(stable), bool(mips), float(mip_scale), ell)
+    return BurleyPlan(ids, d, ch, r997, v["sampler"], v["sequence"], float(v["c"]), float(v["bleed"]), float(fx),
+                      float(fy), int(frame), int(seed), bool(stable), ell, bool(mips), float(v["mip_scale"]))
 
 
 def mip_pyramid(diffuse: ArrayLike, slots: np.ndarray, n_slots: int, levels: int = MAX_MIP) -> MipPyramid:

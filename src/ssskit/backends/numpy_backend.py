@@ -137,7 +137,6 @@ def burley_mip_level(plan: BurleyPlan, r: np.ndarray, d_s: np.ndarray, n: np.nda
     h, w = size
     p_r = (np.exp(-r / d_s) + np.exp(-r / (3.0 * d_s))) / (4.0 * d_s)  # Eq. 20's derivative, per mm
     t = (plan.fx / zp / w) * (plan.fy / zp / h)  # Eq. 23: (w/D)^2 x aspect, UV^2 per mm^2
-    assert plan.dmfp_max_mm is not None  # BurleyPlan refuses a plan without it
     ell = plan.dmfp_max_mm[slot]
     m = 0.5 * np.maximum(-np.log2(plan.mip_scale * n * p_r / (ell * ell * t)), 0.0)
     return np.minimum(m, float(MAX_MIP))

@@ -63,13 +63,6 @@ def check_frame_values(diffuse: ArrayLike | None, depth_mm: ArrayLike, slots: Ar
         DEPTH_MM.check_array(z, "depth", PassError, "pixels with SSS")
 
 
-def check_image(name: str, values: ArrayLike, shape: tuple[int | str, ...] = ("H", "W"), kinds: str = "iuf"
-                ) -> np.ndarray:
-    """``values`` as an array of ``shape`` (a letter: any length) and dtype kinds (real; ``"iu"``: integer, so a
-    float or bool image of profile slots is refused, never truncated), or a PassError in the type wording."""
-    return check_shape(values, name, shape, PassError, kinds)
-
-
 #: a focal length of the camera in pixels (pixels per unit of the image plane at unit depth)
 FOCAL_PX = Quantity("focal length", 0.0, math.inf, "px", "pixels per mm of the image plane at 1 mm depth",
                     lo_open=True, hi_open=True)
@@ -113,10 +106,10 @@ def check_light_view(plan_slots: int, slots: ArrayLike, light_uvz: ArrayLike, sh
     """The light's view of a frame that the transmittance pass and its spread take: an integer ``slots`` image in
     the plan's range, ``light_uvz`` (H, W, 3) and a non-empty light-space depth ``shadow_mm`` (H', W'); returns
     (slots as an array, H, W) or raises a PassError."""
-    s = check_image("slots", slots, kinds="iu")
+    s = check_shape(slots, "slots", ("H", "W"), PassError, "iu")
     h, w = s.shape
-    check_image("light_uvz", light_uvz, (h, w, 3))
-    if 0 in check_image("shadow_mm (the light-space depth)", shadow_mm).shape:
+    check_shape(light_uvz, "light_uvz", (h, w, 3), PassError)
+    if 0 in check_shape(shadow_mm, "shadow_mm (the light-space depth)", ("H", "W"), PassError).shape:
         raise fail(PassError, TYPE, name="shadow_mm (the light-space depth)", kind="a non-empty image",
                    actual=f"shape {np.shape(shadow_mm)}")
     check_slot_range(s, plan_slots)

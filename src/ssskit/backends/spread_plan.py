@@ -44,8 +44,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PassError
-from ..quantities import TYPE, Quantity, check_shape, fail
-from .plan import FOCAL_PX, check_frame_values, check_image, check_light_view, check_plan_ids
+from ..quantities import TYPE, Quantity, check_fields, check_shape, fail
+from .plan import FOCAL_PX, check_frame_values, check_light_view, check_plan_ids
 from .transmission_plan import BIAS_MM
 
 #: the most taps on each side of a pixel per 1D pass (a wider Gaussian is sampled with a stride)
@@ -54,9 +54,12 @@ MAX_TAPS = 16
 MIN_PX = 0.5
 #: the most thickness knots of one slot's width table
 MAX_KNOTS = 64
+KNOTS = Quantity("knots", 0, MAX_KNOTS, "", "thicknesses of one slot's width table", integer=True)
 #: the step's quantities: its taps per side, its widths and thicknesses (mm)
 MAX_TAPS_Q = Quantity("max_taps", 1, 64, "", "taps on each side of a pixel per 1D pass", integer=True)
 WIDTH_MM = Quantity("knots_mm", 0.0, math.inf, "mm", "a thickness or a width", hi_open=True)
+#: the plan's scalar arguments (:func:`build_spread_plan`)
+_PLAN_FIELDS = {"bias_mm": BIAS_MM, "min_px": FOCAL_PX.within(reason="a width in pixels"), "max_taps": MAX_TAPS_Q}
 
 
 @dataclass(frozen=True)
@@ -99,12 +102,9 @@ def build_spread_plan(spreads: dict[int, SlotSpread], fx: float, fy: float, bias
     """The plan of profile ids -> their :class:`SlotSpread` for a camera of focal lengths ``fx``, ``fy``
     (pixels), or a PassError naming what is wrong."""
     ids = check_plan_ids(spreads, SlotSpread, fx, fy)
-    bias_mm = BIAS_MM.check(bias_mm, "bias_mm", PassError)
-    min_px = FOCAL_PX.within(reason="a width in pixels").check(min_px, "min_px", PassError)
-    max_taps = MAX_TAPS_Q.check(max_taps, "max_taps", PassError)
+    v = check_fields({"bias_mm": bias_mm, "min_px": min_px, "max_taps": max_taps}, _PLAN_FIELDS, error=PassError)
     n = max((np.size(spreads[i].knots_mm) for i in ids), default=1)
-    if n > MAX_KNOTS:
-        raise PassError(f"a spread table holds at most {MAX_KNOTS} thicknesses, got {n}")
+    KNOTS.check(n, "a spread table's thicknesses", PassError)
     s = len(ids) + 1
     knots, sigma = np.zeros((s, n)), np.zeros((s, 3, n))
     counts = np.ones(s, np.int64)
@@ -120,7 +120,8 @@ def build_spread_plan(spreads: dict[int, SlotSpread], fx: float, fy: float, bias
         knots[slot, :k], knots[slot, k:] = t, t[-1]
         sigma[slot, :, :k], sigma[slot, :, k:] = w, w[:, -1:]
         counts[slot] = k
-    return SpreadPlan(ids, knots, sigma, counts, float(fx), float(fy), float(bias_mm), float(min_px), int(max_taps))
+    return SpreadPlan(ids, knots, sigma, counts, float(fx), float(fy), float(v["bias_mm"]),
+                      float(v["min_px"]), int(v["max_taps"]))
 
 
 def taps(m: float, max_taps: int) -> tuple[int, int]:
@@ -133,8 +134,8 @@ def check_spread_frame(plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndar
                        light_uvz: np.ndarray, shadow_mm: np.ndarray) -> None:
     """Shapes and slot range of the step's inputs, or a PassError naming the input."""
     s, h, w = check_light_view(plan.slots, slots, light_uvz, shadow_mm)
-    check_image("exitance", exitance, (h, w, 3))
-    check_frame_values(None, check_image("depth_mm", depth_mm, (h, w)), s)
+    check_shape(exitance, "exitance", (h, w, 3), PassError)
+    check_frame_values(None, check_shape(depth_mm, "depth_mm", (h, w), PassError), s)
 
 
 __all__ = ["MAX_KNOTS", "MAX_TAPS", "MIN_PX", "SlotSpread", "SpreadPlan", "build_spread_plan", "check_spread_frame",

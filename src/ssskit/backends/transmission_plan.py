@@ -64,8 +64,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PassError
-from ..quantities import CHOICE, Quantity, check_shape, fail
-from .plan import check_image, check_light_view, check_plan_ids
+from ..quantities import CHOICE, Quantity, check_fields, check_shape, fail
+from .plan import check_light_view, check_plan_ids
 
 #: the transmittance models a plan can hold (the MCML fit, Jimenez et al. 2010's skin Gaussians, Unreal Engine 5's
 #: subsurface-profile transmission)
@@ -90,6 +90,7 @@ LIGHT_RGB = Quantity("light_rgb", 0.0, math.inf, "", "an irradiance", hi_open=Tr
 
 #: most terms of one slot's T(t)
 MAX_TERMS = 8
+TERMS = Quantity("terms", 0, MAX_TERMS, "", "terms of one slot's T(t)", integer=True)
 
 #: entries of an ``unreal`` slot's profile table (UE's BSSS_TRANSMISSION_PROFILE_SIZE)
 LUT_SIZE = 32
@@ -181,8 +182,7 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3,
     bias_mm = BIAS_MM.check(bias_mm, "bias_mm", PassError)
     ids = check_plan_ids(models, SlotModel, allow_empty=allow_empty)
     k = max((np.shape(models[i].a)[1] for i in ids), default=1)
-    if k > MAX_TERMS:
-        raise PassError(f"a transmittance model holds at most {MAX_TERMS} terms, got {k}")
+    TERMS.check(k, "a transmittance model's terms", PassError)
     s = len(ids) + 1
     a, b, c = (np.zeros((s, 3, k)) for _ in range(3))
     scale, wrap, normal = np.ones(s), np.zeros(s), np.zeros(s)
@@ -199,8 +199,7 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3,
                 check_shape(v, label, (3, "K"), PassError), label, PassError)
         if m.model not in MODELS:  # (exactly: the name picks the pass's branch)
             raise fail(PassError, CHOICE, name=f"profile id {pid}: model", choices=", ".join(MODELS), actual=repr(m.model))
-        FACTOR.check(m.scale, f"profile id {pid}: scale", PassError)
-        WRAP.check(m.wrap, f"profile id {pid}: wrap", PassError)
+        check_fields({"scale": m.scale, "wrap": m.wrap}, {"scale": FACTOR, "wrap": WRAP}, f"profile id {pid}", PassError)
         if (m.model == "unreal") != (m.lut is not None):
             raise PassError(f"profile id {pid}: the unreal model, and only it, holds a profile table (lut)")
         if m.lut is not None:
@@ -234,7 +233,7 @@ def check_transmission_frame(plan: TransmissionPlan, slots: np.ndarray, light_uv
     inside: NDArray[np.bool_] | None = None
     for q, arr, shape in ((LIGHT_UVZ, light_uvz, (h, w, 3)), (N_DOT_L, n_dot_l, (h, w)),
                           (LIGHT_RGB, light_rgb, (h, w, 3))):
-        a = check_image(q.name, arr, shape)
+        a = check_shape(arr, q.name, shape, PassError)
         lo, hi = (np.min(a), np.max(a)) if a.size else (0.0, 0.0)
         if not (np.isfinite(lo) and np.isfinite(hi) and q.contains(lo) and q.contains(hi)):
             inside = s > 0 if inside is None else inside

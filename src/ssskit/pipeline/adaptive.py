@@ -248,17 +248,12 @@ def plan_adaptive(scene: SceneInput, settings: RenderSettings,
                   ("moving",), "static", SettingsError)
     FRAME.check(settings.frame + p.frames - 1, f"the last frame ({p.frames} frames from frame {settings.frame})",
                 SettingsError)
-    if not static:
-        if settings.reference:
-            raise SettingsError("reference applies to one frame; set static (a moving sequence compares each frame "
-                                "with its converged Burley reference)")
-        d = RenderSettings()
-        changed = [k for k in ("reference_spp", "reference_max_spp", "reference_rel_se", "exact")
-                   if getattr(settings, k) != getattr(d, k)]
-        if changed:
-            raise SettingsError(f"{', '.join(changed)} appl{'ies' if len(changed) == 1 else 'y'} to one frame; set static "
-                                f"(a moving sequence compares each frame with its converged Burley reference of "
-                                f"limit_spp spp)")
+    # a moving run compares each frame with its converged Burley reference of limit_spp spp: the one-frame
+    # comparisons (a path-traced reference, the exact convolution) apply to a static run only
+    d = RenderSettings()
+    refuse_unused([k for k in ("reference", "reference_spp", "reference_max_spp", "reference_rel_se", "exact")
+                   if not static and getattr(settings, k) != getattr(d, k)], "camera", ("static",), "moving",
+                  SettingsError)
     return plan, params, static
 
 

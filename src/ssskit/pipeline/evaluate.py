@@ -28,6 +28,7 @@ from ..errors import ProfileError, SignalError
 from ..kernels import build_kernel, parse_method_spec
 from ..kernels.base import AnyKernel, TapKernel
 from ..profiles.base import RGBProfile
+from ..quantities import check_instance
 from ..metrics import all_metrics, check_ssim_size
 from ..scenes.signals import make_signal
 from ..truth import apply_separable, convolve_2d
@@ -106,9 +107,7 @@ def evaluate(profile: RGBProfile, signal: str | np.ndarray, methods: Iterable[st
     ``perceptual``: SSIM and FLIP too (True), neither (False), or the named ones (``("flip",)``;
     :func:`ssskit.metrics.all_metrics`).
     """
-    if not isinstance(profile, RGBProfile):
-        raise ProfileError(f"evaluate needs a profile (an RGBProfile: profile_for_material(material, model) makes "
-                           f"one), got {type(profile).__name__}")
+    check_instance(profile, RGBProfile, "evaluate's profile (profile_for_material(material, model))", ProfileError)
     if isinstance(methods, (bytes, bytearray)):  # (iterated, its codes read as methods '115', ...)
         raise SignalError(f"methods must be a spec string or a list of them (str), not bytes, got {methods!r}")
     specs = [parse_method_spec(m) for m in ([methods] if isinstance(methods, str) else methods)]

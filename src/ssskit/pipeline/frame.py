@@ -29,8 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..backends import get_backend
-from ..errors import SceneError, SettingsError
-from ..quantities import check_instance
+from ..errors import SceneError, SettingsError, SsskitError
 from ..io import check_distinct, save_image
 from ..materials import LayeredMaterial, Material, get_material
 from ..metrics import NO_LIGHT_TEXT, no_light, region_metrics
@@ -175,8 +174,7 @@ def material_label(material: Any, id_materials: Mapping[int, str]) -> str:
 
 
 def _scene(scene: SceneInput, settings: RenderSettings, material: Material | LayeredMaterial) -> ScenePlan:
-    check_instance(scene, (str, os.PathLike, SceneSpec, ResolvedScene, GBuffer), "scene (a built-in scene name, a "
-                   "mesh or scene .toml file, a G-buffer .exr file)", SceneError)
+    # (any other value: resolve_scene's SceneError naming what a scene may be)
     resolved = scene if isinstance(scene, (GBuffer, ResolvedScene)) else resolve_scene(
         scene, width=settings.width, height=settings.height)
     if settings.reference and (isinstance(resolved, GBuffer) or resolved.kind == "gbuffer"):
@@ -245,8 +243,8 @@ def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
     (:func:`ssskit.scenes.resolve_scene` with the user's units, material map and view), a G-buffer ``.exr``
     file or a :class:`~ssskit.screenspace.GBuffer`. A G-buffer keeps its own size: a ``width`` x ``height``
     that differs from the default and from the G-buffer's is an error. Raises the first problem as an
-    :class:`~ssskit.errors.SsskitError`."""
-    check_instance(settings, RenderSettings, "settings", SettingsError)
+    :class:`~ssskit.errors.SsskitError`. (``settings``: a RenderSettings, as its callers plan_render and
+    plan_burley check.)"""
     material = get_material(settings.material)
     check_model_domain(material, settings.model)  # the model's valid domain, before any work
     get_backend(settings.backend)
@@ -257,9 +255,7 @@ def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
         if size not in (_default_size(), (w, h)):
             raise SettingsError(f"the image size {size[0]}x{size[1]} (--size) does not apply to a G-buffer file: "
                                 f"{plan.label} is {w}x{h} and keeps its size")
-        if not plan.gbuffer.mask.any():
-            raise SettingsError(f"the G-buffer {plan.label} has no SSS pixel (its profile_id is 0 everywhere): there "
-                                "is nothing for the pass to blur and nothing to measure")
+        _refuse_no_sss(plan.gbuffer, f"the G-buffer {plan.label}", "its profile_id is 0 everywhere", SettingsError)
         _check_named_materials(plan.gbuffer, material, plan.label)
     for mat in plan.materials:  # a scene's own materials (a material map) are held to the model's domain too
         if mat is not material:
@@ -324,11 +320,16 @@ def frame_gbuffer(plan: ScenePlan, settings: RenderSettings, albedo: ArrayLike |
     gb = render_gbuffer(plan.spec, alb, eta=[m.eta for m in mats], width=settings.width, height=settings.height,
                         spp=settings.spp, seed=settings.seed, frame=settings.frame,
                         material=tuple(m.name for m in mats), light_layers=plan.transmission)
-    if not gb.mask.any():  # as a G-buffer file without an SSS pixel is refused (plan_scene)
-        raise SceneError(f"the {plan.label} G-buffer ({settings.width}x{settings.height}) has no SSS pixel: the camera "
-                         "sees no surface of an SSS object (a flat model seen edge-on, or one outside the frame), "
-                         "so there is nothing for the pass to blur and nothing to measure")
+    _refuse_no_sss(gb, f"the {plan.label} G-buffer ({settings.width}x{settings.height})", "the camera sees no surface "
+                   "of an SSS object (a flat model seen edge-on, or one outside the frame)", SceneError)
     return gb
+
+
+def _refuse_no_sss(gb: GBuffer, label: str, why: str, error: type[SsskitError]) -> None:
+    """The one rule of a G-buffer file (plan_scene) and of a rendered one (frame_gbuffer): at least one SSS pixel,
+    else ``error`` naming ``label`` and ``why`` there is none."""
+    if not gb.mask.any():
+        raise error(f"{label} has no SSS pixel: {why}, so there is nothing for the pass to blur and nothing to measure")
 
 
 def ground_truths(res: TruthResult, settings: RenderSettings, plan: ScenePlan, profile: RGBProfile,

@@ -292,10 +292,8 @@ class RenderSettings(Settings):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if self.reference_max_spp < self.reference_spp:
-            raise SettingsError(f"reference_max_spp {self.reference_max_spp} is below reference_spp "
-                                f"{self.reference_spp}: the reference renders at least reference_spp samples and at "
-                                "most reference_max_spp")
+        REFERENCE_SPP.within(lo=self.reference_spp, reason="the reference renders at least reference_spp samples and "
+                             "at most reference_max_spp").check(self.reference_max_spp, "reference_max_spp", SettingsError)
 
     def situation(self) -> dict[str, str]:
         return {"pass": self.pass_name, "reference": "true" if self.reference else "false"}

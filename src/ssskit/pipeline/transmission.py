@@ -51,6 +51,7 @@ from ..backends import get_backend
 from ..backends.transmission_plan import SlotModel
 from ..errors import PassError, SettingsError
 from ..materials import Material
+from ..quantities import refuse_unused
 from ..screenspace import GBuffer
 from ..screenspace.transmission_slot import slot_model
 from .settings import RenderSettings
@@ -112,11 +113,9 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
 def _not_run(settings: RenderSettings, why: str) -> bool:
     """False (transmission auto does not run the pass, ``why``), or a SettingsError where the settings ask for a
     transmission model or spread other than the defaults: they would be dropped without a word."""
-    for name, value, default in (("transmission_model", settings.transmission_model, "mcml"),
-                                 ("transmission_spread", settings.transmission_spread, "off")):
-        if value != default:
-            raise SettingsError(f"{name} {value!r} applies when the transmittance pass runs; under transmission auto "
-                                f"it does not run here: {why}")
+    given = [n for n, default in (("transmission_model", "mcml"), ("transmission_spread", "off"))
+             if getattr(settings, n) != default]
+    refuse_unused(given, "transmission", ("on",), f"{settings.transmission} ({why})", SettingsError)
     return False
 
 

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import SamplingError
-from ..quantities import LENGTH_MM, Quantity
+from ..quantities import LENGTH_MM, Quantity, check_choice
 from ..profiles.burley import (
     burley_cdf,
     burley_inverse_cdf,
@@ -33,6 +33,8 @@ from .base import Distribution, check_uniform
 XIE_C = 2.5715
 #: Eq. 21's damping c this sampler takes (c >= 2 keeps g increasing) and a radius (mm; inf: the CDF is 1)
 XIE_C_ANY = Quantity("c", 2.0, 10.0, "", "c >= 2 keeps Eq. 21's g increasing")
+#: the midpoints of [0, 1] :func:`fit_xie_c` fits c at (fewer than 100 cannot resolve the CDF's error)
+FIT_POINTS = Quantity("points", 100, 10**9, "", "midpoints of [0, 1] the fit of c takes", integer=True)
 RADIUS = Quantity("radius", 0.0, math.inf, "mm", "a distance from the centre", hi_open=True)
 
 
@@ -143,8 +145,8 @@ def fit_xie_c(method: str = "lsq", n: int = 100_000) -> tuple[float, float]:
     """
     from scipy.optimize import least_squares, minimize_scalar
 
-    if n < 100:
-        raise SamplingError(f"need at least 100 points to fit c, got {n}")
+    method = check_choice("fit method", method, ("lsq", "minimax"), SamplingError)
+    n = int(FIT_POINTS.check(n, "n (points to fit c)", SamplingError))
     xi = (np.arange(n) + 0.5) / n
     if method == "lsq":
         def resid(c: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -152,12 +154,10 @@ def fit_xie_c(method: str = "lsq", n: int = 100_000) -> tuple[float, float]:
 
         res = least_squares(resid, [XIE_C], xtol=1e-15, ftol=1e-15, gtol=1e-15)
         c = float(res.x[0])
-    elif method == "minimax":
+    else:  # minimax
         sol = minimize_scalar(
             lambda c: float(np.max(np.abs(xie_cdf_error(c, xi)))), bounds=(2.0, 3.5), method="bounded",
             options={"xatol": 1e-10},
         )
         c = float(sol.x)
-    else:
-        raise SamplingError(f"unknown fit method {method!r} (use 'lsq' or 'minimax')")
     return c, float(np.max(np.abs(xie_cdf_error(c, xi))))

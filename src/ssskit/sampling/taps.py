@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import KernelError, SamplingError
-from ..quantities import CHOICE, FRACTION, LENGTH_MM, Quantity, check_finite, check_instance, fail
+from ..quantities import FRACTION, LENGTH_MM, Quantity, check_choice, check_instance, check_shape
 
 #: taps of one 1D pass: odd, for a centre tap
 TAP_COUNT = Quantity("tap count", 1, 2**31 - 1, "", "taps of one 1D pass, odd for a centre tap", integer=True, odd=True)
@@ -62,16 +62,11 @@ class SeparableTaps:
     source: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        o = np.atleast_2d(np.asarray(self.offsets_mm, dtype=float))
+        o = np.atleast_2d(np.asarray(self.offsets_mm, dtype=float))  # offsets (R, N), weights (R, N, 3), signs (R, 3)
         w = np.asarray(self.weights, dtype=float)
-        if w.ndim == 2:
-            w = w[None]
-        s = np.atleast_2d(np.asarray(self.signs, dtype=float))
-        if w.shape != o.shape + (3,) or s.shape != (o.shape[0], 3):
-            raise SamplingError(f"taps need offsets (R, N), weights (R, N, 3), signs (R, 3); got "
-                                f"{o.shape}, {w.shape}, {s.shape}")
-        check_finite(o, "tap offsets", SamplingError)
-        check_finite(w, "tap weights", SamplingError)
+        o = check_shape(o, "tap offsets", ("R", "N"), SamplingError, finite=True)
+        w = check_shape(w[None] if w.ndim == 2 else w, "tap weights", o.shape + (3,), SamplingError, finite=True)
+        s = check_shape(np.atleast_2d(np.asarray(self.signs, dtype=float)), "tap signs", (o.shape[0], 3), SamplingError)
         if not np.all(np.abs(s) == 1):
             raise SamplingError("tap signs must be +-1")
         order = np.argsort(np.abs(o), axis=1, kind="stable")
@@ -129,10 +124,6 @@ class SeparableTaps:
 
     def _replace(self, **kw: Any) -> "SeparableTaps":
         return dataclasses.replace(self, **kw)
-
-
-def _check_count(n: int) -> int:
-    return int(TAP_COUNT.check(n, "tap count", SamplingError))
 
 
 def _fine(kernel: Kernel, r: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
@@ -217,9 +208,8 @@ def make_taps(kernel: AnyKernel, n: int | None = None, method: str = "importance
                              float(np.max(np.abs(o))) or 1.0, None, _tap_width(o, kernel.weights),
                              {"kernel": kernel.method, **kernel.source}).normalised()
     check_instance(kernel, Kernel, "the kernel of taps", KernelError)
-    n = _check_count(7 if n is None else n)
-    if method not in TAP_METHODS:
-        raise fail(SamplingError, CHOICE, name="tap placement", choices=", ".join(TAP_METHODS), actual=repr(method))
+    n = int(TAP_COUNT.check(7 if n is None else n, "tap count", SamplingError))
+    method = check_choice("tap placement", method, TAP_METHODS, SamplingError)
     offs, wts, widths = [], [], []
     for r in range(kernel.rank):
         o, w, width = _term_taps(kernel, r, n, method)

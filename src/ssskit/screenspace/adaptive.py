@@ -59,7 +59,7 @@ from ..backends.adaptive_plan import (
     reference_update,
 )
 from ..errors import PassError, SettingsError
-from ..quantities import FRACTION, SCALE, Choice, Flag, Quantity, check_finite, check_instance, check_shape
+from ..quantities import FRACTION, SCALE, Choice, Flag, Quantity, check_fields, check_finite, check_instance, check_shape
 
 #: the history's mean sample counts and variances (Xie 2020 Sec. 4.1.2): non-negative
 HISTORY_MOMENT = Quantity("moment", 0.0, math.inf, "", "a mean count or a variance", hi_open=True)
@@ -67,9 +67,10 @@ HISTORY_MOMENT = Quantity("moment", 0.0, math.inf, "", "a mean count or a varian
 _SIDE = Quantity("side", 1, 1 << 16, integer=True)
 _TOY_COUNT = Quantity("count", 1, 1_000_000, integer=True)
 _TOY_SEED = Quantity("seed", 0, 2**63 - 1, integer=True)
+#: the toy scenario's arguments (:func:`circle_scenario`)
+_CIRCLE = {"frames": _TOY_COUNT, "pixels": _TOY_COUNT, "seed": _TOY_SEED, "scale": SCALE.within(1e-12, 1e12)}
 from ..settings import Settings, setting
 from .burley import BURLEY_SPP
-from .camera import check_motion
 
 
 #: the display gamma of a luminance (1 = linear)
@@ -243,7 +244,7 @@ def reproject_history(history: ArrayLike, motion: ArrayLike | None = None,
     ok = None if valid is None else _mask(valid, (hh, ww))
     mv = None
     if motion is not None:
-        mv = check_motion(motion, (hh, ww))
+        mv = check_shape(motion, "the motion vectors", (hh, ww, 2), PassError, dtype=np.float64, finite=True)
     return reference_reproject(h, mv, ok)
 
 
@@ -301,10 +302,8 @@ def circle_scenario(settings: AdaptiveSettings | None = None, frames: int = 150,
     multiplies the irradiance (the paper: 1), to study how the sampler depends on the unit of the values.
     """
     s = _settings(settings)
-    frames, pixels = (int(_TOY_COUNT.check(v, name, SettingsError)) for v, name in ((frames, "frames"),
-                                                                                     (pixels, "pixels")))
-    seed = int(_TOY_SEED.check(seed, "seed", SettingsError))
-    scale = float(SCALE.within(1e-12, 1e12).check(scale, "scale", SettingsError))
+    v = check_fields({"frames": frames, "pixels": pixels, "seed": seed, "scale": scale}, _CIRCLE, error=SettingsError)
+    frames, pixels, seed, scale = v["frames"], v["pixels"], v["seed"], float(v["scale"])
     Flag("disocclusion").check(disocclusion, "disocclusion", PassError)
     history = new_history(1, pixels, available=not disocclusion)
     series = {k: np.zeros((frames, pixels)) for k in ("n_hat", "n", "value", "mu", "sigma")}

@@ -15,14 +15,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import GBufferError, PassError
-from ..quantities import Quantity, check_finite, check_shape
+from ..errors import GBufferError
+from ..quantities import Quantity, check_fields, check_shape
 
 #: a camera's image sides (pixels), its positive factors (focal lengths in pixels, world units per mm, the pixel
 #: aspect) and its horizontal field of view
 PIXELS = Quantity("width", 1, 2**31 - 1, "px", "an image side", integer=True)
 FACTOR = Quantity("factor", 0.0, math.inf, "", "a positive scale", lo_open=True, hi_open=True)
 FOV_DEG = Quantity("field of view", 0.0, 180.0, "degrees", "a pinhole camera's", lo_open=True, hi_open=True)
+_FROM_FOV = {"field of view": FOV_DEG, "pixel aspect": FACTOR}  # Camera.from_fov's arguments
 
 
 @dataclass(frozen=True)
@@ -55,8 +56,7 @@ class Camera:
         fx = (W/2) / tan(fov_x/2); fy = fx / pixel_aspect (a pixel that is taller than wide covers
         more of the scene vertically, so fewer pixels per unit length).
         """
-        FOV_DEG.check(fov_x_deg, "camera: field of view", GBufferError)
-        FACTOR.check(pixel_aspect, "camera: pixel aspect", GBufferError)
+        check_fields({"field of view": fov_x_deg, "pixel aspect": pixel_aspect}, _FROM_FOV, "camera", GBufferError)
         fx = 0.5 * width / math.tan(math.radians(fov_x_deg) / 2.0)
         return cls(int(width), int(height), fx, fx / pixel_aspect, width / 2.0, height / 2.0,
                    np.eye(4) if world_to_camera is None else np.asarray(world_to_camera, dtype=float),
@@ -104,17 +104,6 @@ class Camera:
             if isinstance(exc, GBufferError):
                 raise
             raise GBufferError(f"camera: not an ssskit camera record ({exc})") from None
-
-
-def check_motion(motion: ArrayLike, shape: tuple[int, int]) -> NDArray[np.float64]:
-    """Motion vectors as a float64 (H, W, 2) array (pixels, current to previous), or a PassError naming
-    the expected shape or the non-finite values."""
-    hh, ww = shape
-    mv = np.asarray(motion, dtype=np.float64)
-    if mv.shape != (hh, ww, 2):
-        raise PassError(f"the motion vectors must be (H, W, 2) = {(hh, ww, 2)}, got {mv.shape}")
-    check_finite(mv, "the motion vectors", PassError)
-    return mv
 
 
 def motion_vectors(depth: np.ndarray, camera: Camera, previous: Camera) -> np.ndarray:

@@ -49,7 +49,7 @@ from ..backends.plan import profile_ids
 from ..errors import PassError, SettingsError
 from ..metrics import display_psnr, region_metrics
 from ..quantities import FRAME, FRAMES, check_instance, check_shape, refuse_unused
-from .adaptive import AdaptiveSettings, check_history, new_history, reproject_history
+from .adaptive import AdaptiveSettings, _settings as adaptive_settings, check_history, new_history, reproject_history
 from .burley import BACKEND, BURLEY_SPP, BurleySettings, burley_backend, burley_plan_for
 from .camera import motion_vectors
 from .gbuffer import RADIANCE, GBuffer
@@ -261,7 +261,8 @@ def run_frames(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, 
             t4 = time.perf_counter()
             if transmission is not None:
                 if new:
-                    added = _check_added(transmission(gb), shape)
+                    added = RADIANCE.check_array(check_shape(transmission(gb), "the transmitted light", (*shape, 3),
+                                                             PassError), "the transmitted light", PassError, "values")
                 assert added is not None  # (computed on the first frame, which is new)
                 sss = np.add(sss, added, dtype=sss.dtype)
             t3 = time.perf_counter()
@@ -310,12 +311,6 @@ def run_frames(gbuffers: Sequence[GBuffer], params: BurleyParams | Mapping[int, 
         var = np.maximum(total_sq / n - run.mean * run.mean, 0.0) * (n / max(n - 1, 1))
         run.stderr = np.sqrt(var / n)
     return run
-
-
-def _check_added(added: Any, shape: tuple[int, int]) -> np.ndarray:
-    """The transmitted light of a G-buffer as an (H, W, 3) array of finite numbers >= 0, or a PassError."""
-    return RADIANCE.check_array(check_shape(added, "the transmitted light", (*shape, 3), PassError),
-                                "the transmitted light", PassError, "values")
 
 
 def _had_history(prev_inside: np.ndarray | None, motion: np.ndarray | None, shape: tuple[int, int],
@@ -387,7 +382,7 @@ def adaptive_frames(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, 
     backend, which then keeps the history and counts between frames: on gl, on the device).
     """
     check_instance(gbuffer, GBuffer, "gbuffer", PassError)
-    s = check_instance(AdaptiveSettings() if settings is None else settings, AdaptiveSettings, "settings", PassError)
+    s = adaptive_settings(settings)
     b = check_instance(BurleySettings() if burley is None else burley, BurleySettings, "burley", PassError)
     frames = int(FRAMES.check(frames, "frames", SettingsError))
     hook = None if on_frame is None else (lambda fr: on_frame(fr.index, fr.sss, fr.counts))

@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike
 
 from ..backends.plan import DEPTH_MM
 from ..errors import GBufferError
-from ..quantities import TYPE, Quantity, check_finite, check_instance, check_shape, fail
+from ..quantities import Quantity, check_finite, check_instance, check_shape
 from ..io import check_suffix, read_exr, write_exr
 from .camera import Camera
 
@@ -72,9 +72,7 @@ class GBuffer:
 
     def __post_init__(self) -> None:
         diffuse = _float_layer("diffuse", self.diffuse, ("H", "W", 3))
-        h, w = diffuse.shape[:2]
-        if not diffuse.size:
-            raise fail(GBufferError, TYPE, name="layer 'diffuse'", kind="a non-empty layer", actual="shape (0, 0, 3)")
+        h, w = diffuse.shape[:2]  # (an empty layer is not the camera's size: the camera has a pixel at least)
         layers = {"diffuse": diffuse}
         for name in ("specular", "albedo", "normal"):
             value = getattr(self, name)
@@ -111,14 +109,10 @@ class GBuffer:
             raise GBufferError("layer 'light_depth' needs the light projection (header 'ssskit_light'), which is missing")
         if self.light_depth is None:
             raise GBufferError("the light projection (header 'ssskit_light') is given without a 'light_depth' layer")
-        from ..errors import PassError
         from .transmission import LightView
 
         ld = _float_layer("light_depth", self.light_depth, (h, w), allow_inf=True)
-        try:
-            view = LightView.from_dict(self.light)
-        except PassError as e:
-            raise GBufferError(str(e)) from None
+        view = LightView.from_dict(self.light, GBufferError)
         if view.size != (w, h):
             raise GBufferError(f"the light projection's size {list(view.size)} is not the 'light_depth' layer's "
                                f"[{w}, {h}]")
@@ -223,9 +217,9 @@ class GBuffer:
 
         ``diffuse`` is the (blurred) diffuse layer; by default the unblurred one.
         """
-        d = self.diffuse if diffuse is None else np.asarray(diffuse, dtype=np.float32)
-        if d.shape != self.diffuse.shape:
-            raise GBufferError(f"diffuse to composite has shape {d.shape}, expected {self.diffuse.shape}")
+        if diffuse is None:
+            return self.albedo * self.diffuse + self.specular
+        d = check_shape(diffuse, "diffuse to composite", self.diffuse.shape, GBufferError, dtype=np.float32)
         return self.albedo * d + self.specular
 
     # ---- EXR ---------------------------------------------------------------------------------
@@ -263,13 +257,9 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
     for name in ("diffuse", "albedo", "depth", "profile_id"):
         if name not in channels:
             raise GBufferError(f"G-buffer {str(p)!r} has no layer {name!r} (found: {', '.join(sorted(channels))})")
-    if camera is None:
-        if "ssskit_camera" not in header:
-            raise GBufferError(f"G-buffer {str(p)!r} has no 'ssskit_camera' header attribute; pass a camera")
-        try:
-            camera = Camera.from_dict(_header(p, header, "ssskit_camera"))
-        except GBufferError as exc:
-            raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None
+    if camera is None and "ssskit_camera" not in header:
+        raise GBufferError(f"G-buffer {str(p)!r} has no 'ssskit_camera' header attribute; pass a camera")
+    record: Any = None if camera is not None else _header(p, header, "ssskit_camera")
     named, meta = _header(p, header, "ssskit_materials"), _header(p, header, "ssskit_meta", {})
     materials: tuple[str, ...] = ()
     if named is not None:  # a file that names its materials names one for every profile id it uses
@@ -284,10 +274,10 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
         materials = tuple(named)
     light = check_instance(_header(p, header, "ssskit_light"), dict, f"G-buffer {str(p)!r}: header 'ssskit_light' "
                            "(a JSON object)", GBufferError, optional=True)
-    try:
+    try:  # (the camera record's and the layers' errors alike name the file)
         return GBuffer(diffuse=channels["diffuse"], albedo=channels["albedo"], depth=channels["depth"],
-                       profile_id=channels["profile_id"], camera=camera, specular=channels.get("specular"),
-                       normal=channels.get("normal"), materials=materials, meta=meta,
+                       profile_id=channels["profile_id"], camera=camera if camera is not None else Camera.from_dict(record),
+                       specular=channels.get("specular"), normal=channels.get("normal"), materials=materials, meta=meta,
                        light_depth=channels.get("light_depth"), light=light)
     except GBufferError as exc:  # name the file in the layer's message
         raise GBufferError(f"G-buffer {str(p)!r}: {exc}") from None

@@ -97,8 +97,7 @@ def filter_arrays(diffuse: np.ndarray, depth_mm: np.ndarray, fx: float, fy: floa
     ``fx``/``fy``: focal lengths in pixels. Returns a new (H, W, 3) array in the backend's float type;
     pixels outside the region are copied. 2R passes for a rank-R kernel, horizontal then vertical.
     """
-    check_instance(taps, SeparableTaps, "taps (ssskit.sampling.make_taps)", PassError)
-    s = _settings(settings, overrides)
+    s = _settings(settings, overrides)  # (taps: refused by plan_for's per_id unless SeparableTaps)
     backend = get_backend(s.backend)
     depth_mm = np.asarray(depth_mm)  # shapes are checked by the backend (backends.check_frame)
     plan = plan_for(taps, [1], fx, fy, s)

@@ -50,7 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import PassError, SettingsError
 from ..quantities import CHOICE, Choice, Quantity, check_instance, check_shape, fail
 from ..settings import Settings, setting
-from .camera import Camera, check_motion
+from .camera import Camera
 
 #: neighbourhood boxes the history is clamped to (module docstring)
 NEIGHBOURHOODS = ("minmax", "variance", "none")
@@ -195,8 +195,10 @@ def reprojection_valid(depth: ArrayLike, camera: Camera, previous_depth: ArrayLi
 
 # ---- the resolve ---------------------------------------------------------------------------------------------
 
-def _check_frame(current: ArrayLike) -> NDArray[np.float64]:
-    return check_shape(current, "the TAA input frame", ("H", "W", 3), PassError, dtype=np.float64, finite=True)
+def _settings(settings: object) -> TAASettings:
+    """The TAA settings given (None: the defaults), or a PassError: the rule of :func:`taa_resolve` and
+    :class:`TemporalAA`."""
+    return check_instance(TAASettings() if settings is None else settings, TAASettings, "settings", PassError)
 
 
 @overload
@@ -225,9 +227,8 @@ def taa_resolve(current: ArrayLike, history: ArrayLike | None = None, motion: Ar
     pixel to its previous position (None: a static camera), ``valid`` (H, W) bool (False: disoccluded,
     take the current frame). Returns the (H, W, 3) float32 output, and with ``return_weight`` also the
     (H, W) weight a of the current frame used per pixel (1 where the history was rejected)."""
-    s = TAASettings() if settings is None else settings
-    check_instance(s, TAASettings, 'settings', PassError)
-    cur = _check_frame(current)
+    s = _settings(settings)
+    cur = check_shape(current, "the TAA input frame", ("H", "W", 3), PassError, dtype=np.float64, finite=True)
     hh, ww = cur.shape[:2]
     if history is None:
         out = cur.astype(np.float32)
@@ -238,7 +239,7 @@ def taa_resolve(current: ArrayLike, history: ArrayLike | None = None, motion: Ar
     if valid is not None:
         ok &= check_shape(valid, "valid", (hh, ww), PassError, "iufb", bool)
     if motion is not None:
-        mv = check_motion(motion, (hh, ww))
+        mv = check_shape(motion, "the motion vectors", (hh, ww, 2), PassError, dtype=np.float64, finite=True)
         u = u + mv[..., 0]
         v = v + mv[..., 1]
         ok &= (u >= 0) & (u < ww) & (v >= 0) & (v < hh)  # off-screen: no history
@@ -261,16 +262,11 @@ class TemporalAA:
     is taken as is). ``history``: the last output, or None."""
 
     def __init__(self, settings: TAASettings | None = None) -> None:
-        s = TAASettings() if settings is None else settings
-        check_instance(s, TAASettings, 'settings', PassError)
-        self.settings = s
+        self.settings = _settings(settings)
         self.history: np.ndarray | None = None
 
     def resolve(self, current: ArrayLike, motion: ArrayLike | None = None,
                 valid: ArrayLike | None = None) -> NDArray[np.float32]:
-        if self.history is not None and np.shape(current)[:2] != self.history.shape[:2]:
-            raise PassError(f"the frame is {np.shape(current)[1]}x{np.shape(current)[0]} but the TAA history is "
-                            f"{self.history.shape[1]}x{self.history.shape[0]}; reset() first")
         self.history = taa_resolve(current, self.history, motion, valid, self.settings)
         return self.history
 

@@ -42,9 +42,9 @@ import numpy as np
 
 from ..backends.spread_plan import SlotSpread
 from ..backends.transmission_plan import LUT_SIZE, UE_MAX_OPTICAL_DEPTH, SlotModel, TransmissionPlan, build_transmission_plan
-from ..errors import PassError
+from ..errors import PassError, SsskitError
 from ..materials import Material
-from ..quantities import LENGTH_MM, Quantity, check_instance, check_shape
+from ..quantities import LENGTH_MM, Quantity, check_fields, check_keys, check_shape
 from ..profiles.gaussians import DEON2007_SKIN_VARIANCES, DEON2007_SKIN_WEIGHTS
 
 if TYPE_CHECKING:
@@ -57,6 +57,7 @@ JIMENEZ2010_WRAP = 0.3
 UE_SCALE = Quantity("scale", 0.0, math.inf, "", "a positive scale", lo_open=True, hi_open=True)
 TINT = Quantity("tint", 0.0, math.inf, "", "a non-negative factor", hi_open=True)
 TRANSLUCENCY = Quantity("translucency", 0.0, 1.0, "", "1 would pass all light through", hi_open=True)
+_UNREAL = {"ExtinctionScale": UE_SCALE, "NormalScale": TINT}  # unreal_model's factors
 
 
 def jimenez2010_model(translucency: float = 0.0, sss_width_mm: float | None = None) -> SlotModel:
@@ -168,8 +169,7 @@ def unreal_model(d_mm: Any, tint: Any = (1.0, 1.0, 1.0), extinction_scale: float
     its profile table, od_per_mm = ExtinctionScale / 10 (the thickness in cm, UE's world unit), od_offset =
     NormalScale / 2 ([UE58] TransmissionThickness.ush, CalculateEncodedOpticalDepth), wrap 2 (no cosine).
     Defaults: FSubsurfaceProfileStruct's (:data:`UE_TRANSMISSION_DEFAULTS`)."""
-    UE_SCALE.check(extinction_scale, "ExtinctionScale", PassError)
-    TINT.check(normal_scale, "NormalScale", PassError)
+    check_fields({"ExtinctionScale": extinction_scale, "NormalScale": normal_scale}, _UNREAL, error=PassError)
     table = unreal_profile_table(d_mm, tint, world_unit_scale, distance_scale)
     zero = np.zeros((3, 1))
     return SlotModel(zero, zero, zero, 1.0, 2.0, "unreal", lut=table, od_per_mm=extinction_scale / 10.0,
@@ -210,6 +210,9 @@ UNIT_TOL = 1e-3
 """How far the light projection's axes may be from an orthonormal frame (|length - 1| and |dot|): a file's
 frame written in float32 or rounded to 6 digits passes, a meaningless one (a zero or an unnormalised vector,
 skewed axes) does not."""
+#: the light frame's axes: unit lengths and pairwise dot products within UNIT_TOL (an orthonormal frame)
+UNIT_LENGTH = Quantity("length", 1.0 - UNIT_TOL, 1.0 + UNIT_TOL, "", "a unit vector, within 1e-3")
+ORTHOGONAL = Quantity("dot", -UNIT_TOL, UNIT_TOL, "", "orthogonal axes, within 1e-3")
 
 
 def _is_number(x: Any) -> bool:
@@ -220,10 +223,10 @@ def _is_integral(x: Any) -> bool:
     return _is_number(x) and math.isfinite(x) and float(x).is_integer()
 
 
-def _three_finite(name: str, value: Any) -> tuple[float, float, float]:
-    """A projection field of 3 finite numbers [x, y, z] (a list, tuple or 1D array), or a PassError naming it."""
+def _three_finite(name: str, value: Any, error: type[SsskitError]) -> tuple[float, float, float]:
+    """A projection field of 3 finite numbers [x, y, z] (a list, tuple or 1D array), or ``error`` naming it."""
     label = f"the light projection's {name!r}"
-    x, y, z = check_shape(value, label, (3,), PassError, finite=True, dtype=float).tolist()
+    x, y, z = check_shape(value, label, (3,), error, finite=True, dtype=float).tolist()
     return x, y, z
 
 
@@ -269,37 +272,30 @@ class LightView:
                 "u": list(self.u), "v": list(self.v), "texel_mm": self.texel_mm, "size": list(self.size)}
 
     @classmethod
-    def from_dict(cls, d: dict) -> LightView:
-        """:meth:`to_dict`'s form back, or a PassError naming the field that is wrong and its valid domain:
+    def from_dict(cls, d: dict, error: type[SsskitError] = PassError) -> LightView:
+        """:meth:`to_dict`'s form back, or ``error`` (a PassError; the G-buffer's reader: a GBufferError) naming the field that is wrong and its valid domain:
         ``direction``, ``u``, ``v`` 3 finite numbers each, unit vectors (|x| within :data:`UNIT_TOL` of 1) and
         mutually orthogonal (|dot| <= :data:`UNIT_TOL`: an orthonormal frame, what :meth:`looking_along` writes
         and what :meth:`project` assumes); ``origin`` 3 finite numbers; ``size`` 2 positive integers;
         ``texel_mm`` a finite number > 0."""
-        def fail(msg: str) -> PassError:
-            return PassError(f"the light projection is malformed: {msg}")
+        def fail(msg: str) -> SsskitError:
+            return error(f"the light projection is malformed: {msg}")
 
-        check_instance(d, dict, "the light projection (a JSON object)", PassError)
+        check_keys(d, "the light projection", None, ("direction", "origin", "u", "v", "texel_mm", "size"), error)
         if d.get("type", "orthographic") != "orthographic":
             raise fail(f"type {d.get('type')!r} (only 'orthographic')")
-        missing = [k for k in ("direction", "origin", "u", "v", "texel_mm", "size") if k not in d]
-        if missing:
-            raise fail(f"missing field(s) {', '.join(repr(k) for k in missing)}")
-        vecs = [_three_finite(k, d[k]) for k in ("direction", "origin", "u", "v")]
+        vecs = [_three_finite(k, d[k], error) for k in ("direction", "origin", "u", "v")]
         axes = {"direction": vecs[0], "u": vecs[2], "v": vecs[3]}
         for k, x in axes.items():
-            norm = math.sqrt(sum(c * c for c in x))
-            if not abs(norm - 1.0) <= UNIT_TOL:
-                raise fail(f"{k!r} must be a unit vector (length within {UNIT_TOL:g} of 1), got {list(x)!r} "
-                           f"of length {norm:.6g}")
+            UNIT_LENGTH.check(math.sqrt(sum(c * c for c in x)), f"the light projection's {k!r}: its length", error)
         for a, b in (("direction", "u"), ("direction", "v"), ("u", "v")):
             dot = sum(p * q for p, q in zip(axes[a], axes[b], strict=True))
-            if not abs(dot) <= UNIT_TOL:
-                raise fail(f"{a!r} and {b!r} must be orthogonal (|dot| <= {UNIT_TOL:g}), got dot {dot:.6g}")
+            ORTHOGONAL.check(dot, f"the light projection's {a!r} . {b!r}", error)
         label = "the light projection's 'size'"
         size = d["size"].tolist() if isinstance(d["size"], np.ndarray) else d["size"]
-        check_shape(size, label, (2,), PassError)
-        w, h = (MAP_SIDE.check(int(x) if _is_integral(x) else x, label, PassError) for x in size)
-        texel = LENGTH_MM.check(d["texel_mm"], "the light projection's 'texel_mm'", PassError)
+        check_shape(size, label, (2,), error)
+        w, h = (MAP_SIDE.check(int(x) if _is_integral(x) else x, label, error) for x in size)
+        texel = LENGTH_MM.check(d["texel_mm"], "the light projection's 'texel_mm'", error)
         return cls(vecs[0], vecs[1], vecs[2], vecs[3], float(texel), (int(w), int(h)))
 
     def project(self, points: np.ndarray) -> np.ndarray:
