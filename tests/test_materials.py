@@ -102,10 +102,10 @@ def test_toml_and_json_roundtrip(tmp_path):
     "text, suffix, fragment",
     [
         ("sigma_a = [1, 2", ".toml", "malformed"),
-        ('{"sigma_a": 1}', ".json", "missing required key 'sigma_s'"),
-        ('{"sigma_a": 1, "sigma_s": 1, "colour": 2}', ".json", "unknown material key"),
+        ('{"sigma_a": 1}', ".json", "material: missing sigma_s"),
+        ('{"sigma_a": 1, "sigma_s": 1, "colour": 2}', ".json", "material: unknown key(s) colour"),
         ('{"sigma_a": 1, "sigma_s": 1, "eta": 0.5}', ".json", "eta must lie in [1, inf), got 0.5"),
-        ("[1, 2]", ".json", "top level"),
+        ("[1, 2]", ".json", "material must be a table, got (1, 2)"),
         ("sigma_a: 1", ".yaml", "must end in .toml or .json"),
     ],
 )

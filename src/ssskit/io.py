@@ -131,16 +131,22 @@ def check_suffix(path: str | Path, allowed: tuple[str, ...], what: str, error: t
     return suffix
 
 
-def check_distinct(output: str | Path | None, *inputs: Any, what: str = "output") -> None:
-    """An :class:`OutputError` if ``output`` is the same file as one of ``inputs``.
+def check_distinct(output: str | Path | None | dict[str, Any], *inputs: Any, what: str = "output") -> None:
+    """An :class:`OutputError` if ``output`` is the same file as one of ``inputs``; several outputs given as
+    ``{option: path}`` (None skipped) may be neither an input nor one another.
 
     Paths are compared after resolving symlinks and ``..`` (and by device/inode when both exist, so
     hard links count too). ``None`` and inputs that are not paths (a scene name given as a string
     that names no file, a G-buffer in memory) are skipped, so callers may pass their inputs as given.
     """
-    same = next((inp for inp in inputs if output is not None and same_file(output, inp)), None)
-    if same is not None:
-        raise OutputError(f"{what} {str(output)!r} would overwrite the input {str(same)!r}; choose another path")
+    outputs = list((output if isinstance(output, dict) else {what: output}).items())
+    for i, (opt, path) in enumerate(outputs):
+        same = next((inp for inp in inputs if path is not None and same_file(path, inp)), None)
+        if same is not None:
+            raise OutputError(f"{opt} {str(path)!r} would overwrite the input {str(same)!r}; choose another path")
+        other = next((o for o, earlier in outputs[:i] if path is not None and same_file(path, earlier)), None)
+        if other is not None:
+            raise OutputError(f"{opt} {str(path)!r} is also the {other} file; choose another path")
 
 
 def same_file(a: Any, b: Any) -> bool:

@@ -14,14 +14,14 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from .errors import MaterialError
-from .quantities import (ANISOTROPY, COEFFICIENT, ETA, EXTINCTION, FRACTION, LENGTH_MM, THICKNESS_MM, TYPE,
-                         fail)
+from .quantities import (ANISOTROPY, COEFFICIENT, ETA, EXTINCTION, FRACTION, LENGTH_MM, THICKNESS_MM, TYPE, Choice,
+                         check_instance, check_keys, fail)
 from .registry import Registry
 
 CHANNELS: tuple[str, str, str] = ("R", "G", "B")
@@ -252,10 +252,25 @@ ARTIST_PRESETS.register(
 )
 
 
+def homogeneous(material: Any, what: str) -> Material:
+    """``material`` if it is one homogeneous medium (a :class:`Material`), else a :class:`MaterialError` in one
+    wording for every user of a single medium (``what``: who needs it, and where to get one)."""
+    if not isinstance(material, Material):
+        raise MaterialError(f"{what} needs one homogeneous medium, not {_describe_material(material)}")
+    return material
+
+
+def _describe_material(material: Any) -> str:
+    return (f"the layered material {material.name!r}" if isinstance(material, LayeredMaterial)
+            else "Burley parameters without coefficients")
+
+
 # ---- loading ---------------------------------------------------------------------------------
 
 _FILE_KEYS = {"name", "sigma_a", "sigma_s", "g", "eta", "thickness_mm", "eta_ambient", "unit", "units"}
 _LAYERED_KEYS = {"name", "layers", "eta_above", "eta_below", "unit", "units"}
+#: the unit of a file's coefficients (mm^-1 or cm^-1, as MCML's input files) and thickness
+UNIT = Choice("unit", ("mm", "cm"))
 
 
 @dataclass(frozen=True)
@@ -283,36 +298,25 @@ class LayeredMaterial:
 
 
 def _layered_from_dict(data: Mapping[str, Any], default_name: str) -> LayeredMaterial:
-    unknown = sorted(set(data) - _LAYERED_KEYS)
-    if unknown:
-        raise MaterialError(f"unknown key(s) in a layered material: {', '.join(unknown)}")
-    raw = data["layers"]
-    if not isinstance(raw, Sequence) or isinstance(raw, (str, bytes)) or not raw:
-        raise MaterialError("'layers' must be a non-empty list of tables/objects")
+    raw = check_instance(data["layers"], (list, tuple), "layers", MaterialError)  # (none: LayeredMaterial refuses it)
     unit = data.get("unit", data.get("units"))
     layers = []
     for i, entry in enumerate(raw):
-        if not isinstance(entry, Mapping):
-            raise MaterialError(f"layer {i + 1} must be a table/object")
-        entry = dict(entry)
+        entry = dict(check_keys(entry, f"layer {i + 1}", _FILE_KEYS, error=MaterialError))  # (no layers of its own)
         if unit is not None:
             entry.setdefault("unit", unit)
         try:
             layer = material_from_dict(entry, default_name=f"layer {i + 1}")
         except MaterialError as exc:
             raise MaterialError(f"layer {i + 1}: {exc}") from None
-        if not isinstance(layer, Material):
-            raise MaterialError(f"layer {i + 1}: a layer cannot itself have layers")
+        assert isinstance(layer, Material)
         layers.append(layer)
     return LayeredMaterial(_name(data, default_name), tuple(layers),
                            data.get("eta_above", 1.0), data.get("eta_below", 1.0))
 
 
 def _name(data: Mapping[str, Any], default_name: str) -> str:
-    name = data.get("name", default_name)
-    if not isinstance(name, str):
-        raise MaterialError(f"name must be a string, got {_describe(name)}")
-    return name
+    return check_instance(data.get("name", default_name), str, "name", MaterialError)
 
 
 def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user material") -> Material | LayeredMaterial:
@@ -327,19 +331,12 @@ def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user mat
     Every value must be a number (or a list of numbers): strings, booleans and tables are refused
     with a :class:`MaterialError` naming the key.
     """
-    if not isinstance(data, Mapping):
-        raise MaterialError("a material file must hold a table/object at the top level")
-    if "layers" in data:
+    layered = isinstance(data, Mapping) and "layers" in data
+    check_keys(data, "layered material" if layered else "material", _LAYERED_KEYS if layered else _FILE_KEYS,
+               () if layered else ("sigma_a", "sigma_s"), MaterialError)
+    if layered:
         return _layered_from_dict(data, default_name)
-    unknown = sorted(set(data) - _FILE_KEYS)
-    if unknown:
-        raise MaterialError(f"unknown material key(s): {', '.join(unknown)}")
-    for key in ("sigma_a", "sigma_s"):
-        if key not in data:
-            raise MaterialError(f"material is missing required key {key!r}")
-    unit = str(data.get("unit", data.get("units", "mm"))).strip().lower()
-    if unit not in ("mm", "cm"):
-        raise MaterialError(f"unit must be 'mm' or 'cm', got {unit!r}")
+    unit = UNIT.check(str(data.get("unit", data.get("units", "mm"))), "unit", MaterialError)
     scale = 1.0 / MM_PER_CM if unit == "cm" else 1.0
     sigma_a = _map1(lambda v: v * scale, _triple("sigma_a", data["sigma_a"]))
     sigma_s = _map1(lambda v: v * scale, _triple("sigma_s", data["sigma_s"]))
@@ -417,6 +414,7 @@ __all__ = [
     "Material",
     "Triple",
     "get_material",
+    "homogeneous",
     "load_material",
     "material_from_dict",
 ]

@@ -443,3 +443,18 @@ def rgb(quantity: Quantity) -> Rule:
 
 
 __all__ += ["checks", "rgb"]
+
+
+# --- vc-a: one value given twice, in two places that disagree ------------------------------------------------
+
+#: the wording of one value given twice that disagrees (a kernel spec's inline tap count and --taps)
+TWICE = "{first} and {second} disagree; give {what} once"
+
+
+def refuse_twice(first: str, second: str, what: str, error: ErrorClass = SsskitError) -> None:
+    """Raise, in the one wording, a value given twice that disagrees: ``--kernel jimenez2012:11 and --taps 7
+    disagree; give the number of taps once``."""
+    raise fail(error, TWICE, first=first, second=second, what=what)
+
+
+__all__ += ["TWICE", "refuse_twice"]

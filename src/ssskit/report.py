@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import html
 import json
+import math
 import os
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -19,6 +20,7 @@ import numpy as np
 from .backends import DEFAULT_BACKEND
 from .io import write_text
 from .materials import CHANNELS, MATERIALS, Material
+from .quantities import Quantity
 
 if TYPE_CHECKING:
     from .backends.base import Backend
@@ -30,6 +32,8 @@ Section = Callable[[Path, Progress, dict], str]
 #: photons per channel of the demo's Monte Carlo profiles: supplement F's 10^7, the shipped profiles
 #: (:mod:`ssskit.profiles.montecarlo.shipped`); ``ssskit demo --full`` simulates them instead
 DEMO_PHOTONS = 10_000_000
+#: worker processes of one report (``ssskit demo --jobs``)
+JOBS = Quantity("jobs", 1, math.inf, "", "worker processes of one report", integer=True, hi_open=True)
 
 _CSS = """
 body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1400px; color: #222; }
@@ -850,10 +854,7 @@ def build_report(out_dir: str | Path, progress: Progress | None = None, photons:
     from .io import staged_folder
     from .profiles.montecarlo.shipped import recompute as no_shipped
 
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        from .errors import SsskitError
-
-        raise SsskitError(f"jobs must be a positive integer, got {jobs!r}")
+    JOBS.check(jobs)
     runner = get_backend(backend)
     sections = list(SECTIONS)
     ctx: dict = {"photons": photons, "progress_bars": progress_bars, "backend": runner.name, "recompute": recompute,

@@ -254,9 +254,9 @@ def test_simulate_of_one_batch_says_it_has_no_standard_error(capsys, tmp_path, m
         (["simulate", "--material", "skin1", "--out", "x.csv"], "must end in .npz"),
         (["simulate", "--material", "nope"], "unknown material"),
         (["simulate", "--material", "skin1,apple", "--out", "x.npz"], "single material"),
-        (["simulate", "--material", "skin1,apple", "--threads", "1"], "apply to a single material"),
+        (["simulate", "--material", "skin1,apple", "--threads", "1"], "--threads applies to a single material, not a sweep"),
         (["simulate", "--material", "skin1", "--threads", "999"], "threads must lie in [1, "),
-        (["simulate", "--material", "skin1,apple", "--backend", "gl"], "apply to a single material"),
+        (["simulate", "--material", "skin1,apple", "--backend", "gl"], "--backend applies to a single material, not a sweep"),
         (["simulate", "--material", "skin1", "--backend", "cuda"], "--backend"),
     ],
 )

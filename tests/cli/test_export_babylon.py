@@ -131,7 +131,7 @@ def test_wrong_suffix_is_one_line(run, workdir, out):  # noqa: F811
 
 def test_several_materials_only_for_babylon(run, workdir):  # noqa: F811
     one_error_line(run, workdir, ["export", "--format", "unity", "--material", "skin1,marble", "--out", "s.json"],
-                   "only with --format babylon")
+                   "applies to --format babylon, not --format unity")
 
 
 def test_parameters_check_the_profile_count_and_values():

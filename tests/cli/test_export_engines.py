@@ -101,9 +101,9 @@ BAD_EXPORT = [
     # an engine without a cited clamp: its albedo outside Burley's (0, 1] was clamped silently to 1
     # (the file's values are out of their domain, not missing: not "lacks the parameters ssskit writes")
     (["--material", "alb2_blender.json", "--format", "unity", "--out", "o.json"],
-     "error: 'alb2_blender.json': the blender albedo must lie in (0, 1]"),
+     "error: 'alb2_blender.json': Burley albedo A must lie in (0, 1]"),
     (["--material", "alb0_unity.json", "--format", "blender", "--out", "o.json"],
-     "error: 'alb0_unity.json': the unity albedo must lie in (0, 1]"),
+     "error: 'alb0_unity.json': Burley albedo A must lie in (0, 1]"),
     (["--material", "negd_blender.json", "--format", "unity", "--out", "o.json"],
      "error: 'negd_blender.json': Burley length d must lie in (0, inf) mm"),
     # an HDRP .asset takes --albedo; its distances came from the file and --dmfp was ignored silently
@@ -120,7 +120,7 @@ BAD_EXPORT = [
     (["--material", "skin1", "--eta", "1.4", "--format", "unreal", "--out", "o.json"], "--eta does not apply to a material without artists' terms"),
     (["--material", "skin1", "--format", "godot", "--out", "o.json"], "unknown export format 'godot'"),
     (["--material", "skin1", "--format", "unity", "--out", "o.py"], "--out for --format unity"),
-    (["--material", "other.json", "--format", "unity", "--out", "o.json"], "an export of engine 'godot'"),
+    (["--material", "other.json", "--format", "unity", "--out", "o.json"], "the engine of an export must be one of unreal, unity, blender, got 'godot'"),
     (["--material", "other.asset", "--albedo", "0.5", "--format", "blender", "--out", "o.json"],
      "not HDRP's DiffusionProfileSettings"),
     (["--material", "cut.asset", "--albedo", "0.5", "--format", "blender", "--out", "o.json"], "truncated"),

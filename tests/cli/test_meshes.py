@@ -71,12 +71,12 @@ def test_bad_mesh_input(run, meshes, command, args, fragment):
 
 def test_figures_scene_options_need_a_figure_that_renders_a_scene(run, meshes):
     code, _, err = run("figures", "fig7", "--scene", "ball.ply", "--out", "figs")
-    assert code == 2 and "apply to the figures that render a scene (xie-fig1), not to fig7" in err
+    assert code == 2 and "applies to figure xie-fig1, not figure fig7" in err
 
 
 def test_demo_needs_scene_for_units(run, meshes):
     code, _, err = run("demo", "--units", "mm", "--out", "demo")
-    assert code == 2 and "--units and --material-map need --scene" in err
+    assert code == 2 and "--units applies to a demo with --scene, not a demo without one" in err
 
 
 def test_demo_section_of_your_model(tmp_path, monkeypatch):

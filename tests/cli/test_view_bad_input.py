@@ -19,8 +19,8 @@ BAD = [
     (["--albedo", AL], "artists' terms need albedo and mfp together"),
     (["--mfp", MFP], "artists' terms need albedo and mfp together"),
     (["--material", "skin1", "--albedo", AL, "--mfp", MFP], "give the material once"),
-    (["--albedo", "0.8,0.6", "--mfp", MFP], "three numbers"),
-    (["--albedo", "a,b,c", "--mfp", MFP], "three numbers"),
+    (["--albedo", "0.8,0.6", "--mfp", MFP], "give one number or three (R,G,B)"),
+    (["--albedo", "a,b,c", "--mfp", MFP], "is not a number or three comma-separated numbers"),
     (["--albedo", "nan,0.6,0.5", "--mfp", MFP], "albedo must lie in (0, 1]"),
     (["--albedo", "-0.1,0.6,0.5", "--mfp", MFP], "albedo must lie in (0, 1]"),
     (["--albedo", "0,0.6,0.5", "--mfp", MFP], "albedo must lie in (0, 1]"),
@@ -33,8 +33,8 @@ BAD = [
     (["--port", "70000", "--no-open"], "--port"),
     (["--port", "-1", "--no-open"], "--port"),
     (["--port", "http", "--no-open"], "--port"),
-    (["--presets", "skin1", "--no-open"], "--presets applies to --out"),
-    (["--out", "site", "--presets", "skin1,nosuch", "--no-open"], "unknown preset 'nosuch'"),
+    (["--presets", "skin1", "--no-open"], "--presets applies to a static folder (--out), not a served page"),
+    (["--out", "site", "--presets", "skin1,nosuch", "--no-open"], "--presets must be one of"),
     (["--out", "f.txt", "--no-open"], "f.txt"),
     (["--out", "f.txt/site", "--no-open"], "f.txt"),
     (["--out", "full", "--no-open"], "holding other files"),
@@ -58,14 +58,14 @@ def test_view_bad_input(run, workdir, monkeypatch, args, fragment):  # noqa: F81
 
 #: ``ssskit export --pass burley`` (the viewer's Burley shader): GLSL only, a homogeneous material, no kernel options
 EXPORT_BAD = [
-    (["--material", "skin1", "--pass", "burley", "--format", "hlsl-shader", "--out", "b.hlsl"], "is written as GLSL"),
+    (["--material", "skin1", "--pass", "burley", "--format", "hlsl-shader", "--out", "b.hlsl"], "--pass burley applies to --format glsl-shader, not --format hlsl-shader"),
     (["--pass", "burley", "--format", "glsl-shader", "--out", "b.frag"], "needs --material"),
     (["--material", "skin1", "--pass", "burley", "--taps", "7", "--format", "glsl-shader", "--out", "b.frag"],
      "--taps does not apply to --pass burley"),
     (["--material", "skin1", "--pass", "burley", "--model", "dipole", "--format", "glsl-shader", "--out", "b.frag"],
      "--model does not apply to --pass burley"),
     (["--material", "skin1", "--pass", "burley", "--transmission-model", "mcml", "--format", "glsl-shader",
-      "--out", "b.frag"], "--transmission-model applies with --pass transmission"),
+      "--out", "b.frag"], "--transmission-model applies to --pass transmission"),
     (["--albedo", "nan,0.6,0.5", "--mfp", MFP, "--pass", "burley", "--format", "glsl-shader", "--out", "b.frag"],
      "albedo must lie in (0, 1]"),
 ]

@@ -76,9 +76,7 @@ class LazyCommands(MutableMapping[str, click.Command]):
 
     def __getitem__(self, name: str) -> click.Command:
         if name not in self._loaded:
-            if name not in self._table:
-                raise KeyError(name)
-            module, attr, _ = self._table[name]
+            module, attr, _ = self._table[name]  # (a KeyError for a name in neither)
             self._loaded[name] = getattr(importlib.import_module(f"{__name__}.{module}"), attr)
         return self._loaded[name]
 

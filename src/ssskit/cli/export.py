@@ -24,6 +24,7 @@ import click
 
 from ..errors import SettingsError, SsskitError
 from ..export.api import FLAGS, ExportSettings
+from ..quantities import refuse_unused
 from .options import (DEPTH_MODE, DEPTH_MODE_HELP, MODEL, TAP_METHOD, OutputFile, RGBFloats, echo_json, examples,
                       json_option, kernel_spec_option, setting_option)
 
@@ -156,9 +157,8 @@ def export(fmt: str, out: str, as_json: bool, kernel_spec: str | None, **options
     material = given.get("material")
     try:
         if material is not None and "," in material:  # one Babylon.js scene's materials
-            if fmt != "babylon":
-                raise SsskitError("--material takes several names (a,b,c) only with --format babylon (one scene's "
-                                  "profiles)")
+            if fmt != "babylon":  # (one scene's profiles)
+                refuse_unused(["--material with several names (a,b,c)"], "--format", ("babylon",), fmt)
             from ..export.babylon import export_scene
 
             given.pop("material")

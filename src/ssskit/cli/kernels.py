@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from ..errors import SsskitError
-from ..quantities import KERNEL_CELLS
+from ..quantities import KERNEL_CELLS, refuse_twice, refuse_unused
 
 if TYPE_CHECKING:
     from ..kernels import AnyKernel, KernelMethod
@@ -25,6 +25,7 @@ from .options import (
     echo_json,
     examples,
     given,
+    named,
     json_option,
     kernel_spec_option,
     material_option,
@@ -34,7 +35,7 @@ from .options import (
     progress,
     signal_option,
 )
-from .profiles import check_material_for_model, resolve_profile
+from .profiles import resolve_profile
 
 #: options of ``kernel`` itself; a method parameter of the same name is offered as --<method>-<name>
 _OWN = {"material", "method", "model", "photons", "size", "json", "out", "help"}
@@ -82,16 +83,12 @@ def method_parameters(method_spec: str, values: dict[str, str | None]) -> tuple[
         flag = _option_flag(dest)
         param = PRIMARY_OPTIONS[dest][0]
         if m.primary != param:
-            hint = (f"; its parameter is {_option_flag(_dest_of(m.primary))}" if m.primary
-                    else "; it takes no parameter")
-            raise SsskitError(f"{flag} does not apply to --method {m.name}{hint}")
-        try:
+            refuse_unused([flag], "--method", PRIMARY_OPTIONS[dest][1], m.name)
+        with named(flag, SsskitError):
             value = m.parse(text)
             check_params(m, {param: value})
-        except SsskitError as exc:
-            raise SsskitError(f"{flag}: {exc}") from None
         if param in params and params[param] != value:
-            raise SsskitError(f"--method {method_spec} and {flag} {text} disagree; give the {param} once")
+            refuse_twice(f"--method {method_spec}", f"{flag} {text}", f"the {param}")
         params[param] = value
     return m, params
 
@@ -107,10 +104,6 @@ def kernel_label(method: KernelMethod, params: dict[str, Any], kernel: AnyKernel
     if value is None:
         value = inspect.signature(method.builder).parameters[method.primary].default
     return f"{method.name}:{value}"
-
-
-def _dest_of(param: str) -> str:
-    return next(d for d, (p, _) in PRIMARY_OPTIONS.items() if p == param)
 
 
 @click.command(epilog=examples(
@@ -139,17 +132,12 @@ def kernel(ctx: click.Context, material: str | None, method_spec: str, model: st
     m, params = method_parameters(method_spec, method_values)
     KERNEL_CELLS.check(grid_n, "--size")
     check_distinct(out, material, what="--out")
-    from ..profiles import MATERIAL_FREE_MODELS
-
     prof = None
     refuse_profile_options(m, [f for f, on in (("--material", material is not None), ("--model", given(ctx, "model")),
                                                ("--photons", given(ctx, "photons"))) if on], material is not None,
                            "--method")
-    if material is not None or (m.needs_profile and model.lower() in MATERIAL_FREE_MODELS):
-        check_material_for_model(ctx, material, model)
-        prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
-    elif m.needs_profile:
-        raise SsskitError(f"--material is required for --method {m.name}")
+    if material is not None or m.needs_profile:  # (a material-free model's profile needs none)
+        prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)}, f"--method {m.name}")()
     k = build_kernel(m.name, prof, n=grid_n, **params)
     if out:
         save_kernel(k, out)
@@ -194,7 +182,6 @@ def evaluate(ctx: click.Context, material: str | None, signal: str, methods: lis
 
     if not no_perceptual:  # before the profile (an MCML run) and the kernels
         check_ssim_size(size, size, f"--size {size}: ", "; give a larger --size, or --no-perceptual")
-    check_material_for_model(ctx, material, model)
     prof = resolve_profile(ctx, material, model, {"photons": ("photons", photons)})()
     ev = run(prof, signal, methods, size=size, perceptual=not no_perceptual,
              progress=lambda m: progress(f"method {m}"))  # on stderr in every mode, --json included

@@ -16,7 +16,7 @@ import json
 import os
 import stat
 import tempfile
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from ..kernels import KernelMethod
     from click.shell_completion import CompletionItem
 
-from ..errors import OutputError, SsskitError
+from ..errors import OutputError, SettingsError, SsskitError
 from ..settings import DEFAULT_PHOTONS, HEAD_ATTRIBUTION, PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE
 
 #: the profile model every command defaults to: the supplement's Monte Carlo profiles (shipped for the
@@ -51,11 +51,11 @@ __all__ = [
     "SceneRef",
     "Size",
     "backend_option",
-    "check_distinct",
     "check_writable",
     "echo_json",
     "examples",
     "given",
+    "named",
     "json_option",
     "kernel_spec_option",
     "material_option",
@@ -106,25 +106,18 @@ def examples(*lines: str) -> str:
     return "\b\nExamples:\n" + "\n".join(f"  {line}" for line in lines)
 
 
+@contextlib.contextmanager
+def named(flag: str, error: type[SsskitError] = SettingsError) -> Iterator[None]:
+    """An error of what option ``flag`` gave, named by it (``--c: c must lie in ...``): every option's one wording."""
+    try:
+        yield
+    except SsskitError as exc:
+        raise error(f"{flag}: {exc}") from None
+
+
 def given(ctx: click.Context, name: str) -> bool:
     """Whether the user gave parameter ``name`` (on the command line or in the environment)."""
     return ctx.get_parameter_source(name) not in (None, ParameterSource.DEFAULT, ParameterSource.DEFAULT_MAP)
-
-
-def check_distinct(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None]) -> None:
-    """Refuse an output path that is one of the input files (:func:`ssskit.io.check_distinct`) or
-    another output; ``{option: path}``, None skipped."""
-    from ..io import check_distinct as distinct, same_file
-
-    done: list[tuple[str, str | Path]] = []
-    for opt, path in outputs.items():
-        if path is None:
-            continue
-        distinct(path, *inputs.values(), what=opt)
-        other = next((o for o, earlier in done if same_file(path, earlier)), None)
-        if other is not None:
-            raise OutputError(f"{opt} {str(path)!r} is also the {other} file; choose another path")
-        done.append((opt, path))
 
 
 def check_writable(target: str | Path, opt: str, folder: bool = False) -> None:

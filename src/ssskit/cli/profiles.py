@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import click
 
 from ..errors import SsskitError
-from ..quantities import LENGTH_MM
+from ..quantities import LENGTH_MM, refuse_unused
 
 if TYPE_CHECKING:
     from ..materials import LayeredMaterial, Material
@@ -43,35 +43,31 @@ def model_parameters(model: str) -> set[str]:
             if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
 
 
-def check_material_for_model(ctx: click.Context, material: str | None, model: str, needed_by: str = "") -> None:
-    """--material is refused by a material-free model (deon2007) and required by every other one."""
-    from ..profiles import MATERIAL_FREE_MODELS
-
-    if model.lower() in MATERIAL_FREE_MODELS:
-        if material is not None and given(ctx, "material"):
-            raise SsskitError(f"--model {model} is a fixed preset and takes no --material (got {material!r})")
-    elif material is None:
-        raise SsskitError(f"--material is required for {needed_by or f'--model {model}'}")
-
-
 def resolve_profile(ctx: click.Context, material: str | Material | LayeredMaterial | None, model: str,
-                    options: dict[str, tuple[str, object]]) -> Callable[[], RGBProfile]:
-    """The profile of ``model`` for ``material``, passing each option the model takes.
+                    options: dict[str, tuple[str, object]], needed_by: str = "") -> Callable[[], RGBProfile]:
+    """The profile of ``model`` for ``material``, passing each option the model takes: every command's one
+    statement of the model's rules.
 
-    ``options``: {click parameter name: (factory parameter, value)}. An option applies to the models
-    whose factory (the MODELS registry) takes its parameter; given for another model, it is refused.
-    Returns a function that computes the profile (all checks are done first).
+    --material is refused by a material-free model (deon2007) and required by every other one (``needed_by``: what
+    needs it, ``--model M`` by default). ``options``: {click parameter name: (factory parameter, value)}. An option
+    applies to the models whose factory (the MODELS registry) takes its parameter; given for another model, it is
+    refused. Returns a function that computes the profile (all checks are done first).
     """
-    from ..profiles import MATERIAL_FREE_MODELS, profile_for_material
+    from ..profiles import MATERIAL_FREE_MODELS, MODELS, profile_for_material
 
+    free = model.lower() in MATERIAL_FREE_MODELS
+    if free and material is not None and given(ctx, "material"):
+        raise SsskitError(f"--model {model} is a fixed preset and takes no --material (got {material!r})")
+    if not free and material is None:
+        raise SsskitError(f"--material is required for {needed_by or f'--model {model}'}")
     params = model_parameters(model)
     kwargs = {}
     for name, (param, value) in options.items():
         if param in params:
             kwargs[param] = value
         elif given(ctx, name):
-            raise SsskitError(f"{option_name(ctx, name)} does not apply to --model {model}")
-    free = model.lower() in MATERIAL_FREE_MODELS
+            refuse_unused([option_name(ctx, name)], "--model", [m for m in MODELS.names() if param in model_parameters(m)],
+                          model)
     return lambda: profile_for_material(None if free else material, model, **kwargs)
 
 
@@ -109,10 +105,8 @@ def profile(ctx: click.Context, material: str | None, model: str, configuration:
 
     from ..io import save_profile_table
 
-    check_material_for_model(ctx, material, model)
-    if albedo_source == "dipole" and model.lower() == "burley" and given(ctx, "photons"):
-        raise SsskitError("--photons does not apply to --albedo-source dipole (A from the dipole's closed form, no "
-                          "Monte Carlo run)")
+    if albedo_source == "dipole" and model.lower() == "burley" and given(ctx, "photons"):  # (A: the dipole's closed form)
+        refuse_unused(["--photons"], "--albedo-source", ("montecarlo",), albedo_source)
     if r_max is not None:
         LENGTH_MM.within(hi=R_MAX_MM, reason="10 times the longest mean free path a model takes").check(r_max, "--r-max")
     make = resolve_profile(ctx, material, model, {"configuration": ("configuration", configuration),
@@ -203,26 +197,23 @@ def simulate(material: list[str], channel: str, photons: int, seed: int, threads
     from ..io import save_arrays
     from ..materials import get_material
     from ..profiles.montecarlo import config_for_material, simulate_many, simulate_material
+    from ..profiles.montecarlo.run import check_resume
 
-    names = [n for group in material for n in group]
-    if not names:
-        raise SsskitError("no material given: --material names none")
+    names = [n for group in material for n in group]  # (MaterialRef refuses a --material that names none)
     mats = [get_material(n) for n in names]
-    if resume and restart:
-        raise SsskitError("--resume and --restart exclude each other: --resume continues an interrupted run, "
-                          "--restart discards it")
+    check_resume(resume, restart)  # the engine's rule, before any bar is shown
     if no_cache and (resume or restart):
         raise SsskitError(f"{'--resume' if resume else '--restart'} acts on the on-disk cache; it cannot be "
                           "combined with --no-cache")
     single = len(mats) == 1 and scheduler is None
     if out and len(mats) > 1:
         raise SsskitError("--out takes a single material; use --json for a sweep")
-    if not single and (no_cache or threads is not None or grid_fraction is not None or backend != "numba"):
-        raise SsskitError("--no-cache, --threads, --backend and --grid-fraction apply to a single material (a sweep "
-                          "runs one numba thread per job)")
-    if backend == "gl" and threads is not None:
-        raise SsskitError("--threads does not apply to --backend gl (the GLSL engine runs on the GPU or llvmpipe, "
-                          "not on numba's threads)")
+    if not single:  # (a sweep runs one numba thread per job)
+        refuse_unused([f for f, on in (("--no-cache", no_cache), ("--threads", threads is not None), ("--backend", backend
+                       != "numba"), ("--grid-fraction", grid_fraction is not None)) if on], "a", ("single material",),
+                      "sweep (one numba thread per job)")
+    if backend == "gl" and threads is not None:  # (the GLSL engine runs on the GPU or llvmpipe, not numba's threads)
+        refuse_unused(["--threads"], "--backend", ("numba",), backend)
     for m in mats:  # photons, seed and batch size checked by the engine's own configuration, before any work
         config_for_material(m, 0, photons, seed, batch_size, roughness=roughness)
     if single:

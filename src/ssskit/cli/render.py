@@ -17,6 +17,7 @@ from typing import Any
 import click
 
 from ..errors import SsskitError
+from ..quantities import refuse_unused
 from ..pipeline.settings import PASSES, AdaptivePass, BurleyPass, RenderSettings, SeparablePass
 from .options import (
     BACKEND,
@@ -155,9 +156,9 @@ def render(ctx: click.Context, scene: str | Path, settings_file: str | None, sav
     check_inputs(ctx, scene, s, settings_file, out, save_gbuffer, frames_dir)
     if base is not None and isinstance(scene, Path) and scene.suffix.lower() == ".exr":
         d = RenderSettings()
-        if (base.width, base.height) != (d.width, d.height):
-            raise SsskitError(f"the settings file {settings_file!r} sets width x height {base.width}x{base.height}, "
-                              f"which does not apply to the G-buffer file {str(scene)!r} (it keeps its own size)")
+        if (base.width, base.height) != (d.width, d.height):  # (a G-buffer file keeps its own size)
+            refuse_unused([f"the settings file's width x height {base.width}x{base.height} ({settings_file})"], "a",
+                          ("built-in scene",), f"G-buffer file {str(scene)!r}", SsskitError)
     import contextlib
 
     from ..io import staged_folder

@@ -27,9 +27,11 @@ from ..errors import OutputError, SettingsError, SsskitError
 from ..pipeline.adaptive import AdaptiveFrame
 from ..pipeline.settings import (PASSES, AdaptivePass, BurleyPass, PassMember, RenderSettings, SeparablePass,
                                  SettingsMigrated)
-from ..quantities import Quantity
+from ..quantities import Quantity, refuse_twice, refuse_unused
 from ..settings import Settings
-from .options import IntPair, SettingOption, check_distinct, given, option_name, setting_option
+from ..io import check_distinct, same_file
+from .options import IntPair, SettingOption, given, named, option_name, setting_option
+from .profiles import resolve_profile
 
 _S = TypeVar("_S", bound=Settings)
 
@@ -87,7 +89,7 @@ def pass_of(ctx: click.Context, pass_name: str | None, method: str | None, base:
     file's (``base``), or separable; and every option of another pass refused."""
     if method is not None:
         if pass_name is not None and pass_name.lower() != method.lower():  # the error alone: one line
-            raise SettingsError(f"--pass {pass_name} and --method {method} disagree; give --pass only")
+            refuse_twice(f"--pass {pass_name}", f"--method {method}", "the pass (with --pass)", SettingsError)
         click.echo("ssskit: warning: --method is deprecated for render; use --pass (same values)", err=True)
         pass_name = pass_name or method
     name = PASSES.get(pass_name).name if pass_name is not None else (base.pass_name if base else "separable")
@@ -95,10 +97,9 @@ def pass_of(ctx: click.Context, pass_name: str | None, method: str | None, base:
     for other, options in own(ctx.command.params).items():
         mine = other == name or (other == "burley" and burley)
         for opt in () if mine else options:
-            if given(ctx, opt):
+            if given(ctx, opt):  # (the one wording of an option that what runs does not use)
                 flag = "--taa/--no-taa" if opt == "taa" else option_name(ctx, opt)
-                target = "burley" if other == "burley" else other
-                raise SsskitError(f"{flag} applies to --pass {target}")
+                refuse_unused([flag], "--pass", ("burley" if other == "burley" else other,), name, SsskitError)
     return name
 
 
@@ -115,10 +116,8 @@ def load_settings(path: str) -> RenderSettings:
 
 
 def _apply(obj: _S, flag: str, changes: dict[str, Any]) -> _S:
-    try:
+    with named(flag):
         return obj.replace(**changes)
-    except SsskitError as exc:
-        raise SettingsError(f"{flag}: {exc}") from None
 
 
 def _member_of(base: PassMember, name: str) -> PassMember:
@@ -140,10 +139,8 @@ def _generated(ctx: click.Context, cls: type, skip: tuple[str, ...] = ()) -> lis
     for p in ctx.command.params:
         if isinstance(p, SettingOption) and p.settings_class is cls and p.name and p.name not in skip \
                 and given(ctx, p.name):
-            try:
+            with named(p.opts[0]):  # a conversion's own check (--sigma0)
                 out.append((p.opts[0], p.changes(ctx.params[p.name])))
-            except SsskitError as exc:  # a conversion's own check (--sigma0)
-                raise SettingsError(f"{p.opts[0]}: {exc}") from None
     return out
 
 
@@ -200,8 +197,7 @@ def _engine_taps(ctx: click.Context, s: RenderSettings) -> RenderSettings:
     method, inline, _ = parse_method_spec(s.kernel)
     if method.primary == "taps" and inline.get("taps", s.taps) != s.taps:
         if given(ctx, "taps"):
-            raise SettingsError(f"--kernel {s.kernel} builds {inline['taps']} taps but --taps is {s.taps}; "
-                                "give the number of taps once")
+            refuse_twice(f"--kernel {s.kernel}", f"--taps {s.taps}", "the number of taps", SettingsError)
         s = _apply(s, "--kernel", {"taps": inline["taps"]})
     return s
 
@@ -214,26 +210,21 @@ def check_inputs(ctx: click.Context, scene: str | Path, s: RenderSettings, setti
     gbuffer_file = isinstance(scene, Path) and scene.suffix.lower() == ".exr"
     still = gbuffer_file or _mesh_scene(scene)  # a G-buffer or a mesh scene: one still camera
     name = s.pass_name
-    for opt in (SCENE_ONLY if name == "separable" else ("size",)) if gbuffer_file else ():
-        if given(ctx, opt):
-            raise SsskitError(f"{option_name(ctx, opt)} applies to a built-in scene; the G-buffer file "
-                              f"{str(scene)!r} has its own")
+    if gbuffer_file:  # (it has its own size and samples)
+        refuse_unused([option_name(ctx, o) for o in (SCENE_ONLY if name == "separable" else ("size",)) if given(ctx, o)],
+                      "a", ("built-in scene",), f"G-buffer file {str(scene)!r}", SsskitError)
     if name == "burley-adaptive":
         _check_adaptive(ctx, s, still, save_gbuffer, gbuffer_file)
-    _check_ignored(ctx, s)
-    material_file = Path(s.material) if Path(s.material).is_file() else None
-    check_distinct({"--out": out, "--save-gbuffer": save_gbuffer},
-                   {"--scene": scene if gbuffer_file else None, "--settings": settings_file, "--material": material_file})
-    _check_frames_dir(frames_dir, {"--out": out, "--save-gbuffer": save_gbuffer})
-
-
-def _check_ignored(ctx: click.Context, s: RenderSettings) -> None:
-    """Options that would be accepted and silently ignored, refused by the model commands' rules (one place,
-    :mod:`ssskit.cli.profiles`): --material with a fixed preset, --photons with a model that simulates nothing."""
-    from .profiles import check_material_for_model, resolve_profile
-
-    check_material_for_model(ctx, s.material, s.model)
+    # options that would be accepted and silently ignored, refused by the model commands' one statement of the model's
+    # rules (resolve_profile): --material with a fixed preset, --photons with a model that simulates nothing
     resolve_profile(ctx, s.material, s.model, {"photons": ("photons", s.photons)})
+    material_file = Path(s.material) if Path(s.material).is_file() else None
+    check_distinct({"--out": out, "--save-gbuffer": save_gbuffer, "--frames-dir": frames_dir},
+                   scene if gbuffer_file else None, settings_file, material_file)
+    for opt, path in (("--out", out), ("--save-gbuffer", save_gbuffer)):  # nor a frame file written into the folder
+        if frames_dir and path and same_file(Path(path).parent, frames_dir) and FRAME_FILE.fullmatch(Path(path).name):
+            raise OutputError(f"{opt} {str(path)!r} is one of the frame files --frames-dir writes; choose another "
+                              "name or folder")
 
 
 def _mesh_scene(scene: Any) -> bool:
@@ -269,23 +260,6 @@ def _check_adaptive(ctx: click.Context, s: RenderSettings, still: bool, save_gbu
 
 #: the files :class:`FrameWriter` writes into --frames-dir
 FRAME_FILE = re.compile(r"(frame_\d{4,}(_taa)?|counts_\d{4,})\.png")
-
-
-def _check_frames_dir(frames_dir: str | None, outputs: dict[str, str | None]) -> None:
-    """No other output (``{option: path}``, None skipped) may be the --frames-dir folder or one of the
-    frame files written into it (``frame_NNNN.png``, ``frame_NNNN_taa.png``, ``counts_NNNN.png``)."""
-    if frames_dir is None:
-        return
-    folder = Path(frames_dir).resolve()
-    for opt, path in outputs.items():
-        if path is None:
-            continue
-        p = Path(path).resolve()
-        if p == folder:
-            raise OutputError(f"--frames-dir {str(frames_dir)!r} is also the {opt} file; choose another folder")
-        if p.parent == folder and FRAME_FILE.fullmatch(p.name):
-            raise OutputError(f"{opt} {str(path)!r} is one of the frame files --frames-dir writes; choose another "
-                              "name or folder")
 
 
 class FrameWriter:

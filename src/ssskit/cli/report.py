@@ -8,6 +8,7 @@ import click
 
 from ..backends import DEFAULT_BACKEND
 from ..errors import SsskitError
+from ..quantities import refuse_unused
 from .options import (
     DEFAULT_MODEL,
     DEFAULT_PHOTONS,
@@ -23,7 +24,7 @@ from .options import (
     resolve_scene_value,
     scene_mesh_options,
 )
-from .profiles import check_material_for_model, resolve_profile
+from .profiles import resolve_profile
 
 
 class _FiguresCommand(click.Command):
@@ -66,16 +67,14 @@ def figures(ctx: click.Context, names: tuple[str, ...], material: str | None, mo
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
         raise SsskitError(f"figure {', '.join(twice)} named more than once; name each figure once")
-    check_material_for_model(ctx, material, model)
     get_backend(backend)  # can it run here? checked before any work
     scene_kw = None
     if scene is not None or units or material_map:
         chosen = list(names) or FIGURES.names()
         takers = [n for n in chosen if renders_a_scene(FIGURES.get(n))]
-        if not takers:
-            raise SsskitError(f"--scene, --units and --material-map apply to the figures that render a scene "
-                              f"({', '.join(n for n in FIGURES.names() if renders_a_scene(FIGURES.get(n)))}), "
-                              f"not to {', '.join(chosen)}")
+        if not takers:  # the figures that render a scene take them
+            refuse_unused([f for f, v in (("--scene", scene), ("--units", units), ("--material-map", material_map)) if v],
+                          "figure", [n for n in FIGURES.names() if renders_a_scene(FIGURES.get(n))], ", ".join(chosen))
         value = "bust" if scene is None else scene
         resolve_scene_value(value, units, material_map, view="front")  # every check before any work
         scene_kw = {"scene": str(value), "units": units[0] if units else None, "material_map": material_map,
@@ -113,16 +112,17 @@ def demo(out: str, photons: int | None, full: bool, backend: str, material: tupl
     from ..profiles.domain import check_montecarlo
     from ..report import DEMO_PHOTONS, build_report
 
-    if full and photons is not None:
-        raise SsskitError("give either --full or --photons, not both")
+    if full and photons is not None:  # (--full simulates at the supplement's 10^7 photons)
+        refuse_unused(["--photons"], "a", ("demo without --full",), "--full demo")
     names = [n for group in material for n in group] or None
     for n in names or []:
         check_montecarlo(get_material(n))  # the ranking's profiles are Monte Carlo ones
     get_backend(backend)  # can it run here? checked before any work
     scene_kw = None
     if scene is not None or units or material_map:
-        if scene is None:
-            raise SsskitError("--units and --material-map need --scene (the model of the demo's last section)")
+        if scene is None:  # (--scene: the model of the demo's last section)
+            refuse_unused([f for f, v in (("--units", units), ("--material-map", material_map)) if v], "a",
+                          ("demo with --scene",), "demo without one")
         resolve_scene_value(scene, units, material_map, view="front")  # every check before any work
         scene_kw = {"scene": str(scene), "units": units[0] if units else None, "material_map": material_map}
     click.echo(f"ssskit demo: writing the report to {out}/", err=True)

@@ -8,19 +8,10 @@ from typing import Any
 import click
 
 from ..errors import SsskitError
-from .options import examples
+from ..quantities import Choice, refuse_unused
+from .options import OutputDir, RGBFloats, examples
 
-
-def _rgb(text: str | None, flag: str) -> tuple[float, float, float] | None:
-    if text is None:
-        return None
-    try:
-        vals = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        raise SsskitError(f"{flag} takes R,G,B (three numbers), got {text!r}") from None
-    if len(vals) != 3:
-        raise SsskitError(f"{flag} takes R,G,B (three numbers), got {text!r}")
-    return (vals[0], vals[1], vals[2])
+RGB = tuple[float, float, float]
 
 
 @click.command("view", epilog=examples(
@@ -31,40 +22,35 @@ def _rgb(text: str | None, flag: str) -> tuple[float, float, float] | None:
               help="The scanned head (head: Lee Perry-Smith, Infinite-Realities, CC BY 3.0), a generated mesh (bust, icosphere, "
                    "torus) or a mesh file (.obj, .ply, .glb, .gltf; mm).")
 @click.option("--material", default=None, help="A preset name or a material file (default skin1).")
-@click.option("--albedo", default=None, help="Artists' terms: the albedo R,G,B in (0, 1) (with --mfp).")
-@click.option("--mfp", default=None, help="Artists' terms: the mean free path R,G,B in mm (with --albedo).")
+@click.option("--albedo", type=RGBFloats(), default=None,
+              help="Artists' terms: the albedo R,G,B in (0, 1] (one number: grey; with --mfp).")
+@click.option("--mfp", type=RGBFloats(), default=None,
+              help="Artists' terms: the mean free path R,G,B in mm (one number: the same for R, G, B; with --albedo).")
 @click.option("--port", type=click.IntRange(0, 65535), default=8765, show_default=True,
               help="The port on 127.0.0.1 (0: any free port).")
 @click.option("--no-open", is_flag=True, help="Do not open a browser.")
-@click.option("--out", "out", default=None, type=click.Path(file_okay=False),
+@click.option("--out", "out", default=None, type=OutputDir(),
               help="Write a static folder (works from file://, presets precomputed) instead of serving.")
 @click.option("--presets", default=None,
               help="--out: the presets precomputed beside the material, NAME,NAME... (default: "
                    "skin1,skin2,marble,ketchup,apple; 'none': the material alone).")
-def view(scene: str, material: str | None, albedo: str | None, mfp: str | None, port: int, no_open: bool,
+def view(scene: str, material: str | None, albedo: RGB | None, mfp: RGB | None, port: int, no_open: bool,
          out: str | None, presets: str | None) -> None:
     """A live WebGL2 viewer of a material on a mesh: the G-buffer pass, the separable and Burley passes as the
     fragment shaders ssskit export writes, composite and tone mapping, with per-pass frame times."""
     from ..materials import MATERIALS
-    from ..view.site import PRESETS, MaterialRequest, check_out, check_scene, page_data, write_static
-    from .options import check_writable
+    from ..view.site import PRESETS, MaterialRequest, check_scene, page_data, write_static
 
-    rgb_a, rgb_m = _rgb(albedo, "--albedo"), _rgb(mfp, "--mfp")
     # the request states its rules once (MaterialRequest.check: the material once, artists' terms together); an
     # empty --material is refused by name (MaterialRequest.resolve), not taken for the default
-    req = MaterialRequest("skin1" if material is None and rgb_a is None and rgb_m is None else material, rgb_a, rgb_m)
+    req = MaterialRequest("skin1" if material is None and albedo is None and mfp is None else material, albedo, mfp)
     if presets is not None and out is None:
-        raise SsskitError("--presets applies to --out (a served page asks the server for any preset)")
+        refuse_unused(["--presets"], "a", ("static folder (--out)",), "served page, which asks the server for any preset")
     names = PRESETS if presets is None else tuple(n.strip().lower() for n in presets.split(",") if n.strip())
     if names == ("none",):
         names = ()
-    for name in names:
-        if name not in MATERIALS:
-            raise SsskitError(f"--presets: unknown preset {name!r} (known: {', '.join(MATERIALS.names())})")
-    check_scene(scene)
-    if out is not None:
-        check_out(out)
-        check_writable(out, "--out", folder=True)
+    names = tuple(Choice("--presets", MATERIALS.names()).check(n).lower() for n in names)
+    check_scene(scene)  # (--out: a writable folder, OutputDir; what it holds: write_static, before any work)
     key = "artist" if req.material is None else str(req.material).lower()
     req.resolve()  # an unknown preset or a bad file fails here, before any work
     mats = {key: req}

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import KernelError
-from ..quantities import check_choice
+from ..quantities import check_choice, check_shape
 
 LANGUAGES = ("hlsl", "glsl")
 
@@ -65,18 +65,9 @@ def kernel_arrays(kernel: Any, taps: int | None = None, tap_method: str = "impor
     Weights are normalised so each channel's 2D kernel sums to 1 (what :func:`make_taps` returns);
     the centre tap must sit at offset 0 (the demo's pass never reads the centre tap's offset).
     """
-    from ..kernels.base import Kernel, TapKernel
     from ..sampling.taps import make_taps
 
-    if isinstance(kernel, TapKernel):
-        if taps is not None and taps != kernel.taps:
-            raise KernelError(f"the {kernel.method} kernel ships {kernel.taps} taps, not {taps} "
-                              f"(ask the kernel for {taps} taps: {kernel.method}:{taps})")
-        st = make_taps(kernel)
-    elif isinstance(kernel, Kernel):
-        st = make_taps(kernel, taps, tap_method)
-    else:
-        raise KernelError(f"shader arrays need a Kernel or TapKernel, got {type(kernel).__name__}")
+    st = make_taps(kernel, taps, tap_method)  # (it refuses what is no kernel, and a TapKernel's taps but its own)
     out = []
     for r in range(st.rank):
         o, w = demo_order(st.offsets_mm[r], st.weights[r])
@@ -156,13 +147,9 @@ def parse_shader_arrays(text: str) -> list[ShaderArray]:
     out = []
     for m in _ARRAY.finditer(text):
         name = m.group(1)
-        rows = [_floats(v.group(1), f"array {name}") for v in _VEC4.finditer(m.group(2))]
-        if not rows or any(len(r) != 4 for r in rows):
-            raise KernelError(f"array {name}: every entry must be a 4-vector (r, g, b, offset)")
-        arr = np.array(rows, dtype=np.float32).astype(float)
-        sign = signs.get(name, np.ones(3))
-        if sign.shape != (3,):
-            raise KernelError(f"{name}Sign must have 3 components")
+        rows = [_floats(v.group(1), f"array {name}") for v in _VEC4.finditer(m.group(2))]  # 4-vectors (r, g, b, offset)
+        arr = check_shape(rows, f"array {name}", ("n", 4), KernelError, dtype=np.float32).astype(float)
+        sign = check_shape(signs.get(name, np.ones(3)), f"{name}Sign", (3,), KernelError)
         out.append(ShaderArray(name, arr[:, 3], arr[:, :3], sign))
     if not out:
         raise KernelError("no float4/vec4 kernel array found in the shader source")

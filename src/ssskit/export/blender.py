@@ -247,9 +247,6 @@ def render_slab(script: str | Path, channels_d_mm: list[float], width: int = 160
     then its TAA render samples, ``eevee`` its other settings: ``sss_samples``, ``light``; the edge is a
     spot cone's rim, ``cycles_slab._spot_edge``). Returns {"images": [(H, W, 3)] per channel, "white": [...],
     "extent_mm": [...], "seconds": ..., "blender": version}."""
-    exe = python or find_blender_python()[0]
-    if exe is None:
-        raise SsskitError(find_blender_python()[1])
     here = Path(__file__).with_name("cycles_slab.py")
     renders = []
     extents = []
@@ -261,19 +258,23 @@ def render_slab(script: str | Path, channels_d_mm: list[float], width: int = 160
         renders.append({**common, "key": f"c{c}", "script": str(script), "samples": samples, "method": method,
                         "variant": variant})
         renders.append({**common, "key": f"w{c}", "white": True, "samples": 1 if engine == "CYCLES" else samples})
-    data, meta = run_bpy_job(here, {"renders": renders}, f"the {engine} slab render", timeout, exe)
+    data, meta = run_bpy_job(here, {"renders": renders}, f"the {engine} slab render", timeout, python)
     n = len(channels_d_mm)
     return {"images": [data[f"c{c}"] for c in range(n)], "white": [data[f"w{c}"] for c in range(n)],
             "extent_mm": extents, "seconds": meta["seconds"], "blender": meta["blender"],
             "width": width, "height": height, "samples": samples, "engine": engine}
 
 
-def run_bpy_job(script: Path, config: dict[str, Any], what: str, timeout: float, exe: str,
+def run_bpy_job(script: Path, config: dict[str, Any], what: str, timeout: float, python: str | None = None,
                 arrays: dict[str, dict[str, Any]] | None = None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """Run a bpy scene script (``cycles_slab.py``, ``head_scene.py``: ``python SCRIPT CONFIG OUT``) in a folder of
     its own: ``config`` (plus ``threads``, and per entry of ``arrays`` the path of that .npz, written first) as
     its JSON, the images it saves to OUT read back with OUT.json's metadata. A failed or interrupted render is an
-    :class:`~ssskit.errors.SsskitError` naming ``what``, and nothing of it is kept."""
+    :class:`~ssskit.errors.SsskitError` naming ``what``, and nothing of it is kept. ``python``: Blender's Python (by
+    default :func:`find_blender_python`'s, an error saying how to get one where there is none)."""
+    exe = python or find_blender_python()[0]
+    if exe is None:
+        raise SsskitError(find_blender_python()[1])
     with tempfile.TemporaryDirectory() as tmp:
         cfg = dict(config, threads=os.cpu_count() or 1)
         for name, arrs in (arrays or {}).items():

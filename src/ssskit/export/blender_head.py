@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SsskitError
-from .blender import find_blender_python, run_bpy_job
+from ..quantities import Choice
+from .blender import run_bpy_job
 
 #: the head's key light (the scene's ``key``: E / pi = 1 at the head's centre)
 KEY_LIGHT = "key"
@@ -36,8 +36,7 @@ def head_job(view: str = "close") -> dict[str, Any]:
 
     spec = get_scene("head")
     views = dict(spec.views)
-    if view not in views:
-        raise SsskitError(f"the head has no view {view!r}; its views: {', '.join(views)}")
+    view = Choice("the head's view", list(views)).check(view)
     origin, target, up, fov = views[view]
     light = scene_lights(spec)[KEY_LIGHT]
     mesh = head_mesh()
@@ -57,13 +56,10 @@ def render_head(renders: list[dict[str, Any]], view: str = "close", shadow: bool
     ``samples``, ``seed``, ``script`` and ``variant`` or ``white``) on the head's view ``view`` in one bpy process.
     Returns {"images": {key: (H, W, 3) float32 linear}, "seconds": {key: s}, "blender": version}; nothing is
     kept of a render that failed or was interrupted."""
-    exe = python or find_blender_python()[0]
-    if exe is None:
-        raise SsskitError(find_blender_python()[1])
     job = head_job(view)
     images, meta = run_bpy_job(Path(__file__).with_name("head_scene.py"),
                                {"camera": job["camera"], "light": {**job["light"], "shadow": shadow},
-                                "renders": renders}, "the head render", timeout, exe, arrays={"mesh": job["arrays"]})
+                                "renders": renders}, "the head render", timeout, python, arrays={"mesh": job["arrays"]})
     return {"images": {r["key"]: images[r["key"]] for r in renders}, "seconds": meta["seconds"],
             "blender": meta["blender"], "view": view}
 

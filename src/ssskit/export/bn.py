@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import KernelError
 from ..io import atomic_output, check_suffix, read_input
-from ..quantities import Quantity, check_finite
+from ..quantities import Quantity, check_finite, check_shape
 
 #: relative tolerance on the grid spacing and its symmetry about 0 when reading (float32 positions)
 GRID_RTOL = 1e-4
@@ -35,13 +35,10 @@ SUPPORT = Quantity("the .bn support fraction", 0.0, 1.0, "", "a part of the kern
 
 def bn_bytes(x_mm: Any, rgb: Any) -> bytes:
     """The file contents for samples at ``x_mm`` (n,) with values ``rgb`` (n, 3) (module docstring)."""
-    x = np.asarray(x_mm, dtype=float)
-    v = np.asarray(rgb, dtype=float)
-    if x.ndim != 1 or v.shape != (x.size, 3):
-        raise KernelError(f".bn needs positions (n,) and RGB values (n, 3); got {x.shape} and {v.shape}")
+    x = check_shape(x_mm, ".bn positions", ("n",), KernelError, dtype=float)
+    v = check_shape(rgb, ".bn values", (x.size, 3), KernelError, dtype=float, finite=True)
     SAMPLES.check(x.size, error=KernelError)
     _check_grid(x, "kernel")
-    check_finite(v, ".bn values", KernelError)
     records = np.column_stack([v, x]).astype("<f4").ravel()
     return np.array([records.size], dtype="<f4").tobytes() + records.tobytes()
 

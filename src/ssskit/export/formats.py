@@ -10,7 +10,7 @@ from typing import Any
 
 from pathlib import Path
 
-from ..errors import KernelError, SsskitError
+from ..errors import KernelError
 from ..quantities import refuse_unused
 from .api import FORMATS, KERNEL_OPTIONS, SHADER_OPTIONS, ExportSettings, Format, Job
 
@@ -146,16 +146,13 @@ def with_comment(text: str, comment: str, stage: str) -> str:
 
 def _shader_check(req: ExportSettings, source: Any) -> None:
     if req.given("transmission_model") and req.shader_pass != "transmission":
-        raise SsskitError("--transmission-model applies with --pass transmission")
-    if req.shader_pass == "burley" and req.format != "glsl-shader":
-        raise SsskitError("--pass burley is written as GLSL (--format glsl-shader: .comp, or .frag for the fragment "
-                          "form)")
-    if req.format == "hlsl-shader":
-        from .shaders import tools_available
+        refuse_unused(["--transmission-model"], "--pass", ("transmission",), req.shader_pass or "separable")
+    if req.shader_pass == "burley" and req.format != "glsl-shader":  # (.comp, or .frag for the fragment form)
+        refuse_unused(["--pass burley"], "--format", ("glsl-shader",), req.format)
+    if req.format == "hlsl-shader":  # glslangValidator and spirv-cross, or the error saying how to install them
+        from .shaders import GLSLANG, SPIRV_CROSS, tool_path
 
-        ok, why = tools_available()
-        if not ok:
-            raise SsskitError(f"--format hlsl-shader needs glslangValidator and spirv-cross: {why}")
+        tool_path(GLSLANG), tool_path(SPIRV_CROSS)
 
 
 # ------------------------------------------------------------------------------------------ engines
@@ -265,13 +262,10 @@ def _materialx(job: Job) -> str:
 def _medium(src: Any) -> Any:
     """The one homogeneous medium OpenPBR describes: the material, or for artists' terms or an engine file under
     Burley the Monte Carlo inversion's; a layered material has none."""
-    from ..materials import Material
+    from ..materials import homogeneous
 
     mat = src.material if src.material is not None else (src.physical() if src.physical is not None else None)
-    if not isinstance(mat, Material):
-        raise SsskitError("--format materialx writes OpenPBR's one homogeneous subsurface medium; a layered material "
-                          "has none (export its layers' materials)")
-    return mat
+    return homogeneous(mat, "--format materialx (OpenPBR's one subsurface medium: export a layer's material)")
 
 
 def _materialx_check(req: ExportSettings, source: Any) -> None:

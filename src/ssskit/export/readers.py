@@ -28,8 +28,8 @@ import numpy as np
 
 from ..errors import SsskitError
 from ..io import parse_document, read_input
-from ..materials import Material
-from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM
+from ..materials import Material, homogeneous
+from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM, Choice, check_keys, refuse_twice
 from .registry import FORMATS
 
 #: suffixes that hold an engine file (a .json one only when it has an "engine" key, a .py one only when it is an
@@ -38,6 +38,8 @@ ENGINE_SUFFIXES = (".json", ".asset", ".mtlx", ".py")
 #: the parameter literal of each editor script ssskit writes (ssskit.export.blender / .unreal)
 SCRIPT_LITERALS = {"blender": "PARAMS", "unreal": "SETTINGS"}
 ENGINE_NAMES = ("unreal", "unity", "blender")
+#: the models an engine file's or artists' terms' Burley parameters go through (module docstring)
+INVERSIONS = Choice("--model of an engine file or artists' terms", ("burley", "montecarlo", "dipole"))
 
 
 @dataclass(frozen=True)
@@ -126,9 +128,7 @@ def _script_literal(p: Path, text: str, engine: str) -> dict[str, Any]:
                 values[node.targets[0].id] = ast.literal_eval(node.value)
             except ValueError:
                 continue
-    if not isinstance(values.get(name), dict):
-        raise SsskitError(f"{str(p)!r} has no {name} literal of the {engine} parameters ssskit writes (truncated?)")
-    out = dict(values[name])
+    out = dict(check_keys(values.get(name), f"{str(p)!r}: the {name} literal of the {engine} parameters (truncated?)"))
     if engine == "unreal":  # the script holds the mfp block and its asset name
         return {"engine": "unreal", "mfp": out, "base_color": out.get("SurfaceAlbedo"), "IOR": out.get("IOR"),
                 "source_profile": {"name": str(values.get("NAME", p.stem))}}
@@ -154,10 +154,9 @@ def check_numbers(path: str | Path, value: Any, field: str) -> None:
         ENGINE_NUMBER.check(v, f"{str(path)!r}: {name}")
 
 
-def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = None) -> EngineSource:
-    """An :class:`EngineSource` from an engine file. ``expect``: the engine the caller asked for (an
-    Unreal file given where a Unity one is expected is refused, naming both). ``albedo`` (3,): the
-    surface albedo for a Unity .asset, whose profile holds none (HDRP takes it from the material)."""
+def read_engine_file(path: str | Path, albedo: Any = None) -> EngineSource:
+    """An :class:`EngineSource` from an engine file. ``albedo`` (3,): the surface albedo for a Unity .asset,
+    whose profile holds none (HDRP takes it from the material)."""
     from .engines import reimport
 
     p = Path(path)
@@ -187,10 +186,7 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
         other = FORMATS.get(engine).read if engine not in ENGINE_NAMES and engine in FORMATS else None
         if other is not None:
             return other(p)  # a format registered beside ssskit's own reads its JSON export
-        if engine not in ENGINE_NAMES:
-            raise SsskitError(f"{str(p)!r} is an export of engine {engine!r}; ssskit reads {', '.join(ENGINE_NAMES)}")
-    if expect is not None and engine != expect:
-        raise SsskitError(f"{str(p)!r} is a {engine} file, not a {expect} one")
+        engine = Choice(f"{str(p)!r}: the engine of an export", ENGINE_NAMES).check(engine)
     if engine == "unity" and suffix == ".asset":
         from .unity import read_unity_asset
 
@@ -200,10 +196,14 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
             raise SsskitError(f"{str(p)!r}: worldScale {u['worldScale']}: ssskit reads profiles at HDRP's worldScale 1 "
                               "(scattering distances in mm) only")
         d = np.array(u["scatteringDistance"]) * u["scatteringDistanceMultiplier"]
-        if albedo is None:
-            raise SsskitError(f"{str(p)!r}: a DiffusionProfileSettings asset holds no albedo (HDRP takes it from "
-                              "the material's base colour): give --albedo R,G,B, or read ssskit's JSON export")
-        _check_burley_inputs(p, engine, np.asarray(albedo, dtype=float), d)
+        if albedo is None:  # (so an .asset is no material by itself: every command but export refuses it here)
+            raise SsskitError(f"{str(p)!r}: a DiffusionProfileSettings asset holds no albedo (HDRP takes it from the "
+                              "material's base colour): read ssskit's JSON export of the profile (--format unity --out "
+                              f"X.json), or give the albedo: ssskit export --material {p} --albedo R,G,B ...")
+        # Burley's domain (module docstring: HDRP's reader has no cited clamp ssskit could apply): A in (0, 1], d > 0
+        BURLEY_ALBEDO.check_array(np.asarray(albedo, dtype=float).reshape(-1)[:3], f"{str(p)!r}: the unity albedo",
+                                  SsskitError, "channels")
+        LENGTH_MM.check_array(d, f"{str(p)!r}: Burley's d", SsskitError, "channels")
         return EngineSource("unity", u["name"], np.asarray(albedo, dtype=float), d, u["ior"])
     if engine == "materialx":
         from .materialx import read_materialx
@@ -211,16 +211,12 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
         m = read_materialx(p)
         return EngineSource("materialx", str(m["name"]), m["albedo"], m["d_mm"], m["eta"], mfp_mm=m["mfp_mm"],
                             g=m["g"])
-    if not isinstance(data, dict):
-        raise SsskitError(f"{str(p)!r} lacks the {engine} parameters ssskit writes (not an object)")
     check_numbers(p, {k: v for k, v in data.items() if k not in ("sources", "lost")}, "")
     clamps: tuple[str, ...] = ()
     try:
         if engine == "unreal":
             clamps = _unreal_clamps(data["mfp"])
-        else:
-            _check_burley_inputs(p, engine, np.asarray(data["base_color"], dtype=float))
-        prof = reimport(data, "burley")
+        prof = reimport(data, "burley")  # (its BurleyProfiles refuse an A or d outside Burley's domain)
     except SsskitError as exc:  # (a ValueError too): a value the file has is out of its domain, not missing
         if str(p) in str(exc):
             raise
@@ -229,10 +225,9 @@ def read_engine_file(path: str | Path, expect: str | None = None, albedo: Any = 
         raise SsskitError(f"{str(p)!r} lacks the {engine} parameters ssskit writes ({exc})") from None
     from ..profiles.burley import BurleyProfile
 
-    chans = [ch for ch in prof.channels if isinstance(ch, BurleyProfile)]  # reimport gives Burley channels
-    a = np.array([ch.albedo for ch in chans])
+    chans = [ch for ch in prof.channels if isinstance(ch, BurleyProfile)]  # reimport gives Burley channels, each
+    a = np.array([ch.albedo for ch in chans])  # in Burley's domain (BurleyProfile checks A and d when made)
     d = np.array([ch.d for ch in chans])
-    _check_burley_inputs(p, engine, a, d)
     eta = data.get("IOR", data.get("ior"))
     name = str(data.get("source_profile", {}).get("name", p.stem)) if isinstance(data.get("source_profile"), dict) \
         else p.stem
@@ -252,14 +247,6 @@ def _unreal_clamps(block: dict[str, Any]) -> tuple[str, ...]:
                 rng = f"[{COLOR_BIAS:g}, {hi:g}]" if hi is not None else f">= {COLOR_BIAS:g}"
                 out.append(f"{field}[{'RGB'[c]}] {v[c]:.4g} -> {eng:.4g} (UE clamps to {rng})")
     return tuple(out)
-
-
-def _check_burley_inputs(path: Path, engine: str, albedo: np.ndarray, d_mm: np.ndarray | None = None) -> None:
-    """Burley's domain for an engine without a cited clamp (module docstring): A in (0, 1], d > 0 finite."""
-    BURLEY_ALBEDO.check_array(np.asarray(albedo, dtype=float).reshape(-1)[:3],  # no clamp ssskit could apply
-                              f"{str(path)!r}: the {engine} albedo", SsskitError, "channels")
-    if d_mm is not None:
-        LENGTH_MM.check_array(d_mm, f"{str(path)!r}: Burley's d", SsskitError, "channels")
 
 
 # ------------------------------------------------------------------------------------- the one entry point
@@ -286,12 +273,7 @@ def engine_material(path: str | Path) -> Material:
     """The physical material of an engine file ssskit wrote (the Monte Carlo inversion,
     :meth:`EngineSource.material`): the reader :func:`ssskit.materials.get_material` uses for engine files (it is
     registered in :data:`ssskit.materials.MATERIAL_READERS` when this module is imported)."""
-    if Path(path).suffix.lower() == ".asset":
-        raise SsskitError(f"{str(path)!r}: an HDRP DiffusionProfileSettings asset holds no albedo (HDRP takes it from "
-                          "the material's base colour), so it is no material by itself: read ssskit's JSON export of "
-                          "the profile (--format unity --out X.json), or give the albedo: ssskit export --material "
-                          f"{path} --albedo R,G,B --format unity --out X.json")
-    return read_engine_file(path).material()
+    return read_engine_file(path).material()  # (an .asset alone is refused there: it holds no albedo)
 
 
 def _register() -> None:
@@ -335,6 +317,17 @@ def refuse_given(req: Any, names: tuple[str, ...], what: str) -> None:
         raise SsskitError(f"--{given[0].replace('_', '-')} does not apply to {what}")
 
 
+def _need(have: bool, what: str, option: str) -> None:
+    """What a request's ``what`` needs (``option``: the material, the kernel), in one wording for every format."""
+    if not have:
+        raise SsskitError(f"{what} needs {option}")
+
+
+def _need_material(req: Any, artist: bool, what: str) -> None:
+    """The material a request's ``what`` needs: --material or artists' terms."""
+    _need(req.material is not None or artist, what, "--material (or artists' terms: --albedo with --mfp or --dmfp)")
+
+
 def _artist(req: Any) -> Any:
     """The request's artists' terms (--albedo with one of --mfp or --dmfp; --eta 1.3 and --g 0 by default) as an
     :class:`~ssskit.profiles.artist.ArtistMaterial`, which checks their domain."""
@@ -371,14 +364,11 @@ def material_source(req: Any, needs: str) -> Source:
     if req.shader_pass == "burley":
         return _burley_source(req, engine_file, artist)
     kernel = _kernel_checks(req, material is not None or artist) if needs != "engine" else None
-    if needs == "engine" and material is None and not artist:
-        raise SsskitError(f"--material is required for --format {req.format}")
+    if needs == "engine":
+        _need_material(req, artist, f"--format {req.format}")
     model = req.model
-    if engine_file or artist:
-        used = model.lower() if model is not None else "burley"
-        if used not in ("burley", "montecarlo", "dipole"):
-            raise SsskitError(f"--model {model} does not apply to an engine file or artists' terms (burley, the "
-                              "Burley-fit inversion, or montecarlo / dipole through the Monte Carlo inversion)")
+    if engine_file or artist:  # burley: the Burley-fit inversion; montecarlo / dipole: the Monte Carlo inversion
+        used = INVERSIONS.check("burley" if model is None else model)
     if engine_file:
         if used == "burley":
             refuse_given(req, ("photons", "grid_fraction"), "--model burley (the Burley fit simulates nothing)")
@@ -425,8 +415,7 @@ def _named_source(req: Any, kernel: Any) -> Source:
         if req.material is not None:
             raise SsskitError(f"--model {model} is a fixed preset and takes no --material (got {req.material!r})")
         return Source(_physical(req, None, model), None, None, model, None, [], kernel)
-    if req.material is None:
-        raise SsskitError(f"--material is required for " + (f"--format {req.format}" if m is None else f"--kernel {m.name}"))
+    _need_material(req, False, f"--format {req.format}" if m is None else f"--kernel {m.name}")
     mat = get_material(req.material)
     return Source(_physical(req, mat, model), mat, None, model, None, [], kernel)
 
@@ -436,8 +425,7 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
     from ..kernels import parse_method_spec
 
     fmt = req.format
-    if req.kernel is None:
-        raise SsskitError(f"--kernel is required for --format {fmt}")
+    _need(req.kernel is not None, f"--format {fmt}", "--kernel")
     m, params, _ = parse_method_spec(req.kernel)
     tap_kernel = m.primary == "taps"  # an engine tap kernel (jimenez2012): built with its taps
     tap_count = None
@@ -445,15 +433,15 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
     if taps is not None:
         if tap_kernel:
             if params.get("taps", taps) != taps:
-                raise SsskitError(f"--kernel {req.kernel} and --taps {taps} disagree; give the tap count once")
+                refuse_twice(f"--kernel {req.kernel}", f"--taps {taps}", "the number of taps")
             params["taps"] = taps
-        elif fmt in ("bn", "json"):
-            raise SsskitError(f"--taps does not apply to --format {fmt} (it writes the tabulated kernel itself)")
         else:
             tap_count = taps
-    if req.given("tap_method") and (tap_kernel or fmt in ("bn", "json")):
-        why = f"the {m.name} kernel ships its own taps" if tap_kernel else f"--format {fmt} writes no taps"
-        raise SsskitError(f"--tap-method does not apply: {why}")
+    if fmt in ("bn", "json") and not tap_kernel:
+        refuse_given(req, ("taps",), f"--format {fmt} (it writes the tabulated kernel itself)")
+    if tap_kernel or fmt in ("bn", "json"):
+        refuse_given(req, ("tap_method",), f"the {m.name} kernel, which ships its own taps" if tap_kernel else
+                     f"--format {fmt}, which writes no taps")
     if fmt == "bn":
         if tap_kernel:
             raise SsskitError(f"--format bn holds a tabulated kernel on a uniform grid; {m.name} is a list of taps "
@@ -467,15 +455,13 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
 def _burley_source(req: Any, engine_file: bool, artist: bool) -> Source:
     """``shader_pass="burley"``: the material of the Burley pass's shader (a homogeneous one: its Burley
     parameters, :func:`ssskit.screenspace.burley.burley_params_for_material`, are baked in)."""
-    from ..materials import Material
-
     refuse_given(req, ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction", "model"),
                  "--pass burley (the shader bakes the material's Burley parameters: Xie 2020 Eq. 5, the searchlight "
                  "configuration)")
     if engine_file:
-        raise SsskitError("--pass burley takes a preset, a material file or artists' terms, not an engine file")
-    if req.material is None and not artist:
-        raise SsskitError("--pass burley needs --material (or artists' terms: --albedo with --mfp or --dmfp)")
+        refuse_given(req, ("material",), "--pass burley as an engine file (it takes a preset, a material file or "
+                     "artists' terms)")
+    _need_material(req, artist, "--pass burley")
     if artist:
         from ..profiles.artist import material_from_artist
 
@@ -484,16 +470,13 @@ def _burley_source(req: Any, engine_file: bool, artist: bool) -> Source:
         from ..materials import get_material
 
         mat = get_material(req.material)
-    if not isinstance(mat, Material):
-        raise SsskitError("--pass burley needs a homogeneous material (a preset, a material file or artists' terms)")
+    mat = homogeneous(mat, "--pass burley (a preset, a material file or artists' terms)")
     return Source(None, mat, mat.name, None)
 
 
 def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
     """``shader_pass="transmission"``: the material of the transmittance pass's shader (a homogeneous one,
     except for jimenez2010, which takes none)."""
-    from ..materials import Material
-
     tmodel = req.transmission_model or "mcml"
     refuse_given(req, ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction"),
                  "--pass transmission (the shader bakes the material's transmittance model)")
@@ -502,12 +485,10 @@ def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
                           "transmittance model from its MCML transport; artists' terms take --model montecarlo, "
                           "the Monte Carlo inversion)")
     if tmodel == "jimenez2010":
-        if req.material is not None or req.albedo is not None:
-            raise SsskitError("--transmission-model jimenez2010 takes no material (Jimenez et al. 2010's skin Gaussians)")
+        refuse_given(req, ("material", "albedo"), "--transmission-model jimenez2010 (Jimenez et al. 2010's skin "
+                     "Gaussians: no material)")
         return Source(None, None, None, None)
-    if req.material is None and req.albedo is None:
-        raise SsskitError(f"--transmission-model {tmodel} needs --material (its "
-                          f"{'MCML slab transmittance' if tmodel == 'mcml' else 'Burley profile'})")
+    _need_material(req, artist, f"--transmission-model {tmodel}")
     mat: Any = None
     if artist:
         from ..profiles.artist import material_from_artist
@@ -519,9 +500,8 @@ def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
         from ..materials import get_material
 
         mat = get_material(req.material)
-    if not isinstance(mat, Material):
-        raise SsskitError(f"--transmission-model {tmodel} needs a homogeneous material (a preset, a material file, "
-                          "or artists' terms with --model montecarlo)")
+    mat = homogeneous(mat, f"--transmission-model {tmodel} (a preset, a material file, or artists' terms with "
+                      "--model montecarlo)")
     return Source(None, mat, mat.name, None)
 
 

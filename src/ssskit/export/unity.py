@@ -30,13 +30,12 @@ picker shows them sRGB-encoded (IEC 61966-2-1 transfer function), so both are gi
 
 from __future__ import annotations
 
-import re
 from typing import Any
 
 import numpy as np
 
 from ..errors import SsskitError
-from ..quantities import LENGTH_MM, POSITIVE
+from ..quantities import check_keys
 
 #: the m_Script GUID of DiffusionProfileSettings.cs (HDRP's own .asset files name it)
 SCRIPT_GUID = "b2686e09ec7aef44bad2843e4416f057"
@@ -72,9 +71,7 @@ def unity_asset(params: dict[str, Any], name: str) -> str:
     sd = params["scatteringDistance"]
     tr = params.get("transmission") or {}
     tint = tr.get("transmissionTint", (1.0, 1.0, 1.0))  # HDRP's defaults without the MCML fit (ResetToDefault)
-    remap = tr.get("thicknessRemap", (0.0, 5.0))
-    if not re.fullmatch(r"[^\n:#{}\[\],&*!|>'\"%@`]+", name.strip() or "?"):
-        raise SsskitError(f"the asset name {name!r} has characters a Unity asset name cannot hold")
+    remap = tr.get("thicknessRemap", (0.0, 5.0))  # (name: ssskit.export.formats.asset_name's letters, digits, _ and -)
     return "\n".join([
         "%YAML 1.1",
         "%TAG !u! tag:unity3d.com,2011:",
@@ -136,20 +133,15 @@ def read_unity_asset(text: str, what: str = "the .asset file") -> dict[str, Any]
     if guid != SCRIPT_GUID:
         raise SsskitError(f"{what} is a MonoBehaviour of script {guid!r}, not HDRP's DiffusionProfileSettings "
                           f"({SCRIPT_GUID})")
-    prof = mb.get("profile")
-    if not isinstance(prof, dict):
-        raise SsskitError(f"{what} has no 'profile' block (truncated?)")
-    missing = [f for f in ("scatteringDistance", "scatteringDistanceMultiplier", "worldScale", "ior") if f not in prof]
-    if missing:
-        raise SsskitError(f"{what} lacks {', '.join(missing)} in its profile (truncated?)")
+    prof = check_keys(mb.get("profile"), f"{what}: the profile block (truncated?)", None,
+                      ("scatteringDistance", "scatteringDistanceMultiplier", "worldScale", "ior"))
     sd = prof["scatteringDistance"]
     try:
         colour = [float(sd[k]) for k in ("r", "g", "b")]
         mult, ws, ior = (float(prof[k]) for k in ("scatteringDistanceMultiplier", "worldScale", "ior"))
     except (TypeError, KeyError, ValueError):
         raise SsskitError(f"{what}: scatteringDistance, its multiplier, worldScale and ior must be numbers") from None
-    LENGTH_MM.check_array(np.array(colour) * mult, f"{what}: scatteringDistance x multiplier", SsskitError, "channels")
-    POSITIVE.check(ws, f"{what}: worldScale")
+    # (their values: ssskit.export.readers, the one reader of engine files, checks them finite, worldScale 1 and d > 0)
     return {"name": str(mb.get("m_Name", "unity")), "scatteringDistance": colour,
             "scatteringDistanceMultiplier": mult, "worldScale": ws, "ior": ior}
 

@@ -172,13 +172,9 @@ def head_references(views: Sequence[str] = VIEWS, materials: Sequence[str] = ("s
 
 def _homogeneous(material: Any) -> Any:
     """The head is one homogeneous medium (docs/head.md): a layered material is refused in one line."""
-    from ..errors import MaterialError
-    from ..materials import Material
+    from ..materials import homogeneous
 
-    if not isinstance(material, Material):
-        raise MaterialError(f"the head's path-traced references take one homogeneous medium, not the layered "
-                            f"material {getattr(material, 'name', material)!r}")
-    return material
+    return homogeneous(material, "the head's path-traced references")
 
 
 def _constant_layer(layer: np.ndarray) -> Callable[[Any], np.ndarray]:

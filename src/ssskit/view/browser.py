@@ -20,6 +20,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..quantities import Choice
+
 #: where the system Chromium is looked for, after ``$SSSKIT_CHROMIUM``
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 
@@ -94,8 +96,7 @@ def headless_page(
     ok, why = browser_available()
     if not ok:
         raise RuntimeError(why)
-    if gl not in GL_FLAGS:
-        raise ValueError(f"gl must be one of {', '.join(GL_FLAGS)}, not {gl!r}")
+    gl = Choice("gl", tuple(GL_FLAGS)).check(gl)
     from playwright.sync_api import sync_playwright
 
     log = PageLog()

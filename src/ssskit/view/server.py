@@ -33,6 +33,7 @@ from typing import Any, TextIO
 from urllib.parse import urlsplit
 
 from ..errors import SsskitError
+from ..quantities import Choice, Quantity, check_keys
 from .site import (ADAPTIVE_FIELDS, ARTIST_ETA, PAGE_FILES, PARTS, MaterialRequest, data_script, engine_formats,
                    material_payload, page_file, reference_payload)
 
@@ -44,6 +45,10 @@ API_KEYS = frozenset({"material", "albedo", "mfp", "kernel", "taps", "jitter", "
 REFERENCE_KEYS = frozenset({"view", "material", "w", "h"})
 #: the keys of an export request (``POST /api/export``)
 EXPORT_KEYS = frozenset({"material", "albedo", "mfp", "format", "suffix"})
+#: a side of the page's frame (a reference request's w and h)
+PAGE_SIDE = Quantity("page size", 1, 8192, "px", "a side of the page's frame", integer=True)
+#: a number of artists' terms in a body: one or three (R, G, B), finite
+REAL = Quantity("number", -math.inf, math.inf, "", "a finite number", lo_open=True, hi_open=True)
 _TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=utf-8", ".css": "text/css; charset=utf-8"}
 
 
@@ -55,44 +60,30 @@ class RequestError(Exception):
         self.status = status
 
 
-def _triple(name: str, value: Any) -> tuple[float, float, float]:
-    """A list of 3 finite numbers, or a :class:`RequestError` in the quantities' type wording."""
-    from ..quantities import TYPE
-
-    if not isinstance(value, list) or len(value) != 3 or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value):
-        raise RequestError(400, TYPE.format(name=name, kind="a list of 3 finite numbers", actual=repr(value)))
-    return (float(value[0]), float(value[1]), float(value[2]))
-
-
 def _material_keys(body: Any, allowed: frozenset[str], given: dict[str, str] | None = None) -> dict[str, Any]:
     """The material of a request body (a preset name, the key of a material file given to ``ssskit view`` on the
     command line: ``given`` maps it to that file, or albedo with mfp), its keys checked against ``allowed``."""
     from ..materials import MATERIALS
 
-    if not isinstance(body, dict):
-        raise RequestError(400, "the body must be a JSON object")
-    unknown = set(body) - allowed
-    if unknown:
-        raise RequestError(400, f"unknown keys: {', '.join(sorted(map(str, unknown)))}")
+    check_keys(body, "the body", allowed)
     material = body.get("material")
     if isinstance(material, str) and given and material in given:
         material = given[material]  # the file named on the command line, never a path from the request
-    elif material is not None and (not isinstance(material, str) or material not in MATERIALS):
-        raise RequestError(400, f"material must be a preset name ({', '.join(MATERIALS.names())}) or the page's own "
-                                "material; the API reads no other files")
+    elif material is not None:  # (the API reads no other files)
+        material = Choice("material (a preset, or the page's own: the API reads no other files)",
+                          MATERIALS.names()).check(material)
     kw: dict[str, Any] = {"material": material}
     for key in ("albedo", "mfp"):
         if key in body:
-            kw[key] = _triple(key, body[key])
+            kw[key] = REAL.check_rgb(body[key], key)  # (their domain: MaterialRequest's, check_artist)
     return kw
 
 
 def parse_material_request(body: Any, given: dict[str, str] | None = None) -> tuple[MaterialRequest, tuple[str, ...]]:
     """An API body (parsed JSON) as a checked :class:`MaterialRequest` and the parts asked (all where not
-    given), or a :class:`RequestError` (400). The adaptive guide's limits (``adaptive``: an object of
-    :data:`~ssskit.view.site.ADAPTIVE_FIELDS`) are checked by :class:`~ssskit.screenspace.AdaptiveSettings`, the
-    ranges the page was sent (:func:`ssskit.view.site.adaptive_controls`)."""
+    given), or a :class:`RequestError` or :class:`~ssskit.errors.SsskitError` (both answered 400). The adaptive
+    guide's limits (``adaptive``: an object of :data:`~ssskit.view.site.ADAPTIVE_FIELDS`) are checked by
+    :class:`~ssskit.screenspace.AdaptiveSettings`, the ranges the page was sent (:func:`ssskit.view.site.adaptive_controls`)."""
     from ..screenspace.adaptive import AdaptiveSettings
 
     kw = _material_keys(body, API_KEYS, given)
@@ -107,49 +98,30 @@ def parse_material_request(body: Any, given: dict[str, str] | None = None) -> tu
             raise RequestError(400, f"parts must be a non-empty list of {', '.join(PARTS)}")
         parts = tuple(x for x in PARTS if x in p)
     if "adaptive" in body:
-        a = body["adaptive"]
-        if not isinstance(a, dict) or set(a) - set(ADAPTIVE_FIELDS):
-            raise RequestError(400, f"adaptive must be an object of {', '.join(ADAPTIVE_FIELDS)}")
-        try:
-            kw["adaptive"] = AdaptiveSettings(**a)
-        except SsskitError as exc:
-            raise RequestError(400, str(exc)) from None
-    try:
-        req = MaterialRequest(**kw)  # (checked when made)
-    except SsskitError as exc:
-        raise RequestError(400, str(exc)) from None
-    return req, parts
+        kw["adaptive"] = AdaptiveSettings(**check_keys(body["adaptive"], "adaptive", ADAPTIVE_FIELDS))
+    return MaterialRequest(**kw), parts  # (checked when made)
 
 
 def parse_export_request(body: Any, given: dict[str, str] | None = None) -> tuple[Any, str]:
     """An export body (parsed JSON) as the checked :class:`~ssskit.export.ExportSettings` of ``ssskit export``
     (its ``out`` a placeholder name in no folder: the server writes into a temporary folder of its own) and the
-    download's file name, or a :class:`RequestError` (400). Artists' terms are exported with the viewer's
-    relative index (:data:`~ssskit.view.site.ARTIST_ETA`), as ``ssskit export --albedo --mfp --eta 1.4``."""
+    download's file name, or a :class:`RequestError` or :class:`~ssskit.errors.SsskitError` (both answered 400).
+    Artists' terms are exported with the viewer's relative index (:data:`~ssskit.view.site.ARTIST_ETA`), as
+    ``ssskit export --albedo --mfp --eta 1.4``."""
     from ..export import ExportSettings
 
     kw = _material_keys(body, EXPORT_KEYS, given)
     formats = {f["name"]: f for f in engine_formats()}
-    fmt, suffix = body.get("format"), body.get("suffix")
-    if not isinstance(fmt, str) or fmt not in formats:
-        raise RequestError(400, f"format must be an engine format ({', '.join(formats)})")
-    if suffix is None:
-        suffix = formats[fmt]["suffixes"][0]
-    if not isinstance(suffix, str) or suffix not in formats[fmt]["suffixes"]:
-        raise RequestError(400, f"suffix must be one of {', '.join(formats[fmt]['suffixes'])} for {fmt}")
-    artist = "albedo" in kw or "mfp" in kw
-    if artist == (kw["material"] is not None):
-        raise RequestError(400, "give the material once: a preset name, or albedo with mfp")
+    fmt = Choice("format (an engine format)", formats).check(body.get("format"))
+    suffixes = formats[fmt]["suffixes"]
+    suffix = Choice(f"suffix of {fmt}", suffixes).check(suffixes[0] if body.get("suffix") is None else body["suffix"])
+    MaterialRequest(**kw)  # the page's material rules, stated once: the material once, artists' terms together
+    artist = kw["material"] is None
     stem = "artist" if artist else Path(kw["material"]).stem.lower()
     name = f"{stem}_{fmt}{suffix}"
-    try:
-        if artist:
-            settings = ExportSettings(format=fmt, out=name, albedo=kw.get("albedo"), mfp=kw.get("mfp"), eta=ARTIST_ETA)
-        else:
-            settings = ExportSettings(format=fmt, out=name, material=kw["material"])
-    except SsskitError as exc:
-        raise RequestError(400, str(exc)) from None
-    return settings, name
+    if artist:
+        return ExportSettings(format=fmt, out=name, albedo=kw.get("albedo"), mfp=kw.get("mfp"), eta=ARTIST_ETA), name
+    return ExportSettings(format=fmt, out=name, material=kw["material"]), name
 
 
 class ViewServer(ThreadingHTTPServer):
@@ -286,22 +258,13 @@ class _Handler(BaseHTTPRequestHandler):
             raise RequestError(400, "malformed JSON: nested too deeply") from None
 
     def _reference_request(self, body: Any) -> tuple[str, str, int, int]:
-        """(view, preset, page width, page height) of a reference request, or a RequestError."""
+        """(view, preset, page width, page height) of a reference request, or a RequestError or SsskitError (400)."""
         from ..materials import MATERIALS
 
-        if not isinstance(body, dict) or set(body) - REFERENCE_KEYS:
-            raise RequestError(400, f"a reference request is an object of {', '.join(sorted(REFERENCE_KEYS))}")
-        view, material = body.get("view"), body.get("material")
-        if not isinstance(view, str) or view not in self.server.views:
-            raise RequestError(400, f"view must be one of the scene's views ({', '.join(self.server.views) or 'none'})")
-        if not isinstance(material, str) or material not in MATERIALS:
-            raise RequestError(400, f"material must be a preset name ({', '.join(MATERIALS.names())})")
-        size = []
-        for key in ("w", "h"):
-            v = body.get(key)
-            if not isinstance(v, int) or isinstance(v, bool) or not 1 <= v <= 8192:
-                raise RequestError(400, f"{key} must be the page's size in pixels, an integer in [1, 8192]")
-            size.append(v)
+        check_keys(body, "a reference request", REFERENCE_KEYS)
+        view = Choice("view (of the scene's views)", self.server.views).check(body.get("view"))
+        material = Choice("material (a preset name)", MATERIALS.names()).check(body.get("material"))
+        size = [PAGE_SIDE.check(body.get(key), key) for key in ("w", "h")]
         if self.server.references is None:
             raise RequestError(404, "this scene has no path-traced references (the head's views have)")
         return view, material.lower(), size[0], size[1]
@@ -345,6 +308,8 @@ class _Handler(BaseHTTPRequestHandler):
                 raise RequestError(404, "unknown route")
         except RequestError as exc:
             self._refuse(exc.status, str(exc))
+        except SsskitError as exc:  # a value of the body refused where it is checked (the quantities' wording)
+            self._refuse(400, str(exc))
 
     def _other(self) -> None:
         self._refuse(405, f"method {self.command} is not allowed")
