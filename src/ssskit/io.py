@@ -14,17 +14,15 @@ line naming the file.
 from __future__ import annotations
 
 import contextlib
-import contextvars
 import io
 import json
 import os
 import re
 import sys
 import tempfile
-import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray

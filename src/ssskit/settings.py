@@ -19,10 +19,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import typing
 from pathlib import Path
-from collections.abc import Collection
 from typing import Any, ClassVar, Self
 
 from .errors import SettingsError, unknown_names_message

@@ -12,10 +12,9 @@ looped over the sample index.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from ..sampling.hashes import jitter_angles
 from ..profiles.burley import burley_inverse_cdf

@@ -31,7 +31,6 @@ at 4096 samples per pixel without mips, cached).
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path

@@ -25,7 +25,6 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from types import ModuleType
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -113,15 +112,6 @@ def _T():
 
 # ---- geometry ----------------------------------------------------------------------------------------
 
-def _area_sphere(center, radius, radiance):
-    return {"type": "sphere", "center": list(center), "radius": radius,
-            "emitter": {"type": "area", "radiance": {"type": "rgb", "value": radiance}}}
-
-
-def _floor(size=400.0, z=0.0):
-    return {"type": "rectangle", "to_world": _T()().translate([0, 0, z]) @ _T()().scale([size, size, 1])}
-
-
 def _ply(name: str, verts: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None,
          face_normals: bool | None = None, deferred: list[Callable[[], None]] | None = None) -> dict:
     """A Mitsuba ``ply`` shape for a triangle mesh, written once to the ``meshes`` cache (binary PLY,
@@ -169,10 +159,6 @@ def _bumpy_geometry(n: int = 200, size: float = 40.0, seed: int = 3) -> tuple[np
     return _frozen(verts), _frozen(_grid_faces(n, n))
 
 
-def _bumpy_mesh() -> dict:
-    return _ply("bumpy", *_bumpy_geometry())
-
-
 @functools.lru_cache(maxsize=None)
 def _ellipsoid_geometry(radii: tuple[float, float, float] = (18.0, 2.0, 28.0),
                         center: tuple[float, float, float] = (0.0, 0.0, 32.0),
@@ -190,10 +176,6 @@ def _ellipsoid_geometry(radii: tuple[float, float, float] = (18.0, 2.0, 28.0),
     # (theta, phi) grid faces wind inward; reversed, their geometric normals point out of the medium,
     # which is what Mitsuba's interior/exterior media test uses
     return _frozen(verts), _frozen(_grid_faces(n, 2 * n)[:, ::-1]), _frozen(normals)
-
-
-def _ellipsoid_mesh() -> dict:
-    return _ply("ellipsoid", *_ellipsoid_geometry())
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

@@ -131,31 +131,6 @@ def _fresnel(n1, n2, ca1):
 
 
 @njit(cache=True)
-def _spin(g, ux, uy, uz, state):
-    """New direction after Henyey-Greenstein scattering (MCML's SpinTheta and Spin)."""
-    if g == 0.0:
-        cost = 2.0 * _uniform(state) - 1.0
-    else:
-        temp = (1.0 - g * g) / (1.0 - g + 2.0 * g * _uniform(state))
-        cost = (1.0 + g * g - temp * temp) / (2.0 * g)
-        if cost < -1.0:
-            cost = -1.0
-        elif cost > 1.0:
-            cost = 1.0
-    sint = math.sqrt(1.0 - cost * cost)
-    psi = 2.0 * math.pi * _uniform(state)
-    cosp = math.cos(psi)
-    sinp = math.sin(psi)
-    if abs(uz) > COS_ZERO:
-        return sint * cosp, sint * sinp, cost * (1.0 if uz >= 0.0 else -1.0)
-    temp = math.sqrt(1.0 - uz * uz)
-    nux = sint * (ux * uz * cosp - uy * sinp) / temp + ux * cost
-    nuy = sint * (uy * uz * cosp + ux * sinp) / temp + uy * cost
-    nuz = -sint * cosp * temp + uz * cost
-    return nux, nuy, nuz
-
-
-@njit(cache=True)
 def _beckmann_g1(vx, vy, vz, v_dot_m, v_dot_n, alpha):
     """Smith's masking function G1(v, m) of Beckmann microfacets by Walter et al. 2007's rational
     approximation (Eq. 27, the form Mitsuba 3's MicrofacetDistribution::smith_g1 evaluates), with the

@@ -76,12 +76,6 @@ class MCResult:
         """Whether ``tt_r`` and ``exit_tt`` hold the run's tallies (a stored result may predate them)."""
         return self.tt_r.shape == self.rd.shape and bool(np.all(np.isfinite(self.exit_tt)))
 
-    def tt_radiance_factor(self) -> np.ndarray:
-        """(N_EXIT_BINS,): the transmitted radiance per exit-direction bin relative to a Lambertian exit of
-        the same total, N exit_tt / tt (as :meth:`radiance_factor` for the reflected light). The unscattered
-        beam of a normally incident run leaves along the normal: it is in the last bin."""
-        return N_EXIT_BINS * self.exit_tt / self.tt
-
     @property
     def total_rd_in_grid(self) -> float:
         """The diffuse reflectance inside the grid, total_rd - overflow = 2 pi sum_i R(r_i) r_i dr."""
