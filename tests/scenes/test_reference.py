@@ -136,3 +136,23 @@ def test_bad_reference_arguments():
                          progress=False)
     with pytest.raises(SceneError, match="surround_albedo"):
         render_reference("slab", SKIN, width=8, height=8, spp=1, surround_albedo=2.0, use_cache=False, progress=False)
+
+
+def test_a_moved_cache_still_holds_a_mesh_scenes_reference(tmp_path, monkeypatch):
+    """A reference of a mesh scene (the bumpy tile: its mesh written to the cache, named by its content) is found
+    in a copy of the cache in another folder: the key holds the mesh's name in the cache, not the folder (before,
+    its absolute path: every copy or move of the cache rendered the references again, under other names)."""
+    import shutil
+
+    import ssskit.scenes.reference as reference
+
+    kw = dict(width=16, height=12, spp=2, chunk_spp=2, max_depth=16, boundary="index-matched", progress=False)
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "a"))
+    first = render_reference("bumpy", SKIN, **kw)
+    shutil.copytree(tmp_path / "a", tmp_path / "b")
+    monkeypatch.setenv("SSSKIT_CACHE_DIR", str(tmp_path / "b"))
+    rendered = []
+    monkeypatch.setattr(reference.ReferenceRenderer, "chunk", lambda self, *a: rendered.append(a))
+    again = render_reference("bumpy", SKIN, cache_only=True, **kw)
+    assert rendered == [] and np.array_equal(again.image, first.image)
+    assert str(tmp_path) not in reference.geometry_key(reference.get_scene("bumpy"))

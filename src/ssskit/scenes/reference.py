@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..cache import cache_dir, cache_file
+from ..cache import cache_dir, cache_file, cache_root
 from ..errors import SceneError
 from ..io import atomic_output, progress_bar
 from ..materials import Material
@@ -263,6 +263,22 @@ def shape_materials(spec: SceneSpec, material: Any) -> tuple[Any, ...]:
     return (material,) * len(spec.sss_shapes)
 
 
+def geometry_key(spec: SceneSpec) -> str:
+    """The scene's shapes, lights and camera as a cache key's text. A mesh ssskit wrote to its cache is named by
+    its content's digest (:func:`ssskit.scenes.scenes._ply`) and keyed by that name, relative to the cache root, so
+    the key does not depend on where the cache lies (``$SSSKIT_CACHE_DIR``; before, a cache moved or copied to
+    another folder rendered every mesh scene's references again, under other names). A mesh outside the cache
+    (a user's file) keeps its absolute path."""
+    root = str(cache_root()) + "/"
+
+    def portable(value: Any) -> Any:
+        if isinstance(value, dict):
+            return {k: portable(v) for k, v in value.items()}
+        return value[len(root):] if isinstance(value, str) and value.startswith(root) else value
+
+    return json.dumps([portable(spec.shapes()), spec.lights(), spec.origin, spec.fov_x_deg], default=str)
+
+
 def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) -> np.ndarray:
     """(H, W) bool: the pixels that see an SSS object of ``scene`` (one AOV sample per pixel)."""
     spec = get_scene(scene)
@@ -322,7 +338,7 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
                       "chunk": chunk_spp, "d": max_depth, "seed": seed, "frame": frame, "v": CACHE_VERSION,
                       "boundary": boundary, "surround": float(surround_albedo), "alpha": COAT_ROUGHNESS,
                       "region": hashlib.sha1(np.packbits(region).tobytes()).hexdigest(),
-                      "geometry": json.dumps([spec.shapes(), spec.lights(), spec.origin, spec.fov_x_deg], default=str)},
+                      "geometry": geometry_key(spec)},
                      sort_keys=True)
     path = cache_file("reference", spec.name, hashlib.sha1(key.encode()).hexdigest()[:16], ".npz")
     opts = dict(target_rel_se=float(target_rel_se), max_spp=int(max_spp), boundary=boundary,
