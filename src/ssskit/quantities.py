@@ -25,11 +25,13 @@ The wordings (the only ones: ``benchmarks/validation_count.py`` counts the phras
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 import numbers
 from collections.abc import Callable, Collection, Iterable
 from dataclasses import dataclass, replace
-from typing import Any, SupportsIndex
+from typing import Any, SupportsIndex, TypeVar, cast
 
 from .errors import SsskitError
 
@@ -408,10 +410,6 @@ __all__ += ["Rule"]
 
 
 # --- vc-d: a function's argument rules declared once, at its signature ---------------------------------------------
-
-import functools  # noqa: E402
-import inspect  # noqa: E402
-from typing import TypeVar, cast  # noqa: E402
 
 _F = TypeVar("_F", bound=Callable[..., Any])
 

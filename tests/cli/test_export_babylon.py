@@ -63,20 +63,24 @@ STAND_INS = (
 )
 
 
+def _node(folder, imports: str, body: str) -> dict:
+    """Run ``imports`` + the stand-ins + ``body`` as an ES module in ``folder`` under node: the JSON it prints last."""
+    probe = folder / "probe.mjs"
+    probe.write_text(imports + STAND_INS + body)
+    res = subprocess.run(["node", str(probe)], capture_output=True, text=True, timeout=60, cwd=folder)
+    assert res.returncode == 0, res.stderr
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
 @pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed")
 def test_module_imports_and_applies(run, tmp_path):
     """node imports the ES module and applySsskit sets what Babylon's API takes on stand-in objects."""
     out = tmp_path / "s.mjs"
     _ok(run, "export", "--material", "marble", "--format", "babylon", "--model", "dipole", "--out", out)
-    probe = tmp_path / "probe.mjs"
-    probe.write_text(
-        "import { SSSKIT, applySsskit } from './s.mjs';\n" + STAND_INS +
-        "const m = Object.values(applySsskit({ Color3, PBRMaterial }, scene, {}, 'plain'))[0];\n"
-        "console.log(JSON.stringify({ mpu: cfg.metersPerUnit, color: m.subSurface.scatteringDiffusionProfile,\n"
-        "  on: m.subSurface.isScatteringEnabled, albedo: m.albedoColor, f0: m.metallicF0Factor }));\n")
-    res = subprocess.run(["node", str(probe)], capture_output=True, text=True, timeout=60, cwd=tmp_path)
-    assert res.returncode == 0, res.stderr
-    got = json.loads(res.stdout.strip().splitlines()[-1])
+    got = _node(tmp_path, "import { SSSKIT, applySsskit } from './s.mjs';\n",
+                "const m = Object.values(applySsskit({ Color3, PBRMaterial }, scene, {}, 'plain'))[0];\n"
+                "console.log(JSON.stringify({ mpu: cfg.metersPerUnit, color: m.subSurface.scatteringDiffusionProfile,\n"
+                "  on: m.subSurface.isScatteringEnabled, albedo: m.albedoColor, f0: m.metallicF0Factor }));\n")
     a, d = fit_burley(profile_for_material(get_material("marble"), "dipole"))
     assert got["mpu"] == pytest.approx(2e-3) and got["on"] is True and got["f0"] == 0
     np.testing.assert_allclose([got["color"][c] for c in "rgb"], 1.0 / d, rtol=1e-12)
@@ -92,17 +96,12 @@ def test_a_second_export_into_one_scene_and_a_key_of_no_material_are_errors(run,
     for name in ("skin1", "marble"):
         _ok(run, "export", "--material", name, "--format", "babylon", "--out", tmp_path / f"{name}.mjs")
     assert '{ "Skin1": myMaterial }' in (tmp_path / "skin1.mjs").read_text()
-    probe = tmp_path / "probe.mjs"
-    probe.write_text(
-        "import * as skin from './skin1.mjs';\nimport * as marble from './marble.mjs';\n" + STAND_INS +
-        "const B = { Color3, PBRMaterial }, out = {};\n"
-        "try { skin.applySsskit(B, scene, { skin1: new PBRMaterial('mine') }); } catch (e) { out.key = e.message; }\n"
-        "skin.applySsskit(B, scene); skin.applySsskit(B, scene);\n"
-        "try { marble.applySsskit(B, scene); } catch (e) { out.second = e.message; }\n"
-        "console.log(JSON.stringify(out));\n")
-    res = subprocess.run(["node", str(probe)], capture_output=True, text=True, timeout=60, cwd=tmp_path)
-    assert res.returncode == 0, res.stderr
-    got = json.loads(res.stdout.strip().splitlines()[-1])
+    got = _node(tmp_path, "import * as skin from './skin1.mjs';\nimport * as marble from './marble.mjs';\n",
+                "const B = { Color3, PBRMaterial }, out = {};\n"
+                "try { skin.applySsskit(B, scene, { skin1: new PBRMaterial('mine') }); } catch (e) { out.key = e.message; }\n"
+                "skin.applySsskit(B, scene); skin.applySsskit(B, scene);\n"
+                "try { marble.applySsskit(B, scene); } catch (e) { out.second = e.message; }\n"
+                "console.log(JSON.stringify(out));\n")
     assert "no material skin1 in this file (its names: Skin1)" in got["key"]
     assert "set by another ssskit export" in got["second"] and "--material a,b" in got["second"]
 
