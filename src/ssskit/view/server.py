@@ -22,7 +22,6 @@ Safe by construction:
 from __future__ import annotations
 
 import json
-import math
 import os
 import sys
 import threading
@@ -47,8 +46,6 @@ REFERENCE_KEYS = frozenset({"view", "material", "w", "h"})
 EXPORT_KEYS = frozenset({"material", "albedo", "mfp", "format", "suffix"})
 #: a side of the page's frame (a reference request's w and h)
 PAGE_SIDE = Quantity("page size", 1, 8192, "px", "a side of the page's frame", integer=True)
-#: a number of artists' terms in a body: one or three (R, G, B), finite
-REAL = Quantity("number", -math.inf, math.inf, "", "a finite number", lo_open=True, hi_open=True)
 _TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=utf-8", ".css": "text/css; charset=utf-8"}
 
 
@@ -72,11 +69,8 @@ def _material_keys(body: Any, allowed: frozenset[str], given: dict[str, str] | N
     elif material is not None:  # (the API reads no other files)
         material = Choice("material (a preset, or the page's own: the API reads no other files)",
                           MATERIALS.names()).check(material)
-    kw: dict[str, Any] = {"material": material}
-    for key in ("albedo", "mfp"):
-        if key in body:
-            kw[key] = REAL.check_rgb(body[key], key)  # (their domain: MaterialRequest's, check_artist)
-    return kw
+    # albedo and mfp: MaterialRequest's fields (one number or three each, in the artists' domain), checked there
+    return {"material": material, **{k: body[k] for k in ("albedo", "mfp") if k in body}}
 
 
 def parse_material_request(body: Any, given: dict[str, str] | None = None) -> tuple[MaterialRequest, tuple[str, ...]]:

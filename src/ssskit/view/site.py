@@ -23,7 +23,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
-from ..quantities import CHOICE, FRACTION, TAPS, check_instance, fail
+from ..pipeline.settings import RenderSettings, SeparablePass
+from ..quantities import BURLEY_ALBEDO, MFP_MM, TAPS, ErrorClass, Rule, check_choice, check_instance
+from ..settings import Settings, like, setting
 
 #: the files of the page (ssskit/view/static), copied into a static folder and the only files served
 PAGE_FILES = ("index.html", "viewer.js", "viewer.css")
@@ -53,42 +55,40 @@ ADAPTIVE_FIELDS = ("b_min", "b_max", "sigma0_sq", "kappa", "alpha")
 ADAPTIVE_ORDER = (("b_min", "b_max"),)
 
 
+def _tap_choice(value: object, name: str, error: ErrorClass) -> int:
+    """A tap count (:data:`~ssskit.quantities.TAPS`) the page offers (:data:`TAP_CHOICES`: bounded work per request)."""
+    return int(check_choice(name, str(TAPS.check(value, name, error)), tuple(map(str, TAP_CHOICES)), error))
+
+
+def _adaptive(value: object, name: str, error: ErrorClass) -> Any:
+    from ..screenspace.adaptive import AdaptiveSettings
+
+    return check_instance(value, AdaptiveSettings, name, error, optional=True)
+
+
 @dataclass(frozen=True)
-class MaterialRequest:
+class MaterialRequest(Settings):
     """A material for the page: a preset name or material file (``material``), or artists' terms
     (``albedo`` with ``mfp`` in mm, 3 values each), the separable pass's options and the adaptive pass's
-    guide (:class:`~ssskit.screenspace.AdaptiveSettings`; ssskit's defaults, Xie 2020 Fig. 9's setting)."""
+    guide (:class:`~ssskit.screenspace.AdaptiveSettings`; ssskit's defaults, Xie 2020 Fig. 9's setting).
+    Checked when made, wherever it enters (the server's API, ssskit view), before any work: each field by its
+    declared rule (the kernel and the jitter as ``ssskit render`` declares them), then the material given once."""
 
-    material: str | None = "skin1"
-    albedo: tuple[float, float, float] | None = None
-    mfp: tuple[float, float, float] | None = None
-    kernel: str = DEFAULT_KERNEL
-    taps: int = DEFAULT_TAPS
-    jitter: float = DEFAULT_JITTER
-    adaptive: Any = None
+    material: str | None = setting(None, "skin1")
+    albedo: tuple[float, float, float] | None = setting(BURLEY_ALBEDO, None, optional=True, rgb=True)
+    mfp: tuple[float, float, float] | None = setting(MFP_MM, None, optional=True, rgb=True)
+    kernel: str = like(RenderSettings, "kernel", applies=None)
+    taps: int = setting(Rule("taps", _tap_choice), DEFAULT_TAPS)
+    jitter: float = like(SeparablePass, "jitter")
+    adaptive: Any = setting(Rule("adaptive", _adaptive), None)
 
     def __post_init__(self) -> None:
-        self.check()  # a request is checked when made, wherever it enters (the server's API, ssskit view)
-
-    def check(self) -> None:
-        """Every refusal before any work (a :class:`SsskitError` naming the input and its valid domain)."""
-        from ..profiles.artist import check_artist
-        from ..screenspace.adaptive import AdaptiveSettings
-
+        super().__post_init__()
         artist = self.albedo is not None or self.mfp is not None
         if artist == (self.material is not None):
             raise SsskitError("give the material once: a preset name or file, or albedo with mfp")
-        if artist:
-            if self.albedo is None or self.mfp is None:
-                raise SsskitError("artists' terms need albedo and mfp together (3 values each)")
-            check_artist(self.albedo, self.mfp, "mfp", ARTIST_ETA, 0.0)
-        if TAPS.check(self.taps) not in TAP_CHOICES:  # (bounded work per request)
-            raise fail(SsskitError, CHOICE, name="taps", choices=", ".join(map(str, TAP_CHOICES)), actual=self.taps)
-        FRACTION.check(self.jitter, "jitter (a fraction of the kernel size)")
-        check_instance(self.adaptive, AdaptiveSettings, "adaptive", optional=True)
-        from ..kernels import parse_method_spec
-
-        parse_method_spec(self.kernel)
+        if artist and (self.albedo is None or self.mfp is None):
+            raise SsskitError("artists' terms need albedo and mfp together (3 values each)")
 
     def resolve(self) -> Any:
         """The :class:`~ssskit.materials.Material`."""
