@@ -32,7 +32,7 @@ from typing import Any, TextIO
 from urllib.parse import urlsplit
 
 from ..errors import SsskitError
-from ..quantities import Choice, Quantity, check_keys
+from ..quantities import Choice, Quantity, check_fields, check_keys
 from .site import (ADAPTIVE_FIELDS, ARTIST_ETA, PAGE_FILES, PARTS, MaterialRequest, data_script, engine_formats,
                    material_payload, page_file, reference_payload)
 
@@ -255,13 +255,12 @@ class _Handler(BaseHTTPRequestHandler):
         """(view, preset, page width, page height) of a reference request, or a RequestError or SsskitError (400)."""
         from ..materials import MATERIALS
 
-        check_keys(body, "a reference request", REFERENCE_KEYS)
-        view = Choice("view (of the scene's views)", self.server.views).check(body.get("view"))
-        material = Choice("material (a preset name)", MATERIALS.names()).check(body.get("material"))
-        size = [PAGE_SIDE.check(body.get(key), key) for key in ("w", "h")]
+        fields = {"view": Choice("view", self.server.views), "material": Choice("material", MATERIALS.names()),
+                  "w": PAGE_SIDE, "h": PAGE_SIDE}  # (REFERENCE_KEYS: every one required)
+        r = check_fields(check_keys(body, "a reference request", REFERENCE_KEYS, REFERENCE_KEYS), fields)
         if self.server.references is None:
             raise RequestError(404, "this scene has no path-traced references (the head's views have)")
-        return view, material.lower(), size[0], size[1]
+        return r["view"], r["material"].lower(), r["w"], r["h"]
 
     def _reference_layers(self, view: str, material: str) -> dict[str, Any]:
         key = (view, material)
