@@ -255,8 +255,9 @@ class _Handler(BaseHTTPRequestHandler):
         """(view, preset, page width, page height) of a reference request, or a RequestError or SsskitError (400)."""
         from ..materials import MATERIALS
 
-        fields = {"view": Choice("view", self.server.views), "material": Choice("material", MATERIALS.names()),
-                  "w": PAGE_SIDE, "h": PAGE_SIDE}  # (REFERENCE_KEYS: every one required)
+        fields: dict[str, Quantity | Choice] = {"view": Choice("view", self.server.views),
+                                                "material": Choice("material", MATERIALS.names()),
+                                                "w": PAGE_SIDE, "h": PAGE_SIDE}
         r = check_fields(check_keys(body, "a reference request", REFERENCE_KEYS, REFERENCE_KEYS), fields)
         if self.server.references is None:
             raise RequestError(404, "this scene has no path-traced references (the head's views have)")

@@ -428,9 +428,8 @@ def data_script(data: dict[str, Any]) -> str:
 
 
 def page_file(name: str) -> bytes:
-    """One of :data:`PAGE_FILES`."""
-    if name not in PAGE_FILES:
-        raise SsskitError(f"{name!r} is not a file of the page")
+    """One of :data:`PAGE_FILES` (its callers' names: :func:`write_site`'s, and the server's, which serves no other
+    name: :class:`~ssskit.view.server.ViewServer`)."""
     return resources.files(__package__).joinpath("static", name).read_bytes()
 
 
