@@ -14,9 +14,11 @@ import hashlib
 import os
 import re
 from pathlib import Path
+from typing import Literal, get_args
 
-#: sub-folders of the cache root, one per kind of cached result
-KINDS = ("mcml", "reference", "meshes", "demo", "gbuffers", "figures")
+#: sub-folders of the cache root, one per kind of cached result (a type: mypy refuses any other kind)
+Kind = Literal["mcml", "reference", "meshes", "demo", "gbuffers", "figures"]
+KINDS: tuple[Kind, ...] = get_args(Kind)
 #: the longest readable part of a cache file's name (bytes of UTF-8): with the key, the suffix and the atomic
 #: writer's temporary prefix and suffix a name stays far below the 255 bytes most file systems allow
 NAME_BYTES = 80
@@ -44,14 +46,12 @@ def source_digest() -> str:
     return h.hexdigest()
 
 
-def cache_dir(kind: str) -> Path:
+def cache_dir(kind: Kind) -> Path:
     """The folder of one kind of cached result (see :data:`KINDS`); not created here."""
-    if kind not in KINDS:
-        raise ValueError(f"unknown cache kind {kind!r}; known: {', '.join(KINDS)}")
     return cache_root() / kind
 
 
-def cache_file(kind: str, name: str, key: str, suffix: str) -> Path:
+def cache_file(kind: Kind, name: str, key: str, suffix: str) -> Path:
     """``cache_dir(kind) / "{name}-{key}{suffix}"`` with a bounded, readable ``name`` (a scene's or a mesh's, which
     come from a user's file names): characters other than letters, digits, ``.``, ``_`` and ``-`` become ``_`` (no
     separator or NUL reaches the path), and a name longer than :data:`NAME_BYTES` keeps its beginning and ends in

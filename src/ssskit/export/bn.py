@@ -69,6 +69,18 @@ def crop_to_support(x_mm: np.ndarray, rgb: np.ndarray, support: float) -> tuple[
     return x_mm[drop: x_mm.size - drop], rgb[drop: x_mm.size - drop]
 
 
+def refuse_unfit(kernel: str, taps: bool, rank: int, positive: bool = True) -> None:
+    """The format's rule (module docstring), stated once for a kernel (:func:`save_bn`) and for an export request's
+    kernel spec before any work (:func:`ssskit.export.readers.material_source`): a :class:`KernelError` where
+    ``kernel`` (its name in the message) is a list of taps (``taps``), or not one (``rank``) positive term."""
+    if taps:
+        raise KernelError(f"the .bn format holds a tabulated kernel on a uniform grid; {kernel} is a list of taps "
+                          "(export it as hlsl, glsl or json)")
+    if rank != 1 or not positive:
+        raise KernelError(f"the .bn format holds one positive separable term; {kernel} has rank {rank} (use a rank-1 "
+                          "method such as preintegrated, or export hlsl/glsl)")
+
+
 def save_bn(kernel: Any, path: str | Path, support: float | None = None) -> None:
     """Write a rank-1 tabulated kernel (e.g. ``preintegrated``) as ``.bn`` (atomic); ``support`` (e.g.
     0.999): crop the grid symmetrically to the part holding that fraction of each channel's mass
@@ -76,12 +88,9 @@ def save_bn(kernel: Any, path: str | Path, support: float | None = None) -> None
     from ..kernels.base import Kernel
 
     check_suffix(path, (".bn",), "kernel output")
-    if not isinstance(kernel, Kernel):
-        raise KernelError(f"the .bn format holds a tabulated kernel on a uniform grid; the {kernel.method} kernel "
-                          "is a list of taps (export it as hlsl, glsl or json)")
-    if kernel.rank != 1 or np.any(kernel.signs != 1):
-        raise KernelError(f"the .bn format holds one positive separable term; the {kernel.method} kernel has "
-                          f"rank {kernel.rank} (use a rank-1 method such as preintegrated, or export hlsl/glsl)")
+    tabulated = isinstance(kernel, Kernel)
+    positive = not tabulated or bool(np.all(kernel.signs == 1))
+    refuse_unfit(f"the {kernel.method} kernel", not tabulated, kernel.rank, positive)
     x, rgb = kernel.x_mm, kernel.components[:, 0, :].T
     if support is not None:
         x, rgb = crop_to_support(x, rgb, support)

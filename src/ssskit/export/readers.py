@@ -443,12 +443,9 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
         refuse_given(req, ("tap_method",), f"the {m.name} kernel, which ships its own taps" if tap_kernel else
                      f"--format {fmt}, which writes no taps")
     if fmt == "bn":
-        if tap_kernel:
-            raise SsskitError(f"--format bn holds a tabulated kernel on a uniform grid; {m.name} is a list of taps "
-                              "(export it as hlsl, glsl or json)")
-        if int(params.get("rank", 1)) != 1:
-            raise SsskitError(f"--format bn holds one separable term; --kernel {req.kernel} has rank "
-                              f"{params['rank']} (use a rank-1 method such as preintegrated)")
+        from .bn import refuse_unfit
+
+        refuse_unfit(f"--kernel {req.kernel}", tap_kernel, int(params.get("rank", 1)))
     return m, params, tap_count
 
 

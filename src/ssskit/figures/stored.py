@@ -8,7 +8,7 @@ import pickle
 from pathlib import Path
 from typing import Any, Callable, TypeVar
 
-from ..cache import cache_dir
+from ..cache import Kind, cache_dir
 from ..io import atomic_output
 
 T = TypeVar("T")
@@ -17,7 +17,7 @@ T = TypeVar("T")
 _MISSING = object()
 
 
-def _path(kind: str, name: str, key: dict[str, Any]) -> Path:
+def _path(kind: Kind, name: str, key: dict[str, Any]) -> Path:
     text = json.dumps(key, sort_keys=True, default=str)
     return cache_dir(kind) / f"{name}-{hashlib.sha1(text.encode()).hexdigest()[:16]}.pkl"
 
@@ -32,13 +32,13 @@ def _load(path: Path) -> Any:
     return _MISSING
 
 
-def peek(kind: str, name: str, key: dict[str, Any]) -> Any:
+def peek(kind: Kind, name: str, key: dict[str, Any]) -> Any:
     """What :func:`stored` holds for ``key``, or None when nothing (readable) is stored; computes nothing."""
     value = _load(_path(kind, name, key))
     return None if value is _MISSING else value
 
 
-def stored(kind: str, name: str, key: dict[str, Any], make: Callable[[], T]) -> T:
+def stored(kind: Kind, name: str, key: dict[str, Any], make: Callable[[], T]) -> T:
     """``make()`` once per ``key`` (JSON, non-JSON values by ``str``), pickled in ``cache_dir(kind)``;
     an unreadable entry is computed again."""
     path = _path(kind, name, key)
