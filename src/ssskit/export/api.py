@@ -7,7 +7,7 @@ the whole request before any work and writes one file atomically.
 
 An option is a field of :class:`ExportSettings`; None (or False for the flags) means "not given". A field
 given that the request's format does not take (:attr:`Format.options`) is refused here, once, in one wording
-(:meth:`ExportSettings.check_applies`). The material comes from one entry point, :func:`ssskit.export.readers.material_source`
+(:meth:`ExportSettings.unused`). The material comes from one entry point, :func:`ssskit.export.readers.material_source`
 (a preset, a material file, an engine file ssskit wrote, or artists' terms).
 """
 
@@ -16,8 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from ..errors import SettingsError
-from ..quantities import ANISOTROPY, BURLEY_ALBEDO, ETA, FRACTION, MFP_MM, PHOTONS, TAPS, Choice, Flag, refuse_unused
+from ..quantities import ANISOTROPY, BURLEY_ALBEDO, ETA, FRACTION, MFP_MM, PHOTONS, TAPS, Choice, Flag
 from ..settings import Settings, setting
 from .registry import FORMATS, Format, get_format
 
@@ -95,21 +94,21 @@ class ExportSettings(Settings):
     def __post_init__(self) -> None:
         from ..io import check_suffix
 
-        super().__post_init__()  # every declared quantity, then check_applies
+        super().__post_init__()  # every declared quantity, then check_applies (unused)
         object.__setattr__(self, "out", str(self.out))
         check_suffix(self.out, get_format(self.format).suffixes, f"--out for --format {self.format}")
 
-    def check_applies(self) -> None:
-        """Every option given that the format does not take (:attr:`Format.options`), refused in the one
-        wording of an unused option (:func:`ssskit.quantities.refuse_unused`), naming the formats that take it."""
+    def unused(self) -> dict[tuple[str, tuple[str, ...], str], list[str]]:
+        """Every option given that the format does not take (:attr:`Format.options`), by the formats that take
+        it: what :meth:`~ssskit.settings.Settings.check_applies` refuses in the one wording of an unused option
+        (``--eta applies to --format unity or unreal, not --format glsl``)."""
         fmt = get_format(self.format)
-        unused: dict[tuple[str, ...], list[str]] = {}
+        unused: dict[tuple[str, tuple[str, ...], str], list[str]] = {}
         for name, flag in FLAGS.items():
             if self.given(name) and name not in COMMON and name not in fmt.options:
                 takers = tuple(f.name for _, f in FORMATS.items() if name in f.options)
-                unused.setdefault(takers, []).append(flag)
-        for takers, flags in unused.items():
-            refuse_unused(flags, "--format", takers, fmt.name, SettingsError)
+                unused.setdefault(("--format", takers, fmt.name), []).append(flag)
+        return unused
 
     def given(self, name: str) -> bool:
         v = getattr(self, name)
