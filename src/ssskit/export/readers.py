@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import SsskitError
 from ..io import parse_document, read_input
 from ..materials import Material, homogeneous
-from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM, Choice, check_keys, refuse_twice
+from ..quantities import BURLEY_ALBEDO, ENGINE_NUMBER, LENGTH_MM, Choice, check_keys, refuse_twice, refuse_unused
 from .registry import FORMATS
 
 #: suffixes that hold an engine file (a .json one only when it has an "engine" key, a .py one only when it is an
@@ -477,10 +477,9 @@ def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
     tmodel = req.transmission_model or "mcml"
     refuse_given(req, ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction"),
                  "--pass transmission (the shader bakes the material's transmittance model)")
-    if req.model is not None and req.model.lower() != "montecarlo":  # the models read the material's MCML transport
-        raise SsskitError(f"--model {req.model} does not apply to --pass transmission (the shader bakes the material's "
-                          "transmittance model from its MCML transport; artists' terms take --model montecarlo, "
-                          "the Monte Carlo inversion)")
+    if req.model is not None and req.model.lower() != "montecarlo":  # the shader bakes the material's transmittance
+        # model from its MCML transport (artists' terms: --model montecarlo, the Monte Carlo inversion)
+        refuse_unused([f"--model {req.model}"], "--pass", ("separable",), "transmission")
     if tmodel == "jimenez2010":
         refuse_given(req, ("material", "albedo"), "--transmission-model jimenez2010 (Jimenez et al. 2010's skin "
                      "Gaussians: no material)")
