@@ -39,7 +39,6 @@ MESH_SUFFIXES = (".obj", ".ply", ".glb", ".gltf")
 DEFAULT_KERNEL = "preintegrated"
 DEFAULT_TAPS = 7
 DEFAULT_MODEL = "dipole"
-DEFAULT_JITTER = 0.1
 #: the tap counts and spp the page offers (the API refuses others: bounded work per request)
 TAP_CHOICES = (5, 7, 9, 11, 13, 15, 17, 21, 25)
 SPP_RANGE = (1, 256)
