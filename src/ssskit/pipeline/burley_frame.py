@@ -40,6 +40,7 @@ import numpy as np
 
 from ..backends import warm_up_in_background
 from ..errors import SettingsError, SignalError
+from ..materials import homogeneous
 from ..quantities import check_instance
 from ..screenspace import BurleyParams, BurleySettings, GBuffer, burley_sss
 from ..screenspace.burley import burley_backend
@@ -206,9 +207,7 @@ def plan_burley(scene: SceneInput, settings: RenderSettings,
     given = p.params() if isinstance(p, (BurleyPass, AdaptivePass)) else None
     if given is not None:
         return plan, given
-    if not hasattr(plan.material, "eta"):
-        raise SettingsError(f"the Burley pass needs a homogeneous material (its profile comes from the "
-                            f"coefficients); {plan.material.name!r} is a {type(plan.material).__name__}")
+    homogeneous(plan.material, "the Burley pass (its profile comes from the coefficients)", SettingsError)
     return plan, per_id(plan, burley_params_for_material)
 
 

@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike
 from ..backends import get_backend
 from ..errors import SceneError, SettingsError, SsskitError
 from ..io import check_distinct, save_image
-from ..materials import LayeredMaterial, Material, get_material
+from ..materials import LayeredMaterial, Material, get_material, homogeneous
 from ..metrics import NO_LIGHT_TEXT, no_light, region_metrics
 from ..scenes import SCENES, ResolvedScene, SceneSpec, reference_phase_g, render_gbuffer, render_reference, resolve_scene
 from ..scenes.mitsuba_variant import leaving_a_core_to
@@ -189,10 +189,7 @@ def _scene(scene: SceneInput, settings: RenderSettings, material: Material | Lay
     assert spec is not None
     mats: list[Material] = []
     for m in (material, *(get_material(name) for name in spec.shape_materials(settings.material))):
-        if not isinstance(m, Material):  # a LayeredMaterial has no eta
-            raise SettingsError(f"a scene needs homogeneous materials (their eta makes the boundary); "
-                                f"{m.name!r} is a {type(m).__name__}")
-        mats.append(m)
+        mats.append(homogeneous(m, "a scene's object (its material's eta makes the boundary)", SettingsError))
     mats = mats[1:]
     material = _scene_material(spec, resolved.kind, settings, material, mats)
     if settings.reference:
