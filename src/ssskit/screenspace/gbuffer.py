@@ -92,12 +92,11 @@ class GBuffer:
         check_instance(self.camera, Camera, "camera", GBufferError)
         if (self.camera.width, self.camera.height) != (w, h):
             raise GBufferError(f"camera is {self.camera.width}x{self.camera.height} but the layers are {w}x{h}")
-        if isinstance(self.materials, (bytes, bytearray)) or any(isinstance(m, (bytes, bytearray))
-                                                                for m in ([] if isinstance(self.materials, (str, Path))
-                                                                          else self.materials)):
+        # one name (or file) is one material, not its characters
+        given = [self.materials] if isinstance(self.materials, (str, Path, bytes, bytearray)) else list(self.materials)
+        if any(isinstance(m, (bytes, bytearray)) for m in given):
             raise GBufferError(f"materials must be names (str), not bytes, got {self.materials!r}")
-        mats = (str(self.materials),) if isinstance(self.materials, (str, Path)) else \
-            tuple(str(m) for m in self.materials)  # one name (or file) is one material, not its characters
+        mats = tuple(str(m) for m in given)
         if mats:
             PROFILE_ID.within(hi=len(mats), reason=f"0 is no SSS, k the k-th of the {len(mats)} materials named").check(
                 int(ids.max(initial=0)), "layer 'profile_id'", GBufferError)
