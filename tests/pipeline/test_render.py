@@ -150,7 +150,7 @@ def _mixed_g_material(tmp_path):
 @pytest.mark.parametrize("scene, kw, error, fragment", [
     ("g.exr", dict(reference=True), SettingsError, "reference needs a built-in scene"),
     ("g.exr", dict(width=64, height=64), SettingsError, "does not apply to a G-buffer file: g.exr is 48x36"),
-    ("slab", dict(kernel="jimenez2012:17", taps=11), SettingsError, "names 17 taps but taps is 11"),
+    ("slab", dict(kernel="jimenez2012:17", taps=11), SettingsError, "kernel 'jimenez2012:17' and taps 11 disagree"),
     ("slab", dict(kernel="jimenez2012", taps=1), KernelError, r"jimenez2012 taps must lie in \[3, 255\], got 1"),
     ("slab", dict(kernel="jimenez2012", tap_method="uniform"), SettingsError, "does not apply to the jimenez2012"),
     ("teapot", {}, SceneError, "unknown scene 'teapot'"),
