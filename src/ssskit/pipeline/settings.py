@@ -40,7 +40,7 @@ from ..screenspace.burley import BurleyParams, BurleySettings
 from ..screenspace.settings import PassSettings
 from ..quantities import (BURLEY_ALBEDO, FRAME, FRAMES, MFP_MM, PHOTONS, REFERENCE_SPP, REL_SE, SEED, SIZE_PX, SPP,
                           TAPS, TYPE, Choice, ErrorClass, Flag, Quantity, Rule, check_choice, check_instance,
-                          check_keys, fail)
+                          check_keys, fail, refuse_twice)
 from ..screenspace.burley import BACKEND, BURLEY_SPP
 from ..settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, like, setting
 
@@ -395,9 +395,9 @@ def _migrate(data: dict[str, Any], label: str) -> dict[str, Any]:
         if key not in own:
             continue
         value = own.pop(key)
-        if key in d and d[key] != value:
-            raise SettingsError(f"{label}: {key} is one setting now, but the file gives {key} = {d[key]!r} and "
-                                f"[{'sss' if method == 'separable' else method}] {key} = {value!r}; keep one")
+        if key in d and d[key] != value:  # (one setting now)
+            refuse_twice(f"{label}: {key} = {d[key]!r}", f"[{'sss' if method == 'separable' else method}] {key} = "
+                         f"{value!r}", key, SettingsError)
         d[key] = value
     d[_BY_TABLE["separable" if method == "separable" else "burley"].table] = own
     if method != "separable":  # the old layout's defaults, written out by save and never read by this pass
