@@ -408,7 +408,7 @@ def test_the_kernel_header_names_the_preset_built(run):
 
 @pytest.mark.parametrize("content, fragment", [
     ("width = 64\nheight = 48\n", "applies to a built-in scene, not a G-buffer file"),
-    ("method = 'separable'\n[burley]\nspp = 8\n", "never reads it"),
+    ("method = 'separable'\n[burley]\nspp = 8\n", "the [burley] table's spp applies to method burley, not method separable"),
 ])
 def test_settings_a_gbuffer_render_would_ignore(run, workdir, gbuffer_file, content, fragment):
     """A settings file's width/height with a G-buffer, and a [burley] table under method = separable, were ignored."""

@@ -166,7 +166,7 @@ def test_an_old_file_the_tree_cannot_hold_is_refused(tmp_path):
     with pytest.raises(SettingsError, match=r"seed = 4 and \[burley\] seed = 9 disagree; give seed once"):
         _load_old(tmp_path, two_seeds)
     unread = OLD_BURLEY.replace("[sss]\njitter = 0.1", "[sss]\njitter = 0.5")
-    with pytest.raises(SettingsError, match=r"the \[sss\] table sets jitter, but method = 'burley' never reads it"):
+    with pytest.raises(SettingsError, match=r"the \[sss\] table's jitter applies to method separable, not method burley"):
         _load_old(tmp_path, unread)
 
 

@@ -40,7 +40,7 @@ from ..screenspace.burley import BurleyParams, BurleySettings
 from ..screenspace.settings import PassSettings
 from ..quantities import (BURLEY_ALBEDO, FRAME, FRAMES, MFP_MM, PHOTONS, REFERENCE_SPP, REL_SE, SEED, SIZE_PX, SPP,
                           TAPS, TYPE, Choice, ErrorClass, Flag, Quantity, Rule, check_choice, check_instance,
-                          check_keys, fail, refuse_twice)
+                          check_keys, fail, refuse_twice, refuse_unused)
 from ..screenspace.burley import BACKEND, BURLEY_SPP
 from ..settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, like, setting
 
@@ -386,10 +386,9 @@ def _migrate(data: dict[str, Any], label: str) -> dict[str, Any]:
     if tables[other]:
         defaults = full[other]().to_dict()
         extra = sorted(k for k, v in tables[other].items() if defaults.get(k, object()) != v)
-        if extra:
-            old_name = "sss" if other == "separable" else other
-            raise SettingsError(f"{label}: the [{old_name}] table sets {', '.join(extra)}, but method = {method!r} never "
-                                f"reads it; remove the table or set method = {other!r}")
+        old_table = "sss" if other == "separable" else other
+        refuse_unused([f"{label}: the [{old_table}] table's {', '.join(extra)}"] if extra else [], "method", (other,), method,
+                      SettingsError)
     own = dict(tables[method] or {})
     for key in SHARED:
         if key not in own:
