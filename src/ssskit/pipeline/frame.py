@@ -40,6 +40,7 @@ from ..scenes.meshes import check_render_memory, shape_counts
 from ..scenes.scenefile import BUILTIN_DIR
 from ..scenes.scenes import mitsuba
 from ..profiles import check_model_domain
+from ..quantities import refuse_unused
 from ..screenspace import BurleyParams, GBuffer, load_gbuffer
 from ..profiles.base import RGBProfile
 from ..scenes.reference import Reference
@@ -249,9 +250,8 @@ def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
     if plan.gbuffer is not None:
         h, w = plan.gbuffer.shape
         size = (settings.width, settings.height)
-        if size not in (_default_size(), (w, h)):
-            raise SettingsError(f"the image size {size[0]}x{size[1]} (--size) does not apply to a G-buffer file: "
-                                f"{plan.label} is {w}x{h} and keeps its size")
+        refuse_unused([f"the image size {size[0]}x{size[1]} (--size)"] if size not in (_default_size(), (w, h)) else [],
+                      "a", ("built-in or mesh scene",), f"G-buffer {plan.label} ({w}x{h}: it keeps its size)", SettingsError)
         _refuse_no_sss(plan.gbuffer, f"the G-buffer {plan.label}", "its profile_id is 0 everywhere", SettingsError)
         _check_named_materials(plan.gbuffer, material, plan.label)
     for mat in plan.materials:  # a scene's own materials (a material map) are held to the model's domain too
