@@ -116,7 +116,7 @@ BAD = [
     (["render", "--scene", "g.exr", "--out", "./sub/../g.exr"], "would overwrite the input"),
     (["render", "--scene", "g.exr", "--save-gbuffer", "g.exr"], "--save-gbuffer 'g.exr' would overwrite the input"),
     (["render", "--scene", "slab", "--out", "a.exr", "--save-gbuffer", "a.exr"], "--save-gbuffer 'a.exr' is also the --out file"),
-    (["render", "--scene", "g.exr", "--reference"], "reference needs a built-in scene or a mesh (a G-buffer has no scene"),
+    (["render", "--scene", "g.exr", "--reference"], "reference applies to a built-in or mesh scene, not a G-buffer (it has no scene"),
     (["kernel", "--material", "m.json", "--model", "dipole", "--method", "artist", "--out", "m.json"],
      "would overwrite the input 'm.json'"),
     (["render", "--scene", "x.exr"], "'x.exr' is a directory"),
@@ -213,7 +213,7 @@ def test_bad_input_of_the_first_hour(run, workdir, args, fragment):
     ("tapz = 7\n", "unknown setting(s) tapz"),
     ("[sss]\njitter = 3\n", "jitter must lie in [0, 1], got 3"),
     ("kernel = 'svd:0'\n", "SVD rank"),
-    ("reference = true\n", "reference needs a built-in scene or a mesh (a G-buffer has no scene"),
+    ("reference = true\n", "reference applies to a built-in or mesh scene, not a G-buffer (it has no scene"),
     ("taps = \n", "malformed settings file"),
 ])
 def test_bad_settings_file(run, workdir, content, fragment):

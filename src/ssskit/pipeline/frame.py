@@ -178,8 +178,8 @@ def _scene(scene: SceneInput, settings: RenderSettings, material: Material | Lay
     # (any other value: resolve_scene's SceneError naming what a scene may be)
     resolved = scene if isinstance(scene, (GBuffer, ResolvedScene)) else resolve_scene(
         scene, width=settings.width, height=settings.height)
-    if settings.reference and (isinstance(resolved, GBuffer) or resolved.kind == "gbuffer"):
-        raise SettingsError("reference needs a built-in scene or a mesh (a G-buffer has no scene to path-trace)")
+    refuse_unused(["reference"] if settings.reference and (isinstance(resolved, GBuffer) or resolved.kind == "gbuffer")
+                  else [], "a", ("built-in or mesh scene",), "G-buffer (it has no scene to path-trace)", SettingsError)
     if isinstance(resolved, GBuffer):
         return ScenePlan(material, str(resolved.meta.get("scene", "G-buffer")), None, resolved, None)
     if resolved.kind == "gbuffer":
