@@ -228,11 +228,12 @@ class GBuffer:
 
     # ---- EXR ---------------------------------------------------------------------------------
     def save(self, path: str | Path) -> None:
-        """Write a multi-layer EXR (float32 layers, uint32 ids, ZIP), atomically (:func:`ssskit.io.write_exr`)."""
+        """Write a multi-layer EXR (float32 layers, uint32 ids, ZIP), atomically (:func:`ssskit.io.write_exr`); the
+        header names the materials where the G-buffer does (an empty list would name none for ids that are used)."""
         check_suffix(path, (".exr",), "G-buffer file")
-        attributes = {"ssskit_camera": json.dumps(self.camera.to_dict()),
-                      "ssskit_materials": json.dumps(list(self.materials)),
-                      "ssskit_meta": json.dumps(self.meta, default=str)}
+        attributes = {"ssskit_camera": json.dumps(self.camera.to_dict()), "ssskit_meta": json.dumps(self.meta, default=str)}
+        if self.materials:
+            attributes["ssskit_materials"] = json.dumps(list(self.materials))
         channels = {name: np.ascontiguousarray(getattr(self, name)) for name in LAYERS}
         if self.light_depth is not None and self.light is not None:
             channels["light_depth"] = np.ascontiguousarray(self.light_depth)
