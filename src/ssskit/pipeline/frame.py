@@ -178,8 +178,9 @@ def _scene(scene: SceneInput, settings: RenderSettings, material: Material | Lay
     # (any other value: resolve_scene's SceneError naming what a scene may be)
     resolved = scene if isinstance(scene, (GBuffer, ResolvedScene)) else resolve_scene(
         scene, width=settings.width, height=settings.height)
-    refuse_unused(["reference"] if settings.reference and (isinstance(resolved, GBuffer) or resolved.kind == "gbuffer")
-                  else [], "a", ("built-in or mesh scene",), "G-buffer (it has no scene to path-trace)", SettingsError)
+    if settings.reference and (isinstance(resolved, GBuffer) or resolved.kind == "gbuffer"):
+        refuse_unused(["reference"], "a", ("built-in or mesh scene",), "G-buffer (it has no scene to path-trace)",
+                      SettingsError)
     if isinstance(resolved, GBuffer):
         return ScenePlan(material, str(resolved.meta.get("scene", "G-buffer")), None, resolved, None)
     if resolved.kind == "gbuffer":
@@ -250,8 +251,9 @@ def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
     if plan.gbuffer is not None:
         h, w = plan.gbuffer.shape
         size = (settings.width, settings.height)
-        refuse_unused([f"the image size {size[0]}x{size[1]} (--size)"] if size not in (_default_size(), (w, h)) else [],
-                      "a", ("built-in or mesh scene",), f"G-buffer {plan.label} ({w}x{h}: it keeps its size)", SettingsError)
+        if size not in (_default_size(), (w, h)):
+            refuse_unused([f"the image size {size[0]}x{size[1]} (--size)"], "a", ("built-in or mesh scene",),
+                          f"G-buffer {plan.label} ({w}x{h}: it keeps its size)", SettingsError)
         _refuse_no_sss(plan.gbuffer, f"the G-buffer {plan.label}", "its profile_id is 0 everywhere", SettingsError)
         _check_named_materials(plan.gbuffer, material, plan.label)
     for mat in plan.materials:  # a scene's own materials (a material map) are held to the model's domain too

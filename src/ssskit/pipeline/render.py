@@ -166,9 +166,9 @@ def _kernel_plan(settings: RenderSettings) -> tuple[KernelMethod, dict[str, Any]
         check_params(method, params)
     elif named != settings.taps and settings.taps != _default("taps"):
         refuse_twice(f"kernel {label!r}", f"taps {settings.taps}", "the number of taps", SettingsError)
-    refuse_unused([f"tap_method {settings.tap_method!r}"] if settings.tap_method != _default("tap_method") else [], "a",
-                  ("tabulated kernel",), f"{method.name} kernel (an engine tap kernel ships its own tap placement)",
-                  SettingsError)
+    if settings.tap_method != _default("tap_method"):
+        refuse_unused([f"tap_method {settings.tap_method!r}"], "a", ("tabulated kernel",),
+                      f"{method.name} kernel (an engine tap kernel ships its own tap placement)", SettingsError)
     return method, params, None
 
 

@@ -96,8 +96,8 @@ def sequence_gbuffers(scene: str, material: str | Material, frames: int, first: 
     check_spp(spp)
     frames = int(FRAMES.check(frames, "frames", SettingsError))
     first = int(FRAME.within(hi=FRAME.hi - frames).check(first, "first", SettingsError))
-    mat = homogeneous(MATERIALS.get(material) if isinstance(material, str) else material, "the Burley pass",
-                      SettingsError)
+    given = MATERIALS.get(material) if isinstance(material, str) else material
+    mat = homogeneous(given, "the Burley pass", SettingsError)
     albedo = np.clip(burley_params_for_material(mat).albedo, 0.0, 1.0)
     out: list[GBuffer] = []
     cache: dict[int, GBuffer] = {}

@@ -386,17 +386,18 @@ def _migrate(data: dict[str, Any], label: str) -> dict[str, Any]:
     if tables[other]:
         defaults = full[other]().to_dict()
         extra = sorted(k for k, v in tables[other].items() if defaults.get(k, object()) != v)
-        old_table = "sss" if other == "separable" else other
-        refuse_unused([f"{label}: the [{old_table}] table's {', '.join(extra)}"] if extra else [], "method", (other,), method,
-                      SettingsError)
+        if extra:
+            old_table = "sss" if other == "separable" else other
+            refuse_unused([f"{label}: the [{old_table}] table's {', '.join(extra)}"], "method", (other,), method,
+                          SettingsError)
     own = dict(tables[method] or {})
     for key in SHARED:
         if key not in own:
             continue
         value = own.pop(key)
         if key in d and d[key] != value:  # (one setting now)
-            refuse_twice(f"{label}: {key} = {d[key]!r}", f"[{'sss' if method == 'separable' else method}] {key} = "
-                         f"{value!r}", key, SettingsError)
+            own_table = "sss" if method == "separable" else method
+            refuse_twice(f"{label}: {key} = {d[key]!r}", f"[{own_table}] {key} = {value!r}", key, SettingsError)
         d[key] = value
     d[_BY_TABLE["separable" if method == "separable" else "burley"].table] = own
     if method != "separable":  # the old layout's defaults, written out by save and never read by this pass
