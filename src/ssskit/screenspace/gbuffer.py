@@ -57,10 +57,14 @@ LIGHT_DEPTH = Quantity("light_depth", -math.inf, math.inf, "mm", "a light-space 
 #: dtype it is kept as, the quantity of its values (+inf where the range holds it: no surface; None: any finite
 #: value), what they are)
 LAYER_RULES: dict[str, tuple[tuple[int, ...], str, type, Quantity | None, str]] = {
-    "diffuse": ((3,), "f", np.float32, RADIANCE, "colour values"), "specular": ((3,), "f", np.float32, None, "values"),
-    "albedo": ((3,), "f", np.float32, None, "values"), "depth": ((), "f", np.float32, DEPTH_LAYER, "pixels"),
-    "normal": ((3,), "f", np.float32, None, "values"), "profile_id": ((), "iub", np.uint32, PROFILE_ID, "pixels"),
-    "light_depth": ((), "f", np.float32, LIGHT_DEPTH, "values")}
+    "diffuse": ((3,), "f", np.float32, RADIANCE, "colour values"),
+    "specular": ((3,), "f", np.float32, None, "values"),
+    "albedo": ((3,), "f", np.float32, None, "values"),
+    "depth": ((), "f", np.float32, DEPTH_LAYER, "pixels"),
+    "normal": ((3,), "f", np.float32, None, "values"),
+    "profile_id": ((), "iub", np.uint32, PROFILE_ID, "pixels"),
+    "light_depth": ((), "f", np.float32, LIGHT_DEPTH, "values"),
+}
 LAYERS = ("diffuse", "specular", "albedo", "depth", "normal", "profile_id")
 
 
