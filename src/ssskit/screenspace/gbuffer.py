@@ -281,8 +281,7 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
             raise GBufferError(f"G-buffer {str(p)!r}: layer 'profile_id' uses id {top} but the header "
                                f"'ssskit_materials' names {len(named)} material(s) {named!r} (id k is the k-th name)")
         materials = tuple(named)
-    light = check_instance(_header(p, header, "ssskit_light"), dict, f"G-buffer {str(p)!r}: header 'ssskit_light' "
-                           "(a JSON object)", GBufferError, optional=True)
+    light = _header(p, header, "ssskit_light")  # (a table: LightView.from_dict's rule, in GBuffer)
     try:  # (the camera record's and the layers' errors alike name the file)
         return GBuffer(diffuse=channels["diffuse"], albedo=channels["albedo"], depth=channels["depth"],
                        profile_id=channels["profile_id"], camera=camera if camera is not None else Camera.from_dict(record),
