@@ -19,7 +19,7 @@ from ..errors import KernelError, check_keywords
 from ..profiles.base import RGBProfile
 from ..registry import Registry
 from ..materials import ARTIST_PRESETS
-from ..quantities import Choice
+from ..quantities import Choice, check_instance
 from .base import MAX_SVD_RANK, SVD_RANK, AnyKernel, Kernel, TapKernel, _check_grid, default_grid, load_kernel, save_kernel
 from .burley_fit import ERROR_FUNCTION
 from .guided import GUIDE_K
@@ -192,9 +192,8 @@ def build_kernel(method: str, profile: RGBProfile | None = None, cell_mm: float 
     (cell_mm, n) (each default when None: :func:`default_grid`); ``params`` are the method's keywords (an
     unknown one is a KernelError naming the known ones)."""
     m = METHODS.get(method)
-    if not isinstance(profile, RGBProfile) and (profile is not None or m.needs_profile):  # (None: where it needs none)
-        raise KernelError(f"kernel method {m.name!r} needs a profile (an RGBProfile: "
-                          f"profile_for_material(material, model) makes one), got {type(profile).__name__}")
+    check_instance(profile, RGBProfile, f"the profile of kernel method {m.name!r} (profile_for_material(material, "
+                   "model) makes one)", KernelError, optional=not m.needs_profile)  # (None: where it needs none)
     takes = list(inspect.signature(m.builder).parameters)[3:]  # (after profile, cell_mm, n)
     check_keywords(f"kernel method {m.name!r}", params, takes, KernelError)
     if cell_mm is None or n is None:
