@@ -27,7 +27,7 @@ from ..profiles.burley import (
     burley_inverse_cdf,
     burley_radial_pdf,
 )
-from .base import Distribution, check_uniform
+from .base import UNIFORM, Distribution
 
 #: Xie 2020's least-squares constant for Eq. 21.
 XIE_C = 2.5715
@@ -60,7 +60,7 @@ class BurleyRadial(Distribution):
         return burley_cdf(r, self.d)  # Eq. 20
 
     def sample(self, u: ArrayLike) -> NDArray[np.float64]:
-        return burley_inverse_cdf(check_uniform(u), self.d)
+        return burley_inverse_cdf(UNIFORM.check_array(u, error=SamplingError), self.d)
 
 
 def xie_g(xi: ArrayLike, d: float, c: float = XIE_C) -> NDArray[np.float64]:
@@ -91,7 +91,7 @@ class BurleyRadialApprox(Distribution):
         self.d, self.c = d, c
 
     def sample(self, u: ArrayLike) -> NDArray[np.float64]:
-        return xie_g(check_uniform(u), self.d, self.c)
+        return xie_g(UNIFORM.check_array(u, error=SamplingError), self.d, self.c)
 
     def _t_of_r(self, r: ArrayLike) -> NDArray[np.float64]:
         """Solve g(t) = r / d for t = -log(1 - xi) >= 0 (g is increasing in t): Newton from r/(c d)."""
