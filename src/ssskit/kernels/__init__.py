@@ -19,7 +19,7 @@ from ..errors import KernelError, check_keywords
 from ..profiles.base import RGBProfile
 from ..registry import Registry
 from ..materials import ARTIST_PRESETS
-from ..quantities import Choice, check_instance
+from ..quantities import Choice, check_instance, refuse_unused
 from .base import MAX_SVD_RANK, SVD_RANK, AnyKernel, Kernel, TapKernel, _check_grid, default_grid, load_kernel, save_kernel
 from .burley_fit import ERROR_FUNCTION
 from .guided import GUIDE_K
@@ -159,13 +159,12 @@ def refuse_profile_options(method: KernelMethod, given: list[str], material: boo
     the option that names the method, ``--method`` or ``--kernel``; ``given``: the profile options given, as
     flags): a fixed engine kernel (``uses_profile`` False) reads no profile, so takes none of them; one that reads
     a profile only from a material (``needs_profile`` False) takes no model options without ``--material``."""
-    if given and not method.uses_profile:
-        raise KernelError(f"{given[0]} does not apply to {how} {method.name}, a fixed engine kernel that reads no "
-                          f"profile (its fit to a material's profile is {how} burley_fit)")
-    model_options = [g for g in given if g not in ("--material", "--albedo")]
-    if model_options and not material and not method.needs_profile:
-        raise KernelError(f"{model_options[0]} does not apply to {how} {method.name} without a --material (it then "
-                          "uses no profile)")
+    if not method.uses_profile:  # (e.g. --method jimenez2012, whose fit to a material's profile is burley_fit)
+        refuse_unused(given[:1], how, [n for n, m in METHODS.items() if m.uses_profile], method.name, KernelError)
+    if not material and not method.needs_profile:
+        refuse_unused([g for g in given if g not in ("--material", "--albedo")][:1], how,
+                      [*(n for n, m in METHODS.items() if m.needs_profile), f"{method.name} with a --material"],
+                      f"{method.name} without a --material", KernelError)
 
 
 def parse_method_spec(spec: str) -> tuple[KernelMethod, dict[str, Any], str]:
