@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import KernelError
 from ..materials import ARTIST_PRESETS
 from ..profiles.base import RadialProfile, RGBProfile
+from ..profiles.gaussians import WEIGHT_SUM
 from ..quantities import FRACTION, LENGTH_MM, Quantity, checks, rgb
 from .base import MAX_SVD_RANK, SVD_RANK, Kernel
 
@@ -127,10 +128,9 @@ def fit_gaussians_2d(channel: RadialProfile, count: int,
     x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
     sol = least_squares(resid, x0, method="trf", x_scale=1.0, max_nfev=200 * count, bounds=(lo, hi))
     w, _ = weights(sol.x)
-    if w.sum() <= 0:
-        raise KernelError("Gaussian fit failed: all weights vanished")
+    w *= total / WEIGHT_SUM.check(w.sum(), "the sum of the fitted Gaussian weights", KernelError)
     keep = w > 0
-    return w[keep] * (total / w.sum()), np.exp(2.0 * sol.x[keep])
+    return w[keep], np.exp(2.0 * sol.x[keep])
 
 
 def kernel_gaussians(profile: RGBProfile, cell_mm: float, n: int, count: int = 6) -> Kernel:
