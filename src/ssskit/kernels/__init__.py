@@ -177,8 +177,9 @@ def parse_method_spec(spec: str) -> tuple[KernelMethod, dict[str, Any], str]:
     method = METHODS.get(name)
     params: dict[str, Any] = {}
     if value:
-        if method.primary is None:
-            raise KernelError(f"kernel method {method.name!r} takes no parameter, got {text!r}")
+        if method.primary is None:  # (preintegrated:3)
+            refuse_unused([f"the parameter :{value}"], "kernel method", [n for n, m in METHODS.items() if m.primary],
+                          method.name, KernelError)
         params[method.primary] = method.parse(value)
         check_params(method, params)
     label = method.name + (f":{value}" if value else "")
