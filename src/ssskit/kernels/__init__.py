@@ -180,8 +180,9 @@ def parse_method_spec(spec: str) -> tuple[KernelMethod, dict[str, Any], str]:
         if method.primary is None:  # (preintegrated:3)
             refuse_unused([f"the parameter :{value}"], "kernel method", [n for n, m in METHODS.items() if m.primary],
                           method.name, KernelError)
-        params[method.primary] = method.parse(value)
-        check_params(method, params)
+        else:
+            params[method.primary] = method.parse(value)
+            check_params(method, params)
     label = method.name + (f":{value}" if value else "")
     return method, params, label
 
