@@ -247,8 +247,9 @@ def kernel_artist(profile: RGBProfile | None, cell_mm: float, n: int, preset: st
     """The artist-friendly separable model A_m(x, y) = a_m(x) a_m(y) (paper Eq. 6).
 
     ``preset`` is a Table 2 preset ("close fit", "production") or "fit" (:func:`fit_artist`);
-    explicit ``sigma_near``/``sigma_far`` (mm, positive) and ``weight`` (in [0, 1]), one number or three, override it
-    (a preset's and a fit's values are in range by construction). a_m integrates to 1; with
+    explicit ``sigma_near``/``sigma_far`` (mm, positive) and ``weight`` (in [0, 1]), one number or three each,
+    override it (a preset's are checked where it is made, :class:`~ssskit.materials.ArtistPreset`; a fit's are an
+    exp() and a logistic of its parameters). a_m integrates to 1; with
     ``match_energy`` (and a profile) each channel is scaled to the discrete ||Rd||_1 of the profile,
     standing in for the albedo the engine multiplies afterwards.
     """
