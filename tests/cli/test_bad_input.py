@@ -152,7 +152,7 @@ BAD = [
     (["kernel", "--method", "svd", "--material", "skin1", "--size", "50"], "--size must be an odd integer, got 50"),
     (["kernel", "--method", "jimenez2012", "--taps", "10"], "odd"),
     (["kernel", "--method", "jimenez2012", "--out", "k.txt"], "must end in .npz or .json"),
-    (["kernel", "--method", "jimenez2012", "--model", "dipole"], "--model does not apply to --method jimenez2012, a fixed engine kernel that reads no profile"),
+    (["kernel", "--method", "jimenez2012", "--model", "dipole"], "--model applies to --method svd or svd_l1 or gaussians or preintegrated or preintegrated_svd or artist or guided or burley_fit, not --method jimenez2012"),
     (["evaluate", "--material", "skin1", "--signal", "plaid"], "unknown signal 'plaid'"),
     (["evaluate", "--material", "skin1", "--methods", "svd:x"], "integer"),
     (["evaluate", "--model", "dipole"], "--material is required"),
@@ -185,7 +185,7 @@ FIRST_HOUR = [
     (["evaluate", "--material", "eta4.json", "--model", "dipole"], "the dipole model's relative index eta must lie in"),
     (["profile", "--material", "skin1", "--r-max", "1e308", "--out", "p.csv"], "--r-max must lie in (0, 1e+07] mm, got 1e+308 (10 times"),
     # options accepted and ignored, or computed twice
-    (["kernel", "--method", "jimenez2012", "--material", "skin1"], "--material does not apply to --method jimenez2012, a fixed engine kernel that reads no profile"),
+    (["kernel", "--method", "jimenez2012", "--material", "skin1"], "--material applies to --method svd or svd_l1 or gaussians or preintegrated or preintegrated_svd or artist or guided or burley_fit, not --method jimenez2012"),
     (["evaluate", "--material", "skin1", "--methods", "svd,svd:1"], "'svd:1' names the same kernel as 'svd'"),
     (["evaluate", "--material", "skin1", "--methods", "guided:0,preintegrated,guided:0"], "names the same kernel"),
     (["figures", "fig2", "fig2", "--model", "dipole"], "figure fig2 named more than once"),
