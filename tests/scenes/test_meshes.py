@@ -409,14 +409,14 @@ def test_a_mesh_too_large_for_memory_is_refused_with_the_estimate(tmp_path):
 
 def test_conflicting_units_are_refused(tmp_path):
     path = str(write_mesh(tmp_path / "ball.ply", _sphere()))
-    with pytest.raises(SceneError, match="conflicting units: mm, m"):
+    with pytest.raises(SceneError, match="--units mm and --units m disagree; give the units once"):
         resolve_scene(path, units=["mm", "m"])
     (tmp_path / "s.toml").write_text('units = "cm"\n[shapes.ball]\ntype = "mesh"\nfile = "ball.ply"\n')
-    with pytest.raises(SceneError, match="conflicting units: --units m, but .* says units = 'cm'"):
+    with pytest.raises(SceneError, match="--units m and .*s.toml: units cm disagree; give the units once"):
         resolve_scene(str(tmp_path / "s.toml"), units="m")
     with pytest.raises(SceneError, match="units must be one of mm, cm, m, got 'inch'"):
         resolve_scene(path, units="inch")
-    with pytest.raises(SceneError, match="--units does not apply to the built-in scene 'slab'"):
+    with pytest.raises(SceneError, match="--units applies to --scene a mesh file or a scene .toml, not --scene 'slab' \\(a built-in scene"):
         resolve_scene("slab", units="mm")
 
 

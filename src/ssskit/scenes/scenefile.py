@@ -59,7 +59,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
-from ..quantities import TYPE, Choice, Flag, Quantity, check_choice, check_fields, check_keys, check_shape, fail
+from ..quantities import (TYPE, Choice, Flag, Quantity, check_fields, check_keys, check_shape, fail, refuse_twice,
+                          refuse_unused)
 from ..io import parse_document, read_input
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
 from .scenes import SCENES, SceneSpec, _T, _ply, check_size
@@ -219,23 +220,23 @@ def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[st
 
 # ---- units ---------------------------------------------------------------------------------------------
 
-def check_units(units: str | Sequence[str] | None) -> str | None:
-    """One unit name of :data:`UNITS_MM`, or None; a SceneError for an unknown unit or for several
-    different ones (``--units`` given twice)."""
-    values = [] if units is None else list(units) if isinstance(units, (list, tuple)) else [units]
-    norm = [check_choice("units", u, UNITS_MM, SceneError) for u in values]  # (a TOML number is no unit name)
-    if len(set(norm)) > 1:
-        raise SceneError(f"conflicting units: {', '.join(norm)} (give --units once)")
-    return norm[0] if norm else None
+#: a mesh file's units (--units, a scene file's or a shape's ``units``)
+UNITS = Choice("units", tuple(UNITS_MM))
 
 
-def _agreeing_units(cli_units: str | None, given: Any, where: str) -> str | None:
-    """The units a scene file (or one of its shapes: ``where``) gives, or a SceneError if they are not the
-    command line's ``--units``."""
-    units = check_units(given)
-    if cli_units and units and cli_units != units:
-        raise SceneError(f"conflicting units: --units {cli_units}, but {where} says units = {units!r}")
-    return units
+def _units(*given: tuple[str, Any]) -> str | None:
+    """The one unit that the ``(where, value)`` pairs give (None where none is), each a name of :data:`UNITS_MM`:
+    ``--units`` given twice, or ``--units`` and a scene file's or a shape's ``units``, must agree (refuse_twice)."""
+    named = [(where, UNITS.check(v, where, SceneError)) for where, v in given if v is not None]  # (5 is no unit)
+    for (w1, u1), (w2, u2) in zip(named, named[1:]):
+        if u1 != u2:
+            refuse_twice(f"{w1} {u1}", f"{w2} {u2}", "the units", SceneError)
+    return named[0][1] if named else None
+
+
+def _cli_units(units: str | Sequence[str] | None) -> str | None:
+    """``--units`` (a name, or the names of an option given several times) as one unit name, or None."""
+    return _units(*(("--units", u) for u in ([] if units is None else [units] if isinstance(units, str) else units)))
 
 
 def _units_note(source: str, unit: str, assumed: bool, diameter_mm: float) -> str:
@@ -262,16 +263,14 @@ def parse_view(view: str | Sequence[float] | None) -> tuple[float, float, float]
         key = VIEW_ALIASES.get(view.strip().lower(), view.strip().lower())
         if key in VIEWS:
             return VIEWS[key]
-        try:
-            nums = [float(x) for x in view.split(",")]
-        except ValueError:
-            raise SceneError(f"view {view!r} is neither a preset ({', '.join([*VIEWS, *VIEW_ALIASES])}) nor "
-                             "AZIMUTH,ELEVATION[,DISTANCE]") from None
-    else:
-        nums = [float(x) for x in view]
+    try:
+        nums = [float(x) for x in (view.split(",") if isinstance(view, str) else view)]
+    except (TypeError, ValueError):
+        nums = []  # neither a preset nor numbers: refused below
     if len(nums) not in (2, 3):
-        raise fail(SceneError, TYPE, name="view", kind="AZIMUTH,ELEVATION[,DISTANCE] (degrees, degrees, a multiple "
-                   "of the framing distance)", actual=repr(view))
+        raise fail(SceneError, TYPE, name="view", kind=f"a preset ({', '.join([*VIEWS, *VIEW_ALIASES])}) or "
+                   "AZIMUTH,ELEVATION[,DISTANCE] (degrees, degrees, a multiple of the framing distance)",
+                   actual=repr(view))
     return (ANGLE_DEG.check(nums[0], "view azimuth", SceneError), ELEVATION_DEG.check(nums[1], "view elevation",
             SceneError), VIEW_DISTANCE.check(nums[2] if len(nums) == 3 else 1.0, "view distance", SceneError))
 
@@ -396,8 +395,8 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                         "light_orbit_deg_per_frame", "lit_from_behind", "views"}, {"shapes"})
     Flag("lit_from_behind").check(doc.get("lit_from_behind", False), f"{source}: lit_from_behind", SceneError)
     check_size(width, height)
-    cli_units = check_units(units)
-    doc_units = _agreeing_units(cli_units, doc.get("units"), source)
+    cli_units = _cli_units(units)
+    doc_units = _units(("--units", cli_units), (f"{source}: units", doc.get("units")))
     material_map = dict(material_map or {})
     shapes_doc = check_keys(doc["shapes"], f"{source}: [shapes]", error=SceneError)
     if not shapes_doc:
@@ -424,8 +423,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             if base is not None and not fpath.is_absolute():
                 fpath = base / fpath
             inspect_mesh_file(fpath, width, height)
-            shape_units = _agreeing_units(cli_units, table.get("units"), where)
-            unit = cli_units or shape_units or doc_units
+            unit = _units(("--units", cli_units), (f"{where}: units", table.get("units"))) or doc_units
             assumed = unit is None
             unit = unit or DEFAULT_UNITS[FORMATS[fpath.suffix.lower()]]
             meshes = read_mesh(fpath)
@@ -631,6 +629,14 @@ GENERATED_SCENES: dict[str, dict[str, Any]] = {"bust": {"generator": "bust"},
                                                                  "n_minor": 48}}}
 
 
+#: what a --scene value is (:func:`resolve_scene`), in its messages
+SCENE_KINDS = {"generated": "a generated mesh", "mesh": "a mesh file", "file": "a scene .toml",
+               "views": "a built-in scene with named views"}
+#: the --scene kinds each scene option applies to; given with another, it is refused (refuse_unused)
+SCENE_OPTIONS = {"--units": ("mesh", "file"), "--material-map": ("generated", "mesh", "file"),
+                 "--view": ("generated", "mesh", "file", "views")}
+
+
 @dataclass(frozen=True)
 class ResolvedScene:
     """What a ``--scene`` value names: ``kind`` ``builtin`` | ``generated`` | ``mesh`` | ``file`` (a scene
@@ -708,7 +714,7 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
     from ..materials import get_material
 
     mmap = parse_material_map(material_map)
-    cli_units = check_units(units)
+    cli_units = _cli_units(units)
     if isinstance(value, SceneSpec):
         return ResolvedScene("builtin", value.name, spec=value)
     if not isinstance(value, (str, os.PathLike)):
@@ -717,51 +723,46 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
     text = os.fspath(value)
     suffix = Path(text).suffix.lower()
 
-    def no_options(what: str, applies: tuple[str, ...] = ()) -> None:
-        """Refuse the options given that do not apply to ``what`` (all but ``applies``)."""
-        given = [n for n, v in (("--units", cli_units), ("--material-map", mmap), ("--view", view))
-                 if v and n not in applies]
-        if given:
-            raise SceneError(f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} not apply to {what}")
-
     if text in SCENES:
         spec = SCENES.get(text)
-        if view is not None and spec.views:  # a built-in scene with named cameras (the head's close, ear, front)
-            no_options(f"the built-in scene {text!r}", applies=("--view",))
-            spec = with_view(spec, view)
-        else:
-            no_options(f"the built-in scene {text!r} (fixed camera and primitives)")
-        return ResolvedScene("builtin", spec.name, spec=spec)
-    if suffix == ".exr":
-        no_options("a G-buffer file")
+        kind, what = ("views", "a built-in scene") if spec.views else ("builtin", "a built-in scene: fixed camera and "
+                                                                         "primitives")
+    elif suffix == ".exr":
+        kind, what = "gbuffer", "a G-buffer file"
+    elif text.strip().lower() in GENERATED_SCENES:
+        kind, what = "generated", "a generated mesh, made in mm"
+    elif suffix in FORMATS or suffix == ".toml":
+        kind, what = ("mesh", "a mesh file") if suffix in FORMATS else ("file", "a scene .toml")
+    elif Path(text).suffix or os.sep in text or Path(text).exists():
+        raise SceneError(f"scene {text!r}: unknown format {suffix or '(no suffix)'!r} (a mesh "
+                         f"{', '.join(FORMATS)}, a scene .toml or a G-buffer .exr)")
+    else:
+        raise SceneError(unknown_scene_message(text))
+    for flag, given in (("--units", cli_units), ("--material-map", mmap), ("--view", view)):
+        refuse_unused([flag] if given and kind not in SCENE_OPTIONS[flag] else [], "--scene",
+                      [SCENE_KINDS[k] for k in SCENE_OPTIONS[flag]], f"{text!r} ({what})", SceneError)
+    if kind in ("builtin", "views"):
+        return ResolvedScene("builtin", spec.name, spec=spec if view is None else with_view(spec, view))
+    if kind == "gbuffer":
         return ResolvedScene("gbuffer", Path(text).name, path=Path(text))
-    if text.strip().lower() in GENERATED_SCENES:
+    if kind == "generated":
         name = text.strip().lower()
-        no_options(f"the generated {name!r} (made in mm)", applies=("--material-map", "--view"))
         doc = {"name": name, "description": f"the generated {name} (mm)",
                "shapes": {name: {"type": "generated", **GENERATED_SCENES[name]}}}
         loaded = scene_from_document(doc, None, name, material_map=mmap, view=view, width=width, height=height)
-        kind = "generated"
-    elif suffix in FORMATS:
+    elif kind == "mesh":
         p = Path(text)
         doc = {"name": p.stem, "description": f"the mesh {p.name}", "shapes": {p.stem: {"type": "mesh", "file": text}}}
         loaded = scene_from_document(doc, None, text, units=cli_units, material_map=mmap, view=view, width=width,
                                      height=height)
-        kind = "mesh"
-    elif suffix == ".toml":
-        loaded = load_scene_file(text, units=cli_units, material_map=mmap, view=view, width=width, height=height)
-        kind = "file"
     else:
-        if Path(text).suffix or os.sep in text or Path(text).exists():
-            raise SceneError(f"scene {text!r}: unknown format {suffix or '(no suffix)'!r} (a mesh "
-                             f"{', '.join(FORMATS)}, a scene .toml or a G-buffer .exr)")
-        raise SceneError(unknown_scene_message(text))
+        loaded = load_scene_file(text, units=cli_units, material_map=mmap, view=view, width=width, height=height)
     for mat in {m for m in loaded.spec.sss_materials if m}:
         get_material(mat)
     return ResolvedScene(kind, loaded.spec.name, spec=loaded.spec, notes=loaded.notes, objects=loaded.objects)
 
 
 __all__ = ["BUILTIN_DIR", "DEFAULT_LIGHTS", "GENERATED_SCENES", "GENERATORS", "LoadedScene", "MeshObject",
-           "OTHER_LIGHT", "ResolvedScene", "VIEWS", "builtin_scene_files", "check_units", "direction", "framing",
+           "OTHER_LIGHT", "ResolvedScene", "UNITS", "VIEWS", "builtin_scene_files", "direction", "framing",
            "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document",
            "unknown_scene_message", "with_view"]
