@@ -398,9 +398,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     cli_units = _cli_units(units)
     doc_units = _units(("--units", cli_units), (f"{source}: units", doc.get("units")))
     material_map = dict(material_map or {})
-    shapes_doc = check_keys(doc["shapes"], f"{source}: [shapes]", error=SceneError)
-    if not shapes_doc:
-        raise SceneError(f"{source}: [shapes] must hold at least one shape table")
+    shapes_doc = check_keys(doc["shapes"], f"{source}: [shapes]", error=SceneError)  # (none: no SSS shape, below)
     notes: list[str] = []
     shapes: dict[str, dict] = {}
     sss: list[str] = []
@@ -432,11 +430,11 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             _keys(where, table, {"type", "generator", "params", "material", "materials", "sss"}, {"generator"})
             gen, params = str(table["generator"]), dict(table.get("params", {}))
             if gen == "head":  # the scan's scale and the credit its licence asks for (ssskit.scenes.head)
-                from .head import ATTRIBUTION, LICENCE, MM_PER_UNIT, check_mm_per_unit
+                from .head import ATTRIBUTION, HEAD_SCALE, LICENCE, MM_PER_UNIT
 
                 check_keys(params, f"{where}: the head generator's params", {"mm_per_unit"}, error=SceneError)
-                about.update({"attribution": ATTRIBUTION, "licence": LICENCE,
-                              "mm_per_unit": check_mm_per_unit(params.get("mm_per_unit", MM_PER_UNIT)),
+                head_scale = HEAD_SCALE.check(params.get("mm_per_unit", MM_PER_UNIT), "head mm_per_unit", SceneError)
+                about.update({"attribution": ATTRIBUTION, "licence": LICENCE, "mm_per_unit": head_scale,
                               "scale_evidence": "docs/head.md, Scale"})
             if gen in DIRECT_GENERATORS:  # the built-in scenes' geometry, made when the scene is rendered
                 shapes[sid] = {"__thunk": (gen, params)}
