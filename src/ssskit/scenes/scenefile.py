@@ -59,8 +59,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
-from ..quantities import (TYPE, Choice, Flag, Quantity, check_fields, check_keys, check_shape, fail, refuse_twice,
-                          refuse_unused)
+from ..quantities import (TYPE, Choice, Flag, Quantity, check_fields, check_instance, check_keys, check_shape,
+                          fail, refuse_twice, refuse_unused)
 from ..io import parse_document, read_input
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
 from .scenes import SCENES, SceneSpec, _T, _ply, check_size
@@ -276,14 +276,11 @@ def parse_view(view: str | Sequence[float] | None) -> tuple[float, float, float]
 
 
 def _basis(up: Sequence[float], front: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    u = np.asarray(up, float)
-    f = np.asarray(front, float)
-    if u.shape != (3,) or f.shape != (3,) or not (np.linalg.norm(u) > 0 and np.linalg.norm(f) > 0):
-        raise SceneError(f"camera up and front must be non-zero 3-vectors, got {up!r}, {front!r}")
+    u, f = (np.asarray(_point(f"camera {key}", v)) for key, v in (("up", up), ("front", front)))
+    if not np.linalg.norm(np.cross(u, f)) > 1e-9 * np.linalg.norm(u) * np.linalg.norm(f):
+        raise SceneError(f"camera up {up!r} and front {front!r} must be non-zero and not parallel")
     u = u / np.linalg.norm(u)
     f = f - u * (u @ f)
-    if np.linalg.norm(f) < 1e-9:
-        raise SceneError(f"camera front {front!r} is parallel to up {up!r}")
     f /= np.linalg.norm(f)
     return u, f, np.cross(u, f)  # up, front, side (+X for glTF's axes)
 
@@ -715,10 +712,7 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
     cli_units = _cli_units(units)
     if isinstance(value, SceneSpec):
         return ResolvedScene("builtin", value.name, spec=value)
-    if not isinstance(value, (str, os.PathLike)):
-        raise SceneError(f"scene must be a built-in scene name, a mesh, a scene .toml or a G-buffer .exr, "
-                         f"got {type(value).__name__}")
-    text = os.fspath(value)
+    text = os.fspath(check_instance(value, (str, os.PathLike), "scene", SceneError))  # (a name or a file)
     suffix = Path(text).suffix.lower()
 
     if text in SCENES:
