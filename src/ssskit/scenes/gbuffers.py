@@ -36,13 +36,16 @@ from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, IMAGE_SIDE, RENDER_SPP, Scene
 ID_SCALE = 1024.0
 
 
-def _per_shape(name: str, value: ArrayLike, n: int, shape: tuple[int, ...]) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape == shape or arr.shape == () or arr.shape == (1,):
-        return np.broadcast_to(arr.reshape(shape if arr.shape == shape else ()), (n, *shape)).copy()
-    if arr.shape == (n, *shape):
-        return arr
-    raise SceneError(f"{name} must have shape {shape or '()'} or one per SSS shape ({n}), got {arr.shape}")
+def _per_shape(name: str, value: ArrayLike, n: int, shape: tuple[int, ...], quantity: Quantity) -> np.ndarray:
+    """``value`` for each of the ``n`` SSS shapes, (n, *shape) float64: one value (of ``shape``, or a number) for
+    all, or one per shape, each a real in ``quantity``'s range."""
+    arr = np.asarray(value)
+    if arr.shape in (shape, (), (1,)):
+        arr = np.broadcast_to(arr.reshape(shape if arr.shape == shape else ()), (n, *shape))
+    if arr.shape != (n, *shape) or arr.dtype.kind not in "iuf":  # (a bool is no number)
+        raise fail(SceneError, TYPE, name=name, kind=f"a real array of shape {shape} or {(n, *shape)}, one per SSS "
+                   "shape", actual=f"shape {np.shape(value)} {arr.dtype}")
+    return quantity.check_array(arr, name, SceneError)
 
 
 def _light_layers(spec: SceneSpec, width: int, height: int, frame: int, wanted: bool) -> dict:
@@ -70,11 +73,8 @@ def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float | Array
     """
     spec = get_scene(scene)
     n = len(spec.sss_shapes)
-    alb = _per_shape("albedo", albedo, n, (3,))
-    REFLECTANCE.check_array(alb, "albedo", SceneError)
-    if isinstance(eta, bool):
-        raise fail(SceneError, TYPE, name="eta", kind="a number", actual=repr(eta))
-    etas = INDEX.check_array(_per_shape("eta", eta, n, ()), "eta", SceneError)
+    alb = _per_shape("albedo", albedo, n, (3,), REFLECTANCE)
+    etas = _per_shape("eta", eta, n, (), INDEX)
     names = (material,) * n if isinstance(material, str) else tuple(str(m) for m in material)
     if len(names) != n:
         raise SceneError(f"material names one per SSS shape ({n}), got {len(names)}")
