@@ -395,7 +395,9 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     cli_units = _cli_units(units)
     doc_units = _units(("--units", cli_units), (f"{source}: units", doc.get("units")))
     material_map = dict(material_map or {})
-    shapes_doc = check_keys(doc["shapes"], f"{source}: [shapes]", error=SceneError)  # (none: no SSS shape, below)
+    for section in ("camera", "shapes", "lights", "views"):  # the file's tables (camera = 5 was a TypeError)
+        check_keys(doc.get(section, {}), f"{source}: [{section}]", error=SceneError)
+    shapes_doc = doc["shapes"]  # (none: no SSS shape, below)
     notes: list[str] = []
     shapes: dict[str, dict] = {}
     sss: list[str] = []
@@ -487,13 +489,9 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     cam = dict(doc.get("camera", {}))
     explicit = "origin" in cam
     if explicit:
-        _keys(f"{source}: [camera]", cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
         if view is not None:
             raise SceneError(f"--view needs automatic framing, but {source} places its camera (origin, target)")
-        origin = tuple(cam["origin"])
-        target = tuple(cam["target"])
-        up = tuple(cam["up"])
-        fov = cam["fov"]
+        origin, target, up, fov = _camera(f"{source}: [camera]", cam)
     else:
         _keys(f"{source}: [camera]", cam, {"view", "azimuth", "elevation", "distance", "fov", "up", "front"})
         if view is None and "view" in cam:
@@ -545,15 +543,17 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
 def _named_views(source: str, table: Any, explicit: bool) -> tuple[tuple[str, tuple], ...]:
     """A scene's named cameras (``[views.NAME]``: origin, target, up, fov, as an explicit [camera]): what
     ``--view NAME`` picks for that scene; only beside an explicit camera."""
-    if check_keys(table, f"{source}: views (named cameras)", error=SceneError) and not explicit:
+    if table and not explicit:  # (a table: scene_from_document)
         raise SceneError(f"{source}: named [views] need an explicit [camera] (origin, target, up, fov)")
-    out = []
-    for name, cam in table.items():
-        where = f"{source}: view {name!r}"
-        _keys(where, cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
-        origin, target, up = (tuple(_point(f"{where}: {key}", cam[key])) for key in ("origin", "target", "up"))
-        out.append((str(name).lower(), (origin, target, up, float(FOV_DEG.check(cam["fov"], f"{where}: fov", SceneError)))))
-    return tuple(out)
+    return tuple((str(name).lower(), _camera(f"{source}: view {name!r}", cam)) for name, cam in table.items())
+
+
+def _camera(where: str, cam: Any) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], float]:
+    """An explicit camera (``[camera]`` with an origin, or a ``[views.NAME]``): its origin, target and up (points,
+    world mm) and its horizontal fov (degrees), each checked."""
+    _keys(where, cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
+    origin, target, up = (tuple(_point(f"{where}: {key}", cam[key])) for key in ("origin", "target", "up"))
+    return origin, target, up, float(FOV_DEG.check(cam["fov"], f"{where}: fov", SceneError))
 
 
 def _shape_material(sid: str, table: Mapping[str, Any], material_map: Mapping[str, str], claimed: set[str]) -> str:
