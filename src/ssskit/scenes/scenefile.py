@@ -717,8 +717,8 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
 
     if text in SCENES:
         spec = SCENES.get(text)
-        kind, what = ("views", "a built-in scene") if spec.views else ("builtin", "a built-in scene: fixed camera and "
-                                                                         "primitives")
+        kind = "views" if spec.views else "builtin"
+        what = "a built-in scene" if spec.views else "a built-in scene: fixed camera and primitives"
     elif suffix == ".exr":
         kind, what = "gbuffer", "a G-buffer file"
     elif text.strip().lower() in GENERATED_SCENES:
