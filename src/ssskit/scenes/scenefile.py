@@ -548,7 +548,7 @@ def _named_views(source: str, table: Any, explicit: bool) -> tuple[tuple[str, tu
     return tuple((str(name).lower(), _camera(f"{source}: view {name!r}", cam)) for name, cam in table.items())
 
 
-def _camera(where: str, cam: Any) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], float]:
+def _camera(where: str, cam: Any) -> tuple[tuple, tuple, tuple, float]:
     """An explicit camera (``[camera]`` with an origin, or a ``[views.NAME]``): its origin, target and up (points,
     world mm) and its horizontal fov (degrees), each checked."""
     _keys(where, cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
