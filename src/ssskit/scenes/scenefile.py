@@ -119,6 +119,11 @@ RELATIVE_LIGHT: dict[str, Quantity] = {
                           hi_open=True)}
 #: the keys of an explicit Mitsuba light, by its type (each required)
 EXPLICIT_KEYS = {"point": ("intensity", "position"), "sphere": ("center", "radiance", "radius")}
+#: a scene file's numbers and flags at its top level, and their defaults
+ORBIT = Quantity("orbit", -math.inf, math.inf, "degrees per frame", "the camera's or the lights' turn per frame", **_ANY)
+SCENE_FIELDS: dict[str, Quantity | Flag] = {"orbit_deg_per_frame": ORBIT, "light_orbit_deg_per_frame": ORBIT,
+                                            "lit_from_behind": Flag("lit_from_behind")}
+SCENE_DEFAULTS = {"orbit_deg_per_frame": 2.0, "light_orbit_deg_per_frame": 0.0, "lit_from_behind": False}
 #: a shape's types (docs/meshes.md)
 SHAPE_TYPE = Choice("type", ("mesh", "generated", "sphere", "rectangle", "cube"))
 #: an explicit Mitsuba light's numbers (the ones that take one number or three [R, G, B]; the points take three)
@@ -224,19 +229,16 @@ def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[st
 UNITS = Choice("units", tuple(UNITS_MM))
 
 
-def _units(*given: tuple[str, Any]) -> str | None:
-    """The one unit that the ``(where, value)`` pairs give (None where none is), each a name of :data:`UNITS_MM`:
-    ``--units`` given twice, or ``--units`` and a scene file's or a shape's ``units``, must agree (refuse_twice)."""
-    named = [(where, UNITS.check(v, where, SceneError)) for where, v in given if v is not None]  # (5 is no unit)
+def check_units(units: str | Sequence[str] | None, *given: tuple[str, Any]) -> str | None:
+    """One unit name of :data:`UNITS_MM`, or None: ``units`` (``--units``, given once or several times) and the
+    ``(where, value)`` pairs of a scene file's or a shape's ``units`` must name one unit; a SceneError for an
+    unknown unit, or for two that disagree (refuse_twice)."""
+    named = [("--units", u) for u in ([] if units is None else [units] if isinstance(units, str) else units)]
+    named = [(w, UNITS.check(u, w, SceneError)) for w, u in named + [(w, v) for w, v in given if v is not None]]
     for (w1, u1), (w2, u2) in zip(named, named[1:]):
         if u1 != u2:
             refuse_twice(f"{w1} {u1}", f"{w2} {u2}", "the units", SceneError)
     return named[0][1] if named else None
-
-
-def _cli_units(units: str | Sequence[str] | None) -> str | None:
-    """``--units`` (a name, or the names of an option given several times) as one unit name, or None."""
-    return _units(*(("--units", u) for u in ([] if units is None else [units] if isinstance(units, str) else units)))
 
 
 def _units_note(source: str, unit: str, assumed: bool, diameter_mm: float) -> str:
@@ -390,10 +392,10 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     """
     _keys(source, doc, {"name", "description", "units", "camera", "shapes", "lights", "orbit_deg_per_frame",
                         "light_orbit_deg_per_frame", "lit_from_behind", "views"}, {"shapes"})
-    Flag("lit_from_behind").check(doc.get("lit_from_behind", False), f"{source}: lit_from_behind", SceneError)
+    top = {**SCENE_DEFAULTS, **check_fields(doc, SCENE_FIELDS, source, SceneError)}  # (orbit = "x" was a ValueError)
     check_size(width, height)
-    cli_units = _cli_units(units)
-    doc_units = _units(("--units", cli_units), (f"{source}: units", doc.get("units")))
+    cli_units = check_units(units)
+    doc_units = check_units(cli_units, (f"{source}: units", doc.get("units")))
     material_map = dict(material_map or {})
     for section in ("camera", "shapes", "lights", "views"):  # the file's tables (camera = 5 was a TypeError)
         check_keys(doc.get(section, {}), f"{source}: [{section}]", error=SceneError)
@@ -420,7 +422,7 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             if base is not None and not fpath.is_absolute():
                 fpath = base / fpath
             inspect_mesh_file(fpath, width, height)
-            unit = _units(("--units", cli_units), (f"{where}: units", table.get("units"))) or doc_units
+            unit = check_units(cli_units, (f"{where}: units", table.get("units"))) or doc_units
             assumed = unit is None
             unit = unit or DEFAULT_UNITS[FORMATS[fpath.suffix.lower()]]
             meshes = read_mesh(fpath)
@@ -529,11 +531,11 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     desc = str(doc.get("description", f"meshes from {source}"))
     spec = SceneSpec(str(doc.get("name", source)), desc, origin, target, up, float(fov),
                      _frozen_dicts(shapes), tuple(sss), _frozen_dicts(lights),
-                     orbit_deg_per_frame=float(doc.get("orbit_deg_per_frame", 2.0)),
-                     light_orbit_deg_per_frame=float(doc.get("light_orbit_deg_per_frame", 0.0)),
+                     orbit_deg_per_frame=top["orbit_deg_per_frame"],
+                     light_orbit_deg_per_frame=top["light_orbit_deg_per_frame"],
                      sss_materials=tuple(sss_materials) if any(sss_materials) else (),
                      reference_problem="; ".join(problems) or None,
-                     lit_from_behind=bool(doc.get("lit_from_behind", False)),
+                     lit_from_behind=top["lit_from_behind"],
                      about=tuple(about.items()), views=views)
     for write in deferred:
         write()
@@ -709,7 +711,7 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
     from ..materials import get_material
 
     mmap = parse_material_map(material_map)
-    cli_units = _cli_units(units)
+    cli_units = check_units(units)
     if isinstance(value, SceneSpec):
         return ResolvedScene("builtin", value.name, spec=value)
     text = os.fspath(check_instance(value, (str, os.PathLike), "scene", SceneError))  # (a name or a file)
@@ -755,6 +757,6 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
 
 
 __all__ = ["BUILTIN_DIR", "DEFAULT_LIGHTS", "GENERATED_SCENES", "GENERATORS", "LoadedScene", "MeshObject",
-           "OTHER_LIGHT", "ResolvedScene", "UNITS", "VIEWS", "builtin_scene_files", "direction", "framing",
+           "OTHER_LIGHT", "ResolvedScene", "UNITS", "VIEWS", "builtin_scene_files", "check_units", "direction", "framing",
            "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document",
            "unknown_scene_message", "with_view"]
