@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from collections.abc import Sequence
@@ -315,8 +314,7 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
     """
     spec = get_scene(scene)
     max_spp = int(spp) if max_spp is None else max_spp  # (an integer at least spp, so at least 1:)
-    Quantity("max_spp", spp, math.inf, "", "the spp budget: at least the minimum spp", integer=True,
-             hi_open=True).check(max_spp, "max_spp", SceneError)
+    RENDER_SPP.within(lo=spp, reason="the spp budget: at least the minimum spp").check(max_spp, "max_spp", SceneError)
     check_reference_scene(spec)
     mats = shape_materials(spec, material)
     g = reference_phase_g(mats[0])
