@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import SceneError
 from ..quantities import Quantity, checks
 from ..settings import HEAD_ATTRIBUTION
-from .meshes import Mesh
+from .meshes import Mesh, ply_header
 
 #: the credit the licence (CC BY 3.0) asks of whoever ships or shows the scan
 ATTRIBUTION = HEAD_ATTRIBUTION
@@ -49,12 +49,7 @@ def read_head_ply(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     """The arrays of the head's binary little-endian PLY (``x y z nx ny nz s t`` float32 per vertex, a
     uchar-counted int32 list per face, every face a triangle): ``vertices``, ``normals``, ``uvs``
     (V, 3|2) float32 and ``faces`` (F, 3) int32, values as stored."""
-    data = Path(path).read_bytes()
-    end = data.find(b"end_header\n")
-    if not data.startswith(b"ply\n") or end < 0:
-        raise SceneError(f"{str(path)!r} is not a PLY file")
-    header = data[:end].decode("ascii").splitlines()
-    body = data[end + len(b"end_header\n"):]
+    header, body = ply_header(Path(path))  # (the PLY magic and end_header: meshes' rules)
     props = [ln.split()[-1] for ln in header if ln.startswith("property float")]
     counts = {ln.split()[1]: int(ln.split()[2]) for ln in header if ln.startswith("element")}
     if ("format binary_little_endian 1.0" not in header or props != ["x", "y", "z", "nx", "ny", "nz", "s", "t"]

@@ -206,13 +206,19 @@ def _gltf_counts(p: Path) -> MeshCounts:
     return MeshCounts(nv, nf)
 
 
-def _ply_counts(p: Path) -> MeshCounts:
-    head = _head(p, 1 << 16)
-    end = head.find(b"end_header")
+def ply_header(p: Path, size: int = -1) -> tuple[list[str], bytes]:
+    """The header lines of the PLY file ``p`` (in its first ``size`` bytes; -1: all) and the bytes after them, or a
+    SceneError without the PLY magic or an ``end_header``."""
+    data = _head(p, size)
+    end = data.find(b"end_header")
     if end < 0:
         raise SceneError(f"mesh {str(p)!r}: PLY header has no end_header")
+    return data[:end].decode("ascii", "replace").splitlines(), data[end + len(b"end_header\n"):]
+
+
+def _ply_counts(p: Path) -> MeshCounts:
     counts = {}
-    for line in head[:end].decode("ascii", "replace").splitlines():
+    for line in ply_header(p, 1 << 16)[0]:
         parts = line.split()
         if len(parts) == 3 and parts[0] == "element" and parts[2].isdigit():
             counts[parts[1]] = int(parts[2])
@@ -554,4 +560,4 @@ def write_mesh(path: str | os.PathLike[str], meshes: Mesh | Sequence[Mesh]) -> P
 __all__ = ["BYTES_PER_FACE", "BYTES_PER_PIXEL", "FORMATS", "Mesh", "MeshCounts", "Topology", "UNITS_MM",
            "available_memory", "bounding_sphere", "check_area", "check_mesh", "check_mesh_path",
            "check_render_memory", "inspect_mesh_file", "memory_estimate", "mesh_counts", "ply_bytes", "read_mesh",
-           "shape_counts", "surface_area", "topology", "write_mesh"]
+           "ply_header", "shape_counts", "surface_area", "topology", "write_mesh"]
