@@ -49,7 +49,8 @@ from ..quantities import FRAME, REFLECTANCE, REL_SE, SEED, Choice, Quantity, che
 
 #: the path tracer's longest path (Mitsuba's max_depth): at least the camera's ray
 MAX_DEPTH = Quantity("max_depth", 1, 2**31 - 1, "", "bounces of a path, the camera's ray the first", integer=True)
-from .scenes import COAT_ROUGHNESS, IMAGE_SIDE, RENDER_SPP, SceneSpec, check_size, get_scene, mitsuba, scene_dict
+from .scenes import (COAT_ROUGHNESS, IMAGE_SIDE, RENDER_SPP, SceneSpec, check_size, get_scene, mitsuba, per_shape,
+                     scene_dict)
 from .mitsuba_variant import interruptible_render, load_scene
 
 #: bumped when the reference renders change (invalidates the cache). 3: a unique seed per mi.render
@@ -254,12 +255,8 @@ def check_reference_scene(spec: SceneSpec) -> None:
 def shape_materials(spec: SceneSpec, material: Any) -> tuple[Any, ...]:
     """One material per SSS shape of ``spec``: ``material`` (a Material) for each, or a sequence of
     len(sss_shapes) Materials (the scene's own per-object materials, resolved by the caller)."""
-    if isinstance(material, (list, tuple)):
-        if len(material) != len(spec.sss_shapes):
-            raise SceneError(f"the reference needs one material per SSS shape ({len(spec.sss_shapes)}), "
-                             f"got {len(material)}")
-        return tuple(material)
-    return (material,) * len(spec.sss_shapes)
+    return per_shape("the reference's materials", material, len(spec.sss_shapes),
+                     lambda m: not isinstance(m, (list, tuple)))
 
 
 def geometry_key(spec: SceneSpec) -> str:
