@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError, check_keywords
-from ..quantities import FRAME, FRAMES, REFLECTANCE, TYPE, Quantity, checks, fail
+from ..quantities import FRAME, FRAMES, REFLECTANCE, Quantity, check_shape, checks
 
 #: a surface's refractive index in the G-buffer render (its boundary): positive
 INDEX = Quantity("eta", 0.0, 1e6, "", "a refractive index", lo_open=True)
@@ -38,14 +38,12 @@ ID_SCALE = 1024.0
 
 def _numbers_per_shape(name: str, value: ArrayLike, n: int, shape: tuple[int, ...], quantity: Quantity) -> np.ndarray:
     """``value`` for each of the ``n`` SSS shapes, (n, *shape) float64: one value (of ``shape``, or a number) for
-    all, or one per shape, each a real in ``quantity``'s range."""
+    all, or one per shape (:func:`~ssskit.scenes.scenes.per_shape`), each a real in ``quantity``'s range."""
     arr = np.asarray(value)
-    if arr.shape in (shape, (), (1,)):
-        arr = np.broadcast_to(arr.reshape(shape if arr.shape == shape else ()), (n, *shape))
-    if arr.shape != (n, *shape) or arr.dtype.kind not in "iuf":  # (a bool is no number)
-        raise fail(SceneError, TYPE, name=name, kind=f"a real array of shape {shape} or {(n, *shape)}, one per SSS "
-                   "shape", actual=f"shape {np.shape(value)} {arr.dtype}")
-    return quantity.check_array(arr, name, SceneError)
+    one = arr.shape in (shape, (), (1,))
+    values = per_shape(name, np.broadcast_to(arr.reshape(shape if arr.shape == shape else ()), shape) if one else arr,
+                       n, lambda _: one)
+    return quantity.check_array(check_shape(values, name, (n, *shape), SceneError), name, SceneError)
 
 
 def _light_layers(spec: SceneSpec, width: int, height: int, frame: int, wanted: bool) -> dict:
