@@ -176,6 +176,7 @@ def bust(voxel_mm: float = 1.5) -> Mesh:
 
 
 @functools.lru_cache(maxsize=None)
+@checks(SceneError, voxel_mm=(VOXEL_MM, "bust voxel size"))  # (its file is named by it: before bust's own check)
 def bust_path(voxel_mm: float = 1.5) -> Path:
     """The bust as a binary PLY in the ``meshes`` cache, generated on first use (a few seconds)."""
     path = cache_dir("meshes") / f"bust-v{BUST_VERSION}-{voxel_mm:g}mm.ply"

@@ -120,7 +120,9 @@ def head_measures(mesh: Mesh | None = None) -> dict[str, float]:
         sec = tm.section(plane_origin=[0.0, y, 0.0], plane_normal=[0.0, 1.0, 0.0])
         if sec is not None:
             breadth = max(breadth, float(np.ptp(sec.vertices[:, 0])))
-    section = tm.section(plane_origin=[0.0, 0.0, 0.0], plane_normal=[1.0, 0.0, 0.0])  # (the shipped scan: it has one)
+    section = tm.section(plane_origin=[0.0, 0.0, 0.0], plane_normal=[1.0, 0.0, 0.0])
+    if section is None:
+        raise SceneError("the head mesh has no midsagittal section (x = 0): not the shipped scan")
     mid = section.vertices
     brow = mid[(mid[:, 1] >= 0.16) & (mid[:, 1] <= 0.30)]
     skull = mid[mid[:, 1] >= 0.0]

@@ -139,7 +139,8 @@ def _generated(kind: str, params: Mapping[str, Any]) -> tuple[Mesh | None, dict 
 
     try:
         if kind == "bust":
-            return Mesh("bust", *_bust_arrays(float(params.get("voxel_mm", 1.5)))), None
+            (bust,) = read_mesh(generated.bust_path(**params))  # (the cached PLY's object, renamed)
+            return Mesh("bust", bust.vertices, bust.faces, bust.normals), None
         if kind == "icosphere":
             return generated.icosphere(**params), None
         if kind == "torus":
@@ -149,26 +150,18 @@ def _generated(kind: str, params: Mapping[str, Any]) -> tuple[Mesh | None, dict 
             return None, _ply("ellipsoid", *scenes._ellipsoid_geometry(**args))
         if kind == "heightfield":
             return None, _ply("bumpy", *scenes._bumpy_geometry(**params))
-        if kind == "head":  # the scanned head (ssskit.scenes.head), scaled to mm; closed once welded
-            from .head import head_mesh
+        from .head import head_mesh  # the scanned head (ssskit.scenes.head), scaled to mm; closed once welded
 
-            m = head_mesh(**params)
-            return None, _ply("head", m.vertices, m.faces, m.normals, face_normals=False)
+        m = head_mesh(**params)  # (the last of GENERATOR's names)
+        return None, _ply("head", m.vertices, m.faces, m.normals, face_normals=False)
     except TypeError as exc:
         raise SceneError(f"generator {kind!r}: {exc}") from None
-    raise SceneError(f"unknown generator {kind!r} (known: {', '.join(GENERATORS)})")
 
 
 #: the shape generators of scene files; the direct ones give the built-in scenes' Mitsuba dicts as they were
 GENERATORS = ("bust", "icosphere", "torus", "ellipsoid", "heightfield", "head")
+GENERATOR = Choice("generator", GENERATORS)
 DIRECT_GENERATORS = ("ellipsoid", "heightfield", "head")
-
-
-def _bust_arrays(voxel_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    from .generated import bust_path
-
-    (m,) = read_mesh(bust_path(voxel_mm))
-    return m.vertices, m.faces, m.normals
 
 
 # ---- objects: meshes with their units and materials ----------------------------------------------------
@@ -429,7 +422,8 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             label = str(table["file"])
         elif kind == "generated":
             _keys(where, table, {"type", "generator", "params", "material", "materials", "sss"}, {"generator"})
-            gen, params = str(table["generator"]), dict(table.get("params", {}))
+            gen = GENERATOR.check(table["generator"], f"{where}: generator", SceneError)
+            params = dict(check_keys(table.get("params", {}), f"{where}: params", error=SceneError))
             if gen == "head":  # the scan's scale and the credit its licence asks for (ssskit.scenes.head)
                 from .head import ATTRIBUTION, HEAD_SCALE, LICENCE, MM_PER_UNIT
 
@@ -513,19 +507,14 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         origin = tuple(framing(centre, radius, vw, fov, up_v, front).tolist())
         target = tuple(centre.tolist())
         up = tuple(_basis(up_v, front)[0].tolist())
-    light_doc = doc.get("lights")
-    if light_doc is None:
-        if explicit:
-            raise SceneError(f"{source}: a scene with an explicit camera needs explicit [lights]")
-        light_doc = DEFAULT_LIGHTS
     lights: dict[str, dict] = {}
-    for lid, ltable in dict(light_doc).items():
+    for lid, ltable in doc.get("lights", DEFAULT_LIGHTS).items():  # (no [lights]: the relative key, fill and back)
         if "type" in check_keys(ltable, f"{source}: light {lid!r}", error=SceneError):
             lights[lid] = _explicit_light(lid, ltable)
+        elif explicit:  # an explicit camera takes explicit lights only (the default ones are relative too)
+            raise SceneError(f"{source}: light {lid!r} is placed relative to the automatic framing, but the "
+                             "camera is explicit; give type = point | sphere")
         else:
-            if explicit:
-                raise SceneError(f"{source}: light {lid!r} is placed relative to the automatic framing, but the "
-                                 "camera is explicit; give type = point | sphere")
             lights[lid] = _relative_light(lid, ltable, centre, radius, vw[0], vw[1], up_v, front)
     views = _named_views(source, doc.get("views", {}), explicit)
     desc = str(doc.get("description", f"meshes from {source}"))
