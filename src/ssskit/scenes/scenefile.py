@@ -667,11 +667,10 @@ def with_view(spec: SceneSpec, view: Any) -> SceneSpec:
     import dataclasses
 
     names = dict(spec.views)
-    key = str(view).strip().lower() if isinstance(view, str) else None
-    if key not in names and key is not None:
+    key = view.strip().lower() if isinstance(view, str) else view
+    if isinstance(key, str) and key not in names:
         key = {v: k for k, v in VIEW_ALIASES.items()}.get(key, key)
-    if key not in names:
-        raise SceneError(f"the built-in scene {spec.name!r} has the views {', '.join(names)}; got --view {view!r}")
+    key = Choice("view", tuple(names)).check(key, f"--view of the built-in scene {spec.name!r}", SceneError)
     origin, target, up, fov = names[key]
     return dataclasses.replace(spec, origin=origin, target=target, up=up, fov_x_deg=fov)
 
