@@ -371,7 +371,7 @@ def test_missing_empty_and_unknown_meshes_are_refused(tmp_path):
     with pytest.raises(SceneError, match=r"is empty \(0 bytes\)"):
         resolve_scene(str(tmp_path / "empty.ply"))
     (tmp_path / "model.stl").write_bytes(b"solid x\n")
-    with pytest.raises(SceneError, match="unknown format '.stl'"):
+    with pytest.raises(SceneError, match="its format must be one of .obj, .ply, .glb, .gltf, .toml, .exr, got '.stl'"):
         resolve_scene(str(tmp_path / "model.stl"))
     (tmp_path / "faceless.ply").write_bytes(b"ply\nformat ascii 1.0\nelement vertex 0\nelement face 0\n"
                                             b"property list uchar int vertex_indices\nend_header\n")

@@ -615,6 +615,8 @@ GENERATED_SCENES: dict[str, dict[str, Any]] = {"bust": {"generator": "bust"},
                                                                  "n_minor": 48}}}
 
 
+#: the suffixes of the files --scene takes: a mesh, a scene file, a G-buffer
+SCENE_FORMAT = Choice("format", (*FORMATS, ".toml", ".exr"))
 #: what a --scene value is (:func:`resolve_scene`), in its messages
 SCENE_KINDS = {"generated": "a generated mesh", "mesh": "a mesh file", "file": "a scene .toml",
                "views": "a built-in scene with named views"}
@@ -715,10 +717,9 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
         kind, what = "generated", "a generated mesh, made in mm"
     elif suffix in FORMATS or suffix == ".toml":
         kind, what = ("mesh", "a mesh file") if suffix in FORMATS else ("file", "a scene .toml")
-    elif Path(text).suffix or os.sep in text or Path(text).exists():
-        raise SceneError(f"scene {text!r}: unknown format {suffix or '(no suffix)'!r} (a mesh "
-                         f"{', '.join(FORMATS)}, a scene .toml or a G-buffer .exr)")
-    else:
+    else:  # neither a scene's name nor a file of a format it takes
+        if Path(text).suffix or os.sep in text or Path(text).exists():
+            SCENE_FORMAT.check(suffix, f"scene {text!r}: its format", SceneError)
         raise SceneError(unknown_scene_message(text))
     for flag, given in (("--units", cli_units), ("--material-map", mmap), ("--view", view)):
         refuse_unused([flag] if given and kind not in SCENE_OPTIONS[flag] else [], "--scene",
