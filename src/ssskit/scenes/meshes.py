@@ -405,7 +405,8 @@ def read_mesh(path: str | os.PathLike[str]) -> tuple[Mesh, ...]:
         if "invalid vertex position" in msg:  # (Mitsuba's OBJ loader refuses NaN and inf itself)
             raise fail(SceneError, FINITE, name=f"mesh {str(p)!r}: vertex positions", actual=f"NaN or inf (Mitsuba: {msg})"
                        ) from None
-        raise SceneError(f"mesh {str(p)!r} cannot be read as {({'gltf': 'glTF'}).get(kind, kind.upper())}: {msg}") from None
+        fmt = {"gltf": "glTF"}.get(kind, kind.upper())
+        raise SceneError(f"mesh {str(p)!r} cannot be read as {fmt}: {msg}") from None
     if not meshes:
         raise SceneError(f"mesh {str(p)!r} holds no triangle mesh")
     for m in meshes:

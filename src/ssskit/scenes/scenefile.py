@@ -120,7 +120,8 @@ RELATIVE_LIGHT: dict[str, Quantity] = {
 #: the keys of an explicit Mitsuba light, by its type (each required)
 EXPLICIT_KEYS = {"point": ("intensity", "position"), "sphere": ("center", "radiance", "radius")}
 #: a scene file's numbers and flags at its top level, and their defaults
-ORBIT = Quantity("orbit", -math.inf, math.inf, "degrees per frame", "the camera's or the lights' turn per frame", **_ANY)
+ORBIT = Quantity("orbit", -math.inf, math.inf, "degrees per frame", "the camera's or the lights' turn per frame",
+                 **_ANY)
 SCENE_FIELDS: dict[str, Quantity | Flag] = {"orbit_deg_per_frame": ORBIT, "light_orbit_deg_per_frame": ORBIT,
                                             "lit_from_behind": Flag("lit_from_behind")}
 SCENE_DEFAULTS = {"orbit_deg_per_frame": 2.0, "light_orbit_deg_per_frame": 0.0, "lit_from_behind": False}
@@ -746,6 +747,6 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
 
 
 __all__ = ["BUILTIN_DIR", "DEFAULT_LIGHTS", "GENERATED_SCENES", "GENERATORS", "LoadedScene", "MeshObject",
-           "OTHER_LIGHT", "ResolvedScene", "UNITS", "VIEWS", "builtin_scene_files", "check_units", "direction", "framing",
-           "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document",
+           "OTHER_LIGHT", "ResolvedScene", "UNITS", "VIEWS", "builtin_scene_files", "check_units", "direction",
+           "framing", "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document",
            "unknown_scene_message", "with_view"]
