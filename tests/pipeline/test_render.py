@@ -155,7 +155,7 @@ def _mixed_g_material(tmp_path):
     ("slab", dict(kernel="jimenez2012", taps=1), KernelError, r"jimenez2012 taps must lie in \[3, 255\], got 1"),
     ("slab", dict(kernel="jimenez2012", tap_method="uniform"), SettingsError, "applies to a tabulated kernel, not a jimenez2012 kernel"),
     ("teapot", {}, SceneError, "unknown scene 'teapot'"),
-    ("scene.png", {}, SceneError, "unknown format '.png'"),
+    ("scene.png", {}, SceneError, "its format must be one of .obj, .ply, .glb, .gltf, .toml, .exr, got '.png'"),
     ("missing.exr", {}, GBufferError, "does not exist"),
     ("dir.exr", {}, GBufferError, "is a directory"),
     ("slab", dict(reference=True, material="MIXED"), SceneError, "one Henyey-Greenstein g"),

@@ -77,7 +77,7 @@ def test_head_scene_views_and_about():
     ear = resolve_scene("head", view="ear").spec
     assert ear.origin == views["ear"][0] and dict(ear.about) == about
     assert resolve_scene("head", view="profile").spec.origin == ear.origin  # the alias of ear
-    with pytest.raises(SceneError, match="has the views front, ear, close"):
+    with pytest.raises(SceneError, match="--view of the built-in scene 'head' must be one of front, ear, close, got 'top'"):
         resolve_scene("head", view="top")
     with pytest.raises(SceneError, match="--units"):
         resolve_scene("head", units="m", view="ear")

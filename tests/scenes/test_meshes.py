@@ -371,7 +371,7 @@ def test_missing_empty_and_unknown_meshes_are_refused(tmp_path):
     with pytest.raises(SceneError, match=r"is empty \(0 bytes\)"):
         resolve_scene(str(tmp_path / "empty.ply"))
     (tmp_path / "model.stl").write_bytes(b"solid x\n")
-    with pytest.raises(SceneError, match="unknown format '.stl'"):
+    with pytest.raises(SceneError, match="its format must be one of .obj, .ply, .glb, .gltf, .toml, .exr, got '.stl'"):
         resolve_scene(str(tmp_path / "model.stl"))
     (tmp_path / "faceless.ply").write_bytes(b"ply\nformat ascii 1.0\nelement vertex 0\nelement face 0\n"
                                             b"property list uchar int vertex_indices\nend_header\n")
@@ -409,14 +409,14 @@ def test_a_mesh_too_large_for_memory_is_refused_with_the_estimate(tmp_path):
 
 def test_conflicting_units_are_refused(tmp_path):
     path = str(write_mesh(tmp_path / "ball.ply", _sphere()))
-    with pytest.raises(SceneError, match="conflicting units: mm, m"):
+    with pytest.raises(SceneError, match="--units mm and --units m disagree; give the units once"):
         resolve_scene(path, units=["mm", "m"])
     (tmp_path / "s.toml").write_text('units = "cm"\n[shapes.ball]\ntype = "mesh"\nfile = "ball.ply"\n')
-    with pytest.raises(SceneError, match="conflicting units: --units m, but .* says units = 'cm'"):
+    with pytest.raises(SceneError, match="--units m and .*s.toml: units cm disagree; give the units once"):
         resolve_scene(str(tmp_path / "s.toml"), units="m")
     with pytest.raises(SceneError, match="units must be one of mm, cm, m, got 'inch'"):
         resolve_scene(path, units="inch")
-    with pytest.raises(SceneError, match="--units does not apply to the built-in scene 'slab'"):
+    with pytest.raises(SceneError, match="--units applies to --scene a mesh file or a scene .toml, not --scene 'slab' \\(a built-in scene"):
         resolve_scene("slab", units="mm")
 
 
@@ -536,3 +536,35 @@ def test_a_one_material_gltf_object_is_named_by_its_material(tmp_path, suffix):
     # OBJ and PLY: one object named by the file's stem
     ply = str(write_mesh(tmp_path / "ball.ply", _sphere()))
     assert [o.name for o in resolve_scene(ply, units="mm", material_map="ball=skin1", width=W, height=H).objects] == ["ball"]
+
+
+_SPHERE = {"type": "sphere", "center": [0, 0, 0], "radius": 10, "sss": True}
+_CAMERA = {"origin": [0, 0, 100], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 30}
+_LIGHT = {"k": {"type": "point", "position": [0, 0, 50], "intensity": 1.0}}
+
+
+@pytest.mark.parametrize("doc, fragment", [
+    # each raised a TypeError or ValueError (a traceback) or went unchecked before
+    ({"shapes": {"s": _SPHERE}, "camera": 5}, r"scene: \[camera\] must be a table, got 5"),
+    ({"shapes": {"s": _SPHERE}, "lights": 5}, r"scene: \[lights\] must be a table, got 5"),
+    ({"shapes": {"s": _SPHERE}, "camera": _CAMERA, "lights": _LIGHT, "orbit_deg_per_frame": "x"},
+     "orbit_deg_per_frame must be a number, got 'x'"),
+    ({"shapes": {"s": _SPHERE}, "camera": {**_CAMERA, "origin": "x"}, "lights": _LIGHT},
+     r"\[camera\]: origin must be a real array of shape \(3,\)"),
+    ({"shapes": {"g": {"type": "generated", "generator": "icosphere"}}, "camera": {"up": ["a", 1, 0]}},
+     r"camera up must be a real array of shape \(3,\)"),
+    ({"shapes": {"g": {"type": "generated", "generator": "icosphere"}}, "camera": {"front": [0, 2, 0]}},
+     r"camera up \(0.0, 1.0, 0.0\) and front \[0, 2, 0\] must be non-zero and not parallel"),
+    ({"shapes": {"g": {"type": "generated", "generator": "bust", "params": 5}}}, "params must be a table, got 5"),
+    ({"shapes": {"g": {"type": "generated", "generator": "bust", "params": {"voxel_mm": "x"}}}},
+     "bust voxel size must be a number, got 'x'"),
+    ({"shapes": {"g": {"type": "generated", "generator": "bust", "params": {"voxels": 2}}}},  # (was ignored)
+     "generator 'bust': got an unexpected keyword argument 'voxels'"),
+    ({"shapes": {"g": {"type": "generated", "generator": "teapot"}}},
+     "generator must be one of bust, icosphere, torus, ellipsoid, heightfield, head, got 'teapot'"),
+    ({"shapes": {"s": _SPHERE}, "camera": _CAMERA},  # the default lights are placed relative to the framing
+     "light 'key' is placed relative to the automatic framing, but the camera is explicit"),
+])
+def test_scene_file_values_of_the_wrong_kind_are_refused(doc, fragment):
+    with pytest.raises(SceneError, match=fragment):
+        scene_from_document(doc)

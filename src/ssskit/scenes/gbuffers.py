@@ -22,13 +22,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError, check_keywords
-from ..quantities import FRAME, FRAMES, REFLECTANCE, TYPE, Quantity, checks, fail
+from ..quantities import FRAME, FRAMES, REFLECTANCE, Quantity, check_shape, checks
 
 #: a surface's refractive index in the G-buffer render (its boundary): positive
 INDEX = Quantity("eta", 0.0, 1e6, "", "a refractive index", lo_open=True)
 from ..screenspace.gbuffer import GBuffer
-from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, IMAGE_SIDE, RENDER_SPP, SceneSpec, get_scene, render_dict,
-                     scene_camera, scene_dict)
+from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, IMAGE_SIDE, RENDER_SPP, SceneSpec, get_scene, per_shape,
+                     render_dict, scene_camera, scene_dict)
 
 
 #: the AOV pass tells SSS shapes apart by the green channel of their albedo tag: id / ID_SCALE (exact in
@@ -36,13 +36,14 @@ from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, IMAGE_SIDE, RENDER_SPP, Scene
 ID_SCALE = 1024.0
 
 
-def _per_shape(name: str, value: ArrayLike, n: int, shape: tuple[int, ...]) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape == shape or arr.shape == () or arr.shape == (1,):
-        return np.broadcast_to(arr.reshape(shape if arr.shape == shape else ()), (n, *shape)).copy()
-    if arr.shape == (n, *shape):
-        return arr
-    raise SceneError(f"{name} must have shape {shape or '()'} or one per SSS shape ({n}), got {arr.shape}")
+def _numbers_per_shape(name: str, value: ArrayLike, n: int, shape: tuple[int, ...], quantity: Quantity) -> np.ndarray:
+    """``value`` for each of the ``n`` SSS shapes, (n, *shape) float64: one value (of ``shape``, or a number) for
+    all, or one per shape (:func:`~ssskit.scenes.scenes.per_shape`), each a real in ``quantity``'s range."""
+    arr = np.asarray(value)
+    one = arr.shape in (shape, (), (1,))
+    values = per_shape(name, np.broadcast_to(arr.reshape(shape if arr.shape == shape else ()), shape) if one else arr,
+                       n, lambda _: one)
+    return quantity.check_array(check_shape(values, name, (n, *shape), SceneError), name, SceneError)
 
 
 def _light_layers(spec: SceneSpec, width: int, height: int, frame: int, wanted: bool) -> dict:
@@ -70,14 +71,9 @@ def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float | Array
     """
     spec = get_scene(scene)
     n = len(spec.sss_shapes)
-    alb = _per_shape("albedo", albedo, n, (3,))
-    REFLECTANCE.check_array(alb, "albedo", SceneError)
-    if isinstance(eta, bool):
-        raise fail(SceneError, TYPE, name="eta", kind="a number", actual=repr(eta))
-    etas = INDEX.check_array(_per_shape("eta", eta, n, ()), "eta", SceneError)
-    names = (material,) * n if isinstance(material, str) else tuple(str(m) for m in material)
-    if len(names) != n:
-        raise SceneError(f"material names one per SSS shape ({n}), got {len(names)}")
+    alb = _numbers_per_shape("albedo", albedo, n, (3,), REFLECTANCE)
+    etas = _numbers_per_shape("eta", eta, n, (), INDEX)
+    names = tuple(map(str, per_shape("material names", material, n, lambda m: isinstance(m, str))))
     ids = {sid: i + 1 for i, sid in enumerate(spec.sss_shapes)}
     white = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 1.0}}
     black = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.0}}

@@ -147,14 +147,17 @@ def _narrow_band_field(sdf: Callable[[np.ndarray], np.ndarray], axes: list[np.nd
     return field
 
 
+#: the bust's voxel size
+VOXEL_MM = Quantity("voxel size", 0.5, 10.0, "mm", "a bust of seconds to build, whose features survive")
+
+
+@checks(SceneError, voxel_mm=(VOXEL_MM, "bust voxel size"))
 def bust(voxel_mm: float = 1.5) -> Mesh:
     """The bust (:func:`bust_sdf`) polygonised on a ``voxel_mm`` grid by marching cubes: a closed
     2-manifold about 300 mm wide and 305 mm tall, outward winding, normals from the field's
     central-difference gradient."""
     from skimage.measure import marching_cubes
 
-    Quantity("voxel size", 0.5, 10.0, "mm", "a bust of seconds to build, whose features survive").check(
-        voxel_mm, "bust voxel size", SceneError)
     lo = np.array([-160.0, -40.0, -85.0])
     hi = np.array([160.0, 280.0, 120.0])
     axes = [np.arange(lo[i] - 2 * voxel_mm, hi[i] + 2 * voxel_mm, voxel_mm, dtype=np.float32) for i in range(3)]
@@ -173,6 +176,7 @@ def bust(voxel_mm: float = 1.5) -> Mesh:
 
 
 @functools.lru_cache(maxsize=None)
+@checks(SceneError, voxel_mm=(VOXEL_MM, "bust voxel size"))  # (its file is named by it: before bust's own check)
 def bust_path(voxel_mm: float = 1.5) -> Path:
     """The bust as a binary PLY in the ``meshes`` cache, generated on first use (a few seconds)."""
     path = cache_dir("meshes") / f"bust-v{BUST_VERSION}-{voxel_mm:g}mm.ply"

@@ -25,17 +25,19 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError
-from ..quantities import Quantity
+from ..quantities import Quantity, checks
 from ..settings import HEAD_ATTRIBUTION
-from .meshes import Mesh
+from .meshes import Mesh, ply_header
 
 #: the credit the licence (CC BY 3.0) asks of whoever ships or shows the scan
 ATTRIBUTION = HEAD_ATTRIBUTION
 LICENCE = "CC BY 3.0 (Creative Commons Attribution 3.0 Unported)"
 #: mm per file unit (module docstring; docs/head.md "Scale")
 MM_PER_UNIT = 259.0
-#: the scales a head scene accepts (mm per unit): a head 0.58 units across from 58 mm to 580 mm
+#: the scales a head scene accepts (mm per unit): a head 0.58 units across from 58 mm to 580 mm; their quantity
 MM_PER_UNIT_RANGE = (100.0, 1000.0)
+HEAD_SCALE = Quantity("mm_per_unit", *MM_PER_UNIT_RANGE, "", "the head 0.58 units across is 58 to 580 mm wide; "
+                      f"ssskit's scale: {MM_PER_UNIT:g}")
 #: the shipped file beside this module
 DATA_PATH = Path(__file__).parent / "data" / "head.npz"
 #: the PLY's vertex and face counts (the scan as the separable-SSS demo ships it)
@@ -47,12 +49,7 @@ def read_head_ply(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     """The arrays of the head's binary little-endian PLY (``x y z nx ny nz s t`` float32 per vertex, a
     uchar-counted int32 list per face, every face a triangle): ``vertices``, ``normals``, ``uvs``
     (V, 3|2) float32 and ``faces`` (F, 3) int32, values as stored."""
-    data = Path(path).read_bytes()
-    end = data.find(b"end_header\n")
-    if not data.startswith(b"ply\n") or end < 0:
-        raise SceneError(f"{str(path)!r} is not a PLY file")
-    header = data[:end].decode("ascii").splitlines()
-    body = data[end + len(b"end_header\n"):]
+    header, body = ply_header(Path(path))  # (the PLY magic and end_header: meshes' rules)
     props = [ln.split()[-1] for ln in header if ln.startswith("property float")]
     counts = {ln.split()[1]: int(ln.split()[2]) for ln in header if ln.startswith("element")}
     if ("format binary_little_endian 1.0" not in header or props != ["x", "y", "z", "nx", "ny", "nz", "s", "t"]
@@ -97,18 +94,12 @@ def head_arrays() -> dict[str, np.ndarray]:
     return out
 
 
-def check_mm_per_unit(mm_per_unit: object) -> float:
-    """``mm_per_unit`` as a float, or a SceneError unless it lies in :data:`MM_PER_UNIT_RANGE`."""
-    return float(Quantity("mm_per_unit", *MM_PER_UNIT_RANGE, "", "the head 0.58 units across is 58 to 580 mm wide; "
-                          f"ssskit's scale: {MM_PER_UNIT:g}").check(mm_per_unit, "head mm_per_unit", SceneError))
-
-
+@checks(SceneError, mm_per_unit=(HEAD_SCALE, "head mm_per_unit"))
 def head_mesh(mm_per_unit: float = MM_PER_UNIT) -> Mesh:
     """The head in mm: the scan's vertices times ``mm_per_unit``, its normals and triangles; a closed
     2-manifold once equal positions are welded (the scan's texture seams split vertices)."""
-    s = check_mm_per_unit(mm_per_unit)
     a = head_arrays()
-    return Mesh("head", a["vertices"] * np.float32(s), a["faces"], a["normals"])
+    return Mesh("head", a["vertices"] * np.float32(mm_per_unit), a["faces"], a["normals"])
 
 
 def head_measures(mesh: Mesh | None = None) -> dict[str, float]:
@@ -140,4 +131,4 @@ def head_measures(mesh: Mesh | None = None) -> dict[str, float]:
 
 
 __all__ = ["ATTRIBUTION", "DATA_PATH", "FACES", "LICENCE", "MM_PER_UNIT", "MM_PER_UNIT_RANGE", "VERTICES",
-           "check_mm_per_unit", "head_arrays", "head_measures", "head_mesh", "read_head_ply", "write_head_data"]
+           "HEAD_SCALE", "head_arrays", "head_measures", "head_mesh", "read_head_ply", "write_head_data"]

@@ -33,12 +33,14 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, SsskitError
 from ..quantities import FINITE, Quantity, check_finite, check_shape, fail
 from ..io import atomic_output, check_suffix, parse_document, read_input
 
 #: mesh file suffixes and the reader of each
 FORMATS = {".obj": "obj", ".ply": "ply", ".glb": "gltf", ".gltf": "gltf"}
+#: the bytes a mesh file of a suffix begins with, and its format's name (the text formats OBJ and glTF have none)
+MAGIC = {".ply": (b"ply", "PLY"), ".glb": (b"glTF", "binary glTF")}
 #: millimetres per unit of a mesh file (ssskit's length unit is the mm: materials are in mm^-1)
 UNITS_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0}
 #: peak bytes per triangle of loading, checking and ray tracing a mesh: Mitsuba's scene with its BVH
@@ -151,13 +153,22 @@ def check_mesh_path(path: str | os.PathLike[str]) -> Path:
     return p
 
 
+def _head(p: Path, size: int = -1) -> bytes:
+    """The first ``size`` bytes of the mesh file ``p`` (-1: all), or a SceneError if they do not begin with its
+    format's magic (:data:`MAGIC`)."""
+    with open(p, "rb") as fh:
+        data = fh.read(size)
+    magic, kind = MAGIC.get(p.suffix.lower(), (b"", ""))
+    if not data.startswith(magic):
+        raise SceneError(f"mesh {str(p)!r} is not a {kind} file (no {magic.decode()!r} magic)")
+    return data
+
+
 def _gltf_json(p: Path) -> dict:
     """The JSON document of a .gltf file or of a .glb file's first chunk."""
-    data = p.read_bytes()
+    data = _head(p)
     if p.suffix.lower() == ".glb":
-        if len(data) < 20 or data[:4] != b"glTF":
-            raise SceneError(f"mesh {str(p)!r} is not a binary glTF file (no 'glTF' magic)")
-        length, kind = struct.unpack_from("<I4s", data, 12)
+        length, kind = struct.unpack_from("<I4s", data.ljust(20, b"\0"), 12)
         if kind != b"JSON" or 20 + length > len(data):
             raise SceneError(f"mesh {str(p)!r}: the binary glTF's first chunk is not its JSON")
         text = data[20:20 + length]
@@ -195,16 +206,19 @@ def _gltf_counts(p: Path) -> MeshCounts:
     return MeshCounts(nv, nf)
 
 
-def _ply_counts(p: Path) -> MeshCounts:
-    with open(p, "rb") as fh:
-        head = fh.read(1 << 16)
-    if not head.startswith(b"ply"):
-        raise SceneError(f"mesh {str(p)!r} is not a PLY file (no 'ply' magic)")
-    end = head.find(b"end_header")
+def ply_header(p: Path, size: int = -1) -> tuple[list[str], bytes]:
+    """The header lines of the PLY file ``p`` (in its first ``size`` bytes; -1: all) and the bytes after them, or a
+    SceneError without the PLY magic or an ``end_header``."""
+    data = _head(p, size)
+    end = data.find(b"end_header")
     if end < 0:
         raise SceneError(f"mesh {str(p)!r}: PLY header has no end_header")
+    return data[:end].decode("ascii", "replace").splitlines(), data[end + len(b"end_header\n"):]
+
+
+def _ply_counts(p: Path) -> MeshCounts:
     counts = {}
-    for line in head[:end].decode("ascii", "replace").splitlines():
+    for line in ply_header(p, 1 << 16)[0]:
         parts = line.split()
         if len(parts) == 3 and parts[0] == "element" and parts[2].isdigit():
             counts[parts[1]] = int(parts[2])
@@ -299,15 +313,8 @@ def _read_mitsuba(p: Path, kind: str) -> tuple[Mesh, ...]:
     from .mitsuba_variant import mitsuba, warnings_dropped
 
     mi = mitsuba()
-    try:
-        with warnings_dropped():  # the checks of read_mesh report a degenerate mesh
-            shape = mi.load_dict({"type": kind, "filename": str(p)})
-    except Exception as exc:  # noqa: BLE001 - Mitsuba raises RuntimeError with its own text
-        msg = _mitsuba_message(exc)
-        if "invalid vertex position" in msg:
-            raise fail(SceneError, FINITE, name=f"mesh {str(p)!r}: vertex positions", actual=f"NaN or inf (Mitsuba: {msg})"
-                       ) from None
-        raise SceneError(f"mesh {str(p)!r} cannot be read: {msg}") from None
+    with warnings_dropped():  # the checks of read_mesh report a degenerate mesh
+        shape = mi.load_dict({"type": kind, "filename": str(p)})  # (its errors: read_mesh)
     params = mi.traverse(shape)
     verts = np.array(params["vertex_positions"], dtype=np.float32).reshape(-1, 3)
     faces = np.array(params["faces"], dtype=np.uint32).reshape(-1, 3)
@@ -323,10 +330,7 @@ def _read_gltf(p: Path) -> tuple[Mesh, ...]:
     has_normals = bool(prims) and all("NORMAL" in prim.get("attributes", {}) for prim in prims)
     import trimesh  # (a core dependency)
 
-    try:
-        scene: Any = trimesh.load(str(p), force="scene", process=False)
-    except Exception as exc:  # noqa: BLE001 - trimesh raises many kinds of errors
-        raise SceneError(f"mesh {str(p)!r} cannot be read as glTF: {exc}") from None
+    scene: Any = trimesh.load(str(p), force="scene", process=False)  # (its errors: read_mesh)
     groups: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray | None]]] = {}
     for node in scene.graph.nodes_geometry:
         transform, gname = scene.graph[node]
@@ -365,18 +369,15 @@ def _read_ply(p: Path) -> tuple[Mesh, ...]:
     import trimesh
     from trimesh.exchange.ply import load_ply
 
-    try:
-        with open(p, "rb") as fh:
-            kw = load_ply(fh)
-        faces = kw.get("faces")
-        if faces is None or len(faces) == 0:  # a mesh without faces: read_mesh's check_mesh refuses it
-            tri = np.zeros((0, 3), np.int64)
-        elif isinstance(faces, np.ndarray) and faces.ndim == 2 and faces.shape[1] == 3:
-            tri = np.asarray(faces, dtype=np.int64)
-        else:  # polygons: fan-triangulated by trimesh, indices kept as they are (checked by Mesh)
-            tri = np.asarray(trimesh.geometry.triangulate_quads(faces), dtype=np.int64)
-    except Exception as exc:  # noqa: BLE001 - trimesh's parser raises many kinds of errors on a corrupt file
-        raise SceneError(f"mesh {str(p)!r} cannot be read as PLY: {exc}") from None
+    with open(p, "rb") as fh:
+        kw = load_ply(fh)  # (its errors, and the triangulation's: read_mesh)
+    faces = kw.get("faces")
+    if faces is None or len(faces) == 0:  # a mesh without faces: read_mesh's check_mesh refuses it
+        tri = np.zeros((0, 3), np.int64)
+    elif isinstance(faces, np.ndarray) and faces.ndim == 2 and faces.shape[1] == 3:
+        tri = np.asarray(faces, dtype=np.int64)
+    else:  # polygons: fan-triangulated by trimesh, indices kept as they are (checked by Mesh)
+        tri = np.asarray(trimesh.geometry.triangulate_quads(faces), dtype=np.int64)
     normals = kw.get("vertex_normals")
     verts = np.asarray(kw.get("vertices", np.zeros((0, 3))), dtype=np.float32).reshape(-1, 3)
     if normals is not None:
@@ -395,7 +396,17 @@ def read_mesh(path: str | os.PathLike[str]) -> tuple[Mesh, ...]:
     p = check_mesh_path(path)
     kind = FORMATS[p.suffix.lower()]
     reader = {"gltf": _read_gltf, "ply": _read_ply}.get(kind)
-    meshes = reader(p) if reader is not None else _read_mitsuba(p, kind)
+    try:
+        meshes = reader(p) if reader is not None else _read_mitsuba(p, kind)
+    except SsskitError:  # (the checks', and Mitsuba's absence)
+        raise
+    except Exception as exc:  # noqa: BLE001 - Mitsuba and trimesh raise many kinds of errors on a corrupt file
+        msg = str(exc) if reader is not None else _mitsuba_message(exc)
+        if "invalid vertex position" in msg:  # (Mitsuba's OBJ loader refuses NaN and inf itself)
+            raise fail(SceneError, FINITE, name=f"mesh {str(p)!r}: vertex positions", actual=f"NaN or inf (Mitsuba: {msg})"
+                       ) from None
+        fmt = {"gltf": "glTF"}.get(kind, kind.upper())
+        raise SceneError(f"mesh {str(p)!r} cannot be read as {fmt}: {msg}") from None
     if not meshes:
         raise SceneError(f"mesh {str(p)!r} holds no triangle mesh")
     for m in meshes:
@@ -550,4 +561,4 @@ def write_mesh(path: str | os.PathLike[str], meshes: Mesh | Sequence[Mesh]) -> P
 __all__ = ["BYTES_PER_FACE", "BYTES_PER_PIXEL", "FORMATS", "Mesh", "MeshCounts", "Topology", "UNITS_MM",
            "available_memory", "bounding_sphere", "check_area", "check_mesh", "check_mesh_path",
            "check_render_memory", "inspect_mesh_file", "memory_estimate", "mesh_counts", "ply_bytes", "read_mesh",
-           "shape_counts", "surface_area", "topology", "write_mesh"]
+           "ply_header", "shape_counts", "surface_area", "topology", "write_mesh"]

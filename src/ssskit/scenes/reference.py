@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from collections.abc import Sequence
@@ -50,7 +49,8 @@ from ..quantities import FRAME, REFLECTANCE, REL_SE, SEED, Choice, Quantity, che
 
 #: the path tracer's longest path (Mitsuba's max_depth): at least the camera's ray
 MAX_DEPTH = Quantity("max_depth", 1, 2**31 - 1, "", "bounces of a path, the camera's ray the first", integer=True)
-from .scenes import COAT_ROUGHNESS, IMAGE_SIDE, RENDER_SPP, SceneSpec, check_size, get_scene, mitsuba, scene_dict
+from .scenes import (COAT_ROUGHNESS, IMAGE_SIDE, RENDER_SPP, SceneSpec, check_size, get_scene, mitsuba, per_shape,
+                     scene_dict)
 from .mitsuba_variant import interruptible_render, load_scene
 
 #: bumped when the reference renders change (invalidates the cache). 3: a unique seed per mi.render
@@ -255,12 +255,8 @@ def check_reference_scene(spec: SceneSpec) -> None:
 def shape_materials(spec: SceneSpec, material: Any) -> tuple[Any, ...]:
     """One material per SSS shape of ``spec``: ``material`` (a Material) for each, or a sequence of
     len(sss_shapes) Materials (the scene's own per-object materials, resolved by the caller)."""
-    if isinstance(material, (list, tuple)):
-        if len(material) != len(spec.sss_shapes):
-            raise SceneError(f"the reference needs one material per SSS shape ({len(spec.sss_shapes)}), "
-                             f"got {len(material)}")
-        return tuple(material)
-    return (material,) * len(spec.sss_shapes)
+    return per_shape("the reference's materials", material, len(spec.sss_shapes),
+                     lambda m: not isinstance(m, (list, tuple)))
 
 
 def geometry_key(spec: SceneSpec) -> str:
@@ -315,8 +311,7 @@ def render_reference(scene: str | SceneSpec, material: Material | Sequence[Mater
     """
     spec = get_scene(scene)
     max_spp = int(spp) if max_spp is None else max_spp  # (an integer at least spp, so at least 1:)
-    Quantity("max_spp", spp, math.inf, "", "the spp budget: at least the minimum spp", integer=True,
-             hi_open=True).check(max_spp, "max_spp", SceneError)
+    RENDER_SPP.within(lo=spp, reason="the spp budget: at least the minimum spp").check(max_spp, "max_spp", SceneError)
     check_reference_scene(spec)
     mats = shape_materials(spec, material)
     g = reference_phase_g(mats[0])

@@ -59,7 +59,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
-from ..quantities import TYPE, Choice, Flag, Quantity, check_choice, check_fields, check_keys, check_shape, fail
+from ..quantities import (TYPE, Choice, Flag, Quantity, check_fields, check_instance, check_keys, check_shape,
+                          fail, refuse_twice, refuse_unused)
 from ..io import parse_document, read_input
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
 from .scenes import SCENES, SceneSpec, _T, _ply, check_size
@@ -118,6 +119,12 @@ RELATIVE_LIGHT: dict[str, Quantity] = {
                           hi_open=True)}
 #: the keys of an explicit Mitsuba light, by its type (each required)
 EXPLICIT_KEYS = {"point": ("intensity", "position"), "sphere": ("center", "radiance", "radius")}
+#: a scene file's numbers and flags at its top level, and their defaults
+ORBIT = Quantity("orbit", -math.inf, math.inf, "degrees per frame", "the camera's or the lights' turn per frame",
+                 **_ANY)
+SCENE_FIELDS: dict[str, Quantity | Flag] = {"orbit_deg_per_frame": ORBIT, "light_orbit_deg_per_frame": ORBIT,
+                                            "lit_from_behind": Flag("lit_from_behind")}
+SCENE_DEFAULTS = {"orbit_deg_per_frame": 2.0, "light_orbit_deg_per_frame": 0.0, "lit_from_behind": False}
 #: a shape's types (docs/meshes.md)
 SHAPE_TYPE = Choice("type", ("mesh", "generated", "sphere", "rectangle", "cube"))
 #: an explicit Mitsuba light's numbers (the ones that take one number or three [R, G, B]; the points take three)
@@ -133,7 +140,8 @@ def _generated(kind: str, params: Mapping[str, Any]) -> tuple[Mesh | None, dict 
 
     try:
         if kind == "bust":
-            return Mesh("bust", *_bust_arrays(float(params.get("voxel_mm", 1.5)))), None
+            (bust,) = read_mesh(generated.bust_path(**params))  # (the cached PLY's object, renamed)
+            return Mesh("bust", bust.vertices, bust.faces, bust.normals), None
         if kind == "icosphere":
             return generated.icosphere(**params), None
         if kind == "torus":
@@ -143,26 +151,18 @@ def _generated(kind: str, params: Mapping[str, Any]) -> tuple[Mesh | None, dict 
             return None, _ply("ellipsoid", *scenes._ellipsoid_geometry(**args))
         if kind == "heightfield":
             return None, _ply("bumpy", *scenes._bumpy_geometry(**params))
-        if kind == "head":  # the scanned head (ssskit.scenes.head), scaled to mm; closed once welded
-            from .head import head_mesh
+        from .head import head_mesh  # the scanned head (ssskit.scenes.head), scaled to mm; closed once welded
 
-            m = head_mesh(**params)
-            return None, _ply("head", m.vertices, m.faces, m.normals, face_normals=False)
+        m = head_mesh(**params)  # (the last of GENERATOR's names)
+        return None, _ply("head", m.vertices, m.faces, m.normals, face_normals=False)
     except TypeError as exc:
         raise SceneError(f"generator {kind!r}: {exc}") from None
-    raise SceneError(f"unknown generator {kind!r} (known: {', '.join(GENERATORS)})")
 
 
 #: the shape generators of scene files; the direct ones give the built-in scenes' Mitsuba dicts as they were
 GENERATORS = ("bust", "icosphere", "torus", "ellipsoid", "heightfield", "head")
+GENERATOR = Choice("generator", GENERATORS)
 DIRECT_GENERATORS = ("ellipsoid", "heightfield", "head")
-
-
-def _bust_arrays(voxel_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    from .generated import bust_path
-
-    (m,) = read_mesh(bust_path(voxel_mm))
-    return m.vertices, m.faces, m.normals
 
 
 # ---- objects: meshes with their units and materials ----------------------------------------------------
@@ -219,23 +219,20 @@ def _mesh_objects(meshes: Sequence[Mesh], scale_mm: float, materials: Mapping[st
 
 # ---- units ---------------------------------------------------------------------------------------------
 
-def check_units(units: str | Sequence[str] | None) -> str | None:
-    """One unit name of :data:`UNITS_MM`, or None; a SceneError for an unknown unit or for several
-    different ones (``--units`` given twice)."""
-    values = [] if units is None else list(units) if isinstance(units, (list, tuple)) else [units]
-    norm = [check_choice("units", u, UNITS_MM, SceneError) for u in values]  # (a TOML number is no unit name)
-    if len(set(norm)) > 1:
-        raise SceneError(f"conflicting units: {', '.join(norm)} (give --units once)")
-    return norm[0] if norm else None
+#: a mesh file's units (--units, a scene file's or a shape's ``units``)
+UNITS = Choice("units", tuple(UNITS_MM))
 
 
-def _agreeing_units(cli_units: str | None, given: Any, where: str) -> str | None:
-    """The units a scene file (or one of its shapes: ``where``) gives, or a SceneError if they are not the
-    command line's ``--units``."""
-    units = check_units(given)
-    if cli_units and units and cli_units != units:
-        raise SceneError(f"conflicting units: --units {cli_units}, but {where} says units = {units!r}")
-    return units
+def check_units(units: str | Sequence[str] | None, *given: tuple[str, Any]) -> str | None:
+    """One unit name of :data:`UNITS_MM`, or None: ``units`` (``--units``, given once or several times) and the
+    ``(where, value)`` pairs of a scene file's or a shape's ``units`` must name one unit; a SceneError for an
+    unknown unit, or for two that disagree (refuse_twice)."""
+    named = [("--units", u) for u in ([] if units is None else [units] if isinstance(units, str) else units)]
+    named = [(w, UNITS.check(u, w, SceneError)) for w, u in named + [(w, v) for w, v in given if v is not None]]
+    for (w1, u1), (w2, u2) in zip(named, named[1:]):
+        if u1 != u2:
+            refuse_twice(f"{w1} {u1}", f"{w2} {u2}", "the units", SceneError)
+    return named[0][1] if named else None
 
 
 def _units_note(source: str, unit: str, assumed: bool, diameter_mm: float) -> str:
@@ -262,29 +259,24 @@ def parse_view(view: str | Sequence[float] | None) -> tuple[float, float, float]
         key = VIEW_ALIASES.get(view.strip().lower(), view.strip().lower())
         if key in VIEWS:
             return VIEWS[key]
-        try:
-            nums = [float(x) for x in view.split(",")]
-        except ValueError:
-            raise SceneError(f"view {view!r} is neither a preset ({', '.join([*VIEWS, *VIEW_ALIASES])}) nor "
-                             "AZIMUTH,ELEVATION[,DISTANCE]") from None
-    else:
-        nums = [float(x) for x in view]
+    try:
+        nums = [float(x) for x in (view.split(",") if isinstance(view, str) else view)]
+    except (TypeError, ValueError):
+        nums = []  # neither a preset nor numbers: refused below
     if len(nums) not in (2, 3):
-        raise fail(SceneError, TYPE, name="view", kind="AZIMUTH,ELEVATION[,DISTANCE] (degrees, degrees, a multiple "
-                   "of the framing distance)", actual=repr(view))
+        raise fail(SceneError, TYPE, name="view", kind=f"a preset ({', '.join([*VIEWS, *VIEW_ALIASES])}) or "
+                   "AZIMUTH,ELEVATION[,DISTANCE] (degrees, degrees, a multiple of the framing distance)",
+                   actual=repr(view))
     return (ANGLE_DEG.check(nums[0], "view azimuth", SceneError), ELEVATION_DEG.check(nums[1], "view elevation",
             SceneError), VIEW_DISTANCE.check(nums[2] if len(nums) == 3 else 1.0, "view distance", SceneError))
 
 
 def _basis(up: Sequence[float], front: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    u = np.asarray(up, float)
-    f = np.asarray(front, float)
-    if u.shape != (3,) or f.shape != (3,) or not (np.linalg.norm(u) > 0 and np.linalg.norm(f) > 0):
-        raise SceneError(f"camera up and front must be non-zero 3-vectors, got {up!r}, {front!r}")
+    u, f = (np.asarray(_point(f"camera {key}", v)) for key, v in (("up", up), ("front", front)))
+    if not np.linalg.norm(np.cross(u, f)) > 1e-9 * np.linalg.norm(u) * np.linalg.norm(f):
+        raise SceneError(f"camera up {up!r} and front {front!r} must be non-zero and not parallel")
     u = u / np.linalg.norm(u)
     f = f - u * (u @ f)
-    if np.linalg.norm(f) < 1e-9:
-        raise SceneError(f"camera front {front!r} is parallel to up {up!r}")
     f /= np.linalg.norm(f)
     return u, f, np.cross(u, f)  # up, front, side (+X for glTF's axes)
 
@@ -394,14 +386,14 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     """
     _keys(source, doc, {"name", "description", "units", "camera", "shapes", "lights", "orbit_deg_per_frame",
                         "light_orbit_deg_per_frame", "lit_from_behind", "views"}, {"shapes"})
-    Flag("lit_from_behind").check(doc.get("lit_from_behind", False), f"{source}: lit_from_behind", SceneError)
+    top = {**SCENE_DEFAULTS, **check_fields(doc, SCENE_FIELDS, source, SceneError)}  # (orbit = "x" was a ValueError)
     check_size(width, height)
     cli_units = check_units(units)
-    doc_units = _agreeing_units(cli_units, doc.get("units"), source)
+    doc_units = check_units(cli_units, (f"{source}: units", doc.get("units")))
     material_map = dict(material_map or {})
-    shapes_doc = check_keys(doc["shapes"], f"{source}: [shapes]", error=SceneError)
-    if not shapes_doc:
-        raise SceneError(f"{source}: [shapes] must hold at least one shape table")
+    for section in ("camera", "shapes", "lights", "views"):  # the file's tables (camera = 5 was a TypeError)
+        check_keys(doc.get(section, {}), f"{source}: [{section}]", error=SceneError)
+    shapes_doc = doc["shapes"]  # (none: no SSS shape, below)
     notes: list[str] = []
     shapes: dict[str, dict] = {}
     sss: list[str] = []
@@ -424,21 +416,21 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
             if base is not None and not fpath.is_absolute():
                 fpath = base / fpath
             inspect_mesh_file(fpath, width, height)
-            shape_units = _agreeing_units(cli_units, table.get("units"), where)
-            unit = cli_units or shape_units or doc_units
+            unit = check_units(cli_units, (f"{where}: units", table.get("units"))) or doc_units
             assumed = unit is None
             unit = unit or DEFAULT_UNITS[FORMATS[fpath.suffix.lower()]]
             meshes = read_mesh(fpath)
             label = str(table["file"])
         elif kind == "generated":
             _keys(where, table, {"type", "generator", "params", "material", "materials", "sss"}, {"generator"})
-            gen, params = str(table["generator"]), dict(table.get("params", {}))
+            gen = GENERATOR.check(table["generator"], f"{where}: generator", SceneError)
+            params = dict(check_keys(table.get("params", {}), f"{where}: params", error=SceneError))
             if gen == "head":  # the scan's scale and the credit its licence asks for (ssskit.scenes.head)
-                from .head import ATTRIBUTION, LICENCE, MM_PER_UNIT, check_mm_per_unit
+                from .head import ATTRIBUTION, HEAD_SCALE, LICENCE, MM_PER_UNIT
 
                 check_keys(params, f"{where}: the head generator's params", {"mm_per_unit"}, error=SceneError)
-                about.update({"attribution": ATTRIBUTION, "licence": LICENCE,
-                              "mm_per_unit": check_mm_per_unit(params.get("mm_per_unit", MM_PER_UNIT)),
+                head_scale = HEAD_SCALE.check(params.get("mm_per_unit", MM_PER_UNIT), "head mm_per_unit", SceneError)
+                about.update({"attribution": ATTRIBUTION, "licence": LICENCE, "mm_per_unit": head_scale,
                               "scale_evidence": "docs/head.md, Scale"})
             if gen in DIRECT_GENERATORS:  # the built-in scenes' geometry, made when the scene is rendered
                 shapes[sid] = {"__thunk": (gen, params)}
@@ -494,13 +486,9 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     cam = dict(doc.get("camera", {}))
     explicit = "origin" in cam
     if explicit:
-        _keys(f"{source}: [camera]", cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
         if view is not None:
             raise SceneError(f"--view needs automatic framing, but {source} places its camera (origin, target)")
-        origin = tuple(cam["origin"])
-        target = tuple(cam["target"])
-        up = tuple(cam["up"])
-        fov = cam["fov"]
+        origin, target, up, fov = _camera(f"{source}: [camera]", cam)
     else:
         _keys(f"{source}: [camera]", cam, {"view", "azimuth", "elevation", "distance", "fov", "up", "front"})
         if view is None and "view" in cam:
@@ -520,29 +508,24 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         origin = tuple(framing(centre, radius, vw, fov, up_v, front).tolist())
         target = tuple(centre.tolist())
         up = tuple(_basis(up_v, front)[0].tolist())
-    light_doc = doc.get("lights")
-    if light_doc is None:
-        if explicit:
-            raise SceneError(f"{source}: a scene with an explicit camera needs explicit [lights]")
-        light_doc = DEFAULT_LIGHTS
     lights: dict[str, dict] = {}
-    for lid, ltable in dict(light_doc).items():
+    for lid, ltable in doc.get("lights", DEFAULT_LIGHTS).items():  # (no [lights]: the relative key, fill and back)
         if "type" in check_keys(ltable, f"{source}: light {lid!r}", error=SceneError):
             lights[lid] = _explicit_light(lid, ltable)
+        elif explicit:  # an explicit camera takes explicit lights only (the default ones are relative too)
+            raise SceneError(f"{source}: light {lid!r} is placed relative to the automatic framing, but the "
+                             "camera is explicit; give type = point | sphere")
         else:
-            if explicit:
-                raise SceneError(f"{source}: light {lid!r} is placed relative to the automatic framing, but the "
-                                 "camera is explicit; give type = point | sphere")
             lights[lid] = _relative_light(lid, ltable, centre, radius, vw[0], vw[1], up_v, front)
     views = _named_views(source, doc.get("views", {}), explicit)
     desc = str(doc.get("description", f"meshes from {source}"))
     spec = SceneSpec(str(doc.get("name", source)), desc, origin, target, up, float(fov),
                      _frozen_dicts(shapes), tuple(sss), _frozen_dicts(lights),
-                     orbit_deg_per_frame=float(doc.get("orbit_deg_per_frame", 2.0)),
-                     light_orbit_deg_per_frame=float(doc.get("light_orbit_deg_per_frame", 0.0)),
+                     orbit_deg_per_frame=top["orbit_deg_per_frame"],
+                     light_orbit_deg_per_frame=top["light_orbit_deg_per_frame"],
                      sss_materials=tuple(sss_materials) if any(sss_materials) else (),
                      reference_problem="; ".join(problems) or None,
-                     lit_from_behind=bool(doc.get("lit_from_behind", False)),
+                     lit_from_behind=top["lit_from_behind"],
                      about=tuple(about.items()), views=views)
     for write in deferred:
         write()
@@ -552,15 +535,17 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
 def _named_views(source: str, table: Any, explicit: bool) -> tuple[tuple[str, tuple], ...]:
     """A scene's named cameras (``[views.NAME]``: origin, target, up, fov, as an explicit [camera]): what
     ``--view NAME`` picks for that scene; only beside an explicit camera."""
-    if check_keys(table, f"{source}: views (named cameras)", error=SceneError) and not explicit:
+    if table and not explicit:  # (a table: scene_from_document)
         raise SceneError(f"{source}: named [views] need an explicit [camera] (origin, target, up, fov)")
-    out = []
-    for name, cam in table.items():
-        where = f"{source}: view {name!r}"
-        _keys(where, cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
-        origin, target, up = (tuple(_point(f"{where}: {key}", cam[key])) for key in ("origin", "target", "up"))
-        out.append((str(name).lower(), (origin, target, up, float(FOV_DEG.check(cam["fov"], f"{where}: fov", SceneError)))))
-    return tuple(out)
+    return tuple((str(name).lower(), _camera(f"{source}: view {name!r}", cam)) for name, cam in table.items())
+
+
+def _camera(where: str, cam: Any) -> tuple[tuple, tuple, tuple, float]:
+    """An explicit camera (``[camera]`` with an origin, or a ``[views.NAME]``): its origin, target and up (points,
+    world mm) and its horizontal fov (degrees), each checked."""
+    _keys(where, cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
+    origin, target, up = (tuple(_point(f"{where}: {key}", cam[key])) for key in ("origin", "target", "up"))
+    return origin, target, up, float(FOV_DEG.check(cam["fov"], f"{where}: fov", SceneError))
 
 
 def _shape_material(sid: str, table: Mapping[str, Any], material_map: Mapping[str, str], claimed: set[str]) -> str:
@@ -631,6 +616,16 @@ GENERATED_SCENES: dict[str, dict[str, Any]] = {"bust": {"generator": "bust"},
                                                                  "n_minor": 48}}}
 
 
+#: the suffixes of the files --scene takes: a mesh, a scene file, a G-buffer
+SCENE_FORMAT = Choice("format", (*FORMATS, ".toml", ".exr"))
+#: what a --scene value is (:func:`resolve_scene`), in its messages
+SCENE_KINDS = {"generated": "a generated mesh", "mesh": "a mesh file", "file": "a scene .toml",
+               "views": "a built-in scene with named views"}
+#: the --scene kinds each scene option applies to; given with another, it is refused (refuse_unused)
+SCENE_OPTIONS = {"--units": ("mesh", "file"), "--material-map": ("generated", "mesh", "file"),
+                 "--view": ("generated", "mesh", "file", "views")}
+
+
 @dataclass(frozen=True)
 class ResolvedScene:
     """What a ``--scene`` value names: ``kind`` ``builtin`` | ``generated`` | ``mesh`` | ``file`` (a scene
@@ -675,11 +670,10 @@ def with_view(spec: SceneSpec, view: Any) -> SceneSpec:
     import dataclasses
 
     names = dict(spec.views)
-    key = str(view).strip().lower() if isinstance(view, str) else None
-    if key not in names and key is not None:
+    key = view.strip().lower() if isinstance(view, str) else view
+    if isinstance(key, str) and key not in names:
         key = {v: k for k, v in VIEW_ALIASES.items()}.get(key, key)
-    if key not in names:
-        raise SceneError(f"the built-in scene {spec.name!r} has the views {', '.join(names)}; got --view {view!r}")
+    key = Choice("view", tuple(names)).check(key, f"--view of the built-in scene {spec.name!r}", SceneError)
     origin, target, up, fov = names[key]
     return dataclasses.replace(spec, origin=origin, target=target, up=up, fov_x_deg=fov)
 
@@ -711,57 +705,48 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
     cli_units = check_units(units)
     if isinstance(value, SceneSpec):
         return ResolvedScene("builtin", value.name, spec=value)
-    if not isinstance(value, (str, os.PathLike)):
-        raise SceneError(f"scene must be a built-in scene name, a mesh, a scene .toml or a G-buffer .exr, "
-                         f"got {type(value).__name__}")
-    text = os.fspath(value)
+    text = os.fspath(check_instance(value, (str, os.PathLike), "scene", SceneError))  # (a name or a file)
     suffix = Path(text).suffix.lower()
-
-    def no_options(what: str, applies: tuple[str, ...] = ()) -> None:
-        """Refuse the options given that do not apply to ``what`` (all but ``applies``)."""
-        given = [n for n, v in (("--units", cli_units), ("--material-map", mmap), ("--view", view))
-                 if v and n not in applies]
-        if given:
-            raise SceneError(f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} not apply to {what}")
 
     if text in SCENES:
         spec = SCENES.get(text)
-        if view is not None and spec.views:  # a built-in scene with named cameras (the head's close, ear, front)
-            no_options(f"the built-in scene {text!r}", applies=("--view",))
-            spec = with_view(spec, view)
-        else:
-            no_options(f"the built-in scene {text!r} (fixed camera and primitives)")
-        return ResolvedScene("builtin", spec.name, spec=spec)
-    if suffix == ".exr":
-        no_options("a G-buffer file")
+        kind = "views" if spec.views else "builtin"
+        what = "a built-in scene" if spec.views else "a built-in scene: fixed camera and primitives"
+    elif suffix == ".exr":
+        kind, what = "gbuffer", "a G-buffer file"
+    elif text.strip().lower() in GENERATED_SCENES:
+        kind, what = "generated", "a generated mesh, made in mm"
+    elif suffix in FORMATS or suffix == ".toml":
+        kind, what = ("mesh", "a mesh file") if suffix in FORMATS else ("file", "a scene .toml")
+    else:  # neither a scene's name nor a file of a format it takes
+        if Path(text).suffix or os.sep in text or Path(text).exists():
+            SCENE_FORMAT.check(suffix, f"scene {text!r}: its format", SceneError)
+        raise SceneError(unknown_scene_message(text))
+    for flag, given in (("--units", cli_units), ("--material-map", mmap), ("--view", view)):
+        refuse_unused([flag] if given and kind not in SCENE_OPTIONS[flag] else [], "--scene",
+                      [SCENE_KINDS[k] for k in SCENE_OPTIONS[flag]], f"{text!r} ({what})", SceneError)
+    if kind in ("builtin", "views"):
+        return ResolvedScene("builtin", spec.name, spec=spec if view is None else with_view(spec, view))
+    if kind == "gbuffer":
         return ResolvedScene("gbuffer", Path(text).name, path=Path(text))
-    if text.strip().lower() in GENERATED_SCENES:
+    if kind == "generated":
         name = text.strip().lower()
-        no_options(f"the generated {name!r} (made in mm)", applies=("--material-map", "--view"))
         doc = {"name": name, "description": f"the generated {name} (mm)",
                "shapes": {name: {"type": "generated", **GENERATED_SCENES[name]}}}
         loaded = scene_from_document(doc, None, name, material_map=mmap, view=view, width=width, height=height)
-        kind = "generated"
-    elif suffix in FORMATS:
+    elif kind == "mesh":
         p = Path(text)
         doc = {"name": p.stem, "description": f"the mesh {p.name}", "shapes": {p.stem: {"type": "mesh", "file": text}}}
         loaded = scene_from_document(doc, None, text, units=cli_units, material_map=mmap, view=view, width=width,
                                      height=height)
-        kind = "mesh"
-    elif suffix == ".toml":
-        loaded = load_scene_file(text, units=cli_units, material_map=mmap, view=view, width=width, height=height)
-        kind = "file"
     else:
-        if Path(text).suffix or os.sep in text or Path(text).exists():
-            raise SceneError(f"scene {text!r}: unknown format {suffix or '(no suffix)'!r} (a mesh "
-                             f"{', '.join(FORMATS)}, a scene .toml or a G-buffer .exr)")
-        raise SceneError(unknown_scene_message(text))
+        loaded = load_scene_file(text, units=cli_units, material_map=mmap, view=view, width=width, height=height)
     for mat in {m for m in loaded.spec.sss_materials if m}:
         get_material(mat)
     return ResolvedScene(kind, loaded.spec.name, spec=loaded.spec, notes=loaded.notes, objects=loaded.objects)
 
 
 __all__ = ["BUILTIN_DIR", "DEFAULT_LIGHTS", "GENERATED_SCENES", "GENERATORS", "LoadedScene", "MeshObject",
-           "OTHER_LIGHT", "ResolvedScene", "VIEWS", "builtin_scene_files", "check_units", "direction", "framing",
-           "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document",
+           "OTHER_LIGHT", "ResolvedScene", "UNITS", "VIEWS", "builtin_scene_files", "check_units", "direction",
+           "framing", "load_scene_file", "parse_material_map", "parse_view", "resolve_scene", "scene_from_document",
            "unknown_scene_message", "with_view"]

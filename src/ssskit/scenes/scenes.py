@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike
 
 from ..cache import cache_file
 from ..errors import SceneError
-from ..quantities import SIZE_PX, Quantity
+from ..quantities import SIZE_PX, TYPE, Quantity, fail
 from ..io import atomic_output
 from ..registry import Registry
 from ..screenspace.camera import Camera
@@ -248,6 +248,15 @@ RENDER_SPP = Quantity("spp", 1, math.inf, "", "samples per pixel", integer=True,
 
 def check_spp(spp: int, name: str = "spp") -> None:
     RENDER_SPP.check(spp, name, SceneError)
+
+
+def per_shape(name: str, value: Any, n: int, one: Callable[[Any], bool]) -> tuple:
+    """``value`` for each of a scene's ``n`` SSS shapes: one for all (where ``one(value)``) or a sequence of ``n``,
+    else a SceneError in the type wording."""
+    values = (value,) * n if one(value) else tuple(value)
+    if len(values) != n:
+        raise fail(SceneError, TYPE, name=name, kind=f"one, or one per SSS shape ({n})", actual=f"{len(values)}")
+    return values
 
 
 #: Mitsuba's perspective sensor's default clip planes (world units: mm), kept wherever they hold the scene

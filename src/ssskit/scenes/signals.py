@@ -54,11 +54,10 @@ def edge_rotated(size: int = 256, angle_deg: float = 30.0) -> np.ndarray:
     return edge(size, angle_deg)
 
 
+@checks(SignalError, size=(SIZE_PX, "signal size"), radius_px=(PIXELS, "disk radius"))
 def disk(size: int = 256, radius_px: float | None = None) -> np.ndarray:
     """A white disk on black (the 'dot' of supplement Fig. S.5); default radius size / 16."""
-    size = SIZE_PX.check(size, "signal size", SignalError)
     r = size / 16.0 if radius_px is None else float(radius_px)
-    PIXELS.check(r, "disk radius", SignalError)
     return _rgb(_coverage(size, lambda x, y: x * x + y * y < r * r))
 
 

@@ -125,15 +125,13 @@ def thin_scene(scene: str | SceneSpec, thickness_mm: float) -> SceneSpec:
     z = +1 face and moves the z = -1 face up (module docstring). A SceneError for a scene with no SSS
     box, or a thickness not below the box's. Named ``<name>-t<thickness>``."""
     spec = get_scene(scene)
-    t = float(LENGTH_MM.check(thickness_mm, "the thickness", SceneError))
     base = spec.shapes()
     boxes = [sid for sid in spec.sss_shapes if base[sid].get("type") == "cube"]
     if not boxes:
         raise SceneError(f"scene {spec.name!r} has no SSS box (a Mitsuba cube) to make thinner")
-    for sid in boxes:
-        full = box_thickness_mm(base[sid])
-        if not t < full:
-            raise SceneError(f"the thickness must be below the {sid!r} box's {full:g} mm, got {t:g}")
+    full = min(box_thickness_mm(base[sid]) for sid in boxes)
+    t = float(dataclasses.replace(LENGTH_MM, hi=full, reason=f"thinner than the SSS box's {full:g} mm").check(
+        thickness_mm, "the thickness", SceneError))
 
     def shapes() -> dict[str, dict]:
         d = spec.shapes()
