@@ -76,8 +76,12 @@ class Backend(ABC):
     def warm_up(self, passes: Iterable[str]) -> None:
         """Get ``passes`` (names from :data:`WARM_UP`) ready, so that their first real frame runs at full speed:
         the numba backend compiles their kernels (or loads them from numba's disk cache, which then serves
-        every later process too). This backend has nothing to prepare. An unknown name: a BackendError."""
-        check_warm_up(passes)
+        every later process too). An unknown name: a BackendError. A template: the backend's own
+        :meth:`_warm_up` gets the checked names."""
+        self._warm_up(check_warm_up(passes))
+
+    def _warm_up(self, names: list[str]) -> None:
+        """:meth:`warm_up` of checked names: this backend has nothing to prepare."""
 
     #: whether :meth:`_separable` checks the frame's values and slot range itself as it reads the frame (numba:
     #: in its one packing pass), so that :meth:`separable` checks only the shapes and types
@@ -322,8 +326,8 @@ def check_warm_up(passes: Iterable[str]) -> list[str]:
             for name in ([passes] if isinstance(passes, str) else list(passes))]
 
 
-def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
-    """Run each of ``passes`` (:data:`WARM_UP`) once on ``backend`` on a tiny synthetic 8 x 8 frame (two profile
+def run_tiny_frames(backend: Backend, names: list[str]) -> None:
+    """Run each of ``names`` (:data:`WARM_UP`, checked by :meth:`Backend.warm_up`) once on ``backend`` on a tiny synthetic 8 x 8 frame (two profile
     ids; one for ``separable:<mode>``, whose first real frame rarely has more), through the backend's own
     entry points: what a backend that compiles on first use calls to compile, since the argument types (hence
     the compiled specialisations) are those of a real frame of any size. ``separable:ids`` runs the pass in the
@@ -343,7 +347,6 @@ def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
     ids = (1, 2)
     uvz = np.zeros((n, n, 3), np.float32)  # the light's view: each pixel 1 mm behind a shadow map of 1 mm
     uvz[..., 2] = 2.0
-    names = check_warm_up(passes)
     modes = [name.partition(":")[2] for name in names if name.startswith("separable:") and name != "separable:ids"]
     for name in names:
         kind, _, mode = name.partition(":")

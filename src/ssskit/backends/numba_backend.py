@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -78,14 +78,14 @@ class NumbaBackend(Backend):
             return False, f"numba cannot be imported ({exc})"
         return True, f"numba {numba.__version__}, {numba.get_num_threads()} threads"
 
-    def warm_up(self, passes: Iterable[str]) -> None:
-        """Compile the kernels of ``passes`` (:data:`~ssskit.backends.base.WARM_UP`), or load them from numba's disk
+    def _warm_up(self, names: list[str]) -> None:
+        """Compile the kernels of ``names`` (:data:`~ssskit.backends.base.WARM_UP`), or load them from numba's disk
         cache: each pass runs once on a tiny synthetic frame through this backend's own entry points
         (:func:`~ssskit.backends.base.run_tiny_frames`), so numba compiles the very specialisations a real
         frame of any size calls, and the first real frame compiles nothing. On a fresh machine this is
         most of a first frame's time (seconds per kernel, one thread), so a caller can overlap it with other
         work: a thread while Mitsuba renders the G-buffer, or a process beside another demo section."""
-        run_tiny_frames(self, passes)
+        run_tiny_frames(self, names)
 
     def _rows(self, h: int, fn: Callable[[int, int], object]) -> None:
         """fn(y0, y1) over row ranges covering [0, h), on numba.get_num_threads() threads (the kernels
