@@ -89,8 +89,8 @@ class Backend(ABC):
 
     # The entry points below are template methods: each states its pass's input rules once, for every backend
     # (the pass is one this backend implements; the frame's shapes, types and values: its table of arrays, checked
-    # by :func:`~ssskit.backends.plan.check_arrays`), returns an empty
-    # frame's result without running the pass, and hands checked inputs to the backend's own ``_<pass>``:
+    # by :func:`~ssskit.backends.plan.check_arrays`), returns an empty frame's result without running the pass,
+    # and hands checked inputs to the backend's own ``_<pass>``:
     # ``_separable`` always, and each of these where :attr:`passes` names the pass (:meth:`require` refuses the
     # others before they are reached): ``_burley`` (checked counts: an int or an (H, W) int64 image),
     # ``_transmission``, ``_transmission_spread``, ``_adaptive_counts`` (a GuideFrame without ``rgb`` and
@@ -124,9 +124,9 @@ class Backend(ABC):
         """The Burley Monte Carlo pass (see :mod:`ssskit.backends.burley_plan`): a new (H, W, 3) array.
 
         ``spp``: samples per pixel, an int or an (H, W) integer image (the frame checked by
-        :data:`~ssskit.backends.burley_plan.BURLEY_FRAME`). ``pyramid``: the frame's pyramid if the caller built it already, by
-        :meth:`burley_prefilter` (CPU backends; None: built here when the plan has mips). A backend
-        without the pass raises :class:`~ssskit.errors.BackendError`.
+        :data:`~ssskit.backends.burley_plan.BURLEY_FRAME`). ``pyramid``: the frame's pyramid if the caller built
+        it already, by :meth:`burley_prefilter` (CPU backends; None: built here when the plan has mips). A
+        backend without the pass raises :class:`~ssskit.errors.BackendError`.
         """
         from .burley_plan import BURLEY_FRAME
 
@@ -327,11 +327,12 @@ def check_warm_up(passes: Iterable[str]) -> list[str]:
 
 
 def run_tiny_frames(backend: Backend, names: list[str]) -> None:
-    """Run each of ``names`` (:data:`WARM_UP`, checked by :meth:`Backend.warm_up`) once on ``backend`` on a tiny synthetic 8 x 8 frame (two profile
-    ids; one for ``separable:<mode>``, whose first real frame rarely has more), through the backend's own
-    entry points: what a backend that compiles on first use calls to compile, since the argument types (hence
-    the compiled specialisations) are those of a real frame of any size. ``separable:ids`` runs the pass in the
-    depth mode named before it (else ``follow``) on two ids. The results are thrown away."""
+    """Run each of ``names`` (:data:`WARM_UP`, checked by :meth:`Backend.warm_up`) once on ``backend`` on a tiny
+    synthetic 8 x 8 frame (two profile ids; one for ``separable:<mode>``, whose first real frame rarely has more),
+    through the backend's own entry points: what a backend that compiles on first use calls to compile, since
+    the argument types (hence the compiled specialisations) are those of a real frame of any size.
+    ``separable:ids`` runs the pass in the depth mode named before it (else ``follow``) on two ids. The results
+    are thrown away."""
     from .adaptive_plan import AdaptivePlan
     from .burley_plan import BurleyParams, build_burley_plan
     from .plan import TermTable

@@ -211,7 +211,8 @@ class GLAdaptiveRunner(AdaptiveRunner):
         from .context import context
 
         slots = np.asarray(slots)
-        m, mv, ok = check_arrays(GUIDE_FRAME, dict(mask=slots > 0, motion=motion, valid=valid), dims=self.shape).values()
+        m, mv, ok = check_arrays(GUIDE_FRAME, dict(mask=slots > 0, motion=motion, valid=valid),
+                                 dims=self.shape).values()
         ctx = context()
         if self._images is not None:
             self._images.release()
