@@ -29,9 +29,10 @@ import functools
 import inspect
 import math
 import numbers
+import operator
 from collections.abc import Callable, Collection, Iterable
 from dataclasses import dataclass, replace
-from typing import Any, SupportsIndex, TypeVar, cast
+from typing import Any, TypeVar, cast
 
 from .errors import SsskitError
 
@@ -103,20 +104,13 @@ class Quantity:
         return lo_ok and hi_ok
 
     def _scalar(self, value: object, name: str, error: ErrorClass, shown: object = None) -> Any:
-        if self.integer:
-            if isinstance(value, bool) or not isinstance(value, SupportsIndex):
-                raise fail(error, TYPE, name=name, kind=self.kind, actual=repr(value))
-            v: int | float = int(value)
-        else:
+        try:  # an integer is what operator.index takes (numpy's too, never a float), a number what float() takes
             if isinstance(value, (bool, str, bytes)):
-                raise fail(error, TYPE, name=name, kind=self.kind, actual=repr(value))
-            try:
-                v = float(value)  # type: ignore[arg-type]
-            except (TypeError, ValueError):
-                raise fail(error, TYPE, name=name, kind=self.kind, actual=repr(value)) from None
-            if math.isnan(v) or (math.isinf(v) and not self.contains(v)):  # inf only where the range holds it
-                self.refuse(v if shown is None else shown, name, error)
-        if not self.contains(v):
+                raise TypeError(value)
+            v: int | float = operator.index(value) if self.integer else float(value)  # type: ignore[arg-type]
+        except (TypeError, ValueError):
+            raise fail(error, TYPE, name=name, kind=self.kind, actual=repr(value)) from None
+        if not self.contains(v):  # NaN fails both comparisons; an infinity only where the range holds it
             self.refuse(v if shown is None else shown, name, error)
         if self.odd and int(v) % 2 == 0:
             raise fail(error, TYPE, name=name, kind=self.kind, actual=repr(v))
@@ -154,10 +148,7 @@ class Quantity:
         import numpy as np
 
         label = name or self.name
-        a = np.asarray(values, dtype=np.float64)
-        bad = ~np.isfinite(a)
-        if bad.any():
-            raise fail(error, FINITE, name=label, actual=_count(bad, a, where))
+        a = check_finite(np.asarray(values, dtype=np.float64), label, error, where)
         lo_bad = a <= self.lo if self.lo_open else a < self.lo
         hi_bad = a >= self.hi if self.hi_open else a > self.hi
         out = lo_bad | hi_bad
