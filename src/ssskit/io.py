@@ -281,30 +281,21 @@ def parse_document(text: str, suffix: str) -> Any:
         raise ValueError("nested too deeply (more levels of arrays or tables than the parser can follow)") from None
 
 
-def check_regular_file(path: str | Path, what: str, error: type[Exception] = OutputError) -> None:
-    """Refuse an input ``path`` that exists but is no regular file: a FIFO (reading it would wait for a
-    writer forever), a socket or a device. A missing path or a folder is left to the caller's own
-    message."""
-    import stat
-
-    try:
-        mode = os.stat(path).st_mode
-    except OSError:
-        return
-    if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
-        kind = "a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
-        raise error(f"{what} {str(path)!r} is {kind}, not a regular file")
-
-
 def read_input(path: str | Path, what: str, error: type[Exception] = OutputError, suffixes: Iterable[str] = (),
                size: int = -1, text: bool = False) -> Any:
     """The contents of an input file (``text``: decoded as UTF-8; ``size``: at most that many bytes), after the
     rules of every input file, stated once: a regular file that exists (a folder, a FIFO, a socket or a device
-    is refused), its suffix one of ``suffixes`` (when given), that reads; else one ``error`` naming ``what``."""
+    is refused: reading a FIFO would wait for a writer forever), its suffix one of ``suffixes`` (when given), that
+    reads; else one ``error`` naming ``what``."""
+    import stat
+
     p = Path(path)
     if not p.exists() or p.is_dir():
         raise error(f"{what} {str(p)!r} {'is a directory, not a file' if p.is_dir() else 'does not exist'}")
-    check_regular_file(p, what, error)
+    mode = p.stat().st_mode
+    if not stat.S_ISREG(mode):
+        kind = "a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+        raise error(f"{what} {str(p)!r} is {kind}, not a regular file")
     if suffixes:
         check_suffix(p, tuple(suffixes), what, error)
     try:
@@ -317,14 +308,6 @@ def read_input(path: str | Path, what: str, error: type[Exception] = OutputError
         raise error(f"cannot read {what} {str(p)!r}: {exc.strerror or exc}") from None
 
 
-def _check_readable(path: Path, what: str) -> int:
-    """The version field of an OpenEXR file, after checking that ``path`` is a readable OpenEXR file."""
-    head = read_input(path, what, GBufferError, size=8)
-    if len(head) < 8 or head[:4] != EXR_MAGIC:
-        raise GBufferError(f"{what} {str(path)!r} is not an OpenEXR file")
-    return int.from_bytes(head[4:8], "little")
-
-
 def read_exr(path: str | Path, what: str = "EXR file", required: Iterable[str] = ()) -> tuple[dict, dict]:
     """Read an OpenEXR file: (header, channels), channels a dict name -> array ((H, W) or (H, W, 3)
     for ``name.R/G/B`` groups).
@@ -335,8 +318,10 @@ def read_exr(path: str | Path, what: str = "EXR file", required: Iterable[str] =
     one :class:`GBufferError` line naming ``what`` and the path; nothing reaches stdout or stderr.
     """
     p = Path(path)
-    version = _check_readable(p, what)
-    if version & _EXR_DEEP:
+    head = read_input(p, what, GBufferError, size=8)
+    if len(head) < 8 or head[:4] != EXR_MAGIC:
+        raise GBufferError(f"{what} {str(p)!r} is not an OpenEXR file")
+    if int.from_bytes(head[4:8], "little") & _EXR_DEEP:  # (the version field's flags)
         raise GBufferError(f"{what} {str(p)!r} holds deep data; ssskit reads flat (scanline or tiled) images")
     import OpenEXR
 

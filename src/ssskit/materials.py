@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .errors import MaterialError
+from .errors import MaterialError, SsskitError
 from .quantities import (ANISOTROPY, COEFFICIENT, ETA, EXTINCTION, FRACTION, LENGTH_MM, THICKNESS_MM, TYPE, Choice,
                          check_instance, check_keys, fail)
 from .registry import Registry
@@ -252,11 +252,11 @@ ARTIST_PRESETS.register(
 )
 
 
-def homogeneous(material: Any, what: str) -> Material:
-    """``material`` if it is one homogeneous medium (a :class:`Material`), else a :class:`MaterialError` in one
-    wording for every user of a single medium (``what``: who needs it, and where to get one)."""
+def homogeneous(material: Any, what: str, error: type[SsskitError] = MaterialError) -> Material:
+    """``material`` if it is one homogeneous medium (a :class:`Material`), else ``error`` in one wording for every
+    user of a single medium (``what``: who needs it, and where to get one, or why)."""
     if not isinstance(material, Material):
-        raise MaterialError(f"{what} needs one homogeneous medium, not {_describe_material(material)}")
+        raise error(f"{what} needs one homogeneous medium, not {_describe_material(material)}")
     return material
 
 

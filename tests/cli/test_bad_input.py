@@ -116,7 +116,7 @@ BAD = [
     (["render", "--scene", "g.exr", "--out", "./sub/../g.exr"], "would overwrite the input"),
     (["render", "--scene", "g.exr", "--save-gbuffer", "g.exr"], "--save-gbuffer 'g.exr' would overwrite the input"),
     (["render", "--scene", "slab", "--out", "a.exr", "--save-gbuffer", "a.exr"], "--save-gbuffer 'a.exr' is also the --out file"),
-    (["render", "--scene", "g.exr", "--reference"], "reference needs a built-in scene or a mesh (a G-buffer has no scene"),
+    (["render", "--scene", "g.exr", "--reference"], "reference applies to a built-in or mesh scene, not a G-buffer (it has no scene"),
     (["kernel", "--material", "m.json", "--model", "dipole", "--method", "artist", "--out", "m.json"],
      "would overwrite the input 'm.json'"),
     (["render", "--scene", "x.exr"], "'x.exr' is a directory"),
@@ -152,7 +152,7 @@ BAD = [
     (["kernel", "--method", "svd", "--material", "skin1", "--size", "50"], "--size must be an odd integer, got 50"),
     (["kernel", "--method", "jimenez2012", "--taps", "10"], "odd"),
     (["kernel", "--method", "jimenez2012", "--out", "k.txt"], "must end in .npz or .json"),
-    (["kernel", "--method", "jimenez2012", "--model", "dipole"], "--model does not apply to --method jimenez2012, a fixed engine kernel that reads no profile"),
+    (["kernel", "--method", "jimenez2012", "--model", "dipole"], "--model applies to --method svd or svd_l1 or gaussians or preintegrated or preintegrated_svd or artist or guided or burley_fit, not --method jimenez2012"),
     (["evaluate", "--material", "skin1", "--signal", "plaid"], "unknown signal 'plaid'"),
     (["evaluate", "--material", "skin1", "--methods", "svd:x"], "integer"),
     (["evaluate", "--model", "dipole"], "--material is required"),
@@ -185,7 +185,7 @@ FIRST_HOUR = [
     (["evaluate", "--material", "eta4.json", "--model", "dipole"], "the dipole model's relative index eta must lie in"),
     (["profile", "--material", "skin1", "--r-max", "1e308", "--out", "p.csv"], "--r-max must lie in (0, 1e+07] mm, got 1e+308 (10 times"),
     # options accepted and ignored, or computed twice
-    (["kernel", "--method", "jimenez2012", "--material", "skin1"], "--material does not apply to --method jimenez2012, a fixed engine kernel that reads no profile"),
+    (["kernel", "--method", "jimenez2012", "--material", "skin1"], "--material applies to --method svd or svd_l1 or gaussians or preintegrated or preintegrated_svd or artist or guided or burley_fit, not --method jimenez2012"),
     (["evaluate", "--material", "skin1", "--methods", "svd,svd:1"], "'svd:1' names the same kernel as 'svd'"),
     (["evaluate", "--material", "skin1", "--methods", "guided:0,preintegrated,guided:0"], "names the same kernel"),
     (["figures", "fig2", "fig2", "--model", "dipole"], "figure fig2 named more than once"),
@@ -213,7 +213,7 @@ def test_bad_input_of_the_first_hour(run, workdir, args, fragment):
     ("tapz = 7\n", "unknown setting(s) tapz"),
     ("[sss]\njitter = 3\n", "jitter must lie in [0, 1], got 3"),
     ("kernel = 'svd:0'\n", "SVD rank"),
-    ("reference = true\n", "reference needs a built-in scene or a mesh (a G-buffer has no scene"),
+    ("reference = true\n", "reference applies to a built-in or mesh scene, not a G-buffer (it has no scene"),
     ("taps = \n", "malformed settings file"),
 ])
 def test_bad_settings_file(run, workdir, content, fragment):
@@ -408,7 +408,7 @@ def test_the_kernel_header_names_the_preset_built(run):
 
 @pytest.mark.parametrize("content, fragment", [
     ("width = 64\nheight = 48\n", "applies to a built-in scene, not a G-buffer file"),
-    ("method = 'separable'\n[burley]\nspp = 8\n", "never reads it"),
+    ("method = 'separable'\n[burley]\nspp = 8\n", "the [burley] table's spp applies to method burley, not method separable"),
 ])
 def test_settings_a_gbuffer_render_would_ignore(run, workdir, gbuffer_file, content, fragment):
     """A settings file's width/height with a G-buffer, and a [burley] table under method = separable, were ignored."""

@@ -76,7 +76,7 @@ BAD = [
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--taps", "10"], "taps must be an odd integer, got 10"),
     # the header named 'jimenez2012 kernel of Skin1 (montecarlo)' though the taps ignore the material
     (["export", "--material", "skin1", "--kernel", "jimenez2012", "--taps", "9", "--format", "glsl", "--out", "k.glsl"],
-     "--material does not apply to --kernel jimenez2012, a fixed engine kernel that reads no profile"),
+     "--material applies to --kernel svd or svd_l1 or gaussians or preintegrated or preintegrated_svd or artist or guided or burley_fit, not --kernel jimenez2012"),
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012:10"], "odd"),
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "preintegrated"], "--kernel preintegrated needs --material"),
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--tap-method", "uniform"],
@@ -84,7 +84,7 @@ BAD = [
     (["export", "--format", "bn", "--out", "k.bn", "--kernel", "preintegrated", "--material", "skin1",
       "--tap-method", "uniform"], "--tap-method does not apply to --format bn, which writes no taps"),
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--model", "burley"],
-     "--model does not apply to --kernel jimenez2012, a fixed engine kernel that reads no profile"),
+     "--model applies to --kernel svd or svd_l1 or gaussians or preintegrated or preintegrated_svd or artist or guided or burley_fit, not --kernel jimenez2012"),
     (["export", "--format", "hlsl", "--out", "f.txt/k.hlsl", "--kernel", "jimenez2012"], "'f.txt' is not a folder"),
     (["export", "--format", "unity", "--out", "m.json", "--material", "m.json"], "would overwrite the input"),
     (["export", "--format", "unity", "--out", "u.json", "--material", "nosuch"], "nosuch"),

@@ -148,11 +148,12 @@ def _mixed_g_material(tmp_path):
 
 
 @pytest.mark.parametrize("scene, kw, error, fragment", [
-    ("g.exr", dict(reference=True), SettingsError, "reference needs a built-in scene"),
-    ("g.exr", dict(width=64, height=64), SettingsError, "does not apply to a G-buffer file: g.exr is 48x36"),
-    ("slab", dict(kernel="jimenez2012:17", taps=11), SettingsError, "names 17 taps but taps is 11"),
+    ("g.exr", dict(reference=True), SettingsError, "reference applies to a built-in or mesh scene, not a G-buffer"),
+    ("g.exr", dict(width=64, height=64), SettingsError,
+     r"applies to a built-in or mesh scene, not a G-buffer g.exr \(48x36: it keeps its size\)"),
+    ("slab", dict(kernel="jimenez2012:17", taps=11), SettingsError, "kernel 'jimenez2012:17' and taps 11 disagree"),
     ("slab", dict(kernel="jimenez2012", taps=1), KernelError, r"jimenez2012 taps must lie in \[3, 255\], got 1"),
-    ("slab", dict(kernel="jimenez2012", tap_method="uniform"), SettingsError, "does not apply to the jimenez2012"),
+    ("slab", dict(kernel="jimenez2012", tap_method="uniform"), SettingsError, "applies to a tabulated kernel, not a jimenez2012 kernel"),
     ("teapot", {}, SceneError, "unknown scene 'teapot'"),
     ("scene.png", {}, SceneError, "unknown format '.png'"),
     ("missing.exr", {}, GBufferError, "does not exist"),
@@ -170,9 +171,9 @@ def test_checks_come_before_any_work(tmp_path, monkeypatch, gbuffer_file, no_wor
 
 
 def test_gbuffer_in_memory_refuses_reference_and_other_sizes(small, no_work):
-    with pytest.raises(SettingsError, match="reference needs a built-in scene"):
+    with pytest.raises(SettingsError, match="reference applies to a built-in or mesh scene, not a G-buffer"):
         render(small.gbuffer, _settings(reference=True))
-    with pytest.raises(SettingsError, match="does not apply to a G-buffer"):
+    with pytest.raises(SettingsError, match="applies to a built-in or mesh scene, not a G-buffer"):
         render(small.gbuffer, _settings(width=64))
     with pytest.raises(SettingsError, match="must be RenderSettings"):
         render("slab", {"kernel": "svd:2"})

@@ -350,7 +350,8 @@ def test_adaptive_frames_bad_inputs():
     gb = _step_gbuffer(8, 8)
     with pytest.raises(PassError, match="gbuffer must be GBuffer, got"):
         adaptive_frames(np.zeros((8, 8, 3)), _params())
-    with pytest.raises(PassError, match="history is 4x4 but the G-buffer is 8x8"):
+    with pytest.raises(PassError, match=r"the adaptive history must be a float array of shape \(8, 8, 4\), "
+                                        r"got shape \(4, 4, 4\)"):
         adaptive_frames(gb, _params(), history=new_history(4, 4))
     with pytest.raises(SettingsError, match="frames must lie in"):
         adaptive_frames(gb, _params(), frames=0)

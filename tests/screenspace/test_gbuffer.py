@@ -31,6 +31,16 @@ def test_gbuffer_exr_roundtrip_official_bindings(tmp_path):
     assert back.materials == ("Skin1",) and back.meta == {"note": "test"}
 
 
+def test_a_gbuffer_without_material_names_loads_back(tmp_path):
+    """GBuffer.save wrote ``ssskit_materials = []`` for a G-buffer that names no materials (the default), which
+    load_gbuffer refuses where profile ids are used (id k is the k-th name): the saved file did not load."""
+    gb = _gbuffer()
+    unnamed = GBuffer(diffuse=gb.diffuse, albedo=gb.albedo, depth=gb.depth, profile_id=gb.profile_id, camera=gb.camera)
+    unnamed.save(tmp_path / "g.exr")
+    back = load_gbuffer(tmp_path / "g.exr")
+    assert back.materials == () and np.array_equal(back.profile_id, gb.profile_id)
+
+
 @pytest.mark.parametrize("change, layer", [
     (dict(albedo=np.zeros((5, 5, 3), np.float32)), "albedo"),
     (dict(depth=np.full((24, 32), np.nan, np.float32)), "depth"),

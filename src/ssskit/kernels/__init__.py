@@ -19,7 +19,7 @@ from ..errors import KernelError, check_keywords
 from ..profiles.base import RGBProfile
 from ..registry import Registry
 from ..materials import ARTIST_PRESETS
-from ..quantities import Choice
+from ..quantities import Choice, check_instance, refuse_unused
 from .base import MAX_SVD_RANK, SVD_RANK, AnyKernel, Kernel, TapKernel, _check_grid, default_grid, load_kernel, save_kernel
 from .burley_fit import ERROR_FUNCTION
 from .guided import GUIDE_K
@@ -159,13 +159,12 @@ def refuse_profile_options(method: KernelMethod, given: list[str], material: boo
     the option that names the method, ``--method`` or ``--kernel``; ``given``: the profile options given, as
     flags): a fixed engine kernel (``uses_profile`` False) reads no profile, so takes none of them; one that reads
     a profile only from a material (``needs_profile`` False) takes no model options without ``--material``."""
-    if given and not method.uses_profile:
-        raise KernelError(f"{given[0]} does not apply to {how} {method.name}, a fixed engine kernel that reads no "
-                          f"profile (its fit to a material's profile is {how} burley_fit)")
-    model_options = [g for g in given if g not in ("--material", "--albedo")]
-    if model_options and not material and not method.needs_profile:
-        raise KernelError(f"{model_options[0]} does not apply to {how} {method.name} without a --material (it then "
-                          "uses no profile)")
+    if not method.uses_profile:  # (e.g. --method jimenez2012, whose fit to a material's profile is burley_fit)
+        refuse_unused(given[:1], how, [n for n, m in METHODS.items() if m.uses_profile], method.name, KernelError)
+    if not material and not method.needs_profile:
+        refuse_unused([g for g in given if g not in ("--material", "--albedo")][:1], how,
+                      [*(n for n, m in METHODS.items() if m.needs_profile), f"{method.name} with a --material"],
+                      f"{method.name} without a --material", KernelError)
 
 
 def parse_method_spec(spec: str) -> tuple[KernelMethod, dict[str, Any], str]:
@@ -178,10 +177,12 @@ def parse_method_spec(spec: str) -> tuple[KernelMethod, dict[str, Any], str]:
     method = METHODS.get(name)
     params: dict[str, Any] = {}
     if value:
-        if method.primary is None:
-            raise KernelError(f"kernel method {method.name!r} takes no parameter, got {text!r}")
-        params[method.primary] = method.parse(value)
-        check_params(method, params)
+        if method.primary is None:  # (preintegrated:3)
+            refuse_unused([f"the parameter :{value}"], "kernel method", [n for n, m in METHODS.items() if m.primary],
+                          method.name, KernelError)
+        else:
+            params[method.primary] = method.parse(value)
+            check_params(method, params)
     label = method.name + (f":{value}" if value else "")
     return method, params, label
 
@@ -192,9 +193,8 @@ def build_kernel(method: str, profile: RGBProfile | None = None, cell_mm: float 
     (cell_mm, n) (each default when None: :func:`default_grid`); ``params`` are the method's keywords (an
     unknown one is a KernelError naming the known ones)."""
     m = METHODS.get(method)
-    if not isinstance(profile, RGBProfile) and (profile is not None or m.needs_profile):  # (None: where it needs none)
-        raise KernelError(f"kernel method {m.name!r} needs a profile (an RGBProfile: "
-                          f"profile_for_material(material, model) makes one), got {type(profile).__name__}")
+    check_instance(profile, RGBProfile, f"the profile of kernel method {m.name!r} (profile_for_material(material, "
+                   "model) makes one)", KernelError, optional=not m.needs_profile)  # (None: where it needs none)
     takes = list(inspect.signature(m.builder).parameters)[3:]  # (after profile, cell_mm, n)
     check_keywords(f"kernel method {m.name!r}", params, takes, KernelError)
     if cell_mm is None or n is None:

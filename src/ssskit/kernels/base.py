@@ -54,10 +54,10 @@ TAP_COUNT = Quantity("taps", 1, math.inf, "", "a tap kernel's offsets and weight
 _check_grid = partial(check_grid, error=KernelError, what="kernel ", cells=KERNEL_CELLS)
 
 
-def _scale_factors(factors: ArrayLike) -> NDArray[np.float64]:
-    """Per-channel scale factors (3,), each positive and finite, or a precise error."""
-    return POSITIVE.check_array(np.broadcast_to(np.asarray(factors, dtype=float), (3,)), "kernel scale factors",
-                                KernelError, "channels")
+def per_channel(value: ArrayLike, what: str, q: Quantity) -> NDArray[np.float64]:
+    """``value`` (one number or three) as a (3,) array, R, G, B, each in ``q``'s range (finite), or a KernelError
+    naming ``what``: a kernel's scale factors, the engine kernel's strength and falloff."""
+    return q.check_array(np.broadcast_to(np.asarray(value, dtype=float), (3,)).copy(), what, KernelError, "channels")
 
 
 def default_grid(profile: RGBProfile, n: int = 201, fraction: float = 0.999) -> tuple[float, int]:
@@ -175,7 +175,7 @@ class Kernel:
     # ---- transforms --------------------------------------------------------------------------
     def scaled(self, factors: ArrayLike) -> "Kernel":
         """The kernel with each channel's A multiplied by ``factors`` (3,) (must be > 0)."""
-        f = _scale_factors(factors)
+        f = per_channel(factors, "kernel scale factors", POSITIVE)
         return self._replace(components=self.components * np.sqrt(f)[:, None, None])
 
     def normalised(self, total: ArrayLike = 1.0) -> "Kernel":
@@ -290,7 +290,7 @@ class TapKernel:
         return self.weights.sum(axis=0) ** 2
 
     def scaled(self, factors: ArrayLike) -> "TapKernel":
-        f = _scale_factors(factors)
+        f = per_channel(factors, "kernel scale factors", POSITIVE)
         return TapKernel(self.offsets_mm, self.weights * np.sqrt(f), self.method, self.params, self.source)
 
     def to_kernel(self, cell_mm: float, n: int | None = None) -> Kernel:

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import KernelError
 from ..quantities import FRACTION, TAPS, Quantity
-from .base import TapKernel
+from .base import TapKernel, per_channel
 
 #: (c_k, v_k [mm^2]) of the demo's skin profile.
 JIMENEZ2012_GAUSSIANS = ((0.100, 0.0484), (0.118, 0.187), (0.113, 0.567), (0.358, 1.99), (0.078, 7.41))
@@ -38,13 +38,9 @@ FALLOFF = Quantity("falloff", 0.0, float("inf"), "", "a radius scale per channel
 JIMENEZ_TAPS = TAPS.within(lo=3, reason="odd: a centre tap and at least one pair")
 
 
-def _triple(value: ArrayLike, what: str, q: Quantity) -> NDArray[np.float64]:
-    return q.check_array(np.broadcast_to(np.asarray(value, dtype=float), (3,)).copy(), what, KernelError, "channels")
-
-
 def jimenez2012_profile(r: ArrayLike, falloff: ArrayLike = JIMENEZ2012_FALLOFF) -> NDArray[np.float64]:
     """The demo's radial profile P(r) per channel, shape r.shape + (3,) (engine constants kept)."""
-    f = _triple(falloff, "falloff", FALLOFF)
+    f = per_channel(falloff, "falloff", FALLOFF)
     rr = np.asarray(r, dtype=float)[..., None] / (0.001 + f)
     out = np.zeros(rr.shape)
     for c, v in JIMENEZ2012_GAUSSIANS:
@@ -64,8 +60,8 @@ def jimenez2012_offsets(taps: int) -> NDArray[np.float64]:
 def kernel_jimenez2012(taps: int = 11, strength: ArrayLike = JIMENEZ2012_STRENGTH,
                        falloff: ArrayLike = JIMENEZ2012_FALLOFF, source: dict[str, Any] | None = None) -> TapKernel:
     """The engine's tap kernel (module docstring), centre tap first; weights (taps, 3)."""
-    s = _triple(strength, "strength", FRACTION)
-    f = _triple(falloff, "falloff", FALLOFF)
+    s = per_channel(strength, "strength", FRACTION)
+    f = per_channel(falloff, "falloff", FALLOFF)
     o = jimenez2012_offsets(taps)
     gaps = np.abs(np.diff(o))
     area = np.zeros(taps)

@@ -16,7 +16,8 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import KernelError
 from ..materials import ARTIST_PRESETS
 from ..profiles.base import RadialProfile, RGBProfile
-from ..quantities import FRACTION, LENGTH_MM, Quantity
+from ..profiles.gaussians import WEIGHT_SUM
+from ..quantities import FRACTION, LENGTH_MM, Quantity, checks, rgb
 from .base import MAX_SVD_RANK, SVD_RANK, Kernel
 
 #: the number of Gaussians of a sum-of-Gaussians kernel (supplement Eq. S.1)
@@ -127,10 +128,9 @@ def fit_gaussians_2d(channel: RadialProfile, count: int,
     x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
     sol = least_squares(resid, x0, method="trf", x_scale=1.0, max_nfev=200 * count, bounds=(lo, hi))
     w, _ = weights(sol.x)
-    if w.sum() <= 0:
-        raise KernelError("Gaussian fit failed: all weights vanished")
+    w *= total / WEIGHT_SUM.check(w.sum(), "the sum of the fitted Gaussian weights", KernelError)
     keep = w > 0
-    return w[keep] * (total / w.sum()), np.exp(2.0 * sol.x[keep])
+    return w[keep], np.exp(2.0 * sol.x[keep])
 
 
 def kernel_gaussians(profile: RGBProfile, cell_mm: float, n: int, count: int = 6) -> Kernel:
@@ -204,12 +204,6 @@ def two_gaussian_1d(sigma_near: ArrayLike, sigma_far: ArrayLike, weight: ArrayLi
     return w * gaussian_cell_averages(sn, cell_mm, n) + (1.0 - w) * gaussian_cell_averages(sf, cell_mm, n)
 
 
-def _check_artist(sigma_near: ArrayLike, sigma_far: ArrayLike, weight: ArrayLike) -> None:
-    for name, v, q in (("sigma_near", sigma_near, LENGTH_MM), ("sigma_far", sigma_far, LENGTH_MM),
-                       ("artist weight w", weight, FRACTION)):
-        q.check_array(np.broadcast_to(np.asarray(v, float), (3,)), name, KernelError, "channels")
-
-
 def fit_artist(profile: RGBProfile, cell_mm: float, n: int) -> dict[str, list[float]]:
     """Fit (sigma_n, sigma_f, w) of Eq. 6 per channel to the profile's pre-integrated 1D kernel.
 
@@ -246,13 +240,16 @@ def fit_artist(profile: RGBProfile, cell_mm: float, n: int) -> dict[str, list[fl
     return out
 
 
+@checks(KernelError, sigma_near=rgb(LENGTH_MM), sigma_far=rgb(LENGTH_MM), weight=(rgb(FRACTION), "artist weight w"))
 def kernel_artist(profile: RGBProfile | None, cell_mm: float, n: int, preset: str = "close fit",
                   sigma_near: ArrayLike | None = None, sigma_far: ArrayLike | None = None,
                   weight: ArrayLike | None = None, match_energy: bool = True) -> Kernel:
     """The artist-friendly separable model A_m(x, y) = a_m(x) a_m(y) (paper Eq. 6).
 
     ``preset`` is a Table 2 preset ("close fit", "production") or "fit" (:func:`fit_artist`);
-    explicit ``sigma_near``/``sigma_far`` (mm) and ``weight`` override it. a_m integrates to 1; with
+    explicit ``sigma_near``/``sigma_far`` (mm, positive) and ``weight`` (in [0, 1]), one number or three each,
+    override it (a preset's are checked where it is made, :class:`~ssskit.materials.ArtistPreset`; a fit's are an
+    exp() and a logistic of its parameters). a_m integrates to 1; with
     ``match_energy`` (and a profile) each channel is scaled to the discrete ||Rd||_1 of the profile,
     standing in for the albedo the engine multiplies afterwards.
     """
@@ -271,7 +268,6 @@ def kernel_artist(profile: RGBProfile | None, cell_mm: float, n: int, preset: st
         sigma_far = base[1] if sigma_far is None else sigma_far
         weight = base[2] if weight is None else weight
         name = base[3]
-    _check_artist(sigma_near, sigma_far, weight)
     a = two_gaussian_1d(sigma_near, sigma_far, weight, cell_mm, n)
     params = {"preset": name, "sigma_near_mm": np.broadcast_to(np.asarray(sigma_near, float), (3,)).tolist(),
               "sigma_far_mm": np.broadcast_to(np.asarray(sigma_far, float), (3,)).tolist(),

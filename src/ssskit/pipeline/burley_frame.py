@@ -39,7 +39,9 @@ from typing import Any
 import numpy as np
 
 from ..backends import warm_up_in_background
-from ..errors import SettingsError, SignalError
+from ..backends.plan import per_id as params_of_ids
+from ..errors import SettingsError
+from ..materials import homogeneous
 from ..quantities import check_instance
 from ..screenspace import BurleyParams, BurleySettings, GBuffer, burley_sss
 from ..screenspace.burley import burley_backend
@@ -71,10 +73,8 @@ def burley_exact(gbuffer: GBuffer, params_by_id: BurleyParams | Mapping[int, Bur
     h, w = gbuffer.shape
     e = gbuffer.diffuse.astype(np.float64)
     out = e.copy()
-    for pid in [int(i) for i in np.unique(gbuffer.profile_id[gbuffer.profile_id > 0])]:
-        p = params_by_id.get(pid) if isinstance(params_by_id, Mapping) else params_by_id
-        if not isinstance(p, BurleyParams):
-            raise SignalError(f"no Burley parameters given for profile id {pid}")
+    ids = [int(i) for i in np.unique(gbuffer.profile_id[gbuffer.profile_id > 0])]
+    for pid, p in params_of_ids(params_by_id, BurleyParams, ids, "Burley parameters").items():  # (the pass's rule)
         region = gbuffer.profile_id == pid
         m = region.astype(np.float64)[..., None]
         z = float(np.median(gbuffer.depth_mm[region]))
@@ -206,9 +206,7 @@ def plan_burley(scene: SceneInput, settings: RenderSettings,
     given = p.params() if isinstance(p, (BurleyPass, AdaptivePass)) else None
     if given is not None:
         return plan, given
-    if not hasattr(plan.material, "eta"):
-        raise SettingsError(f"the Burley pass needs a homogeneous material (its profile comes from the "
-                            f"coefficients); {plan.material.name!r} is a {type(plan.material).__name__}")
+    homogeneous(plan.material, "the Burley pass (its profile comes from the coefficients)", SettingsError)
     return plan, per_id(plan, burley_params_for_material)
 
 

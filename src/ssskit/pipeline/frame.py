@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike
 from ..backends import get_backend
 from ..errors import SceneError, SettingsError, SsskitError
 from ..io import check_distinct, save_image
-from ..materials import LayeredMaterial, Material, get_material
+from ..materials import LayeredMaterial, Material, get_material, homogeneous
 from ..metrics import NO_LIGHT_TEXT, no_light, region_metrics
 from ..scenes import SCENES, ResolvedScene, SceneSpec, reference_phase_g, render_gbuffer, render_reference, resolve_scene
 from ..scenes.mitsuba_variant import leaving_a_core_to
@@ -40,6 +40,7 @@ from ..scenes.meshes import check_render_memory, shape_counts
 from ..scenes.scenefile import BUILTIN_DIR
 from ..scenes.scenes import mitsuba
 from ..profiles import check_model_domain
+from ..quantities import refuse_unused
 from ..screenspace import BurleyParams, GBuffer, load_gbuffer
 from ..profiles.base import RGBProfile
 from ..scenes.reference import Reference
@@ -178,7 +179,8 @@ def _scene(scene: SceneInput, settings: RenderSettings, material: Material | Lay
     resolved = scene if isinstance(scene, (GBuffer, ResolvedScene)) else resolve_scene(
         scene, width=settings.width, height=settings.height)
     if settings.reference and (isinstance(resolved, GBuffer) or resolved.kind == "gbuffer"):
-        raise SettingsError("reference needs a built-in scene or a mesh (a G-buffer has no scene to path-trace)")
+        refuse_unused(["reference"], "a", ("built-in or mesh scene",), "G-buffer (it has no scene to path-trace)",
+                      SettingsError)
     if isinstance(resolved, GBuffer):
         return ScenePlan(material, str(resolved.meta.get("scene", "G-buffer")), None, resolved, None)
     if resolved.kind == "gbuffer":
@@ -189,10 +191,7 @@ def _scene(scene: SceneInput, settings: RenderSettings, material: Material | Lay
     assert spec is not None
     mats: list[Material] = []
     for m in (material, *(get_material(name) for name in spec.shape_materials(settings.material))):
-        if not isinstance(m, Material):  # a LayeredMaterial has no eta
-            raise SettingsError(f"a scene needs homogeneous materials (their eta makes the boundary); "
-                                f"{m.name!r} is a {type(m).__name__}")
-        mats.append(m)
+        mats.append(homogeneous(m, "a scene's object (its material's eta makes the boundary)", SettingsError))
     mats = mats[1:]
     material = _scene_material(spec, resolved.kind, settings, material, mats)
     if settings.reference:
@@ -253,8 +252,8 @@ def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
         h, w = plan.gbuffer.shape
         size = (settings.width, settings.height)
         if size not in (_default_size(), (w, h)):
-            raise SettingsError(f"the image size {size[0]}x{size[1]} (--size) does not apply to a G-buffer file: "
-                                f"{plan.label} is {w}x{h} and keeps its size")
+            refuse_unused([f"the image size {size[0]}x{size[1]} (--size)"], "a", ("built-in or mesh scene",),
+                          f"G-buffer {plan.label} ({w}x{h}: it keeps its size)", SettingsError)
         _refuse_no_sss(plan.gbuffer, f"the G-buffer {plan.label}", "its profile_id is 0 everywhere", SettingsError)
         _check_named_materials(plan.gbuffer, material, plan.label)
     for mat in plan.materials:  # a scene's own materials (a material map) are held to the model's domain too

@@ -73,7 +73,7 @@ import numpy as np
 
 from ..backends import warm_up_in_background
 from ..errors import SettingsError
-from ..quantities import check_instance, refuse_unused
+from ..quantities import check_instance, refuse_twice, refuse_unused
 from ..kernels import KernelMethod, TapKernel, build_kernel, check_params, default_grid, parse_method_spec
 from ..profiles import MATERIAL_FREE_MODELS, profile_for_material
 from ..sampling.taps import SeparableTaps, make_taps
@@ -165,10 +165,10 @@ def _kernel_plan(settings: RenderSettings) -> tuple[KernelMethod, dict[str, Any]
         params = {**params, "taps": settings.taps}
         check_params(method, params)
     elif named != settings.taps and settings.taps != _default("taps"):
-        raise SettingsError(f"kernel {label!r} names {named} taps but taps is {settings.taps}; give the count once")
+        refuse_twice(f"kernel {label!r}", f"taps {settings.taps}", "the number of taps", SettingsError)
     if settings.tap_method != _default("tap_method"):
-        raise SettingsError(f"tap_method {settings.tap_method!r} does not apply to the {method.name} kernel "
-                            "(an engine tap kernel ships its own tap placement)")
+        refuse_unused([f"tap_method {settings.tap_method!r}"], "a", ("tabulated kernel",),
+                      f"{method.name} kernel (an engine tap kernel ships its own tap placement)", SettingsError)
     return method, params, None
 
 

@@ -38,7 +38,7 @@ import numpy as np
 from ..cache import cache_dir
 from ..errors import SettingsError
 from ..io import atomic_output
-from ..materials import Material
+from ..materials import Material, homogeneous
 from ..screenspace.burley import BurleyParams
 from ..screenspace import Camera, GBuffer
 from ..quantities import FRAME, FRAMES, REFERENCE_SPP
@@ -96,9 +96,8 @@ def sequence_gbuffers(scene: str, material: str | Material, frames: int, first: 
     check_spp(spp)
     frames = int(FRAMES.check(frames, "frames", SettingsError))
     first = int(FRAME.within(hi=FRAME.hi - frames).check(first, "first", SettingsError))
-    mat = MATERIALS.get(material) if isinstance(material, str) else material
-    if not hasattr(mat, "eta"):
-        raise SettingsError(f"the Burley pass needs a homogeneous material; {getattr(mat, 'name', mat)!r} is not one")
+    given = MATERIALS.get(material) if isinstance(material, str) else material
+    mat = homogeneous(given, "the Burley pass", SettingsError)
     albedo = np.clip(burley_params_for_material(mat).albedo, 0.0, 1.0)
     out: list[GBuffer] = []
     cache: dict[int, GBuffer] = {}

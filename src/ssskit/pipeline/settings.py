@@ -39,7 +39,8 @@ from ..screenspace.adaptive import AdaptiveSettings
 from ..screenspace.burley import BurleyParams, BurleySettings
 from ..screenspace.settings import PassSettings
 from ..quantities import (BURLEY_ALBEDO, FRAME, FRAMES, MFP_MM, PHOTONS, REFERENCE_SPP, REL_SE, SEED, SIZE_PX, SPP,
-                          TAPS, TYPE, Choice, ErrorClass, Flag, Quantity, Rule, check_choice, check_instance, fail)
+                          TAPS, TYPE, Choice, ErrorClass, Flag, Quantity, Rule, check_choice, check_instance,
+                          check_keys, fail, refuse_twice, refuse_unused)
 from ..screenspace.burley import BACKEND, BURLEY_SPP
 from ..settings import PHOTONS_RANGE, SIZE_RANGE, TAP_RANGE, Settings, like, setting
 
@@ -340,8 +341,7 @@ class RenderSettings(Settings):
         :class:`SettingsMigrated` warning); unknown keys, wrong types and a second pass table are errors
         naming the key."""
         label = where or cls.__name__
-        if not isinstance(data, dict):
-            raise SettingsError(f"{label}: expected a table/object, got {type(data).__name__}")
+        check_keys(data, label, error=SettingsError)  # a table (its keys: the fields and one pass table, below)
         data = _migrate(data, label)
         tables = [t for t in _BY_TABLE if t in data]
         if len(tables) > 1:
@@ -380,24 +380,24 @@ def _migrate(data: dict[str, Any], label: str) -> dict[str, Any]:
     tables = {"separable": d.pop("sss", None), "burley": d.pop("burley", None)}
     full = {"separable": PassSettings, "burley": BurleySettings}
     for name, table in tables.items():
-        if table is not None and not isinstance(table, dict):
-            raise SettingsError(f"{label}: [{'sss' if name == 'separable' else name}] must be a table")
+        if table is not None:
+            check_keys(table, f"{label}: [{'sss' if name == 'separable' else name}]", error=SettingsError)
     other = "burley" if method == "separable" else "separable"
     if tables[other]:
         defaults = full[other]().to_dict()
         extra = sorted(k for k, v in tables[other].items() if defaults.get(k, object()) != v)
         if extra:
-            old_name = "sss" if other == "separable" else other
-            raise SettingsError(f"{label}: the [{old_name}] table sets {', '.join(extra)}, but method = {method!r} never "
-                                f"reads it; remove the table or set method = {other!r}")
+            old_table = "sss" if other == "separable" else other
+            refuse_unused([f"{label}: the [{old_table}] table's {', '.join(extra)}"], "method", (other,), method,
+                          SettingsError)
     own = dict(tables[method] or {})
     for key in SHARED:
         if key not in own:
             continue
         value = own.pop(key)
-        if key in d and d[key] != value:
-            raise SettingsError(f"{label}: {key} is one setting now, but the file gives {key} = {d[key]!r} and "
-                                f"[{'sss' if method == 'separable' else method}] {key} = {value!r}; keep one")
+        if key in d and d[key] != value:  # (one setting now)
+            own_table = "sss" if method == "separable" else method
+            refuse_twice(f"{label}: {key} = {d[key]!r}", f"[{own_table}] {key} = {value!r}", key, SettingsError)
         d[key] = value
     d[_BY_TABLE["separable" if method == "separable" else "burley"].table] = own
     if method != "separable":  # the old layout's defaults, written out by save and never read by this pass

@@ -50,7 +50,7 @@ import numpy as np
 from ..backends import get_backend
 from ..backends.transmission_plan import SlotModel
 from ..errors import PassError, SettingsError
-from ..materials import Material
+from ..materials import Material, homogeneous
 from ..quantities import refuse_unused
 from ..screenspace import GBuffer
 from ..screenspace.transmission_slot import slot_model
@@ -103,9 +103,7 @@ def transmission_runs(settings: RenderSettings, gbuffer: GBuffer | None, label: 
     if settings.transmission_model in ("mcml", "unreal"):
         what = "MCML slab transmittance" if settings.transmission_model == "mcml" else "Burley d"
         for m in materials:
-            if not isinstance(m, Material):
-                raise SettingsError(f"the {settings.transmission_model} transmission model needs homogeneous materials "
-                                    f"(their {what}); {getattr(m, 'name', m)!r} is a {type(m).__name__}")
+            homogeneous(m, f"the {settings.transmission_model} transmission model (its {what})", SettingsError)
     _models_before_the_frame(settings, materials)
     return True
 

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ProfileError
-from ..quantities import ANISOTROPY, COEFFICIENT, EXTINCTION, checks
+from ..quantities import ANISOTROPY, COEFFICIENT, checks
 from .base import RadialProfile
 from .domain import DIPOLE_ETA, TRANSPORT_MFP
 
@@ -51,13 +51,12 @@ class DipoleProfile(RadialProfile):
         self.sigma_a, self.sigma_s, self.g, self.eta = float(sigma_a), float(sigma_s), float(g), float(eta)
         sigma_s_r = sigma_s * (1.0 - g)
         self.sigma_t_r = sigma_a + sigma_s_r
-        EXTINCTION.check(self.sigma_t_r, "the dipole's sigma_a + sigma_s'", ProfileError)
-        TRANSPORT_MFP.check(1.0 / self.sigma_t_r, "the dipole model's transport mean free path 1/sigma_t'", ProfileError)
+        self.z_r = 1.0 / self.sigma_t_r if self.sigma_t_r > 0 else math.inf  # (sigma_t' = 0: an infinite path)
+        TRANSPORT_MFP.check(self.z_r, "the dipole model's transport mean free path 1/sigma_t'", ProfileError)
         self.alpha_r = sigma_s_r / self.sigma_t_r
         self.sigma_tr = math.sqrt(3.0 * sigma_a * self.sigma_t_r)
         f_dr = fresnel_diffuse_reflectance(eta)
         self.a_boundary = (1.0 + f_dr) / (1.0 - f_dr)
-        self.z_r = 1.0 / self.sigma_t_r
         self.z_v = self.z_r * (1.0 + 4.0 / 3.0 * self.a_boundary)
 
     def eval(self, r: ArrayLike) -> NDArray[np.float64]:

@@ -33,6 +33,8 @@ DEON2007_SKIN_WEIGHTS = (
 
 #: a sum of Gaussians' weights (>= 0) and variances (mm^2, > 0)
 WEIGHT = Quantity("weight", 0.0, math.inf, "", "a Gaussian's share of the profile", hi_open=True)
+#: the sum of a sum of Gaussians' weights: its total R_d, some light (a fit whose weights all vanished has none)
+WEIGHT_SUM = WEIGHT.within(lo=1e-300, reason="some light")
 VARIANCE = Quantity("variance", 0.0, math.inf, "mm^2", "a Gaussian's width squared", lo_open=True, hi_open=True)
 
 class GaussianSumProfile(RadialProfile):
@@ -46,7 +48,7 @@ class GaussianSumProfile(RadialProfile):
         WEIGHT.check_array(w, "Gaussian weights", ProfileError)
         VARIANCE.check_array(v, "Gaussian variances", ProfileError)
         # (no weights at all: their sum 0 is refused here)
-        WEIGHT.within(lo=1e-300, reason="some light").check(w.sum(), "the sum of the Gaussian weights", ProfileError)
+        WEIGHT_SUM.check(w.sum(), "the sum of the Gaussian weights", ProfileError)
         self.weights, self.variances = w, v
 
     def eval(self, r: ArrayLike) -> NDArray[np.float64]:
@@ -99,7 +101,5 @@ def fit_gaussian_sum(profile: RadialProfile, n: int = 6, fraction: float = 0.999
     a = np.vstack([a, scale * np.ones(n)])
     b = np.append(b, scale * total)
     w, _ = nnls(a, b, maxiter=50 * n)
-    if w.sum() <= 0:
-        raise ProfileError("Gaussian fit failed: all weights vanished")
-    w *= total / w.sum()
+    w *= total / WEIGHT_SUM.check(w.sum(), "the sum of the fitted Gaussian weights", ProfileError)
     return GaussianSumProfile(w, variances)

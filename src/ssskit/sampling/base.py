@@ -15,8 +15,10 @@ from abc import ABC, abstractmethod
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import SamplingError
-from ..quantities import FRACTION
+from ..quantities import Quantity
+
+#: what ``sample`` takes: uniform variates, finite and in [0, 1] (each sampler checks them as it takes them)
+UNIFORM = Quantity("uniform variates", 0.0, 1.0, "", "what a sampler maps to a sample")
 
 
 class Distribution(ABC):
@@ -40,8 +42,3 @@ class Distribution(ABC):
     def invert(self, x: ArrayLike) -> NDArray[np.float64]:
         """u with sample(u) = x; for exact inverse-CDF samplers this is the CDF."""
         return self.cdf(x)
-
-
-def check_uniform(u: ArrayLike) -> NDArray[np.float64]:
-    """Validate uniform variates: finite, in [0, 1]."""
-    return FRACTION.check_array(u, "uniform variates", SamplingError)

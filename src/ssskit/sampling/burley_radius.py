@@ -21,13 +21,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import SamplingError
-from ..quantities import LENGTH_MM, Quantity, check_choice
+from ..quantities import LENGTH_MM, Choice, Quantity, checks
 from ..profiles.burley import (
     burley_cdf,
     burley_inverse_cdf,
     burley_radial_pdf,
 )
-from .base import Distribution, check_uniform
+from .base import UNIFORM, Distribution
 
 #: Xie 2020's least-squares constant for Eq. 21.
 XIE_C = 2.5715
@@ -36,10 +36,8 @@ XIE_C_ANY = Quantity("c", 2.0, 10.0, "", "c >= 2 keeps Eq. 21's g increasing")
 #: the midpoints of [0, 1] :func:`fit_xie_c` fits c at (fewer than 100 cannot resolve the CDF's error)
 FIT_POINTS = Quantity("points", 100, 10**9, "", "midpoints of [0, 1] the fit of c takes", integer=True)
 RADIUS = Quantity("radius", 0.0, math.inf, "mm", "a distance from the centre", hi_open=True)
-
-
-def _check_d(d: float) -> float:
-    return float(LENGTH_MM.check(d, "Burley length d", SamplingError))
+#: Burley's length d (mm) a sampler takes
+BURLEY_D = (LENGTH_MM, "Burley length d")
 
 
 class BurleyRadial(Distribution):
@@ -47,8 +45,9 @@ class BurleyRadial(Distribution):
 
     measure = "per unit radius (mm^-1); divide by 2 pi r for the per-area density"
 
+    @checks(SamplingError, d=BURLEY_D)
     def __init__(self, d: float) -> None:
-        self.d = _check_d(d)
+        self.d = d
 
     def eval(self, r: ArrayLike) -> NDArray[np.float64]:
         """2 pi r R(r) / A for A = 1 (the normalised Eq. 4 times the circumference)."""
@@ -61,7 +60,7 @@ class BurleyRadial(Distribution):
         return burley_cdf(r, self.d)  # Eq. 20
 
     def sample(self, u: ArrayLike) -> NDArray[np.float64]:
-        return burley_inverse_cdf(check_uniform(u), self.d)
+        return burley_inverse_cdf(UNIFORM.check_array(u, error=SamplingError), self.d)
 
 
 def xie_g(xi: ArrayLike, d: float, c: float = XIE_C) -> NDArray[np.float64]:
@@ -86,13 +85,13 @@ class BurleyRadialApprox(Distribution):
 
     measure = "per unit radius (mm^-1)"
 
+    @checks(SamplingError, d=BURLEY_D, c=(XIE_C_ANY, "Eq. 21 damping c"))
     def __init__(self, d: float, c: float = XIE_C) -> None:
-        self.d = _check_d(d)
         # For c >= 2 both factors of Eq. 21 keep g increasing (g' > 0 on [0, 1)).
-        self.c = float(XIE_C_ANY.check(c, "Eq. 21 damping c", SamplingError))
+        self.d, self.c = d, c
 
     def sample(self, u: ArrayLike) -> NDArray[np.float64]:
-        return xie_g(check_uniform(u), self.d, self.c)
+        return xie_g(UNIFORM.check_array(u, error=SamplingError), self.d, self.c)
 
     def _t_of_r(self, r: ArrayLike) -> NDArray[np.float64]:
         """Solve g(t) = r / d for t = -log(1 - xi) >= 0 (g is increasing in t): Newton from r/(c d)."""
@@ -136,6 +135,11 @@ def xie_cdf_error(c: float, xi: ArrayLike | None = None) -> NDArray[np.float64]:
     return burley_cdf(xie_g(x, 1.0, c), 1.0) - x
 
 
+#: how :func:`fit_xie_c` fits c
+FIT_METHOD = Choice("fit method", ("lsq", "minimax"))
+
+
+@checks(SamplingError, method=(FIT_METHOD, FIT_METHOD.name), n=(FIT_POINTS, "n (points to fit c)"))
 def fit_xie_c(method: str = "lsq", n: int = 100_000) -> tuple[float, float]:
     """Refit Eq. 21's c; returns (c, max |cdf(g(xi)) - xi| over xi).
 
@@ -145,8 +149,6 @@ def fit_xie_c(method: str = "lsq", n: int = 100_000) -> tuple[float, float]:
     """
     from scipy.optimize import least_squares, minimize_scalar
 
-    method = check_choice("fit method", method, ("lsq", "minimax"), SamplingError)
-    n = int(FIT_POINTS.check(n, "n (points to fit c)", SamplingError))
     xi = (np.arange(n) + 0.5) / n
     if method == "lsq":
         def resid(c: NDArray[np.float64]) -> NDArray[np.float64]:

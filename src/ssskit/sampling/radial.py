@@ -9,8 +9,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..errors import SamplingError
 from ..profiles.base import RadialProfile
-from .base import Distribution, check_uniform
+from .base import UNIFORM, Distribution
 
 
 class ProfileRadial(Distribution):
@@ -33,8 +34,8 @@ class ProfileRadial(Distribution):
         return self.profile.energy_within(r) / self._total
 
     def sample(self, u: ArrayLike) -> NDArray[np.float64]:
-        u = check_uniform(u)
-        out = np.full(u.shape, np.inf)
-        ok = u < 1
-        out[ok] = self.profile.radius_at_fraction(u[ok])
+        v: NDArray[np.float64] = UNIFORM.check_array(u, error=SamplingError)
+        out = np.full(v.shape, np.inf)
+        ok = v < 1
+        out[ok] = self.profile.radius_at_fraction(v[ok])
         return out

@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import KernelError, SamplingError
-from ..quantities import FRACTION, LENGTH_MM, Quantity, check_choice, check_instance, check_shape
+from ..quantities import FRACTION, LENGTH_MM, POSITIVE, Quantity, check_choice, check_instance, check_shape
 
 #: taps of one 1D pass: odd, for a centre tap
 TAP_COUNT = Quantity("tap count", 1, 2**31 - 1, "", "taps of one 1D pass, odd for a centre tap", integer=True, odd=True)
@@ -89,9 +89,7 @@ class SeparableTaps:
         return np.sum(self.signs * self.weights.sum(axis=1) ** 2, axis=0)
 
     def normalised(self) -> "SeparableTaps":
-        t = self.total()
-        if np.any(t <= 0):
-            raise SamplingError(f"cannot normalise taps whose kernel total is not positive: {t.tolist()}")
+        t = POSITIVE.check_array(self.total(), "the totals of taps to normalise", SamplingError, "channels")
         return self._replace(weights=self.weights / np.sqrt(t))
 
     def jitter_count(self, jitter: float) -> int:
@@ -138,8 +136,7 @@ def _fine(kernel: Kernel, r: int) -> tuple[NDArray[np.float64], NDArray[np.float
     widths = np.sqrt((np.abs(fine) * x**2).sum(axis=1) / np.maximum(np.abs(fine).sum(axis=1), 1e-300))
     dom = int(np.argmax(widths))
     p = np.abs(fine[dom])
-    if p.sum() <= 0:
-        raise SamplingError(f"kernel term {r} is zero in every channel; nothing to sample")
+    POSITIVE.check(p.sum(), f"the energy of kernel term {r} to sample", SamplingError)
     cum = np.concatenate([np.zeros((3, 1)), np.cumsum(fine * h, axis=1)], axis=1)
     pcum = np.concatenate([[0.0], np.cumsum(p * h)])
     mcum = np.concatenate([[0.0], np.cumsum(p * x * h)])

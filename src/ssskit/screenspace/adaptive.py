@@ -132,10 +132,11 @@ def new_history(height: int, width: int, *, available: bool = False) -> np.ndarr
     return out
 
 
-def check_history(history: ArrayLike) -> NDArray[np.float32]:
-    """``history`` as an (H, W, 4) float32 array with finite, valid entries, else a PassError."""
+def check_history(history: ArrayLike, size: tuple[int | str, int | str] = ("H", "W")) -> NDArray[np.float32]:
+    """``history`` as an (H, W, 4) float32 array (``size``: (H, W) when given) with finite, valid entries, else a
+    PassError."""
     label = "the adaptive history"
-    arr = check_shape(history, label, ("H", "W", HISTORY_CHANNELS), PassError, "f", np.float32)
+    arr = check_shape(history, label, (*size, HISTORY_CHANNELS), PassError, "f", np.float32)
     # one cheap pass first (a sum is NaN or inf if any entry is); the exact test only when it fails
     if not math.isfinite(float(arr.sum(dtype=np.float64))):
         check_finite(arr, "the adaptive history", PassError)

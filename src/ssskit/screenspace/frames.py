@@ -174,9 +174,7 @@ def _runner(b: BurleySettings, adaptive: AdaptiveSettings | None, history: Array
 
     sampler = burley_backend(b.backend)
     g = (sampler if guide is None else get_backend(BACKEND.check(guide, "backend", SettingsError))).require("adaptive")
-    h = new_history(*shape) if history is None else check_history(history)
-    if h.shape[:2] != shape:
-        raise PassError(f"the history is {h.shape[1]}x{h.shape[0]} but the G-buffer is {shape[1]}x{shape[0]}")
+    h = new_history(*shape) if history is None else check_history(history, shape)  # (the G-buffers' size)
     plan = as_plan(adaptive if adaptive is not None else AdaptiveSettings())
     runner = g.adaptive_runner(plan, h) if g is sampler else AdaptiveRunner(g, plan, h, sampler=sampler)
     return runner, g

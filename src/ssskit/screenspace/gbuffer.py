@@ -50,7 +50,21 @@ DEPTH_LAYER = Quantity("depth", 0.0, math.inf, "mm", "a linear camera-space dept
 RADIANCE = Quantity("diffuse", 0.0, math.inf, "", "linear-light radiance", hi_open=True)
 PROFILE_ID = Quantity("profile_id", 0, 2**32 - 1, "", "0 is no SSS, k the k-th material named", integer=True)
 IRRADIANCE = Quantity("irradiance", 0.0, float(np.finfo(np.float32).max), "", "an irradiance the float32 pass carries")
+LIGHT_DEPTH = Quantity("light_depth", -math.inf, math.inf, "mm", "a light-space depth; inf where the light meets no "
+                       "surface", lo_open=True)
 
+#: the layers (module docstring), declared once: name -> (the channels after (H, W), the array kinds it may be, the
+#: dtype it is kept as, the quantity of its values (+inf where the range holds it: no surface; None: any finite
+#: value), what they are)
+LAYER_RULES: dict[str, tuple[tuple[int, ...], str, type, Quantity | None, str]] = {
+    "diffuse": ((3,), "f", np.float32, RADIANCE, "colour values"),
+    "specular": ((3,), "f", np.float32, None, "values"),
+    "albedo": ((3,), "f", np.float32, None, "values"),
+    "depth": ((), "f", np.float32, DEPTH_LAYER, "pixels"),
+    "normal": ((3,), "f", np.float32, None, "values"),
+    "profile_id": ((), "iub", np.uint32, PROFILE_ID, "pixels"),
+    "light_depth": ((), "f", np.float32, LIGHT_DEPTH, "values"),
+}
 LAYERS = ("diffuse", "specular", "albedo", "depth", "normal", "profile_id")
 
 
@@ -71,28 +85,22 @@ class GBuffer:
     light: dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
-        diffuse = _float_layer("diffuse", self.diffuse, ("H", "W", 3))
-        h, w = diffuse.shape[:2]  # (an empty layer is not the camera's size: the camera has a pixel at least)
-        layers = {"diffuse": diffuse}
-        for name in ("specular", "albedo", "normal"):
+        layers = {"diffuse": _layer("diffuse", self.diffuse, ("H", "W"))}
+        h, w = layers["diffuse"].shape[:2]  # (an empty layer is not the camera's size: the camera has a pixel at least)
+        for name in LAYERS[1:]:
             value = getattr(self, name)
-            layers[name] = _float_layer(name, np.zeros((h, w, 3), np.float32) if value is None else value, (h, w, 3))
-        depth = layers["depth"] = _float_layer("depth", self.depth, (h, w), allow_inf=True)
-        ids = layers["profile_id"] = check_shape(self.profile_id, "layer 'profile_id'", (h, w), GBufferError, "iub")
-        PROFILE_ID.check_array(ids, "layer 'profile_id'", GBufferError, "pixels")
-        ids = layers["profile_id"] = np.ascontiguousarray(ids, dtype=np.uint32)
-        DEPTH_LAYER.check_array(np.where(depth == np.inf, 1.0, depth), "layer 'depth'", GBufferError, "pixels")
-        DEPTH_MM.check_array(depth[ids > 0], "layer 'depth'", GBufferError, "pixels with SSS")
-        RADIANCE.check_array(diffuse, "layer 'diffuse'", GBufferError, "colour values")
+            zeros = value is None and name in ("specular", "albedo", "normal")  # (an RGB layer not given: zeros)
+            layers[name] = _layer(name, np.zeros((h, w, 3), np.float32) if zeros else value, (h, w))
+        ids = layers["profile_id"]
+        DEPTH_MM.check_array(layers["depth"][ids > 0], "layer 'depth'", GBufferError, "pixels with SSS")
         check_instance(self.camera, Camera, "camera", GBufferError)
         if (self.camera.width, self.camera.height) != (w, h):
             raise GBufferError(f"camera is {self.camera.width}x{self.camera.height} but the layers are {w}x{h}")
-        if isinstance(self.materials, (bytes, bytearray)) or any(isinstance(m, (bytes, bytearray))
-                                                                for m in ([] if isinstance(self.materials, (str, Path))
-                                                                          else self.materials)):
+        # one name (or file) is one material, not its characters
+        given = [self.materials] if isinstance(self.materials, (str, Path, bytes, bytearray)) else list(self.materials)
+        if any(isinstance(m, (bytes, bytearray)) for m in given):
             raise GBufferError(f"materials must be names (str), not bytes, got {self.materials!r}")
-        mats = (str(self.materials),) if isinstance(self.materials, (str, Path)) else \
-            tuple(str(m) for m in self.materials)  # one name (or file) is one material, not its characters
+        mats = tuple(str(m) for m in given)
         if mats:
             PROFILE_ID.within(hi=len(mats), reason=f"0 is no SSS, k the k-th of the {len(mats)} materials named").check(
                 int(ids.max(initial=0)), "layer 'profile_id'", GBufferError)
@@ -111,7 +119,7 @@ class GBuffer:
             raise GBufferError("the light projection (header 'ssskit_light') is given without a 'light_depth' layer")
         from .transmission import LightView
 
-        ld = _float_layer("light_depth", self.light_depth, (h, w), allow_inf=True)
+        ld = _layer("light_depth", self.light_depth, (h, w))
         view = LightView.from_dict(self.light, GBufferError)
         if view.size != (w, h):
             raise GBufferError(f"the light projection's size {list(view.size)} is not the 'light_depth' layer's "
@@ -224,11 +232,12 @@ class GBuffer:
 
     # ---- EXR ---------------------------------------------------------------------------------
     def save(self, path: str | Path) -> None:
-        """Write a multi-layer EXR (float32 layers, uint32 ids, ZIP), atomically (:func:`ssskit.io.write_exr`)."""
+        """Write a multi-layer EXR (float32 layers, uint32 ids, ZIP), atomically (:func:`ssskit.io.write_exr`); the
+        header names the materials where the G-buffer does (an empty list would name none for ids that are used)."""
         check_suffix(path, (".exr",), "G-buffer file")
-        attributes = {"ssskit_camera": json.dumps(self.camera.to_dict()),
-                      "ssskit_materials": json.dumps(list(self.materials)),
-                      "ssskit_meta": json.dumps(self.meta, default=str)}
+        attributes = {"ssskit_camera": json.dumps(self.camera.to_dict()), "ssskit_meta": json.dumps(self.meta, default=str)}
+        if self.materials:
+            attributes["ssskit_materials"] = json.dumps(list(self.materials))
         channels = {name: np.ascontiguousarray(getattr(self, name)) for name in LAYERS}
         if self.light_depth is not None and self.light is not None:
             channels["light_depth"] = np.ascontiguousarray(self.light_depth)
@@ -272,8 +281,7 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
             raise GBufferError(f"G-buffer {str(p)!r}: layer 'profile_id' uses id {top} but the header "
                                f"'ssskit_materials' names {len(named)} material(s) {named!r} (id k is the k-th name)")
         materials = tuple(named)
-    light = check_instance(_header(p, header, "ssskit_light"), dict, f"G-buffer {str(p)!r}: header 'ssskit_light' "
-                           "(a JSON object)", GBufferError, optional=True)
+    light = _header(p, header, "ssskit_light")  # (a table: LightView.from_dict's rule, in GBuffer)
     try:  # (the camera record's and the layers' errors alike name the file)
         return GBuffer(diffuse=channels["diffuse"], albedo=channels["albedo"], depth=channels["depth"],
                        profile_id=channels["profile_id"], camera=camera if camera is not None else Camera.from_dict(record),
@@ -292,9 +300,14 @@ def _header(p: Path, header: dict[str, Any], key: str, default: Any = None) -> A
         raise GBufferError(f"G-buffer {str(p)!r}: header {key!r} is not JSON") from None
 
 
-def _float_layer(name: str, value: ArrayLike, shape: tuple[int | str, ...], allow_inf: bool = False) -> np.ndarray:
-    """A float (half or float) layer of ``shape`` as contiguous float32, without NaN (nor infinity unless
-    ``allow_inf``), or a GBufferError naming it."""
-    arr = np.ascontiguousarray(check_shape(value, f"layer {name!r}", shape, GBufferError, "f"), dtype=np.float32)
-    check_finite(np.where(np.isinf(arr), 0.0, arr) if allow_inf else arr, f"layer {name!r}", GBufferError, "values")
-    return arr
+def _layer(name: str, value: ArrayLike, size: tuple[int | str, int | str]) -> np.ndarray:
+    """The layer ``name`` of ``size`` (H, W) by its rule (:data:`LAYER_RULES`), contiguous in its dtype, or a
+    GBufferError naming it."""
+    channels, kinds, dtype, quantity, where = LAYER_RULES[name]
+    # (floats as kept, so a float32 overflow is refused; ids checked before they are made unsigned)
+    arr = check_shape(value, f"layer {name!r}", (*size, *channels), GBufferError, kinds, dtype if kinds == "f" else None)
+    if quantity is None:
+        return np.ascontiguousarray(check_finite(arr, f"layer {name!r}", GBufferError, where))
+    quantity.check_array(np.where(arr == np.inf, 1.0, arr) if quantity.contains(math.inf) else arr, f"layer {name!r}",
+                         GBufferError, where)
+    return np.ascontiguousarray(arr, dtype)

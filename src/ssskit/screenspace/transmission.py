@@ -44,7 +44,7 @@ from ..backends.spread_plan import SlotSpread
 from ..backends.transmission_plan import LUT_SIZE, UE_MAX_OPTICAL_DEPTH, SlotModel, TransmissionPlan, build_transmission_plan
 from ..errors import PassError, SsskitError
 from ..materials import Material
-from ..quantities import LENGTH_MM, Quantity, check_fields, check_keys, check_shape
+from ..quantities import LENGTH_MM, Quantity, check_choice, check_fields, check_keys, check_shape
 from ..profiles.gaussians import DEON2007_SKIN_VARIANCES, DEON2007_SKIN_WEIGHTS
 
 if TYPE_CHECKING:
@@ -277,13 +277,9 @@ class LightView:
         ``direction``, ``u``, ``v`` 3 finite numbers each, unit vectors (|x| within :data:`UNIT_TOL` of 1) and
         mutually orthogonal (|dot| <= :data:`UNIT_TOL`: an orthonormal frame, what :meth:`looking_along` writes
         and what :meth:`project` assumes); ``origin`` 3 finite numbers; ``size`` 2 positive integers;
-        ``texel_mm`` a finite number > 0."""
-        def fail(msg: str) -> SsskitError:
-            return error(f"the light projection is malformed: {msg}")
-
+        ``texel_mm`` a finite number > 0; ``type`` (optional) orthographic."""
         check_keys(d, "the light projection", None, ("direction", "origin", "u", "v", "texel_mm", "size"), error)
-        if d.get("type", "orthographic") != "orthographic":
-            raise fail(f"type {d.get('type')!r} (only 'orthographic')")
+        check_choice("the light projection's 'type'", d.get("type", "orthographic"), ("orthographic",), error)
         vecs = [_three_finite(k, d[k], error) for k in ("direction", "origin", "u", "v")]
         axes = {"direction": vecs[0], "u": vecs[2], "v": vecs[3]}
         for k, x in axes.items():

@@ -25,6 +25,7 @@ from ...quantities import ANISOTROPY, COEFFICIENT, ETA, EXTINCTION, LENGTH_MM, S
 #: a layer's fields and a simulation's numbers, each declared once as a quantity (checked in a loop)
 LAYER_FIELDS = {"sigma_a": COEFFICIENT, "sigma_s": COEFFICIENT, "g": ANISOTROPY, "eta": ETA,
                 "thickness_mm": THICKNESS_MM}
+LAYER_COUNT = Quantity("layers", 1, math.inf, "", "a simulation's layers, top first", integer=True, hi_open=True)
 CONFIG_FIELDS = {
     "dr_mm": Quantity("grid spacing dr_mm", 0.0, math.inf, "mm", "the radial grid's spacing", lo_open=True,
                       hi_open=True),
@@ -93,8 +94,7 @@ class MCConfig:
     roughness: float = 0.0
 
     def __post_init__(self) -> None:
-        if not self.layers:
-            raise ProfileError("a simulation needs at least one layer")
+        LAYER_COUNT.check(len(self.layers), error=ProfileError)
         for k, layer in enumerate(self.layers[:-1]):
             LENGTH_MM.within(reason="only the last layer may be semi-infinite").check(
                 layer.thickness_mm, f"layer {k + 1} thickness_mm", ProfileError)

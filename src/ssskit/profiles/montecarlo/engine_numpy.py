@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 from ...errors import ProfileError
+from ...quantities import refuse_unused
 from .config import N_EXIT_BINS, MCConfig, layer_arrays
 from .engine_numba import COS_90D, COS_ZERO, ROULETTE_CHANCE, WEIGHT_THRESHOLD
 from .result import N_TOTALS, MCResult, assemble_result
@@ -50,8 +51,7 @@ def simulate_numpy(cfg: MCConfig, seed: int | None = None) -> MCResult:
     ``cfg.seed``); nothing is cached. The twin of :func:`~ssskit.profiles.montecarlo.simulate`, for
     smooth surfaces only (MCML's)."""
     if cfg.roughness > 0:
-        raise ProfileError("the numpy engine simulates MCML's smooth surface only; a rough top surface "
-                           f"(roughness {cfg.roughness}) needs simulate()")
+        refuse_unused([f"roughness {cfg.roughness:g}"], "engine", ("numba or gl (simulate)",), "numpy", ProfileError)
     t0 = time.perf_counter()
     rng = np.random.default_rng(cfg.seed if seed is None else seed)
     a = layer_arrays(cfg)

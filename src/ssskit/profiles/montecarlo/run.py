@@ -22,7 +22,7 @@ from ...cache import cache_dir
 from ...errors import ProfileError, SimulationInterrupted
 from ...io import ProgressBar, progress_bar, save_arrays
 from ...progress import add_to_total
-from ...quantities import ETA, Choice, Quantity, checks
+from ...quantities import ETA, Choice, Quantity, checks, refuse_unused
 from .config import N_EXIT_BINS, MCConfig, layer_arrays
 
 #: numba's threads, a cosine of incidence (0 excluded: grazing light never enters), estimate samples
@@ -52,10 +52,9 @@ def simulate(cfg: MCConfig, *, threads: int | None = None, progress: bool | None
     instead of showing its own; photons it does not simulate (cached, shipped, resumed) leave its total.
     """
     check_resume(resume, restart)
-    if (resume or restart) and not use_cache:
-        which = "resume" if resume else "restart"
-        raise ProfileError(f"{which} acts on the on-disk cache; it cannot be combined with use_cache=False",
-                           cli_message=f"--{which} acts on the on-disk cache; it cannot be combined with --no-cache")
+    if not use_cache:  # (they act on the on-disk cache; `ssskit simulate` refuses --no-cache with them first)
+        refuse_unused([n for n, on in (("resume", resume), ("restart", restart)) if on], "use_cache", ("True",), False,
+                      ProfileError)
     backend = Choice("the Monte Carlo backend", ENGINES).check(backend, error=ProfileError)  # (its canonical name from here)
     check_threads(threads)  # before any answer, the shipped one included
     if use_cache and shipped and backend == "numba":  # (None inside shipped.recompute(): ssskit demo --full)
