@@ -231,11 +231,11 @@ def test_bad_frames_and_counts(burley_backend):
     b = get_backend(burley_backend)
     plan = build_burley_plan(params, 900.0, 700.0)
     slots = plan.slot_map(gb.profile_id)
-    with pytest.raises(PassError, match=r"sample-count image must be an integer array of shape \(40, 56\), got shape \(40, 55\)"):
+    with pytest.raises(PassError, match=r"the sample counts must be an integer array of shape \(40, 56\), got shape \(40, 55\)"):
         b.burley(plan, gb.diffuse, gb.depth_mm, slots, np.ones((h, w - 1), np.int64))
     with pytest.raises(PassError, match="spp must lie in"):
         b.burley(plan, gb.diffuse, gb.depth_mm, slots, 0)
-    with pytest.raises(PassError, match=r"sample-count image must be an integer array of shape \(40, 56\), got shape \(40, 56\) float64"):
+    with pytest.raises(PassError, match=r"the sample counts must be an integer array of shape \(40, 56\), got shape \(40, 56\) float64"):
         b.burley(plan, gb.diffuse, gb.depth_mm, slots, np.ones((h, w)))
     with pytest.raises(PassError, match="sample counts must lie"):
         b.burley(plan, gb.diffuse, gb.depth_mm, slots, -np.ones((h, w), np.int64))

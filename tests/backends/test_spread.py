@@ -129,6 +129,10 @@ def test_taps_and_checks(plan):
         b.transmission_spread(plan, ex, np.where(slots > 0, -1.0, z), slots, uvz, shadow)
     with pytest.raises(PassError, match="ascending"):
         build_spread_plan({1: SlotSpread(np.array([1.0, 0.5]), np.ones((3, 2)))}, FX, FY)
+    with pytest.raises(PassError, match=r"^profile id 1: the spread's knots_mm must lie in \[0, inf\) mm, got -1"):
+        build_spread_plan({1: SlotSpread(np.array([-1.0, 0.5]), np.ones((3, 2)))}, FX, FY)
+    with pytest.raises(PassError, match=r"^profile id 1: the spread's sigma_mm must be a real array of shape \(3, 2\)"):
+        build_spread_plan({1: SlotSpread(np.array([0.0, 0.5]), np.ones((3, 3)))}, FX, FY)
     with pytest.raises(PassError, match="focal"):
         build_spread_plan({1: _spread([1.0] * 3)}, math.nan, FY)
     with pytest.raises(PassError, match="profile ids"):

@@ -206,6 +206,26 @@ def test_bad_inputs_are_refused(plan):
     assert build_transmission_plan({}, allow_empty=True).slots == 1  # a frame without SSS pixels (the pipeline's)
 
 
+def test_bad_models_and_an_empty_map_are_refused(plan):
+    """A SlotModel's arrays and numbers (transmission_plan.MODEL_ARRAYS, MODEL_FIELDS): a, b and c (3, K) of one
+    K (a 1-D term or another K raised IndexError and a numpy broadcast error before), a model among MODELS,
+    the unreal model with its profile table and only it; and a light-space depth map of no texel."""
+    m = _model(k=2)
+    for model, match in ((SlotModel(m.a[0], m.b, m.c), r"profile id 1: a must be a real array of shape \(3, K\)"),
+                         (SlotModel(m.a, np.ones((3, 3)), m.c), r"profile id 1: b must be a real array of shape "
+                                                                r"\(3, 2\), got shape \(3, 3\)"),
+                         (SlotModel(m.a, m.b, m.c, model="x"), r"profile id 1: model must be one of mcml, "
+                                                               r"jimenez2010, unreal, got 'x'"),
+                         (SlotModel(m.a, m.b, m.c, model="unreal"), "the unreal model, and only it, holds a profile"),
+                         (SlotModel(m.a, m.b, m.c, lut=np.ones((3, 32))), "the unreal model, and only it")):
+        with pytest.raises(PassError, match=match):
+            build_transmission_plan({1: model})
+    slots, uvz, shadow, ndl, light = _frame()
+    with pytest.raises(PassError, match=r"shadow_mm \(the light-space depth\) must be a non-empty image, got shape "
+                                        r"\(0, 36\)"):
+        get_backend("numpy").transmission(plan, slots, uvz, shadow[:0], ndl, light)
+
+
 def test_bad_values_are_refused(plan, backend):
     """Values outside the spec (module docstring of transmission_plan) on a pixel with SSS: NaN or negative
     irradiance, a cosine beyond [-1, 1], a NaN point; NaN in the light-space depth (+inf marks no surface and

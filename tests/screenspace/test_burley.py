@@ -119,7 +119,7 @@ def test_entry_point_checks():
         burley_sss(gb, {2: p})
     with pytest.raises(PassError, match="Burley parameters must be BurleyParams or Mapping, got list"):
         burley_sss(gb, [p])
-    with pytest.raises(PassError, match=r"sample-count image must be an integer array of shape \(20, 24\), got shape \(24, 20\)"):
+    with pytest.raises(PassError, match=r"the sample counts must be an integer array of shape \(20, 24\), got shape \(24, 20\)"):
         burley_sss(gb, p, counts=np.ones((24, 20), np.int64))
     with pytest.raises(PassError, match="settings must be BurleySettings"):
         burley_sss(gb, p, settings={"spp": 4})

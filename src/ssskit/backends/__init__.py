@@ -23,8 +23,8 @@ from collections.abc import Callable, Iterable
 
 from ..errors import BackendError
 from ..registry import Registry
-from .base import Backend, check_frame
-from .plan import DEPTH_MODES, SeparablePlan, TermTable, build_separable_plan, term_rows
+from .base import Backend
+from .plan import DEPTH_MODES, SEPARABLE_FRAME, SeparablePlan, TermTable, build_separable_plan, check_arrays, term_rows
 
 BACKENDS: Registry[Callable[[], Backend]] = Registry("backend", BackendError)
 _INSTANCES: dict[str, Backend] = {}
@@ -115,11 +115,12 @@ __all__ = [
     "Backend",
     "DEFAULT_BACKEND",
     "DEPTH_MODES",
+    "SEPARABLE_FRAME",
     "SeparablePlan",
     "TermTable",
     "backend_status",
     "build_separable_plan",
-    "check_frame",
+    "check_arrays",
     "get_backend",
     "term_rows",
     "warm_up_in_background",

@@ -54,15 +54,15 @@ throughout, so a count whose estimate lies within float32 rounding of an integer
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import NamedTuple, Protocol, TypeAlias
+from dataclasses import dataclass, replace
+from typing import NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import PassError
-from ..quantities import check_shape
 from ..metrics import BT709_LUMA
+from .burley_plan import COUNT_IMAGE
+from .plan import FINITE_VALUE, Array
 
 #: history channels
 N_BAR, MU, VAR, AVAILABLE = 0, 1, 2, 3
@@ -118,11 +118,6 @@ class GuideParams(GuideSettings, Protocol):
     def k(self) -> float: ...
 
 
-#: :func:`check_guide_inputs`: mask (H, W) bool, motion (H, W, 2), valid (H, W) bool, rgb (H, W, 3), counts (H, W)
-GuideInputs: TypeAlias = tuple[NDArray[np.bool_], NDArray[np.float64] | None, NDArray[np.bool_] | None,
-                               NDArray[np.float32] | None, NDArray[np.int64] | None]
-
-
 def as_plan(settings: GuideSettings) -> AdaptivePlan:
     """An :class:`AdaptivePlan` of anything with the same fields (AdaptiveSettings)."""
     if isinstance(settings, AdaptivePlan):
@@ -133,40 +128,28 @@ def as_plan(settings: GuideSettings) -> AdaptivePlan:
 
 
 class GuideFrame(NamedTuple):
-    """The guiding phase's checked inputs (:func:`check_guide_frame`): history (H, W, 4) float32, mask (H, W)
+    """The guiding phase's checked inputs (:data:`GUIDE_FRAME`): history (H, W, 4) float32, mask (H, W)
     bool, motion (H, W, 2) float64, valid (H, W) bool, rgb (H, W, 3) float32, counts (H, W) int64 (each
     optional one None where not given)."""
 
     history: NDArray[np.float32]
     mask: NDArray[np.bool_]
-    motion: NDArray[np.float64] | None
-    valid: NDArray[np.bool_] | None
-    rgb: NDArray[np.float32] | None
-    counts: NDArray[np.int64] | None
+    motion: NDArray[np.float64] | None = None
+    valid: NDArray[np.bool_] | None = None
+    rgb: NDArray[np.float32] | None = None
+    counts: NDArray[np.int64] | None = None
 
 
-def check_guide_frame(history: ArrayLike, mask: ArrayLike, motion: ArrayLike | None = None,
-                      valid: ArrayLike | None = None, rgb: ArrayLike | None = None,
-                      counts: ArrayLike | None = None) -> GuideFrame:
-    """The guiding phase's inputs as arrays of the kernels' types, or a PassError: the rule
-    :meth:`~ssskit.backends.base.Backend.adaptive_counts` and ``adaptive_update`` state for every backend."""
-    h = check_shape(history, "the adaptive history", ("H", "W", HISTORY_CHANNELS), PassError, "f")
-    return GuideFrame(h.astype(np.float32, copy=False), *check_guide_inputs(h.shape[:2], mask, motion, valid, rgb,
-                                                                            counts))
-
-
-def check_guide_inputs(shape: tuple[int, ...], mask: ArrayLike, motion: ArrayLike | None = None,
-                       valid: ArrayLike | None = None, rgb: ArrayLike | None = None,
-                       counts: ArrayLike | None = None) -> GuideInputs:
-    """:func:`check_guide_frame` without the history, for a frame of (H, W) = ``shape``."""
-    hw = tuple(shape)
-    m = check_shape(mask, "the mask", hw, PassError, "iufb", bool)
-    mv = None if motion is None else check_shape(motion, "the motion vectors", hw + (2,), PassError, "iuf", np.float64,
-                                                 finite=True, where="pixels")
-    ok = None if valid is None else check_shape(valid, "valid", hw, PassError, "iufb", bool)
-    img = None if rgb is None else check_shape(rgb, "the pass's result", hw + (3,), PassError, "iuf", np.float32)
-    n = None if counts is None else check_shape(counts, "the sample counts", hw, PassError, "iu", np.int64)
-    return m, mv, ok, img, n
+#: the guiding phase's inputs as arrays of the kernels' types (:class:`GuideFrame`): the rule
+#: :meth:`~ssskit.backends.base.Backend.adaptive_counts` and ``adaptive_update`` state for every backend (the counts
+#: are those the frame's Burley pass used, whose values that pass checked: here only their shape and type)
+GUIDE_FRAME = {"history": Array(("H", "W", HISTORY_CHANNELS), "the adaptive history", "f", np.float32),
+               "mask": Array(("H", "W"), "the mask", "iufb", bool),
+               "motion": Array(("H", "W", 2), "the motion vectors", "iuf", np.float64, FINITE_VALUE, "pixels",
+                               optional=True),
+               "valid": Array(("H", "W"), "valid", "iufb", bool, optional=True),
+               "rgb": Array(("H", "W", 3), "the pass's result", "iuf", np.float32),
+               "counts": replace(COUNT_IMAGE, values=None)}
 
 
 # ---- the numpy reference (the oracle; ssskit.screenspace.adaptive's public functions call these) -------

@@ -27,14 +27,14 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable
-from typing import TYPE_CHECKING, Protocol, TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
-from ..quantities import check_choice, check_shape
-from .plan import DEPTH_MODES, SeparablePlan, check_frame_values, check_slot_range
+from ..quantities import check_choice
+from .plan import DEPTH_MODES, SEPARABLE_FRAME, SeparablePlan, check_arrays
 
 if TYPE_CHECKING:
     from .adaptive_plan import AdaptivePlan, GuideFrame
@@ -44,12 +44,6 @@ if TYPE_CHECKING:
 
 _T = TypeVar("_T")
 
-
-class SlotPlan(Protocol):
-    """What :func:`check_frame` reads of a pass's plan (a SeparablePlan or a BurleyPlan): its slot count."""
-
-    @property
-    def slots(self) -> int: ...
 
 #: the phases an AdaptiveRunner times, in frame order (Xie 2020 Fig. 8 and Table 1)
 PHASES = ("estimate", "prefilter", "sampling", "update")
@@ -82,16 +76,21 @@ class Backend(ABC):
     def warm_up(self, passes: Iterable[str]) -> None:
         """Get ``passes`` (names from :data:`WARM_UP`) ready, so that their first real frame runs at full speed:
         the numba backend compiles their kernels (or loads them from numba's disk cache, which then serves
-        every later process too). This backend has nothing to prepare. An unknown name: a BackendError."""
-        check_warm_up(passes)
+        every later process too). An unknown name: a BackendError. A template: the backend's own
+        :meth:`_warm_up` gets the checked names."""
+        self._warm_up(check_warm_up(passes))
+
+    def _warm_up(self, names: list[str]) -> None:
+        """:meth:`warm_up` of checked names: this backend has nothing to prepare."""
 
     #: whether :meth:`_separable` checks the frame's values and slot range itself as it reads the frame (numba:
     #: in its one packing pass), so that :meth:`separable` checks only the shapes and types
     separable_checks_values: bool = False
 
     # The entry points below are template methods: each states its pass's input rules once, for every backend
-    # (the pass is one this backend implements, the frame's shapes, types and values), returns an empty
-    # frame's result without running the pass, and hands checked inputs to the backend's own ``_<pass>``:
+    # (the pass is one this backend implements; the frame's shapes, types and values: its table of arrays, checked
+    # by :func:`~ssskit.backends.plan.check_arrays`), returns an empty frame's result without running the pass,
+    # and hands checked inputs to the backend's own ``_<pass>``:
     # ``_separable`` always, and each of these where :attr:`passes` names the pass (:meth:`require` refuses the
     # others before they are reached): ``_burley`` (checked counts: an int or an (H, W) int64 image),
     # ``_transmission``, ``_transmission_spread``, ``_adaptive_counts`` (a GuideFrame without ``rgb`` and
@@ -106,9 +105,11 @@ class Backend(ABC):
     def separable(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray,
                   slots: np.ndarray) -> np.ndarray:
         """The separable pass (see :mod:`ssskit.backends.plan`): a new (H, W, 3) array, inputs checked by
-        :func:`check_frame`."""
-        own = self.separable_checks_values
-        check_frame(diffuse, depth_mm, slots, plan, values=not own, slot_range=not own)
+        :data:`~ssskit.backends.plan.SEPARABLE_FRAME` (real ``diffuse`` (H, W, 3) and ``depth_mm`` (H, W) of any
+        array-like, an integer ``slots`` image: a float one is refused, never rounded; the values and the slot
+        range here unless :attr:`separable_checks_values`)."""
+        check_arrays(SEPARABLE_FRAME, dict(diffuse=diffuse, depth_mm=depth_mm, slots=slots), plan.slots,
+                     values=not self.separable_checks_values)
         if np.size(slots) == 0:
             return np.array(diffuse, self.dtype)
         return self._separable(plan, diffuse, depth_mm, slots)
@@ -122,13 +123,16 @@ class Backend(ABC):
                spp: SampleCounts, pyramid: Prefiltered | None = None) -> np.ndarray:
         """The Burley Monte Carlo pass (see :mod:`ssskit.backends.burley_plan`): a new (H, W, 3) array.
 
-        ``spp``: samples per pixel, an int or an (H, W) integer image (checked by
-        :func:`check_burley_frame`). ``pyramid``: the frame's pyramid if the caller built it already, by
-        :meth:`burley_prefilter` (CPU backends; None: built here when the plan has mips). A backend
-        without the pass raises :class:`~ssskit.errors.BackendError`.
+        ``spp``: samples per pixel, an int or an (H, W) integer image (the frame checked by
+        :data:`~ssskit.backends.burley_plan.BURLEY_FRAME`). ``pyramid``: the frame's pyramid if the caller built
+        it already, by :meth:`burley_prefilter` (CPU backends; None: built here when the plan has mips). A
+        backend without the pass raises :class:`~ssskit.errors.BackendError`.
         """
+        from .burley_plan import BURLEY_FRAME
+
         self.require("burley")
-        counts = check_burley_frame(plan, diffuse, depth_mm, slots, spp)
+        counts = check_arrays(BURLEY_FRAME, dict(diffuse=diffuse, depth_mm=depth_mm, slots=slots, spp=spp),
+                              plan.slots)["spp"]
         if np.size(slots) == 0:
             return np.array(diffuse, self.dtype)
         return self._burley(plan, diffuse, depth_mm, slots, counts, pyramid)
@@ -144,12 +148,13 @@ class Backend(ABC):
                      n_dot_l: np.ndarray, light_rgb: np.ndarray) -> np.ndarray:
         """The transmittance pass (see :mod:`ssskit.backends.transmission_plan`): a new (H, W, 3) array of the
         light leaving each pixel through the medium, inputs checked by
-        :func:`~ssskit.backends.transmission_plan.check_transmission_frame`. A backend without the pass raises
+        :data:`~ssskit.backends.transmission_plan.TRANSMISSION_FRAME`. A backend without the pass raises
         :class:`~ssskit.errors.BackendError`."""
-        from .transmission_plan import check_transmission_frame
+        from .transmission_plan import TRANSMISSION_FRAME
 
         self.require("transmission")
-        check_transmission_frame(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
+        check_arrays(TRANSMISSION_FRAME, dict(slots=slots, light_uvz=light_uvz, shadow_mm=shadow_mm, n_dot_l=n_dot_l,
+                                              light_rgb=light_rgb), plan.slots)
         if np.size(slots) == 0:
             return np.zeros(np.shape(slots) + (3,), self.dtype)
         return self._transmission(plan, slots, light_uvz, shadow_mm, n_dot_l, light_rgb)
@@ -158,12 +163,13 @@ class Backend(ABC):
                             light_uvz: np.ndarray, shadow_mm: np.ndarray) -> np.ndarray:
         """The transmitted light's lateral spread (see :mod:`ssskit.backends.spread_plan`, pass name "spread"): a
         new (H, W, 3) array, ``exitance`` (the transmittance pass's result) spread by each pixel's thickness,
-        inputs checked by :func:`~ssskit.backends.spread_plan.check_spread_frame`. A backend without the step
+        inputs checked by :data:`~ssskit.backends.spread_plan.SPREAD_FRAME`. A backend without the step
         raises :class:`~ssskit.errors.BackendError`."""
-        from .spread_plan import check_spread_frame
+        from .spread_plan import SPREAD_FRAME
 
         self.require("spread")
-        check_spread_frame(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
+        check_arrays(SPREAD_FRAME, dict(slots=slots, light_uvz=light_uvz, shadow_mm=shadow_mm, exitance=exitance,
+                                        depth_mm=depth_mm), plan.slots)
         if np.size(slots) == 0:
             return np.array(exitance, self.dtype)
         return self._transmission_spread(plan, exitance, depth_mm, slots, light_uvz, shadow_mm)
@@ -173,11 +179,12 @@ class Backend(ABC):
         """The guiding phase's *estimate* (:mod:`ssskit.backends.adaptive_plan` steps 1, 3, 4): this frame's
         sample counts (H, W) int64 from the previous (H, W, 4) history, reprojected through ``motion``
         (H, W, 2) (None: static) with ``valid`` (H, W) (None: everywhere), and the frame's SSS ``mask``;
-        inputs checked by :func:`~ssskit.backends.adaptive_plan.check_guide_frame`."""
-        from .adaptive_plan import check_guide_frame
+        inputs checked by :data:`~ssskit.backends.adaptive_plan.GUIDE_FRAME`."""
+        from .adaptive_plan import GUIDE_FRAME, GuideFrame
 
         self.require("adaptive")
-        return self._adaptive_counts(plan, check_guide_frame(history, mask, motion, valid))
+        return self._adaptive_counts(plan, GuideFrame(**check_arrays(GUIDE_FRAME, dict(
+            history=history, mask=mask, motion=motion, valid=valid))))
 
     def adaptive_update(self, plan: AdaptivePlan, history: ArrayLike, rgb: ArrayLike | None, counts: ArrayLike | None,
                         mask: ArrayLike, motion: ArrayLike | None = None,
@@ -185,12 +192,11 @@ class Backend(ABC):
         """The guiding phase's *update* (:mod:`ssskit.backends.adaptive_plan` steps 1-4): (the new (H, W, 4)
         float32 history, the next frame's counts (H, W) int64 for the same pixels) from the previous
         history, this frame's Burley result ``rgb`` (H, W, 3) and the ``counts`` it used (both required)."""
-        from .adaptive_plan import check_guide_frame
+        from .adaptive_plan import GUIDE_FRAME, GuideFrame
 
         self.require("adaptive")
-        if rgb is None or counts is None:
-            raise PassError("the history update needs the pass's result and the frame's sample counts")
-        return self._adaptive_update(plan, check_guide_frame(history, mask, motion, valid, rgb, counts))
+        return self._adaptive_update(plan, GuideFrame(**check_arrays(GUIDE_FRAME, dict(
+            history=history, mask=mask, motion=motion, valid=valid, rgb=rgb, counts=counts))))
 
     def adaptive_runner(self, plan: AdaptivePlan, history: ArrayLike) -> AdaptiveRunner:
         """A frame loop of the Burley pass with adaptive counts that keeps the history (and counts) with this
@@ -227,13 +233,12 @@ class AdaptiveRunner:
     """
 
     def __init__(self, backend: Backend, plan: AdaptivePlan, history: ArrayLike, sampler: Backend | None = None) -> None:
-        from .adaptive_plan import check_guide_frame
+        from .adaptive_plan import GUIDE_FRAME
 
         self.backend = backend
         self.sampler = backend if sampler is None else sampler  # the backend of the Burley pass
         self.plan = plan
-        h = check_guide_frame(history, np.zeros(np.shape(history)[:2], bool))[0]
-        self._history = np.array(h, np.float32)
+        self._history = np.array(check_arrays(GUIDE_FRAME, {"history": history})["history"], np.float32)
         self._counts: np.ndarray | None = None
         self._out: np.ndarray | None = None
         self._frame: tuple[NDArray[np.float32], NDArray[np.float32], np.ndarray] | None = None
@@ -261,18 +266,20 @@ class AdaptiveRunner:
         (H, W) (the caller's disocclusion test; None: everywhere); runs the *estimate* for the frame.
         ``estimate=False`` skips it (a fixed count, or the caller's own): :meth:`set_counts` must follow
         before :meth:`sample`."""
-        slots = check_shape(slots, "the frame's slots", self.shape, PassError, "iu")
-        self._frame = (np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
+        s: NDArray[np.integer] = check_arrays(SEPARABLE_FRAME, {"slots": slots}, dims=self.shape)["slots"]
+        self._frame = (np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), s)
         self._motion, self._valid = motion, valid
         self._counts = None
         if estimate:
             self._counts = self._timed("estimate", lambda: self.backend.adaptive_counts(
-                self.plan, self._history, slots > 0, motion, valid))
+                self.plan, self._history, s > 0, motion, valid))
 
     def set_counts(self, counts: ArrayLike) -> None:
         """Replace the counts the next :meth:`sample` (and :meth:`update`'s Eq. 8) uses: an (H, W) integer
         image (a fixed count on the mask, or the estimate changed by the caller); not timed."""
-        self._counts = _checked_counts(counts, self.shape)
+        from .burley_plan import COUNT_IMAGE
+
+        self._counts = check_arrays({"counts": COUNT_IMAGE}, {"counts": counts}, dims=self.shape)["counts"]
 
     def sample(self, plan: BurleyPlan) -> None:
         """The Burley pass of the loaded frame with the current counts (``plan.frame`` keys its samples)."""
@@ -319,12 +326,13 @@ def check_warm_up(passes: Iterable[str]) -> list[str]:
             for name in ([passes] if isinstance(passes, str) else list(passes))]
 
 
-def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
-    """Run each of ``passes`` (:data:`WARM_UP`) once on ``backend`` on a tiny synthetic 8 x 8 frame (two profile
-    ids; one for ``separable:<mode>``, whose first real frame rarely has more), through the backend's own
-    entry points: what a backend that compiles on first use calls to compile, since the argument types (hence
-    the compiled specialisations) are those of a real frame of any size. ``separable:ids`` runs the pass in the
-    depth mode named before it (else ``follow``) on two ids. The results are thrown away."""
+def run_tiny_frames(backend: Backend, names: list[str]) -> None:
+    """Run each of ``names`` (:data:`WARM_UP`, checked by :meth:`Backend.warm_up`) once on ``backend`` on a tiny
+    synthetic 8 x 8 frame (two profile ids; one for ``separable:<mode>``, whose first real frame rarely has more),
+    through the backend's own entry points: what a backend that compiles on first use calls to compile, since
+    the argument types (hence the compiled specialisations) are those of a real frame of any size.
+    ``separable:ids`` runs the pass in the depth mode named before it (else ``follow``) on two ids. The results
+    are thrown away."""
     from .adaptive_plan import AdaptivePlan
     from .burley_plan import BurleyParams, build_burley_plan
     from .plan import TermTable
@@ -340,7 +348,6 @@ def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
     ids = (1, 2)
     uvz = np.zeros((n, n, 3), np.float32)  # the light's view: each pixel 1 mm behind a shadow map of 1 mm
     uvz[..., 2] = 2.0
-    names = check_warm_up(passes)
     modes = [name.partition(":")[2] for name in names if name.startswith("separable:") and name != "separable:ids"]
     for name in names:
         kind, _, mode = name.partition(":")
@@ -375,35 +382,3 @@ def run_tiny_frames(backend: Backend, passes: Iterable[str]) -> None:
             spread = SlotSpread(np.array([0.0, 2.0]), np.ones((3, 2)))
             splan = build_spread_plan({i: spread for i in ids}, 100.0, 100.0)
             backend.transmission_spread(splan, diffuse, depth, slots, uvz, np.ones((n, n), np.float32))
-
-
-def _checked_counts(counts: ArrayLike, shape: tuple[int, int]) -> NDArray[np.int64]:
-    """An (H, W) integer count image as int64 (values in the Burley pass's range), or a PassError."""
-    from .burley_plan import check_counts
-
-    return np.array(check_counts(check_shape(counts, "the sample counts", shape, PassError, "iu"), shape), np.int64)
-
-
-def check_frame(diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray, plan: SlotPlan,
-                values: bool = True, slot_range: bool = True) -> None:
-    """Shapes, types and slot range of the separable (or Burley) pass's inputs (real ``diffuse`` (H, W, 3) and
-    ``depth_mm`` (H, W) of any array-like, an integer ``slots`` image: a float one is refused, never rounded), or
-    a PassError; with ``values`` also that every colour is finite and every pixel with SSS has a positive finite
-    depth (a backend may check those, and the slot range with ``slot_range=False``, in its own pass)."""
-    h, w = check_shape(depth_mm, "depth", ("H", "W"), PassError).shape
-    check_shape(diffuse, "diffuse", (h, w, 3), PassError)
-    check_shape(slots, "slots", (h, w), PassError, "iu")
-    if slot_range:
-        check_slot_range(slots, plan.slots)
-    if values:
-        check_frame_values(diffuse, depth_mm, slots)
-
-
-def check_burley_frame(plan: BurleyPlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-                       spp: SampleCounts, values: bool = True) -> NDArray[np.int64] | int:
-    """:func:`check_frame` for the Burley pass plus its sample counts; returns the counts (an int, or an
-    (H, W) int64 image) or raises :class:`~ssskit.errors.PassError`."""
-    from .burley_plan import check_counts
-
-    check_frame(diffuse, depth_mm, slots, plan, values)
-    return check_counts(spp, np.shape(depth_mm))

@@ -127,15 +127,15 @@ pixels, not maxima.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PassError
-from ..quantities import BURLEY_ALBEDO, FRACTION, MFP_MM, SCALE, Choice, Quantity, check_fields, check_shape
-from .plan import check_plan_ids
+from ..quantities import BURLEY_ALBEDO, FRACTION, MFP_MM, SCALE, Choice, Quantity, check_fields
+from .plan import SEPARABLE_FRAME, Array, check_plan_ids
 
 if TYPE_CHECKING:
     from ..profiles.base import RGBProfile
@@ -164,6 +164,11 @@ SAMPLER = Choice("sampler", SAMPLERS)
 BURLEY_SPP = Quantity("spp", 1, MAX_SPP, "", "samples per pixel of the Burley pass", integer=True)
 COUNTS = BURLEY_SPP.within(lo=0, reason="samples per pixel of the Burley pass; 0 on a pixel without SSS")
 XIE_C_RANGE = Quantity("c", C_RANGE[0], C_RANGE[1], "", "Eq. 21's damping (Xie 2020)", lo_open=True, hi_open=True)
+#: an (H, W) image of the pass's sample counts (:data:`COUNTS`)
+COUNT_IMAGE = Array(("H", "W"), "the sample counts", "iu", np.int64, COUNTS, "pixels")
+#: the pass's frame: the separable pass's and ``spp``, one count for every pixel (:data:`BURLEY_SPP`) or a count
+#: image (checked: an int, or an (H, W) int64 image)
+BURLEY_FRAME = {**SEPARABLE_FRAME, "spp": replace(COUNT_IMAGE, scalar=BURLEY_SPP)}
 #: the sampler's arguments of :func:`build_burley_plan`
 _PLAN_FIELDS: dict[str, Quantity | Choice] = {"sampler": SAMPLER, "sequence": Choice("sequence", SEQUENCES),
                                              "c": XIE_C_RANGE, "bleed": FRACTION, "mip_scale": SCALE}
@@ -327,14 +332,3 @@ def mip_pyramid(diffuse: ArrayLike, slots: np.ndarray, n_slots: int, levels: int
         pad[:, :ph, :pw] = prev
         out.append(0.25 * (pad[:, 0::2, 0::2] + pad[:, 1::2, 0::2] + pad[:, 0::2, 1::2] + pad[:, 1::2, 1::2]))
     return out
-
-
-def check_counts(spp: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.int64] | int:
-    """spp as an int in [1, MAX_SPP] (:data:`BURLEY_SPP`) or an (H, W) int64 image with values in [0, MAX_SPP]
-    (:data:`COUNTS`), else a PassError."""
-    if np.ndim(spp) == 0:
-        return int(BURLEY_SPP.check(spp, "spp", PassError))
-    arr = check_shape(spp, "the sample-count image", tuple(shape), PassError, "iu")
-    if arr.size and (int(arr.min()) < 0 or int(arr.max()) > MAX_SPP):
-        COUNTS.check_array(arr, "sample counts", PassError, "pixels")
-    return arr.astype(np.int64)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from ..errors import PassError
 from ..sampling.hashes import frame_base
 from .base import Backend, run_tiny_frames
-from .plan import SeparablePlan, TermTable, check_frame_values, check_slot_range
+from .plan import SEPARABLE_FRAME, SeparablePlan, TermTable, check_arrays
 
 if TYPE_CHECKING:
     from concurrent.futures import ThreadPoolExecutor
@@ -78,14 +78,14 @@ class NumbaBackend(Backend):
             return False, f"numba cannot be imported ({exc})"
         return True, f"numba {numba.__version__}, {numba.get_num_threads()} threads"
 
-    def warm_up(self, passes: Iterable[str]) -> None:
-        """Compile the kernels of ``passes`` (:data:`~ssskit.backends.base.WARM_UP`), or load them from numba's disk
+    def _warm_up(self, names: list[str]) -> None:
+        """Compile the kernels of ``names`` (:data:`~ssskit.backends.base.WARM_UP`), or load them from numba's disk
         cache: each pass runs once on a tiny synthetic frame through this backend's own entry points
         (:func:`~ssskit.backends.base.run_tiny_frames`), so numba compiles the very specialisations a real
         frame of any size calls, and the first real frame compiles nothing. On a fresh machine this is
         most of a first frame's time (seconds per kernel, one thread), so a caller can overlap it with other
         work: a thread while Mitsuba renders the G-buffer, or a process beside another demo section."""
-        run_tiny_frames(self, passes)
+        run_tiny_frames(self, names)
 
     def _rows(self, h: int, fn: Callable[[int, int], object]) -> None:
         """fn(y0, y1) over row ranges covering [0, h), on numba.get_num_threads() threads (the kernels
@@ -220,10 +220,10 @@ class NumbaBackend(Backend):
         pad = self._pads.get((h, w))
         multi = plan.slots > 2  # several profiles: the passes test slots (one: a texel's depth tells)
         buf, wps, plane, stats = self._pack(src, depth, slots, pad if pad is not None else 0, pad is not None, multi)
-        if stats[:, 4].any() or stats[:, 1].any():  # the one pass over the frame found a bad value: name it
-            check_frame_values(src, depth, slots)
-        if slots.size and (stats[:, 2].min() < 0 or stats[:, 3].max() >= plan.slots):
-            check_slot_range(slots, plan.slots)
+        if stats[:, 4].any() or stats[:, 1].any() or (slots.size and (stats[:, 2].min() < 0 or
+                                                                      stats[:, 3].max() >= plan.slots)):
+            # the one pass over the frame found a bad value or slot: name it
+            check_arrays(SEPARABLE_FRAME, dict(diffuse=src, depth_mm=depth, slots=slots), plan.slots)
         z_min = float(stats[:, 0].min(initial=np.inf))
         if not np.isfinite(z_min):  # no pixel with SSS
             return np.array(src, dtype=np.float32)
@@ -272,7 +272,7 @@ class NumbaBackend(Backend):
         h, w = np.shape(slots)
         src = np.ascontiguousarray(diffuse, dtype=np.float32)
         z = np.ascontiguousarray(depth_mm, dtype=np.float32)
-        # check_counts gives an int or an int64 image
+        # BURLEY_FRAME's check gives an int or an int64 image
         counts = np.zeros((1, 1), np.int64) if isinstance(spp, int) else np.ascontiguousarray(spp, np.int64)
         out = np.empty((h, w, 3), np.float32)
         u64 = np.uint64

@@ -44,8 +44,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PassError
-from ..quantities import TYPE, Quantity, check_fields, check_shape, fail
-from .plan import FOCAL_PX, check_frame_values, check_light_view, check_plan_ids
+from ..quantities import TYPE, Quantity, check_fields, fail
+from .plan import FOCAL_PX, LIGHT_VIEW, SEPARABLE_FRAME, Array, check_arrays, check_plan_ids
 from .transmission_plan import BIAS_MM
 
 #: the most taps on each side of a pixel per 1D pass (a wider Gaussian is sampled with a stride)
@@ -60,6 +60,12 @@ MAX_TAPS_Q = Quantity("max_taps", 1, 64, "", "taps on each side of a pixel per 1
 WIDTH_MM = Quantity("knots_mm", 0.0, math.inf, "mm", "a thickness or a width", hi_open=True)
 #: the plan's scalar arguments (:func:`build_spread_plan`)
 _PLAN_FIELDS = {"bias_mm": BIAS_MM, "min_px": FOCAL_PX.within(reason="a width in pixels"), "max_taps": MAX_TAPS_Q}
+#: a :class:`SlotSpread`'s arrays: N thickness knots and their widths (mm), one N for both
+SPREAD_ARRAYS = {"knots_mm": Array(("N",), "the spread's knots_mm", values=WIDTH_MM),
+                 "sigma_mm": Array((3, "N"), "the spread's sigma_mm", values=WIDTH_MM)}
+#: the step's frame (module docstring): the light's view, the transmittance pass's ``exitance`` and the camera
+#: depth (positive and finite on every pixel with SSS)
+SPREAD_FRAME = {**LIGHT_VIEW, "exitance": Array(("H", "W", 3), "exitance"), "depth_mm": SEPARABLE_FRAME["depth_mm"]}
 
 
 @dataclass(frozen=True)
@@ -109,13 +115,10 @@ def build_spread_plan(spreads: dict[int, SlotSpread], fx: float, fy: float, bias
     knots, sigma = np.zeros((s, n)), np.zeros((s, 3, n))
     counts = np.ones(s, np.int64)
     for slot, pid in enumerate(ids, start=1):
-        label = f"profile id {pid}: the spread's"
-        t = WIDTH_MM.check_array(check_shape(spreads[pid].knots_mm, f"{label} knots_mm", ("N",), PassError), label,
-                                 PassError)
-        w = WIDTH_MM.check_array(check_shape(spreads[pid].sigma_mm, f"{label} sigma_mm", (3, t.size), PassError),
-                                 f"{label} sigma_mm", PassError)
+        label = f"profile id {pid}"
+        t, w = check_arrays(SPREAD_ARRAYS, vars(spreads[pid]), where=label).values()
         if t.size < 1 or np.any(np.diff(t) <= 0):
-            raise fail(PassError, TYPE, name=f"{label} knots_mm", kind="ascending thicknesses", actual=t.tolist())
+            raise fail(PassError, TYPE, name=f"{label}: the spread's knots_mm", kind="ascending thicknesses", actual=t.tolist())
         k = t.size
         knots[slot, :k], knots[slot, k:] = t, t[-1]
         sigma[slot, :, :k], sigma[slot, :, k:] = w, w[:, -1:]
@@ -130,13 +133,5 @@ def taps(m: float, max_taps: int) -> tuple[int, int]:
     return step, math.ceil(3.0 * m / step)
 
 
-def check_spread_frame(plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
-                       light_uvz: np.ndarray, shadow_mm: np.ndarray) -> None:
-    """Shapes and slot range of the step's inputs, or a PassError naming the input."""
-    s, h, w = check_light_view(plan.slots, slots, light_uvz, shadow_mm)
-    check_shape(exitance, "exitance", (h, w, 3), PassError)
-    check_frame_values(None, check_shape(depth_mm, "depth_mm", (h, w), PassError), s)
-
-
-__all__ = ["MAX_KNOTS", "MAX_TAPS", "MIN_PX", "SlotSpread", "SpreadPlan", "build_spread_plan", "check_spread_frame",
+__all__ = ["MAX_KNOTS", "MAX_TAPS", "MIN_PX", "SPREAD_FRAME", "SlotSpread", "SpreadPlan", "build_spread_plan",
            "taps"]

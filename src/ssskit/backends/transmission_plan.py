@@ -57,15 +57,15 @@ t = z - D, which carries the rounding of D (about one ulp of the depths, not of 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PassError
-from ..quantities import CHOICE, Quantity, check_fields, check_shape, fail
-from .plan import check_light_view, check_plan_ids
+from ..quantities import Choice, Quantity, check_fields
+from .plan import LIGHT_VIEW, Array, check_arrays, check_plan_ids
 
 #: the transmittance models a plan can hold (the MCML fit, Jimenez et al. 2010's skin Gaussians, Unreal Engine 5's
 #: subsurface-profile transmission)
@@ -97,6 +97,24 @@ LUT_SIZE = 32
 
 #: the largest optical depth of UE's transmission table (SSSS_MAX_TRANSMISSION_PROFILE_DISTANCE)
 UE_MAX_OPTICAL_DEPTH = 5.0
+
+#: a :class:`SlotModel`'s numbers and arrays: the model's name picks the pass's branch, its terms (3, K) share one
+#: K (a term may subtract, the MCML model's scattered part is 0 at t = 0: a is any finite number)
+MODEL_FIELDS: dict[str, Quantity | Choice] = {
+    "model": Choice("model", MODELS), "scale": FACTOR, "wrap": WRAP,
+    "od_per_mm": FACTOR.within(reason="an optical depth per mm", lo=0.0), "od_offset": FACTOR}
+MODEL_ARRAYS = {"a": Array((3, "K"), "a", values=TERM), "b": Array((3, "K"), "b", values=TERM.within(lo=0.0)),
+                "c": Array((3, "K"), "c", values=TERM.within(lo=0.0)),
+                "lut": Array((3, LUT_SIZE), "the unreal profile table", values=LUT, optional=True)}
+#: the pass's frame (module docstring): the light's view; on every pixel with SSS (the only ones the pass reads)
+#: ``light_uvz`` finite, ``n_dot_l`` finite in [-1, 1] (within :data:`N_DOT_L_TOLERANCE`: a cosine of rounded
+#: normals) and ``light_rgb`` finite and >= 0; ``shadow_mm`` without NaN (+-inf: no surface, the spec's
+#: non-finite sentinel). Real array-likes are accepted (the backend converts them).
+TRANSMISSION_FRAME = {
+    **LIGHT_VIEW, "light_uvz": replace(LIGHT_VIEW["light_uvz"], values=LIGHT_UVZ, elements="pixels with SSS", sss=True),
+    "shadow_mm": replace(LIGHT_VIEW["shadow_mm"], values=SHADOW_MM),
+    "n_dot_l": Array(("H", "W"), "n_dot_l", values=N_DOT_L, elements="pixels with SSS", sss=True),
+    "light_rgb": Array(("H", "W", 3), "light_rgb", values=LIGHT_RGB, elements="pixels with SSS", sss=True)}
 
 
 @dataclass(frozen=True)
@@ -181,6 +199,13 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3,
     no slot but 0, and the pass gives 0 everywhere)."""
     bias_mm = BIAS_MM.check(bias_mm, "bias_mm", PassError)
     ids = check_plan_ids(models, SlotModel, allow_empty=allow_empty)
+    names = []
+    for pid in ids:
+        m = models[pid]
+        names.append(check_fields(vars(m), MODEL_FIELDS, f"profile id {pid}", PassError)["model"])
+        check_arrays(MODEL_ARRAYS, vars(m), where=f"profile id {pid}")
+        if (names[-1] == "unreal") != (m.lut is not None):
+            raise PassError(f"profile id {pid}: the unreal model, and only it, holds a profile table (lut)")
     k = max((np.shape(models[i].a)[1] for i in ids), default=1)
     TERMS.check(k, "a transmittance model's terms", PassError)
     s = len(ids) + 1
@@ -189,56 +214,18 @@ def build_transmission_plan(models: dict[int, SlotModel], bias_mm: float = 1e-3,
     lut_slot = np.zeros(s, bool)
     lut = np.zeros((s, 3, LUT_SIZE))
     od_per_mm, od_offset = np.zeros(s), np.zeros(s)
-    names = []
     for slot, pid in enumerate(ids, start=1):
         m = models[pid]
-        for name, v in (("a", m.a), ("b", m.b), ("c", m.c)):  # a term may subtract (the MCML model's scattered
-            # part is 0 at t = 0): a is any finite number
-            label = f"profile id {pid}: {name}"
-            (TERM if name == "a" else TERM.within(lo=0.0)).check_array(
-                check_shape(v, label, (3, "K"), PassError), label, PassError)
-        if m.model not in MODELS:  # (exactly: the name picks the pass's branch)
-            raise fail(PassError, CHOICE, name=f"profile id {pid}: model", choices=", ".join(MODELS), actual=repr(m.model))
-        check_fields({"scale": m.scale, "wrap": m.wrap}, {"scale": FACTOR, "wrap": WRAP}, f"profile id {pid}", PassError)
-        if (m.model == "unreal") != (m.lut is not None):
-            raise PassError(f"profile id {pid}: the unreal model, and only it, holds a profile table (lut)")
         if m.lut is not None:
-            label = f"profile id {pid}: the unreal profile table"
-            table = LUT.check_array(check_shape(m.lut, label, (3, LUT_SIZE), PassError), label, PassError)
-            FACTOR.within(reason="an optical depth per mm", lo=0.0).check(m.od_per_mm, f"profile id {pid}: od_per_mm",
-                                                                        PassError)
-            FACTOR.check(m.od_offset, f"profile id {pid}: od_offset", PassError)
-            lut_slot[slot], lut[slot] = True, table
+            lut_slot[slot], lut[slot] = True, m.lut
             od_per_mm[slot], od_offset[slot] = m.od_per_mm, m.od_offset
         n = np.shape(m.a)[1]
         a[slot, :, :n], b[slot, :, :n], c[slot, :, :n] = m.a, m.b, m.c
         scale[slot], wrap[slot], normal[slot] = m.scale, m.wrap, 1.0 if m.along_normal else 0.0
-        names.append(m.model)
     return TransmissionPlan(ids, a, b, c, scale, wrap, float(bias_mm), tuple(names), lut_slot, lut, od_per_mm,
                             od_offset, normal)
 
 
-def check_transmission_frame(plan: TransmissionPlan, slots: np.ndarray, light_uvz: np.ndarray,
-                             shadow_mm: np.ndarray, n_dot_l: np.ndarray, light_rgb: np.ndarray) -> None:
-    """Shapes, types, slot range and values of the pass's inputs (module docstring), or a PassError naming the
-    input: ``slots`` an integer image in the plan's range; on every pixel with SSS (the only ones the pass
-    reads) ``light_uvz`` finite, ``n_dot_l`` finite in [-1, 1] (within :data:`N_DOT_L_TOLERANCE`: a cosine of
-    rounded normals) and ``light_rgb`` finite and >= 0; ``shadow_mm`` without NaN (+-inf: no surface, the
-    spec's non-finite sentinel). Real array-likes are accepted (the backend converts them)."""
-    s, h, w = check_light_view(plan.slots, slots, light_uvz, shadow_mm)
-    if np.isnan(np.min(shadow_mm)):  # min and max propagate NaN: one reduction each, no temporaries
-        SHADOW_MM.refuse("NaN", "shadow_mm", PassError)
-    # each value test first over the whole frame by its min and max (what the pipeline's inputs pass: ~3 ms at
-    # 1080p); only where that fails, on the pixels with SSS alone (boolean masks copy: ~90 ms at 1080p)
-    inside: NDArray[np.bool_] | None = None
-    for q, arr, shape in ((LIGHT_UVZ, light_uvz, (h, w, 3)), (N_DOT_L, n_dot_l, (h, w)),
-                          (LIGHT_RGB, light_rgb, (h, w, 3))):
-        a = check_shape(arr, q.name, shape, PassError)
-        lo, hi = (np.min(a), np.max(a)) if a.size else (0.0, 0.0)
-        if not (np.isfinite(lo) and np.isfinite(hi) and q.contains(lo) and q.contains(hi)):
-            inside = s > 0 if inside is None else inside
-            q.check_array(a[inside], q.name, PassError, "pixels with SSS")
-
-
 __all__ = ["LUT_SIZE", "MAX_TERMS", "MODELS", "N_DOT_L_TOLERANCE", "SlotModel", "TransmissionPlan",
-           "UE_MAX_OPTICAL_DEPTH", "build_transmission_plan", "check_transmission_frame", "unreal_lut_coordinate"]
+           "TRANSMISSION_FRAME", "UE_MAX_OPTICAL_DEPTH", "build_transmission_plan",
+           "unreal_lut_coordinate"]

@@ -21,8 +21,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ...errors import PassError
-from ..adaptive_plan import AdaptivePlan, GuideFrame, check_guide_inputs
+from ..adaptive_plan import GUIDE_FRAME, AdaptivePlan, GuideFrame
 from ..base import PHASES, AdaptiveRunner, Backend
+from ..plan import check_arrays
 from .burley import _program
 from .separable import _f, _uniforms, wrapped
 
@@ -210,7 +211,8 @@ class GLAdaptiveRunner(AdaptiveRunner):
         from .context import context
 
         slots = np.asarray(slots)
-        m, mv, ok, _, _ = check_guide_inputs(self.shape, slots > 0, motion, valid)
+        m, mv, ok = check_arrays(GUIDE_FRAME, dict(mask=slots > 0, motion=motion, valid=valid),
+                                 dims=self.shape).values()
         ctx = context()
         if self._images is not None:
             self._images.release()
@@ -225,10 +227,10 @@ class GLAdaptiveRunner(AdaptiveRunner):
             self._timed("estimate", lambda: dispatch(self.plan, images, self._hist[self._cur], self._cnt))
 
     def set_counts(self, counts: ArrayLike) -> None:
-        from ..base import _checked_counts
+        from ..burley_plan import COUNT_IMAGE
         from .context import context
 
-        n = _checked_counts(counts, self.shape)
+        n = check_arrays({"counts": COUNT_IMAGE}, {"counts": counts}, dims=self.shape)["counts"]
         context()
         self._cnt.write(np.ascontiguousarray(n, np.int32).tobytes())
         self._has_counts = True

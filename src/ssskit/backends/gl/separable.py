@@ -235,8 +235,8 @@ class SeparableFrame:
     >>> out = f.read()             # (H, W, 3) float32, a new array            # doctest: +SKIP
 
     (Skipped under doctest: it needs a GL context, which the backend holds; ``plan`` is a
-    :class:`~ssskit.backends.plan.SeparablePlan`, the frame arrays as :func:`~ssskit.backends.base.check_frame`
-    takes them. tests/backends/test_gl.py runs it.)
+    :class:`~ssskit.backends.plan.SeparablePlan`, the frame arrays as
+    :data:`~ssskit.backends.plan.SEPARABLE_FRAME` declares them. tests/backends/test_gl.py runs it.)
     """
 
     def __init__(self, plan: SeparablePlan, diffuse: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
