@@ -121,7 +121,7 @@ BAD = [
      "would overwrite the input 'm.json'"),
     (["render", "--scene", "x.exr"], "'x.exr' is a directory"),
     (["render", "--scene", "missing.exr"], "does not exist"),
-    (["render", "--scene", "f.txt"], "unknown format '.txt' (a mesh .obj, .ply, .glb, .gltf, a scene .toml or a G-buffer .exr)"),
+    (["render", "--scene", "f.txt"], "scene 'f.txt': its format must be one of .obj, .ply, .glb, .gltf, .toml, .exr, got '.txt'"),
     (["render", "--scene", "teapot"], "unknown scene 'teapot'"),
     # render: settings, each checked by RenderSettings / PassSettings before any work
     (["render", "--scene", "slab", "--size", "0x0"], "--size: width must lie in [8, 8192] px, got 0"),

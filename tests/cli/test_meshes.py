@@ -43,7 +43,7 @@ BAD = [
     (["--scene", "dust.obj"], "dust.obj: the model's bounding-sphere diameter (units mm) must lie in [0.0002, 1e+09] mm"),
     (["--scene", "huge.obj"], "huge.obj: the model's bounding-sphere diameter (units mm) must lie in [0.0002, 1e+09] mm, "
                               "got 1.41421e+30"),
-    (["--scene", "model.stl"], "unknown format '.stl'"),
+    (["--scene", "model.stl"], "its format must be one of .obj, .ply, .glb, .gltf, .toml, .exr, got '.stl'"),
     (["--scene", "nan.obj"], "vertex positions must be finite, got NaN or inf"),
     (["--scene", "nan.glb"], "vertex positions must be finite, got NaN or inf in 3 of 486 coordinates"),
     (["--scene", "degen.obj"], "mesh 'degen.obj' is degenerate: its 1 face has zero area"),

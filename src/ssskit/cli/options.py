@@ -361,8 +361,7 @@ class SceneRef(click.ParamType):
             return p
         if p.suffix or p.exists() or len(p.parts) > 1:
             if p.suffix.lower() != ".exr" and not p.is_dir():
-                self.fail(f"scene file {text!r}: unknown format {p.suffix or '(no suffix)'!r} (a mesh "
-                          f"{', '.join(FORMATS)}, a scene .toml or a G-buffer .exr)", param, ctx)
+                return p  # a format --scene does not take: resolve_scene's rule (scenes.SCENE_FORMAT), before any work
             self._regular(p, "G-buffer file", param, ctx)
             return p
         try:

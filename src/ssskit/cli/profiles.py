@@ -53,11 +53,11 @@ def resolve_profile(ctx: click.Context, material: str | Material | LayeredMateri
     applies to the models whose factory (the MODELS registry) takes its parameter; given for another model, it is
     refused. Returns a function that computes the profile (all checks are done first).
     """
-    from ..profiles import MATERIAL_FREE_MODELS, MODELS, profile_for_material
+    from ..profiles import MATERIAL_FREE_MODELS, MODELS, profile_for_material, refuse_material
 
     free = model.lower() in MATERIAL_FREE_MODELS
-    if free and material is not None and given(ctx, "material"):
-        raise SsskitError(f"--model {model} is a fixed preset and takes no --material (got {material!r})")
+    refuse_material(model, material if given(ctx, "material") else None, f"--model {model}", "--material",
+                    SsskitError)
     if not free and material is None:
         raise SsskitError(f"--material is required for {needed_by or f'--model {model}'}")
     params = model_parameters(model)

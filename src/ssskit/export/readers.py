@@ -398,7 +398,7 @@ def material_source(req: Any, needs: str) -> Source:
 def _named_source(req: Any, kernel: Any) -> Source:
     """A preset or material file (or none, for a kernel that reads no profile)."""
     from ..materials import get_material
-    from ..profiles import MATERIAL_FREE_MODELS
+    from ..profiles import MATERIAL_FREE_MODELS, refuse_material
 
     from ..kernels import refuse_profile_options
 
@@ -410,10 +410,8 @@ def _named_source(req: Any, kernel: Any) -> Source:
                                req.material is not None, "--kernel")
         if req.material is None and not m.needs_profile:
             return Source(None, None, None, None, None, [], kernel)
-    free = model.lower() in MATERIAL_FREE_MODELS
-    if free:
-        if req.material is not None:
-            raise SsskitError(f"--model {model} is a fixed preset and takes no --material (got {req.material!r})")
+    if model.lower() in MATERIAL_FREE_MODELS:
+        refuse_material(model, req.material, f"--model {model}", "--material", SsskitError)
         return Source(_physical(req, None, model), None, None, model, None, [], kernel)
     _need_material(req, False, f"--format {req.format}" if m is None else f"--kernel {m.name}")
     mat = get_material(req.material)

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ProfileError
+from ..errors import ProfileError, SsskitError
 from ..quantities import BURLEY_ALBEDO, check_choice
 from ..materials import LayeredMaterial, Material, get_material
 from ..registry import Registry
@@ -118,8 +118,7 @@ def gaussians_profile(material: Material, n: int = 6) -> RGBProfile:
 @MODELS.decorator("deon2007")
 def deon2007_profile(material: None = None) -> RGBProfile:
     """The six-Gaussian skin profile of [dLE07]: a fixed preset, so it takes no material."""
-    if material is not None:
-        raise ProfileError("the deon2007 model is a fixed skin preset and takes no material")
+    refuse_material("deon2007", material)
     r, g, b = (
         GaussianSumProfile([w[i] for w in DEON2007_SKIN_WEIGHTS], DEON2007_SKIN_VARIANCES) for i in range(3)
     )
@@ -147,6 +146,16 @@ def montecarlo_profile(material: Material | LayeredMaterial, photons: int = DEFA
 
 #: Models that take no material (fixed presets).
 MATERIAL_FREE_MODELS = frozenset({"deon2007"})
+
+
+def refuse_material(model: str, material: object, model_name: str = "", material_name: str = "material",
+                    error: type[SsskitError] = ProfileError) -> None:
+    """A material given to a model that takes none (:data:`MATERIAL_FREE_MODELS`, fixed presets) refused, the
+    rule stated once for the API and every command (``model_name``, ``material_name``: how the caller names them,
+    e.g. ``--model deon2007`` and ``--material``)."""
+    if material is not None and model.strip().lower() in MATERIAL_FREE_MODELS:
+        raise error(f"{model_name or f'the {model} model'} is a fixed preset and takes no {material_name} "
+                    f"(got {getattr(material, 'name', material)!r})")
 
 
 def check_model_domain(material: Material | LayeredMaterial | str, model: str) -> None:
@@ -209,6 +218,7 @@ __all__ = [
     "DipoleProfile",
     "GaussianSumProfile",
     "MATERIAL_FREE_MODELS",
+    "refuse_material",
     "MODELS",
     "RGBProfile",
     "RadialProfile",

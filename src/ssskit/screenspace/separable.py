@@ -99,7 +99,7 @@ def filter_arrays(diffuse: np.ndarray, depth_mm: np.ndarray, fx: float, fy: floa
     """
     s = _settings(settings, overrides)  # (taps: refused by plan_for's per_id unless SeparableTaps)
     backend = get_backend(s.backend)
-    depth_mm = np.asarray(depth_mm)  # shapes are checked by the backend (backends.check_frame)
+    depth_mm = np.asarray(depth_mm)  # shapes are checked by the backend (backends.SEPARABLE_FRAME)
     plan = plan_for(taps, [1], fx, fy, s)
     slots = np.isfinite(depth_mm).astype(np.int32)
     return backend.separable(plan, diffuse, depth_mm, slots)
