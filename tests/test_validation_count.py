@@ -40,6 +40,20 @@ def test_the_count_follows_the_issues_definition():
     assert out["range"]["list"] == ["must lie in [#, #]"]
 
 
+def test_the_strict_reading_also_counts_refusing_helpers_and_guarded_checks():
+    src = ('def refuse_x(names):\n'      # 1-3: a refusing helper's definition
+           '    if names:\n'
+           '        raise ValueError("x applies to y")\n'
+           'def f(a, b):\n'              # 4
+           '    refuse_x([a] if b else [])\n'   # 5: its call
+           '    if a > b:\n'              # 6: an if whose body is one validator call: its test line
+           '        check_y(a)\n'         # 7: a check call (both readings)
+           '    return a\n')
+    out = vc.scan({"src/s.py": src})
+    assert out["validation_lines"] == 3  # 2-3 (if test + raise), 7 (the check call); refuse_x is no check* name
+    assert out["validation_lines_strict"] == 6  # and the helper's definition (1-3), its call (5), the if's test (6)
+
+
 def test_version_specifiers_and_places_are_not_ranges():
     src = ('def f():\n    raise ImportError("it needs pkg: pip install \\"pkg>=1.39,<1.40\\"")\n'
            'def g():\n    raise ValueError("no pixel: the object is outside the frame")\n'
