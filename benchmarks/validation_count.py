@@ -137,6 +137,7 @@ def scan(files: dict[str, str]) -> dict:
         "validation_lines": len(lines),
         "validation_lines_strict": len(strict),
         "by_file": dict(per_file.most_common()),
+        "by_file_strict": dict(Counter(path for path, _ in strict).most_common()),
         "statements": dict(kinds),
         "src_lines": sum(t.count("\n") for t in files.values()),
         "finiteness": {"messages": len(finite), "phrasings": len(fin), "list": fin},
@@ -167,6 +168,7 @@ def main(argv: list[str] | None = None) -> int:
         for k in ("finiteness", "range"):
             result[k].pop("list")
         result.pop("by_file")
+        result.pop("by_file_strict")
     json.dump(result, sys.stdout, indent=2)
     print()
     return 0
