@@ -32,6 +32,13 @@ COMMON = ("material", "albedo", "mfp", "dmfp", "eta", "g", "model", "photons", "
 KERNEL_OPTIONS = ("kernel", "taps", "tap_method")
 SHADER_OPTIONS = KERNEL_OPTIONS + ("jitter", "depth_mode", "shader_pass", "transmission_model")
 RGB = tuple[float, float, float]
+#: the options a shader's pass takes where not every pass does (the others: every pass): the separable pass's kernel
+#: and profile, the model of a material's profile or of the inversion of artists' terms, the transmittance's model
+PASS_OPTIONS = {**dict.fromkeys(KERNEL_OPTIONS + ("jitter", "depth_mode", "photons", "grid_fraction"), ("separable",)),
+                "model": ("separable", "transmission"), "transmission_model": ("transmission",)}
+#: what the other passes' shaders bake in instead (the reason an option of the separable pass does not apply)
+PASS_BAKES = {"burley": "the shader bakes the material's Burley parameters: Xie 2020 Eq. 5, the searchlight "
+                        "configuration", "transmission": "the shader bakes the material's transmittance model"}
 
 
 def _models() -> list[str]:
@@ -100,14 +107,20 @@ class ExportSettings(Settings):
 
     def unused(self) -> dict[tuple[str, tuple[str, ...], str], list[str]]:
         """Every option given that the format does not take (:attr:`Format.options`), by the formats that take
-        it: what :meth:`~ssskit.settings.Settings.check_applies` refuses in the one wording of an unused option
-        (``--eta applies to --format unity or unreal, not --format glsl``)."""
+        it, then every one the shader's pass does not take (:data:`PASS_OPTIONS`; no ``shader_pass``: the
+        separable pass): what :meth:`~ssskit.settings.Settings.check_applies` refuses in the one wording of an
+        unused option (``--eta applies to --format unity or unreal, not --format glsl``)."""
         fmt = get_format(self.format)
+        now = self.shader_pass or "separable"
         unused: dict[tuple[str, tuple[str, ...], str], list[str]] = {}
         for name, flag in FLAGS.items():
             if self.given(name) and name not in COMMON and name not in fmt.options:
                 takers = tuple(f.name for _, f in FORMATS.items() if name in f.options)
                 unused.setdefault(("--format", takers, fmt.name), []).append(flag)
+        for name, passes in PASS_OPTIONS.items():
+            if self.given(name) and now not in passes:
+                why = f" ({PASS_BAKES[now]})" if now in PASS_BAKES else ""
+                unused.setdefault(("--pass", passes, now + why), []).append(FLAGS[name])
         return unused
 
     def given(self, name: str) -> bool:

@@ -145,8 +145,6 @@ def with_comment(text: str, comment: str, stage: str) -> str:
 
 
 def _shader_check(req: ExportSettings, source: Any) -> None:
-    if req.given("transmission_model") and req.shader_pass != "transmission":
-        refuse_unused(["--transmission-model"], "--pass", ("transmission",), req.shader_pass or "separable")
     if req.shader_pass == "burley" and req.format != "glsl-shader":  # (.comp, or .frag for the fragment form)
         refuse_unused(["--pass burley"], "--format", ("glsl-shader",), req.format)
     if req.format == "hlsl-shader":  # glslangValidator and spirv-cross, or the error saying how to install them

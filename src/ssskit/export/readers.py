@@ -450,9 +450,7 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
 def _burley_source(req: Any, engine_file: bool, artist: bool) -> Source:
     """``shader_pass="burley"``: the material of the Burley pass's shader (a homogeneous one: its Burley
     parameters, :func:`ssskit.screenspace.burley.burley_params_for_material`, are baked in)."""
-    refuse_given(req, ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction", "model"),
-                 "--pass burley (the shader bakes the material's Burley parameters: Xie 2020 Eq. 5, the searchlight "
-                 "configuration)")
+    # (the separable pass's options are refused by the request: ExportSettings.unused, PASS_OPTIONS)
     if engine_file:
         refuse_given(req, ("material",), "--pass burley as an engine file (it takes a preset, a material file or "
                      "artists' terms)")
@@ -473,11 +471,11 @@ def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
     """``shader_pass="transmission"``: the material of the transmittance pass's shader (a homogeneous one,
     except for jimenez2010, which takes none)."""
     tmodel = req.transmission_model or "mcml"
-    refuse_given(req, ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction"),
-                 "--pass transmission (the shader bakes the material's transmittance model)")
+    # (the separable pass's options are refused by the request: ExportSettings.unused, PASS_OPTIONS)
     if req.model is not None and req.model.lower() != "montecarlo":  # the shader bakes the material's transmittance
         # model from its MCML transport (artists' terms: --model montecarlo, the Monte Carlo inversion)
-        refuse_unused([f"--model {req.model}"], "--pass", ("separable",), "transmission")
+        refuse_unused([f"--model {req.model}"], "--pass", ("separable",), "transmission, which takes --model "
+                      "montecarlo only (the Monte Carlo inversion of artists' terms)")
     if tmodel == "jimenez2010":
         refuse_given(req, ("material", "albedo"), "--transmission-model jimenez2010 (Jimenez et al. 2010's skin "
                      "Gaussians: no material)")

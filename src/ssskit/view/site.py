@@ -23,9 +23,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
-from ..pipeline.settings import RenderSettings, SeparablePass
-from ..quantities import BURLEY_ALBEDO, MFP_MM, TAPS, ErrorClass, Rule, check_choice, check_instance
-from ..settings import Settings, like, setting
+from ..quantities import BURLEY_ALBEDO, CHOICE, FRACTION, MFP_MM, TAPS, Choice, ErrorClass, Rule, check_instance, fail
+from ..settings import Settings, setting
 
 #: the files of the page (ssskit/view/static), copied into a static folder and the only files served
 PAGE_FILES = ("index.html", "viewer.js", "viewer.css")
@@ -39,6 +38,9 @@ MESH_SUFFIXES = (".obj", ".ply", ".glb", ".gltf")
 DEFAULT_KERNEL = "preintegrated"
 DEFAULT_TAPS = 7
 DEFAULT_MODEL = "dipole"
+DEFAULT_JITTER = 0.1
+#: the separable pass's jitter radius, as ``ssskit render`` takes it (PassSettings' FRACTION)
+JITTER = FRACTION.within(reason="a fraction of the kernel size")
 #: the tap counts and spp the page offers (the API refuses others: bounded work per request)
 TAP_CHOICES = (5, 7, 9, 11, 13, 15, 17, 21, 25)
 SPP_RANGE = (1, 256)
@@ -56,7 +58,20 @@ ADAPTIVE_ORDER = (("b_min", "b_max"),)
 
 def _tap_choice(value: object, name: str, error: ErrorClass) -> int:
     """A tap count (:data:`~ssskit.quantities.TAPS`) the page offers (:data:`TAP_CHOICES`: bounded work per request)."""
-    return int(check_choice(name, str(TAPS.check(value, name, error)), tuple(map(str, TAP_CHOICES)), error))
+    taps = int(TAPS.check(value, name, error))
+    if taps not in TAP_CHOICES:  # (the count as given: an int, not its text)
+        raise fail(error, CHOICE, name=name, choices=", ".join(map(str, TAP_CHOICES)), actual=taps)
+    return taps
+
+
+def _kernel(value: object, name: str, error: ErrorClass) -> str:
+    """A kernel method spec, the rule of ``ssskit render``'s ``kernel`` (RenderSettings): one that
+    :func:`ssskit.kernels.parse_method_spec` parses. Declared here and not taken from RenderSettings with ``like``,
+    so that importing the viewer does not import the pipeline (0.2 s of every ``ssskit view``'s start)."""
+    from ..kernels import parse_method_spec
+
+    parse_method_spec(check_instance(value, str, name, error))
+    return str(value)
 
 
 def _adaptive(value: object, name: str, error: ErrorClass) -> Any:
@@ -76,9 +91,9 @@ class MaterialRequest(Settings):
     material: str | None = setting(None, "skin1")
     albedo: tuple[float, float, float] | None = setting(BURLEY_ALBEDO, None, optional=True, rgb=True)
     mfp: tuple[float, float, float] | None = setting(MFP_MM, None, optional=True, rgb=True)
-    kernel: str = like(RenderSettings, "kernel", applies=None)
+    kernel: str = setting(Rule("kernel", _kernel), DEFAULT_KERNEL)
     taps: int = setting(Rule("taps", _tap_choice), DEFAULT_TAPS)
-    jitter: float = like(SeparablePass, "jitter")
+    jitter: float = setting(JITTER, DEFAULT_JITTER)
     adaptive: Any = setting(Rule("adaptive", _adaptive), None)
 
     def __post_init__(self) -> None:
@@ -427,9 +442,8 @@ def data_script(data: dict[str, Any]) -> str:
 
 
 def page_file(name: str) -> bytes:
-    """One of :data:`PAGE_FILES` (its callers' names: :func:`write_site`'s, and the server's, which serves no other
-    name: :class:`~ssskit.view.server.ViewServer`)."""
-    return resources.files(__package__).joinpath("static", name).read_bytes()
+    """One of :data:`PAGE_FILES`, by its name (another name, a path into the package, is refused)."""
+    return resources.files(__package__).joinpath("static", Choice("page file", PAGE_FILES).check(name)).read_bytes()
 
 
 def write_static(out: str | os.PathLike[str], scene: str, materials: dict[str, MaterialRequest], default: str) -> Path:
