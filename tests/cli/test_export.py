@@ -107,6 +107,11 @@ BAD = [
       "--material", "skin1", "--out", "t.comp"], "--material does not apply to --transmission-model jimenez2010"),
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--transmission-model", "unreal",
       "--albedo", "0.5", "--mfp", "1", "--out", "t.comp"], "needs one homogeneous medium, not Burley parameters without coefficients"),
+    # artists' terms under the Burley-fit inversion (their default) simulate nothing: --photons was silently ignored
+    (["export", "--format", "unreal", "--albedo", "0.5", "--mfp", "1", "--photons", "10000", "--out", "x.json"],
+     "--photons does not apply to --model burley (the Burley fit simulates nothing)"),
+    (["export", "--format", "unity", "--albedo", "0.5", "--dmfp", "1", "--grid-fraction", "0.5", "--out", "x.json"],
+     "--grid-fraction does not apply to --model burley"),
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--material", "skin1", "--model", "dipole",
       "--out", "t.comp"], "--model dipole applies to --pass separable, not --pass transmission, which takes --model montecarlo only"),
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--transmission-model", "jimenez2010",
