@@ -12,7 +12,10 @@ from ssskit.view.site import PAGE_FILES, MaterialRequest, page_file
 
 @pytest.mark.parametrize("kwargs, message", [
     ({"taps": 19}, "taps must be one of 5, 7, 9, 11, 13, 15, 17, 21, 25, got 19"),  # the int, not '19'
-    ({"taps": 4}, "taps must be an odd integer, got 4"),
+    ({"taps": 4}, "taps must be one of 5, 7, 9, 11, 13, 15, 17, 21, 25, got 4"),
+    ({"taps": "7"}, "taps must be one of 5, 7, 9, 11, 13, 15, 17, 21, 25, got '7'"),
+    ({"taps": 7.0}, "got 7.0"),
+    ({"taps": True}, "got True"),
     ({"jitter": 2}, r"jitter must lie in [0, 1], got 2 (a fraction of the kernel size)"),
     ({"jitter": float("nan")}, "(a fraction of the kernel size)"),
     ({"kernel": 5}, "kernel must be str, got int"),

@@ -12,6 +12,7 @@ from __future__ import annotations
 import base64
 import json
 import math
+import numbers
 import os
 import shutil
 from dataclasses import dataclass
@@ -23,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
-from ..quantities import BURLEY_ALBEDO, CHOICE, FRACTION, MFP_MM, TAPS, Choice, ErrorClass, Rule, check_instance, fail
+from ..quantities import BURLEY_ALBEDO, CHOICE, FRACTION, MFP_MM, Choice, ErrorClass, Rule, check_instance, fail
 from ..settings import Settings, setting
 
 #: the files of the page (ssskit/view/static), copied into a static folder and the only files served
@@ -57,11 +58,11 @@ ADAPTIVE_ORDER = (("b_min", "b_max"),)
 
 
 def _tap_choice(value: object, name: str, error: ErrorClass) -> int:
-    """A tap count (:data:`~ssskit.quantities.TAPS`) the page offers (:data:`TAP_CHOICES`: bounded work per request)."""
-    taps = int(TAPS.check(value, name, error))
-    if taps not in TAP_CHOICES:  # (the count as given: an int, not its text)
-        raise fail(error, CHOICE, name=name, choices=", ".join(map(str, TAP_CHOICES)), actual=taps)
-    return taps
+    """A tap count the page offers (:data:`TAP_CHOICES`, odd counts within :data:`~ssskit.quantities.TAPS`: bounded
+    work per request), an integer (not 7.0, not its text '7'), shown as given."""
+    if not isinstance(value, numbers.Integral) or value not in TAP_CHOICES:
+        raise fail(error, CHOICE, name=name, choices=", ".join(map(str, TAP_CHOICES)), actual=repr(value))
+    return int(value)
 
 
 def _kernel(value: object, name: str, error: ErrorClass) -> str:
@@ -326,10 +327,8 @@ def scene_payload(scene: str) -> dict[str, Any]:
     for shape in spec.shapes().values():
         if shape.get("type") not in ("ply", "obj"):
             continue
-        for mesh in read_mesh(shape["filename"]):
-            v = np.asarray(mesh.vertices, np.float64)
-            if "to_world" in shape:
-                raise SsskitError("the viewer takes meshes without a transform")
+        for mesh in read_mesh(shape["filename"]):  # (in mm: a scene's mesh shapes hold no transform, only its
+            v = np.asarray(mesh.vertices, np.float64)  # rectangles and cubes do, scenefile._primitive)
             f = np.asarray(mesh.faces, np.int64)
             nrm = mesh.normals if mesh.normals is not None else _vertex_normals(v, f)
             verts.append(v)
