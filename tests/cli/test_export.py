@@ -104,7 +104,7 @@ BAD = [
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--out", "t.comp"],
      "--transmission-model mcml needs --material"),
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--transmission-model", "jimenez2010",
-      "--material", "skin1", "--out", "t.comp"], "--material does not apply to --transmission-model jimenez2010"),
+      "--material", "skin1", "--out", "t.comp"], "--material applies to --transmission-model mcml or unreal, not --transmission-model jimenez2010 (Jimenez et al. 2010"),
     (["export", "--format", "glsl-shader", "--pass", "transmission", "--transmission-model", "unreal",
       "--albedo", "0.5", "--mfp", "1", "--out", "t.comp"], "needs one homogeneous medium, not Burley parameters without coefficients"),
     # artists' terms under the Burley-fit inversion (their default) simulate nothing: --photons was silently ignored

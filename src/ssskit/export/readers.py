@@ -457,8 +457,7 @@ def _pass_source(req: Any, engine_file: bool, artist: bool) -> Source:
         # model from its MCML transport (artists' terms: --model montecarlo, the Monte Carlo inversion)
         refuse_unused([f"--model {req.model}"], "--pass", ("separable",), "transmission, which takes --model "
                       "montecarlo only (the Monte Carlo inversion of artists' terms)")
-    if what == "--transmission-model jimenez2010":
-        refuse_given(req, ("material", "albedo"), f"{what} (Jimenez et al. 2010's skin Gaussians: no material)")
+    if what == "--transmission-model jimenez2010":  # (it takes no material: ExportSettings.unused, PASS_OPTIONS)
         return Source(None, None, None, None)
     _need_material(req, artist, what)
     mat: Any = None
