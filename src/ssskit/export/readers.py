@@ -286,7 +286,9 @@ def _register() -> None:
 _register()
 
 
-def _model_takes(model: str) -> set[str]:
+def model_parameters(model: str) -> set[str]:
+    """The named keyword parameters of a profile model's factory (from the MODELS registry): the options it takes
+    (here and in the CLI's :func:`ssskit.cli.profiles.resolve_profile`)."""
     import inspect
 
     from ..profiles import MODELS
@@ -300,7 +302,7 @@ def _physical(req: Any, mat: Any, model: str) -> Any:
     others) after its domain check."""
     from ..profiles import MATERIAL_FREE_MODELS, check_model_domain, profile_for_material
 
-    takes = _model_takes(model)
+    takes = model_parameters(model)
     refuse_given(req, tuple(n for n in ("photons", "grid_fraction") if n not in takes), f"--model {model}")
     kwargs = {n: getattr(req, n) for n in ("photons", "grid_fraction") if getattr(req, n) is not None}
     free = model.lower() in MATERIAL_FREE_MODELS
@@ -477,4 +479,4 @@ def _pass_source(req: Any, engine_file: bool, artist: bool) -> Source:
 
 
 __all__ = ["ENGINE_NAMES", "ENGINE_SUFFIXES", "EngineSource", "Source", "check_numbers", "is_engine_file",
-           "engine_material", "material_source", "read_engine_file"]
+           "engine_material", "material_source", "model_parameters", "read_engine_file"]
