@@ -82,7 +82,7 @@ BAD = [
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--tap-method", "uniform"],
      "ships its own taps"),
     (["export", "--format", "bn", "--out", "k.bn", "--kernel", "preintegrated", "--material", "skin1",
-      "--tap-method", "uniform"], "--tap-method does not apply to --format bn, which writes no taps"),
+      "--tap-method", "uniform"], "--tap-method applies to --format hlsl or glsl or glsl-shader or hlsl-shader, not --format bn"),
     (["export", "--format", "hlsl", "--out", "k.hlsl", "--kernel", "jimenez2012", "--model", "burley"],
      "--model applies to --kernel svd or svd_l1 or gaussians or preintegrated or preintegrated_svd or artist or guided or burley_fit, not --kernel jimenez2012"),
     (["export", "--format", "hlsl", "--out", "f.txt/k.hlsl", "--kernel", "jimenez2012"], "'f.txt' is not a folder"),

@@ -18,7 +18,8 @@ from ssskit.view.site import PAGE_FILES, MaterialRequest, page_file
     ({"taps": True}, "got True"),
     ({"jitter": 2}, r"jitter must lie in [0, 1], got 2 (a fraction of the kernel size)"),
     ({"jitter": float("nan")}, "(a fraction of the kernel size)"),
-    ({"kernel": 5}, "kernel must be str, got int"),
+    ({"kernel": 5}, "unknown kernel method '5'"),
+    ({"kernel": ["svd"]}, "unknown kernel method \"['svd']\""),
     ({"kernel": "nope:3"}, "unknown kernel method 'nope'"),
 ])
 def test_a_material_requests_refusals_name_the_value_as_given(kwargs, message):

@@ -437,9 +437,8 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
             tap_count = taps
     if fmt in ("bn", "json") and not tap_kernel:
         refuse_given(req, ("taps",), f"--format {fmt} (it writes the tabulated kernel itself)")
-    if tap_kernel or fmt in ("bn", "json"):
-        refuse_given(req, ("tap_method",), f"the {m.name} kernel, which ships its own taps" if tap_kernel else
-                     f"--format {fmt}, which writes no taps")
+    if tap_kernel:  # (bn and json take no --tap-method: their Format.options)
+        refuse_given(req, ("tap_method",), f"the {m.name} kernel, which ships its own taps")
     if fmt == "bn":
         from .bn import refuse_unfit
 

@@ -67,12 +67,12 @@ def _tap_choice(value: object, name: str, error: ErrorClass) -> int:
 
 def _kernel(value: object, name: str, error: ErrorClass) -> str:
     """A kernel method spec, the rule of ``ssskit render``'s ``kernel`` (RenderSettings): one that
-    :func:`ssskit.kernels.parse_method_spec` parses. Declared here and not taken from RenderSettings with ``like``,
-    so that importing the viewer does not import the pipeline (0.2 s of every ``ssskit view``'s start)."""
+    :func:`ssskit.kernels.parse_method_spec` parses (a value's text: 5 is an unknown method '5'), returned in its
+    canonical spelling. Declared here and not taken from RenderSettings with ``like``, so that importing the viewer
+    does not import the pipeline (0.2 s of every ``ssskit view``'s start)."""
     from ..kernels import parse_method_spec
 
-    parse_method_spec(check_instance(value, str, name, error))
-    return str(value)
+    return parse_method_spec(value)[2]  # type: ignore[arg-type]
 
 
 def _adaptive(value: object, name: str, error: ErrorClass) -> Any:
