@@ -111,17 +111,18 @@ class ExportSettings(Settings):
 
     def unused(self) -> dict[tuple[str, tuple[str, ...], str], list[str]]:
         """Every option given that the format does not take (:attr:`Format.options`), by the formats that take
-        it, then every one the shader's pass or the transmittance model does not take (:data:`PASS_OPTIONS`): what :meth:`~ssskit.settings.Settings.check_applies` refuses in the one wording of an
-        unused option (``--eta applies to --format unity or unreal, not --format glsl``)."""
+        it, then every one the shader's pass or the transmittance model does not take (:data:`PASS_OPTIONS`): what
+        :meth:`~ssskit.settings.Settings.check_applies` refuses in the one wording of an unused option (``--eta
+        applies to --format unity or unreal, not --format glsl``)."""
         fmt = get_format(self.format)
-        situation = {"--pass": self.shader_pass or "separable", "--transmission-model": self.transmission_model or "mcml"}
+        now_by = {"--pass": self.shader_pass or "separable", "--transmission-model": self.transmission_model or "mcml"}
         unused: dict[tuple[str, tuple[str, ...], str], list[str]] = {}
         for name, flag in FLAGS.items():
             if self.given(name) and name not in COMMON and name not in fmt.options:
                 takers = tuple(f.name for _, f in FORMATS.items() if name in f.options)
                 unused.setdefault(("--format", takers, fmt.name), []).append(flag)
         for category, options in PASS_OPTIONS.items():
-            now = situation[category]
+            now = now_by[category]
             for name, takers in options.items():
                 if self.given(name) and now not in takers:
                     why = f" ({PASS_BAKES[now]})" if now in PASS_BAKES else ""

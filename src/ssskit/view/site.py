@@ -327,8 +327,8 @@ def scene_payload(scene: str) -> dict[str, Any]:
     for shape in spec.shapes().values():
         if shape.get("type") not in ("ply", "obj"):
             continue
-        for mesh in read_mesh(shape["filename"]):  # (in mm: a scene's mesh shapes hold no transform, only its
-            v = np.asarray(mesh.vertices, np.float64)  # rectangles and cubes do, scenefile._primitive)
+        for mesh in read_mesh(shape["filename"]):  # (in mm, untransformed: only scenefile._primitive sets to_world)
+            v = np.asarray(mesh.vertices, np.float64)
             f = np.asarray(mesh.faces, np.int64)
             nrm = mesh.normals if mesh.normals is not None else _vertex_normals(v, f)
             verts.append(v)
