@@ -39,8 +39,7 @@ MESH_SUFFIXES = (".obj", ".ply", ".glb", ".gltf")
 DEFAULT_KERNEL = "preintegrated"
 DEFAULT_TAPS = 7
 DEFAULT_MODEL = "dipole"
-DEFAULT_JITTER = 0.1
-#: the separable pass's jitter radius, as ``ssskit render`` takes it (PassSettings' FRACTION)
+#: the separable pass's jitter radius, as ``ssskit render`` takes it (PassSettings' FRACTION, default 0.1)
 JITTER = FRACTION.within(reason="a fraction of the kernel size")
 #: the tap counts and spp the page offers (the API refuses others: bounded work per request)
 TAP_CHOICES = (5, 7, 9, 11, 13, 15, 17, 21, 25)
@@ -94,7 +93,7 @@ class MaterialRequest(Settings):
     mfp: tuple[float, float, float] | None = setting(MFP_MM, None, optional=True, rgb=True)
     kernel: str = setting(Rule("kernel", _kernel), DEFAULT_KERNEL)
     taps: int = setting(Rule("taps", _tap_choice), DEFAULT_TAPS)
-    jitter: float = setting(JITTER, DEFAULT_JITTER)
+    jitter: float = setting(JITTER, 0.1)
     adaptive: Any = setting(Rule("adaptive", _adaptive), None)
 
     def __post_init__(self) -> None:
