@@ -35,10 +35,10 @@ RGB = tuple[float, float, float]
 #: the options a shader's pass (``--pass``, separable where not given) takes where not every pass does: the separable
 #: pass's kernel and profile, the model of a material's profile or of the inversion of artists' terms, the
 #: transmittance's model; and those a transmittance model (``--transmission-model``, mcml where not given) takes
-PASS_OPTIONS = {"--pass": {**dict.fromkeys(KERNEL_OPTIONS + ("jitter", "depth_mode", "photons", "grid_fraction"),
-                                           ("separable",)),
-                           "model": ("separable", "transmission"), "transmission_model": ("transmission",)},
-                "--transmission-model": dict.fromkeys(("material", "albedo"), ("mcml", "unreal"))}
+PASS_OPTIONS: dict[str, dict[str, tuple[str, ...]]] = {
+    "--pass": {**dict.fromkeys(KERNEL_OPTIONS + ("jitter", "depth_mode", "photons", "grid_fraction"), ("separable",)),
+               "model": ("separable", "transmission"), "transmission_model": ("transmission",)},
+    "--transmission-model": dict.fromkeys(("material", "albedo"), ("mcml", "unreal"))}
 #: why an option does not apply there: what the pass's shader bakes in instead, what the model takes
 PASS_BAKES = {"burley": "the shader bakes the material's Burley parameters: Xie 2020 Eq. 5, the searchlight "
                         "configuration", "transmission": "the shader bakes the material's transmittance model",
