@@ -449,9 +449,9 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
 def _pass_source(req: Any, engine_file: bool, artist: bool) -> Source:
     """``shader_pass`` burley or transmission: the one homogeneous medium whose numbers the pass's shader bakes in
     (the Burley parameters, :func:`ssskit.screenspace.burley.burley_params_for_material`; the transmittance model),
-    from a preset, a material file, or artists' terms (the Burley pass inverts them by Monte Carlo; the
-    transmittance pass with ``--model montecarlo``, as an engine file) -- except transmission's jimenez2010, which
-    takes no material. (The separable pass's options are refused by the request: ExportSettings.unused.)"""
+    from a preset, a material file, or artists' terms (inverted by Monte Carlo: always for the Burley pass, with
+    ``--model montecarlo`` for the transmittance pass, which so also reads an engine file) -- except transmission's
+    jimenez2010, which takes no material. (Options a pass does not take: ExportSettings.unused, PASS_OPTIONS.)"""
     burley = req.shader_pass == "burley"
     what = "--pass burley" if burley else f"--transmission-model {req.transmission_model or 'mcml'}"
     if req.model is not None and req.model.lower() != "montecarlo":  # the shader bakes the material's transmittance
