@@ -132,6 +132,9 @@ def test_bad_inputs_raise(guide_backend):
         b.adaptive_counts(plan, hist, np.ones((4, 5), bool), np.full((4, 5, 2), np.nan))
     with pytest.raises(PassError, match="sample counts"):
         b.adaptive_update(plan, hist, np.zeros((4, 5, 3)), np.zeros((4, 5)), np.ones((4, 5), bool))
+    # a required input not given is named as such (numpy would call None "shape () object")
+    with pytest.raises(PassError, match=r"the pass's result must be an array \(it is required\), got None"):
+        b.adaptive_update(plan, hist, None, np.zeros((4, 5), np.int64), np.ones((4, 5), bool))
 
 
 # ---- the frame loop (history and counts kept with the backend; on gl on the device) ------------------
@@ -310,7 +313,9 @@ def test_runner_takes_counts_from_the_caller(guide_backend):
             runner.set_counts(np.zeros((3, 3), np.int64))
         with pytest.raises(PassError):
             runner.set_counts(np.full(gb.shape, 1.5))
-        runner.set_counts(fixed)
+        mine = fixed.copy()
+        runner.set_counts(mine)
+        mine[...] = 3  # the caller's array changed afterwards: the runner keeps what it was given
         np.testing.assert_array_equal(runner.counts(), fixed)
         runner.sample(burley)
         out = runner.result()

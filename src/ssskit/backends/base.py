@@ -279,7 +279,8 @@ class AdaptiveRunner:
         image (a fixed count on the mask, or the estimate changed by the caller); not timed."""
         from .burley_plan import COUNT_IMAGE
 
-        self._counts = check_arrays({"counts": COUNT_IMAGE}, {"counts": counts}, dims=self.shape)["counts"]
+        self._counts = np.array(check_arrays({"counts": COUNT_IMAGE}, {"counts": counts}, dims=self.shape)["counts"],
+                                np.int64)  # (a copy: the caller's array stays theirs)
 
     def sample(self, plan: BurleyPlan) -> None:
         """The Burley pass of the loaded frame with the current counts (``plan.frame`` keys its samples)."""
