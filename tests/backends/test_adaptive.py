@@ -325,3 +325,39 @@ def test_runner_takes_counts_from_the_caller(guide_backend):
         runner.release()
     np.testing.assert_allclose(out, sampler.burley(burley, gb.diffuse, gb.depth_mm, slots, fixed), atol=1e-6)
     np.testing.assert_array_equal(hist[..., 0], np.where(mask, 17.0, 0.0))  # Eq. 16: M' = 1, n_bar = n
+
+
+def test_every_runner_keeps_the_order_of_the_phases(guide_backend):
+    """One order for every runner (stated once in AdaptiveRunner): result needs a sample since the last load,
+    update one sample since the last load or update. The numpy runner returned NaN for a result before any
+    sample, and updated the history again with a stale result (twice, or after a new frame was loaded)."""
+    from ssskit.backends.base import AdaptiveRunner
+    from ssskit.screenspace.burley import burley_plan_for
+
+    gb = _gbuffer(24, 32)
+    b = get_backend(guide_backend)
+    sampler = b if guide_backend != "numpy" else get_backend("numba")
+    plan = as_plan(AdaptiveSettings(sigma0_sq=1e-4))
+    runner = (b.adaptive_runner(plan, new_history(*gb.shape)) if sampler is b
+              else AdaptiveRunner(b, plan, new_history(*gb.shape), sampler=sampler))
+    burley = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(mips=False))
+    slots = burley.slot_map(gb.profile_id)
+    try:
+        with pytest.raises(PassError, match="no frame sampled yet"):
+            runner.result()
+        runner.load(gb.diffuse, gb.depth_mm, slots)
+        with pytest.raises(PassError, match="sample a frame before updating the history"):
+            runner.update()
+        runner.sample(burley)
+        runner.update()
+        runner.result()  # (the frame's result stays readable after its update)
+        with pytest.raises(PassError, match="sample a frame before updating the history"):
+            runner.update()
+        runner.sample(burley)  # the same frame again, with the counts the update produced
+        runner.load(gb.diffuse, gb.depth_mm, slots)
+        with pytest.raises(PassError, match="sample a frame before updating the history"):
+            runner.update()
+        with pytest.raises(PassError, match="no frame sampled yet"):
+            runner.result()
+    finally:
+        runner.release()

@@ -20,7 +20,7 @@ import numpy as np
 from ...errors import PassError
 from ...sampling.hashes import frame_base
 from ..burley_plan import MAX_MIP, SAMPLERS, SEQUENCES, BurleyPlan
-from .separable import MAX_SLOTS, _array, _f, _uniforms, check_slot_count, wrapped
+from .separable import GL_PROFILE_IDS, _array, _f, _uniforms, wrapped
 
 if TYPE_CHECKING:
     import moderngl
@@ -56,7 +56,7 @@ def _set_mip_uniforms(prog: moderngl.ComputeShader, width: int, height: int) -> 
 
 def _generated(plan: BurleyPlan, count_image: bool, filtered_mips: bool) -> str:
     """The generated block (constants and defines) of :func:`burley_source` and :func:`burley_fragment_source`."""
-    check_slot_count(plan.slots, MAX_SLOTS, "slots are stored as 16-bit unsigned integers")
+    GL_PROFILE_IDS.check(plan.slots - 1, error=PassError)
     S = plan.slots
     d_sample = plan.d_sample
     head = [
