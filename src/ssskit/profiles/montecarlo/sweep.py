@@ -125,11 +125,8 @@ def check_scheduler(address: str, timeout_s: float = 20.0) -> Client:
     for 3.07 EiB: MemoryError) or waited for ever on a server that says nothing."""
     import asyncio
 
-    try:
-        from distributed import Client
-        from distributed.core import rpc
-    except ImportError:
-        raise ProfileError("a scheduler address needs dask.distributed: pip install 'ssskit[cluster]'") from None
+    from distributed import Client
+    from distributed.core import rpc
 
     async def identity() -> object:
         remote = rpc(address, timeout=timeout_s)
@@ -177,6 +174,10 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
         check_montecarlo(m)
     tasks = [(m, channels, photons, seed, batch_size, resume, restart, roughness, progress) for m in materials]
     if scheduler is not None:
+        try:
+            import distributed  # noqa: F401 - the optional extra check_scheduler needs
+        except ImportError:
+            raise ProfileError("a scheduler address needs dask.distributed: pip install 'ssskit[cluster]'") from None
         client = check_scheduler(scheduler, connect_timeout_s)
         try:
             futures = client.map(_sweep_job, tasks, pure=False)
