@@ -183,12 +183,7 @@ def test_runner_with_motion_matches_the_host_loop(guide_backend, mips):
     frames = 5
     motions = [None] + [np.full(gb.shape + (2,), (-1.0 + 0.5 * f, 0.7), np.float64) for f in range(1, frames)]
     outs, counts_ref, hist_ref = _host_loop(gb, settings, bs, frames, motions)
-    b = get_backend(guide_backend)
-    sampler = get_backend(bs.backend)
-    from ssskit.backends.base import AdaptiveRunner
-
-    runner = (b.adaptive_runner(as_plan(settings), new_history(*gb.shape)) if sampler is b
-              else AdaptiveRunner(b, as_plan(settings), new_history(*gb.shape), sampler=sampler))
+    runner, sampler = _runner(guide_backend, gb, settings)  # (its Burley pass on bs.backend)
     base = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, bs)
     slots = base.slot_map(gb.profile_id)
     import dataclasses
@@ -259,18 +254,25 @@ def test_same_seed_same_frames_and_thread_count_free(guide_backend):
     assert not np.array_equal(a.last, c.last)
 
 
+def _runner(guide_backend, gb, settings):
+    """(a runner of ``guide_backend`` for ``gb``'s frames, the backend of its Burley pass: numba for numpy's guiding
+    phase, else the same)."""
+    from ssskit.backends.base import AdaptiveRunner
+
+    b = get_backend(guide_backend)
+    sampler = b if guide_backend != "numpy" else get_backend("numba")
+    plan = as_plan(settings)
+    runner = (b.adaptive_runner(plan, new_history(*gb.shape)) if sampler is b
+              else AdaptiveRunner(b, plan, new_history(*gb.shape), sampler=sampler))
+    return runner, sampler
+
+
 def test_runner_follows_a_change_of_sampler(guide_backend):
     """A loaded frame sampled with another sampler (another shader on gl) gives that sampler's pass."""
     from ssskit.screenspace.burley import burley_plan_for
 
     gb = _gbuffer(24, 32)
-    b = get_backend(guide_backend)
-    sampler = b if guide_backend != "numpy" else get_backend("numba")
-    from ssskit.backends.base import AdaptiveRunner
-
-    plan = as_plan(AdaptiveSettings(sigma0_sq=1e-4))
-    runner = (b.adaptive_runner(plan, new_history(*gb.shape)) if sampler is b
-              else AdaptiveRunner(b, plan, new_history(*gb.shape), sampler=sampler))
+    runner, sampler = _runner(guide_backend, gb, AdaptiveSettings(sigma0_sq=1e-4))
     exact = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(mips=False))
     xie = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(sampler="xie", mips=True))
     slots = exact.slot_map(gb.profile_id)
@@ -291,15 +293,10 @@ def test_runner_follows_a_change_of_sampler(guide_backend):
 def test_runner_takes_counts_from_the_caller(guide_backend):
     """load(estimate=False) + set_counts: the pass runs with the caller's counts (a fixed count, or the
     estimate changed), the update records them (Eq. 8); sampling without counts, or bad counts, raise."""
-    from ssskit.backends.base import AdaptiveRunner
     from ssskit.screenspace.burley import burley_plan_for
 
     gb = _gbuffer(24, 32)
-    b = get_backend(guide_backend)
-    sampler = b if guide_backend != "numpy" else get_backend("numba")
-    plan = as_plan(AdaptiveSettings(sigma0_sq=1e-4, b_min=4, b_max=40))
-    runner = (b.adaptive_runner(plan, new_history(*gb.shape)) if sampler is b
-              else AdaptiveRunner(b, plan, new_history(*gb.shape), sampler=sampler))
+    runner, sampler = _runner(guide_backend, gb, AdaptiveSettings(sigma0_sq=1e-4, b_min=4, b_max=40))
     burley = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(mips=False))
     slots = burley.slot_map(gb.profile_id)
     mask = slots > 0
@@ -331,15 +328,10 @@ def test_every_runner_keeps_the_order_of_the_phases(guide_backend):
     """One order for every runner (stated once in AdaptiveRunner): result needs a sample since the last load,
     update one sample since the last load or update. The numpy runner returned NaN for a result before any
     sample, and updated the history again with a stale result (twice, or after a new frame was loaded)."""
-    from ssskit.backends.base import AdaptiveRunner
     from ssskit.screenspace.burley import burley_plan_for
 
     gb = _gbuffer(24, 32)
-    b = get_backend(guide_backend)
-    sampler = b if guide_backend != "numpy" else get_backend("numba")
-    plan = as_plan(AdaptiveSettings(sigma0_sq=1e-4))
-    runner = (b.adaptive_runner(plan, new_history(*gb.shape)) if sampler is b
-              else AdaptiveRunner(b, plan, new_history(*gb.shape), sampler=sampler))
+    runner, _ = _runner(guide_backend, gb, AdaptiveSettings(sigma0_sq=1e-4))
     burley = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(mips=False))
     slots = burley.slot_map(gb.profile_id)
     try:
