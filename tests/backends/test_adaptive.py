@@ -353,3 +353,26 @@ def test_every_runner_keeps_the_order_of_the_phases(guide_backend):
             runner.result()
     finally:
         runner.release()
+
+
+def test_every_runner_refuses_a_bad_frame_before_its_pass(guide_backend):
+    """The Burley pass's frame rule (a finite positive depth on every pixel with SSS, slots within the plan) holds
+    for every runner: the gl runner's device pass, which does not go through Backend.burley, took a NaN depth and
+    slots beyond the plan's tables without a word."""
+    from ssskit.screenspace.burley import burley_plan_for
+
+    gb = _gbuffer(24, 32)
+    runner, _ = _runner(guide_backend, gb, AdaptiveSettings(sigma0_sq=1e-4))
+    burley = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(mips=False))
+    slots = burley.slot_map(gb.profile_id)
+    depth = gb.depth_mm.copy()
+    depth[slots > 0] = np.where(np.arange(np.count_nonzero(slots > 0)) == 3, np.nan, depth[slots > 0])
+    try:
+        runner.load(gb.diffuse, depth, slots)
+        with pytest.raises(PassError, match="depth must be finite"):
+            runner.sample(burley)
+        runner.load(gb.diffuse, gb.depth_mm, np.where(slots > 0, 2, 0))  # (the plan has one profile id)
+        with pytest.raises(PassError, match=r"slots must lie in \[0, 1\]"):
+            runner.sample(burley)
+    finally:
+        runner.release()

@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..adaptive_plan import GUIDE_FRAME, AdaptivePlan, GuideFrame
 from ..base import PHASES, AdaptiveRunner, Backend
-from ..plan import check_arrays
+from ..plan import SEPARABLE_FRAME, check_arrays
 from .burley import _program
 from .separable import _f, _uniforms, wrapped
 
@@ -235,6 +235,8 @@ class GLAdaptiveRunner(AdaptiveRunner):
         from .burley import BurleyFrame, burley_source
         from .context import context
 
+        # the frame's rule of the Burley pass (Backend.burley's template, which this device pass does not go through)
+        check_arrays(SEPARABLE_FRAME, dict(diffuse=diffuse, depth_mm=depth, slots=slots), plan.slots)
         context()
         if self._burley is not None and burley_source(plan, True) != burley_source(self._burley.plan, True):
             self._burley.release()  # another sampler, sequence, mips or profile: another shader and images
