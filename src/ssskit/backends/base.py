@@ -204,20 +204,16 @@ class Backend(ABC):
         self.require("adaptive", "burley")
         return AdaptiveRunner(self, plan, history)
 
-    def lacks(self, what: str) -> Exception:
-        """The BackendError of a pass this backend does not implement (``what``: the pass, in words)."""
+    def require(self, *passes: str) -> Backend:
+        """This backend if it implements every one of ``passes`` (names of :attr:`passes`), else a BackendError
+        naming, in words, the first it does not implement."""
         from ..errors import BackendError
 
-        return BackendError(f"backend {self.name!r} has no {what}")
-
-    def require(self, *passes: str) -> Backend:
-        """This backend if it implements every one of ``passes`` (names of :attr:`passes`), else the
-        BackendError of :meth:`lacks`."""
         for name in passes:
             if name not in self.passes:
-                raise self.lacks({"burley": "Burley pass", "adaptive": "adaptive guiding pass",
-                                  "transmission": "transmittance pass",
-                                  "spread": "spread of the transmitted light"}.get(name, f"{name} pass"))
+                raise BackendError(f"backend {self.name!r} has no " + {
+                    "burley": "Burley pass", "adaptive": "adaptive guiding pass", "transmission": "transmittance pass",
+                    "spread": "spread of the transmitted light"}.get(name, f"{name} pass"))
         return self
 
 
@@ -229,11 +225,8 @@ class AdaptiveRunner:
     :meth:`sample` (the Burley pass with those counts, mips first) and :meth:`update` (the history update
     and the next counts). :meth:`result`, :meth:`counts` and :meth:`history` read back; ``times`` holds the
     ms of every phase run (:data:`PHASES`). This base class keeps everything in numpy arrays and calls the
-    backend's entry points; the gl backend's subclass keeps it on the device.
-
-    The order of the phases is stated here once, for every runner: :meth:`sample` needs a loaded frame with
-    counts, :meth:`update` one sample since the last load or update, :meth:`result` a sample since the last
-    load (else a PassError); a subclass implements :meth:`_sample`, :meth:`_update` and :meth:`_result`.
+    backend's entry points; the gl backend's subclass keeps it on the device. The phases' order is stated here
+    for every runner (a subclass implements :meth:`_sample`, :meth:`_update` and :meth:`_result`).
     """
 
     def __init__(self, backend: Backend, plan: AdaptivePlan, history: ArrayLike, sampler: Backend | None = None) -> None:
@@ -246,8 +239,7 @@ class AdaptiveRunner:
         self._counts: np.ndarray | None = None
         self._out: np.ndarray | None = None
         self._frame: tuple[NDArray[np.float32], NDArray[np.float32], np.ndarray] | None = None
-        # the phases' order (class docstring): the frame of a sample since the last load (None: none), updated since
-        self._sampled: tuple[NDArray[np.float32], NDArray[np.float32], np.ndarray] | None = None
+        self._sampled: tuple[NDArray[np.float32], NDArray[np.float32], np.ndarray] | None = None  # since the load
         self._has_counts = self._updated = False
         self._motion: ArrayLike | None = None
         self._valid: ArrayLike | None = None
@@ -300,10 +292,9 @@ class AdaptiveRunner:
 
     def update(self) -> None:
         """The history update from the last :meth:`sample` (Eqs. 6, 8, 9; 16-17) and the next counts."""
-        frame = self._sampled
-        if frame is None or self._updated:  # (once per sampled frame: its result and counts feed it)
+        if self._sampled is None or self._updated:  # (once per sampled frame: its result and counts feed it)
             raise PassError("sample a frame before updating the history")
-        self._update(*frame)
+        self._update(self._sampled[2])
         self._updated = True
 
     def result(self) -> np.ndarray:
@@ -312,8 +303,7 @@ class AdaptiveRunner:
             raise PassError("no frame sampled yet")
         return self._result()
 
-    def _sample(self, plan: BurleyPlan, diffuse: NDArray[np.float32], depth: NDArray[np.float32],
-                slots: np.ndarray) -> None:
+    def _sample(self, plan: BurleyPlan, diffuse: np.ndarray, depth: np.ndarray, slots: np.ndarray) -> None:
         counts = self._counts
         assert counts is not None  # (set with _has_counts: the order sample states)
         pyr = None
@@ -322,7 +312,7 @@ class AdaptiveRunner:
         self._out = self._timed("sampling", lambda: self.sampler.burley(plan, diffuse, depth, slots, counts,
                                                                          pyramid=pyr))
 
-    def _update(self, diffuse: NDArray[np.float32], depth: NDArray[np.float32], slots: np.ndarray) -> None:
+    def _update(self, slots: np.ndarray) -> None:
         self._history, self._counts = self._timed("update", lambda: self.backend.adaptive_update(
             self.plan, self._history, self._out, self._counts, slots > 0, self._motion, self._valid))
         self._motion = self._valid = None  # the next frame, unless loaded anew, is this one again

@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..adaptive_plan import GUIDE_FRAME, AdaptivePlan, GuideFrame
 from ..base import PHASES, AdaptiveRunner, Backend
 from ..plan import SEPARABLE_FRAME, check_arrays
-from .burley import _program
+from .context import program
 from .separable import _f, _uniforms, wrapped
 
 if TYPE_CHECKING:
@@ -105,8 +105,8 @@ def dispatch(plan: AdaptivePlan, images: GuideImages, history: moderngl.Texture,
     """One run of the guiding shader: ``history`` (RGBA32F texture) read, ``counts`` (R32I texture) read and
     written; with ``rgb`` (the Burley result, RGBA32F) the *update* into ``dst``, else the *estimate*."""
     update = rgb is not None
-    prog = _program(adaptive_source(plan, update, images.motion is not None, images.valid is not None),
-                    "adaptive guiding")
+    prog = program(adaptive_source(plan, update, images.motion is not None, images.valid is not None),
+                   "adaptive guiding")
     w, h = images.size
     _uniforms(prog, u_size=(w, h))
     history.use(0)
@@ -230,8 +230,7 @@ class GLAdaptiveRunner(AdaptiveRunner):
         self._cnt.write(np.ascontiguousarray(n, np.int32).tobytes())
         self._has_counts = True
 
-    def _sample(self, plan: BurleyPlan, diffuse: NDArray[np.float32], depth: NDArray[np.float32],
-                slots: np.ndarray) -> None:
+    def _sample(self, plan: BurleyPlan, diffuse: np.ndarray, depth: np.ndarray, slots: np.ndarray) -> None:
         from .burley import BurleyFrame, burley_source
         from .context import context
 
@@ -249,7 +248,7 @@ class GLAdaptiveRunner(AdaptiveRunner):
             self._timed("prefilter", frame.build_mips)
         self._timed("sampling", frame.run_pass)
 
-    def _update(self, diffuse: NDArray[np.float32], depth: NDArray[np.float32], slots: np.ndarray) -> None:
+    def _update(self, slots: np.ndarray) -> None:
         images, frame = self._images, self._burley
         assert images is not None and frame is not None  # (made by load and sample: the order the base class states)
         src, dst = self._hist[self._cur], self._hist[1 - self._cur]

@@ -60,9 +60,8 @@ def default_layout() -> Layout:
     return CPU_LAYOUT if is_software() else GPU_LAYOUT
 #: slots are stored as 16-bit unsigned integers
 MAX_SLOTS = 1 << 16
-#: the rule of every gl shader that bakes a plan's per-slot tables: the profile ids of one frame (a plan's slots
-#: less the no-SSS slot 0), at most ``MAX_SLOTS - 1`` here; a shader with smaller tables states its own bound
-#: and reason with :meth:`~ssskit.quantities.Quantity.within`
+#: the rule of every gl shader that bakes a plan's per-slot tables: the profile ids of one frame (slots less the
+#: no-SSS slot 0); a shader with smaller tables narrows it (:meth:`~ssskit.quantities.Quantity.within`)
 GL_PROFILE_IDS = Quantity("the gl backend's profile ids in one frame", 0, MAX_SLOTS - 1, "",
                           "slots are stored as 16-bit unsigned integers", integer=True)
 
@@ -380,9 +379,6 @@ class _Images:
                 obj.release()
 
 
-_PROGRAMS: dict[str, moderngl.ComputeShader] = {}
-
-
 def _uniforms(prog: moderngl.ComputeShader, **values: Any) -> None:
     """Set the uniforms the compiled program uses (the compiler drops unused ones)."""
     for name, value in values.items():
@@ -391,12 +387,6 @@ def _uniforms(prog: moderngl.ComputeShader, **values: Any) -> None:
 
 
 def _program(plan: SeparablePlan, term: int, vertical: bool, layout: Layout) -> moderngl.ComputeShader:
-    from .context import compile_compute
+    from .context import program
 
-    source = separable_source(plan, term, vertical, layout)
-    prog = _PROGRAMS.get(source)
-    if prog is None:
-        if len(_PROGRAMS) > 64:
-            _PROGRAMS.clear()
-        prog = _PROGRAMS[source] = compile_compute(source, "separable")
-    return prog
+    return program(separable_source(plan, term, vertical, layout), "separable")

@@ -8,7 +8,7 @@ dispatches."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -16,16 +16,10 @@ from ...errors import PassError
 from ..spread_plan import SpreadPlan
 from .separable import GL_PROFILE_IDS, _array, _f
 
-if TYPE_CHECKING:
-    import moderngl
-
 #: invocations per work group
 LOCAL = 64
-#: most profile slots baked into one shader
-MAX_SLOTS = 1024
-#: the profile ids of one frame the shader takes
-PROFILE_IDS = GL_PROFILE_IDS.within(hi=MAX_SLOTS - 1, reason="the spread's per-slot tables are constants of one "
-                                    "shader")
+#: the profile ids of one frame the shader takes: 1024 slots baked into it
+PROFILE_IDS = GL_PROFILE_IDS.within(hi=1023, reason="the spread's per-slot tables are constants of one shader")
 
 _BODY = """
 layout(local_size_x = LOCAL) in;
@@ -167,21 +161,13 @@ def spread_source(plan: SpreadPlan) -> str:
     ])
 
 
-_PROGRAMS: dict[str, moderngl.ComputeShader] = {}
-
-
 def run_spread(plan: SpreadPlan, exitance: np.ndarray, depth_mm: np.ndarray, slots: np.ndarray,
                light_uvz: np.ndarray, shadow_mm: np.ndarray) -> np.ndarray:
     """Upload, dispatch the three stages, read back (the caller holds the context): a new (H, W, 3) float32 array."""
-    from .context import compile_compute, context
+    from .context import context, program
 
     ctx = context()
-    src_text = spread_source(plan)
-    prog = _PROGRAMS.get(src_text)
-    if prog is None:
-        if len(_PROGRAMS) > 64:
-            _PROGRAMS.clear()
-        prog = _PROGRAMS[src_text] = compile_compute(src_text, "spread")
+    prog = program(spread_source(plan), "spread")
     import moderngl
 
     h, w = np.shape(slots)
