@@ -3,8 +3,12 @@
 Mitsuba installs its own SIGINT handler around every render (whatever SIGINT's disposition was); on a signal it
 cancels the render, re-raises the signal to the handler before its own, and the render returns the samples it has
 as if it had finished. The signal here comes from inside the render itself, when Mitsuba logs "Starting render
-job" (after its stop flag is cleared and its handler installed), so no test depends on timing: the interrupt
-lands in the render on any machine, at any load.
+job" (after its stop flag is cleared and its handler installed), so it is sent while the render runs on any
+machine, at any load. Linux delivers a signal sent to the process to its main thread, which runs the handler
+when it is next scheduled: a render shorter than that wait (a 64 x 48 G-buffer at 4 spp renders in 2 ms) ended
+before the handler ran once in the full suite at load 4-5 (2026-12-06), so the renders hit here are long enough
+(about 0.1 s and more) to hold the signal. Waiting inside the appender instead deadlocks: Mitsuba's handler logs
+"winding down" under the logger lock the appender holds.
 """
 
 import contextlib
@@ -64,7 +68,7 @@ def sigint_handled_by(handler):
 
 
 def _gbuffer():
-    return render_gbuffer("slab", ALBEDO, width=64, height=48, spp=4, seed=1)
+    return render_gbuffer("slab", ALBEDO, width=128, height=96, spp=64, seed=1)  # (a render long enough: above)
 
 
 def test_a_wound_down_gbuffer_render_is_an_interruption():
@@ -107,7 +111,8 @@ def test_a_wound_down_reference_is_neither_a_result_nor_cached(tmp_path, monkeyp
     noted = []
     with sigint_handled_by(lambda *a: noted.append(a)), sigint_inside_renders(skip=2) as hits:
         with pytest.raises(RenderInterrupted):
-            render_reference("slab", get_material("skin1"), width=32, height=24, spp=32, chunk_spp=4, progress=False)
+            render_reference("slab", get_material("skin1"), width=64, height=48, spp=384, chunk_spp=128,
+                             progress=False)
     assert len(hits) == 1 and noted
     assert not [p for p in tmp_path.rglob("*") if p.is_file()]
 
