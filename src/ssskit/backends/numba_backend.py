@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from ..compute.workers import submit_all
 from ..errors import PassError
 from ..sampling.hashes import frame_base
 from .base import Backend, run_tiny_frames
@@ -101,7 +102,7 @@ class NumbaBackend(Backend):
 
             self._pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="ssskit-numba")
         bounds = np.linspace(0, h, 4 * threads + 1).astype(int)
-        for f in [self._pool.submit(fn, int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]:
+        for f in submit_all(self._pool, fn, [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]):
             f.result()
 
     def _buffer(self, h: int, w: int, pad: int) -> tuple[NDArray[np.float32], int, int]:

@@ -16,7 +16,7 @@ import contextlib
 import os
 import signal
 import threading
-from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from typing import Any
 
 _LINES: Any = None  # in a worker: the queue to the parent
@@ -62,6 +62,17 @@ def sigint_blocked() -> Iterator[None]:
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+def submit_all(pool: Any, fn: Callable[..., Any], calls: Iterable[tuple[Any, ...]]) -> list[Any]:
+    """``pool.submit(fn, *args)`` for each ``args`` of ``calls`` (a ``concurrent.futures`` thread pool held for the
+    process's life), with SIGINT blocked (:func:`sigint_blocked`): the futures. ``ThreadPoolExecutor`` starts a
+    worker on a submit, waits for it to run, then records it for the interpreter's exit; a KeyboardInterrupt
+    inside that wait left the worker unrecorded and idle for good, and the exit waited for it forever (a Ctrl-C'd
+    ``ssskit render`` at load 5, benchmarks/sigint_matrix.py, 2026-12-06). Blocked, the signal waits until the
+    submits are done (microseconds), and the workers keep it blocked: the main thread takes it."""
+    with sigint_blocked():
+        return [pool.submit(fn, *args) for args in calls]
 
 
 @contextlib.contextmanager
@@ -199,5 +210,5 @@ def run_jobs(jobs: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], workers
         results.close()
 
 
-__all__ = ["LIBRARY_THREADS", "POLL_S", "ignored_sigint_blocked", "line", "one_library_thread", "run_jobs",
+__all__ = ["LIBRARY_THREADS", "POLL_S", "ignored_sigint_blocked", "line", "one_library_thread", "run_jobs", "submit_all",
            "sigint_blocked", "sigint_ignored"]

@@ -56,6 +56,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from ...compute.workers import submit_all
 from ...compute.numba_math import FM32, log_f32, sincos_u24, stack_empty, u24_f32, xoshiro128p
 from .config import N_EXIT_BINS
 
@@ -586,7 +587,7 @@ def run_batches(seed: np.uint64, batch_ids: NDArray[np.int64], batch_sizes: NDAr
         for k in range(n):
             one(k)
         return
-    for f in [_pool(threads).submit(one, k) for k in range(n)]:
+    for f in submit_all(_pool(threads), one, [(k,) for k in range(n)]):
         f.result()
 
 
@@ -594,7 +595,8 @@ _POOLS: dict[int, ThreadPoolExecutor] = {}
 
 
 def _pool(threads: int) -> ThreadPoolExecutor:
-    """A thread pool of ``threads`` workers, made once per size."""
+    """A thread pool of ``threads`` workers, made once per size (submitted to through
+    :func:`~ssskit.compute.workers.submit_all`)."""
     pool = _POOLS.get(threads)
     if pool is None:
         pool = _POOLS[threads] = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="ssskit-mcml")
