@@ -508,11 +508,13 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         origin = tuple(framing(centre, radius, vw, fov, up_v, front).tolist())
         target = tuple(centre.tolist())
         up = tuple(_basis(up_v, front)[0].tolist())
+    if explicit and "lights" not in doc:  # (the default lights are relative to the automatic framing)
+        raise SceneError(f"{source}: a scene with an explicit camera needs explicit [lights]")
     lights: dict[str, dict] = {}
     for lid, ltable in doc.get("lights", DEFAULT_LIGHTS).items():  # (no [lights]: the relative key, fill and back)
         if "type" in check_keys(ltable, f"{source}: light {lid!r}", error=SceneError):
             lights[lid] = _explicit_light(lid, ltable)
-        elif explicit:  # an explicit camera takes explicit lights only (the default ones are relative too)
+        elif explicit:  # an explicit camera takes explicit lights only
             raise SceneError(f"{source}: light {lid!r} is placed relative to the automatic framing, but the "
                              "camera is explicit; give type = point | sphere")
         else:
@@ -720,11 +722,12 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
         kind, what = ("mesh", "a mesh file") if suffix in FORMATS else ("file", "a scene .toml")
     else:  # neither a scene's name nor a file of a format it takes
         if Path(text).suffix or os.sep in text or Path(text).exists():
-            SCENE_FORMAT.check(suffix, f"scene {text!r}: its format", SceneError)
+            SCENE_FORMAT.check(suffix or "(no suffix)", f"scene {text!r}: its format", SceneError)
         raise SceneError(unknown_scene_message(text))
     for flag, given in (("--units", cli_units), ("--material-map", mmap), ("--view", view)):
-        refuse_unused([flag] if given and kind not in SCENE_OPTIONS[flag] else [], "--scene",
-                      [SCENE_KINDS[k] for k in SCENE_OPTIONS[flag]], f"{text!r} ({what})", SceneError)
+        if given and kind not in SCENE_OPTIONS[flag]:
+            refuse_unused([flag], "--scene", [SCENE_KINDS[k] for k in SCENE_OPTIONS[flag]], f"{text!r} ({what})",
+                          SceneError)
     if kind in ("builtin", "views"):
         return ResolvedScene("builtin", spec.name, spec=spec if view is None else with_view(spec, view))
     if kind == "gbuffer":

@@ -50,11 +50,11 @@ DEPTH_LAYER = Quantity("depth", 0.0, math.inf, "mm", "a linear camera-space dept
 RADIANCE = Quantity("diffuse", 0.0, math.inf, "", "linear-light radiance", hi_open=True)
 PROFILE_ID = Quantity("profile_id", 0, 2**32 - 1, "", "0 is no SSS, k the k-th material named", integer=True)
 IRRADIANCE = Quantity("irradiance", 0.0, float(np.finfo(np.float32).max), "", "an irradiance the float32 pass carries")
-LIGHT_DEPTH = Quantity("light_depth", -math.inf, math.inf, "mm", "a light-space depth; inf where the light meets no "
-                       "surface", lo_open=True)
+LIGHT_DEPTH = Quantity("light_depth", -math.inf, math.inf, "mm", "a light-space depth; +-inf where the light meets "
+                       "no surface (the transmittance pass's SHADOW_MM)")
 
 #: the layers (module docstring), declared once: name -> (the channels after (H, W), the array kinds it may be, the
-#: dtype it is kept as, the quantity of its values (+inf where the range holds it: no surface; None: any finite
+#: dtype it is kept as, the quantity of its values (an infinity where the range holds it: no surface; None: any finite
 #: value), what they are)
 LAYER_RULES: dict[str, tuple[tuple[int, ...], str, type, Quantity | None, str]] = {
     "diffuse": ((3,), "f", np.float32, RADIANCE, "colour values"),
@@ -308,6 +308,6 @@ def _layer(name: str, value: ArrayLike, size: tuple[int | str, int | str]) -> np
     arr = check_shape(value, f"layer {name!r}", (*size, *channels), GBufferError, kinds, dtype if kinds == "f" else None)
     if quantity is None:
         return np.ascontiguousarray(check_finite(arr, f"layer {name!r}", GBufferError, where))
-    quantity.check_array(np.where(arr == np.inf, 1.0, arr) if quantity.contains(math.inf) else arr, f"layer {name!r}",
-                         GBufferError, where)
+    held = [v for v in (math.inf, -math.inf) if quantity.contains(v)]  # no surface: the infinities the range holds
+    quantity.check_array(np.where(np.isin(arr, held), 1.0, arr), f"layer {name!r}", GBufferError, where)
     return np.ascontiguousarray(arr, dtype)
