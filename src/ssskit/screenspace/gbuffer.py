@@ -271,15 +271,10 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
     record: Any = None if camera is not None else _header(p, header, "ssskit_camera")
     named, meta = _header(p, header, "ssskit_materials"), _header(p, header, "ssskit_meta", {})
     materials: tuple[str, ...] = ()
-    if named is not None:  # a file that names its materials names one for every profile id it uses
-        if not (isinstance(named, list) and all(isinstance(m, str) and m.strip() for m in named)):
-            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_materials' must be a list of material names, "
-                               f"got {header['ssskit_materials']!r}")
-        ids = np.unique(np.asarray(channels["profile_id"]))
-        top = int(ids.max(initial=0))
-        if top > len(named):
-            raise GBufferError(f"G-buffer {str(p)!r}: layer 'profile_id' uses id {top} but the header "
-                               f"'ssskit_materials' names {len(named)} material(s) {named!r} (id k is the k-th name)")
+    if named is not None:  # a file that names its materials names one for every profile id it uses (GBuffer's rule)
+        if not (isinstance(named, list) and named and all(isinstance(m, str) and m.strip() for m in named)):
+            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_materials' must be a non-empty list of material "
+                               f"names, got {header['ssskit_materials']!r}")
         materials = tuple(named)
     light = _header(p, header, "ssskit_light")  # (a table: LightView.from_dict's rule, in GBuffer)
     try:  # (the camera record's and the layers' errors alike name the file)
