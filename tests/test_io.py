@@ -292,5 +292,5 @@ def test_a_document_nested_too_deeply_is_malformed_in_every_reader(tmp_path, suf
     with pytest.raises(SettingsError, match="malformed settings file .* nested too deeply"):
         RenderSettings.load(path)
     if suffix == ".toml":
-        with pytest.raises(SceneError, match="is not valid TOML: nested too deeply"):
+        with pytest.raises(SceneError, match="malformed scene file .* nested too deeply"):
             resolve_scene(str(path))

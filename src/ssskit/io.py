@@ -281,6 +281,18 @@ def parse_document(text: str, suffix: str) -> Any:
         raise ValueError("nested too deeply (more levels of arrays or tables than the parser can follow)") from None
 
 
+def read_document(path: str | Path, what: str, error: type[Exception] = OutputError, suffixes: Iterable[str] = ()) -> Any:
+    """The data of an input file of TOML (or JSON: a ``.json`` file) after :func:`read_input`'s rules, the one
+    reader of the settings, material and scene files: a malformed document is one ``error``, ``malformed {what}
+    {path}: {why}``."""
+    p = Path(path)
+    text = read_input(p, what, error, suffixes, text=True)
+    try:
+        return parse_document(text, ".json" if p.suffix.lower() == ".json" else ".toml")
+    except ValueError as exc:
+        raise error(f"malformed {what} {str(p)!r}: {exc}") from None
+
+
 def read_input(path: str | Path, what: str, error: type[Exception] = OutputError, suffixes: Iterable[str] = (),
                size: int = -1, text: bool = False) -> Any:
     """The contents of an input file (``text``: decoded as UTF-8; ``size``: at most that many bytes), after the

@@ -162,16 +162,10 @@ class Settings:
     @classmethod
     def load(cls, path: str | Path) -> Self:
         """Read a ``.toml`` or ``.json`` settings file."""
-        from .io import parse_document, read_input
+        from .io import read_document
 
         p = Path(path)
-        suffix = p.suffix.lower()
-        text = read_input(p, "settings file", SettingsError, (".toml", ".json"), text=True)  # (io: every input file's rules)
-
-        try:
-            data = parse_document(text, suffix)
-        except ValueError as exc:
-            raise SettingsError(f"malformed settings file {str(p)!r}: {exc}") from None
+        data = read_document(p, "settings file", SettingsError, (".toml", ".json"))  # (io: every input file's rules)
         try:
             return cls.from_dict(data)
         except SettingsError as exc:

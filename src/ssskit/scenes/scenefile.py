@@ -61,7 +61,7 @@ from numpy.typing import ArrayLike
 from ..errors import SceneError
 from ..quantities import (TYPE, Choice, Flag, Quantity, check_fields, check_instance, check_keys, check_shape,
                           fail, refuse_twice, refuse_unused)
-from ..io import parse_document, read_input
+from ..io import read_document
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
 from .scenes import SCENES, SceneSpec, _T, _ply, check_size
 
@@ -363,11 +363,7 @@ def load_scene_file(path: str | os.PathLike[str], **options: Any) -> LoadedScene
     """Read a TOML scene file (module docstring) into a :class:`LoadedScene`; ``options`` as for
     :func:`scene_from_document`."""
     p = Path(path)
-    text = read_input(p, "scene file", SceneError, text=True)  # (io: every input file's rules)
-    try:
-        doc = parse_document(text, ".toml")
-    except ValueError as exc:
-        raise SceneError(f"scene file {str(p)!r} is not valid TOML: {exc}") from None
+    doc = read_document(p, "scene file", SceneError)  # (io: every input file's rules)
     doc.setdefault("name", p.stem)
     return scene_from_document(doc, base=p.parent, source=str(p), **options)
 
