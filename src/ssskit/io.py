@@ -20,7 +20,7 @@ import os
 import re
 import sys
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -281,16 +281,22 @@ def parse_document(text: str, suffix: str) -> Any:
         raise ValueError("nested too deeply (more levels of arrays or tables than the parser can follow)") from None
 
 
-def read_document(path: str | Path, what: str, error: type[Exception] = OutputError, suffixes: Iterable[str] = ()) -> Any:
-    """The data of an input file of TOML (or JSON: a ``.json`` file) after :func:`read_input`'s rules, the one
-    reader of the settings, material and scene files: a malformed document is one ``error``, ``malformed {what}
-    {path}: {why}``."""
+def read_document(path: str | Path, what: str, error: type[Exception] = OutputError, suffixes: Iterable[str] = (),
+                  build: Callable[[Any], Any] | None = None) -> Any:
+    """The data of an input file of TOML (or JSON: a ``.json`` file) after :func:`read_input`'s rules, or what
+    ``build`` makes of it: the one reader of the settings, material and scene files. A malformed document is one
+    ``error``, ``malformed {what} {path}: {why}``; an ``error`` of ``build`` (a value the file holds) names the
+    file, ``{path}: {why}``."""
     p = Path(path)
     text = read_input(p, what, error, suffixes, text=True)
     try:
-        return parse_document(text, ".json" if p.suffix.lower() == ".json" else ".toml")
+        data = parse_document(text, ".json" if p.suffix.lower() == ".json" else ".toml")
     except ValueError as exc:
         raise error(f"malformed {what} {str(p)!r}: {exc}") from None
+    try:
+        return data if build is None else build(data)
+    except error as exc:
+        raise error(f"{str(p)!r}: {exc}") from None
 
 
 def read_input(path: str | Path, what: str, error: type[Exception] = OutputError, suffixes: Iterable[str] = (),

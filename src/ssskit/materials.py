@@ -12,6 +12,7 @@ Sources
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 from collections.abc import Callable, Mapping
@@ -362,12 +363,8 @@ def load_material(path: str | Path) -> Material | LayeredMaterial:
     with a ``layers`` list gives a :class:`LayeredMaterial`."""
     from .io import read_document
 
-    p = Path(path)
-    data = read_document(p, "material file", MaterialError, (".toml", ".json"))  # (io: every input file's rules)
-    try:
-        return material_from_dict(data, default_name=p.stem)
-    except MaterialError as exc:
-        raise MaterialError(f"{str(p)!r}: {exc}") from None
+    return read_document(path, "material file", MaterialError, (".toml", ".json"),  # (io: every input file's rules)
+                         functools.partial(material_from_dict, default_name=Path(path).stem))
 
 
 #: readers of the material files this layer does not know, registered by the layer that does: name -> (accepts(path)

@@ -164,12 +164,7 @@ class Settings:
         """Read a ``.toml`` or ``.json`` settings file."""
         from .io import read_document
 
-        p = Path(path)
-        data = read_document(p, "settings file", SettingsError, (".toml", ".json"))  # (io: every input file's rules)
-        try:
-            return cls.from_dict(data)
-        except SettingsError as exc:
-            raise SettingsError(f"{str(p)!r}: {exc}") from None
+        return read_document(path, "settings file", SettingsError, (".toml", ".json"), cls.from_dict)  # (io: its rules)
 
     def save(self, path: str | Path) -> None:
         """Write a ``.toml`` or ``.json`` settings file atomically (None values are left out)."""
