@@ -246,10 +246,6 @@ def check_size(width: int, height: int) -> None:
 RENDER_SPP = Quantity("spp", 1, math.inf, "", "samples per pixel", integer=True, hi_open=True)
 
 
-def check_spp(spp: int, name: str = "spp") -> None:
-    RENDER_SPP.check(spp, name, SceneError)
-
-
 def per_shape(name: str, value: Any, n: int, one: Callable[[Any], bool]) -> tuple:
     """``value`` for each of a scene's ``n`` SSS shapes: one for all (where ``one(value)``) or a sequence of ``n``,
     else a SceneError in the type wording."""
