@@ -42,7 +42,7 @@ from ..materials import Material, homogeneous
 from ..screenspace.burley import BurleyParams
 from ..screenspace import Camera, GBuffer
 from ..quantities import FRAME, FRAMES, REFERENCE_SPP, checks
-from ..scenes.scenes import IMAGE_SIDE, RENDER_SPP
+from ..scenes.scenes import IMAGE_SIZE, RENDER_SPP
 
 #: bumped when the cached G-buffers' contents change
 GBUFFER_VERSION = 1
@@ -79,7 +79,7 @@ def _load_gbuffer(path: Path) -> GBuffer | None:
         return None
 
 
-@checks(SceneError, width=(IMAGE_SIDE, "image width"), height=(IMAGE_SIDE, "image height"), spp=RENDER_SPP)
+@checks(SceneError, **IMAGE_SIZE, spp=RENDER_SPP)
 def sequence_gbuffers(scene: str, material: str | Material, frames: int, first: int = 0, *, width: int = 160, height: int = 120,
                       spp: int = 64, seed: int = 0, static: bool = False, use_cache: bool = True,
                       progress: Callable[[str], None] | None = None, light_layers: bool = False) -> list[GBuffer]:

@@ -59,11 +59,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
-from ..quantities import (TYPE, Choice, Flag, Quantity, check_fields, check_instance, check_keys, check_shape,
+from ..quantities import (TYPE, Choice, Flag, Quantity, check_fields, check_instance, check_keys, check_shape, checks,
                           fail, refuse_twice, refuse_unused)
 from ..io import read_document
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
-from .scenes import SCENES, SceneSpec, _T, _ply, check_size
+from .scenes import IMAGE_SIZE, SCENES, SceneSpec, _T, _ply
 
 #: the built-in scenes' files (each registered into SCENES under its stem)
 BUILTIN_DIR = Path(__file__).parent / "builtin"
@@ -368,6 +368,7 @@ def load_scene_file(path: str | os.PathLike[str], **options: Any) -> LoadedScene
     return scene_from_document(doc, base=p.parent, source=str(p), **options)
 
 
+@checks(SceneError, **IMAGE_SIZE)
 def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source: str = "scene", *,
                         units: str | Sequence[str] | None = None, material_map: Mapping[str, str] | None = None,
                         view: str | Sequence[float] | None = None, width: int = 256, height: int = 192,
@@ -383,7 +384,6 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     _keys(source, doc, {"name", "description", "units", "camera", "shapes", "lights", "orbit_deg_per_frame",
                         "light_orbit_deg_per_frame", "lit_from_behind", "views"}, {"shapes"})
     top = {**SCENE_DEFAULTS, **check_fields(doc, SCENE_FIELDS, source, SceneError)}  # (orbit = "x" was a ValueError)
-    check_size(width, height)
     cli_units = check_units(units)
     doc_units = check_units(cli_units, (f"{source}: units", doc.get("units")))
     material_map = dict(material_map or {})
