@@ -50,6 +50,16 @@ def _umask() -> int:
 
 
 @contextlib.contextmanager
+def _writing(path: str | Path) -> Iterator[None]:
+    """An OSError inside (a full disk, a file size limit, a rename, a folder that cannot be made) as one
+    OutputError naming ``path``, the file or folder being written."""
+    try:
+        yield
+    except OSError as exc:
+        raise OutputError(f"cannot write {str(path)!r}: {exc.strerror or exc}") from None
+
+
+@contextlib.contextmanager
 def atomic_output(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path with the same suffix beside ``path``; rename it over ``path`` on success.
 
@@ -74,12 +84,10 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
     os.close(fd)
     tmp = Path(tmp_name)
     try:
-        try:
+        with _writing(target):  # the write itself (a full disk, a file size limit) or the rename: name the target
             yield tmp
             os.chmod(tmp, 0o666 & ~_umask())
             os.replace(tmp, target)
-        except OSError as exc:  # the write itself (a full disk, a file size limit) or the rename: name the target
-            raise OutputError(f"cannot write {str(target)!r}: {exc.strerror or exc}") from None
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()
@@ -96,20 +104,16 @@ def staged_folder(out: str | Path) -> Iterator[Path]:
 
     final = Path(out)
     parent = final.resolve().parent
-    try:
+    with _writing(final):
         parent.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=f".{final.resolve().name}.partial-", dir=parent))
-    except OSError as exc:
-        raise OutputError(f"cannot write {str(final)!r}: {exc.strerror or exc}") from None
     try:
         yield staging
         for src in sorted(p for p in staging.rglob("*") if p.is_file()):
             dst = final / src.relative_to(staging)
-            try:
+            with _writing(dst):
                 dst.parent.mkdir(parents=True, exist_ok=True)
                 os.replace(src, dst)
-            except OSError as exc:
-                raise OutputError(f"cannot write {str(dst)!r}: {exc.strerror or exc}") from None
     except OutputError as exc:
         raise OutputError(str(exc).replace(str(staging), str(final))) from None
     finally:
