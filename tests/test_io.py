@@ -294,3 +294,14 @@ def test_a_document_nested_too_deeply_is_malformed_in_every_reader(tmp_path, suf
     if suffix == ".toml":
         with pytest.raises(SceneError, match="malformed scene file .* nested too deeply"):
             resolve_scene(str(path))
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/mem"), reason="needs Linux's /proc/self/mem (a file whose read fails)")
+def test_an_input_that_fails_to_read_is_one_error_naming_it():
+    """A regular file whose read fails (Linux's /proc/self/mem at offset 0: EIO) is the reader's one error in the
+    OS's words, as a write that fails is (io._failing)."""
+    from ssskit.errors import SettingsError
+    from ssskit.io import read_input
+
+    with pytest.raises(SettingsError, match=r"^cannot read settings file '/proc/self/mem': Input/output error$"):
+        read_input("/proc/self/mem", "settings file", SettingsError)

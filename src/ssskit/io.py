@@ -50,13 +50,18 @@ def _umask() -> int:
 
 
 @contextlib.contextmanager
-def _writing(path: str | Path) -> Iterator[None]:
-    """An OSError inside (a full disk, a file size limit, a rename, a folder that cannot be made) as one
-    OutputError naming ``path``, the file or folder being written."""
+def _failing(doing: str, error: type[Exception] = OutputError) -> Iterator[None]:
+    """An OSError inside (a full disk, a file size limit, a rename, a folder that cannot be made, a read that
+    fails) as one ``error``: ``{doing}: {why}``, ``doing`` naming the file, e.g. ``cannot write 'out.exr'``."""
     try:
         yield
     except OSError as exc:
-        raise OutputError(f"cannot write {str(path)!r}: {exc.strerror or exc}") from None
+        raise error(f"{doing}: {exc.strerror or exc}") from None
+
+
+def _writing(path: str | Path) -> contextlib.AbstractContextManager[None]:
+    """:func:`_failing` for the file or folder ``path`` being written."""
+    return _failing(f"cannot write {str(path)!r}")
 
 
 @contextlib.contextmanager
@@ -321,13 +326,11 @@ def read_input(path: str | Path, what: str, error: type[Exception] = OutputError
     if suffixes:
         check_suffix(p, tuple(suffixes), what, error)
     try:
-        with open(p, "rb") as fh:
+        with _failing(f"cannot read {what} {str(p)!r}", error), open(p, "rb") as fh:
             raw = fh.read(size)
         return raw.decode("utf-8") if text else raw
     except UnicodeDecodeError:
         raise error(f"{what} {str(p)!r} is not a UTF-8 text file") from None
-    except OSError as exc:
-        raise error(f"cannot read {what} {str(p)!r}: {exc.strerror or exc}") from None
 
 
 def read_exr(path: str | Path, what: str = "EXR file", required: Iterable[str] = ()) -> tuple[dict, dict]:
