@@ -57,6 +57,7 @@ def test_types_refused_in_one_wording():
 def test_burley_albedo_refuses_zero_and_names_why():
     """Xie 2020 Eq. 5 / Burley 2015: A in (0, 1]; A = 0 gives R(r) = 0 (module docstring of profiles.domain)."""
     assert q.BURLEY_ALBEDO.check_rgb(0.5) == (0.5, 0.5, 0.5)
+    assert q.BURLEY_ALBEDO.check_rgb(np.array(0.5)) == (0.5, 0.5, 0.5)  # a 0-d array is one number, as in check()
     assert q.BURLEY_ALBEDO.check(1.0) == 1.0
     with pytest.raises(PassError, match=r"albedo must lie in \(0, 1\], got \(0.5, 0, 1\) \(a reflectance; A = 0"):
         q.BURLEY_ALBEDO.check_rgb([0.5, 0, 1], "albedo", PassError)

@@ -133,7 +133,8 @@ class Quantity:
         """One number or three (R, G, B), each in the range: three floats."""
         label = name or self.name
         seq = isinstance(value, (list, tuple)) or getattr(value, "ndim", 0) == 1  # a list, tuple or 1D array
-        vals = tuple(value) if seq else (value,)  # type: ignore[arg-type]
+        one = value.item() if getattr(value, "ndim", None) == 0 else value  # type: ignore[attr-defined] # a 0-d array
+        vals = tuple(value) if seq else (one,)  # type: ignore[arg-type]
         if len(vals) not in (1, 3) or any(isinstance(v, (bool, str, bytes)) or not isinstance(v, numbers.Real)
                                           for v in vals):
             raise fail(error, TYPE, name=label, kind=f"{self.kind} or three [R, G, B]", actual=_fmt(value))
