@@ -373,6 +373,8 @@ def test_missing_empty_and_unknown_meshes_are_refused(tmp_path):
     (tmp_path / "model.stl").write_bytes(b"solid x\n")
     with pytest.raises(SceneError, match="its format must be one of .obj, .ply, .glb, .gltf, .toml, .exr, got '.stl'"):
         resolve_scene(str(tmp_path / "model.stl"))
+    with pytest.raises(SceneError, match=r"its format must be one of .*, got '\(no suffix\)'"):
+        resolve_scene(str(tmp_path / "noext"))  # (a path: a file, not a scene's name)
     (tmp_path / "faceless.ply").write_bytes(b"ply\nformat ascii 1.0\nelement vertex 0\nelement face 0\n"
                                             b"property list uchar int vertex_indices\nend_header\n")
     with pytest.raises(SceneError, match="has no faces"):
@@ -563,7 +565,9 @@ _LIGHT = {"k": {"type": "point", "position": [0, 0, 50], "intensity": 1.0}}
     ({"shapes": {"g": {"type": "generated", "generator": "teapot"}}},
      "generator must be one of bust, icosphere, torus, ellipsoid, heightfield, head, got 'teapot'"),
     ({"shapes": {"s": _SPHERE}, "camera": _CAMERA},  # the default lights are placed relative to the framing
-     "light 'key' is placed relative to the automatic framing, but the camera is explicit"),
+     r"a scene with an explicit camera needs explicit \[lights\]"),
+    ({"shapes": {"s": _SPHERE}, "camera": _CAMERA, "lights": {**_LIGHT, "rim": {"azimuth": 180.0}}},
+     "light 'rim' is placed relative to the automatic framing, but the camera is explicit"),
 ])
 def test_scene_file_values_of_the_wrong_kind_are_refused(doc, fragment):
     with pytest.raises(SceneError, match=fragment):

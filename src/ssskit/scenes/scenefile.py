@@ -59,11 +59,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
-from ..quantities import (TYPE, Choice, Flag, Quantity, check_fields, check_instance, check_keys, check_shape,
+from ..quantities import (TYPE, Choice, Flag, Quantity, check_fields, check_instance, check_keys, check_shape, checks,
                           fail, refuse_twice, refuse_unused)
-from ..io import parse_document, read_input
+from ..io import read_document
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
-from .scenes import SCENES, SceneSpec, _T, _ply, check_size
+from .scenes import IMAGE_SIZE, SCENES, SceneSpec, _T, _ply
 
 #: the built-in scenes' files (each registered into SCENES under its stem)
 BUILTIN_DIR = Path(__file__).parent / "builtin"
@@ -363,15 +363,12 @@ def load_scene_file(path: str | os.PathLike[str], **options: Any) -> LoadedScene
     """Read a TOML scene file (module docstring) into a :class:`LoadedScene`; ``options`` as for
     :func:`scene_from_document`."""
     p = Path(path)
-    text = read_input(p, "scene file", SceneError, text=True)  # (io: every input file's rules)
-    try:
-        doc = parse_document(text, ".toml")
-    except ValueError as exc:
-        raise SceneError(f"scene file {str(p)!r} is not valid TOML: {exc}") from None
+    doc = read_document(p, "scene file", SceneError)  # (io: every input file's rules)
     doc.setdefault("name", p.stem)
     return scene_from_document(doc, base=p.parent, source=str(p), **options)
 
 
+@checks(SceneError, **IMAGE_SIZE)
 def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source: str = "scene", *,
                         units: str | Sequence[str] | None = None, material_map: Mapping[str, str] | None = None,
                         view: str | Sequence[float] | None = None, width: int = 256, height: int = 192,
@@ -387,7 +384,6 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     _keys(source, doc, {"name", "description", "units", "camera", "shapes", "lights", "orbit_deg_per_frame",
                         "light_orbit_deg_per_frame", "lit_from_behind", "views"}, {"shapes"})
     top = {**SCENE_DEFAULTS, **check_fields(doc, SCENE_FIELDS, source, SceneError)}  # (orbit = "x" was a ValueError)
-    check_size(width, height)
     cli_units = check_units(units)
     doc_units = check_units(cli_units, (f"{source}: units", doc.get("units")))
     material_map = dict(material_map or {})
@@ -508,11 +504,13 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         origin = tuple(framing(centre, radius, vw, fov, up_v, front).tolist())
         target = tuple(centre.tolist())
         up = tuple(_basis(up_v, front)[0].tolist())
+    if explicit and "lights" not in doc:  # (the default lights are relative to the automatic framing)
+        raise SceneError(f"{source}: a scene with an explicit camera needs explicit [lights]")
     lights: dict[str, dict] = {}
     for lid, ltable in doc.get("lights", DEFAULT_LIGHTS).items():  # (no [lights]: the relative key, fill and back)
         if "type" in check_keys(ltable, f"{source}: light {lid!r}", error=SceneError):
             lights[lid] = _explicit_light(lid, ltable)
-        elif explicit:  # an explicit camera takes explicit lights only (the default ones are relative too)
+        elif explicit:  # an explicit camera takes explicit lights only
             raise SceneError(f"{source}: light {lid!r} is placed relative to the automatic framing, but the "
                              "camera is explicit; give type = point | sphere")
         else:
@@ -720,11 +718,12 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
         kind, what = ("mesh", "a mesh file") if suffix in FORMATS else ("file", "a scene .toml")
     else:  # neither a scene's name nor a file of a format it takes
         if Path(text).suffix or os.sep in text or Path(text).exists():
-            SCENE_FORMAT.check(suffix, f"scene {text!r}: its format", SceneError)
+            SCENE_FORMAT.check(suffix or "(no suffix)", f"scene {text!r}: its format", SceneError)
         raise SceneError(unknown_scene_message(text))
     for flag, given in (("--units", cli_units), ("--material-map", mmap), ("--view", view)):
-        refuse_unused([flag] if given and kind not in SCENE_OPTIONS[flag] else [], "--scene",
-                      [SCENE_KINDS[k] for k in SCENE_OPTIONS[flag]], f"{text!r} ({what})", SceneError)
+        if given and kind not in SCENE_OPTIONS[flag]:
+            refuse_unused([flag], "--scene", [SCENE_KINDS[k] for k in SCENE_OPTIONS[flag]], f"{text!r} ({what})",
+                          SceneError)
     if kind in ("builtin", "views"):
         return ResolvedScene("builtin", spec.name, spec=spec if view is None else with_view(spec, view))
     if kind == "gbuffer":
