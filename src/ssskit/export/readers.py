@@ -188,8 +188,9 @@ def read_engine_file(path: str | Path, albedo: Any = None) -> EngineSource:
             raise SsskitError(f"malformed engine file {str(p)!r}: {exc}") from None
         engine = JSON_ENGINE.check(data.get("engine") if isinstance(data, dict) else None,
                                    f"{str(p)!r}: the engine of an export")
-        if engine not in ENGINE_NAMES:
-            return FORMATS.get(engine).read(p)  # a format registered beside ssskit's own reads its JSON export
+        other = FORMATS.get(engine).read if engine not in ENGINE_NAMES else None
+        if other is not None:
+            return other(p)  # a format registered beside ssskit's own reads its JSON export
     if engine == "unity" and suffix == ".asset":
         from .unity import read_unity_asset
 

@@ -339,7 +339,7 @@ def _emitter_value(name: str, key: str, value: float, how: str) -> float:
 
 def _point(where: str, value: Any) -> list[float]:
     """Three finite numbers [x, y, z] (a position, a direction), or a SceneError naming ``where``."""
-    return POINT.check(value, where, SceneError)  # type: ignore[no-any-return]
+    return POINT.check(value, where, SceneError)
 
 
 def _explicit_light(name: str, spec: Mapping[str, Any]) -> dict:
