@@ -40,8 +40,8 @@ SCRIPT_LITERALS = {"blender": "PARAMS", "unreal": "SETTINGS"}
 ENGINE_NAMES = ("unreal", "unity", "blender")
 #: the "engine" of a JSON export, checked once (case-insensitive): ssskit's own that write JSON, or a format registered
 #: beside them with its own reader (ssskit's MaterialX is read from its .mtlx only: read_engine_file reads those itself)
-JSON_ENGINE = Choice("engine", lambda: [*ENGINE_NAMES, *(n for n, f in FORMATS.items()
-                                                        if f.read is not None and n not in (*ENGINE_NAMES, "materialx"))])
+JSON_ENGINE = Choice("engine", lambda: [*ENGINE_NAMES, *(n for n, f in FORMATS.items() if f.read is not None
+                                                        and n not in (*ENGINE_NAMES, "materialx"))])
 #: the models an engine file's or artists' terms' Burley parameters go through (module docstring)
 INVERSIONS = Choice("--model of an engine file or artists' terms", ("burley", "montecarlo", "dipole"))
 

@@ -297,7 +297,8 @@ def _header(p: Path, header: dict[str, Any], key: str, default: Any = None) -> A
     if key not in header:
         return default
     try:  # (an int, float or V3f attribute was a TypeError)
-        return json.loads(check_instance(header[key], (str, bytes), f"G-buffer {str(p)!r}: header {key!r}", GBufferError))
+        return json.loads(check_instance(header[key], (str, bytes), f"G-buffer {str(p)!r}: header {key!r}",
+                                         GBufferError))
     except json.JSONDecodeError:
         raise GBufferError(f"G-buffer {str(p)!r}: header {key!r} is not JSON") from None
 
