@@ -16,7 +16,7 @@ import re
 from pathlib import Path
 from typing import Literal, get_args
 
-#: sub-folders of the cache root, one per kind of cached result (a type: mypy refuses any other kind)
+#: sub-folders of the cache root, one per kind of cached result (a type for mypy; cache_dir refuses any other kind)
 Kind = Literal["mcml", "reference", "meshes", "demo", "gbuffers", "figures"]
 KINDS: tuple[Kind, ...] = get_args(Kind)
 #: the longest readable part of a cache file's name (bytes of UTF-8): with the key, the suffix and the atomic
@@ -48,6 +48,8 @@ def source_digest() -> str:
 
 def cache_dir(kind: Kind) -> Path:
     """The folder of one kind of cached result (see :data:`KINDS`); not created here."""
+    if kind not in KINDS:  # (the type says so to mypy; a caller's string is checked here, so no path leaves the root)
+        raise ValueError(f"cache kind must be one of {', '.join(KINDS)}, got {kind!r}")
     return cache_root() / kind
 
 

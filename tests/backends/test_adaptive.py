@@ -132,6 +132,9 @@ def test_bad_inputs_raise(guide_backend):
         b.adaptive_counts(plan, hist, np.ones((4, 5), bool), np.full((4, 5, 2), np.nan))
     with pytest.raises(PassError, match="sample counts"):
         b.adaptive_update(plan, hist, np.zeros((4, 5, 3)), np.zeros((4, 5)), np.ones((4, 5), bool))
+    # a required input not given is named as such (numpy would call None "shape () object")
+    with pytest.raises(PassError, match=r"the pass's result must be an array \(it is required\), got None"):
+        b.adaptive_update(plan, hist, None, np.zeros((4, 5), np.int64), np.ones((4, 5), bool))
 
 
 # ---- the frame loop (history and counts kept with the backend; on gl on the device) ------------------
@@ -180,12 +183,7 @@ def test_runner_with_motion_matches_the_host_loop(guide_backend, mips):
     frames = 5
     motions = [None] + [np.full(gb.shape + (2,), (-1.0 + 0.5 * f, 0.7), np.float64) for f in range(1, frames)]
     outs, counts_ref, hist_ref = _host_loop(gb, settings, bs, frames, motions)
-    b = get_backend(guide_backend)
-    sampler = get_backend(bs.backend)
-    from ssskit.backends.base import AdaptiveRunner
-
-    runner = (b.adaptive_runner(as_plan(settings), new_history(*gb.shape)) if sampler is b
-              else AdaptiveRunner(b, as_plan(settings), new_history(*gb.shape), sampler=sampler))
+    runner, sampler = _runner(guide_backend, gb, settings)  # (its Burley pass on bs.backend)
     base = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, bs)
     slots = base.slot_map(gb.profile_id)
     import dataclasses
@@ -256,18 +254,25 @@ def test_same_seed_same_frames_and_thread_count_free(guide_backend):
     assert not np.array_equal(a.last, c.last)
 
 
+def _runner(guide_backend, gb, settings):
+    """(a runner of ``guide_backend`` for ``gb``'s frames, the backend of its Burley pass: numba for numpy's guiding
+    phase, else the same)."""
+    from ssskit.backends.base import AdaptiveRunner
+
+    b = get_backend(guide_backend)
+    sampler = b if guide_backend != "numpy" else get_backend("numba")
+    plan = as_plan(settings)
+    runner = (b.adaptive_runner(plan, new_history(*gb.shape)) if sampler is b
+              else AdaptiveRunner(b, plan, new_history(*gb.shape), sampler=sampler))
+    return runner, sampler
+
+
 def test_runner_follows_a_change_of_sampler(guide_backend):
     """A loaded frame sampled with another sampler (another shader on gl) gives that sampler's pass."""
     from ssskit.screenspace.burley import burley_plan_for
 
     gb = _gbuffer(24, 32)
-    b = get_backend(guide_backend)
-    sampler = b if guide_backend != "numpy" else get_backend("numba")
-    from ssskit.backends.base import AdaptiveRunner
-
-    plan = as_plan(AdaptiveSettings(sigma0_sq=1e-4))
-    runner = (b.adaptive_runner(plan, new_history(*gb.shape)) if sampler is b
-              else AdaptiveRunner(b, plan, new_history(*gb.shape), sampler=sampler))
+    runner, sampler = _runner(guide_backend, gb, AdaptiveSettings(sigma0_sq=1e-4))
     exact = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(mips=False))
     xie = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(sampler="xie", mips=True))
     slots = exact.slot_map(gb.profile_id)
@@ -288,15 +293,10 @@ def test_runner_follows_a_change_of_sampler(guide_backend):
 def test_runner_takes_counts_from_the_caller(guide_backend):
     """load(estimate=False) + set_counts: the pass runs with the caller's counts (a fixed count, or the
     estimate changed), the update records them (Eq. 8); sampling without counts, or bad counts, raise."""
-    from ssskit.backends.base import AdaptiveRunner
     from ssskit.screenspace.burley import burley_plan_for
 
     gb = _gbuffer(24, 32)
-    b = get_backend(guide_backend)
-    sampler = b if guide_backend != "numpy" else get_backend("numba")
-    plan = as_plan(AdaptiveSettings(sigma0_sq=1e-4, b_min=4, b_max=40))
-    runner = (b.adaptive_runner(plan, new_history(*gb.shape)) if sampler is b
-              else AdaptiveRunner(b, plan, new_history(*gb.shape), sampler=sampler))
+    runner, sampler = _runner(guide_backend, gb, AdaptiveSettings(sigma0_sq=1e-4, b_min=4, b_max=40))
     burley = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(mips=False))
     slots = burley.slot_map(gb.profile_id)
     mask = slots > 0
@@ -310,7 +310,9 @@ def test_runner_takes_counts_from_the_caller(guide_backend):
             runner.set_counts(np.zeros((3, 3), np.int64))
         with pytest.raises(PassError):
             runner.set_counts(np.full(gb.shape, 1.5))
-        runner.set_counts(fixed)
+        mine = fixed.copy()
+        runner.set_counts(mine)
+        mine[...] = 3  # the caller's array changed afterwards: the runner keeps what it was given
         np.testing.assert_array_equal(runner.counts(), fixed)
         runner.sample(burley)
         out = runner.result()
@@ -320,3 +322,57 @@ def test_runner_takes_counts_from_the_caller(guide_backend):
         runner.release()
     np.testing.assert_allclose(out, sampler.burley(burley, gb.diffuse, gb.depth_mm, slots, fixed), atol=1e-6)
     np.testing.assert_array_equal(hist[..., 0], np.where(mask, 17.0, 0.0))  # Eq. 16: M' = 1, n_bar = n
+
+
+def test_every_runner_keeps_the_order_of_the_phases(guide_backend):
+    """One order for every runner (stated once in AdaptiveRunner): result needs a sample since the last load,
+    update one sample since the last load or update. The numpy runner returned NaN for a result before any
+    sample, and updated the history again with a stale result (twice, or after a new frame was loaded)."""
+    from ssskit.screenspace.burley import burley_plan_for
+
+    gb = _gbuffer(24, 32)
+    runner, _ = _runner(guide_backend, gb, AdaptiveSettings(sigma0_sq=1e-4))
+    burley = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(mips=False))
+    slots = burley.slot_map(gb.profile_id)
+    try:
+        with pytest.raises(PassError, match="no frame sampled yet"):
+            runner.result()
+        runner.load(gb.diffuse, gb.depth_mm, slots)
+        with pytest.raises(PassError, match="sample a frame before updating the history"):
+            runner.update()
+        runner.sample(burley)
+        runner.update()
+        runner.result()  # (the frame's result stays readable after its update)
+        with pytest.raises(PassError, match="sample a frame before updating the history"):
+            runner.update()
+        runner.sample(burley)  # the same frame again, with the counts the update produced
+        runner.load(gb.diffuse, gb.depth_mm, slots)
+        with pytest.raises(PassError, match="sample a frame before updating the history"):
+            runner.update()
+        with pytest.raises(PassError, match="no frame sampled yet"):
+            runner.result()
+    finally:
+        runner.release()
+
+
+def test_every_runner_refuses_a_bad_frame_before_its_pass(guide_backend):
+    """The Burley pass's frame rule (a finite positive depth on every pixel with SSS, slots within the plan) holds
+    for every runner: the gl runner's device pass, which does not go through Backend.burley, took a NaN depth and
+    slots beyond the plan's tables without a word."""
+    from ssskit.screenspace.burley import burley_plan_for
+
+    gb = _gbuffer(24, 32)
+    runner, _ = _runner(guide_backend, gb, AdaptiveSettings(sigma0_sq=1e-4))
+    burley = burley_plan_for(PARAMS, [1], gb.camera.fx, gb.camera.fy, BurleySettings(mips=False))
+    slots = burley.slot_map(gb.profile_id)
+    depth = gb.depth_mm.copy()
+    depth[slots > 0] = np.where(np.arange(np.count_nonzero(slots > 0)) == 3, np.nan, depth[slots > 0])
+    try:
+        runner.load(gb.diffuse, depth, slots)
+        with pytest.raises(PassError, match="depth must be finite"):
+            runner.sample(burley)
+        runner.load(gb.diffuse, gb.depth_mm, np.where(slots > 0, 2, 0))  # (the plan has one profile id)
+        with pytest.raises(PassError, match=r"slots must lie in \[0, 1\]"):
+            runner.sample(burley)
+    finally:
+        runner.release()

@@ -56,6 +56,26 @@ def test_an_option_that_does_not_apply_is_refused_once_before_any_work(tmp_path)
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("pass_, kw, message", [
+    ("burley", {"taps": 7, "kernel": "svd:2"}, "--kernel, --taps apply to --pass separable, not --pass burley (the "
+     "shader bakes the material's Burley parameters"),
+    ("burley", {"model": "dipole"}, "--model applies to --pass separable or transmission, not --pass burley"),
+    ("transmission", {"photons": 10_000}, "--photons applies to --pass separable, not --pass transmission (the "
+     "shader bakes the material's transmittance model)"),
+    (None, {"transmission_model": "unreal"}, "--transmission-model applies to --pass transmission, not --pass "
+     "separable"),
+    ("transmission", {"transmission_model": "jimenez2010"}, "--material applies to --transmission-model mcml or "
+     "unreal, not --transmission-model jimenez2010 (Jimenez et al. 2010's skin Gaussians: no material)"),
+])
+def test_an_option_the_shaders_pass_does_not_take_is_refused_when_the_request_is_made(tmp_path, pass_, kw, message):
+    """The pass's and the transmittance model's options are declared once (PASS_OPTIONS) and refused by the request
+    itself, as the format's are: before the material is read."""
+    with pytest.raises(SsskitError) as info:
+        ExportSettings(format="glsl-shader", out=str(tmp_path / "s.comp"), material="no such material",
+                       shader_pass=pass_, **kw)
+    assert message in str(info.value)
+
+
 @pytest.mark.parametrize("fmt,field", [("unity", ("ior",)), ("unreal", ("mfp", "IOR")), ("blender", ("ior",))])
 def test_eta_of_artists_terms_is_the_engines_ior(run, tmp_path, fmt, field):
     """--eta was ignored for Unity and Unreal (IOR 1.4 written whatever was given) while the help said 1.3."""

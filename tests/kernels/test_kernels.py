@@ -372,6 +372,12 @@ def test_kernel_errors(tmp_path):
     bad.write_text(json.dumps({"type": "tabulated"}))
     with pytest.raises(KernelError, match="not a tabulated"):
         load_kernel(bad)
+    bad.write_text(json.dumps({"type": "taps", "offsets": [0.0], "method": "x"}))  # (no weights)
+    with pytest.raises(KernelError, match="not an ssskit tap kernel: 'weights'"):
+        load_kernel(bad)
+    bad.write_text(json.dumps({"type": "taps", "offsets": [0.0, 1.0], "weights": [[1, 1, 1]], "method": "x"}))
+    with pytest.raises(KernelError, match=r"tap weights must be a real array of shape \(2, 3\)"):
+        load_kernel(bad)  # (the kernel's own rule, in its words)
     with pytest.raises(KernelError, match="does not exist"):
         load_kernel(tmp_path / "nope.npz")
     with pytest.raises(KernelError, match="unknown kernel method|kernel method"):

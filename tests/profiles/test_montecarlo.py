@@ -471,6 +471,32 @@ def test_an_address_where_no_dask_scheduler_answers_is_one_clear_error(listening
         simulate_many(mats, "G", photons=100, scheduler="nonsense")
 
 
+def test_a_scheduler_gone_after_it_answered_is_one_clear_error(monkeypatch):
+    """A scheduler that answered dask's identity call and is gone before the sweep's client connects: the client's
+    connection is refused under the same rule (a ProfileError, which API callers catch as SsskitError), never a raw
+    OSError. Here the identity answer is dask's own words from a stand-in rpc; the client then really connects to a
+    port where nothing listens."""
+    distributed = pytest.importorskip("distributed")
+    import distributed.core
+    from ssskit.profiles.montecarlo import simulate_many
+
+    class Answered:  # what distributed.core.rpc(address, timeout=...) gives a live scheduler: its identity
+        def __init__(self, address, timeout):
+            pass
+
+        async def identity(self):
+            return {"type": "Scheduler", "id": "gone-since"}
+
+        async def close_rpc(self):
+            pass
+
+    monkeypatch.setattr(distributed.core, "rpc", Answered)
+    with pytest.raises(ProfileError, match="cannot reach the dask scheduler at 'tcp://127.0.0.1:1'|"
+                                           "no dask scheduler answered at 'tcp://127.0.0.1:1' within 2 s"):
+        simulate_many([get_material("ketchup"), get_material("skin1")], "G", photons=100,
+                      scheduler="tcp://127.0.0.1:1", connect_timeout_s=2)
+
+
 def test_one_progress_bar_and_time_estimate_across_the_channels(capsys, tmp_path, monkeypatch):
     """``simulate`` estimated the time left of the running channel only ("about 10 s left" with 37 s to go): one bar
     now counts every channel's photons, and photons not simulated (a cached channel) leave its total."""

@@ -204,20 +204,16 @@ class Backend(ABC):
         self.require("adaptive", "burley")
         return AdaptiveRunner(self, plan, history)
 
-    def lacks(self, what: str) -> Exception:
-        """The BackendError of a pass this backend does not implement (``what``: the pass, in words)."""
+    def require(self, *passes: str) -> Backend:
+        """This backend if it implements every one of ``passes`` (names of :attr:`passes`), else a BackendError
+        naming, in words, the first it does not implement."""
         from ..errors import BackendError
 
-        return BackendError(f"backend {self.name!r} has no {what}")
-
-    def require(self, *passes: str) -> Backend:
-        """This backend if it implements every one of ``passes`` (names of :attr:`passes`), else the
-        BackendError of :meth:`lacks`."""
         for name in passes:
             if name not in self.passes:
-                raise self.lacks({"burley": "Burley pass", "adaptive": "adaptive guiding pass",
-                                  "transmission": "transmittance pass",
-                                  "spread": "spread of the transmitted light"}.get(name, f"{name} pass"))
+                raise BackendError(f"backend {self.name!r} has no " + {
+                    "burley": "Burley pass", "adaptive": "adaptive guiding pass", "transmission": "transmittance pass",
+                    "spread": "spread of the transmitted light"}.get(name, f"{name} pass"))
         return self
 
 
@@ -229,7 +225,8 @@ class AdaptiveRunner:
     :meth:`sample` (the Burley pass with those counts, mips first) and :meth:`update` (the history update
     and the next counts). :meth:`result`, :meth:`counts` and :meth:`history` read back; ``times`` holds the
     ms of every phase run (:data:`PHASES`). This base class keeps everything in numpy arrays and calls the
-    backend's entry points; the gl backend's subclass keeps it on the device.
+    backend's entry points; the gl backend's subclass keeps it on the device. The phases' order is stated here
+    for every runner (a subclass implements :meth:`_sample`, :meth:`_update` and :meth:`_result`).
     """
 
     def __init__(self, backend: Backend, plan: AdaptivePlan, history: ArrayLike, sampler: Backend | None = None) -> None:
@@ -242,6 +239,8 @@ class AdaptiveRunner:
         self._counts: np.ndarray | None = None
         self._out: np.ndarray | None = None
         self._frame: tuple[NDArray[np.float32], NDArray[np.float32], np.ndarray] | None = None
+        self._sampled: tuple[NDArray[np.float32], NDArray[np.float32], np.ndarray] | None = None  # since the load
+        self._has_counts = self._updated = False
         self._motion: ArrayLike | None = None
         self._valid: ArrayLike | None = None
         self.times: dict[str, list[float]] = {p: [] for p in PHASES}
@@ -270,6 +269,7 @@ class AdaptiveRunner:
         self._frame = (np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), s)
         self._motion, self._valid = motion, valid
         self._counts = None
+        self._has_counts, self._sampled = estimate, None
         if estimate:
             self._counts = self._timed("estimate", lambda: self.backend.adaptive_counts(
                 self.plan, self._history, s > 0, motion, valid))
@@ -279,31 +279,45 @@ class AdaptiveRunner:
         image (a fixed count on the mask, or the estimate changed by the caller); not timed."""
         from .burley_plan import COUNT_IMAGE
 
-        self._counts = check_arrays({"counts": COUNT_IMAGE}, {"counts": counts}, dims=self.shape)["counts"]
+        self._counts = np.array(check_arrays({"counts": COUNT_IMAGE}, {"counts": counts}, dims=self.shape)["counts"],
+                                np.int64)  # (a copy: the caller's array stays theirs)
+        self._has_counts = True
 
     def sample(self, plan: BurleyPlan) -> None:
         """The Burley pass of the loaded frame with the current counts (``plan.frame`` keys its samples)."""
-        if self._frame is None or self._counts is None:
+        if self._frame is None or not self._has_counts:
             raise PassError("load a frame (and set its counts, without the estimate) before sampling it")
-        diffuse, depth, slots = self._frame
+        self._sample(plan, *self._frame)
+        self._sampled, self._updated = self._frame, False
+
+    def update(self) -> None:
+        """The history update from the last :meth:`sample` (Eqs. 6, 8, 9; 16-17) and the next counts."""
+        if self._sampled is None or self._updated:  # (once per sampled frame: its result and counts feed it)
+            raise PassError("sample a frame before updating the history")
+        self._update(self._sampled[2])
+        self._updated = True
+
+    def result(self) -> np.ndarray:
+        """The last sampled frame's Burley result (H, W, 3) float32 (a new array)."""
+        if self._sampled is None:
+            raise PassError("no frame sampled yet")
+        return self._result()
+
+    def _sample(self, plan: BurleyPlan, diffuse: np.ndarray, depth: np.ndarray, slots: np.ndarray) -> None:
         counts = self._counts
+        assert counts is not None  # (set with _has_counts: the order sample states)
         pyr = None
         if plan.mips:
             pyr = self._timed("prefilter", lambda: self.sampler.burley_prefilter(plan, diffuse, slots))
         self._out = self._timed("sampling", lambda: self.sampler.burley(plan, diffuse, depth, slots, counts,
                                                                          pyramid=pyr))
 
-    def update(self) -> None:
-        """The history update from the last :meth:`sample` (Eqs. 6, 8, 9; 16-17) and the next counts."""
-        if self._out is None or self._frame is None:  # a sampled frame was loaded
-            raise PassError("sample a frame before updating the history")
-        slots = self._frame[2]
+    def _update(self, slots: np.ndarray) -> None:
         self._history, self._counts = self._timed("update", lambda: self.backend.adaptive_update(
             self.plan, self._history, self._out, self._counts, slots > 0, self._motion, self._valid))
         self._motion = self._valid = None  # the next frame, unless loaded anew, is this one again
 
-    def result(self) -> np.ndarray:
-        """The last sampled frame's Burley result (H, W, 3) float32 (a new array)."""
+    def _result(self) -> np.ndarray:
         return np.array(self._out, np.float32)
 
     def counts(self) -> np.ndarray:

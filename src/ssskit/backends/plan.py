@@ -89,6 +89,8 @@ def check_arrays(table: Mapping[str, Array], given: Mapping[str, Any], n_slots: 
         if (v is None and spec.optional) or (spec.scalar is not None and np.ndim(v) == 0):
             out[key] = v if v is None else spec.scalar.check(v, error=PassError)  # type: ignore[union-attr]
             continue
+        if v is None:  # a required array not given (numpy would make it "shape () object")
+            raise fail(PassError, TYPE, name=label, kind="an array (it is required)", actual=None)
         out[key] = a = check_shape(v, label, tuple(bound.get(n, n) for n in spec.shape), PassError, spec.kinds,
                                    spec.dtype)
         bound.update((n, m) for n, m in zip(spec.shape, a.shape) if isinstance(n, str))

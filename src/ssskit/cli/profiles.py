@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import inspect
 import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -34,15 +33,6 @@ from .options import (
 R_MAX_MM = 1e7
 
 
-def model_parameters(model: str) -> set[str]:
-    """The named keyword parameters of a profile model's factory (from the MODELS registry)."""
-    from ..profiles import MODELS
-
-    sig = inspect.signature(MODELS.get(model))
-    return {n for n, p in list(sig.parameters.items())[1:]
-            if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
-
-
 def resolve_profile(ctx: click.Context, material: str | Material | LayeredMaterial | None, model: str,
                     options: dict[str, tuple[str, object]], needed_by: str = "") -> Callable[[], RGBProfile]:
     """The profile of ``model`` for ``material``, passing each option the model takes: every command's one
@@ -53,6 +43,7 @@ def resolve_profile(ctx: click.Context, material: str | Material | LayeredMateri
     applies to the models whose factory (the MODELS registry) takes its parameter; given for another model, it is
     refused. Returns a function that computes the profile (all checks are done first).
     """
+    from ..export.readers import model_parameters
     from ..profiles import MATERIAL_FREE_MODELS, MODELS, profile_for_material, refuse_material
 
     free = model.lower() in MATERIAL_FREE_MODELS

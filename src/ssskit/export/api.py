@@ -32,6 +32,17 @@ COMMON = ("material", "albedo", "mfp", "dmfp", "eta", "g", "model", "photons", "
 KERNEL_OPTIONS = ("kernel", "taps", "tap_method")
 SHADER_OPTIONS = KERNEL_OPTIONS + ("jitter", "depth_mode", "shader_pass", "transmission_model")
 RGB = tuple[float, float, float]
+#: the options a shader's pass (``--pass``, separable where not given) takes where not every pass does: the separable
+#: pass's kernel and profile, the model of a material's profile or of the inversion of artists' terms, the
+#: transmittance's model; and those a transmittance model (``--transmission-model``, mcml where not given) takes
+PASS_OPTIONS: dict[str, dict[str, tuple[str, ...]]] = {
+    "--pass": {**dict.fromkeys(KERNEL_OPTIONS + ("jitter", "depth_mode", "photons", "grid_fraction"), ("separable",)),
+               "model": ("separable", "transmission"), "transmission_model": ("transmission",)},
+    "--transmission-model": dict.fromkeys(("material", "albedo"), ("mcml", "unreal"))}
+#: why an option does not apply there: what the pass's shader bakes in instead, what the model takes
+PASS_BAKES = {"burley": "the shader bakes the material's Burley parameters: Xie 2020 Eq. 5, the searchlight "
+                        "configuration", "transmission": "the shader bakes the material's transmittance model",
+              "jimenez2010": "Jimenez et al. 2010's skin Gaussians: no material"}
 
 
 def _models() -> list[str]:
@@ -100,14 +111,22 @@ class ExportSettings(Settings):
 
     def unused(self) -> dict[tuple[str, tuple[str, ...], str], list[str]]:
         """Every option given that the format does not take (:attr:`Format.options`), by the formats that take
-        it: what :meth:`~ssskit.settings.Settings.check_applies` refuses in the one wording of an unused option
-        (``--eta applies to --format unity or unreal, not --format glsl``)."""
+        it, then every one the shader's pass or the transmittance model does not take (:data:`PASS_OPTIONS`): what
+        :meth:`~ssskit.settings.Settings.check_applies` refuses in the one wording of an unused option (``--eta
+        applies to --format unity or unreal, not --format glsl``)."""
         fmt = get_format(self.format)
+        now_by = {"--pass": self.shader_pass or "separable", "--transmission-model": self.transmission_model or "mcml"}
         unused: dict[tuple[str, tuple[str, ...], str], list[str]] = {}
         for name, flag in FLAGS.items():
             if self.given(name) and name not in COMMON and name not in fmt.options:
                 takers = tuple(f.name for _, f in FORMATS.items() if name in f.options)
                 unused.setdefault(("--format", takers, fmt.name), []).append(flag)
+        for category, options in PASS_OPTIONS.items():
+            now = now_by[category]
+            for name, takers in options.items():
+                if self.given(name) and now not in takers:
+                    why = f" ({PASS_BAKES[now]})" if now in PASS_BAKES else ""
+                    unused.setdefault((category, takers, now + why), []).append(FLAGS[name])
         return unused
 
     def given(self, name: str) -> bool:

@@ -145,8 +145,6 @@ def with_comment(text: str, comment: str, stage: str) -> str:
 
 
 def _shader_check(req: ExportSettings, source: Any) -> None:
-    if req.given("transmission_model") and req.shader_pass != "transmission":
-        refuse_unused(["--transmission-model"], "--pass", ("transmission",), req.shader_pass or "separable")
     if req.shader_pass == "burley" and req.format != "glsl-shader":  # (.comp, or .frag for the fragment form)
         refuse_unused(["--pass burley"], "--format", ("glsl-shader",), req.format)
     if req.format == "hlsl-shader":  # glslangValidator and spirv-cross, or the error saying how to install them
@@ -292,8 +290,9 @@ _KERNEL_SUFFIXES = {
     "bn": (".bn",),
     "json": (".json",),
 }
-for _name, _suffixes in _KERNEL_SUFFIXES.items():
-    FORMATS.register(_name, Format(_name, _suffixes, "kernel", KERNEL_OPTIONS, _kernel, {
+for _name, _suffixes in _KERNEL_SUFFIXES.items():  # (bn and json write the tabulated kernel: no tap method)
+    _options = ("kernel", "taps") if _name in ("bn", "json") else KERNEL_OPTIONS
+    FORMATS.register(_name, Format(_name, _suffixes, "kernel", _options, _kernel, {
         "hlsl": "shader arrays (float4 kernel[N], the 2012 demo layout)", "glsl": "shader arrays (the demo layout)",
         "bn": "the 2015 pre-integrated kernel file", "json": "ssskit's kernel file"}[_name]))
 FORMATS.register("unreal", Format("unreal", (".json", ".py"), "engine", ("unreal_form", "no_transmission"), _unreal,

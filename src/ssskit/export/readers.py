@@ -291,7 +291,9 @@ def _register() -> None:
 _register()
 
 
-def _model_takes(model: str) -> set[str]:
+def model_parameters(model: str) -> set[str]:
+    """The named keyword parameters of a profile model's factory (from the MODELS registry): the options it takes
+    (here and in the CLI's :func:`ssskit.cli.profiles.resolve_profile`)."""
     import inspect
 
     from ..profiles import MODELS
@@ -305,7 +307,7 @@ def _physical(req: Any, mat: Any, model: str) -> Any:
     others) after its domain check."""
     from ..profiles import MATERIAL_FREE_MODELS, check_model_domain, profile_for_material
 
-    takes = _model_takes(model)
+    takes = model_parameters(model)
     refuse_given(req, tuple(n for n in ("photons", "grid_fraction") if n not in takes), f"--model {model}")
     kwargs = {n: getattr(req, n) for n in ("photons", "grid_fraction") if getattr(req, n) is not None}
     free = model.lower() in MATERIAL_FREE_MODELS
@@ -364,19 +366,17 @@ def material_source(req: Any, needs: str) -> Source:
     if engine_file:  # an HDRP .asset takes --albedo only: the file holds the distances and the index
         refuse_given(req, ("mfp", "dmfp", "eta", "g"), f"an engine file ({material}), which holds its own parameters "
                      "(an HDRP .asset takes only --albedo)")
-    if req.shader_pass == "transmission":
-        return _transmission_source(req, engine_file, artist)
-    if req.shader_pass == "burley":
-        return _burley_source(req, engine_file, artist)
+    if req.shader_pass in ("burley", "transmission"):
+        return _pass_source(req, engine_file, artist)
     kernel = _kernel_checks(req, material is not None or artist) if needs != "engine" else None
     if needs == "engine":
         _need_material(req, artist, f"--format {req.format}")
     model = req.model
     if engine_file or artist:  # burley: the Burley-fit inversion; montecarlo / dipole: the Monte Carlo inversion
         used = INVERSIONS.check("burley" if model is None else model)
-    if engine_file:
         if used == "burley":
             refuse_given(req, ("photons", "grid_fraction"), "--model burley (the Burley fit simulates nothing)")
+    if engine_file:
         src = read_engine_file(material, albedo=albedo)
         if albedo is not None:
             check_artist(albedo, src.d_mm, "dmfp", 1.0, 0.0)
@@ -442,9 +442,8 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
             tap_count = taps
     if fmt in ("bn", "json") and not tap_kernel:
         refuse_given(req, ("taps",), f"--format {fmt} (it writes the tabulated kernel itself)")
-    if tap_kernel or fmt in ("bn", "json"):
-        refuse_given(req, ("tap_method",), f"the {m.name} kernel, which ships its own taps" if tap_kernel else
-                     f"--format {fmt}, which writes no taps")
+    if tap_kernel:  # (bn and json take no --tap-method: their Format.options)
+        refuse_given(req, ("tap_method",), f"the {m.name} kernel, which ships its own taps")
     if fmt == "bn":
         from .bn import refuse_unfit
 
@@ -452,57 +451,36 @@ def _kernel_checks(req: Any, have_material: bool) -> tuple[Any, dict[str, Any], 
     return m, params, tap_count
 
 
-def _burley_source(req: Any, engine_file: bool, artist: bool) -> Source:
-    """``shader_pass="burley"``: the material of the Burley pass's shader (a homogeneous one: its Burley
-    parameters, :func:`ssskit.screenspace.burley.burley_params_for_material`, are baked in)."""
-    refuse_given(req, ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction", "model"),
-                 "--pass burley (the shader bakes the material's Burley parameters: Xie 2020 Eq. 5, the searchlight "
-                 "configuration)")
-    if engine_file:
-        refuse_given(req, ("material",), "--pass burley as an engine file (it takes a preset, a material file or "
-                     "artists' terms)")
-    _need_material(req, artist, "--pass burley")
-    if artist:
-        from ..profiles.artist import material_from_artist
-
-        mat: Any = material_from_artist(_artist(req))
-    else:
-        from ..materials import get_material
-
-        mat = get_material(req.material)
-    mat = homogeneous(mat, "--pass burley (a preset, a material file or artists' terms)")
-    return Source(None, mat, mat.name, None)
-
-
-def _transmission_source(req: Any, engine_file: bool, artist: bool) -> Source:
-    """``shader_pass="transmission"``: the material of the transmittance pass's shader (a homogeneous one,
-    except for jimenez2010, which takes none)."""
-    tmodel = req.transmission_model or "mcml"
-    refuse_given(req, ("kernel", "taps", "tap_method", "jitter", "depth_mode", "photons", "grid_fraction"),
-                 "--pass transmission (the shader bakes the material's transmittance model)")
+def _pass_source(req: Any, engine_file: bool, artist: bool) -> Source:
+    """``shader_pass`` burley or transmission: the one homogeneous medium whose numbers the pass's shader bakes in
+    (the Burley parameters, :func:`ssskit.screenspace.burley.burley_params_for_material`; the transmittance model),
+    from a preset, a material file, or artists' terms (inverted by Monte Carlo: always for the Burley pass, with
+    ``--model montecarlo`` for the transmittance pass, which so also reads an engine file) -- except transmission's
+    jimenez2010, which takes no material. (Options a pass does not take: ExportSettings.unused, PASS_OPTIONS.)"""
+    burley = req.shader_pass == "burley"
+    what = "--pass burley" if burley else f"--transmission-model {req.transmission_model or 'mcml'}"
     if req.model is not None and req.model.lower() != "montecarlo":  # the shader bakes the material's transmittance
         # model from its MCML transport (artists' terms: --model montecarlo, the Monte Carlo inversion)
-        refuse_unused([f"--model {req.model}"], "--pass", ("separable",), "transmission")
-    if tmodel == "jimenez2010":
-        refuse_given(req, ("material", "albedo"), "--transmission-model jimenez2010 (Jimenez et al. 2010's skin "
-                     "Gaussians: no material)")
+        refuse_unused([f"--model {req.model}"], "--pass", ("separable",), "transmission, which takes --model "
+                      "montecarlo only (the Monte Carlo inversion of artists' terms)")
+    if what == "--transmission-model jimenez2010":  # (it takes no material: ExportSettings.unused, PASS_OPTIONS)
         return Source(None, None, None, None)
-    _need_material(req, artist, f"--transmission-model {tmodel}")
+    _need_material(req, artist, what)
     mat: Any = None
-    if artist:
+    if artist and (burley or req.model is not None):
         from ..profiles.artist import material_from_artist
 
-        mat = material_from_artist(_artist(req)) if req.model is not None else None
-    elif engine_file:
+        mat = material_from_artist(_artist(req))
+    elif engine_file:  # (the Burley pass takes no --model: an engine file gives it no medium)
         mat = read_engine_file(req.material).material() if req.model is not None else None
-    else:
+    elif not artist:
         from ..materials import get_material
 
         mat = get_material(req.material)
-    mat = homogeneous(mat, f"--transmission-model {tmodel} (a preset, a material file, or artists' terms with "
-                      "--model montecarlo)")
+    mat = homogeneous(mat, f"{what} (a preset, a material file, or artists' terms"
+                      f"{')' if burley else ' with --model montecarlo)'}")
     return Source(None, mat, mat.name, None)
 
 
 __all__ = ["ENGINE_NAMES", "ENGINE_SUFFIXES", "EngineSource", "Source", "check_numbers", "is_engine_file",
-           "engine_material", "material_source", "read_engine_file"]
+           "engine_material", "material_source", "model_parameters", "read_engine_file"]

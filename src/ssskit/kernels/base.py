@@ -247,15 +247,12 @@ class Kernel:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "Kernel":
-        try:
-            comps = np.array([d["channels"][ch]["components"] for ch in CHANNELS], dtype=float)
-            signs = np.array([d["channels"][ch]["signs"] for ch in CHANNELS], dtype=float)
-            return cls(float(d["cell_mm"]), comps, signs, str(d["method"]), dict(d.get("params", {})),
-                       dict(d.get("source", {})))
-        except KernelError:
-            raise
-        except (KeyError, TypeError, ValueError) as exc:
-            raise KernelError(f"not a tabulated ssskit kernel: {exc}") from None
+        """The kernel of :meth:`to_dict`'s object (a KeyError, TypeError or ValueError where ``d`` is none:
+        :func:`load_kernel` words them)."""
+        comps = np.array([d["channels"][ch]["components"] for ch in CHANNELS], dtype=float)
+        signs = np.array([d["channels"][ch]["signs"] for ch in CHANNELS], dtype=float)
+        return cls(float(d["cell_mm"]), comps, signs, str(d["method"]), dict(d.get("params", {})),
+                   dict(d.get("source", {})))
 
 
 @dataclass(frozen=True, eq=False)
@@ -327,13 +324,9 @@ class TapKernel:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "TapKernel":
-        try:
-            return cls(np.array(d["offsets"], dtype=float), np.array(d["weights"], dtype=float), str(d["method"]),
-                       dict(d.get("params", {})), dict(d.get("source", {})))
-        except KernelError:
-            raise
-        except (KeyError, TypeError, ValueError) as exc:
-            raise KernelError(f"not an ssskit tap kernel: {exc}") from None
+        """The kernel of :meth:`to_dict`'s object (as :meth:`Kernel.from_dict`)."""
+        return cls(np.array(d["offsets"], dtype=float), np.array(d["weights"], dtype=float), str(d["method"]),
+                   dict(d.get("params", {})), dict(d.get("source", {})))
 
 
 AnyKernel = Kernel | TapKernel
@@ -390,4 +383,10 @@ def load_kernel(path: str | Path) -> AnyKernel:
     except (OSError, ValueError, KeyError) as exc:  # (a UnicodeDecodeError too)
         raise KernelError(f"cannot read kernel file {str(p)!r}: {exc}") from None
     check_keys(d, f"kernel file {str(p)!r}", error=KernelError)  # (a JSON object: a table)
-    return TapKernel.from_dict(d) if d.get("type") == "taps" else Kernel.from_dict(d)
+    taps = d.get("type") == "taps"
+    try:
+        return TapKernel.from_dict(d) if taps else Kernel.from_dict(d)
+    except KernelError:  # (a ValueError too: the kernel's own rules, in their words)
+        raise
+    except (KeyError, TypeError, ValueError) as exc:  # what the object lacks or holds wrongly
+        raise KernelError(f"not {'an ssskit tap' if taps else 'a tabulated ssskit'} kernel: {exc}") from None

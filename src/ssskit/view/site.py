@@ -12,6 +12,7 @@ from __future__ import annotations
 import base64
 import json
 import math
+import numbers
 import os
 import shutil
 from dataclasses import dataclass
@@ -23,9 +24,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import SsskitError
-from ..pipeline.settings import RenderSettings, SeparablePass
-from ..quantities import BURLEY_ALBEDO, MFP_MM, TAPS, ErrorClass, Rule, check_choice, check_instance
-from ..settings import Settings, like, setting
+from ..quantities import BURLEY_ALBEDO, CHOICE, FRACTION, MFP_MM, Choice, ErrorClass, Rule, check_instance, fail
+from ..settings import Settings, setting
 
 #: the files of the page (ssskit/view/static), copied into a static folder and the only files served
 PAGE_FILES = ("index.html", "viewer.js", "viewer.css")
@@ -39,6 +39,8 @@ MESH_SUFFIXES = (".obj", ".ply", ".glb", ".gltf")
 DEFAULT_KERNEL = "preintegrated"
 DEFAULT_TAPS = 7
 DEFAULT_MODEL = "dipole"
+#: the separable pass's jitter radius, as ``ssskit render`` takes it (PassSettings' FRACTION, default 0.1)
+JITTER = FRACTION.within(reason="a fraction of the kernel size")
 #: the tap counts and spp the page offers (the API refuses others: bounded work per request)
 TAP_CHOICES = (5, 7, 9, 11, 13, 15, 17, 21, 25)
 SPP_RANGE = (1, 256)
@@ -55,8 +57,21 @@ ADAPTIVE_ORDER = (("b_min", "b_max"),)
 
 
 def _tap_choice(value: object, name: str, error: ErrorClass) -> int:
-    """A tap count (:data:`~ssskit.quantities.TAPS`) the page offers (:data:`TAP_CHOICES`: bounded work per request)."""
-    return int(check_choice(name, str(TAPS.check(value, name, error)), tuple(map(str, TAP_CHOICES)), error))
+    """A tap count the page offers (:data:`TAP_CHOICES`, odd counts within :data:`~ssskit.quantities.TAPS`: bounded
+    work per request), an integer (not 7.0, not its text '7'), shown as given."""
+    if not isinstance(value, numbers.Integral) or value not in TAP_CHOICES:
+        raise fail(error, CHOICE, name=name, choices=", ".join(map(str, TAP_CHOICES)), actual=repr(value))
+    return int(value)
+
+
+def _kernel(value: object, name: str, error: ErrorClass) -> str:
+    """A kernel method spec, the rule of ``ssskit render``'s ``kernel`` (RenderSettings): one that
+    :func:`ssskit.kernels.parse_method_spec` parses (a value's text: 5 is an unknown method '5'), returned in its
+    canonical spelling. Declared here and not taken from RenderSettings with ``like``, so that importing the viewer
+    does not import the pipeline (0.2 s of every ``ssskit view``'s start)."""
+    from ..kernels import parse_method_spec
+
+    return parse_method_spec(value)[2]  # type: ignore[arg-type]
 
 
 def _adaptive(value: object, name: str, error: ErrorClass) -> Any:
@@ -76,9 +91,9 @@ class MaterialRequest(Settings):
     material: str | None = setting(None, "skin1")
     albedo: tuple[float, float, float] | None = setting(BURLEY_ALBEDO, None, optional=True, rgb=True)
     mfp: tuple[float, float, float] | None = setting(MFP_MM, None, optional=True, rgb=True)
-    kernel: str = like(RenderSettings, "kernel", applies=None)
+    kernel: str = setting(Rule("kernel", _kernel), DEFAULT_KERNEL)
     taps: int = setting(Rule("taps", _tap_choice), DEFAULT_TAPS)
-    jitter: float = like(SeparablePass, "jitter")
+    jitter: float = setting(JITTER, 0.1)
     adaptive: Any = setting(Rule("adaptive", _adaptive), None)
 
     def __post_init__(self) -> None:
@@ -311,10 +326,8 @@ def scene_payload(scene: str) -> dict[str, Any]:
     for shape in spec.shapes().values():
         if shape.get("type") not in ("ply", "obj"):
             continue
-        for mesh in read_mesh(shape["filename"]):
+        for mesh in read_mesh(shape["filename"]):  # (in mm, untransformed: only scenefile._primitive sets to_world)
             v = np.asarray(mesh.vertices, np.float64)
-            if "to_world" in shape:
-                raise SsskitError("the viewer takes meshes without a transform")
             f = np.asarray(mesh.faces, np.int64)
             nrm = mesh.normals if mesh.normals is not None else _vertex_normals(v, f)
             verts.append(v)
@@ -427,9 +440,8 @@ def data_script(data: dict[str, Any]) -> str:
 
 
 def page_file(name: str) -> bytes:
-    """One of :data:`PAGE_FILES` (its callers' names: :func:`write_site`'s, and the server's, which serves no other
-    name: :class:`~ssskit.view.server.ViewServer`)."""
-    return resources.files(__package__).joinpath("static", name).read_bytes()
+    """One of :data:`PAGE_FILES`, by its name (another name, a path into the package, is refused)."""
+    return resources.files(__package__).joinpath("static", Choice("page file", PAGE_FILES).check(name)).read_bytes()
 
 
 def write_static(out: str | os.PathLike[str], scene: str, materials: dict[str, MaterialRequest], default: str) -> Path:

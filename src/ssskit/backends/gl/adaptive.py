@@ -20,11 +20,10 @@ from typing import TYPE_CHECKING, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...errors import PassError
 from ..adaptive_plan import GUIDE_FRAME, AdaptivePlan, GuideFrame
 from ..base import PHASES, AdaptiveRunner, Backend
-from ..plan import check_arrays
-from .burley import _program
+from ..plan import SEPARABLE_FRAME, check_arrays
+from .context import program
 from .separable import _f, _uniforms, wrapped
 
 if TYPE_CHECKING:
@@ -106,8 +105,8 @@ def dispatch(plan: AdaptivePlan, images: GuideImages, history: moderngl.Texture,
     """One run of the guiding shader: ``history`` (RGBA32F texture) read, ``counts`` (R32I texture) read and
     written; with ``rgb`` (the Burley result, RGBA32F) the *update* into ``dst``, else the *estimate*."""
     update = rgb is not None
-    prog = _program(adaptive_source(plan, update, images.motion is not None, images.valid is not None),
-                    "adaptive guiding")
+    prog = program(adaptive_source(plan, update, images.motion is not None, images.valid is not None),
+                   "adaptive guiding")
     w, h = images.size
     _uniforms(prog, u_size=(w, h))
     history.use(0)
@@ -185,9 +184,6 @@ class GLAdaptiveRunner(AdaptiveRunner):
         self._cnt = _texture(ctx, self._size, 1, "i4")
         self._images: GuideImages | None = None
         self._burley: BurleyFrame | None = None
-        self._loaded: tuple[NDArray[np.float32], NDArray[np.float32], np.ndarray] | None = None
-        self._sampled = False
-        self._has_counts = False
 
     def _timed(self, phase: str, fn: Callable[[], _T]) -> _T:
         from .context import context
@@ -220,9 +216,8 @@ class GLAdaptiveRunner(AdaptiveRunner):
             self._burley.release()
             self._burley = None
         self._images = images = GuideImages(ctx, m, mv, ok)
-        self._loaded = (np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
-        self._sampled = False
-        self._has_counts = estimate
+        self._frame = (np.asarray(diffuse, np.float32), np.asarray(depth_mm, np.float32), slots)
+        self._has_counts, self._sampled = estimate, None
         if estimate:
             self._timed("estimate", lambda: dispatch(self.plan, images, self._hist[self._cur], self._cnt))
 
@@ -235,30 +230,27 @@ class GLAdaptiveRunner(AdaptiveRunner):
         self._cnt.write(np.ascontiguousarray(n, np.int32).tobytes())
         self._has_counts = True
 
-    def sample(self, plan: BurleyPlan) -> None:
+    def _sample(self, plan: BurleyPlan, diffuse: np.ndarray, depth: np.ndarray, slots: np.ndarray) -> None:
         from .burley import BurleyFrame, burley_source
         from .context import context
 
-        if self._loaded is None or not self._has_counts:
-            raise PassError("load a frame (and set its counts, without the estimate) before sampling it")
+        # the frame's rule of the Burley pass (Backend.burley's template, which this device pass does not go through)
+        check_arrays(SEPARABLE_FRAME, dict(diffuse=diffuse, depth_mm=depth, slots=slots), plan.slots)
         context()
         if self._burley is not None and burley_source(plan, True) != burley_source(self._burley.plan, True):
             self._burley.release()  # another sampler, sequence, mips or profile: another shader and images
             self._burley = None
         if self._burley is None:
-            diffuse, depth, slots = self._loaded
             self._burley = BurleyFrame(plan, diffuse, depth, slots, None, counts_texture=self._cnt)
         frame = self._burley
         frame.plan = plan  # this sample's frame, seed and focal lengths (uniforms of the same shader)
         if frame.atlas is not None:
             self._timed("prefilter", frame.build_mips)
         self._timed("sampling", frame.run_pass)
-        self._sampled = True
 
-    def update(self) -> None:
-        images, frame, loaded = self._images, self._burley, self._loaded
-        if not self._sampled or images is None or frame is None or loaded is None:  # (sampled: all are set)
-            raise PassError("sample a frame before updating the history")
+    def _update(self, slots: np.ndarray) -> None:
+        images, frame = self._images, self._burley
+        assert images is not None and frame is not None  # (made by load and sample: the order the base class states)
         src, dst = self._hist[self._cur], self._hist[1 - self._cur]
         self._timed("update", lambda: dispatch(self.plan, images, src, self._cnt, frame.out, dst))
         self._cur = 1 - self._cur
@@ -266,13 +258,11 @@ class GLAdaptiveRunner(AdaptiveRunner):
         if images.motion is not None or images.valid is not None:
             from .context import context
 
-            self._images = GuideImages(context(), loaded[2] > 0)
+            self._images = GuideImages(context(), slots > 0)
             images.release()
-        self._sampled = False
 
-    def result(self) -> np.ndarray:
-        if self._burley is None:
-            raise PassError("no frame sampled yet")
+    def _result(self) -> np.ndarray:
+        assert self._burley is not None  # (made by sample: the order the base class states)
         return self._burley.read()
 
     def counts(self) -> np.ndarray:

@@ -20,7 +20,7 @@ import numpy as np
 from ...errors import PassError
 from ...sampling.hashes import frame_base
 from ..burley_plan import MAX_MIP, SAMPLERS, SEQUENCES, BurleyPlan
-from .separable import MAX_SLOTS, _array, _f, _uniforms, check_slot_count, wrapped
+from .separable import GL_PROFILE_IDS, _array, _f, _uniforms, wrapped
 
 if TYPE_CHECKING:
     import moderngl
@@ -56,7 +56,7 @@ def _set_mip_uniforms(prog: moderngl.ComputeShader, width: int, height: int) -> 
 
 def _generated(plan: BurleyPlan, count_image: bool, filtered_mips: bool) -> str:
     """The generated block (constants and defines) of :func:`burley_source` and :func:`burley_fragment_source`."""
-    check_slot_count(plan.slots, MAX_SLOTS, "slots are stored as 16-bit unsigned integers")
+    GL_PROFILE_IDS.check(plan.slots - 1, error=PassError)
     S = plan.slots
     d_sample = plan.d_sample
     head = [
@@ -136,7 +136,7 @@ class BurleyFrame:
                  counts_texture: moderngl.Texture | None = None) -> None:
         import moderngl
 
-        from .context import context
+        from .context import context, program
 
         self.ctx = ctx = context()
         self.plan = plan
@@ -163,7 +163,7 @@ class BurleyFrame:
         # without a count image spp is a scalar
         self.spp = 0 if self.count_image or spp is None or isinstance(spp, np.ndarray) else int(spp)
         self.out = ctx.texture((w, h), 4, dtype="f4")
-        self.program = _program(burley_source(plan, self.count_image, filtered_mips), "Burley")
+        self.program = program(burley_source(plan, self.count_image, filtered_mips), "Burley")
         self.atlas = None
         if plan.mips and plan.slots > 1:
             (aw, ah) = mip_layout(w, h)[2]
@@ -172,7 +172,7 @@ class BurleyFrame:
             linear = moderngl.LINEAR if filtered_mips else moderngl.NEAREST
             self.atlas.filter = (linear, linear)
             self.atlas.repeat_x = self.atlas.repeat_y = False
-            self.mips = _program(mips_source(), "mip pyramid")
+            self.mips = program(mips_source(), "mip pyramid")
 
     def build_mips(self) -> None:
         """The prefiltered irradiance pyramid of every slot (Xie 2020 Eqs. 22-23), on the device."""
@@ -231,17 +231,3 @@ class BurleyFrame:
         for obj in (self.src, self.slots, self.counts, self.out, self.atlas):
             if obj is not None and obj is not self._borrowed:
                 obj.release()
-
-
-_PROGRAMS: dict[str, moderngl.ComputeShader] = {}
-
-
-def _program(source: str, name: str) -> moderngl.ComputeShader:
-    from .context import compile_compute
-
-    prog = _PROGRAMS.get(source)
-    if prog is None:
-        if len(_PROGRAMS) > 32:
-            _PROGRAMS.clear()
-        prog = _PROGRAMS[source] = compile_compute(source, name)
-    return prog

@@ -60,13 +60,10 @@ def default_layout() -> Layout:
     return CPU_LAYOUT if is_software() else GPU_LAYOUT
 #: slots are stored as 16-bit unsigned integers
 MAX_SLOTS = 1 << 16
-
-
-def check_slot_count(plan_slots: int, limit: int, why: str) -> None:
-    """The rule of every gl shader that bakes a plan's per-slot tables: at most ``limit - 1`` profile ids in one
-    frame (``why``: the shader's reason), or a PassError in the range wording."""
-    Quantity("profile ids", 0, limit - 1, "", why, integer=True).check(
-        plan_slots - 1, "the gl backend's profile ids in one frame", PassError)
+#: the rule of every gl shader that bakes a plan's per-slot tables: the profile ids of one frame (slots less the
+#: no-SSS slot 0); a shader with smaller tables narrows it (:meth:`~ssskit.quantities.Quantity.within`)
+GL_PROFILE_IDS = Quantity("the gl backend's profile ids in one frame", 0, MAX_SLOTS - 1, "",
+                          "slots are stored as 16-bit unsigned integers", integer=True)
 
 
 def wrapped(wrapper: str, body: str) -> str:
@@ -100,7 +97,7 @@ def _vec(v: Sequence[float]) -> str:
 
 def plan_constants(plan: SeparablePlan) -> str:
     """The GLSL constants of a plan's tables (every term and slot): the generated block of the shader."""
-    check_slot_count(plan.slots, MAX_SLOTS, "slots are stored as 16-bit unsigned integers")
+    GL_PROFILE_IDS.check(plan.slots - 1, error=PassError)
     S = plan.slots
     kmax = max(1, max((t.max_rows for t in plan.terms), default=0))
     rows_p, rows_m, sym, n_jit, n_rows, centre, sign = [], [], [], [], [], [], []
@@ -382,9 +379,6 @@ class _Images:
                 obj.release()
 
 
-_PROGRAMS: dict[str, moderngl.ComputeShader] = {}
-
-
 def _uniforms(prog: moderngl.ComputeShader, **values: Any) -> None:
     """Set the uniforms the compiled program uses (the compiler drops unused ones)."""
     for name, value in values.items():
@@ -393,12 +387,6 @@ def _uniforms(prog: moderngl.ComputeShader, **values: Any) -> None:
 
 
 def _program(plan: SeparablePlan, term: int, vertical: bool, layout: Layout) -> moderngl.ComputeShader:
-    from .context import compile_compute
+    from .context import program
 
-    source = separable_source(plan, term, vertical, layout)
-    prog = _PROGRAMS.get(source)
-    if prog is None:
-        if len(_PROGRAMS) > 64:
-            _PROGRAMS.clear()
-        prog = _PROGRAMS[source] = compile_compute(source, "separable")
-    return prog
+    return program(separable_source(plan, term, vertical, layout), "separable")

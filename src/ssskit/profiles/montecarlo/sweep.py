@@ -3,6 +3,8 @@ materials across local processes or a dask.distributed cluster (:func:`simulate_
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from ...errors import ProfileError
 from ...materials import CHANNELS, LayeredMaterial, Material
 from ...progress import add_to_total
@@ -11,6 +13,9 @@ from ..domain import check_montecarlo
 from .config import DEFAULT_BATCH, DEFAULT_PHOTONS, SUPPLEMENT_GRID_MFP, channel_seed, config_for_material
 from .result import MCResult
 from .run import check_resume, photons_bar, simulate
+
+if TYPE_CHECKING:
+    from distributed import Client
 
 
 #: the share of the supplement's grid a sweep simulates
@@ -111,14 +116,16 @@ def _gather(futures: list, names: list[str], progress: bool, where: str) -> dict
     return {n: out[n] for n in names}
 
 
-def check_scheduler(address: str, timeout_s: float = 20.0) -> None:
-    """A ProfileError unless a dask.distributed scheduler answers at ``address`` within ``timeout_s`` seconds:
-    dask's own ``identity`` call (``distributed.core.rpc``) under one deadline for the connection and the answer.
-    Something else listening there (a web server, any other service) is refused in one line: dask's client read
-    the first bytes of its answer as frame lengths (an HTTP reply asked for 3.07 EiB: MemoryError) or waited for
-    ever on a server that says nothing."""
+def check_scheduler(address: str, timeout_s: float = 20.0) -> Client:
+    """A dask.distributed ``Client`` connected to the scheduler at ``address``, or a ProfileError unless one
+    answers within ``timeout_s`` seconds: dask's own ``identity`` call (``distributed.core.rpc``) under one
+    deadline for the connection and the answer, then the client's own connection under the same rule (a scheduler
+    gone in between cannot be reached). Something else listening there (a web server, any other service) is
+    refused in one line: dask's client read the first bytes of its answer as frame lengths (an HTTP reply asked
+    for 3.07 EiB: MemoryError) or waited for ever on a server that says nothing."""
     import asyncio
 
+    from distributed import Client
     from distributed.core import rpc
 
     async def identity() -> object:
@@ -131,18 +138,18 @@ def check_scheduler(address: str, timeout_s: float = 20.0) -> None:
     what = f"the dask scheduler address {address!r}"
     try:
         answer = asyncio.run(asyncio.wait_for(identity(), timeout_s))
+        if isinstance(answer, dict) and answer.get("type") == "Scheduler":
+            return Client(address, timeout=f"{timeout_s}s")
     except ValueError as exc:  # a malformed address: dask's own words (missing port, unknown scheme)
         if "address" in str(exc) or "scheme" in str(exc):
             raise ProfileError(f"{what} is not valid: {exc}") from None
-        answer = None
     except asyncio.TimeoutError:
         raise ProfileError(f"no dask scheduler answered at {address!r} within {timeout_s:g} s (connect timeout)") from None
     except OSError as exc:
         raise ProfileError(f"cannot reach the dask scheduler at {address!r}: {exc}") from None
     except Exception:  # noqa: BLE001 - what another protocol's bytes make of dask's decoder (MemoryError, ...)
-        answer = None
-    if not (isinstance(answer, dict) and answer.get("type") == "Scheduler"):
-        raise ProfileError(f"what answers at {address!r} is not a dask scheduler (it does not speak dask's protocol)")
+        pass
+    raise ProfileError(f"what answers at {address!r} is not a dask scheduler (it does not speak dask's protocol)")
 
 
 def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "all", *,
@@ -168,11 +175,10 @@ def simulate_many(materials: list[Material | LayeredMaterial], channels: str = "
     tasks = [(m, channels, photons, seed, batch_size, resume, restart, roughness, progress) for m in materials]
     if scheduler is not None:
         try:
-            from distributed import Client
+            import distributed  # noqa: F401 - the optional extra check_scheduler needs
         except ImportError:
             raise ProfileError("a scheduler address needs dask.distributed: pip install 'ssskit[cluster]'") from None
-        check_scheduler(scheduler, connect_timeout_s)  # (then only a scheduler gone since is an OSError here)
-        client = Client(scheduler, timeout=f"{connect_timeout_s}s")
+        client = check_scheduler(scheduler, connect_timeout_s)
         try:
             futures = client.map(_sweep_job, tasks, pure=False)
             return _gather(futures, names, progress, f"dask at {scheduler}")
