@@ -317,7 +317,8 @@ def _read_mitsuba(p: Path, kind: str) -> tuple[Mesh, ...]:
 
     mi = mitsuba()
     with warnings_dropped():  # the checks of read_mesh report a degenerate mesh
-        shape = mi.load_dict({"type": kind, "filename": str(p)})  # (its errors: read_mesh)
+        # absolute: Mitsuba resolves a relative name against the folder it was first imported in, not the current one
+        shape = mi.load_dict({"type": kind, "filename": str(p.absolute())})  # (its errors: read_mesh)
     params = mi.traverse(shape)
     verts = np.array(params["vertex_positions"], dtype=np.float32).reshape(-1, 3)
     faces = np.array(params["faces"], dtype=np.uint32).reshape(-1, 3)
