@@ -289,8 +289,11 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
 def _header(p: Path, header: dict[str, Any], key: str, default: Any = None) -> Any:
     """The JSON value of the EXR header attribute ``key`` (``default`` where absent), or a GBufferError naming the
     file."""
-    try:
-        return json.loads(header[key]) if key in header else default
+    if key not in header:
+        return default
+    try:  # (an int, float or V3f attribute was a TypeError)
+        return json.loads(check_instance(header[key], (str, bytes), f"G-buffer {str(p)!r}: header {key!r}",
+                                         GBufferError))
     except json.JSONDecodeError:
         raise GBufferError(f"G-buffer {str(p)!r}: header {key!r} is not JSON") from None
 
