@@ -38,6 +38,28 @@ _PLY_HEAD = ("ply\nformat {fmt} 1.0\nelement vertex 3\nproperty float x\npropert
 _GOOD_MESH = "v 0 0 0\nv 10 0 0\nv 0 10 0\nv 0 0 10\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
 
 
+def _gbuffer_exr(**attributes: object) -> bytes:
+    """A 4x4 G-buffer EXR (the four required layers) with these header ``attributes`` (OpenEXR's own types: an
+    int, a float, a V3f written from three float32s)."""
+    import numpy as np
+    import OpenEXR
+
+    layers = {"diffuse": np.ones((4, 4, 3), np.float32), "albedo": np.ones((4, 4, 3), np.float32),
+              "depth": np.ones((4, 4), np.float32), "profile_id": np.ones((4, 4), np.uint32)}
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "g.exr"
+        with OpenEXR.File({"type": OpenEXR.scanlineimage, **attributes}, layers) as f:
+            f.write(str(path))
+        return path.read_bytes()
+
+
+_SCENE = b'[shapes.ball]\ntype = "mesh"\nfile = "ball.obj"\nunits = "mm"\n'
+#: the rest of an explicit [camera] (after its origin, target and up) and its explicit light
+_FOV_AND_LIGHT = b'fov = 30.0\n[lights.key]\ntype = "point"\nposition = [0, 0, 100]\nintensity = 1.0\n'
+_CAMERA_JSON = ('{"width": 4, "height": 4, "fx": 4.0, "fy": 4.0, "cx": 2.0, "cy": 2.0, "world_to_camera": '
+                '[[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], "world_units_per_mm": 1.0}')
+
+
 def _glb(doc: bytes) -> bytes:
     doc += b" " * (-len(doc) % 4)
     body = struct.pack("<I4s", len(doc), b"JSON") + doc
@@ -121,6 +143,30 @@ FILES: dict[str, bytes] = {
     "empty.exr": b"",
     "k.json": b'{"type": "taps"}',
     "kdeep.json": b"[" * 100_000 + b"]" * 100_000,
+    # the hunt of issue 34 (each a traceback, a recursion or work done before the refusal)
+    "e_Unreal.json": b'{"engine": "Unreal"}',
+    "e_UNITY.json": b'{"engine": "UNITY"}',
+    "e_materialx.json": b'{"engine": "materialx", "base_color": [0.5, 0.5, 0.5]}',
+    "e_sd_empty.json": b'{"engine": "unity", "scatteringDistance": [], "scatteringDistanceMultiplier": 1.0, '
+                       b'"worldScale": 1.0, "ior": 1.4, "base_color": [0.5, 0.5, 0.5]}',
+    "file5.toml": b'[shapes.ball]\ntype = "mesh"\nfile = 5\n',
+    "filelist.toml": b'[shapes.ball]\ntype = "mesh"\nfile = ["ball.obj"]\n',
+    "center5.toml": _SCENE + b'[shapes.s]\ntype = "sphere"\ncenter = 5\nradius = 1.0\n',
+    "center2.toml": _SCENE + b'[shapes.s]\ntype = "sphere"\ncenter = [0, 0]\nradius = 1.0\nsss = true\n',
+    "radiusstr.toml": _SCENE + b'[shapes.s]\ntype = "sphere"\ncenter = [0, 0, 0]\nradius = "big"\n',
+    "radiusnan.toml": _SCENE + b'[shapes.s]\ntype = "sphere"\ncenter = [0, 0, 0]\nradius = nan\nsss = true\n',
+    "radiusneg.toml": _SCENE + b'[shapes.s]\ntype = "sphere"\ncenter = [0, 0, 0]\nradius = -10.0\nsss = true\n',
+    "scalestr.toml": _SCENE + b'[shapes.c]\ntype = "cube"\nscale = "huge"\n',
+    "scalezero.toml": _SCENE + b'[shapes.c]\ntype = "cube"\nscale = [0, 0, 0]\nsss = true\n',
+    "camsame.toml": _SCENE + b"[camera]\norigin = [0, 0, 0]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\n" + _FOV_AND_LIGHT,
+    "camupview.toml": _SCENE + b"[camera]\norigin = [0, 0, 100]\ntarget = [0, 0, 0]\nup = [0, 0, 1]\n" + _FOV_AND_LIGHT,
+    "matunknown.toml": _SCENE + b'material = "unobtainium"\n',
+    "matnum.toml": _SCENE + b"material = 5\n",
+    "meshesdict.gltf": b'{"asset": {"version": "2.0"}, "meshes": {"a": 1}}',
+    "cam_int.exr": _gbuffer_exr(ssskit_camera=5),
+    "mats_float.exr": _gbuffer_exr(ssskit_camera=_CAMERA_JSON, ssskit_materials=0.5),
+    "meta_v3f.exr": _gbuffer_exr(ssskit_camera=_CAMERA_JSON, ssskit_meta=(1.0, 2.0, 3.0)),
+    "light_int.exr": _gbuffer_exr(ssskit_camera=_CAMERA_JSON, ssskit_light=5),
 }
 FOLDERS = ("dir.ply", "folder", "x.exr", "out.png")
 
@@ -340,6 +386,18 @@ def _cases() -> list[tuple[str, list[str]]]:
     add("demo --material deep.json", "demo", "--material", "deep.json")
     add("demo --units with a built-in", "demo", "--units", "mm")
     add("demo --full and --photons", "demo", "--full", "--photons", "1000")
+    # ---- the hunt of issue 34: engine files, scene fields, glTF arrays, G-buffer header attributes
+    for f, cmd in (("e_Unreal.json", "export"), ("e_UNITY.json", "profile"), ("e_materialx.json", "export"),
+                   ("e_materialx.json", "kernel"), ("e_materialx.json", "render"), ("e_sd_empty.json", "export"),
+                   ("e_sd_empty.json", "profile")):
+        more = {"export": ("--format", "unreal", "--out", "o.json"), "kernel": ("--method", "preintegrated"),
+                "render": ("--scene", "slab")}.get(cmd, ())
+        add(f"{cmd} --material {f}", cmd, "--material", f, *more)
+    for f in ("file5.toml", "filelist.toml", "center5.toml", "center2.toml", "radiusstr.toml", "radiusnan.toml",
+              "radiusneg.toml", "scalestr.toml", "scalezero.toml", "camsame.toml", "camupview.toml",
+              "matunknown.toml", "matnum.toml", "meshesdict.gltf", "cam_int.exr", "mats_float.exr", "meta_v3f.exr",
+              "light_int.exr"):
+        add(f"render --scene {f}", "render", "--scene", f)
     return c
 
 

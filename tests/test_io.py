@@ -203,20 +203,37 @@ def test_multipart_exr_with_two_complete_parts_says_so(tmp_path):
 
 
 @pytest.mark.parametrize("named, fragment", [
-    ('["Skin1"]', None), ("[]", "uses id 1 but the header 'ssskit_materials' names 0 material(s)"),
-    ('{"a": 1}', "must be a list of material names"), ('[""]', "must be a list of material names")])
+    ('["Skin1"]', None), ("[]", "must be a non-empty list of material names, got '[]'"),
+    ('["Skin1", "Skin2"]', None),
+    ('{"a": 1}', "must be a non-empty list of material names"), ('[""]', "must be a non-empty list of material names")])
 def test_gbuffer_header_names_a_material_for_every_id(tmp_path, named, fragment):
-    """``ssskit_materials = []`` with profile id 1 was accepted (id k is the k-th name)."""
+    """``ssskit_materials = []`` with profile id 1 was accepted (id k is the k-th name): a header that names
+    materials names one at least (ssskit writes none where the G-buffer names none), and one for every id
+    (GBuffer's rule: tests/screenspace/test_gbuffer.py)."""
     gb = _gbuffer()
     assert int(gb.profile_id.max()) == 1
     write_exr(tmp_path / "g.exr", {name: np.ascontiguousarray(getattr(gb, name)) for name in
                                    ("diffuse", "albedo", "depth", "profile_id")},
               {"ssskit_camera": __import__("json").dumps(gb.camera.to_dict()), "ssskit_materials": named})
     if fragment is None:
-        assert load_gbuffer(tmp_path / "g.exr").materials == ("Skin1",)
+        assert load_gbuffer(tmp_path / "g.exr").materials == tuple(__import__("json").loads(named))
     else:
         with pytest.raises(GBufferError, match=re.escape(fragment)):
             load_gbuffer(tmp_path / "g.exr")
+
+
+def test_gbuffer_file_naming_fewer_materials_than_its_ids_is_refused_naming_the_file(tmp_path):
+    """Id 2 with one name in the header: GBuffer's rule (id k is the k-th name), the file named."""
+    gb = _gbuffer()
+    ids = np.ascontiguousarray(gb.profile_id)
+    ids[0, 0] = 2
+    write_exr(tmp_path / "g.exr", {**{name: np.ascontiguousarray(getattr(gb, name)) for name in
+                                      ("diffuse", "albedo", "depth")}, "profile_id": ids},
+              {"ssskit_camera": __import__("json").dumps(gb.camera.to_dict()), "ssskit_materials": '["Skin1"]'})
+    with pytest.raises(GBufferError, match=re.escape(f"G-buffer {str(tmp_path / 'g.exr')!r}: layer 'profile_id' must "
+                                                     "lie in [0, 1], got 2 (0 is no SSS, k the k-th of the 1 "
+                                                     "materials named)")):
+        load_gbuffer(tmp_path / "g.exr")
 
 
 def test_staged_folder_moves_everything_or_nothing(tmp_path):
@@ -275,5 +292,16 @@ def test_a_document_nested_too_deeply_is_malformed_in_every_reader(tmp_path, suf
     with pytest.raises(SettingsError, match="malformed settings file .* nested too deeply"):
         RenderSettings.load(path)
     if suffix == ".toml":
-        with pytest.raises(SceneError, match="is not valid TOML: nested too deeply"):
+        with pytest.raises(SceneError, match="malformed scene file .* nested too deeply"):
             resolve_scene(str(path))
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/mem"), reason="needs Linux's /proc/self/mem (a file whose read fails)")
+def test_an_input_that_fails_to_read_is_one_error_naming_it():
+    """A regular file whose read fails (Linux's /proc/self/mem at offset 0: EIO) is the reader's one error in the
+    OS's words, as a write that fails is (io._failing)."""
+    from ssskit.errors import SettingsError
+    from ssskit.io import read_input
+
+    with pytest.raises(SettingsError, match=r"^cannot read settings file '/proc/self/mem': Input/output error$"):
+        read_input("/proc/self/mem", "settings file", SettingsError)

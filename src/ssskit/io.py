@@ -20,7 +20,7 @@ import os
 import re
 import sys
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +50,21 @@ def _umask() -> int:
 
 
 @contextlib.contextmanager
+def _failing(doing: str, error: type[Exception] = OutputError) -> Iterator[None]:
+    """An OSError inside (a full disk, a file size limit, a rename, a folder that cannot be made, a read that
+    fails) as one ``error``: ``{doing}: {why}``, ``doing`` naming the file, e.g. ``cannot write 'out.exr'``."""
+    try:
+        yield
+    except OSError as exc:
+        raise error(f"{doing}: {exc.strerror or exc}") from None
+
+
+def _writing(path: str | Path) -> contextlib.AbstractContextManager[None]:
+    """:func:`_failing` for the file or folder ``path`` being written."""
+    return _failing(f"cannot write {str(path)!r}")
+
+
+@contextlib.contextmanager
 def atomic_output(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path with the same suffix beside ``path``; rename it over ``path`` on success.
 
@@ -74,12 +89,10 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
     os.close(fd)
     tmp = Path(tmp_name)
     try:
-        try:
+        with _writing(target):  # the write itself (a full disk, a file size limit) or the rename: name the target
             yield tmp
             os.chmod(tmp, 0o666 & ~_umask())
             os.replace(tmp, target)
-        except OSError as exc:  # the write itself (a full disk, a file size limit) or the rename: name the target
-            raise OutputError(f"cannot write {str(target)!r}: {exc.strerror or exc}") from None
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()
@@ -96,20 +109,16 @@ def staged_folder(out: str | Path) -> Iterator[Path]:
 
     final = Path(out)
     parent = final.resolve().parent
-    try:
+    with _writing(final):
         parent.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=f".{final.resolve().name}.partial-", dir=parent))
-    except OSError as exc:
-        raise OutputError(f"cannot write {str(final)!r}: {exc.strerror or exc}") from None
     try:
         yield staging
         for src in sorted(p for p in staging.rglob("*") if p.is_file()):
             dst = final / src.relative_to(staging)
-            try:
+            with _writing(dst):
                 dst.parent.mkdir(parents=True, exist_ok=True)
                 os.replace(src, dst)
-            except OSError as exc:
-                raise OutputError(f"cannot write {str(dst)!r}: {exc.strerror or exc}") from None
     except OutputError as exc:
         raise OutputError(str(exc).replace(str(staging), str(final))) from None
     finally:
@@ -281,6 +290,24 @@ def parse_document(text: str, suffix: str) -> Any:
         raise ValueError("nested too deeply (more levels of arrays or tables than the parser can follow)") from None
 
 
+def read_document(path: str | Path, what: str, error: type[Exception] = OutputError, suffixes: Iterable[str] = (),
+                  build: Callable[[Any], Any] | None = None) -> Any:
+    """The data of an input file of TOML (or JSON: a ``.json`` file) after :func:`read_input`'s rules, or what
+    ``build`` makes of it: the one reader of the settings, material and scene files. A malformed document is one
+    ``error``, ``malformed {what} {path}: {why}``; an ``error`` of ``build`` (a value the file holds) names the
+    file, ``{path}: {why}``."""
+    p = Path(path)
+    text = read_input(p, what, error, suffixes, text=True)
+    try:
+        data = parse_document(text, ".json" if p.suffix.lower() == ".json" else ".toml")
+    except ValueError as exc:
+        raise error(f"malformed {what} {str(p)!r}: {exc}") from None
+    try:
+        return data if build is None else build(data)
+    except error as exc:
+        raise error(f"{str(p)!r}: {exc}") from None
+
+
 def read_input(path: str | Path, what: str, error: type[Exception] = OutputError, suffixes: Iterable[str] = (),
                size: int = -1, text: bool = False) -> Any:
     """The contents of an input file (``text``: decoded as UTF-8; ``size``: at most that many bytes), after the
@@ -299,13 +326,11 @@ def read_input(path: str | Path, what: str, error: type[Exception] = OutputError
     if suffixes:
         check_suffix(p, tuple(suffixes), what, error)
     try:
-        with open(p, "rb") as fh:
+        with _failing(f"cannot read {what} {str(p)!r}", error), open(p, "rb") as fh:
             raw = fh.read(size)
         return raw.decode("utf-8") if text else raw
     except UnicodeDecodeError:
         raise error(f"{what} {str(p)!r} is not a UTF-8 text file") from None
-    except OSError as exc:
-        raise error(f"cannot read {what} {str(p)!r}: {exc.strerror or exc}") from None
 
 
 def read_exr(path: str | Path, what: str = "EXR file", required: Iterable[str] = ()) -> tuple[dict, dict]:

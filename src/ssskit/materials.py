@@ -12,6 +12,7 @@ Sources
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 from collections.abc import Callable, Mapping
@@ -360,19 +361,10 @@ def material_from_dict(data: Mapping[str, Any], *, default_name: str = "user mat
 def load_material(path: str | Path) -> Material | LayeredMaterial:
     """Load a material from a ``.toml`` or ``.json`` file (see :func:`material_from_dict`); a file
     with a ``layers`` list gives a :class:`LayeredMaterial`."""
-    from .io import parse_document, read_input
+    from .io import read_document
 
-    p = Path(path)
-    suffix = p.suffix.lower()
-    text = read_input(p, "material file", MaterialError, (".toml", ".json"), text=True)
-    try:
-        data = parse_document(text, suffix)
-    except ValueError as exc:
-        raise MaterialError(f"malformed material file {str(p)!r}: {exc}") from None
-    try:
-        return material_from_dict(data, default_name=p.stem)
-    except MaterialError as exc:
-        raise MaterialError(f"{str(p)!r}: {exc}") from None
+    return read_document(path, "material file", MaterialError, (".toml", ".json"),  # (io: every input file's rules)
+                         functools.partial(material_from_dict, default_name=Path(path).stem))
 
 
 #: readers of the material files this layer does not know, registered by the layer that does: name -> (accepts(path)

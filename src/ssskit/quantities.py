@@ -337,7 +337,7 @@ def check_keys(table: object, where: str, allowed: Collection[str] | None = None
     return table
 
 
-def check_fields(table: Any, fields: Mapping[str, Quantity | Choice | Flag], where: str = "",
+def check_fields(table: Any, fields: Mapping[str, Quantity | Choice | Flag | Rule], where: str = "",
                  error: ErrorClass = SsskitError, rgb: Collection[str] = ()) -> dict[str, Any]:
     """Each key of ``fields`` that ``table`` holds, checked by its quantity (``rgb``: the keys that take one
     number or three) under the name ``{where}: {key}`` (``where`` empty: the key alone): a dict of the checked

@@ -162,20 +162,9 @@ class Settings:
     @classmethod
     def load(cls, path: str | Path) -> Self:
         """Read a ``.toml`` or ``.json`` settings file."""
-        from .io import parse_document, read_input
+        from .io import read_document
 
-        p = Path(path)
-        suffix = p.suffix.lower()
-        text = read_input(p, "settings file", SettingsError, (".toml", ".json"), text=True)  # (io: every input file's rules)
-
-        try:
-            data = parse_document(text, suffix)
-        except ValueError as exc:
-            raise SettingsError(f"malformed settings file {str(p)!r}: {exc}") from None
-        try:
-            return cls.from_dict(data)
-        except SettingsError as exc:
-            raise SettingsError(f"{str(p)!r}: {exc}") from None
+        return read_document(path, "settings file", SettingsError, (".toml", ".json"), cls.from_dict)  # (io: its rules)
 
     def save(self, path: str | Path) -> None:
         """Write a ``.toml`` or ``.json`` settings file atomically (None values are left out)."""

@@ -13,7 +13,6 @@ convolution on each SSS region, with the pass's own boundary rule.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from numbers import Real
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -28,11 +27,6 @@ if TYPE_CHECKING:  # imported where used: truth loads without them
     from .kernels.base import AnyKernel, Kernel
     from .profiles.base import RGBProfile
     from .screenspace.gbuffer import GBuffer
-
-
-def _is_number(value: object) -> bool:
-    """A real number (int, float or numpy scalar), not a bool."""
-    return isinstance(value, Real) and not isinstance(value, bool)
 
 
 def check_image(image: np.ndarray, what: str = "image") -> np.ndarray:

@@ -191,3 +191,19 @@ def test_an_unreal_albedo_past_the_engines_clamp_is_read_as_ue_reads_it(run, tmp
     assert "SurfaceAlbedo[B] 0.004 -> 0.009 (UE clamps to [0.009, 1])" in err
     assert "SurfaceAlbedo[G]" not in err
     np.testing.assert_allclose(json.loads((tmp_path / "b.json").read_text())["base_color"], [1.0, 0.5, 0.009], rtol=1e-6)
+
+
+@pytest.mark.parametrize("fmt", ["unreal", "unity", "blender"])
+def test_an_engine_name_in_any_case_reads_as_the_engine(run, tmp_path, fmt):
+    """Issue 34: a JSON export whose "engine" is "UNITY" or "Unreal" recursed forever (looked up case-insensitively
+    in FORMATS, checked case-sensitively); the engine name is checked once, case-insensitively, and the file reads
+    as the lower-case one does."""
+    from ssskit.export.readers import read_engine_file
+
+    _ok(run, "export", "--material", "skin1", "--format", fmt, "--out", tmp_path / "a.json")
+    data = json.loads((tmp_path / "a.json").read_text())
+    (tmp_path / "b.json").write_text(json.dumps({**data, "engine": fmt.upper()}))
+    a, b = read_engine_file(tmp_path / "a.json"), read_engine_file(tmp_path / "b.json")
+    assert b.engine == a.engine == fmt
+    np.testing.assert_array_equal(b.albedo, a.albedo)
+    np.testing.assert_array_equal(b.d_mm, a.d_mm)

@@ -177,5 +177,11 @@ def test_gbuffer_in_memory_refuses_reference_and_other_sizes(small, no_work):
         render(small.gbuffer, _settings(width=64))
     with pytest.raises(SettingsError, match="must be RenderSettings"):
         render("slab", {"kernel": "svd:2"})
+    from ssskit.pipeline.adaptive import render_adaptive
+    from ssskit.pipeline.burley_frame import render_burley
+
+    for each_pass in (render_burley, render_adaptive):  # (render_adaptive's was an AttributeError)
+        with pytest.raises(SettingsError, match="settings must be RenderSettings, got dict"):
+            each_pass("slab", {"kernel": "svd:2"})
     with pytest.raises(SceneError, match="got int"):
         render(3, _settings())

@@ -373,6 +373,8 @@ def test_missing_empty_and_unknown_meshes_are_refused(tmp_path):
     (tmp_path / "model.stl").write_bytes(b"solid x\n")
     with pytest.raises(SceneError, match="its format must be one of .obj, .ply, .glb, .gltf, .toml, .exr, got '.stl'"):
         resolve_scene(str(tmp_path / "model.stl"))
+    with pytest.raises(SceneError, match=r"its format must be one of .*, got '\(no suffix\)'"):
+        resolve_scene(str(tmp_path / "noext"))  # (a path: a file, not a scene's name)
     (tmp_path / "faceless.ply").write_bytes(b"ply\nformat ascii 1.0\nelement vertex 0\nelement face 0\n"
                                             b"property list uchar int vertex_indices\nend_header\n")
     with pytest.raises(SceneError, match="has no faces"):
@@ -563,8 +565,31 @@ _LIGHT = {"k": {"type": "point", "position": [0, 0, 50], "intensity": 1.0}}
     ({"shapes": {"g": {"type": "generated", "generator": "teapot"}}},
      "generator must be one of bust, icosphere, torus, ellipsoid, heightfield, head, got 'teapot'"),
     ({"shapes": {"s": _SPHERE}, "camera": _CAMERA},  # the default lights are placed relative to the framing
-     "light 'key' is placed relative to the automatic framing, but the camera is explicit"),
+     r"a scene with an explicit camera needs explicit \[lights\]"),
+    ({"shapes": {"s": _SPHERE}, "camera": _CAMERA, "lights": {**_LIGHT, "rim": {"azimuth": 180.0}}},
+     "light 'rim' is placed relative to the automatic framing, but the camera is explicit"),
 ])
 def test_scene_file_values_of_the_wrong_kind_are_refused(doc, fragment):
     with pytest.raises(SceneError, match=fragment):
         scene_from_document(doc)
+
+
+def test_a_relative_mesh_name_is_read_from_the_current_folder(tmp_path, monkeypatch):
+    """Mitsuba resolves a relative file name against its file resolver, which holds the folder it was first
+    imported in: in one process, after a chdir, ``read_mesh("m.obj")`` read that folder's m.obj, not the current
+    one's (found by the in-process tests of issue 34's hunt, whose folders hold a 4-face ball.obj). (An OBJ: Mitsuba
+    reads it; a PLY is read by trimesh.)"""
+    from ssskit.scenes.mitsuba_variant import mitsuba
+
+    first, here = tmp_path / "first", tmp_path / "here"
+    first.mkdir(), here.mkdir()
+    write_mesh(first / "m.obj", icosphere(1, 1.0))
+    write_mesh(here / "m.obj", torus(30.0, 9.0, 32, 16))
+    resolver = mitsuba().file_resolver()
+    resolver.prepend(str(first))  # as if Mitsuba had been imported in `first`
+    try:
+        monkeypatch.chdir(here)
+        (mesh,) = read_mesh("m.obj")
+    finally:
+        del resolver[0]
+    assert len(mesh.faces) == len(torus(30.0, 9.0, 32, 16).faces) != len(icosphere(1, 1.0).faces)

@@ -59,6 +59,16 @@ def test_chord_rejects_a_wrong_mask():
         chord_thickness("ear", 32, 24, mask=np.ones((10, 10), bool))
 
 
+@pytest.mark.parametrize("size", [(-1, 5), (5, 0), (16, 2.5)])
+def test_chord_and_incidence_refuse_an_image_size_before_any_array(size):
+    """A width of -1 made chord_thickness's (H, W) array first: numpy's ValueError, not a SceneError."""
+    from ssskit.scenes.thickness import incidence_angle
+
+    for fn in (chord_thickness, incidence_angle):
+        with pytest.raises(SceneError, match=r"image (width|height) must (lie in \[8, 8192\] px|be an integer)"):
+            fn("slab", *size)
+
+
 def test_incidence_angle_on_the_slab_is_the_point_lights():
     """The slab's top face (normal +z) under the point light at (400, 0, 1000): the angle at each seen point
     p is arccos((L - p)_z / |L - p|), 20-24 degrees over the view; a pixel outside the mask is NaN."""

@@ -40,6 +40,24 @@ def test_both_or_neither_and_the_right_shape(base):
     assert not base.has_light and base.with_layers(light_depth=ld, light=_light()).has_light
 
 
+def test_light_depth_takes_either_infinity_as_no_surface(base):
+    """+-inf in the light map is a texel that meets no surface (the transmittance pass's SHADOW_MM takes both, as
+    the G-buffer did before its layers became one table); NaN is refused, and the camera depth keeps refusing
+    -inf (its range is (0, inf])."""
+    ld = np.full((H, W), 100.0, np.float32)
+    ld[0, 0], ld[0, 1] = np.inf, -np.inf
+    gb = base.with_layers(light_depth=ld, light=_light())
+    assert np.isposinf(gb.light_depth[0, 0]) and np.isneginf(gb.light_depth[0, 1])
+    assert np.isneginf(gb.transmission_inputs()[1][0, 1])
+    ld[0, 2] = np.nan
+    with pytest.raises(GBufferError, match=r"layer 'light_depth' must be finite, got NaN or inf in 1 of 192 values"):
+        base.with_layers(light_depth=ld, light=_light())
+    depth = base.depth.copy()
+    depth[0, 0] = -np.inf
+    with pytest.raises(GBufferError, match=r"layer 'depth' must be finite, got NaN or inf in 1 of 192 pixels"):
+        base.with_layers(depth=depth)
+
+
 _SKEW = float(np.sqrt(0.5))
 
 

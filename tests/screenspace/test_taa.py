@@ -140,6 +140,9 @@ def test_clamping_bounds_the_output_by_the_neighbourhood():
     # the variance box lies inside the min/max box
     vlow, vhigh = neighbourhood_box(rgb_to_ycocg(cur.astype(np.float64)), "variance", 1.0)
     assert np.all(vlow >= low) and np.all(vhigh <= high) and np.all(vlow <= vhigh)
+    # "none" clamps nothing, so it is no box: refused by name ("none" is TAASettings' choice, not a box)
+    with pytest.raises(PassError, match="neighbourhood must be one of minmax, variance, got 'none'"):
+        neighbourhood_box(rgb_to_ycocg(cur.astype(np.float64)), "none")
 
 
 def test_disocclusion_takes_the_current_frame():

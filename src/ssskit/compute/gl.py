@@ -142,8 +142,6 @@ def checked_times(ms: list[float]) -> list[float]:
 
     bad = [v for v in ms if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0)]
     if bad:
-        from ..errors import BackendError
-
         raise BackendError(f"the GL timer returned {len(bad)} unusable figure(s) (e.g. {bad[0]!r} ms): this driver's "
                            "GL_TIME_ELAPSED queries cannot time the passes; time them on another device")
     return [float(v) for v in ms]

@@ -35,6 +35,7 @@ import numpy as np
 
 from ..errors import ProfileError
 from ..registry import Registry
+from ..quantities import check_shape
 
 if TYPE_CHECKING:
     from ..profiles.base import RadialProfile, RGBProfile
@@ -330,7 +331,8 @@ def _burley_rgb(a: Any, d: Any, name: str, engine: str) -> RGBProfile:
     from ..profiles.burley import BurleyProfile
 
     # no clamp here: Unreal's reader clamps SurfaceAlbedo as UE does; another engine's albedo outside Burley's
-    # (0, 1] is refused (ssskit.export.readers)
+    # (0, 1] is refused (ssskit.export.readers); one (A, d) per channel (an empty scatteringDistance was an IndexError)
+    a, d = check_shape(a, "the albedo", (3,)), check_shape(d, "Burley's d", (3,))
     return _rgb([BurleyProfile(float(a[c]), float(d[c])) for c in range(3)], "burley", name, {"engine": engine})
 
 

@@ -38,6 +38,10 @@ ENGINE_SUFFIXES = (".json", ".asset", ".mtlx", ".py")
 #: the parameter literal of each editor script ssskit writes (ssskit.export.blender / .unreal)
 SCRIPT_LITERALS = {"blender": "PARAMS", "unreal": "SETTINGS"}
 ENGINE_NAMES = ("unreal", "unity", "blender")
+#: the "engine" of a JSON export, checked once (case-insensitive): ssskit's own that write JSON, or a format registered
+#: beside them with its own reader (ssskit's MaterialX is read from its .mtlx only: read_engine_file reads those itself)
+JSON_ENGINE = Choice("engine", lambda: [*ENGINE_NAMES, *(n for n, f in FORMATS.items() if f.read is not None
+                                                        and n not in (*ENGINE_NAMES, "materialx"))])
 #: the models an engine file's or artists' terms' Burley parameters go through (module docstring)
 INVERSIONS = Choice("--model of an engine file or artists' terms", ("burley", "montecarlo", "dipole"))
 
@@ -182,11 +186,11 @@ def read_engine_file(path: str | Path, albedo: Any = None) -> EngineSource:
             data = parse_document(text, ".json")
         except ValueError as exc:
             raise SsskitError(f"malformed engine file {str(p)!r}: {exc}") from None
-        engine = str(data.get("engine", "")) if isinstance(data, dict) else ""
-        other = FORMATS.get(engine).read if engine not in ENGINE_NAMES and engine in FORMATS else None
+        engine = JSON_ENGINE.check(data.get("engine") if isinstance(data, dict) else None,
+                                   f"{str(p)!r}: the engine of an export")
+        other = FORMATS.get(engine).read if engine not in ENGINE_NAMES else None
         if other is not None:
             return other(p)  # a format registered beside ssskit's own reads its JSON export
-        engine = Choice(f"{str(p)!r}: the engine of an export", ENGINE_NAMES).check(engine)
     if engine == "unity" and suffix == ".asset":
         from .unity import read_unity_asset
 
@@ -216,7 +220,8 @@ def read_engine_file(path: str | Path, albedo: Any = None) -> EngineSource:
     try:
         if engine == "unreal":
             clamps = _unreal_clamps(data["mfp"])
-        prof = reimport(data, "burley")  # (its BurleyProfiles refuse an A or d outside Burley's domain)
+        prof = reimport({**data, "engine": engine}, "burley")  # (its BurleyProfiles refuse an A or d outside
+        # Burley's domain; the engine in its canonical spelling)
     except SsskitError as exc:  # (a ValueError too): a value the file has is out of its domain, not missing
         if str(p) in str(exc):
             raise

@@ -45,7 +45,7 @@ import numpy as np
 
 from ..backends import warm_up_in_background
 from ..errors import SettingsError
-from ..quantities import FRAME, refuse_unused
+from ..quantities import FRAME, check_instance, refuse_unused
 from ..io import check_distinct, save_image
 from ..metrics import region_metrics
 from ..screenspace import AdaptiveSettings, BurleyParams, BurleySettings, GBuffer
@@ -239,6 +239,7 @@ def plan_adaptive(scene: SceneInput, settings: RenderSettings,
                   params: BurleyInput | None = None) -> tuple[ScenePlan, BurleyInput, bool]:
     """Check what :func:`render_adaptive` needs, doing no work (the scene, the material, the backend, the
     moving run's limits); returns (scene plan, params, static)."""
+    check_instance(settings, RenderSettings, 'settings', SettingsError)  # (a dict was an AttributeError)
     p = settings.pass_as(AdaptivePass, "burley-adaptive")  # (what render_adaptive runs)
     plan, params = plan_burley(scene, settings, params)
     static = p.static or plan.builtin is None

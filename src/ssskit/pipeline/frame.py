@@ -257,8 +257,7 @@ def plan_scene(scene: SceneInput, settings: RenderSettings) -> ScenePlan:
         _refuse_no_sss(plan.gbuffer, f"the G-buffer {plan.label}", "its profile_id is 0 everywhere", SettingsError)
         _check_named_materials(plan.gbuffer, material, plan.label)
     for mat in plan.materials:  # a scene's own materials (a material map) are held to the model's domain too
-        if mat is not material:
-            check_model_domain(mat, settings.model)
+        check_model_domain(mat, settings.model)
     runs = transmission_runs(settings, plan.gbuffer, plan.label, plan.spec is not None,
                              len(plan.spec.lights()) if plan.spec is not None else 0, plan.materials or (material,),
                              plan.spec is not None and plan.spec.lit_from_behind)

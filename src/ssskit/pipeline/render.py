@@ -258,10 +258,10 @@ def plan(scene: SceneInput, settings: RenderSettings, *, params: BurleyInput | N
 def _refuse_unused(name: str, params: BurleyInput | None, on_frame: FrameCallback | None = None) -> None:
     """The options of :func:`render` given that the pass ``name`` does not use, refused in the one wording:
     ``params`` (Burley parameters) for the Burley passes, ``on_frame`` for the adaptive run's frames."""
-    refuse_unused(["params"] if params is not None and name == "separable" else [], "pass",
-                  ("burley", "burley-adaptive"), name, SettingsError)
-    refuse_unused(["on_frame"] if on_frame is not None and name != "burley-adaptive" else [], "pass",
-                  ("burley-adaptive",), name, SettingsError)
+    for option, given, passes in (("params", params, ("burley", "burley-adaptive")),
+                                  ("on_frame", on_frame, ("burley-adaptive",))):
+        if given is not None and name not in passes:
+            refuse_unused([option], "pass", passes, name, SettingsError)
 
 
 def render(scene: SceneInput = "slab", settings: RenderSettings | None = None,

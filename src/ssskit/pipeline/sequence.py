@@ -36,12 +36,13 @@ from typing import Any
 import numpy as np
 
 from ..cache import cache_dir
-from ..errors import SettingsError
+from ..errors import SceneError, SettingsError
 from ..io import atomic_output
 from ..materials import Material, homogeneous
 from ..screenspace.burley import BurleyParams
 from ..screenspace import Camera, GBuffer
-from ..quantities import FRAME, FRAMES, REFERENCE_SPP
+from ..quantities import FRAME, FRAMES, REFERENCE_SPP, checks
+from ..scenes.scenes import IMAGE_SIZE, RENDER_SPP
 
 #: bumped when the cached G-buffers' contents change
 GBUFFER_VERSION = 1
@@ -78,6 +79,7 @@ def _load_gbuffer(path: Path) -> GBuffer | None:
         return None
 
 
+@checks(SceneError, **IMAGE_SIZE, spp=RENDER_SPP)
 def sequence_gbuffers(scene: str, material: str | Material, frames: int, first: int = 0, *, width: int = 160, height: int = 120,
                       spp: int = 64, seed: int = 0, static: bool = False, use_cache: bool = True,
                       progress: Callable[[str], None] | None = None, light_layers: bool = False) -> list[GBuffer]:
@@ -88,12 +90,10 @@ def sequence_gbuffers(scene: str, material: str | Material, frames: int, first: 
     the transmittance pass's light layers of each frame's light (:func:`ssskit.scenes.render_gbuffer`)."""
     from ..materials import MATERIALS
     from ..scenes import render_gbuffer
-    from ..scenes.scenes import SCENES, check_size, check_spp
+    from ..scenes.scenes import SCENES
     from ..screenspace.burley import burley_params_for_material
 
     SCENES.get(scene)
-    check_size(width, height)
-    check_spp(spp)
     frames = int(FRAMES.check(frames, "frames", SettingsError))
     first = int(FRAME.within(hi=FRAME.hi - frames).check(first, "first", SettingsError))
     given = MATERIALS.get(material) if isinstance(material, str) else material

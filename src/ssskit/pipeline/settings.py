@@ -377,11 +377,10 @@ def _migrate(data: dict[str, Any], label: str) -> dict[str, Any]:
         return data
     d = dict(data)
     method = check_choice("method", d.pop("method", "separable"), ("separable", "burley"), SettingsError)
-    tables = {"separable": d.pop("sss", None), "burley": d.pop("burley", None)}
+    tables = {"separable": d.pop("sss", {}), "burley": d.pop("burley", {})}  # (a table not given: empty)
     full = {"separable": PassSettings, "burley": BurleySettings}
     for name, table in tables.items():
-        if table is not None:
-            check_keys(table, f"{label}: [{'sss' if name == 'separable' else name}]", error=SettingsError)
+        check_keys(table, f"{label}: [{'sss' if name == 'separable' else name}]", error=SettingsError)
     other = "burley" if method == "separable" else "separable"
     if tables[other]:
         defaults = full[other]().to_dict()
@@ -390,7 +389,7 @@ def _migrate(data: dict[str, Any], label: str) -> dict[str, Any]:
             old_table = "sss" if other == "separable" else other
             refuse_unused([f"{label}: the [{old_table}] table's {', '.join(extra)}"], "method", (other,), method,
                           SettingsError)
-    own = dict(tables[method] or {})
+    own = dict(tables[method])
     for key in SHARED:
         if key not in own:
             continue

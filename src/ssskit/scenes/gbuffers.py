@@ -27,7 +27,7 @@ from ..quantities import FRAME, FRAMES, REFLECTANCE, Quantity, check_shape, chec
 #: a surface's refractive index in the G-buffer render (its boundary): positive
 INDEX = Quantity("eta", 0.0, 1e6, "", "a refractive index", lo_open=True)
 from ..screenspace.gbuffer import GBuffer
-from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, IMAGE_SIDE, RENDER_SPP, SceneSpec, get_scene, per_shape,
+from .scenes import (COAT_ROUGHNESS, FLOOR_ALBEDO, IMAGE_SIZE, RENDER_SPP, SceneSpec, get_scene, per_shape,
                      render_dict, scene_camera, scene_dict)
 
 
@@ -55,7 +55,7 @@ def _light_layers(spec: SceneSpec, width: int, height: int, frame: int, wanted: 
     return {"light_depth": depth.astype(np.float32), "light": light}
 
 
-@checks(SceneError, width=(IMAGE_SIDE, "image width"), height=(IMAGE_SIDE, "image height"), spp=RENDER_SPP)
+@checks(SceneError, **IMAGE_SIZE, spp=RENDER_SPP)
 def render_gbuffer(scene: str | SceneSpec, albedo: ArrayLike, eta: float | ArrayLike = 1.4, width: int = 256,
                    height: int = 192, spp: int = 32, seed: int = 0, frame: int = 0,
                    material: str | tuple[str, ...] = "material", light_layers: bool = False) -> GBuffer:

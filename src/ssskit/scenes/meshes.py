@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError, SsskitError
-from ..quantities import FINITE, Quantity, check_finite, check_shape, fail
+from ..quantities import FINITE, Quantity, check_finite, check_instance, check_shape, fail
 from ..io import atomic_output, check_suffix, parse_document, read_input
 
 #: mesh file suffixes and the reader of each
@@ -180,6 +180,9 @@ def _gltf_json(p: Path) -> dict:
         raise SceneError(f"mesh {str(p)!r} is not a glTF file (its JSON does not parse)") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("asset"), dict):
         raise SceneError(f"mesh {str(p)!r} is not a glTF file (no 'asset' object)")
+    for key in ("accessors", "meshes", "nodes"):  # glTF 2.0's arrays of objects ("meshes": {} was an AttributeError)
+        for item in check_instance(doc.get(key, []), list, f"mesh {str(p)!r}: {key}", SceneError):
+            check_instance(item, dict, f"mesh {str(p)!r}: each of its {key}", SceneError)
     return doc
 
 
@@ -201,7 +204,7 @@ def _gltf_counts(p: Path) -> MeshCounts:
                 n = int(accessors[prim["indices"]]["count"]) if "indices" in prim else v
                 nv += v * max(uses[i], 1)
                 nf += n // 3 * max(uses[i], 1)
-    except (KeyError, IndexError, TypeError, ValueError):
+    except (AttributeError, KeyError, IndexError, TypeError, ValueError):
         raise SceneError(f"mesh {str(p)!r}: a glTF primitive has no valid POSITION or indices accessor") from None
     return MeshCounts(nv, nf)
 
@@ -314,7 +317,8 @@ def _read_mitsuba(p: Path, kind: str) -> tuple[Mesh, ...]:
 
     mi = mitsuba()
     with warnings_dropped():  # the checks of read_mesh report a degenerate mesh
-        shape = mi.load_dict({"type": kind, "filename": str(p)})  # (its errors: read_mesh)
+        # absolute: Mitsuba resolves a relative name against the folder it was first imported in, not the current one
+        shape = mi.load_dict({"type": kind, "filename": str(p.absolute())})  # (its errors: read_mesh)
     params = mi.traverse(shape)
     verts = np.array(params["vertex_positions"], dtype=np.float32).reshape(-1, 3)
     faces = np.array(params["faces"], dtype=np.uint32).reshape(-1, 3)

@@ -49,7 +49,7 @@ from ..quantities import FRAME, REFLECTANCE, REL_SE, SEED, Choice, Quantity, che
 
 #: the path tracer's longest path (Mitsuba's max_depth): at least the camera's ray
 MAX_DEPTH = Quantity("max_depth", 1, 2**31 - 1, "", "bounces of a path, the camera's ray the first", integer=True)
-from .scenes import (COAT_ROUGHNESS, IMAGE_SIDE, RENDER_SPP, SceneSpec, check_size, get_scene, mitsuba, per_shape,
+from .scenes import (COAT_ROUGHNESS, IMAGE_SIZE, RENDER_SPP, SceneSpec, get_scene, mitsuba, per_shape,
                      scene_dict)
 from .mitsuba_variant import interruptible_render, load_scene
 
@@ -62,8 +62,7 @@ BOUNDARIES = ("rough-dielectric", "index-matched")
 #: a reference's image and path-tracer options, declared once for :class:`ReferenceRenderer` and
 #: :func:`render_reference` (:func:`ssskit.quantities.checks`: before any work; the boundary's canonical name keys
 #: the cache)
-OPTIONS: dict[str, Any] = {"width": (IMAGE_SIDE, "image width"), "height": (IMAGE_SIDE, "image height"),
-                           "max_depth": MAX_DEPTH, "seed": SEED, "frame": FRAME,
+OPTIONS: dict[str, Any] = {**IMAGE_SIZE, "max_depth": MAX_DEPTH, "seed": SEED, "frame": FRAME,
                            "surround_albedo": REFLECTANCE, "boundary": Choice("boundary", BOUNDARIES)}
 
 #: defaults of the convergence rule: relative standard error of the region's mean, spp budget
@@ -275,10 +274,10 @@ def geometry_key(spec: SceneSpec) -> str:
     return json.dumps([portable(spec.shapes()), spec.lights(), spec.origin, spec.fov_x_deg], default=str)
 
 
+@checks(SceneError, **IMAGE_SIZE)
 def sss_region(scene: str | SceneSpec, width: int, height: int, frame: int = 0) -> np.ndarray:
     """(H, W) bool: the pixels that see an SSS object of ``scene`` (one AOV sample per pixel)."""
     spec = get_scene(scene)
-    check_size(width, height)
     white = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 1.0}}
     tagged = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.25}}
     aov = {"type": "aov", "aovs": "alb:albedo"}

@@ -59,11 +59,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import SceneError
-from ..quantities import (TYPE, Choice, Flag, Quantity, check_fields, check_instance, check_keys, check_shape,
-                          fail, refuse_twice, refuse_unused)
-from ..io import parse_document, read_input
+from ..quantities import (LENGTH_MM, TYPE, Choice, Flag, Quantity, Rule, check_fields, check_instance, check_keys,
+                          check_shape, checks, fail, refuse_twice, refuse_unused)
+from ..io import read_document
 from .meshes import FORMATS, UNITS_MM, Mesh, bounding_sphere, inspect_mesh_file, read_mesh, topology
-from .scenes import SCENES, SceneSpec, _T, _ply, check_size
+from .scenes import IMAGE_SIZE, SCENES, SceneSpec, _T, _ply
 
 #: the built-in scenes' files (each registered into SCENES under its stem)
 BUILTIN_DIR = Path(__file__).parent / "builtin"
@@ -109,6 +109,18 @@ VIEW_DISTANCE = Quantity("distance", 0.05, 100.0, "", "a multiple of the framing
 FOV_DEG = Quantity("fov", 1.0, 150.0, "degrees", "a horizontal field of view")
 COORDINATE = Quantity("coordinate", -math.inf, math.inf, "", "a point or direction in the scene", **_ANY)
 EMITTED = Quantity("intensity", 0.0, EMITTER_MAX, "", "the renderer's float32 arithmetic overflows not far beyond")
+
+
+def _triple(q: Quantity) -> Rule:
+    """Three numbers [x, y, z], each of quantity ``q`` (a point, a direction, a cube's scale)."""
+    return Rule(q.name, lambda v, name, error: q.check_array(check_shape(v, name, (3,), error), name, error).tolist())
+
+
+POINT = _triple(COORDINATE)
+#: a primitive's fields (docs/meshes.md), in the scene's mm (a rectangle's are a cube's); a shape of no extent
+#: holds no pixel (a sphere's radius, each of a cube's half-sides: its scale)
+PRIMITIVE_FIELDS: dict[str, dict[str, Quantity | Rule]] = {
+    "sphere": {"center": POINT, "radius": LENGTH_MM}, "cube": {"translate": POINT, "scale": _triple(LENGTH_MM)}}
 #: a light placed relative to the framing (docs/meshes.md): its distance and size in bounding radii
 RELATIVE_LIGHT: dict[str, Quantity] = {
     "azimuth": ANGLE_DEG, "elevation": ANGLE_DEG,
@@ -271,10 +283,12 @@ def parse_view(view: str | Sequence[float] | None) -> tuple[float, float, float]
             SceneError), VIEW_DISTANCE.check(nums[2] if len(nums) == 3 else 1.0, "view distance", SceneError))
 
 
-def _basis(up: Sequence[float], front: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    u, f = (np.asarray(_point(f"camera {key}", v)) for key, v in (("up", up), ("front", front)))
+def _basis(up: Sequence[float], front: Sequence[float], where: str = "camera", front_name: str = "front",
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The camera's rule (its up and its front or view direction non-zero and not parallel) and its basis."""
+    u, f = (np.asarray(_point(f"{where} {key}", v)) for key, v in (("up", up), (front_name, front)))
     if not np.linalg.norm(np.cross(u, f)) > 1e-9 * np.linalg.norm(u) * np.linalg.norm(f):
-        raise SceneError(f"camera up {up!r} and front {front!r} must be non-zero and not parallel")
+        raise SceneError(f"{where} up {up!r} and {front_name} {front!r} must be non-zero and not parallel")
     u = u / np.linalg.norm(u)
     f = f - u * (u @ f)
     f /= np.linalg.norm(f)
@@ -325,7 +339,7 @@ def _emitter_value(name: str, key: str, value: float, how: str) -> float:
 
 def _point(where: str, value: Any) -> list[float]:
     """Three finite numbers [x, y, z] (a position, a direction), or a SceneError naming ``where``."""
-    return COORDINATE.check_array(check_shape(value, where, (3,), SceneError), where, SceneError).tolist()
+    return POINT.check(value, where, SceneError)
 
 
 def _explicit_light(name: str, spec: Mapping[str, Any]) -> dict:
@@ -363,15 +377,12 @@ def load_scene_file(path: str | os.PathLike[str], **options: Any) -> LoadedScene
     """Read a TOML scene file (module docstring) into a :class:`LoadedScene`; ``options`` as for
     :func:`scene_from_document`."""
     p = Path(path)
-    text = read_input(p, "scene file", SceneError, text=True)  # (io: every input file's rules)
-    try:
-        doc = parse_document(text, ".toml")
-    except ValueError as exc:
-        raise SceneError(f"scene file {str(p)!r} is not valid TOML: {exc}") from None
+    doc = read_document(p, "scene file", SceneError)  # (io: every input file's rules)
     doc.setdefault("name", p.stem)
     return scene_from_document(doc, base=p.parent, source=str(p), **options)
 
 
+@checks(SceneError, **IMAGE_SIZE)
 def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source: str = "scene", *,
                         units: str | Sequence[str] | None = None, material_map: Mapping[str, str] | None = None,
                         view: str | Sequence[float] | None = None, width: int = 256, height: int = 192,
@@ -387,7 +398,6 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
     _keys(source, doc, {"name", "description", "units", "camera", "shapes", "lights", "orbit_deg_per_frame",
                         "light_orbit_deg_per_frame", "lit_from_behind", "views"}, {"shapes"})
     top = {**SCENE_DEFAULTS, **check_fields(doc, SCENE_FIELDS, source, SceneError)}  # (orbit = "x" was a ValueError)
-    check_size(width, height)
     cli_units = check_units(units)
     doc_units = check_units(cli_units, (f"{source}: units", doc.get("units")))
     material_map = dict(material_map or {})
@@ -409,10 +419,11 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         where = f"{source}: shape {sid!r}"
         kind = SHAPE_TYPE.check(check_keys(table, where, error=SceneError).get("type"), f"{where}: type", SceneError)
         is_sss = Flag("sss").check(table.get("sss", kind in ("mesh", "generated")), f"{where}: sss", SceneError)
+        check_instance(table.get("material", ""), str, f"{where}: material", SceneError)
         meshes: tuple[Mesh, ...] | None = None
         if kind == "mesh":
             _keys(where, table, {"type", "file", "units", "material", "materials", "sss"}, {"file"})
-            fpath = Path(table["file"])
+            fpath = Path(check_instance(table["file"], str, f"{where}: file", SceneError))
             if base is not None and not fpath.is_absolute():
                 fpath = base / fpath
             inspect_mesh_file(fpath, width, height)
@@ -508,11 +519,13 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
         origin = tuple(framing(centre, radius, vw, fov, up_v, front).tolist())
         target = tuple(centre.tolist())
         up = tuple(_basis(up_v, front)[0].tolist())
+    if explicit and "lights" not in doc:  # (the default lights are relative to the automatic framing)
+        raise SceneError(f"{source}: a scene with an explicit camera needs explicit [lights]")
     lights: dict[str, dict] = {}
     for lid, ltable in doc.get("lights", DEFAULT_LIGHTS).items():  # (no [lights]: the relative key, fill and back)
         if "type" in check_keys(ltable, f"{source}: light {lid!r}", error=SceneError):
             lights[lid] = _explicit_light(lid, ltable)
-        elif explicit:  # an explicit camera takes explicit lights only (the default ones are relative too)
+        elif explicit:  # an explicit camera takes explicit lights only
             raise SceneError(f"{source}: light {lid!r} is placed relative to the automatic framing, but the "
                              "camera is explicit; give type = point | sphere")
         else:
@@ -527,6 +540,10 @@ def scene_from_document(doc: Mapping[str, Any], base: Path | None = None, source
                      reference_problem="; ".join(problems) or None,
                      lit_from_behind=top["lit_from_behind"],
                      about=tuple(about.items()), views=views)
+    from ..materials import get_material
+
+    for mat in {m for m in sss_materials if m}:  # every material exists before a mesh's cache file is written
+        get_material(mat)
     for write in deferred:
         write()
     return LoadedScene(spec, tuple(notes), tuple(objects), not explicit, dict(doc), base)
@@ -545,6 +562,7 @@ def _camera(where: str, cam: Any) -> tuple[tuple, tuple, tuple, float]:
     world mm) and its horizontal fov (degrees), each checked."""
     _keys(where, cam, {"origin", "target", "up", "fov"}, {"origin", "target", "up", "fov"})
     origin, target, up = (tuple(_point(f"{where}: {key}", cam[key])) for key in ("origin", "target", "up"))
+    _basis(up, tuple(np.subtract(target, origin).tolist()), f"{where}:", "view direction (target - origin)")
     return origin, target, up, float(FOV_DEG.check(cam["fov"], f"{where}: fov", SceneError))
 
 
@@ -581,13 +599,14 @@ def _frozen_dicts(d: dict[str, dict]) -> Callable[[], dict[str, dict]]:
 
 
 def _primitive(where: str, kind: Any, table: Mapping[str, Any]) -> dict:
+    fields = PRIMITIVE_FIELDS["sphere" if kind == "sphere" else "cube"]
+    _keys(where, table, {"type", "sss", "material", *fields}, set(fields) if kind == "sphere" else set())
+    out = check_fields(table, fields, where, SceneError)
     if kind == "sphere":
-        _keys(where, table, {"type", "center", "radius", "sss", "material"}, {"center", "radius"})
-        return {"type": "sphere", "center": list(table["center"]), "radius": table["radius"]}
-    _keys(where, table, {"type", "translate", "scale", "sss", "material"})
+        return {"type": "sphere", **out}
     entry: dict[str, Any] = {"type": kind}  # a rectangle or a cube (the shape types: SHAPE_TYPE)
-    if "translate" in table or "scale" in table:
-        entry["__to_world"] = (list(table.get("translate", [0, 0, 0])), list(table.get("scale", [1, 1, 1])))
+    if out:
+        entry["__to_world"] = (out.get("translate", [0, 0, 0]), out.get("scale", [1, 1, 1]))
     return entry
 
 
@@ -697,10 +716,9 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
     * a ``.toml`` scene file: its scene (``units``, ``material_map``, ``view`` as overrides);
     * a ``.exr`` file: a G-buffer (``kind="gbuffer"``; the other options do not apply).
 
-    Every material named by the map or the scene must exist (:func:`ssskit.materials.get_material`).
+    Every material named by the map or the scene must exist (:func:`ssskit.materials.get_material`, checked by
+    :func:`scene_from_document` before any mesh is cached).
     """
-    from ..materials import get_material
-
     mmap = parse_material_map(material_map)
     cli_units = check_units(units)
     if isinstance(value, SceneSpec):
@@ -720,11 +738,12 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
         kind, what = ("mesh", "a mesh file") if suffix in FORMATS else ("file", "a scene .toml")
     else:  # neither a scene's name nor a file of a format it takes
         if Path(text).suffix or os.sep in text or Path(text).exists():
-            SCENE_FORMAT.check(suffix, f"scene {text!r}: its format", SceneError)
+            SCENE_FORMAT.check(suffix or "(no suffix)", f"scene {text!r}: its format", SceneError)
         raise SceneError(unknown_scene_message(text))
     for flag, given in (("--units", cli_units), ("--material-map", mmap), ("--view", view)):
-        refuse_unused([flag] if given and kind not in SCENE_OPTIONS[flag] else [], "--scene",
-                      [SCENE_KINDS[k] for k in SCENE_OPTIONS[flag]], f"{text!r} ({what})", SceneError)
+        if given and kind not in SCENE_OPTIONS[flag]:
+            refuse_unused([flag], "--scene", [SCENE_KINDS[k] for k in SCENE_OPTIONS[flag]], f"{text!r} ({what})",
+                          SceneError)
     if kind in ("builtin", "views"):
         return ResolvedScene("builtin", spec.name, spec=spec if view is None else with_view(spec, view))
     if kind == "gbuffer":
@@ -741,8 +760,6 @@ def resolve_scene(value: Any, *, units: str | Sequence[str] | None = None,
                                      height=height)
     else:
         loaded = load_scene_file(text, units=cli_units, material_map=mmap, view=view, width=width, height=height)
-    for mat in {m for m in loaded.spec.sss_materials if m}:
-        get_material(mat)
     return ResolvedScene(kind, loaded.spec.name, spec=loaded.spec, notes=loaded.notes, objects=loaded.objects)
 
 

@@ -47,6 +47,8 @@ FLOOR_ALBEDO = 0.5
 COAT_ROUGHNESS = 0.15
 #: image sizes the renderers accept (pixels per side): ssskit.settings.SIZE_RANGE
 IMAGE_SIDE = SIZE_PX.within(*SIZE_RANGE)
+#: a rendered image's width and height, as a function declares them (:func:`ssskit.quantities.checks`)
+IMAGE_SIZE: dict[str, Any] = {"width": (IMAGE_SIDE, "image width"), "height": (IMAGE_SIDE, "image height")}
 
 
 @dataclass(frozen=True)
@@ -236,18 +238,8 @@ def scene_camera(spec: SceneSpec, width: int, height: int, frame: int = 0) -> Ca
 
 # ---- Mitsuba scene dictionaries --------------------------------------------------------------------------
 
-def check_size(width: int, height: int) -> None:
-    """A SceneError unless width and height are integers in :data:`SIZE_RANGE`."""
-    for v, name in ((width, "width"), (height, "height")):
-        IMAGE_SIDE.check(v, f"image {name}", SceneError)
-
-
 #: samples per pixel of a Mitsuba render (any budget: a reference's as well as a G-buffer's)
 RENDER_SPP = Quantity("spp", 1, math.inf, "", "samples per pixel", integer=True, hi_open=True)
-
-
-def check_spp(spp: int, name: str = "spp") -> None:
-    RENDER_SPP.check(spp, name, SceneError)
 
 
 def per_shape(name: str, value: Any, n: int, one: Callable[[Any], bool]) -> tuple:

@@ -23,9 +23,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError
-from ..quantities import LENGTH_MM, check_shape
+from ..quantities import LENGTH_MM, check_shape, checks
 from .mitsuba_variant import load_scene
-from .scenes import SceneSpec, _T, check_size, get_scene, mitsuba, scene_camera, scene_lights
+from .scenes import IMAGE_SIZE, SceneSpec, _T, get_scene, mitsuba, scene_camera, scene_lights
 
 
 def _sss_only(spec: SceneSpec) -> Any:
@@ -36,8 +36,7 @@ def _sss_only(spec: SceneSpec) -> Any:
 def _seen_points(spec: SceneSpec, width: int, height: int, frame: int,
                  mask: np.ndarray | None) -> Iterator[tuple[int, int, Any, np.ndarray, Any]]:
     """Yield (y, x, hit, inward unit normal, Mitsuba scene) for each pixel (of ``mask``) whose centre ray
-    hits an SSS object of ``spec``."""
-    check_size(width, height)
+    hits an SSS object of ``spec`` (``width`` and ``height``: checked by its callers)."""
     if mask is not None:
         mask = check_shape(mask, "mask", (height, width), SceneError, "iufb", bool)
     mi = mitsuba()
@@ -57,6 +56,7 @@ def _seen_points(spec: SceneSpec, width: int, height: int, frame: int,
         yield y, x, si, n, sc
 
 
+@checks(SceneError, **IMAGE_SIZE)  # (before the (height, width) arrays: width -1 was numpy's ValueError)
 def chord_thickness(scene: str | SceneSpec, width: int, height: int, frame: int = 0,
                     mask: np.ndarray | None = None) -> np.ndarray:
     """(H, W) float64: per pixel, the length (mm) of the chord through the SSS objects along the inward
@@ -86,6 +86,7 @@ def _light_power(light: dict) -> tuple[np.ndarray, float]:
     raise SceneError(f"no incidence for a light of type {light.get('type')!r}")
 
 
+@checks(SceneError, **IMAGE_SIZE)
 def incidence_angle(scene: str | SceneSpec, width: int, height: int, frame: int = 0,
                     mask: np.ndarray | None = None) -> np.ndarray:
     """(H, W) float64 degrees: per pixel, the angle between the outward normal at the seen point and the

@@ -100,9 +100,9 @@ class Camera:
         try:
             return cls(int(d["width"]), int(d["height"]), float(d["fx"]), float(d["fy"]), float(d["cx"]),
                        float(d["cy"]), np.array(d["world_to_camera"], dtype=float), float(d["world_units_per_mm"]))
+        except GBufferError:  # (a value the camera itself refuses: its own message)
+            raise
         except (KeyError, TypeError, ValueError) as exc:
-            if isinstance(exc, GBufferError):
-                raise
             raise GBufferError(f"camera: not an ssskit camera record ({exc})") from None
 
 

@@ -50,11 +50,11 @@ DEPTH_LAYER = Quantity("depth", 0.0, math.inf, "mm", "a linear camera-space dept
 RADIANCE = Quantity("diffuse", 0.0, math.inf, "", "linear-light radiance", hi_open=True)
 PROFILE_ID = Quantity("profile_id", 0, 2**32 - 1, "", "0 is no SSS, k the k-th material named", integer=True)
 IRRADIANCE = Quantity("irradiance", 0.0, float(np.finfo(np.float32).max), "", "an irradiance the float32 pass carries")
-LIGHT_DEPTH = Quantity("light_depth", -math.inf, math.inf, "mm", "a light-space depth; inf where the light meets no "
-                       "surface", lo_open=True)
+LIGHT_DEPTH = Quantity("light_depth", -math.inf, math.inf, "mm", "a light-space depth; +-inf where the light meets "
+                       "no surface (the transmittance pass's SHADOW_MM)")
 
 #: the layers (module docstring), declared once: name -> (the channels after (H, W), the array kinds it may be, the
-#: dtype it is kept as, the quantity of its values (+inf where the range holds it: no surface; None: any finite
+#: dtype it is kept as, the quantity of its values (an infinity where the range holds it: no surface; None: any finite
 #: value), what they are)
 LAYER_RULES: dict[str, tuple[tuple[int, ...], str, type, Quantity | None, str]] = {
     "diffuse": ((3,), "f", np.float32, RADIANCE, "colour values"),
@@ -271,15 +271,10 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
     record: Any = None if camera is not None else _header(p, header, "ssskit_camera")
     named, meta = _header(p, header, "ssskit_materials"), _header(p, header, "ssskit_meta", {})
     materials: tuple[str, ...] = ()
-    if named is not None:  # a file that names its materials names one for every profile id it uses
-        if not (isinstance(named, list) and all(isinstance(m, str) and m.strip() for m in named)):
-            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_materials' must be a list of material names, "
-                               f"got {header['ssskit_materials']!r}")
-        ids = np.unique(np.asarray(channels["profile_id"]))
-        top = int(ids.max(initial=0))
-        if top > len(named):
-            raise GBufferError(f"G-buffer {str(p)!r}: layer 'profile_id' uses id {top} but the header "
-                               f"'ssskit_materials' names {len(named)} material(s) {named!r} (id k is the k-th name)")
+    if named is not None:  # a file that names its materials names one for every profile id it uses (GBuffer's rule)
+        if not (isinstance(named, list) and named and all(isinstance(m, str) and m.strip() for m in named)):
+            raise GBufferError(f"G-buffer {str(p)!r}: header 'ssskit_materials' must be a non-empty list of material "
+                               f"names, got {header['ssskit_materials']!r}")
         materials = tuple(named)
     light = _header(p, header, "ssskit_light")  # (a table: LightView.from_dict's rule, in GBuffer)
     try:  # (the camera record's and the layers' errors alike name the file)
@@ -294,8 +289,11 @@ def load_gbuffer(path: str | Path, camera: Camera | None = None) -> GBuffer:
 def _header(p: Path, header: dict[str, Any], key: str, default: Any = None) -> Any:
     """The JSON value of the EXR header attribute ``key`` (``default`` where absent), or a GBufferError naming the
     file."""
-    try:
-        return json.loads(header[key]) if key in header else default
+    if key not in header:
+        return default
+    try:  # (an int, float or V3f attribute was a TypeError)
+        return json.loads(check_instance(header[key], (str, bytes), f"G-buffer {str(p)!r}: header {key!r}",
+                                         GBufferError))
     except json.JSONDecodeError:
         raise GBufferError(f"G-buffer {str(p)!r}: header {key!r} is not JSON") from None
 
@@ -308,6 +306,6 @@ def _layer(name: str, value: ArrayLike, size: tuple[int | str, int | str]) -> np
     arr = check_shape(value, f"layer {name!r}", (*size, *channels), GBufferError, kinds, dtype if kinds == "f" else None)
     if quantity is None:
         return np.ascontiguousarray(check_finite(arr, f"layer {name!r}", GBufferError, where))
-    quantity.check_array(np.where(arr == np.inf, 1.0, arr) if quantity.contains(math.inf) else arr, f"layer {name!r}",
-                         GBufferError, where)
+    held = [v for v in (math.inf, -math.inf) if quantity.contains(v)]  # no surface: the infinities the range holds
+    quantity.check_array(np.where(np.isin(arr, held), 1.0, arr), f"layer {name!r}", GBufferError, where)
     return np.ascontiguousarray(arr, dtype)

@@ -148,6 +148,7 @@ def neighbourhood_box(ycocg: ArrayLike, kind: str = "minmax", gamma: float = 1.0
     """(low, high) (H, W, 3): the box of each pixel's 3x3 neighbourhood of ``ycocg`` the history is
     clamped to: its component-wise min/max (Karis 2014), or mu +- gamma * sigma of the 9 values
     (Salvi 2016) intersected with the min/max box (``kind="variance"``)."""
+    kind = Choice("neighbourhood", ("minmax", "variance")).check(kind, "neighbourhood", PassError)
     a = np.asarray(ycocg, dtype=np.float64)
     taps = np.stack(list(_shifted(a)), axis=0)
     low, high = taps.min(axis=0), taps.max(axis=0)
@@ -156,8 +157,6 @@ def neighbourhood_box(ycocg: ArrayLike, kind: str = "minmax", gamma: float = 1.0
         sd = np.sqrt(np.maximum((taps * taps).mean(axis=0) - mu * mu, 0.0))
         low = np.maximum(low, mu - gamma * sd)
         high = np.minimum(high, mu + gamma * sd)
-    elif kind != "minmax":
-        raise fail(PassError, CHOICE, name="neighbourhood", choices="minmax, variance", actual=repr(kind))
     return low, high
 
 

@@ -40,11 +40,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..backends.plan import Array, check_arrays
 from ..backends.spread_plan import SlotSpread
 from ..backends.transmission_plan import LUT_SIZE, UE_MAX_OPTICAL_DEPTH, SlotModel, TransmissionPlan, build_transmission_plan
 from ..errors import PassError, SsskitError
 from ..materials import Material
-from ..quantities import LENGTH_MM, Quantity, check_choice, check_fields, check_keys, check_shape
+from ..quantities import LENGTH_MM, Quantity, check_choice, check_fields, check_keys, check_shape, checks
 from ..profiles.gaussians import DEON2007_SKIN_VARIANCES, DEON2007_SKIN_WEIGHTS
 
 if TYPE_CHECKING:
@@ -58,16 +59,18 @@ UE_SCALE = Quantity("scale", 0.0, math.inf, "", "a positive scale", lo_open=True
 TINT = Quantity("tint", 0.0, math.inf, "", "a non-negative factor", hi_open=True)
 TRANSLUCENCY = Quantity("translucency", 0.0, 1.0, "", "1 would pass all light through", hi_open=True)
 _UNREAL = {"ExtinctionScale": UE_SCALE, "NormalScale": TINT}  # unreal_model's factors
+#: unreal_profile_table's arrays: the Burley d (mm) and UE's tint per channel
+_UNREAL_ARRAYS = {"d_mm": Array((3,), "the Burley d", dtype=np.float64, values=LENGTH_MM),
+                  "tint": Array((3,), "TransmissionTintColor", dtype=np.float64, values=TINT)}
 
 
+@checks(PassError, translucency=TRANSLUCENCY, sss_width_mm=(LENGTH_MM, "the SSS width"))
 def jimenez2010_model(translucency: float = 0.0, sss_width_mm: float | None = None) -> SlotModel:
     """Jimenez et al. 2010's skin transmittance (module docstring): scale 8.25 (1 - translucency) /
     sss_width_mm, or 1 (thickness in mm) when ``sss_width_mm`` is None."""
-    TRANSLUCENCY.check(translucency, "translucency", PassError)
     if sss_width_mm is None:
         scale = 1.0
     else:
-        LENGTH_MM.check(sss_width_mm, "the SSS width", PassError)
         scale = 8.25 * (1.0 - translucency) / sss_width_mm
     w = np.asarray(DEON2007_SKIN_WEIGHTS, float).T  # (3, 6)
     v = np.asarray(DEON2007_SKIN_VARIANCES, float)
@@ -154,9 +157,7 @@ def unreal_profile_table(d_mm: Any, tint: Any = (1.0, 1.0, 1.0), world_unit_scal
     entry black. UE writes it as 0.25 A (e^(-S r / L) + 3 e^(-S r / (3 L))) with A = 1 (UE 5.8: white; the base
     colour comes in the recombine pass), S = s_sl(SurfaceAlbedo) and L = DMFP = d s_sl (SubsurfaceScatteringMath.h),
     so S / L = 1 / d, the Burley profile's d (Christensen and Burley 2015, [CB15])."""
-    d = LENGTH_MM.check_array(check_shape(d_mm, "the Burley d", (3,), PassError), "the Burley d", PassError)
-    w = TINT.check_array(check_shape(tint, "TransmissionTintColor", (3,), PassError), "TransmissionTintColor",
-                         PassError)
+    d, w = check_arrays(_UNREAL_ARRAYS, {"d_mm": d_mm, "tint": tint}).values()
     r = unreal_profile_distances_mm(world_unit_scale, distance_scale)[None, :]
     table = w[:, None] * 0.25 * (np.exp(-r / d[:, None]) + 3.0 * np.exp(-r / (3.0 * d[:, None])))
     table[:, -1] = 0.0  # bMakeLastPixelBlack
