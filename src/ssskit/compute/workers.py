@@ -66,13 +66,26 @@ def sigint_blocked() -> Iterator[None]:
 
 def submit_all(pool: Any, fn: Callable[..., Any], calls: Iterable[tuple[Any, ...]]) -> list[Any]:
     """``pool.submit(fn, *args)`` for each ``args`` of ``calls`` (a ``concurrent.futures`` thread pool held for the
-    process's life), with SIGINT blocked (:func:`sigint_blocked`): the futures. ``ThreadPoolExecutor`` starts a
-    worker on a submit, waits for it to run, then records it for the interpreter's exit; a KeyboardInterrupt
-    inside that wait left the worker unrecorded and idle for good, and the exit waited for it forever (a Ctrl-C'd
-    ``ssskit render`` at load 5, benchmarks/sigint_matrix.py, 2026-12-06). Blocked, the signal waits until the
-    submits are done (microseconds), and the workers keep it blocked: the main thread takes it."""
-    with sigint_blocked():
+    process's life): the futures, with a Ctrl-C that arrives meanwhile deferred to the end of the submits.
+    ``ThreadPoolExecutor`` starts a worker on a submit, waits for it to run, then records it for the interpreter's
+    exit; a KeyboardInterrupt inside that wait left the worker unrecorded and idle for good, and the exit waited
+    for it forever (a Ctrl-C'd ``ssskit render`` at load 5, benchmarks/sigint_matrix.py, 2026-12-06). Blocking
+    the signal in this thread is not enough: another thread (numba's, Mitsuba's) takes it and Python still raises
+    it here. So in the main thread (the only one a KeyboardInterrupt is raised in) a Python handler that only
+    notes SIGINT stands in for the submits, and a noted signal is raised again to the caller's handler after them;
+    where the handler is not Python's (a library's), the submits run with SIGINT blocked, as before."""
+    before = signal.getsignal(signal.SIGINT) if threading.current_thread() is threading.main_thread() else None
+    if before is None:
+        with sigint_blocked():
+            return [pool.submit(fn, *args) for args in calls]
+    noted: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: noted.append(signum))
+    try:
         return [pool.submit(fn, *args) for args in calls]
+    finally:
+        signal.signal(signal.SIGINT, before)
+        if noted:
+            signal.raise_signal(signal.SIGINT)
 
 
 @contextlib.contextmanager
